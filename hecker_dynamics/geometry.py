@@ -1,0 +1,168 @@
+"""Shapes and their mass properties, integrated over the area.
+
+Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the centre of mass
+and the moment of inertia as integrals over the body, Equations 3 and 8): the mass, the
+centre of mass (CM) and the moment of inertia about the CM follow from the shape and its
+density. Polygons are integrated exactly by summing signed triangles fanned from the
+origin, so either winding works; circles use their closed forms; a body made of several
+shapes combines them with the parallel-axis theorem.
+
+All shapes are given in their body's frame (the frame whose origin and axes the shape is
+defined in), which need not have its origin at the CM.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Union
+
+import numpy as np
+
+from .planar import perp_dot
+
+
+class GeometryError(ValueError):
+    """A shape that has no well-defined area or mass."""
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A simple polygon, vertices in order (either winding), in the body frame."""
+
+    vertices: np.ndarray  # (k, 2)
+
+    def __post_init__(self) -> None:
+        vertices = np.array(self.vertices, dtype=float)
+        if vertices.ndim != 2 or vertices.shape[1] != 2 or len(vertices) < 3:
+            raise GeometryError("a polygon needs at least 3 vertices of 2 coordinates each")
+        if not np.all(np.isfinite(vertices)):
+            raise GeometryError("a polygon vertex is not a finite number")
+        vertices.setflags(write=False)
+        object.__setattr__(self, "vertices", vertices)
+
+
+@dataclass(frozen=True)
+class Circle:
+    """A disc of ``radius`` centred at ``center`` in the body frame."""
+
+    center: tuple[float, float]
+    radius: float
+
+    def __post_init__(self) -> None:
+        center = (float(self.center[0]), float(self.center[1]))
+        if not all(math.isfinite(x) for x in (*center, self.radius)):
+            raise GeometryError("a circle's centre and radius must be finite numbers")
+        if self.radius <= 0.0:
+            raise GeometryError(f"a circle's radius must be positive, not {self.radius}")
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "radius", float(self.radius))
+
+
+Shape = Union[Polygon, Circle]
+
+
+def box(width: float, height: float, center: tuple[float, float] = (0.0, 0.0),
+        angle: float = 0.0) -> Polygon:
+    """Return a ``width`` x ``height`` rectangle centred at ``center``, turned by ``angle``."""
+    if not (width > 0.0 and height > 0.0):
+        raise GeometryError(f"a box needs a positive width and height, not {width} x {height}")
+    half = np.array([[-width, -height], [width, -height], [width, height], [-width, height]]) / 2
+    c, s = math.cos(angle), math.sin(angle)
+    turned = half @ np.array([[c, s], [-s, c]])
+    return Polygon(turned + np.asarray(center, dtype=float))
+
+
+@dataclass(frozen=True)
+class AreaProperties:
+    """Area, centroid and polar second moment of area about the centroid of a shape."""
+
+    area: float
+    centroid: np.ndarray  # (2,)
+    second_moment: float  # integral of |r - centroid|^2 dA
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    """Mass, centre of mass and moment of inertia about the CM (article Equations 3, 8)."""
+
+    mass: float
+    center_of_mass: np.ndarray  # (2,), body frame
+    moment_of_inertia: float
+
+
+def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> bool:
+    """True if the closed segments p1-p2 and q1-q2 touch or cross."""
+    d1 = perp_dot(q2 - q1, p1 - q1)
+    d2 = perp_dot(q2 - q1, p2 - q1)
+    d3 = perp_dot(p2 - p1, q1 - p1)
+    d4 = perp_dot(p2 - p1, q2 - p1)
+    if ((d1 > 0) != (d2 > 0)) and d1 != 0 and d2 != 0 and \
+            ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
+        return True
+
+    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: float) -> bool:
+        return d == 0 and min(a[0], b[0]) <= p[0] <= max(a[0], b[0]) and \
+            min(a[1], b[1]) <= p[1] <= max(a[1], b[1])
+
+    return (on_segment(q1, q2, p1, d1) or on_segment(q1, q2, p2, d2)
+            or on_segment(p1, p2, q1, d3) or on_segment(p1, p2, q2, d4))
+
+
+def is_simple(vertices: np.ndarray) -> bool:
+    """True if no two non-adjacent edges of the polygon touch (O(k^2), for scene loading)."""
+    k = len(vertices)
+    edges = [(vertices[i], vertices[(i + 1) % k]) for i in range(k)]
+    for i in range(k):
+        for j in range(i + 1, k):
+            if j == i + 1 or (i == 0 and j == k - 1):
+                continue
+            if _segments_cross(*edges[i], *edges[j]):
+                return False
+    return True
+
+
+def area_properties(shape: Shape) -> AreaProperties:
+    """Integrate area, centroid and second moment of area of a shape.
+
+    For a polygon the integrals are sums over the signed triangles (origin, v_i, v_i+1):
+    each has signed area cross_i / 2, centroid (v_i + v_i+1) / 3 and polar second moment
+    about the origin cross_i (v_i.v_i + v_i.v_i+1 + v_i+1.v_i+1) / 12. Dividing by the sign
+    of the total makes the result independent of the winding.
+    """
+    if isinstance(shape, Circle):
+        area = math.pi * shape.radius ** 2
+        return AreaProperties(area, np.array(shape.center), area * shape.radius ** 2 / 2.0)
+    v = shape.vertices
+    if not is_simple(v):
+        raise GeometryError("the polygon's edges cross each other (it is not simple)")
+    w = np.roll(v, -1, axis=0)
+    cross = perp_dot(v, w)
+    signed_area = cross.sum() / 2.0
+    scale = float(np.max(np.ptp(v, axis=0)))
+    if not abs(signed_area) > 1e-12 * scale * scale:
+        raise GeometryError("the polygon has zero area")
+    centroid = (cross[:, None] * (v + w)).sum(axis=0) / (6.0 * signed_area)
+    dots = (v * v).sum(axis=1) + (v * w).sum(axis=1) + (w * w).sum(axis=1)
+    second_moment_origin = (cross * dots).sum() / 12.0 / math.copysign(1.0, signed_area)
+    area = abs(signed_area)
+    second_moment = second_moment_origin - area * float(centroid @ centroid)
+    return AreaProperties(area, centroid, second_moment)
+
+
+def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[float]) -> MassProperties:
+    """Combine shapes of the given densities into one body's mass, CM and inertia.
+
+    The CM is the mass-weighted mean of the shapes' centroids (article Equation 3); each
+    shape's inertia is moved to the common CM with the parallel-axis theorem.
+    """
+    if len(shapes) != len(densities) or not shapes:
+        raise GeometryError("a body needs at least one shape, each with a density")
+    parts = [area_properties(shape) for shape in shapes]
+    masses = np.array([p.area * rho for p, rho in zip(parts, densities)])
+    if not np.all(np.isfinite(masses)) or np.any(masses <= 0.0):
+        raise GeometryError("every shape needs a positive, finite mass (check density or mass)")
+    total = float(masses.sum())
+    center = sum(m * p.centroid for m, p in zip(masses, parts)) / total
+    inertia = sum(rho * p.second_moment + m * float((p.centroid - center) @ (p.centroid - center))
+                  for m, rho, p in zip(masses, densities, parts))
+    return MassProperties(total, np.asarray(center, dtype=float), float(inertia))

@@ -1,0 +1,268 @@
+"""Integrators: step 7 of the article's algorithm, from accelerations to a new state.
+
+Every method advances the state ``(q, v)`` (positions and angles, velocities and angular
+velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
+
+- ``explicit_euler``: the article's own scheme (Equations 1 and 2 applied to x and omega),
+  order 1, gains energy on oscillators.
+- ``semi_implicit_euler``: velocity first, then position with the new velocity; order 1,
+  symplectic, bounded energy error.
+- ``velocity_verlet``: order 2, symplectic for position-dependent forces; velocity-dependent
+  forces are evaluated at a predicted velocity to keep order 2.
+- ``rk4``: classical Runge-Kutta, order 4.
+- ``dopri5``: Dormand-Prince 5(4) with error control; sub-steps each step to meet the
+  tolerance.
+- ``implicit_midpoint`` (order 2, A-stable, symplectic) and ``backward_euler`` (order 1,
+  L-stable): solved by Newton's method, stable for stiff springs at any step.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+class IntegrationError(ArithmeticError):
+    """An integrator could not complete a step (no convergence, step size underflow)."""
+
+
+@dataclass
+class Counters:
+    """Work done, for the benchmark: force evaluations, sub-steps, Newton iterations."""
+
+    evaluations: int = 0
+    substeps: int = 0
+    newton_iterations: int = 0
+
+
+@dataclass
+class Integrator:
+    """Base class: a named method of a given order with work counters."""
+
+    name: str = ""
+    order: int = 0
+    counters: Counters = field(default_factory=Counters)
+
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget any state carried from step to step."""
+
+    def _f(self, f: Accelerations, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        self.counters.evaluations += 1
+        return f(q, v)
+
+
+class ExplicitEuler(Integrator):
+    """x += h v; v += h a, both from the state at the start of the step."""
+
+    def __init__(self) -> None:
+        super().__init__("explicit_euler", 1)
+
+    def step(self, f, q, v, h):
+        a = self._f(f, q, v)
+        return q + h * v, v + h * a
+
+
+class SemiImplicitEuler(Integrator):
+    """v += h a(q, v); then x += h v with the new velocity (symplectic Euler)."""
+
+    def __init__(self) -> None:
+        super().__init__("semi_implicit_euler", 1)
+
+    def step(self, f, q, v, h):
+        v1 = v + h * self._f(f, q, v)
+        return q + h * v1, v1
+
+
+class VelocityVerlet(Integrator):
+    """x1 = x + h v + h^2/2 a0; v1 = v + h/2 (a0 + a(x1, v + h a0))."""
+
+    def __init__(self) -> None:
+        super().__init__("velocity_verlet", 2)
+
+    def step(self, f, q, v, h):
+        a0 = self._f(f, q, v)
+        q1 = q + h * v + (0.5 * h * h) * a0
+        a1 = self._f(f, q1, v + h * a0)
+        return q1, v + (0.5 * h) * (a0 + a1)
+
+
+class RungeKutta4(Integrator):
+    """Classical fourth-order Runge-Kutta on the first-order system (q' = v, v' = a)."""
+
+    def __init__(self) -> None:
+        super().__init__("rk4", 4)
+
+    def step(self, f, q, v, h):
+        k1q, k1v = v, self._f(f, q, v)
+        k2q = v + 0.5 * h * k1v
+        k2v = self._f(f, q + 0.5 * h * k1q, k2q)
+        k3q = v + 0.5 * h * k2v
+        k3v = self._f(f, q + 0.5 * h * k2q, k3q)
+        k4q = v + h * k3v
+        k4v = self._f(f, q + h * k3q, k4q)
+        return (q + (h / 6.0) * (k1q + 2.0 * k2q + 2.0 * k3q + k4q),
+                v + (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v))
+
+
+# Dormand-Prince 5(4) tableau (Dormand & Prince 1980).
+_DP_A = (
+    (),
+    (1 / 5,),
+    (3 / 40, 9 / 40),
+    (44 / 45, -56 / 15, 32 / 9),
+    (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
+    (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656),
+    (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84),
+)
+_DP_B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0)
+_DP_E = (71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40)
+
+
+class DormandPrince(Integrator):
+    """Adaptive Dormand-Prince 5(4): sub-steps each step so the local error meets ``tolerance``.
+
+    The error of each sub-step, scaled component-wise by ``tolerance * (1 + |y|)``, must have
+    an RMS norm of at most 1; the next sub-step size follows from the usual controller
+    (safety 0.9, growth between 0.2x and 5x). The last sub-step is shortened to land on the
+    end of the step; the sub-step size carries over from step to step.
+    """
+
+    MAX_SUBSTEPS = 100_000
+
+    def __init__(self, tolerance: float) -> None:
+        super().__init__("dopri5", 5)
+        self.tolerance = tolerance
+        self._size = math.inf
+
+    def reset(self) -> None:
+        self._size = math.inf
+
+    def step(self, f, q, v, h):
+        y = np.concatenate([q.ravel(), v.ravel()])
+        n = q.size
+        shape = q.shape
+
+        def rhs(state: np.ndarray) -> np.ndarray:
+            a = self._f(f, state[:n].reshape(shape), state[n:].reshape(shape))
+            return np.concatenate([state[n:], a.ravel()])
+
+        k_first = rhs(y)
+        size = min(self._size, h)
+        done = 0.0
+        for _ in range(self.MAX_SUBSTEPS):
+            remaining = h - done
+            last = size >= remaining * (1.0 - 1e-12)
+            trial = remaining if last else size
+            k = [k_first]
+            for a_row in _DP_A[1:]:
+                k.append(rhs(y + trial * sum(a * kj for a, kj in zip(a_row, k) if a)))
+            y_new = y + trial * sum(b * kj for b, kj in zip(_DP_B, k) if b)
+            error = trial * sum(e * kj for e, kj in zip(_DP_E, k) if e)
+            scale = self.tolerance * (1.0 + np.maximum(np.abs(y), np.abs(y_new)))
+            norm = float(np.sqrt(np.mean((error / scale) ** 2)))
+            if not math.isfinite(norm):
+                raise IntegrationError("dopri5: the error estimate is not finite")
+            factor = 5.0 if norm == 0.0 else min(5.0, max(0.2, 0.9 * norm ** -0.2))
+            if norm <= 1.0:
+                self.counters.substeps += 1
+                y, k_first, done = y_new, k[-1], done + trial
+                if last:
+                    # A sub-step shortened to land on the end says little about the next size.
+                    self._size = trial * factor if trial >= size else size
+                    return y[:n].reshape(shape), y[n:].reshape(shape)
+            size = trial * factor
+            if size < 1e-14 * h:
+                raise IntegrationError("dopri5: the sub-step size underflowed")
+        raise IntegrationError(f"dopri5: more than {self.MAX_SUBSTEPS} sub-steps in one step")
+
+
+class ImplicitTheta(Integrator):
+    """Implicit midpoint (theta = 1/2) or backward Euler (theta = 1), by Newton's method.
+
+    With v* = v0 + theta (v1 - v0) and q* = q0 + theta h v*, the step solves
+    v* = v0 + theta h a(q*, v*), then sets v1 = v0 + (v* - v0) / theta and q1 = q0 + h v*.
+    The Newton matrix I - theta h (theta h da/dq + da/dv) uses a Jacobian by forward
+    differences at the start of the step, refreshed if convergence is slow.
+    """
+
+    MAX_ITERATIONS = 50
+
+    def __init__(self, theta: float) -> None:
+        name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
+        super().__init__(name, order)
+        self.theta = theta
+
+    def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+                  a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """da/dq and da/dv as (3N, 3N) matrices, by forward differences."""
+        m = q.size
+        columns = []
+        for state, other, is_q in ((q, v, True), (v, q, False)):
+            jac = np.empty((m, m))
+            flat = state.ravel()
+            for j in range(m):
+                delta = 1.5e-8 * max(1.0, abs(flat[j]))
+                bumped = flat.copy()
+                bumped[j] += delta
+                bumped = bumped.reshape(state.shape)
+                moved = self._f(f, bumped, other) if is_q else self._f(f, other, bumped)
+                jac[:, j] = ((moved - a) / delta).ravel()
+            columns.append(jac)
+        return columns[0], columns[1]
+
+    def step(self, f, q, v, h):
+        th = self.theta * h
+        v_star = v.copy()
+        matrix = None
+        for iteration in range(self.MAX_ITERATIONS):
+            q_star = q + th * v_star
+            a = self._f(f, q_star, v_star)
+            residual = (v_star - v - th * a).ravel()
+            if matrix is None or iteration % 8 == 7:
+                jq, jv = self.jacobians(f, q_star, v_star, a)
+                matrix = np.eye(q.size) - th * (th * jq + jv)
+            delta = np.linalg.solve(matrix, -residual).reshape(v.shape)
+            v_star = v_star + delta
+            self.counters.newton_iterations += 1
+            if not np.all(np.isfinite(v_star)):
+                raise IntegrationError(f"{self.name}: Newton's method diverged")
+            if np.max(np.abs(delta)) <= 1e-13 * (1.0 + np.max(np.abs(v_star))):
+                return q + h * v_star, v + (v_star - v) / self.theta
+        raise IntegrationError(f"{self.name}: Newton's method did not converge in "
+                               f"{self.MAX_ITERATIONS} iterations")
+
+
+METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "dopri5",
+           "implicit_midpoint", "backward_euler")
+#: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
+AUTO_STIFF_LIMIT = 0.5
+
+
+def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
+    """Create the integrator called ``name`` (one of :data:`METHODS`)."""
+    factories: dict[str, Callable[[], Integrator]] = {
+        "explicit_euler": ExplicitEuler,
+        "semi_implicit_euler": SemiImplicitEuler,
+        "velocity_verlet": VelocityVerlet,
+        "rk4": RungeKutta4,
+        "dopri5": lambda: DormandPrince(tolerance),
+        "implicit_midpoint": lambda: ImplicitTheta(0.5),
+        "backward_euler": lambda: ImplicitTheta(1.0),
+    }
+    if name not in factories:
+        raise ValueError(f"unknown integrator '{name}' (known: {', '.join(METHODS)})")
+    return factories[name]()
+
+
+def choose_method(stiffness: float, step: float) -> str:
+    """The method ``auto`` picks: implicit midpoint when the forces are stiff for the step
+    (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`), else adaptive Dormand-Prince."""
+    return "implicit_midpoint" if stiffness * step > AUTO_STIFF_LIMIT else "dopri5"

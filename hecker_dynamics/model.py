@@ -1,0 +1,217 @@
+"""The model: a scene turned into arrays and only the force terms and passes it declares.
+
+``Model.accelerations`` is steps 3 to 6 of the article's algorithm ("Physics, Part 2:
+Angular Effects"): collect the forces with their points, sum them at the CM, add up the
+perp-dot torques, and divide by the mass and by the moment of inertia (Equations 4 and 6).
+A scene without walls has no contact pass; a scene without springs has no spring term;
+a force at the CM computes no torque.
+"""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Optional
+
+import numpy as np
+
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose)
+from .planar import perp, rotate
+from .scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
+                    Gravity, Scene, SpringSpec)
+from .walls import WallContacts
+
+
+class Model:
+    """Arrays and force terms for one scene; state is (q, v), each (N, 3)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.names = tuple(b.name for b in scene.bodies)
+        self.index = {name: i for i, name in enumerate(self.names)}
+        self.mass = np.array([b.mass.mass for b in scene.bodies])
+        self.inertia = np.array([b.mass.moment_of_inertia for b in scene.bodies])
+        self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
+        self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
+        self.terms: list[ForceTerm] = _build_terms(self, scene)
+        self.inputs: Optional[ConstantWrenchTerm] = None
+        self.walls: Optional[WallContacts] = (
+            WallContacts(self, scene.walls, _restitution_threshold(scene))
+            if scene.walls else None)
+
+    @property
+    def size(self) -> int:
+        return len(self.names)
+
+    def local(self, body: int, point: tuple[float, float]) -> np.ndarray:
+        """A body-frame point as an offset from the body's CM, in body axes."""
+        return np.asarray(point, dtype=float) - self.cm_local[body]
+
+    def can_turn(self) -> np.ndarray:
+        """Mask of bodies that some declared force or wall can apply torque to."""
+        mask = np.zeros(self.size, dtype=bool)
+        for term in self.terms:
+            mask[term.turns] = True
+        if self.walls is not None:
+            mask[self.walls.bodies] = True
+        return mask
+
+    def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
+        terms = self.terms if self.inputs is None else [*self.terms, self.inputs]
+        out = np.zeros_like(q)
+        if terms:
+            if any(term.uses_orientation for term in terms):
+                pose = Pose.of(q, v)
+            else:
+                pose = Pose(q, v, _NO_ANGLES, _NO_ANGLES)
+            for term in terms:
+                term.add(pose, out)
+        out *= self.inverse_mass
+        return out
+
+    def energy(self, q: np.ndarray, v: np.ndarray) -> float:
+        """Kinetic energy plus the potential energy of gravity and springs."""
+        kinetic = 0.5 * float(np.sum(self.mass * (v[:, 0] ** 2 + v[:, 1] ** 2))
+                              + np.sum(self.inertia * v[:, 2] ** 2))
+        potential = sum(term.potential(q) for term in self.terms if hasattr(term, "potential"))
+        return kinetic + potential
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """CM state from the scene's body-frame poses and origin velocities."""
+        angle = np.array([b.angle for b in self.scene.bodies])
+        omega = np.array([b.angular_velocity for b in self.scene.bodies])
+        origin = np.array([b.position for b in self.scene.bodies])
+        origin_velocity = np.array([b.velocity for b in self.scene.bodies])
+        r_cm = rotate(self.cm_local, np.cos(angle), np.sin(angle))  # origin -> CM
+        q = np.column_stack([origin + r_cm, angle])
+        v = np.column_stack([origin_velocity + omega[:, None] * perp(r_cm), omega])
+        return q, v
+
+    def body_frames(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Origin positions and origin velocities of the body frames (fixed-frame axes)."""
+        r_origin = -rotate(self.cm_local, np.cos(q[:, 2]), np.sin(q[:, 2]))  # CM -> origin
+        return q[:, :2] + r_origin, v[:, :2] + v[:, 2:3] * perp(r_origin)
+
+    def stiffness(self) -> float:
+        """Largest rate (1/s) the forces can impose: spring frequencies and damping rates.
+
+        For a spring the effective inverse mass along its line is at most
+        1/m_A + |r_A|^2/I_A (+ the same for B), so omega^2 <= k * that; a damper c gives a
+        rate c * that. Explicit methods need this rate times the step to stay small.
+        """
+        rates = [0.0]
+        for term in self.terms:
+            if isinstance(term, (AnchorSpringTerm, BodySpringTerm)):
+                mobility = self._mobility(*_ends(term))
+                rates.extend(np.sqrt(term.stiffness * mobility))
+                rates.extend(term.damping * mobility)
+            elif isinstance(term, (CentreDragTerm, PointDragTerm)):
+                rates.extend(term.coefficient / self.mass[term.body])
+            elif isinstance(term, AngularDampingTerm):
+                rates.extend(term.coefficient / self.inertia[term.body])
+        return float(max(rates))
+
+    def _mobility(self, ends: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+        total = 0.0
+        for body, local in ends:
+            total = total + 1.0 / self.mass[body] + np.sum(local ** 2, axis=1) / self.inertia[body]
+        return total
+
+
+_NO_ANGLES = np.zeros(0)
+
+
+def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarray, np.ndarray]]]:
+    if isinstance(term, AnchorSpringTerm):
+        return ([(term.body, term.local)],)
+    return ([(term.body_a, term.local_a), (term.body_b, term.local_b)],)
+
+
+def _restitution_threshold(scene: Scene) -> float:
+    """Approach speed below which contacts do not bounce (default: 4 steps of gravity)."""
+    if scene.restitution_threshold is not None:
+        return scene.restitution_threshold
+    g = max((math.hypot(*f.acceleration) for f in scene.forces if isinstance(f, Gravity)),
+            default=0.0)
+    return max(1e-3, 4.0 * g * scene.step_ns * 1e-9)
+
+
+def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
+    """One vectorised term per kind of force the scene declares, and none for the others."""
+    by_kind: dict[type, list] = defaultdict(list)
+    for spec in scene.forces:
+        by_kind[type(spec)].append(spec)
+    idx = model.index
+    terms: list[ForceTerm] = []
+
+    weights = np.zeros((model.size, 2))
+    pulled = np.zeros(model.size, dtype=bool)
+    for spec in by_kind[Gravity]:
+        for name in spec.bodies:
+            weights[idx[name]] += model.mass[idx[name]] * np.asarray(spec.acceleration)
+            pulled[idx[name]] = True
+    if pulled.any():
+        bodies = np.flatnonzero(pulled)
+        terms.append(GravityTerm(bodies, weights[bodies]))
+
+    springs = by_kind[SpringSpec]
+    anchored = [s for s in springs if s.body_b is None]
+    joined = [s for s in springs if s.body_b is not None]
+
+    def law(group: list[SpringSpec]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return (np.array([s.stiffness for s in group]), np.array([s.rest_length for s in group]),
+                np.array([s.damping for s in group]))
+
+    if anchored:
+        body = np.array([idx[s.body_a] for s in anchored])
+        terms.append(AnchorSpringTerm(
+            body, np.array([model.local(idx[s.body_a], s.point_a) for s in anchored]),
+            np.array([s.point_b for s in anchored]), *law(anchored)))
+    if joined:
+        terms.append(BodySpringTerm(
+            np.array([idx[s.body_a] for s in joined]),
+            np.array([model.local(idx[s.body_a], s.point_a) for s in joined]),
+            np.array([idx[s.body_b] for s in joined]),
+            np.array([model.local(idx[s.body_b], s.point_b) for s in joined]), *law(joined)))
+
+    drags = [(idx[name], s) for s in by_kind[DragSpec] for name in s.bodies]
+    centre = [(i, s) for i, s in drags if s.point is None]
+    pointed = [(i, s) for i, s in drags if s.point is not None]
+    if centre:
+        terms.append(CentreDragTerm(np.array([i for i, _ in centre]),
+                                    np.array([s.coefficient for _, s in centre]),
+                                    np.array([s.quadratic for _, s in centre])))
+    if pointed:
+        terms.append(PointDragTerm(np.array([i for i, _ in pointed]),
+                                   np.array([model.local(i, s.point) for i, s in pointed]),
+                                   np.array([s.coefficient for _, s in pointed]),
+                                   np.array([s.quadratic for _, s in pointed])))
+
+    damped = [(idx[name], s.coefficient) for s in by_kind[AngularDampingSpec] for name in s.bodies]
+    if damped:
+        terms.append(AngularDampingTerm(np.array([i for i, _ in damped]),
+                                        np.array([c for _, c in damped])))
+
+    wrenches = by_kind[ConstantForceSpec] + by_kind[ConstantTorqueSpec]
+    if wrenches:
+        rows = []
+        for spec in wrenches:
+            i = idx[spec.body]
+            if isinstance(spec, ConstantTorqueSpec):
+                rows.append((i, (0.0, 0.0), spec.torque, -1, -1, (0.0, 0.0), False))
+            else:
+                at_point = spec.point is not None
+                local = model.local(i, spec.point) if at_point else (0.0, 0.0)
+                rows.append((i, spec.force, 0.0, i if spec.body_axes else -1, i, local, at_point))
+        terms.append(wrench_term(rows))
+    return terms
+
+
+def wrench_term(rows: list[tuple]) -> ConstantWrenchTerm:
+    """Build a :class:`ConstantWrenchTerm` from rows of
+    (body, force, torque, axes_body, point_body, point, at_point)."""
+    body, force, torque, axes, owner, point, at_point = zip(*rows)
+    return ConstantWrenchTerm(np.array(body), np.array(force, dtype=float).reshape(-1, 2),
+                              np.array(torque, dtype=float), np.array(axes), np.array(owner),
+                              np.array(point, dtype=float).reshape(-1, 2), np.array(at_point))

@@ -1,0 +1,184 @@
+"""Typed, checked reading of ROS 2 parameters, with errors that name the file and parameter.
+
+A scene is a ROS 2 parameters file. rclpy hands a node its parameters as flat dotted names
+(``bodies.left.size``); a YAML file holds them as nested mappings. Both are turned into a
+nested mapping here and read through :class:`ParameterReader`, which checks each value's
+type the way ROS 2 does (arrays are homogeneous; an integer is accepted where a double is
+expected) and remembers which names were read, so a misspelt parameter is an error too.
+"""
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Mapping
+from typing import Any, NoReturn
+
+NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+class SceneError(ValueError):
+    """A scene that cannot be loaded; the message names the source, parameter and problem."""
+
+
+def unflatten(params: Mapping[str, Any]) -> dict[str, Any]:
+    """Turn flat dotted parameter names into nested mappings (``a.b: 1`` -> ``{a: {b: 1}}``)."""
+    nested: dict[str, Any] = {}
+    for name, value in params.items():
+        keys = name.split(".")
+        node = nested
+        for key in keys[:-1]:
+            child = node.setdefault(key, {})
+            if not isinstance(child, dict):
+                raise SceneError(f"parameter '{name}' is nested under '{key}', which has a value")
+            node = child
+        if isinstance(node.get(keys[-1]), dict):
+            raise SceneError(f"parameter '{name}' has a value and nested parameters")
+        node[keys[-1]] = value
+    return nested
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+class ParameterReader:
+    """Reads the parameters under one prefix of a nested mapping, checking each value."""
+
+    def __init__(self, values: Mapping[str, Any], source: str, prefix: str = "") -> None:
+        self._values = values
+        self._source = source
+        self._prefix = prefix
+        self._read: set[str] = set()
+        self._children: list[ParameterReader] = []
+
+    @property
+    def source(self) -> str:
+        return self._source
+
+    def path(self, key: str) -> str:
+        """The full dotted name of ``key`` under this reader."""
+        return f"{self._prefix}.{key}" if self._prefix else key
+
+    def fail(self, key: str, problem: str) -> NoReturn:
+        """Raise a :class:`SceneError` naming the source and the parameter."""
+        raise SceneError(f"{self._source}: parameter '{self.path(key)}': {problem}")
+
+    def has(self, key: str) -> bool:
+        return key in self._values
+
+    def keys(self) -> list[str]:
+        """The names under this reader, sorted."""
+        return sorted(self._values)
+
+    def _get(self, key: str, default: Any) -> Any:
+        self._read.add(key)
+        if key not in self._values:
+            if default is _REQUIRED:
+                self.fail(key, "is required but missing")
+            return default
+        return self._values[key]
+
+    def number(self, key: str, default: Any = None, *, minimum: float | None = None,
+               positive: bool = False) -> float:
+        """A finite double (an integer is accepted), optionally bounded below."""
+        value = self._get(key, default)
+        if not _is_number(value):
+            self.fail(key, f"must be a number, not {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            self.fail(key, f"must be finite, not {value}")
+        if positive and value <= 0.0:
+            self.fail(key, f"must be positive, not {value}")
+        if minimum is not None and value < minimum:
+            self.fail(key, f"must be at least {minimum}, not {value}")
+        return value
+
+    def numbers(self, key: str, default: Any = None, *, length: int | None = None,
+                multiple_of: int = 1) -> tuple[float, ...]:
+        """A homogeneous array of finite numbers, of a given length or multiple of one."""
+        return self.check_numbers(key, self._get(key, default), length=length,
+                                  multiple_of=multiple_of)
+
+    def check_numbers(self, key: str, value: Any, *, length: int | None = None,
+                      multiple_of: int = 1) -> tuple[float, ...]:
+        """Check that ``value``, read from ``key``, is an array of numbers as ROS 2 allows."""
+        if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
+            self.fail(key, f"must be an array of numbers, not {value!r}")
+        if len({type(x) for x in value}) > 1:
+            self.fail(key, "mixes integers and doubles; ROS 2 parameter arrays must be "
+                           "homogeneous (write every number with a decimal point)")
+        result = tuple(float(x) for x in value)
+        if not all(math.isfinite(x) for x in result):
+            self.fail(key, f"must hold finite numbers, not {list(value)}")
+        if length is not None and len(result) != length:
+            self.fail(key, f"must have {length} numbers, not {len(result)}")
+        if len(result) % multiple_of:
+            self.fail(key, f"must have a multiple of {multiple_of} numbers, not {len(result)}")
+        return result
+
+    def vector(self, key: str, default: Any = None) -> tuple[float, float]:
+        """A 2-vector ``[x, y]``."""
+        x, y = self.numbers(key, default, length=2)
+        return (x, y)
+
+    def string(self, key: str, default: Any = None, *, choices: tuple[str, ...] = ()) -> str:
+        value = self._get(key, default)
+        if not isinstance(value, str):
+            self.fail(key, f"must be a string, not {value!r}")
+        if choices and value not in choices:
+            self.fail(key, f"must be one of {', '.join(choices)}; not '{value}'")
+        return value
+
+    def name(self, key: str, default: Any = None) -> str:
+        """A string usable as a ROS name segment (letters, digits, underscores)."""
+        value = self.string(key, default)
+        if not NAME_PATTERN.match(value):
+            self.fail(key, f"'{value}' is not a valid name (letters, digits and underscores, "
+                           "starting with a letter)")
+        return value
+
+    def strings(self, key: str, default: Any = None) -> tuple[str, ...]:
+        value = self._get(key, default)
+        if not isinstance(value, (list, tuple)) or not all(isinstance(x, str) for x in value):
+            self.fail(key, f"must be an array of strings, not {value!r}")
+        return tuple(value)
+
+    def boolean(self, key: str, default: Any = None) -> bool:
+        value = self._get(key, default)
+        if not isinstance(value, bool):
+            self.fail(key, f"must be true or false, not {value!r}")
+        return value
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        """The value as written, for parameters that accept more than one type."""
+        return self._get(key, default)
+
+    def child(self, key: str, *, required: bool = False) -> ParameterReader:
+        """A reader for the nested parameters under ``key`` (empty when absent)."""
+        value = self._get(key, _REQUIRED if required else {})
+        if not isinstance(value, Mapping):
+            self.fail(key, f"must hold nested parameters, not {value!r}")
+        reader = ParameterReader(value, self._source, self.path(key))
+        self._children.append(reader)
+        return reader
+
+    def named_children(self, key: str) -> Iterator[tuple[str, ParameterReader]]:
+        """(name, reader) for each entry under ``key``, sorted by name for determinism."""
+        group = self.child(key)
+        for name in group.keys():
+            if not NAME_PATTERN.match(name):
+                group.fail(name, "is not a valid name (letters, digits and underscores, "
+                                 "starting with a letter)")
+            yield name, group.child(name)
+
+    def check_all_read(self, ignore: frozenset[str] = frozenset()) -> None:
+        """Raise for any parameter that no reader asked for (a misspelt or unknown name)."""
+        for key in sorted(self._values):
+            if key not in self._read and key not in ignore:
+                self.fail(key, "is not a known parameter here")
+        for child in self._children:
+            child.check_all_read()
+
+
+_REQUIRED = object()
+REQUIRED: Any = _REQUIRED
