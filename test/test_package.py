@@ -1,0 +1,178 @@
+"""The ROS package files, checked without ROS: manifest, build rules, interface, launch, node.
+
+``catkin_pkg`` validates ``package.xml`` as ``rosdep`` and ``colcon`` read it; rosbags'
+message parser reads ``msg/AppliedWrench.msg`` as ``rosidl`` would and round-trips a
+message through CDR. The launch file and node module need ROS to run, so here they are
+compiled only.
+"""
+from __future__ import annotations
+
+import ast
+import os
+import py_compile
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = "hecker_dynamics"
+MSG_TYPE = "hecker_dynamics/msg/AppliedWrench"
+
+#: Messages and services the node imports, each with the package that provides it.
+NODE_INTERFACES = ("builtin_interfaces", "diagnostic_msgs", "geometry_msgs", "nav_msgs",
+                   "rosgraph_msgs", "std_msgs", "std_srvs", "visualization_msgs")
+
+
+@pytest.fixture(scope="module")
+def manifest():
+    package = pytest.importorskip("catkin_pkg.package", reason="catkin_pkg is not installed")
+    parsed = package.parse_package(str(ROOT / "package.xml"))
+    parsed.validate()
+    return parsed
+
+
+@pytest.fixture(scope="module")
+def cmake() -> str:
+    text = (ROOT / "CMakeLists.txt").read_text()
+    return "\n".join(line.split("#", 1)[0] for line in text.splitlines())  # drop comments
+
+
+def _names(dependencies) -> set[str]:
+    return {d.name for d in dependencies}
+
+
+def test_manifest_is_format_3_and_names_the_package(manifest, cmake):
+    assert manifest.package_format == 3
+    assert manifest.name == PACKAGE
+    assert re.search(r"project\(\s*hecker_dynamics\s*\)", cmake)
+    assert manifest.get_build_type() == "ament_cmake"
+    assert "rosidl_interface_packages" in {g.name for g in manifest.member_of_groups}
+
+
+def test_manifest_declares_every_dependency(manifest):
+    buildtool = _names(manifest.buildtool_depends)
+    assert {"ament_cmake", "ament_cmake_python", "rosidl_default_generators"} <= buildtool
+    build = _names(manifest.build_depends)
+    execute = _names(manifest.exec_depends)
+    for interface in ("builtin_interfaces", "geometry_msgs", "std_msgs"):  # used by the .msg
+        assert interface in build and interface in execute, interface
+    for interface in NODE_INTERFACES:
+        assert interface in execute, interface
+    assert {"rclpy", "rosidl_default_runtime", "python3-numpy", "python3-yaml", "launch",
+            "launch_ros"} <= execute
+    assert "ament_cmake_pytest" in _names(manifest.test_depends)
+    # rosbags has no rosdep key: the node and the build must not need it.
+    assert not any("rosbags" in name for name in build | execute | buildtool)
+
+
+def test_manifest_version_matches_setup_py(manifest):
+    setup = ROOT / "setup.py"
+    if not setup.exists():
+        pytest.skip("setup.py is not in the tree")
+    match = re.search(r"version\s*=\s*['\"]([^'\"]+)['\"]", setup.read_text())
+    assert match and match.group(1) == manifest.version
+
+
+def test_cmake_generates_the_interface_and_installs_beside_it(cmake):
+    generate = re.search(r"rosidl_generate_interfaces\((.*?)\)", cmake, re.S)
+    assert generate and '"msg/AppliedWrench.msg"' in generate.group(1)
+    for dependency in ("builtin_interfaces", "geometry_msgs", "std_msgs"):
+        assert dependency in generate.group(1)
+        assert f"find_package({dependency} REQUIRED)" in cmake
+    # ros2/rosidl_python#141: the generator already installs a Python package of this name.
+    assert "ament_python_install_package" not in cmake
+    install_python = re.search(
+        r'install\(DIRECTORY \$\{PROJECT_NAME\}/\s+DESTINATION "\$\{PYTHON_INSTALL_DIR\}/'
+        r'\$\{PROJECT_NAME\}"\s+PATTERN "__pycache__" EXCLUDE', cmake)
+    assert install_python, "the hand-written package must be installed as a directory"
+    assert cmake.index("find_package(ament_cmake_python REQUIRED)") < install_python.start()
+    assert generate.start() < install_python.start()
+    assert re.search(r"install\(PROGRAMS scripts/dynamics_node\s+DESTINATION "
+                     r"lib/\$\{PROJECT_NAME\}", cmake)
+    assert re.search(r"install\(DIRECTORY config launch\s+DESTINATION "
+                     r"share/\$\{PROJECT_NAME\}", cmake)
+    assert cmake.rstrip().endswith("ament_package()")
+
+
+def test_cmake_registers_the_tests(cmake):
+    for name in ("test_package", "test_mapping", "test_node"):
+        assert (ROOT / "test" / f"{name}.py").is_file()
+        assert name in cmake
+
+
+def test_hand_written_package_has_no_msg_subpackage():
+    # The generated hecker_dynamics.msg is installed into the same directory.
+    assert not (ROOT / PACKAGE / "msg").exists()
+
+
+def test_message_parses_and_round_trips_through_cdr():
+    typesys = pytest.importorskip("rosbags.typesys", reason="rosbags is not installed")
+    text = (ROOT / "msg" / "AppliedWrench.msg").read_text()
+    types = typesys.get_types_from_msg(text, MSG_TYPE)
+    assert set(types) == {MSG_TYPE}
+    store = typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
+    store.register(types)
+    t = store.types
+    vector3 = t["geometry_msgs/msg/Vector3"]
+    msg = t[MSG_TYPE](
+        header=t["std_msgs/msg/Header"](
+            stamp=t["builtin_interfaces/msg/Time"](sec=12, nanosec=345), frame_id="left/hook"),
+        body="left", id="kick", point=t["geometry_msgs/msg/Point"](x=0.4, y=0.2, z=0.0),
+        wrench=t["geometry_msgs/msg/Wrench"](force=vector3(x=0.0, y=60.0, z=0.0),
+                                             torque=vector3(x=0.0, y=0.0, z=-1.5)),
+        duration=t["builtin_interfaces/msg/Duration"](sec=0, nanosec=100_000_000))
+    raw = store.serialize_cdr(msg, MSG_TYPE)
+    back = store.deserialize_cdr(raw, MSG_TYPE)
+    assert back == msg
+    assert (back.header.frame_id, back.wrench.force.y, back.duration.nanosec) == (
+        "left/hook", 60.0, 100_000_000)
+
+
+def test_message_comments_state_frame_and_hold_semantics():
+    text = (ROOT / "msg" / "AppliedWrench.msg").read_text()
+    comments = " ".join(line.lstrip("# ") for line in text.splitlines()
+                        if line.startswith("#")).lower()
+    for phrase in ("header.stamp", "header.frame_id", "zero stamp", "<body>/<point>",
+                   "replaces", "input timeout", "out-of-plane", "ignored"):
+        assert phrase in comments, phrase
+
+
+def test_python_files_compile(tmp_path):
+    for relative in ("launch/dynamics.launch.py", "hecker_dynamics/node.py",
+                     "scripts/dynamics_node"):
+        py_compile.compile(str(ROOT / relative), cfile=str(tmp_path / "out.pyc"),
+                           doraise=True)
+
+
+def test_node_script_is_a_tiny_executable():
+    script = ROOT / "scripts" / "dynamics_node"
+    assert os.access(script, os.X_OK)
+    text = script.read_text()
+    assert text.startswith("#!/usr/bin/env python3\n")
+    assert "from hecker_dynamics.node import main" in text
+
+
+def test_launch_file_declares_scene_and_use_sim_time():
+    tree = ast.parse((ROOT / "launch" / "dynamics.launch.py").read_text())
+    functions = {node.name for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)}
+    assert "generate_launch_description" in functions
+    declared = {call.args[0].value for call in ast.walk(tree)
+                if isinstance(call, ast.Call) and getattr(call.func, "id", "") ==
+                "DeclareLaunchArgument"}
+    assert declared == {"scene", "use_sim_time"}
+
+
+def test_launch_file_resolves_scene_names_like_the_core(tmp_path):
+    from hecker_dynamics.scene import scene_path
+    tree = ast.parse((ROOT / "launch" / "dynamics.launch.py").read_text())
+    is_path = next(node for node in tree.body
+                   if isinstance(node, ast.FunctionDef) and node.name == "_is_path")
+    namespace: dict = {"os": os}
+    exec(compile(ast.Module([is_path], []), "launch", "exec"), namespace)
+    path = tmp_path / "mine.yaml"
+    path.write_text("")
+    assert not namespace["_is_path"]("sample")
+    assert scene_path("sample").name == "sample.yaml"
+    for given in (str(path), "config/sample.yaml", "./x.yml"):
+        assert namespace["_is_path"](given), given
