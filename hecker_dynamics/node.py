@@ -202,12 +202,17 @@ class DynamicsNode(Node):
             return
         try:
             command, warnings = convert(self._now_ns())
-            for warning in warnings:
-                self._warn(f"{topic}:out_of_plane", warning)
-            self.sim.push(command)
-        except InputError as error:
+        except InputError as error:  # the message itself is bad (NaN, empty body, ...)
             self.commands_rejected += 1
-            self._warn(f"{topic}:rejected", f"input on '{topic}' rejected: {error}")
+            self._warn(f"{topic}:message", f"input on '{topic}' rejected: {error}")
+            return
+        for warning in warnings:
+            self._warn(f"{topic}:out_of_plane", warning)
+        try:
+            self.sim.push(command)
+        except InputError as error:  # the scene refuses it (unknown body or frame, stamp, ...)
+            self.commands_rejected += 1
+            self._warn(f"{topic}:scene", f"input on '{topic}' rejected: {error}")
             return
         self.commands_accepted += 1
 
