@@ -121,6 +121,13 @@ def is_simple(vertices: np.ndarray) -> bool:
     return True
 
 
+def is_convex(vertices: np.ndarray) -> bool:
+    """True if every turn along the polygon goes the same way (collinear turns allowed)."""
+    edges = np.roll(vertices, -1, axis=0) - vertices
+    turns = perp_dot(edges, np.roll(edges, -1, axis=0))
+    return bool(np.all(turns >= 0.0) or np.all(turns <= 0.0))
+
+
 def area_properties(shape: Shape) -> AreaProperties:
     """Integrate area, centroid and second moment of area of a shape.
 

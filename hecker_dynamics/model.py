@@ -3,8 +3,8 @@
 ``Model.accelerations`` is steps 3 to 6 of the article's algorithm ("Physics, Part 2:
 Angular Effects"): collect the forces with their points, sum them at the CM, add up the
 perp-dot torques, and divide by the mass and by the moment of inertia (Equations 4 and 6).
-A scene without walls has no contact pass; a scene without springs has no spring term;
-a force at the CM computes no torque.
+A scene without walls or collisions has no contact pass; a scene without springs has no
+spring term; a force at the CM computes no torque.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, Centr
 from .planar import perp, rotate
 from .scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
-from .walls import WallContacts
+from .contacts import ContactPass
 
 
 class Model:
@@ -35,9 +35,9 @@ class Model:
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: list[ForceTerm] = _build_terms(self, scene)
         self.inputs: Optional[ConstantWrenchTerm] = None
-        self.walls: Optional[WallContacts] = (
-            WallContacts(self, scene.walls, _restitution_threshold(scene))
-            if scene.walls else None)
+        self.contacts: Optional[ContactPass] = (
+            ContactPass(self, _restitution_threshold(scene))
+            if scene.walls or scene.collisions else None)
 
     @property
     def size(self) -> int:
@@ -48,12 +48,12 @@ class Model:
         return np.asarray(point, dtype=float) - self.cm_local[body]
 
     def can_turn(self) -> np.ndarray:
-        """Mask of bodies that some declared force or wall can apply torque to."""
+        """Mask of bodies that some declared force, wall or collision can apply torque to."""
         mask = np.zeros(self.size, dtype=bool)
         for term in self.terms:
             mask[term.turns] = True
-        if self.walls is not None:
-            mask[self.walls.bodies] = True
+        if self.contacts is not None:
+            mask[self.contacts.bodies] = True
         return mask
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:

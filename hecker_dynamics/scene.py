@@ -18,12 +18,13 @@ from typing import Any, Optional, Union
 import yaml
 
 from .commands import WrenchCommand
-from .geometry import Circle, GeometryError, MassProperties, Polygon, Shape, box, mass_properties
+from .geometry import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
+                       mass_properties)
 from .parameters import REQUIRED, ParameterReader, SceneError, unflatten
 
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
-    "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec",
+    "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_from_parameters", "scene_path", "shipped_scenes",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
@@ -137,6 +138,16 @@ class WallSpec:
 
 
 @dataclass(frozen=True)
+class CollisionGroup:
+    """Bodies that collide with each other (every pair), with the pairs' material."""
+
+    name: str
+    bodies: tuple[str, ...]
+    restitution: float
+    friction: float
+
+
+@dataclass(frozen=True)
 class WrenchTopic:
     """A ``geometry_msgs/WrenchStamped`` input topic that pushes ``body``.
 
@@ -171,6 +182,7 @@ class Scene:
     bodies: tuple[BodySpec, ...]
     forces: tuple[ForceSpec, ...]
     walls: tuple[WallSpec, ...]
+    collisions: tuple[CollisionGroup, ...]
     wrench_topics: tuple[WrenchTopic, ...]
     script: tuple[WrenchCommand, ...]
 
@@ -279,6 +291,7 @@ def _read_scene(root: ParameterReader) -> Scene:
     points = {b.name: b.points for b in bodies}
     forces = tuple(_read_force(name, r, points) for name, r in root.named_children("forces"))
     walls = tuple(_read_wall(name, r, body_names) for name, r in root.named_children("walls"))
+    collisions = _read_collisions(root, {b.name: b for b in bodies})
     publish = root.child("publish")
     scene = Scene(
         source=root.source,
@@ -299,6 +312,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         bodies=bodies,
         forces=forces,
         walls=walls,
+        collisions=collisions,
         wrench_topics=tuple(_read_wrench_topic(name, r, frame_id, points)
                             for name, r in root.named_children("wrench_topics")),
         script=tuple(sorted((_read_command(name, r, frame_id, points)
@@ -458,6 +472,35 @@ def _read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec
                     restitution=reader.number("restitution", 0.5, minimum=0.0),
                     friction=reader.number("friction", 0.0, minimum=0.0),
                     bodies=_body_list(reader, "bodies", known))
+
+
+def _read_collisions(root: ParameterReader,
+                     bodies: Mapping[str, BodySpec]) -> tuple[CollisionGroup, ...]:
+    """Collision groups; every pair of bodies may be in one group at most, and the bodies'
+    polygon parts must be convex (split a concave shape into convex parts)."""
+    groups = []
+    seen: dict[frozenset[str], str] = {}
+    for name, reader in root.named_children("collisions"):
+        members = _body_list(reader, "bodies", bodies)
+        if len(members) < 2:
+            reader.fail("bodies", "a collision group needs at least two bodies")
+        for i, a in enumerate(members):
+            for b in members[i + 1:]:
+                pair = frozenset((a, b))
+                if pair in seen:
+                    reader.fail("bodies", f"bodies '{a}' and '{b}' are already in collision "
+                                          f"group '{seen[pair]}'")
+                seen[pair] = name
+        for member in members:
+            for shape in bodies[member].shapes:
+                if isinstance(shape, Polygon) and not is_convex(shape.vertices):
+                    raise SceneError(f"{reader.source}: body '{member}': a polygon that "
+                                     f"collides must be convex (collision group '{name}'); "
+                                     "make it a compound body of convex parts")
+        groups.append(CollisionGroup(name, members,
+                                     reader.number("restitution", 0.2, minimum=0.0),
+                                     reader.number("friction", 0.5, minimum=0.0)))
+    return tuple(groups)
 
 
 def _check_frame(reader: ParameterReader, key: str, frame: str, fixed: str,

@@ -73,6 +73,8 @@ class Simulation:
         self._inputs.clear()
         self.model.inputs = None
         self.integrator.reset()
+        if self.model.contacts is not None:
+            self.model.contacts.reset()
 
     @property
     def time_ns(self) -> int:
@@ -142,10 +144,7 @@ class Simulation:
             self.model.inputs = wrench_term(rows) if rows else None
         try:
             with np.errstate(all="ignore"):
-                q, v = self.integrator.step(self.model.accelerations, self.q, self.v,
-                                            self.step_seconds)
-                if self.model.walls is not None:
-                    self.model.walls.resolve(q, v)
+                q, v = self._integrate(self.q, self.v, self.step_seconds)
                 q[:, 2] = wrap_angle(q[:, 2])
         except (IntegrationError, np.linalg.LinAlgError) as error:
             raise DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
@@ -158,6 +157,24 @@ class Simulation:
         self.q, self.v = q, v
         self._steps += 1
         self._time_ns += self.step_ns
+
+    def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """One integrator step and the contact pass; split into sub-steps when a colliding
+        body would otherwise move more than half the thinnest colliding part."""
+        f = self.model.accelerations
+        q1, v1 = self.integrator.step(f, q, v, h)
+        contacts = self.model.contacts
+        if contacts is None:
+            return q1, v1
+        parts = contacts.substeps(q, q1)
+        if parts == 1:
+            contacts.resolve(q1, v1, h)
+            return q1, v1
+        for _ in range(parts):
+            q1, v1 = self.integrator.step(f, q, v, h / parts)
+            contacts.resolve(q1, v1, h / parts)
+            q, v = q1, v1
+        return q, v
 
     def advance_to(self, t_ns: int, max_steps: Optional[int] = None) -> list[Snapshot]:
         """Step while a whole step fits before ``t_ns`` (at most ``max_steps``).

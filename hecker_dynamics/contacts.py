@@ -1,0 +1,333 @@
+"""The contact pass: walls and bodies that touch, answered with impulses.
+
+After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
+
+1. finds contacts at q1: shape points behind walls, and overlapping convex parts of bodies
+   that the scene lets collide (a sort-and-sweep broad phase on the x extent, then the
+   narrow phase of :mod:`hecker_dynamics.collision`);
+2. solves for impulses at the contact points with both bodies' mass and moment of
+   inertia: the article series' collision impulse
+   j = -(1 + e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
+   for all contacts together by sequential impulses with accumulated, clamped totals,
+   warm-started from the previous step's impulses (a contact is recognised by its pair
+   of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus Coulomb friction |j_t| <= mu j_n.
+   A contact that closed during the step bounces with restitution e if it approached
+   faster than the restitution threshold; otherwise its normal velocity is made just
+   enough that the bodies end the step touching, neither overlapping nor pushed apart,
+   so resting contacts stay at rest;
+3. moves each body whose velocity the impulses changed by h times that change, so a body
+   held still by contacts does not move at all and a sliding body moves with the velocity
+   friction left it;
+4. pushes apart what still overlaps by more than a small slop, a fraction per step, by
+   moving positions only (no velocity, so no kinetic energy, is added).
+
+Fast bodies do not pass through thin ones: :meth:`ContactPass.substeps` tells the
+simulation to split a step whenever some colliding body would move more than half the
+thinnest colliding part in it.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
+                        polygon_circle, polygon_polygon)
+from .geometry import Circle
+from .planar import rotate
+
+if TYPE_CHECKING:
+    from .model import Model
+
+MAX_ITERATIONS = 200
+CONVERGED = 1e-13
+#: Gap (m) within which shapes already count as touching, so resting contacts persist.
+MARGIN = 5e-3
+#: Distance (m) within which a contact point is taken for last step's, for warm starting.
+MATCH = 1e-2
+#: Overlap left alone (m) by the position correction.
+SLOP = 1e-4
+#: Fraction of the remaining overlap removed per step, and the most removed per step (m).
+CORRECTION = 0.2
+MAX_CORRECTION = 0.05
+POSITION_ITERATIONS = 4
+MAX_SUBSTEPS = 256
+
+
+class ContactPass:
+    """Contact detection and response for one scene's walls and collision groups."""
+
+    def __init__(self, model: Model, threshold: float) -> None:
+        scene = model.scene
+        self.threshold = threshold
+        self.inverse_mass = (1.0 / model.mass).tolist()
+        self.inverse_inertia = (1.0 / model.inertia).tolist()
+        self.wall_normal = [tuple(w.normal) for w in scene.walls]
+        self.wall_offset = [w.normal[0] * w.point[0] + w.normal[1] * w.point[1]
+                            for w in scene.walls]
+        self.wall_material = [(w.restitution, w.friction) for w in scene.walls]
+        self.wall_bodies = [sorted(model.index[b] for b in w.bodies) for w in scene.walls]
+        self.pairs = {}  # (i, j), i < j -> (restitution, friction)
+        for group in scene.collisions:
+            members = sorted(model.index[b] for b in group.bodies)
+            for n, i in enumerate(members):
+                for j in members[n + 1:]:
+                    self.pairs[(i, j)] = (group.restitution, group.friction)
+        self.parts: list[list[tuple]] = []  # per body: ("polygon", ConvexPolygon) / ("circle", c, r)
+        for i, body in enumerate(scene.bodies):
+            parts = []
+            for shape in body.shapes:
+                if isinstance(shape, Circle):
+                    parts.append(("circle", model.local(i, shape.center), shape.radius))
+                else:
+                    local = shape.vertices - model.cm_local[i]
+                    parts.append(("polygon", ConvexPolygon.from_vertices(local)))
+            self.parts.append(parts)
+        colliding = sorted({i for pair in self.pairs for i in pair})
+        self.colliding = colliding
+        self.reach = [max(float(np.hypot(*p[1])) + p[2] if p[0] == "circle"
+                          else float(np.max(np.hypot(p[1].vertices[:, 0], p[1].vertices[:, 1])))
+                          for p in parts) for parts in self.parts]
+        self.thickness = min((2.0 * (p[2] if p[0] == "circle" else p[1].inradius)
+                              for i in colliding for p in self.parts[i]), default=math.inf)
+        touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
+        self.bodies = np.array(sorted(touching), dtype=int)
+        self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
+
+    def reset(self) -> None:
+        """Forget the impulses kept for warm starting."""
+        self._warm = {}
+
+    # ------------------------------------------------------------------ detection
+
+    def _world_parts(self, q: np.ndarray, body: int) -> list[tuple]:
+        x, y, angle = q[body]
+        c, s = math.cos(angle), math.sin(angle)
+        placed = []
+        for part in self.parts[body]:
+            if part[0] == "circle":
+                lx, ly = part[1]
+                placed.append(("circle", (x + c * lx - s * ly, y + s * lx + c * ly), part[2]))
+            else:
+                poly = part[1]
+                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in poly.vertices.tolist()]
+                normals = [(c * a - s * b, s * a + c * b) for a, b in poly.normals.tolist()]
+                placed.append(("polygon", verts, normals))
+        return placed
+
+    @staticmethod
+    def _bounds(part: tuple) -> tuple[float, float, float, float]:
+        if part[0] == "circle":
+            (x, y), r = part[1], part[2]
+            return x - r, x + r, y - r, y + r
+        xs = [p[0] for p in part[1]]
+        ys = [p[1] for p in part[1]]
+        return min(xs), max(xs), min(ys), max(ys)
+
+    def detect(self, q: np.ndarray) -> list[list]:
+        """Contacts at positions ``q``: [a, b, point, normal a->b, depth, e, mu, pair], where
+        ``pair`` names the two parts (a wall is body -1 - its index)."""
+        world = {int(b): self._world_parts(q, int(b)) for b in self.bodies}
+        contacts: list[list] = []
+        for w, bodies in enumerate(self.wall_bodies):
+            normal, offset = self.wall_normal[w], self.wall_offset[w]
+            e, mu = self.wall_material[w]
+            for b in bodies:
+                for p, part in enumerate(world[b]):
+                    found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
+                             if part[0] == "circle"
+                             else half_plane_polygon(normal, offset, part[1], MARGIN))
+                    for point, n, depth in found:
+                        contacts.append([-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)])
+        if self.pairs:
+            contacts.extend(self._body_contacts(world))
+        return contacts
+
+    def _body_contacts(self, world: dict[int, list[tuple]]) -> list[list]:
+        boxes = sorted((self._bounds(part), b, p) for b in self.colliding
+                       for p, part in enumerate(world[b]))
+        contacts = []
+        for n, ((x0, x1, y0, y1), b1, p1) in enumerate(boxes):
+            for (u0, _, v0, v1), b2, p2 in boxes[n + 1:]:
+                if u0 > x1 + MARGIN:
+                    break
+                if b1 == b2 or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
+                    continue
+                a, pa, b, pb = (b1, p1, b2, p2) if b1 < b2 else (b2, p2, b1, p1)
+                material = self.pairs.get((a, b))
+                if material is None:
+                    continue
+                for point, normal, depth in _collide(world[a][pa], world[b][pb]):
+                    contacts.append([a, b, point, normal, depth, *material, (a, b, pa, pb)])
+        return contacts
+
+    def substeps(self, q0: np.ndarray, q1: np.ndarray) -> int:
+        """How many sub-steps keep every colliding body's travel under half the thinnest
+        colliding part (1 when the step is short enough)."""
+        if not self.colliding:
+            return 1
+        index = self.colliding
+        travel = np.hypot(*(q1[index, :2] - q0[index, :2]).T) + \
+            np.abs(q1[index, 2] - q0[index, 2]) * np.array([self.reach[i] for i in index])
+        needed = math.ceil(float(travel.max()) / (0.5 * self.thickness))
+        return min(max(needed, 1), MAX_SUBSTEPS)
+
+    # ------------------------------------------------------------------ response
+
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
+        """Respond to the contacts found at ``q1`` after a step of ``h``; updates ``q1`` and
+        ``v1`` in place."""
+        contacts = self.detect(q1)
+        if not contacts:
+            self._warm = {}
+            return
+        touched = sorted(({c[0] for c in contacts} | {c[1] for c in contacts}) - {-1})
+        velocity = {b: v1[b].tolist() for b in touched}
+        velocity[-1] = [0.0, 0.0, 0.0]
+        rows = [self._prepare(c, q1, velocity, h) for c in contacts]
+        for row in rows:  # warm start, once every target is set from the step's velocities
+            jn, jt, nx, ny = row[12], row[13], row[6], row[7]
+            _push(row, velocity, jn * nx - jt * ny, jn * ny + jt * nx)
+        self._solve_velocities(rows, velocity)
+        self._remember(rows, q1)
+        for b in touched:
+            change = np.array(velocity[b]) - v1[b]
+            if change.any():
+                q1[b] += h * change
+                v1[b] = velocity[b]
+        self._correct_positions(rows, velocity, q1, h)
+
+    def _prepare(self, contact: list, q1: np.ndarray, velocity: dict, h: float) -> list:
+        """A solver row: bodies, arms, normal, effective masses, target normal velocity,
+        accumulated impulses, depth, inverse masses, approach velocity and feature key."""
+        a, b, (px, py), (nx, ny), depth, e, mu, key = contact
+        im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
+        im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
+        rax, ray = (px - q1[a, 0], py - q1[a, 1]) if a >= 0 else (0.0, 0.0)
+        rbx, rby = px - q1[b, 0], py - q1[b, 1]
+        rna, rnb = rax * ny - ray * nx, rbx * ny - rby * nx  # perp(r) . n = r x n
+        rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
+        mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)
+        mass_t = 1.0 / (im_a + im_b + rta * rta * ii_a + rtb * rtb * ii_b)
+        va, vb = velocity[a], velocity[b]
+        approach = ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
+                    + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+        # End the step just touching (never pushed apart by velocity: overlap left from
+        # earlier steps is the position correction's job) or, if the contact closed during
+        # the step fast enough, bounce.
+        target = min(approach + depth / h, 0.0)
+        if depth > 0.0 and approach < -self.threshold:
+            target = max(target, -e * approach)
+        jn, jt = self._recall(key, px - q1[b, 0], py - q1[b, 1], q1[b, 2])
+        return [a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth,
+                im_a, ii_a, im_b, ii_b, approach, key]
+
+    def _recall(self, pair: tuple, rx: float, ry: float, angle: float) -> tuple[float, float]:
+        """Last step's impulses of the contact of ``pair`` nearest this point, if within
+        :data:`MATCH`; each remembered contact is used once."""
+        remembered = self._warm.get(pair)
+        if not remembered:
+            return 0.0, 0.0
+        c, s = math.cos(angle), math.sin(angle)
+        lx, ly = c * rx + s * ry, -s * rx + c * ry
+        best, nearest = None, MATCH * MATCH
+        for i, (mx, my, _, _) in enumerate(remembered):
+            d = (mx - lx) ** 2 + (my - ly) ** 2
+            if d <= nearest:
+                best, nearest = i, d
+        if best is None:
+            return 0.0, 0.0
+        _, _, jn, jt = remembered.pop(best)
+        return jn, jt
+
+    def _remember(self, rows: list[list], q1: np.ndarray) -> None:
+        """Keep each contact's impulses with its point in the second body's frame."""
+        self._warm = {}
+        for row in rows:
+            b, rbx, rby = row[1], row[4], row[5]
+            c, s = math.cos(q1[b, 2]), math.sin(q1[b, 2])
+            self._warm.setdefault(row[-1], []).append(
+                (c * rbx + s * rby, -s * rbx + c * rby, row[12], row[13]))
+
+    def _solve_velocities(self, rows: list[list], velocity: dict) -> None:
+        for _ in range(MAX_ITERATIONS):
+            largest = 0.0
+            for row in rows:
+                a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt = row[:14]
+                va, vb = velocity[a], velocity[b]
+                dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
+                dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
+                new_n = max(jn + (target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
+                change = abs(new_n - jn) / mass_n
+                _push(row, velocity, (new_n - jn) * nx, (new_n - jn) * ny)
+                row[12] = new_n
+                if mu > 0.0:
+                    dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
+                    dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
+                    bound = mu * new_n
+                    new_t = min(max(jt - (-dvx * ny + dvy * nx) * mass_t, -bound), bound)
+                    change = max(change, abs(new_t - jt) / mass_t)
+                    _push(row, velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
+                    row[13] = new_t
+                largest = max(largest, change)
+            scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
+            if largest <= CONVERGED * scale:
+                return
+
+    def _correct_positions(self, rows: list[list], velocity: dict, q1: np.ndarray,
+                           h: float) -> None:
+        """Remove overlap beyond :data:`SLOP` by moving positions only.
+
+        A contact's depth after the velocity change is depth - h (v_n' - v_n), linear in the
+        arms; each pass moves the two bodies apart along the normal by a fraction of the
+        excess, weighted by their inverse masses and inertias.
+        """
+        base = []
+        for row in rows:
+            a, b, rax, ray, rbx, rby, nx, ny = row[:8]
+            va, vb = velocity[a], velocity[b]
+            normal_velocity = ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
+                               + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+            base.append(row[14] - h * (normal_velocity - row[19]))
+        if max(base) <= SLOP:
+            return
+        shift = {b: [0.0, 0.0, 0.0] for b in velocity}
+        for _ in range(POSITION_ITERATIONS):
+            for row, depth in zip(rows, base):
+                a, b, rax, ray, rbx, rby, nx, ny, mass_n = row[:9]
+                da, db = shift[a], shift[b]
+                excess = depth - SLOP - ((db[0] - db[2] * rby - da[0] + da[2] * ray) * nx
+                                         + (db[1] + db[2] * rbx - da[1] - da[2] * rax) * ny)
+                if excess <= 0.0:
+                    continue
+                push = min(CORRECTION * excess, MAX_CORRECTION) * mass_n
+                _push(row, shift, push * nx, push * ny)
+        for b, s in shift.items():
+            if b >= 0:
+                q1[b] += s
+
+
+def _push(row: list, velocity: dict, px: float, py: float) -> None:
+    """Apply impulse (px, py) at the contact: +P to body b, -P to body a."""
+    a, b, rax, ray, rbx, rby = row[:6]
+    im_a, ii_a, im_b, ii_b = row[15:19]
+    va, vb = velocity[a], velocity[b]
+    va[0] -= px * im_a
+    va[1] -= py * im_a
+    va[2] -= (rax * py - ray * px) * ii_a
+    vb[0] += px * im_b
+    vb[1] += py * im_b
+    vb[2] += (rbx * py - rby * px) * ii_b
+
+
+def _collide(part_a: tuple, part_b: tuple) -> list:
+    """Narrow phase for two placed parts, normal from A to B."""
+    if part_a[0] == "polygon" and part_b[0] == "polygon":
+        return polygon_polygon(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    if part_a[0] == "circle" and part_b[0] == "circle":
+        return circle_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    if part_a[0] == "polygon":
+        return polygon_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    flipped = polygon_circle(part_b[1], part_b[2], part_a[1], part_a[2], MARGIN)
+    return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]
