@@ -2,16 +2,23 @@
 
     hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S]
     hecker-dynamics scenes
+    hecker-dynamics script SCENE -o INPUT_BAG
+    hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
+    hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import decimal
+import os
 import sys
 import time
+from pathlib import Path
 from collections.abc import Sequence
 from typing import Optional
 
+from .bags import STORAGES, BagError
 from .commands import InputError
 from .scene import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .simulation import DivergenceError, Simulation
@@ -81,6 +88,260 @@ def scenes(args: argparse.Namespace) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- bags
+
+def _time_ns(text: str) -> int:
+    """Seconds (exactly, however many digits: stamps of live bags are ~1.7e9 s) to ns."""
+    try:
+        value = decimal.Decimal(text)
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text}") from None
+    if not value.is_finite() or value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
+    return int((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
+
+
+def _tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text}") from None
+    if not value >= 0.0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative number, not {text}")
+    return value
+
+
+class _Progress:
+    """A progress bar on stderr, redrawn at most once per percent."""
+
+    WIDTH = 30
+
+    def __init__(self, label: str, total_s: float) -> None:
+        self.label = label
+        self.total_s = total_s
+        self.shown = -1
+
+    def __call__(self, fraction: float) -> None:
+        percent = int(100 * min(max(fraction, 0.0), 1.0))
+        if percent == self.shown:
+            return
+        self.shown = percent
+        filled = self.WIDTH * percent // 100
+        bar = "#" * filled + "." * (self.WIDTH - filled)
+        sys.stderr.write(f"\r{self.label} [{bar}] {percent:3d}% of {self.total_s:g} s sim time")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.shown >= 0:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _want_progress(args: argparse.Namespace) -> bool:
+    if args.progress is not None:
+        return args.progress
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _tolerances(args: argparse.Namespace):
+    from .compare import Tolerances
+
+    atol = args.atol
+    return Tolerances(
+        position=args.atol_position if args.atol_position is not None else atol,
+        angle=args.atol_angle if args.atol_angle is not None else atol,
+        velocity=args.atol_velocity if args.atol_velocity is not None else atol)
+
+
+def script(args: argparse.Namespace) -> int:
+    """Write a scene's scripted inputs into an input bag."""
+    from .replay import script_to_bag
+
+    scene = load_scene(args.scene)
+    count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
+                          duration_ns=args.duration, overwrite=args.overwrite,
+                          compress=args.compress)
+    print(f"wrote {count} AppliedWrench message(s) of scene {scene.source} to {args.output} "
+          f"({args.storage})")
+    return 0
+
+
+def replay_command(args: argparse.Namespace) -> int:
+    """Replay an input bag on a scene, write the outputs, optionally check them."""
+    from .bags import read_bag
+    from .compare import compare_contents
+    from .replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
+                         replay_outputs, replay_to_bag, session_times)
+
+    if args.output is None and not args.check:
+        raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
+    scene = load_scene(args.scene)
+    bag = read_bag(args.input)
+    outputs = output_topics(scene)
+    expected_topics = [t for t in outputs if t in bag.topics]
+    if args.check:
+        check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
+        if not any(bag.topics.get(t) == "geometry_msgs/msg/PoseStamped"
+                   for t in expected_topics):
+            raise BagError(f"{args.input}: --check needs recorded outputs in the bag, but it "
+                           f"has none of {', '.join(t for t in outputs if t.endswith('/pose'))}")
+    start, end = session_times(scene, bag, args.start, args.duration)
+    options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
+                   skip_rejected=args.skip_rejected)
+    progress = _Progress("replay", (end - start) * 1e-9) if _want_progress(args) else None
+    try:
+        if args.output is not None:
+            result = replay_to_bag(scene, bag, Path(args.output), storage=args.storage,
+                                   overwrite=args.overwrite, with_inputs=args.with_inputs,
+                                   compress=args.compress, progress=progress, **options)
+            actual = read_bag(args.output) if args.check else None
+        else:
+            produced, result = replay_outputs(scene, bag, progress=progress, **options)
+            actual = outputs_as_bag(scene, produced)
+    finally:
+        if progress is not None:
+            progress.close()
+    inputs = [t for t in input_topics(scene) if t in bag.topics]
+    print(f"replayed {result.inputs} input message(s) from {', '.join(inputs) or 'no topic'} "
+          f"on scene {scene.source}: {result.accepted} accepted, {len(result.rejected)} "
+          f"rejected; sim time {start * 1e-9:.9f} s to {end * 1e-9:.9f} s, {result.steps} steps, "
+          f"{result.outputs} output message(s)" + (f" written to {args.output}"
+                                                  if args.output else ""))
+    for line in result.rejected[:5]:
+        print(f"hecker-dynamics: warning: input rejected: {line}", file=sys.stderr)
+    if len(result.rejected) > 5:
+        print(f"hecker-dynamics: warning: ... and {len(result.rejected) - 5} more rejected",
+              file=sys.stderr)
+    for line in sorted(set(result.warnings))[:5]:
+        print(f"hecker-dynamics: warning: {line}", file=sys.stderr)
+    if result.ignored_after_end:
+        print(f"hecker-dynamics: warning: {result.ignored_after_end} input message(s) after "
+              "the end of the session were not replayed", file=sys.stderr)
+    if result.halted:
+        print(f"hecker-dynamics: error: {result.halted}", file=sys.stderr)
+        return 2
+    if not args.check:
+        return 0
+    report, ok = compare_contents(bag, actual, tolerances=_tolerances(args),
+                                  topics=expected_topics)
+    if not ok or args.verbose:
+        print(report.text())
+    print(f"check against the outputs recorded in {args.input}: {report.summary()}")
+    return 0 if ok else 1
+
+
+def compare_command(args: argparse.Namespace) -> int:
+    """Compare two bags; exit 1 on a mismatch."""
+    from .compare import compare_bags
+
+    report, ok = compare_bags(args.expected, args.actual, tolerances=_tolerances(args),
+                              topics=args.topic or None)
+    if not ok or args.verbose:
+        print(report.text())
+    else:
+        print(report.summary())
+    return 0 if ok else 1
+
+
+def _add_tolerance_options(parser: argparse.ArgumentParser) -> None:
+    from .compare import DEFAULT_ATOL
+
+    parser.add_argument("--atol", type=_tolerance, default=DEFAULT_ATOL,
+                        help=f"absolute tolerance for positions (m), angles (rad) and "
+                             f"velocities (default {DEFAULT_ATOL:g})")
+    parser.add_argument("--atol-position", type=_tolerance, help="override --atol for positions")
+    parser.add_argument("--atol-angle", type=_tolerance, help="override --atol for angles")
+    parser.add_argument("--atol-velocity", type=_tolerance,
+                        help="override --atol for linear and angular velocities")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="print the full per-topic report even when the bags match")
+
+
+def _add_writer_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--storage", choices=STORAGES, default="mcap",
+                        help="storage of the written bag (default mcap, as Jazzy records)")
+    parser.add_argument("--compress", action="store_true",
+                        help="zstd-compress the mcap chunks (like Jazzy's zstd_fast preset)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the output bag if it exists")
+
+
+def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
+    script_parser = commands.add_parser(
+        "script", help="write a scene's scripted inputs into an input bag",
+        description="Turn a scene's scripted inputs into a rosbag2 bag: one "
+                    "hecker_dynamics/msg/AppliedWrench message on /applied_wrench per scripted "
+                    "command, stamped and logged at its start time. The scene's WrenchStamped "
+                    "topics are declared too. The bag records the session start and duration, "
+                    "so 'replay' reproduces the scene's run.")
+    script_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    script_parser.add_argument("-o", "--output", required=True, metavar="INPUT_BAG",
+                               help="bag directory to create")
+    script_parser.add_argument("--start", type=_time_ns, default=0, metavar="S",
+                               help="sim time at which the session starts, s (default 0)")
+    script_parser.add_argument("--duration", type=_time_ns, metavar="S",
+                               help="session length, s (default: the scene's duration)")
+    _add_writer_options(script_parser)
+    script_parser.set_defaults(handler=script)
+
+    replay_parser = commands.add_parser(
+        "replay", help="replay an input bag on a scene and write the node's outputs",
+        description="Read AppliedWrench (/applied_wrench) and the scene's WrenchStamped "
+                    "inputs from a rosbag2 bag (mcap or sqlite3), drive the simulation with "
+                    "the node's stamp rules (a zero stamp means the log time), and write "
+                    "what the node publishes (/<body>/pose, /<body>/twist and the optional "
+                    "topics the scene enables) into a new bag, logged at sim time. With "
+                    "--check, compare the replay with the outputs recorded in the input bag "
+                    "(a session recorded with 'ros2 bag record -a'); exit 1 on a mismatch.")
+    replay_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    replay_parser.add_argument("input", metavar="INPUT_BAG", help="bag with the input messages")
+    replay_parser.add_argument("-o", "--output", metavar="OUTPUT_BAG",
+                               help="bag directory to create with the outputs")
+    replay_parser.add_argument("--check", action="store_true",
+                               help="compare the replay with the outputs recorded in INPUT_BAG")
+    replay_parser.add_argument("--start", type=_time_ns, metavar="S",
+                               help="sim time at which the session starts, s (default: from "
+                                    "the bag: its recorded start, one publish period before "
+                                    "its first pose, or its first message)")
+    replay_parser.add_argument("--duration", type=_time_ns, metavar="S",
+                               help="session length, s (default: the bag's recorded length, "
+                                    "its last pose, or the scene's duration)")
+    replay_parser.add_argument("--play-script", action="store_true",
+                               help="also push the scene's scripted inputs (as the node does "
+                                    "with play_script); off by default since 'script' bags "
+                                    "hold them")
+    replay_parser.add_argument("--skip-rejected", action="store_true",
+                               help="drop inputs for unknown bodies or frames (as the node "
+                                    "does) instead of failing")
+    replay_parser.add_argument("--with-inputs", action="store_true",
+                               help="copy the input messages into the output bag too")
+    progress_group = replay_parser.add_mutually_exclusive_group()
+    progress_group.add_argument("--progress", dest="progress", action="store_true", default=None,
+                                help="show a progress bar on stderr (default: when stderr is "
+                                     "a terminal)")
+    progress_group.add_argument("--no-progress", dest="progress", action="store_false",
+                                help="never show a progress bar")
+    _add_writer_options(replay_parser)
+    _add_tolerance_options(replay_parser)
+    replay_parser.set_defaults(handler=replay_command)
+
+    compare_parser = commands.add_parser(
+        "compare", help="compare two bags topic by topic",
+        description="Match the messages of each topic by stamp (Twist by its pose's stamp "
+                    "or its log time) and report the largest position, angle and velocity "
+                    "differences and the missing or extra messages and topics. Exit 0 when "
+                    "the bags match within the tolerances, 1 when they do not, 2 on an error.")
+    compare_parser.add_argument("expected", metavar="EXPECTED_BAG")
+    compare_parser.add_argument("actual", metavar="ACTUAL_BAG")
+    compare_parser.add_argument("--topic", action="append", metavar="TOPIC",
+                                help="compare only this topic (repeatable)")
+    _add_tolerance_options(compare_parser)
+    compare_parser.set_defaults(handler=compare_command)
+
+
 def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
         prog="hecker-dynamics",
@@ -104,6 +365,7 @@ def parser() -> argparse.ArgumentParser:
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
                                       description="List the shipped scenes.")
     list_parser.set_defaults(handler=scenes)
+    _add_bag_commands(commands)
     return top
 
 
@@ -111,7 +373,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.handler(args)
-    except (SceneError, InputError, DivergenceError) as error:
+    except (SceneError, InputError, DivergenceError, BagError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2
 
