@@ -1,0 +1,149 @@
+"""The ``hecker-dynamics`` command line: summary values, errors, help.
+
+The run summary is compared as text with the same formatting applied to a direct
+Simulation run: the runs are bit-identical, so the formatted strings must be identical.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, os.path.dirname(__file__))
+from scene_builders import write_scene  # noqa: E402
+
+from hecker_dynamics import Simulation, load_scene  # noqa: E402
+from hecker_dynamics.cli import main, parser  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _direct(scene_name=None, duration_s=1.0, **changes):
+    import dataclasses
+    scene = dataclasses.replace(load_scene(scene_name), duration_ns=round(duration_s * 1e9),
+                                **changes)
+    sim = Simulation(scene)
+    first = sim.snapshot()
+    sim.play(scene.script, scene.duration_ns)
+    return scene, sim, first, sim.snapshot()
+
+
+def _body_line(body):
+    return (f"{body.name:<12}{body.position[0]:>12.5f}{body.position[1]:>12.5f}"
+            f"{body.angle:>12.5f}{body.linear_velocity[0]:>12.5f}"
+            f"{body.linear_velocity[1]:>12.5f}{body.angular_velocity:>12.5f}")
+
+
+def _check_summary(out, scene, sim, first, last):
+    lines = out.splitlines()
+    assert lines[0].split(None, 1) == ["scene", scene.source]
+    assert lines[1].split()[:2] == ["integrator", sim.integrator.name]
+    assert f"{last.steps} steps" in lines[2]
+    assert f"{sim.integrator.counters.evaluations} force evaluations" in lines[2]
+    assert lines[3].startswith(f"sim time    {(last.time_ns - first.time_ns) * 1e-9:g} s")
+    assert lines[4] == f"energy      {first.energy:.6g} J -> {last.energy:.6g} J"
+    assert lines[6:] == [_body_line(b) for b in last.bodies]
+
+
+def test_run_default_scene_prints_summary_matching_a_direct_run(capsys):
+    assert main(["run", "--duration", "1"]) == 0
+    out = capsys.readouterr().out
+    scene, sim, first, last = _direct(None, 1.0)
+    assert last.steps == 1000
+    _check_summary(out, scene, sim, first, last)
+
+
+def test_run_with_overrides_matches_a_direct_run(capsys):
+    sample = str(ROOT / "config" / "sample.yaml")
+    assert main(["run", sample, "--duration", "0.5", "--integrator", "rk4",
+                 "--step", "0.002"]) == 0
+    out = capsys.readouterr().out
+    scene, sim, first, last = _direct(sample, 0.5, integrator="rk4", step_ns=2_000_000)
+    assert last.steps == 250 and sim.integrator.name == "rk4"
+    _check_summary(out, scene, sim, first, last)
+
+
+def _assert_clean_error(capsys, code, *fragments):
+    captured = capsys.readouterr()
+    assert code == 2
+    assert captured.err.startswith("hecker-dynamics: error: ")
+    assert "Traceback" not in captured.err + captured.out
+    for fragment in fragments:
+        assert fragment in captured.err
+
+
+def test_bad_scene_file_exits_2_naming_file_and_parameter(tmp_path, capsys):
+    path = write_scene(tmp_path, {"bodies": {"a": {"shape": "box", "size": [1.0, 1.0],
+                                                   "mass": 1.0, "colour": "red"}}},
+                       "bad.yaml")
+    _assert_clean_error(capsys, main(["run", str(path)]), str(path), "bodies.a.colour")
+
+
+def test_unknown_scene_name_exits_2(capsys):
+    _assert_clean_error(capsys, main(["run", "nonesuch"]), "nonesuch", "sample")
+
+
+def test_missing_scene_file_exits_2(tmp_path, capsys):
+    _assert_clean_error(capsys, main(["run", str(tmp_path / "gone.yaml")]), "gone.yaml")
+
+
+def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
+    _assert_clean_error(capsys, main(["run", "--step", "0.0007", "--duration", "0.1"]),
+                        "--step")
+
+
+def test_diverging_scene_exits_2(tmp_path, capsys):
+    path = write_scene(tmp_path, {
+        "bodies": {"tiny": {"shape": "circle", "radius": 0.1, "mass": 1e-300}},
+        "forces": {"push": {"type": "constant_force", "body": "tiny", "force": [1e300, 0.0]}}},
+        "boom.yaml")
+    _assert_clean_error(capsys, main(["run", str(path), "--duration", "0.1"]),
+                        "kept the last finite state")
+
+
+def test_bad_argument_exits_2_with_usage(capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(["run", "--duration", "-1"])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert "usage:" in err and "--duration" in err and "Traceback" not in err
+
+
+def _subcommands():
+    actions = [a for a in parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    return sorted(actions[0].choices)
+
+
+@pytest.mark.parametrize("argv", [["--help"]] + [[name, "--help"] for name in _subcommands()])
+def test_help_exits_0(argv, capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(argv)
+    assert caught.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: hecker-dynamics")
+
+
+def test_run_and_scenes_subcommands_exist():
+    assert {"run", "scenes"} <= set(_subcommands())
+
+
+def test_scenes_lists_the_default_scene(capsys):
+    assert main(["scenes"]) == 0
+    assert "sample" in capsys.readouterr().out.split()
+
+
+def test_as_a_process_exit_codes_and_no_traceback(tmp_path):
+    """The real entry point: exit 0 on success, 2 on a bad scene, no traceback."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    good = subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "run", "--duration",
+                           "0.2"], capture_output=True, text=True, env=env, timeout=120)
+    assert good.returncode == 0, good.stderr
+    assert "left" in good.stdout and "200 steps" in good.stdout
+    path = write_scene(tmp_path, {"step": "fast", "bodies": {}}, "bad.yaml")
+    bad = subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "run", str(path)],
+                         capture_output=True, text=True, env=env, timeout=120)
+    assert bad.returncode == 2
+    assert "Traceback" not in bad.stderr and "'step'" in bad.stderr and str(path) in bad.stderr
