@@ -60,9 +60,9 @@ def scene_key(value: Any) -> Any:
 def box_body(size=(1.0, 0.5), mass=2.0, **state: Any) -> dict[str, Any]:
     """Parameters of a box body (extra keys: position, angle, velocity, ...).
 
-    The box is written as a one-part compound (``parts.hull``) so that the body's initial
-    ``angle`` is not also read as the shape's angle in the body frame (see the xfail test
-    ``test_single_shape_body_angle_is_not_the_shape_angle`` in test_scene.py).
+    The box is written as a one-part compound (``parts.hull``), which keeps the shape
+    unturned in the body frame whatever the body's ``angle`` (the single-shape form read
+    the body's angle as the shape's too until that was fixed; see test_scene.py).
     """
     return {"parts": {"hull": {"shape": "box", "size": [float(x) for x in size]}},
             "mass": float(mass), **state}

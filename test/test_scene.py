@@ -73,21 +73,16 @@ def test_sample_by_name_by_path_default_and_as_flat_parameters_are_equal():
         assert _without_source(other) == _without_source(by_path)
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason=(
-    "Scene.__eq__ raises ValueError: geometry.Polygon.vertices and "
-    "MassProperties.center_of_mass are numpy arrays inside frozen dataclasses, so the "
-    "generated __eq__ calls bool() on an element-wise array comparison"))
 def test_two_loads_of_a_scene_compare_equal():
+    """Scene == Scene works (it raised ValueError while Polygon.vertices and
+    MassProperties.center_of_mass were bare numpy arrays in frozen dataclasses)."""
     assert load_scene("sample") == load_scene("sample")
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "scene.py _read_shape (line 'return box(width, height, center, reader.number(\"angle\", "
-    "0.0))') is given the body's own reader for a single-shape body, so the body's initial "
-    "'angle' is also used as the box's angle in the body frame: the shape is turned twice"))
 def test_single_shape_body_angle_is_not_the_shape_angle():
     """``bodies.b.angle`` places the body frame; the box is defined in that frame, unturned.
-    (sample.yaml's 'left' box at 0.3 rad collides and is drawn at 0.6 rad because of it.)"""
+    (Found here: _read_shape used to read the body's 'angle' as the box's angle too, so
+    sample.yaml's 'left' box at 0.3 rad collided and was drawn at 0.6 rad.)"""
     scene = make_scene({"bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "mass": 1.0,
                                          "angle": 0.5}}})
     assert scene.bodies[0].angle == 0.5

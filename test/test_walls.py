@@ -302,3 +302,18 @@ def test_box_slides_on_incline_above_friction_angle(angle_deg):
         assert float(v @ t_hat) == pytest.approx(-accel * t_ms / 1000, abs=1e-9)
         assert float(v @ np.array([-t_hat[1], t_hat[0]])) == pytest.approx(0.0, abs=1e-12)
         assert abs(sim.v[0, 2]) <= 1e-9
+
+
+def test_single_shape_box_turned_by_its_body_angle_lies_flat_on_the_incline():
+    """The plain ``shape: box`` form with the body's ``angle`` = slope angle sits flat on
+    the slope and stays (before the scene fix it was turned twice and toppled ~0.35 rad)."""
+    a = math.radians(20.0)
+    n = np.array([-math.sin(a), math.cos(a)])
+    sim = _sim({"b": {"shape": "box", "size": [W, HGT], "mass": MASS,
+                      "position": (HGT / 2 * n).tolist(), "angle": a}},
+               {"slope": {"point": [0.0, 0.0], "normal": n.tolist(), "restitution": 0.0,
+                          "friction": 0.5}},
+               forces={"g": {"type": "gravity"}})
+    sim.advance_to(500_000_000)
+    assert sim.q[0, 2] == pytest.approx(a, abs=1e-9)
+    assert np.abs(sim.v[0]).max() <= 1e-12
