@@ -159,6 +159,37 @@ def test_off_centre_force_makes_perp_dot_torque(angle, axes, force, torque):
     np.testing.assert_array_equal(acc, acc_still)
 
 
+@pytest.mark.parametrize("rest_length, force, torque", [
+    # Zero rest length, the linear law F = -k d - c v_P:
+    #   F = -10 (0, 2) - 3 (-1.2, -0.95) = (3.6, -17.15); tau = -0.6 * -17.15 - 0.8 * 3.6
+    (0.0, (3.6, -17.15), 7.41),
+    # Rest length 0.5, along u = (0, 1): F = -(10 (2 - 0.5) + 3 (v_P . u)) u = (0, -12.15);
+    #   tau = -0.6 * -12.15
+    (0.5, (0.0, -12.15), 7.29),
+])
+def test_damped_spring_at_a_named_point_uses_the_point_velocity(rest_length, force, torque):
+    """The box of the previous test, turned by pi/2 with its frame origin at (5, 7): its CM
+    is at (5.1, 7.2) and its tip at (4.5, 8.0), r = (-0.6, 0.8). A spring k = 10, c = 3
+    joins the tip to an anchor at (4.5, 6.0), so d = (0, 2). The origin moves at (0.3, -0.2)
+    and the body turns at 1.5 rad/s, so the tip moves at
+    v_P = (0.3, -0.2) + 1.5 perp((-0.5, 1.0)) = (-1.2, -0.95) (article Equation 7)."""
+    model = Model(make_scene({
+        "bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "center": [0.2, -0.1],
+                         "mass": 2.0, "position": [5.0, 7.0], "angle": math.pi / 2,
+                         "velocity": [0.3, -0.2], "angular_velocity": 1.5,
+                         "points": {"tip": [1.0, 0.5]}}},
+        "forces": {"spring": {"type": "spring", "body_a": "b", "point_a": "tip",
+                              "anchor": [4.5, 6.0], "stiffness": 10.0, "damping": 3.0,
+                              "rest_length": rest_length}},
+    }))
+    q, v = model.initial_state()
+    np.testing.assert_allclose(q[0], [5.1, 7.2, math.pi / 2], rtol=0, atol=1e-14)
+    acc = model.accelerations(q, v)
+    # Inputs of O(10) with cos(pi/2) = 6e-17 instead of 0: a few 1e-15 of rounding.
+    np.testing.assert_allclose(acc[0, :2], np.array(force) / 2.0, rtol=0, atol=1e-13)
+    assert acc[0, 2] == pytest.approx(torque / (5.0 / 6.0), abs=1e-13)
+
+
 def test_force_at_cm_and_gravity_make_no_torque():
     model = Model(make_scene({
         "bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "center": [0.2, -0.1],
