@@ -175,9 +175,9 @@ class ContactPass:
 
     # ------------------------------------------------------------------ response
 
-    def resolve(self, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
-        """Respond to the contacts found at ``q1`` after a step of ``h``; updates ``q1`` and
-        ``v1`` in place."""
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
+        """Respond to the contacts found at ``q1`` after a step of ``h`` from velocities
+        ``v0``; updates ``q1`` and ``v1`` in place."""
         contacts = self.detect(q1)
         if not contacts:
             self._warm = {}
@@ -185,7 +185,9 @@ class ContactPass:
         touched = sorted(({c[0] for c in contacts} | {c[1] for c in contacts}) - {-1})
         velocity = {b: v1[b].tolist() for b in touched}
         velocity[-1] = [0.0, 0.0, 0.0]
-        rows = [self._prepare(c, q1, velocity, h) for c in contacts]
+        before = {b: v0[b].tolist() for b in touched}
+        before[-1] = velocity[-1]
+        rows = [self._prepare(c, q1, velocity, before, h) for c in contacts]
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row[12], row[13], row[6], row[7]
             _push(row, velocity, jn * nx - jt * ny, jn * ny + jt * nx)
@@ -198,7 +200,8 @@ class ContactPass:
                 v1[b] = velocity[b]
         self._correct_positions(rows, velocity, q1, h)
 
-    def _prepare(self, contact: list, q1: np.ndarray, velocity: dict, h: float) -> list:
+    def _prepare(self, contact: list, q1: np.ndarray, velocity: dict, before: dict,
+                 h: float) -> list:
         """A solver row: bodies, arms, normal, effective masses, target normal velocity,
         accumulated impulses, depth, inverse masses, approach velocity and feature key."""
         a, b, (px, py), (nx, ny), depth, e, mu, key = contact
@@ -210,15 +213,16 @@ class ContactPass:
         rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
         mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)
         mass_t = 1.0 / (im_a + im_b + rta * rta * ii_a + rtb * rtb * ii_b)
-        va, vb = velocity[a], velocity[b]
-        approach = ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
-                    + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+        approach = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby, nx, ny)
         # End the step just touching (never pushed apart by velocity: overlap left from
         # earlier steps is the position correction's job) or, if the contact closed during
-        # the step fast enough, bounce.
+        # the step fast enough, bounce. The bounce reverses the approach speed from before
+        # the step: the speed the forces added during the step was not there at impact, and
+        # reversing it too would add energy at every bounce.
         target = min(approach + depth / h, 0.0)
         if depth > 0.0 and approach < -self.threshold:
-            target = max(target, -e * approach)
+            impact = _normal_velocity(before[a], before[b], rax, ray, rbx, rby, nx, ny)
+            target = max(target, -e * min(impact, 0.0))
         jn, jt = self._recall(key, px - q1[b, 0], py - q1[b, 1], q1[b, 2])
         return [a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth,
                 im_a, ii_a, im_b, ii_b, approach, key]
@@ -286,9 +290,8 @@ class ContactPass:
         base = []
         for row in rows:
             a, b, rax, ray, rbx, rby, nx, ny = row[:8]
-            va, vb = velocity[a], velocity[b]
-            normal_velocity = ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
-                               + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+            normal_velocity = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby,
+                                               nx, ny)
             base.append(row[14] - h * (normal_velocity - row[19]))
         if max(base) <= SLOP:
             return
@@ -306,6 +309,13 @@ class ContactPass:
         for b, s in shift.items():
             if b >= 0:
                 q1[b] += s
+
+
+def _normal_velocity(va: list, vb: list, rax: float, ray: float, rbx: float, rby: float,
+                     nx: float, ny: float) -> float:
+    """(v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n: negative when approaching."""
+    return ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
+            + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
 
 
 def _push(row: list, velocity: dict, px: float, py: float) -> None:

@@ -40,6 +40,12 @@ class Polygon:
         vertices.setflags(write=False)
         object.__setattr__(self, "vertices", vertices)
 
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Polygon) and np.array_equal(self.vertices, other.vertices)
+
+    def __hash__(self) -> int:
+        return hash(self.vertices.tobytes())
+
 
 @dataclass(frozen=True)
 class Circle:
@@ -86,7 +92,7 @@ class MassProperties:
     """Mass, centre of mass and moment of inertia about the CM (article Equations 3, 8)."""
 
     mass: float
-    center_of_mass: np.ndarray  # (2,), body frame
+    center_of_mass: tuple[float, float]  # body frame
     moment_of_inertia: float
 
 
@@ -172,4 +178,4 @@ def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[flo
     center = sum(m * p.centroid for m, p in zip(masses, parts)) / total
     inertia = sum(rho * p.second_moment + m * float((p.centroid - center) @ (p.centroid - center))
                   for m, rho, p in zip(masses, densities, parts))
-    return MassProperties(total, np.asarray(center, dtype=float), float(inertia))
+    return MassProperties(total, (float(center[0]), float(center[1])), float(inertia))

@@ -45,4 +45,7 @@ def wrap_angle(theta: np.ndarray) -> np.ndarray:
     outside = (theta < -math.pi) | (theta >= math.pi)
     if not outside.any():
         return theta
-    return np.where(outside, np.remainder(theta + math.pi, TWO_PI) - math.pi, theta)
+    wrapped = np.remainder(theta + math.pi, TWO_PI) - math.pi
+    # Just below -pi the remainder can round up to 2 pi, which would give +pi.
+    wrapped = np.where(wrapped >= math.pi, -math.pi, wrapped)
+    return np.where(outside, wrapped, theta)

@@ -323,12 +323,14 @@ def _read_scene(root: ParameterReader) -> Scene:
     return scene
 
 
-def _read_shape(reader: ParameterReader) -> Shape:
+def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
+    """A shape in the body frame. Only a part of a compound body may be turned (``angle``):
+    a single-shape body's ``angle`` is the body's own."""
     kind = reader.string("shape", REQUIRED, choices=("box", "circle", "polygon"))
     center = reader.vector("center", [0.0, 0.0])
     if kind == "box":
         width, height = reader.numbers("size", REQUIRED, length=2)
-        return box(width, height, center, reader.number("angle", 0.0))
+        return box(width, height, center, reader.number("angle", 0.0) if part else 0.0)
     if kind == "circle":
         return Circle(center, reader.number("radius", REQUIRED, positive=True))
     flat = reader.numbers("vertices", REQUIRED, multiple_of=2)
@@ -344,10 +346,10 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
             parts = list(reader.named_children("parts"))
             if not parts:
                 reader.fail("parts", "a compound body needs at least one part")
-            shapes = [_read_shape(r) for _, r in parts]
+            shapes = [_read_shape(r, part=True) for _, r in parts]
             own = [r.number("density", None) if r.has("density") else None for _, r in parts]
         else:
-            shapes = [_read_shape(reader)]
+            shapes = [_read_shape(reader, part=False)]
             own = [None]
         has_mass, has_density = reader.has("mass"), reader.has("density")
         if has_mass and has_density:

@@ -168,11 +168,11 @@ class Simulation:
             return q1, v1
         parts = contacts.substeps(q, q1)
         if parts == 1:
-            contacts.resolve(q1, v1, h)
+            contacts.resolve(q1, v1, v, h)
             return q1, v1
         for _ in range(parts):
             q1, v1 = self.integrator.step(f, q, v, h / parts)
-            contacts.resolve(q1, v1, h / parts)
+            contacts.resolve(q1, v1, v, h / parts)
             q, v = q1, v1
         return q, v
 

@@ -259,9 +259,6 @@ def test_very_fast_spin_keeps_its_angle_over_a_hundred_thousand_steps():
     assert v[0, 2] == omega
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "planar.wrap_angle: for theta a few ulp below -pi, remainder(theta + pi, 2 pi) rounds "
-    "up to 2 pi and the result is +pi, outside the documented [-pi, pi)"))
 def test_clockwise_turn_just_past_minus_pi_wraps_into_range():
     """A body at angle -pi turning clockwise by one ulp of pi in a step lands at
     nextafter(-pi, -inf) = -pi - 4.4e-16; wrapped, that is pi - 4.4e-16 or, rounded, -pi,
