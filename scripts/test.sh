@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Install hecker_dynamics with its test dependencies into a fresh venv and run the suite.
+#   bash scripts/test.sh                  # current numpy
+#   bash scripts/test.sh --numpy 1.26.4   # pin numpy (1.26 is what ROS 2 Jazzy ships)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+numpy_pin=""
+if [[ "${1:-}" == "--numpy" ]]; then numpy_pin="numpy==${2:?version}"; shift 2; fi
+venv=".venv-test${numpy_pin:+-${numpy_pin#numpy==}}"
+python3 -m venv "$venv"
+"$venv/bin/python" -m pip install --quiet --upgrade pip
+"$venv/bin/python" -m pip install --quiet ".[test]" ${numpy_pin:+"$numpy_pin"}
+"$venv/bin/python" -c "import numpy; print('numpy', numpy.__version__)"
+"$venv/bin/python" -m pytest -q -p no:cacheprovider "$@"
