@@ -128,12 +128,19 @@ class ContactPass:
     def detect(self, q: np.ndarray) -> list[list]:
         """Contacts at positions ``q``: [a, b, point, normal a->b, depth, e, mu, pair], where
         ``pair`` names the two parts (a wall is body -1 - its index)."""
-        world = {int(b): self._world_parts(q, int(b)) for b in self.bodies}
+        world: dict[int, list[tuple]] = {}
+        positions = q[:, :2].tolist()
         contacts: list[list] = []
         for w, bodies in enumerate(self.wall_bodies):
             normal, offset = self.wall_normal[w], self.wall_offset[w]
+            nx, ny = normal
             e, mu = self.wall_material[w]
             for b in bodies:
+                x, y = positions[b]
+                if nx * x + ny * y - offset > self.reach[b] + MARGIN:
+                    continue  # the body's bounding circle is clear of the wall
+                if b not in world:
+                    world[b] = self._world_parts(q, b)
                 for p, part in enumerate(world[b]):
                     found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
                              if part[0] == "circle"
@@ -141,6 +148,9 @@ class ContactPass:
                     for point, n, depth in found:
                         contacts.append([-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)])
         if self.pairs:
+            for b in self.colliding:
+                if b not in world:
+                    world[b] = self._world_parts(q, b)
             contacts.extend(self._body_contacts(world))
         return contacts
 

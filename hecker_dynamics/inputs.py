@@ -63,6 +63,8 @@ class InputBuffer:
 
     def update(self, now_ns: int) -> bool:
         """Start due commands and stop ended ones at the start of a step; True if any changed."""
+        if not self._pending and not self._active:
+            return False
         changed = False
         while self._pending and self._pending[0][0] <= now_ns:
             held = heapq.heappop(self._pending)[2]

@@ -15,17 +15,23 @@ from typing import Optional
 import numpy as np
 
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose)
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
+                     ScalarPose)
 from .planar import perp, rotate
 from .scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
 from .contacts import ContactPass
 
 
+#: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
+#: above it with numpy (``add``): the crossing point measured by ``hecker-dynamics bench``.
+LEAN_BODIES = 16
+
+
 class Model:
     """Arrays and force terms for one scene; state is (q, v), each (N, 3)."""
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: Scene, *, lean: Optional[bool] = None) -> None:
         self.scene = scene
         self.names = tuple(b.name for b in scene.bodies)
         self.index = {name: i for i, name in enumerate(self.names)}
@@ -35,6 +41,8 @@ class Model:
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: list[ForceTerm] = _build_terms(self, scene)
         self.inputs: Optional[ConstantWrenchTerm] = None
+        self.lean = self.size <= LEAN_BODIES if lean is None else lean
+        self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene))
             if scene.walls or scene.collisions else None)
@@ -59,14 +67,21 @@ class Model:
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
         terms = self.terms if self.inputs is None else [*self.terms, self.inputs]
-        out = np.zeros_like(q)
-        if terms:
-            if any(term.uses_orientation for term in terms):
-                pose = Pose.of(q, v)
-            else:
-                pose = Pose(q, v, _NO_ANGLES, _NO_ANGLES)
+        if not terms:
+            return np.zeros_like(q)
+        oriented = any(term.uses_orientation for term in terms)
+        if self.lean:
+            pose = ScalarPose.of(q.tolist(), v.tolist(), oriented)
+            wrenches = [[0.0, 0.0, 0.0] for _ in range(self.size)]
             for term in terms:
-                term.add(pose, out)
+                term.add_scalar(pose, wrenches)
+            return np.array([[fx * im, fy * im2, tq * ii]
+                             for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
+                                                                    self._inverse_mass_rows)])
+        pose = Pose.of(q, v) if oriented else Pose(q, v, _NO_ANGLES, _NO_ANGLES)
+        out = np.zeros_like(q)
+        for term in terms:
+            term.add(pose, out)
         out *= self.inverse_mass
         return out
 

@@ -42,9 +42,9 @@ def wrap_angle(theta: np.ndarray) -> np.ndarray:
     enough to lose precision.
     """
     theta = np.asarray(theta, dtype=float)
-    outside = (theta < -math.pi) | (theta >= math.pi)
-    if not outside.any():
+    if theta.size == 0 or (theta.min() >= -math.pi and theta.max() < math.pi):
         return theta
+    outside = (theta < -math.pi) | (theta >= math.pi)
     wrapped = np.remainder(theta + math.pi, TWO_PI) - math.pi
     # Just below -pi the remainder can round up to 2 pi, which would give +pi.
     wrapped = np.where(wrapped >= math.pi, -math.pi, wrapped)

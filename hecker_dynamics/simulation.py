@@ -8,6 +8,7 @@ same order gives bit-identical states.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Optional
 
@@ -139,19 +140,23 @@ class Simulation:
 
     def step(self) -> None:
         """Advance one fixed step; raises :class:`DivergenceError` if the state blows up."""
+        with np.errstate(all="ignore"):
+            self._step()
+
+    def _step(self) -> None:
+        """:meth:`step` without the floating-point error settings (set by the caller)."""
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
         try:
-            with np.errstate(all="ignore"):
-                q, v = self._integrate(self.q, self.v, self.step_seconds)
-                q[:, 2] = wrap_angle(q[:, 2])
+            q, v = self._integrate(self.q, self.v, self.step_seconds)
+            q[:, 2] = wrap_angle(q[:, 2])
         except (IntegrationError, np.linalg.LinAlgError) as error:
             raise DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
                                   "kept the last finite state") from error
-        bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
-        if bad.any():
-            names = ", ".join(np.array(self.model.names)[bad])
+        if not (math.isfinite(q.sum()) and math.isfinite(v.sum())):
+            bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
+            names = ", ".join(np.array(self.model.names)[bad]) or "the bodies"
             raise DivergenceError(f"state of {names} diverged at t = {self._time_ns * 1e-9:.6f} s; "
                                   "kept the last finite state")
         self.q, self.v = q, v
@@ -185,11 +190,12 @@ class Simulation:
         snapshots = []
         taken = 0
         period = self.scene.publish_period_ns
-        while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
-            self.step()
-            taken += 1
-            if (self._time_ns - self.start_ns) % period == 0:
-                snapshots.append(self.snapshot())
+        with np.errstate(all="ignore"):
+            while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
+                self._step()
+                taken += 1
+                if (self._time_ns - self.start_ns) % period == 0:
+                    snapshots.append(self.snapshot())
         return snapshots
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int) -> list[Snapshot]:
