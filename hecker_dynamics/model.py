@@ -25,7 +25,7 @@ from .contacts import ContactPass
 
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
 #: above it with numpy (``add``): the crossing point measured by ``hecker-dynamics bench``.
-LEAN_BODIES = 16
+LEAN_BODIES = 32
 
 
 class Model:

@@ -1,0 +1,66 @@
+"""The documentation matches the code: every parameter the scene loader reads is in
+docs/scenes.md, every shipped scene is in the README, and the README's CLI lines parse."""
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from hecker_dynamics import parameters
+from hecker_dynamics.cli import parser
+from hecker_dynamics.scene import shipped_scenes
+from scene_builders import make_scene
+from test_forces import EVERY_FORCE
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES_DOC = (ROOT / "docs" / "scenes.md").read_text()
+README = (ROOT / "README.md").read_text()
+
+EVERY_FEATURE = dict(
+    EVERY_FORCE, frame_id="world", integrator="rk4", tolerance=1e-6, duration=2.0,
+    input_timeout=0.5, input_max_lead=5.0, twist_frame="world", restitution_threshold=0.01,
+    publish={"odometry": True, "markers": True, "diagnostics": True},
+    walls={"floor": {"point": [0.0, -3.0], "normal": [0.0, 1.0], "restitution": 0.5,
+                     "friction": 0.2, "bodies": ["a", "b"]}},
+    collisions={"all": {"bodies": ["a", "b"], "restitution": 0.1, "friction": 0.4}},
+    wrench_topics={"jet": {"topic": "a/jet", "body": "a", "frame_id": "a/tip"}},
+    script={"kick": {"time": 0.5, "body": "a", "id": "k", "frame_id": "a", "point": [0.1, 0.0],
+                     "force": [1.0, 0.0], "torque": 0.1, "duration": 0.2}},
+)
+
+
+def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
+    read: set[str] = set()
+    original = parameters.ParameterReader._get
+
+    def spy(self, key, default):
+        read.add(key)
+        return original(self, key, default)
+
+    monkeypatch.setattr(parameters.ParameterReader, "_get", spy)
+    make_scene(EVERY_FEATURE)
+    # Names of this scene's own bodies, forces, ... are not parameters.
+    own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick", *EVERY_FORCE["forces"]}
+    undocumented = sorted(key for key in read - own
+                          if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
+    assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"
+    assert len(read - own) > 40  # the spy saw the whole loader, not a part of it
+
+
+@pytest.mark.parametrize("name", shipped_scenes())
+def test_every_shipped_scene_is_described_in_the_readme(name):
+    assert f"| `{name}`" in README
+
+
+def test_the_readme_command_lines_parse():
+    lines = [line.split("#")[0].strip() for line in README.splitlines()
+             if line.startswith("hecker-dynamics ")]
+    assert len(lines) >= 5
+    for line in lines:
+        words = shlex.split(line.replace("[", "").replace("]", ""))
+        args = [{"SCENE": "sample", "INPUT_BAG": "in", "OUTPUT_BAG": "out",
+                 "RECORDED_BAG": "rec", "EXPECTED_BAG": "a", "ACTUAL_BAG": "b", "S": "1",
+                 "NAME": "rk4", "T": "1e-6", "A": "1e-6"}.get(w, w) for w in words[1:]]
+        parser().parse_args(args)
