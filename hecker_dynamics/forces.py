@@ -21,35 +21,38 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Optional, Protocol
 
 import numpy as np
 
-from .planar import perp, perp_dot, rotate
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
 
 
-@dataclass
 class Pose:
-    """Per-evaluation cache of the bodies' orientations (cos and sin of each angle)."""
+    """The state of one evaluation in components, with the cos and sin of each angle.
 
-    q: np.ndarray
-    v: np.ndarray
-    cos: np.ndarray
-    sin: np.ndarray
+    Components (x, y, vx, ...) rather than (N, 2) stacks keep numpy on contiguous 1-D
+    arrays and avoid the temporaries of stacking, which dominate for many bodies.
+    """
 
-    @classmethod
-    def of(cls, q: np.ndarray, v: np.ndarray) -> Pose:
-        return cls(q, v, np.cos(q[:, 2]), np.sin(q[:, 2]))
+    def __init__(self, q: np.ndarray, v: np.ndarray, oriented: bool = True) -> None:
+        self.x, self.y = q[:, 0], q[:, 1]
+        self.vx, self.vy, self.omega = v[:, 0], v[:, 1], v[:, 2]
+        if oriented:
+            self.cos, self.sin = np.cos(q[:, 2]), np.sin(q[:, 2])
 
-    def offset(self, body: np.ndarray, local: np.ndarray) -> np.ndarray:
-        """World offsets r = R(angle) local of points given relative to each body's CM."""
-        return rotate(local, self.cos[body], self.sin[body])
+    def offset(self, body: np.ndarray, lx: np.ndarray,
+               ly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World offsets r = R(angle) l of points given relative to each body's CM."""
+        c, s = self.cos[body], self.sin[body]
+        return c * lx - s * ly, s * lx + c * ly
 
-    def point_velocity(self, body: np.ndarray, r: np.ndarray) -> np.ndarray:
+    def point_velocity(self, body: np.ndarray, rx: np.ndarray,
+                       ry: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """v_P = v_CM + omega perp(r) (article Equation 7)."""
-        return self.v[body, :2] + self.v[body, 2:3] * perp(r)
+        omega = self.omega[body]
+        return self.vx[body] - omega * ry, self.vy[body] + omega * rx
 
 
 @dataclass
@@ -91,12 +94,19 @@ class ForceTerm(Protocol):
         """Add to ``out`` (a [Fx, Fy, torque] list per body), in plain floats."""
 
 
-def _scatter(out: np.ndarray, body: np.ndarray, force: np.ndarray, torque: np.ndarray) -> None:
+def _scatter(out: np.ndarray, body: np.ndarray, fx: np.ndarray, fy: np.ndarray,
+             torque: Optional[np.ndarray] = None) -> None:
     """Add per-instance forces and torques to their bodies (bodies may repeat)."""
     n = len(out)
-    out[:, 0] += np.bincount(body, force[:, 0], minlength=n)
-    out[:, 1] += np.bincount(body, force[:, 1], minlength=n)
-    out[:, 2] += np.bincount(body, torque, minlength=n)
+    out[:, 0] += np.bincount(body, fx, minlength=n)
+    out[:, 1] += np.bincount(body, fy, minlength=n)
+    if torque is not None:
+        out[:, 2] += np.bincount(body, torque, minlength=n)
+
+
+def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Contiguous x and y columns of an (n, 2) array of points."""
+    return np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
 
 
 def _apply_scalar(wrench: Wrench, rx: float, ry: float, fx: float, fy: float) -> None:
@@ -130,21 +140,27 @@ class GravityTerm:
         return -float(np.sum(self.weights * q[self.bodies, :2]))
 
 
-def spring_force(d: np.ndarray, dv: np.ndarray, stiffness: np.ndarray,
-                 rest_length: np.ndarray, damping: np.ndarray) -> np.ndarray:
+def spring_force(dx: np.ndarray, dy: np.ndarray, dvx: np.ndarray, dvy: np.ndarray,
+                 stiffness: np.ndarray, rest_length: np.ndarray,
+                 damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Force on end A of damped springs, with d = p_A - p_B and dv = v_A - v_B.
 
     With a rest length, Hooke's law and a dashpot act along the spring:
-    F = -(k (|d| - L0) + c (dv . u)) u with u = d / |d|. A zero-rest-length spring is the
-    linear law F = -k d - c dv, defined even when both ends meet.
+    F = -(k (|d| - L0) + c (dv . u)) u with u = d / |d| (no force where both ends meet).
+    A zero-rest-length spring is the linear law F = -k d - c dv.
     """
-    length = np.hypot(d[:, 0], d[:, 1])
     zero_rest = rest_length == 0.0
-    safe = np.where(length > 0.0, length, 1.0)
-    u = d / safe[:, None] * (length > 0.0)[:, None]
-    along = -(stiffness * (length - rest_length) + damping * np.sum(dv * u, axis=1))
-    linear = -stiffness[:, None] * d - damping[:, None] * dv
-    return np.where(zero_rest[:, None], linear, along[:, None] * u)
+    if zero_rest.all():
+        return -stiffness * dx - damping * dvx, -stiffness * dy - damping * dvy
+    length = np.hypot(dx, dy)
+    inverse = np.divide(1.0, length, out=np.zeros_like(length), where=length > 0.0)
+    ux, uy = dx * inverse, dy * inverse
+    along = -(stiffness * (length - rest_length) + damping * (dvx * ux + dvy * uy))
+    fx, fy = along * ux, along * uy
+    if zero_rest.any():
+        fx = np.where(zero_rest, -stiffness * dx - damping * dvx, fx)
+        fy = np.where(zero_rest, -stiffness * dy - damping * dvy, fy)
+    return fx, fy
 
 
 def spring_force_scalar(dx: float, dy: float, dvx: float, dvy: float, stiffness: float,
@@ -160,8 +176,9 @@ def spring_force_scalar(dx: float, dy: float, dvx: float, dvy: float, stiffness:
     return along * ux, along * uy
 
 
-def spring_energy(d: np.ndarray, stiffness: np.ndarray, rest_length: np.ndarray) -> float:
-    length = np.hypot(d[:, 0], d[:, 1])
+def spring_energy(dx: np.ndarray, dy: np.ndarray, stiffness: np.ndarray,
+                  rest_length: np.ndarray) -> float:
+    length = np.hypot(dx, dy)
     return float(np.sum(0.5 * stiffness * (length - rest_length) ** 2))
 
 
@@ -175,15 +192,21 @@ class AnchorSpringTerm:
         self.body, self.local, self.anchor = body, local, anchor
         self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
         self.turns = np.unique(body[np.any(local != 0.0, axis=1)])
+        self._local, self._anchor = _columns(local), _columns(anchor)
         self._rows = list(zip(body.tolist(), local.tolist(), anchor.tolist(), stiffness.tolist(),
                               rest_length.tolist(), damping.tolist()))
 
+    def _stretch(self, pose: Pose) -> tuple[np.ndarray, ...]:
+        """Offsets of the attachment points and the spring vectors d = p - anchor."""
+        rx, ry = pose.offset(self.body, *self._local)
+        ax, ay = self._anchor
+        return rx, ry, pose.x[self.body] + rx - ax, pose.y[self.body] + ry - ay
+
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        r = pose.offset(self.body, self.local)
-        d = pose.q[self.body, :2] + r - self.anchor
-        force = spring_force(d, pose.point_velocity(self.body, r), self.stiffness,
-                             self.rest_length, self.damping)
-        _scatter(out, self.body, force, perp_dot(r, force))
+        rx, ry, dx, dy = self._stretch(pose)
+        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self.stiffness,
+                              self.rest_length, self.damping)
+        _scatter(out, self.body, fx, fy, rx * fy - ry * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (lx, ly), (ax, ay), k, rest, c in self._rows:
@@ -194,9 +217,8 @@ class AnchorSpringTerm:
             _apply_scalar(out[body], rx, ry, fx, fy)
 
     def potential(self, q: np.ndarray) -> float:
-        pose = Pose.of(q, np.zeros_like(q))
-        d = q[self.body, :2] + pose.offset(self.body, self.local) - self.anchor
-        return spring_energy(d, self.stiffness, self.rest_length)
+        _, _, dx, dy = self._stretch(Pose(q, np.zeros_like(q)))
+        return spring_energy(dx, dy, self.stiffness, self.rest_length)
 
 
 class BodySpringTerm:
@@ -211,23 +233,27 @@ class BodySpringTerm:
         self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
         self.turns = np.unique(np.concatenate([body_a[np.any(local_a != 0.0, axis=1)],
                                                body_b[np.any(local_b != 0.0, axis=1)]]))
-        self._both = np.concatenate([body_a, body_b])
+        self._local_a, self._local_b = _columns(local_a), _columns(local_b)
         self._rows = list(zip(body_a.tolist(), local_a.tolist(), body_b.tolist(),
                               local_b.tolist(), stiffness.tolist(), rest_length.tolist(),
                               damping.tolist()))
 
-    def _ends(self, pose: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        r_a = pose.offset(self.body_a, self.local_a)
-        r_b = pose.offset(self.body_b, self.local_b)
-        d = pose.q[self.body_a, :2] + r_a - pose.q[self.body_b, :2] - r_b
-        return r_a, r_b, d
+    def _ends(self, pose: Pose) -> tuple[np.ndarray, ...]:
+        """Offsets of both ends from their CMs and the spring vectors d = p_A - p_B."""
+        a, b = self.body_a, self.body_b
+        rax, ray = pose.offset(a, *self._local_a)
+        rbx, rby = pose.offset(b, *self._local_b)
+        return (rax, ray, rbx, rby,
+                pose.x[a] + rax - pose.x[b] - rbx, pose.y[a] + ray - pose.y[b] - rby)
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        r_a, r_b, d = self._ends(pose)
-        dv = pose.point_velocity(self.body_a, r_a) - pose.point_velocity(self.body_b, r_b)
-        force = spring_force(d, dv, self.stiffness, self.rest_length, self.damping)
-        _scatter(out, self._both, np.concatenate([force, -force]),
-                 np.concatenate([perp_dot(r_a, force), -perp_dot(r_b, force)]))
+        rax, ray, rbx, rby, dx, dy = self._ends(pose)
+        vax, vay = pose.point_velocity(self.body_a, rax, ray)
+        vbx, vby = pose.point_velocity(self.body_b, rbx, rby)
+        fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self.stiffness, self.rest_length,
+                              self.damping)
+        _scatter(out, self.body_a, fx, fy, rax * fy - ray * fx)
+        _scatter(out, self.body_b, -fx, -fy, rby * fx - rbx * fy)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for a, (lax, lay), b, (lbx, lby), k, rest, c in self._rows:
@@ -243,14 +269,15 @@ class BodySpringTerm:
             _apply_scalar(out[b], rbx, rby, -fx, -fy)
 
     def potential(self, q: np.ndarray) -> float:
-        _, _, d = self._ends(Pose.of(q, np.zeros_like(q)))
-        return spring_energy(d, self.stiffness, self.rest_length)
+        *_, dx, dy = self._ends(Pose(q, np.zeros_like(q)))
+        return spring_energy(dx, dy, self.stiffness, self.rest_length)
 
 
-def drag_force(velocity: np.ndarray, coefficient: np.ndarray, quadratic: np.ndarray) -> np.ndarray:
-    """-c v (linear) or -c |v| v (quadratic), per row."""
-    speed = np.where(quadratic, np.hypot(velocity[:, 0], velocity[:, 1]), 1.0)
-    return -(coefficient * speed)[:, None] * velocity
+def drag_force(vx: np.ndarray, vy: np.ndarray, coefficient: np.ndarray,
+               quadratic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """-c v (linear) or -c |v| v (quadratic), per point."""
+    scale = np.where(quadratic, coefficient * np.hypot(vx, vy), coefficient)
+    return -scale * vx, -scale * vy
 
 
 def drag_force_scalar(vx: float, vy: float, coefficient: float,
@@ -271,8 +298,9 @@ class CentreDragTerm:
         self._rows = list(zip(body.tolist(), coefficient.tolist(), quadratic.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        force = drag_force(pose.v[self.body, :2], self.coefficient, self.quadratic)
-        _scatter(out, self.body, force, np.zeros(len(self.body)))
+        body = self.body
+        _scatter(out, body, *drag_force(pose.vx[body], pose.vy[body], self.coefficient,
+                                        self.quadratic))
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, c, quadratic in self._rows:
@@ -292,13 +320,15 @@ class PointDragTerm:
         self.body, self.local = body, local
         self.coefficient, self.quadratic = coefficient, quadratic
         self.turns = np.unique(body)
+        self._local = _columns(local)
         self._rows = list(zip(body.tolist(), local.tolist(), coefficient.tolist(),
                               quadratic.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        r = pose.offset(self.body, self.local)
-        force = drag_force(pose.point_velocity(self.body, r), self.coefficient, self.quadratic)
-        _scatter(out, self.body, force, perp_dot(r, force))
+        rx, ry = pose.offset(self.body, *self._local)
+        fx, fy = drag_force(*pose.point_velocity(self.body, rx, ry), self.coefficient,
+                            self.quadratic)
+        _scatter(out, self.body, fx, fy, rx * fy - ry * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (lx, ly), c, quadratic in self._rows:
@@ -318,7 +348,7 @@ class AngularDampingTerm:
         self._rows = list(zip(body.tolist(), coefficient.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        out[:, 2] += np.bincount(self.body, -self.coefficient * pose.v[self.body, 2],
+        out[:, 2] += np.bincount(self.body, -self.coefficient * pose.omega[self.body],
                                  minlength=len(out))
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
@@ -344,27 +374,30 @@ class ConstantWrenchTerm:
             axes_body, point_body, point, at_point)
         self.rotated = axes_body >= 0
         self.moving_point = at_point & (point_body >= 0)
+        self._force, self._point = _columns(force), _columns(point)
         self.uses_orientation = bool(self.rotated.any() or self.moving_point.any())
         self.turns = np.unique(body[at_point | (torque != 0.0)])
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        force = self.force
+        fx, fy = self._force
         if self.rotated.any():
             axes = np.maximum(self.axes_body, 0)
-            force = np.where(self.rotated[:, None],
-                             rotate(force, pose.cos[axes], pose.sin[axes]), force)
+            turned = pose.offset(axes, fx, fy)
+            fx, fy = np.where(self.rotated, turned[0], fx), np.where(self.rotated, turned[1], fy)
         torque = self.torque
         if self.at_point.any():
-            point = self.point
+            px, py = self._point
             if self.moving_point.any():
                 owner = np.maximum(self.point_body, 0)
-                point = np.where(self.moving_point[:, None],
-                                 pose.q[owner, :2] + pose.offset(owner, point), point)
-            r = np.where(self.at_point[:, None], point - pose.q[self.body, :2], 0.0)
-            torque = torque + perp_dot(r, force)
-        _scatter(out, self.body, force, torque)
+                ox, oy = pose.offset(owner, px, py)
+                px = np.where(self.moving_point, pose.x[owner] + ox, px)
+                py = np.where(self.moving_point, pose.y[owner] + oy, py)
+            rx = np.where(self.at_point, px - pose.x[self.body], 0.0)
+            ry = np.where(self.at_point, py - pose.y[self.body], 0.0)
+            torque = torque + rx * fy - ry * fx
+        _scatter(out, self.body, fx, fy, torque)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (fx, fy), torque, axes, owner, (px, py), at_point in self._rows:

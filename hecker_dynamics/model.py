@@ -78,7 +78,7 @@ class Model:
             return np.array([[fx * im, fy * im2, tq * ii]
                              for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
                                                                     self._inverse_mass_rows)])
-        pose = Pose.of(q, v) if oriented else Pose(q, v, _NO_ANGLES, _NO_ANGLES)
+        pose = Pose(q, v, oriented)
         out = np.zeros_like(q)
         for term in terms:
             term.add(pose, out)
@@ -133,8 +133,6 @@ class Model:
             total = total + 1.0 / self.mass[body] + np.sum(local ** 2, axis=1) / self.inertia[body]
         return total
 
-
-_NO_ANGLES = np.zeros(0)
 
 
 def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarray, np.ndarray]]]:

@@ -414,19 +414,30 @@ def test_can_turn_only_bodies_that_something_turns():
 @pytest.mark.parametrize("integrator", ["explicit_euler", "semi_implicit_euler",
                                         "velocity_verlet", "rk4", "dopri5",
                                         "implicit_midpoint", "backward_euler"])
-def test_body_nothing_turns_does_no_torque_work(integrator, monkeypatch):
-    """Gravity + CM drag only: no orientation is ever computed (Pose.of is never called)
-    and the angular velocity stays bit-identical over the run, whatever the integrator."""
+@pytest.mark.parametrize("lean", [True, False], ids=["lean", "vector"])
+def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
+    """Gravity + CM drag only: no orientation is ever computed (on either evaluation path
+    the pose is built without angles) and the angular velocity stays bit-identical over
+    the run, whatever the integrator."""
     scene = _bodies_scene({"g": {"type": "gravity"},
                            "d": {"type": "linear_drag", "coefficient": 0.3},
                            "q": {"type": "quadratic_drag", "coefficient": 0.1}},
                           integrator=integrator)
     sim = Simulation(scene)
+    sim.model.lean = lean
     assert not sim.model.can_turn().any()
+    oriented = []
+    scalar_of, vector_init = forces.ScalarPose.of.__func__, forces.Pose.__init__
 
-    def no_pose(*args, **kwargs):
-        raise AssertionError("orientation computed for a scene that cannot turn")
-    monkeypatch.setattr(forces.Pose, "of", classmethod(no_pose))
+    def scalar_spy(cls, q, v, orient):
+        oriented.append(orient)
+        return scalar_of(cls, q, v, orient)
+
+    def vector_spy(self, q, v, orient=True):
+        oriented.append(orient)
+        vector_init(self, q, v, orient)
+    monkeypatch.setattr(forces.ScalarPose, "of", classmethod(scalar_spy))
+    monkeypatch.setattr(forces.Pose, "__init__", vector_spy)
     omega0 = sim.v[:, 2].copy()
     angle0 = sim.q[:, 2].copy()
     sim.advance_to(300_000_000)
@@ -434,5 +445,6 @@ def test_body_nothing_turns_does_no_torque_work(integrator, monkeypatch):
     # the angle still advances with the constant spin: theta0 + w t (wrapped)
     expected = (angle0 + omega0 * 0.3 + math.pi) % (2 * math.pi) - math.pi
     assert sim.q[:, 2] == pytest.approx(expected, abs=1e-12)
-    # and the CM really moved (the run did something)
+    # and the CM really moved (the run did something), with forces evaluated without angles
     assert sim.v[0, 1] < 2.0 - 0.3 * 9.81 * 0.9
+    assert oriented and not any(oriented)
