@@ -5,6 +5,7 @@
     hecker-dynamics script SCENE -o INPUT_BAG
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
+    hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
 """
 from __future__ import annotations
 
@@ -342,6 +343,44 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     compare_parser.set_defaults(handler=compare_command)
 
 
+def bench_command(args: argparse.Namespace) -> int:
+    """Run the work-precision benchmark and write its report."""
+    from .bench.run import run_bench
+    from .bench.scenes import all_scene_names
+
+    known = all_scene_names()
+    for name in args.scenes or []:
+        if name not in known:
+            raise SceneError(f"unknown benchmark scene '{name}' (known: {', '.join(known)})")
+    command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
+        else "hecker-dynamics bench"
+    run_bench("full" if args.full else "quick", Path(args.out), args.scenes, args.peers,
+              command=command)
+    return 0
+
+
+def _add_bench_command(commands: argparse._SubParsersAction) -> None:
+    bench = commands.add_parser(
+        "bench", help="measure error against cost for every integrator (work-precision)",
+        description="Run every integrator over a sweep of steps (and dopri5 tolerances) on "
+                    "the benchmark scenes and the shipped scenes, against exact or reference "
+                    "solutions, with pymunk, Box2D and MuJoCo when installed, and the ring "
+                    "scale test against a plain C loop; write CSV, Markdown and a figure.")
+    size = bench.add_mutually_exclusive_group()
+    size.add_argument("--quick", dest="full", action="store_false", default=False,
+                      help="small sweep, about 1-2 minutes (default)")
+    size.add_argument("--full", dest="full", action="store_true",
+                      help="the documented sweep, up to about 20 minutes")
+    bench.add_argument("--out", default="docs/bench", help="output directory (default docs/bench)")
+    bench.add_argument("--scenes", nargs="+", metavar="SCENE",
+                       help="benchmark or shipped scenes to run (default: all)")
+    peers = bench.add_mutually_exclusive_group()
+    peers.add_argument("--peers", dest="peers", action="store_true", default=True,
+                       help="include installed peers (default)")
+    peers.add_argument("--no-peers", dest="peers", action="store_false", help="core only")
+    bench.set_defaults(handler=bench_command)
+
+
 def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
         prog="hecker-dynamics",
@@ -366,6 +405,7 @@ def parser() -> argparse.ArgumentParser:
                                       description="List the shipped scenes.")
     list_parser.set_defaults(handler=scenes)
     _add_bag_commands(commands)
+    _add_bench_command(commands)
     return top
 
 

@@ -1,0 +1,14 @@
+"""The work-precision benchmark of issue 6: error against cost for every integrator.
+
+``hecker-dynamics bench`` runs it (see :mod:`hecker_dynamics.bench.run`); ``docs/benchmark.md``
+explains the method. Modules:
+
+- :mod:`.scenes`: the benchmark scenes (1)-(5), the ring of N boxes, the shipped scenes;
+- :mod:`.reference`: exact solutions and an independent high-accuracy reference;
+- :mod:`.measure`: timing (median of interleaved repeats) and errors;
+- :mod:`.peers`: optional pymunk, Box2D and MuJoCo adapters, checked against plain loops;
+- :mod:`.ring`: the ring scale test and its plain C loop;
+- :mod:`.report`: CSV, Markdown and the work-precision figure.
+
+Nothing here is imported by the core, and the peers and matplotlib are optional.
+"""

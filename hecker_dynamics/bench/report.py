@@ -1,0 +1,256 @@
+"""Writing the results: ``results.csv``, ``ring.csv``, ``report.md`` and the figure
+``work_precision.png`` (matplotlib, imported only here and only if installed)."""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from .measure import Row
+
+THRESHOLDS = (1e-3, 1e-6, 1e-9)
+ENGINES = ("hecker_dynamics", "pymunk", "box2d", "mujoco")
+
+
+def _g(x: float, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return ""
+    return f"{x:.{digits}g}"
+
+
+def write_csv(rows: list[Row], path: Path) -> None:
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=Row.FIELDS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (_g(v, 6) if isinstance(v, float) else v)
+                             for k, v in row.as_dict().items()})
+
+
+def cheapest(rows: list[Row], scene: str, engine: str, threshold: float):
+    """The cheapest ok row of ``engine`` on ``scene`` with position error <= threshold."""
+    fits = [r for r in rows if r.scene == scene and r.engine == engine and r.status == "ok"
+            and r.position_error <= threshold and not math.isnan(r.cost)]
+    return min(fits, key=lambda r: r.cost, default=None)
+
+
+def _config(row: Row | None) -> str:
+    if row is None:
+        return "none reaches"
+    tol = f", tol {row.tolerance:g}" if not math.isnan(row.tolerance) else ""
+    return f"{row.method} h={row.step:g}{tol}: {row.cost:.3g}"
+
+
+def headline(rows: list[Row]) -> list[dict]:
+    """Per scene and threshold: the cheapest configuration of each engine, and ratios."""
+    out = []
+    for scene in dict.fromkeys(r.scene for r in rows):
+        for threshold in THRESHOLDS:
+            best = {e: cheapest(rows, scene, e, threshold) for e in ENGINES}
+            entry = {"scene": scene, "threshold": threshold, "best": best, "ratios": {}}
+            ours = best["hecker_dynamics"]
+            for peer in ENGINES[1:]:
+                if not any(r.engine == peer and r.scene == scene for r in rows):
+                    continue
+                other = best[peer]
+                if ours is None:
+                    entry["ratios"][peer] = math.inf if other is not None else math.nan
+                elif other is None:
+                    entry["ratios"][peer] = 0.0
+                else:
+                    entry["ratios"][peer] = ours.cost / other.cost
+            out.append(entry)
+    return out
+
+
+def _ratio_text(x: float) -> str:
+    if math.isnan(x):
+        return "neither reaches"
+    if x == 0.0:
+        return "peer never reaches"
+    if math.isinf(x):
+        return "only the peer reaches (missed)"
+    return f"{x:.2f} ({'met' if x <= 0.5 else 'missed'})"
+
+
+def figure(rows: list[Row], path: Path) -> bool:
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except Exception:
+        return False
+    scenes = list(dict.fromkeys(r.scene for r in rows))
+    cols = 3
+    rows_n = math.ceil(len(scenes) / cols)
+    fig, axes = plt.subplots(rows_n, cols, figsize=(5 * cols, 4 * rows_n), squeeze=False)
+    markers = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
+    for ax, scene in zip(axes.ravel(), scenes):
+        groups: dict[tuple, list[Row]] = {}
+        for r in rows:
+            if r.scene == scene and r.status == "ok" and r.position_error > 0 \
+                    and not math.isnan(r.cost) and not math.isnan(r.position_error):
+                key = (r.engine, r.method, r.step if r.method == "dopri5" else None)
+                groups.setdefault(key, []).append(r)
+        for (engine, method, step), group in sorted(groups.items(), key=lambda kv: str(kv[0])):
+            group.sort(key=lambda r: r.cost)
+            label = f"{engine if engine != 'hecker_dynamics' else 'hd'} {method}" + \
+                (f" h={step:g}" if step else "")
+            ax.loglog([r.cost for r in group], [max(r.position_error, 1e-16) for r in group],
+                      marker=markers.get(engine, "x"), ms=3, lw=1,
+                      ls="-" if engine == "hecker_dynamics" else "--", label=label)
+        for t in (1e-3, 1e-6, 1e-9):
+            ax.axhline(t, color="grey", lw=0.5, ls=":")
+        ax.set_title(scene)
+        ax.set_xlabel("cost, wall s per sim s")
+        ax.set_ylabel("final position error, m")
+        ax.legend(fontsize=5, ncol=2)
+    for ax in axes.ravel()[len(scenes):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def ring_table(ring: list[Row]) -> tuple[list[str], list[int], dict]:
+    sizes = sorted({int(r.omega_dt) for r in ring})
+    keys = list(dict.fromkeys((r.engine, r.method) for r in ring))
+    table = {}
+    for r in ring:
+        if r.status == "ok" and not math.isnan(r.cost):
+            table[(r.engine, r.method, int(r.omega_dt))] = r.cost * r.step / r.omega_dt
+    return keys, sizes, table
+
+
+def targets(results) -> list[tuple[str, str, str]]:
+    """(target, measured, verdict) lines for the four issue-6 targets."""
+    lines = []
+    from .scenes import BENCH_SCENES
+    head = headline(results.rows)
+    worst = {}
+    for entry in head:
+        if entry["scene"] in ("stiff",):
+            continue
+        for peer, ratio in entry["ratios"].items():
+            key = (entry["scene"], entry["threshold"])
+            worst.setdefault(key, []).append((peer, ratio))
+    met1 = all(not (math.isinf(r) or (not math.isnan(r) and r > 0.5))
+               for v in worst.values() for _, r in v) and bool(worst)
+    finite = [r for v in worst.values() for _, r in v if not math.isnan(r) and not math.isinf(r)]
+    lines.append(("1. cheapest hd <= 0.5 x cheapest peer at 1e-3/1e-6/1e-9 m (scenes 1-4, "
+                  "and shipped scenes where peers run)",
+                  f"ratios from {min(finite, default=math.nan):.2g} to "
+                  f"{max(finite, default=math.nan):.2g} (see headline table)",
+                  "met" if met1 else "missed"))
+    sample = results.sample
+    if "hecker_dynamics" in sample:
+        for peer in ("pymunk", "box2d"):
+            if peer in sample:
+                ratio = sample["hecker_dynamics"] / sample[peer]
+                lines.append((f"2. one default-scene step <= one {peer} step",
+                              f"{sample['hecker_dynamics'] * 1e6:.1f} us vs "
+                              f"{sample[peer] * 1e6:.1f} us: ratio {ratio:.2f}",
+                              "met" if ratio <= 1.0 else "missed"))
+    keys, sizes, table = ring_table(results.ring)
+    sie = {n: table.get(("hecker_dynamics", "semi_implicit_euler", n)) for n in sizes}
+    if sizes:
+        big = max(sizes)
+        c = table.get(("c", "semi_implicit_euler", big))
+        if c and sie.get(big):
+            ratio = sie[big] / c
+            lines.append((f"3a. ring, semi-implicit Euler within 2x of C at N = {big}",
+                          f"{sie[big] * 1e9:.0f} ns vs {c * 1e9:.0f} ns per body-step: "
+                          f"ratio {ratio:.1f}", "met" if ratio <= 2.0 else "missed"))
+        for peer, method in (("pymunk", "native"), ("mujoco", "euler")):
+            ratios = [(n, sie[n] / table[(peer, method, n)]) for n in sizes
+                      if sie.get(n) and (peer, method, n) in table]
+            if ratios:
+                bad = [f"N={n}: {r:.2f}" for n, r in ratios if r >= 1.0]
+                lines.append((f"3b. ring, semi-implicit Euler cheaper than {peer} at every N",
+                              "ratios " + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios),
+                              "met" if not bad else "missed"))
+    stiff = [r for r in results.rows if r.scene in ("stiff", "seesaw")
+             and r.method in ("implicit_midpoint", "backward_euler")]
+    for scene in ("stiff", "seesaw"):
+        mine = [r for r in stiff if r.scene == scene]
+        if not mine:
+            continue
+        top = max((r.omega_dt for r in mine if r.status == "ok"), default=math.nan)
+        unstable = [r for r in mine if r.status != "ok" and r.status != "skipped"]
+        lines.append((f"4. {scene}: implicit methods stable up to omega*dt = 100",
+                      f"largest omega*dt run and stable: {top:.3g}; "
+                      f"{len(unstable)} implicit runs diverged",
+                      "met" if top >= 99 and not unstable else "missed"))
+    return lines
+
+
+def write_report(results, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(results.rows, out / "results.csv")
+    write_csv(results.ring, out / "ring.csv")
+    has_figure = figure(results.rows, out / "work_precision.png") if results.rows else False
+    md = [f"# Benchmark results ({results.mode} mode)", "",
+          f"Produced by `{results.command or 'hecker-dynamics bench'}` in "
+          f"{results.seconds:.0f} s. Costs are wall seconds per simulated second (median of "
+          "interleaved repeats); errors are final CM position (m) and angle (rad) against the "
+          "reference. Method and references: docs/benchmark.md.", "",
+          "Environment: " + "; ".join(f"{k} {v}" for k, v in results.environment.items()), ""]
+    md += ["## Targets", "", "| target | measured | verdict |", "|---|---|---|"]
+    md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
+    md += ["", "## Headline: cheapest configuration reaching each final position error", "",
+           "Cost of the cheapest configuration (method, step h, tolerance) per engine; "
+           "ratio = hecker_dynamics / peer (target <= 0.5).", "",
+           "| scene | error <= | hecker_dynamics | pymunk | box2d | mujoco | ratios |",
+           "|---|---|---|---|---|---|---|"]
+    for entry in headline(results.rows):
+        best = entry["best"]
+        ratios = "; ".join(f"{p}: {_ratio_text(r)}" for p, r in entry["ratios"].items())
+        md.append(f"| {entry['scene']} | {entry['threshold']:g} | "
+                  + " | ".join(_config(best[e]) if any(r.engine == e and r.scene == entry['scene']
+                                                       for r in results.rows) else "-"
+                               for e in ENGINES) + f" | {ratios} |")
+    md += ["", "## References and their own error", "",
+           "| scene | reference | own position error (m) | own angle error (rad) | "
+           "core dopri5 tol 1e-13 vs reference (m) |", "|---|---|---|---|---|"]
+    for name, ref in results.references.items():
+        md.append(f"| {name} | {ref.kind} | {ref.error:.2g} | {ref.angle_error:.2g} | "
+                  f"{_g(results.cross_check.get(name, math.nan), 2)} |")
+    if results.checks:
+        md += ["", "## Peers against plain loops of their claimed schemes", "",
+               "200 steps of h = 1e-3 s; largest difference in positions and angles.", "",
+               "| peer | configuration | scheme | scene | difference | scale |",
+               "|---|---|---|---|---|---|"]
+        md += [f"| {c.peer} | {c.method} | {c.scheme} | {c.scene} | {c.difference:.2g} | "
+               f"{c.scale:.2g} |" for c in results.checks]
+    if results.sample:
+        md += ["", "## One step of the default scene (sample)", "",
+               "| engine | us per step |", "|---|---|"]
+        md += [f"| {k} | {v * 1e6:.1f} |" for k, v in results.sample.items()]
+    if results.ring:
+        keys, sizes, table = ring_table(results.ring)
+        md += ["", "## Ring: ns per body-step against N (h = 1 ms)", "",
+               "| engine / method | " + " | ".join(f"N={n}" for n in sizes) + " |",
+               "|---|" + "---|" * len(sizes)]
+        for engine, method in keys:
+            md.append(f"| {engine} {method} | " + " | ".join(
+                _g(table[(engine, method, n)] * 1e9, 3) if (engine, method, n) in table else "-"
+                for n in sizes) + " |")
+    if results.lean:
+        md += ["", "## Where the time goes (semi-implicit Euler)", "",
+               "| scene | Simulation.advance_to us/step | lean loop (integrator on "
+               "model.accelerations) us/step | overhead |", "|---|---|---|---|"]
+        for name, (full, lean) in results.lean.items():
+            md.append(f"| {name} | {full * 1e6:.1f} | {lean * 1e6:.1f} | {full / lean:.2f}x |")
+        for name, text in results.profiles.items():
+            md += ["", f"Profile of {name} (top functions by own time):", "", "```", text, "```"]
+    md += ["", "## All configurations", "",
+           "| scene | engine | method | h | tol | status | cost | pos err | angle err | "
+           "energy drift | omega*h |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results.rows:
+        md.append(f"| {r.scene} | {r.engine} | {r.method} | {r.step:g} | {_g(r.tolerance, 2)} | "
+                  f"{r.status} | {_g(r.cost)} | {_g(r.position_error, 2)} | "
+                  f"{_g(r.angle_error, 2)} | {_g(r.energy_drift, 2)} | {_g(r.omega_dt, 3)} |")
+    if has_figure:
+        md[1:1] = ["", "![work-precision](work_precision.png)"]
+    (out / "report.md").write_text("\n".join(md) + "\n")

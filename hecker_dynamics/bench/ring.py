@@ -1,0 +1,136 @@
+"""The ring scale test: N boxes joined in a ring by damped springs, and its plain C loop.
+
+The C loop is the same model (:func:`~.scenes.ring`) with semi-implicit Euler, written
+plainly (arrays of doubles, one pass over the springs, one over the bodies), compiled at
+bench time with the system C compiler (``cc``/``gcc``/``clang``, ``-O2``) into a temporary
+directory and called through ctypes. Without a compiler the C line is left out.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from typing import Optional
+
+import numpy as np
+
+from .measure import Outcome
+from .scenes import RING_SIZE, RING_SPRING, ring_initial
+
+C_SOURCE = r"""
+#include <math.h>
+/* Ring of n boxes (mass m, inertia I about the CM), spring s joins the front end (+half, 0)
+   of box s to the back end (-half, 0) of box s+1 (the last to the first); with n == 1 the
+   front end of box 0 to the fixed anchor (ax, ay). Semi-implicit Euler:
+   v += h a(q, v); q += h v. State: 6n doubles (x, y, angle, vx, vy, omega per box);
+   work: 3n doubles. */
+void ring_run(int n, long steps, double h, double m, double inertia, double half,
+              double k, double rest, double c, double ax, double ay,
+              double *s, double *f)
+{
+    for (long t = 0; t < steps; ++t) {
+        for (int i = 0; i < 3 * n; ++i) f[i] = 0.0;
+        int springs = n;
+        for (int a = 0; a < springs; ++a) {
+            double *A = s + 6 * a;
+            double ca = cos(A[2]), sa = sin(A[2]);
+            double rax = ca * half, ray = sa * half;
+            double pax = A[0] + rax, pay = A[1] + ray;
+            double vax = A[3] - A[5] * ray, vay = A[4] + A[5] * rax;
+            double pbx, pby, vbx, vby, rbx = 0.0, rby = 0.0;
+            int b = (a + 1) % n;
+            if (n == 1) { pbx = ax; pby = ay; vbx = 0.0; vby = 0.0; }
+            else {
+                double *B = s + 6 * b;
+                double cb = cos(B[2]), sb = sin(B[2]);
+                rbx = -cb * half; rby = -sb * half;
+                pbx = B[0] + rbx; pby = B[1] + rby;
+                vbx = B[3] - B[5] * rby; vby = B[4] + B[5] * rbx;
+            }
+            double dx = pax - pbx, dy = pay - pby;
+            double len = sqrt(dx * dx + dy * dy);
+            double ux = dx / len, uy = dy / len;
+            double mag = -(k * (len - rest) + c * ((vax - vbx) * ux + (vay - vby) * uy));
+            double fx = mag * ux, fy = mag * uy;
+            f[3 * a] += fx; f[3 * a + 1] += fy; f[3 * a + 2] += rax * fy - ray * fx;
+            if (n > 1) {
+                f[3 * b] -= fx; f[3 * b + 1] -= fy; f[3 * b + 2] -= rbx * fy - rby * fx;
+            }
+        }
+        for (int i = 0; i < n; ++i) {
+            double *S = s + 6 * i;
+            S[3] += h * f[3 * i] / m; S[4] += h * f[3 * i + 1] / m; S[5] += h * f[3 * i + 2] / inertia;
+            S[0] += h * S[3]; S[1] += h * S[4]; S[2] += h * S[5];
+        }
+    }
+}
+"""
+
+_LIBRARY: dict[str, object] = {}
+
+
+def compiler() -> Optional[str]:
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def compiler_version() -> str:
+    cc = compiler()
+    if cc is None:
+        return "none"
+    try:
+        out = subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=20)
+        return out.stdout.splitlines()[0].strip()
+    except Exception:
+        return cc
+
+
+def load_c_loop() -> Optional[ctypes.CDLL]:
+    """Compile the C loop once per process (``-O2``); None without a C compiler."""
+    if "lib" in _LIBRARY:
+        return _LIBRARY["lib"]  # type: ignore[return-value]
+    cc = compiler()
+    lib = None
+    if cc is not None:
+        directory = tempfile.mkdtemp(prefix="hecker_bench_")
+        source = os.path.join(directory, "ring.c")
+        target = os.path.join(directory, "libring.so")
+        with open(source, "w") as handle:
+            handle.write(C_SOURCE)
+        result = subprocess.run([cc, "-O2", "-shared", "-fPIC", source, "-o", target, "-lm"],
+                                capture_output=True, text=True, timeout=120)
+        if result.returncode == 0:
+            lib = ctypes.CDLL(target)
+            d, p = ctypes.c_double, ctypes.POINTER(ctypes.c_double)
+            lib.ring_run.argtypes = [ctypes.c_int, ctypes.c_long] + [d] * 9 + [p, p]
+            lib.ring_run.restype = None
+    _LIBRARY["lib"] = lib
+    return lib
+
+
+def c_run(n: int, h: float, duration: float) -> Outcome:
+    """The C loop over ``duration`` from the ring's initial state; final (q, v)."""
+    lib = load_c_loop()
+    if lib is None:
+        raise RuntimeError("no C compiler")
+    state = np.array(ring_initial(n), dtype=float).reshape(-1)
+    work = np.zeros(3 * n)
+    steps = max(1, round(duration / h))
+    half = RING_SIZE[0] / 2.0
+    inertia = 1.0 * (RING_SIZE[0] ** 2 + RING_SIZE[1] ** 2) / 12.0
+    x, y, a = ring_initial(1)[0][:3] if n == 1 else (0.0, 0.0, 0.0)
+    ax, ay = x - half * math.cos(a), y - half * math.sin(a)
+    p = ctypes.POINTER(ctypes.c_double)
+    start = time.perf_counter()
+    lib.ring_run(n, steps, h, 1.0, inertia, half, RING_SPRING["stiffness"],
+                 RING_SPRING["rest_length"], RING_SPRING["damping"], ax, ay,
+                 state.ctypes.data_as(p), work.ctypes.data_as(p))
+    wall = time.perf_counter() - start
+    state = state.reshape(n, 6)
+    return Outcome(wall, state[:, :3].copy(), state[:, 3:].copy(), steps=steps)

@@ -1,0 +1,331 @@
+"""The benchmark run: sweeps, references, peers, ring, default-scene step, profiles.
+
+``run_bench(mode, out, scenes, peers)`` does it all and writes the report (see
+:mod:`.report`). Modes: ``quick`` (a small sweep, about a minute or two, for a smoke test)
+and ``full`` (the documented run, up to about 20 minutes on a 2-core machine).
+"""
+from __future__ import annotations
+
+import cProfile
+import io
+import math
+import platform
+import pstats
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..integrators import METHODS, make_integrator
+from ..model import Model
+from ..scene import Scene
+from ..simulation import DivergenceError, Simulation
+from . import peers as peer_mod
+from .measure import Budget, Case, Outcome, Row, measure
+from .reference import PlainModel, Reference, core_reference, reference
+from .ring import c_run, compiler_version, load_c_loop
+from .scenes import BENCH_SCENES, bench_scene, configure, ring
+
+
+@dataclass
+class Mode:
+    name: str
+    steps: dict[str, list[float]]
+    tolerances: list[float]
+    dopri_steps: list[float]
+    budget: Budget
+    ring_sizes: list[int]
+    ring_wall: float  # target timed seconds per ring run
+    shipped_duration: float
+    shipped_steps: list[float]  # multiples of the scene's own step
+    shipped_ref_divisor: float
+    profile_steps: int
+
+
+FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]
+STIFF_STEPS = [0.1, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001, 0.00005,
+               0.00002, 0.00001]
+
+MODES = {
+    "quick": Mode(
+        "quick",
+        steps={s: [0.1, 0.02, 0.005, 0.001] for s in BENCH_SCENES} | {
+            "stiff": [0.1, 0.01, 0.001, 0.0001]},
+        tolerances=[1e-4, 1e-8], dopri_steps=[0.1], budget=Budget(0.25, 2, 0.5, 10),
+        ring_sizes=[1, 10, 100, 1000], ring_wall=0.05, shipped_duration=0.5,
+        shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=300),
+    "full": Mode(
+        "full",
+        steps={s: FULL_STEPS for s in BENCH_SCENES} | {"stiff": STIFF_STEPS},
+        tolerances=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
+        dopri_steps=[0.1, 0.02], budget=Budget(3.0, 5, 6.0, 20),
+        ring_sizes=[1, 3, 10, 30, 100, 300, 1000, 3000, 10000], ring_wall=0.4,
+        shipped_duration=4.0, shipped_steps=[4.0, 2.0, 1.0, 0.5], shipped_ref_divisor=4.0,
+        profile_steps=3000),
+}
+
+
+@dataclass
+class Results:
+    mode: str
+    rows: list[Row] = field(default_factory=list)
+    references: dict[str, Reference] = field(default_factory=dict)
+    checks: list = field(default_factory=list)
+    ring: list[Row] = field(default_factory=list)
+    sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
+    profiles: dict[str, str] = field(default_factory=dict)
+    lean: dict[str, tuple[float, float]] = field(default_factory=dict)
+    cross_check: dict[str, float] = field(default_factory=dict)
+    environment: dict[str, str] = field(default_factory=dict)
+    seconds: float = 0.0
+    command: str = ""
+
+
+# ----------------------------------------------------------------------------- core cases
+
+def core_run(scene: Scene, duration: float) -> Outcome:
+    """Build a Simulation (untimed), then ``play`` its script over ``duration`` (timed)."""
+    sim = Simulation(scene)
+    until = round(duration * 1e9)
+    failed = ""
+    start = time.perf_counter()
+    try:
+        sim.play(scene.script, until)
+    except DivergenceError as error:
+        failed = str(error)
+    wall = time.perf_counter() - start
+    c = sim.integrator.counters
+    if failed:
+        return Outcome(wall, sim.q * math.nan, sim.v * math.nan, sim.steps, c.evaluations,
+                       failed)
+    return Outcome(wall, sim.q.copy(), sim.v.copy(), sim.steps, c.evaluations)
+
+
+def core_case(name: str, scene: Scene, method: str, step: float, tolerance: float = 1e-6,
+              duration: Optional[float] = None) -> Case:
+    duration = scene.duration_ns * 1e-9 if duration is None else duration
+    configured = configure(scene, method, step, tolerance)
+    return Case(name, "hecker_dynamics", method, step,
+                tolerance if method == "dopri5" else math.nan, duration,
+                lambda d: core_run(configured, d))
+
+
+def core_cases(name: str, scene: Scene, mode: Mode, duration: float,
+               steps: list[float]) -> list[Case]:
+    cases = []
+    for method in METHODS:
+        if method == "dopri5":
+            for h in mode.dopri_steps:
+                if _divides(h, duration):
+                    cases += [core_case(name, scene, method, h, tol, duration)
+                              for tol in mode.tolerances]
+        else:
+            cases += [core_case(name, scene, method, h, 1e-6, duration)
+                      for h in steps if _divides(h, duration)]
+    return cases
+
+
+def _divides(h: float, duration: float) -> bool:
+    n = duration / h
+    return abs(n - round(n)) < 1e-9 * n and round(n) >= 1
+
+
+# ----------------------------------------------------------------------------- parts
+
+def bench_scenes(results: Results, mode: Mode, names: list[str], peers: list[str],
+                 log: Callable[[str], None]) -> None:
+    for name in names:
+        scene = bench_scene(name)
+        duration = scene.duration_ns * 1e-9
+        started = time.perf_counter()
+        ref = reference(scene)
+        results.references[name] = ref
+        log(f"{name}: reference {ref.kind}, own error {ref.error:.2g} m "
+            f"({time.perf_counter() - started:.1f} s)")
+        if ref.kind != "exact":  # cross-check against the core's tightest dopri5
+            sim = Simulation(configure(scene, "dopri5", 0.02, 1e-13))
+            sim.advance_to(scene.duration_ns)
+            results.cross_check[name] = float(np.max(np.hypot(*(sim.q[:, :2] - ref.q[:, :2]).T)))
+        plain = PlainModel(scene)
+        steps = mode.steps[name]
+        cases = core_cases(name, scene, mode, duration, steps)
+        for peer in peers:
+            for method in peer_mod.PEER_METHODS[peer]:
+                cases += [peer_mod.peer_case(peer, name, scene, method, h, duration)
+                          for h in steps if _divides(h, duration)]
+        omega = Model(scene).stiffness()
+        rows = measure(cases, mode.budget, ref, plain, log, omega=omega)
+        results.rows += rows
+        log(f"{name}: {len(rows)} configurations in {time.perf_counter() - started:.1f} s")
+
+
+def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
+    for name in names:
+        started = time.perf_counter()
+        scene = bench_scene(name)
+        duration = min(mode.shipped_duration, scene.duration_ns * 1e-9)
+        scene = configure(scene, scene.integrator, scene.step_ns * 1e-9, scene.tolerance,
+                          duration=duration)
+        own = scene.step_ns * 1e-9
+        ref = core_reference(scene, own / mode.shipped_ref_divisor)
+        results.references[name] = ref
+        log(f"{name}: reference {ref.kind}, own error {ref.error:.2g} m "
+            f"({time.perf_counter() - started:.1f} s)")
+        steps = [own * f for f in mode.shipped_steps]
+        omega = Model(scene).stiffness()
+        if name == "seesaw" or mode.name == "full":  # implicit methods out to omega*dt = 100
+            steps += [round(x / omega, 9) for x in (10.0, 30.0, 100.0)
+                      if round(x / omega, 9) > max(steps)]
+        steps = [h for h in steps if _divides(h, duration)] or [own]
+        cases = core_cases(name, scene, mode, duration, sorted(set(steps), reverse=True))
+        results.rows += measure(cases, mode.budget, ref, None, log, omega=omega)
+        log(f"{name}: done in {time.perf_counter() - started:.1f} s")
+
+
+def ring_part(results: Results, mode: Mode, peers: list[str], log) -> None:
+    h = 1e-3
+    have_c = load_c_loop() is not None
+    for n in mode.ring_sizes:
+        started = time.perf_counter()
+        scene = ring(n)
+        cases = []
+        for method in METHODS:
+            if method in ("implicit_midpoint", "backward_euler") and n > 30:
+                continue  # dense Newton with a finite-difference Jacobian: O(N^3), O(N) evals
+            cases.append(core_case(f"ring{n}", scene, method, h, 1e-6, 1.0))
+        if have_c:
+            cases.append(Case(f"ring{n}", "c", "semi_implicit_euler", h, math.nan, 1.0,
+                              lambda d, n=n: c_run(n, h, d)))
+        for peer, method in (("pymunk", "native"), ("mujoco", "euler"), ("box2d", "python")):
+            if peer in peers:
+                cases.append(peer_mod.peer_case(peer, f"ring{n}", scene, method, h, 1.0))
+        # Pick each case's duration so one timed run lasts about ring_wall seconds.
+        for case in cases:
+            try:
+                pilot = case.run(5 * h)
+                per_step = max(pilot.wall / 5, 1e-9)
+            except Exception:
+                per_step = 1.0
+            steps = int(min(20000, max(10, mode.ring_wall / per_step)))
+            case.duration = steps * h
+        budget = Budget(per_run=max(mode.ring_wall * 6, 1.0), repeats=mode.budget.repeats,
+                        per_case=mode.ring_wall * 4, pilot_steps=5)
+        rows = measure(cases, budget, None, None)
+        for row in rows:
+            row.note = (row.note + "; " if row.note else "") + f"N = {n}"
+            row.omega_dt = float(n)  # reused: N
+        results.ring += rows
+        log(f"ring N = {n}: {time.perf_counter() - started:.1f} s")
+
+
+def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
+    from ..scene import load_scene
+    scene = load_scene("sample")
+    h = scene.step_ns * 1e-9
+    duration = 2.0 if mode.name == "full" else 0.5
+    runners = {"hecker_dynamics": lambda: core_run(configure(scene, scene.integrator, h,
+                                                             duration=duration), duration)}
+    for peer in ("pymunk", "box2d"):
+        if peer in peers:
+            runners[peer] = lambda peer=peer: peer_mod.sample_run(peer, scene, h, duration)
+    walls: dict[str, list[float]] = {k: [] for k in runners}
+    for r in range(mode.budget.repeats):
+        for key in (list(runners) if r % 2 == 0 else list(runners)[::-1]):
+            outcome = runners[key]()
+            walls[key].append(outcome.wall / outcome.steps)
+    results.sample = {k: float(np.median(v)) for k, v in walls.items()}
+    log("default scene, s per step: " + ", ".join(f"{k} {v * 1e6:.1f} us"
+                                                   for k, v in results.sample.items()))
+
+
+def peer_checks(results: Results, peers: list[str]) -> None:
+    for peer in peers:
+        for method in peer_mod.PEER_METHODS[peer]:
+            for name in ("harmonic", "spring_pendulum", "two_bodies"):
+                results.checks.append(peer_mod.check_peer(peer, method, name, bench_scene(name)))
+        if peer == "pymunk":  # the trap: forces set before step() give explicit Euler
+            scene = bench_scene("spring_pendulum")
+            for scheme in ("position_first_euler", "explicit_euler"):
+                results.checks.append(peer_mod.check_peer(
+                    "pymunk", "python", "spring_pendulum", scene, scheme=scheme,
+                    forces_before_step=True))
+
+
+def profiles(results: Results, mode: Mode) -> None:
+    """cProfile summaries (top functions by own time) and the lean loop comparison."""
+    from ..scene import load_scene
+    targets = {"sample": load_scene("sample"), "two_bodies": bench_scene("two_bodies"),
+               "ring1000": ring(1000)}
+    for name, scene in targets.items():
+        steps = mode.profile_steps if not name.startswith("ring") else mode.profile_steps // 30
+        h = scene.step_ns * 1e-9
+        cfg = configure(scene, "semi_implicit_euler", h)
+        sim = Simulation(cfg)
+        profiler = cProfile.Profile()
+        profiler.enable()
+        sim.play(cfg.script, round(steps * h * 1e9))
+        profiler.disable()
+        out = io.StringIO()
+        pstats.Stats(profiler, stream=out).sort_stats("tottime").print_stats(12)
+        results.profiles[name] = _trim_profile(out.getvalue())
+        # Lean: the integrator on model.accelerations alone, versus Simulation.advance_to.
+        sim = Simulation(cfg)
+        start = time.perf_counter()
+        sim.advance_to(round(steps * h * 1e9))
+        full = (time.perf_counter() - start) / steps
+        model = Model(cfg)
+        integrator = make_integrator("semi_implicit_euler")
+        q, v = model.initial_state()
+        start = time.perf_counter()
+        for _ in range(steps):
+            q, v = integrator.step(model.accelerations, q, v, h)
+        lean = (time.perf_counter() - start) / steps
+        results.lean[name] = (full, lean)
+
+
+def _trim_profile(text: str) -> str:
+    lines = [line for line in text.splitlines() if line.strip()]
+    start = next((i for i, line in enumerate(lines) if "ncalls" in line), 0)
+    head = [line for line in lines[:start] if "function calls" in line]
+    return "\n".join(head + lines[start:start + 13])
+
+
+def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
+              scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
+              log: Callable[[str], None] = print, command: str = "",
+              parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "checks",
+                                        "profiles")) -> Results:
+    from ..scene import shipped_scenes
+    from .report import write_report
+
+    mode = MODES[mode_name]
+    started = time.perf_counter()
+    results = Results(mode_name, command=command)
+    chosen = scenes or [*BENCH_SCENES, *shipped_scenes()]
+    peer_names = [p for p in peer_mod.PEERS if peers and peer_mod.available(p)]
+    results.environment = {
+        "python": sys.version.split()[0], "numpy": np.__version__,
+        "machine": f"{platform.machine()}, {platform.system()} {platform.release()}",
+        "c compiler": compiler_version(),
+        **{p: peer_mod.version(p) for p in peer_mod.PEERS},
+    }
+    log(f"bench {mode_name}: scenes {', '.join(chosen)}; peers {', '.join(peer_names) or 'none'}")
+    if "checks" in parts:
+        peer_checks(results, peer_names)
+    if "scenes" in parts:
+        bench_scenes(results, mode, [s for s in chosen if s in BENCH_SCENES], peer_names, log)
+    if "shipped" in parts:
+        shipped(results, mode, [s for s in chosen if s not in BENCH_SCENES], log)
+    if "sample" in parts:
+        sample_step(results, mode, peer_names, log)
+    if "ring" in parts:
+        ring_part(results, mode, peer_names, log)
+    if "profiles" in parts:
+        profiles(results, mode)
+    results.seconds = time.perf_counter() - started
+    write_report(results, Path(out))
+    log(f"wrote {out} in {results.seconds:.0f} s")
+    return results
