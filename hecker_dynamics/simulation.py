@@ -9,8 +9,8 @@ same order gives bit-identical states.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import Optional
+from dataclasses import replace
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -26,9 +26,10 @@ class DivergenceError(RuntimeError):
     """The state stopped being finite; the simulation kept its last finite state."""
 
 
-@dataclass(frozen=True)
-class BodyState:
-    """A body's published state: its frame's pose and velocity in the fixed frame."""
+class BodyState(NamedTuple):
+    """A body's published state: its frame's pose and velocity in the fixed frame.
+
+    A named tuple: a snapshot of ten thousand bodies builds in milliseconds."""
 
     name: str
     position: tuple[float, float]  # origin of the body frame
@@ -37,14 +38,42 @@ class BodyState:
     angular_velocity: float
 
 
-@dataclass(frozen=True)
 class Snapshot:
-    """All bodies at one instant, with the total mechanical energy."""
+    """All bodies at one instant, with the total mechanical energy.
 
-    time_ns: int
-    bodies: tuple[BodyState, ...]
-    energy: float
-    steps: int
+    The per-body states are built on first use of :attr:`bodies`: a run that publishes
+    nothing pays nothing for them, which matters with thousands of bodies.
+    """
+
+    __slots__ = ("time_ns", "energy", "steps", "_names", "_columns", "_bodies")
+
+    def __init__(self, time_ns: int, energy: float, steps: int, names: tuple[str, ...],
+                 columns: tuple[np.ndarray, ...]) -> None:
+        self.time_ns, self.energy, self.steps = time_ns, energy, steps
+        self._names, self._columns = names, columns
+        self._bodies: Optional[tuple[BodyState, ...]] = None
+
+    @property
+    def bodies(self) -> tuple[BodyState, ...]:
+        if self._bodies is None:
+            origin, angle, velocity, omega = (c.tolist() for c in self._columns)
+            self._bodies = tuple(
+                BodyState(name, (x, y), a, (vx, vy), w)
+                for name, (x, y), a, (vx, vy), w in zip(self._names, origin, angle, velocity,
+                                                         omega))
+        return self._bodies
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Snapshot):
+            return NotImplemented
+        return (self.time_ns, self.energy, self.steps, self.bodies) == \
+            (other.time_ns, other.energy, other.steps, other.bodies)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (f"Snapshot(time_ns={self.time_ns}, energy={self.energy!r}, "
+                f"steps={self.steps}, bodies={self.bodies!r})")
 
 
 class Simulation:
@@ -87,12 +116,11 @@ class Simulation:
         return self._steps
 
     def snapshot(self) -> Snapshot:
+        """The published state of every body now, with the total energy."""
         origin, velocity = self.model.body_frames(self.q, self.v)
-        bodies = tuple(
-            BodyState(name, (float(origin[i, 0]), float(origin[i, 1])), float(self.q[i, 2]),
-                      (float(velocity[i, 0]), float(velocity[i, 1])), float(self.v[i, 2]))
-            for i, name in enumerate(self.model.names))
-        return Snapshot(self._time_ns, bodies, self.model.energy(self.q, self.v), self._steps)
+        return Snapshot(self._time_ns, self.model.energy(self.q, self.v), self._steps,
+                        self.model.names, (origin, self.q[:, 2].copy(), velocity,
+                                           self.v[:, 2].copy()))
 
     # ----------------------------------------------------------------- inputs
 
