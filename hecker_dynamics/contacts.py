@@ -35,7 +35,6 @@ import numpy as np
 from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
                         polygon_circle, polygon_polygon)
 from .geometry import Circle
-from .planar import rotate
 
 if TYPE_CHECKING:
     from .model import Model
