@@ -273,6 +273,10 @@ def mujoco_xml(scene: Scene, method: str, h: float) -> str:
 def _mujoco_build(scene: Scene, method: str, h: float):
     import mujoco
 
+    try:  # diverging runs are expected in the sweep: no MUJOCO_LOG.TXT, no console spam
+        mujoco.set_mju_user_warning(lambda message: None)
+    except AttributeError:  # pragma: no cover - older bindings
+        pass
     model = PlainModel(_no_contacts(scene))
     m = mujoco.MjModel.from_xml_string(mujoco_xml(scene, method, h))
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)

@@ -45,9 +45,8 @@ class Mode:
     profile_steps: int
 
 
-FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001]
-STIFF_STEPS = [0.1, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002, 0.0001, 0.00005,
-               0.00002, 0.00001]
+FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002]
+STIFF_STEPS = [0.1, 0.01, 0.002, 0.001, 0.0005, 0.0002, 0.0001, 0.00005, 0.00002, 0.00001]
 
 MODES = {
     "quick": Mode(
@@ -60,9 +59,9 @@ MODES = {
     "full": Mode(
         "full",
         steps={s: FULL_STEPS for s in BENCH_SCENES} | {"stiff": STIFF_STEPS},
-        tolerances=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
-        dopri_steps=[0.1, 0.02], budget=Budget(3.0, 5, 6.0, 20),
-        ring_sizes=[1, 3, 10, 30, 100, 300, 1000, 3000, 10000], ring_wall=0.4,
+        tolerances=[1e-3, 1e-5, 1e-7, 1e-9, 1e-11, 1e-12],
+        dopri_steps=[0.1, 0.02], budget=Budget(0.5, 3, 1.0, 20),
+        ring_sizes=[1, 10, 100, 1000, 10000], ring_wall=0.2,
         shipped_duration=4.0, shipped_steps=[4.0, 2.0, 1.0, 0.5], shipped_ref_divisor=4.0,
         profile_steps=3000),
 }
