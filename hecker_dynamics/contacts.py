@@ -73,23 +73,32 @@ class ContactPass:
             for n, i in enumerate(members):
                 for j in members[n + 1:]:
                     self.pairs[(i, j)] = (group.restitution, group.friction)
-        self.parts: list[list[tuple]] = []  # per body: ("polygon", ConvexPolygon) / ("circle", c, r)
+        # Per body, its parts relative to the CM in body axes, as plain floats:
+        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals).
+        self.parts: list[list[tuple]] = []
+        reach, thickness = [], []
         for i, body in enumerate(scene.bodies):
-            parts = []
+            parts, extents, widths = [], [], []
             for shape in body.shapes:
                 if isinstance(shape, Circle):
-                    parts.append(("circle", model.local(i, shape.center), shape.radius))
+                    centre = model.local(i, shape.center)
+                    parts.append(("circle", tuple(centre.tolist()), shape.radius))
+                    extents.append(float(np.hypot(*centre)) + shape.radius)
+                    widths.append(2.0 * shape.radius)
                 else:
-                    local = shape.vertices - model.cm_local[i]
-                    parts.append(("polygon", ConvexPolygon.from_vertices(local)))
+                    poly = ConvexPolygon.from_vertices(shape.vertices - model.cm_local[i])
+                    parts.append(("polygon", [tuple(p) for p in poly.vertices.tolist()],
+                                  [tuple(n) for n in poly.normals.tolist()]))
+                    extents.append(float(np.max(np.hypot(*poly.vertices.T))))
+                    widths.append(2.0 * poly.inradius)
             self.parts.append(parts)
+            reach.append(max(extents))
+            thickness.append(min(widths))
         colliding = sorted({i for pair in self.pairs for i in pair})
         self.colliding = colliding
-        self.reach = [max(float(np.hypot(*p[1])) + p[2] if p[0] == "circle"
-                          else float(np.max(np.hypot(p[1].vertices[:, 0], p[1].vertices[:, 1])))
-                          for p in parts) for parts in self.parts]
-        self.thickness = min((2.0 * (p[2] if p[0] == "circle" else p[1].inradius)
-                              for i in colliding for p in self.parts[i]), default=math.inf)
+        #: Farthest shape point from each body's CM, and thinnest colliding part.
+        self.reach = reach
+        self.thickness = min((thickness[i] for i in colliding), default=math.inf)
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
         self.bodies = np.array(sorted(touching), dtype=int)
         self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
@@ -100,8 +109,9 @@ class ContactPass:
 
     # ------------------------------------------------------------------ detection
 
-    def _world_parts(self, q: np.ndarray, body: int) -> list[tuple]:
-        x, y, angle = q[body]
+    def _world_parts(self, pose: list[float], body: int) -> list[tuple]:
+        """The body's parts placed at ``pose`` = [x, y, angle] of its CM."""
+        x, y, angle = pose
         c, s = math.cos(angle), math.sin(angle)
         placed = []
         for part in self.parts[body]:
@@ -109,9 +119,8 @@ class ContactPass:
                 lx, ly = part[1]
                 placed.append(("circle", (x + c * lx - s * ly, y + s * lx + c * ly), part[2]))
             else:
-                poly = part[1]
-                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in poly.vertices.tolist()]
-                normals = [(c * a - s * b, s * a + c * b) for a, b in poly.normals.tolist()]
+                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part[1]]
+                normals = [(c * a - s * b, s * a + c * b) for a, b in part[2]]
                 placed.append(("polygon", verts, normals))
         return placed
 
@@ -128,18 +137,18 @@ class ContactPass:
         """Contacts at positions ``q``: [a, b, point, normal a->b, depth, e, mu, pair], where
         ``pair`` names the two parts (a wall is body -1 - its index)."""
         world: dict[int, list[tuple]] = {}
-        positions = q[:, :2].tolist()
+        poses = q.tolist()
         contacts: list[list] = []
         for w, bodies in enumerate(self.wall_bodies):
             normal, offset = self.wall_normal[w], self.wall_offset[w]
             nx, ny = normal
             e, mu = self.wall_material[w]
             for b in bodies:
-                x, y = positions[b]
+                x, y, _ = poses[b]
                 if nx * x + ny * y - offset > self.reach[b] + MARGIN:
                     continue  # the body's bounding circle is clear of the wall
                 if b not in world:
-                    world[b] = self._world_parts(q, b)
+                    world[b] = self._world_parts(poses[b], b)
                 for p, part in enumerate(world[b]):
                     found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
                              if part[0] == "circle"
@@ -149,7 +158,7 @@ class ContactPass:
         if self.pairs:
             for b in self.colliding:
                 if b not in world:
-                    world[b] = self._world_parts(q, b)
+                    world[b] = self._world_parts(poses[b], b)
             contacts.extend(self._body_contacts(world))
         return contacts
 
@@ -179,8 +188,10 @@ class ContactPass:
         index = self.colliding
         travel = np.hypot(*(q1[index, :2] - q0[index, :2]).T) + \
             np.abs(q1[index, 2] - q0[index, 2]) * np.array([self.reach[i] for i in index])
-        needed = math.ceil(float(travel.max()) / (0.5 * self.thickness))
-        return min(max(needed, 1), MAX_SUBSTEPS)
+        farthest = float(travel.max())
+        if not math.isfinite(farthest):
+            return 1  # a blown-up state: the simulation's divergence check reports it
+        return min(max(math.ceil(farthest / (0.5 * self.thickness)), 1), MAX_SUBSTEPS)
 
     # ------------------------------------------------------------------ response
 
@@ -192,32 +203,36 @@ class ContactPass:
             self._warm = {}
             return
         touched = sorted(({c[0] for c in contacts} | {c[1] for c in contacts}) - {-1})
+        still = [0.0, 0.0, 0.0]
+        poses = {b: q1[b].tolist() for b in touched}
         velocity = {b: v1[b].tolist() for b in touched}
-        velocity[-1] = [0.0, 0.0, 0.0]
+        velocity[-1] = still
+        arrived = {b: list(velocity[b]) for b in touched}
         before = {b: v0[b].tolist() for b in touched}
-        before[-1] = velocity[-1]
-        rows = [self._prepare(c, q1, velocity, before, h) for c in contacts]
+        before[-1] = still
+        rows = [self._prepare(c, poses, velocity, before, h) for c in contacts]
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row[12], row[13], row[6], row[7]
             _push(row, velocity, jn * nx - jt * ny, jn * ny + jt * nx)
         self._solve_velocities(rows, velocity)
-        self._remember(rows, q1)
+        self._remember(rows, poses)
         for b in touched:
-            change = np.array(velocity[b]) - v1[b]
-            if change.any():
-                q1[b] += h * change
+            if velocity[b] != arrived[b]:
+                poses[b] = [p + h * (new - old)
+                            for p, new, old in zip(poses[b], velocity[b], arrived[b])]
+                q1[b] = poses[b]
                 v1[b] = velocity[b]
         self._correct_positions(rows, velocity, q1, h)
 
-    def _prepare(self, contact: list, q1: np.ndarray, velocity: dict, before: dict,
+    def _prepare(self, contact: list, poses: dict, velocity: dict, before: dict,
                  h: float) -> list:
         """A solver row: bodies, arms, normal, effective masses, target normal velocity,
         accumulated impulses, depth, inverse masses, approach velocity and feature key."""
         a, b, (px, py), (nx, ny), depth, e, mu, key = contact
         im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
         im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
-        rax, ray = (px - q1[a, 0], py - q1[a, 1]) if a >= 0 else (0.0, 0.0)
-        rbx, rby = px - q1[b, 0], py - q1[b, 1]
+        rax, ray = (px - poses[a][0], py - poses[a][1]) if a >= 0 else (0.0, 0.0)
+        rbx, rby = px - poses[b][0], py - poses[b][1]
         rna, rnb = rax * ny - ray * nx, rbx * ny - rby * nx  # perp(r) . n = r x n
         rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
         mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)
@@ -232,7 +247,7 @@ class ContactPass:
         if depth > 0.0 and approach < -self.threshold:
             impact = _normal_velocity(before[a], before[b], rax, ray, rbx, rby, nx, ny)
             target = max(target, -e * min(impact, 0.0))
-        jn, jt = self._recall(key, px - q1[b, 0], py - q1[b, 1], q1[b, 2])
+        jn, jt = self._recall(key, rbx, rby, poses[b][2])
         return [a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth,
                 im_a, ii_a, im_b, ii_b, approach, key]
 
@@ -254,16 +269,19 @@ class ContactPass:
         _, _, jn, jt = remembered.pop(best)
         return jn, jt
 
-    def _remember(self, rows: list[list], q1: np.ndarray) -> None:
+    def _remember(self, rows: list[list], poses: dict) -> None:
         """Keep each contact's impulses with its point in the second body's frame."""
         self._warm = {}
         for row in rows:
             b, rbx, rby = row[1], row[4], row[5]
-            c, s = math.cos(q1[b, 2]), math.sin(q1[b, 2])
+            c, s = math.cos(poses[b][2]), math.sin(poses[b][2])
             self._warm.setdefault(row[-1], []).append(
                 (c * rbx + s * rby, -s * rbx + c * rby, row[12], row[13]))
 
     def _solve_velocities(self, rows: list[list], velocity: dict) -> None:
+        """Gauss-Seidel over the rows until no impulse changes a velocity by more than
+        :data:`CONVERGED` relative to the fastest body, or :data:`MAX_ITERATIONS` passes."""
+        scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
         for _ in range(MAX_ITERATIONS):
             largest = 0.0
             for row in rows:
@@ -284,7 +302,6 @@ class ContactPass:
                     _push(row, velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
                     row[13] = new_t
                 largest = max(largest, change)
-            scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
             if largest <= CONVERGED * scale:
                 return
 
@@ -316,7 +333,7 @@ class ContactPass:
                 push = min(CORRECTION * excess, MAX_CORRECTION) * mass_n
                 _push(row, shift, push * nx, push * ny)
         for b, s in shift.items():
-            if b >= 0:
+            if b >= 0 and any(s):
                 q1[b] += s
 
 
