@@ -14,16 +14,19 @@ simulation restarts, how far it lags) live here too, as plain functions of nanos
 """
 from __future__ import annotations
 
+import array
 import dataclasses
 import enum
 import math
-from collections.abc import Mapping, Sequence
-from typing import Any, NamedTuple
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, NamedTuple, Optional
 
 from .commands import InputError, WrenchCommand
 from .geometry import Circle, Polygon
 from .scene import NODE_PARAMETERS, BodySpec, Scene, SceneError, WrenchTopic, load_scene, \
     scene_from_parameters
+from .simulation import DivergenceError, Simulation, Snapshot
 
 NS_PER_S = 1_000_000_000
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
@@ -43,10 +46,15 @@ MARKER_COLORS = (
     (0.84, 0.15, 0.16, 1.0), (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0),
 )
 
-# diagnostic_msgs/msg/DiagnosticStatus levels.
+# diagnostic_msgs/msg/DiagnosticStatus levels (a ``byte`` field: rclpy wants
+# ``bytes([level])``, rosbags an int).
 DIAGNOSTIC_OK = 0
 DIAGNOSTIC_WARN = 1
 DIAGNOSTIC_ERROR = 2
+#: Diagnostics are published at most this often, in sim time.
+DIAGNOSTICS_PERIOD_NS = NS_PER_S
+#: Name of the diagnostic status the node publishes.
+DIAGNOSTIC_NAME = "hecker_dynamics: simulation"
 
 Vec3 = tuple[float, float, float]
 Quaternion = tuple[float, float, float, float]
@@ -322,12 +330,130 @@ def marker_fields(body: BodySpec, state: Any, index: int, frame_id: str,
 
 
 def diagnostic_fields(level: int, message: str, values: Mapping[str, Any],
-                      name: str = "hecker_dynamics: simulation",
+                      name: str = DIAGNOSTIC_NAME,
                       hardware_id: str = "dynamics_node") -> DiagnosticFields:
     """A diagnostic status; floats in ``values`` are written with 9 significant digits."""
     pairs = tuple((key, f"{value:.9g}" if isinstance(value, float) else str(value))
                   for key, value in values.items())
     return DiagnosticFields(level, name, message, hardware_id, pairs)
+
+
+def diagnostics_due(last_ns: Optional[int], now_ns: int) -> bool:
+    """Whether diagnostics are due at sim time ``now_ns`` (last published at ``last_ns``)."""
+    return last_ns is None or now_ns - last_ns >= DIAGNOSTICS_PERIOD_NS
+
+
+def simulation_diagnostics(sim: Simulation, *, halted: Optional[str], lag: int, substeps: int,
+                           wall_ns: int, accepted: int, rejected: int,
+                           hardware_id: str) -> DiagnosticFields:
+    """The node's diagnostic status for ``sim`` after a tick of ``substeps`` steps.
+
+    Level ERROR with the divergence message when ``halted``; WARN when the simulation lags
+    the clock by ``lag`` ns; OK otherwise. ``wall_ns`` is the wall time the tick's steps
+    took (zero where wall time must not show, as in an offline replay).
+    """
+    if halted is not None:
+        level, message = DIAGNOSTIC_ERROR, halted
+    elif lag:
+        level, message = DIAGNOSTIC_WARN, f"{lag / NS_PER_S:.3f} s behind the clock"
+    else:
+        level, message = DIAGNOSTIC_OK, "running"
+    return diagnostic_fields(level, message, {
+        "sim_time": sim.time_ns / NS_PER_S,
+        "start_time": sim.start_ns / NS_PER_S,
+        "steps": sim.steps,
+        "step": sim.step_ns / NS_PER_S,
+        "substeps": substeps,
+        "step_wall_time": wall_ns / substeps / NS_PER_S if substeps else 0.0,
+        "energy": sim.snapshot().energy,
+        "lag": lag / NS_PER_S,
+        "commands_accepted": accepted,
+        "commands_rejected": rejected,
+    }, hardware_id=hardware_id)
+
+
+class AppliedWrenchFields(NamedTuple):
+    """``hecker_dynamics/AppliedWrench``: ``duration`` as ``(sec, nanosec)``."""
+
+    header: Header
+    body: str
+    id: str
+    point: Vec3
+    force: Vec3
+    torque: Vec3
+    duration: tuple[int, int]
+
+
+def applied_wrench_fields(command: WrenchCommand) -> AppliedWrenchFields:
+    """The ``AppliedWrench`` message of ``command``: the inverse of
+    :func:`applied_wrench_to_command` for in-plane wrenches with a non-zero stamp."""
+    return AppliedWrenchFields(
+        header(command.frame_id, command.stamp_ns), command.body, command.source,
+        (float(command.point[0]), float(command.point[1]), 0.0),
+        (float(command.force[0]), float(command.force[1]), 0.0),
+        (0.0, 0.0, float(command.torque)), stamp_from_ns(command.duration_ns))
+
+
+class OutputKind(enum.Enum):
+    """The kinds of message the node publishes."""
+
+    POSE = "geometry_msgs/msg/PoseStamped"
+    TWIST = "geometry_msgs/msg/Twist"
+    ODOMETRY = "nav_msgs/msg/Odometry"
+    MARKERS = "visualization_msgs/msg/MarkerArray"
+    DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
+
+
+#: The node's diagnostics topic (relative: in the node's namespace).
+DIAGNOSTICS_TOPIC = "diagnostics"
+
+
+def output_topics(scene: Scene) -> dict[str, OutputKind]:
+    """The node's output topics for ``scene`` (relative names) and kinds, in publishing
+    order: per body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
+    ``markers`` and ``diagnostics`` if the scene enables them."""
+    topics: dict[str, OutputKind] = {}
+    for body in scene.bodies:
+        topics[f"{body.name}/pose"] = OutputKind.POSE
+        topics[f"{body.name}/twist"] = OutputKind.TWIST
+        if scene.publish_odometry:
+            topics[f"{body.name}/odom"] = OutputKind.ODOMETRY
+    if scene.publish_markers:
+        topics["markers"] = OutputKind.MARKERS
+    if scene.publish_diagnostics:
+        topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
+    return topics
+
+
+class OutputFields(NamedTuple):
+    """One message to publish: relative topic, kind, and the fields (the kind's ``*Fields``
+    tuple; for markers a tuple of :class:`MarkerFields`)."""
+
+    topic: str
+    kind: OutputKind
+    fields: Any
+
+
+def snapshot_outputs(scene: Scene, snapshot: Snapshot) -> list[OutputFields]:
+    """The messages the node publishes for one snapshot, in publishing order."""
+    frame_id = scene.frame_id
+    stamp = snapshot.time_ns
+    outputs = []
+    markers: list[MarkerFields] = []
+    for index, state in enumerate(snapshot.bodies):
+        name = state.name
+        outputs.append(OutputFields(f"{name}/pose", OutputKind.POSE,
+                                    pose_fields(state, frame_id, stamp)))
+        outputs.append(OutputFields(f"{name}/twist", OutputKind.TWIST,
+                                    twist_fields(state, scene.twist_frame)))
+        if scene.publish_odometry:
+            outputs.append(OutputFields(f"{name}/odom", OutputKind.ODOMETRY,
+                                        odometry_fields(state, frame_id, stamp)))
+        if scene.publish_markers:
+            markers.extend(marker_fields(scene.bodies[index], state, index, frame_id, stamp))
+    if scene.publish_markers:
+        outputs.append(OutputFields("markers", OutputKind.MARKERS, tuple(markers)))
+    return outputs
 
 
 # ----------------------------------------------------------------------------- node setup
@@ -446,3 +572,157 @@ def lag_ns(now_ns: int, sim_time_ns: int, step_ns: int) -> int:
     """How far the simulation is behind ``now_ns`` after a tick: 0 when it is less than a step."""
     behind = now_ns - sim_time_ns
     return behind if behind >= step_ns else 0
+
+
+def plain_parameters(params: Mapping[str, Any]) -> dict[str, Any]:
+    """Parameter values as the scene reader takes them: every array as a list.
+
+    rclpy hands parameter overrides from the command line and parameters files over as
+    lists, but a value that went through a ``rcl_interfaces/ParameterValue`` message
+    (``Parameter.from_parameter_msg``, the parameter services) holds integer and double
+    arrays as ``array.array``.
+    """
+    return {name: list(value) if isinstance(value, (array.array, tuple)) else value
+            for name, value in params.items()}
+
+
+def node_setup(params: Mapping[str, Any], source: str) -> tuple[NodeOptions, Scene]:
+    """The node's options and scene from all its parameters (names and values)."""
+    params = plain_parameters(params)
+    return node_options(params, source), scene_for_node(params, source)
+
+
+# ----------------------------------------------------------------------------- run loop
+
+class LogLine(NamedTuple):
+    """A line for the node's log: the rate-limiting key, the text, and whether the input
+    it is about was dropped (else it is a warning about an accepted input)."""
+
+    key: str
+    message: str
+    dropped: bool = True
+
+
+@dataclasses.dataclass
+class Tick:
+    """What one call of :meth:`Runner.advance` did."""
+
+    snapshots: list[Snapshot]
+    lag: int = 0                                       # ns behind the target (0: caught up)
+    diagnostics: Optional[DiagnosticFields] = None     # to publish, when due and enabled
+    diverged: Optional[str] = None                     # the divergence that halted the run
+    script_errors: list[str] = dataclasses.field(default_factory=list)
+
+
+class Runner:
+    """The node's run loop without ROS: a :class:`Simulation`, the scene's script, the
+    input counters and the diagnostics schedule. The rclpy node and the offline replay
+    both drive one, so a replayed session gives the node's outputs.
+
+    ``max_steps`` caps the physics steps of one :meth:`advance` (the node's catch-up cap;
+    None: no cap). ``wall_clock`` times the steps for the diagnostics (the replay passes a
+    clock that stands still, since wall time is not reproducible). Until ``started``, inputs
+    are refused (the node waits for a running ROS clock).
+    """
+
+    def __init__(self, scene: Scene, *, start_ns: int = 0, play_script: bool = True,
+                 max_steps: Optional[int] = None, started: bool = True,
+                 hardware_id: str = "/dynamics_node",
+                 wall_clock: Callable[[], int] = time.perf_counter_ns) -> None:
+        self.scene = scene
+        self.sim = Simulation(scene, start_ns=start_ns)
+        self.play_script = play_script
+        self.max_steps = max_steps
+        self.started = started
+        self.hardware_id = hardware_id
+        self.wall_clock = wall_clock
+        self.accepted = 0
+        self.rejected = 0
+        self.halted: Optional[str] = None
+        self._script_index = 0
+        self._last_diagnostics_ns: Optional[int] = None
+
+    def restart(self, start_ns: int) -> None:
+        """Restart the scene at ``start_ns`` (reset service, clock jump, first tick)."""
+        self.sim.reset(start_ns)
+        self._script_index = 0
+        self.halted = None
+        self._last_diagnostics_ns = None
+        self.started = True
+
+    def accept(self, topic: str,
+               convert: Callable[[int], tuple[WrenchCommand, list[str]]],
+               arrival_ns: int) -> list[LogLine]:
+        """Convert one input message that arrived at ``arrival_ns`` and push it.
+
+        ``convert`` is a :func:`applied_wrench_to_command` or
+        :func:`wrench_stamped_to_command` call waiting for the arrival time. Bad input is
+        counted in ``rejected`` and reported in the returned lines, never raised; warnings
+        about an accepted message are returned too.
+        """
+        if not self.started:
+            self.rejected += 1
+            return [LogLine(f"{topic}:early", f"input on '{topic}' ignored: the simulation "
+                                              "starts with the ROS clock (waiting for /clock)")]
+        try:
+            command, warnings = convert(arrival_ns)
+        except InputError as error:  # the message itself is bad (NaN, empty body, ...)
+            self.rejected += 1
+            return [LogLine(f"{topic}:message", f"input on '{topic}' rejected: {error}")]
+        lines = [LogLine(f"{topic}:out_of_plane", warning, dropped=False)
+                 for warning in warnings]
+        try:
+            self.sim.push(command)
+        except InputError as error:  # the scene refuses it (unknown body or frame, stamp...)
+            self.rejected += 1
+            return lines + [LogLine(f"{topic}:scene", f"input on '{topic}' rejected: {error}")]
+        self.accepted += 1
+        return lines
+
+    def advance(self, target_ns: int) -> Tick:
+        """Push the scripted commands due, step towards ``target_ns`` (at most
+        ``max_steps``) and return the snapshots passed, the lag and the diagnostics due.
+
+        After a divergence the simulation stands still until :meth:`restart`.
+        """
+        if self.halted is not None:
+            return Tick([])
+        sim = self.sim
+        tick = Tick([])
+        if self.play_script:
+            reach = target_ns if self.max_steps is None else min(
+                target_ns, sim.time_ns + self.max_steps * sim.step_ns)
+            due, self._script_index = due_script(self.scene.script, sim.start_ns,
+                                                 self._script_index, reach)
+            for command in due:
+                try:
+                    sim.push(command)
+                except InputError as error:
+                    tick.script_errors.append(f"scripted input rejected: {error}")
+        steps_before = sim.steps
+        wall_start_ns = self.wall_clock()
+        try:
+            tick.snapshots = sim.advance_to(target_ns, max_steps=self.max_steps)
+        except DivergenceError as error:
+            self.halted = tick.diverged = str(error)
+            tick.diagnostics = self._diagnostics(0, 0, 0)
+            return tick
+        wall_ns = self.wall_clock() - wall_start_ns
+        tick.lag = lag_ns(target_ns, sim.time_ns, sim.step_ns)
+        if diagnostics_due(self._last_diagnostics_ns, sim.time_ns):
+            tick.diagnostics = self._diagnostics(sim.steps - steps_before, wall_ns, tick.lag)
+        return tick
+
+    def _diagnostics(self, substeps: int, wall_ns: int, lag: int) -> Optional[DiagnosticFields]:
+        if not self.scene.publish_diagnostics:
+            return None
+        self._last_diagnostics_ns = self.sim.time_ns
+        return simulation_diagnostics(
+            self.sim, halted=self.halted, lag=lag, substeps=substeps, wall_ns=wall_ns,
+            accepted=self.accepted, rejected=self.rejected, hardware_id=self.hardware_id)
+
+    def done(self) -> bool:
+        """Whether a lockstep run is over: halted, or the scene's duration (if any) ran."""
+        duration_ns = self.scene.duration_ns
+        return self.halted is not None or (
+            duration_ns > 0 and self.sim.time_ns - self.sim.start_ns >= duration_ns)

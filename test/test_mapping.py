@@ -6,6 +6,7 @@ is not installed), since the mapping must read both the same way.
 """
 from __future__ import annotations
 
+import array
 import math
 from pathlib import Path
 from types import SimpleNamespace
@@ -16,10 +17,12 @@ import pytest
 from hecker_dynamics.commands import InputError, WrenchCommand
 from hecker_dynamics.geometry import Circle, Polygon, box
 from hecker_dynamics.mapping import (
-    DIAGNOSTIC_WARN, MARKER_ADD, MARKER_CYLINDER, MARKER_LINE_STRIP, NodeOptions, TickAction,
-    applied_wrench_to_command, catch_up_cap, diagnostic_fields, due_script, lag_ns,
-    marker_fields, node_options, ns_from_stamp, odometry_fields, plan_tick, pose_fields,
-    quaternion_from_yaw, scene_for_node, stamp_from_ns, twist_fields,
+    DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN, MARKER_ADD, MARKER_CYLINDER,
+    MARKER_LINE_STRIP, NodeOptions, OutputKind, Runner, TickAction, applied_wrench_fields,
+    applied_wrench_to_command, catch_up_cap, diagnostic_fields, diagnostics_due, due_script,
+    lag_ns, marker_fields, node_options, node_setup, ns_from_stamp, odometry_fields,
+    output_topics, plain_parameters, plan_tick, pose_fields, quaternion_from_yaw,
+    scene_for_node, simulation_diagnostics, snapshot_outputs, stamp_from_ns, twist_fields,
     wrench_stamped_to_command)
 from hecker_dynamics.ratelimit import RateLimiter
 from hecker_dynamics.scene import SceneError, WrenchTopic, load_scene
@@ -412,6 +415,168 @@ def test_scene_for_node_reads_a_file(tmp_path):
     path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n      puck:\n"
                     "        shape: circle\n        radius: 0.5\n        mass: 2.0\n")
     assert [b.name for b in scene_for_node({"scene": str(path)}, "test").bodies] == ["puck"]
+
+
+def test_node_setup_takes_arrays_as_rclpy_holds_them():
+    # Overrides from the command line or a parameters file come as lists; values that went
+    # through a ParameterValue message (rclpy's Parameter.from_parameter_msg) as array.array.
+    params = {**ONE_BODY, "bodies.puck.position": array.array("d", [1.0, 2.0]),
+              "bodies.puck.velocity": (0.5, 0.0), "use_sim_time": True,
+              "start_type_description_service": True, "max_catch_up_steps": 7}
+    assert plain_parameters(params)["bodies.puck.position"] == [1.0, 2.0]
+    assert plain_parameters({"ids": array.array("q", [1, 2])}) == {"ids": [1, 2]}
+    options, scene = node_setup(params, "test")
+    assert options == NodeOptions(max_catch_up_steps=7)
+    assert scene.bodies[0].position == (1.0, 2.0) and scene.bodies[0].velocity == (0.5, 0.0)
+
+
+def test_applied_wrench_fields_invert_the_mapping():
+    command = WrenchCommand(12 * S + 345, "left", "kick", "left/hook", (0.4, 0.2),
+                            (0.0, 60.0), -1.5, 100_000_000)
+    fields = applied_wrench_fields(command)
+    assert fields.header == (12, 345, "left/hook")
+    assert (fields.body, fields.id, fields.duration) == ("left", "kick", (0, 100_000_000))
+    assert (fields.point, fields.force, fields.torque) == (
+        (0.4, 0.2, 0.0), (0.0, 60.0, 0.0), (0.0, 0.0, -1.5))
+    msg = _namespace_applied((fields.header.sec, fields.header.nanosec),
+                             fields.header.frame_id, fields.body, fields.id, fields.point,
+                             fields.force, fields.torque, fields.duration)
+    assert applied_wrench_to_command(msg, receive_ns=99 * S) == (command, [])
+
+
+def _sim_at(step_count: int) -> Simulation:
+    sim = Simulation(load_scene("sample"), start_ns=2 * S)
+    sim.advance_to(2 * S + step_count * sim.step_ns)
+    return sim
+
+
+def test_simulation_diagnostics_levels_and_values():
+    sim = _sim_at(20)
+    ok = simulation_diagnostics(sim, halted=None, lag=0, substeps=20, wall_ns=4_000_000,
+                                accepted=3, rejected=1, hardware_id="/ns/dynamics_node")
+    assert (ok.level, ok.message, ok.hardware_id) == (DIAGNOSTIC_OK, "running",
+                                                      "/ns/dynamics_node")
+    values = dict(ok.values)
+    assert values["sim_time"] == "2.02" and values["start_time"] == "2"
+    assert values["steps"] == "20" and values["substeps"] == "20"
+    assert values["step_wall_time"] == "0.0002"  # 4 ms over 20 steps
+    assert values["energy"] == f"{sim.snapshot().energy:.9g}"
+    assert (values["commands_accepted"], values["commands_rejected"]) == ("3", "1")
+    behind = simulation_diagnostics(sim, halted=None, lag=250_000_000, substeps=0, wall_ns=0,
+                                    accepted=0, rejected=0, hardware_id="x")
+    assert behind.level == DIAGNOSTIC_WARN and behind.message == "0.250 s behind the clock"
+    assert dict(behind.values)["step_wall_time"] == "0"  # no steps: no division by zero
+    halted = simulation_diagnostics(sim, halted="state diverged", lag=5, substeps=0,
+                                    wall_ns=0, accepted=0, rejected=0, hardware_id="x")
+    assert (halted.level, halted.message) == (DIAGNOSTIC_ERROR, "state diverged")
+
+
+def test_diagnostics_due_once_per_second_of_sim_time():
+    assert diagnostics_due(None, 0)
+    assert not diagnostics_due(5 * S, 6 * S - 1)
+    assert diagnostics_due(5 * S, 6 * S)
+
+
+def test_output_topics_and_snapshot_outputs_follow_the_scene():
+    scene = scene_for_node({**ONE_BODY, "bodies.ball.shape": "circle",
+                            "bodies.ball.radius": 0.2, "bodies.ball.mass": 1.0,
+                            "bodies.ball.position": [3.0, 0.0]}, "test")
+    assert output_topics(scene) == {"puck/pose": OutputKind.POSE, "puck/twist": OutputKind.TWIST,
+                                    "ball/pose": OutputKind.POSE, "ball/twist": OutputKind.TWIST}
+    everything = scene_for_node({**ONE_BODY, "publish.odometry": True,
+                                 "publish.markers": True, "publish.diagnostics": True}, "test")
+    assert list(output_topics(everything).items()) == [
+        ("puck/pose", OutputKind.POSE), ("puck/twist", OutputKind.TWIST),
+        ("puck/odom", OutputKind.ODOMETRY), ("markers", OutputKind.MARKERS),
+        ("diagnostics", OutputKind.DIAGNOSTICS)]
+    sim = Simulation(everything, start_ns=S)
+    snapshot = sim.advance_to(S + everything.publish_period_ns)[-1]
+    state = snapshot.bodies[0]
+    outputs = snapshot_outputs(everything, snapshot)
+    assert [(o.topic, o.kind) for o in outputs] == list(output_topics(everything).items())[:-1]
+    assert outputs[0].fields == pose_fields(state, "world", snapshot.time_ns)
+    assert outputs[1].fields == twist_fields(state, everything.twist_frame)
+    assert outputs[2].fields == odometry_fields(state, "world", snapshot.time_ns)
+    assert outputs[3].fields == tuple(marker_fields(everything.bodies[0], state, 0, "world",
+                                                    snapshot.time_ns))
+
+
+# ----------------------------------------------------------------------------- run loop
+
+def _push_left(runner, arrival_ns, stamp=(0, 0), **fields):
+    msg = _namespace_applied(stamp, fields.pop("frame_id", "world"), fields.pop("body", "left"),
+                             "test", (0.0, 0.0, 0.0), fields.pop("force", (1.0, 0.0, 0.0)),
+                             (0.0, 0.0, 0.0), (0, 0))
+    return runner.accept("applied_wrench", lambda now: applied_wrench_to_command(msg, now),
+                         arrival_ns)
+
+
+def test_runner_refuses_input_before_the_start_and_counts_bad_input():
+    runner = Runner(load_scene("sample"), started=False)
+    lines = _push_left(runner, 0)
+    assert [line.key for line in lines] == ["applied_wrench:early"] and lines[0].dropped
+    runner.restart(3 * S)
+    assert runner.started and runner.sim.time_ns == 3 * S
+    assert _push_left(runner, 3 * S) == []
+    nan = _push_left(runner, 3 * S, force=(math.nan, 0.0, 0.0))
+    ghost = _push_left(runner, 3 * S, body="ghost")
+    frame = _push_left(runner, 3 * S, frame_id="left/nowhere")
+    ahead = _push_left(runner, 3 * S, stamp=(3600, 0))
+    assert [lines[0].key for lines in (nan, ghost, frame, ahead)] == [
+        "applied_wrench:message", "applied_wrench:scene", "applied_wrench:scene",
+        "applied_wrench:scene"]
+    assert "unknown body 'ghost'" in ghost[0].message
+    assert "unknown frame 'left/nowhere'" in frame[0].message
+    tilted = _push_left(runner, 3 * S, force=(1.0, 0.0, 2.0))
+    assert [(line.key, line.dropped) for line in tilted] == [
+        ("applied_wrench:out_of_plane", False)]
+    assert (runner.accepted, runner.rejected) == (2, 5)
+
+
+def test_runner_plays_the_script_like_simulation_play():
+    scene = load_scene("sample")
+    expected = Simulation(scene, start_ns=S).play(scene.script, until_ns=scene.duration_ns)
+    runner = Runner(scene, start_ns=S)
+    snapshots = runner.advance(S).snapshots  # the first tick: no step
+    period = scene.publish_period_ns
+    while not runner.done():
+        tick = runner.advance(runner.sim.time_ns + period)
+        assert tick.lag == 0 and tick.diagnostics is None  # diagnostics are off
+        snapshots += tick.snapshots
+    assert snapshots == expected
+    without = Runner(scene, start_ns=S, play_script=False)
+    without.advance(S + scene.duration_ns)
+    assert without.sim.snapshot() != expected[-1]
+
+
+def test_runner_caps_catch_up_and_reports_the_lag():
+    scene = load_scene("sample")
+    runner = Runner(scene, max_steps=50, wall_clock=iter(range(0, 10**9, 10**6)).__next__)
+    tick = runner.advance(S)
+    assert runner.sim.time_ns == 50 * scene.step_ns and tick.lag == S - runner.sim.time_ns
+    assert [s.time_ns for s in tick.snapshots] == [20_000_000, 40_000_000]
+
+
+def test_runner_diagnostics_schedule_and_divergence():
+    scene = scene_for_node({**ONE_BODY, "step": 0.001, "publish.diagnostics": True,
+                            "input_timeout": 0.0, "bodies.tiny.shape": "circle",
+                            "bodies.tiny.radius": 0.1, "bodies.tiny.mass": 1e-3,
+                            "bodies.tiny.position": [2.0, 0.0]}, "test")
+    runner = Runner(scene, wall_clock=iter(range(0, 10**12, 10**6)).__next__)
+    first = runner.advance(0)
+    assert first.diagnostics.level == DIAGNOSTIC_OK and dict(first.diagnostics.values)[
+        "substeps"] == "0"
+    assert runner.advance(S // 2).diagnostics is None  # at most once a second of sim time
+    assert dict(runner.advance(S).diagnostics.values)["substeps"] == "500"
+    runner.sim.push(WrenchCommand(S + 5_000_000, "tiny", "boom", "world", (2.0, 0.1),
+                                  (1e308, 1e308), 0.0, 0))
+    tick = runner.advance(2 * S)
+    assert tick.diverged and runner.halted == tick.diverged and runner.done()
+    assert (tick.diagnostics.level, tick.diagnostics.message) == (DIAGNOSTIC_ERROR, tick.diverged)
+    assert runner.advance(3 * S).snapshots == [] and runner.sim.time_ns < 2 * S
+    runner.restart(10 * S)
+    assert runner.halted is None and not runner.done()
+    assert runner.advance(11 * S).snapshots[-1].time_ns == 11 * S
 
 
 # ----------------------------------------------------------------------------- rate limiter
