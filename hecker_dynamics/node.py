@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import time
 from collections.abc import Callable
 from typing import Any, Optional
 
@@ -28,25 +27,31 @@ from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .commands import InputError, WrenchCommand
-from .mapping import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN, NS_PER_S, Header,
-                      MarkerFields, NodeOptions, Pose, TickAction, TwistFields, applied_wrench_to_command,
-                      catch_up_cap, diagnostic_fields, due_script, header, lag_ns,
-                      marker_fields, node_options, odometry_fields, plan_tick, pose_fields,
-                      scene_for_node, stamp_from_ns, twist_fields, wrench_stamped_to_command)
+from .commands import WrenchCommand
+from .mapping import (DIAGNOSTICS_TOPIC, NS_PER_S, DiagnosticFields, Header, LogLine,
+                      MarkerFields, NodeOptions, OdometryFields, OutputFields, OutputKind,
+                      Pose, PoseStampedFields, Runner, TickAction, TwistFields,
+                      applied_wrench_to_command, catch_up_cap, header, node_setup,
+                      output_topics, plan_tick, snapshot_outputs, stamp_from_ns,
+                      wrench_stamped_to_command)
 from .msg import AppliedWrench
 from .ratelimit import RateLimiter
-from .scene import SceneError, WrenchTopic
-from .simulation import DivergenceError, Simulation, Snapshot
+from .scene import NODE_NAME, SceneError, WrenchTopic
 
-NODE_NAME = "dynamics_node"
-#: Keep-last depth of every publisher and subscription.
+#: Keep-last depth of every publisher and subscription (reliable, volatile: rclpy's
+#: default profile for an int depth).
 QUEUE_DEPTH = 10
-#: Diagnostics are published at most this often, in sim time.
-DIAGNOSTICS_PERIOD_NS = NS_PER_S
+
+MESSAGE_TYPES = {
+    OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
+    OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
+}
 
 
 # ----------------------------------------------------------------------------- messages
+# Each function copies a plain-fields tuple from mapping into an rclpy message. rosidl's
+# Python setters check types: floats for float64 fields, ints for integer fields, and
+# bytes of length one for ``byte`` fields (DiagnosticStatus.level).
 
 def _fill_header(msg: Any, fields: Header) -> None:
     msg.stamp.sec = fields.sec
@@ -65,6 +70,29 @@ def _fill_twist(msg: Any, fields: TwistFields) -> None:
     msg.angular.x, msg.angular.y, msg.angular.z = fields.angular
 
 
+def _pose_stamped(fields: PoseStampedFields) -> PoseStamped:
+    msg = PoseStamped()
+    _fill_header(msg.header, fields.header)
+    _fill_pose(msg.pose, fields.pose)
+    return msg
+
+
+def _twist(fields: TwistFields) -> Twist:
+    msg = Twist()
+    _fill_twist(msg, fields)
+    return msg
+
+
+def _odometry(fields: OdometryFields) -> Odometry:
+    """Covariances keep their default zeros (float64[36] numpy arrays): unknown."""
+    msg = Odometry()
+    _fill_header(msg.header, fields.header)
+    msg.child_frame_id = fields.child_frame_id
+    _fill_pose(msg.pose.pose, fields.pose)
+    _fill_twist(msg.twist.twist, fields.twist)
+    return msg
+
+
 def _marker(fields: MarkerFields) -> Marker:
     msg = Marker()
     _fill_header(msg.header, fields.header)
@@ -77,6 +105,26 @@ def _marker(fields: MarkerFields) -> Marker:
     msg.color.r, msg.color.g, msg.color.b, msg.color.a = fields.color
     msg.points = [Point(x=x, y=y, z=z) for x, y, z in fields.points]
     return msg
+
+
+def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
+    return MarkerArray(markers=[_marker(fields) for fields in markers])
+
+
+def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray:
+    status = DiagnosticStatus(
+        level=bytes([fields.level]), name=fields.name, message=fields.message,
+        hardware_id=fields.hardware_id,
+        values=[KeyValue(key=key, value=value) for key, value in fields.values])
+    array = DiagnosticArray(status=[status])
+    _fill_header(array.header, head)
+    return array
+
+
+MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
+    OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
+    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
+}
 
 
 # ----------------------------------------------------------------------------- node
@@ -92,35 +140,41 @@ class DynamicsNode(Node):
     def __init__(self, **node_kwargs: Any) -> None:
         super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **node_kwargs)
-        for option in dataclasses.fields(NodeOptions):
+        for option in dataclasses.fields(NodeOptions):  # so that `ros2 param` shows them
             if not self.has_parameter(option.name):
                 self.declare_parameter(option.name, option.default)
+        # Every parameter the node holds: the overrides (declared above), the options,
+        # use_sim_time and start_type_description_service (declared by rclpy); the scene
+        # reader skips the node's own (scene.NODE_PARAMETERS).
         params = {name: parameter.value
                   for name, parameter in self.get_parameters_by_prefix("").items()}
-        source = f"parameters of {self.get_name()}"
-        self.options = node_options(params, source)
-        self.scene = scene_for_node(params, source)
-        self.sim = Simulation(self.scene)
-        self._cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
+        self.options, self.scene = node_setup(params, f"parameters of {self.get_name()}")
+        cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
         for line in cap_warnings:
             self.get_logger().warning(line)
+        self.runner = Runner(self.scene, play_script=self.options.play_script, max_steps=cap,
+                             started=self.options.lockstep,
+                             hardware_id=self.get_fully_qualified_name())
+        self.sim = self.runner.sim
         self._limiter = RateLimiter()
-        self._bodies = {body.name: (index, body) for index, body in enumerate(self.scene.bodies)}
-        self._started = self.options.lockstep
         self._last_tick_ns: Optional[int] = None
-        self._script_index = 0
-        self._halted: Optional[str] = None
-        self._last_diagnostics_ns: Optional[int] = None
-        self.commands_accepted = 0
-        self.commands_rejected = 0
         #: Done (with True, or False after a divergence) when a lockstep run reaches the
         #: scene's duration; never done otherwise.
         self.finished = Future()
-        self._create_publishers()
-        self._create_inputs()
+        self._publishers_by_topic = {
+            topic: self.create_publisher(MESSAGE_TYPES[kind], topic, QUEUE_DEPTH)
+            for topic, kind in output_topics(self.scene).items()}
+        self.create_subscription(AppliedWrench, "applied_wrench", self._on_applied_wrench,
+                                 QUEUE_DEPTH)
+        for topic in self.scene.wrench_topics:
+            self.create_subscription(
+                WrenchStamped, topic.topic,
+                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
         self.create_service(Trigger, "reset", self._on_reset)
         if self.options.lockstep:
             self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
+            # A zero period: the timer is always ready, so the run goes as fast as it can
+            # while the executor still serves subscriptions and the reset service.
             self._timer = self.create_timer(
                 0.0, self._on_lockstep_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
             self._publish_clock()
@@ -128,37 +182,11 @@ class DynamicsNode(Node):
             self._timer = self.create_timer(self.scene.publish_period_ns / NS_PER_S,
                                             self._on_tick)
         self.get_logger().info(
-            f"scene {self.scene.source}: bodies {', '.join(self._bodies)}; step "
+            f"scene {self.scene.source}: bodies "
+            f"{', '.join(b.name for b in self.scene.bodies)}; step "
             f"{self.scene.step_ns / NS_PER_S:g} s, publishing every "
             f"{self.scene.publish_period_ns / NS_PER_S:g} s"
             + (", lockstep" if self.options.lockstep else ""))
-
-    # ----------------------------------------------------------------- wiring
-
-    def _create_publishers(self) -> None:
-        scene = self.scene
-        self._pose_publishers = {
-            name: self.create_publisher(PoseStamped, f"{name}/pose", QUEUE_DEPTH)
-            for name in self._bodies}
-        self._twist_publishers = {
-            name: self.create_publisher(Twist, f"{name}/twist", QUEUE_DEPTH)
-            for name in self._bodies}
-        self._odometry_publishers = {
-            name: self.create_publisher(Odometry, f"{name}/odom", QUEUE_DEPTH)
-            for name in self._bodies} if scene.publish_odometry else {}
-        self._marker_publisher = (self.create_publisher(MarkerArray, "markers", QUEUE_DEPTH)
-                                  if scene.publish_markers else None)
-        self._diagnostics_publisher = (
-            self.create_publisher(DiagnosticArray, "diagnostics", QUEUE_DEPTH)
-            if scene.publish_diagnostics else None)
-
-    def _create_inputs(self) -> None:
-        self.create_subscription(AppliedWrench, "applied_wrench", self._on_applied_wrench,
-                                 QUEUE_DEPTH)
-        for topic in self.scene.wrench_topics:
-            self.create_subscription(
-                WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
 
     # ----------------------------------------------------------------- state for tests
 
@@ -170,7 +198,15 @@ class DynamicsNode(Node):
     @property
     def started(self) -> bool:
         """Whether the simulation runs (false until the ROS clock does)."""
-        return self._started
+        return self.runner.started
+
+    @property
+    def commands_accepted(self) -> int:
+        return self.runner.accepted
+
+    @property
+    def commands_rejected(self) -> int:
+        return self.runner.rejected
 
     # ----------------------------------------------------------------- logging
 
@@ -179,6 +215,10 @@ class DynamicsNode(Node):
         if line is not None:
             self.get_logger().warning(line)
 
+    def _log(self, lines: list[LogLine]) -> None:
+        for line in lines:
+            self._warn(line.key, line.message)
+
     # ----------------------------------------------------------------- inputs
 
     def _now_ns(self) -> int:
@@ -186,55 +226,16 @@ class DynamicsNode(Node):
         return self.sim.time_ns if self.options.lockstep else self.get_clock().now().nanoseconds
 
     def _on_applied_wrench(self, msg: AppliedWrench) -> None:
-        self._accept("applied_wrench",
-                     lambda now_ns: applied_wrench_to_command(msg, now_ns))
+        self._log(self.runner.accept(
+            "applied_wrench", lambda now_ns: applied_wrench_to_command(msg, now_ns),
+            self._now_ns()))
 
     def _on_wrench_stamped(self, msg: WrenchStamped, topic: WrenchTopic) -> None:
-        self._accept(topic.topic, lambda now_ns: wrench_stamped_to_command(msg, topic, now_ns))
-
-    def _accept(self, topic: str,
-                convert: Callable[[int], tuple[WrenchCommand, list[str]]]) -> None:
-        """Convert and push one input message; bad input is counted and logged, never raised."""
-        if not self._started:
-            self.commands_rejected += 1
-            self._warn(f"{topic}:early", f"input on '{topic}' ignored: the simulation starts "
-                                         "with the ROS clock (waiting for /clock)")
-            return
-        try:
-            command, warnings = convert(self._now_ns())
-        except InputError as error:  # the message itself is bad (NaN, empty body, ...)
-            self.commands_rejected += 1
-            self._warn(f"{topic}:message", f"input on '{topic}' rejected: {error}")
-            return
-        for warning in warnings:
-            self._warn(f"{topic}:out_of_plane", warning)
-        try:
-            self.sim.push(command)
-        except InputError as error:  # the scene refuses it (unknown body or frame, stamp, ...)
-            self.commands_rejected += 1
-            self._warn(f"{topic}:scene", f"input on '{topic}' rejected: {error}")
-            return
-        self.commands_accepted += 1
-
-    def _push_script(self, until_ns: int) -> None:
-        if not self.options.play_script:
-            return
-        due, self._script_index = due_script(self.scene.script, self.sim.start_ns,
-                                             self._script_index, until_ns)
-        for command in due:
-            try:
-                self.sim.push(command)
-            except InputError as error:
-                self._warn("script", f"scripted input rejected: {error}")
+        convert: Callable[[int], tuple[WrenchCommand, list[str]]] = \
+            lambda now_ns: wrench_stamped_to_command(msg, topic, now_ns)
+        self._log(self.runner.accept(topic.topic, convert, self._now_ns()))
 
     # ----------------------------------------------------------------- stepping
-
-    def _restart(self, start_ns: int) -> None:
-        self.sim.reset(start_ns)
-        self._script_index = 0
-        self._halted = None
-        self._last_diagnostics_ns = None
-        self._started = True
 
     def _on_tick(self) -> None:
         """Timer on the node clock (ROS time): step the simulation up to now."""
@@ -248,7 +249,7 @@ class DynamicsNode(Node):
         elif action is TickAction.RESTART:
             self._warn("clock_jump", reason)
         if action is not TickAction.ADVANCE:
-            self._restart(now_ns)
+            self.runner.restart(now_ns)
         self._last_tick_ns = now_ns
         self._advance(now_ns)
 
@@ -258,111 +259,41 @@ class DynamicsNode(Node):
             return
         self._advance(self.sim.time_ns + self.scene.publish_period_ns)
         self._publish_clock()
-        duration_ns = self.scene.duration_ns
-        if self._halted is not None or (
-                duration_ns > 0 and self.sim.time_ns - self.sim.start_ns >= duration_ns):
+        if self.runner.done():
             self._timer.cancel()
             self.get_logger().info(
                 f"lockstep run ended at {self.sim.time_ns / NS_PER_S:.9f} s")
-            self.finished.set_result(self._halted is None)
+            self.finished.set_result(self.runner.halted is None)
 
     def _advance(self, target_ns: int) -> None:
         """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed."""
-        if self._halted is not None:
-            return
-        sim = self.sim
-        self._push_script(min(target_ns, sim.time_ns + self._cap * sim.step_ns))
-        steps_before = sim.steps
-        wall_start_ns = time.perf_counter_ns()
-        try:
-            snapshots = sim.advance_to(target_ns, max_steps=self._cap)
-        except DivergenceError as error:
-            self._halted = str(error)
-            self.get_logger().error(f"{error}; halted until the 'reset' service is called")
-            self._publish_diagnostics(0, 0, 0)
-            return
-        wall_ns = time.perf_counter_ns() - wall_start_ns
-        for snapshot in snapshots:
-            self._publish_snapshot(snapshot)
-        lag = lag_ns(target_ns, sim.time_ns, sim.step_ns)
-        if lag:
-            self._warn("behind", f"the simulation is {lag / NS_PER_S:.3f} s behind the clock "
-                                 f"(a tick takes at most {self._cap} steps: "
+        tick = self.runner.advance(target_ns)
+        for line in tick.script_errors:
+            self._warn("script", line)
+        if tick.diverged is not None:
+            self.get_logger().error(
+                f"{tick.diverged}; halted until the 'reset' service is called")
+        for snapshot in tick.snapshots:
+            for output in snapshot_outputs(self.scene, snapshot):
+                self._publish(output)
+        if tick.lag:
+            self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
+                                 f"clock (a tick takes at most {self.runner.max_steps} steps: "
                                  "max_catch_up_steps)")
-        last = self._last_diagnostics_ns
-        if last is None or sim.time_ns - last >= DIAGNOSTICS_PERIOD_NS:
-            self._publish_diagnostics(sim.steps - steps_before, wall_ns, lag)
+        if tick.diagnostics is not None:
+            self._publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
+                _diagnostic_array(tick.diagnostics, header("", self.sim.time_ns)))
 
     # ----------------------------------------------------------------- outputs
 
-    def _publish_snapshot(self, snapshot: Snapshot) -> None:
-        frame_id = self.scene.frame_id
-        markers = MarkerArray()
-        for state in snapshot.bodies:
-            pose = PoseStamped()
-            fields = pose_fields(state, frame_id, snapshot.time_ns)
-            _fill_header(pose.header, fields.header)
-            _fill_pose(pose.pose, fields.pose)
-            self._pose_publishers[state.name].publish(pose)
-            twist = Twist()
-            _fill_twist(twist, twist_fields(state, self.scene.twist_frame))
-            self._twist_publishers[state.name].publish(twist)
-            if self._odometry_publishers:
-                self._odometry_publishers[state.name].publish(
-                    self._odometry(state, frame_id, snapshot.time_ns))
-            if self._marker_publisher is not None:
-                index, body = self._bodies[state.name]
-                markers.markers.extend(
-                    _marker(marker) for marker in
-                    marker_fields(body, state, index, frame_id, snapshot.time_ns))
-        if self._marker_publisher is not None:
-            self._marker_publisher.publish(markers)
-
-    @staticmethod
-    def _odometry(state: Any, frame_id: str, stamp_ns: int) -> Odometry:
-        fields = odometry_fields(state, frame_id, stamp_ns)
-        msg = Odometry()
-        _fill_header(msg.header, fields.header)
-        msg.child_frame_id = fields.child_frame_id
-        _fill_pose(msg.pose.pose, fields.pose)
-        _fill_twist(msg.twist.twist, fields.twist)
-        return msg
+    def _publish(self, output: OutputFields) -> None:
+        self._publishers_by_topic[output.topic].publish(
+            MESSAGE_BUILDERS[output.kind](output.fields))
 
     def _publish_clock(self) -> None:
         msg = ClockMessage()
         msg.clock.sec, msg.clock.nanosec = stamp_from_ns(self.sim.time_ns)
         self._clock_publisher.publish(msg)
-
-    def _publish_diagnostics(self, steps: int, wall_ns: int, lag: int) -> None:
-        if self._diagnostics_publisher is None:
-            return
-        sim = self.sim
-        self._last_diagnostics_ns = sim.time_ns
-        if self._halted is not None:
-            level, message = DIAGNOSTIC_ERROR, self._halted
-        elif lag:
-            level, message = DIAGNOSTIC_WARN, f"{lag / NS_PER_S:.3f} s behind the clock"
-        else:
-            level, message = DIAGNOSTIC_OK, "running"
-        fields = diagnostic_fields(level, message, {
-            "sim_time": sim.time_ns / NS_PER_S,
-            "start_time": sim.start_ns / NS_PER_S,
-            "steps": sim.steps,
-            "step": sim.step_ns / NS_PER_S,
-            "substeps": steps,
-            "step_wall_time": wall_ns / steps / NS_PER_S if steps else 0.0,
-            "energy": sim.snapshot().energy,
-            "lag": lag / NS_PER_S,
-            "commands_accepted": self.commands_accepted,
-            "commands_rejected": self.commands_rejected,
-        }, hardware_id=self.get_fully_qualified_name())
-        status = DiagnosticStatus(
-            level=bytes([fields.level]), name=fields.name, message=fields.message,
-            hardware_id=fields.hardware_id,
-            values=[KeyValue(key=key, value=value) for key, value in fields.values])
-        array = DiagnosticArray(status=[status])
-        _fill_header(array.header, header("", sim.time_ns))
-        self._diagnostics_publisher.publish(array)
 
     # ----------------------------------------------------------------- reset service
 
@@ -374,7 +305,7 @@ class DynamicsNode(Node):
             response.success = False
             response.message = "the ROS clock is not running yet (waiting for /clock)"
             return response
-        self._restart(start_ns)
+        self.runner.restart(start_ns)
         if not self.options.lockstep:
             self._last_tick_ns = start_ns
         response.success = True
