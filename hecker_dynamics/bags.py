@@ -25,8 +25,10 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
-from .mapping import (DiagnosticFields, Header, MarkerFields, OdometryFields, Pose,
-                      PoseStampedFields, TwistFields, ns_from_stamp, stamp_from_ns)
+from .commands import WrenchCommand
+from .mapping import (AppliedWrenchFields, DiagnosticFields, Header, MarkerFields,
+                      OdometryFields, Pose, PoseStampedFields, TwistFields,
+                      applied_wrench_fields, ns_from_stamp, stamp_from_ns)
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -217,23 +219,27 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
     return default_message(DIAGNOSTIC_ARRAY, header=header_message(head), status=[status])
 
 
+def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
+    """``hecker_dynamics/msg/AppliedWrench`` from :func:`mapping.applied_wrench_fields`."""
+    dsec, dnanosec = fields.duration
+    return default_message(
+        APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
+        point=_vector("geometry_msgs/msg/Point", fields.point),
+        wrench=default_message("geometry_msgs/msg/Wrench",
+                               force=_vector("geometry_msgs/msg/Vector3", fields.force),
+                               torque=_vector("geometry_msgs/msg/Vector3", fields.torque)),
+        duration=default_message("builtin_interfaces/msg/Duration", sec=dsec,
+                                  nanosec=dnanosec))
+
+
 def applied_wrench_message(stamp_ns: int, frame_id: str, body: str, source: str,
                            point: Sequence[float], force: Sequence[float], torque: float,
                            duration_ns: int) -> Any:
-    """A ``hecker_dynamics/msg/AppliedWrench`` (the inverse of
-    :func:`mapping.applied_wrench_to_command` for in-plane wrenches)."""
-    sec, nanosec = stamp_from_ns(stamp_ns)
-    dsec, dnanosec = stamp_from_ns(duration_ns)
-    return default_message(
-        APPLIED_WRENCH,
-        header=header_message(Header(sec, nanosec, frame_id)), body=body, id=source,
-        point=_vector("geometry_msgs/msg/Point", (point[0], point[1], 0.0)),
-        wrench=default_message(
-            "geometry_msgs/msg/Wrench",
-            force=_vector("geometry_msgs/msg/Vector3", (force[0], force[1], 0.0)),
-            torque=_vector("geometry_msgs/msg/Vector3", (0.0, 0.0, torque))),
-        duration=default_message("builtin_interfaces/msg/Duration", sec=dsec,
-                                 nanosec=dnanosec))
+    """A ``hecker_dynamics/msg/AppliedWrench`` with an in-plane wrench (the inverse of
+    :func:`mapping.applied_wrench_to_command`)."""
+    return applied_wrench_msg(applied_wrench_fields(WrenchCommand(
+        stamp_ns, body, source, frame_id, (point[0], point[1]), (force[0], force[1]),
+        torque, duration_ns)))
 
 
 def wrench_stamped_message(stamp_ns: int, frame_id: str, force: Sequence[float],

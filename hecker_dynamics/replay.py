@@ -22,27 +22,26 @@ reproducible). Everything is deterministic: same scene and bag, same bytes.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional
 
 from . import bags
-from .bags import (APPLIED_WRENCH, DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TWIST,
-                   WRENCH_STAMPED, BagContents, BagError, BagWriter, resolve_topic)
+from .bags import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
+                   BagWriter, resolve_topic)
 from .commands import InputError, WrenchCommand
-from .mapping import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, NS_PER_S, applied_wrench_to_command,
-                      diagnostic_fields, due_script, header, marker_fields, odometry_fields,
-                      pose_fields, twist_fields, wrench_stamped_to_command)
+from .mapping import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, Runner,
+                      applied_wrench_fields, applied_wrench_to_command, header,
+                      snapshot_outputs as snapshot_fields, wrench_stamped_to_command)
+from .mapping import output_topics as node_output_topics
 from .scene import Scene, WrenchTopic
-from .simulation import DivergenceError, Simulation, Snapshot
+from .simulation import Snapshot
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
            "output_topics", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene"]
 
 APPLIED_WRENCH_TOPIC = "/applied_wrench"
-#: Diagnostics are published at most this often, in sim time (as the node does).
-DIAGNOSTICS_PERIOD_NS = NS_PER_S
 #: The node's fully qualified name, its diagnostics' hardware_id.
 NODE_FQN = "/dynamics_node"
 
@@ -90,17 +89,7 @@ def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[WrenchTopic]]]:
 
 def output_topics(scene: Scene) -> dict[str, str]:
     """Output topics of the node for ``scene`` (topic -> type), in publishing order."""
-    topics: dict[str, str] = {}
-    for body in scene.bodies:
-        topics[f"/{body.name}/pose"] = POSE_STAMPED
-        topics[f"/{body.name}/twist"] = TWIST
-        if scene.publish_odometry:
-            topics[f"/{body.name}/odom"] = ODOMETRY
-    if scene.publish_markers:
-        topics["/markers"] = MARKER_ARRAY
-    if scene.publish_diagnostics:
-        topics["/diagnostics"] = DIAGNOSTIC_ARRAY
-    return topics
+    return {resolve_topic(topic): kind.value for topic, kind in node_output_topics(scene).items()}
 
 
 def _frame_known(scene: Scene, frame: str) -> bool:
@@ -190,15 +179,29 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
 
 @dataclass(frozen=True)
 class _Input:
+    """An input message, mapped as the node maps it on arrival (at its log time)."""
+
     log_ns: int
     topic: str
-    command: WrenchCommand
+    command: Optional[WrenchCommand]
     warnings: tuple[str, ...]
+    error: Optional[InputError]
+
+    def convert(self, _arrival_ns: int) -> tuple[WrenchCommand, list[str]]:
+        if self.error is not None:
+            raise self.error
+        assert self.command is not None
+        return self.command, list(self.warnings)
 
 
 def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
               result: ReplayResult) -> list[_Input]:
-    """Map the bag's input messages to commands, in log-time order."""
+    """Map the bag's input messages to commands, in log-time order.
+
+    Unless ``skip_rejected``, commands for bodies or frames the scene does not have make
+    the replay fail: the bag most likely belongs to another scene. With it, they go on to
+    the simulation, which rejects them as the node does.
+    """
     topics = input_topics(scene)
     bodies = {body.name for body in scene.bodies}
     inputs = []
@@ -215,21 +218,14 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
             else:
                 command, warnings = wrench_stamped_to_command(msg, wrench_topic, message.log_ns)
         except InputError as error:
-            result.rejected.append(f"{message.topic} at {message.log_ns * 1e-9:.9f} s: {error}")
+            inputs.append(_Input(message.log_ns, message.topic, None, (), error))
             continue
-        problem = None
-        if command.body not in bodies:
-            problem = f"unknown body '{command.body}'"
-        elif not _frame_known(scene, command.frame_id):
-            problem = f"unknown frame '{command.frame_id}'"
-        if problem is not None:
-            line = f"{message.topic} at {message.log_ns * 1e-9:.9f} s: {problem}"
-            if not skip_rejected:
-                unfit.append(problem)
-                continue
-            result.rejected.append(line)
-            continue
-        inputs.append(_Input(message.log_ns, message.topic, command, tuple(warnings)))
+        if not skip_rejected:
+            if command.body not in bodies:
+                unfit.append(f"unknown body '{command.body}'")
+            elif not _frame_known(scene, command.frame_id):
+                unfit.append(f"unknown frame '{command.frame_id}'")
+        inputs.append(_Input(message.log_ns, message.topic, command, tuple(warnings), None))
     if unfit:
         distinct = sorted(set(unfit))
         raise ReplayError(
@@ -241,47 +237,20 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
 
 # ----------------------------------------------------------------------------- outputs
 
+_MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
+    OutputKind.POSE: bags.pose_stamped_message, OutputKind.TWIST: bags.twist_message,
+    OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
+}
+
+
+def _output(fields: OutputFields, log_ns: int) -> Output:
+    return Output(resolve_topic(fields.topic), fields.kind.value, log_ns,
+                  _MESSAGE_BUILDERS[fields.kind](fields.fields))
+
+
 def snapshot_outputs(scene: Scene, snapshot: Snapshot) -> list[Output]:
     """The messages the node publishes for one snapshot, in its publishing order."""
-    frame_id = scene.frame_id
-    stamp = snapshot.time_ns
-    outputs = []
-    markers = []
-    for index, state in enumerate(snapshot.bodies):
-        name = state.name
-        outputs.append(Output(f"/{name}/pose", POSE_STAMPED, stamp, bags.pose_stamped_message(
-            pose_fields(state, frame_id, stamp))))
-        outputs.append(Output(f"/{name}/twist", TWIST, stamp, bags.twist_message(
-            twist_fields(state, scene.twist_frame))))
-        if scene.publish_odometry:
-            outputs.append(Output(f"/{name}/odom", ODOMETRY, stamp, bags.odometry_message(
-                odometry_fields(state, frame_id, stamp))))
-        if scene.publish_markers:
-            markers.extend(marker_fields(scene.bodies[index], state, index, frame_id, stamp))
-    if scene.publish_markers:
-        outputs.append(Output("/markers", MARKER_ARRAY, stamp, bags.marker_array_message(markers)))
-    return outputs
-
-
-def _diagnostics(sim: Simulation, steps: int, result: ReplayResult) -> Output:
-    if result.halted is not None:
-        level, message = DIAGNOSTIC_ERROR, result.halted
-    else:
-        level, message = DIAGNOSTIC_OK, "running"
-    fields = diagnostic_fields(level, message, {
-        "sim_time": sim.time_ns / NS_PER_S,
-        "start_time": sim.start_ns / NS_PER_S,
-        "steps": sim.steps,
-        "step": sim.step_ns / NS_PER_S,
-        "substeps": steps,
-        "step_wall_time": 0.0,
-        "energy": sim.snapshot().energy,
-        "lag": 0.0,
-        "commands_accepted": result.accepted,
-        "commands_rejected": len(result.rejected),
-    }, hardware_id=NODE_FQN)
-    return Output("/diagnostics", DIAGNOSTIC_ARRAY, sim.time_ns,
-                  bags.diagnostic_array_message(fields, header("", sim.time_ns)))
+    return [_output(fields, snapshot.time_ns) for fields in snapshot_fields(scene, snapshot)]
 
 
 # ----------------------------------------------------------------------------- replay
@@ -299,24 +268,30 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
     start, end = session_times(scene, bag, start_ns, duration_ns)
     result = ReplayResult(start_ns=start, end_ns=end)
     inputs = _commands(scene, bag, skip_rejected, result)
-    sim = Simulation(scene, start_ns=start)
-    period = scene.publish_period_ns
-    script_index = 0
-    next_input = 0
-    last_diagnostics: Optional[int] = None
+    # The node's loop, with a wall clock that stands still: diagnostics show no wall time.
+    runner = Runner(scene, start_ns=start, play_script=play_script, hardware_id=NODE_FQN,
+                    wall_clock=lambda: 0)
+    sim = runner.sim
 
-    def publish_diagnostics(steps: int) -> None:
-        nonlocal last_diagnostics
-        if scene.publish_diagnostics:
-            last_diagnostics = sim.time_ns
-            emit(_diagnostics(sim, steps, result))
+    def run_tick(target_ns: int) -> None:
+        tick = runner.advance(target_ns)
+        result.rejected.extend(tick.script_errors)
+        for snapshot in tick.snapshots:
+            for output in snapshot_outputs(scene, snapshot):
+                emit(output)
+                result.outputs += 1
+        if tick.diagnostics is not None:
+            emit(Output(resolve_topic(DIAGNOSTICS_TOPIC), OutputKind.DIAGNOSTICS.value,
+                        sim.time_ns, bags.diagnostic_array_message(
+                            tick.diagnostics, header("", sim.time_ns))))
             result.outputs += 1
+        result.halted = tick.diverged
 
-    # The node's first tick starts the simulation and publishes diagnostics right away.
-    if play_script:
-        due, script_index = due_script(scene.script, start, script_index, start)
-        _push_all(sim, due, result)
-    publish_diagnostics(0)
+    # The node's first tick starts the simulation: scripted commands due at the start,
+    # no step, diagnostics.
+    run_tick(start)
+    period = scene.publish_period_ns
+    next_input = 0
     tick = start
     while tick + period <= end and result.halted is None:
         target = tick + period
@@ -324,43 +299,19 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         while next_input < len(inputs) and inputs[next_input].log_ns < target:
             item = inputs[next_input]
             next_input += 1
-            for warning in item.warnings:
-                result.warnings.append(warning)
-            try:
-                sim.push(item.command)
-                result.accepted += 1
-            except InputError as error:
-                result.rejected.append(f"{item.topic} at {item.log_ns * 1e-9:.9f} s: {error}")
-        if play_script:
-            due, script_index = due_script(scene.script, start, script_index, target)
-            _push_all(sim, due, result)
-        steps_before = sim.steps
-        try:
-            snapshots = sim.advance_to(target)
-        except DivergenceError as error:
-            result.halted = str(error)
-            publish_diagnostics(0)
-            break
-        for snapshot in snapshots:
-            for output in snapshot_outputs(scene, snapshot):
-                emit(output)
-                result.outputs += 1
-        if last_diagnostics is None or sim.time_ns - last_diagnostics >= DIAGNOSTICS_PERIOD_NS:
-            publish_diagnostics(sim.steps - steps_before)
+            for line in runner.accept(item.topic, item.convert, item.log_ns):
+                if line.dropped:
+                    result.rejected.append(f"at {item.log_ns * 1e-9:.9f} s: {line.message}")
+                else:
+                    result.warnings.append(line.message)
+        run_tick(target)
         tick = target
         if progress is not None:
             progress((tick - start) / (end - start) if end > start else 1.0)
+    result.accepted = runner.accepted
     result.steps = sim.steps
     result.ignored_after_end = len(inputs) - next_input
     return result
-
-
-def _push_all(sim: Simulation, commands: Sequence[WrenchCommand], result: ReplayResult) -> None:
-    for command in commands:
-        try:
-            sim.push(command)
-        except InputError as error:
-            result.rejected.append(f"scripted input: {error}")
 
 
 def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str = "mcap",
@@ -451,8 +402,7 @@ def script_to_bag(scene: Scene, output: Path, *, storage: str = "mcap", start_ns
             # Logged at its stamp. A zero stamp reads as "on arrival", which is the same
             # instant here since the log time is zero too.
             stamp = start_ns + command.stamp_ns
-            writer.write(APPLIED_WRENCH_TOPIC, APPLIED_WRENCH, stamp, bags.applied_wrench_message(
-                stamp, command.frame_id, command.body, command.source, command.point,
-                command.force, command.torque, command.duration_ns))
+            writer.write(APPLIED_WRENCH_TOPIC, APPLIED_WRENCH, stamp, bags.applied_wrench_msg(
+                applied_wrench_fields(replace(command, stamp_ns=stamp))))
             count += 1
     return count
