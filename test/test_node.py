@@ -25,7 +25,7 @@ pytest.importorskip(
 
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
@@ -158,6 +158,11 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     thruster_out = ros.helper.create_publisher(WrenchStamped, "thruster", 10)
 
     assert not node.started
+    # Every message counts below, so the node must know the test's subscriptions before it
+    # publishes its first one (it publishes nothing until the clock runs).
+    outputs = ("puck/pose", "puck/twist", "puck/odom", "markers", "diagnostics")
+    spin_until(ros, lambda: all(node.count_subscribers(t) >= 1 for t in outputs),
+               "the node to see the test's subscriptions")
     set_clock(ros, clock, node, T0)
     spin_until(ros, lambda: node.started, "the simulation to start with the clock")
     assert node.sim_time_ns == T0
@@ -207,6 +212,10 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
                "every pose and twist")
     assert [ns_from_stamp(m.header.stamp.sec, m.header.stamp.nanosec) for m in poses] == [
         s.time_ns for s in expected]
+    # The node and the offline run take the same inputs but push them in another order
+    # (the node gets the messages before the scripted nudge is due; offline they are pushed
+    # first and the script as sim time reaches it), so the held forces may be summed in
+    # another order: equal up to rounding, not to the bit.
     for pose, twist, snapshot in zip(poses, twists, expected):
         state = snapshot.bodies[0]
         assert_pose_matches(pose, state, "world")
@@ -219,12 +228,22 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     assert expected[-1].bodies[0].position != pytest.approx(
         script_only[-1].bodies[0].position)
 
-    spin_until(ros, lambda: odometry and markers and diagnostics, "odometry, markers, diagnostics")
-    assert odometry[0].child_frame_id == "puck"
-    assert odometry[0].pose.pose.position.x == poses[0].pose.position.x
+    # Diagnostics come once a second of sim time: at the start and at T0 + 1 s.
+    spin_until(ros, lambda: odometry and markers and len(diagnostics) >= 2,
+               "odometry, markers, diagnostics")
+    pose_at = {ns_from_stamp(p.header.stamp.sec, p.header.stamp.nanosec): p for p in poses}
+    odom = odometry[0]
+    assert odom.child_frame_id == "puck" and odom.header.frame_id == "world"
+    same = pose_at[ns_from_stamp(odom.header.stamp.sec, odom.header.stamp.nanosec)]
+    assert odom.pose.pose == same.pose
     assert {m.ns for m in markers[0].markers} == {"puck"}
-    values = {kv.key: kv.value for kv in diagnostics[-1].status[0].values}
+    status = diagnostics[1].status[0]
+    assert ns_from_stamp(diagnostics[1].header.stamp.sec,
+                         diagnostics[1].header.stamp.nanosec) == T0 + S
+    assert status.level == DiagnosticStatus.OK  # a byte field: bytes in rclpy
+    values = {kv.key: kv.value for kv in status.values}
     assert {"sim_time", "steps", "energy", "step_wall_time"} <= set(values)
+    assert values["commands_accepted"] == "3" and values["commands_rejected"] == "2"
 
     # The reset service restarts the scene at the current time.
     client = ros.helper.create_client(Trigger, "reset")
