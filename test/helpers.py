@@ -14,22 +14,11 @@ import numpy as np
 
 from hecker_dynamics.integrators import make_integrator
 from hecker_dynamics.model import Model
+from hecker_dynamics.parameters import flatten
 from hecker_dynamics.scene import Scene, scene_from_parameters
 
 # pi to 50 digits, for exact references of wrapped angles.
 PI = Fraction("3.14159265358979323846264338327950288419716939937510")
-
-
-def flatten(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested dicts to the flat dotted names a ROS 2 node holds."""
-    flat: dict[str, Any] = {}
-    for key, value in params.items():
-        name = f"{prefix}.{key}" if prefix else key
-        if isinstance(value, dict):
-            flat.update(flatten(value, name))
-        else:
-            flat[name] = value
-    return flat
 
 
 def make_scene(params: dict[str, Any], source: str = "test-scene") -> Scene:

@@ -16,19 +16,8 @@ from typing import Any
 import numpy as np
 import yaml
 
+from hecker_dynamics.parameters import flatten
 from hecker_dynamics.scene import Scene, scene_from_parameters
-
-
-def flatten(nested: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{a: {b: 1}}`` -> ``{"a.b": 1}`` (lists are leaves, as ROS 2 array parameters)."""
-    flat: dict[str, Any] = {}
-    for key, value in nested.items():
-        name = f"{prefix}.{key}" if prefix else str(key)
-        if isinstance(value, dict):
-            flat.update(flatten(value, name))
-        else:
-            flat[name] = value
-    return flat
 
 
 def make_scene(params: dict[str, Any], source: str = "test-scene") -> Scene:

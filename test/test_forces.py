@@ -80,14 +80,20 @@ def test_every_force_term_agrees_between_lean_and_vector_paths():
         assert_same(lean.accelerations(q, v), vector.accelerations(q, v))
 
 
+def pushed(scene, lean: bool) -> Simulation:
+    """A simulation on one evaluation path with :data:`COMMANDS` pushed."""
+    sim = Simulation(scene)
+    sim.model.lean = lean
+    for command in COMMANDS:
+        sim.push(command)
+    return sim
+
+
 def test_applied_wrenches_in_every_frame_agree_between_paths():
     scene = make_scene(EVERY_FORCE)
     runs = []
     for lean in (True, False):
-        sim = Simulation(scene)
-        sim.model.lean = lean
-        for command in COMMANDS:
-            sim.push(command)
+        sim = pushed(scene, lean)
         sim.step()  # activates the commands as the model's input term
         assert sim.model.inputs is not None
         runs.append(sim.model)
@@ -120,10 +126,7 @@ def test_runs_on_both_paths_stay_together():
     scene = make_scene(params)
     finals = []
     for lean in (True, False):
-        sim = Simulation(scene)
-        sim.model.lean = lean
-        for command in COMMANDS:
-            sim.push(command)
+        sim = pushed(scene, lean)
         sim.advance_to(500_000_000)
         finals.append(np.concatenate([sim.q, sim.v]))
     np.testing.assert_allclose(finals[0], finals[1], rtol=0.0, atol=1e-9)
