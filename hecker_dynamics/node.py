@@ -188,26 +188,6 @@ class DynamicsNode(Node):
             f"{self.scene.publish_period_ns / NS_PER_S:g} s"
             + (", lockstep" if self.options.lockstep else ""))
 
-    # ----------------------------------------------------------------- state for tests
-
-    @property
-    def sim_time_ns(self) -> int:
-        """Sim time of the current state."""
-        return self.sim.time_ns
-
-    @property
-    def started(self) -> bool:
-        """Whether the simulation runs (false until the ROS clock does)."""
-        return self.runner.started
-
-    @property
-    def commands_accepted(self) -> int:
-        return self.runner.accepted
-
-    @property
-    def commands_rejected(self) -> int:
-        return self.runner.rejected
-
     # ----------------------------------------------------------------- logging
 
     def _warn(self, key: str, message: str) -> None:

@@ -110,12 +110,7 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
     was recorded with another scene.
     """
     inputs = input_topics(scene)
-    for topic, (msgtype, _) in inputs.items():
-        if topic in bag.topics:
-            try:
-                bag.check_type(topic, msgtype)
-            except BagError as error:
-                raise ReplayError(str(error)) from None
+    _check_types(bag, {topic: msgtype for topic, (msgtype, _) in inputs.items()})
     if need_inputs and not any(topic in bag.topics for topic in inputs):
         raise ReplayError(f"{bag.path}: none of the scene's input topics is in the bag "
                           f"(expected {', '.join(inputs)}; the bag has "
@@ -128,7 +123,13 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
         raise ReplayError(f"{bag.path}: the bag has poses of bodies the scene "
                           f"{scene.source} does not have ({', '.join(foreign)}; the scene's "
                           f"bodies: {', '.join(sorted(bodies))})")
-    for topic, msgtype in output_topics(scene).items():
+    _check_types(bag, output_topics(scene))
+
+
+def _check_types(bag: BagContents, topics: dict[str, str]) -> None:
+    """Raise :class:`ReplayError` if one of ``topics`` (topic -> type) in the bag has another
+    type or definition."""
+    for topic, msgtype in topics.items():
         if topic in bag.topics:
             try:
                 bag.check_type(topic, msgtype)

@@ -157,15 +157,15 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     wrench_out = ros.helper.create_publisher(AppliedWrench, "applied_wrench", 10)
     thruster_out = ros.helper.create_publisher(WrenchStamped, "thruster", 10)
 
-    assert not node.started
+    assert not node.runner.started
     # Every message counts below, so the node must know the test's subscriptions before it
     # publishes its first one (it publishes nothing until the clock runs).
     outputs = ("puck/pose", "puck/twist", "puck/odom", "markers", "diagnostics")
     spin_until(ros, lambda: all(node.count_subscribers(t) >= 1 for t in outputs),
                "the node to see the test's subscriptions")
     set_clock(ros, clock, node, T0)
-    spin_until(ros, lambda: node.started, "the simulation to start with the clock")
-    assert node.sim_time_ns == T0
+    spin_until(ros, lambda: node.runner.started, "the simulation to start with the clock")
+    assert node.sim.time_ns == T0
 
     good = [
         applied_wrench(T0 + 100_000_000, "puck", "puck", "kick", (0.5, 0.25, 0.0),
@@ -187,19 +187,19 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     for msg in good + bad:
         wrench_out.publish(msg)
     thruster_out.publish(thrust)
-    spin_until(ros, lambda: node.commands_accepted + node.commands_rejected == 5,
+    spin_until(ros, lambda: node.runner.accepted + node.runner.rejected == 5,
                "the node to take the five inputs")
-    assert (node.commands_accepted, node.commands_rejected) == (3, 2)
+    assert (node.runner.accepted, node.runner.rejected) == (3, 2)
 
     periods = 50
     period = scene.publish_period_ns
     for k in range(1, periods + 1):
         set_clock(ros, clock, node, T0 + k * period)
-        spin_until(ros, lambda: node.sim_time_ns >= T0 + (k - 1) * period,
+        spin_until(ros, lambda: node.sim.time_ns >= T0 + (k - 1) * period,
                    "the simulation to follow the clock")
     # The node's timer runs on the ROS clock from time 0, every publish period, so it
     # fires at T0 + periods * period too.
-    spin_until(ros, lambda: node.sim_time_ns == T0 + periods * period,
+    spin_until(ros, lambda: node.sim.time_ns == T0 + periods * period,
                "the simulation to reach the clock")
 
     offline = Simulation(scene, start_ns=T0)
@@ -252,7 +252,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     spin_until(ros, future.done, "the reset service")
     now = T0 + periods * period
     assert future.result().success, future.result().message
-    assert (node.sim.start_ns, node.sim_time_ns) == (now, now)
+    assert (node.sim.start_ns, node.sim.time_ns) == (now, now)
 
     # A clock that jumps back by more than a second restarts the scene at the new time.
     # The timer may need the clock to move on by a period after the jump before it fires.
@@ -262,7 +262,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
         if spin_while(ros, lambda: node.sim.start_ns > back + k * period, spins=50):
             break
     assert back <= node.sim.start_ns <= back + 4 * period
-    assert node.sim_time_ns >= node.sim.start_ns
+    assert node.sim.time_ns >= node.sim.start_ns
 
 
 def test_node_without_parameters_runs_the_default_scene(ros):
@@ -286,7 +286,7 @@ def test_lockstep_runs_the_scripted_duration_and_publishes_clock(ros):
     poses = collect(ros, PoseStamped, f"{scene.bodies[0].name}/pose")
     spin_until(ros, node.finished.done, "the lockstep run to end", limit_s=120.0)
     assert node.finished.result() is True
-    assert node.sim_time_ns == scene.duration_ns
+    assert node.sim.time_ns == scene.duration_ns
     spin_until(ros, lambda: poses and ns_from_stamp(poses[-1].header.stamp.sec,
                                                     poses[-1].header.stamp.nanosec)
                == scene.duration_ns, "the last pose")
