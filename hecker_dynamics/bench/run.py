@@ -175,7 +175,7 @@ def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
             f"({time.perf_counter() - started:.1f} s)")
         steps = [own * f for f in mode.shipped_steps]
         omega = Model(scene).stiffness()
-        if name == "seesaw" or mode.name == "full":  # implicit methods out to omega*dt = 100
+        if omega > 0 and (name == "seesaw" or mode.name == "full"):  # out to omega*dt = 100
             steps += [round(x / omega, 9) for x in (10.0, 30.0, 100.0)
                       if round(x / omega, 9) > max(steps)]
         steps = [h for h in steps if _divides(h, duration)] or [own]
