@@ -8,6 +8,7 @@ expected) and remembers which names were read, so a misspelt parameter is an err
 """
 from __future__ import annotations
 
+import array
 import math
 import re
 from collections.abc import Iterator, Mapping
@@ -114,7 +115,10 @@ class ParameterReader:
 
     def check_numbers(self, key: str, value: Any, *, length: int | None = None,
                       multiple_of: int = 1) -> tuple[float, ...]:
-        """Check that ``value``, read from ``key``, is an array of numbers as ROS 2 allows."""
+        """Check that ``value``, read from ``key``, is an array of numbers as ROS 2 allows
+        (a list, a tuple, or the ``array.array`` rclpy gives for double arrays)."""
+        if isinstance(value, array.array):
+            value = value.tolist()
         if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
             self.fail(key, f"must be an array of numbers, not {value!r}")
         if len({type(x) for x in value}) > 1:

@@ -92,16 +92,6 @@ def output_topics(scene: Scene) -> dict[str, str]:
     return {resolve_topic(topic): kind.value for topic, kind in node_output_topics(scene).items()}
 
 
-def _frame_known(scene: Scene, frame: str) -> bool:
-    if frame == scene.frame_id:
-        return True
-    name, _, point = frame.partition("/")
-    for body in scene.bodies:
-        if body.name == name:
-            return not point or point in body.points
-    return False
-
-
 def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = True) -> None:
     """Raise :class:`ReplayError` if the bag's topics do not fit the scene.
 
@@ -224,7 +214,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         if not skip_rejected:
             if command.body not in bodies:
                 unfit.append(f"unknown body '{command.body}'")
-            elif not _frame_known(scene, command.frame_id):
+            elif not scene.has_frame(command.frame_id):
                 unfit.append(f"unknown frame '{command.frame_id}'")
         inputs.append(_Input(message.log_ns, message.topic, command, tuple(warnings), None))
     if unfit:

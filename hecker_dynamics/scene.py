@@ -186,6 +186,10 @@ class Scene:
     wrench_topics: tuple[WrenchTopic, ...]
     script: tuple[WrenchCommand, ...]
 
+    def has_frame(self, frame_id: str) -> bool:
+        """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
+        return frame_known(frame_id, self.frame_id, {b.name: b.points for b in self.bodies})
+
     def body_index(self, name: str) -> int:
         """Index of the body called ``name``; raises KeyError if there is none."""
         for i, body in enumerate(self.bodies):
@@ -505,10 +509,16 @@ def _read_collisions(root: ParameterReader,
     return tuple(groups)
 
 
+def frame_known(frame: str, fixed: str, points: Mapping[str, Mapping[str, Vec2]]) -> bool:
+    """True if ``frame`` is ``fixed``, a body of ``points`` (body -> named points), or
+    ``<body>/<point>`` of one of its named points."""
+    body, _, point = frame.partition("/")
+    return frame == fixed or (body in points and (not point or point in points[body]))
+
+
 def _check_frame(reader: ParameterReader, key: str, frame: str, fixed: str,
                  points: Mapping[str, Mapping[str, Vec2]]) -> None:
-    body, _, point = frame.partition("/")
-    if frame == fixed or (body in points and (not point or point in points[body])):
+    if frame_known(frame, fixed, points):
         return
     reader.fail(key, f"'{frame}' is not the fixed frame '{fixed}', a body, or a "
                      "declared '<body>/<point>'")

@@ -448,3 +448,24 @@ def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
     # and the CM really moved (the run did something), with forces evaluated without angles
     assert sim.v[0, 1] < 2.0 - 0.3 * 9.81 * 0.9
     assert oriented and not any(oriented)
+
+
+def test_rclpy_array_parameters_are_accepted():
+    """rclpy gives double arrays as array.array('d') when parameters come from a
+    ParameterValue message; they read as the same scene as lists."""
+    import array
+
+    as_lists = scene_from_parameters(
+        {"bodies.a.shape": "box", "bodies.a.size": [1.0, 2.0], "bodies.a.mass": 1.0,
+         "bodies.a.position": [0.5, 0.25]}, "lists")
+    as_arrays = scene_from_parameters(
+        {"bodies.a.shape": "box", "bodies.a.size": array.array("d", [1.0, 2.0]),
+         "bodies.a.mass": 1.0, "bodies.a.position": array.array("d", [0.5, 0.25])}, "lists")
+    assert as_arrays == as_lists
+
+
+@pytest.mark.parametrize("frame, known", [("world", True), ("left", True), ("left/hook", True),
+                                          ("left/nope", False), ("nobody", False),
+                                          ("nobody/hook", False), ("", False)])
+def test_scene_knows_its_frames(frame, known):
+    assert load_scene("sample").has_frame(frame) is known
