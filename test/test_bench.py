@@ -5,7 +5,6 @@ Peers (pymunk, Box2D, MuJoCo) and the C compiler are optional: their tests skip 
 from __future__ import annotations
 
 import csv
-import dataclasses
 import math
 
 import numpy as np

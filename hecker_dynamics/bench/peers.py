@@ -32,8 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..scene import (ConstantForceSpec, ConstantTorqueSpec, DragSpec, Gravity, Scene,
-                     SpringSpec)
+from ..scene import Gravity, Scene
 from .measure import Case, Outcome
 from .reference import PlainModel
 

@@ -126,7 +126,6 @@ def ring_table(ring: list[Row]) -> tuple[list[str], list[int], dict]:
 def targets(results) -> list[tuple[str, str, str]]:
     """(target, measured, verdict) lines for the four issue-6 targets."""
     lines = []
-    from .scenes import BENCH_SCENES
     head = headline(results.rows)
     worst = {}
     for entry in head:

@@ -132,6 +132,18 @@ def _divides(h: float, duration: float) -> bool:
     return abs(n - round(n)) < 1e-9 * n and round(n) >= 1
 
 
+def _dividing_step(target: float, duration: float) -> Optional[float]:
+    """The step nearest ``target`` (within -30 %/+40 %) that divides ``duration`` into a
+    whole number of whole-nanosecond steps, or None."""
+    total_ns = round(duration * 1e9)
+    ideal = duration / target
+    counts = [n for n in range(max(1, math.floor(ideal * 0.7)), math.ceil(ideal * 1.45) + 1)
+              if total_ns % n == 0]
+    if not counts:
+        return None
+    return total_ns // min(counts, key=lambda n: abs(n - ideal)) * 1e-9
+
+
 # ----------------------------------------------------------------------------- parts
 
 def bench_scenes(results: Results, mode: Mode, names: list[str], peers: list[str],
@@ -176,8 +188,8 @@ def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
         steps = [own * f for f in mode.shipped_steps]
         omega = Model(scene).stiffness()
         if omega > 0 and (name == "seesaw" or mode.name == "full"):  # out to omega*dt = 100
-            steps += [round(x / omega, 9) for x in (10.0, 30.0, 100.0)
-                      if round(x / omega, 9) > max(steps)]
+            stiff = [_dividing_step(x / omega, duration) for x in (10.0, 30.0, 100.0)]
+            steps += [h for h in stiff if h is not None and h > max(steps)]
         steps = [h for h in steps if _divides(h, duration)] or [own]
         cases = core_cases(name, scene, mode, duration, sorted(set(steps), reverse=True))
         results.rows += measure(cases, mode.budget, ref, None, log, omega=omega)
