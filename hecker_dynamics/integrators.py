@@ -190,10 +190,13 @@ class ImplicitTheta(Integrator):
     With v* = v0 + theta (v1 - v0) and q* = q0 + theta h v*, the step solves
     v* = v0 + theta h a(q*, v*), then sets v1 = v0 + (v* - v0) / theta and q1 = q0 + h v*.
     The Newton matrix I - theta h (theta h da/dq + da/dv) uses a Jacobian by forward
-    differences at the start of the step, refreshed if convergence is slow.
+    differences at the start of the step, refreshed if convergence is slow. Where Newton's
+    method fails (a step so long that the bodies turn far within it), the step is taken as
+    two halves, recursively, up to :attr:`MAX_HALVINGS` times.
     """
 
     MAX_ITERATIONS = 50
+    MAX_HALVINGS = 8
 
     def __init__(self, theta: float) -> None:
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
@@ -218,7 +221,19 @@ class ImplicitTheta(Integrator):
             columns.append(jac)
         return columns[0], columns[1]
 
-    def step(self, f, q, v, h):
+    def step(self, f, q, v, h, halvings: int = 0):
+        try:
+            return self._solve(f, q, v, h)
+        except IntegrationError:
+            if halvings >= self.MAX_HALVINGS:
+                raise
+        self.counters.substeps += 1
+        q, v = self.step(f, q, v, h / 2.0, halvings + 1)
+        return self.step(f, q, v, h / 2.0, halvings + 1)
+
+    def _solve(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+               h: float) -> tuple[np.ndarray, np.ndarray]:
+        """One step by Newton's method; raises :class:`IntegrationError` if it fails."""
         th = self.theta * h
         v_star = v.copy()
         matrix = None
@@ -233,11 +248,11 @@ class ImplicitTheta(Integrator):
             v_star = v_star + delta
             self.counters.newton_iterations += 1
             if not np.all(np.isfinite(v_star)):
-                raise IntegrationError(f"{self.name}: Newton's method diverged")
+                raise IntegrationError(f"{self.name}: Newton's method diverged at step {h:g} s")
             if np.max(np.abs(delta)) <= 1e-13 * (1.0 + np.max(np.abs(v_star))):
                 return q + h * v_star, v + (v_star - v) / self.theta
         raise IntegrationError(f"{self.name}: Newton's method did not converge in "
-                               f"{self.MAX_ITERATIONS} iterations")
+                               f"{self.MAX_ITERATIONS} iterations at step {h:g} s")
 
 
 METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "dopri5",
