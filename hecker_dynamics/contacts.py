@@ -99,6 +99,9 @@ class ContactPass:
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
         self.thickness = min((thickness[i] for i in colliding), default=math.inf)
+        self._lean = model.lean
+        self._colliding_index = np.array(colliding, dtype=int)
+        self._colliding_reach = np.array([reach[i] for i in colliding])
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
         self.bodies = np.array(sorted(touching), dtype=int)
         self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
@@ -155,28 +158,38 @@ class ContactPass:
                              else half_plane_polygon(normal, offset, part[1], MARGIN))
                     for point, n, depth in found:
                         contacts.append([-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)])
-        if self.pairs:
-            for b in self.colliding:
-                if b not in world:
-                    world[b] = self._world_parts(poses[b], b)
-            contacts.extend(self._body_contacts(world))
+        for a, b in self._candidate_pairs(poses) if self.pairs else ():
+            for body in (a, b):
+                if body not in world:
+                    world[body] = self._world_parts(poses[body], body)
+            contacts.extend(self._pair_contacts(a, b, world))
         return contacts
 
-    def _body_contacts(self, world: dict[int, list[tuple]]) -> list[list]:
-        boxes = sorted((self._bounds(part), b, p) for b in self.colliding
-                       for p, part in enumerate(world[b]))
-        contacts = []
-        for n, ((x0, x1, y0, y1), b1, p1) in enumerate(boxes):
-            for (u0, _, v0, v1), b2, p2 in boxes[n + 1:]:
+    def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int]]:
+        """Colliding pairs whose bounding boxes (CM +- reach) overlap: sort and sweep on x."""
+        boxes = sorted((x - self.reach[b], b, x + self.reach[b], y - self.reach[b],
+                        y + self.reach[b]) for b in self.colliding for x, y, _ in (poses[b],))
+        pairs = []
+        for n, (_, b1, x1, y0, y1) in enumerate(boxes):
+            for u0, b2, _, v0, v1 in boxes[n + 1:]:
                 if u0 > x1 + MARGIN:
                     break
-                if b1 == b2 or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
+                pair = (b1, b2) if b1 < b2 else (b2, b1)
+                if v0 <= y1 + MARGIN and v1 >= y0 - MARGIN and pair in self.pairs:
+                    pairs.append(pair)
+        return pairs
+
+    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[list]:
+        """Contacts between the parts of bodies a < b whose bounds overlap."""
+        material = self.pairs[(a, b)]
+        contacts = []
+        for pa, part_a in enumerate(world[a]):
+            x0, x1, y0, y1 = self._bounds(part_a)
+            for pb, part_b in enumerate(world[b]):
+                u0, u1, v0, v1 = self._bounds(part_b)
+                if u0 > x1 + MARGIN or u1 < x0 - MARGIN or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
                     continue
-                a, pa, b, pb = (b1, p1, b2, p2) if b1 < b2 else (b2, p2, b1, p1)
-                material = self.pairs.get((a, b))
-                if material is None:
-                    continue
-                for point, normal, depth in _collide(world[a][pa], world[b][pb]):
+                for point, normal, depth in _collide(part_a, part_b):
                     contacts.append([a, b, point, normal, depth, *material, (a, b, pa, pb)])
         return contacts
 
@@ -185,10 +198,16 @@ class ContactPass:
         colliding part (1 when the step is short enough)."""
         if not self.colliding:
             return 1
-        index = self.colliding
-        travel = np.hypot(*(q1[index, :2] - q0[index, :2]).T) + \
-            np.abs(q1[index, 2] - q0[index, 2]) * np.array([self.reach[i] for i in index])
-        farthest = float(travel.max())
+        if self._lean:  # a few bodies: plain floats beat numpy's cost per call
+            before, after = q0.tolist(), q1.tolist()
+            farthest = max(math.hypot(after[i][0] - before[i][0], after[i][1] - before[i][1])
+                           + abs(after[i][2] - before[i][2]) * self.reach[i]
+                           for i in self.colliding)
+        else:
+            index = self._colliding_index
+            moved = q1[index] - q0[index]
+            farthest = float((np.hypot(moved[:, 0], moved[:, 1])
+                              + np.abs(moved[:, 2]) * self._colliding_reach).max())
         if not math.isfinite(farthest):
             return 1  # a blown-up state: the simulation's divergence check reports it
         return min(max(math.ceil(farthest / (0.5 * self.thickness)), 1), MAX_SUBSTEPS)

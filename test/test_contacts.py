@@ -547,9 +547,10 @@ def test_car_flip_lands_on_its_roof():
 def test_scene_without_collision_groups_never_runs_the_body_pair_code(monkeypatch):
     """The sample scene has walls and no collision groups: its contact pass runs (walls)
     but never the body-pair code."""
-    def forbidden(self, world):
+    def forbidden(*args):
         raise AssertionError("body-pair contacts computed in a scene without collisions")
-    monkeypatch.setattr(ContactPass, "_body_contacts", forbidden)
+    monkeypatch.setattr(ContactPass, "_candidate_pairs", forbidden)
+    monkeypatch.setattr(ContactPass, "_pair_contacts", forbidden)
     calls = []
     original = ContactPass.detect
     monkeypatch.setattr(ContactPass, "detect",
