@@ -27,7 +27,7 @@ from . import peers as peer_mod
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_run, compiler_version, load_c_loop
-from .scenes import BENCH_SCENES, bench_scene, configure, ring
+from .scenes import BENCH_SCENES, bench_scene, configure, declared_variants, ring
 
 
 @dataclass
@@ -75,6 +75,7 @@ class Results:
     checks: list = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
+    declared: dict[str, float] = field(default_factory=dict)  # variant -> s per step
     profiles: dict[str, str] = field(default_factory=dict)
     lean: dict[str, tuple[float, float]] = field(default_factory=dict)
     cross_check: dict[str, float] = field(default_factory=dict)
@@ -252,6 +253,20 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
                                                    for k, v in results.sample.items()))
 
 
+def declared_part(results: Results, mode: Mode, log) -> None:
+    """Cost per step of one scene with and without a (never used) contact pass declared."""
+    variants = declared_variants()
+    runs: dict[str, list[float]] = {k: [] for k in variants}
+    for r in range(mode.budget.repeats):
+        for key in (list(variants) if r % 2 == 0 else list(variants)[::-1]):
+            scene = configure(variants[key], "semi_implicit_euler", 0.001)
+            outcome = core_run(scene, 1.0)
+            runs[key].append(outcome.wall / outcome.steps)
+    results.declared = {k: float(np.median(v)) for k, v in runs.items()}
+    log("declared contact passes, s per step: " + ", ".join(
+        f"{k} {v * 1e6:.1f} us" for k, v in results.declared.items()))
+
+
 def peer_checks(results: Results, peers: list[str]) -> None:
     for peer in peers:
         for method in peer_mod.PEER_METHODS[peer]:
@@ -307,8 +322,8 @@ def _trim_profile(text: str) -> str:
 def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
-              parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "checks",
-                                        "profiles")) -> Results:
+              parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
+                                        "checks", "profiles")) -> Results:
     from ..scene import shipped_scenes
     from .report import write_report
 
@@ -332,6 +347,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         shipped(results, mode, [s for s in chosen if s not in BENCH_SCENES], log)
     if "sample" in parts:
         sample_step(results, mode, peer_names, log)
+    if "declared" in parts:
+        declared_part(results, mode, log)
     if "ring" in parts:
         ring_part(results, mode, peer_names, log)
     if "profiles" in parts:

@@ -28,6 +28,7 @@ import dataclasses
 import math
 from typing import Any
 
+from ..parameters import flatten
 from ..scene import Scene, load_scene, scene_from_parameters, shipped_scenes
 
 #: The benchmark scenes with closed-form or reference solutions, in issue order.
@@ -41,18 +42,6 @@ FREE_SPIN_FORCE = (3.0, -98.1)
 FREE_SPIN_TORQUE = 2.0
 RING_SIZE = (0.2, 0.1)
 RING_SPRING = {"stiffness": 100.0, "rest_length": 0.1, "damping": 0.5}
-
-
-def flatten(nested: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested parameters to the flat dotted names a ROS 2 node holds."""
-    flat: dict[str, Any] = {}
-    for key, value in nested.items():
-        name = f"{prefix}.{key}" if prefix else str(key)
-        if isinstance(value, dict):
-            flat.update(flatten(value, name))
-        else:
-            flat[name] = value
-    return flat
 
 
 def _scene(name: str, duration: float, params: dict[str, Any]) -> Scene:
@@ -186,3 +175,25 @@ def configure(scene: Scene, integrator: str, step: float, tolerance: float = 1e-
     if duration is not None:
         changes["duration_ns"] = round(duration * 1e9)
     return dataclasses.replace(scene, **changes)
+
+
+def declared_variants() -> dict[str, Scene]:
+    """One scene four ways, to show that the contact pass costs only where it is declared:
+    a mass on a spring and a free ball 50 m away, with nothing more, with a wall neither
+    ever reaches, and with the two in a collision group (they never touch)."""
+    base = {
+        "bodies": {"mass": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                            "position": [1.0, 0.0]},
+                   "ball": {"shape": "circle", "radius": 0.5, "mass": 1.0,
+                            "position": [50.0, 0.0], "velocity": [0.1, 0.0]}},
+        "forces": {"spring": {"type": "spring", "body_a": "mass", "anchor": [0.0, 0.0],
+                              "stiffness": 100.0}},
+    }
+    wall = {"walls": {"floor": {"point": [0.0, -100.0], "normal": [0.0, 1.0]}}}
+    group = {"collisions": {"all": {"bodies": ["mass", "ball"]}}}
+    return {
+        "nothing declared": _scene("declared", 1.0, base),
+        "a wall (never reached)": _scene("declared", 1.0, {**base, **wall}),
+        "a collision group (never touching)": _scene("declared", 1.0, {**base, **group}),
+        "both": _scene("declared", 1.0, {**base, **wall, **group}),
+    }
