@@ -112,18 +112,19 @@ class RungeKutta4(Integrator):
                 v + (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v))
 
 
-# Dormand-Prince 5(4) tableau (Dormand & Prince 1980).
-_DP_A = (
-    (),
-    (1 / 5,),
-    (3 / 40, 9 / 40),
-    (44 / 45, -56 / 15, 32 / 9),
-    (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
-    (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656),
-    (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84),
-)
-_DP_B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0)
-_DP_E = (71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40)
+# Dormand-Prince 5(4) tableau (Dormand & Prince 1980): stage coefficients (row s uses the
+# first s stages), the fifth-order weights and the difference to the fourth-order ones.
+_DP_A = np.array([
+    [0, 0, 0, 0, 0, 0],
+    [1 / 5, 0, 0, 0, 0, 0],
+    [3 / 40, 9 / 40, 0, 0, 0, 0],
+    [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
+    [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
+])
+_DP_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0])
+_DP_E = np.array([71 / 57600, 0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 
 
 class DormandPrince(Integrator):
@@ -150,22 +151,24 @@ class DormandPrince(Integrator):
         n = q.size
         shape = q.shape
 
-        def rhs(state: np.ndarray) -> np.ndarray:
-            a = self._f(f, state[:n].reshape(shape), state[n:].reshape(shape))
-            return np.concatenate([state[n:], a.ravel()])
+        stages = np.empty((7, y.size))  # the slopes k_1..k_7, one row each
 
-        k_first = rhs(y)
+        def rhs(state: np.ndarray, out: np.ndarray) -> None:
+            """Write (q', v') = (v, a(q, v)) of the flat state into ``out``."""
+            out[:n] = state[n:]
+            out[n:] = self._f(f, state[:n].reshape(shape), state[n:].reshape(shape)).ravel()
+
+        rhs(y, stages[0])
         size = min(self._size, h)
         done = 0.0
         for _ in range(self.MAX_SUBSTEPS):
             remaining = h - done
             last = size >= remaining * (1.0 - 1e-12)
             trial = remaining if last else size
-            k = [k_first]
-            for a_row in _DP_A[1:]:
-                k.append(rhs(y + trial * sum(a * kj for a, kj in zip(a_row, k) if a)))
-            y_new = y + trial * sum(b * kj for b, kj in zip(_DP_B, k) if b)
-            error = trial * sum(e * kj for e, kj in zip(_DP_E, k) if e)
+            for s in range(1, 7):
+                rhs(y + trial * (_DP_A[s, :s] @ stages[:s]), stages[s])
+            y_new = y + trial * (_DP_B @ stages)
+            error = trial * (_DP_E @ stages)
             scale = self.tolerance * (1.0 + np.maximum(np.abs(y), np.abs(y_new)))
             norm = float(np.sqrt(np.mean((error / scale) ** 2)))
             if not math.isfinite(norm):
@@ -173,7 +176,8 @@ class DormandPrince(Integrator):
             factor = 5.0 if norm == 0.0 else min(5.0, max(0.2, 0.9 * norm ** -0.2))
             if norm <= 1.0:
                 self.counters.substeps += 1
-                y, k_first, done = y_new, k[-1], done + trial
+                y, done = y_new, done + trial
+                stages[0] = stages[6]  # first same as last: k_7 is the next k_1
                 if last:
                     # A sub-step shortened to land on the end says little about the next size.
                     self._size = trial * factor if trial >= size else size
