@@ -137,29 +137,35 @@ def is_convex(vertices: np.ndarray) -> bool:
 def area_properties(shape: Shape) -> AreaProperties:
     """Integrate area, centroid and second moment of area of a shape.
 
-    For a polygon the integrals are sums over the signed triangles (origin, v_i, v_i+1):
-    each has signed area cross_i / 2, centroid (v_i + v_i+1) / 3 and polar second moment
-    about the origin cross_i (v_i.v_i + v_i.v_i+1 + v_i+1.v_i+1) / 12. Dividing by the sign
-    of the total makes the result independent of the winding.
+    For a polygon the integrals are sums over the signed triangles (o, v_i, v_i+1) fanned
+    from a point o: each has signed area cross_i / 2, centroid (v_i + v_i+1) / 3 and polar
+    second moment about o cross_i (v_i.v_i + v_i.v_i+1 + v_i+1.v_i+1) / 12, with the v_i
+    taken relative to o. Fanning from the mean vertex, not the frame origin, keeps the
+    parallel-axis step back to the centroid free of cancellation for a small shape far from
+    its frame's origin. Dividing by the sign of the total makes the result independent of
+    the winding.
     """
     if isinstance(shape, Circle):
         area = math.pi * shape.radius ** 2
         return AreaProperties(area, np.array(shape.center), area * shape.radius ** 2 / 2.0)
-    v = shape.vertices
-    if not is_simple(v):
+    if not is_simple(shape.vertices):
         raise GeometryError("the polygon's edges cross each other (it is not simple)")
+    fan = shape.vertices.mean(axis=0)
+    v = shape.vertices - fan
     w = np.roll(v, -1, axis=0)
     cross = perp_dot(v, w)
     signed_area = cross.sum() / 2.0
     scale = float(np.max(np.ptp(v, axis=0)))
+    if not math.isfinite(signed_area) or not scale < 1e150:
+        raise GeometryError("the polygon is too large to integrate in double precision")
     if not abs(signed_area) > 1e-12 * scale * scale:
         raise GeometryError("the polygon has zero area")
     centroid = (cross[:, None] * (v + w)).sum(axis=0) / (6.0 * signed_area)
     dots = (v * v).sum(axis=1) + (v * w).sum(axis=1) + (w * w).sum(axis=1)
-    second_moment_origin = (cross * dots).sum() / 12.0 / math.copysign(1.0, signed_area)
+    second_moment_fan = (cross * dots).sum() / 12.0 / math.copysign(1.0, signed_area)
     area = abs(signed_area)
-    second_moment = second_moment_origin - area * float(centroid @ centroid)
-    return AreaProperties(area, centroid, second_moment)
+    second_moment = second_moment_fan - area * float(centroid @ centroid)
+    return AreaProperties(area, centroid + fan, second_moment)
 
 
 def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[float]) -> MassProperties:
@@ -178,4 +184,7 @@ def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[flo
     center = sum(m * p.centroid for m, p in zip(masses, parts)) / total
     inertia = sum(rho * p.second_moment + m * float((p.centroid - center) @ (p.centroid - center))
                   for m, rho, p in zip(masses, densities, parts))
+    if not (math.isfinite(total) and math.isfinite(inertia) and inertia > 0.0):
+        raise GeometryError(f"the mass ({total}) or moment of inertia ({inertia}) is not a "
+                            "positive finite number")
     return MassProperties(total, (float(center[0]), float(center[1])), float(inertia))

@@ -244,3 +244,16 @@ def test_geometry_refuses_bad_shapes_directly():
         props([Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])], [1.0])  # bow-tie
     with pytest.raises(GeometryError):
         props([], [])
+
+
+@pytest.mark.parametrize("offset", [1e2, 1e3, 1e4])
+def test_small_polygon_far_from_its_frame_origin_keeps_its_inertia(offset):
+    """A 1 cm box centred 100 m to 10 km from its frame's origin: integrating about the
+    frame origin and moving back to the centroid would cancel every digit (the old code gave
+    a negative inertia at 100 m). Fanned from the mean vertex, the only error left is the
+    rounding of the vertices themselves: ulp(offset) / 0.01 relative, at most 2e-10 here."""
+    size = 0.01
+    props = mass_properties([box(size, size, (offset, offset))], [1.0])
+    exact = size ** 2 * (2.0 * size ** 2) / 12.0
+    assert props.moment_of_inertia == pytest.approx(exact, rel=1e-8)
+    assert props.center_of_mass == pytest.approx((offset, offset), abs=1e-9)
