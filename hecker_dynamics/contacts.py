@@ -74,7 +74,10 @@ class ContactPass:
                 for j in members[n + 1:]:
                     self.pairs[(i, j)] = (group.restitution, group.friction)
         # Per body, its parts relative to the CM in body axes, as plain floats:
-        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals).
+        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals). Walls need
+        # only the vertices, so a body no collision group names may be concave; the scene
+        # loader has checked that colliding bodies are convex.
+        colliding = sorted({i for pair in self.pairs for i in pair})
         self.parts: list[list[tuple]] = []
         reach, thickness = [], []
         for i, body in enumerate(scene.bodies):
@@ -85,16 +88,19 @@ class ContactPass:
                     parts.append(("circle", tuple(centre.tolist()), shape.radius))
                     extents.append(float(np.hypot(*centre)) + shape.radius)
                     widths.append(2.0 * shape.radius)
-                else:
-                    poly = ConvexPolygon.from_vertices(shape.vertices - model.cm_local[i])
+                    continue
+                local = shape.vertices - model.cm_local[i]
+                extents.append(float(np.max(np.hypot(local[:, 0], local[:, 1]))))
+                if i in colliding:
+                    poly = ConvexPolygon.from_vertices(local)
                     parts.append(("polygon", [tuple(p) for p in poly.vertices.tolist()],
                                   [tuple(n) for n in poly.normals.tolist()]))
-                    extents.append(float(np.max(np.hypot(*poly.vertices.T))))
                     widths.append(2.0 * poly.inradius)
+                else:
+                    parts.append(("polygon", [tuple(p) for p in local.tolist()], []))
             self.parts.append(parts)
             reach.append(max(extents))
-            thickness.append(min(widths))
-        colliding = sorted({i for pair in self.pairs for i in pair})
+            thickness.append(min(widths, default=math.inf))
         self.colliding = colliding
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
