@@ -172,7 +172,7 @@ class DormandPrince(Integrator):
             scale = self.tolerance * (1.0 + np.maximum(np.abs(y), np.abs(y_new)))
             norm = float(np.sqrt(np.mean((error / scale) ** 2)))
             if not math.isfinite(norm):
-                raise IntegrationError("dopri5: the error estimate is not finite")
+                norm = math.inf  # an overshooting trial: reject it and shrink the sub-step
             factor = 5.0 if norm == 0.0 else min(5.0, max(0.2, 0.9 * norm ** -0.2))
             if norm <= 1.0:
                 self.counters.substeps += 1
@@ -241,6 +241,10 @@ class ImplicitTheta(Integrator):
         th = self.theta * h
         v_star = v.copy()
         matrix = None
+        # Rounding of the positions q + theta h v* (about eps |q|) moves v* by up to about
+        # eps |q| / (theta h) through a stiff force: no update can be trusted below that.
+        floor = 16.0 * np.finfo(float).eps * (float(np.max(np.abs(q))) / th
+                                               + float(np.max(np.abs(v))))
         for iteration in range(self.MAX_ITERATIONS):
             q_star = q + th * v_star
             a = self._f(f, q_star, v_star)
@@ -253,7 +257,7 @@ class ImplicitTheta(Integrator):
             self.counters.newton_iterations += 1
             if not np.all(np.isfinite(v_star)):
                 raise IntegrationError(f"{self.name}: Newton's method diverged at step {h:g} s")
-            if np.max(np.abs(delta)) <= 1e-13 * (1.0 + np.max(np.abs(v_star))):
+            if np.max(np.abs(delta)) <= 1e-13 * (1.0 + np.max(np.abs(v_star))) + floor:
                 return q + h * v_star, v + (v_star - v) / self.theta
         raise IntegrationError(f"{self.name}: Newton's method did not converge in "
                                f"{self.MAX_ITERATIONS} iterations at step {h:g} s")
@@ -263,6 +267,8 @@ METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "d
            "implicit_midpoint", "backward_euler")
 #: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
 AUTO_STIFF_LIMIT = 0.5
+#: Most bodies for which ``auto`` picks an implicit method.
+AUTO_IMPLICIT_BODIES = 64
 
 
 def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
@@ -281,7 +287,10 @@ def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
     return factories[name]()
 
 
-def choose_method(stiffness: float, step: float) -> str:
+def choose_method(stiffness: float, step: float, bodies: int) -> str:
     """The method ``auto`` picks: implicit midpoint when the forces are stiff for the step
-    (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`), else adaptive Dormand-Prince."""
-    return "implicit_midpoint" if stiffness * step > AUTO_STIFF_LIMIT else "dopri5"
+    (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`) and there are at most
+    :data:`AUTO_IMPLICIT_BODIES` bodies (its Newton matrix is dense, (3N)^2), else adaptive
+    Dormand-Prince, which stays stable on stiff forces by taking short sub-steps."""
+    stiff = stiffness * step > AUTO_STIFF_LIMIT
+    return "implicit_midpoint" if stiff and bodies <= AUTO_IMPLICIT_BODIES else "dopri5"

@@ -86,7 +86,7 @@ class Simulation:
         self.step_seconds = scene.step_ns * 1e-9
         method = scene.integrator
         if method == "auto":
-            method = choose_method(self.model.stiffness(), self.step_seconds)
+            method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size)
         self.integrator = make_integrator(method, scene.tolerance)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
@@ -193,17 +193,16 @@ class Simulation:
     def _settle(self, q: np.ndarray, v: np.ndarray) -> bool:
         """Wrap the angles of a new state into [-pi, pi) in place; False if it is not finite.
 
-        A sum is not finite if any term is not (inf - inf is NaN). A few bodies are checked
-        in plain floats, where numpy's cost per call would dominate.
+        A few bodies are checked in plain floats, where numpy's cost per call would
+        dominate.
         """
         if self.model.lean:
             rows = q.tolist()
-            total = sum(x for row in rows for x in row) + sum(x for row in v.tolist() for x in row)
-            if not math.isfinite(total):
+            if not all(map(math.isfinite, (x for row in rows + v.tolist() for x in row))):
                 return False
             if all(-math.pi <= row[2] < math.pi for row in rows):
                 return True
-        elif not (math.isfinite(q.sum()) and math.isfinite(v.sum())):
+        elif not (np.isfinite(q).all() and np.isfinite(v).all()):
             return False
         q[:, 2] = wrap_angle(q[:, 2])
         return True

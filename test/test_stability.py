@@ -415,3 +415,27 @@ def test_seesaw_pinned_by_a_stiff_spring_stays_stable_with_implicit_methods(meth
     assert np.isfinite(sim.q).all() and np.isfinite(sim.v).all()
     if omega_h == 100.0:
         assert sim.integrator.counters.substeps > 0
+
+
+@pytest.mark.parametrize("x0, stiffness, step", [(1e4, 1e6, 0.001), (1e5, 1e8, 0.01)])
+def test_implicit_midpoint_converges_far_from_the_origin(x0, stiffness, step):
+    """A stiff off-centre spring whose anchor is 10 km or 100 km from the origin: position
+    rounding (eps |q|) times the stiffness puts a floor under Newton's updates, which a
+    purely relative test would never reach (it used to halve the step to failure). The run
+    must need no halving, and the spring must hold its point: implicit midpoint conserves
+    the energy, so the stretch stays within sqrt(2 E0 / k) (E0 the starting kinetic energy,
+    4.67 J) plus the sag under gravity 2 m g / k; 10 % margin."""
+    sim = Simulation(make_scene({
+        "step": step, "integrator": "implicit_midpoint",
+        "bodies": {"a": {"shape": "box", "size": [1.0, 0.2], "mass": 1.0, "position": [x0, 0.0],
+                         "velocity": [3.0, 0.0], "angular_velocity": 2.0}},
+        "forces": {"s": {"type": "spring", "body_a": "a", "point_a": [0.5, 0.0],
+                         "anchor": [x0 + 0.5, 0.0], "stiffness": stiffness, "damping": 10.0},
+                   "g": {"type": "gravity"}}}))
+    sim.advance_to(200_000_000)
+    assert sim.integrator.counters.substeps == 0
+    c, s = math.cos(sim.q[0, 2]), math.sin(sim.q[0, 2])
+    tip = sim.q[0, :2] + [0.5 * c, 0.5 * s]
+    e0 = 0.5 * 3.0 ** 2 + 0.5 * sim.model.inertia[0] * 2.0 ** 2
+    bound = 1.1 * math.sqrt(2.0 * e0 / stiffness) + 2.0 * 9.81 / stiffness
+    assert np.hypot(tip[0] - x0 - 0.5, tip[1]) < bound
