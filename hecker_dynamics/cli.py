@@ -26,15 +26,15 @@ from .simulation import DivergenceError, Simulation
 
 def _seconds(text: str) -> float:
     value = float(text)
-    if not value >= 0.0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
+    if not 0.0 <= value <= 1e9:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds from 0 to 1e9, not {text}")
     return value
 
 
 def _positive(text: str) -> float:
     value = float(text)
-    if not value > 0.0:
-        raise argparse.ArgumentTypeError(f"must be positive, not {text}")
+    if not 0.0 < value <= 1e9:
+        raise argparse.ArgumentTypeError(f"must be positive and at most 1e9, not {text}")
     return value
 
 

@@ -14,7 +14,7 @@ import re
 from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
-NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")  # used with fullmatch
 
 
 class SceneError(ValueError):
@@ -59,6 +59,10 @@ class ParameterReader:
     """Reads the parameters under one prefix of a nested mapping, checking each value."""
 
     def __init__(self, values: Mapping[str, Any], source: str, prefix: str = "") -> None:
+        for key in values:
+            if not isinstance(key, str):
+                raise SceneError(f"{source}: parameter '{prefix}{'.' if prefix else ''}{key}': "
+                                 "names must be strings")
         self._values = values
         self._source = source
         self._prefix = prefix
@@ -93,19 +97,29 @@ class ParameterReader:
         return self._values[key]
 
     def number(self, key: str, default: Any = None, *, minimum: float | None = None,
-               positive: bool = False) -> float:
-        """A finite double (an integer is accepted), optionally bounded below."""
+               maximum: float | None = None, positive: bool = False) -> float:
+        """A finite double (an integer is accepted), optionally bounded."""
         value = self._get(key, default)
         if not _is_number(value):
             self.fail(key, f"must be a number, not {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            self.fail(key, f"must be finite, not {value}")
+        value = self._finite(key, value)
         if positive and value <= 0.0:
             self.fail(key, f"must be positive, not {value}")
         if minimum is not None and value < minimum:
             self.fail(key, f"must be at least {minimum}, not {value}")
+        if maximum is not None and value > maximum:
+            self.fail(key, f"must be at most {maximum}, not {value}")
         return value
+
+    def _finite(self, key: str, value: Any) -> float:
+        """``value`` as a finite float (a huge integer does not fit one)."""
+        try:
+            result = float(value)
+        except OverflowError:
+            self.fail(key, f"{value} is too large for a double")
+        if not math.isfinite(result):
+            self.fail(key, f"must be finite, not {result}")
+        return result
 
     def numbers(self, key: str, default: Any = None, *, length: int | None = None,
                 multiple_of: int = 1) -> tuple[float, ...]:
@@ -124,9 +138,7 @@ class ParameterReader:
         if len({type(x) for x in value}) > 1:
             self.fail(key, "mixes integers and doubles; ROS 2 parameter arrays must be "
                            "homogeneous (write every number with a decimal point)")
-        result = tuple(float(x) for x in value)
-        if not all(math.isfinite(x) for x in result):
-            self.fail(key, f"must hold finite numbers, not {list(value)}")
+        result = tuple(self._finite(key, x) for x in value)
         if length is not None and len(result) != length:
             self.fail(key, f"must have {length} numbers, not {len(result)}")
         if len(result) % multiple_of:
@@ -149,7 +161,7 @@ class ParameterReader:
     def name(self, key: str, default: Any = None) -> str:
         """A string usable as a ROS name segment (letters, digits, underscores)."""
         value = self.string(key, default)
-        if not NAME_PATTERN.match(value):
+        if not NAME_PATTERN.fullmatch(value):
             self.fail(key, f"'{value}' is not a valid name (letters, digits and underscores, "
                            "starting with a letter)")
         return value
@@ -183,7 +195,7 @@ class ParameterReader:
         """(name, reader) for each entry under ``key``, sorted by name for determinism."""
         group = self.child(key)
         for name in group.keys():
-            if not NAME_PATTERN.match(name):
+            if not NAME_PATTERN.fullmatch(name):
                 group.fail(name, "is not a valid name (letters, digits and underscores, "
                                  "starting with a letter)")
             yield name, group.child(name)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +21,7 @@ import yaml
 from .commands import WrenchCommand
 from .geometry import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
                        mass_properties)
-from .parameters import REQUIRED, ParameterReader, SceneError, unflatten
+from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
 
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
@@ -38,6 +39,8 @@ NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
                              "max_catch_up_steps", "start_type_description_service",
                              "qos_overrides"})
 Vec2 = tuple[float, float]
+#: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
+TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
 
 
 @dataclass(frozen=True)
@@ -190,13 +193,6 @@ class Scene:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
         return frame_known(frame_id, self.frame_id, {b.name: b.points for b in self.bodies})
 
-    def body_index(self, name: str) -> int:
-        """Index of the body called ``name``; raises KeyError if there is none."""
-        for i, body in enumerate(self.bodies):
-            if body.name == name:
-                return i
-        raise KeyError(name)
-
 
 # ----------------------------------------------------------------------------- files
 
@@ -224,7 +220,7 @@ def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists() or os.sep in str(name_or_path):
+    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
         if not path.is_file():
             raise SceneError(f"{path}: no such scene file")
         return path
@@ -268,7 +264,7 @@ def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
 
 def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
                    positive: bool = False) -> int:
-    seconds = reader.number(key, default, minimum=0.0, positive=positive)
+    seconds = reader.number(key, default, minimum=0.0, maximum=1e9, positive=positive)
     ns = round(seconds * 1e9)
     if positive and ns < 1:
         reader.fail(key, f"must be at least one nanosecond, not {seconds}")
@@ -282,8 +278,8 @@ def _read_scene(root: ParameterReader) -> Scene:
     step_ns = _seconds_to_ns(root, "step", 0.001, positive=True)
     rate = root.number("publish_rate", 50.0, positive=True)
     steps_per_publish = 1e9 / rate / step_ns
-    if abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish \
-            or round(steps_per_publish) < 1:
+    if not 0.5 <= steps_per_publish < 1e12 or \
+            abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish:
         root.fail("publish_rate", f"{rate} Hz is not a whole number of physics steps "
                                   f"of {step_ns * 1e-9} s")
     bodies = tuple(_read_body(name, r) for name, r in root.named_children("bodies"))
@@ -328,20 +324,22 @@ def _read_scene(root: ParameterReader) -> Scene:
 
 
 def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
-    """A shape in the body frame. Only a part of a compound body may be turned (``angle``):
-    a single-shape body's ``angle`` is the body's own."""
+    """A shape in the body frame. A box or polygon part of a compound body may be turned
+    about its ``center`` (``angle``); a single-shape body's ``angle`` is the body's own."""
     kind = reader.string("shape", REQUIRED, choices=("box", "circle", "polygon"))
     center = reader.vector("center", [0.0, 0.0])
-    if kind == "box":
-        width, height = reader.numbers("size", REQUIRED, length=2)
-        return box(width, height, center, reader.number("angle", 0.0) if part else 0.0)
     if kind == "circle":
         return Circle(center, reader.number("radius", REQUIRED, positive=True))
+    turn = reader.number("angle", 0.0) if part else 0.0
+    if kind == "box":
+        width, height = reader.numbers("size", REQUIRED, length=2)
+        return box(width, height, center, turn)
     flat = reader.numbers("vertices", REQUIRED, multiple_of=2)
     if len(flat) < 6:
         reader.fail("vertices", "a polygon needs at least 3 vertices (6 numbers)")
-    vertices = [(flat[i] + center[0], flat[i + 1] + center[1]) for i in range(0, len(flat), 2)]
-    return Polygon(vertices)
+    c, s = math.cos(turn), math.sin(turn)
+    return Polygon([(center[0] + c * x - s * y, center[1] + s * x + c * y)
+                    for x, y in zip(flat[0::2], flat[1::2])])
 
 
 def _read_body(name: str, reader: ParameterReader) -> BodySpec:
@@ -388,6 +386,10 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
 
 def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
     group = reader.child("points")
+    for pname in group.keys():
+        if not NAME_PATTERN.fullmatch(pname):
+            group.fail(pname, "is not a valid point name (letters, digits and underscores, "
+                              "starting with a letter)")
     return [(pname, group.vector(pname)) for pname in group.keys()]
 
 
@@ -475,7 +477,7 @@ def _read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec
         reader.fail("normal", "must not be the zero vector")
     known = {b: None for b in sorted(bodies)}
     return WallSpec(name, reader.vector("point", REQUIRED), (nx / length, ny / length),
-                    restitution=reader.number("restitution", 0.5, minimum=0.0),
+                    restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
                     friction=reader.number("friction", 0.0, minimum=0.0),
                     bodies=_body_list(reader, "bodies", known))
 
@@ -504,7 +506,7 @@ def _read_collisions(root: ParameterReader,
                                      f"collides must be convex (collision group '{name}'); "
                                      "make it a compound body of convex parts")
         groups.append(CollisionGroup(name, members,
-                                     reader.number("restitution", 0.2, minimum=0.0),
+                                     reader.number("restitution", 0.2, minimum=0.0, maximum=1.0),
                                      reader.number("friction", 0.5, minimum=0.0)))
     return tuple(groups)
 
@@ -530,8 +532,8 @@ def _read_wrench_topic(name: str, reader: ParameterReader, fixed: str,
     frame = reader.string("frame_id", body)
     _check_frame(reader, "frame_id", frame, fixed, points)
     topic = reader.string("topic", name)
-    if not topic:
-        reader.fail("topic", "must not be empty")
+    if not TOPIC_PATTERN.fullmatch(topic) or "//" in topic or topic.endswith("/"):
+        reader.fail("topic", f"'{topic}' is not a valid ROS topic name")
     return WrenchTopic(name, topic, body, frame)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -469,3 +470,54 @@ def test_rclpy_array_parameters_are_accepted():
                                           ("nobody/hook", False), ("", False)])
 def test_scene_knows_its_frames(frame, known):
     assert load_scene("sample").has_frame(frame) is known
+
+
+ONE_BOX = {"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}
+
+
+@pytest.mark.parametrize("change, parameter", [
+    ({"step": 10 ** 400}, "step"),
+    ({"step": 1e300}, "step"),
+    ({"duration": 1e300}, "duration"),
+    ({"publish_rate": 1e-300}, "publish_rate"),
+    ({"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 10 ** 400}}}, "bodies.b.mass"),
+    ({"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                       "position": [10 ** 400, 0]}}}, "bodies.b.position"),
+    ({"walls": {"w": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": 1.5}}},
+     "walls.w.restitution"),
+    ({"bodies": {"b\n": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}, "bodies"),
+    ({"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                       "points": {"tip\n": [0.5, 0.0]}}}}, "bodies.b.points"),
+    ({"wrench_topics": {"jet": {"body": "b", "topic": "b//jet"}}}, "wrench_topics.jet.topic"),
+    ({"wrench_topics": {"jet": {"body": "b", "topic": "b/jet/"}}}, "wrench_topics.jet.topic"),
+])
+def test_out_of_range_values_and_names_are_errors_not_crashes(tmp_path, change, parameter):
+    """Numbers too large for a double or for the nanosecond clock, a restitution above 1
+    (it would add energy at every bounce), names a ROS topic cannot carry: each gives a
+    SceneError naming the parameter, never an OverflowError or a later rclpy failure."""
+    params = {**ONE_BOX, **change}
+    with pytest.raises(SceneError, match=re.escape(parameter)):
+        load_scene(write_scene(tmp_path, params))
+
+
+def test_parameter_names_must_be_strings(tmp_path):
+    path = tmp_path / "keys.yaml"
+    path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n      1: {shape: box}\n")
+    with pytest.raises(SceneError, match="names must be strings"):
+        load_scene(path)
+
+
+def test_a_directory_named_like_a_shipped_scene_does_not_hide_it(tmp_path, monkeypatch):
+    """`hecker-dynamics script ship -o ship` makes a bag directory called ship; the name
+    must still mean the shipped scene."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ship").mkdir()
+    assert load_scene("ship").source.endswith("ship.yaml")
+
+
+def test_polygon_parts_turn_about_their_center():
+    scene = make_scene({"bodies": {"b": {"density": 1.0, "parts": {
+        "p": {"shape": "polygon", "vertices": [0.0, 0.0, 2.0, 0.0, 0.0, 1.0],
+              "center": [1.0, 1.0], "angle": math.pi / 2}}}}})
+    vertices = scene.bodies[0].shapes[0].vertices
+    np.testing.assert_allclose(vertices, [[1.0, 1.0], [1.0, 3.0], [0.0, 1.0]], atol=1e-15)
