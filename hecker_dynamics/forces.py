@@ -153,8 +153,9 @@ def spring_force(dx: np.ndarray, dy: np.ndarray, dvx: np.ndarray, dvy: np.ndarra
     if zero_rest.all():
         return -stiffness * dx - damping * dvx, -stiffness * dy - damping * dvy
     length = np.hypot(dx, dy)
-    inverse = np.divide(1.0, length, out=np.zeros_like(length), where=length > 0.0)
-    ux, uy = dx * inverse, dy * inverse
+    apart = length > 0.0
+    ux = np.divide(dx, length, out=np.zeros_like(length), where=apart)
+    uy = np.divide(dy, length, out=np.zeros_like(length), where=apart)
     along = -(stiffness * (length - rest_length) + damping * (dvx * ux + dvy * uy))
     fx, fy = along * ux, along * uy
     if zero_rest.any():

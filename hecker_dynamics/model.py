@@ -113,7 +113,9 @@ class Model:
 
         For a spring the effective inverse mass along its line is at most
         1/m_A + |r_A|^2/I_A (+ the same for B), so omega^2 <= k * that; a damper c gives a
-        rate c * that. Explicit methods need this rate times the step to stay small.
+        rate c * that, and so does linear drag at a point; at the CM, c / m. Quadratic
+        drag's rate, 2 c |v| / m, depends on the speed and is left out. Explicit methods need
+        this rate times the step to stay small.
         """
         rates = [0.0]
         for term in self.terms:
@@ -121,8 +123,11 @@ class Model:
                 mobility = self._mobility(*_ends(term))
                 rates.extend(np.sqrt(term.stiffness * mobility))
                 rates.extend(term.damping * mobility)
-            elif isinstance(term, (CentreDragTerm, PointDragTerm)):
-                rates.extend(term.coefficient / self.mass[term.body])
+            elif isinstance(term, CentreDragTerm):
+                rates.extend((term.coefficient / self.mass[term.body])[~term.quadratic])
+            elif isinstance(term, PointDragTerm):
+                mobility = self._mobility([(term.body, term.local)])
+                rates.extend((term.coefficient * mobility)[~term.quadratic])
             elif isinstance(term, AngularDampingTerm):
                 rates.extend(term.coefficient / self.inertia[term.body])
         return float(max(rates))

@@ -130,3 +130,17 @@ def test_runs_on_both_paths_stay_together():
         sim.advance_to(500_000_000)
         finals.append(np.concatenate([sim.q, sim.v]))
     np.testing.assert_allclose(finals[0], finals[1], rtol=0.0, atol=1e-9)
+
+
+def test_a_spring_shorter_than_the_smallest_double_agrees_on_both_paths():
+    """At a length of 1e-310 (a subnormal) 1/length overflows; the direction must still be
+    d / |d| on both paths, not NaN on the vector one."""
+    scene = make_scene({"bodies": {"m": {"shape": "circle", "radius": 0.1, "mass": 1.0}},
+                        "forces": {"s": {"type": "spring", "body_a": "m", "anchor": [0.0, 0.0],
+                                         "stiffness": 100.0, "rest_length": 0.1}}})
+    q = np.array([[1e-310, 0.0, 0.0]])
+    v = np.zeros((1, 3))
+    lean, vector = both_paths(scene)
+    expected = np.array([[100.0 * 0.1, 0.0, 0.0]])  # pushed out along +x with k (L0 - L)
+    np.testing.assert_allclose(lean.accelerations(q, v), expected, rtol=1e-12)
+    np.testing.assert_allclose(vector.accelerations(q, v), expected, rtol=1e-12)
