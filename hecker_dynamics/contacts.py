@@ -10,7 +10,8 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    j = -(1 + e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
    for all contacts together by sequential impulses with accumulated, clamped totals,
    warm-started from the previous step's impulses (a contact is recognised by its pair
-   of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus Coulomb friction |j_t| <= mu j_n.
+   of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
+   Coulomb friction |j_t| <= mu j_n.
    A contact that closed during the step bounces with restitution e if it approached
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
@@ -188,11 +189,11 @@ class ContactPass:
     def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[list]:
         """Contacts between the parts of bodies a < b whose bounds overlap."""
         material = self.pairs[(a, b)]
+        bounds_b = [self._bounds(part) for part in world[b]]
         contacts = []
         for pa, part_a in enumerate(world[a]):
             x0, x1, y0, y1 = self._bounds(part_a)
-            for pb, part_b in enumerate(world[b]):
-                u0, u1, v0, v1 = self._bounds(part_b)
+            for pb, (part_b, (u0, u1, v0, v1)) in enumerate(zip(world[b], bounds_b)):
                 if u0 > x1 + MARGIN or u1 < x0 - MARGIN or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
                     continue
                 for point, normal, depth in _collide(part_a, part_b):
@@ -252,7 +253,7 @@ class ContactPass:
     def _prepare(self, contact: list, poses: dict, velocity: dict, before: dict,
                  h: float) -> list:
         """A solver row: bodies, arms, normal, effective masses, target normal velocity,
-        accumulated impulses, depth, inverse masses, approach velocity and feature key."""
+        accumulated impulses, depth, inverse masses, approach velocity and pair key."""
         a, b, (px, py), (nx, ny), depth, e, mu, key = contact
         im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
         im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
@@ -350,9 +351,8 @@ class ContactPass:
         for _ in range(POSITION_ITERATIONS):
             for row, depth in zip(rows, base):
                 a, b, rax, ray, rbx, rby, nx, ny, mass_n = row[:9]
-                da, db = shift[a], shift[b]
-                excess = depth - SLOP - ((db[0] - db[2] * rby - da[0] + da[2] * ray) * nx
-                                         + (db[1] + db[2] * rbx - da[1] - da[2] * rax) * ny)
+                excess = depth - SLOP - _normal_velocity(shift[a], shift[b], rax, ray, rbx,
+                                                         rby, nx, ny)
                 if excess <= 0.0:
                     continue
                 push = min(CORRECTION * excess, MAX_CORRECTION) * mass_n

@@ -139,7 +139,6 @@ class Model:
         return total
 
 
-
 def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarray, np.ndarray]]]:
     if isinstance(term, AnchorSpringTerm):
         return ([(term.body, term.local)],)
