@@ -14,19 +14,17 @@ import numpy as np
 
 from hecker_dynamics.integrators import make_integrator
 from hecker_dynamics.model import Model
-from hecker_dynamics.parameters import flatten
-from hecker_dynamics.scene import Scene, scene_from_parameters
+import scene_builders
+from hecker_dynamics.scene import Scene
 
 # pi to 50 digits, for exact references of wrapped angles.
 PI = Fraction("3.14159265358979323846264338327950288419716939937510")
 
 
 def make_scene(params: dict[str, Any], source: str = "test-scene") -> Scene:
-    """A Scene from nested parameters; ``publish_rate`` defaults to once per step."""
-    params = dict(params)
-    if "publish_rate" not in params:
-        params["publish_rate"] = 1.0 / params.get("step", 0.001)
-    return scene_from_parameters(flatten(params), source)
+    """:func:`scene_builders.make_scene`, with ``publish_rate`` defaulting to once per step."""
+    return scene_builders.make_scene(
+        {"publish_rate": 1.0 / params.get("step", 0.001), **params}, source)
 
 
 def oscillator(stiffness: float = 100.0, *, damping: float = 0.0, position=(1.0, 0.0),

@@ -3,12 +3,9 @@
 A scene is written here as the nested mapping under ``dynamics_node: ros__parameters``.
 :func:`make_scene` turns it into flat dotted parameters (the form rclpy hands a node) and
 loads it with :func:`scene_from_parameters`; :func:`write_scene` writes the YAML file form.
-:func:`scene_key` turns a Scene into plain nested tuples so two scenes can be compared
-(``Scene.__eq__`` cannot: it holds numpy arrays).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -30,20 +27,6 @@ def write_scene(directory: Path, params: dict[str, Any], name: str = "scene.yaml
     path = Path(directory) / name
     path.write_text(yaml.safe_dump({"dynamics_node": {"ros__parameters": params}}))
     return path
-
-
-def scene_key(value: Any) -> Any:
-    """A hashable, ``==``-comparable plain form of a Scene (or any part of one)."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return (type(value).__name__,) + tuple(
-            (f.name, scene_key(getattr(value, f.name))) for f in dataclasses.fields(value))
-    if isinstance(value, np.ndarray):
-        return ("array", value.shape, tuple(value.ravel().tolist()))
-    if isinstance(value, dict):
-        return tuple(sorted((k, scene_key(v)) for k, v in value.items()))
-    if isinstance(value, (list, tuple)):
-        return tuple(scene_key(v) for v in value)
-    return value
 
 
 def box_body(size=(1.0, 0.5), mass=2.0, **state: Any) -> dict[str, Any]:

@@ -8,6 +8,7 @@ model holds only the force terms and passes the scene declares.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import os
 import re
@@ -19,7 +20,7 @@ import pytest
 import yaml
 
 sys.path.insert(0, os.path.dirname(__file__))
-from scene_builders import flatten, make_scene, scene_key, write_scene  # noqa: E402
+from scene_builders import flatten, make_scene, write_scene  # noqa: E402
 
 import hecker_dynamics.forces as forces  # noqa: E402
 import hecker_dynamics.model as model_module  # noqa: E402
@@ -36,8 +37,7 @@ def _params_of(path: Path) -> dict:
 
 
 def _without_source(scene):
-    key = scene_key(scene)
-    return tuple(item for item in key[1:] if item[0] != "source")
+    return dataclasses.replace(scene, source="")
 
 
 # ------------------------------------------------------------------ loading
@@ -67,9 +67,8 @@ def test_sample_by_name_by_path_default_and_as_flat_parameters_are_equal():
     by_path = load_scene(SAMPLE)
     by_str_path = load_scene(str(SAMPLE))
     flat = scene_from_parameters(flatten(_params_of(SAMPLE)), str(SAMPLE))
-    reference = scene_key(by_path)
     for other in (by_str_path, flat):
-        assert scene_key(other) == reference
+        assert other == by_path
     for other in (by_name, by_default):
         assert _without_source(other) == _without_source(by_path)
 
@@ -136,7 +135,7 @@ def test_yaml_file_and_flat_parameters_give_the_same_scene(tmp_path):
     path = write_scene(tmp_path, FULL, "full.yaml")
     from_file = load_scene(path)
     from_params = scene_from_parameters(flatten(FULL), str(path))
-    assert scene_key(from_file) == scene_key(from_params)
+    assert from_file == from_params
     # and what was declared is what was read
     assert from_file.frame_id == "map" and from_file.step_ns == 2_000_000
     assert from_file.publish_period_ns == 40_000_000
@@ -151,11 +150,11 @@ def test_node_parameters_are_tolerated(tmp_path):
             "qos_overrides": {"/clock": {"subscription": {"depth": 1, "reliability": "reliable"}}}}
     params = {**copy.deepcopy(FULL), **node}
     plain = make_scene(FULL, "src")
-    assert scene_key(make_scene(params, "src")) == scene_key(plain)
+    assert make_scene(params, "src") == plain
     flat = flatten(FULL)
     flat.update({"use_sim_time": True, "qos_overrides./clock.subscription.depth": 1,
                  "qos_overrides./parameter_events.publisher.depth": 1000})
-    assert scene_key(scene_from_parameters(flat, "src")) == scene_key(plain)
+    assert scene_from_parameters(flat, "src") == plain
     loaded = load_scene(write_scene(tmp_path, params))
     assert _without_source(loaded) == _without_source(plain)
 
