@@ -41,26 +41,37 @@ class BodyState(NamedTuple):
 class Snapshot:
     """All bodies at one instant, with the total mechanical energy.
 
-    The per-body states are built on first use of :attr:`bodies`: a run that publishes
-    nothing pays nothing for them, which matters with thousands of bodies.
+    Taking one copies the state and nothing more: the energy and the per-body states are
+    computed on first use, so a run that publishes little pays little, which matters with
+    thousands of bodies and with long steps.
     """
 
-    __slots__ = ("time_ns", "energy", "steps", "_names", "_columns", "_bodies")
+    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies")
 
-    def __init__(self, time_ns: int, energy: float, steps: int, names: tuple[str, ...],
-                 columns: tuple[np.ndarray, ...]) -> None:
-        self.time_ns, self.energy, self.steps = time_ns, energy, steps
-        self._names, self._columns = names, columns
+    def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
+                 v: np.ndarray) -> None:
+        self.time_ns, self.steps = time_ns, steps
+        self._model, self._q, self._v = model, q.copy(), v.copy()
+        self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
+
+    @property
+    def energy(self) -> float:
+        """Kinetic energy plus the potential energy of gravity and springs (J)."""
+        if self._energy is None:
+            self._energy = self._model.energy(self._q, self._v)
+        return self._energy
 
     @property
     def bodies(self) -> tuple[BodyState, ...]:
         if self._bodies is None:
-            origin, angle, velocity, omega = (c.tolist() for c in self._columns)
+            origin, velocity = self._model.body_frames(self._q, self._v)
+            columns = (origin, self._q[:, 2], velocity, self._v[:, 2])
+            origin, angle, velocity, omega = (c.tolist() for c in columns)
             self._bodies = tuple(
                 BodyState(name, (x, y), a, (vx, vy), w)
-                for name, (x, y), a, (vx, vy), w in zip(self._names, origin, angle, velocity,
-                                                         omega))
+                for name, (x, y), a, (vx, vy), w in zip(self._model.names, origin, angle,
+                                                         velocity, omega))
         return self._bodies
 
     def __eq__(self, other: object) -> bool:
@@ -117,10 +128,7 @@ class Simulation:
 
     def snapshot(self) -> Snapshot:
         """The published state of every body now, with the total energy."""
-        origin, velocity = self.model.body_frames(self.q, self.v)
-        return Snapshot(self._time_ns, self.model.energy(self.q, self.v), self._steps,
-                        self.model.names, (origin, self.q[:, 2].copy(), velocity,
-                                           self.v[:, 2].copy()))
+        return Snapshot(self._time_ns, self._steps, self.model, self.q, self.v)
 
     # ----------------------------------------------------------------- inputs
 
