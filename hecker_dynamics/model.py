@@ -40,12 +40,23 @@ class Model:
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: list[ForceTerm] = _build_terms(self, scene)
-        self.inputs: Optional[ConstantWrenchTerm] = None
+        self.inputs = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene))
             if scene.walls or scene.collisions else None)
+
+    @property
+    def inputs(self) -> Optional[ConstantWrenchTerm]:
+        """The wrenches of the inputs active this step (None when there are none)."""
+        return self._inputs
+
+    @inputs.setter
+    def inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
+        self._inputs = term
+        self._active = self.terms if term is None else [*self.terms, term]
+        self._oriented = any(t.uses_orientation for t in self._active)
 
     @property
     def size(self) -> int:
@@ -66,10 +77,9 @@ class Model:
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
-        terms = self.terms if self.inputs is None else [*self.terms, self.inputs]
+        terms, oriented = self._active, self._oriented
         if not terms:
             return np.zeros_like(q)
-        oriented = any(term.uses_orientation for term in terms)
         if self.lean:
             pose = ScalarPose.of(q.tolist(), v.tolist(), oriented)
             wrenches = [[0.0, 0.0, 0.0] for _ in range(self.size)]
