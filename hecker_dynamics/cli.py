@@ -361,7 +361,7 @@ def bench_command(args: argparse.Namespace) -> int:
 def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench = commands.add_parser(
         "bench", help="measure error against cost for every integrator (work-precision)",
-        description="Run every integrator over a sweep of steps (and dopri5 tolerances) on "
+        description="Run every integrator over a sweep of steps (and tolerances of the adaptive methods) on "
                     "the benchmark scenes and the shipped scenes, against exact or reference "
                     "solutions, with pymunk, Box2D and MuJoCo when installed, and the ring "
                     "scale test against a plain C loop; write CSV, Markdown and a figure.")
@@ -397,7 +397,7 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--integrator", choices=INTEGRATORS, help="override the integrator")
     run_parser.add_argument("--step", type=_positive, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
-                            help="override the tolerance of dopri5 / auto")
+                            help="override the tolerance of dopri5, dop853 / auto")
     run_parser.set_defaults(handler=run)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",

@@ -21,6 +21,7 @@ import yaml
 from .commands import WrenchCommand
 from .geometry import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
                        mass_properties)
+from .integrators import METHODS
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
 
 __all__ = [
@@ -32,8 +33,7 @@ __all__ = [
 
 DEFAULT_SCENE = "sample"
 NODE_NAME = "dynamics_node"
-INTEGRATORS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "dopri5",
-               "implicit_midpoint", "backward_euler", "auto")
+INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
                              "max_catch_up_steps", "start_type_description_service",

@@ -1,5 +1,6 @@
 """Accuracy of the integrators: exact discrete solutions, observed orders of convergence,
-and the adaptive method meeting its tolerance.
+the adaptive methods meeting their tolerance and their tableaux meeting the order
+conditions.
 
 The problems are scenes run through the Model (``Model.accelerations``), so forces, mass
 properties and integrators are tested together:
@@ -22,8 +23,9 @@ import numpy as np
 import pytest
 
 from helpers import integrate, make_scene, observed_order, oscillator
-from hecker_dynamics.integrators import make_integrator
+from hecker_dynamics.integrators import ADAPTIVE, make_integrator
 from hecker_dynamics.model import Model
+from hecker_dynamics.tableaux import DOP853, DOPRI5
 
 DURATION = 0.6  # s: about one period of the 10 rad/s oscillator
 FIXED_STEP = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4",
@@ -154,15 +156,54 @@ def test_each_method_is_its_exact_discrete_map_on_the_oscillator(method):
         assert v[0, axis] / w == pytest.approx(u, abs=1e-12)
 
 
-# ----------------------------------------------------------------------------- dopri5
+# ----------------------------------------------------------------------------- adaptive
 
 TOLERANCES = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
 
 
-def dopri5_error(tolerance: float, step: float, duration: float = 1.0) -> tuple[float, int]:
+@pytest.mark.parametrize("pair", [DOPRI5, DOP853], ids=lambda p: p.name)
+def test_tableau_meets_the_quadrature_order_conditions(pair):
+    """sum b_i c_i^(k-1) = 1/k for k = 1..order, with c_i the row sums of the stage
+    coefficients, and each error combination e annihilates c^(k-1) up to its estimate's
+    order (5th and 3rd for DOP853, 4th for DOPRI5; the slope at the new state has c = 1).
+    The first condition past the order fails by far more than rounding, so a mistyped
+    weight or node shows up here."""
+    c = pair.a.sum(axis=1)  # the last row sums the weights: 1, the new state's node
+    b = pair.a[-1]
+    for k in range(1, pair.order + 1):
+        assert b @ c[:-1] ** (k - 1) == pytest.approx(1.0 / k, abs=1e-15)
+    assert abs(b @ c[:-1] ** pair.order - 1.0 / (pair.order + 1)) > 1e-6
+    estimate_orders = {"dopri5": (4,), "dop853": (5, 3)}[pair.name]
+    for e, order in zip(pair.error, estimate_orders):
+        for k in range(1, order + 1):
+            assert e @ c ** (k - 1) == pytest.approx(0.0, abs=2e-15)
+        assert abs(e @ c ** order) > 1e-5
+
+
+@pytest.mark.parametrize("name", ["harmonic", "damped"])
+def test_dop853_is_eighth_order(name):
+    """With a tolerance so loose that no sub-step is refused, DOP853 is a fixed-step method:
+    from 3 to 24 steps over 0.6 s (w h = 2 .. 0.25) the error falls as h^8 (local orders
+    measured 7.88-8.29; the errors run from 1e-4 down to 3e-12, far above rounding)."""
+    model = problem(name)[0]
+    steps = [3, 6, 12, 24]
+    errors = []
+    for n in steps:
+        integrator = make_integrator("dop853", 1e3)
+        q, v = model.initial_state()
+        for _ in range(n):
+            q, v = integrator.step(model.accelerations, q, v, DURATION / n)
+        assert integrator.counters.substeps == n
+        errors.append(error(name, q, v))
+    assert observed_order([DURATION / n for n in steps], errors) == pytest.approx(8, abs=0.25)
+    assert math.log2(errors[-2] / errors[-1]) == pytest.approx(8, abs=0.15)
+
+
+def adaptive_error(method: str, tolerance: float, step: float,
+                   duration: float = 1.0) -> tuple[float, int]:
     """Max error over the run on the harmonic oscillator (x0 = 1), and the sub-steps."""
     model = Model(oscillator(100.0))
-    integrator = make_integrator("dopri5", tolerance)
+    integrator = make_integrator(method, tolerance)
     q, v = model.initial_state()
     worst = 0.0
     n = round(duration / step)
@@ -174,24 +215,37 @@ def dopri5_error(tolerance: float, step: float, duration: float = 1.0) -> tuple[
     return worst, integrator.counters.substeps
 
 
+@pytest.mark.parametrize("method", ADAPTIVE)
 @pytest.mark.parametrize("step", [1.0, 0.01])
 @pytest.mark.parametrize("tolerance", TOLERANCES)
-def test_dopri5_meets_its_tolerance(tolerance, step):
+def test_adaptive_method_meets_its_tolerance(method, tolerance, step):
     """Global error over 1 s (1.6 periods) against the exact cosine. The controller bounds
     the error made per sub-step, scaled by tol (1 + |y|) with |y| ~ 1..10; these add up
     over the run, so the global error is a small multiple of tol: measured 3.7-7.3 x tol
-    with free sub-steps (step = 1 s), less when the 10 ms step caps them. 15 x tol
-    allows for that growth and fails for a controller that ignores the tolerance."""
-    worst, _ = dopri5_error(tolerance, step)
+    (dopri5) and 1.8-6.0 x tol (dop853) with free sub-steps (step = 1 s), less when the
+    10 ms step caps them. 15 x tol allows for that growth and fails for a controller that
+    ignores the tolerance."""
+    worst, _ = adaptive_error(method, tolerance, step)
     assert worst <= 15 * tolerance
 
 
-def test_dopri5_error_falls_with_tolerance():
+@pytest.mark.parametrize("method", ADAPTIVE)
+def test_adaptive_error_falls_with_tolerance(method):
     """Over tol = 1e-3..1e-10 the error falls at every step, in proportion to tol (log-log
-    slope measured 1.04; 0.8-1.25 allowed), and the work rises."""
-    results = [dopri5_error(tol, 1.0) for tol in TOLERANCES]
+    slope measured 1.04 for dopri5 and 1.05 for dop853; 0.8-1.25 allowed), and the work
+    rises."""
+    results = [adaptive_error(method, tol, 1.0) for tol in TOLERANCES]
     errors = [e for e, _ in results]
     substeps = [s for _, s in results]
     assert all(a > b for a, b in zip(errors, errors[1:]))
     assert all(a < b for a, b in zip(substeps, substeps[1:]))
     assert 0.8 < observed_order(TOLERANCES, errors) < 1.25
+
+
+def test_dop853_needs_fewer_evaluations_than_dopri5_at_tight_tolerances():
+    """The point of the higher order: at tol 1e-10 over 1 s of the oscillator, DOP853 takes
+    28 sub-steps of 12 evaluations where DOPRI5 takes 241 of 6 (measured), and is more
+    accurate for it."""
+    (e5, n5), (e8, n8) = (adaptive_error(m, 1e-10, 1.0) for m in ADAPTIVE)
+    assert 12 * n8 < 0.5 * 6 * n5
+    assert e8 < e5
