@@ -6,6 +6,7 @@ import csv
 import math
 from pathlib import Path
 
+from ..integrators import ADAPTIVE
 from .measure import Row
 
 THRESHOLDS = (1e-3, 1e-6, 1e-9)
@@ -90,7 +91,7 @@ def figure(rows: list[Row], path: Path) -> bool:
         for r in rows:
             if r.scene == scene and r.status == "ok" and r.position_error > 0 \
                     and not math.isnan(r.cost) and not math.isnan(r.position_error):
-                key = (r.engine, r.method, r.step if r.method == "dopri5" else None)
+                key = (r.engine, r.method, r.step if r.method in ADAPTIVE else None)
                 groups.setdefault(key, []).append(r)
         for (engine, method, step), group in sorted(groups.items(), key=lambda kv: str(kv[0])):
             group.sort(key=lambda r: r.cost)
