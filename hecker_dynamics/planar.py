@@ -49,3 +49,15 @@ def wrap_angle(theta: np.ndarray) -> np.ndarray:
     # Just below -pi the remainder can round up to 2 pi, which would give +pi.
     wrapped = np.where(wrapped >= math.pi, -math.pi, wrapped)
     return np.where(outside, wrapped, theta)
+
+
+def wrap_angles_in_place(theta: np.ndarray) -> None:
+    """Wrap ``theta`` into [-pi, pi) in place, as :func:`wrap_angle` does.
+
+    Only the entries outside the range are computed: in a state of many bodies the few
+    near +-pi that cross it in a step.
+    """
+    if theta.size == 0 or (theta.min() >= -math.pi and theta.max() < math.pi):
+        return
+    outside = np.flatnonzero((theta < -math.pi) | (theta >= math.pi))
+    theta[outside] = wrap_angle(theta[outside])
