@@ -25,6 +25,8 @@ from typing import Optional, Protocol
 
 import numpy as np
 
+from .planar import cos_sin
+
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
 
@@ -40,7 +42,7 @@ class Pose:
         self.x, self.y = q[:, 0], q[:, 1]
         self.vx, self.vy, self.omega = v[:, 0], v[:, 1], v[:, 2]
         if oriented:
-            self.cos, self.sin = np.cos(q[:, 2]), np.sin(q[:, 2])
+            self.cos, self.sin = cos_sin(q[:, 2])
 
     def offset(self, body: np.ndarray, lx: np.ndarray,
                ly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
