@@ -25,6 +25,8 @@ from typing import Optional, Protocol
 
 import numpy as np
 
+from .planar import cos_sin
+
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
 
@@ -40,7 +42,7 @@ class Pose:
         self.x, self.y = q[:, 0], q[:, 1]
         self.vx, self.vy, self.omega = v[:, 0], v[:, 1], v[:, 2]
         if oriented:
-            self.cos, self.sin = np.cos(q[:, 2]), np.sin(q[:, 2])
+            self.cos, self.sin = cos_sin(q[:, 2])
 
     def offset(self, body: np.ndarray, lx: np.ndarray,
                ly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -88,20 +90,57 @@ class ForceTerm(Protocol):
     turns: np.ndarray
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        """Add to ``out`` (N, 3), vectorised."""
+        """Add to ``out`` (3, N): rows Fx, Fy and torque (contiguous), vectorised."""
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         """Add to ``out`` (a [Fx, Fy, torque] list per body), in plain floats."""
 
 
-def _scatter(out: np.ndarray, body: np.ndarray, fx: np.ndarray, fy: np.ndarray,
-             torque: Optional[np.ndarray] = None) -> None:
-    """Add per-instance forces and torques to their bodies (bodies may repeat)."""
-    n = len(out)
-    out[:, 0] += np.bincount(body, fx, minlength=n)
-    out[:, 1] += np.bincount(body, fy, minlength=n)
-    if torque is not None:
-        out[:, 2] += np.bincount(body, torque, minlength=n)
+class BodySum:
+    """Sums per-instance values into per-body totals, by a rule chosen once from the topology.
+
+    ``body[i]`` is the body of instance ``i``. Where the bodies are a block of consecutive
+    bodies, each once (every body the end A of exactly one spring, say), no accumulation is
+    needed: the values are gathered into body order (or taken as they are, if already in
+    it) and added to a slice. Only where a body repeats are values summed with
+    ``np.bincount``.
+    """
+
+    def __init__(self, body: np.ndarray) -> None:
+        self.body = body
+        self._block: Optional[slice] = None  # the bodies, if each of a block appears once
+        self._order: Optional[np.ndarray] = None  # instance of each body of the block
+        first = int(body.min()) if len(body) else 0
+        if np.array_equal(np.sort(body), np.arange(first, first + len(body))):
+            self._block = slice(first, first + len(body))
+            order = np.argsort(body)
+            if not np.array_equal(order, np.arange(len(body))):
+                self._order = order
+
+    def _in_body_order(self, value: np.ndarray) -> np.ndarray:
+        return value if self._order is None else value[self._order]
+
+    def add(self, total: np.ndarray, value: np.ndarray) -> None:
+        """``total[body[i]] += value[i]`` for every instance ``i``."""
+        if self._block is not None:
+            total[self._block] += self._in_body_order(value)
+        else:
+            total += np.bincount(self.body, value, minlength=len(total))
+
+    def subtract(self, total: np.ndarray, value: np.ndarray) -> None:
+        """``total[body[i]] -= value[i]`` for every instance ``i``."""
+        if self._block is not None:
+            total[self._block] -= self._in_body_order(value)
+        else:
+            total -= np.bincount(self.body, value, minlength=len(total))
+
+    def add_wrench(self, out: np.ndarray, fx: np.ndarray, fy: np.ndarray,
+                   torque: Optional[np.ndarray] = None) -> None:
+        """Add forces (and torques) to the rows Fx, Fy (and torque) of ``out`` (3, N)."""
+        self.add(out[0], fx)
+        self.add(out[1], fy)
+        if torque is not None:
+            self.add(out[2], torque)
 
 
 def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -125,10 +164,12 @@ class GravityTerm:
         self.bodies = bodies
         self.weights = weights  # (k, 2) = m g per body
         self.turns = np.zeros(0, dtype=int)
+        self._sum = BodySum(bodies)
+        self._weights = _columns(weights)
         self._rows = list(zip(bodies.tolist(), weights.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        out[self.bodies, :2] += self.weights
+        self._sum.add_wrench(out, *self._weights)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (wx, wy) in self._rows:
@@ -140,28 +181,59 @@ class GravityTerm:
         return -float(np.sum(self.weights * q[self.bodies, :2]))
 
 
+class SpringLaw:
+    """Stiffness k, rest length L0 and damping c of a group of springs, with the group's
+    zero-rest-length springs (the linear law) found once."""
+
+    def __init__(self, stiffness: np.ndarray, rest_length: np.ndarray,
+                 damping: np.ndarray) -> None:
+        self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
+        self.zero_rest = rest_length == 0.0
+        self.all_zero_rest = bool(self.zero_rest.all())
+        self.any_zero_rest = bool(self.zero_rest.any())
+
+
 def spring_force(dx: np.ndarray, dy: np.ndarray, dvx: np.ndarray, dvy: np.ndarray,
-                 stiffness: np.ndarray, rest_length: np.ndarray,
-                 damping: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                 law: SpringLaw) -> tuple[np.ndarray, np.ndarray]:
     """Force on end A of damped springs, with d = p_A - p_B and dv = v_A - v_B.
 
     With a rest length, Hooke's law and a dashpot act along the spring:
     F = -(k (|d| - L0) + c (dv . u)) u with u = d / |d| (no force where both ends meet).
     A zero-rest-length spring is the linear law F = -k d - c dv.
     """
-    zero_rest = rest_length == 0.0
-    if zero_rest.all():
-        return -stiffness * dx - damping * dvx, -stiffness * dy - damping * dvy
+    k, c = law.stiffness, law.damping
+    if law.all_zero_rest:
+        return -k * dx - c * dvx, -k * dy - c * dvy
+    length, ux, uy = _direction(dx, dy)
+    along = -(k * (length - law.rest_length) + c * (dvx * ux + dvy * uy))
+    fx, fy = along * ux, along * uy
+    if law.any_zero_rest:
+        fx = np.where(law.zero_rest, -k * dx - c * dvx, fx)
+        fy = np.where(law.zero_rest, -k * dy - c * dvy, fy)
+    return fx, fy
+
+
+#: Squared lengths in which sqrt(dx^2 + dy^2) keeps its digits: below, squares underflow.
+_SMALLEST_SQUARE, _LARGEST_SQUARE = np.finfo(float).tiny, np.finfo(float).max
+
+
+def _direction(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lengths |d| and unit vectors u = d / |d| (u = 0 where |d| = 0).
+
+    sqrt(dx^2 + dy^2) is several times cheaper than ``np.hypot``; where a square underflows
+    or overflows (or both ends meet) the careful ``np.hypot`` and a guarded division are
+    used instead.
+    """
+    square = dx * dx
+    square += dy * dy
+    if square.min() >= _SMALLEST_SQUARE and square.max() <= _LARGEST_SQUARE:
+        length = np.sqrt(square, out=square)
+        return length, dx / length, dy / length
     length = np.hypot(dx, dy)
     apart = length > 0.0
     ux = np.divide(dx, length, out=np.zeros_like(length), where=apart)
     uy = np.divide(dy, length, out=np.zeros_like(length), where=apart)
-    along = -(stiffness * (length - rest_length) + damping * (dvx * ux + dvy * uy))
-    fx, fy = along * ux, along * uy
-    if zero_rest.any():
-        fx = np.where(zero_rest, -stiffness * dx - damping * dvx, fx)
-        fy = np.where(zero_rest, -stiffness * dy - damping * dvy, fy)
-    return fx, fy
+    return length, ux, uy
 
 
 def spring_force_scalar(dx: float, dy: float, dvx: float, dvy: float, stiffness: float,
@@ -194,6 +266,8 @@ class AnchorSpringTerm:
         self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
         self.turns = np.unique(body[np.any(local != 0.0, axis=1)])
         self._local, self._anchor = _columns(local), _columns(anchor)
+        self._law = SpringLaw(stiffness, rest_length, damping)
+        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), local.tolist(), anchor.tolist(), stiffness.tolist(),
                               rest_length.tolist(), damping.tolist()))
 
@@ -205,9 +279,8 @@ class AnchorSpringTerm:
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
         rx, ry, dx, dy = self._stretch(pose)
-        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self.stiffness,
-                              self.rest_length, self.damping)
-        _scatter(out, self.body, fx, fy, rx * fy - ry * fx)
+        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self._law)
+        self._sum.add_wrench(out, fx, fy, rx * fy - ry * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (lx, ly), (ax, ay), k, rest, c in self._rows:
@@ -235,6 +308,8 @@ class BodySpringTerm:
         self.turns = np.unique(np.concatenate([body_a[np.any(local_a != 0.0, axis=1)],
                                                body_b[np.any(local_b != 0.0, axis=1)]]))
         self._local_a, self._local_b = _columns(local_a), _columns(local_b)
+        self._law = SpringLaw(stiffness, rest_length, damping)
+        self._sum_a, self._sum_b = BodySum(body_a), BodySum(body_b)
         self._rows = list(zip(body_a.tolist(), local_a.tolist(), body_b.tolist(),
                               local_b.tolist(), stiffness.tolist(), rest_length.tolist(),
                               damping.tolist()))
@@ -251,10 +326,12 @@ class BodySpringTerm:
         rax, ray, rbx, rby, dx, dy = self._ends(pose)
         vax, vay = pose.point_velocity(self.body_a, rax, ray)
         vbx, vby = pose.point_velocity(self.body_b, rbx, rby)
-        fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self.stiffness, self.rest_length,
-                              self.damping)
-        _scatter(out, self.body_a, fx, fy, rax * fy - ray * fx)
-        _scatter(out, self.body_b, -fx, -fy, rby * fx - rbx * fy)
+        fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self._law)
+        self._sum_a.add_wrench(out, fx, fy, rax * fy - ray * fx)
+        # End B takes -F, whose torque is perp-dot(r_B, -F).
+        self._sum_b.subtract(out[0], fx)
+        self._sum_b.subtract(out[1], fy)
+        self._sum_b.subtract(out[2], rbx * fy - rby * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for a, (lax, lay), b, (lbx, lby), k, rest, c in self._rows:
@@ -296,12 +373,13 @@ class CentreDragTerm:
     def __init__(self, body: np.ndarray, coefficient: np.ndarray, quadratic: np.ndarray) -> None:
         self.body, self.coefficient, self.quadratic = body, coefficient, quadratic
         self.turns = np.zeros(0, dtype=int)
+        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), coefficient.tolist(), quadratic.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
         body = self.body
-        _scatter(out, body, *drag_force(pose.vx[body], pose.vy[body], self.coefficient,
-                                        self.quadratic))
+        self._sum.add_wrench(out, *drag_force(pose.vx[body], pose.vy[body], self.coefficient,
+                                              self.quadratic))
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, c, quadratic in self._rows:
@@ -322,6 +400,7 @@ class PointDragTerm:
         self.coefficient, self.quadratic = coefficient, quadratic
         self.turns = np.unique(body)
         self._local = _columns(local)
+        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), local.tolist(), coefficient.tolist(),
                               quadratic.tolist()))
 
@@ -329,7 +408,7 @@ class PointDragTerm:
         rx, ry = pose.offset(self.body, *self._local)
         fx, fy = drag_force(*pose.point_velocity(self.body, rx, ry), self.coefficient,
                             self.quadratic)
-        _scatter(out, self.body, fx, fy, rx * fy - ry * fx)
+        self._sum.add_wrench(out, fx, fy, rx * fy - ry * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (lx, ly), c, quadratic in self._rows:
@@ -346,11 +425,11 @@ class AngularDampingTerm:
     def __init__(self, body: np.ndarray, coefficient: np.ndarray) -> None:
         self.body, self.coefficient = body, coefficient
         self.turns = np.unique(body)
+        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), coefficient.tolist()))
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
-        out[:, 2] += np.bincount(self.body, -self.coefficient * pose.omega[self.body],
-                                 minlength=len(out))
+        self._sum.subtract(out[2], self.coefficient * pose.omega[self.body])
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, c in self._rows:
@@ -378,6 +457,7 @@ class ConstantWrenchTerm:
         self._force, self._point = _columns(force), _columns(point)
         self.uses_orientation = bool(self.rotated.any() or self.moving_point.any())
         self.turns = np.unique(body[at_point | (torque != 0.0)])
+        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))
 
@@ -398,7 +478,7 @@ class ConstantWrenchTerm:
             rx = np.where(self.at_point, px - pose.x[self.body], 0.0)
             ry = np.where(self.at_point, py - pose.y[self.body], 0.0)
             torque = torque + rx * fy - ry * fx
-        _scatter(out, self.body, fx, fy, torque)
+        self._sum.add_wrench(out, fx, fy, torque)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for body, (fx, fy), torque, axes, owner, (px, py), at_point in self._rows:

@@ -89,11 +89,10 @@ class Model:
                              for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
                                                                     self._inverse_mass_rows)])
         pose = Pose(q, v, oriented)
-        out = np.zeros_like(q)
+        wrenches = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
         for term in terms:
-            term.add(pose, out)
-        out *= self.inverse_mass
-        return out
+            term.add(pose, wrenches)
+        return np.multiply(wrenches.T, self.inverse_mass, out=np.empty_like(q))
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         """Kinetic energy plus the potential energy of gravity and springs."""

@@ -18,7 +18,7 @@ from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
 from .integrators import IntegrationError, choose_method, make_integrator
 from .model import Model, wrench_term
-from .planar import wrap_angle
+from .planar import wrap_angles_in_place
 from .scene import Scene
 
 
@@ -212,7 +212,7 @@ class Simulation:
                 return True
         elif not (np.isfinite(q).all() and np.isfinite(v).all()):
             return False
-        q[:, 2] = wrap_angle(q[:, 2])
+        wrap_angles_in_place(q[:, 2])
         return True
 
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:

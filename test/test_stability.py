@@ -19,7 +19,7 @@ import pytest
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
 from hecker_dynamics.integrators import make_integrator
 from hecker_dynamics.model import Model
-from hecker_dynamics.planar import wrap_angle
+from hecker_dynamics.planar import HALF_ANGLE_FROM, cos_sin, wrap_angle, wrap_angles_in_place
 from hecker_dynamics.scene import load_scene
 from hecker_dynamics.simulation import DivergenceError, Simulation
 
@@ -273,6 +273,38 @@ def test_clockwise_turn_just_past_minus_pi_wraps_into_range():
                          "angular_velocity": -ulp / 0.001}}}))
     sim.step()
     assert -math.pi <= sim.snapshot().bodies[0].angle < math.pi
+
+
+def test_wrapping_in_place_matches_wrap_angle_bit_for_bit():
+    """The many-body path wraps only the angles outside [-pi, pi), in place; the result is
+    wrap_angle's, entries in range untouched."""
+    ulp = math.pi - np.nextafter(math.pi, 0.0)
+    angles = np.array([0.3, math.pi, -math.pi, -math.pi - ulp, math.pi - ulp, 7.0, -20.0,
+                       np.nextafter(math.pi, 4.0), 1e6, -2.5])
+    q = np.zeros((len(angles), 3))
+    q[:, 2] = angles
+    wrap_angles_in_place(q[:, 2])
+    np.testing.assert_array_equal(q[:, 2], wrap_angle(angles))
+    assert np.all((-math.pi <= q[:, 2]) & (q[:, 2] < math.pi))
+    inside = np.array([0.1, -math.pi, 3.0])
+    wrap_angles_in_place(inside)
+    np.testing.assert_array_equal(inside, [0.1, -math.pi, 3.0])
+
+
+def test_cos_sin_of_many_angles_is_within_rounding_of_cos_and_sin():
+    """The half-angle formulas used for many bodies, against math.cos and math.sin, also at
+    and just past +-pi (t = tan(theta / 2) near 1e16) and for unwrapped angles."""
+    rng = np.random.default_rng(7)
+    ulp = math.pi - np.nextafter(math.pi, 0.0)
+    theta = np.concatenate([rng.uniform(-math.pi, math.pi, 20_000), rng.uniform(-50, 50, 1000),
+                            [math.pi, -math.pi, -math.pi - ulp, math.pi - ulp, 0.0, 1e-300,
+                             0.5 * math.pi, -0.5 * math.pi, 2.5 * math.pi]])
+    assert theta.size >= HALF_ANGLE_FROM
+    cos, sin = cos_sin(theta)
+    np.testing.assert_allclose(cos, [math.cos(a) for a in theta], rtol=0.0, atol=1e-15)
+    np.testing.assert_allclose(sin, [math.sin(a) for a in theta], rtol=0.0, atol=1e-15)
+    few = theta[:HALF_ANGLE_FROM - 1]
+    np.testing.assert_array_equal(np.stack(cos_sin(few)), [np.cos(few), np.sin(few)])
 
 
 # ----------------------------------------------------------------------------- hard bodies
