@@ -66,12 +66,10 @@ class Snapshot:
     def bodies(self) -> tuple[BodyState, ...]:
         if self._bodies is None:
             origin, velocity = self._model.body_frames(self._q, self._v)
-            columns = (origin, self._q[:, 2], velocity, self._v[:, 2])
-            origin, angle, velocity, omega = (c.tolist() for c in columns)
-            self._bodies = tuple(
-                BodyState(name, (x, y), a, (vx, vy), w)
-                for name, (x, y), a, (vx, vy), w in zip(self._model.names, origin, angle,
-                                                         velocity, omega))
+            columns = zip(self._model.names, origin.tolist(), self._q[:, 2].tolist(),
+                          velocity.tolist(), self._v[:, 2].tolist())
+            self._bodies = tuple(BodyState(name, (x, y), a, (vx, vy), w)
+                                 for name, (x, y), a, (vx, vy), w in columns)
         return self._bodies
 
     def __eq__(self, other: object) -> bool:
