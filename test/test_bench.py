@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from hecker_dynamics.bench import peers, reference, ring, run, scenes
-from hecker_dynamics.bench.measure import Budget
+from hecker_dynamics.bench import peers, reference, report, ring, run, scenes
+from hecker_dynamics.bench.measure import Budget, Row
 from hecker_dynamics.cli import main
 from hecker_dynamics.model import Model
 from hecker_dynamics.simulation import Simulation
@@ -169,6 +169,33 @@ def test_quick_bench_runs_end_to_end_and_writes_well_formed_files(tmp_path, monk
         if lines:
             assert len({line.count("|") for line in lines}) == 1, block
     assert results.sample["hecker_dynamics"] > 0
+
+
+def _row(engine, method, step, cost, error, status="ok"):
+    return Row("harmonic", engine, method, step, math.nan, 1.0, status=status, cost=cost,
+               position_error=error)
+
+
+def test_headline_takes_the_cheapest_reaching_configuration_and_says_why_a_peer_has_none():
+    """The cheapest row under each error wins; a peer with no reaching row is told apart
+    from one whose finer configurations were skipped for the run budget."""
+    rows = [_row("hecker_dynamics", "rk4", 0.01, 2e-3, 1e-4),
+            _row("hecker_dynamics", "dop853", 0.5, 1e-3, 1e-7),
+            _row("mujoco", "rk4", 0.01, 4e-3, 1e-4),
+            _row("mujoco", "rk4", 0.001, 4e-2, 1e-10),
+            _row("pymunk", "native", 0.01, 1e-4, 1e-2),
+            _row("pymunk", "native", 0.001, math.nan, math.nan, status="skipped")]
+    head = {e["threshold"]: e for e in report.headline(rows)}
+    assert head[1e-3]["best"]["hecker_dynamics"].method == "dop853"
+    assert head[1e-3]["ratios"]["mujoco"] == pytest.approx(0.25)
+    assert head[1e-6]["ratios"]["mujoco"] == pytest.approx(0.025)
+    assert head[1e-9]["ratios"]["mujoco"] == math.inf  # only the peer reaches 1e-9
+    assert head[1e-3]["ratios"]["pymunk"] == 0.0
+    assert "box2d" not in head[1e-3]["ratios"]  # not run on this scene
+    assert "pymunk" in head[1e-3]["skipped"] and "mujoco" not in head[1e-3]["skipped"]
+    assert "skipped" in report._ratio_text(0.0, skipped=True)
+    assert report._ratio_text(0.0) == "peer never reaches"
+    assert report._ratio_text(0.5) == "0.50 (met)" and report._ratio_text(0.51) == "0.51 (missed)"
 
 
 def test_cli_bench_help_and_bad_scene(capsys):

@@ -61,7 +61,7 @@ MODES = {
         "full",
         steps={s: FULL_STEPS for s in BENCH_SCENES} | {"stiff": STIFF_STEPS},
         tolerances=[10.0 ** -k for k in range(3, 13)],
-        adaptive_steps=[0.5, 0.1, 0.02], budget=Budget(0.5, 3, 1.0, 20),
+        adaptive_steps=[0.5, 0.1, 0.02], budget=Budget(1.0, 3, 1.0, 20),
         ring_sizes=[1, 10, 100, 1000, 10000], ring_wall=0.2,
         shipped_duration=4.0, shipped_steps=[4.0, 2.0, 1.0, 0.5], shipped_ref_divisor=4.0,
         profile_steps=3000),
