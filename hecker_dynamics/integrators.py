@@ -36,10 +36,12 @@ class IntegrationError(ArithmeticError):
 
 @dataclass
 class Counters:
-    """Work done, for the benchmark: force evaluations, sub-steps, Newton iterations."""
+    """Work done, for the benchmark: force evaluations, sub-steps (and refused trial
+    sub-steps of the adaptive methods), Newton iterations."""
 
     evaluations: int = 0
     substeps: int = 0
+    rejected: int = 0
     newton_iterations: int = 0
 
 
@@ -120,8 +122,9 @@ class EmbeddedRungeKutta(Integrator):
     """An adaptive embedded pair (:mod:`.tableaux`): sub-steps each step so the local error
     meets ``tolerance``.
 
-    The error of each sub-step, scaled component-wise by ``tolerance * (1 + |y|)``, must have
-    a norm (:meth:`~.tableaux.EmbeddedPair.error_norm`) of at most 1; the next sub-step size
+    The error of each sub-step, scaled component-wise by ``tolerance * (1 + |y|)`` (the
+    larger |y| of the sub-step's start and end), must have a norm
+    (:meth:`~.tableaux.EmbeddedPair.error_norm`) of at most 1; the next sub-step size
     follows from the usual controller (safety 0.9, growth between 0.2x and 5x, exponent
     -1 / (error order + 1)). The last sub-step is shortened to land on the end of the step;
     the sub-step size carries over from step to step.
@@ -135,6 +138,11 @@ class EmbeddedRungeKutta(Integrator):
         self.tolerance = tolerance
         self._exponent = -1.0 / (pair.error_order + 1)
         self._rows = [pair.a[s, :s] for s in range(pair.slopes)]
+        # The slopes the error estimate reads: all S, or the first S - 1 when it skips k_S
+        # (which is then evaluated only for an accepted sub-step).
+        self._estimate_needs_new_state = pair.error_uses_new_state
+        self._error_slopes = pair.slopes if self._estimate_needs_new_state else pair.slopes - 1
+        self._error = pair.error[:, :self._error_slopes]
         self._size = math.inf
 
     def reset(self) -> None:
@@ -159,15 +167,20 @@ class EmbeddedRungeKutta(Integrator):
             remaining = h - done
             last = size >= remaining * (1.0 - 1e-12)
             trial = remaining if last else size
-            for s in range(1, len(rows)):
-                y_new = y + trial * (rows[s] @ slopes[:s])
-                rhs(y_new, slopes[s])  # the last slope is at the new state
+            for s in range(1, len(rows) - 1):
+                rhs(y + trial * (rows[s] @ slopes[:s]), slopes[s])
+            y_new = y + trial * (rows[-1] @ slopes[:-1])
+            if self._estimate_needs_new_state:
+                rhs(y_new, slopes[-1])
             scale = self.tolerance * (1.0 + np.maximum(np.abs(y), np.abs(y_new)))
-            norm = self.pair.error_norm(trial * (self.pair.error @ slopes) / scale)
+            estimate = trial * (self._error @ slopes[:self._error_slopes])
+            norm = self.pair.error_norm(estimate / scale)
             if not math.isfinite(norm):
                 norm = math.inf  # an overshooting trial: reject it and shrink the sub-step
             factor = 5.0 if norm == 0.0 else min(5.0, max(0.2, 0.9 * norm ** self._exponent))
             if norm <= 1.0:
+                if not self._estimate_needs_new_state:
+                    rhs(y_new, slopes[-1])
                 self.counters.substeps += 1
                 y, done = y_new, done + trial
                 slopes[0] = slopes[-1]  # first same as last: k_S is the next k_1
@@ -175,6 +188,8 @@ class EmbeddedRungeKutta(Integrator):
                     # A sub-step shortened to land on the end says little about the next size.
                     self._size = trial * factor if trial >= size else size
                     return y[:n].reshape(shape), y[n:].reshape(shape)
+            else:
+                self.counters.rejected += 1
             size = trial * factor
             if size < 1e-14 * h:
                 raise IntegrationError(f"{self.name}: the sub-step size underflowed")
@@ -237,7 +252,7 @@ class ImplicitTheta(Integrator):
         # Rounding of the positions q + theta h v* (about eps |q|) moves v* by up to about
         # eps |q| / (theta h) through a stiff force: no update can be trusted below that.
         floor = 16.0 * np.finfo(float).eps * (float(np.max(np.abs(q))) / th
-                                               + float(np.max(np.abs(v))))
+                                              + float(np.max(np.abs(v))))
         for iteration in range(self.MAX_ITERATIONS):
             q_star = q + th * v_star
             a = self._f(f, q_star, v_star)

@@ -2,9 +2,9 @@
 
 Each pair has S slopes k_1..k_S: stage s (s = 2..S-1) is evaluated at
 y + h (a_s1 k_1 + ... + a_s,s-1 k_s-1), the new state is y + h (b_1 k_1 + ... + b_S-1 k_S-1),
-and k_S, evaluated at the new state, is both the last slope of the error estimate and the
-first slope of the next step ("first same as last"). The error estimate is h times fixed
-combinations of the slopes.
+and k_S, evaluated at the new state, is the first slope of the next step ("first same as
+last"). The error estimate is h times fixed combinations of the slopes: DOPRI5's uses k_S,
+DOP853's does not (so it evaluates k_S only once a sub-step is accepted).
 
 - ``DOPRI5``: Dormand and Prince's 5(4) pair (Dormand & Prince 1980), 6 new evaluations
   per step.
@@ -43,17 +43,26 @@ class EmbeddedPair:
     def slopes(self) -> int:
         return self.a.shape[0]
 
+    @property
+    def error_uses_new_state(self) -> bool:
+        """True if the error estimate needs k_S, the slope at the new state."""
+        return bool(np.any(self.error[:, -1] != 0.0))
+
     def error_norm(self, scaled: np.ndarray) -> float:
         """One number from the error estimates (rows of ``scaled``, each already divided by
         the tolerance scale): at most 1 means the step is accepted.
 
         One estimate: its root mean square. Two (DOP853's 5th- and 3rd-order estimates e5
-        and e3): Hairer's combination |e5|^2 / sqrt(n (|e5|^2 + 0.01 |e3|^2)), which behaves
-        like |e5| / sqrt(n) for small steps and stays reliable for large ones.
+        and e3): Hairer's combination |e5|^2 / sqrt(n (|e5|^2 + 0.01 |e3|^2)). For small
+        steps |e3| >> |e5| and this is about 10 |e5|^2 / (sqrt(n) |e3|), of order h^8 (hence
+        the error order 7); for large steps it tends to |e5| / sqrt(n). A sum of squares
+        that overflows gives an infinite norm (the sub-step is refused), not a zero one.
         """
         if len(scaled) == 1:
             return float(np.sqrt(np.mean(scaled[0] ** 2)))
         e5, e3 = float(np.dot(scaled[0], scaled[0])), float(np.dot(scaled[1], scaled[1]))
+        if not (math.isfinite(e5) and math.isfinite(e3)):
+            return math.inf
         if e5 == 0.0:
             return 0.0
         return e5 / math.sqrt(scaled.shape[1] * (e5 + 0.01 * e3))
