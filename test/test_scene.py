@@ -26,6 +26,7 @@ import hecker_dynamics.forces as forces  # noqa: E402
 import hecker_dynamics.model as model_module  # noqa: E402
 from hecker_dynamics import Simulation  # noqa: E402
 from hecker_dynamics.geometry import box  # noqa: E402
+from hecker_dynamics.integrators import METHODS  # noqa: E402
 from hecker_dynamics.scene import (DEFAULT_SCENE, SceneError, load_scene,  # noqa: E402
                                    scene_from_parameters, scene_path, shipped_scenes)
 
@@ -411,9 +412,7 @@ def test_can_turn_only_bodies_that_something_turns():
     assert Simulation(make_scene(FULL)).model.can_turn().all()
 
 
-@pytest.mark.parametrize("integrator", ["explicit_euler", "semi_implicit_euler",
-                                        "velocity_verlet", "rk4", "dopri5",
-                                        "implicit_midpoint", "backward_euler"])
+@pytest.mark.parametrize("integrator", METHODS)
 @pytest.mark.parametrize("lean", [True, False], ids=["lean", "vector"])
 def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
     """Gravity + CM drag only: no orientation is ever computed (on either evaluation path

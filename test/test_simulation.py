@@ -19,6 +19,7 @@ from scene_builders import make_scene  # noqa: E402
 
 from hecker_dynamics import (DivergenceError, Simulation, WrenchCommand,  # noqa: E402
                              load_scene)
+from hecker_dynamics.integrators import METHODS  # noqa: E402
 
 MS = 1_000_000
 ROOT = Path(__file__).resolve().parent.parent
@@ -214,8 +215,7 @@ def _diverging(integrator):
     return sim
 
 
-@pytest.mark.parametrize("integrator", ["explicit_euler", "semi_implicit_euler", "rk4",
-                                        "dopri5", "backward_euler"])
+@pytest.mark.parametrize("integrator", METHODS)
 def test_divergence_error_keeps_the_last_finite_state(integrator):
     """A finite but huge wrench on a light body overflows the state: the step raises
     DivergenceError naming the body and the simulation keeps the state before it."""
