@@ -102,8 +102,8 @@ class BodySum:
     ``body[i]`` is the body of instance ``i``. Where the bodies are a block of consecutive
     bodies, each once (every body the end A of exactly one spring, say), no accumulation is
     needed: the values are gathered into body order (or taken as they are, if already in
-    it) and added to a slice. Only where a body repeats are values summed with
-    ``np.bincount``.
+    it) and added to a slice. Any other layout (a body repeated, or gaps between the
+    bodies) is summed with ``np.bincount``.
     """
 
     def __init__(self, body: np.ndarray) -> None:
@@ -141,6 +141,13 @@ class BodySum:
         self.add(out[1], fy)
         if torque is not None:
             self.add(out[2], torque)
+
+    def subtract_wrench(self, out: np.ndarray, fx: np.ndarray, fy: np.ndarray,
+                        torque: np.ndarray) -> None:
+        """Subtract forces and torques from the rows of ``out`` (3, N)."""
+        self.subtract(out[0], fx)
+        self.subtract(out[1], fy)
+        self.subtract(out[2], torque)
 
 
 def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -263,10 +270,9 @@ class AnchorSpringTerm:
     def __init__(self, body: np.ndarray, local: np.ndarray, anchor: np.ndarray,
                  stiffness: np.ndarray, rest_length: np.ndarray, damping: np.ndarray) -> None:
         self.body, self.local, self.anchor = body, local, anchor
-        self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
+        self.law = SpringLaw(stiffness, rest_length, damping)
         self.turns = np.unique(body[np.any(local != 0.0, axis=1)])
         self._local, self._anchor = _columns(local), _columns(anchor)
-        self._law = SpringLaw(stiffness, rest_length, damping)
         self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), local.tolist(), anchor.tolist(), stiffness.tolist(),
                               rest_length.tolist(), damping.tolist()))
@@ -279,7 +285,7 @@ class AnchorSpringTerm:
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
         rx, ry, dx, dy = self._stretch(pose)
-        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self._law)
+        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self.law)
         self._sum.add_wrench(out, fx, fy, rx * fy - ry * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
@@ -292,7 +298,7 @@ class AnchorSpringTerm:
 
     def potential(self, q: np.ndarray) -> float:
         _, _, dx, dy = self._stretch(Pose(q, np.zeros_like(q)))
-        return spring_energy(dx, dy, self.stiffness, self.rest_length)
+        return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
 
 
 class BodySpringTerm:
@@ -304,11 +310,10 @@ class BodySpringTerm:
                  local_b: np.ndarray, stiffness: np.ndarray, rest_length: np.ndarray,
                  damping: np.ndarray) -> None:
         self.body_a, self.local_a, self.body_b, self.local_b = body_a, local_a, body_b, local_b
-        self.stiffness, self.rest_length, self.damping = stiffness, rest_length, damping
+        self.law = SpringLaw(stiffness, rest_length, damping)
         self.turns = np.unique(np.concatenate([body_a[np.any(local_a != 0.0, axis=1)],
                                                body_b[np.any(local_b != 0.0, axis=1)]]))
         self._local_a, self._local_b = _columns(local_a), _columns(local_b)
-        self._law = SpringLaw(stiffness, rest_length, damping)
         self._sum_a, self._sum_b = BodySum(body_a), BodySum(body_b)
         self._rows = list(zip(body_a.tolist(), local_a.tolist(), body_b.tolist(),
                               local_b.tolist(), stiffness.tolist(), rest_length.tolist(),
@@ -326,12 +331,10 @@ class BodySpringTerm:
         rax, ray, rbx, rby, dx, dy = self._ends(pose)
         vax, vay = pose.point_velocity(self.body_a, rax, ray)
         vbx, vby = pose.point_velocity(self.body_b, rbx, rby)
-        fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self._law)
+        fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self.law)
         self._sum_a.add_wrench(out, fx, fy, rax * fy - ray * fx)
         # End B takes -F, whose torque is perp-dot(r_B, -F).
-        self._sum_b.subtract(out[0], fx)
-        self._sum_b.subtract(out[1], fy)
-        self._sum_b.subtract(out[2], rbx * fy - rby * fx)
+        self._sum_b.subtract_wrench(out, fx, fy, rbx * fy - rby * fx)
 
     def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
         for a, (lax, lay), b, (lbx, lby), k, rest, c in self._rows:
@@ -348,7 +351,7 @@ class BodySpringTerm:
 
     def potential(self, q: np.ndarray) -> float:
         *_, dx, dy = self._ends(Pose(q, np.zeros_like(q)))
-        return spring_energy(dx, dy, self.stiffness, self.rest_length)
+        return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
 
 
 def drag_force(vx: np.ndarray, vy: np.ndarray, coefficient: np.ndarray,

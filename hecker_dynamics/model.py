@@ -39,7 +39,7 @@ class Model:
         self.inertia = np.array([b.mass.moment_of_inertia for b in scene.bodies])
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
-        self.terms: list[ForceTerm] = _build_terms(self, scene)
+        self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
         self.inputs = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self._inverse_mass_rows = self.inverse_mass.tolist()
@@ -55,7 +55,7 @@ class Model:
     @inputs.setter
     def inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
         self._inputs = term
-        self._active = self.terms if term is None else [*self.terms, term]
+        self._active = self.terms if term is None else (*self.terms, term)
         self._oriented = any(t.uses_orientation for t in self._active)
 
     @property
@@ -130,8 +130,8 @@ class Model:
         for term in self.terms:
             if isinstance(term, (AnchorSpringTerm, BodySpringTerm)):
                 mobility = self._mobility(*_ends(term))
-                rates.extend(np.sqrt(term.stiffness * mobility))
-                rates.extend(term.damping * mobility)
+                rates.extend(np.sqrt(term.law.stiffness * mobility))
+                rates.extend(term.law.damping * mobility)
             elif isinstance(term, CentreDragTerm):
                 rates.extend((term.coefficient / self.mass[term.body])[~term.quadratic])
             elif isinstance(term, PointDragTerm):

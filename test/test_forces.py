@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.commands import WrenchCommand
+from hecker_dynamics.forces import BodySum
 from hecker_dynamics.model import LEAN_BODIES, Model
+from hecker_dynamics.planar import HALF_ANGLE_FROM
 from hecker_dynamics.simulation import Simulation
 from scene_builders import make_scene
 
@@ -144,3 +146,82 @@ def test_a_spring_shorter_than_the_smallest_double_agrees_on_both_paths():
     expected = np.array([[100.0 * 0.1, 0.0, 0.0]])  # pushed out along +x with k (L0 - L)
     np.testing.assert_allclose(lean.accelerations(q, v), expected, rtol=1e-12)
     np.testing.assert_allclose(vector.accelerations(q, v), expected, rtol=1e-12)
+
+
+def many_bodies_scene(count: int, seed: int = 3) -> dict:
+    """``count`` boxes with every kind of term, laid out so that each way of summing per
+    body is used: gravity on all (a block in order), springs in a ring whose instances run
+    in a shuffled body order (a permuted block), anchors on every third body (gaps), extra
+    springs from random bodies (repeats), drag on a shuffled half."""
+    rng = np.random.default_rng(seed)
+    names = [f"b{i:04d}" for i in range(count)]
+    order = rng.permutation(count)
+    bodies = {name: {"shape": "box", "size": [0.2, 0.1], "mass": 1.0 + (i % 5) * 0.1,
+                     "position": [float(i % 20), float(i // 20)], "angle": 0.1 * i}
+              for i, name in enumerate(names)}
+    forces = {"gravity": {"type": "gravity"},
+              "drag": {"type": "linear_drag", "coefficient": 0.3,
+                       "bodies": [names[i] for i in order[: count // 2]]},
+              "spin": {"type": "angular_damping", "coefficient": 0.01}}
+    for k, i in enumerate(order):
+        forces[f"ring{k:04d}"] = {"type": "spring", "body_a": names[i], "point_a": [0.1, 0.0],
+                                  "body_b": names[(i + 1) % count], "point_b": [-0.1, 0.0],
+                                  "stiffness": 100.0, "rest_length": 0.1, "damping": 0.5}
+    for i in range(0, count, 3):
+        forces[f"pin{i:04d}"] = {"type": "spring", "body_a": names[i], "point_a": [0.05, 0.02],
+                                 "anchor": [float(i % 20), float(i // 20) + 1.0],
+                                 "stiffness": 20.0}
+    for k in range(count // 4):
+        a, b = rng.integers(count, size=2)
+        forces[f"extra{k:04d}"] = {"type": "spring", "body_a": names[a], "body_b": names[b],
+                                   "point_b": [0.1, 0.05], "stiffness": 5.0,
+                                   "rest_length": 0.3}
+    return {"step": 0.001, "bodies": bodies, "forces": forces}
+
+
+def test_many_bodies_agree_between_paths():
+    """300 bodies: above the count from which the vector path takes cos and sin by the
+    half-angle tangent, and with every per-body summing layout; the lean path (plain floats,
+    math.cos/sin) must agree to rounding."""
+    scene = make_scene(many_bodies_scene(300))
+    assert len(scene.bodies) >= HALF_ANGLE_FROM
+    lean, vector = both_paths(scene)
+    for q, v in random_states(lean, 3, seed=4):
+        assert_same(lean.accelerations(q, v), vector.accelerations(q, v))
+
+
+@pytest.mark.parametrize("body", [[], [0, 1, 2, 3], [2, 0, 3, 1], [5, 4, 6], [0, 2, 5],
+                                  [1, 1, 3, 0, 1], [4]])
+def test_body_sum_matches_bincount_for_every_layout(body):
+    """In order, shuffled, offset, with gaps, with repeats, single, empty: the per-body sums
+    equal numpy's bincount reference, added to and subtracted from an existing total."""
+    body = np.array(body, dtype=int)
+    rng = np.random.default_rng(len(body))
+    value = rng.normal(size=len(body))
+    total = rng.normal(size=8)
+    expected = total + np.bincount(body, value, minlength=8)
+    summed = BodySum(body)
+    added = total.copy()
+    summed.add(added, value)
+    np.testing.assert_allclose(added, expected, rtol=0.0, atol=1e-15)
+    summed.subtract(added, value)
+    np.testing.assert_allclose(added, total, rtol=0.0, atol=1e-15)
+
+
+def test_an_input_in_body_axes_turns_with_the_body_when_no_scene_force_needs_angles():
+    """Gravity alone needs no orientation; a command in body axes does, and the model must
+    notice it when the input arrives: a body turned a quarter turn and pushed along its own
+    x axis accelerates along world +y, on both paths."""
+    scene = make_scene({"bodies": {"m": {"shape": "circle", "radius": 0.1, "mass": 2.0,
+                                         "angle": np.pi / 2}},
+                        "forces": {"g": {"type": "gravity", "acceleration": [0.0, -1.0]}},
+                        "input_timeout": 0.0})
+    for lean in (True, False):
+        sim = Simulation(scene)
+        sim.model.lean = lean
+        assert not sim.model._oriented
+        sim.push(WrenchCommand(0, "m", "test", "m", (0.0, 0.0), (4.0, 0.0), 0.0))
+        sim.step()
+        q, v = sim.model.initial_state()
+        np.testing.assert_allclose(sim.model.accelerations(q, v), [[0.0, 1.0, 0.0]],
+                                   rtol=0.0, atol=1e-15)
