@@ -361,10 +361,11 @@ def bench_command(args: argparse.Namespace) -> int:
 def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench = commands.add_parser(
         "bench", help="measure error against cost for every integrator (work-precision)",
-        description="Run every integrator over a sweep of steps (and tolerances of the adaptive methods) on "
-                    "the benchmark scenes and the shipped scenes, against exact or reference "
-                    "solutions, with pymunk, Box2D and MuJoCo when installed, and the ring "
-                    "scale test against a plain C loop; write CSV, Markdown and a figure.")
+        description="Run every integrator over a sweep of steps (and tolerances of the "
+                    "adaptive methods) on the benchmark scenes and the shipped scenes, "
+                    "against exact or reference solutions, with pymunk, Box2D and MuJoCo "
+                    "when installed, and the ring scale test against a plain C loop; write "
+                    "CSV, Markdown and a figure.")
     size = bench.add_mutually_exclusive_group()
     size.add_argument("--quick", dest="full", action="store_false", default=False,
                       help="small sweep, about 1-2 minutes (default)")

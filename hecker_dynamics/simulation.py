@@ -59,13 +59,15 @@ class Snapshot:
     def energy(self) -> float:
         """Kinetic energy plus the potential energy of gravity and springs (J)."""
         if self._energy is None:
-            self._energy = self._model.energy(self._q, self._v)
+            with np.errstate(all="ignore"):  # as in the step: a huge state gives inf, quietly
+                self._energy = self._model.energy(self._q, self._v)
         return self._energy
 
     @property
     def bodies(self) -> tuple[BodyState, ...]:
         if self._bodies is None:
-            origin, velocity = self._model.body_frames(self._q, self._v)
+            with np.errstate(all="ignore"):
+                origin, velocity = self._model.body_frames(self._q, self._v)
             columns = zip(self._model.names, origin.tolist(), self._q[:, 2].tolist(),
                           velocity.tolist(), self._v[:, 2].tolist())
             self._bodies = tuple(BodyState(name, (x, y), a, (vx, vy), w)
