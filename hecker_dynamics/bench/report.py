@@ -93,6 +93,7 @@ def figure(rows: list[Row], path: Path) -> bool:
     fig, axes = plt.subplots(rows_n, cols, figsize=(5 * cols, 4 * rows_n), squeeze=False)
     markers = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
     for ax, scene in zip(axes.ravel(), scenes):
+        ax.set_prop_cycle(color=plt.cm.tab20.colors)  # up to 20 series per panel, all distinct
         groups: dict[tuple, list[Row]] = {}
         for r in rows:
             if r.scene == scene and r.status == "ok" and r.position_error > 0 \
