@@ -137,7 +137,6 @@ class EmbeddedRungeKutta(Integrator):
         self.pair = pair
         self.tolerance = tolerance
         self._exponent = -1.0 / (pair.error_order + 1)
-        self._rows = [pair.a[s, :s] for s in range(pair.slopes)]
         # The slopes the error estimate reads: all S, or the first S - 1 when it skips k_S
         # (which is then evaluated only for an accepted sub-step).
         self._estimate_needs_new_state = pair.error_uses_new_state
@@ -152,26 +151,35 @@ class EmbeddedRungeKutta(Integrator):
         y = np.concatenate([q.ravel(), v.ravel()])
         n = q.size
         shape = q.shape
-        rows = self._rows
         slopes = np.empty((self.pair.slopes, y.size))  # k_1..k_S, one row each
+        # Stage states are built in one buffer, whose q and v views serve every stage.
+        stage, increment = np.empty(y.size), np.empty(y.size)
+        stage_q, stage_v = stage[:n].reshape(shape), stage[n:].reshape(shape)
 
-        def rhs(state: np.ndarray, out: np.ndarray) -> None:
-            """Write (q', v') = (v, a(q, v)) of the flat state into ``out``."""
-            out[:n] = state[n:]
-            out[n:] = self._f(f, state[:n].reshape(shape), state[n:].reshape(shape)).ravel()
+        def rhs(q_now: np.ndarray, v_now: np.ndarray, out: np.ndarray) -> None:
+            """Write (q', v') = (v, a(q, v)) into the flat ``out``."""
+            out[:n] = v_now.ravel()
+            out[n:] = self._f(f, q_now, v_now).ravel()
 
-        rhs(y, slopes[0])
+        def rhs_flat(state: np.ndarray, out: np.ndarray) -> None:
+            rhs(state[:n].reshape(shape), state[n:].reshape(shape), out)
+
+        rhs(q, v, slopes[0])
         size = min(self._size, h)
         done = 0.0
+        last_row = self.pair.slopes - 1
         for _ in range(self.MAX_SUBSTEPS):
             remaining = h - done
             last = size >= remaining * (1.0 - 1e-12)
             trial = remaining if last else size
-            for s in range(1, len(rows) - 1):
-                rhs(y + trial * (rows[s] @ slopes[:s]), slopes[s])
-            y_new = y + trial * (rows[-1] @ slopes[:-1])
+            a = trial * self.pair.a  # the stage coefficients times the sub-step, once a trial
+            for s in range(1, last_row):
+                np.matmul(a[s, :s], slopes[:s], out=increment)
+                np.add(y, increment, out=stage)
+                rhs(stage_q, stage_v, slopes[s])
+            y_new = y + a[last_row] @ slopes[:-1]
             if self._estimate_needs_new_state:
-                rhs(y_new, slopes[-1])
+                rhs_flat(y_new, slopes[-1])
             scale = self.tolerance * (1.0 + np.maximum(np.abs(y), np.abs(y_new)))
             estimate = trial * (self._error @ slopes[:self._error_slopes])
             norm = self.pair.error_norm(estimate / scale)
@@ -180,7 +188,7 @@ class EmbeddedRungeKutta(Integrator):
             factor = 5.0 if norm == 0.0 else min(5.0, max(0.2, 0.9 * norm ** self._exponent))
             if norm <= 1.0:
                 if not self._estimate_needs_new_state:
-                    rhs(y_new, slopes[-1])
+                    rhs_flat(y_new, slopes[-1])
                 self.counters.substeps += 1
                 y, done = y_new, done + trial
                 slopes[0] = slopes[-1]  # first same as last: k_S is the next k_1
