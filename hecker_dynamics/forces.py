@@ -88,6 +88,9 @@ class ForceTerm(Protocol):
     uses_orientation: bool
     #: Bodies the term can turn (it applies torque to them).
     turns: np.ndarray
+    #: (sources, targets): the force on ``targets[e]`` depends on the state of
+    #: ``sources[e]``, another body (every force depends on its own body's state).
+    couplings: tuple[np.ndarray, np.ndarray]
 
     def add(self, pose: Pose, out: np.ndarray) -> None:
         """Add to ``out`` (3, N): rows Fx, Fy and torque (contiguous), vectorised."""
@@ -150,6 +153,10 @@ class BodySum:
         self.subtract(out[2], torque)
 
 
+#: The couplings of a term whose forces depend on their own body's state only.
+NO_COUPLINGS: tuple[np.ndarray, np.ndarray] = (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
+
+
 def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Contiguous x and y columns of an (n, 2) array of points."""
     return np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
@@ -166,6 +173,7 @@ class GravityTerm:
     """m g at the CM of each body: no torque (article: gravity acts at the CM)."""
 
     uses_orientation = False
+    couplings = NO_COUPLINGS
 
     def __init__(self, bodies: np.ndarray, weights: np.ndarray) -> None:
         self.bodies = bodies
@@ -266,6 +274,7 @@ class AnchorSpringTerm:
     """Damped springs from body points to fixed anchors."""
 
     uses_orientation = True
+    couplings = NO_COUPLINGS
 
     def __init__(self, body: np.ndarray, local: np.ndarray, anchor: np.ndarray,
                  stiffness: np.ndarray, rest_length: np.ndarray, damping: np.ndarray) -> None:
@@ -315,6 +324,7 @@ class BodySpringTerm:
                                                body_b[np.any(local_b != 0.0, axis=1)]]))
         self._local_a, self._local_b = _columns(local_a), _columns(local_b)
         self._sum_a, self._sum_b = BodySum(body_a), BodySum(body_b)
+        self.couplings = (np.concatenate([body_a, body_b]), np.concatenate([body_b, body_a]))
         self._rows = list(zip(body_a.tolist(), local_a.tolist(), body_b.tolist(),
                               local_b.tolist(), stiffness.tolist(), rest_length.tolist(),
                               damping.tolist()))
@@ -372,6 +382,7 @@ class CentreDragTerm:
     """Linear or quadratic drag at the CM: no torque."""
 
     uses_orientation = False
+    couplings = NO_COUPLINGS
 
     def __init__(self, body: np.ndarray, coefficient: np.ndarray, quadratic: np.ndarray) -> None:
         self.body, self.coefficient, self.quadratic = body, coefficient, quadratic
@@ -396,6 +407,7 @@ class PointDragTerm:
     """Linear or quadratic drag at body points, using the point velocity v_P."""
 
     uses_orientation = True
+    couplings = NO_COUPLINGS
 
     def __init__(self, body: np.ndarray, local: np.ndarray, coefficient: np.ndarray,
                  quadratic: np.ndarray) -> None:
@@ -424,6 +436,7 @@ class AngularDampingTerm:
     """Torque -c omega."""
 
     uses_orientation = False
+    couplings = NO_COUPLINGS
 
     def __init__(self, body: np.ndarray, coefficient: np.ndarray) -> None:
         self.body, self.coefficient = body, coefficient
@@ -460,6 +473,8 @@ class ConstantWrenchTerm:
         self._force, self._point = _columns(force), _columns(point)
         self.uses_orientation = bool(self.rotated.any() or self.moving_point.any())
         self.turns = np.unique(body[at_point | (torque != 0.0)])
+        self.couplings = (np.concatenate([axes_body[self.rotated], point_body[self.moving_point]]),
+                          np.concatenate([body[self.rotated], body[self.moving_point]]))
         self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))

@@ -15,16 +15,20 @@ velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
 - ``dop853``: Dormand-Prince order 8 with Hairer's error estimate, the same way: 12
   evaluations a sub-step, far fewer sub-steps at tight tolerances.
 - ``implicit_midpoint`` (order 2, A-stable, symplectic) and ``backward_euler`` (order 1,
-  L-stable): solved by Newton's method, stable for stiff springs at any step.
+  L-stable): solved by Newton's method, stable for stiff springs at any step. Given the
+  bodies' coupling (a :class:`~.colouring.Colouring`), their Jacobian takes coloured
+  differences: 6 evaluations per group of bodies instead of 6 per body.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
+from .colouring import Colouring
 from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -213,6 +217,11 @@ class ImplicitTheta(Integrator):
     differences at the start of the step, refreshed if convergence is slow. Where Newton's
     method fails (a step so long that the bodies turn far within it), the step is taken as
     two halves, recursively, up to :attr:`MAX_HALVINGS` times.
+
+    :attr:`colouring`, if set, is called at each Jacobian for the current
+    :class:`~.colouring.Colouring` of the bodies (a Simulation sets it to its model's);
+    with fewer groups than bodies the Jacobian is taken by coloured differences, equal bit
+    for bit to the dense one. Unset, every column costs one evaluation.
     """
 
     MAX_ITERATIONS = 50
@@ -222,24 +231,55 @@ class ImplicitTheta(Integrator):
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
         super().__init__(name, order)
         self.theta = theta
+        self.colouring: Optional[Callable[[], Colouring]] = None
 
     def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """da/dq and da/dv as (3N, 3N) matrices, by forward differences."""
-        m = q.size
-        columns = []
-        for state, other, is_q in ((q, v, True), (v, q, False)):
-            jac = np.empty((m, m))
-            flat = state.ravel()
-            for j in range(m):
-                delta = 1.5e-8 * max(1.0, abs(flat[j]))
-                bumped = flat.copy()
-                bumped[j] += delta
-                bumped = bumped.reshape(state.shape)
-                moved = self._f(f, bumped, other) if is_q else self._f(f, other, bumped)
-                jac[:, j] = ((moved - a) / delta).ravel()
-            columns.append(jac)
-        return columns[0], columns[1]
+        """da/dq and da/dv as (3N, 3N) matrices, by forward differences: coloured when a
+        colouring with fewer groups than bodies is given, else one column at a time."""
+        colouring = None if self.colouring is None else self.colouring()
+        if colouring is not None and len(colouring.groups) < colouring.size:
+            return (self._coloured_jacobian(lambda bumped: self._f(f, bumped, v), q, a,
+                                             colouring),
+                    self._coloured_jacobian(lambda bumped: self._f(f, q, bumped), v, a,
+                                            colouring))
+        return (self._dense_jacobian(lambda bumped: self._f(f, bumped, v), q, a),
+                self._dense_jacobian(lambda bumped: self._f(f, q, bumped), v, a))
+
+    @staticmethod
+    def _dense_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
+                        a: np.ndarray) -> np.ndarray:
+        """da/dstate, one evaluation per component of ``state`` (``a`` = f(state))."""
+        m = state.size
+        jac = np.empty((m, m))
+        flat = state.ravel()
+        for j in range(m):
+            delta = 1.5e-8 * max(1.0, abs(flat[j]))
+            bumped = flat.copy()
+            bumped[j] += delta
+            moved = f(bumped.reshape(state.shape))
+            jac[:, j] = ((moved - a) / delta).ravel()
+        return jac
+
+    @staticmethod
+    def _coloured_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
+                           a: np.ndarray, colouring: Colouring) -> np.ndarray:
+        """da/dstate by coloured differences: one evaluation per state component (x, y,
+        angle or their rates) and group, bumping that component of every body of the group
+        by the dense method's step; each body's column is read from the rows of the bodies
+        it influences, the rest of it is zero. The same arithmetic as the dense method."""
+        m = state.size
+        jac = np.zeros((m, m))
+        delta = 1.5e-8 * np.fmax(1.0, np.abs(state))  # fmax: a NaN reads as 1, as max() does
+        flat_delta = delta.ravel()
+        for component in range(state.shape[1]):
+            for group, rows, columns in zip(colouring.groups, colouring.rows, colouring.columns):
+                bumped = state.copy()
+                bumped[group, component] += delta[group, component]
+                change = (f(bumped) - a).ravel()
+                columns = 3 * columns + component
+                jac[rows, columns] = change[rows] / flat_delta[columns]
+        return jac
 
     def step(self, f, q, v, h, halvings: int = 0):
         try:

@@ -17,6 +17,7 @@ import numpy as np
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
                      ScalarPose)
+from .colouring import Colouring, colour
 from .planar import perp, rotate
 from .scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
@@ -40,6 +41,9 @@ class Model:
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
+        # The scene's couplings, the inputs' couplings and the colouring of both, once asked.
+        self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
+        self._colouring: Optional[tuple[tuple[tuple[int, int], ...], Colouring]] = None
         self.inputs = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self._inverse_mass_rows = self.inverse_mass.tolist()
@@ -61,6 +65,21 @@ class Model:
     @property
     def size(self) -> int:
         return len(self.names)
+
+    def jacobian_colouring(self) -> Colouring:
+        """The groups of bodies a Jacobian by coloured differences bumps together, for the
+        scene's forces and the inputs active now (see :mod:`.colouring`).
+
+        Computed when first asked for, and again only when the inputs couple other bodies
+        (an input whose axes or point belong to a body other than its target); contacts are
+        not part of :meth:`accelerations` and couple nothing.
+        """
+        if self._term_couplings is None:
+            self._term_couplings = _couplings(self.terms)
+        extra = _couplings(() if self._inputs is None else (self._inputs,))
+        if self._colouring is None or self._colouring[0] != extra:
+            self._colouring = (extra, colour(self.size, self._term_couplings + extra))
+        return self._colouring[1]
 
     def local(self, body: int, point: tuple[float, float]) -> np.ndarray:
         """A body-frame point as an offset from the body's CM, in body axes."""
@@ -152,6 +171,13 @@ def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarra
     if isinstance(term, AnchorSpringTerm):
         return ([(term.body, term.local)],)
     return ([(term.body_a, term.local_a), (term.body_b, term.local_b)],)
+
+
+def _couplings(terms: tuple[ForceTerm, ...]) -> tuple[tuple[int, int], ...]:
+    """The distinct (source, target) body pairs the terms couple, sorted."""
+    pairs = {(s, t) for term in terms
+             for s, t in zip(term.couplings[0].tolist(), term.couplings[1].tolist()) if s != t}
+    return tuple(sorted(pairs))
 
 
 def _restitution_threshold(scene: Scene) -> float:

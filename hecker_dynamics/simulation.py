@@ -16,7 +16,7 @@ import numpy as np
 
 from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
-from .integrators import IntegrationError, choose_method, make_integrator
+from .integrators import ImplicitTheta, IntegrationError, choose_method, make_integrator
 from .model import Model, wrench_term
 from .planar import wrap_angles_in_place
 from .scene import Scene
@@ -99,6 +99,8 @@ class Simulation:
         if method == "auto":
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size)
         self.integrator = make_integrator(method, scene.tolerance)
+        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
+            self.integrator.colouring = self.model.jacobian_colouring
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
