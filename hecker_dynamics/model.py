@@ -14,10 +14,10 @@ from typing import Optional
 
 import numpy as np
 
+from .colouring import Colouring, colour
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
                      ScalarPose)
-from .colouring import Colouring, colour
 from .planar import perp, rotate
 from .scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
