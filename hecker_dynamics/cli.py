@@ -24,11 +24,31 @@ from .scene import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .simulation import DivergenceError, Simulation
 
 
-def _seconds(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 1e9:
+def _time_ns(text: str) -> int:
+    """Seconds (exactly, however many digits: stamps of live bags are ~1.7e9 s) to ns."""
+    try:
+        value = decimal.Decimal(text)
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text}") from None
+    if not value.is_finite() or value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
+    return int((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
+
+
+def _duration_ns(text: str) -> int:
+    """A sim duration: seconds, exactly as :func:`_time_ns` reads them, up to 1e9 s."""
+    ns = _time_ns(text)
+    if ns > 1_000_000_000 * 1_000_000_000:
         raise argparse.ArgumentTypeError(f"must be a number of seconds from 0 to 1e9, not {text}")
-    return value
+    return ns
+
+
+def _step_ns(text: str) -> int:
+    """A physics step: as :func:`_duration_ns`, and at least one whole nanosecond."""
+    ns = _duration_ns(text)
+    if ns < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1 ns, not {text}")
+    return ns
 
 
 def _positive(text: str) -> float:
@@ -46,13 +66,12 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
     if args.tolerance is not None:
         changes["tolerance"] = args.tolerance
     if args.step is not None:
-        step_ns = round(args.step * 1e9)
-        if step_ns < 1 or scene.publish_period_ns % step_ns:
-            raise SceneError(f"--step {args.step}: the publish period "
+        if scene.publish_period_ns % args.step:
+            raise SceneError(f"--step {args.step * 1e-9:g}: the publish period "
                              f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
-        changes["step_ns"] = step_ns
+        changes["step_ns"] = args.step
     if args.duration is not None:
-        changes["duration_ns"] = round(args.duration * 1e9)
+        changes["duration_ns"] = args.duration
     return dataclasses.replace(scene, **changes)
 
 
@@ -89,17 +108,6 @@ def scenes(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- bags
-
-def _time_ns(text: str) -> int:
-    """Seconds (exactly, however many digits: stamps of live bags are ~1.7e9 s) to ns."""
-    try:
-        value = decimal.Decimal(text)
-    except decimal.InvalidOperation:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text}") from None
-    if not value.is_finite() or value < 0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
-    return int((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
-
 
 def _tolerance(text: str) -> float:
     try:
@@ -394,9 +402,10 @@ def parser() -> argparse.ArgumentParser:
                     "default scene when none is given) with its scripted inputs.")
     run_parser.add_argument("scene", nargs="?", default=None,
                             help="shipped scene name or path to a parameters file")
-    run_parser.add_argument("--duration", type=_seconds, help="sim seconds (default: the scene's)")
+    run_parser.add_argument("--duration", type=_duration_ns,
+                            help="sim seconds (default: the scene's)")
     run_parser.add_argument("--integrator", choices=INTEGRATORS, help="override the integrator")
-    run_parser.add_argument("--step", type=_positive, help="override the physics step, s")
+    run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
     run_parser.set_defaults(handler=run)

@@ -105,12 +105,24 @@ def test_diverging_scene_exits_2(tmp_path, capsys):
                         "kept the last finite state")
 
 
-def test_bad_argument_exits_2_with_usage(capsys):
+@pytest.mark.parametrize("option, value", [("--duration", "-1"), ("--duration", "nan"),
+                                           ("--duration", "2e9"), ("--step", "1e-10"),
+                                           ("--step", "0"), ("--step", "fast")])
+def test_bad_argument_exits_2_with_usage(capsys, option, value):
     with pytest.raises(SystemExit) as caught:
-        main(["run", "--duration", "-1"])
+        main(["run", option, value])
     assert caught.value.code == 2
     err = capsys.readouterr().err
-    assert "usage:" in err and "--duration" in err and "Traceback" not in err
+    assert "usage:" in err and option in err and "Traceback" not in err
+
+
+def test_run_reads_seconds_exactly_as_the_bag_commands_do(capsys):
+    """--step and --duration are decimal seconds made whole nanoseconds, as --start and
+    --duration of `script` and `replay` are: 1.0000000015 s is exactly 1000000001.5 ns,
+    rounded half to even to 1000000002 ns (read as a binary float first, it would be just
+    below the half and give 1000000001 ns)."""
+    args = parser().parse_args(["run", "--step", "0.0015", "--duration", "1.0000000015"])
+    assert args.step == 1_500_000 and args.duration == 1_000_000_002
 
 
 def _subcommands():
