@@ -29,6 +29,7 @@ thinnest colliding part in it.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -53,6 +54,59 @@ CORRECTION = 0.2
 MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
+
+
+@dataclass(slots=True)
+class ContactRow:
+    """One contact in the impulse solver, set up from the positions at the step's end.
+
+    Bodies ``a`` (-1 for a wall) and ``b``; arms r_A = (rax, ray) and r_B = (rbx, rby) from
+    their CMs to the contact point; unit normal n = (nx, ny) from A to B; effective masses
+    along n and along t = perp(n); the normal velocity the impulses aim for (``target``);
+    friction coefficient ``mu``; the accumulated normal and tangent impulses ``jn`` and
+    ``jt``, the only fields the solver changes; the overlap at the step's end (``depth``,
+    negative for a gap within :data:`MARGIN`); inverse masses and inertias (zero for a
+    wall); the normal velocity before any impulse (``approach``); and the pair of parts
+    (``key``), for warm starting.
+    """
+
+    a: int
+    b: int
+    rax: float
+    ray: float
+    rbx: float
+    rby: float
+    nx: float
+    ny: float
+    mass_n: float
+    mass_t: float
+    target: float
+    mu: float
+    jn: float
+    jt: float
+    depth: float
+    im_a: float
+    ii_a: float
+    im_b: float
+    ii_b: float
+    approach: float
+    key: tuple
+
+    def normal_velocity(self, velocity: dict) -> float:
+        """The contact's normal velocity for the bodies' ``velocity`` (see
+        :func:`_normal_velocity`)."""
+        return _normal_velocity(velocity[self.a], velocity[self.b], self.rax, self.ray,
+                                self.rbx, self.rby, self.nx, self.ny)
+
+    def push(self, velocity: dict, px: float, py: float) -> None:
+        """Apply impulse (px, py) at the contact: +P to body b, -P to body a."""
+        va, vb = velocity[self.a], velocity[self.b]
+        va[0] -= px * self.im_a
+        va[1] -= py * self.im_a
+        va[2] -= (self.rax * py - self.ray * px) * self.ii_a
+        vb[0] += px * self.im_b
+        vb[1] += py * self.im_b
+        vb[2] += (self.rbx * py - self.rby * px) * self.ii_b
 
 
 class ContactPass:
@@ -238,8 +292,8 @@ class ContactPass:
         before[-1] = still
         rows = [self._prepare(c, poses, velocity, before, h) for c in contacts]
         for row in rows:  # warm start, once every target is set from the step's velocities
-            jn, jt, nx, ny = row[12], row[13], row[6], row[7]
-            _push(row, velocity, jn * nx - jt * ny, jn * ny + jt * nx)
+            jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
+            row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
         self._solve_velocities(rows, velocity)
         self._remember(rows, poses)
         for b in touched:
@@ -251,9 +305,8 @@ class ContactPass:
         self._correct_positions(rows, velocity, q1, h)
 
     def _prepare(self, contact: list, poses: dict, velocity: dict, before: dict,
-                 h: float) -> list:
-        """A solver row: bodies, arms, normal, effective masses, target normal velocity,
-        accumulated impulses, depth, inverse masses, approach velocity and pair key."""
+                 h: float) -> ContactRow:
+        """The solver row of ``contact``, its impulses warm-started from the last step."""
         a, b, (px, py), (nx, ny), depth, e, mu, key = contact
         im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
         im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
@@ -274,8 +327,8 @@ class ContactPass:
             impact = _normal_velocity(before[a], before[b], rax, ray, rbx, rby, nx, ny)
             target = max(target, -e * min(impact, 0.0))
         jn, jt = self._recall(key, rbx, rby, poses[b][2])
-        return [a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth,
-                im_a, ii_a, im_b, ii_b, approach, key]
+        return ContactRow(a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt,
+                          depth, im_a, ii_a, im_b, ii_b, approach, key)
 
     def _recall(self, pair: tuple, rx: float, ry: float, angle: float) -> tuple[float, float]:
         """Last step's impulses of the contact of ``pair`` nearest this point, if within
@@ -295,43 +348,44 @@ class ContactPass:
         _, _, jn, jt = remembered.pop(best)
         return jn, jt
 
-    def _remember(self, rows: list[list], poses: dict) -> None:
+    def _remember(self, rows: list[ContactRow], poses: dict) -> None:
         """Keep each contact's impulses with its point in the second body's frame."""
         self._warm = {}
         for row in rows:
-            b, rbx, rby = row[1], row[4], row[5]
-            c, s = math.cos(poses[b][2]), math.sin(poses[b][2])
-            self._warm.setdefault(row[-1], []).append(
-                (c * rbx + s * rby, -s * rbx + c * rby, row[12], row[13]))
+            rbx, rby, angle = row.rbx, row.rby, poses[row.b][2]
+            c, s = math.cos(angle), math.sin(angle)
+            self._warm.setdefault(row.key, []).append(
+                (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 
-    def _solve_velocities(self, rows: list[list], velocity: dict) -> None:
+    def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
         """Gauss-Seidel over the rows until no impulse changes a velocity by more than
         :data:`CONVERGED` relative to the fastest body, or :data:`MAX_ITERATIONS` passes."""
         scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
         for _ in range(MAX_ITERATIONS):
             largest = 0.0
             for row in rows:
-                a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt = row[:14]
-                va, vb = velocity[a], velocity[b]
+                va, vb = velocity[row.a], velocity[row.b]
+                rax, ray, rbx, rby, nx, ny = row.rax, row.ray, row.rbx, row.rby, row.nx, row.ny
+                jn, mass_n = row.jn, row.mass_n
                 dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
                 dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                new_n = max(jn + (target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
+                new_n = max(jn + (row.target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
                 change = abs(new_n - jn) / mass_n
-                _push(row, velocity, (new_n - jn) * nx, (new_n - jn) * ny)
-                row[12] = new_n
-                if mu > 0.0:
+                row.push(velocity, (new_n - jn) * nx, (new_n - jn) * ny)
+                row.jn = new_n
+                if row.mu > 0.0:
                     dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
                     dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                    bound = mu * new_n
+                    jt, mass_t, bound = row.jt, row.mass_t, row.mu * new_n
                     new_t = min(max(jt - (-dvx * ny + dvy * nx) * mass_t, -bound), bound)
                     change = max(change, abs(new_t - jt) / mass_t)
-                    _push(row, velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
-                    row[13] = new_t
+                    row.push(velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
+                    row.jt = new_t
                 largest = max(largest, change)
             if largest <= CONVERGED * scale:
                 return
 
-    def _correct_positions(self, rows: list[list], velocity: dict, q1: np.ndarray,
+    def _correct_positions(self, rows: list[ContactRow], velocity: dict, q1: np.ndarray,
                            h: float) -> None:
         """Remove overlap beyond :data:`SLOP` by moving positions only.
 
@@ -339,24 +393,17 @@ class ContactPass:
         arms; each pass moves the two bodies apart along the normal by a fraction of the
         excess, weighted by their inverse masses and inertias.
         """
-        base = []
-        for row in rows:
-            a, b, rax, ray, rbx, rby, nx, ny = row[:8]
-            normal_velocity = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby,
-                                               nx, ny)
-            base.append(row[14] - h * (normal_velocity - row[19]))
+        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach) for row in rows]
         if max(base) <= SLOP:
             return
         shift = {b: [0.0, 0.0, 0.0] for b in velocity}
         for _ in range(POSITION_ITERATIONS):
             for row, depth in zip(rows, base):
-                a, b, rax, ray, rbx, rby, nx, ny, mass_n = row[:9]
-                excess = depth - SLOP - _normal_velocity(shift[a], shift[b], rax, ray, rbx,
-                                                         rby, nx, ny)
+                excess = depth - SLOP - row.normal_velocity(shift)
                 if excess <= 0.0:
                     continue
-                push = min(CORRECTION * excess, MAX_CORRECTION) * mass_n
-                _push(row, shift, push * nx, push * ny)
+                push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n
+                row.push(shift, push * row.nx, push * row.ny)
         for b, s in shift.items():
             if b >= 0 and any(s):
                 q1[b] += s
@@ -367,19 +414,6 @@ def _normal_velocity(va: list, vb: list, rax: float, ray: float, rbx: float, rby
     """(v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n: negative when approaching."""
     return ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
             + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
-
-
-def _push(row: list, velocity: dict, px: float, py: float) -> None:
-    """Apply impulse (px, py) at the contact: +P to body b, -P to body a."""
-    a, b, rax, ray, rbx, rby = row[:6]
-    im_a, ii_a, im_b, ii_b = row[15:19]
-    va, vb = velocity[a], velocity[b]
-    va[0] -= px * im_a
-    va[1] -= py * im_a
-    va[2] -= (rax * py - ray * px) * ii_a
-    vb[0] += px * im_b
-    vb[1] += py * im_b
-    vb[2] += (rbx * py - rby * px) * ii_b
 
 
 def _collide(part_a: tuple, part_b: tuple) -> list:
