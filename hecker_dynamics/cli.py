@@ -32,6 +32,8 @@ def _time_ns(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not a number of seconds: {text}") from None
     if not value.is_finite() or value < 0:
         raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
+    if value.adjusted() > 18:  # beyond any stamp; the nanoseconds would overflow the context
+        raise argparse.ArgumentTypeError(f"must be at most 1e18 seconds, not {text}")
     return int((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
 
 
@@ -67,7 +69,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         changes["tolerance"] = args.tolerance
     if args.step is not None:
         if scene.publish_period_ns % args.step:
-            raise SceneError(f"--step {args.step * 1e-9:g}: the publish period "
+            step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
+            raise SceneError(f"--step {step}: the publish period "
                              f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
