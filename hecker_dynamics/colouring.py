@@ -6,8 +6,8 @@ that influence no body in common can have one state component bumped in the same
 evaluation: each body's difference column is read from the rows of the bodies it
 influences, and every other row of that column is zero. Grouping the bodies so that no two
 in a group share an influenced body is a distance-2 colouring of the coupling graph; a
-greedy colouring in body order is used. A chain or ring takes 3 to 5 groups whatever its
-length, instead of one group per body.
+greedy colouring in body order is used. A chain, or a ring of more than 5 bodies, takes 3
+to 5 groups whatever its length, instead of one group per body.
 """
 from __future__ import annotations
 

@@ -153,8 +153,14 @@ class BodySum:
         self.subtract(out[2], torque)
 
 
+def _no_couplings() -> tuple[np.ndarray, np.ndarray]:
+    empty = np.zeros(0, dtype=int)
+    empty.flags.writeable = False  # shared by every such term
+    return empty, empty
+
+
 #: The couplings of a term whose forces depend on their own body's state only.
-NO_COUPLINGS: tuple[np.ndarray, np.ndarray] = (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
+NO_COUPLINGS: tuple[np.ndarray, np.ndarray] = _no_couplings()
 
 
 def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

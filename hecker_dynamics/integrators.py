@@ -218,10 +218,12 @@ class ImplicitTheta(Integrator):
     method fails (a step so long that the bodies turn far within it), the step is taken as
     two halves, recursively, up to :attr:`MAX_HALVINGS` times.
 
-    :attr:`colouring`, if set, is called at each Jacobian for the current
+    :attr:`colouring_source`, if set, is called at each Jacobian for the current
     :class:`~.colouring.Colouring` of the bodies (a Simulation sets it to its model's);
     with fewer groups than bodies the Jacobian is taken by coloured differences, equal bit
-    for bit to the dense one. Unset, every column costs one evaluation.
+    for bit to the dense one for finite states (where the acceleration is already NaN the
+    dense one spreads NaN through more entries; Newton's method refuses either). Unset,
+    every column costs one evaluation.
     """
 
     MAX_ITERATIONS = 50
@@ -231,18 +233,17 @@ class ImplicitTheta(Integrator):
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
         super().__init__(name, order)
         self.theta = theta
-        self.colouring: Optional[Callable[[], Colouring]] = None
+        self.colouring_source: Optional[Callable[[], Colouring]] = None
 
     def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """da/dq and da/dv as (3N, 3N) matrices, by forward differences: coloured when a
         colouring with fewer groups than bodies is given, else one column at a time."""
-        colouring = None if self.colouring is None else self.colouring()
+        colouring = None if self.colouring_source is None else self.colouring_source()
         if colouring is not None and len(colouring.groups) < colouring.size:
-            return (self._coloured_jacobian(lambda bumped: self._f(f, bumped, v), q, a,
-                                             colouring),
-                    self._coloured_jacobian(lambda bumped: self._f(f, q, bumped), v, a,
-                                            colouring))
+            by_q = self._coloured_jacobian(lambda bumped: self._f(f, bumped, v), q, a, colouring)
+            by_v = self._coloured_jacobian(lambda bumped: self._f(f, q, bumped), v, a, colouring)
+            return by_q, by_v
         return (self._dense_jacobian(lambda bumped: self._f(f, bumped, v), q, a),
                 self._dense_jacobian(lambda bumped: self._f(f, q, bumped), v, a))
 
@@ -272,12 +273,12 @@ class ImplicitTheta(Integrator):
         jac = np.zeros((m, m))
         delta = 1.5e-8 * np.fmax(1.0, np.abs(state))  # fmax: a NaN reads as 1, as max() does
         flat_delta = delta.ravel()
-        for component in range(state.shape[1]):
-            for group, rows, columns in zip(colouring.groups, colouring.rows, colouring.columns):
+        for component in range(3):  # x, y, angle (or their rates): the flat index 3 k + c
+            for group, rows, bodies in zip(colouring.groups, colouring.rows, colouring.columns):
                 bumped = state.copy()
                 bumped[group, component] += delta[group, component]
                 change = (f(bumped) - a).ravel()
-                columns = 3 * columns + component
+                columns = 3 * bodies + component
                 jac[rows, columns] = change[rows] / flat_delta[columns]
         return jac
 

@@ -100,7 +100,7 @@ class Simulation:
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size)
         self.integrator = make_integrator(method, scene.tolerance)
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
-            self.integrator.colouring = self.model.jacobian_colouring
+            self.integrator.colouring_source = self.model.jacobian_colouring
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
