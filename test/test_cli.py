@@ -162,3 +162,11 @@ def test_as_a_process_exit_codes_and_no_traceback(tmp_path):
                          capture_output=True, text=True, env=env, timeout=120)
     assert bad.returncode == 2
     assert "Traceback" not in bad.stderr and "'step'" in bad.stderr and str(path) in bad.stderr
+
+
+def test_bag_commands_refuse_absurd_times_without_a_traceback(tmp_path, capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(["script", "sample", "-o", str(tmp_path / "in"), "--start", "1e999999"])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --start:" in err and "Traceback" not in err
