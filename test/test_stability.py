@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
-from hecker_dynamics.integrators import make_integrator
+from hecker_dynamics.integrators import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
 from hecker_dynamics.model import Model
 from hecker_dynamics.planar import HALF_ANGLE_FROM, cos_sin, wrap_angle, wrap_angles_in_place
 from hecker_dynamics.scene import load_scene
@@ -227,6 +227,22 @@ def test_auto_picks_implicit_midpoint_only_when_stiff():
     # k/m = 10^5: w = 632 rad/s, w h = 0.63 at 1 ms though sqrt(k/m) h = 0.32.
     assert auto(thin_rod_scene(stiffness=10.0, step=0.001)) == "implicit_midpoint"
     assert auto(thin_rod_scene(stiffness=10.0, step=0.0005)) == "dopri5"
+
+
+def test_auto_leaves_stiff_scenes_of_many_bodies_to_dopri5():
+    """Past AUTO_IMPLICIT_BODIES (measured: from 16 bodies on, dopri5 was cheaper and more
+    accurate on stiff rings) a stiff scene gets dopri5; up to it, implicit midpoint."""
+    def stiff_masses(count: int):  # k = 1e6 on 1 kg each: w h = 1 at 1 ms
+        bodies = {f"m{i}": {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                            "position": [float(i), 1.0]} for i in range(count)}
+        springs = {f"s{i}": {"type": "spring", "body_a": f"m{i}", "anchor": [float(i), 0.0],
+                             "stiffness": K_STIFF} for i in range(count)}
+        return make_scene({"step": 0.001, "integrator": "auto", "bodies": bodies,
+                           "forces": springs})
+
+    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).integrator.name == "implicit_midpoint"
+    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES + 1)).integrator.name == "dopri5"
+    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES + 1) == "dopri5"
 
 
 # ----------------------------------------------------------------------------- fast spin
