@@ -123,34 +123,38 @@ class BodySum:
     def _in_body_order(self, value: np.ndarray) -> np.ndarray:
         return value if self._order is None else value[self._order]
 
+    def _combine(self, operation: np.ufunc, total: np.ndarray, value: np.ndarray) -> None:
+        """``total[body] = operation(total[body], value)`` in place, per-body sums first."""
+        if self._block is not None:
+            part = total[self._block]
+            operation(part, self._in_body_order(value), out=part)
+        else:
+            operation(total, np.bincount(self.body, value, minlength=len(total)), out=total)
+
     def add(self, total: np.ndarray, value: np.ndarray) -> None:
         """``total[body[i]] += value[i]`` for every instance ``i``."""
-        if self._block is not None:
-            total[self._block] += self._in_body_order(value)
-        else:
-            total += np.bincount(self.body, value, minlength=len(total))
+        self._combine(np.add, total, value)
 
     def subtract(self, total: np.ndarray, value: np.ndarray) -> None:
         """``total[body[i]] -= value[i]`` for every instance ``i``."""
-        if self._block is not None:
-            total[self._block] -= self._in_body_order(value)
-        else:
-            total -= np.bincount(self.body, value, minlength=len(total))
+        self._combine(np.subtract, total, value)
 
     def add_wrench(self, out: np.ndarray, fx: np.ndarray, fy: np.ndarray,
                    torque: Optional[np.ndarray] = None) -> None:
         """Add forces (and torques) to the rows Fx, Fy (and torque) of ``out`` (3, N)."""
-        self.add(out[0], fx)
-        self.add(out[1], fy)
-        if torque is not None:
-            self.add(out[2], torque)
+        self._combine_wrench(np.add, out, fx, fy, torque)
 
     def subtract_wrench(self, out: np.ndarray, fx: np.ndarray, fy: np.ndarray,
                         torque: np.ndarray) -> None:
         """Subtract forces and torques from the rows of ``out`` (3, N)."""
-        self.subtract(out[0], fx)
-        self.subtract(out[1], fy)
-        self.subtract(out[2], torque)
+        self._combine_wrench(np.subtract, out, fx, fy, torque)
+
+    def _combine_wrench(self, operation: np.ufunc, out: np.ndarray, fx: np.ndarray,
+                        fy: np.ndarray, torque: Optional[np.ndarray]) -> None:
+        self._combine(operation, out[0], fx)
+        self._combine(operation, out[1], fy)
+        if torque is not None:
+            self._combine(operation, out[2], torque)
 
 
 def _no_couplings() -> tuple[np.ndarray, np.ndarray]:
