@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Optional
 
 import numpy as np
@@ -241,11 +242,11 @@ class ImplicitTheta(Integrator):
         colouring with fewer groups than bodies is given, else one column at a time."""
         colouring = None if self.colouring_source is None else self.colouring_source()
         if colouring is not None and len(colouring.groups) < colouring.size:
-            by_q = self._coloured_jacobian(lambda bumped: self._f(f, bumped, v), q, a, colouring)
-            by_v = self._coloured_jacobian(lambda bumped: self._f(f, q, bumped), v, a, colouring)
-            return by_q, by_v
-        return (self._dense_jacobian(lambda bumped: self._f(f, bumped, v), q, a),
-                self._dense_jacobian(lambda bumped: self._f(f, q, bumped), v, a))
+            jacobian = partial(self._coloured_jacobian, a=a, colouring=colouring)
+        else:
+            jacobian = partial(self._dense_jacobian, a=a)
+        return (jacobian(lambda bumped: self._f(f, bumped, v), q),
+                jacobian(lambda bumped: self._f(f, q, bumped), v))
 
     @staticmethod
     def _dense_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
