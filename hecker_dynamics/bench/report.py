@@ -46,15 +46,15 @@ def headline(rows: list[Row]) -> list[dict]:
     """Per scene and threshold: the cheapest configuration of each engine, and ratios."""
     out = []
     for scene in dict.fromkeys(r.scene for r in rows):
+        ran = {r.engine for r in rows if r.scene == scene}
+        skipped = {r.engine for r in rows if r.scene == scene and r.status == "skipped"}
         for threshold in THRESHOLDS:
             best = {e: cheapest(rows, scene, e, threshold) for e in ENGINES}
             entry = {"scene": scene, "threshold": threshold, "best": best, "ratios": {},
-                     "skipped": {e for e in ENGINES if any(
-                         r.engine == e and r.scene == scene and r.status == "skipped"
-                         for r in rows)}}
+                     "skipped": skipped}
             ours = best["hecker_dynamics"]
             for peer in ENGINES[1:]:
-                if not any(r.engine == peer and r.scene == scene for r in rows):
+                if peer not in ran:
                     continue
                 other = best[peer]
                 if ours is None:
