@@ -206,6 +206,20 @@ class GravityTerm:
         return -float(np.sum(self.weights * q[self.bodies, :2]))
 
 
+#: Squared lengths in which sqrt(dx^2 + dy^2) keeps its digits: below, squares underflow.
+_SMALLEST_SQUARE, _LARGEST_SQUARE = float(np.finfo(float).tiny), float(np.finfo(float).max)
+
+
+def magnitude(x: float, y: float) -> float:
+    """|(x, y)| in plain floats: the square root of the sum of squares where that neither
+    underflows nor overflows (as :func:`_direction` does for arrays), else ``math.hypot``.
+    The compiled kernel computes it the same way."""
+    square = x * x + y * y
+    if _SMALLEST_SQUARE <= square <= _LARGEST_SQUARE:
+        return math.sqrt(square)
+    return math.hypot(x, y)
+
+
 class SpringLaw:
     """Stiffness k, rest length L0 and damping c of a group of springs, with the group's
     zero-rest-length springs (the linear law) found once."""
@@ -238,8 +252,6 @@ def spring_force(dx: np.ndarray, dy: np.ndarray, dvx: np.ndarray, dvy: np.ndarra
     return fx, fy
 
 
-#: Squared lengths in which sqrt(dx^2 + dy^2) keeps its digits: below, squares underflow.
-_SMALLEST_SQUARE, _LARGEST_SQUARE = np.finfo(float).tiny, np.finfo(float).max
 
 
 def _direction(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -266,11 +278,11 @@ def spring_force_scalar(dx: float, dy: float, dvx: float, dvy: float, stiffness:
     """:func:`spring_force` for one spring, in plain floats."""
     if rest_length == 0.0:
         return -stiffness * dx - damping * dvx, -stiffness * dy - damping * dvy
-    length = math.hypot(dx, dy)
-    if length == 0.0:
+    distance = magnitude(dx, dy)
+    if distance == 0.0:
         return 0.0, 0.0
-    ux, uy = dx / length, dy / length
-    along = -(stiffness * (length - rest_length) + damping * (dvx * ux + dvy * uy))
+    ux, uy = dx / distance, dy / distance
+    along = -(stiffness * (distance - rest_length) + damping * (dvx * ux + dvy * uy))
     return along * ux, along * uy
 
 
@@ -384,7 +396,7 @@ def drag_force(vx: np.ndarray, vy: np.ndarray, coefficient: np.ndarray,
 def drag_force_scalar(vx: float, vy: float, coefficient: float,
                       quadratic: bool) -> tuple[float, float]:
     """:func:`drag_force` for one point, in plain floats."""
-    scale = coefficient * math.hypot(vx, vy) if quadratic else coefficient
+    scale = coefficient * magnitude(vx, vy) if quadratic else coefficient
     return -scale * vx, -scale * vy
 
 
