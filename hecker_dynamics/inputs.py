@@ -80,6 +80,15 @@ class InputBuffer:
             del self._active[key]
         return changed or bool(ended)
 
+    def next_change(self) -> Optional[int]:
+        """The earliest time at which :meth:`update` may change the active commands: the
+        first pending stamp or the first end of an active command (None: never, unless a
+        command is added)."""
+        ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
+        if self._pending:
+            ends.append(self._pending[0][0])
+        return min(ends, default=None)
+
     def active(self) -> list[Held]:
         return list(self._active.values())
 

@@ -147,10 +147,11 @@ class EmbeddedRungeKutta(Integrator):
         self._estimate_needs_new_state = pair.error_uses_new_state
         self._error_slopes = pair.slopes if self._estimate_needs_new_state else pair.slopes - 1
         self._error = pair.error[:, :self._error_slopes]
-        self._size = math.inf
+        #: The sub-step size, carried from step to step (inf: none taken yet).
+        self.substep_size = math.inf
 
     def reset(self) -> None:
-        self._size = math.inf
+        self.substep_size = math.inf
 
     def step(self, f, q, v, h):
         y = np.concatenate([q.ravel(), v.ravel()])
@@ -170,7 +171,7 @@ class EmbeddedRungeKutta(Integrator):
             rhs(state[:n].reshape(shape), state[n:].reshape(shape), out)
 
         rhs(q, v, slopes[0])
-        size = min(self._size, h)
+        size = min(self.substep_size, h)
         done = 0.0
         last_row = self.pair.slopes - 1
         for _ in range(self.MAX_SUBSTEPS):
@@ -199,7 +200,7 @@ class EmbeddedRungeKutta(Integrator):
                 slopes[0] = slopes[-1]  # first same as last: k_S is the next k_1
                 if last:
                     # A sub-step shortened to land on the end says little about the next size.
-                    self._size = trial * factor if trial >= size else size
+                    self.substep_size = trial * factor if trial >= size else size
                     return y[:n].reshape(shape), y[n:].reshape(shape)
             else:
                 self.counters.rejected += 1

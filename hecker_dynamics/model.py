@@ -14,6 +14,7 @@ from typing import Optional
 
 import numpy as np
 
+from . import kernel
 from .colouring import Colouring, colour
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
@@ -32,7 +33,11 @@ LEAN_BODIES = 32
 class Model:
     """Arrays and force terms for one scene; state is (q, v), each (N, 3)."""
 
-    def __init__(self, scene: Scene, *, lean: Optional[bool] = None) -> None:
+    def __init__(self, scene: Scene, *, lean: Optional[bool] = None,
+                 compiled: Optional[bool] = None) -> None:
+        """``lean`` chooses the Python path (plain floats or numpy; default by the number
+        of bodies), ``compiled`` the kernel (default: when it is built and enabled, and
+        no Python path was chosen)."""
         self.scene = scene
         self.names = tuple(b.name for b in scene.bodies)
         self.index = {name: i for i, name in enumerate(self.names)}
@@ -44,8 +49,15 @@ class Model:
         # The scene's couplings, the inputs' couplings and the colouring of both, once asked.
         self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
         self._colouring: Optional[tuple[tuple[tuple[int, int], ...], Colouring]] = None
-        self.inputs = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
+        if compiled is None:
+            compiled = lean is None and kernel.enabled()
+        if compiled and not kernel.built():
+            raise RuntimeError("the compiled kernel hecker_dynamics._kernel is not built")
+        #: The kernel's program of these forces, or None: Python evaluates them.
+        self.compiled: Optional[kernel.CompiledForces] = (
+            kernel.CompiledForces(self) if compiled else None)
+        self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene))
@@ -61,6 +73,19 @@ class Model:
         self._inputs = term
         self._active = self.terms if term is None else (*self.terms, term)
         self._oriented = any(t.uses_orientation for t in self._active)
+        if self.compiled is not None:
+            self.compiled.set_inputs(term)
+
+    def use_python(self, lean: bool) -> None:
+        """Evaluate the forces in Python from now on: in plain floats (``lean``) or with
+        numpy, not in the compiled kernel (the tests compare the paths)."""
+        self.lean = lean
+        self.compiled = None
+
+    @property
+    def oriented(self) -> bool:
+        """True if some active force depends on the bodies' angles."""
+        return self._oriented
 
     @property
     def size(self) -> int:
@@ -96,6 +121,8 @@ class Model:
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
+        if self.compiled is not None:
+            return self.compiled.accelerations(q, v, self._oriented)
         terms, oriented = self._active, self._oriented
         if not terms:
             return np.zeros_like(q)

@@ -17,6 +17,7 @@ import numpy as np
 from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
 from .integrators import ImplicitTheta, IntegrationError, choose_method, make_integrator
+from .kernel import compiled_steps
 from .model import Model, wrench_term
 from .planar import wrap_angles_in_place
 from .scene import Scene
@@ -101,6 +102,8 @@ class Simulation:
         self.integrator = make_integrator(method, scene.tolerance)
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
             self.integrator.colouring_source = self.model.jacobian_colouring
+        # Whole steps in the compiled kernel, used while the model's forces are compiled.
+        self._compiled = compiled_steps(self.model, self.integrator)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -179,26 +182,55 @@ class Simulation:
     def step(self) -> None:
         """Advance one fixed step; raises :class:`DivergenceError` if the state blows up."""
         with np.errstate(all="ignore"):
-            self._step()
+            self._advance(1)
 
-    def _step(self) -> None:
-        """:meth:`step` without the floating-point error settings (set by the caller)."""
+    def _advance(self, limit: int) -> int:
+        """Take from 1 to ``limit`` steps (the floating-point error settings are the
+        caller's) and return how many: in the compiled kernel as many as the inputs allow
+        before they next change, else one in Python."""
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
+        if self._compiled is None or self.model.compiled is None:
+            self._step()
+            return 1
+        change = self._inputs.next_change()
+        if change is not None:  # the first step that starts at or after it sees the change
+            limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
+        q, v = self.q.copy(), self.v.copy()
+        done = self._compiled.advance(q, v, self.step_seconds, limit)
+        self.q, self.v = q, v
+        self._steps += done.taken
+        self._time_ns += done.taken * self.step_ns
+        if done.error is not None:
+            error = IntegrationError(done.error)
+            raise self._failed(error) from error
+        if done.diverged is not None:
+            raise self._diverged(*done.diverged)
+        return done.taken
+
+    def _step(self) -> None:
+        """One step in Python, the inputs already updated."""
         try:
             q, v = self._integrate(self.q, self.v, self.step_seconds)
         except (IntegrationError, np.linalg.LinAlgError) as error:
-            raise DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
-                                  "kept the last finite state") from error
+            raise self._failed(error) from error
         if not self._settle(q, v):
-            bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
-            names = ", ".join(np.array(self.model.names)[bad]) or "the bodies"
-            raise DivergenceError(f"state of {names} diverged at t = {self._time_ns * 1e-9:.6f} s; "
-                                  "kept the last finite state")
+            raise self._diverged(q, v)
         self.q, self.v = q, v
         self._steps += 1
         self._time_ns += self.step_ns
+
+    def _failed(self, error: Exception) -> DivergenceError:
+        return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
+                               "kept the last finite state")
+
+    def _diverged(self, q: np.ndarray, v: np.ndarray) -> DivergenceError:
+        """The error for a new state (q, v) that is not finite, naming its bodies."""
+        bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
+        names = ", ".join(np.array(self.model.names)[bad]) or "the bodies"
+        return DivergenceError(f"state of {names} diverged at t = {self._time_ns * 1e-9:.6f} s; "
+                               "kept the last finite state")
 
     def _settle(self, q: np.ndarray, v: np.ndarray) -> bool:
         """Wrap the angles of a new state into [-pi, pi) in place; False if it is not finite.
@@ -246,11 +278,22 @@ class Simulation:
         period = self.scene.publish_period_ns
         with np.errstate(all="ignore"):
             while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
-                self._step()
-                taken += 1
+                limit = min((t_ns - self._time_ns) // self.step_ns, self._steps_to_publish())
+                if max_steps is not None:
+                    limit = min(limit, max_steps - taken)
+                taken += self._advance(limit)
                 if (self._time_ns - self.start_ns) % period == 0:
                     snapshots.append(self.snapshot())
         return snapshots
+
+    def _steps_to_publish(self) -> int:
+        """Steps from now to the next publish instant (1 if the period is not a whole
+        number of steps)."""
+        period, step = self.scene.publish_period_ns, self.step_ns
+        if period % step:
+            return 1
+        per_publish = period // step
+        return per_publish - (self._time_ns - self.start_ns) // step % per_publish
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int) -> list[Snapshot]:
         """Push ``commands`` (stamps relative to the start time) as sim time reaches each

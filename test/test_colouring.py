@@ -149,7 +149,7 @@ def test_coloured_jacobians_equal_the_dense_ones_bit_for_bit(name, lean):
 def run(scene, coloured: bool, steps: int, lean=None):
     sim = Simulation(scene)
     if lean is not None:
-        sim.model.lean = lean
+        sim.model.use_python(lean)
     if not coloured:
         sim.integrator.colouring_source = None
     if scene.bodies[0].name == "b0":
@@ -197,7 +197,7 @@ def test_inputs_that_end_and_begin_mid_run_recolour_and_stay_bit_identical(lean)
     finals, influenced = [], []
     for coloured in (True, False):
         sim = Simulation(chain_scene())
-        sim.model.lean = lean
+        sim.model.use_python(lean)
         if not coloured:
             sim.integrator.colouring_source = None
         for command in short:

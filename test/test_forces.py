@@ -85,7 +85,7 @@ def test_every_force_term_agrees_between_lean_and_vector_paths():
 def pushed(scene, lean: bool) -> Simulation:
     """A simulation on one evaluation path with :data:`COMMANDS` pushed."""
     sim = Simulation(scene)
-    sim.model.lean = lean
+    sim.model.use_python(lean)
     for command in COMMANDS:
         sim.push(command)
     return sim
@@ -218,7 +218,7 @@ def test_an_input_in_body_axes_turns_with_the_body_when_no_scene_force_needs_ang
                         "input_timeout": 0.0})
     for lean in (True, False):
         sim = Simulation(scene)
-        sim.model.lean = lean
+        sim.model.use_python(lean)
         assert not sim.model._oriented
         sim.push(WrenchCommand(0, "m", "test", "m", (0.0, 0.0), (4.0, 0.0), 0.0))
         sim.step()

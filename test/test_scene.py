@@ -423,7 +423,7 @@ def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
                            "q": {"type": "quadratic_drag", "coefficient": 0.1}},
                           integrator=integrator)
     sim = Simulation(scene)
-    sim.model.lean = lean
+    sim.model.use_python(lean)
     assert not sim.model.can_turn().any()
     oriented = []
     scalar_of, vector_init = forces.ScalarPose.of.__func__, forces.Pose.__init__

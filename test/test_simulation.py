@@ -249,6 +249,6 @@ def test_huge_but_finite_state_is_not_called_divergent(lean):
     sim = Simulation(make_scene({"bodies": {
         name: {"shape": "circle", "radius": 1.0, "mass": 1.0, "position": [1e308, 0.0]}
         for name in ("a", "b")}}))
-    sim.model.lean = lean
+    sim.model.use_python(lean)
     sim.step()
     assert sim.q[:, 0].tolist() == [1e308, 1e308]

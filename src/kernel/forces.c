@@ -1,0 +1,206 @@
+/* Force terms: steps 3 to 6 of the algorithm of "Physics, Part 2: Angular Effects".
+ *
+ * Each force has a point of application; the forces add up at the CM (Equation 4) and
+ * each adds the perp-dot torque of its offset from the CM (Equation 6); a point's velocity
+ * is v_CM + omega perp(r) (Equation 7). Every function repeats, operation for operation,
+ * the plain-float path of hecker_dynamics/forces.py (`add_scalar`), so the two give the
+ * same bits.
+ */
+#include <float.h>
+#include <math.h>
+
+#include "kernel.h"
+
+int hd_int_columns(int kind)
+{
+    switch (kind) {
+    case GRAVITY: case ANCHOR_SPRING: case ANGULAR_DAMPING: return 1;
+    case BODY_SPRING: case CENTRE_DRAG: case POINT_DRAG: return 2;
+    case WRENCH: return 4;
+    default: return 0;
+    }
+}
+
+int hd_real_columns(int kind)
+{
+    switch (kind) {
+    case GRAVITY: return 2;
+    case ANCHOR_SPRING: case BODY_SPRING: return 7;
+    case CENTRE_DRAG: case ANGULAR_DAMPING: return 1;
+    case POINT_DRAG: return 3;
+    case WRENCH: return 5;
+    default: return 0;
+    }
+}
+
+/* |(x, y)|: sqrt of the sum of squares where it neither underflows nor overflows, else
+ * hypot (forces.py: `_length`). */
+static double length(double x, double y)
+{
+    double square = x * x + y * y;
+    if (square >= DBL_MIN && square <= DBL_MAX)
+        return sqrt(square);
+    return hypot(x, y);
+}
+
+/* World offset r = R(angle) l of a point l given relative to a body's CM. */
+static void offset(const Scratch *s, long body, double lx, double ly, double *rx, double *ry)
+{
+    double c = s->cos[body], sn = s->sin[body];
+    *rx = c * lx - sn * ly;
+    *ry = sn * lx + c * ly;
+}
+
+/* v_P = v_CM + omega perp(r) (Equation 7). */
+static void point_velocity(const double *v, long body, double rx, double ry,
+                           double *vx, double *vy)
+{
+    const double *b = v + 3 * body;
+    *vx = b[0] - b[2] * ry;
+    *vy = b[1] + b[2] * rx;
+}
+
+/* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque. */
+static void apply(double *wrench, double rx, double ry, double fx, double fy)
+{
+    wrench[0] += fx;
+    wrench[1] += fy;
+    wrench[2] += rx * fy - ry * fx;
+}
+
+/* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (forces.py:
+ * `spring_force_scalar`). */
+static void spring(double dx, double dy, double dvx, double dvy, double k, double rest,
+                   double c, double *fx, double *fy)
+{
+    if (rest == 0.0) {
+        *fx = -k * dx - c * dvx;
+        *fy = -k * dy - c * dvy;
+        return;
+    }
+    double l = length(dx, dy);
+    if (l == 0.0) {
+        *fx = 0.0;
+        *fy = 0.0;
+        return;
+    }
+    double ux = dx / l, uy = dy / l;
+    double along = -(k * (l - rest) + c * (dvx * ux + dvy * uy));
+    *fx = along * ux;
+    *fy = along * uy;
+}
+
+/* -c v (linear) or -c |v| v (quadratic). */
+static void drag(double vx, double vy, double c, long quadratic, double *fx, double *fy)
+{
+    double scale = quadratic ? c * length(vx, vy) : c;
+    *fx = -scale * vx;
+    *fy = -scale * vy;
+}
+
+static void add_term(const Term *t, const Scratch *s, const double *q, const double *v)
+{
+    const int ni = hd_int_columns(t->kind), nr = hd_real_columns(t->kind);
+    double *w = s->wrench;
+    for (long e = 0; e < t->count; ++e) {
+        const long *i = t->ints + ni * e;
+        const double *r = t->reals + nr * e;
+        double rx, ry, vx, vy, fx, fy;
+        switch (t->kind) {
+        case GRAVITY:
+            w[3 * i[0]] += r[0];
+            w[3 * i[0] + 1] += r[1];
+            break;
+        case ANCHOR_SPRING: {
+            long b = i[0];
+            offset(s, b, r[0], r[1], &rx, &ry);
+            point_velocity(v, b, rx, ry, &vx, &vy);
+            spring(q[3 * b] + rx - r[2], q[3 * b + 1] + ry - r[3], vx, vy, r[4], r[5], r[6],
+                   &fx, &fy);
+            apply(w + 3 * b, rx, ry, fx, fy);
+            break;
+        }
+        case BODY_SPRING: {
+            long a = i[0], b = i[1];
+            double rax, ray, rbx, rby, vax, vay, vbx, vby;
+            offset(s, a, r[0], r[1], &rax, &ray);
+            offset(s, b, r[2], r[3], &rbx, &rby);
+            point_velocity(v, a, rax, ray, &vax, &vay);
+            point_velocity(v, b, rbx, rby, &vbx, &vby);
+            spring(q[3 * a] + rax - q[3 * b] - rbx, q[3 * a + 1] + ray - q[3 * b + 1] - rby,
+                   vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
+            apply(w + 3 * a, rax, ray, fx, fy);
+            apply(w + 3 * b, rbx, rby, -fx, -fy);
+            break;
+        }
+        case CENTRE_DRAG: {
+            long b = i[0];
+            drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
+            w[3 * b] += fx;
+            w[3 * b + 1] += fy;
+            break;
+        }
+        case POINT_DRAG: {
+            long b = i[0];
+            offset(s, b, r[0], r[1], &rx, &ry);
+            point_velocity(v, b, rx, ry, &vx, &vy);
+            drag(vx, vy, r[2], i[1], &fx, &fy);
+            apply(w + 3 * b, rx, ry, fx, fy);
+            break;
+        }
+        case ANGULAR_DAMPING:
+            w[3 * i[0] + 2] -= r[0] * v[3 * i[0] + 2];
+            break;
+        case WRENCH: {
+            long b = i[0], axes = i[1], owner = i[2];
+            double px = r[3], py = r[4];
+            fx = r[0];
+            fy = r[1];
+            if (axes >= 0) {
+                double bx = fx, by = fy;
+                offset(s, axes, bx, by, &fx, &fy);
+            }
+            w[3 * b + 2] += r[2];
+            if (!i[3]) {  /* at the CM */
+                w[3 * b] += fx;
+                w[3 * b + 1] += fy;
+                break;
+            }
+            if (owner >= 0) {
+                double ox, oy;
+                offset(s, owner, px, py, &ox, &oy);
+                px = q[3 * owner] + ox;
+                py = q[3 * owner + 1] + oy;
+            }
+            apply(w + 3 * b, px - q[3 * b], py - q[3 * b + 1], fx, fy);
+            break;
+        }
+        }
+    }
+}
+
+void hd_accelerations(const Program *program, const Program *inputs, int oriented,
+                   const double *q, const double *v, double *out, Scratch *scratch)
+{
+    const long n = program->bodies;
+    if (program->term_count == 0 && (inputs == NULL || inputs->term_count == 0)) {
+        for (long k = 0; k < 3 * n; ++k)
+            out[k] = 0.0;
+        return;
+    }
+    if (oriented) {
+        for (long b = 0; b < n; ++b) {
+            scratch->cos[b] = cos(q[3 * b + 2]);
+            scratch->sin[b] = sin(q[3 * b + 2]);
+        }
+    }
+    for (long k = 0; k < 3 * n; ++k)
+        scratch->wrench[k] = 0.0;
+    for (long t = 0; t < program->term_count; ++t)
+        add_term(program->terms + t, scratch, q, v);
+    if (inputs != NULL)
+        for (long t = 0; t < inputs->term_count; ++t)
+            add_term(inputs->terms + t, scratch, q, v);
+    for (long k = 0; k < 3 * n; ++k)
+        out[k] = scratch->wrench[k] * program->inverse_mass[k];
+}

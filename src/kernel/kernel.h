@@ -1,0 +1,91 @@
+/* The compiled kernel of hecker_dynamics: force terms and explicit integrators in C.
+ *
+ * It does, for scenes without contacts, what the Python modules forces.py, model.py and
+ * integrators.py do, in the same order of floating-point operations as their plain-float
+ * path, so that the fixed-step methods give the same bits (the build must not contract
+ * a * b + c into a fused multiply-add: -ffp-contract=off). Python stays the reference;
+ * this is its fast path.
+ *
+ * State layout, as in Python: q[3 i .. 3 i + 2] = (x_CM, y_CM, angle) of body i and
+ * v[3 i ..] = (vx_CM, vy_CM, omega), each a C-contiguous (N, 3) array of doubles.
+ */
+#ifndef HECKER_DYNAMICS_KERNEL_H
+#define HECKER_DYNAMICS_KERNEL_H
+
+#include <stddef.h>
+
+/* Exported names carry the prefix hd_: a plain `advance` would be bound to glibc's. */
+
+/* The kinds of force term, each with its integer and real columns per instance (the
+ * Python packing in hecker_dynamics/kernel.py writes the same layout). */
+enum TermKind {
+    GRAVITY = 1,         /* ints: body;                     reals: wx, wy (m g)            */
+    ANCHOR_SPRING = 2,   /* ints: body;                     reals: lx, ly, ax, ay, k, L0, c */
+    BODY_SPRING = 3,     /* ints: a, b;                     reals: lax, lay, lbx, lby, k, L0, c */
+    CENTRE_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
+    POINT_DRAG = 5,      /* ints: body, quadratic;          reals: lx, ly, c               */
+    ANGULAR_DAMPING = 6, /* ints: body;                     reals: c                       */
+    WRENCH = 7           /* ints: body, axes, owner, at_point; reals: fx, fy, torque, px, py */
+};
+
+typedef struct {
+    int kind;
+    long count;
+    long *ints;     /* count x hd_int_columns(kind) */
+    double *reals;  /* count x hd_real_columns(kind) */
+} Term;
+
+typedef struct {
+    long bodies;
+    double *inverse_mass;  /* 3 per body: 1/m, 1/m, 1/I (NULL for a program of inputs) */
+    long term_count;
+    Term *terms;
+} Program;
+
+int hd_int_columns(int kind);   /* 0 for an unknown kind */
+int hd_real_columns(int kind);
+
+/* Scratch space of one evaluation: cos and sin per body, the wrench per body. */
+typedef struct {
+    double *cos, *sin, *wrench;
+} Scratch;
+
+/* (ax, ay, alpha) per body into `out` (3 N): the terms of `program`, then those of
+ * `inputs` (may be NULL), summed per body and divided by mass and inertia (the article's
+ * Equations 4 and 6). `oriented`: some term needs the bodies' angles. */
+void hd_accelerations(const Program *program, const Program *inputs, int oriented,
+                   const double *q, const double *v, double *out, Scratch *scratch);
+
+/* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
+ * `error` is error_rows x S. */
+typedef struct {
+    long slopes;
+    long error_rows;
+    int error_order;
+    double *a;
+    double *error;
+} Pair;
+
+enum Method { EXPLICIT_EULER = 0, SEMI_IMPLICIT_EULER = 1, VELOCITY_VERLET = 2, RK4 = 3,
+              EMBEDDED = 4 };
+
+/* Most sub-steps of an embedded pair in one step (integrators.py: MAX_SUBSTEPS). */
+#define MAX_SUBSTEPS 100000L
+
+enum Status { ADVANCED = 0, NOT_FINITE = 1, SUBSTEP_UNDERFLOW = 2, TOO_MANY_SUBSTEPS = 3,
+              OUT_OF_MEMORY = 4 };
+
+typedef struct {
+    long evaluations, substeps, rejected;
+} Work;
+
+/* Advance (q, v) by up to `steps` steps of `h`, wrapping angles into [-pi, pi) after each
+ * step as the simulation does. Stops early at a step whose new state is not finite
+ * (NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
+ * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
+ * step to step. `*taken` counts the steps completed. */
+int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
+            const Pair *pair, double tolerance, double *size, double *q, double *v,
+            double *q_new, double *v_new, double h, long steps, long *taken, Work *work);
+
+#endif

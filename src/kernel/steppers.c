@@ -1,0 +1,296 @@
+/* Integrators: step 7 of the article's algorithm, and the step loop of the simulation.
+ *
+ * The fixed-step methods repeat hecker_dynamics/integrators.py operation for operation
+ * (numpy's element-wise arithmetic rounds each operation as C does), so they give the
+ * same bits; the embedded pairs follow the same controller but sum their stages in their
+ * own order, so they agree with Python to rounding, not bit for bit.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "kernel.h"
+
+/* math.pi, the same double (strict C has no M_PI). */
+static const double PI = 3.141592653589793;
+
+typedef struct {
+    const Program *program, *inputs;
+    int oriented;
+    long n3;  /* 3 N: the length of q, of v and of the accelerations */
+    Scratch scratch;
+    Work *work;
+} Forces;
+
+static void evaluate(Forces *f, const double *q, const double *v, double *a)
+{
+    f->work->evaluations += 1;
+    hd_accelerations(f->program, f->inputs, f->oriented, q, v, a, &f->scratch);
+}
+
+/* x += h v; v += h a, both from the start of the step (integrators.py: ExplicitEuler). */
+static void explicit_euler(Forces *f, const double *q, const double *v, double *q1,
+                           double *v1, double h, double *a)
+{
+    evaluate(f, q, v, a);
+    for (long k = 0; k < f->n3; ++k) {
+        q1[k] = q[k] + h * v[k];
+        v1[k] = v[k] + h * a[k];
+    }
+}
+
+/* v += h a(q, v); then x += h v with the new velocity (SemiImplicitEuler). */
+static void semi_implicit_euler(Forces *f, const double *q, const double *v, double *q1,
+                                double *v1, double h, double *a)
+{
+    evaluate(f, q, v, a);
+    for (long k = 0; k < f->n3; ++k) {
+        v1[k] = v[k] + h * a[k];
+        q1[k] = q[k] + h * v1[k];
+    }
+}
+
+/* x1 = x + h v + h^2/2 a0; v1 = v + h/2 (a0 + a(x1, v + h a0)) (VelocityVerlet). */
+static void velocity_verlet(Forces *f, const double *q, const double *v, double *q1,
+                            double *v1, double h, double *a0)
+{
+    double *a1 = a0 + f->n3, *predicted = a1 + f->n3;
+    const double half_h2 = 0.5 * h * h, half_h = 0.5 * h;
+    evaluate(f, q, v, a0);
+    for (long k = 0; k < f->n3; ++k) {
+        q1[k] = q[k] + h * v[k] + half_h2 * a0[k];
+        predicted[k] = v[k] + h * a0[k];
+    }
+    evaluate(f, q1, predicted, a1);
+    for (long k = 0; k < f->n3; ++k)
+        v1[k] = v[k] + half_h * (a0[k] + a1[k]);
+}
+
+/* Classical fourth-order Runge-Kutta on (q' = v, v' = a) (RungeKutta4). */
+static void rk4(Forces *f, const double *q, const double *v, double *q1, double *v1,
+                double h, double *buffer)
+{
+    const long n3 = f->n3;
+    double *k1v = buffer, *k2q = k1v + n3, *k2v = k2q + n3, *k3q = k2v + n3,
+           *k3v = k3q + n3, *k4q = k3v + n3, *k4v = k4q + n3, *at = k4v + n3;
+    const double half_h = 0.5 * h, sixth_h = h / 6.0;
+    evaluate(f, q, v, k1v);
+    for (long k = 0; k < n3; ++k) {
+        k2q[k] = v[k] + half_h * k1v[k];
+        at[k] = q[k] + half_h * v[k];
+    }
+    evaluate(f, at, k2q, k2v);
+    for (long k = 0; k < n3; ++k) {
+        k3q[k] = v[k] + half_h * k2v[k];
+        at[k] = q[k] + half_h * k2q[k];
+    }
+    evaluate(f, at, k3q, k3v);
+    for (long k = 0; k < n3; ++k) {
+        k4q[k] = v[k] + h * k3v[k];
+        at[k] = q[k] + h * k3q[k];
+    }
+    evaluate(f, at, k4q, k4v);
+    for (long k = 0; k < n3; ++k) {
+        q1[k] = q[k] + sixth_h * (v[k] + 2.0 * k2q[k] + 2.0 * k3q[k] + k4q[k]);
+        v1[k] = v[k] + sixth_h * (k1v[k] + 2.0 * k2v[k] + 2.0 * k3v[k] + k4v[k]);
+    }
+}
+
+/* (q', v') = (v, a(q, v)) of the flat state y = (q, v) into `slope`. */
+static void rhs(Forces *f, const double *y, double *slope)
+{
+    memcpy(slope, y + f->n3, (size_t)f->n3 * sizeof(double));
+    evaluate(f, y, y + f->n3, slope + f->n3);
+}
+
+/* out = sum over j < count of (scale c_j) k_j, slope by slope (each element summed in the
+ * order of j, as a matrix product would), skipping zero coefficients. */
+static void combine(const double *c, long count, double scale, const double *slopes, long m,
+                    double *out)
+{
+    int first = 1;
+    for (long j = 0; j < count; ++j) {
+        if (c[j] == 0.0)
+            continue;
+        const double coefficient = scale * c[j], *k = slopes + j * m;
+        if (first) {
+            for (long i = 0; i < m; ++i)
+                out[i] = coefficient * k[i];
+            first = 0;
+        } else {
+            for (long i = 0; i < m; ++i)
+                out[i] += coefficient * k[i];
+        }
+    }
+    if (first)
+        for (long i = 0; i < m; ++i)
+            out[i] = 0.0;
+}
+
+/* One number from the scaled error estimates: at most 1 accepts the sub-step
+ * (tableaux.py: EmbeddedPair.error_norm). */
+static double error_norm(const Pair *pair, const double *scaled, long m)
+{
+    if (pair->error_rows == 1) {
+        double sum = 0.0;
+        for (long k = 0; k < m; ++k)
+            sum += scaled[k] * scaled[k];
+        return sqrt(sum / (double)m);
+    }
+    double e5 = 0.0, e3 = 0.0;
+    for (long k = 0; k < m; ++k) {
+        e5 += scaled[k] * scaled[k];
+        e3 += scaled[m + k] * scaled[m + k];
+    }
+    if (!(isfinite(e5) && isfinite(e3)))
+        return INFINITY;
+    if (e5 == 0.0)
+        return 0.0;
+    return e5 / sqrt((double)m * (e5 + 0.01 * e3));
+}
+
+/* One step of an embedded pair, sub-stepped to meet the tolerance (integrators.py:
+ * EmbeddedRungeKutta.step, the same controller). `buffer` holds S + 3 + error_rows flat
+ * states (q and v together). */
+static int embedded(Forces *f, const Pair *pair, double tolerance, double *size,
+                    const double *q, const double *v, double *q1, double *v1, double h,
+                    double *buffer)
+{
+    const long n3 = f->n3, m = 2 * n3, S = pair->slopes, E = pair->error_rows;
+    double *slopes = buffer, *y = slopes + S * m, *y_new = y + m, *stage = y_new + m,
+           *scaled = stage + m;
+    int needs_new_state = 0;
+    for (long r = 0; r < E; ++r)
+        needs_new_state |= pair->error[r * S + S - 1] != 0.0;
+    const long error_slopes = needs_new_state ? S : S - 1;
+    const double exponent = -1.0 / (pair->error_order + 1);
+    memcpy(y, q, (size_t)n3 * sizeof(double));
+    memcpy(y + n3, v, (size_t)n3 * sizeof(double));
+    rhs(f, y, slopes);
+    double step = fmin(*size, h), done = 0.0;
+    for (long count = 0; count < MAX_SUBSTEPS; ++count) {
+        const double remaining = h - done;
+        const int last = step >= remaining * (1.0 - 1e-12);
+        const double trial = last ? remaining : step;
+        for (long s = 1; s < S; ++s) {  /* stages 2..S-1, then the new state (row S-1) */
+            double *target = s < S - 1 ? stage : y_new;
+            combine(pair->a + s * (S - 1), s, trial, slopes, m, target);
+            for (long k = 0; k < m; ++k)
+                target[k] = y[k] + target[k];
+            if (s < S - 1)
+                rhs(f, stage, slopes + s * m);
+        }
+        if (needs_new_state)
+            rhs(f, y_new, slopes + (S - 1) * m);
+        double *scale = stage;  /* free until the next trial */
+        for (long k = 0; k < m; ++k)
+            scale[k] = tolerance * (1.0 + fmax(fabs(y[k]), fabs(y_new[k])));
+        for (long r = 0; r < E; ++r) {
+            double *estimate = scaled + r * m;
+            combine(pair->error + r * S, error_slopes, 1.0, slopes, m, estimate);
+            for (long k = 0; k < m; ++k)
+                estimate[k] = trial * estimate[k] / scale[k];
+        }
+        double norm = error_norm(pair, scaled, m);
+        if (!isfinite(norm))
+            norm = INFINITY;  /* an overshooting trial: refuse it, shrink the sub-step */
+        const double factor = norm == 0.0 ? 5.0 : fmin(5.0, fmax(0.2, 0.9 * pow(norm, exponent)));
+        if (norm <= 1.0) {
+            if (!needs_new_state)
+                rhs(f, y_new, slopes + (S - 1) * m);
+            f->work->substeps += 1;
+            memcpy(y, y_new, (size_t)m * sizeof(double));
+            done += trial;
+            memcpy(slopes, slopes + (S - 1) * m, (size_t)m * sizeof(double));
+            if (last) {
+                /* A sub-step shortened to land on the end says little about the next. */
+                *size = trial >= step ? trial * factor : step;
+                memcpy(q1, y, (size_t)n3 * sizeof(double));
+                memcpy(v1, y + n3, (size_t)n3 * sizeof(double));
+                return ADVANCED;
+            }
+        } else {
+            f->work->rejected += 1;
+        }
+        step = trial * factor;
+        if (step < 1e-14 * h)
+            return SUBSTEP_UNDERFLOW;
+    }
+    return TOO_MANY_SUBSTEPS;
+}
+
+/* Wrap angles into [-pi, pi), touching only those outside (planar.py: wrap_angle, with
+ * numpy's remainder: fmod moved to the sign of the divisor). */
+static void wrap_angles(double *q, long n)
+{
+    for (long b = 0; b < n; ++b) {
+        double theta = q[3 * b + 2];
+        if (theta >= -PI && theta < PI)
+            continue;
+        double r = fmod(theta + PI, (2.0 * PI));
+        if (r != 0.0) {
+            if (r < 0.0)
+                r += (2.0 * PI);
+        } else {
+            r = 0.0;
+        }
+        double wrapped = r - PI;
+        q[3 * b + 2] = wrapped >= PI ? -PI : wrapped;
+    }
+}
+
+static int finite(const double *x, long count)
+{
+    for (long k = 0; k < count; ++k)
+        if (!isfinite(x[k]))
+            return 0;
+    return 1;
+}
+
+static long buffer_states(int method, const Pair *pair)
+{
+    switch (method) {
+    case VELOCITY_VERLET: return 3;
+    case RK4: return 8;
+    case EMBEDDED: return 2 * (pair->slopes + 3 + pair->error_rows);  /* in units of 3 N */
+    default: return 1;
+    }
+}
+
+int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
+            const Pair *pair, double tolerance, double *size, double *q, double *v,
+            double *q_new, double *v_new, double h, long steps, long *taken, Work *work)
+{
+    const long n = program->bodies, n3 = 3 * n;
+    /* cos, sin (N each) and the wrench (3 N) of an evaluation, then the method's states */
+    double *memory = malloc((size_t)(5 * n + n3 * buffer_states(method, pair) + 1)
+                            * sizeof(double));
+    if (memory == NULL)
+        return OUT_OF_MEMORY;
+    Forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
+    double *buffer = memory + 5 * n;
+    int status = ADVANCED;
+    *taken = 0;
+    for (long t = 0; t < steps; ++t) {
+        switch (method) {
+        case EXPLICIT_EULER: explicit_euler(&f, q, v, q_new, v_new, h, buffer); break;
+        case SEMI_IMPLICIT_EULER: semi_implicit_euler(&f, q, v, q_new, v_new, h, buffer); break;
+        case VELOCITY_VERLET: velocity_verlet(&f, q, v, q_new, v_new, h, buffer); break;
+        case RK4: rk4(&f, q, v, q_new, v_new, h, buffer); break;
+        default:
+            status = embedded(&f, pair, tolerance, size, q, v, q_new, v_new, h, buffer);
+        }
+        if (status != ADVANCED)
+            break;
+        if (!finite(q_new, n3) || !finite(v_new, n3)) {
+            status = NOT_FINITE;
+            break;
+        }
+        wrap_angles(q_new, n);
+        memcpy(q, q_new, (size_t)n3 * sizeof(double));
+        memcpy(v, v_new, (size_t)n3 * sizeof(double));
+        *taken += 1;
+    }
+    free(memory);
+    return status;
+}
