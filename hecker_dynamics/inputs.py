@@ -84,6 +84,8 @@ class InputBuffer:
         """The earliest time at which :meth:`update` may change the active commands: the
         first pending stamp or the first end of an active command (None: never, unless a
         command is added)."""
+        if not self._pending and not self._active:
+            return None
         ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
         if self._pending:
             ends.append(self._pending[0][0])

@@ -125,31 +125,33 @@ class CompiledSteps:
         self.model, self.integrator = model, integrator
         self.method = METHOD_CODES[integrator.name]
         self.pair = None
+        self.tolerance = 0.0
         if isinstance(integrator, EmbeddedRungeKutta):
             pair = integrator.pair
             self.pair = _kernel.pair(pair.slopes, np.ascontiguousarray(pair.a),
                                      np.ascontiguousarray(pair.error), pair.error_order)
+            self.tolerance = integrator.tolerance
+        # Where the kernel writes each new state before it is checked: kept from call to call.
+        self._q_new, self._v_new = np.empty((model.size, 3)), np.empty((model.size, 3))
 
     def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int) -> Advanced:
         """Advance (q, v), C-contiguous (N, 3) arrays, in place by up to ``steps`` steps of
         ``h`` seconds, wrapping angles after each; stop at the first failing step, leaving
         the last good state in (q, v)."""
-        forces = self.model.compiled
-        integrator = self.integrator
-        tolerance = getattr(integrator, "tolerance", 0.0)
-        size = getattr(integrator, "substep_size", 0.0)
-        q_new, v_new = np.empty_like(q), np.empty_like(v)
+        forces, integrator = self.model.compiled, self.integrator
+        embedded = self.pair is not None
         status, taken, evaluations, substeps, rejected, size = _kernel.advance(
             forces.program, forces.inputs, self.model.oriented, self.method, self.pair,
-            tolerance, size, q, v, q_new, v_new, h, steps)
+            self.tolerance, integrator.substep_size if embedded else 0.0, q, v, self._q_new,
+            self._v_new, h, steps)
         counters = integrator.counters
         counters.evaluations += evaluations
-        counters.substeps += substeps
-        counters.rejected += rejected
-        if self.pair is not None:
+        if embedded:
+            counters.substeps += substeps
+            counters.rejected += rejected
             integrator.substep_size = size
         if status == 1:
-            return Advanced(taken, diverged=(q_new, v_new))
+            return Advanced(taken, diverged=(self._q_new.copy(), self._v_new.copy()))
         if status:
             return Advanced(taken, error=f"{integrator.name}: {_FAILURES[status]}")
         return Advanced(taken)
