@@ -76,10 +76,11 @@ class Model:
         if self.compiled is not None:
             self.compiled.set_inputs(term)
 
-    def use_python(self, lean: bool) -> None:
-        """Evaluate the forces in Python from now on: in plain floats (``lean``) or with
-        numpy, not in the compiled kernel (the tests compare the paths)."""
-        self.lean = lean
+    def use_python(self, lean: Optional[bool] = None) -> None:
+        """Evaluate the forces in Python from now on, not in the compiled kernel: in plain
+        floats (``lean``) or with numpy (default: by the number of bodies, as without the
+        kernel). The tests and the benchmark compare the paths."""
+        self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self.compiled = None
 
     @property

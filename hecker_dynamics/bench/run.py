@@ -20,6 +20,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .. import kernel
 from ..integrators import ADAPTIVE, METHODS, make_integrator
 from ..model import Model
 from ..scene import Scene
@@ -87,9 +88,16 @@ class Results:
 
 # ----------------------------------------------------------------------------- core cases
 
-def core_run(scene: Scene, duration: float) -> Outcome:
-    """Build a Simulation (untimed), then ``play`` its script over ``duration`` (timed)."""
+#: The engine name of runs made in Python with the compiled kernel built (for comparison).
+PYTHON_PATH = "hecker_dynamics (python)"
+
+
+def core_run(scene: Scene, duration: float, python: bool = False) -> Outcome:
+    """Build a Simulation (untimed), then ``play`` its script over ``duration`` (timed);
+    ``python``: with the forces and steps in Python even where the kernel is built."""
     sim = Simulation(scene)
+    if python:
+        sim.model.use_python()
     until = round(duration * 1e9)
     failed = ""
     start = time.perf_counter()
@@ -106,12 +114,12 @@ def core_run(scene: Scene, duration: float) -> Outcome:
 
 
 def core_case(name: str, scene: Scene, method: str, step: float, tolerance: float = 1e-6,
-              duration: Optional[float] = None) -> Case:
+              duration: Optional[float] = None, python: bool = False) -> Case:
     duration = scene.duration_ns * 1e-9 if duration is None else duration
     configured = configure(scene, method, step, tolerance)
-    return Case(name, "hecker_dynamics", method, step,
+    return Case(name, PYTHON_PATH if python else "hecker_dynamics", method, step,
                 tolerance if method in ADAPTIVE else math.nan, duration,
-                lambda d: core_run(configured, d))
+                lambda d: core_run(configured, d, python))
 
 
 def core_cases(name: str, scene: Scene, mode: Mode, duration: float,
@@ -215,6 +223,9 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log) -> None:
             if method in ("implicit_midpoint", "backward_euler") and n > 30:
                 continue  # dense Newton with a finite-difference Jacobian: O(N^3), O(N) evals
             cases.append(core_case(f"ring{n}", scene, method, h, 1e-6, 1.0))
+        if kernel.enabled():  # the line of a machine without the kernel
+            cases.append(core_case(f"ring{n}", scene, "semi_implicit_euler", h, 1e-6, 1.0,
+                                   python=True))
         if have_c:
             cases.append(Case(f"ring{n}", "c", "semi_implicit_euler", h, math.nan, 1.0,
                               lambda d, n=n: c_run(n, h, d)))
@@ -245,8 +256,10 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
     scene = load_scene("sample")
     h = scene.step_ns * 1e-9
     duration = 2.0 if mode.name == "full" else 0.5
-    runners = {"hecker_dynamics": lambda: core_run(configure(scene, scene.integrator, h,
-                                                             duration=duration), duration)}
+    configured = configure(scene, scene.integrator, h, duration=duration)
+    runners = {"hecker_dynamics": lambda: core_run(configured, duration)}
+    if kernel.enabled():
+        runners[PYTHON_PATH] = lambda: core_run(configured, duration, python=True)
     for peer in ("pymunk", "box2d"):
         if peer in peers:
             runners[peer] = lambda peer=peer: peer_mod.sample_run(peer, scene, h, duration)
@@ -343,6 +356,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         "python": sys.version.split()[0], "numpy": np.__version__,
         "machine": f"{platform.machine()}, {platform.system()} {platform.release()}",
         "c compiler": compiler_version(),
+        "kernel": ("compiled" if kernel.enabled() else
+                   f"python ({'switched off' if kernel.built() else 'not built'})"),
         **{p: peer_mod.version(p) for p in peer_mod.PEERS},
     }
     log(f"bench {mode_name}: scenes {', '.join(chosen)}; peers {', '.join(peer_names) or 'none'}")
