@@ -92,6 +92,11 @@ static int check_bodies(const Term *t, long bodies)
 static int read_term(PyObject *item, Term *term, long bodies)
 {
     PyObject *ints, *reals;
+    if (!PyTuple_Check(item)) {  /* PyArg_ParseTuple would raise SystemError */
+        PyErr_Format(PyExc_TypeError, "a term is (kind, ints, reals), not %.100s",
+                     Py_TYPE(item)->tp_name);
+        return -1;
+    }
     if (!PyArg_ParseTuple(item, "iOO;a term is (kind, ints, reals)", &term->kind, &ints,
                           &reals))
         return -1;
@@ -137,6 +142,13 @@ static PyObject *py_program(PyObject *self, PyObject *args)
         return NULL;
     if (bodies < 0) {
         PyErr_SetString(PyExc_ValueError, "bodies must not be negative");
+        return NULL;
+    }
+    /* The lengths 3 N (and the scratch and stage buffers, a few dozen doubles per body)
+     * are computed in Py_ssize_t and size_t: beyond this they would wrap around, and a
+     * wrapped, negative 3 N would turn off the length checks of get_buffer. */
+    if (bodies > PY_SSIZE_T_MAX / 1024) {
+        PyErr_Format(PyExc_ValueError, "too many bodies: %ld", bodies);
         return NULL;
     }
     PyObject *sequence = PySequence_Fast(terms, "terms must be a sequence");
