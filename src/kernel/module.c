@@ -26,7 +26,7 @@ static int get_buffer(PyObject *object, Py_buffer *view, const char *what, char 
     const char *f = view->format ? view->format : "B";
     if (*f == '<' || *f == '=' || *f == '@')
         ++f;
-    int ok = view->itemsize == 8 && f[1] == '\0' &&
+    int ok = view->itemsize == 8 && f[0] != '\0' && f[1] == '\0' &&
              (format == 'd' ? f[0] == 'd' : (f[0] == 'q' || f[0] == 'l'));
     if (!ok) {
         PyErr_Format(PyExc_TypeError, "%s: expected %s of 8 bytes, got format '%s'", what,
