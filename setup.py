@@ -1,8 +1,40 @@
 """Plain pip install of hecker_dynamics for machines without ROS (core, tools, tests).
 
 On a ROS 2 machine the package is built by colcon from CMakeLists.txt instead.
+
+The compiled kernel ``hecker_dynamics._kernel`` is optional here: where the C compiler or
+the Python headers are missing its build fails with a warning, the install goes on, and the
+package uses its pure-Python path. CMakeLists.txt builds the same sources with the same
+floating-point flags (test/test_package.py checks that the two lists agree).
 """
-from setuptools import setup
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/forces.c", "src/kernel/steppers.c"]
+KERNEL_HEADERS = ["src/kernel/kernel.h"]
+
+#: GCC and Clang (compiler type "unix" on Linux and macOS, "mingw32" and "cygwin" on
+#: Windows). No contraction of a * b + c into a fused multiply-add and no fast-math, so the
+#: kernel rounds as the Python path does; these come after Python's own CFLAGS on the
+#: command line, so they win over an -O3 or -ffast-math from the environment.
+GNU_FLAGS = ["-std=gnu11", "-O2", "-ffp-contract=off", "-fno-fast-math"]
+#: MSVC: /fp:precise does not contract from Visual Studio 2022 on.
+MSVC_FLAGS = ["/fp:precise"]
+
+
+class KernelBuildExt(build_ext):
+    """Adds the compiler-specific flags once the compiler is known."""
+
+    def build_extensions(self):
+        compiler = self.compiler.compiler_type
+        for extension in self.extensions:
+            if compiler in ("unix", "mingw32", "cygwin"):
+                extension.extra_compile_args = GNU_FLAGS + list(extension.extra_compile_args)
+                extension.libraries = list(extension.libraries) + ["m"]
+            elif compiler == "msvc":
+                extension.extra_compile_args = MSVC_FLAGS + list(extension.extra_compile_args)
+        super().build_extensions()
+
 
 setup(
     name="hecker_dynamics",
@@ -16,6 +48,11 @@ setup(
     # a pip install carries them inside the Python package.
     package_dir={"hecker_dynamics.config": "config", "hecker_dynamics.interfaces": "msg"},
     package_data={"hecker_dynamics.config": ["*.yaml"], "hecker_dynamics.interfaces": ["*.msg"]},
+    # optional=True: a failed compile or link only warns (see the module docstring).
+    ext_modules=[Extension("hecker_dynamics._kernel", sources=KERNEL_SOURCES,
+                           depends=KERNEL_HEADERS, include_dirs=["src/kernel"],
+                           optional=True)],
+    cmdclass={"build_ext": KernelBuildExt},
     install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10"],
     extras_require={
         "test": ["pytest>=7", "catkin_pkg>=0.5"],

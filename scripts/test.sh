@@ -11,4 +11,10 @@ python3 -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
 "$venv/bin/python" -m pip install --quiet ".[test]" ${numpy_pin:+"$numpy_pin"}
 "$venv/bin/python" -c "import numpy; print('numpy', numpy.__version__)"
-"$venv/bin/python" -m pytest -q -p no:cacheprovider "$@"
+# -I and pytest's own script: the installed package is imported, not the source tree that
+# `python -m pytest` would put first on sys.path, so the tests run the compiled kernel
+# where pip built it (HECKER_DYNAMICS_KERNEL=0 in the environment switches it off).
+kernel=$("$venv/bin/python" -I -c "import importlib.util as u
+print('installed' if u.find_spec('hecker_dynamics._kernel') else 'not built')")
+echo "compiled kernel: $kernel${HECKER_DYNAMICS_KERNEL:+ (HECKER_DYNAMICS_KERNEL=$HECKER_DYNAMICS_KERNEL)}"
+"$venv/bin/pytest" -q -p no:cacheprovider "$@"

@@ -62,6 +62,7 @@ def test_manifest_declares_every_dependency(manifest):
     assert {"rclpy", "rosidl_default_runtime", "python3-numpy", "python3-yaml", "launch",
             "launch_ros"} <= execute
     assert "ament_cmake_pytest" in _names(manifest.test_depends)
+    assert "python3-dev" in build  # Python.h for the compiled kernel (rosdep's python.yaml)
     # rosbags has no rosdep key: the node and the build must not need it.
     assert not any("rosbags" in name for name in build | execute | buildtool)
 
@@ -96,8 +97,58 @@ def test_cmake_generates_the_interface_and_installs_beside_it(cmake):
     assert cmake.rstrip().endswith("ament_package()")
 
 
+def _setup_py_value(name: str):
+    """A module-level constant of setup.py, read without running it."""
+    tree = ast.parse((ROOT / "setup.py").read_text())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and [getattr(t, "id", "") for t in node.targets] == [name]:
+            return ast.literal_eval(node.value)
+    raise AssertionError(f"setup.py defines no {name}")
+
+
+def test_cmake_builds_the_kernel_as_setup_py_does(cmake):
+    # Two builds of one extension: pip's (setup.py, optional) and colcon's (CMakeLists.txt,
+    # required). Same sources, same floating-point flags, or the two would drift apart.
+    if not (ROOT / "setup.py").exists():
+        pytest.skip("setup.py is not in the tree")
+    setup = (ROOT / "setup.py").read_text()
+    sources = _setup_py_value("KERNEL_SOURCES")
+    headers = _setup_py_value("KERNEL_HEADERS")
+    assert re.search(r'Extension\("hecker_dynamics\._kernel", sources=KERNEL_SOURCES,\s+'
+                     r'depends=KERNEL_HEADERS,.*?optional=True\)', setup, re.S)
+    library = re.search(r"Python3_add_library\(_kernel MODULE WITH_SOABI\s+(.*?)\)", cmake, re.S)
+    assert library, "CMakeLists.txt builds no _kernel module"
+    assert sorted(library.group(1).split()) == sorted(sources)
+    kernel = ROOT / "src" / "kernel"
+    if kernel.is_dir():  # every C file and header of the kernel is in both builds
+        assert sorted(p.relative_to(ROOT).as_posix() for p in kernel.glob("*.c")) == \
+            sorted(sources)
+        assert sorted(p.relative_to(ROOT).as_posix() for p in kernel.glob("*.h")) == \
+            sorted(headers)
+    # The same interpreter as ament's (found in find_package(ament_cmake)), its headers added.
+    find_python = cmake.index("find_package(Python3 REQUIRED COMPONENTS Interpreter "
+                              "Development.Module)")
+    assert cmake.index("find_package(ament_cmake REQUIRED)") < find_python < library.start()
+    # GCC/Clang flags: setup.py's -std=gnu11 is CMake's C standard 11 with extensions.
+    gnu_flags = _setup_py_value("GNU_FLAGS")
+    assert "-ffp-contract=off" in gnu_flags and "-std=gnu11" in gnu_flags
+    options = re.search(r'if\(CMAKE_C_COMPILER_ID MATCHES "GNU\|Clang"\)\s+'
+                        r"target_compile_options\(_kernel PRIVATE ([^)]*)\)\s+elseif\(MSVC\)\s+"
+                        r"target_compile_options\(_kernel PRIVATE ([^)]*)\)", cmake)
+    assert options, "CMakeLists.txt sets no compiler flags for _kernel"
+    assert options.group(1).split() == [f for f in gnu_flags if not f.startswith("-std=")]
+    assert options.group(2).split() == _setup_py_value("MSVC_FLAGS")
+    assert re.search(r"set_target_properties\(_kernel PROPERTIES C_STANDARD 11 "
+                     r"C_STANDARD_REQUIRED ON C_EXTENSIONS ON\)", cmake)
+    assert '["m"]' in setup and "target_link_libraries(_kernel PRIVATE m)" in cmake
+    assert re.search(r'install\(TARGETS _kernel\s+LIBRARY DESTINATION '
+                     r'"\$\{PYTHON_INSTALL_DIR\}/\$\{PROJECT_NAME\}"\s*\)', cmake)
+    # An sdist carries the kernel's sources.
+    assert "recursive-include src/kernel *.c *.h" in (ROOT / "MANIFEST.in").read_text()
+
+
 def test_cmake_registers_the_tests(cmake):
-    for name in ("test_package", "test_mapping", "test_node"):
+    for name in ("test_package", "test_mapping", "test_node", "test_kernel_build"):
         assert (ROOT / "test" / f"{name}.py").is_file()
         assert name in cmake
 
