@@ -239,7 +239,7 @@ static void wrap_angles(double *q, long n)
     }
 }
 
-static int finite(const double *x, long count)
+static int all_finite(const double *x, long count)
 {
     for (long k = 0; k < count; ++k)
         if (!isfinite(x[k]))
@@ -282,7 +282,7 @@ int hd_advance(const Program *program, const Program *inputs, int oriented, int 
         }
         if (status != ADVANCED)
             break;
-        if (!finite(q_new, n3) || !finite(v_new, n3)) {
+        if (!all_finite(q_new, n3) || !all_finite(v_new, n3)) {
             status = NOT_FINITE;
             break;
         }
