@@ -5,6 +5,11 @@ active inputs join the scene's forces, the integrator turns accelerations into a
 walls respond with impulses, and the angle is wrapped. Time is kept in integer nanoseconds
 (as ROS stamps are), so steps never drift and the same scene with the same inputs in the
 same order gives bit-identical states.
+
+Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
+collisions and the method is explicit, the steps between one publish instant or input
+change and the next run in the kernel in one call, with the same results as one at a time
+in Python.
 """
 from __future__ import annotations
 
