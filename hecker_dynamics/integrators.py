@@ -328,11 +328,14 @@ METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "d
 ADAPTIVE = ("dopri5", "dop853")
 #: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
 AUTO_STIFF_LIMIT = 0.5
-#: Most bodies for which ``auto`` picks an implicit method. Measured on stiff rings (h = 1 ms,
-#: stiffness x step 1 to 1000): from 16 bodies on, dopri5 was cheaper in all but one case
-#: (by up to 32x at 64 bodies: Newton's dense solve and slow convergence on turning bodies),
-#: and more accurate in every case; up to 4 bodies implicit midpoint was 2-10x cheaper at
-#: stiffness x step 25-100.
+#: Most bodies for which ``auto`` picks an implicit method when the steps run in Python.
+#: Measured on stiff rings (h = 1 ms, stiffness x step 1 to 1000): from 16 bodies on, dopri5
+#: was cheaper in all but one case (by up to 32x at 64 bodies: Newton's dense solve and slow
+#: convergence on turning bodies), and more accurate in every case; up to 4 bodies implicit
+#: midpoint was 2-10x cheaper at stiffness x step 25-100. Where the steps run in the compiled
+#: kernel, dopri5 is chosen at any size: on stiff rings of 1, 4 and 16 bodies at stiffness x
+#: step 5 to 1000 (h = 1 ms) it was 7 to 500 times cheaper than implicit midpoint wherever
+#: Newton's method converged, and Newton's method failed on one body at 100 and 1000.
 AUTO_IMPLICIT_BODIES = 4
 
 
@@ -353,10 +356,12 @@ def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
     return factories[name]()
 
 
-def choose_method(stiffness: float, step: float, bodies: int) -> str:
+def choose_method(stiffness: float, step: float, bodies: int, compiled: bool = False) -> str:
     """The method ``auto`` picks: implicit midpoint when the forces are stiff for the step
-    (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`) and there are at most
-    :data:`AUTO_IMPLICIT_BODIES` bodies, else adaptive Dormand-Prince, which stays stable
-    on stiff forces by taking short sub-steps and meets the scene's tolerance."""
+    (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`), there are at most
+    :data:`AUTO_IMPLICIT_BODIES` bodies and the steps run in Python (not ``compiled``),
+    else adaptive Dormand-Prince, which stays stable on stiff forces by taking short
+    sub-steps and meets the scene's tolerance."""
     stiff = stiffness * step > AUTO_STIFF_LIMIT
-    return "implicit_midpoint" if stiff and bodies <= AUTO_IMPLICIT_BODIES else "dopri5"
+    implicit = stiff and bodies <= AUTO_IMPLICIT_BODIES and not compiled
+    return "implicit_midpoint" if implicit else "dopri5"

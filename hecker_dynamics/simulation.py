@@ -103,7 +103,9 @@ class Simulation:
         self.step_seconds = scene.step_ns * 1e-9
         method = scene.integrator
         if method == "auto":
-            method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size)
+            compiled = self.model.compiled is not None and self.model.contacts is None
+            method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
+                                   compiled)
         self.integrator = make_integrator(method, scene.tolerance)
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
             self.integrator.colouring_source = self.model.jacobian_colouring

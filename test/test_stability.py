@@ -208,8 +208,11 @@ def test_simulation_raises_on_divergence_and_keeps_its_last_finite_state():
 
 # ----------------------------------------------------------------------------- auto
 
-def test_auto_picks_implicit_midpoint_only_when_stiff():
-    """``auto`` compares the stiffest rate w with the step: w h > 0.5 is stiff."""
+def test_auto_picks_implicit_midpoint_only_when_stiff(monkeypatch):
+    """``auto`` compares the stiffest rate w with the step: w h > 0.5 is stiff (with the
+    steps in Python: where they run in the compiled kernel, ``auto`` takes dopri5 always)."""
+    monkeypatch.setenv("HECKER_DYNAMICS_KERNEL", "0")
+
     def auto(scene):
         return Simulation(scene).integrator.name
 
@@ -240,9 +243,20 @@ def test_auto_leaves_stiff_scenes_of_many_bodies_to_dopri5():
         return make_scene({"step": 0.001, "integrator": "auto", "bodies": bodies,
                            "forces": springs})
 
-    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).integrator.name == "implicit_midpoint"
-    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES + 1)).integrator.name == "dopri5"
+    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES) == "implicit_midpoint"
     assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES + 1) == "dopri5"
+    with_kernel = Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).model.compiled is not None
+    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).integrator.name == \
+        ("dopri5" if with_kernel else "implicit_midpoint")
+    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES + 1)).integrator.name == "dopri5"
+
+
+def test_auto_leaves_stiff_scenes_to_dopri5_where_the_kernel_steps():
+    """Where whole steps run in the compiled kernel (forces compiled, no contact pass),
+    dopri5 was cheaper than implicit midpoint on every stiff ring measured, at any size."""
+    assert choose_method(1e5, 0.001, 1, compiled=True) == "dopri5"
+    assert choose_method(1e5, 0.001, 1, compiled=False) == "implicit_midpoint"
+    assert choose_method(100.0, 0.001, 1, compiled=False) == "dopri5"  # not stiff
 
 
 # ----------------------------------------------------------------------------- fast spin
