@@ -317,7 +317,7 @@ def profiles(results: Results, mode: Mode) -> None:
         out = io.StringIO()
         pstats.Stats(profiler, stream=out).sort_stats("tottime").print_stats(12)
         results.profiles[name] = _trim_profile(out.getvalue())
-        # Lean: the integrator on model.accelerations alone, versus Simulation.advance_to.
+        # The integrator stepped from Python on model.accelerations, versus advance_to.
         sim = Simulation(cfg)
         start = time.perf_counter()
         sim.advance_to(round(steps * h * 1e9))
