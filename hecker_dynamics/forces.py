@@ -70,7 +70,12 @@ class ScalarPose:
     def of(cls, q: list[list[float]], v: list[list[float]], oriented: bool) -> ScalarPose:
         if not oriented:
             return cls(q, v, [], [])
-        return cls(q, v, [math.cos(b[2]) for b in q], [math.sin(b[2]) for b in q])
+        try:
+            return cls(q, v, [math.cos(b[2]) for b in q], [math.sin(b[2]) for b in q])
+        except ValueError:  # an infinite angle: NaN, as numpy and C give, so the state
+            # diverges (and the step says so) instead of raising a domain error
+            return cls(q, v, [math.cos(b[2]) if math.isfinite(b[2]) else math.nan for b in q],
+                       [math.sin(b[2]) if math.isfinite(b[2]) else math.nan for b in q])
 
     def offset(self, body: int, lx: float, ly: float) -> tuple[float, float]:
         c, s = self.cos[body], self.sin[body]
@@ -250,8 +255,6 @@ def spring_force(dx: np.ndarray, dy: np.ndarray, dvx: np.ndarray, dvy: np.ndarra
         fx = np.where(law.zero_rest, -k * dx - c * dvx, fx)
         fy = np.where(law.zero_rest, -k * dy - c * dvy, fy)
     return fx, fy
-
-
 
 
 def _direction(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

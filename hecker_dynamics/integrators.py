@@ -328,14 +328,16 @@ METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "d
 ADAPTIVE = ("dopri5", "dop853")
 #: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
 AUTO_STIFF_LIMIT = 0.5
-#: Most bodies for which ``auto`` picks an implicit method when the steps run in Python.
-#: Measured on stiff rings (h = 1 ms, stiffness x step 1 to 1000): from 16 bodies on, dopri5
-#: was cheaper in all but one case (by up to 32x at 64 bodies: Newton's dense solve and slow
-#: convergence on turning bodies), and more accurate in every case; up to 4 bodies implicit
-#: midpoint was 2-10x cheaper at stiffness x step 25-100. Where the steps run in the compiled
-#: kernel, dopri5 is chosen at any size: on stiff rings of 1, 4 and 16 bodies at stiffness x
-#: step 5 to 1000 (h = 1 ms) it was 7 to 500 times cheaper than implicit midpoint wherever
-#: Newton's method converged, and Newton's method failed on one body at 100 and 1000.
+#: Most bodies for which ``auto`` picks an implicit method, in a scene with contacts.
+#: Measured on stiff rings with the steps in Python (h = 1 ms, stiffness x step 1 to 1000):
+#: from 16 bodies on, dopri5 was cheaper in all but one case (by up to 32x at 64 bodies:
+#: Newton's dense solve and slow convergence on turning bodies), and more accurate in every
+#: case; up to 4 bodies implicit midpoint was 2-10x cheaper at stiffness x step 25-100. A
+#: scene without contacts gets dopri5 at any size: its steps run in the compiled kernel
+#: where it is built, and there dopri5 was 7 to 500 times cheaper than implicit midpoint on
+#: stiff rings of 1, 4 and 16 bodies at stiffness x step 5 to 1000 wherever Newton's method
+#: converged (it failed on one body at 100 and 1000). The rule depends on the scene only,
+#: never on whether the kernel was built, so both builds pick the same method.
 AUTO_IMPLICIT_BODIES = 4
 
 
@@ -356,12 +358,12 @@ def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
     return factories[name]()
 
 
-def choose_method(stiffness: float, step: float, bodies: int, compiled: bool = False) -> str:
+def choose_method(stiffness: float, step: float, bodies: int, contacts: bool) -> str:
     """The method ``auto`` picks: implicit midpoint when the forces are stiff for the step
     (stiffness rate x step above :data:`AUTO_STIFF_LIMIT`), there are at most
-    :data:`AUTO_IMPLICIT_BODIES` bodies and the steps run in Python (not ``compiled``),
-    else adaptive Dormand-Prince, which stays stable on stiff forces by taking short
-    sub-steps and meets the scene's tolerance."""
+    :data:`AUTO_IMPLICIT_BODIES` bodies and the scene has ``contacts`` (walls or
+    collisions), else adaptive Dormand-Prince, which stays stable on stiff forces by taking
+    short sub-steps and meets the scene's tolerance."""
     stiff = stiffness * step > AUTO_STIFF_LIMIT
-    implicit = stiff and bodies <= AUTO_IMPLICIT_BODIES and not compiled
+    implicit = stiff and bodies <= AUTO_IMPLICIT_BODIES and contacts
     return "implicit_midpoint" if implicit else "dopri5"

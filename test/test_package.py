@@ -148,7 +148,7 @@ def test_cmake_builds_the_kernel_as_setup_py_does(cmake):
 
 
 def test_cmake_registers_the_tests(cmake):
-    for name in ("test_package", "test_mapping", "test_node", "test_kernel_build"):
+    for name in ("test_package", "test_mapping", "test_node", "test_kernel", "test_kernel_build"):
         assert (ROOT / "test" / f"{name}.py").is_file()
         assert name in cmake
 

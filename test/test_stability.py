@@ -208,55 +208,56 @@ def test_simulation_raises_on_divergence_and_keeps_its_last_finite_state():
 
 # ----------------------------------------------------------------------------- auto
 
-def test_auto_picks_implicit_midpoint_only_when_stiff(monkeypatch):
-    """``auto`` compares the stiffest rate w with the step: w h > 0.5 is stiff (with the
-    steps in Python: where they run in the compiled kernel, ``auto`` takes dopri5 always)."""
-    monkeypatch.setenv("HECKER_DYNAMICS_KERNEL", "0")
+#: A floor far below, never reached: it gives a scene a contact pass and nothing more.
+FLOOR = {"walls": {"floor": {"point": [0.0, -50.0], "normal": [0.0, 1.0]}}}
+
+
+@pytest.mark.parametrize("kernel", ["1", "0"], ids=["kernel", "python"])
+def test_auto_picks_implicit_midpoint_only_when_stiff_with_contacts(kernel, monkeypatch):
+    """``auto`` compares the stiffest rate w with the step: w h > 0.5 is stiff. A stiff scene
+    with contacts (a wall, here never reached) gets implicit midpoint; one without gets
+    dopri5. The choice is the same whether the compiled kernel runs or not."""
+    monkeypatch.setenv("HECKER_DYNAMICS_KERNEL", kernel)
 
     def auto(scene):
         return Simulation(scene).integrator.name
 
     # k = 1e6 on 1 kg, w = 1000 rad/s: w h = 1 at 1 ms, 0.01 at 10 us.
-    assert auto(oscillator(K_STIFF, step=0.001, integrator="auto")) == "implicit_midpoint"
-    assert auto(oscillator(K_STIFF, step=0.00001, integrator="auto")) == "dopri5"
+    assert auto(oscillator(K_STIFF, step=0.001, integrator="auto", **FLOOR)) == \
+        "implicit_midpoint"
+    assert auto(oscillator(K_STIFF, step=0.001, integrator="auto")) == "dopri5"
+    assert auto(oscillator(K_STIFF, step=0.00001, integrator="auto", **FLOOR)) == "dopri5"
     # k = 100: w h = 0.01.
-    assert auto(oscillator(100.0, step=0.001, integrator="auto")) == "dopri5"
+    assert auto(oscillator(100.0, step=0.001, integrator="auto", **FLOOR)) == "dopri5"
     # Nothing to be stiff.
-    assert auto(make_scene({"integrator": "auto",
+    assert auto(make_scene({"integrator": "auto", **FLOOR,
                             "bodies": {"b": {"shape": "circle", "radius": 1.0,
                                              "mass": 1.0}}})) == "dopri5"
     # An off-centre spring is stiffer than its k/m says: at the tip of a thin rod the
     # effective inverse mass is 1/m + r^2/I = 4/m, so w = sqrt(4 k / m) = 2 sqrt(k/m).
     # k/m = 10^5: w = 632 rad/s, w h = 0.63 at 1 ms though sqrt(k/m) h = 0.32.
-    assert auto(thin_rod_scene(stiffness=10.0, step=0.001)) == "implicit_midpoint"
-    assert auto(thin_rod_scene(stiffness=10.0, step=0.0005)) == "dopri5"
+    rod = thin_rod_scene(stiffness=10.0, step=0.001)
+    assert choose_method(Model(rod).stiffness(), 0.001, 1, contacts=True) == "implicit_midpoint"
+    assert choose_method(Model(rod).stiffness(), 0.0005, 1, contacts=True) == "dopri5"
 
 
 def test_auto_leaves_stiff_scenes_of_many_bodies_to_dopri5():
     """Past AUTO_IMPLICIT_BODIES (measured: from 16 bodies on, dopri5 was cheaper and more
-    accurate on stiff rings) a stiff scene gets dopri5; up to it, implicit midpoint."""
+    accurate on stiff rings) a stiff scene with contacts gets dopri5; up to it, implicit
+    midpoint. Without contacts, dopri5 at any size."""
     def stiff_masses(count: int):  # k = 1e6 on 1 kg each: w h = 1 at 1 ms
         bodies = {f"m{i}": {"shape": "circle", "radius": 0.1, "mass": 1.0,
                             "position": [float(i), 1.0]} for i in range(count)}
         springs = {f"s{i}": {"type": "spring", "body_a": f"m{i}", "anchor": [float(i), 0.0],
                              "stiffness": K_STIFF} for i in range(count)}
         return make_scene({"step": 0.001, "integrator": "auto", "bodies": bodies,
-                           "forces": springs})
+                           "forces": springs, **FLOOR})
 
-    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES) == "implicit_midpoint"
-    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES + 1) == "dopri5"
-    with_kernel = Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).model.compiled is not None
-    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).integrator.name == \
-        ("dopri5" if with_kernel else "implicit_midpoint")
+    assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES)).integrator.name == "implicit_midpoint"
     assert Simulation(stiff_masses(AUTO_IMPLICIT_BODIES + 1)).integrator.name == "dopri5"
-
-
-def test_auto_leaves_stiff_scenes_to_dopri5_where_the_kernel_steps():
-    """Where whole steps run in the compiled kernel (forces compiled, no contact pass),
-    dopri5 was cheaper than implicit midpoint on every stiff ring measured, at any size."""
-    assert choose_method(1e5, 0.001, 1, compiled=True) == "dopri5"
-    assert choose_method(1e5, 0.001, 1, compiled=False) == "implicit_midpoint"
-    assert choose_method(100.0, 0.001, 1, compiled=False) == "dopri5"  # not stiff
+    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES, contacts=True) == "implicit_midpoint"
+    assert choose_method(1e5, 0.001, AUTO_IMPLICIT_BODIES + 1, contacts=True) == "dopri5"
+    assert choose_method(1e5, 0.001, 1, contacts=False) == "dopri5"
 
 
 # ----------------------------------------------------------------------------- fast spin

@@ -151,11 +151,12 @@ static PyObject *py_program(PyObject *self, PyObject *args)
         PyErr_Format(PyExc_ValueError, "too many bodies: %ld", bodies);
         return NULL;
     }
-    PyObject *sequence = PySequence_Fast(terms, "terms must be a sequence");
+    /* A tuple of our own: a term's __index__ cannot then change what is being read. */
+    PyObject *sequence = PySequence_Tuple(terms);
     if (sequence == NULL)
         return NULL;
     Program *p = calloc(1, sizeof(Program));
-    Py_ssize_t count = PySequence_Fast_GET_SIZE(sequence);
+    Py_ssize_t count = PyTuple_GET_SIZE(sequence);
     if (p == NULL || (p->terms = calloc(count > 0 ? (size_t)count : 1, sizeof(Term))) == NULL) {
         free(p);
         Py_DECREF(sequence);
@@ -175,7 +176,7 @@ static PyObject *py_program(PyObject *self, PyObject *args)
     }
     for (Py_ssize_t t = 0; t < count; ++t) {
         p->term_count = (long)t + 1;  /* so that a failure frees what this term copied */
-        if (read_term(PySequence_Fast_GET_ITEM(sequence, t), p->terms + t, bodies) < 0)
+        if (read_term(PyTuple_GET_ITEM(sequence, t), p->terms + t, bodies) < 0)
             goto fail;
     }
     Py_DECREF(sequence);
@@ -215,8 +216,8 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
     PyObject *a, *error;
     if (!PyArg_ParseTuple(args, "lOOi:pair", &slopes, &a, &error, &error_order))
         return NULL;
-    if (slopes < 2) {
-        PyErr_SetString(PyExc_ValueError, "a pair needs at least 2 slopes");
+    if (slopes < 2 || slopes > 64) {
+        PyErr_SetString(PyExc_ValueError, "a pair has 2 to 64 slopes");
         return NULL;
     }
     Py_buffer av, ev;
