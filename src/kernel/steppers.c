@@ -28,25 +28,16 @@ static void evaluate(Forces *f, const double *q, const double *v, double *a)
     hd_accelerations(f->program, f->inputs, f->oriented, q, v, a, &f->scratch);
 }
 
-/* x += h v; v += h a, both from the start of the step (integrators.py: ExplicitEuler). */
-static void explicit_euler(Forces *f, const double *q, const double *v, double *q1,
-                           double *v1, double h, double *a)
-{
-    evaluate(f, q, v, a);
-    for (long k = 0; k < f->n3; ++k) {
-        q1[k] = q[k] + h * v[k];
-        v1[k] = v[k] + h * a[k];
-    }
-}
-
-/* v += h a(q, v); then x += h v with the new velocity (SemiImplicitEuler). */
-static void semi_implicit_euler(Forces *f, const double *q, const double *v, double *q1,
-                                double *v1, double h, double *a)
+/* The article's explicit Euler, x += h v and v += h a from the start of the step
+ * (integrators.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
+ * then x += h v with the new velocity (SemiImplicitEuler). */
+static void euler(Forces *f, const double *q, const double *v, double *q1, double *v1,
+                  double h, double *a, int symplectic)
 {
     evaluate(f, q, v, a);
     for (long k = 0; k < f->n3; ++k) {
         v1[k] = v[k] + h * a[k];
-        q1[k] = q[k] + h * v1[k];
+        q1[k] = q[k] + h * (symplectic ? v1[k] : v[k]);
     }
 }
 
@@ -273,8 +264,8 @@ int hd_advance(const Program *program, const Program *inputs, int oriented, int 
     *taken = 0;
     for (long t = 0; t < steps; ++t) {
         switch (method) {
-        case EXPLICIT_EULER: explicit_euler(&f, q, v, q_new, v_new, h, buffer); break;
-        case SEMI_IMPLICIT_EULER: semi_implicit_euler(&f, q, v, q_new, v_new, h, buffer); break;
+        case EXPLICIT_EULER: euler(&f, q, v, q_new, v_new, h, buffer, 0); break;
+        case SEMI_IMPLICIT_EULER: euler(&f, q, v, q_new, v_new, h, buffer, 1); break;
         case VELOCITY_VERLET: velocity_verlet(&f, q, v, q_new, v_new, h, buffer); break;
         case RK4: rk4(&f, q, v, q_new, v_new, h, buffer); break;
         default:
