@@ -60,16 +60,21 @@ def _law(term: AnchorSpringTerm | BodySpringTerm) -> list[np.ndarray]:
     return [term.law.stiffness, term.law.rest_length, term.law.damping]
 
 
-#: Per kind of term: its columns in the kernel's layout (kernel.h, enum TermKind).
+#: Per kind of term: its columns in the kernel's layout (kernel.h, enum TermKind; the kind
+#: codes are the module's constants).
 _PACKERS: dict[type, Callable[..., Packed]] = {
-    GravityTerm: lambda t: _packed(1, [t.bodies], [t.weights]),
-    AnchorSpringTerm: lambda t: _packed(2, [t.body], [t.local, t.anchor, *_law(t)]),
-    BodySpringTerm: lambda t: _packed(3, [t.body_a, t.body_b],
+    GravityTerm: lambda t: _packed(_kernel.GRAVITY, [t.bodies], [t.weights]),
+    AnchorSpringTerm: lambda t: _packed(_kernel.ANCHOR_SPRING, [t.body],
+                                        [t.local, t.anchor, *_law(t)]),
+    BodySpringTerm: lambda t: _packed(_kernel.BODY_SPRING, [t.body_a, t.body_b],
                                       [t.local_a, t.local_b, *_law(t)]),
-    CentreDragTerm: lambda t: _packed(4, [t.body, t.quadratic], [t.coefficient]),
-    PointDragTerm: lambda t: _packed(5, [t.body, t.quadratic], [t.local, t.coefficient]),
-    AngularDampingTerm: lambda t: _packed(6, [t.body], [t.coefficient]),
-    ConstantWrenchTerm: lambda t: _packed(7, [t.body, t.axes_body, t.point_body, t.at_point],
+    CentreDragTerm: lambda t: _packed(_kernel.CENTRE_DRAG, [t.body, t.quadratic],
+                                      [t.coefficient]),
+    PointDragTerm: lambda t: _packed(_kernel.POINT_DRAG, [t.body, t.quadratic],
+                                     [t.local, t.coefficient]),
+    AngularDampingTerm: lambda t: _packed(_kernel.ANGULAR_DAMPING, [t.body], [t.coefficient]),
+    ConstantWrenchTerm: lambda t: _packed(_kernel.WRENCH,
+                                          [t.body, t.axes_body, t.point_body, t.at_point],
                                           [t.force, t.torque, t.point]),
 }
 
@@ -100,13 +105,15 @@ class CompiledForces:
         return out
 
 
-#: The integrators the kernel steps, by name, with its code for each.
-METHOD_CODES = {"explicit_euler": 0, "semi_implicit_euler": 1, "velocity_verlet": 2, "rk4": 3,
-                "dopri5": 4, "dop853": 4}
+#: The integrators the kernel steps, by name, with the name of the kernel's code for each.
+METHODS = {"explicit_euler": "EXPLICIT_EULER", "semi_implicit_euler": "SEMI_IMPLICIT_EULER",
+           "velocity_verlet": "VELOCITY_VERLET", "rk4": "RK4", "dopri5": "EMBEDDED",
+           "dop853": "EMBEDDED"}
 
-#: The kernel's status codes other than success, as messages.
-_FAILURES = {2: "the sub-step size underflowed",
-             3: f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in one step"}
+#: The kernel's failures of an integrator, by the name of their status code.
+_FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
+             "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
+                                  "one step"}
 
 
 class Advanced(NamedTuple):
@@ -123,7 +130,8 @@ class CompiledSteps:
 
     def __init__(self, model: Model, integrator: Integrator) -> None:
         self.model, self.integrator = model, integrator
-        self.method = METHOD_CODES[integrator.name]
+        self.method = getattr(_kernel, METHODS[integrator.name])
+        self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
         self.pair = None
         self.tolerance = 0.0
         if isinstance(integrator, EmbeddedRungeKutta):
@@ -150,10 +158,10 @@ class CompiledSteps:
             counters.substeps += substeps
             counters.rejected += rejected
             integrator.substep_size = size
-        if status == 1:
+        if status == _kernel.NOT_FINITE:
             return Advanced(taken, diverged=(self._q_new.copy(), self._v_new.copy()))
-        if status:
-            return Advanced(taken, error=f"{integrator.name}: {_FAILURES[status]}")
+        if status != _kernel.ADVANCED:
+            return Advanced(taken, error=f"{integrator.name}: {self._failures[status]}")
         return Advanced(taken)
 
 
@@ -161,6 +169,6 @@ def compiled_steps(model: Model, integrator: Integrator) -> Optional[CompiledSte
     """The kernel's stepping of ``integrator`` on ``model``, if it can take whole steps:
     the model's forces are compiled, it has no contact pass and the method is explicit."""
     if model.compiled is None or model.contacts is not None or \
-            integrator.name not in METHOD_CODES:
+            integrator.name not in METHODS:
         return None
     return CompiledSteps(model, integrator)

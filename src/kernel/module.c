@@ -383,10 +383,25 @@ static struct PyModuleDef module = {
 
 PyMODINIT_FUNC PyInit__kernel(void)
 {
+    /* The codes of kernel.h, so that the Python side never writes them again. */
+    static const struct { const char *name; long value; } constants[] = {
+        {"GRAVITY", GRAVITY}, {"ANCHOR_SPRING", ANCHOR_SPRING}, {"BODY_SPRING", BODY_SPRING},
+        {"CENTRE_DRAG", CENTRE_DRAG}, {"POINT_DRAG", POINT_DRAG},
+        {"ANGULAR_DAMPING", ANGULAR_DAMPING}, {"WRENCH", WRENCH},
+        {"EXPLICIT_EULER", EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", SEMI_IMPLICIT_EULER},
+        {"VELOCITY_VERLET", VELOCITY_VERLET}, {"RK4", RK4}, {"EMBEDDED", EMBEDDED},
+        {"ADVANCED", ADVANCED}, {"NOT_FINITE", NOT_FINITE},
+        {"SUBSTEP_UNDERFLOW", SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", TOO_MANY_SUBSTEPS},
+        {"MAX_SUBSTEPS", MAX_SUBSTEPS},
+    };
     PyObject *m = PyModule_Create(&module);
-    if (m != NULL && PyModule_AddIntConstant(m, "MAX_SUBSTEPS", MAX_SUBSTEPS) < 0) {
-        Py_DECREF(m);
+    if (m == NULL)
         return NULL;
+    for (size_t k = 0; k < sizeof constants / sizeof constants[0]; ++k) {
+        if (PyModule_AddIntConstant(m, constants[k].name, constants[k].value) < 0) {
+            Py_DECREF(m);
+            return NULL;
+        }
     }
     return m;
 }
