@@ -57,6 +57,18 @@ static void velocity_verlet(Forces *f, const double *q, const double *v, double 
         v1[k] = v[k] + half_h * (a0[k] + a1[k]);
 }
 
+/* A later stage of RK4 from the last slopes (kq, kv), c = h/2 or h: the slope of q is
+ * v + c kv, that of v the acceleration at (q + c kq, v + c kv). */
+static void rk4_stage(Forces *f, const double *q, const double *v, const double *kq,
+                      const double *kv, double c, double *at, double *next_q, double *next_v)
+{
+    for (long k = 0; k < f->n3; ++k) {
+        next_q[k] = v[k] + c * kv[k];
+        at[k] = q[k] + c * kq[k];
+    }
+    evaluate(f, at, next_q, next_v);
+}
+
 /* Classical fourth-order Runge-Kutta on (q' = v, v' = a) (RungeKutta4). */
 static void rk4(Forces *f, const double *q, const double *v, double *q1, double *v1,
                 double h, double *buffer)
@@ -65,22 +77,10 @@ static void rk4(Forces *f, const double *q, const double *v, double *q1, double 
     double *k1v = buffer, *k2q = k1v + n3, *k2v = k2q + n3, *k3q = k2v + n3,
            *k3v = k3q + n3, *k4q = k3v + n3, *k4v = k4q + n3, *at = k4v + n3;
     const double half_h = 0.5 * h, sixth_h = h / 6.0;
-    evaluate(f, q, v, k1v);
-    for (long k = 0; k < n3; ++k) {
-        k2q[k] = v[k] + half_h * k1v[k];
-        at[k] = q[k] + half_h * v[k];
-    }
-    evaluate(f, at, k2q, k2v);
-    for (long k = 0; k < n3; ++k) {
-        k3q[k] = v[k] + half_h * k2v[k];
-        at[k] = q[k] + half_h * k2q[k];
-    }
-    evaluate(f, at, k3q, k3v);
-    for (long k = 0; k < n3; ++k) {
-        k4q[k] = v[k] + h * k3v[k];
-        at[k] = q[k] + h * k3q[k];
-    }
-    evaluate(f, at, k4q, k4v);
+    evaluate(f, q, v, k1v);  /* k1 = (v, a(q, v)) */
+    rk4_stage(f, q, v, v, k1v, half_h, at, k2q, k2v);
+    rk4_stage(f, q, v, k2q, k2v, half_h, at, k3q, k3v);
+    rk4_stage(f, q, v, k3q, k3v, h, at, k4q, k4v);
     for (long k = 0; k < n3; ++k) {
         q1[k] = q[k] + sixth_h * (v[k] + 2.0 * k2q[k] + 2.0 * k3q[k] + k4q[k]);
         v1[k] = v[k] + sixth_h * (k1v[k] + 2.0 * k2v[k] + 2.0 * k3v[k] + k4v[k]);
