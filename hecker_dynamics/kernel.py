@@ -5,9 +5,10 @@ and Python's headers are present, and always by colcon. It evaluates the same fo
 as :mod:`.forces` and steps the explicit methods of :mod:`.integrators`, repeating the
 plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
-sums Python leaves to numpy's matrix products) agree with Python to rounding. Without
-it, or with the environment variable ``HECKER_DYNAMICS_KERNEL=0``, everything runs in
-Python.
+sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
+(Spring lengths whose squares under- or overflow, below 1e-154 m or above 1e154 m, use
+C's and Python's hypot, which may differ in the last bit.) Without it, or with the
+environment variable ``HECKER_DYNAMICS_KERNEL=0``, everything runs in Python.
 
 This module only translates: each force term is packed into the kernel's layout (integer
 and real columns per instance, see ``src/kernel/kernel.h``) once, and the inputs' term
@@ -106,9 +107,10 @@ class CompiledForces:
 
 
 #: The integrators the kernel steps, by name, with the name of the kernel's code for each.
-METHODS = {"explicit_euler": "EXPLICIT_EULER", "semi_implicit_euler": "SEMI_IMPLICIT_EULER",
-           "velocity_verlet": "VELOCITY_VERLET", "rk4": "RK4", "dopri5": "EMBEDDED",
-           "dop853": "EMBEDDED"}
+KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
+                  "semi_implicit_euler": "SEMI_IMPLICIT_EULER",
+                  "velocity_verlet": "VELOCITY_VERLET", "rk4": "RK4", "dopri5": "EMBEDDED",
+                  "dop853": "EMBEDDED"}
 
 #: The kernel's failures of an integrator, by the name of their status code.
 _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
@@ -130,7 +132,7 @@ class CompiledSteps:
 
     def __init__(self, model: Model, integrator: Integrator) -> None:
         self.model, self.integrator = model, integrator
-        self.method = getattr(_kernel, METHODS[integrator.name])
+        self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
         self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
         self.pair = None
         self.tolerance = 0.0
@@ -169,6 +171,6 @@ def compiled_steps(model: Model, integrator: Integrator) -> Optional[CompiledSte
     """The kernel's stepping of ``integrator`` on ``model``, if it can take whole steps:
     the model's forces are compiled, it has no contact pass and the method is explicit."""
     if model.compiled is None or model.contacts is not None or \
-            integrator.name not in METHODS:
+            integrator.name not in KERNEL_METHODS:
         return None
     return CompiledSteps(model, integrator)

@@ -542,6 +542,24 @@ def test_an_infinite_stage_angle_diverges_the_same_way():
     assert "state of m diverged" in results[0][0]
 
 
+@pytest.mark.parametrize("switch", ["1", "0"], ids=["kernel", "python"])
+def test_fallback_an_infinite_angle_before_the_contact_pass_diverges(switch, monkeypatch):
+    """A torque of 1e308 on a box resting on a floor: one step makes its angle infinite, and the
+    contact pass (math.cos of the new angle) must not turn that into a ValueError: the step
+    raises DivergenceError and keeps the last finite state, with the kernel or without."""
+    monkeypatch.setenv(kernel.SWITCH, switch)
+    sim = Simulation(make_scene({
+        "step": 0.01, "integrator": "semi_implicit_euler", "publish_rate": 100.0,
+        "bodies": {"m": {"shape": "box", "size": [0.1, 0.1], "mass": 1.0,
+                         "position": [0.0, 0.05]}},
+        "forces": {"t": {"type": "constant_torque", "body": "m", "torque": 1e308}},
+        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0]}}}))
+    q0 = sim.q.copy()
+    with pytest.raises(DivergenceError, match="state of m diverged"):
+        sim.step()
+    assert sim.steps == 0 and np.array_equal(sim.q, q0)
+
+
 def test_fallback_an_infinite_stage_angle_diverges_in_python(monkeypatch):
     """With the kernel switched off, an infinite stage angle ends the step with
     DivergenceError, as in the kernel, not with math.cos's ValueError."""

@@ -34,7 +34,7 @@ int hd_real_columns(int kind)
 }
 
 /* |(x, y)|: sqrt of the sum of squares where it neither underflows nor overflows, else
- * hypot (forces.py: `_length`). */
+ * hypot (forces.py: `magnitude`). */
 static double length(double x, double y)
 {
     double square = x * x + y * y;
@@ -180,7 +180,7 @@ static void add_term(const Term *t, const Scratch *s, const double *q, const dou
 }
 
 void hd_accelerations(const Program *program, const Program *inputs, int oriented,
-                   const double *q, const double *v, double *out, Scratch *scratch)
+                      const double *q, const double *v, double *out, Scratch *scratch)
 {
     const long n = program->bodies;
     if (program->term_count == 0 && (inputs == NULL || inputs->term_count == 0)) {

@@ -1,8 +1,9 @@
 /* The compiled kernel of hecker_dynamics: force terms and explicit integrators in C.
  *
- * It does, for scenes without contacts, what the Python modules forces.py, model.py and
- * integrators.py do, in the same order of floating-point operations as their plain-float
- * path, so that the fixed-step methods give the same bits (the build must not contract
+ * It does what the Python modules forces.py and model.py (the accelerations, for every
+ * scene) and integrators.py (the explicit methods, for scenes without contacts) do, in the
+ * same order of floating-point operations as their plain-float path, so that the
+ * accelerations and the fixed-step methods give the same bits (the build must not contract
  * a * b + c into a fused multiply-add: -ffp-contract=off). Python stays the reference;
  * this is its fast path.
  *
@@ -54,7 +55,7 @@ typedef struct {
  * `inputs` (may be NULL), summed per body and divided by mass and inertia (the article's
  * Equations 4 and 6). `oriented`: some term needs the bodies' angles. */
 void hd_accelerations(const Program *program, const Program *inputs, int oriented,
-                   const double *q, const double *v, double *out, Scratch *scratch);
+                      const double *q, const double *v, double *out, Scratch *scratch);
 
 /* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
  * `error` is error_rows x S. */
@@ -85,7 +86,7 @@ typedef struct {
  * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
  * step to step. `*taken` counts the steps completed. */
 int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
-            const Pair *pair, double tolerance, double *size, double *q, double *v,
-            double *q_new, double *v_new, double h, long steps, long *taken, Work *work);
+               const Pair *pair, double tolerance, double *size, double *q, double *v,
+               double *q_new, double *v_new, double h, long steps, long *taken, Work *work);
 
 #endif

@@ -273,7 +273,7 @@ static int get_programs(PyObject *program, PyObject *inputs, Program **p, Progra
 }
 
 PyDoc_STRVAR(accelerations_doc,
-"hd_accelerations(program, inputs, oriented, q, v, out)\n\n"
+"accelerations(program, inputs, oriented, q, v, out)\n\n"
 "Write (ax, ay, alpha) per body into ``out`` from the state (q, v): each a C-contiguous\n"
 "float64 array of 3 values per body.");
 
@@ -316,11 +316,11 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
 PyDoc_STRVAR(advance_doc,
 "advance(program, inputs, oriented, method, pair, tolerance, size, q, v, q_new, v_new, h,\n"
 "        steps) -> (status, taken, evaluations, substeps, rejected, size)\n\n"
-"Advance (q, v) in place by up to ``steps`` steps of ``h`` seconds with ``method`` (0\n"
-"explicit Euler, 1 semi-implicit Euler, 2 velocity Verlet, 3 RK4, 4 the embedded ``pair``\n"
-"at ``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
-"``status``: 0 advanced, 1 a new state was not finite (it is left in q_new, v_new), 2 the\n"
-"sub-step underflowed, 3 too many sub-steps in one step. The GIL is released meanwhile.");
+"Advance (q, v) in place by up to ``steps`` steps of ``h`` seconds with ``method``\n"
+"(EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or EMBEDDED: the ``pair`` at\n"
+"``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
+"``status``: ADVANCED, NOT_FINITE (a new state was not finite; it is left in q_new,\n"
+"v_new), SUBSTEP_UNDERFLOW or TOO_MANY_SUBSTEPS. The GIL is released meanwhile.");
 
 static PyObject *py_advance(PyObject *self, PyObject *args)
 {

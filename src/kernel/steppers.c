@@ -249,8 +249,8 @@ static long buffer_states(int method, const Pair *pair)
 }
 
 int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
-            const Pair *pair, double tolerance, double *size, double *q, double *v,
-            double *q_new, double *v_new, double h, long steps, long *taken, Work *work)
+               const Pair *pair, double tolerance, double *size, double *q, double *v,
+               double *q_new, double *v_new, double h, long steps, long *taken, Work *work)
 {
     const long n = program->bodies, n3 = 3 * n;
     /* cos, sin (N each) and the wrench (3 N) of an evaluation, then the method's states */
