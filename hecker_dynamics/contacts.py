@@ -37,6 +37,7 @@ import numpy as np
 from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
                         polygon_circle, polygon_polygon)
 from .geometry import Circle
+from .planar import cos_sin_of
 
 if TYPE_CHECKING:
     from .model import Model
@@ -176,7 +177,7 @@ class ContactPass:
     def _world_parts(self, pose: list[float], body: int) -> list[tuple]:
         """The body's parts placed at ``pose`` = [x, y, angle] of its CM."""
         x, y, angle = pose
-        c, s = math.cos(angle), math.sin(angle)
+        c, s = cos_sin_of(angle)
         placed = []
         for part in self.parts[body]:
             if part[0] == "circle":
@@ -336,7 +337,7 @@ class ContactPass:
         remembered = self._warm.get(pair)
         if not remembered:
             return 0.0, 0.0
-        c, s = math.cos(angle), math.sin(angle)
+        c, s = cos_sin_of(angle)
         lx, ly = c * rx + s * ry, -s * rx + c * ry
         best, nearest = None, MATCH * MATCH
         for i, (mx, my, _, _) in enumerate(remembered):
@@ -353,7 +354,7 @@ class ContactPass:
         self._warm = {}
         for row in rows:
             rbx, rby, angle = row.rbx, row.rby, poses[row.b][2]
-            c, s = math.cos(angle), math.sin(angle)
+            c, s = cos_sin_of(angle)
             self._warm.setdefault(row.key, []).append(
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 

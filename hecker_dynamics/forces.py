@@ -25,7 +25,7 @@ from typing import Optional, Protocol
 
 import numpy as np
 
-from .planar import cos_sin
+from .planar import cos_sin, cos_sin_of
 
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
@@ -72,10 +72,9 @@ class ScalarPose:
             return cls(q, v, [], [])
         try:
             return cls(q, v, [math.cos(b[2]) for b in q], [math.sin(b[2]) for b in q])
-        except ValueError:  # an infinite angle: NaN, as numpy and C give, so the state
-            # diverges (and the step says so) instead of raising a domain error
-            return cls(q, v, [math.cos(b[2]) if math.isfinite(b[2]) else math.nan for b in q],
-                       [math.sin(b[2]) if math.isfinite(b[2]) else math.nan for b in q])
+        except ValueError:  # an infinite angle: NaN for it, as numpy and C give
+            cos, sin = zip(*(cos_sin_of(b[2]) for b in q))
+            return cls(q, v, list(cos), list(sin))
 
     def offset(self, body: int, lx: float, ly: float) -> tuple[float, float]:
         c, s = self.cos[body], self.sin[body]

@@ -4,7 +4,8 @@
 ``perp(a) . b``, the 2D cross product, which turns an offset and a force into a torque
 ("Physics, Part 2: Angular Effects", the perp-dot product and Equation 6). The vector
 functions take arrays whose last axis has length 2 and broadcast over the others; the angle
-functions (``cos_sin``, ``wrap_angle``, ``wrap_angles_in_place``) take arrays of angles.
+functions (``cos_sin``, ``wrap_angle``, ``wrap_angles_in_place``) take arrays of angles,
+``cos_sin_of`` one angle.
 """
 from __future__ import annotations
 
@@ -33,6 +34,15 @@ def rotate(v: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     return np.stack((cos * v[..., 0] - sin * v[..., 1], sin * v[..., 0] + cos * v[..., 1]),
                     axis=-1)
+
+
+def cos_sin_of(angle: float) -> tuple[float, float]:
+    """cos and sin of one angle in plain floats; NaN for an infinite angle, as numpy and the
+    C library give, where ``math.cos`` would raise (a state that overflowed then diverges
+    through the finiteness check of the step instead of raising a domain error)."""
+    if math.isinf(angle):
+        return math.nan, math.nan
+    return math.cos(angle), math.sin(angle)
 
 
 #: From this many angles on, :func:`cos_sin` uses the half-angle tangent (measured crossing

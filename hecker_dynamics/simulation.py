@@ -264,20 +264,15 @@ class Simulation:
         contacts = self.model.contacts
         if contacts is None:
             return q1, v1
-        try:
-            parts = contacts.substeps(q, q1)
-            if parts == 1:
-                contacts.resolve(q1, v1, v, h)
-                return q1, v1
-            for _ in range(parts):
-                q1, v1 = self.integrator.step(f, q, v, h / parts)
-                contacts.resolve(q1, v1, v, h / parts)
-                q, v = q1, v1
-            return q, v
-        except ValueError:  # math.cos of an infinite angle: a new state that is not finite,
-            if np.isfinite(q1).all() and np.isfinite(v1).all():  # which _settle refuses
-                raise
+        parts = contacts.substeps(q, q1)
+        if parts == 1:
+            contacts.resolve(q1, v1, v, h)
             return q1, v1
+        for _ in range(parts):
+            q1, v1 = self.integrator.step(f, q, v, h / parts)
+            contacts.resolve(q1, v1, v, h / parts)
+            q, v = q1, v1
+        return q, v
 
     def advance_to(self, t_ns: int, max_steps: Optional[int] = None) -> list[Snapshot]:
         """Step while a whole step fits before ``t_ns`` (at most ``max_steps``).
