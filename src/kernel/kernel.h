@@ -58,11 +58,14 @@ void hd_accelerations(const Program *program, const Program *inputs, int oriente
                       const double *q, const double *v, double *out, Scratch *scratch);
 
 /* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
- * `error` is error_rows x S. */
+ * `error` is error_rows x S. `needs_new_state`: the error estimate reads k_S, the slope
+ * at the new state (else k_S is evaluated only for an accepted sub-step); set once, when
+ * the pair is made. */
 typedef struct {
     long slopes;
     long error_rows;
     int error_order;
+    int needs_new_state;
     double *a;
     double *error;
 } Pair;

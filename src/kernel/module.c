@@ -237,6 +237,8 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
         pair->error_order = error_order;
         pair->a = copy_of(&av);
         pair->error = copy_of(&ev);
+        for (long r = 0; pair->error != NULL && r < rows; ++r)
+            pair->needs_new_state |= pair->error[r * slopes + slopes - 1] != 0.0;
     }
     PyBuffer_Release(&av);
     PyBuffer_Release(&ev);

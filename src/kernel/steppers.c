@@ -150,9 +150,7 @@ static int embedded(Forces *f, const Pair *pair, double tolerance, double *size,
     const long n3 = f->n3, m = 2 * n3, S = pair->slopes, E = pair->error_rows;
     double *slopes = buffer, *y = slopes + S * m, *y_new = y + m, *stage = y_new + m,
            *scaled = stage + m;
-    int needs_new_state = 0;
-    for (long r = 0; r < E; ++r)
-        needs_new_state |= pair->error[r * S + S - 1] != 0.0;
+    const int needs_new_state = pair->needs_new_state;
     const long error_slopes = needs_new_state ? S : S - 1;
     const double exponent = -1.0 / (pair->error_order + 1);
     memcpy(y, q, (size_t)n3 * sizeof(double));
