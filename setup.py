@@ -42,7 +42,10 @@ setup(
     description="2D rigid-body dynamics with angular effects (after Chris Hecker) for ROS 2",
     license="Apache-2.0",
     python_requires=">=3.10",
-    packages=["hecker_dynamics", "hecker_dynamics.bench", "hecker_dynamics.config",
+    packages=["hecker_dynamics", "hecker_dynamics.bags", "hecker_dynamics.bench",
+              "hecker_dynamics.contact", "hecker_dynamics.dynamics", "hecker_dynamics.geometry",
+              "hecker_dynamics.integrators", "hecker_dynamics.ros", "hecker_dynamics.scene",
+              "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;
     # a pip install carries them inside the Python package.

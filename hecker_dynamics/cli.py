@@ -18,10 +18,10 @@ from pathlib import Path
 from collections.abc import Sequence
 from typing import Optional
 
-from .bags import STORAGES, BagError
-from .commands import InputError
-from .scene import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
-from .simulation import DivergenceError, Simulation
+from .bags.io import STORAGES, BagError
+from .dynamics.commands import InputError
+from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
+from .dynamics.simulation import DivergenceError, Simulation
 
 
 def _time_ns(text: str) -> int:
@@ -158,7 +158,7 @@ def _want_progress(args: argparse.Namespace) -> bool:
 
 
 def _tolerances(args: argparse.Namespace):
-    from .compare import Tolerances
+    from .bags.compare import Tolerances
 
     atol = args.atol
     return Tolerances(
@@ -169,7 +169,7 @@ def _tolerances(args: argparse.Namespace):
 
 def script(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
-    from .replay import script_to_bag
+    from .bags.replay import script_to_bag
 
     scene = load_scene(args.scene)
     count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
@@ -182,9 +182,9 @@ def script(args: argparse.Namespace) -> int:
 
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
-    from .bags import read_bag
-    from .compare import compare_contents
-    from .replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
+    from .bags.io import read_bag
+    from .bags.compare import compare_contents
+    from .bags.replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
                          replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
@@ -246,7 +246,7 @@ def replay_command(args: argparse.Namespace) -> int:
 
 def compare_command(args: argparse.Namespace) -> int:
     """Compare two bags; exit 1 on a mismatch."""
-    from .compare import compare_bags
+    from .bags.compare import compare_bags
 
     report, ok = compare_bags(args.expected, args.actual, tolerances=_tolerances(args),
                               topics=args.topic or None)
@@ -258,7 +258,7 @@ def compare_command(args: argparse.Namespace) -> int:
 
 
 def _add_tolerance_options(parser: argparse.ArgumentParser) -> None:
-    from .compare import DEFAULT_ATOL
+    from .bags.compare import DEFAULT_ATOL
 
     parser.add_argument("--atol", type=_tolerance, default=DEFAULT_ATOL,
                         help=f"absolute tolerance for positions (m), angles (rad) and "

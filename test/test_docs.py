@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from hecker_dynamics import parameters
+from hecker_dynamics.scene import parameters
 from hecker_dynamics.cli import parser
-from hecker_dynamics.scene import shipped_scenes
+from hecker_dynamics.scene.load import shipped_scenes
 from scene_builders import make_scene
 from test_forces import EVERY_FORCE
 
