@@ -26,9 +26,10 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from ..dynamics.commands import WrenchCommand
-from ..ros.mapping import (AppliedWrenchFields, DiagnosticFields, Header, MarkerFields,
-                      OdometryFields, Pose, PoseStampedFields, TwistFields,
-                      applied_wrench_fields, ns_from_stamp, stamp_from_ns)
+from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
+                          TwistFields, applied_wrench_fields, ns_from_stamp, stamp_from_ns)
+from ..ros.diagnostics import DiagnosticFields
+from ..ros.markers import MarkerFields
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",

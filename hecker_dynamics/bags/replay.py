@@ -30,10 +30,12 @@ from . import io as bags
 from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
                    BagWriter, resolve_topic)
 from ..dynamics.commands import InputError, WrenchCommand
-from ..ros.mapping import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, Runner,
-                      applied_wrench_fields, applied_wrench_to_command, header,
-                      snapshot_outputs as snapshot_fields, wrench_stamped_to_command)
-from ..ros.mapping import output_topics as node_output_topics
+from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
+                          wrench_stamped_to_command)
+from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, snapshot_outputs as
+                           snapshot_fields)
+from ..ros.runner import Runner
+from ..ros.outputs import output_topics as node_output_topics
 from ..scene.load import Scene, WrenchTopic
 from ..dynamics.simulation import Snapshot
 

@@ -28,12 +28,12 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..dynamics.commands import WrenchCommand
-from .mapping import (DIAGNOSTICS_TOPIC, NS_PER_S, DiagnosticFields, Header, LogLine,
-                      MarkerFields, NodeOptions, OdometryFields, OutputFields, OutputKind,
-                      Pose, PoseStampedFields, Runner, TickAction, TwistFields,
-                      applied_wrench_to_command, catch_up_cap, header, node_setup,
-                      output_topics, plan_tick, snapshot_outputs, stamp_from_ns,
-                      wrench_stamped_to_command)
+from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
+                     applied_wrench_to_command, header, stamp_from_ns, wrench_stamped_to_command)
+from .diagnostics import DiagnosticFields
+from .markers import MarkerFields
+from .outputs import DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics, snapshot_outputs
+from .runner import LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup, plan_tick
 from ..msg import AppliedWrench
 from .ratelimit import RateLimiter
 from ..scene.load import NODE_NAME, SceneError, WrenchTopic
