@@ -9,7 +9,7 @@ The custom ``hecker_dynamics/msg/AppliedWrench`` type is registered from its ``.
 looked up where each kind of install keeps it (:func:`applied_wrench_msg_path`), so the
 definition in a bag is always the package's own.
 
-Message contents come from :mod:`hecker_dynamics.ros.mapping` (the ``*_fields`` functions the
+Message contents come from :mod:`hecker_dynamics.ros` (the ``*_fields`` functions the
 node uses too); this module only copies those fields into rosbags message objects.
 """
 from __future__ import annotations
@@ -173,19 +173,19 @@ def pose_message(fields: Pose) -> Any:
 
 
 def pose_stamped_message(fields: PoseStampedFields) -> Any:
-    """``geometry_msgs/PoseStamped`` from :func:`mapping.pose_fields`."""
+    """``geometry_msgs/PoseStamped`` from :func:`~hecker_dynamics.ros.fields.pose_fields`."""
     return default_message(POSE_STAMPED, header=header_message(fields.header),
                            pose=pose_message(fields.pose))
 
 
 def twist_message(fields: TwistFields) -> Any:
-    """``geometry_msgs/Twist`` from :func:`mapping.twist_fields`."""
+    """``geometry_msgs/Twist`` from :func:`~hecker_dynamics.ros.fields.twist_fields`."""
     return default_message(TWIST, linear=_vector("geometry_msgs/msg/Vector3", fields.linear),
                            angular=_vector("geometry_msgs/msg/Vector3", fields.angular))
 
 
 def odometry_message(fields: OdometryFields) -> Any:
-    """``nav_msgs/Odometry`` from :func:`mapping.odometry_fields` (covariances zero)."""
+    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields` (covariances zero)."""
     return default_message(
         ODOMETRY, header=header_message(fields.header), child_frame_id=fields.child_frame_id,
         pose=default_message("geometry_msgs/msg/PoseWithCovariance",
@@ -206,12 +206,12 @@ def marker_message(fields: MarkerFields) -> Any:
 
 
 def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
-    """``visualization_msgs/MarkerArray`` from :func:`mapping.marker_fields` results."""
+    """``visualization_msgs/MarkerArray`` from :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
     return default_message(MARKER_ARRAY, markers=[marker_message(m) for m in markers])
 
 
 def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
-    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`mapping.diagnostic_fields`."""
+    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
     status = default_message(
         "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
         message=fields.message, hardware_id=fields.hardware_id,
@@ -221,7 +221,7 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
 
 
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
-    """``hecker_dynamics/msg/AppliedWrench`` from :func:`mapping.applied_wrench_fields`."""
+    """``hecker_dynamics/msg/AppliedWrench`` from :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
     dsec, dnanosec = fields.duration
     return default_message(
         APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
@@ -237,7 +237,7 @@ def applied_wrench_message(stamp_ns: int, frame_id: str, body: str, source: str,
                            point: Sequence[float], force: Sequence[float], torque: float,
                            duration_ns: int) -> Any:
     """A ``hecker_dynamics/msg/AppliedWrench`` with an in-plane wrench (the inverse of
-    :func:`mapping.applied_wrench_to_command`)."""
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_to_command`)."""
     return applied_wrench_msg(applied_wrench_fields(WrenchCommand(
         stamp_ns, body, source, frame_id, (point[0], point[1]), (force[0], force[1]),
         torque, duration_ns)))

@@ -6,7 +6,7 @@ The rules are the node's (``hecker_dynamics.ros.node``, non-lockstep):
   scene's scripted commands that are due (only with ``play_script``), steps up to the tick
   and publishes the snapshots it passed (at the publish instants ``start + k * period``).
 - A message that arrives between two ticks (its bag log time is the arrival time) is
-  mapped by :mod:`hecker_dynamics.ros.mapping` with its log time as receive time (a zero header
+  mapped by :mod:`hecker_dynamics.ros.fields` with its log time as receive time (a zero header
   stamp means "on arrival") and pushed while the simulation stands at the earlier tick.
   Stamps decide when a command acts; the input buffer applies them to the step.
 - Rejected inputs (NaN, expired, too far ahead) are counted and skipped, as the node logs

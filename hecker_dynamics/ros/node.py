@@ -1,11 +1,11 @@
 """The ROS 2 node ``dynamics_node``: thin rclpy glue over :class:`Simulation`.
 
-Inputs are turned into commands by :mod:`hecker_dynamics.ros.mapping`, the simulation steps in
-fixed steps up to the ROS clock (or, in lockstep, as fast as it can while publishing
-``/clock``), and every publish instant it passes becomes ``<body>/pose`` and
-``<body>/twist`` messages stamped with its sim time. Every decision (what a message means,
-when the clock jumped, how far the simulation lags) is made in ``mapping`` and
-``ratelimit``; this module only moves data between them and rclpy.
+Inputs are turned into commands by :mod:`.fields`, the simulation steps in fixed steps up
+to the ROS clock (or, in lockstep, as fast as it can while publishing ``/clock``), and every
+publish instant it passes becomes ``<body>/pose`` and ``<body>/twist`` messages stamped with
+its sim time. Every decision (what a message means, when the clock jumped, how far the
+simulation lags) is made in the other modules of :mod:`hecker_dynamics.ros`; this module
+only moves data between them and rclpy.
 """
 from __future__ import annotations
 
