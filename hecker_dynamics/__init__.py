@@ -5,9 +5,11 @@ mass properties from shape, forces with points of application, perp-dot torques,
 integration of linear and angular motion. Nothing here imports rclpy; the ROS node in
 ``hecker_dynamics.ros.node`` is thin glue over :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
+__version__ = "0.1.0"
+
 from .dynamics.commands import InputError, WrenchCommand
 from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
 from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
 
-__all__ = ["InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
+__all__ = ["__version__", "InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
            "scene_from_parameters", "BodyState", "DivergenceError", "Simulation", "Snapshot"]
