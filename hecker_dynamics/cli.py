@@ -184,6 +184,7 @@ def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
     from .bags.io import read_bag
     from .bags.compare import compare_contents
+    from .bags.live import is_live_recording
     from .bags.replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
                          replay_outputs, replay_to_bag, session_times)
 
@@ -191,6 +192,8 @@ def replay_command(args: argparse.Namespace) -> int:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
+    if is_live_recording(bag):
+        return _replay_live(args, scene, bag)
     outputs = output_topics(scene)
     expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
@@ -242,6 +245,49 @@ def replay_command(args: argparse.Namespace) -> int:
         print(report.text())
     print(f"check against the outputs recorded in {args.input}: {report.summary()}")
     return 0 if ok else 1
+
+
+def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
+    """Replay a session recorded from the node with its session records (bags.live)."""
+    from .bags.io import BagWriter
+    from .bags.live import check_live
+    from .bags.replay import output_topics
+
+    given = [name for name, value in (("--start", args.start is not None),
+                                      ("--duration", args.duration is not None),
+                                      ("--play-script", args.play_script),
+                                      ("--skip-rejected", args.skip_rejected)) if value]
+    if given:
+        raise BagError(f"{args.input}: a recorded session replays with the options the node "
+                       f"recorded; {', '.join(given)} do not apply to it")
+    check = check_live(scene, bag, tolerances=_tolerances(args))
+    if args.output is not None:
+        with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
+                       custom_data={"scene": Path(scene.source).stem},
+                       compress=args.compress) as writer:
+            for topic, msgtype in output_topics(scene).items():
+                writer.add_topic(topic, msgtype)
+            for output in sorted(check.outputs, key=lambda o: o.log_ns):
+                writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
+    print(f"replayed {check.sessions} session(s) of {args.input} on scene {scene.source} from "
+          f"the node's records: {check.events} input event(s), {check.keyframes_checked} "
+          f"keyframe(s) compared, {len(check.outputs)} output message(s)"
+          + (f" written to {args.output}" if args.output else ""))
+    for note in check.notes:
+        print(f"hecker-dynamics: note: {note}", file=sys.stderr)
+    if check.halted:
+        print(f"hecker-dynamics: error: {check.halted}", file=sys.stderr)
+        return 2
+    if not args.check:
+        return 0
+    for problem in check.problems:
+        print(f"MISMATCH: {problem}")
+    if not check.report.ok or args.verbose:
+        print(check.report.text())
+    summary = check.report.summary() if not check.problems or not check.report.ok else \
+        f"mismatch: {len(check.problems)} recorded decision(s) or state(s) differ"
+    print(f"check against the outputs recorded in {args.input}: {summary}")
+    return 0 if check.ok else 1
 
 
 def compare_command(args: argparse.Namespace) -> int:
