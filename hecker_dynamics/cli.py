@@ -1,11 +1,14 @@
 """``hecker-dynamics``: run scenes without ROS.
 
-    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S]
+    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S] [--view]
     hecker-dynamics scenes
     hecker-dynamics script SCENE -o INPUT_BAG
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
+    hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
+                           [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
+    hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
 """
 from __future__ import annotations
 
@@ -22,6 +25,9 @@ from .bags.io import STORAGES, BagError
 from .dynamics.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
+from .viz.commands import add_viz_commands, view_run
+from .viz.frames import VizError
+from .viz.progress import Progress, stderr_is_terminal
 
 
 def _time_ns(text: str) -> int:
@@ -81,6 +87,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
 def run(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
+    if args.view:
+        view_run(scene)
     sim = Simulation(scene)
     first = sim.snapshot()
     started = time.perf_counter()
@@ -122,39 +130,8 @@ def _tolerance(text: str) -> float:
     return value
 
 
-class _Progress:
-    """A progress bar on stderr, redrawn at most once per percent."""
-
-    WIDTH = 30
-
-    def __init__(self, label: str, total_s: float) -> None:
-        self.label = label
-        self.total_s = total_s
-        self.shown = -1
-
-    def __call__(self, fraction: float) -> None:
-        percent = int(100 * min(max(fraction, 0.0), 1.0))
-        if percent == self.shown:
-            return
-        self.shown = percent
-        filled = self.WIDTH * percent // 100
-        bar = "#" * filled + "." * (self.WIDTH - filled)
-        sys.stderr.write(f"\r{self.label} [{bar}] {percent:3d}% of {self.total_s:g} s sim time")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.shown >= 0:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
 def _want_progress(args: argparse.Namespace) -> bool:
-    if args.progress is not None:
-        return args.progress
-    try:
-        return sys.stderr.isatty()
-    except (AttributeError, ValueError):
-        return False
+    return args.progress if args.progress is not None else stderr_is_terminal()
 
 
 def _tolerances(args: argparse.Namespace):
@@ -205,7 +182,8 @@ def replay_command(args: argparse.Namespace) -> int:
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected)
-    progress = _Progress("replay", (end - start) * 1e-9) if _want_progress(args) else None
+    progress = Progress("replay", (end - start) * 1e-9, enabled=True) \
+        if _want_progress(args) else None
     try:
         if args.output is not None:
             result = replay_to_bag(scene, bag, Path(args.output), storage=args.storage,
@@ -457,6 +435,8 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
+    run_parser.add_argument("--view", action="store_true",
+                            help="show the run in a window (needs a display and the viz extra)")
     run_parser.set_defaults(handler=run)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
@@ -464,6 +444,7 @@ def parser() -> argparse.ArgumentParser:
     list_parser.set_defaults(handler=scenes)
     _add_bag_commands(commands)
     _add_bench_command(commands)
+    add_viz_commands(commands, seconds=_time_ns)
     return top
 
 
@@ -471,7 +452,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.handler(args)
-    except (SceneError, InputError, DivergenceError, BagError) as error:
+    except (SceneError, InputError, DivergenceError, BagError, VizError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2
 
