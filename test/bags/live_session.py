@@ -92,10 +92,11 @@ def _input_message(scene: Scene, rng: np.random.Generator, arrival_ns: int,
 def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int = 25,
              play_script: bool = True, keyframe_period_ns: int = S,
              max_steps: Optional[int] = None, reset_at: Optional[int] = None,
-             record: bool = True) -> LiveSession:
+             record: bool = True, lockstep: bool = False) -> LiveSession:
     """Run the node's loop for ``duration_ns`` of ROS time with a jittered timer and
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
-    reset service once."""
+    reset service once. In ``lockstep`` the simulation starts at sim time 0, each tick
+    steps one publish period, and a message arrives at the sim time it finds."""
     rng = np.random.default_rng(seed)
     t0 = 1_700_000_000 * S + int(rng.integers(S))
     period = scene.publish_period_ns
@@ -108,8 +109,8 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     arrivals = sorted(int(t0 + rng.uniform(0, duration_ns)) for _ in range(inputs))
     timeline = sorted([(t, 1, None) for t in ticks] + [(t, 0, "input") for t in arrivals]
                       + ([(t0 + reset_at, 0, "reset")] if reset_at is not None else []))
-    runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=False,
-                    record=record, keyframe_period_ns=keyframe_period_ns,
+    runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=lockstep,
+                    record=record, keyframe_period_ns=keyframe_period_ns, lockstep=lockstep,
                     wall_clock=lambda: int(rng.integers(10**6)))
     session = LiveSession(scene, start_ns=t0, end_ns=t0 + duration_ns)
     sent: list[Any] = []
@@ -122,22 +123,25 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
 
     for at_ns, _, what in timeline:
         if what == "input":
-            msg = _input_message(scene, rng, at_ns, sent)
+            msg = _input_message(scene, rng, runner.sim.time_ns if lockstep else at_ns, sent)
             sent.append(msg)
             session.published.append(Published(APPLIED_WRENCH_TOPIC, bags.APPLIED_WRENCH,
                                                at_ns - int(rng.integers(S // 1000)), msg))
-            runner.accept(APPLIED_WRENCH_TOPIC, msg, at_ns)
+            runner.accept(APPLIED_WRENCH_TOPIC, msg,
+                          runner.sim.time_ns if lockstep else at_ns)
         elif what == "reset":
             if runner.started:
-                runner.restart(at_ns, "reset")
+                runner.restart(runner.sim.time_ns if lockstep else at_ns, "reset")
                 last_tick = at_ns
         else:
-            action, _ = plan_tick(at_ns, last_tick)
-            if action is TickAction.START:
-                runner.restart(at_ns, "start")
-            last_tick = at_ns
-            tick = runner.advance(at_ns)
-            for snapshot in tick.snapshots:
+            if lockstep:
+                target = runner.sim.time_ns + period
+            else:
+                action, _ = plan_tick(at_ns, last_tick)
+                if action is TickAction.START:
+                    runner.restart(at_ns, "start")
+                last_tick = target = at_ns
+            for snapshot in runner.advance(target).snapshots:
                 for output in snapshot_outputs(scene, snapshot):
                     session.published.append(Published(output.topic, output.msgtype, at_ns,
                                                        output.msg))

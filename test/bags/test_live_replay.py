@@ -36,6 +36,7 @@ CASES = [
         (5, {"max_steps": 25}, 1_000_000_000), (6, {"play_script": False}, 0),
         (7, {"keyframe_period_ns": 250_000_000}, 3_100_000_000),
         (8, {"keyframe_period_ns": 0}, 0), (9, {}, 3_500_000_000),
+        (12, {"lockstep": True}, 0), (13, {"lockstep": True, "reset_at": S}, 1_500_000_000),
     ]
 ] + [(name, 10 + n, {}, late) for n, (name, late) in enumerate(
     (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
