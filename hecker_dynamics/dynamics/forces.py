@@ -1,10 +1,10 @@
 """Force terms: each turns the state into generalised forces (Fx, Fy, torque) per body.
 
 This is steps 3 to 5 of the article's algorithm ("Physics, Part 2: Angular Effects"):
-every force has a point of application; the forces add up at the CM (Equation 4, F = M a)
+every force has a point of application; the forces add up at the CM (F = M a, Eq. 5)
 and each contributes the torque perp-dot(r, F) about the CM, with r the offset from the CM
-to the point (Equation 6). A body point's velocity is v_P = v_CM + omega perp(r)
-(Equation 7), which springs and drag at points use.
+to the point (Eq. 11). A body point's velocity is v_P = v_CM + omega perp(r)
+(Eq. 9), which springs and drag at points use.
 
 A term exists only if the scene declares such a force, and one applied at the CM never
 touches the torque. Each term evaluates in two ways that tests hold equal to rounding:
@@ -52,7 +52,7 @@ class Pose:
 
     def point_velocity(self, body: np.ndarray, rx: np.ndarray,
                        ry: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """v_P = v_CM + omega perp(r) (article Equation 7)."""
+        """v_P = v_CM + omega perp(r) (Eq. 9)."""
         omega = self.omega[body]
         return self.vx[body] - omega * ry, self.vy[body] + omega * rx
 
@@ -177,7 +177,8 @@ def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _apply_scalar(wrench: Wrench, rx: float, ry: float, fx: float, fy: float) -> None:
-    """Add force (fx, fy) at offset (rx, ry) from the CM: the force and perp-dot torque."""
+    """Add force (fx, fy) at offset (rx, ry) from the CM: the force and perp-dot torque
+    (Eq. 11)."""
     wrench[0] += fx
     wrench[1] += fy
     wrench[2] += rx * fy - ry * fx

@@ -2,7 +2,8 @@
 
 ``Model.accelerations`` is steps 3 to 6 of the article's algorithm ("Physics, Part 2:
 Angular Effects"): collect the forces with their points, sum them at the CM, add up the
-perp-dot torques, and divide by the mass and by the moment of inertia (Equations 4 and 6).
+perp-dot torques (Eq. 11), and divide by the mass (F = M a, Eq. 5) and by the moment of
+inertia (tau = I alpha, Eq. 14).
 A scene without walls or collisions has no contact pass; a scene without springs has no
 spring term; a force at the CM computes no torque.
 """
@@ -121,7 +122,8 @@ class Model:
         return mask
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
+        """(ax, ay, alpha) per body: summed forces over mass (Eq. 5), summed torques over
+        inertia (Eq. 14)."""
         if self.compiled is not None:
             return self.compiled.accelerations(q, v, self._oriented)
         terms, oriented = self._active, self._oriented

@@ -1,7 +1,7 @@
 """Shapes and their mass properties, integrated over the area.
 
 Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the centre of mass
-and the moment of inertia as integrals over the body, Equations 3 and 8): the mass, the
+and the moment of inertia as integrals over the body, Eq. 3 and Eq. 13): the mass, the
 centre of mass (CM) and the moment of inertia about the CM follow from the shape and its
 density. Polygons are integrated exactly by summing signed triangles fanned from the
 origin, so either winding works; circles use their closed forms; a body made of several
@@ -89,7 +89,7 @@ class AreaProperties:
 
 @dataclass(frozen=True)
 class MassProperties:
-    """Mass, centre of mass and moment of inertia about the CM (article Equations 3, 8)."""
+    """Mass, centre of mass and moment of inertia about the CM (Eq. 3 and Eq. 13)."""
 
     mass: float
     center_of_mass: tuple[float, float]  # body frame
@@ -171,7 +171,7 @@ def area_properties(shape: Shape) -> AreaProperties:
 def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[float]) -> MassProperties:
     """Combine shapes of the given densities into one body's mass, CM and inertia.
 
-    The CM is the mass-weighted mean of the shapes' centroids (article Equation 3); each
+    The CM is the mass-weighted mean of the shapes' centroids (Eq. 3); each
     shape's inertia is moved to the common CM with the parallel-axis theorem.
     """
     if len(shapes) != len(densities) or not shapes:

@@ -3,8 +3,8 @@
 Every method advances the state ``(q, v)`` (positions and angles, velocities and angular
 velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
 
-- ``explicit_euler``: the article's own scheme (Equations 1 and 2 applied to x and omega),
-  order 1, gains energy on oscillators.
+- ``explicit_euler``: the article's own scheme, position and angle stepped through their
+  derivatives (Eq. 1 and Eq. 6); order 1, gains energy on oscillators.
 - ``semi_implicit_euler``: velocity first, then position with the new velocity; order 1,
   symplectic, bounded energy error.
 - ``velocity_verlet``: order 2, symplectic for position-dependent forces; velocity-dependent

@@ -1,8 +1,8 @@
 /* Force terms: steps 3 to 6 of the algorithm of "Physics, Part 2: Angular Effects".
  *
- * Each force has a point of application; the forces add up at the CM (Equation 4) and
- * each adds the perp-dot torque of its offset from the CM (Equation 6); a point's velocity
- * is v_CM + omega perp(r) (Equation 7). Every function repeats, operation for operation,
+ * Each force has a point of application; the forces add up at the CM (F = M a, Eq. 5)
+ * and each adds the perp-dot torque of its offset from the CM (Eq. 11); a point's velocity
+ * is v_CM + omega perp(r) (Eq. 9). Every function repeats, operation for operation,
  * the plain-float path of hecker_dynamics/forces.py (`add_scalar`), so the two give the
  * same bits.
  */
@@ -51,7 +51,7 @@ static void offset(const Scratch *s, long body, double lx, double ly, double *rx
     *ry = sn * lx + c * ly;
 }
 
-/* v_P = v_CM + omega perp(r) (Equation 7). */
+/* v_P = v_CM + omega perp(r) (Eq. 9). */
 static void point_velocity(const double *v, long body, double rx, double ry,
                            double *vx, double *vy)
 {
@@ -60,7 +60,8 @@ static void point_velocity(const double *v, long body, double rx, double ry,
     *vy = b[1] + b[2] * rx;
 }
 
-/* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque. */
+/* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque
+ * (Eq. 11). */
 static void apply(double *wrench, double rx, double ry, double fx, double fy)
 {
     wrench[0] += fx;

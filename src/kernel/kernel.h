@@ -52,8 +52,8 @@ typedef struct {
 } Scratch;
 
 /* (ax, ay, alpha) per body into `out` (3 N): the terms of `program`, then those of
- * `inputs` (may be NULL), summed per body and divided by mass and inertia (the article's
- * Equations 4 and 6). `oriented`: some term needs the bodies' angles. */
+ * `inputs` (may be NULL), summed per body and divided by mass and inertia (F = M a, Eq. 5;
+ * tau = I alpha, Eq. 14). `oriented`: some term needs the bodies' angles. */
 void hd_accelerations(const Program *program, const Program *inputs, int oriented,
                       const double *q, const double *v, double *out, Scratch *scratch);
 

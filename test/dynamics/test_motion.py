@@ -170,7 +170,7 @@ def test_damped_spring_at_a_named_point_uses_the_point_velocity(rest_length, for
     is at (5.1, 7.2) and its tip at (4.5, 8.0), r = (-0.6, 0.8). A spring k = 10, c = 3
     joins the tip to an anchor at (4.5, 6.0), so d = (0, 2). The origin moves at (0.3, -0.2)
     and the body turns at 1.5 rad/s, so the tip moves at
-    v_P = (0.3, -0.2) + 1.5 perp((-0.5, 1.0)) = (-1.2, -0.95) (article Equation 7)."""
+    v_P = (0.3, -0.2) + 1.5 perp((-0.5, 1.0)) = (-1.2, -0.95) (Eq. 9)."""
     model = Model(make_scene({
         "bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "center": [0.2, -0.1],
                          "mass": 2.0, "position": [5.0, 7.0], "angle": math.pi / 2,
