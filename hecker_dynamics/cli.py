@@ -78,7 +78,7 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
     return dataclasses.replace(scene, **changes)
 
 
-def run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
     sim = Simulation(scene)
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def scenes(args: argparse.Namespace) -> int:
+def scenes_command(args: argparse.Namespace) -> int:
     """List the shipped scenes."""
     for name in shipped_scenes():
         print(name)
@@ -167,7 +167,7 @@ def _tolerances(args: argparse.Namespace):
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
-def script(args: argparse.Namespace) -> int:
+def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import script_to_bag
 
@@ -184,14 +184,14 @@ def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
     from .bags.io import read_bag
     from .bags.compare import compare_contents
-    from .bags.replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
+    from .bags.replay import (check_bag_for_scene, input_topics, output_types, outputs_as_bag,
                          replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
-    outputs = output_topics(scene)
+    outputs = output_types(scene)
     expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
         check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
@@ -296,7 +296,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the scene's duration)")
     _add_writer_options(script_parser)
-    script_parser.set_defaults(handler=script)
+    script_parser.set_defaults(handler=script_command)
 
     replay_parser = commands.add_parser(
         "replay", help="replay an input bag on a scene and write the node's outputs",
@@ -411,11 +411,11 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
-    run_parser.set_defaults(handler=run)
+    run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
                                       description="List the shipped scenes.")
-    list_parser.set_defaults(handler=scenes)
+    list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)
     return top

@@ -71,7 +71,7 @@ def test_the_readme_command_lines_parse():
 #: is Eq. 5, not Eq. 4.
 EQUATION_WORDS = {
     1: ("derivative",),
-    3: ("centre of mass", "center of mass", "centroid"),
+    3: ("center of mass", "centroid"),
     5: ("f = m a", "force"),
     6: ("angle", "angular acceleration"),
     9: ("body point", "point's velocity", "v_p ="),

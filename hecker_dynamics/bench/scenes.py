@@ -107,7 +107,7 @@ def two_bodies() -> Scene:
 
 
 def ring_initial(n: int) -> list[tuple[float, float, float, float, float, float]]:
-    """(x, y, angle, vx, vy, omega) of each box of the ring: centred on a circle whose
+    """(x, y, angle, vx, vy, omega) of each box of the ring: centered on a circle whose
     chords between neighbouring end points are close to the rest length, tangent to it,
     with a small deterministic velocity pattern so the ring moves."""
     width = RING_SIZE[0]

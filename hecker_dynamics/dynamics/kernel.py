@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, NamedTuple, Optional
 
 import numpy as np
 
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
 
@@ -69,7 +69,7 @@ _PACKERS: dict[type, Callable[..., Packed]] = {
                                         [t.local, t.anchor, *_law(t)]),
     BodySpringTerm: lambda t: _packed(_kernel.BODY_SPRING, [t.body_a, t.body_b],
                                       [t.local_a, t.local_b, *_law(t)]),
-    CentreDragTerm: lambda t: _packed(_kernel.CENTRE_DRAG, [t.body, t.quadratic],
+    CenterDragTerm: lambda t: _packed(_kernel.CENTER_DRAG, [t.body, t.quadratic],
                                       [t.coefficient]),
     PointDragTerm: lambda t: _packed(_kernel.POINT_DRAG, [t.body, t.quadratic],
                                      [t.local, t.coefficient]),

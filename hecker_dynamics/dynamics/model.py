@@ -16,10 +16,10 @@ from typing import Optional
 import numpy as np
 
 from . import kernel
-from ..integrators.colouring import Colouring, colour
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
-                     ScalarPose)
+from ..integrators.coloring import Coloring, color
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Kinematics,
+                     ScalarKinematics)
 from ..geometry.planar import perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
@@ -47,9 +47,9 @@ class Model:
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
-        # The scene's couplings, the inputs' couplings and the colouring of both, once asked.
+        # The scene's couplings, the inputs' couplings and the coloring of both, once asked.
         self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
-        self._colouring: Optional[tuple[tuple[tuple[int, int], ...], Colouring]] = None
+        self._coloring: Optional[tuple[tuple[tuple[int, int], ...], Coloring]] = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         if compiled is None:
             compiled = lean is None and kernel.enabled()
@@ -93,9 +93,9 @@ class Model:
     def size(self) -> int:
         return len(self.names)
 
-    def jacobian_colouring(self) -> Colouring:
-        """The groups of bodies a Jacobian by coloured differences bumps together, for the
-        scene's forces and the inputs active now (see :mod:`.colouring`).
+    def jacobian_coloring(self) -> Coloring:
+        """The groups of bodies a Jacobian by colored differences bumps together, for the
+        scene's forces and the inputs active now (see :mod:`.coloring`).
 
         Computed when first asked for, and again only when the inputs couple other bodies
         (an input whose axes or point belong to a body other than its target); contacts are
@@ -104,9 +104,9 @@ class Model:
         if self._term_couplings is None:
             self._term_couplings = _couplings(self.terms)
         extra = _couplings(() if self._inputs is None else (self._inputs,))
-        if self._colouring is None or self._colouring[0] != extra:
-            self._colouring = (extra, colour(self.size, self._term_couplings + extra))
-        return self._colouring[1]
+        if self._coloring is None or self._coloring[0] != extra:
+            self._coloring = (extra, color(self.size, self._term_couplings + extra))
+        return self._coloring[1]
 
     def local(self, body: int, point: tuple[float, float]) -> np.ndarray:
         """A body-frame point as an offset from the body's CM, in body axes."""
@@ -130,17 +130,17 @@ class Model:
         if not terms:
             return np.zeros_like(q)
         if self.lean:
-            pose = ScalarPose.of(q.tolist(), v.tolist(), oriented)
+            state = ScalarKinematics.of(q.tolist(), v.tolist(), oriented)
             wrenches = [[0.0, 0.0, 0.0] for _ in range(self.size)]
             for term in terms:
-                term.add_scalar(pose, wrenches)
+                term.add_scalar(state, wrenches)
             return np.array([[fx * im, fy * im2, tq * ii]
                              for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
                                                                     self._inverse_mass_rows)])
-        pose = Pose(q, v, oriented)
+        state = Kinematics(q, v, oriented)
         wrenches = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
         for term in terms:
-            term.add(pose, wrenches)
+            term.add(state, wrenches)
         return np.multiply(wrenches.T, self.inverse_mass, out=np.empty_like(q))
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
@@ -181,7 +181,7 @@ class Model:
                 mobility = self._mobility(*_ends(term))
                 rates.extend(np.sqrt(term.law.stiffness * mobility))
                 rates.extend(term.law.damping * mobility)
-            elif isinstance(term, CentreDragTerm):
+            elif isinstance(term, CenterDragTerm):
                 rates.extend((term.coefficient / self.mass[term.body])[~term.quadratic])
             elif isinstance(term, PointDragTerm):
                 mobility = self._mobility([(term.body, term.local)])
@@ -258,12 +258,12 @@ def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
             np.array([model.local(idx[s.body_b], s.point_b) for s in joined]), *law(joined)))
 
     drags = [(idx[name], s) for s in by_kind[DragSpec] for name in s.bodies]
-    centre = [(i, s) for i, s in drags if s.point is None]
+    center = [(i, s) for i, s in drags if s.point is None]
     pointed = [(i, s) for i, s in drags if s.point is not None]
-    if centre:
-        terms.append(CentreDragTerm(np.array([i for i, _ in centre]),
-                                    np.array([s.coefficient for _, s in centre]),
-                                    np.array([s.quadratic for _, s in centre])))
+    if center:
+        terms.append(CenterDragTerm(np.array([i for i, _ in center]),
+                                    np.array([s.coefficient for _, s in center]),
+                                    np.array([s.quadratic for _, s in center])))
     if pointed:
         terms.append(PointDragTerm(np.array([i for i, _ in pointed]),
                                    np.array([model.local(i, s.point) for i, s in pointed]),

@@ -107,8 +107,8 @@ class Simulation:
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
                                    self.model.contacts is not None)
         self.integrator = make_integrator(method, scene.tolerance)
-        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
-            self.integrator.colouring_source = self.model.jacobian_colouring
+        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
+            self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
         self._compiled = compiled_steps(self.model, self.integrator)
         self._inputs = InputBuffer(scene.input_timeout_ns)

@@ -1,8 +1,8 @@
 """Shapes and their mass properties, integrated over the area.
 
-Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the centre of mass
+Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the center of mass
 and the moment of inertia as integrals over the body, Eq. 3 and Eq. 13): the mass, the
-centre of mass (CM) and the moment of inertia about the CM follow from the shape and its
+center of mass (CM) and the moment of inertia about the CM follow from the shape and its
 density. Polygons are integrated exactly by summing signed triangles fanned from the
 origin, so either winding works; circles use their closed forms; a body made of several
 shapes combines them with the parallel-axis theorem.
@@ -49,7 +49,7 @@ class Polygon:
 
 @dataclass(frozen=True)
 class Circle:
-    """A disc of ``radius`` centred at ``center`` in the body frame."""
+    """A disc of ``radius`` centered at ``center`` in the body frame."""
 
     center: tuple[float, float]
     radius: float
@@ -57,7 +57,7 @@ class Circle:
     def __post_init__(self) -> None:
         center = (float(self.center[0]), float(self.center[1]))
         if not all(math.isfinite(x) for x in (*center, self.radius)):
-            raise GeometryError("a circle's centre and radius must be finite numbers")
+            raise GeometryError("a circle's center and radius must be finite numbers")
         if self.radius <= 0.0:
             raise GeometryError(f"a circle's radius must be positive, not {self.radius}")
         object.__setattr__(self, "center", center)
@@ -69,7 +69,7 @@ Shape = Union[Polygon, Circle]
 
 def box(width: float, height: float, center: tuple[float, float] = (0.0, 0.0),
         angle: float = 0.0) -> Polygon:
-    """Return a ``width`` x ``height`` rectangle centred at ``center``, turned by ``angle``."""
+    """Return a ``width`` x ``height`` rectangle centered at ``center``, turned by ``angle``."""
     if not (width > 0.0 and height > 0.0):
         raise GeometryError(f"a box needs a positive width and height, not {width} x {height}")
     half = np.array([[-width, -height], [width, -height], [width, height], [-width, height]]) / 2
@@ -89,7 +89,7 @@ class AreaProperties:
 
 @dataclass(frozen=True)
 class MassProperties:
-    """Mass, centre of mass and moment of inertia about the CM (Eq. 3 and Eq. 13)."""
+    """Mass, center of mass and moment of inertia about the CM (Eq. 3 and Eq. 13)."""
 
     mass: float
     center_of_mass: tuple[float, float]  # body frame

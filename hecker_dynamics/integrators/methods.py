@@ -16,7 +16,7 @@ velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
   evaluations a sub-step, far fewer sub-steps at tight tolerances.
 - ``implicit_midpoint`` (order 2, A-stable, symplectic) and ``backward_euler`` (order 1,
   L-stable): solved by Newton's method, stable for stiff springs at any step. Given the
-  bodies' coupling (a :class:`~.colouring.Colouring`), their Jacobian takes coloured
+  bodies' coupling (a :class:`~.coloring.Coloring`), their Jacobian takes colored
   differences: 6 evaluations per group of bodies instead of 6 per body.
 """
 from __future__ import annotations
@@ -29,7 +29,7 @@ from typing import Optional
 
 import numpy as np
 
-from .colouring import Colouring
+from .coloring import Coloring
 from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -220,9 +220,9 @@ class ImplicitTheta(Integrator):
     method fails (a step so long that the bodies turn far within it), the step is taken as
     two halves, recursively, up to :attr:`MAX_HALVINGS` times.
 
-    :attr:`colouring_source`, if set, is called at each Jacobian for the current
-    :class:`~.colouring.Colouring` of the bodies (a Simulation sets it to its model's);
-    with fewer groups than bodies the Jacobian is taken by coloured differences, equal bit
+    :attr:`coloring_source`, if set, is called at each Jacobian for the current
+    :class:`~.coloring.Coloring` of the bodies (a Simulation sets it to its model's);
+    with fewer groups than bodies the Jacobian is taken by colored differences, equal bit
     for bit to the dense one for finite states (where the acceleration is already NaN the
     dense one spreads NaN through more entries; Newton's method refuses either). Unset,
     every column costs one evaluation.
@@ -235,15 +235,15 @@ class ImplicitTheta(Integrator):
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
         super().__init__(name, order)
         self.theta = theta
-        self.colouring_source: Optional[Callable[[], Colouring]] = None
+        self.coloring_source: Optional[Callable[[], Coloring]] = None
 
     def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """da/dq and da/dv as (3N, 3N) matrices, by forward differences: coloured when a
-        colouring with fewer groups than bodies is given, else one column at a time."""
-        colouring = None if self.colouring_source is None else self.colouring_source()
-        if colouring is not None and len(colouring.groups) < colouring.size:
-            jacobian = partial(self._coloured_jacobian, a=a, colouring=colouring)
+        """da/dq and da/dv as (3N, 3N) matrices, by forward differences: colored when a
+        coloring with fewer groups than bodies is given, else one column at a time."""
+        coloring = None if self.coloring_source is None else self.coloring_source()
+        if coloring is not None and len(coloring.groups) < coloring.size:
+            jacobian = partial(self._colored_jacobian, a=a, coloring=coloring)
         else:
             jacobian = partial(self._dense_jacobian, a=a)
         return (jacobian(lambda bumped: self._f(f, bumped, v), q),
@@ -265,9 +265,9 @@ class ImplicitTheta(Integrator):
         return jac
 
     @staticmethod
-    def _coloured_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
-                           a: np.ndarray, colouring: Colouring) -> np.ndarray:
-        """da/dstate by coloured differences: one evaluation per state component (x, y,
+    def _colored_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
+                           a: np.ndarray, coloring: Coloring) -> np.ndarray:
+        """da/dstate by colored differences: one evaluation per state component (x, y,
         angle or their rates) and group, bumping that component of every body of the group
         by the dense method's step; each body's column is read from the rows of the bodies
         it influences, the rest of it is zero. The same arithmetic as the dense method."""
@@ -276,7 +276,7 @@ class ImplicitTheta(Integrator):
         delta = 1.5e-8 * np.fmax(1.0, np.abs(state))  # fmax: a NaN reads as 1, as max() does
         flat_delta = delta.ravel()
         for component in range(3):  # x, y, angle (or their rates): the flat index 3 k + c
-            for group, rows, bodies in zip(colouring.groups, colouring.rows, colouring.columns):
+            for group, rows, bodies in zip(coloring.groups, coloring.rows, coloring.columns):
                 bumped = state.copy()
                 bumped[group, component] += delta[group, component]
                 change = (f(bumped) - a).ravel()

@@ -15,7 +15,7 @@ int hd_int_columns(int kind)
 {
     switch (kind) {
     case GRAVITY: case ANCHOR_SPRING: case ANGULAR_DAMPING: return 1;
-    case BODY_SPRING: case CENTRE_DRAG: case POINT_DRAG: return 2;
+    case BODY_SPRING: case CENTER_DRAG: case POINT_DRAG: return 2;
     case WRENCH: return 4;
     default: return 0;
     }
@@ -26,7 +26,7 @@ int hd_real_columns(int kind)
     switch (kind) {
     case GRAVITY: return 2;
     case ANCHOR_SPRING: case BODY_SPRING: return 7;
-    case CENTRE_DRAG: case ANGULAR_DAMPING: return 1;
+    case CENTER_DRAG: case ANGULAR_DAMPING: return 1;
     case POINT_DRAG: return 3;
     case WRENCH: return 5;
     default: return 0;
@@ -134,7 +134,7 @@ static void add_term(const Term *t, const Scratch *s, const double *q, const dou
             apply(w + 3 * b, rbx, rby, -fx, -fy);
             break;
         }
-        case CENTRE_DRAG: {
+        case CENTER_DRAG: {
             long b = i[0];
             drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
             w[3 * b] += fx;

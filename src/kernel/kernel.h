@@ -23,7 +23,7 @@ enum TermKind {
     GRAVITY = 1,         /* ints: body;                     reals: wx, wy (m g)            */
     ANCHOR_SPRING = 2,   /* ints: body;                     reals: lx, ly, ax, ay, k, L0, c */
     BODY_SPRING = 3,     /* ints: a, b;                     reals: lax, lay, lbx, lby, k, L0, c */
-    CENTRE_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
+    CENTER_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
     POINT_DRAG = 5,      /* ints: body, quadratic;          reals: lx, ly, c               */
     ANGULAR_DAMPING = 6, /* ints: body;                     reals: c                       */
     WRENCH = 7           /* ints: body, axes, owner, at_point; reals: fx, fy, torque, px, py */

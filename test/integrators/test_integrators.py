@@ -9,7 +9,7 @@ properties and integrators are tested together:
   (w = 10 rad/s), x0 = 1, v0 = 0; exact x = cos(wt).
 - ``damped``: the same with damping c = 2 N s/m; exact x = e^(-t) (cos wd t + sin(wd t)/wd),
   wd = sqrt(99). The damping force depends on the velocity, which Verlet must handle.
-- ``coupled``: a 1 m x 0.5 m box on a spring with rest length, attached 0.45 m off-centre,
+- ``coupled``: a 1 m x 0.5 m box on a spring with rest length, attached 0.45 m off-center,
   under gravity, starting turned and spinning: rotation and translation drive each other.
   No closed form; the reference is DOPRI5 at tolerance 1e-13 in one call, checked against
   Richardson-extrapolated RK4 (an independent method).
