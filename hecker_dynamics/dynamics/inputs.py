@@ -1,6 +1,6 @@
 """The input buffer: which commanded wrenches act during each step.
 
-Rules (design section 4): a command starts to act at the first step that begins at or
+Rules: a command starts to act at the first step that begins at or
 after its stamp; a newer command with the same ``(body, source)`` replaces it; it stops at
 ``stamp + duration`` when it has a duration, else at ``stamp + timeout`` (the safety
 timeout, like a velocity-command timeout; 0 disables it). Commands are held constant over

@@ -9,8 +9,7 @@ same order gives bit-identical states.
 Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
 collisions and the method is explicit, the steps between one publish instant or input
 change and the next run in the kernel in one call, with the results of Python's
-plain-float path: the same bits with the fixed-step methods (but for spring lengths whose
-squares under- or overflow), the same to rounding per step with the adaptive ones.
+plain-float path (:mod:`.kernel` says how far they agree).
 """
 from __future__ import annotations
 

@@ -328,16 +328,10 @@ METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "d
 ADAPTIVE = ("dopri5", "dop853")
 #: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
 AUTO_STIFF_LIMIT = 0.5
-#: Most bodies for which ``auto`` picks an implicit method, in a scene with contacts.
-#: Measured on stiff rings with the steps in Python (h = 1 ms, stiffness x step 1 to 1000):
-#: from 16 bodies on, dopri5 was cheaper in all but one case (by up to 32x at 64 bodies:
-#: Newton's dense solve and slow convergence on turning bodies), and more accurate in every
-#: case; up to 4 bodies implicit midpoint was 2-10x cheaper at stiffness x step 25-100. A
-#: scene without contacts gets dopri5 at any size: its steps run in the compiled kernel
-#: where it is built, and there dopri5 was 7 to 500 times cheaper than implicit midpoint on
-#: stiff rings of 1, 4 and 16 bodies at stiffness x step 5 to 1000 wherever Newton's method
-#: converged (it failed on one body at 100 and 1000). The rule depends on the scene only,
-#: never on whether the kernel was built, so both builds pick the same method.
+#: Most bodies for which ``auto`` picks an implicit method, in a scene with contacts: above
+#: it Newton's dense solve costs more than dopri5's short sub-steps (docs/scenes.md has the
+#: measurements). The rule reads the scene only, never whether the kernel was built, so
+#: both builds pick the same method.
 AUTO_IMPLICIT_BODIES = 4
 
 

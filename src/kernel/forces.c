@@ -3,8 +3,7 @@
  * Each force has a point of application; the forces add up at the CM (F = M a, Eq. 5)
  * and each adds the perp-dot torque of its offset from the CM (Eq. 11); a point's velocity
  * is v_CM + omega perp(r) (Eq. 9). Every function repeats, operation for operation,
- * the plain-float path of hecker_dynamics/forces.py (`add_scalar`), so the two give the
- * same bits.
+ * the plain-float path of hecker_dynamics/dynamics/forces.py (`add_scalar`).
  */
 #include <float.h>
 #include <math.h>

@@ -1,11 +1,11 @@
 /* The compiled kernel of hecker_dynamics: force terms and explicit integrators in C.
  *
- * It does what the Python modules forces.py and model.py (the accelerations, for every
- * scene) and integrators.py (the explicit methods, for scenes without contacts) do, in the
- * same order of floating-point operations as their plain-float path, so that the
- * accelerations and the fixed-step methods give the same bits (the build must not contract
- * a * b + c into a fused multiply-add: -ffp-contract=off). Python stays the reference;
- * this is its fast path.
+ * It does what the Python modules dynamics/forces.py and dynamics/model.py (the
+ * accelerations, for every scene) and integrators/methods.py (the explicit methods, for
+ * scenes without contacts) do, in the same order of floating-point operations as their
+ * plain-float path; the build must not contract a * b + c into a fused multiply-add
+ * (-ffp-contract=off). How far the results agree with Python's is stated once, in
+ * hecker_dynamics/dynamics/kernel.py. Python stays the reference; this is its fast path.
  *
  * State layout, as in Python: q[3 i .. 3 i + 2] = (x_CM, y_CM, angle) of body i and
  * v[3 i ..] = (vx_CM, vy_CM, omega), each a C-contiguous (N, 3) array of doubles.
