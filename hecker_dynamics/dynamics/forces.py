@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Protocol
+from typing import NamedTuple, Optional, Protocol
 
 import numpy as np
 
@@ -475,6 +475,19 @@ class AngularDampingTerm:
     def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, c in self._rows:
             out[body][2] -= c * state.v[body][2]
+
+
+class WrenchRow(NamedTuple):
+    """One wrench of a :class:`ConstantWrenchTerm`: a constant force or torque of the scene,
+    or an input's applied wrench with its frame resolved (see that class for the frames)."""
+
+    body: int  # the body it acts on
+    force: tuple[float, float]
+    torque: float
+    axes_body: int  # the body whose axes the force is in; -1: the fixed frame's
+    point_body: int  # the body whose CM the point is relative to; -1: the fixed frame
+    point: tuple[float, float]
+    at_point: bool  # False: at the CM of ``body``
 
 
 class ConstantWrenchTerm:

@@ -13,9 +13,10 @@ import heapq
 import itertools
 from collections import Counter
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Optional
 
 from .commands import InputError, WrenchCommand
+from .forces import WrenchRow
 
 
 @dataclass(frozen=True)
@@ -23,7 +24,7 @@ class Held:
     """A command in the buffer with its resolved force row and the time it stops acting."""
 
     command: WrenchCommand
-    row: tuple[Any, ...]
+    row: WrenchRow
     end_ns: Optional[int]
 
 
@@ -47,7 +48,7 @@ class InputBuffer:
             return command.stamp_ns + self.timeout_ns
         return None
 
-    def add(self, command: WrenchCommand, row: tuple[Any, ...]) -> None:
+    def add(self, command: WrenchCommand, row: WrenchRow) -> None:
         """Queue a command; raises :class:`InputError` when the buffer is full."""
         what = f"the command for '{command.body}' from '{command.source}'"
         if len(self._pending) >= self.max_pending:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Sequence
 from typing import Optional
 
 import numpy as np
@@ -18,8 +19,8 @@ import numpy as np
 from . import kernel
 from ..integrators.coloring import Coloring, color
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Kinematics,
-                     ScalarKinematics)
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, Kinematics, PointDragTerm,
+                     ScalarKinematics, WrenchRow)
 from ..geometry.planar import perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
@@ -281,18 +282,18 @@ def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
         for spec in wrenches:
             i = idx[spec.body]
             if isinstance(spec, ConstantTorqueSpec):
-                rows.append((i, (0.0, 0.0), spec.torque, -1, -1, (0.0, 0.0), False))
+                rows.append(WrenchRow(i, (0.0, 0.0), spec.torque, -1, -1, (0.0, 0.0), False))
             else:
                 at_point = spec.point is not None
                 local = model.local(i, spec.point) if at_point else (0.0, 0.0)
-                rows.append((i, spec.force, 0.0, i if spec.body_axes else -1, i, local, at_point))
+                rows.append(WrenchRow(i, spec.force, 0.0, i if spec.body_axes else -1, i,
+                                      tuple(local), at_point))
         terms.append(wrench_term(rows))
     return terms
 
 
-def wrench_term(rows: list[tuple]) -> ConstantWrenchTerm:
-    """Build a :class:`ConstantWrenchTerm` from rows of
-    (body, force, torque, axes_body, point_body, point, at_point)."""
+def wrench_term(rows: Sequence[WrenchRow]) -> ConstantWrenchTerm:
+    """Build a :class:`ConstantWrenchTerm` from its rows."""
     body, force, torque, axes, owner, point, at_point = zip(*rows)
     return ConstantWrenchTerm(np.array(body), np.array(force, dtype=float).reshape(-1, 2),
                               np.array(torque, dtype=float), np.array(axes), np.array(owner),

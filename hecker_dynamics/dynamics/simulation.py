@@ -23,6 +23,7 @@ from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
 from ..integrators.methods import ImplicitTheta, IntegrationError, choose_method, make_integrator
 from .kernel import compiled_steps
+from .forces import WrenchRow
 from .model import Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
 from ..scene.load import Scene
@@ -161,11 +162,11 @@ class Simulation:
                 f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
         self._inputs.add(command, self._row(command))
 
-    def _row(self, command: WrenchCommand) -> tuple:
+    def _row(self, command: WrenchCommand) -> WrenchRow:
         """The command as a constant-wrench row: its frame resolved to a body or the world."""
         target = self.model.index[command.body]
         if command.frame_id == self.scene.frame_id:
-            return (target, command.force, command.torque, -1, -1, command.point, True)
+            return WrenchRow(target, command.force, command.torque, -1, -1, command.point, True)
         name, _, point_name = command.frame_id.partition("/")
         owner = self.model.index.get(name)
         if owner is None:
@@ -180,8 +181,8 @@ class Simulation:
                                  f"point '{point_name}' (points: {', '.join(points) or 'none'})")
             origin = points[point_name]
         point = (origin[0] + command.point[0], origin[1] + command.point[1])
-        return (target, command.force, command.torque, owner, owner,
-                tuple(self.model.local(owner, point)), True)
+        return WrenchRow(target, command.force, command.torque, owner, owner,
+                         tuple(self.model.local(owner, point)), True)
 
     # ----------------------------------------------------------------- stepping
 
