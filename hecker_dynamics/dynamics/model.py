@@ -58,7 +58,7 @@ class Model:
             raise RuntimeError("the compiled kernel hecker_dynamics._kernel is not built")
         #: The kernel's program of these forces, or None: Python evaluates them.
         self.compiled: Optional[kernel.CompiledForces] = (
-            kernel.CompiledForces(self) if compiled else None)
+            kernel.CompiledForces(self.inverse_mass, self.terms) if compiled else None)
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (

@@ -21,8 +21,9 @@ import numpy as np
 
 from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
-from ..integrators.methods import ImplicitTheta, IntegrationError, choose_method, make_integrator
-from .kernel import compiled_steps
+from ..integrators.methods import (EmbeddedRungeKutta, ImplicitTheta, IntegrationError,
+                                   choose_method, make_integrator)
+from .kernel import Advanced, compiled_steps
 from .forces import WrenchRow
 from .model import Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
@@ -110,7 +111,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = compiled_steps(self.model, self.integrator)
+        self._compiled = compiled_steps(self.model.compiled, self.integrator,
+                                        self.model.contacts is not None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -205,8 +207,12 @@ class Simulation:
         if change is not None:  # the first step that starts at or after it sees the change
             limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
         q, v = self.q.copy(), self.v.copy()
-        done = self._compiled.advance(q, v, self.step_seconds, limit)
+        integrator = self.integrator
+        embedded = integrator if isinstance(integrator, EmbeddedRungeKutta) else None
+        done = self._compiled.advance(q, v, self.step_seconds, limit, self.model.oriented,
+                                      0.0 if embedded is None else embedded.substep_size)
         self.q, self.v = q, v
+        self._account(done, embedded)
         self._steps += done.taken
         self._time_ns += done.taken * self.step_ns
         if done.error is not None:
@@ -215,6 +221,16 @@ class Simulation:
         if done.diverged is not None:
             raise self._diverged(*done.diverged)
         return done.taken
+
+    def _account(self, done: Advanced, embedded: Optional[EmbeddedRungeKutta]) -> None:
+        """Add the work of steps taken in the kernel to the integrator's counters, and
+        carry an embedded pair's sub-step size over, as its steps in Python would."""
+        counters = self.integrator.counters
+        counters.evaluations += done.evaluations
+        if embedded is not None:
+            counters.substeps += done.substeps
+            counters.rejected += done.rejected
+            embedded.substep_size = done.substep_size
 
     def _step(self) -> None:
         """One step in Python, the inputs already updated."""

@@ -294,8 +294,8 @@ def spy_on_chunks(sim) -> list[tuple[int, int]]:
     calls = []
     advance = sim._compiled.advance
 
-    def spy(q, v, h, steps):
-        done = advance(q, v, h, steps)
+    def spy(q, v, h, steps, *settings):
+        done = advance(q, v, h, steps, *settings)
         calls.append((steps, done.taken))
         return done
 
