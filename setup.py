@@ -59,6 +59,8 @@ setup(
     install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10"],
     extras_require={
         "test": ["pytest>=7", "catkin_pkg>=0.5"],
+        # scripts/lint.sh: ruff and mypy as pyproject.toml configures them.
+        "lint": ["ruff>=0.8", "mypy>=1.10"],
         "figures": ["matplotlib>=3.6"],
         # Peers for `hecker-dynamics bench` (each optional; the bench skips what is missing).
         "bench": ["pymunk>=6", "box2d-py>=2.3.8", "mujoco>=3.1", "matplotlib>=3.6"],

@@ -4,7 +4,8 @@ The core follows Chris Hecker's "Physics, Part 2: Angular Effects" (Game Develop
 the center of mass and moment of inertia from the shape (Eq. 3 and Eq. 13), forces with
 points of application, perp-dot torques (Eq. 11), and integration of linear and angular
 motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). Nothing here imports rclpy; the ROS node in
-``hecker_dynamics.ros.node`` is thin glue over :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
+``hecker_dynamics.ros.node`` is thin glue over
+:class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
 from .dynamics.commands import InputError, WrenchCommand
 from .scene.load import Scene, SceneError, load_scene, scene_from_parameters

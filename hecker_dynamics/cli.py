@@ -71,7 +71,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         if scene.publish_period_ns % args.step:
             step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
             raise SceneError(f"--step {step}: the publish period "
-                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
+                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number "
+                             "of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration

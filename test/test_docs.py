@@ -41,7 +41,8 @@ def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
     monkeypatch.setattr(parameters.ParameterReader, "_get", spy)
     make_scene(EVERY_FEATURE)
     # Names of this scene's own bodies, forces, ... are not parameters.
-    own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick", *EVERY_FORCE["forces"]}
+    own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick",
+           *EVERY_FORCE["forces"]}
     undocumented = sorted(key for key in read - own
                           if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
     assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"

@@ -210,7 +210,8 @@ def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
 
 
 def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
-    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`mapping.diagnostic_fields`."""
+    """``diagnostic_msgs/DiagnosticArray`` with one status from
+    :func:`mapping.diagnostic_fields`."""
     status = default_message(
         "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
         message=fields.message, hardware_id=fields.hardware_id,
@@ -432,7 +433,7 @@ class BagWriter:
         self._types: dict[str, str] = {}
         self.count = 0
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> BagWriter:
         self.open()
         return self
 

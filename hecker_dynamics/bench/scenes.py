@@ -31,7 +31,8 @@ from typing import Any
 from ..scene.parameters import flatten
 from ..scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
 
-#: The benchmark scenes with closed-form or reference solutions, in the order docs/benchmark.md numbers them.
+#: The benchmark scenes with closed-form or reference solutions, in the order
+#: docs/benchmark.md numbers them.
 BENCH_SCENES = ("free_spin", "harmonic", "spring_pendulum", "two_bodies", "stiff")
 #: Scenes with an exact solution (the rest use :mod:`.reference`).
 EXACT_SCENES = ("free_spin", "harmonic", "stiff")

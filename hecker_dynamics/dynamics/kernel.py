@@ -29,7 +29,7 @@ from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, Cente
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
 
 try:
-    from .. import _kernel
+    from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 

@@ -138,11 +138,11 @@ class Model:
             return np.array([[fx * im, fy * im2, tq * ii]
                              for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
                                                                     self._inverse_mass_rows)])
-        state = Kinematics(q, v, oriented)
-        wrenches = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
+        columns = Kinematics(q, v, oriented)
+        sums = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
         for term in terms:
-            term.add(state, wrenches)
-        return np.multiply(wrenches.T, self.inverse_mass, out=np.empty_like(q))
+            term.add(columns, sums)
+        return np.multiply(sums.T, self.inverse_mass, out=np.empty_like(q))
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         """Kinetic energy plus the potential energy of gravity and springs."""
@@ -192,10 +192,10 @@ class Model:
         return float(max(rates))
 
     def _mobility(self, ends: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        total = 0.0
+        total: np.ndarray | float = 0.0
         for body, local in ends:
             total = total + 1.0 / self.mass[body] + np.sum(local ** 2, axis=1) / self.inertia[body]
-        return total
+        return np.asarray(total)
 
 
 def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarray, np.ndarray]]]:

@@ -106,7 +106,7 @@ def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarr
             ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
         return True
 
-    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: float) -> bool:
+    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarray) -> bool:
         return d == 0 and min(a[0], b[0]) <= p[0] <= max(a[0], b[0]) and \
             min(a[1], b[1]) <= p[1] <= max(a[1], b[1])
 
@@ -168,7 +168,8 @@ def area_properties(shape: Shape) -> AreaProperties:
     return AreaProperties(area, centroid + fan, second_moment)
 
 
-def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[float]) -> MassProperties:
+def mass_properties(shapes: list[Shape] | tuple[Shape, ...],
+                    densities: list[float]) -> MassProperties:
     """Combine shapes of the given densities into one body's mass, CM and inertia.
 
     The CM is the mass-weighted mean of the shapes' centroids (Eq. 3); each

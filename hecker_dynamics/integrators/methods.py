@@ -76,7 +76,8 @@ class ExplicitEuler(Integrator):
     def __init__(self) -> None:
         super().__init__("explicit_euler", 1)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         a = self._f(f, q, v)
         return q + h * v, v + h * a
 
@@ -87,7 +88,8 @@ class SemiImplicitEuler(Integrator):
     def __init__(self) -> None:
         super().__init__("semi_implicit_euler", 1)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         v1 = v + h * self._f(f, q, v)
         return q + h * v1, v1
 
@@ -98,7 +100,8 @@ class VelocityVerlet(Integrator):
     def __init__(self) -> None:
         super().__init__("velocity_verlet", 2)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         a0 = self._f(f, q, v)
         q1 = q + h * v + (0.5 * h * h) * a0
         a1 = self._f(f, q1, v + h * a0)
@@ -111,7 +114,8 @@ class RungeKutta4(Integrator):
     def __init__(self) -> None:
         super().__init__("rk4", 4)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         k1q, k1v = v, self._f(f, q, v)
         k2q = v + 0.5 * h * k1v
         k2v = self._f(f, q + 0.5 * h * k1q, k2q)
@@ -153,7 +157,8 @@ class EmbeddedRungeKutta(Integrator):
     def reset(self) -> None:
         self.substep_size = math.inf
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         y = np.concatenate([q.ravel(), v.ravel()])
         n = q.size
         shape = q.shape
@@ -284,7 +289,8 @@ class ImplicitTheta(Integrator):
                 jac[rows, columns] = change[rows] / flat_delta[columns]
         return jac
 
-    def step(self, f, q, v, h, halvings: int = 0):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray, h: float,
+             halvings: int = 0) -> tuple[np.ndarray, np.ndarray]:
         try:
             return self._solve(f, q, v, h)
         except IntegrationError:

@@ -211,8 +211,9 @@ class DynamicsNode(Node):
             self._now_ns()))
 
     def _on_wrench_stamped(self, msg: WrenchStamped, topic: WrenchTopic) -> None:
-        convert: Callable[[int], tuple[WrenchCommand, list[str]]] = \
-            lambda now_ns: wrench_stamped_to_command(msg, topic, now_ns)
+        def convert(now_ns: int) -> tuple[WrenchCommand, list[str]]:
+            return wrench_stamped_to_command(msg, topic, now_ns)
+
         self._log(self.runner.accept(topic.topic, convert, self._now_ns()))
 
     # ----------------------------------------------------------------- stepping

@@ -19,8 +19,6 @@ q += h v) and every difference from a closed form comes from the contact pass.
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

@@ -11,8 +11,6 @@ q += h v), and every difference from the closed forms comes from the contact pas
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

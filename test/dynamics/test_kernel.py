@@ -41,8 +41,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

@@ -8,8 +8,6 @@ catches any wrong factor or sign (which would be O(1)).
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

@@ -19,7 +19,8 @@ import pytest
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
 from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
 from hecker_dynamics.dynamics.model import Model
-from hecker_dynamics.geometry.planar import HALF_ANGLE_FROM, cos_sin, wrap_angle, wrap_angles_in_place
+from hecker_dynamics.geometry.planar import (HALF_ANGLE_FROM, cos_sin, wrap_angle,
+                                             wrap_angles_in_place)
 from hecker_dynamics.scene.load import load_scene
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 

@@ -10,9 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import os
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
