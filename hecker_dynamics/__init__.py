@@ -7,9 +7,11 @@ motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). Nothing here imports rclpy; the 
 ``hecker_dynamics.ros.node`` is thin glue over
 :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
+__version__ = "0.1.0"
+
 from .dynamics.commands import InputError, WrenchCommand
 from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
 from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
 
-__all__ = ["InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
+__all__ = ["__version__", "InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
            "scene_from_parameters", "BodyState", "DivergenceError", "Simulation", "Snapshot"]

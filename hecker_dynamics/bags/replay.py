@@ -6,7 +6,7 @@ The rules are the node's (``hecker_dynamics.ros.node``, non-lockstep):
   scene's scripted commands that are due (only with ``play_script``), steps up to the tick
   and publishes the snapshots it passed (at the publish instants ``start + k * period``).
 - A message that arrives between two ticks (its bag log time is the arrival time) is
-  mapped by :mod:`hecker_dynamics.ros.mapping` with its log time as receive time (a zero header
+  mapped by :mod:`hecker_dynamics.ros.fields` with its log time as receive time (a zero header
   stamp means "on arrival") and pushed while the simulation stands at the earlier tick.
   Stamps decide when a command acts; the input buffer applies them to the step.
 - Rejected inputs (NaN, expired, too far ahead) are counted and skipped, as the node logs
@@ -29,10 +29,12 @@ from typing import Any, Optional
 from . import io as bags
 from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
                    BagWriter, resolve_topic)
-from ..dynamics.commands import InputError, WrenchCommand
-from ..ros.mapping import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, Runner,
-                           applied_wrench_fields, applied_wrench_to_command, header,
-                           output_topics, snapshot_outputs, wrench_stamped_to_command)
+from ..dynamics.commands import InputError
+from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
+                          wrench_stamped_to_command)
+from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics,
+                           snapshot_outputs)
+from ..ros.runner import Runner
 from ..scene.load import Scene, WrenchTopic
 from ..dynamics.simulation import Snapshot
 
@@ -170,24 +172,17 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
 
 @dataclass(frozen=True)
 class _Input:
-    """An input message, mapped as the node maps it on arrival (at its log time)."""
+    """An input message of the bag, at its log time (the node's arrival time)."""
 
     log_ns: int
     topic: str
-    command: Optional[WrenchCommand]
-    warnings: tuple[str, ...]
-    error: Optional[InputError]
-
-    def convert(self, _arrival_ns: int) -> tuple[WrenchCommand, list[str]]:
-        if self.error is not None:
-            raise self.error
-        assert self.command is not None
-        return self.command, list(self.warnings)
+    msg: Any
+    wrench_topic: Optional[WrenchTopic]
 
 
 def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
               result: ReplayResult) -> list[_Input]:
-    """Map the bag's input messages to commands, in log-time order.
+    """The bag's input messages in log-time order, checked against the scene.
 
     Unless ``skip_rejected``, commands for bodies or frames the scene does not have make
     the replay fail: the bag most likely belongs to another scene. With it, they go on to
@@ -203,20 +198,20 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         msgtype, wrench_topic = topics[message.topic]
         msg = message.decode()
         result.inputs += 1
+        inputs.append(_Input(message.log_ns, message.topic, msg, wrench_topic))
+        if skip_rejected:
+            continue
         try:
             if wrench_topic is None:
-                command, warnings = applied_wrench_to_command(msg, message.log_ns)
+                command, _ = applied_wrench_to_command(msg, message.log_ns)
             else:
-                command, warnings = wrench_stamped_to_command(msg, wrench_topic, message.log_ns)
-        except InputError as error:
-            inputs.append(_Input(message.log_ns, message.topic, None, (), error))
-            continue
-        if not skip_rejected:
-            if command.body not in bodies:
-                unfit.append(f"unknown body '{command.body}'")
-            elif not scene.has_frame(command.frame_id):
-                unfit.append(f"unknown frame '{command.frame_id}'")
-        inputs.append(_Input(message.log_ns, message.topic, command, tuple(warnings), None))
+                command, _ = wrench_stamped_to_command(msg, wrench_topic, message.log_ns)
+        except InputError:
+            continue  # the node rejects it too, and the replay counts it
+        if command.body not in bodies:
+            unfit.append(f"unknown body '{command.body}'")
+        elif not scene.has_frame(command.frame_id):
+            unfit.append(f"unknown frame '{command.frame_id}'")
     if unfit:
         distinct = sorted(set(unfit))
         raise ReplayError(
@@ -290,7 +285,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         while next_input < len(inputs) and inputs[next_input].log_ns < target:
             item = inputs[next_input]
             next_input += 1
-            for line in runner.accept(item.topic, item.convert, item.log_ns):
+            for line in runner.accept(item.topic, item.msg, item.log_ns, item.wrench_topic):
                 if line.dropped:
                     result.rejected.append(f"at {item.log_ns * 1e-9:.9f} s: {line.message}")
                 else:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import NamedTuple, Optional
+from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
@@ -143,6 +143,36 @@ class Simulation:
     def snapshot(self) -> Snapshot:
         """The published state of every body now, with the total energy."""
         return Snapshot(self._time_ns, self._steps, self.model, self.q, self.v)
+
+    def export_state(self) -> dict[str, Any]:
+        """Everything a continuation depends on, as plain data (float64 values exact, as
+        Python floats): clock, step count, the state q and v, the input buffer, and what the
+        integrator and the contact pass carry from step to step. A simulation of the same
+        scene given it by :meth:`import_state` continues bit for bit as this one does."""
+        return {
+            "start_ns": self.start_ns, "time_ns": self._time_ns, "steps": self._steps,
+            "q": self.q.tolist(), "v": self.v.tolist(),
+            "inputs": self._inputs.export_state(),
+            "integrator": self.integrator.export_state(),
+            "contacts": None if self.model.contacts is None else self.model.contacts.export_state(),
+        }
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`export_state`'s data (of a simulation of the same scene)."""
+        q, v = np.array(state["q"], dtype=float), np.array(state["v"], dtype=float)
+        if q.shape != self.q.shape or v.shape != self.v.shape:
+            raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
+                             f"{self.model.size}")
+        self.start_ns, self._time_ns = int(state["start_ns"]), int(state["time_ns"])
+        self._steps = int(state["steps"])
+        self.q, self.v = q, v
+        self._inputs.import_state(state["inputs"], self._row)
+        rows = [held.row for held in self._inputs.active()]
+        self.model.inputs = wrench_term(rows) if rows else None
+        self.integrator.reset()
+        self.integrator.import_state(state["integrator"])
+        if self.model.contacts is not None:
+            self.model.contacts.import_state(state["contacts"] or [])
 
     # ----------------------------------------------------------------- inputs
 

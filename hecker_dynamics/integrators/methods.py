@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
@@ -64,6 +64,13 @@ class Integrator:
 
     def reset(self) -> None:
         """Forget any state carried from step to step."""
+
+    def export_state(self) -> dict[str, Any]:
+        """The state carried from step to step, as plain data (none for most methods)."""
+        return {}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`export_state`'s data."""
 
     def _f(self, f: Accelerations, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         self.counters.evaluations += 1
@@ -156,6 +163,13 @@ class EmbeddedRungeKutta(Integrator):
 
     def reset(self) -> None:
         self.substep_size = math.inf
+
+    def export_state(self) -> dict[str, Any]:
+        """The sub-step size the controller chose last: the next step starts with it."""
+        return {"substep_size": self.substep_size}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        self.substep_size = float(state["substep_size"])
 
     def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
              h: float) -> tuple[np.ndarray, np.ndarray]:

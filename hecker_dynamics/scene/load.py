@@ -37,8 +37,8 @@ NODE_NAME = "dynamics_node"
 INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
-                             "max_catch_up_steps", "start_type_description_service",
-                             "qos_overrides"})
+                             "max_catch_up_steps", "record_session", "keyframe_period",
+                             "start_type_description_service", "qos_overrides"})
 Vec2 = tuple[float, float]
 #: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
 TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")

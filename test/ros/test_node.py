@@ -33,9 +33,9 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
-from hecker_dynamics.ros.mapping import (applied_wrench_to_command, ns_from_stamp,  # noqa: E402
-                                     pose_fields, stamp_from_ns, twist_fields,
-                                     wrench_stamped_to_command)
+from hecker_dynamics.ros.fields import (applied_wrench_to_command, ns_from_stamp,  # noqa: E402
+                                        pose_fields, stamp_from_ns, twist_fields,
+                                        wrench_stamped_to_command)
 from hecker_dynamics.msg import AppliedWrench  # noqa: E402
 from hecker_dynamics.ros.node import DynamicsNode  # noqa: E402
 from hecker_dynamics.scene.load import load_scene, scene_from_parameters  # noqa: E402
