@@ -62,6 +62,8 @@ setup(
     extras_require={
         # The viz tests read rendered pictures back, so the test extra carries the viz one.
         "test": ["pytest>=7", "catkin_pkg>=0.5", "matplotlib>=3.6", "Pillow>=9"],
+        # scripts/lint.sh: ruff and mypy as pyproject.toml configures them.
+        "lint": ["ruff>=0.8", "mypy>=1.10"],
         "figures": ["matplotlib>=3.6"],
         # `hecker-dynamics render`, `plot` and `run --view` (MP4 also needs imageio-ffmpeg).
         "viz": ["matplotlib>=3.6", "Pillow>=9"],

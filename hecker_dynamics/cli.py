@@ -77,14 +77,15 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         if scene.publish_period_ns % args.step:
             step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
             raise SceneError(f"--step {step}: the publish period "
-                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
+                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number "
+                             "of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration
     return dataclasses.replace(scene, **changes)
 
 
-def run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
     if args.view:
@@ -111,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def scenes(args: argparse.Namespace) -> int:
+def scenes_command(args: argparse.Namespace) -> int:
     """List the shipped scenes."""
     for name in shipped_scenes():
         print(name)
@@ -144,7 +145,7 @@ def _tolerances(args: argparse.Namespace):
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
-def script(args: argparse.Namespace) -> int:
+def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import script_to_bag
 
@@ -162,7 +163,7 @@ def replay_command(args: argparse.Namespace) -> int:
     from .bags.io import read_bag
     from .bags.compare import compare_contents
     from .bags.live import is_live_recording
-    from .bags.replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
+    from .bags.replay import (check_bag_for_scene, input_topics, output_types, outputs_as_bag,
                          replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
@@ -171,7 +172,7 @@ def replay_command(args: argparse.Namespace) -> int:
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
-    outputs = output_topics(scene)
+    outputs = output_types(scene)
     expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
         check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
@@ -229,7 +230,7 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
     """Replay a session recorded from the node with its session records (bags.live)."""
     from .bags.io import BagWriter
     from .bags.live import check_live
-    from .bags.replay import output_topics
+    from .bags.replay import output_types
 
     given = [name for name, value in (("--start", args.start is not None),
                                       ("--duration", args.duration is not None),
@@ -243,7 +244,7 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
         with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
                        custom_data={"scene": Path(scene.source).stem},
                        compress=args.compress) as writer:
-            for topic, msgtype in output_topics(scene).items():
+            for topic, msgtype in output_types(scene).items():
                 writer.add_topic(topic, msgtype)
             for output in sorted(check.outputs, key=lambda o: o.log_ns):
                 writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
@@ -320,7 +321,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the scene's duration)")
     _add_writer_options(script_parser)
-    script_parser.set_defaults(handler=script)
+    script_parser.set_defaults(handler=script_command)
 
     replay_parser = commands.add_parser(
         "replay", help="replay an input bag on a scene and write the node's outputs",
@@ -437,11 +438,11 @@ def parser() -> argparse.ArgumentParser:
                             help="override the tolerance of dopri5, dop853 / auto")
     run_parser.add_argument("--view", action="store_true",
                             help="show the run in a window (needs a display and the viz extra)")
-    run_parser.set_defaults(handler=run)
+    run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
                                       description="List the shipped scenes.")
-    list_parser.set_defaults(handler=scenes)
+    list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)
     add_viz_commands(commands, seconds=_time_ns)

@@ -209,7 +209,8 @@ def twist_message(fields: TwistFields) -> Any:
 
 
 def odometry_message(fields: OdometryFields) -> Any:
-    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields` (covariances zero)."""
+    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields`
+    (covariances zero)."""
     return default_message(
         ODOMETRY, header=header_message(fields.header), child_frame_id=fields.child_frame_id,
         pose=default_message("geometry_msgs/msg/PoseWithCovariance",
@@ -230,12 +231,14 @@ def marker_message(fields: MarkerFields) -> Any:
 
 
 def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
-    """``visualization_msgs/MarkerArray`` from :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
+    """``visualization_msgs/MarkerArray`` from
+    :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
     return default_message(MARKER_ARRAY, markers=[marker_message(m) for m in markers])
 
 
 def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
-    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
+    """``diagnostic_msgs/DiagnosticArray`` with one status from
+    :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
     status = default_message(
         "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
         message=fields.message, hardware_id=fields.hardware_id,
@@ -245,7 +248,8 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
 
 
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
-    """``hecker_dynamics/msg/AppliedWrench`` from :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
+    """``hecker_dynamics/msg/AppliedWrench`` from
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
     dsec, dnanosec = fields.duration
     return default_message(
         APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
@@ -538,7 +542,7 @@ class BagWriter:
         self._types: dict[str, str] = {}
         self.count = 0
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> BagWriter:
         self.open()
         return self
 

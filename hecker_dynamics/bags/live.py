@@ -43,7 +43,7 @@ from . import io as bags
 from .compare import CompareReport, Tolerances, compare_contents
 from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagMessage,
                  resolve_topic)
-from .replay import Output, ReplayError, input_topics, output_topics, snapshot_outputs
+from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
 
 #: What a session's event sequence holds.
 Event = Union[InputEventFields, WorldEventFields]
@@ -132,7 +132,7 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
                       ) -> dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]]:
     """Per session, per output topic: the recorded messages and their header stamps (None
     for ``Twist``), in log order."""
-    compared = {topic for topic in output_topics(scene)
+    compared = {topic for topic in output_types(scene)
                 if topic != resolve_topic(DIAGNOSTICS_TOPIC)}
     grouped: dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]] = defaultdict(
         lambda: defaultdict(list))
@@ -318,7 +318,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     recorded = _recorded_outputs(scene, bag, ordered)
     if not any(recorded.values()):
         raise ReplayError(f"{bag.path}: the bag has no recorded outputs of the scene's bodies "
-                          f"({', '.join(t for t in output_topics(scene) if t.endswith('/pose'))})")
+                          f"({', '.join(t for t in output_types(scene) if t.endswith('/pose'))})")
     topics = _wrench_topics(scene)
     store = bags.typestore()
     expected: list[BagMessage] = []
@@ -384,7 +384,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
         runner.restore(keyframe)
         if keyframe.steps and (keyframe.stamp_ns - info.start_ns) % scene.publish_period_ns == 0:
             # The node published this instant on arriving there, before the keyframe.
-            produced.extend(snapshot_outputs(scene, runner.sim.snapshot()))
+            produced.extend(snapshot_messages(scene, runner.sim.snapshot()))
     runner.take_records()
     start_ns = runner.sim.time_ns
     recorded_keyframes = {k.stamp_ns: k for k in session.keyframes}
@@ -392,7 +392,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     def advance(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         for snapshot in tick.snapshots:
-            produced.extend(snapshot_outputs(scene, snapshot))
+            produced.extend(snapshot_messages(scene, snapshot))
         if tick.diverged is not None:
             check.halted = tick.diverged
         for record in runner.take_records():
@@ -443,5 +443,5 @@ def _change(runner: Runner, event: WorldEventFields, produced: list[Output],
         return runner.resume_at(event.time_ns)
     record, tick = runner.step(int(event.values[0]) if event.values else 0)
     for snapshot in tick.snapshots:
-        produced.extend(snapshot_outputs(scene, snapshot))
+        produced.extend(snapshot_messages(scene, snapshot))
     return record

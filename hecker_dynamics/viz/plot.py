@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from ..bags.io import POSE_STAMPED, TWIST, BagError, read_bag, stamp_ns_of
 from ..dynamics import Model
 from ..scene import Scene
-from .draw import BODY_COLOURS
+from .draw import BODY_COLORS
 from .frames import VizError, pose_from_fields
 
 __all__ = ["Series", "read_series", "energy", "differences", "plot_bags", "QUANTITIES"]
@@ -141,16 +141,16 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
             s = bag[name]
             for r in range(len(QUANTITIES)):
                 grid[r][0].plot(s.time, s.values[:, r], styles[k],
-                                color=BODY_COLOURS[b % len(BODY_COLOURS)], linewidth=1.0,
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0,
                                 label=f"{name} ({Path(first if k == 0 else second).name})")
         if scene is not None:
             t, e = energy(scene, bag)
             grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)
     if second is not None:
-        for b, (name, (times, difference)) in enumerate(differences(bags[0], bags[1]).items()):
+        for b, (times, difference) in enumerate(differences(bags[0], bags[1]).values()):
             for r in range(len(QUANTITIES)):
                 grid[r][1].plot(times, difference[:, r],
-                                color=BODY_COLOURS[b % len(BODY_COLOURS)], linewidth=1.0)
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0)
         if scene is not None:
             (ta, ea), (tc, ec) = energy(scene, bags[0]), energy(scene, bags[1])
             times, ia, ic = np.intersect1d(ta, tc, return_indices=True)

@@ -18,7 +18,7 @@ from typing import Any, Optional
 import numpy as np
 
 from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_outputs
+from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
 from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
 from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
@@ -62,7 +62,7 @@ class LiveSession:
     def publish(self, snapshots: list[Snapshot], at_ns: int) -> None:
         """The node's outputs for ``snapshots``, published at ROS time ``at_ns``."""
         for snapshot in snapshots:
-            for output in snapshot_outputs(self.scene, snapshot):
+            for output in snapshot_messages(self.scene, snapshot):
                 self.published.append(Published(output.topic, output.msgtype, at_ns,
                                                 output.msg))
 
