@@ -118,47 +118,57 @@ def recorded_sessions(bag: BagContents) -> dict[int, RecordedSession]:
 # ----------------------------------------------------------------------------- outputs
 
 def _session_of(sessions: Sequence[RecordedSession], message: BagMessage,
-                stamp: Optional[int]) -> RecordedSession:
-    """The session a recorded output belongs to: the latest whose start is not after the
-    output's stamp (by log time for messages without a stamp) and whose record the
-    recorder had received by then, else the latest whose start fits."""
-    fits = [s for s in sessions if stamp is None or s.info.start_ns <= stamp]
+                stamp: int) -> RecordedSession:
+    """The session a recorded stamped output belongs to: the latest whose start is not
+    after its stamp. Where a later session starts before an earlier one (the ROS clock
+    jumped back), the latest of those whose record the recorder had by then."""
+    fits = [s for s in sessions if s.info.start_ns <= stamp] or list(sessions[:1])
+    starts = [s.info.start_ns for s in sessions]
+    if starts == sorted(starts):
+        return fits[-1]
     received = [s for s in fits if s.info_log_ns <= message.log_ns]
-    chosen = received or fits or list(sessions[:1])
-    return chosen[-1]
+    return (received or fits)[-1]
+
+
+Recorded = dict[str, list[tuple[BagMessage, Optional[int]]]]
 
 
 def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[RecordedSession]
-                      ) -> dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]]:
-    """Per session, per output topic: the recorded messages and their header stamps (None
-    for ``Twist``), in log order."""
+                      ) -> tuple[dict[int, Recorded], Recorded]:
+    """The recorded outputs in log order: per session and topic those with a header stamp
+    (with it), and per topic those without (``Twist``, with None), which are placed in the
+    sequence of all sessions' snapshots instead (see :func:`_align`)."""
     compared = {topic for topic in output_types(scene)
                 if topic != resolve_topic(DIAGNOSTICS_TOPIC)}
-    grouped: dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]] = defaultdict(
-        lambda: defaultdict(list))
+    stamped: dict[int, Recorded] = defaultdict(lambda: defaultdict(list))
+    unstamped: Recorded = defaultdict(list)
     for message in bag.messages:
         if message.topic not in compared:
             continue
         stamp = bags.stamp_ns_of(message.decode())
-        session = _session_of(sessions, message, stamp)
-        grouped[session.info.session][message.topic].append((message, stamp))
-    return grouped
+        if stamp is None:
+            unstamped[message.topic].append((message, None))
+        else:
+            session = _session_of(sessions, message, stamp)
+            stamped[session.info.session][message.topic].append((message, stamp))
+    return stamped, unstamped
 
 
 def _sibling(topic: str) -> Optional[str]:
     return topic[: -len("/twist")] + "/pose" if topic.endswith("/twist") else None
 
 
-def _align(recorded: dict[str, list[tuple[BagMessage, Optional[int]]]],
-           produced: dict[str, list[Output]], raw: dict[int, bytes], start_ns: int
+def _align(recorded: Recorded, produced: dict[str, list[Output]], raw: dict[int, bytes],
+           start_ns: int, poses: Optional[Recorded] = None
            ) -> tuple[list[BagMessage], list[BagMessage], int]:
     """The recorded messages and their replayed counterparts, both logged at the snapshot's
     stamp, and how many recorded messages were not checked (before ``start_ns``).
 
     A stamped message's counterpart has its stamp. A ``Twist`` is placed in the sequence of
     replayed twists (one per replayed snapshot) where the recorded ones match bit for bit,
-    searched from where the sibling pose received just before it puts it; where none
-    matches, that place stands, so the comparison reports the difference."""
+    searched from where the sibling pose received just before it (in ``poses``, else in
+    ``recorded``) puts it; where none matches, that place stands, so the comparison reports
+    the difference."""
     expected: list[BagMessage] = []
     actual: list[BagMessage] = []
     unchecked = 0
@@ -166,8 +176,8 @@ def _align(recorded: dict[str, list[tuple[BagMessage, Optional[int]]]],
         replayed = produced.get(topic, [])
         if messages and messages[0][1] is None:
             pose_topic = _sibling(topic)
-            poses = recorded.get(pose_topic, []) if pose_topic else []
-            offset = _twist_offset([m for m, _ in messages], replayed, raw, poses)
+            sibling = (poses or recorded).get(pose_topic, []) if pose_topic else []
+            offset = _twist_offset([m for m, _ in messages], replayed, raw, sibling)
             for j, (message, _) in enumerate(messages):
                 index = offset + j
                 if index < 0:
@@ -315,7 +325,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
                 f"{session.info.fingerprint}), but {scene.source} has fingerprint "
                 f"{fingerprint}")
     ordered = [sessions[n] for n in sorted(sessions)]
-    recorded = _recorded_outputs(scene, bag, ordered)
+    recorded, unstamped = _recorded_outputs(scene, bag, ordered)
     if not any(recorded.values()):
         raise ReplayError(f"{bag.path}: the bag has no recorded outputs of the scene's bodies "
                           f"({', '.join(t for t in output_types(scene) if t.endswith('/pose'))})")
@@ -325,21 +335,21 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     actual: list[BagMessage] = []
     check = LiveCheck(report=CompareReport(str(bag.path), "<replay>", tolerances or Tolerances()))
     with_outputs = [s for s in ordered if recorded.get(s.info.session)]
+    raw: dict[int, bytes] = {}
+    by_topic: dict[str, list[Output]] = defaultdict(list)  # all sessions, in session order
     for done, session in enumerate(with_outputs):
         outputs = recorded[session.info.session]
         stamps = [stamp for messages in outputs.values() for _, stamp in messages
                   if stamp is not None]
-        if not stamps:
-            check.unchecked += sum(len(m) for m in outputs.values())
-            continue
         produced, start_ns = _replay_session(scene, session, min(stamps), max(stamps), topics,
                                              check)
         check.outputs.extend(produced)
-        raw = {id(o): bytes(store.serialize_cdr(o.msg, o.msgtype)) for o in produced}
-        by_topic: dict[str, list[Output]] = defaultdict(list)
+        raw.update((id(o), bytes(store.serialize_cdr(o.msg, o.msgtype))) for o in produced)
+        session_topics: dict[str, list[Output]] = defaultdict(list)
         for output in produced:
+            session_topics[output.topic].append(output)
             by_topic[output.topic].append(output)
-        e, a, unchecked = _align(outputs, by_topic, raw, start_ns)
+        e, a, unchecked = _align(outputs, session_topics, raw, start_ns)
         expected += e
         actual += a
         check.unchecked += unchecked
@@ -348,6 +358,17 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
         check.sessions += 1
         if progress is not None:
             progress((done + 1) / len(with_outputs))
+    if with_outputs:
+        every_pose: Recorded = defaultdict(list)
+        for outputs in recorded.values():
+            for topic, messages in outputs.items():
+                every_pose[topic] += messages
+        for messages in every_pose.values():
+            messages.sort(key=lambda item: item[0].log_ns)
+        e, a, unchecked = _align(dict(unstamped), by_topic, raw, 0, every_pose)
+        expected += e
+        actual += a
+        check.unchecked += unchecked
     compared = sorted({m.topic for m in expected})
     types = {t: bag.topics[t] for t in compared}
     report, _ = compare_contents(

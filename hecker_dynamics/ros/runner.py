@@ -383,12 +383,14 @@ class Runner:
                 raise InputError("step needs a paused simulation (call pause first)")
             if not 1 <= steps <= MAX_SERVICE_STEPS:
                 raise InputError(f"steps must be from 1 to {MAX_SERVICE_STEPS}, not {steps}")
-            # No keyframe inside the call: a replay could not start in its middle.
+            # No keyframe inside the call: a replay could not start in its middle. All the
+            # steps asked for, whatever the catch-up cap of a tick.
+            cap, self.max_steps = self.max_steps, None
             self.paused, self._stepping = False, True
             try:
                 done = self.advance(self.sim.time_ns + steps * self.sim.step_ns)
             finally:
-                self.paused, self._stepping = True, False
+                self.paused, self._stepping, self.max_steps = True, False, cap
             tick.snapshots, tick.diverged = done.snapshots, done.diverged
             tick.script_errors = done.script_errors
         return self._change(WorldChange.STEP, take, values=(float(steps),)), tick

@@ -34,6 +34,15 @@ def test_a_paused_simulation_stands_still_and_steps_exactly_when_asked(runner):
                                                    for k in range(1, 45 * step // period + 1)]
 
 
+def test_step_takes_every_step_asked_for_whatever_the_catch_up_cap(runner):
+    runner.max_steps = 25
+    runner.pause()
+    before = runner.sim.time_ns
+    record, _ = runner.step(40)
+    assert record.accepted and runner.sim.time_ns == before + 40 * runner.sim.step_ns
+    assert runner.max_steps == 25
+
+
 def test_resume_skips_the_paused_time_to_a_publish_instant(runner):
     runner.pause()
     runner.step(7)
