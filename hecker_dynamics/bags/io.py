@@ -31,7 +31,8 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.markers import MarkerFields
-from ..ros.session import WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields, SessionFields
+from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
+                           SessionFields, WorldChange, WorldEventFields)
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -39,7 +40,7 @@ __all__ = [
     "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
-    "input_event_fields",
+    "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of",
 ]
 
@@ -47,8 +48,9 @@ APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
 SESSION_INFO = "hecker_dynamics/msg/SessionInfo"
 KEYFRAME = "hecker_dynamics/msg/Keyframe"
 INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
+WORLD_EVENT = "hecker_dynamics/msg/WorldEvent"
 #: The package's own interfaces, each defined in ``msg/<Name>.msg``.
-PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT)
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TWIST = "geometry_msgs/msg/Twist"
@@ -343,6 +345,23 @@ def input_event_fields(msg: Any) -> InputEventFields:
         ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
         msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else msg.applied_wrench,
         bool(msg.accepted), msg.reason)
+
+
+def world_event_message(fields: WorldEventFields) -> Any:
+    """``hecker_dynamics/msg/WorldEvent`` of a world change record."""
+    return default_message(
+        WORLD_EVENT, header=header_message(header("", fields.stamp_ns)),
+        session=max(fields.session, 0), sequence=fields.sequence, kind=int(fields.kind),
+        body=fields.body, values=np.array(fields.values, dtype=np.float64),
+        time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+
+
+def world_event_fields(msg: Any) -> WorldEventFields:
+    """The world change record of a ``WorldEvent`` message."""
+    return WorldEventFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence),
+                            WorldChange(int(msg.kind)), msg.body,
+                            tuple(float(x) for x in msg.values), int(msg.time_ns),
+                            bool(msg.accepted), msg.reason)
 
 
 def stamp_ns_of(msg: Any) -> Optional[int]:

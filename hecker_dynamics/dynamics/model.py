@@ -153,11 +153,18 @@ class Model:
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """CM state from the scene's body-frame poses and origin velocities."""
-        angle = np.array([b.angle for b in self.scene.bodies])
-        omega = np.array([b.angular_velocity for b in self.scene.bodies])
-        origin = np.array([b.position for b in self.scene.bodies])
-        origin_velocity = np.array([b.velocity for b in self.scene.bodies])
-        r_cm = rotate(self.cm_local, np.cos(angle), np.sin(angle))  # origin -> CM
+        bodies = self.scene.bodies
+        return self.cm_states(np.arange(self.size), np.array([b.position for b in bodies]),
+                              np.array([b.angle for b in bodies]),
+                              np.array([b.velocity for b in bodies]),
+                              np.array([b.angular_velocity for b in bodies]))
+
+    def cm_states(self, index: np.ndarray, origin: np.ndarray, angle: np.ndarray,
+                  origin_velocity: np.ndarray, omega: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """CM states (q, v rows) of the bodies ``index`` whose body frames have these poses
+        and origin velocities: the CM's velocity is the origin's plus omega perp(r) (Eq. 9)."""
+        r_cm = rotate(self.cm_local[index], np.cos(angle), np.sin(angle))  # origin -> CM
         q = np.column_stack([origin + r_cm, angle])
         v = np.column_stack([origin_velocity + omega[:, None] * perp(r_cm), omega])
         return q, v

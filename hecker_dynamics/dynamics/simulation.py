@@ -174,6 +174,39 @@ class Simulation:
         if self.model.contacts is not None:
             self.model.contacts.import_state(state["contacts"] or [])
 
+    def set_body_state(self, name: str, position: tuple[float, float], angle: float,
+                       linear_velocity: tuple[float, float], angular_velocity: float) -> None:
+        """Move body ``name`` now: its frame to ``position`` and ``angle``, the frame's origin
+        moving at ``linear_velocity``, turning at ``angular_velocity`` (what its pose and a
+        world-frame twist publish). The contact pass forgets its warm starts, which belonged
+        to the old positions. Raises :class:`InputError` for an unknown body or a number
+        that is not finite."""
+        index = self.model.index.get(name)
+        if index is None:
+            raise InputError(f"unknown body '{name}' (bodies: {', '.join(self.model.names)})")
+        numbers = (*position, angle, *linear_velocity, angular_velocity)
+        if not all(math.isfinite(x) for x in numbers):
+            raise InputError(f"the state for '{name}' has a non-finite value {numbers}")
+        q, v = self.model.cm_states(np.array([index]), np.array([position], dtype=float),
+                                    np.array([angle], dtype=float),
+                                    np.array([linear_velocity], dtype=float),
+                                    np.array([angular_velocity], dtype=float))
+        self.q, self.v = self.q.copy(), self.v.copy()
+        self.q[index], self.v[index] = q[0], v[0]
+        wrap_angles_in_place(self.q[:, 2])
+        if self.model.contacts is not None:
+            self.model.contacts.reset()
+
+    def skip_to(self, time_ns: int) -> None:
+        """Move the clock forward to ``time_ns`` without stepping (a resume after a pause):
+        the start moves with it, so publish instants and scripted times keep their places
+        relative to it; commands keep their absolute stamps."""
+        shift = int(time_ns) - self._time_ns
+        if shift < 0 or shift % self.step_ns:
+            raise ValueError(f"cannot skip by {shift} ns: not a whole number of steps forward")
+        self._time_ns += shift
+        self.start_ns += shift
+
     # ----------------------------------------------------------------- inputs
 
     def push(self, command: WrenchCommand) -> None:

@@ -37,10 +37,13 @@ CASES = [
         (7, {"keyframe_period_ns": 250_000_000}, 3_100_000_000),
         (8, {"keyframe_period_ns": 0}, 0), (9, {}, 3_500_000_000),
         (12, {"lockstep": True}, 0), (13, {"lockstep": True, "reset_at": S}, 1_500_000_000),
+        (14, {"world": 3}, 0), (15, {"world": 3, "lockstep": True}, 1_200_000_000),
+        (16, {"world": 4, "max_steps": 25, "reset_at": 2 * S}, 2_500_000_000),
     ]
-] + [(name, 10 + n, {}, late) for n, (name, late) in enumerate(
+] + [(name, 10 + n, {"world": n % 2}, late) for n, (name, late) in enumerate(
     (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
-    ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2]},
+    ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2],
+                         "world": n % 3, "lockstep": n % 5 == 4},
      int(1e9 * (n % 4) * 0.8)) for n in range(int(os.environ.get("HECKER_DYNAMICS_LIVE_SEEDS", 0)))]
 
 
