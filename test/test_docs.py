@@ -75,7 +75,7 @@ EQUATION_WORDS = {
     3: ("center of mass", "centroid"),
     5: ("f = m a", "force"),
     6: ("angle", "angular acceleration"),
-    9: ("body point", "point's velocity", "v_p ="),
+    9: ("body point", "point's velocity", "v_p =", "omega perp("),
     10: ("angular momentum",),
     11: ("torque",),
     13: ("moment of inertia",),
