@@ -42,7 +42,10 @@ setup(
     description="2D rigid-body dynamics with angular effects (after Chris Hecker) for ROS 2",
     license="Apache-2.0",
     python_requires=">=3.10",
-    packages=["hecker_dynamics", "hecker_dynamics.batch", "hecker_dynamics.bench",
+    packages=["hecker_dynamics", "hecker_dynamics.bags", "hecker_dynamics.batch",
+              "hecker_dynamics.bench", "hecker_dynamics.contact", "hecker_dynamics.dynamics",
+              "hecker_dynamics.geometry", "hecker_dynamics.integrators", "hecker_dynamics.ros",
+              "hecker_dynamics.scene", "hecker_dynamics.viz",
               "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;
@@ -54,14 +57,18 @@ setup(
                            depends=KERNEL_HEADERS, include_dirs=["src/kernel"],
                            optional=True)],
     cmdclass={"build_ext": KernelBuildExt},
-    # tqdm: the progress bar of sweep and regress (pure Python, about 0.3 MB).
-    install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10", "tqdm>=4.62"],
+    # tqdm: the command line's progress bars (replay, render, sweep, regress).
+    install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10", "tqdm>=4.60"],
     extras_require={
-        # The cluster tests start a real Dask cluster: about 8 s and 44 MB more per venv.
-        "test": ["pytest>=7", "catkin_pkg>=0.5", "dask[distributed]>=2023.4"],
+        # The viz tests read rendered pictures back, so the test extra carries the viz one;
+        # the cluster tests start a real Dask cluster (about 8 s and 44 MB more per venv).
+        "test": ["pytest>=7", "catkin_pkg>=0.5", "matplotlib>=3.6", "Pillow>=9",
+                 "dask[distributed]>=2023.4"],
         # Sweeps and regression suites on a Dask cluster (`--cluster ADDRESS`).
         "cluster": ["dask[distributed]>=2023.4"],
         "figures": ["matplotlib>=3.6"],
+        # `hecker-dynamics render`, `plot` and `run --view` (MP4 also needs imageio-ffmpeg).
+        "viz": ["matplotlib>=3.6", "Pillow>=9"],
         # Peers for `hecker-dynamics bench` (each optional; the bench skips what is missing).
         "bench": ["pymunk>=6", "box2d-py>=2.3.8", "mujoco>=3.1", "matplotlib>=3.6"],
     },

@@ -3,11 +3,13 @@
 The core follows Chris Hecker's "Physics, Part 2: Angular Effects" (Game Developer, 1997):
 mass properties from shape, forces with points of application, perp-dot torques, and
 integration of linear and angular motion. Nothing here imports rclpy; the ROS node in
-``hecker_dynamics.node`` is thin glue over :class:`~hecker_dynamics.simulation.Simulation`.
+``hecker_dynamics.ros.node`` is thin glue over :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
-from .commands import InputError, WrenchCommand
-from .scene import Scene, SceneError, load_scene, scene_from_parameters
-from .simulation import BodyState, DivergenceError, Simulation, Snapshot
+__version__ = "0.1.0"
 
-__all__ = ["InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
+from .dynamics.commands import InputError, WrenchCommand
+from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
+from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
+
+__all__ = ["__version__", "InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
            "scene_from_parameters", "BodyState", "DivergenceError", "Simulation", "Snapshot"]

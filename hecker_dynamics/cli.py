@@ -1,11 +1,14 @@
 """``hecker-dynamics``: run scenes without ROS.
 
-    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S]
+    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S] [--view]
     hecker-dynamics scenes
     hecker-dynamics script SCENE -o INPUT_BAG
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
+    hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
+                           [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
+    hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
     hecker-dynamics sweep SCENE --set NAME=VALUES ... [--samples N --seed S] -o RESULTS
     hecker-dynamics regress BAG_DIR ... [--scene SCENE] [--workers N] [--cluster ADDRESS]
 """
@@ -20,11 +23,14 @@ from pathlib import Path
 from collections.abc import Sequence
 from typing import Optional
 
-from .bags import STORAGES, BagError
+from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
-from .commands import InputError
-from .scene import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
-from .simulation import DivergenceError, Simulation
+from .dynamics.commands import InputError
+from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
+from .dynamics.simulation import DivergenceError, Simulation
+from .viz.commands import add_viz_commands, view_run
+from .viz.frames import VizError
+from .viz.progress import Progress, stderr_is_terminal
 
 
 def _time_ns(text: str) -> int:
@@ -84,6 +90,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
 def run(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
+    if args.view:
+        view_run(scene)
     sim = Simulation(scene)
     first = sim.snapshot()
     started = time.perf_counter()
@@ -125,43 +133,12 @@ def _tolerance(text: str) -> float:
     return value
 
 
-class _Progress:
-    """A progress bar on stderr, redrawn at most once per percent."""
-
-    WIDTH = 30
-
-    def __init__(self, label: str, total_s: float) -> None:
-        self.label = label
-        self.total_s = total_s
-        self.shown = -1
-
-    def __call__(self, fraction: float) -> None:
-        percent = int(100 * min(max(fraction, 0.0), 1.0))
-        if percent == self.shown:
-            return
-        self.shown = percent
-        filled = self.WIDTH * percent // 100
-        bar = "#" * filled + "." * (self.WIDTH - filled)
-        sys.stderr.write(f"\r{self.label} [{bar}] {percent:3d}% of {self.total_s:g} s sim time")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.shown >= 0:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
 def _want_progress(args: argparse.Namespace) -> bool:
-    if args.progress is not None:
-        return args.progress
-    try:
-        return sys.stderr.isatty()
-    except (AttributeError, ValueError):
-        return False
+    return args.progress if args.progress is not None else stderr_is_terminal()
 
 
 def _tolerances(args: argparse.Namespace):
-    from .compare import Tolerances
+    from .bags.compare import Tolerances
 
     atol = args.atol
     return Tolerances(
@@ -172,7 +149,7 @@ def _tolerances(args: argparse.Namespace):
 
 def script(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
-    from .replay import script_to_bag
+    from .bags.replay import script_to_bag
 
     scene = load_scene(args.scene)
     count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
@@ -185,21 +162,25 @@ def script(args: argparse.Namespace) -> int:
 
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
-    from .bags import read_bag
-    from .compare import compare_contents
-    from .replay import (input_topics, outputs_as_bag, recorded_output_topics, replay_outputs,
-                         replay_to_bag, session_times)
+    from .bags.io import read_bag
+    from .bags.compare import compare_contents
+    from .bags.live import is_live_recording
+    from .bags.replay import (input_topics, outputs_as_bag, recorded_output_topics,
+                              replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
+    if is_live_recording(bag):
+        return _replay_live(args, scene, bag)
     if args.check:
         expected_topics = recorded_output_topics(scene, bag, need_inputs=not args.play_script)
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected)
-    progress = _Progress("replay", (end - start) * 1e-9) if _want_progress(args) else None
+    progress = Progress("replay", (end - start) * 1e-9, enabled=True) \
+        if _want_progress(args) else None
     try:
         if args.output is not None:
             result = replay_to_bag(scene, bag, Path(args.output), storage=args.storage,
@@ -241,9 +222,52 @@ def replay_command(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
+    """Replay a session recorded from the node with its session records (bags.live)."""
+    from .bags.io import BagWriter
+    from .bags.live import check_live
+    from .bags.replay import output_topics
+
+    given = [name for name, value in (("--start", args.start is not None),
+                                      ("--duration", args.duration is not None),
+                                      ("--play-script", args.play_script),
+                                      ("--skip-rejected", args.skip_rejected)) if value]
+    if given:
+        raise BagError(f"{args.input}: a recorded session replays with the options the node "
+                       f"recorded; {', '.join(given)} do not apply to it")
+    check = check_live(scene, bag, tolerances=_tolerances(args))
+    if args.output is not None:
+        with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
+                       custom_data={"scene": Path(scene.source).stem},
+                       compress=args.compress) as writer:
+            for topic, msgtype in output_topics(scene).items():
+                writer.add_topic(topic, msgtype)
+            for output in sorted(check.outputs, key=lambda o: o.log_ns):
+                writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
+    print(f"replayed {check.sessions} session(s) of {args.input} on scene {scene.source} from "
+          f"the node's records: {check.events} input event(s), {check.keyframes_checked} "
+          f"keyframe(s) compared, {len(check.outputs)} output message(s)"
+          + (f" written to {args.output}" if args.output else ""))
+    for note in check.notes:
+        print(f"hecker-dynamics: note: {note}", file=sys.stderr)
+    if check.halted:
+        print(f"hecker-dynamics: error: {check.halted}", file=sys.stderr)
+        return 2
+    if not args.check:
+        return 0
+    for problem in check.problems:
+        print(f"MISMATCH: {problem}")
+    if not check.report.ok or args.verbose:
+        print(check.report.text())
+    summary = check.report.summary() if not check.problems or not check.report.ok else \
+        f"mismatch: {len(check.problems)} recorded decision(s) or state(s) differ"
+    print(f"check against the outputs recorded in {args.input}: {summary}")
+    return 0 if check.ok else 1
+
+
 def compare_command(args: argparse.Namespace) -> int:
     """Compare two bags; exit 1 on a mismatch."""
-    from .compare import compare_bags
+    from .bags.compare import compare_bags
 
     report, ok = compare_bags(args.expected, args.actual, tolerances=_tolerances(args),
                               topics=args.topic or None)
@@ -255,7 +279,7 @@ def compare_command(args: argparse.Namespace) -> int:
 
 
 def _add_tolerance_options(parser: argparse.ArgumentParser) -> None:
-    from .compare import DEFAULT_ATOL
+    from .bags.compare import DEFAULT_ATOL
 
     parser.add_argument("--atol", type=_tolerance, default=DEFAULT_ATOL,
                         help=f"absolute tolerance for positions (m), angles (rad) and "
@@ -544,6 +568,8 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
+    run_parser.add_argument("--view", action="store_true",
+                            help="show the run in a window (needs a display and the viz extra)")
     run_parser.set_defaults(handler=run)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
@@ -552,6 +578,7 @@ def parser() -> argparse.ArgumentParser:
     _add_bag_commands(commands)
     _add_bench_command(commands)
     _add_batch_commands(commands)
+    add_viz_commands(commands, seconds=_time_ns)
     return top
 
 
@@ -559,7 +586,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.handler(args)
-    except (SceneError, InputError, DivergenceError, BagError, EngineError) as error:
+    except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2
 

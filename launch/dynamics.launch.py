@@ -2,7 +2,7 @@
 
 ``scene`` is the name of a scene shipped in the package's config/ directory (``sample``,
 the default) or the path of a parameters file, resolved by the package's own rule
-(:func:`hecker_dynamics.scene.scene_path`, which finds shipped scenes in
+(:func:`hecker_dynamics.scene.load.scene_path`, which finds shipped scenes in
 ``share/hecker_dynamics/config`` through ``AMENT_PREFIX_PATH``), so an unknown name fails
 here with the list of shipped scenes. ``use_sim_time`` makes the node follow /clock.
 """
@@ -14,7 +14,7 @@ from launch_ros.parameter_descriptions import ParameterValue
 
 
 def _dynamics_node(context):
-    from hecker_dynamics.scene import scene_path
+    from hecker_dynamics.scene.load import scene_path
 
     params_file = str(scene_path(LaunchConfiguration('scene').perform(context)).resolve())
     return [Node(

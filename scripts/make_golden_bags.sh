@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Regenerate the golden bags in test/bags/ (see test/bags/README.md).
+# Regenerate the golden bags in test/golden/ (see test/golden/README.md).
 #
-# For every shipped scene (hecker_dynamics.scene.shipped_scenes()), writes
-#   test/bags/<scene>/input    the scene's scripted inputs   (hecker-dynamics script)
-#   test/bags/<scene>/output   the replayed node outputs     (hecker-dynamics replay)
+# For every shipped scene (hecker_dynamics.scene.load.shipped_scenes()), writes
+#   test/golden/<scene>/input    the scene's scripted inputs   (hecker-dynamics script)
+#   test/golden/<scene>/output   the replayed node outputs     (hecker-dynamics replay)
 # as rosbag2 bags in mcap storage with zstd-compressed chunks, over the first
 # GOLDEN_DURATION seconds of sim time (default 4; shorter scenes keep their own duration).
 # Bags of scenes that are no longer shipped are removed.
@@ -21,7 +21,7 @@ cli=("$python" -m hecker_dynamics.cli)
 # "<scene> <seconds>" per shipped scene: the golden length, capped by the scene's duration.
 plan=$("$python" - <<'PY'
 import os
-from hecker_dynamics.scene import load_scene, shipped_scenes
+from hecker_dynamics.scene.load import load_scene, shipped_scenes
 cap_ns = round(float(os.environ["GOLDEN_DURATION"]) * 1e9)
 for name in shipped_scenes():
     ns = min(load_scene(name).duration_ns, cap_ns)
@@ -30,11 +30,11 @@ PY
 )
 [[ -n "$plan" ]] || { echo "make_golden_bags: no shipped scenes found" >&2; exit 1; }
 
-mkdir -p test/bags
+mkdir -p test/golden
 shipped=()
 while read -r scene seconds; do
     shipped+=("$scene")
-    dir="test/bags/$scene"
+    dir="test/golden/$scene"
     rm -rf "$dir"
     mkdir -p "$dir"
     "${cli[@]}" script "$scene" -o "$dir/input" --duration "$seconds" --compress
@@ -42,11 +42,11 @@ while read -r scene seconds; do
 done <<< "$plan"
 
 # Drop golden bags of scenes that are no longer shipped.
-for dir in test/bags/*/; do
+for dir in test/golden/*/; do
     name=$(basename "$dir")
     if [[ -d "$dir/input" || -d "$dir/output" ]] && [[ ! " ${shipped[*]} " =~ " $name " ]]; then
         echo "removing golden bags of $name (no longer shipped)"
         rm -rf "$dir"
     fi
 done
-du -sh test/bags/*/ | sed 's/^/golden bags: /'
+du -sh test/golden/*/ | sed 's/^/golden bags: /'

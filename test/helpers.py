@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from hecker_dynamics.integrators import make_integrator
-from hecker_dynamics.model import Model
+from hecker_dynamics.integrators.methods import make_integrator
+from hecker_dynamics.dynamics.model import Model
 import scene_builders
-from hecker_dynamics.scene import Scene
+from hecker_dynamics.scene.load import Scene
 
 # pi to 50 digits, for exact references of wrapped angles.
 PI = Fraction("3.14159265358979323846264338327950288419716939937510")

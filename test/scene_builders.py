@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from hecker_dynamics.parameters import flatten
-from hecker_dynamics.scene import Scene, scene_from_parameters
+from hecker_dynamics.scene.parameters import flatten
+from hecker_dynamics.scene.load import Scene, scene_from_parameters
 
 
 def make_scene(params: dict[str, Any], source: str = "test-scene") -> Scene:
@@ -48,3 +48,37 @@ def box_inertia(mass: float, width: float, height: float) -> float:
 def rotation(angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s], [s, c]])
+
+
+#: A scene with every kind of force term, for tests that must cover them all.
+EVERY_FORCE = {
+    "step": 0.001, "publish_rate": 100.0,
+    "bodies": {
+        "a": {"shape": "box", "size": [1.0, 0.4], "mass": 2.0, "center": [0.2, 0.1],
+              "points": {"tip": [0.5, 0.2]}},
+        "b": {"shape": "circle", "radius": 0.3, "mass": 1.5, "position": [2.0, 1.0]},
+        "c": {"parts": {"hull": {"shape": "polygon", "vertices": [-1.0, -0.5, 1.0, -0.5, 0.0, 1.0]},
+                        "ball": {"shape": "circle", "radius": 0.2, "center": [0.0, -0.8]}},
+              "density": 3.0, "position": [-2.0, 0.5]},
+    },
+    "forces": {
+        "gravity": {"type": "gravity", "acceleration": [0.3, -9.81], "bodies": ["a", "c"]},
+        "anchored": {"type": "spring", "body_a": "a", "point_a": "tip", "anchor": [0.0, 3.0],
+                     "stiffness": 40.0, "rest_length": 0.5, "damping": 0.7},
+        "pin": {"type": "spring", "body_a": "c", "point_a": [0.3, 0.2], "anchor": [-2.0, 0.0],
+                "stiffness": 500.0, "damping": 2.0},
+        "link": {"type": "spring", "body_a": "a", "point_a": [-0.3, 0.1], "body_b": "b",
+                 "point_b": [0.1, -0.2], "stiffness": 25.0, "rest_length": 1.0, "damping": 0.3},
+        "tie": {"type": "spring", "body_a": "b", "body_b": "c", "stiffness": 10.0},
+        "air": {"type": "linear_drag", "coefficient": 0.4},
+        "wake": {"type": "quadratic_drag", "bodies": ["c"], "coefficient": 0.2,
+                 "point": [0.5, 0.5]},
+        "fin": {"type": "linear_drag", "bodies": ["a"], "coefficient": 0.9, "point": "tip"},
+        "spin": {"type": "angular_damping", "bodies": ["a", "b"], "coefficient": 0.05},
+        "thrust": {"type": "constant_force", "body": "c", "force": [3.0, 1.0], "axes": "body",
+                   "point": [0.2, -0.4]},
+        "wind": {"type": "constant_force", "body": "b", "force": [-1.0, 0.5]},
+        "gust": {"type": "constant_force", "body": "a", "force": [0.0, 2.0], "point": [0.4, 0.0]},
+        "motor": {"type": "constant_torque", "body": "b", "torque": 1.5},
+    },
+}

@@ -13,11 +13,10 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, os.path.dirname(__file__))
-from scene_builders import write_scene  # noqa: E402
+from scene_builders import write_scene
 
-from hecker_dynamics import Simulation, load_scene  # noqa: E402
-from hecker_dynamics.cli import main, parser  # noqa: E402
+from hecker_dynamics import Simulation, load_scene
+from hecker_dynamics.cli import main, parser
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -8,11 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from hecker_dynamics import parameters
+from hecker_dynamics.scene import parameters
 from hecker_dynamics.cli import parser
-from hecker_dynamics.scene import shipped_scenes
-from scene_builders import make_scene
-from test_forces import EVERY_FORCE
+from hecker_dynamics.scene.load import shipped_scenes
+from scene_builders import EVERY_FORCE, make_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES_DOC = (ROOT / "docs" / "scenes.md").read_text()

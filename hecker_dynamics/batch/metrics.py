@@ -22,10 +22,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Optional, Union
 
-from ..mapping import Runner
-from ..parameters import SceneError
-from ..scene import Scene
-from ..simulation import Snapshot
+from ..ros.runner import Runner
+from ..scene.parameters import SceneError
+from ..scene.load import Scene
+from ..dynamics.simulation import Snapshot
 
 __all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS"]
 

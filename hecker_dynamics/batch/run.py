@@ -6,7 +6,6 @@ or a Dask worker can run them; they import only the core (no engine).
 """
 from __future__ import annotations
 
-import sys
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -15,12 +14,13 @@ from typing import Any, Optional
 
 import yaml
 
-from ..bags import BagError, read_bag
-from ..compare import Tolerances, compare_contents
-from ..parameters import SceneError, unflatten
-from ..replay import outputs_as_bag, recorded_output_topics, replay_outputs, replay_to_bag, \
-    script_to_bag
-from ..scene import NODE_NAME, load_scene, shipped_scenes
+from ..bags.io import BagError, read_bag
+from ..bags.compare import Tolerances, compare_contents
+from ..scene.parameters import SceneError, unflatten
+from ..bags.replay import (outputs_as_bag, recorded_output_topics, replay_outputs,
+                          replay_to_bag, script_to_bag)
+from ..scene.load import NODE_NAME, load_scene, shipped_scenes
+from ..viz.progress import Progress
 from .engines import Engine
 from .metrics import STATE_FIELDS, Cell, Metric, summarize
 from .table import PartialRows, table_path, write_table
@@ -33,12 +33,14 @@ __all__ = ["SweepTask", "run_variant", "sweep", "check_metrics", "BagTask", "Bag
 # ----------------------------------------------------------------------------- progress
 
 def progress_bar(items: Iterator[Any], total: int, label: str, show: bool) -> Iterator[Any]:
-    """``items``, with a tqdm bar on stderr if ``show``."""
-    if not show:
-        return items
-    from tqdm import tqdm
-
-    return iter(tqdm(items, total=total, desc=label, unit="run", file=sys.stderr))
+    """``items``, counted on a bar on stderr if ``show``."""
+    bar = Progress(label, total, unit="runs", enabled=show)
+    try:
+        for done, item in enumerate(items, 1):
+            bar(done / total)
+            yield item
+    finally:
+        bar.close()
 
 
 # ----------------------------------------------------------------------------- sweep

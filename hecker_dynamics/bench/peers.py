@@ -1,6 +1,6 @@
 """Optional peers: pymunk, Box2D (pybox2d) and MuJoCo on the same scenes and force law.
 
-Each adapter builds the scene from its :class:`~hecker_dynamics.scene.Scene` (bodies at
+Each adapter builds the scene from its :class:`~hecker_dynamics.scene.load.Scene` (bodies at
 their CMs with the scene's mass and moment of inertia, no collision shapes) and returns
 :class:`~.measure.Case` objects. Each claims a scheme, checked by :func:`check_peer`
 against a plain Python loop of that scheme on the same forces (:class:`~.reference.PlainModel`):
@@ -32,7 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..scene import Gravity, Scene
+from ..scene.load import Gravity, Scene
 from .measure import Case, Outcome
 from .reference import PlainModel
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
+from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                      Gravity, Scene, SpringSpec)
 
 
@@ -318,7 +318,7 @@ def core_reference(scene: Scene, step: float, method: str | None = None,
                    tolerance: float = 1e-10) -> Reference:
     """The core itself at ``step`` (and ``method``, default the scene's), with its error
     estimated by the same run at twice the step. For scenes with contacts and inputs."""
-    from ..simulation import Simulation
+    from ..dynamics.simulation import Simulation
     from .scenes import configure
 
     runs = []

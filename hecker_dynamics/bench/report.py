@@ -6,7 +6,7 @@ import csv
 import math
 from pathlib import Path
 
-from ..integrators import ADAPTIVE
+from ..integrators.methods import ADAPTIVE
 from .measure import Row
 
 THRESHOLDS = (1e-3, 1e-6, 1e-9)

@@ -20,11 +20,11 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .. import kernel
-from ..integrators import ADAPTIVE, METHODS, make_integrator
-from ..model import Model
-from ..scene import Scene
-from ..simulation import DivergenceError, Simulation
+from ..dynamics import kernel
+from ..integrators.methods import ADAPTIVE, METHODS, make_integrator
+from ..dynamics.model import Model
+from ..scene.load import Scene
+from ..dynamics.simulation import DivergenceError, Simulation
 from . import peers as peer_mod
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
@@ -252,7 +252,7 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log) -> None:
 
 
 def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
-    from ..scene import load_scene
+    from ..scene.load import load_scene
     scene = load_scene("sample")
     h = scene.step_ns * 1e-9
     duration = 2.0 if mode.name == "full" else 0.5
@@ -302,7 +302,7 @@ def peer_checks(results: Results, peers: list[str]) -> None:
 
 def profiles(results: Results, mode: Mode) -> None:
     """cProfile summaries (top functions by own time) and the lean loop comparison."""
-    from ..scene import load_scene
+    from ..scene.load import load_scene
     targets = {"sample": load_scene("sample"), "two_bodies": bench_scene("two_bodies"),
                "ring1000": ring(1000)}
     for name, scene in targets.items():
@@ -344,7 +344,7 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
                                         "checks", "profiles")) -> Results:
-    from ..scene import shipped_scenes
+    from ..scene.load import shipped_scenes
     from .report import write_report
 
     mode = MODES[mode_name]

@@ -28,8 +28,8 @@ import dataclasses
 import math
 from typing import Any
 
-from ..parameters import flatten
-from ..scene import Scene, load_scene, scene_from_parameters, shipped_scenes
+from ..scene.parameters import flatten
+from ..scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
 
 #: The benchmark scenes with closed-form or reference solutions, in issue order.
 BENCH_SCENES = ("free_spin", "harmonic", "spring_pendulum", "two_bodies", "stiff")

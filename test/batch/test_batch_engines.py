@@ -18,8 +18,8 @@ from hecker_dynamics.batch.run import SweepTask, find_bags, regress, run_variant
 from hecker_dynamics.batch.variants import make_variants, parse_setting
 from hecker_dynamics.batch.metrics import parse_metric
 from hecker_dynamics.cli import main
-from hecker_dynamics.compare import Tolerances
-from hecker_dynamics.replay import replay_to_bag, script_to_bag
+from hecker_dynamics.bags.compare import Tolerances
+from hecker_dynamics.bags.replay import replay_to_bag, script_to_bag
 from hecker_dynamics.scene import load_scene
 
 distributed = pytest.importorskip("distributed", reason="the cluster extra is not installed")

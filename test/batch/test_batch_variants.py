@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import ast
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,9 +15,8 @@ from hecker_dynamics.batch.metrics import parse_metric, summarize
 from hecker_dynamics.batch.run import check_metrics
 from hecker_dynamics.batch.variants import grid, make_variants, parse_setting, sample
 from hecker_dynamics.cli import main
-from hecker_dynamics.parameters import SceneError
-sys.path.insert(0, os.path.dirname(os.path.dirname(__file__)))  # the shared test helpers
-from scene_builders import write_scene  # noqa: E402
+from hecker_dynamics.scene import SceneError
+from scene_builders import write_scene
 
 
 def test_grid_is_every_combination_last_fastest():
@@ -156,13 +154,12 @@ def test_summary_counts_contacts_of_a_resting_box(tmp_path):
 
 
 def test_the_core_the_node_and_the_cli_do_not_import_an_engine():
-    """Dask is the optional cluster extra: importing the package, the command line or the
-    batch code must not pull it in (nor tqdm, until a bar is shown); node.py imports no
-    batch module at all."""
-    code = ("import sys, hecker_dynamics, hecker_dynamics.cli, hecker_dynamics.mapping, "
+    """Dask is the optional cluster extra: importing the package, the command line, the
+    run loop or the batch code must not pull it in; node.py imports no batch module."""
+    code = ("import sys, hecker_dynamics, hecker_dynamics.cli, hecker_dynamics.ros.runner, "
             "hecker_dynamics.batch.run, hecker_dynamics.batch.engines; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('dask', 'distributed', 'ray', 'tqdm')))")
+            "('dask', 'distributed', 'ray')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"

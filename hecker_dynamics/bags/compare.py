@@ -1,0 +1,378 @@
+"""Compare two bags: per topic, match messages by stamp and report the largest differences.
+
+:func:`compare_bags` returns a :class:`CompareReport` and a bool (True when the bags match
+within the tolerances), so pytest can assert on it and print the report:
+
+    report, ok = compare_bags("expected_bag", "actual_bag", atol=1e-9)
+    assert ok, report.text()
+
+Messages are matched by header stamp; messages without a header (``Twist``) by the stamp
+of the same-index message on the sibling ``.../pose`` topic when both topics have the same
+number of messages (a bag recorded from the node logs them at arrival, not at sim time),
+else by log time. Several messages with one stamp match in order. Differences measured:
+
+- position: distance between positions (PoseStamped, Odometry, Marker poses and points),
+- angle: rotation between orientations (radians, from the quaternions),
+- velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry).
+
+Other fields (frames, names, marker types and counts, diagnostic levels) must be equal;
+diagnostic values are not compared (they hold wall times). Messages of other types are
+compared byte for byte. A message whose stamp the other bag lacks is missing or extra.
+"""
+from __future__ import annotations
+
+import math
+import os
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Optional, Union
+
+from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TWIST, BagContents,
+                   BagMessage, read_bag, stamp_ns_of)
+
+__all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents"]
+
+DEFAULT_ATOL = 1e-9
+#: How many individual problems a topic report keeps (the counts are always complete).
+MAX_DETAILS = 5
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Absolute tolerances: position (m), angle (rad), velocity (m/s and rad/s)."""
+
+    position: float = DEFAULT_ATOL
+    angle: float = DEFAULT_ATOL
+    velocity: float = DEFAULT_ATOL
+
+    @classmethod
+    def uniform(cls, atol: float) -> "Tolerances":
+        return cls(atol, atol, atol)
+
+
+@dataclass
+class Worst:
+    """The largest difference of one kind, and where it occurred."""
+
+    value: float = 0.0
+    stamp_ns: Optional[int] = None
+
+    def update(self, value: float, stamp_ns: int) -> None:
+        if value > self.value or (math.isnan(value) and not math.isnan(self.value)):
+            self.value = value
+            self.stamp_ns = stamp_ns
+
+    def __str__(self) -> str:
+        if self.stamp_ns is None:
+            return f"{self.value:.3g}"
+        return f"{self.value:.3g} (at {self.stamp_ns * 1e-9:.6f} s)"
+
+
+@dataclass
+class TopicReport:
+    """The comparison of one topic."""
+
+    topic: str
+    msgtype: str
+    expected: int = 0
+    actual: int = 0
+    matched: int = 0
+    missing: list[int] = field(default_factory=list)  # stamps only in the expected bag
+    extra: list[int] = field(default_factory=list)  # stamps only in the actual bag
+    position: Worst = field(default_factory=Worst)
+    angle: Worst = field(default_factory=Worst)
+    velocity: Worst = field(default_factory=Worst)
+    angular_velocity: Worst = field(default_factory=Worst)
+    different: int = 0  # matched messages whose exact fields differ
+    details: list[str] = field(default_factory=list)
+
+    def ok(self, tol: Tolerances) -> bool:
+        return (not self.missing and not self.extra and not self.different
+                and _within(self.position.value, tol.position)
+                and _within(self.angle.value, tol.angle)
+                and _within(self.velocity.value, tol.velocity)
+                and _within(self.angular_velocity.value, tol.velocity))
+
+    def note(self, text: str) -> None:
+        self.different += 1
+        if len(self.details) < MAX_DETAILS:
+            self.details.append(text)
+
+
+def _within(value: float, atol: float) -> bool:
+    return value <= atol  # NaN compares False: a NaN difference fails
+
+
+@dataclass
+class CompareReport:
+    """The comparison of two bags: one :class:`TopicReport` per topic compared."""
+
+    expected_path: str
+    actual_path: str
+    tolerances: Tolerances
+    topics: list[TopicReport] = field(default_factory=list)
+    missing_topics: list[str] = field(default_factory=list)
+    extra_topics: list[str] = field(default_factory=list)
+    type_mismatches: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return (not self.missing_topics and not self.extra_topics and not self.type_mismatches
+                and all(t.ok(self.tolerances) for t in self.topics))
+
+    def largest(self) -> dict[str, float]:
+        """The largest position, angle, velocity and angular velocity difference overall."""
+        return {kind: max((getattr(t, kind).value for t in self.topics), default=0.0)
+                for kind in ("position", "angle", "velocity", "angular_velocity")}
+
+    def text(self) -> str:
+        """A readable report, one topic per paragraph."""
+        tol = self.tolerances
+        lines = [f"expected: {self.expected_path}", f"actual:   {self.actual_path}",
+                 f"tolerance: position {tol.position:g} m, angle {tol.angle:g} rad, "
+                 f"velocity {tol.velocity:g}"]
+        for topic in self.missing_topics:
+            lines.append(f"MISSING TOPIC {topic}: in the expected bag only")
+        for topic in self.extra_topics:
+            lines.append(f"EXTRA TOPIC   {topic}: in the actual bag only")
+        for text in self.type_mismatches:
+            lines.append(f"TYPE MISMATCH {text}")
+        for t in self.topics:
+            status = "ok  " if t.ok(tol) else "FAIL"
+            lines.append(f"{status} {t.topic} ({t.msgtype}): {t.matched} matched of "
+                         f"{t.expected} expected / {t.actual} actual")
+            if t.missing:
+                lines.append(f"     missing {len(t.missing)}: first at "
+                             f"{min(t.missing) * 1e-9:.6f} s")
+            if t.extra:
+                lines.append(f"     extra {len(t.extra)}: first at {min(t.extra) * 1e-9:.6f} s")
+            measured = [(name, w) for name, w in (
+                ("position", t.position), ("angle", t.angle), ("velocity", t.velocity),
+                ("angular velocity", t.angular_velocity)) if w.stamp_ns is not None]
+            if measured:
+                lines.append("     largest " + ", ".join(f"{n} {w}" for n, w in measured))
+            if t.different:
+                lines.append(f"     {t.different} message(s) differ in exact fields:")
+                lines.extend(f"       {d}" for d in t.details)
+        big = self.largest()
+        lines.append("largest overall: " + ", ".join(f"{k} {v:.3g}" for k, v in big.items()))
+        lines.append("MATCH" if self.ok else "MISMATCH")
+        return "\n".join(lines)
+
+    def summary(self) -> str:
+        """One line: match or what mismatched."""
+        if self.ok:
+            big = self.largest()
+            return ("match: " + f"{sum(t.matched for t in self.topics)} messages on "
+                    f"{len(self.topics)} topics; largest difference position "
+                    f"{big['position']:.3g}, angle {big['angle']:.3g}, velocity "
+                    f"{max(big['velocity'], big['angular_velocity']):.3g}")
+        problems = []
+        if self.missing_topics:
+            problems.append(f"missing topics {', '.join(self.missing_topics)}")
+        if self.extra_topics:
+            problems.append(f"extra topics {', '.join(self.extra_topics)}")
+        problems.extend(f"type of {t}" for t in self.type_mismatches)
+        for t in self.topics:
+            if not t.ok(self.tolerances):
+                parts = []
+                if t.missing:
+                    parts.append(f"{len(t.missing)} missing")
+                if t.extra:
+                    parts.append(f"{len(t.extra)} extra")
+                if t.different:
+                    parts.append(f"{t.different} differ")
+                for kind, tol in (("position", self.tolerances.position),
+                                  ("angle", self.tolerances.angle),
+                                  ("velocity", self.tolerances.velocity),
+                                  ("angular_velocity", self.tolerances.velocity)):
+                    worst = getattr(t, kind)
+                    if not _within(worst.value, tol):
+                        parts.append(f"{kind.replace('_', ' ')} {worst}")
+                problems.append(f"{t.topic}: {', '.join(parts)}")
+        return "mismatch: " + "; ".join(problems)
+
+
+# ----------------------------------------------------------------------------- matching
+
+def _keys(messages: Sequence[BagMessage], decoded: Sequence[Any],
+          sibling: Optional[Sequence[int]]) -> list[int]:
+    stamps = [stamp_ns_of(msg) for msg in decoded]
+    if all(s is not None for s in stamps):
+        return stamps  # type: ignore[return-value]
+    if sibling is not None and len(sibling) == len(messages):
+        return list(sibling)
+    return [m.log_ns for m in messages]
+
+
+def _group(keys: Sequence[int]) -> dict[tuple[int, int], int]:
+    """Key each message by (stamp, occurrence of that stamp) -> index."""
+    seen: dict[int, int] = defaultdict(int)
+    out = {}
+    for index, key in enumerate(keys):
+        out[(key, seen[key])] = index
+        seen[key] += 1
+    return out
+
+
+# ----------------------------------------------------------------------------- differences
+
+def _distance(a: Any, b: Any) -> float:
+    return math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
+
+
+def _rotation_angle(qa: Any, qb: Any) -> float:
+    """Angle of the rotation between two quaternions (accurate for tiny angles too)."""
+    # q_rel = conj(qa) * qb
+    w = qa.w * qb.w + qa.x * qb.x + qa.y * qb.y + qa.z * qb.z
+    x = qa.w * qb.x - qa.x * qb.w - qa.y * qb.z + qa.z * qb.y
+    y = qa.w * qb.y + qa.x * qb.z - qa.y * qb.w - qa.z * qb.x
+    z = qa.w * qb.z - qa.x * qb.y + qa.y * qb.x - qa.z * qb.w
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+def _pose(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
+    report.position.update(_distance(a.position, b.position), stamp)
+    report.angle.update(_rotation_angle(a.orientation, b.orientation), stamp)
+
+
+def _twist(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
+    report.velocity.update(_distance(a.linear, b.linear), stamp)
+    report.angular_velocity.update(_distance(a.angular, b.angular), stamp)
+
+
+def _header(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
+    if a.header.frame_id != b.header.frame_id:
+        report.note(f"at {stamp * 1e-9:.6f} s: frame_id '{a.header.frame_id}' != "
+                    f"'{b.header.frame_id}'")
+
+
+def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
+                     eb: BagMessage, b: Any, stamp: int) -> None:
+    if msgtype == POSE_STAMPED:
+        _header(report, a, b, stamp)
+        _pose(report, a.pose, b.pose, stamp)
+    elif msgtype == TWIST:
+        _twist(report, a, b, stamp)
+    elif msgtype == ODOMETRY:
+        _header(report, a, b, stamp)
+        if a.child_frame_id != b.child_frame_id:
+            report.note(f"at {stamp * 1e-9:.6f} s: child_frame_id '{a.child_frame_id}' != "
+                        f"'{b.child_frame_id}'")
+        _pose(report, a.pose.pose, b.pose.pose, stamp)
+        _twist(report, a.twist.twist, b.twist.twist, stamp)
+    elif msgtype == MARKER_ARRAY:
+        if len(a.markers) != len(b.markers):
+            report.note(f"at {stamp * 1e-9:.6f} s: {len(a.markers)} markers != "
+                        f"{len(b.markers)}")
+            return
+        for ma, mb in zip(a.markers, b.markers):
+            same = (ma.ns, ma.id, ma.type, ma.action, ma.header.frame_id, len(ma.points)) == \
+                   (mb.ns, mb.id, mb.type, mb.action, mb.header.frame_id, len(mb.points))
+            if not same:
+                report.note(f"at {stamp * 1e-9:.6f} s: marker {ma.ns}/{ma.id} differs in "
+                            "ns, id, type, action, frame or point count")
+                continue
+            _pose(report, ma.pose, mb.pose, stamp)
+            for pa, pb in zip(ma.points, mb.points):
+                report.position.update(_distance(pa, pb), stamp)
+    elif msgtype == DIAGNOSTIC_ARRAY:
+        sa = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in a.status]
+        sb = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in b.status]
+        if sa != sb:
+            report.note(f"at {stamp * 1e-9:.6f} s: diagnostic status (level, name, "
+                        "hardware_id or keys) differs")
+    elif ea.raw != eb.raw:
+        report.note(f"at {stamp * 1e-9:.6f} s: message bytes differ")
+
+
+def _decode_all(messages: Sequence[BagMessage]) -> list[Any]:
+    return [m.decode() for m in messages]
+
+
+def _compare_topic(topic: str, msgtype: str, expected: BagContents,
+                   actual: BagContents) -> TopicReport:
+    report = TopicReport(topic, msgtype)
+    ea, aa = expected.on(topic), actual.on(topic)
+    report.expected, report.actual = len(ea), len(aa)
+    structured = msgtype in (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY)
+    if structured:
+        da, db = _decode_all(ea), _decode_all(aa)
+    else:
+        da, db = [None] * len(ea), [None] * len(aa)
+
+    def sibling(bag: BagContents) -> Optional[list[int]]:
+        if not topic.endswith("/twist"):
+            return None
+        pose_topic = topic[: -len("/twist")] + "/pose"
+        if bag.topics.get(pose_topic) != POSE_STAMPED:
+            return None
+        return [stamp_ns_of(m.decode()) for m in bag.on(pose_topic)]
+
+    if structured:
+        ka = _keys(ea, da, sibling(expected))
+        kb = _keys(aa, db, sibling(actual))
+    else:
+        ka, kb = [m.log_ns for m in ea], [m.log_ns for m in aa]
+    ga, gb = _group(ka), _group(kb)
+    for key, ia in ga.items():
+        ib = gb.get(key)
+        if ib is None:
+            report.missing.append(key[0])
+            continue
+        report.matched += 1
+        _compare_message(report, msgtype, ea[ia], da[ia], aa[ib], db[ib], key[0])
+    report.extra = [key[0] for key in gb if key not in ga]
+    return report
+
+
+def compare_contents(expected: BagContents, actual: BagContents, *,
+                     tolerances: Optional[Tolerances] = None,
+                     topics: Optional[Iterable[str]] = None) -> tuple[CompareReport, bool]:
+    """Compare two bags already read; ``topics`` limits the comparison (default: all)."""
+    tol = tolerances or Tolerances()
+    report = CompareReport(str(expected.path), str(actual.path), tol)
+    if topics is None:
+        names = sorted(set(expected.topics) | set(actual.topics))
+    else:
+        names = list(dict.fromkeys(topics))
+    for topic in names:
+        in_a, in_b = topic in expected.topics, topic in actual.topics
+        if not in_a and not in_b:
+            report.missing_topics.append(topic)
+            continue
+        if not in_b:
+            report.missing_topics.append(topic)
+            continue
+        if not in_a:
+            report.extra_topics.append(topic)
+            continue
+        if expected.topics[topic] != actual.topics[topic]:
+            report.type_mismatches.append(f"{topic}: expected {expected.topics[topic]}, "
+                                          f"actual {actual.topics[topic]}")
+            continue
+        report.topics.append(_compare_topic(topic, expected.topics[topic], expected, actual))
+    return report, report.ok
+
+
+def compare_bags(expected: Union[str, os.PathLike, BagContents],
+                 actual: Union[str, os.PathLike, BagContents], *, atol: Optional[float] = None,
+                 tolerances: Optional[Tolerances] = None,
+                 topics: Optional[Iterable[str]] = None) -> tuple[CompareReport, bool]:
+    """Compare the ``expected`` bag with the ``actual`` one (paths or read bags).
+
+    ``atol`` sets one tolerance for positions, angles and velocities; ``tolerances`` sets
+    them one by one. Returns the report and whether the bags match. Raises
+    :class:`~hecker_dynamics.bags.io.BagError` if a bag cannot be read.
+    """
+    if tolerances is None:
+        tolerances = Tolerances.uniform(atol) if atol is not None else Tolerances()
+    wanted = list(topics) if topics is not None else None
+    # Twists are matched through their sibling poses, so read those too.
+    reading = None if wanted is None else wanted + [
+        t[: -len("/twist")] + "/pose" for t in wanted if t.endswith("/twist")]
+    a = expected if isinstance(expected, BagContents) else read_bag(expected, reading)
+    b = actual if isinstance(actual, BagContents) else read_bag(actual, reading)
+    return compare_contents(a, b, tolerances=tolerances, topics=wanted)
+

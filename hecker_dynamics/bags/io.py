@@ -1,0 +1,612 @@
+"""rosbag2 bags with ``rosbags``: reading, writing and the message types of the package.
+
+Works with or without ROS installed. Bags are written as ROS 2 Jazzy records them
+(``rosbag2`` metadata version 9: ``offered_qos_profiles`` as a list of profile dicts, the
+message definitions in the storage, RIHS01 type hashes), in ``mcap`` (Jazzy's default) or
+``sqlite3`` storage, and read from either.
+
+The custom ``hecker_dynamics/msg/AppliedWrench`` type is registered from its ``.msg`` file,
+looked up where each kind of install keeps it (:func:`applied_wrench_msg_path`), so the
+definition in a bag is always the package's own.
+
+Message contents come from :mod:`hecker_dynamics.ros` (the ``*_fields`` functions the
+node uses too); this module only copies those fields into rosbags message objects.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sqlite3
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import numpy as np
+
+from ..dynamics.commands import WrenchCommand
+from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
+                          TwistFields, applied_wrench_fields, header, ns_from_stamp,
+                          stamp_from_ns)
+from ..ros.diagnostics import DiagnosticFields
+from ..ros.markers import MarkerFields
+from ..ros.session import WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields, SessionFields
+
+__all__ = [
+    "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
+    "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter", "NODE_QOS",
+    "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
+    "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
+    "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
+    "input_event_fields",
+    "default_message", "stamp_ns_of",
+]
+
+APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
+SESSION_INFO = "hecker_dynamics/msg/SessionInfo"
+KEYFRAME = "hecker_dynamics/msg/Keyframe"
+INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
+#: The package's own interfaces, each defined in ``msg/<Name>.msg``.
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT)
+WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
+POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+TWIST = "geometry_msgs/msg/Twist"
+ODOMETRY = "nav_msgs/msg/Odometry"
+MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
+DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+
+#: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
+BAG_VERSION = 9
+#: Storage formats: name -> rosbags plugin name.
+STORAGES = ("mcap", "sqlite3")
+#: Prefix of the keys this package stores in a bag's ``custom_data``.
+CUSTOM_PREFIX = "hecker_dynamics."
+
+PathLike = Union[str, os.PathLike]
+
+
+class BagError(Exception):
+    """A bag that cannot be read, written or used; the message is one clear line."""
+
+
+# ----------------------------------------------------------------------------- types
+
+def message_definition_path(msgtype: str = APPLIED_WRENCH) -> Path:
+    """The package's ``<Name>.msg`` of ``msgtype``: source tree, pip install, or ament share
+    dir."""
+    name = msgtype.rsplit("/", 1)[-1] + ".msg"
+    package = Path(__file__).resolve().parents[1]
+    candidates = [package.parent / "msg", package / "interfaces"]
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            candidates.append(Path(prefix) / "share" / "hecker_dynamics" / "msg")
+    for directory in candidates:
+        path = directory / name
+        if path.is_file():
+            return path
+    raise BagError(f"cannot find {name} (looked in "
+                   + ", ".join(str(c) for c in candidates) + ")")
+
+
+@lru_cache(maxsize=1)
+def typestore() -> Any:
+    """A ROS 2 Jazzy typestore with the package's messages registered."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for msgtype in PACKAGE_MESSAGES:
+        types.update(get_types_from_msg(message_definition_path(msgtype).read_text(), msgtype))
+    store.register(types)
+    return store
+
+
+def _node_qos() -> list[Any]:
+    """The QoS the node's publishers offer: rclpy's default profile with depth 10."""
+    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
+                                    QosReliability, QosTime)
+
+    default = QosTime(0, 0)  # rmw's "default" durations: deadline, lifespan, lease unset
+    return [Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
+                default, default, QosLiveliness.AUTOMATIC, default, False)]
+
+
+NODE_QOS = _node_qos()
+
+
+def latched_qos(depth: int) -> list[Any]:
+    """The QoS of the node's session records: reliable, transient_local, keep-last ``depth``
+    (what ``ros2 bag record`` stores for them, and what ``ros2 bag play`` offers again)."""
+    from rosbags.interfaces import QosDurability
+
+    return [NODE_QOS[0]._replace(depth=depth, durability=QosDurability.TRANSIENT_LOCAL)]
+
+
+def resolve_topic(name: str, namespace: str = "/") -> str:
+    """Fully qualified topic name, as a node in ``namespace`` resolves a relative name."""
+    if name.startswith("/"):
+        return name
+    namespace = "/" + namespace.strip("/")
+    return (namespace.rstrip("/") + "/" + name) if namespace != "/" else "/" + name
+
+
+_NUMPY_TYPES = {
+    "bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8, "uint8": np.uint8,
+    "int16": np.int16, "uint16": np.uint16, "int32": np.int32, "uint32": np.uint32,
+    "int64": np.int64, "uint64": np.uint64, "float32": np.float32, "float64": np.float64,
+}
+
+
+def _default_value(store: Any, desc: tuple) -> Any:
+    from rosbags.interfaces import Nodetype
+
+    kind, spec = desc
+    if kind == Nodetype.BASE:
+        name = spec[0]
+        if name == "string" or name == "wstring":
+            return ""
+        if name == "bool":
+            return False
+        if name.startswith("float"):
+            return 0.0
+        return 0
+    if kind == Nodetype.NAME:
+        return default_message(spec)
+    sub, length = spec
+    if sub[0] == Nodetype.BASE and sub[1][0] in _NUMPY_TYPES:
+        return np.zeros(length if kind == Nodetype.ARRAY else 0, dtype=_NUMPY_TYPES[sub[1][0]])
+    if kind == Nodetype.ARRAY:
+        return [_default_value(store, sub) for _ in range(length)]
+    return []
+
+
+def default_message(msgtype: str, **values: Any) -> Any:
+    """A rosbags message of ``msgtype`` with every field at its ROS default, then ``values``."""
+    store = typestore()
+    try:
+        _, fields = store.fielddefs[msgtype]
+    except KeyError:
+        raise BagError(f"unknown message type '{msgtype}'") from None
+    kwargs = {name: _default_value(store, desc) for name, desc in fields}
+    kwargs.update(values)
+    return store.types[msgtype](**kwargs)
+
+
+# ----------------------------------------------------------------------------- messages
+
+def header_message(fields: Header) -> Any:
+    return default_message("std_msgs/msg/Header",
+                           stamp=default_message("builtin_interfaces/msg/Time",
+                                                 sec=fields.sec, nanosec=fields.nanosec),
+                           frame_id=fields.frame_id)
+
+
+def _vector(msgtype: str, xyz: Sequence[float]) -> Any:
+    return default_message(msgtype, x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2]))
+
+
+def pose_message(fields: Pose) -> Any:
+    x, y, z, w = fields.orientation
+    return default_message(
+        "geometry_msgs/msg/Pose", position=_vector("geometry_msgs/msg/Point", fields.position),
+        orientation=default_message("geometry_msgs/msg/Quaternion", x=float(x), y=float(y),
+                                    z=float(z), w=float(w)))
+
+
+def pose_stamped_message(fields: PoseStampedFields) -> Any:
+    """``geometry_msgs/PoseStamped`` from :func:`~hecker_dynamics.ros.fields.pose_fields`."""
+    return default_message(POSE_STAMPED, header=header_message(fields.header),
+                           pose=pose_message(fields.pose))
+
+
+def twist_message(fields: TwistFields) -> Any:
+    """``geometry_msgs/Twist`` from :func:`~hecker_dynamics.ros.fields.twist_fields`."""
+    return default_message(TWIST, linear=_vector("geometry_msgs/msg/Vector3", fields.linear),
+                           angular=_vector("geometry_msgs/msg/Vector3", fields.angular))
+
+
+def odometry_message(fields: OdometryFields) -> Any:
+    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields` (covariances zero)."""
+    return default_message(
+        ODOMETRY, header=header_message(fields.header), child_frame_id=fields.child_frame_id,
+        pose=default_message("geometry_msgs/msg/PoseWithCovariance",
+                             pose=pose_message(fields.pose)),
+        twist=default_message("geometry_msgs/msg/TwistWithCovariance",
+                              twist=twist_message(fields.twist)))
+
+
+def marker_message(fields: MarkerFields) -> Any:
+    r, g, b, a = fields.color
+    return default_message(
+        "visualization_msgs/msg/Marker", header=header_message(fields.header), ns=fields.ns,
+        id=int(fields.id), type=int(fields.type), action=int(fields.action),
+        pose=pose_message(fields.pose), scale=_vector("geometry_msgs/msg/Vector3", fields.scale),
+        color=default_message("std_msgs/msg/ColorRGBA", r=float(r), g=float(g), b=float(b),
+                              a=float(a)),
+        points=[_vector("geometry_msgs/msg/Point", p) for p in fields.points])
+
+
+def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
+    """``visualization_msgs/MarkerArray`` from :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
+    return default_message(MARKER_ARRAY, markers=[marker_message(m) for m in markers])
+
+
+def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
+    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
+    status = default_message(
+        "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
+        message=fields.message, hardware_id=fields.hardware_id,
+        values=[default_message("diagnostic_msgs/msg/KeyValue", key=k, value=v)
+                for k, v in fields.values])
+    return default_message(DIAGNOSTIC_ARRAY, header=header_message(head), status=[status])
+
+
+def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
+    """``hecker_dynamics/msg/AppliedWrench`` from :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
+    dsec, dnanosec = fields.duration
+    return default_message(
+        APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
+        point=_vector("geometry_msgs/msg/Point", fields.point),
+        wrench=default_message("geometry_msgs/msg/Wrench",
+                               force=_vector("geometry_msgs/msg/Vector3", fields.force),
+                               torque=_vector("geometry_msgs/msg/Vector3", fields.torque)),
+        duration=default_message("builtin_interfaces/msg/Duration", sec=dsec,
+                                  nanosec=dnanosec))
+
+
+def applied_wrench_message(stamp_ns: int, frame_id: str, body: str, source: str,
+                           point: Sequence[float], force: Sequence[float], torque: float,
+                           duration_ns: int) -> Any:
+    """A ``hecker_dynamics/msg/AppliedWrench`` with an in-plane wrench (the inverse of
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_to_command`)."""
+    return applied_wrench_msg(applied_wrench_fields(WrenchCommand(
+        stamp_ns, body, source, frame_id, (point[0], point[1]), (force[0], force[1]),
+        torque, duration_ns)))
+
+
+def wrench_stamped_message(stamp_ns: int, frame_id: str, force: Sequence[float],
+                           torque: float) -> Any:
+    """A ``geometry_msgs/WrenchStamped`` with an in-plane wrench."""
+    sec, nanosec = stamp_from_ns(stamp_ns)
+    return default_message(
+        WRENCH_STAMPED, header=header_message(Header(sec, nanosec, frame_id)),
+        wrench=default_message(
+            "geometry_msgs/msg/Wrench",
+            force=_vector("geometry_msgs/msg/Vector3", (force[0], force[1], 0.0)),
+            torque=_vector("geometry_msgs/msg/Vector3", (0.0, 0.0, torque))))
+
+
+def session_info_message(fields: SessionFields) -> Any:
+    """``hecker_dynamics/msg/SessionInfo`` of a session record."""
+    return default_message(
+        SESSION_INFO, header=header_message(header(fields.frame_id, fields.start_ns)),
+        session=fields.session, reason=fields.reason, scene=fields.scene,
+        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
+        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
+        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
+        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
+        version=fields.version)
+
+
+def session_fields(msg: Any) -> SessionFields:
+    """The session record of a ``SessionInfo`` message (the inverse of
+    :func:`session_info_message`)."""
+    return SessionFields(
+        stamp_ns_of(msg) or 0, msg.header.frame_id, int(msg.session), msg.reason, msg.scene,
+        msg.fingerprint, msg.integrator, int(msg.step_ns), int(msg.publish_period_ns),
+        bool(msg.play_script), bool(msg.lockstep), int(msg.max_catch_up_steps),
+        int(msg.keyframe_period_ns), int(msg.next_event), msg.version)
+
+
+def keyframe_message(fields: KeyframeFields) -> Any:
+    """``hecker_dynamics/msg/Keyframe`` of a keyframe record."""
+    return default_message(
+        KEYFRAME, header=header_message(header("", fields.stamp_ns)), session=fields.session,
+        steps=fields.steps, next_event=fields.next_event, bodies=list(fields.bodies),
+        q=np.array(fields.q, dtype=np.float64), v=np.array(fields.v, dtype=np.float64),
+        state=fields.state)
+
+
+def keyframe_fields(msg: Any) -> KeyframeFields:
+    """The keyframe record of a ``Keyframe`` message."""
+    return KeyframeFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.steps),
+                          int(msg.next_event), tuple(msg.bodies),
+                          tuple(float(x) for x in msg.q), tuple(float(x) for x in msg.v),
+                          msg.state)
+
+
+def input_event_message(fields: InputEventFields) -> Any:
+    """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
+    rosbags ``AppliedWrench`` or ``WrenchStamped``)."""
+    wrench_stamped = fields.kind == WRENCH_STAMPED_EVENT
+    sec, nanosec = stamp_from_ns(fields.arrival_ns)
+    return default_message(
+        INPUT_EVENT, header=header_message(header("", fields.stamp_ns)),
+        session=max(fields.session, 0), sequence=fields.sequence, topic=fields.topic,
+        arrival=default_message("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
+        kind=fields.kind,
+        applied_wrench=default_message(APPLIED_WRENCH) if wrench_stamped else fields.message,
+        wrench_stamped=fields.message if wrench_stamped else default_message(WRENCH_STAMPED),
+        accepted=fields.accepted, reason=fields.reason)
+
+
+def input_event_fields(msg: Any) -> InputEventFields:
+    """The input event record of an ``InputEvent`` message; ``message`` is the input."""
+    kind = int(msg.kind)
+    return InputEventFields(
+        stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence), msg.topic,
+        ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
+        msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else msg.applied_wrench,
+        bool(msg.accepted), msg.reason)
+
+
+def stamp_ns_of(msg: Any) -> Optional[int]:
+    """The header stamp of a message in ns, or None for a message without a header.
+
+    A ``MarkerArray`` takes the stamp of its first marker.
+    """
+    head = getattr(msg, "header", None)
+    if head is None:
+        markers = getattr(msg, "markers", None)
+        if markers:
+            head = markers[0].header
+    if head is None:
+        return None
+    return ns_from_stamp(head.stamp.sec, head.stamp.nanosec)
+
+
+# ----------------------------------------------------------------------------- reading
+
+@dataclass(frozen=True)
+class BagMessage:
+    """One message of a bag: topic, type, log time and the CDR bytes."""
+
+    index: int  # position in the bag's log-time order
+    topic: str
+    msgtype: str
+    log_ns: int
+    raw: bytes
+
+    def decode(self) -> Any:
+        """The message as a rosbags object; raises :class:`BagError` if it is malformed."""
+        try:
+            return typestore().deserialize_cdr(self.raw, self.msgtype)
+        except Exception as error:  # rosbags raises several kinds for bad bytes
+            raise BagError(f"message {self.index} on '{self.topic}' at "
+                           f"{self.log_ns * 1e-9:.9f} s cannot be decoded as "
+                           f"{self.msgtype}: {error}") from None
+
+
+@dataclass
+class BagContents:
+    """A bag read into memory: topics with their types, and messages in log-time order."""
+
+    path: Path
+    storage: str
+    topics: dict[str, str]  # topic -> message type
+    messages: list[BagMessage]
+    custom_data: dict[str, str] = field(default_factory=dict)
+    definitions: dict[str, str] = field(default_factory=dict)  # type -> msgdef in the bag
+    digests: dict[str, str] = field(default_factory=dict)  # topic -> RIHS01 hash ('' unknown)
+
+    def check_type(self, topic: str, msgtype: str) -> None:
+        """Raise :class:`BagError` unless ``topic`` has ``msgtype`` with the package's
+        definition of it (same RIHS01 hash, when the bag records one)."""
+        found = self.topics.get(topic)
+        if found is None:
+            raise BagError(f"{self.path}: no topic '{topic}'")
+        if found != msgtype:
+            raise BagError(f"{self.path}: topic '{topic}' has type {found}, expected {msgtype}")
+        digest = self.digests.get(topic, "")
+        if digest:
+            ours = typestore().hash_rihs01(msgtype)
+            if digest != ours:
+                raise BagError(f"{self.path}: topic '{topic}' has another definition of "
+                               f"{msgtype} than this package ({digest} != {ours})")
+
+    def on(self, topic: str) -> list[BagMessage]:
+        return [m for m in self.messages if m.topic == topic]
+
+    def custom_int(self, key: str) -> Optional[int]:
+        """An integer stored under ``hecker_dynamics.<key>`` in the bag's custom data."""
+        value = self.custom_data.get(CUSTOM_PREFIX + key)
+        if value is None:
+            return None
+        try:
+            return int(value)
+        except ValueError:
+            raise BagError(f"{self.path}: custom data '{CUSTOM_PREFIX}{key}' is not an "
+                           f"integer: {value!r}") from None
+
+
+def _describe(error: BaseException) -> str:
+    text = str(error).strip().splitlines()
+    text = text[0] if text else ""
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__
+
+
+def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagContents:
+    """Read a rosbag2 bag (directory with ``metadata.yaml``, or a bare ``.mcap``/``.db3``).
+
+    Only messages on ``topics`` are loaded (all when None). Raises :class:`BagError` with a
+    one-line reason for a missing path, a file that is not a bag, bad metadata, or a
+    truncated or corrupt storage file.
+    """
+    from rosbags.rosbag2 import Reader
+
+    path = Path(path)
+    if not path.exists():
+        raise BagError(f"{path}: no such bag")
+    wanted = set(topics) if topics is not None else None
+    try:
+        with Reader(path) as reader:
+            connections = reader.connections
+            bag_topics: dict[str, str] = {}
+            definitions: dict[str, str] = {}
+            digests: dict[str, str] = {}
+            for conn in connections:
+                digests.setdefault(conn.topic, conn.digest or "")
+                previous = bag_topics.setdefault(conn.topic, conn.msgtype)
+                if previous != conn.msgtype:
+                    raise BagError(f"{path}: topic '{conn.topic}' has two types, "
+                                   f"{previous} and {conn.msgtype}")
+                if conn.msgdef.data:
+                    definitions.setdefault(conn.msgtype, conn.msgdef.data)
+            selected = [c for c in connections if wanted is None or c.topic in wanted]
+            messages = []
+            if selected:
+                for conn, log_ns, raw in reader.messages(connections=selected):
+                    messages.append((log_ns, len(messages), conn.topic, conn.msgtype,
+                                     bytes(raw)))
+            custom = dict(reader.storage.metadata.custom or {}) \
+                if hasattr(reader.storage, "metadata") else {}
+            storage = _storage_name(path)
+    except BagError:
+        raise
+    except (sqlite3.Error, OSError) as error:
+        raise BagError(f"{path}: cannot read the bag ({_describe(error)}); is it truncated "
+                       "or corrupt?") from None
+    except Exception as error:  # rosbags: ReaderError, struct/zstd/yaml errors on bad files
+        raise BagError(f"{path}: cannot read the bag ({_describe(error)}); is it truncated "
+                       "or corrupt?") from None
+    messages.sort(key=lambda m: (m[0], m[1]))
+    return BagContents(
+        path=path, storage=storage, topics=bag_topics,
+        messages=[BagMessage(i, topic, msgtype, log_ns, raw)
+                  for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
+        custom_data={str(k): str(v) for k, v in custom.items()},
+        definitions=definitions, digests=digests)
+
+
+def _storage_name(path: Path) -> str:
+    if path.is_file():
+        return "sqlite3" if path.suffix == ".db3" else path.suffix.lstrip(".")
+    try:
+        import yaml
+
+        info = yaml.safe_load((path / "metadata.yaml").read_text())
+        return str(info["rosbag2_bagfile_information"]["storage_identifier"])
+    except Exception:
+        return "unknown"
+
+
+# ----------------------------------------------------------------------------- writing
+
+class BagWriter:
+    """Writes a rosbag2 bag atomically: into a temporary directory renamed on success.
+
+    Topics are added on first use, in that order, with the node's QoS profile; the bag
+    holds the message definitions and type hashes, and ``custom_data`` entries under
+    ``hecker_dynamics.``. Same calls in the same order give the same bytes.
+
+        with BagWriter(path, storage="mcap") as bag:
+            bag.write("/left/pose", POSE_STAMPED, stamp_ns, msg)
+    """
+
+    def __init__(self, path: PathLike, storage: str = "mcap", *, overwrite: bool = False,
+                 custom_data: Optional[dict[str, str]] = None, compress: bool = False) -> None:
+        if storage not in STORAGES:
+            raise BagError(f"unknown storage '{storage}' (choose from {', '.join(STORAGES)})")
+        self.path = Path(path)
+        self.storage = storage
+        self.overwrite = overwrite
+        self.compress = compress
+        self.custom_data = dict(custom_data or {})
+        self._tmp = self.path.with_name(f".{self.path.name}.partial")
+        self._writer: Any = None
+        self._connections: dict[str, Any] = {}
+        self._types: dict[str, str] = {}
+        self.count = 0
+
+    def __enter__(self) -> "BagWriter":
+        self.open()
+        return self
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+    def open(self) -> None:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+
+        if self.path.exists() and not self.overwrite:
+            raise BagError(f"{self.path} exists already (remove it or pass --overwrite)")
+        if self.path.exists() and not _looks_like_bag(self.path):
+            raise BagError(f"{self.path} exists and is not a bag; not overwriting it")
+        if not self.path.parent.is_dir():
+            raise BagError(f"{self.path.parent}: no such directory")
+        if self._tmp.exists():
+            shutil.rmtree(self._tmp)
+        plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
+        # The storage file is named after the directory, so write to a directory of the
+        # final name inside the temporary one and move it out at the end.
+        self._tmp.mkdir()
+        try:
+            self._writer = Writer(self._tmp / self.path.name, version=BAG_VERSION,
+                                  storage_plugin=plugin)
+            if self.compress and self.storage == "mcap":
+                self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+            for key, value in sorted(self.custom_data.items()):
+                self._writer.set_custom_data(CUSTOM_PREFIX + key, str(value))
+            self._writer.open()
+        except Exception as error:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            raise BagError(f"{self.path}: cannot create the bag ({_describe(error)})") from None
+
+    def add_topic(self, topic: str, msgtype: str, qos: Optional[list[Any]] = None) -> None:
+        """Declare ``topic`` now (so it appears in the bag even with no messages), offered
+        with ``qos`` (default: the node's output QoS)."""
+        if topic in self._connections:
+            if self._types[topic] != msgtype:
+                raise BagError(f"topic '{topic}' written with two types, {self._types[topic]} "
+                               f"and {msgtype}")
+            return
+        self._connections[topic] = self._writer.add_connection(
+            topic, msgtype, typestore=typestore(), serialization_format="cdr",
+            offered_qos_profiles=NODE_QOS if qos is None else qos)
+        self._types[topic] = msgtype
+
+    def write(self, topic: str, msgtype: str, log_ns: int, msg: Any) -> bytes:
+        """Serialize ``msg`` and write it at log time ``log_ns``; returns the bytes."""
+        self.add_topic(topic, msgtype)
+        raw = bytes(typestore().serialize_cdr(msg, msgtype))
+        self.write_raw(topic, log_ns, raw)
+        return raw
+
+    def write_raw(self, topic: str, log_ns: int, raw: bytes) -> None:
+        if log_ns < 0:
+            raise BagError(f"cannot write a message on '{topic}' at negative time {log_ns} ns")
+        self._writer.write(self._connections[topic], int(log_ns), raw)
+        self.count += 1
+
+    def close(self) -> None:
+        try:
+            self._writer.close()
+        except Exception as error:
+            self.abort()
+            raise BagError(f"{self.path}: cannot finish the bag ({_describe(error)})") from None
+        if self.path.exists():
+            shutil.rmtree(self.path)
+        os.replace(self._tmp / self.path.name, self.path)
+        shutil.rmtree(self._tmp, ignore_errors=True)
+
+    def abort(self) -> None:
+        if self._writer is not None:
+            try:
+                self._writer.abort()
+            except Exception:
+                pass
+        shutil.rmtree(self._tmp, ignore_errors=True)
+
+
+def _looks_like_bag(path: Path) -> bool:
+    return path.is_dir() and (path / "metadata.yaml").is_file()
+
+
+def iter_decoded(messages: Iterable[BagMessage]) -> Iterator[tuple[BagMessage, Any]]:
+    for message in messages:
+        yield message, message.decode()

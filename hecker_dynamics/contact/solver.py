@@ -1,0 +1,441 @@
+"""The contact pass: walls and bodies that touch, answered with impulses.
+
+After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
+
+1. finds contacts at q1: shape points behind walls, and overlapping convex parts of bodies
+   that the scene lets collide (a sort-and-sweep broad phase on the x extent, then the
+   narrow phase of :mod:`hecker_dynamics.contact.collision`);
+2. solves for impulses at the contact points with both bodies' mass and moment of
+   inertia: the article series' collision impulse
+   j = -(1 + e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
+   for all contacts together by sequential impulses with accumulated, clamped totals,
+   warm-started from the previous step's impulses (a contact is recognised by its pair
+   of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
+   Coulomb friction |j_t| <= mu j_n.
+   A contact that closed during the step bounces with restitution e if it approached
+   faster than the restitution threshold; otherwise its normal velocity is made just
+   enough that the bodies end the step touching, neither overlapping nor pushed apart,
+   so resting contacts stay at rest;
+3. moves each body whose velocity the impulses changed by h times that change, so a body
+   held still by contacts does not move at all and a sliding body moves with the velocity
+   friction left it;
+4. pushes apart what still overlaps by more than a small slop, a fraction per step, by
+   moving positions only (no velocity, so no kinetic energy, is added).
+
+Fast bodies do not pass through thin ones: :meth:`ContactPass.substeps` tells the
+simulation to split a step whenever some colliding body would move more than half the
+thinnest colliding part in it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
+                        polygon_circle, polygon_polygon)
+from ..geometry.shapes import Circle
+from ..geometry.planar import cos_sin_of
+
+if TYPE_CHECKING:
+    from ..dynamics.model import Model
+
+MAX_ITERATIONS = 200
+CONVERGED = 1e-13
+#: Gap (m) within which shapes already count as touching, so resting contacts persist.
+MARGIN = 5e-3
+#: Distance (m) within which a contact point is taken for last step's, for warm starting.
+MATCH = 1e-2
+#: Overlap left alone (m) by the position correction.
+SLOP = 1e-4
+#: Fraction of the remaining overlap removed per step, and the most removed per step (m).
+CORRECTION = 0.2
+MAX_CORRECTION = 0.05
+POSITION_ITERATIONS = 4
+MAX_SUBSTEPS = 256
+
+
+@dataclass(slots=True)
+class ContactRow:
+    """One contact in the impulse solver, set up from the positions at the step's end.
+
+    Bodies ``a`` (-1 for a wall) and ``b``; arms r_A = (rax, ray) and r_B = (rbx, rby) from
+    their CMs to the contact point; unit normal n = (nx, ny) from A to B; effective masses
+    along n and along t = perp(n); the normal velocity the impulses aim for (``target``);
+    friction coefficient ``mu``; the accumulated normal and tangent impulses ``jn`` and
+    ``jt``, the only fields the solver changes; the overlap at the step's end (``depth``,
+    negative for a gap within :data:`MARGIN`); inverse masses and inertias (zero for a
+    wall); the normal velocity before any impulse (``approach``); and the pair of parts
+    (``key``), for warm starting.
+    """
+
+    a: int
+    b: int
+    rax: float
+    ray: float
+    rbx: float
+    rby: float
+    nx: float
+    ny: float
+    mass_n: float
+    mass_t: float
+    target: float
+    mu: float
+    jn: float
+    jt: float
+    depth: float
+    im_a: float
+    ii_a: float
+    im_b: float
+    ii_b: float
+    approach: float
+    key: tuple
+
+    def normal_velocity(self, velocity: dict) -> float:
+        """The contact's normal velocity for the bodies' ``velocity`` (see
+        :func:`_normal_velocity`)."""
+        return _normal_velocity(velocity[self.a], velocity[self.b], self.rax, self.ray,
+                                self.rbx, self.rby, self.nx, self.ny)
+
+    def push(self, velocity: dict, px: float, py: float) -> None:
+        """Apply impulse (px, py) at the contact: +P to body b, -P to body a."""
+        va, vb = velocity[self.a], velocity[self.b]
+        va[0] -= px * self.im_a
+        va[1] -= py * self.im_a
+        va[2] -= (self.rax * py - self.ray * px) * self.ii_a
+        vb[0] += px * self.im_b
+        vb[1] += py * self.im_b
+        vb[2] += (self.rbx * py - self.rby * px) * self.ii_b
+
+
+class ContactPass:
+    """Contact detection and response for one scene's walls and collision groups."""
+
+    def __init__(self, model: Model, threshold: float) -> None:
+        scene = model.scene
+        self.threshold = threshold
+        self.inverse_mass = (1.0 / model.mass).tolist()
+        self.inverse_inertia = (1.0 / model.inertia).tolist()
+        self.wall_normal = [tuple(w.normal) for w in scene.walls]
+        self.wall_offset = [w.normal[0] * w.point[0] + w.normal[1] * w.point[1]
+                            for w in scene.walls]
+        self.wall_material = [(w.restitution, w.friction) for w in scene.walls]
+        self.wall_bodies = [sorted(model.index[b] for b in w.bodies) for w in scene.walls]
+        self.pairs = {}  # (i, j), i < j -> (restitution, friction)
+        for group in scene.collisions:
+            members = sorted(model.index[b] for b in group.bodies)
+            for n, i in enumerate(members):
+                for j in members[n + 1:]:
+                    self.pairs[(i, j)] = (group.restitution, group.friction)
+        # Per body, its parts relative to the CM in body axes, as plain floats:
+        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals). Walls need
+        # only the vertices, so a body no collision group names may be concave; the scene
+        # loader has checked that colliding bodies are convex.
+        colliding = sorted({i for pair in self.pairs for i in pair})
+        self.parts: list[list[tuple]] = []
+        reach, thickness = [], []
+        for i, body in enumerate(scene.bodies):
+            parts, extents, widths = [], [], []
+            for shape in body.shapes:
+                if isinstance(shape, Circle):
+                    centre = model.local(i, shape.center)
+                    parts.append(("circle", tuple(centre.tolist()), shape.radius))
+                    extents.append(float(np.hypot(*centre)) + shape.radius)
+                    widths.append(2.0 * shape.radius)
+                    continue
+                local = shape.vertices - model.cm_local[i]
+                extents.append(float(np.max(np.hypot(local[:, 0], local[:, 1]))))
+                if i in colliding:
+                    poly = ConvexPolygon.from_vertices(local)
+                    parts.append(("polygon", [tuple(p) for p in poly.vertices.tolist()],
+                                  [tuple(n) for n in poly.normals.tolist()]))
+                    widths.append(2.0 * poly.inradius)
+                else:
+                    parts.append(("polygon", [tuple(p) for p in local.tolist()], []))
+            self.parts.append(parts)
+            reach.append(max(extents))
+            thickness.append(min(widths, default=math.inf))
+        self.colliding = colliding
+        #: Farthest shape point from each body's CM, and thinnest colliding part.
+        self.reach = reach
+        self.thickness = min((thickness[i] for i in colliding), default=math.inf)
+        self._lean = model.lean
+        self._colliding_index = np.array(colliding, dtype=int)
+        self._colliding_reach = np.array([reach[i] for i in colliding])
+        touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
+        self.bodies = np.array(sorted(touching), dtype=int)
+        self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
+
+    def reset(self) -> None:
+        """Forget the impulses kept for warm starting."""
+        self._warm = {}
+
+    def export_state(self) -> list[list[Any]]:
+        """The impulses kept for warm starting, as plain data: per pair of parts, the
+        remembered contacts (point in the second body's frame, normal and tangent impulse)."""
+        return [[list(key), [list(contact) for contact in contacts]]
+                for key, contacts in self._warm.items()]
+
+    def import_state(self, state: list[list[Any]]) -> None:
+        """Restore :meth:`export_state`'s data."""
+        self._warm = {tuple(int(k) for k in key): [tuple(float(x) for x in contact)
+                                                   for contact in contacts]
+                      for key, contacts in state}
+
+    # ------------------------------------------------------------------ detection
+
+    def _world_parts(self, pose: list[float], body: int) -> list[tuple]:
+        """The body's parts placed at ``pose`` = [x, y, angle] of its CM."""
+        x, y, angle = pose
+        c, s = cos_sin_of(angle)
+        placed = []
+        for part in self.parts[body]:
+            if part[0] == "circle":
+                lx, ly = part[1]
+                placed.append(("circle", (x + c * lx - s * ly, y + s * lx + c * ly), part[2]))
+            else:
+                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part[1]]
+                normals = [(c * a - s * b, s * a + c * b) for a, b in part[2]]
+                placed.append(("polygon", verts, normals))
+        return placed
+
+    @staticmethod
+    def _bounds(part: tuple) -> tuple[float, float, float, float]:
+        if part[0] == "circle":
+            (x, y), r = part[1], part[2]
+            return x - r, x + r, y - r, y + r
+        xs = [p[0] for p in part[1]]
+        ys = [p[1] for p in part[1]]
+        return min(xs), max(xs), min(ys), max(ys)
+
+    def detect(self, q: np.ndarray) -> list[list]:
+        """Contacts at positions ``q``: [a, b, point, normal a->b, depth, e, mu, pair], where
+        ``pair`` names the two parts (a wall is body -1 - its index)."""
+        world: dict[int, list[tuple]] = {}
+        poses = q.tolist()
+        contacts: list[list] = []
+        for w, bodies in enumerate(self.wall_bodies):
+            normal, offset = self.wall_normal[w], self.wall_offset[w]
+            nx, ny = normal
+            e, mu = self.wall_material[w]
+            for b in bodies:
+                x, y, _ = poses[b]
+                if nx * x + ny * y - offset > self.reach[b] + MARGIN:
+                    continue  # the body's bounding circle is clear of the wall
+                if b not in world:
+                    world[b] = self._world_parts(poses[b], b)
+                for p, part in enumerate(world[b]):
+                    found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
+                             if part[0] == "circle"
+                             else half_plane_polygon(normal, offset, part[1], MARGIN))
+                    for point, n, depth in found:
+                        contacts.append([-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)])
+        for a, b in self._candidate_pairs(poses) if self.pairs else ():
+            for body in (a, b):
+                if body not in world:
+                    world[body] = self._world_parts(poses[body], body)
+            contacts.extend(self._pair_contacts(a, b, world))
+        return contacts
+
+    def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int]]:
+        """Colliding pairs whose bounding boxes (CM +- reach) overlap: sort and sweep on x."""
+        boxes = sorted((x - self.reach[b], b, x + self.reach[b], y - self.reach[b],
+                        y + self.reach[b]) for b in self.colliding for x, y, _ in (poses[b],))
+        pairs = []
+        for n, (_, b1, x1, y0, y1) in enumerate(boxes):
+            for u0, b2, _, v0, v1 in boxes[n + 1:]:
+                if u0 > x1 + MARGIN:
+                    break
+                pair = (b1, b2) if b1 < b2 else (b2, b1)
+                if v0 <= y1 + MARGIN and v1 >= y0 - MARGIN and pair in self.pairs:
+                    pairs.append(pair)
+        return pairs
+
+    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[list]:
+        """Contacts between the parts of bodies a < b whose bounds overlap."""
+        material = self.pairs[(a, b)]
+        bounds_b = [self._bounds(part) for part in world[b]]
+        contacts = []
+        for pa, part_a in enumerate(world[a]):
+            x0, x1, y0, y1 = self._bounds(part_a)
+            for pb, (part_b, (u0, u1, v0, v1)) in enumerate(zip(world[b], bounds_b)):
+                if u0 > x1 + MARGIN or u1 < x0 - MARGIN or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
+                    continue
+                for point, normal, depth in _collide(part_a, part_b):
+                    contacts.append([a, b, point, normal, depth, *material, (a, b, pa, pb)])
+        return contacts
+
+    def substeps(self, q0: np.ndarray, q1: np.ndarray) -> int:
+        """How many sub-steps keep every colliding body's travel under half the thinnest
+        colliding part (1 when the step is short enough)."""
+        if not self.colliding:
+            return 1
+        if self._lean:  # a few bodies: plain floats beat numpy's cost per call
+            before, after = q0.tolist(), q1.tolist()
+            farthest = max(math.hypot(after[i][0] - before[i][0], after[i][1] - before[i][1])
+                           + abs(after[i][2] - before[i][2]) * self.reach[i]
+                           for i in self.colliding)
+        else:
+            index = self._colliding_index
+            moved = q1[index] - q0[index]
+            farthest = float((np.hypot(moved[:, 0], moved[:, 1])
+                              + np.abs(moved[:, 2]) * self._colliding_reach).max())
+        if not math.isfinite(farthest):
+            return 1  # a blown-up state: the simulation's divergence check reports it
+        return min(max(math.ceil(farthest / (0.5 * self.thickness)), 1), MAX_SUBSTEPS)
+
+    # ------------------------------------------------------------------ response
+
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
+        """Respond to the contacts found at ``q1`` after a step of ``h`` from velocities
+        ``v0``; updates ``q1`` and ``v1`` in place."""
+        contacts = self.detect(q1)
+        if not contacts:
+            self._warm = {}
+            return
+        touched = sorted(({c[0] for c in contacts} | {c[1] for c in contacts}) - {-1})
+        still = [0.0, 0.0, 0.0]
+        poses = {b: q1[b].tolist() for b in touched}
+        velocity = {b: v1[b].tolist() for b in touched}
+        velocity[-1] = still
+        arrived = {b: list(velocity[b]) for b in touched}
+        before = {b: v0[b].tolist() for b in touched}
+        before[-1] = still
+        rows = [self._prepare(c, poses, velocity, before, h) for c in contacts]
+        for row in rows:  # warm start, once every target is set from the step's velocities
+            jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
+            row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
+        self._solve_velocities(rows, velocity)
+        self._remember(rows, poses)
+        for b in touched:
+            if velocity[b] != arrived[b]:
+                poses[b] = [p + h * (new - old)
+                            for p, new, old in zip(poses[b], velocity[b], arrived[b])]
+                q1[b] = poses[b]
+                v1[b] = velocity[b]
+        self._correct_positions(rows, velocity, q1, h)
+
+    def _prepare(self, contact: list, poses: dict, velocity: dict, before: dict,
+                 h: float) -> ContactRow:
+        """The solver row of ``contact``, its impulses warm-started from the last step."""
+        a, b, (px, py), (nx, ny), depth, e, mu, key = contact
+        im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
+        im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
+        rax, ray = (px - poses[a][0], py - poses[a][1]) if a >= 0 else (0.0, 0.0)
+        rbx, rby = px - poses[b][0], py - poses[b][1]
+        rna, rnb = rax * ny - ray * nx, rbx * ny - rby * nx  # perp(r) . n = r x n
+        rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
+        mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)
+        mass_t = 1.0 / (im_a + im_b + rta * rta * ii_a + rtb * rtb * ii_b)
+        approach = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby, nx, ny)
+        # End the step just touching (never pushed apart by velocity: overlap left from
+        # earlier steps is the position correction's job) or, if the contact closed during
+        # the step fast enough, bounce. The bounce reverses the approach speed from before
+        # the step: the speed the forces added during the step was not there at impact, and
+        # reversing it too would add energy at every bounce.
+        target = min(approach + depth / h, 0.0)
+        if depth > 0.0 and approach < -self.threshold:
+            impact = _normal_velocity(before[a], before[b], rax, ray, rbx, rby, nx, ny)
+            target = max(target, -e * min(impact, 0.0))
+        jn, jt = self._recall(key, rbx, rby, poses[b][2])
+        return ContactRow(a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt,
+                          depth, im_a, ii_a, im_b, ii_b, approach, key)
+
+    def _recall(self, pair: tuple, rx: float, ry: float, angle: float) -> tuple[float, float]:
+        """Last step's impulses of the contact of ``pair`` nearest this point, if within
+        :data:`MATCH`; each remembered contact is used once."""
+        remembered = self._warm.get(pair)
+        if not remembered:
+            return 0.0, 0.0
+        c, s = cos_sin_of(angle)
+        lx, ly = c * rx + s * ry, -s * rx + c * ry
+        best, nearest = None, MATCH * MATCH
+        for i, (mx, my, _, _) in enumerate(remembered):
+            d = (mx - lx) ** 2 + (my - ly) ** 2
+            if d <= nearest:
+                best, nearest = i, d
+        if best is None:
+            return 0.0, 0.0
+        _, _, jn, jt = remembered.pop(best)
+        return jn, jt
+
+    def _remember(self, rows: list[ContactRow], poses: dict) -> None:
+        """Keep each contact's impulses with its point in the second body's frame."""
+        self._warm = {}
+        for row in rows:
+            rbx, rby, angle = row.rbx, row.rby, poses[row.b][2]
+            c, s = cos_sin_of(angle)
+            self._warm.setdefault(row.key, []).append(
+                (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
+
+    def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
+        """Gauss-Seidel over the rows until no impulse changes a velocity by more than
+        :data:`CONVERGED` relative to the fastest body, or :data:`MAX_ITERATIONS` passes."""
+        scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
+        for _ in range(MAX_ITERATIONS):
+            largest = 0.0
+            for row in rows:
+                va, vb = velocity[row.a], velocity[row.b]
+                rax, ray, rbx, rby, nx, ny = row.rax, row.ray, row.rbx, row.rby, row.nx, row.ny
+                jn, mass_n = row.jn, row.mass_n
+                dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
+                dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
+                new_n = max(jn + (row.target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
+                change = abs(new_n - jn) / mass_n
+                row.push(velocity, (new_n - jn) * nx, (new_n - jn) * ny)
+                row.jn = new_n
+                if row.mu > 0.0:
+                    dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
+                    dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
+                    jt, mass_t, bound = row.jt, row.mass_t, row.mu * new_n
+                    new_t = min(max(jt - (-dvx * ny + dvy * nx) * mass_t, -bound), bound)
+                    change = max(change, abs(new_t - jt) / mass_t)
+                    row.push(velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
+                    row.jt = new_t
+                largest = max(largest, change)
+            if largest <= CONVERGED * scale:
+                return
+
+    def _correct_positions(self, rows: list[ContactRow], velocity: dict, q1: np.ndarray,
+                           h: float) -> None:
+        """Remove overlap beyond :data:`SLOP` by moving positions only.
+
+        A contact's depth after the velocity change is depth - h (v_n' - v_n), linear in the
+        arms; each pass moves the two bodies apart along the normal by a fraction of the
+        excess, weighted by their inverse masses and inertias.
+        """
+        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach) for row in rows]
+        if max(base) <= SLOP:
+            return
+        shift = {b: [0.0, 0.0, 0.0] for b in velocity}
+        for _ in range(POSITION_ITERATIONS):
+            for row, depth in zip(rows, base):
+                excess = depth - SLOP - row.normal_velocity(shift)
+                if excess <= 0.0:
+                    continue
+                push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n
+                row.push(shift, push * row.nx, push * row.ny)
+        for b, s in shift.items():
+            if b >= 0 and any(s):
+                q1[b] += s
+
+
+def _normal_velocity(va: list, vb: list, rax: float, ray: float, rbx: float, rby: float,
+                     nx: float, ny: float) -> float:
+    """(v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n: negative when approaching."""
+    return ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
+            + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+
+
+def _collide(part_a: tuple, part_b: tuple) -> list:
+    """Narrow phase for two placed parts, normal from A to B."""
+    if part_a[0] == "polygon" and part_b[0] == "polygon":
+        return polygon_polygon(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    if part_a[0] == "circle" and part_b[0] == "circle":
+        return circle_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    if part_a[0] == "polygon":
+        return polygon_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
+    flipped = polygon_circle(part_b[1], part_b[2], part_a[1], part_a[2], MARGIN)
+    return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]

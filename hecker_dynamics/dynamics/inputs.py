@@ -1,0 +1,148 @@
+"""The input buffer: which commanded wrenches act during each step.
+
+Rules (design section 4): a command starts to act at the first step that begins at or
+after its stamp; a newer command with the same ``(body, source)`` replaces it; it stops at
+``stamp + duration`` when it has a duration, else at ``stamp + timeout`` (the safety
+timeout, like a velocity-command timeout; 0 disables it). Commands are held constant over
+a step. Commands with equal stamps take effect in the order they were pushed, so the same
+inputs in the same order always give the same forces.
+"""
+from __future__ import annotations
+
+import heapq
+import itertools
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any, Optional
+
+from .commands import InputError, WrenchCommand
+
+
+@dataclass(frozen=True)
+class Held:
+    """A command in the buffer with its resolved force row and the time it stops acting."""
+
+    command: WrenchCommand
+    row: tuple[Any, ...]
+    end_ns: Optional[int]
+
+
+class InputBuffer:
+    """Pending and active commands, keyed by ``(body, source)``."""
+
+    def __init__(self, timeout_ns: int, max_pending: int = 10_000, max_active: int = 1_000) -> None:
+        self.timeout_ns = timeout_ns
+        self.max_pending = max_pending
+        self.max_active = max_active
+        self._pending: list[tuple[int, int, Held]] = []
+        self._active: dict[tuple[str, str], Held] = {}
+        self._pending_keys: Counter[tuple[str, str]] = Counter()
+        self._order = itertools.count()
+
+    def end_of(self, command: WrenchCommand) -> Optional[int]:
+        """When a command stops acting, if nothing replaces it (None: never)."""
+        if command.duration_ns > 0:
+            return command.stamp_ns + command.duration_ns
+        if self.timeout_ns > 0:
+            return command.stamp_ns + self.timeout_ns
+        return None
+
+    def add(self, command: WrenchCommand, row: tuple[Any, ...]) -> None:
+        """Queue a command; raises :class:`InputError` when the buffer is full."""
+        what = f"the command for '{command.body}' from '{command.source}'"
+        if len(self._pending) >= self.max_pending:
+            raise InputError(f"input buffer full ({self.max_pending} pending commands); "
+                             f"dropped {what}")
+        key = (command.body, command.source)
+        if key not in self._active and key not in self._pending_keys and \
+                len(self._active.keys() | self._pending_keys.keys()) >= self.max_active:
+            raise InputError(f"more than {self.max_active} input sources at once; dropped {what}")
+        held = Held(command, row, self.end_of(command))
+        self._pending_keys[key] += 1
+        heapq.heappush(self._pending, (command.stamp_ns, next(self._order), held))
+
+    def update(self, now_ns: int) -> bool:
+        """Start due commands and stop ended ones at the start of a step; True if any changed."""
+        if not self._pending and not self._active:
+            return False
+        changed = False
+        while self._pending and self._pending[0][0] <= now_ns:
+            held = heapq.heappop(self._pending)[2]
+            key = (held.command.body, held.command.source)
+            self._pending_keys[key] -= 1
+            if not self._pending_keys[key]:
+                del self._pending_keys[key]
+            self._active[key] = held
+            changed = True
+        ended = [key for key, held in self._active.items()
+                 if held.end_ns is not None and held.end_ns <= now_ns]
+        for key in ended:
+            del self._active[key]
+        return changed or bool(ended)
+
+    def next_change(self) -> Optional[int]:
+        """The earliest time at which :meth:`update` may change the active commands: the
+        first pending stamp or the first end of an active command (None: never, unless a
+        command is added)."""
+        if not self._pending and not self._active:
+            return None
+        ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
+        if self._pending:
+            ends.append(self._pending[0][0])
+        return min(ends, default=None)
+
+    def export_state(self) -> dict[str, Any]:
+        """The buffer as plain data: pending commands in heap order with their order
+        numbers, active ones in the order they act (their rows are summed in that order),
+        and the next order number. :meth:`import_state` restores it exactly."""
+        order = next(self._order)
+        self._order = itertools.count(order)
+        return {
+            "pending": [[stamp, number, _command_data(held.command)]
+                        for stamp, number, held in self._pending],
+            "active": [_command_data(held.command) for held in self._active.values()],
+            "next_order": order,
+        }
+
+    def import_state(self, state: dict[str, Any],
+                     row_of: Callable[[WrenchCommand], tuple[Any, ...]]) -> None:
+        """Restore :meth:`export_state`'s data; ``row_of`` resolves a command's force row."""
+        def held(data: dict[str, Any]) -> Held:
+            command = _command_from_data(data)
+            return Held(command, row_of(command), self.end_of(command))
+
+        self.clear()
+        self._pending = [(int(stamp), int(number), held(data))
+                         for stamp, number, data in state["pending"]]
+        for _, _, item in self._pending:
+            self._pending_keys[(item.command.body, item.command.source)] += 1
+        for data in state["active"]:
+            item = held(data)
+            self._active[(item.command.body, item.command.source)] = item
+        self._order = itertools.count(int(state["next_order"]))
+
+    def active(self) -> list[Held]:
+        return list(self._active.values())
+
+    def clear(self) -> None:
+        self._pending.clear()
+        self._pending_keys.clear()
+        self._active.clear()
+
+    def __len__(self) -> int:
+        return len(self._pending) + len(self._active)
+
+
+def _command_data(command: WrenchCommand) -> dict[str, Any]:
+    data = asdict(command)
+    data["point"], data["force"] = list(command.point), list(command.force)
+    return data
+
+
+def _command_from_data(data: dict[str, Any]) -> WrenchCommand:
+    return WrenchCommand(
+        stamp_ns=int(data["stamp_ns"]), body=str(data["body"]), source=str(data["source"]),
+        frame_id=str(data["frame_id"]), point=(float(data["point"][0]), float(data["point"][1])),
+        force=(float(data["force"][0]), float(data["force"][1])), torque=float(data["torque"]),
+        duration_ns=int(data["duration_ns"]))

@@ -1,0 +1,176 @@
+"""The compiled kernel: the force model and the explicit integrators in C, when built.
+
+``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
+and Python's headers are present, and always by colcon. It evaluates the same force terms
+as :mod:`.forces` and steps the explicit methods of :mod:`.integrators`, repeating the
+plain-float path operation for operation: the accelerations and the fixed-step methods
+give the same bits as Python's plain-float path, and the adaptive methods (whose stage
+sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
+(Spring lengths whose squares under- or overflow, below 1e-154 m or above 1e154 m, use
+C's and Python's hypot, which may differ in the last bit.) Without it, or with the
+environment variable ``HECKER_DYNAMICS_KERNEL=0``, everything runs in Python.
+
+This module only translates: each force term is packed into the kernel's layout (integer
+and real columns per instance, see ``src/kernel/kernel.h``) once, and the inputs' term
+again whenever the active inputs change.
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import TYPE_CHECKING, NamedTuple, Optional
+
+import numpy as np
+
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
+from ..integrators.methods import EmbeddedRungeKutta, Integrator
+
+if TYPE_CHECKING:
+    from .model import Model
+
+try:
+    from .. import _kernel
+except ImportError:  # not built: no compiler or headers when installed
+    _kernel = None
+
+#: The environment variable that switches the kernel off when set to "0".
+SWITCH = "HECKER_DYNAMICS_KERNEL"
+
+
+def built() -> bool:
+    """True if the compiled kernel was built and imports."""
+    return _kernel is not None
+
+
+def enabled() -> bool:
+    """True if new models use the kernel: it is built and not switched off."""
+    return built() and os.environ.get(SWITCH, "1") != "0"
+
+
+Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h
+
+
+def _packed(kind: int, ints: list[np.ndarray], reals: list[np.ndarray]) -> Packed:
+    """A term's columns, one row per instance: C-contiguous int64 and float64."""
+    return (kind, np.ascontiguousarray(np.column_stack(ints), dtype=np.int64),
+            np.ascontiguousarray(np.column_stack(reals), dtype=np.float64))
+
+
+def _law(term: AnchorSpringTerm | BodySpringTerm) -> list[np.ndarray]:
+    return [term.law.stiffness, term.law.rest_length, term.law.damping]
+
+
+#: Per kind of term: its columns in the kernel's layout (kernel.h, enum TermKind; the kind
+#: codes are the module's constants).
+_PACKERS: dict[type, Callable[..., Packed]] = {
+    GravityTerm: lambda t: _packed(_kernel.GRAVITY, [t.bodies], [t.weights]),
+    AnchorSpringTerm: lambda t: _packed(_kernel.ANCHOR_SPRING, [t.body],
+                                        [t.local, t.anchor, *_law(t)]),
+    BodySpringTerm: lambda t: _packed(_kernel.BODY_SPRING, [t.body_a, t.body_b],
+                                      [t.local_a, t.local_b, *_law(t)]),
+    CentreDragTerm: lambda t: _packed(_kernel.CENTRE_DRAG, [t.body, t.quadratic],
+                                      [t.coefficient]),
+    PointDragTerm: lambda t: _packed(_kernel.POINT_DRAG, [t.body, t.quadratic],
+                                     [t.local, t.coefficient]),
+    AngularDampingTerm: lambda t: _packed(_kernel.ANGULAR_DAMPING, [t.body], [t.coefficient]),
+    ConstantWrenchTerm: lambda t: _packed(_kernel.WRENCH,
+                                          [t.body, t.axes_body, t.point_body, t.at_point],
+                                          [t.force, t.torque, t.point]),
+}
+
+
+def pack(term: ForceTerm) -> Packed:
+    """A force term in the kernel's layout."""
+    return _PACKERS[type(term)](term)
+
+
+class CompiledForces:
+    """A model's forces as a kernel program, with the active inputs as a second one."""
+
+    def __init__(self, model: Model) -> None:
+        self.bodies = model.size
+        self.program = _kernel.program(model.size, np.ascontiguousarray(model.inverse_mass),
+                                       [pack(term) for term in model.terms])
+        self.inputs = None
+
+    def set_inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
+        """The wrenches of the inputs active from now on (None: none)."""
+        self.inputs = None if term is None else _kernel.program(self.bodies, None, [pack(term)])
+
+    def accelerations(self, q: np.ndarray, v: np.ndarray, oriented: bool) -> np.ndarray:
+        """(ax, ay, alpha) per body, as :meth:`.Model.accelerations`."""
+        out = np.empty((self.bodies, 3))
+        _kernel.accelerations(self.program, self.inputs, oriented, np.ascontiguousarray(q),
+                              np.ascontiguousarray(v), out)
+        return out
+
+
+#: The integrators the kernel steps, by name, with the name of the kernel's code for each.
+KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
+                  "semi_implicit_euler": "SEMI_IMPLICIT_EULER",
+                  "velocity_verlet": "VELOCITY_VERLET", "rk4": "RK4", "dopri5": "EMBEDDED",
+                  "dop853": "EMBEDDED"}
+
+#: The kernel's failures of an integrator, by the name of their status code.
+_FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
+             "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
+                                  "one step"}
+
+
+class Advanced(NamedTuple):
+    """What :meth:`CompiledSteps.advance` did: steps completed, and why it stopped early
+    (``error``: the integrator failed; ``diverged``: the failed, non-finite new state)."""
+
+    taken: int
+    error: Optional[str] = None
+    diverged: Optional[tuple[np.ndarray, np.ndarray]] = None
+
+
+class CompiledSteps:
+    """Whole steps of an explicit integrator on a model's compiled forces."""
+
+    def __init__(self, model: Model, integrator: Integrator) -> None:
+        self.model, self.integrator = model, integrator
+        self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
+        self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
+        self.pair = None
+        self.tolerance = 0.0
+        if isinstance(integrator, EmbeddedRungeKutta):
+            pair = integrator.pair
+            self.pair = _kernel.pair(pair.slopes, np.ascontiguousarray(pair.a),
+                                     np.ascontiguousarray(pair.error), pair.error_order)
+            self.tolerance = integrator.tolerance
+        # Where the kernel writes each new state before it is checked: kept from call to call.
+        self._q_new, self._v_new = np.empty((model.size, 3)), np.empty((model.size, 3))
+
+    def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int) -> Advanced:
+        """Advance (q, v), C-contiguous (N, 3) arrays, in place by up to ``steps`` steps of
+        ``h`` seconds, wrapping angles after each; stop at the first failing step, leaving
+        the last good state in (q, v)."""
+        forces, integrator = self.model.compiled, self.integrator
+        embedded = self.pair is not None
+        status, taken, evaluations, substeps, rejected, size = _kernel.advance(
+            forces.program, forces.inputs, self.model.oriented, self.method, self.pair,
+            self.tolerance, integrator.substep_size if embedded else 0.0, q, v, self._q_new,
+            self._v_new, h, steps)
+        counters = integrator.counters
+        counters.evaluations += evaluations
+        if embedded:
+            counters.substeps += substeps
+            counters.rejected += rejected
+            integrator.substep_size = size
+        if status == _kernel.NOT_FINITE:
+            return Advanced(taken, diverged=(self._q_new.copy(), self._v_new.copy()))
+        if status != _kernel.ADVANCED:
+            return Advanced(taken, error=f"{integrator.name}: {self._failures[status]}")
+        return Advanced(taken)
+
+
+def compiled_steps(model: Model, integrator: Integrator) -> Optional[CompiledSteps]:
+    """The kernel's stepping of ``integrator`` on ``model``, if it can take whole steps:
+    the model's forces are compiled, it has no contact pass and the method is explicit."""
+    if model.compiled is None or model.contacts is not None or \
+            integrator.name not in KERNEL_METHODS:
+        return None
+    return CompiledSteps(model, integrator)

@@ -1,0 +1,346 @@
+"""The simulation: sim clock, input buffer and state, advanced in fixed steps.
+
+One step is the article's loop ("Physics, Part 2: Angular Effects", steps 3 to 8): the
+active inputs join the scene's forces, the integrator turns accelerations into a new state,
+walls respond with impulses, and the angle is wrapped. Time is kept in integer nanoseconds
+(as ROS stamps are), so steps never drift and the same scene with the same inputs in the
+same order gives bit-identical states.
+
+Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
+collisions and the method is explicit, the steps between one publish instant or input
+change and the next run in the kernel in one call, with the results of Python's
+plain-float path: the same bits with the fixed-step methods (but for spring lengths whose
+squares under- or overflow), the same to rounding per step with the adaptive ones.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any, NamedTuple, Optional
+
+import numpy as np
+
+from .commands import InputError, WrenchCommand
+from .inputs import InputBuffer
+from ..integrators.methods import ImplicitTheta, IntegrationError, choose_method, make_integrator
+from .kernel import compiled_steps
+from .model import Model, wrench_term
+from ..geometry.planar import wrap_angles_in_place
+from ..scene.load import Scene
+
+
+class DivergenceError(RuntimeError):
+    """The state stopped being finite; the simulation kept its last finite state."""
+
+
+class BodyState(NamedTuple):
+    """A body's published state: its frame's pose and velocity in the fixed frame.
+
+    A named tuple: a snapshot of ten thousand bodies builds in milliseconds."""
+
+    name: str
+    position: tuple[float, float]  # origin of the body frame
+    angle: float  # radians, counter-clockwise, in [-pi, pi)
+    linear_velocity: tuple[float, float]  # of the body-frame origin, fixed-frame axes
+    angular_velocity: float
+
+
+class Snapshot:
+    """All bodies at one instant, with the total mechanical energy.
+
+    Taking one copies the state and nothing more: the energy and the per-body states are
+    computed on first use, so a run that publishes little pays little, which matters with
+    thousands of bodies and with long steps.
+    """
+
+    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies")
+
+    def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
+                 v: np.ndarray) -> None:
+        self.time_ns, self.steps = time_ns, steps
+        self._model, self._q, self._v = model, q.copy(), v.copy()
+        self._energy: Optional[float] = None
+        self._bodies: Optional[tuple[BodyState, ...]] = None
+
+    @property
+    def energy(self) -> float:
+        """Kinetic energy plus the potential energy of gravity and springs (J)."""
+        if self._energy is None:
+            with np.errstate(all="ignore"):  # as in the step: a huge state gives inf, quietly
+                self._energy = self._model.energy(self._q, self._v)
+        return self._energy
+
+    @property
+    def bodies(self) -> tuple[BodyState, ...]:
+        if self._bodies is None:
+            with np.errstate(all="ignore"):
+                origin, velocity = self._model.body_frames(self._q, self._v)
+            columns = zip(self._model.names, origin.tolist(), self._q[:, 2].tolist(),
+                          velocity.tolist(), self._v[:, 2].tolist())
+            self._bodies = tuple(BodyState(name, (x, y), a, (vx, vy), w)
+                                 for name, (x, y), a, (vx, vy), w in columns)
+        return self._bodies
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Snapshot):
+            return NotImplemented
+        return (self.time_ns, self.energy, self.steps, self.bodies) == \
+            (other.time_ns, other.energy, other.steps, other.bodies)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return (f"Snapshot(time_ns={self.time_ns}, energy={self.energy!r}, "
+                f"steps={self.steps}, bodies={self.bodies!r})")
+
+
+class Simulation:
+    """A deterministic, fixed-step simulation of one scene."""
+
+    def __init__(self, scene: Scene, *, start_ns: int = 0) -> None:
+        self.scene = scene
+        self.model = Model(scene)
+        self.step_ns = scene.step_ns
+        self.step_seconds = scene.step_ns * 1e-9
+        method = scene.integrator
+        if method == "auto":
+            method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
+                                   self.model.contacts is not None)
+        self.integrator = make_integrator(method, scene.tolerance)
+        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
+            self.integrator.colouring_source = self.model.jacobian_colouring
+        # Whole steps in the compiled kernel, used while the model's forces are compiled.
+        self._compiled = compiled_steps(self.model, self.integrator)
+        self._inputs = InputBuffer(scene.input_timeout_ns)
+        self.reset(start_ns)
+
+    # ----------------------------------------------------------------- state
+
+    def reset(self, start_ns: Optional[int] = None) -> None:
+        """Return to the scene's initial state, drop all inputs, restart the clock."""
+        if start_ns is not None:
+            self.start_ns = int(start_ns)
+        self._time_ns = self.start_ns
+        self._steps = 0
+        self.q, self.v = self.model.initial_state()
+        self._inputs.clear()
+        self.model.inputs = None
+        self.integrator.reset()
+        if self.model.contacts is not None:
+            self.model.contacts.reset()
+
+    @property
+    def time_ns(self) -> int:
+        """Sim time of the current state."""
+        return self._time_ns
+
+    @property
+    def steps(self) -> int:
+        return self._steps
+
+    def snapshot(self) -> Snapshot:
+        """The published state of every body now, with the total energy."""
+        return Snapshot(self._time_ns, self._steps, self.model, self.q, self.v)
+
+    def export_state(self) -> dict[str, Any]:
+        """Everything a continuation depends on, as plain data (float64 values exact, as
+        Python floats): clock, step count, the state q and v, the input buffer, and what the
+        integrator and the contact pass carry from step to step. A simulation of the same
+        scene given it by :meth:`import_state` continues bit for bit as this one does."""
+        return {
+            "start_ns": self.start_ns, "time_ns": self._time_ns, "steps": self._steps,
+            "q": self.q.tolist(), "v": self.v.tolist(),
+            "inputs": self._inputs.export_state(),
+            "integrator": self.integrator.export_state(),
+            "contacts": None if self.model.contacts is None else self.model.contacts.export_state(),
+        }
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`export_state`'s data (of a simulation of the same scene)."""
+        q, v = np.array(state["q"], dtype=float), np.array(state["v"], dtype=float)
+        if q.shape != self.q.shape or v.shape != self.v.shape:
+            raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
+                             f"{self.model.size}")
+        self.start_ns, self._time_ns = int(state["start_ns"]), int(state["time_ns"])
+        self._steps = int(state["steps"])
+        self.q, self.v = q, v
+        self._inputs.import_state(state["inputs"], self._row)
+        rows = [held.row for held in self._inputs.active()]
+        self.model.inputs = wrench_term(rows) if rows else None
+        self.integrator.reset()
+        self.integrator.import_state(state["integrator"])
+        if self.model.contacts is not None:
+            self.model.contacts.import_state(state["contacts"] or [])
+
+    # ----------------------------------------------------------------- inputs
+
+    def push(self, command: WrenchCommand) -> None:
+        """Queue a command; raises :class:`InputError` (and changes nothing) if it is bad."""
+        command.check_finite()
+        if command.body not in self.model.index:
+            raise InputError(f"unknown body '{command.body}' (bodies: "
+                             f"{', '.join(self.model.names)})")
+        if command.stamp_ns > self._time_ns + self.scene.input_max_lead_ns:
+            raise InputError(
+                f"command for '{command.body}' from '{command.source}' is stamped "
+                f"{(command.stamp_ns - self._time_ns) * 1e-9:.3f} s ahead of sim time "
+                f"(limit {self.scene.input_max_lead_ns * 1e-9:g} s)")
+        end = self._inputs.end_of(command)
+        if end is not None and end <= self._time_ns:
+            raise InputError(
+                f"command for '{command.body}' from '{command.source}' ended before the "
+                f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
+        self._inputs.add(command, self._row(command))
+
+    def _row(self, command: WrenchCommand) -> tuple:
+        """The command as a constant-wrench row: its frame resolved to a body or the world."""
+        target = self.model.index[command.body]
+        if command.frame_id == self.scene.frame_id:
+            return (target, command.force, command.torque, -1, -1, command.point, True)
+        name, _, point_name = command.frame_id.partition("/")
+        owner = self.model.index.get(name)
+        if owner is None:
+            raise InputError(f"unknown frame '{command.frame_id}' for a command on "
+                             f"'{command.body}' (frames: '{self.scene.frame_id}', a body, "
+                             "or '<body>/<point>')")
+        origin = (0.0, 0.0)
+        if point_name:
+            points = self.scene.bodies[owner].points
+            if point_name not in points:
+                raise InputError(f"unknown frame '{command.frame_id}': body '{name}' has no "
+                                 f"point '{point_name}' (points: {', '.join(points) or 'none'})")
+            origin = points[point_name]
+        point = (origin[0] + command.point[0], origin[1] + command.point[1])
+        return (target, command.force, command.torque, owner, owner,
+                tuple(self.model.local(owner, point)), True)
+
+    # ----------------------------------------------------------------- stepping
+
+    def step(self) -> None:
+        """Advance one fixed step; raises :class:`DivergenceError` if the state blows up."""
+        with np.errstate(all="ignore"):
+            self._advance(1)
+
+    def _advance(self, limit: int) -> int:
+        """Take from 1 to ``limit`` steps (the floating-point error settings are the
+        caller's) and return how many: in the compiled kernel as many as the inputs allow
+        before they next change, else one in Python."""
+        if self._inputs.update(self._time_ns):
+            rows = [held.row for held in self._inputs.active()]
+            self.model.inputs = wrench_term(rows) if rows else None
+        if self._compiled is None or self.model.compiled is None:
+            self._step()
+            return 1
+        change = self._inputs.next_change()
+        if change is not None:  # the first step that starts at or after it sees the change
+            limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
+        q, v = self.q.copy(), self.v.copy()
+        done = self._compiled.advance(q, v, self.step_seconds, limit)
+        self.q, self.v = q, v
+        self._steps += done.taken
+        self._time_ns += done.taken * self.step_ns
+        if done.error is not None:
+            error = IntegrationError(done.error)
+            raise self._failed(error) from error
+        if done.diverged is not None:
+            raise self._diverged(*done.diverged)
+        return done.taken
+
+    def _step(self) -> None:
+        """One step in Python, the inputs already updated."""
+        try:
+            q, v = self._integrate(self.q, self.v, self.step_seconds)
+        except (IntegrationError, np.linalg.LinAlgError) as error:
+            raise self._failed(error) from error
+        if not self._settle(q, v):
+            raise self._diverged(q, v)
+        self.q, self.v = q, v
+        self._steps += 1
+        self._time_ns += self.step_ns
+
+    def _failed(self, error: Exception) -> DivergenceError:
+        return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
+                               "kept the last finite state")
+
+    def _diverged(self, q: np.ndarray, v: np.ndarray) -> DivergenceError:
+        """The error for a new state (q, v) that is not finite, naming its bodies."""
+        bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
+        names = ", ".join(np.array(self.model.names)[bad]) or "the bodies"
+        return DivergenceError(f"state of {names} diverged at t = {self._time_ns * 1e-9:.6f} s; "
+                               "kept the last finite state")
+
+    def _settle(self, q: np.ndarray, v: np.ndarray) -> bool:
+        """Wrap the angles of a new state into [-pi, pi) in place; False if it is not finite.
+
+        A few bodies are checked in plain floats, where numpy's cost per call would
+        dominate.
+        """
+        if self.model.lean:
+            rows = q.tolist()
+            if not all(map(math.isfinite, (x for row in rows + v.tolist() for x in row))):
+                return False
+            if all(-math.pi <= row[2] < math.pi for row in rows):
+                return True
+        elif not (np.isfinite(q).all() and np.isfinite(v).all()):
+            return False
+        wrap_angles_in_place(q[:, 2])
+        return True
+
+    def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """One integrator step and the contact pass; split into sub-steps when a colliding
+        body would otherwise move more than half the thinnest colliding part."""
+        f = self.model.accelerations
+        q1, v1 = self.integrator.step(f, q, v, h)
+        contacts = self.model.contacts
+        if contacts is None:
+            return q1, v1
+        parts = contacts.substeps(q, q1)
+        if parts == 1:
+            contacts.resolve(q1, v1, v, h)
+            return q1, v1
+        for _ in range(parts):
+            q1, v1 = self.integrator.step(f, q, v, h / parts)
+            contacts.resolve(q1, v1, v, h / parts)
+            q, v = q1, v1
+        return q, v
+
+    def advance_to(self, t_ns: int, max_steps: Optional[int] = None) -> list[Snapshot]:
+        """Step while a whole step fits before ``t_ns`` (at most ``max_steps``).
+
+        Returns the snapshots at the publish instants passed: every ``publish_period_ns``
+        after the start time.
+        """
+        snapshots = []
+        taken = 0
+        period = self.scene.publish_period_ns
+        with np.errstate(all="ignore"):
+            while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
+                limit = min((t_ns - self._time_ns) // self.step_ns, self._steps_to_publish())
+                if max_steps is not None:
+                    limit = min(limit, max_steps - taken)
+                taken += self._advance(limit)
+                if (self._time_ns - self.start_ns) % period == 0:
+                    snapshots.append(self.snapshot())
+        return snapshots
+
+    def _steps_to_publish(self) -> int:
+        """Steps from now to the next publish instant (1 if the period is not a whole
+        number of steps)."""
+        period, step = self.scene.publish_period_ns, self.step_ns
+        if period % step:
+            return 1
+        per_publish = period // step
+        return per_publish - (self._time_ns - self.start_ns) // step % per_publish
+
+    def play(self, commands: tuple[WrenchCommand, ...], until_ns: int) -> list[Snapshot]:
+        """Push ``commands`` (stamps relative to the start time) as sim time reaches each
+        stamp, and advance to ``until_ns`` after the start; returns the snapshots passed.
+        Commands stamped at or after ``until_ns`` are not pushed."""
+        snapshots = []
+        for command in sorted(commands, key=lambda c: c.stamp_ns):
+            if command.stamp_ns >= until_ns:
+                break
+            stamp = self.start_ns + command.stamp_ns
+            snapshots += self.advance_to(stamp)
+            self.push(replace(command, stamp_ns=stamp))
+        return snapshots + self.advance_to(self.start_ns + until_ns)

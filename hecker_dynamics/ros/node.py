@@ -1,0 +1,383 @@
+"""The ROS 2 node ``dynamics_node``: thin rclpy glue over :class:`Simulation`.
+
+Inputs are turned into commands by :mod:`.fields`, the simulation steps in fixed steps up
+to the ROS clock (or, in lockstep, as fast as it can while publishing ``/clock``), and every
+publish instant it passes becomes ``<body>/pose`` and ``<body>/twist`` messages stamped with
+its sim time. Every decision (what a message means, when the clock jumped, how far the
+simulation lags) is made in the other modules of :mod:`hecker_dynamics.ros`; this module
+only moves data between them and rclpy.
+"""
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Callable
+from typing import Any, Optional
+
+import rclpy
+import rclpy.logging
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, PoseStamped, Twist, WrenchStamped
+from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
+from rosgraph_msgs.msg import Clock as ClockMessage
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import Marker, MarkerArray
+
+from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
+                     header, stamp_from_ns)
+from .diagnostics import DiagnosticFields
+from .markers import MarkerFields
+from .outputs import DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics, snapshot_outputs
+from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
+                     plan_tick)
+from .session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, INPUT_EVENTS_TOPIC,
+                      KEYFRAME_DEPTH, KEYFRAME_TOPIC, SESSION_DEPTH, SESSION_TOPIC,
+                      InputEventFields, KeyframeFields, SessionFields)
+from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo
+from .ratelimit import RateLimiter
+from ..scene.load import NODE_NAME, SceneError, WrenchTopic
+
+#: Keep-last depth of every publisher and subscription (reliable, volatile: rclpy's
+#: default profile for an int depth).
+QUEUE_DEPTH = 10
+
+MESSAGE_TYPES = {
+    OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
+    OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
+}
+
+
+# ----------------------------------------------------------------------------- messages
+# Each function copies a plain-fields tuple from mapping into an rclpy message. rosidl's
+# Python setters check types: floats for float64 fields, ints for integer fields, and
+# bytes of length one for ``byte`` fields (DiagnosticStatus.level).
+
+def _fill_header(msg: Any, fields: Header) -> None:
+    msg.stamp.sec = fields.sec
+    msg.stamp.nanosec = fields.nanosec
+    msg.frame_id = fields.frame_id
+
+
+def _fill_pose(msg: Any, fields: Pose) -> None:
+    msg.position.x, msg.position.y, msg.position.z = fields.position
+    (msg.orientation.x, msg.orientation.y, msg.orientation.z,
+     msg.orientation.w) = fields.orientation
+
+
+def _fill_twist(msg: Any, fields: TwistFields) -> None:
+    msg.linear.x, msg.linear.y, msg.linear.z = fields.linear
+    msg.angular.x, msg.angular.y, msg.angular.z = fields.angular
+
+
+def _pose_stamped(fields: PoseStampedFields) -> PoseStamped:
+    msg = PoseStamped()
+    _fill_header(msg.header, fields.header)
+    _fill_pose(msg.pose, fields.pose)
+    return msg
+
+
+def _twist(fields: TwistFields) -> Twist:
+    msg = Twist()
+    _fill_twist(msg, fields)
+    return msg
+
+
+def _odometry(fields: OdometryFields) -> Odometry:
+    """Covariances keep their default zeros (float64[36] numpy arrays): unknown."""
+    msg = Odometry()
+    _fill_header(msg.header, fields.header)
+    msg.child_frame_id = fields.child_frame_id
+    _fill_pose(msg.pose.pose, fields.pose)
+    _fill_twist(msg.twist.twist, fields.twist)
+    return msg
+
+
+def _marker(fields: MarkerFields) -> Marker:
+    msg = Marker()
+    _fill_header(msg.header, fields.header)
+    msg.ns = fields.ns
+    msg.id = fields.id
+    msg.type = fields.type
+    msg.action = fields.action
+    _fill_pose(msg.pose, fields.pose)
+    msg.scale.x, msg.scale.y, msg.scale.z = fields.scale
+    msg.color.r, msg.color.g, msg.color.b, msg.color.a = fields.color
+    msg.points = [Point(x=x, y=y, z=z) for x, y, z in fields.points]
+    return msg
+
+
+def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
+    return MarkerArray(markers=[_marker(fields) for fields in markers])
+
+
+def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray:
+    status = DiagnosticStatus(
+        level=bytes([fields.level]), name=fields.name, message=fields.message,
+        hardware_id=fields.hardware_id,
+        values=[KeyValue(key=key, value=value) for key, value in fields.values])
+    array = DiagnosticArray(status=[status])
+    _fill_header(array.header, head)
+    return array
+
+
+def _session_info(fields: SessionFields) -> SessionInfo:
+    msg = SessionInfo(
+        session=fields.session, reason=fields.reason, scene=fields.scene,
+        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
+        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
+        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
+        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
+        version=fields.version)
+    _fill_header(msg.header, header(fields.frame_id, fields.start_ns))
+    return msg
+
+
+def _keyframe(fields: KeyframeFields) -> Keyframe:
+    msg = Keyframe(session=fields.session, steps=fields.steps, next_event=fields.next_event,
+                   bodies=list(fields.bodies), q=list(fields.q), v=list(fields.v),
+                   state=fields.state)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    return msg
+
+
+def _input_event(fields: InputEventFields) -> InputEvent:
+    msg = InputEvent(session=max(fields.session, 0), sequence=fields.sequence,
+                     topic=fields.topic, kind=fields.kind, accepted=fields.accepted,
+                     reason=fields.reason)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    msg.arrival.sec, msg.arrival.nanosec = stamp_from_ns(fields.arrival_ns)
+    if fields.kind == APPLIED_WRENCH_EVENT:
+        msg.applied_wrench = fields.message
+    else:
+        msg.wrench_stamped = fields.message
+    return msg
+
+
+#: Session records: their topic, message builder and keep-last depth. Reliable and
+#: transient_local, so a recorder that starts after them still receives the latest.
+RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, int]] = {
+    SessionFields: (SESSION_TOPIC, _session_info, SessionInfo, SESSION_DEPTH),
+    KeyframeFields: (KEYFRAME_TOPIC, _keyframe, Keyframe, KEYFRAME_DEPTH),
+    InputEventFields: (INPUT_EVENTS_TOPIC, _input_event, InputEvent, INPUT_EVENTS_DEPTH),
+}
+
+
+MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
+    OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
+    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
+}
+
+
+# ----------------------------------------------------------------------------- node
+
+class DynamicsNode(Node):
+    """Simulates a scene and publishes each body's pose and twist.
+
+    ``node_kwargs`` go to :class:`rclpy.node.Node` (``context``, ``namespace``,
+    ``parameter_overrides``, ...). Raises :class:`SceneError` when the parameters do not
+    describe a valid scene.
+    """
+
+    def __init__(self, **node_kwargs: Any) -> None:
+        super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True,
+                         **node_kwargs)
+        for option in dataclasses.fields(NodeOptions):  # so that `ros2 param` shows them
+            if not self.has_parameter(option.name):
+                self.declare_parameter(option.name, option.default)
+        # Every parameter the node holds: the overrides (declared above), the options,
+        # use_sim_time and start_type_description_service (declared by rclpy); the scene
+        # reader skips the node's own (scene.NODE_PARAMETERS).
+        params = {name: parameter.value
+                  for name, parameter in self.get_parameters_by_prefix("").items()}
+        self.options, self.scene = node_setup(params, f"parameters of {self.get_name()}")
+        cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
+        for line in cap_warnings:
+            self.get_logger().warning(line)
+        self._record_publishers: dict[type, Any] = {}
+        if self.options.record_session:
+            for kind, (topic, _, msgtype, depth) in RECORD_TOPICS.items():
+                self._record_publishers[kind] = self.create_publisher(msgtype, topic, QoSProfile(
+                    history=HistoryPolicy.KEEP_LAST, depth=depth,
+                    reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self.runner = Runner(self.scene, play_script=self.options.play_script, max_steps=cap,
+                             started=self.options.lockstep,
+                             hardware_id=self.get_fully_qualified_name(),
+                             record=self.options.record_session,
+                             keyframe_period_ns=round(self.options.keyframe_period * NS_PER_S),
+                             lockstep=self.options.lockstep)
+        self.sim = self.runner.sim
+        self._limiter = RateLimiter()
+        self._last_tick_ns: Optional[int] = None
+        self._wrench_topic_names: dict[str, str] = {}
+        #: Done (with True, or False after a divergence) when a lockstep run reaches the
+        #: scene's duration; never done otherwise.
+        self.finished = Future()
+        self._publishers_by_topic = {
+            topic: self.create_publisher(MESSAGE_TYPES[kind], topic, QUEUE_DEPTH)
+            for topic, kind in output_topics(self.scene).items()}
+        self._applied_wrench = self.create_subscription(
+            AppliedWrench, "applied_wrench", self._on_applied_wrench, QUEUE_DEPTH)
+        for topic in self.scene.wrench_topics:
+            subscription = self.create_subscription(
+                WrenchStamped, topic.topic,
+                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
+            self._wrench_topic_names[topic.name] = subscription.topic_name
+        self.create_service(Trigger, "reset", self._on_reset)
+        if self.options.lockstep:
+            self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
+            # A zero period: the timer is always ready, so the run goes as fast as it can
+            # while the executor still serves subscriptions and the reset service.
+            self._timer = self.create_timer(
+                0.0, self._on_lockstep_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self._publish_clock()
+            self._publish_records()  # the lockstep session starts now
+        else:
+            self._timer = self.create_timer(self.scene.publish_period_ns / NS_PER_S,
+                                            self._on_tick)
+        self.get_logger().info(
+            f"scene {self.scene.source}: bodies "
+            f"{', '.join(b.name for b in self.scene.bodies)}; step "
+            f"{self.scene.step_ns / NS_PER_S:g} s, publishing every "
+            f"{self.scene.publish_period_ns / NS_PER_S:g} s"
+            + (", lockstep" if self.options.lockstep else ""))
+
+    # ----------------------------------------------------------------- logging
+
+    def _warn(self, key: str, message: str) -> None:
+        line = self._limiter.line(key, message)
+        if line is not None:
+            self.get_logger().warning(line)
+
+    def _log(self, lines: list[LogLine]) -> None:
+        for line in lines:
+            self._warn(line.key, line.message)
+
+    # ----------------------------------------------------------------- inputs
+
+    def _now_ns(self) -> int:
+        """The time a message arrives at: sim time in lockstep, else the ROS clock."""
+        return self.sim.time_ns if self.options.lockstep else self.get_clock().now().nanoseconds
+
+    def _on_applied_wrench(self, msg: AppliedWrench) -> None:
+        self._log(self.runner.accept(self._applied_wrench.topic_name, msg, self._now_ns()))
+        self._publish_records()
+
+    def _on_wrench_stamped(self, msg: WrenchStamped, topic: WrenchTopic) -> None:
+        self._log(self.runner.accept(self._wrench_topic_names[topic.name], msg, self._now_ns(),
+                                     topic))
+        self._publish_records()
+
+    # ----------------------------------------------------------------- stepping
+
+    def _on_tick(self) -> None:
+        """Timer on the node clock (ROS time): step the simulation up to now."""
+        now_ns = self.get_clock().now().nanoseconds
+        action, reason = plan_tick(now_ns, self._last_tick_ns)
+        if action is TickAction.WAIT:
+            self._warn("clock", reason)
+            return
+        if action is TickAction.START:
+            self.get_logger().info(reason)
+            self.runner.restart(now_ns, "start")
+        elif action is TickAction.RESTART:
+            self._warn("clock_jump", reason)
+            self.runner.restart(now_ns, "clock jump")
+        self._last_tick_ns = now_ns
+        self._advance(now_ns)
+
+    def _on_lockstep_tick(self) -> None:
+        """Steady timer in lockstep: one publish period per tick, then ``/clock``."""
+        if self.finished.done():
+            return
+        self._advance(self.sim.time_ns + self.scene.publish_period_ns)
+        self._publish_clock()
+        if self.runner.done():
+            self._timer.cancel()
+            self.get_logger().info(
+                f"lockstep run ended at {self.sim.time_ns / NS_PER_S:.9f} s")
+            self.finished.set_result(self.runner.halted is None)
+
+    def _advance(self, target_ns: int) -> None:
+        """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed."""
+        tick = self.runner.advance(target_ns)
+        self._publish_records()
+        for line in tick.script_errors:
+            self._warn("script", line)
+        if tick.diverged is not None:
+            self.get_logger().error(
+                f"{tick.diverged}; halted until the 'reset' service is called")
+        for snapshot in tick.snapshots:
+            for output in snapshot_outputs(self.scene, snapshot):
+                self._publish(output)
+        if tick.lag:
+            self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
+                                 f"clock (a tick takes at most {self.runner.max_steps} steps: "
+                                 "max_catch_up_steps)")
+        if tick.diagnostics is not None:
+            self._publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
+                _diagnostic_array(tick.diagnostics, header("", self.sim.time_ns)))
+
+    # ----------------------------------------------------------------- outputs
+
+    def _publish_records(self) -> None:
+        """Publish the session records the runner made (dropped with record_session off)."""
+        for record in self.runner.take_records():
+            _, build, _, _ = RECORD_TOPICS[type(record)]
+            self._record_publishers[type(record)].publish(build(record))
+
+    def _publish(self, output: OutputFields) -> None:
+        self._publishers_by_topic[output.topic].publish(
+            MESSAGE_BUILDERS[output.kind](output.fields))
+
+    def _publish_clock(self) -> None:
+        msg = ClockMessage()
+        msg.clock.sec, msg.clock.nanosec = stamp_from_ns(self.sim.time_ns)
+        self._clock_publisher.publish(msg)
+
+    # ----------------------------------------------------------------- reset service
+
+    def _on_reset(self, request: Trigger.Request,
+                  response: Trigger.Response) -> Trigger.Response:
+        """Restart the scene at the current time (sim time in lockstep, else the ROS clock)."""
+        start_ns = self._now_ns()
+        if not self.options.lockstep and start_ns == 0:
+            response.success = False
+            response.message = "the ROS clock is not running yet (waiting for /clock)"
+            return response
+        self.runner.restart(start_ns, "reset")
+        self._publish_records()
+        if not self.options.lockstep:
+            self._last_tick_ns = start_ns
+        response.success = True
+        response.message = f"scene restarted at {start_ns / NS_PER_S:.9f} s"
+        self.get_logger().info(response.message)
+        return response
+
+
+def main(args: Optional[list[str]] = None) -> int:
+    """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = DynamicsNode()
+        rclpy.spin_until_future_complete(node, node.finished)
+        return 0 if not node.finished.done() or node.finished.result() else 1
+    except SceneError as error:
+        rclpy.logging.get_logger(NODE_NAME).fatal(str(error))
+        return 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,12 @@
+"""Scenes: ROS 2 parameters files read, checked and turned into typed specs.
+
+``parameters`` reads the flat dotted names of a parameters file; ``load`` builds the
+:class:`Scene` (bodies, forces, walls, collisions, inputs, integrator, outputs) and refuses a
+bad file with a :class:`SceneError` that names the file and the parameter.
+"""
+from .load import (DEFAULT_SCENE, INTEGRATORS, BodySpec, Scene, WrenchTopic, load_scene,
+                   scene_from_parameters, scene_path, shipped_scenes)
+from .parameters import SceneError
+
+__all__ = ["DEFAULT_SCENE", "INTEGRATORS", "BodySpec", "Scene", "SceneError", "WrenchTopic",
+           "load_scene", "scene_from_parameters", "scene_path", "shipped_scenes"]

@@ -1,0 +1,557 @@
+"""Scenes: a validated description of bodies, forces, walls and inputs.
+
+A scene is a ROS 2 parameters file (``dynamics_node: ros__parameters: ...``), so the same
+file serves ``ros2 run hecker_dynamics dynamics_node --ros-args --params-file`` and the
+offline tools. :func:`load_scene` reads a file or a shipped scene by name;
+:func:`scene_from_parameters` reads the flat parameters a node holds. Every error names
+the source, the parameter and what is wrong. ``docs/scenes.md`` lists every parameter.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import yaml
+
+from ..dynamics.commands import WrenchCommand
+from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
+                       mass_properties)
+from ..integrators.methods import METHODS
+from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
+
+__all__ = [
+    "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
+    "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
+    "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
+    "shipped_scenes",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
+]
+
+DEFAULT_SCENE = "sample"
+NODE_NAME = "dynamics_node"
+INTEGRATORS = (*METHODS, "auto")
+#: Parameters that belong to the node, not the scene; the scene reader lets them pass.
+NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
+                             "max_catch_up_steps", "record_session", "keyframe_period",
+                             "start_type_description_service", "qos_overrides"})
+Vec2 = tuple[float, float]
+#: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
+TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """A rigid body: its shapes (body frame), mass properties and initial state.
+
+    ``position`` and ``angle`` place the body frame in the fixed frame; ``velocity`` is the
+    velocity of the body frame's origin (fixed-frame axes), as the published twist reports it.
+    """
+
+    name: str
+    shapes: tuple[Shape, ...]
+    mass: MassProperties
+    position: Vec2
+    angle: float
+    velocity: Vec2
+    angular_velocity: float
+    points: Mapping[str, Vec2] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Uniform gravity acting at the CM of each listed body (no torque)."""
+
+    name: str
+    acceleration: Vec2
+    bodies: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class SpringSpec:
+    """A damped spring from a point of ``body_a`` to a point of ``body_b`` or a fixed anchor."""
+
+    name: str
+    body_a: str
+    point_a: Vec2
+    body_b: Optional[str]
+    point_b: Vec2  # a point of body_b (body frame) or the anchor (fixed frame)
+    stiffness: float
+    rest_length: float
+    damping: float
+
+
+@dataclass(frozen=True)
+class DragSpec:
+    """Drag -c v_P (linear) or -c |v_P| v_P (quadratic) at the CM or at a body point."""
+
+    name: str
+    bodies: tuple[str, ...]
+    coefficient: float
+    quadratic: bool
+    point: Optional[Vec2]  # body frame; None = at the CM
+
+
+@dataclass(frozen=True)
+class AngularDampingSpec:
+    """A torque -c omega on each listed body."""
+
+    name: str
+    bodies: tuple[str, ...]
+    coefficient: float
+
+
+@dataclass(frozen=True)
+class ConstantForceSpec:
+    """A constant force in world or body axes, at the CM or at a body point."""
+
+    name: str
+    body: str
+    force: Vec2
+    body_axes: bool
+    point: Optional[Vec2]
+
+
+@dataclass(frozen=True)
+class ConstantTorqueSpec:
+    """A constant torque about the CM."""
+
+    name: str
+    body: str
+    torque: float
+
+
+ForceSpec = Union[Gravity, SpringSpec, DragSpec, AngularDampingSpec, ConstantForceSpec,
+                  ConstantTorqueSpec]
+
+
+@dataclass(frozen=True)
+class WallSpec:
+    """A fixed half-plane ``normal . (x - point) >= 0`` that the listed bodies stay inside."""
+
+    name: str
+    point: Vec2
+    normal: Vec2  # unit, pointing into the free side
+    restitution: float
+    friction: float
+    bodies: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class CollisionGroup:
+    """Bodies that collide with each other (every pair), with the pairs' material."""
+
+    name: str
+    bodies: tuple[str, ...]
+    restitution: float
+    friction: float
+
+
+@dataclass(frozen=True)
+class WrenchTopic:
+    """A ``geometry_msgs/WrenchStamped`` input topic that pushes ``body``.
+
+    The wrench acts at the origin of the message's frame, in that frame's axes; an empty
+    ``header.frame_id`` means ``frame_id``.
+    """
+
+    name: str
+    topic: str
+    body: str
+    frame_id: str
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything a simulation needs, checked."""
+
+    source: str
+    frame_id: str
+    step_ns: int
+    integrator: str
+    tolerance: float
+    publish_period_ns: int
+    duration_ns: int
+    input_timeout_ns: int
+    input_max_lead_ns: int
+    twist_frame: str
+    publish_odometry: bool
+    publish_markers: bool
+    publish_diagnostics: bool
+    restitution_threshold: Optional[float]  # None: chosen from gravity and step
+    bodies: tuple[BodySpec, ...]
+    forces: tuple[ForceSpec, ...]
+    walls: tuple[WallSpec, ...]
+    collisions: tuple[CollisionGroup, ...]
+    wrench_topics: tuple[WrenchTopic, ...]
+    script: tuple[WrenchCommand, ...]
+
+    def has_frame(self, frame_id: str) -> bool:
+        """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
+        return frame_known(frame_id, self.frame_id, {b.name: b.points for b in self.bodies})
+
+
+# ----------------------------------------------------------------------------- files
+
+def config_directories() -> list[Path]:
+    """Where shipped scenes live: the source tree, the pip install, the ROS share dir."""
+    package = Path(__file__).resolve().parents[1]
+    candidates = [package.parent / "config", package / "config"]
+    share = os.environ.get("AMENT_PREFIX_PATH", "")
+    for prefix in share.split(os.pathsep):
+        if prefix:
+            candidates.append(Path(prefix) / "share" / "hecker_dynamics" / "config")
+    return [c for c in candidates if c.is_dir()]
+
+
+def shipped_scenes() -> list[str]:
+    """Names of the scenes shipped with the package."""
+    names: set[str] = set()
+    for directory in config_directories():
+        names.update(p.stem for p in directory.glob("*.yaml"))
+    return sorted(names)
+
+
+def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
+    """Resolve a shipped scene name (``sample``) or a path to a parameters file."""
+    if name_or_path is None:
+        name_or_path = DEFAULT_SCENE
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
+        if not path.is_file():
+            raise SceneError(f"{path}: no such scene file")
+        return path
+    for directory in config_directories():
+        candidate = directory / f"{name_or_path}.yaml"
+        if candidate.is_file():
+            return candidate
+    raise SceneError(f"no shipped scene called '{name_or_path}' "
+                     f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
+
+
+def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
+    """Load a scene from a ROS 2 parameters file, or a shipped scene by name."""
+    source, params = scene_parameters(name_or_path)
+    return _read_scene(ParameterReader(params, source))
+
+
+def scene_parameters(name_or_path: Union[str, os.PathLike, None] = None) -> tuple[str, Mapping]:
+    """The source and the nested ``ros__parameters`` of a scene file, not yet checked."""
+    path = scene_path(name_or_path)
+    source = str(path)
+    try:
+        document = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as error:
+        raise SceneError(f"{source}: cannot read the file: {error}") from error
+    if not isinstance(document, Mapping):
+        raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...'")
+    params = None
+    for key, section in document.items():
+        if str(key).rsplit("/", 1)[-1] in (NODE_NAME, "**") and isinstance(section, Mapping):
+            params = section.get("ros__parameters")
+    if not isinstance(params, Mapping):
+        raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...' at the top")
+    return source, params
+
+
+def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
+    """Build a scene from flat dotted parameter names, as a node holds them."""
+    try:
+        nested = unflatten(params)
+    except SceneError as error:
+        raise SceneError(f"{source}: {error}") from error
+    return _read_scene(ParameterReader(nested, source))
+
+
+# ----------------------------------------------------------------------------- reading
+
+def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
+                   positive: bool = False) -> int:
+    seconds = reader.number(key, default, minimum=0.0, maximum=1e9, positive=positive)
+    ns = round(seconds * 1e9)
+    if positive and ns < 1:
+        reader.fail(key, f"must be at least one nanosecond, not {seconds}")
+    return ns
+
+
+def _read_scene(root: ParameterReader) -> Scene:
+    frame_id = root.string("frame_id", "world")
+    if not frame_id or "/" in frame_id:
+        root.fail("frame_id", f"must be a non-empty name without '/', not '{frame_id}'")
+    step_ns = _seconds_to_ns(root, "step", 0.001, positive=True)
+    rate = root.number("publish_rate", 50.0, positive=True)
+    steps_per_publish = 1e9 / rate / step_ns
+    if not 0.5 <= steps_per_publish < 1e12 or \
+            abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish:
+        root.fail("publish_rate", f"{rate} Hz is not a whole number of physics steps "
+                                  f"of {step_ns * 1e-9} s")
+    bodies = tuple(_read_body(name, r) for name, r in root.named_children("bodies"))
+    if not bodies:
+        root.fail("bodies", "a scene needs at least one body")
+    body_names = {b.name for b in bodies}
+    if frame_id in body_names:
+        root.fail("frame_id", f"'{frame_id}' is also a body's name")
+    points = {b.name: b.points for b in bodies}
+    forces = tuple(_read_force(name, r, points) for name, r in root.named_children("forces"))
+    walls = tuple(_read_wall(name, r, body_names) for name, r in root.named_children("walls"))
+    collisions = _read_collisions(root, {b.name: b for b in bodies})
+    publish = root.child("publish")
+    scene = Scene(
+        source=root.source,
+        frame_id=frame_id,
+        step_ns=step_ns,
+        integrator=root.string("integrator", "auto", choices=INTEGRATORS),
+        tolerance=root.number("tolerance", 1e-6, positive=True),
+        publish_period_ns=round(steps_per_publish) * step_ns,
+        duration_ns=_seconds_to_ns(root, "duration", 10.0),
+        input_timeout_ns=_seconds_to_ns(root, "input_timeout", 0.5),
+        input_max_lead_ns=_seconds_to_ns(root, "input_max_lead", 10.0),
+        twist_frame=root.string("twist_frame", "body", choices=("body", "world")),
+        publish_odometry=publish.boolean("odometry", False),
+        publish_markers=publish.boolean("markers", False),
+        publish_diagnostics=publish.boolean("diagnostics", False),
+        restitution_threshold=(root.number("restitution_threshold", minimum=0.0)
+                               if root.has("restitution_threshold") else None),
+        bodies=bodies,
+        forces=forces,
+        walls=walls,
+        collisions=collisions,
+        wrench_topics=tuple(_read_wrench_topic(name, r, frame_id, points)
+                            for name, r in root.named_children("wrench_topics")),
+        script=tuple(sorted((_read_command(name, r, frame_id, points)
+                             for name, r in root.named_children("script")),
+                            key=lambda c: (c.stamp_ns, c.source))),
+    )
+    root.check_all_read(ignore=NODE_PARAMETERS)
+    return scene
+
+
+def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
+    """A shape in the body frame. A box or polygon part of a compound body may be turned
+    about its ``center`` (``angle``); a single-shape body's ``angle`` is the body's own."""
+    kind = reader.string("shape", REQUIRED, choices=("box", "circle", "polygon"))
+    center = reader.vector("center", [0.0, 0.0])
+    if kind == "circle":
+        return Circle(center, reader.number("radius", REQUIRED, positive=True))
+    turn = reader.number("angle", 0.0) if part else 0.0
+    if kind == "box":
+        width, height = reader.numbers("size", REQUIRED, length=2)
+        return box(width, height, center, turn)
+    flat = reader.numbers("vertices", REQUIRED, multiple_of=2)
+    if len(flat) < 6:
+        reader.fail("vertices", "a polygon needs at least 3 vertices (6 numbers)")
+    c, s = math.cos(turn), math.sin(turn)
+    return Polygon([(center[0] + c * x - s * y, center[1] + s * x + c * y)
+                    for x, y in zip(flat[0::2], flat[1::2])])
+
+
+def _read_body(name: str, reader: ParameterReader) -> BodySpec:
+    try:
+        if reader.has("parts"):
+            parts = list(reader.named_children("parts"))
+            if not parts:
+                reader.fail("parts", "a compound body needs at least one part")
+            shapes = [_read_shape(r, part=True) for _, r in parts]
+            own = [r.number("density", None) if r.has("density") else None for _, r in parts]
+        else:
+            shapes = [_read_shape(reader, part=False)]
+            own = [None]
+        has_mass, has_density = reader.has("mass"), reader.has("density")
+        if has_mass and has_density:
+            reader.fail("mass", "give mass or density, not both")
+        if has_density:
+            density = reader.number("density", positive=True)
+            densities = [d if d is not None else density for d in own]
+        elif has_mass:
+            relative = [d if d is not None else 1.0 for d in own]
+            unit = mass_properties(shapes, relative)
+            mass = reader.number("mass", positive=True)
+            densities = [d * mass / unit.mass for d in relative]
+        elif all(d is not None for d in own):
+            densities = own
+        else:
+            reader.fail("mass", "is required (or 'density', or a density on every part)")
+        if any(d <= 0.0 for d in densities):
+            reader.fail("parts", "every density must be positive")
+        properties = mass_properties(shapes, densities)
+    except GeometryError as error:
+        raise SceneError(f"{reader.source}: body '{name}': {error}") from error
+    points = dict(_read_points(reader))
+    return BodySpec(
+        name=name, shapes=tuple(shapes), mass=properties,
+        position=reader.vector("position", [0.0, 0.0]),
+        angle=reader.number("angle", 0.0),
+        velocity=reader.vector("velocity", [0.0, 0.0]),
+        angular_velocity=reader.number("angular_velocity", 0.0),
+        points=points,
+    )
+
+
+def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
+    group = reader.child("points")
+    for pname in group.keys():
+        if not NAME_PATTERN.fullmatch(pname):
+            group.fail(pname, "is not a valid point name (letters, digits and underscores, "
+                              "starting with a letter)")
+    return [(pname, group.vector(pname)) for pname in group.keys()]
+
+
+def _body_list(reader: ParameterReader, key: str, known: Mapping[str, Any]) -> tuple[str, ...]:
+    names = reader.strings(key, list(known))
+    for body in names:
+        if body not in known:
+            reader.fail(key, f"names an unknown body '{body}'")
+    if len(set(names)) != len(names):
+        reader.fail(key, "names a body more than once")
+    return tuple(names)
+
+
+def _body(reader: ParameterReader, key: str, points: Mapping[str, Mapping[str, Vec2]]) -> str:
+    body = reader.string(key, REQUIRED)
+    if body not in points:
+        reader.fail(key, f"names an unknown body '{body}'")
+    return body
+
+
+def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
+           default: Any = None) -> Optional[Vec2]:
+    """A body point given as [x, y] in the body frame or as the name of a declared point."""
+    value = reader.raw(key, default)
+    if value is None:
+        return None
+    if isinstance(value, str):
+        if value not in points:
+            reader.fail(key, f"names no declared point of the body (declared: "
+                             f"{', '.join(points) or 'none'})")
+        return points[value]
+    x, y = reader.check_numbers(key, value, length=2)
+    return (x, y)
+
+
+def _read_force(name: str, reader: ParameterReader,
+                points: Mapping[str, Mapping[str, Vec2]]) -> ForceSpec:
+    kind = reader.string("type", REQUIRED, choices=(
+        "gravity", "spring", "linear_drag", "quadratic_drag", "angular_damping",
+        "constant_force", "constant_torque"))
+    if kind == "gravity":
+        return Gravity(name, reader.vector("acceleration", [0.0, -9.81]),
+                       _body_list(reader, "bodies", points))
+    if kind == "spring":
+        body_a = _body(reader, "body_a", points)
+        point_a = _point(reader, "point_a", points[body_a], [0.0, 0.0])
+        if reader.has("anchor") == reader.has("body_b"):
+            reader.fail("anchor", "a spring needs exactly one of 'body_b' or 'anchor'")
+        if reader.has("anchor"):
+            body_b, point_b = None, reader.vector("anchor")
+        else:
+            body_b = _body(reader, "body_b", points)
+            point_b = _point(reader, "point_b", points[body_b], [0.0, 0.0])
+            if body_b == body_a:
+                reader.fail("body_b", "a spring cannot join a body to itself")
+        return SpringSpec(name, body_a, point_a, body_b, point_b,
+                          stiffness=reader.number("stiffness", REQUIRED, minimum=0.0),
+                          rest_length=reader.number("rest_length", 0.0, minimum=0.0),
+                          damping=reader.number("damping", 0.0, minimum=0.0))
+    if kind in ("linear_drag", "quadratic_drag"):
+        bodies = _body_list(reader, "bodies", points)
+        point = None
+        if reader.has("point"):
+            if len(bodies) != 1:
+                reader.fail("point", "a drag point needs exactly one body in 'bodies'")
+            point = _point(reader, "point", points[bodies[0]])
+        return DragSpec(name, bodies, reader.number("coefficient", REQUIRED, minimum=0.0),
+                        quadratic=kind == "quadratic_drag", point=point)
+    if kind == "angular_damping":
+        return AngularDampingSpec(name, _body_list(reader, "bodies", points),
+                                  reader.number("coefficient", REQUIRED, minimum=0.0))
+    body = _body(reader, "body", points)
+    if kind == "constant_torque":
+        return ConstantTorqueSpec(name, body, reader.number("torque", REQUIRED))
+    return ConstantForceSpec(
+        name, body, reader.vector("force", REQUIRED),
+        body_axes=reader.string("axes", "world", choices=("world", "body")) == "body",
+        point=_point(reader, "point", points[body]))
+
+
+def _read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:
+    nx, ny = reader.vector("normal", REQUIRED)
+    length = math.hypot(nx, ny)
+    if length == 0.0:
+        reader.fail("normal", "must not be the zero vector")
+    known = {b: None for b in sorted(bodies)}
+    return WallSpec(name, reader.vector("point", REQUIRED), (nx / length, ny / length),
+                    restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
+                    friction=reader.number("friction", 0.0, minimum=0.0),
+                    bodies=_body_list(reader, "bodies", known))
+
+
+def _read_collisions(root: ParameterReader,
+                     bodies: Mapping[str, BodySpec]) -> tuple[CollisionGroup, ...]:
+    """Collision groups; every pair of bodies may be in one group at most, and the bodies'
+    polygon parts must be convex (split a concave shape into convex parts)."""
+    groups = []
+    seen: dict[frozenset[str], str] = {}
+    for name, reader in root.named_children("collisions"):
+        members = _body_list(reader, "bodies", bodies)
+        if len(members) < 2:
+            reader.fail("bodies", "a collision group needs at least two bodies")
+        for i, a in enumerate(members):
+            for b in members[i + 1:]:
+                pair = frozenset((a, b))
+                if pair in seen:
+                    reader.fail("bodies", f"bodies '{a}' and '{b}' are already in collision "
+                                          f"group '{seen[pair]}'")
+                seen[pair] = name
+        for member in members:
+            for shape in bodies[member].shapes:
+                if isinstance(shape, Polygon) and not is_convex(shape.vertices):
+                    raise SceneError(f"{reader.source}: body '{member}': a polygon that "
+                                     f"collides must be convex (collision group '{name}'); "
+                                     "make it a compound body of convex parts")
+        groups.append(CollisionGroup(name, members,
+                                     reader.number("restitution", 0.2, minimum=0.0, maximum=1.0),
+                                     reader.number("friction", 0.5, minimum=0.0)))
+    return tuple(groups)
+
+
+def frame_known(frame: str, fixed: str, points: Mapping[str, Mapping[str, Vec2]]) -> bool:
+    """True if ``frame`` is ``fixed``, a body of ``points`` (body -> named points), or
+    ``<body>/<point>`` of one of its named points."""
+    body, _, point = frame.partition("/")
+    return frame == fixed or (body in points and (not point or point in points[body]))
+
+
+def _check_frame(reader: ParameterReader, key: str, frame: str, fixed: str,
+                 points: Mapping[str, Mapping[str, Vec2]]) -> None:
+    if frame_known(frame, fixed, points):
+        return
+    reader.fail(key, f"'{frame}' is not the fixed frame '{fixed}', a body, or a "
+                     "declared '<body>/<point>'")
+
+
+def _read_wrench_topic(name: str, reader: ParameterReader, fixed: str,
+                       points: Mapping[str, Mapping[str, Vec2]]) -> WrenchTopic:
+    body = _body(reader, "body", points)
+    frame = reader.string("frame_id", body)
+    _check_frame(reader, "frame_id", frame, fixed, points)
+    topic = reader.string("topic", name)
+    if not TOPIC_PATTERN.fullmatch(topic) or "//" in topic or topic.endswith("/"):
+        reader.fail("topic", f"'{topic}' is not a valid ROS topic name")
+    return WrenchTopic(name, topic, body, frame)
+
+
+def _read_command(name: str, reader: ParameterReader, fixed: str,
+                  points: Mapping[str, Mapping[str, Vec2]]) -> WrenchCommand:
+    body = _body(reader, "body", points)
+    frame = reader.string("frame_id", fixed)
+    _check_frame(reader, "frame_id", frame, fixed, points)
+    return WrenchCommand(
+        stamp_ns=_seconds_to_ns(reader, "time", REQUIRED),
+        body=body, source=reader.string("id", name), frame_id=frame,
+        point=reader.vector("point", [0.0, 0.0]), force=reader.vector("force", [0.0, 0.0]),
+        torque=reader.number("torque", 0.0),
+        duration_ns=_seconds_to_ns(reader, "duration", 0.0))

@@ -1,0 +1,608 @@
+"""Contacts between bodies: impulses with rotation, resting, friction, tunnelling, scenes.
+
+References, each independent of contacts.py:
+- 1D collision of two bodies (momentum and Newton's restitution law): after a central
+  hit, v_A' = (m_A v_A + m_B v_B - m_B e (v_A - v_B)) / (m_A + m_B) (and A <-> B), and the
+  kinetic energy lost is (1 - e^2)/2 mu (v_A - v_B)^2 with mu = m_A m_B / (m_A + m_B);
+- the article series' collision impulse with both bodies' mass and moment of inertia,
+  j = -(1+e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
+  computed here from the contact point the narrow phase reports;
+- statics: heights of boxes resting on each other; Coulomb friction on an incline
+  (sticks when tan a < mu, else slides with g (sin a - mu cos a));
+- the shipped scenes' own geometry (the door's contact angle with the block, the seesaw's
+  wall block, the car's roof height).
+
+Unless a test says otherwise the scenes use semi-implicit Euler and no force but those
+declared, so free flight is exact in floating point (zero acceleration: v stays bit for bit,
+q += h v) and every difference from a closed form comes from the contact pass.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+from scene_builders import box_body, box_inertia, make_scene, rotation
+
+from hecker_dynamics import Simulation
+from hecker_dynamics.contact.solver import SLOP, ContactPass
+from hecker_dynamics.integrators.methods import METHODS
+from hecker_dynamics.geometry.planar import wrap_angle
+from hecker_dynamics.scene.load import SceneError, load_scene
+
+G = 9.81
+SECOND = 1_000_000_000
+
+
+def _sim(bodies, collisions=None, walls=None, forces=None, step=0.001,
+         integrator="semi_implicit_euler"):
+    params = {"step": step, "integrator": integrator, "bodies": bodies}
+    for key, value in (("collisions", collisions), ("walls", walls), ("forces", forces)):
+        if value:
+            params[key] = value
+    return Simulation(make_scene(params))
+
+
+def _group(*bodies, e=0.2, mu=0.5):
+    return {"all": {"bodies": list(bodies), "restitution": e, "friction": mu}}
+
+
+def _floor(e=0.2, mu=0.5):
+    return {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": e,
+                      "friction": mu}}
+
+
+GRAVITY = {"g": {"type": "gravity"}}
+
+
+def _momentum(sim):
+    return (sim.model.mass[:, None] * sim.v[:, :2]).sum(axis=0)
+
+
+def _kinetic(sim):
+    m = sim.model
+    return 0.5 * float(np.sum(m.mass * (sim.v[:, 0] ** 2 + sim.v[:, 1] ** 2))
+                       + np.sum(m.inertia * sim.v[:, 2] ** 2))
+
+
+def _angular_momentum(sim, about=(0.3, -1.7)):
+    """Sum of I omega + m (x - about) x v: about a fixed point off every body's path."""
+    m = sim.model
+    x = sim.q[:, :2] - np.asarray(about)
+    return float(np.sum(m.inertia * sim.v[:, 2])
+                 + np.sum(m.mass * (x[:, 0] * sim.v[:, 1] - x[:, 1] * sim.v[:, 0])))
+
+
+def _cross(a, b):
+    return a[0] * b[1] - a[1] * b[0]
+
+
+# ------------------------------------------------------------------ head-on, central
+
+@pytest.mark.parametrize("masses", [(2.0, 2.0), (2.0, 5.0)])
+@pytest.mark.parametrize("e", [0.0, 0.25, 0.5, 0.8, 1.0])
+def test_head_on_boxes_obey_momentum_and_restitution(masses, e):
+    """Two 0.5 m boxes, face to face (a two-point manifold), 3 m/s and -1 m/s, no gravity,
+    no friction. Afterwards: the 1D restitution velocities (equal masses: e = 1 exchanges
+    them, e = 0 leaves both at the mean), no spin, momentum unchanged, and KE reduced by
+    (1 - e^2)/2 mu v_rel^2.
+
+    Tolerances: momentum 1e-14 kg m/s absolute (~10 ulps of the 6-15 kg m/s terms: every
+    impulse is applied as +P and -P, so only rounding can change the sum); velocities and
+    the KE loss 1e-12 relative (the solver converges to 1e-13 of the velocities,
+    contacts.CONVERGED); spin and sideways velocity 1e-13 (two symmetric points solved one
+    after the other: their torques cancel to rounding).
+    """
+    ma, mb = masses
+    va, vb = 3.0, -1.0
+    sim = _sim({"a": box_body((0.5, 0.5), ma, position=[-1.0, 0.0], velocity=[va, 0.0]),
+                "b": box_body((0.5, 0.5), mb, position=[1.0, 0.0], velocity=[vb, 0.0])},
+               _group("a", "b", e=e, mu=0.0))
+    a, b = sim.model.index["a"], sim.model.index["b"]
+    p0, ke0 = _momentum(sim), _kinetic(sim)
+    touched = 0
+    for _ in range(1000):  # they meet after ~0.375 s
+        before = sim.v.copy()
+        sim.step()
+        touched += not np.array_equal(before, sim.v)
+    assert 1 <= touched <= 2, "one impact (e = 0: plus one step closing the gap it leaves)"
+    total = ma * va + mb * vb
+    expected_a = (total - mb * e * (va - vb)) / (ma + mb)
+    expected_b = (total + ma * e * (va - vb)) / (ma + mb)
+    assert sim.v[a, 0] == pytest.approx(expected_a, rel=1e-12, abs=1e-12)
+    assert sim.v[b, 0] == pytest.approx(expected_b, rel=1e-12, abs=1e-12)
+    assert np.abs(sim.v[:, 1:]).max() <= 1e-13
+    np.testing.assert_allclose(_momentum(sim), p0, rtol=0, atol=1e-14)
+    mu_red = ma * mb / (ma + mb)
+    loss = (1 - e * e) / 2 * mu_red * (va - vb) ** 2
+    assert ke0 - _kinetic(sim) == pytest.approx(loss, rel=1e-12, abs=1e-12)
+    # the bodies never overlap by more than the slop, and end apart or touching
+    gap = (sim.q[b, 0] - 0.25) - (sim.q[a, 0] + 0.25)
+    assert gap >= -SLOP
+
+
+# ------------------------------------------------------------------ off-centre hits
+
+def _step_to_impact(sim):
+    """Step until the next (force-free, semi-implicit) step puts the bodies in overlap;
+    return the predicted positions q1 = q + h v, the velocities and the contacts there."""
+    h = sim.step_seconds
+    for _ in range(5000):
+        q1 = sim.q + h * sim.v
+        contacts = [c for c in sim.model.contacts.detect(q1) if c[4] > 0.0]
+        if contacts:
+            return q1, sim.v.copy(), contacts
+        sim.step()
+    raise AssertionError("the bodies never met")
+
+
+def _impulse_prediction(sim, q1, v, contact, e):
+    """New velocities from the impulse formula at the reported point (normal a -> b)."""
+    a, b, point, normal, _ = contact[:5]
+    n, p = np.asarray(normal), np.asarray(point)
+    m, inertia = sim.model.mass, sim.model.inertia
+    ra, rb = p - q1[a, :2], p - q1[b, :2]
+    perp_a, perp_b = np.array([-ra[1], ra[0]]), np.array([-rb[1], rb[0]])
+    v_rel = (v[b, :2] + v[b, 2] * perp_b) - (v[a, :2] + v[a, 2] * perp_a)
+    j = -(1 + e) * float(v_rel @ n) / (1 / m[a] + 1 / m[b] + float(perp_a @ n) ** 2 / inertia[a]
+                                       + float(perp_b @ n) ** 2 / inertia[b])
+    out = v.copy()
+    out[a, :2] -= j * n / m[a]
+    out[b, :2] += j * n / m[b]
+    out[a, 2] -= _cross(ra, j * n) / inertia[a]
+    out[b, 2] += _cross(rb, j * n) / inertia[b]
+    return out, float(v_rel @ n)
+
+
+@pytest.mark.parametrize("e", [0.3, 0.7, 1.0])
+def test_box_face_hits_a_corner_and_sets_both_spinning(e):
+    """A 0.4 x 1 box moving +x at 3 m/s hits, with its right face, the leftmost corner of
+    a 1 x 0.5 box turned 0.4 rad at rest, 6 cm below the mover's centre line. Both
+    bodies' new velocities and spins are the impulse formula's (rel 1e-12: a few flops of
+    rounding), the single contact lies on the turned box's corner (1e-12 m), and angular
+    momentum about a fixed point is unchanged through the impact and after (rel 1e-13).
+
+    (Angular momentum is exact here even though the contact pass moves the bodies by
+    h times their velocity change: the impulse is along x, as are both velocities, so that
+    shift adds h P x (v_B' - v_A') = 0.)
+    """
+    sim = _sim({"a": box_body((0.4, 1.0), 1.5, position=[-2.0, 0.1], velocity=[3.0, 0.0]),
+                "b": box_body((1.0, 0.5), 2.0, position=[0.0, 0.0], angle=0.4)},
+               _group("a", "b", e=e, mu=0.0))
+    a, b = sim.model.index["a"], sim.model.index["b"]
+    assert sim.model.inertia[b] == pytest.approx(box_inertia(2.0, 1.0, 0.5), rel=1e-14)
+    L0 = _angular_momentum(sim)
+    q1, v, contacts = _step_to_impact(sim)
+    assert len(contacts) == 1, "a corner against a face is one point"
+    contact = contacts[0]
+    (a_, b_, point, normal, depth) = contact[:5]
+    assert (a_, b_) == (a, b)
+    np.testing.assert_allclose(normal, (1.0, 0.0), rtol=0, atol=1e-15)
+    corner = rotation(q1[b, 2]) @ [-0.5, 0.25] + q1[b, :2]  # leftmost when turned 0.4
+    np.testing.assert_allclose(np.asarray(point) - np.asarray(normal) * depth / 2, corner,
+                               rtol=0, atol=1e-12)
+    expected, vn = _impulse_prediction(sim, q1, v, contact, e)
+    assert vn < -1.0
+    sim.step()
+    np.testing.assert_allclose(sim.v, expected, rtol=1e-12, atol=1e-12)
+    assert abs(sim.v[b, 2]) > 0.3 and abs(sim.v[a, 2]) > 0.3, "both must spin"
+    assert _angular_momentum(sim) == pytest.approx(L0, rel=1e-13)
+    sim.advance_to(sim.time_ns + SECOND)
+    assert _angular_momentum(sim) == pytest.approx(L0, rel=1e-13)
+
+
+@pytest.mark.parametrize("offset", [0.15, -0.2])
+def test_circle_hits_a_box_off_centre(offset):
+    """A disc (r = 0.1, 0.5 kg) at 3 m/s hits the left face of a resting 1 x 0.5 box
+    ``offset`` from its centre line (e = 0.6, no friction). The box spins at
+    omega_B = (r_B x j n)/I_B with j from the formula; the disc's spin is untouched
+    (its arm is along n); momentum and angular momentum conserved (rel 1e-13)."""
+    e = 0.6
+    sim = _sim({"disc": {"shape": "circle", "radius": 0.1, "mass": 0.5,
+                         "position": [-2.0, offset], "velocity": [3.0, 0.0]},
+                "box": box_body((1.0, 0.5), 2.0, position=[0.0, 0.0])},
+               _group("disc", "box", e=e, mu=0.0))
+    disc, box = sim.model.index["disc"], sim.model.index["box"]
+    p0, L0 = _momentum(sim), _angular_momentum(sim)
+    q1, v, contacts = _step_to_impact(sim)
+    assert len(contacts) == 1
+    point = np.asarray(contacts[0][2])
+    assert point[1] == pytest.approx(offset, abs=1e-12)  # on the line of centres' height
+    # halfway between the box's face x = -0.5 and the disc's surface, depth past it
+    assert point[0] == pytest.approx(-0.5 + contacts[0][4] / 2, abs=1e-12)
+    expected, _ = _impulse_prediction(sim, q1, v, contacts[0], e)
+    sim.step()
+    np.testing.assert_allclose(sim.v, expected, rtol=1e-12, atol=1e-12)
+    assert sim.v[disc, 2] == 0.0
+    # by hand: j n is along +x on the box, r_B = (-0.5, offset): omega_B = -offset j / I_B
+    j = 2.0 * (sim.v[box, 0] - 0.0)
+    assert sim.v[box, 2] == pytest.approx(-offset * j / box_inertia(2.0, 1.0, 0.5), rel=1e-12)
+    np.testing.assert_allclose(_momentum(sim), p0, rtol=0, atol=1e-14)
+    assert _angular_momentum(sim) == pytest.approx(L0, rel=1e-13)
+
+
+# ------------------------------------------------------------------ resting
+
+# Rest-height bound (as in test_walls.py): the solver leaves up to its slop (1e-4 m) of
+# overlap per contact, plus one step of travel at the restitution threshold; 2e-4 m per
+# interface covers both, while a box with no push-out sinks g h^2 (4e-6 m at h = 2 ms)
+# every step: 2e-4 m within 50 steps, metres over the seconds checked.
+REST = 2e-4
+W, H = 1.0, 0.5
+
+
+def _drop_and_record(on_box, seconds=4.0, step=0.002):
+    bodies = {"top": box_body((W, H), 2.0, position=[0.1, 1.5])}
+    if on_box:
+        bodies["low"] = box_body((1.4, H), 3.0, position=[0.0, H / 2])
+    sim = _sim(bodies, _group(*bodies, e=0.5, mu=0.5) if on_box else None,
+               _floor(e=0.5, mu=0.5), GRAVITY, step=step)
+    steps = round(seconds / step)
+    q, v = np.empty((steps, len(bodies), 3)), np.empty((steps, len(bodies), 3))
+    energy = np.empty(steps)
+    for k in range(steps):
+        sim.step()
+        q[k], v[k], energy[k] = sim.q, sim.v, sim.model.energy(sim.q, sim.v)
+    return sim, q, v, energy
+
+
+@pytest.mark.parametrize("on_box", [False, True], ids=["on_ground", "on_resting_box"])
+def test_box_dropped_flat_comes_to_rest_at_the_right_height(on_box):
+    """A 1 x 0.5 box dropped flat from 1.25 m above its rest height (e = 0.5) onto the
+    floor, or onto a 1.4 x 0.5 box resting on the floor: after 2.5 s its CM is at H/2 (or
+    3H/2) within REST per interface, it is level (angle within 2 REST / W), it does not
+    spin (1e-9 rad/s) and it does not move (1e-9 m over the last 1.5 s); the lower box stays
+    at H/2. The bounces end by ~1.6 s (0.5^k of the 5 m/s impact speed falls below the
+    restitution threshold 4 g h = 0.08 m/s after 6 bounces); energy never rises by more
+    than rounding (1e-12 J per step on ~30 J)."""
+    sim, q, v, energy = _drop_and_record(on_box)
+    top = sim.model.index["top"]
+    settled = slice(round(2.5 / 0.002), None)
+    height = 1.5 * H if on_box else 0.5 * H
+    levels = 2 if on_box else 1
+    assert np.all(np.abs(q[settled, top, 1] - height) <= levels * REST)
+    assert np.ptp(q[settled, :, :], axis=0).max() <= 1e-9, "nothing moves once at rest"
+    assert np.abs(q[settled, top, 2]).max() <= levels * 2 * REST / W
+    assert np.abs(v[settled, :, 2]).max() <= 1e-9
+    assert np.abs(v[settled]).max() <= 1e-9
+    if on_box:
+        low = sim.model.index["low"]
+        assert np.all(np.abs(q[settled, low, 1] - 0.5 * H) <= REST)
+    assert np.diff(energy).max() <= 1e-12
+
+
+def test_stack_of_five_boxes_stands_still_for_a_minute():
+    """Five 1 x 0.5 boxes (2 kg) stacked exactly on the floor stand for 60 s of sim time.
+
+    Step 10 ms (100 Hz, a usual game-physics rate, so the 6000 steps run in ~2 s). Bounds:
+    each box within SLOP (1e-4 m) per level below it of its start, and turned by at most
+    1e-4 rad: the overlap the solver deliberately leaves is what may be given up in the
+    first steps, while a stack that sinks (g h^2 = 1e-3 m per step) or slides apart fails
+    at once. After the first second nothing moves more than 1e-10 m (or rad): a creep of
+    even 1e-13 m per step would add up to 6e-10 over the 5900 remaining steps. Velocities
+    end below 1e-12.
+    """
+    n, step = 5, 0.01
+    bodies = {f"b{i}": box_body((W, H), 2.0, position=[0.0, H / 2 + i * H]) for i in range(n)}
+    sim = _sim(bodies, _group(*bodies), _floor(), GRAVITY, step=step)
+    index = [sim.model.index[f"b{i}"] for i in range(n)]
+    q0 = sim.q[index].copy()
+    sim.advance_to(SECOND)
+    q1 = sim.q[index].copy()
+    sim.advance_to(60 * SECOND)
+    drift = np.abs(sim.q[index] - q0)
+    levels = np.arange(1, n + 1)
+    assert np.all(drift[:, :2].max(axis=1) <= levels * SLOP), drift
+    assert np.all(drift[:, 2] <= 1e-4), drift
+    assert np.abs(sim.q[index] - q1).max() <= 1e-10
+    assert np.abs(sim.v).max() <= 1e-12
+
+
+# ------------------------------------------------------------------ friction on a plank
+
+def _plank_slope(angle_deg, mu):
+    """A 2 kg box flat on a 6 x 0.2 plank tilted by ``angle_deg``; the plank weighs
+    1e12 kg and feels no gravity, so it stands still (it gains m g t / M = 2e-11 m/s over
+    a second from the box's push): a fixed incline made of a body."""
+    a = math.radians(angle_deg)
+    n = np.array([-math.sin(a), math.cos(a)])
+    t = np.array([math.cos(a), math.sin(a)])
+    centre = (0.1 + 0.125) * n + 1.0 * t
+    sim = _sim({"plank": box_body((6.0, 0.2), 1e12, angle=a),
+                "box": box_body((0.5, 0.25), 2.0, position=centre.tolist(), angle=a)},
+               _group("plank", "box", e=0.0, mu=mu), None,
+               {"g": {"type": "gravity", "bodies": ["box"]}})
+    return sim, sim.model.index["box"], a, t, n
+
+
+def test_box_sticks_on_a_tilted_plank_below_the_friction_angle():
+    """tan 20 deg = 0.36 < mu = 0.5: the box neither slides nor turns (1e-10 m/s, rad/s:
+    the plank's own drift, 2e-11 m/s, and the solver's 1e-13 relative) and moves less than
+    1e-9 m along the plank in 2 s (creep at g sin(a) h per step would be 7 mm)."""
+    sim, box, a, t, n = _plank_slope(20.0, 0.5)
+    start = sim.q[box, :2].copy()
+    for t_ms in (250, 1000, 2000):
+        sim.advance_to(t_ms * 1_000_000)
+        assert np.abs(sim.v[box]).max() <= 1e-10
+    assert abs(float((sim.q[box, :2] - start) @ t)) <= 1e-9
+    assert sim.q[box, 2] == pytest.approx(a, abs=1e-10)
+
+
+@pytest.mark.parametrize("angle_deg", [30.0, 45.0])
+def test_box_slides_down_a_tilted_plank_above_the_friction_angle(angle_deg):
+    """tan a > mu = 0.3: the box slides with g (sin a - mu cos a), stays on the plank
+    (normal velocity 1e-10 m/s) and does not turn. Tolerance 1e-9 m/s: the contact takes
+    exactly mu times the normal impulse each step, so only the solver's 1e-13 relative
+    convergence and the plank's 2e-11 m/s drift remain."""
+    mu = 0.3
+    sim, box, a, t, n = _plank_slope(angle_deg, mu)
+    accel = G * (math.sin(a) - mu * math.cos(a))
+    for t_ms in (250, 1000):
+        sim.advance_to(t_ms * 1_000_000)
+        v = sim.v[box, :2]
+        assert float(v @ t) == pytest.approx(-accel * t_ms / 1000, abs=1e-9)
+        assert abs(float(v @ n)) <= 1e-10
+        assert abs(sim.v[box, 2]) <= 1e-10
+
+
+def test_disc_rolls_down_a_tilted_plank():
+    """A disc (r = 0.2, I = m r^2/2) on the 30 degree plank with mu = 0.5 rolls without
+    slipping (mu > tan(a)/3 = 0.19): a = g sin(a) / (1 + I/(m r^2)) = 2/3 g sin a, and
+    omega r = -v. Tolerance 5e-4 relative: the solver holds the contact point, which sits
+    halfway across the overlap, so the arm is r - d/2 with |d| up to the slop (1e-4 m):
+    2.5e-4 of r, and at most that in a. Sliding (g (sin a - mu cos a) = 4.06 m/s^2 here)
+    or frictionless (g sin a = 4.9) are off by 24% and 50%.
+
+    With mu = 0.1 < tan(a)/3 it slides instead: the CM accelerates at g (sin a - mu cos a)
+    (1e-9 m/s, as the box) and friction spins it up at mu m g cos(a) r / I (rel 5e-4: the
+    same arm r - d/2)."""
+    a = math.radians(30.0)
+    n = np.array([-math.sin(a), math.cos(a)])
+    t = np.array([math.cos(a), math.sin(a)])
+    r = 0.2
+    for mu in (0.5, 0.1):
+        sim = _sim({"plank": box_body((6.0, 0.2), 1e12, angle=a),
+                    "disc": {"shape": "circle", "radius": r, "mass": 2.0,
+                             "position": ((0.1 + r) * n + 1.0 * t).tolist()}},
+                   _group("plank", "disc", e=0.0, mu=mu), None,
+                   {"g": {"type": "gravity", "bodies": ["disc"]}})
+        disc = sim.model.index["disc"]
+        sim.advance_to(SECOND)
+        v, omega = float(sim.v[disc, :2] @ t), sim.v[disc, 2]
+        assert abs(float(sim.v[disc, :2] @ n)) <= 1e-10
+        if mu == 0.5:
+            assert v == pytest.approx(-2 / 3 * G * math.sin(a), rel=5e-4)
+            assert omega * r == pytest.approx(-v, rel=5e-4)
+        else:
+            assert v == pytest.approx(-G * (math.sin(a) - mu * math.cos(a)), abs=1e-9)
+            assert omega == pytest.approx(2 * mu * G * math.cos(a) / r, rel=5e-4)
+
+
+# ------------------------------------------------------------------ tunnelling
+
+def _bullet_scene(shape):
+    """A 5 cm bullet at 100 m/s towards a 2 cm thick, 100 kg plate whose left face is at
+    x = 0. Unsplit 1 ms steps put the bullet's centre at x = -0.04 (clear by 1.5 cm) and
+    then at x = 0.06 (past the plate by 1.5 cm): it would never be seen touching."""
+    if shape == "circle":
+        bullet = {"shape": "circle", "radius": 0.025, "mass": 0.05,
+                  "position": [-0.54, 0.1], "velocity": [100.0, 0.0]}
+    else:
+        bullet = box_body((0.05, 0.05), 0.05, position=[-0.54, 0.1], velocity=[100.0, 0.0],
+                          angular_velocity=30.0)
+    return _sim({"plate": box_body((0.02, 1.0), 100.0, position=[0.01, 0.0]),
+                 "bullet": bullet}, _group("plate", "bullet", e=0.5, mu=0.3))
+
+
+@pytest.mark.parametrize("shape", ["circle", "box"])
+def test_fast_small_body_does_not_pass_through_a_thin_plate(shape):
+    """With sub-steps (the pass splits a step so nothing moves more than half the
+    thinnest colliding part, 1 cm: 10 sub-steps here) the bullet bounces back off the
+    plate and ends on its own side, moving away."""
+    sim = _bullet_scene(shape)
+    h = sim.step_seconds
+    assert sim.model.contacts.substeps(sim.q, sim.q + h * sim.v) >= 10
+    sim.advance_to(50_000_000)
+    bullet, plate = sim.model.index["bullet"], sim.model.index["plate"]
+    assert sim.q[bullet, 0] < sim.q[plate, 0] - 0.5
+    assert sim.v[bullet, 0] < -10.0, "it must have bounced"
+    assert sim.v[plate, 0] > 0.0
+
+
+@pytest.mark.parametrize("shape", ["circle", "box"])
+def test_without_sub_steps_the_same_bullet_tunnels(shape, monkeypatch):
+    """The control: with sub-stepping disabled the same scene tunnels (the bullet ends
+    beyond the plate with its velocity untouched), so the test above can fail."""
+    monkeypatch.setattr(ContactPass, "substeps", lambda self, q0, q1: 1)
+    sim = _bullet_scene(shape)
+    sim.advance_to(50_000_000)
+    bullet = sim.model.index["bullet"]
+    assert sim.q[bullet, 0] > 4.0
+    assert sim.v[bullet, 0] == 100.0
+
+
+# ------------------------------------------------------------------ every integrator
+
+@pytest.mark.parametrize("method", METHODS)
+def test_bounce_with_every_integrator(method):
+    """A 10 x 6 cm box (20 m/s, spinning, turned) hits a 2 cm plate (spinning slowly)
+    off-centre with friction, e = 0.5; both spins are damped (an external torque only, so
+    linear momentum is still conserved, and the integrators really differ: the damped
+    angular rate is what each method integrates). Sub-steps split each step (2-3 parts).
+
+    Momentum conserved to 1e-13 kg m/s (rounding of 6 kg m/s over a few hundred impulses);
+    the box ends on its own side moving away (no tunnelling); kinetic energy never rises
+    from one step to the next by more than 1e-12 relative (damping and an e < 1 impact with
+    friction only take energy out)."""
+    sim = _sim({"plate": box_body((0.02, 1.0), 5.0, position=[0.01, 0.0], angular_velocity=0.5),
+                "bullet": box_body((0.1, 0.06), 0.3, position=[-0.3, 0.2], velocity=[20.0, 1.0],
+                                   angle=0.3, angular_velocity=4.0)},
+               _group("plate", "bullet", e=0.5, mu=0.3), None,
+               {"damp": {"type": "angular_damping", "bodies": ["plate", "bullet"],
+                         "coefficient": 0.01}},
+               integrator=method)
+    assert sim.integrator.name == method
+    h = sim.step_seconds
+    assert sim.model.contacts.substeps(sim.q, sim.q + h * sim.v) >= 2
+    p0 = _momentum(sim)
+    ke = [_kinetic(sim)]
+    touched = False
+    for _ in range(300):
+        sim.step()
+        ke.append(_kinetic(sim))
+        touched |= bool(sim.model.contacts._warm)
+    bullet, plate = sim.model.index["bullet"], sim.model.index["plate"]
+    assert touched
+    np.testing.assert_allclose(_momentum(sim), p0, rtol=0, atol=1e-13)
+    assert sim.q[bullet, 0] < sim.q[plate, 0] - 0.5
+    assert sim.v[bullet, 0] < sim.v[plate, 0]
+    assert np.diff(ke).max() <= 1e-12 * ke[0]
+    assert ke[-1] < 0.9 * ke[0], "the impact must have taken energy out"
+
+
+# ------------------------------------------------------------------ shipped scenes
+
+@pytest.fixture(scope="module")
+def seesaw_run():
+    """The seesaw scene as shipped, to 2 s (kept for the determinism check) and on to its
+    end at 5 s."""
+    scene = load_scene("seesaw")
+    assert not scene.script
+    sim = Simulation(scene)
+    early = sim.advance_to(2 * SECOND)
+    at_two = (sim.q.copy(), sim.v.copy())
+    late = sim.advance_to(scene.duration_ns)
+    return scene, sim, early, at_two, late
+
+
+def test_seesaw_is_deterministic(seesaw_run):
+    """A second run of the first 2 s gives bit-identical snapshots and state."""
+    scene, _, early, (q, v), _ = seesaw_run
+    again = Simulation(load_scene("seesaw"))
+    assert again.advance_to(2 * SECOND) == early
+    assert np.array_equal(again.q, q) and np.array_equal(again.v, v)
+
+
+def test_seesaw_flings_the_load_over_the_wall_block(seesaw_run):
+    """The load ends beyond the wall block's right face (x = 2.75) and on the ground:
+    resting on a side (CM 0.15 m up within 2 REST, angle a multiple of pi/2 within 1e-3
+    rad), still (1e-6); the wall block still stands where it was (1 mm, 1e-3 rad)."""
+    scene, sim, _, _, late = seesaw_run
+    load, block = sim.model.index["load"], sim.model.index["wall_block"]
+    assert sim.q[load, 0] - 0.15 > 2.6 + 0.15
+    assert sim.q[load, 1] == pytest.approx(0.15, abs=2 * REST)
+    quarter = sim.q[load, 2] / (math.pi / 2)
+    assert abs(quarter - round(quarter)) * math.pi / 2 <= 1e-3
+    assert np.abs(sim.v[load]).max() <= 1e-6
+    np.testing.assert_allclose(sim.q[block], [2.6, 0.75, 0.0], rtol=0, atol=1e-3)
+    # the load was really flung: it went well over the block (1.5 m high)
+    heights = [s.bodies[load].position[1] for s in late]
+    assert max(heights) > 5.0
+
+
+def test_door_stays_held_against_the_block():
+    """The door swings shut and stops on the block's far top corner (0.95, -0.06): its
+    lower face touches it when 0.95 sin a + 0.06 cos a = 0.03 (half its thickness), i.e.
+    a = -0.03155 rad. From 2 s (the swing has stopped) to the end, through the second,
+    harder push, the door angle stays within 1e-4 rad of that: the slop (1e-4 m) at a
+    0.95 m lever is 1.05e-4 rad, while the hinge spring carries almost no load (the push
+    and the block's reaction act at the same distance from the hinge). The block stays
+    within 1 mm of its place; the door comes to rest (1e-3 rad/s)."""
+    scene = load_scene("door")
+    sim = Simulation(scene)
+    snaps = sim.play(scene.script, scene.duration_ns)
+    door, block = sim.model.index["door"], sim.model.index["block"]
+    contact_angle = math.asin(0.03 / math.hypot(0.95, 0.06)) - math.atan2(0.06, 0.95)
+    held = [s for s in snaps if s.time_ns >= 2 * SECOND]
+    assert len(held) >= 150
+    angles = np.array([s.bodies[door].angle for s in held])
+    assert np.abs(angles - contact_angle).max() <= 1e-4
+    for s in snaps:
+        assert np.hypot(*np.subtract(s.bodies[block].position, (0.75, -0.26))) <= 1e-3
+    # it never swung through the block (a pass-through would reach far below -0.0316)
+    assert min(s.bodies[door].angle for s in snaps) > contact_angle - 2e-3
+    assert abs(sim.v[door, 2]) <= 1e-3
+
+
+def test_car_flip_lands_on_its_roof():
+    """The car ends upside down (angle pi within 1e-3 rad) resting on the cabin roof: the
+    roof is 0.8 m above the body-frame origin (cabin centre 0.55 + half height 0.25), so
+    the origin ends 0.8 m up (2 REST) and still (1e-6)."""
+    scene = load_scene("car_flip")
+    sim = Simulation(scene)
+    snaps = sim.play(scene.script, scene.duration_ns)
+    final = snaps[-1].bodies[0]
+    assert abs(float(wrap_angle(np.array([final.angle - math.pi]))[0])) <= 1e-3
+    assert final.position[1] == pytest.approx(0.8, abs=2 * REST)
+    assert max(abs(final.linear_velocity[0]), abs(final.linear_velocity[1]),
+               abs(final.angular_velocity)) <= 1e-6
+
+
+# ------------------------------------------------------------------ only what is declared
+
+def test_scene_without_collision_groups_never_runs_the_body_pair_code(monkeypatch):
+    """The sample scene has walls and no collision groups: its contact pass runs (walls)
+    but never the body-pair code."""
+    def forbidden(*args):
+        raise AssertionError("body-pair contacts computed in a scene without collisions")
+    monkeypatch.setattr(ContactPass, "_candidate_pairs", forbidden)
+    monkeypatch.setattr(ContactPass, "_pair_contacts", forbidden)
+    calls = []
+    original = ContactPass.detect
+    monkeypatch.setattr(ContactPass, "detect",
+                        lambda self, q: calls.append(1) or original(self, q))
+    scene = load_scene("sample")
+    assert scene.walls and not scene.collisions
+    sim = Simulation(scene)
+    assert sim.model.contacts is not None and not sim.model.contacts.pairs
+    sim.play(scene.script, SECOND)
+    assert len(calls) >= 1000
+
+
+def test_step_that_overflows_in_a_colliding_scene_raises_divergence_error():
+    """Design section 7: a divergent state gives DivergenceError and keeps the last
+    finite state. A spring of stiffness 1e308 stretched 10 m makes an infinite force in
+    one step. Without collision groups this raises DivergenceError (checked first); with
+    one, the sub-step count must not trip over the non-finite travel first (it used to
+    raise a bare ValueError from math.ceil)."""
+    from hecker_dynamics.dynamics.simulation import DivergenceError
+    bodies = {"a": box_body((0.2, 0.2), 1.0), "b": box_body((0.2, 0.2), 1.0, position=[5.0, 0.0])}
+    spring = {"k": {"type": "spring", "body_a": "a", "anchor": [11.0, 0.0],
+                    "stiffness": 1e308}}
+    plain = _sim(bodies, forces=spring)
+    with pytest.raises(DivergenceError):
+        plain.step()
+    sim = _sim(bodies, _group("a", "b"), forces=spring)
+    q0 = sim.q.copy()
+    with pytest.raises(DivergenceError):
+        sim.step()
+    assert np.array_equal(sim.q, q0)
+
+
+def test_scene_without_walls_or_collisions_has_no_contact_pass():
+    scene = load_scene("ship")
+    assert not scene.walls and not scene.collisions
+    assert Simulation(scene).model.contacts is None
+    sim = _sim({"a": box_body(), "b": box_body(position=[0.3, 0.0])}, forces=GRAVITY)
+    assert sim.model.contacts is None
+    sim.advance_to(SECOND // 10)  # overlapping bodies that may not collide pass freely
+    assert sim.v[0, 1] == pytest.approx(-G * 0.1, rel=1e-12)
+
+
+def test_concave_body_bounces_off_walls_and_is_refused_in_a_collision_group():
+    """Walls need only a shape's vertices, so an L-shaped (concave) body may meet them; the
+    body-pair narrow phase needs convex parts, so a collision group refuses it by name."""
+    ell = {"shape": "polygon", "vertices": [0.0, 0.0, 1.0, 0.0, 1.0, 0.3, 0.3, 0.3, 0.3, 1.0,
+                                            0.0, 1.0], "mass": 1.0, "position": [0.0, 0.5]}
+    floor = {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": 0.5}}
+    sim = _sim({"ell": ell}, walls=floor, forces={"g": {"type": "gravity"}})
+    sim.advance_to(2_000_000_000)
+    lowest = min(sim.model.contacts._world_parts(sim.q[0].tolist(), 0)[0][1],
+                 key=lambda p: p[1])[1]
+    assert lowest > -2 * SLOP  # it landed on the floor and did not sink through
+    with pytest.raises(SceneError, match="body 'ell'.*convex"):
+        _sim({"ell": ell, "b": box_body((0.2, 0.2), 1.0, position=[3.0, 0.0])},
+             collisions={"all": {"bodies": ["ell", "b"]}})
