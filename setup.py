@@ -66,6 +66,8 @@ setup(
                  "dask[distributed]>=2023.4"],
         # Sweeps and regression suites on a Dask cluster (`--cluster ADDRESS`).
         "cluster": ["dask[distributed]>=2023.4"],
+        # scripts/lint.sh: ruff and mypy as pyproject.toml configures them.
+        "lint": ["ruff>=0.8", "mypy>=1.10"],
         "figures": ["matplotlib>=3.6"],
         # `hecker-dynamics render`, `plot` and `run --view` (MP4 also needs imageio-ffmpeg).
         "viz": ["matplotlib>=3.6", "Pillow>=9"],

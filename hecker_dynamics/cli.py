@@ -80,14 +80,15 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         if scene.publish_period_ns % args.step:
             step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
             raise SceneError(f"--step {step}: the publish period "
-                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
+                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number "
+                             "of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration
     return dataclasses.replace(scene, **changes)
 
 
-def run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
     if args.view:
@@ -114,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def scenes(args: argparse.Namespace) -> int:
+def scenes_command(args: argparse.Namespace) -> int:
     """List the shipped scenes."""
     for name in shipped_scenes():
         print(name)
@@ -147,7 +148,7 @@ def _tolerances(args: argparse.Namespace):
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
-def script(args: argparse.Namespace) -> int:
+def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import script_to_bag
 
@@ -226,7 +227,7 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
     """Replay a session recorded from the node with its session records (bags.live)."""
     from .bags.io import BagWriter
     from .bags.live import check_live
-    from .bags.replay import output_topics
+    from .bags.replay import output_types
 
     given = [name for name, value in (("--start", args.start is not None),
                                       ("--duration", args.duration is not None),
@@ -240,7 +241,7 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
         with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
                        custom_data={"scene": Path(scene.source).stem},
                        compress=args.compress) as writer:
-            for topic, msgtype in output_topics(scene).items():
+            for topic, msgtype in output_types(scene).items():
                 writer.add_topic(topic, msgtype)
             for output in sorted(check.outputs, key=lambda o: o.log_ns):
                 writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
@@ -326,7 +327,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the scene's duration)")
     _add_writer_options(script_parser)
-    script_parser.set_defaults(handler=script)
+    script_parser.set_defaults(handler=script_command)
 
     replay_parser = commands.add_parser(
         "replay", help="replay an input bag on a scene and write the node's outputs",
@@ -570,11 +571,11 @@ def parser() -> argparse.ArgumentParser:
                             help="override the tolerance of dopri5, dop853 / auto")
     run_parser.add_argument("--view", action="store_true",
                             help="show the run in a window (needs a display and the viz extra)")
-    run_parser.set_defaults(handler=run)
+    run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
                                       description="List the shipped scenes.")
-    list_parser.set_defaults(handler=scenes)
+    list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)
     _add_batch_commands(commands)

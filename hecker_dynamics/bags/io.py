@@ -31,7 +31,8 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.markers import MarkerFields
-from ..ros.session import WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields, SessionFields
+from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
+                           SessionFields, WorldChange, WorldEventFields)
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -39,7 +40,7 @@ __all__ = [
     "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
-    "input_event_fields",
+    "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of",
 ]
 
@@ -47,8 +48,9 @@ APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
 SESSION_INFO = "hecker_dynamics/msg/SessionInfo"
 KEYFRAME = "hecker_dynamics/msg/Keyframe"
 INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
+WORLD_EVENT = "hecker_dynamics/msg/WorldEvent"
 #: The package's own interfaces, each defined in ``msg/<Name>.msg``.
-PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT)
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TWIST = "geometry_msgs/msg/Twist"
@@ -207,7 +209,8 @@ def twist_message(fields: TwistFields) -> Any:
 
 
 def odometry_message(fields: OdometryFields) -> Any:
-    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields` (covariances zero)."""
+    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields`
+    (covariances zero)."""
     return default_message(
         ODOMETRY, header=header_message(fields.header), child_frame_id=fields.child_frame_id,
         pose=default_message("geometry_msgs/msg/PoseWithCovariance",
@@ -228,12 +231,14 @@ def marker_message(fields: MarkerFields) -> Any:
 
 
 def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
-    """``visualization_msgs/MarkerArray`` from :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
+    """``visualization_msgs/MarkerArray`` from
+    :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
     return default_message(MARKER_ARRAY, markers=[marker_message(m) for m in markers])
 
 
 def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
-    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
+    """``diagnostic_msgs/DiagnosticArray`` with one status from
+    :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
     status = default_message(
         "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
         message=fields.message, hardware_id=fields.hardware_id,
@@ -243,7 +248,8 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
 
 
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
-    """``hecker_dynamics/msg/AppliedWrench`` from :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
+    """``hecker_dynamics/msg/AppliedWrench`` from
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
     dsec, dnanosec = fields.duration
     return default_message(
         APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
@@ -281,12 +287,7 @@ def session_info_message(fields: SessionFields) -> Any:
     """``hecker_dynamics/msg/SessionInfo`` of a session record."""
     return default_message(
         SESSION_INFO, header=header_message(header(fields.frame_id, fields.start_ns)),
-        session=fields.session, reason=fields.reason, scene=fields.scene,
-        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
-        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
-        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
-        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
-        version=fields.version)
+        **fields.message_values())
 
 
 def session_fields(msg: Any) -> SessionFields:
@@ -339,6 +340,23 @@ def input_event_fields(msg: Any) -> InputEventFields:
         ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
         msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else msg.applied_wrench,
         bool(msg.accepted), msg.reason)
+
+
+def world_event_message(fields: WorldEventFields) -> Any:
+    """``hecker_dynamics/msg/WorldEvent`` of a world change record."""
+    return default_message(
+        WORLD_EVENT, header=header_message(header("", fields.stamp_ns)),
+        session=max(fields.session, 0), sequence=fields.sequence, kind=int(fields.kind),
+        body=fields.body, values=np.array(fields.values, dtype=np.float64),
+        time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+
+
+def world_event_fields(msg: Any) -> WorldEventFields:
+    """The world change record of a ``WorldEvent`` message."""
+    return WorldEventFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence),
+                            WorldChange(int(msg.kind)), msg.body,
+                            tuple(float(x) for x in msg.values), int(msg.time_ns),
+                            bool(msg.accepted), msg.reason)
 
 
 def stamp_ns_of(msg: Any) -> Optional[int]:
@@ -519,7 +537,7 @@ class BagWriter:
         self._types: dict[str, str] = {}
         self.count = 0
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> BagWriter:
         self.open()
         return self
 

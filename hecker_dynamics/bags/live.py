@@ -11,8 +11,10 @@ keyframe period (``~/keyframe``). A replay of a recorded session
    all in the bag (or from the session's start), in a :class:`~hecker_dynamics.ros.runner.Runner`
    with the recorded options;
 3. pushes each recorded input event's message at its recorded sim time, with its recorded
-   arrival time, and steps on to the last recorded output; the same runner takes keyframes
-   at the same instants, and each must equal the recorded one;
+   arrival time, makes each recorded world change (a body moved, a pause, resume or step)
+   again at its sim time, in the node's order, and steps on to the last recorded output;
+   the same runner takes keyframes at the same instants, and each must equal the recorded
+   one;
 4. compares every recorded output with the replayed one of the same stamp (``Twist``, which
    has no header, by its place in the sequence of snapshots).
 
@@ -24,22 +26,27 @@ the recorded span of its topic means the bag was changed or the recorder dropped
 """
 from __future__ import annotations
 
+import bisect
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Union
 
 from ..ros.outputs import DIAGNOSTICS_TOPIC
 from ..ros.runner import Runner
-from ..ros.session import InputEventFields, KeyframeFields, SessionFields
+from ..ros.session import (InputEventFields, KeyframeFields, SessionFields, WorldChange,
+                           WorldEventFields)
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene, WrenchTopic
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_contents
-from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, BagContents, BagMessage,
+from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagMessage,
                  resolve_topic)
-from .replay import Output, ReplayError, input_topics, output_topics, snapshot_outputs
+from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
+
+#: What a session's event sequence holds.
+Event = Union[InputEventFields, WorldEventFields]
 
 __all__ = ["RecordedSession", "LiveCheck", "recorded_sessions", "is_live_recording",
            "check_live"]
@@ -52,7 +59,8 @@ class RecordedSession:
     info: SessionFields
     info_log_ns: int
     keyframes: list[KeyframeFields] = field(default_factory=list)
-    events: dict[int, InputEventFields] = field(default_factory=dict)
+    #: Input events and world changes by their shared sequence number.
+    events: dict[int, Event] = field(default_factory=dict)
 
 
 @dataclass
@@ -83,7 +91,7 @@ def recorded_sessions(bag: BagContents) -> dict[int, RecordedSession]:
     """The sessions of the node recorded in ``bag``, by session number."""
     sessions: dict[int, RecordedSession] = {}
     keyframes: list[KeyframeFields] = []
-    events: list[InputEventFields] = []
+    events: list[Event] = []
     for message in bag.messages:
         msgtype = bag.topics[message.topic]
         if msgtype == SESSION_INFO:
@@ -93,6 +101,8 @@ def recorded_sessions(bag: BagContents) -> dict[int, RecordedSession]:
             keyframes.append(bags.keyframe_fields(message.decode()))
         elif msgtype == INPUT_EVENT:
             events.append(bags.input_event_fields(message.decode()))
+        elif msgtype == WORLD_EVENT:
+            events.append(bags.world_event_fields(message.decode()))
     for keyframe in keyframes:
         if keyframe.session in sessions and all(
                 k.stamp_ns != keyframe.stamp_ns for k in sessions[keyframe.session].keyframes):
@@ -122,7 +132,7 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
                       ) -> dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]]:
     """Per session, per output topic: the recorded messages and their header stamps (None
     for ``Twist``), in log order."""
-    compared = {topic for topic in output_topics(scene)
+    compared = {topic for topic in output_types(scene)
                 if topic != resolve_topic(DIAGNOSTICS_TOPIC)}
     grouped: dict[int, dict[str, list[tuple[BagMessage, Optional[int]]]]] = defaultdict(
         lambda: defaultdict(list))
@@ -140,16 +150,15 @@ def _sibling(topic: str) -> Optional[str]:
 
 
 def _align(recorded: dict[str, list[tuple[BagMessage, Optional[int]]]],
-           produced: dict[str, list[Output]], raw: dict[int, bytes], start_ns: int,
-           period_ns: int) -> tuple[list[BagMessage], list[BagMessage], int]:
+           produced: dict[str, list[Output]], raw: dict[int, bytes], start_ns: int
+           ) -> tuple[list[BagMessage], list[BagMessage], int]:
     """The recorded messages and their replayed counterparts, both logged at the snapshot's
     stamp, and how many recorded messages were not checked (before ``start_ns``).
 
     A stamped message's counterpart has its stamp. A ``Twist`` is placed in the sequence of
-    replayed twists (one per publish instant from the first replayed one) where the recorded
-    ones match
-    bit for bit, searched from where the sibling pose received just before it puts it; where
-    none matches, that place stands, so the comparison reports the difference."""
+    replayed twists (one per replayed snapshot) where the recorded ones match bit for bit,
+    searched from where the sibling pose received just before it puts it; where none
+    matches, that place stands, so the comparison reports the difference."""
     expected: list[BagMessage] = []
     actual: list[BagMessage] = []
     unchecked = 0
@@ -158,17 +167,16 @@ def _align(recorded: dict[str, list[tuple[BagMessage, Optional[int]]]],
         if messages and messages[0][1] is None:
             pose_topic = _sibling(topic)
             poses = recorded.get(pose_topic, []) if pose_topic else []
-            first_ns = replayed[0].log_ns if replayed else start_ns
-            offset = _twist_offset([m for m, _ in messages], replayed, raw, poses, first_ns,
-                                   period_ns)
+            offset = _twist_offset([m for m, _ in messages], replayed, raw, poses)
             for j, (message, _) in enumerate(messages):
                 index = offset + j
                 if index < 0:
                     unchecked += 1
-                    continue
-                expected.append(_relogged(message, first_ns + index * period_ns))
-                if index < len(replayed):
+                elif index < len(replayed):
+                    expected.append(_relogged(message, replayed[index].log_ns))
                     actual.append(_as_message(replayed[index], raw))
+                else:  # after the last replayed snapshot: missing from the replay
+                    expected.append(_relogged(message, message.log_ns))
             continue
         by_stamp = {o.log_ns: o for o in replayed}
         for message, stamp in messages:
@@ -182,17 +190,19 @@ def _align(recorded: dict[str, list[tuple[BagMessage, Optional[int]]]],
 
 
 def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],
-                  poses: list[tuple[BagMessage, Optional[int]]], first_ns: int,
-                  period_ns: int) -> int:
-    """Where the recorded twists start in the replayed sequence (see :func:`_align`); may
-    be negative when the recording began before the replay's start."""
+                  poses: list[tuple[BagMessage, Optional[int]]]) -> int:
+    """Where the recorded twists start in the replayed sequence (see :func:`_align`); negative
+    when the recording began before the replay's first snapshot."""
+    stamps = [o.log_ns for o in replayed]
     guess = 0
-    if poses and messages:
+    if poses and messages and stamps:
         first = messages[0].log_ns
         before = [stamp for message, stamp in poses if message.log_ns <= first and stamp]
         stamp = before[-1] if before else poses[0][1]
-        if stamp is not None:
-            guess = (stamp - first_ns) // period_ns
+        if stamp is not None and stamp >= stamps[0]:
+            guess = bisect.bisect_left(stamps, stamp)
+        elif stamp is not None:  # count the recorded snapshots the replay does not have
+            guess = -sum(1 for _, s in poses if s is not None and stamp <= s < stamps[0])
     count = len(messages)
 
     def matches(offset: int) -> bool:
@@ -308,7 +318,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     recorded = _recorded_outputs(scene, bag, ordered)
     if not any(recorded.values()):
         raise ReplayError(f"{bag.path}: the bag has no recorded outputs of the scene's bodies "
-                          f"({', '.join(t for t in output_topics(scene) if t.endswith('/pose'))})")
+                          f"({', '.join(t for t in output_types(scene) if t.endswith('/pose'))})")
     topics = _wrench_topics(scene)
     store = bags.typestore()
     expected: list[BagMessage] = []
@@ -329,11 +339,12 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
         by_topic: dict[str, list[Output]] = defaultdict(list)
         for output in produced:
             by_topic[output.topic].append(output)
-        e, a, unchecked = _align(outputs, by_topic, raw, start_ns, scene.publish_period_ns)
+        e, a, unchecked = _align(outputs, by_topic, raw, start_ns)
         expected += e
         actual += a
         check.unchecked += unchecked
-        check.problems += _check_inputs(bag, list(session.events.values()), topics)
+        check.problems += _check_inputs(bag, [e for e in session.events.values()
+                                              if isinstance(e, InputEventFields)], topics)
         check.sessions += 1
         if progress is not None:
             progress((done + 1) / len(with_outputs))
@@ -373,7 +384,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
         runner.restore(keyframe)
         if keyframe.steps and (keyframe.stamp_ns - info.start_ns) % scene.publish_period_ns == 0:
             # The node published this instant on arriving there, before the keyframe.
-            produced.extend(snapshot_outputs(scene, runner.sim.snapshot()))
+            produced.extend(snapshot_messages(scene, runner.sim.snapshot()))
     runner.take_records()
     start_ns = runner.sim.time_ns
     recorded_keyframes = {k.stamp_ns: k for k in session.keyframes}
@@ -381,7 +392,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     def advance(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         for snapshot in tick.snapshots:
-            produced.extend(snapshot_outputs(scene, snapshot))
+            produced.extend(snapshot_messages(scene, snapshot))
         if tick.diverged is not None:
             check.halted = tick.diverged
         for record in runner.take_records():
@@ -400,18 +411,37 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
                               f"pushed at {event.stamp_ns * 1e-9:.9f} s, before the one "
                               "before it; the records are inconsistent")
         advance(event.stamp_ns)
-        if event.topic not in topics:
-            raise ReplayError(f"session {info.session}: input event {event.sequence} is on "
-                              f"{event.topic}, which is not an input of {scene.source}")
-        lines = runner.accept(event.topic, event.message, event.arrival_ns, topics[event.topic])
-        accepted = not any(line.dropped for line in lines)
         check.events += 1
+        if isinstance(event, WorldEventFields):
+            accepted = _change(runner, event, produced, scene).accepted
+        else:
+            if event.topic not in topics:
+                raise ReplayError(f"session {info.session}: input event {event.sequence} is "
+                                  f"on {event.topic}, which is not an input of {scene.source}")
+            lines = runner.accept(event.topic, event.message, event.arrival_ns,
+                                  topics[event.topic])
+            accepted = not any(line.dropped for line in lines)
         if accepted != event.accepted:
             check.problems.append(
-                f"session {info.session}: input event {event.sequence} was "
+                f"session {info.session}: event {event.sequence} was "
                 f"{'accepted' if event.accepted else 'rejected'} by the node but "
                 f"{'accepted' if accepted else 'rejected'} now"
                 + (f" ({event.reason})" if event.reason else ""))
         runner.take_records()
     advance(last_ns)
     return produced, start_ns
+
+
+def _change(runner: Runner, event: WorldEventFields, produced: list[Output],
+            scene: Scene) -> WorldEventFields:
+    """Make the recorded world change again; a step's snapshots join the outputs."""
+    if event.kind is WorldChange.SET_STATE:
+        return runner.set_body_state(event.body, event.values)
+    if event.kind is WorldChange.PAUSE:
+        return runner.pause()
+    if event.kind is WorldChange.RESUME:
+        return runner.resume_at(event.time_ns)
+    record, tick = runner.step(int(event.values[0]) if event.values else 0)
+    for snapshot in tick.snapshots:
+        produced.extend(snapshot_messages(scene, snapshot))
+    return record

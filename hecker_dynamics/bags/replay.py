@@ -32,15 +32,14 @@ from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagE
 from ..dynamics.commands import InputError
 from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
                           wrench_stamped_to_command)
-from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, snapshot_outputs as
-                           snapshot_fields)
+from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics,
+                           snapshot_outputs)
 from ..ros.runner import Runner
-from ..ros.outputs import output_topics as node_output_topics
 from ..scene.load import Scene, WrenchTopic
 from ..dynamics.simulation import Snapshot
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
-           "output_topics", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
+           "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
            "recorded_output_topics"]
 
@@ -90,9 +89,10 @@ def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[WrenchTopic]]]:
     return topics
 
 
-def output_topics(scene: Scene) -> dict[str, str]:
-    """Output topics of the node for ``scene`` (topic -> type), in publishing order."""
-    return {resolve_topic(topic): kind.value for topic, kind in node_output_topics(scene).items()}
+def output_types(scene: Scene) -> dict[str, str]:
+    """The node's output topics for ``scene`` as a bag names them, with their message
+    types (topic -> type), in publishing order."""
+    return {resolve_topic(topic): kind.value for topic, kind in output_topics(scene).items()}
 
 
 def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = True) -> None:
@@ -116,7 +116,7 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
         raise ReplayError(f"{bag.path}: the bag has poses of bodies the scene "
                           f"{scene.source} does not have ({', '.join(foreign)}; the scene's "
                           f"bodies: {', '.join(sorted(bodies))})")
-    _check_types(bag, output_topics(scene))
+    _check_types(bag, output_types(scene))
 
 
 def recorded_output_topics(scene: Scene, bag: BagContents, *,
@@ -127,7 +127,7 @@ def recorded_output_topics(scene: Scene, bag: BagContents, *,
     (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
     """
     check_bag_for_scene(scene, bag, need_inputs=need_inputs)
-    outputs = output_topics(scene)
+    outputs = output_types(scene)
     recorded = [topic for topic in outputs if topic in bag.topics]
     if not any(bag.topics[topic] == POSE_STAMPED for topic in recorded):
         raise ReplayError(f"{bag.path}: --check needs recorded outputs in the bag, but it "
@@ -251,9 +251,9 @@ def _output(fields: OutputFields, log_ns: int) -> Output:
                   _MESSAGE_BUILDERS[fields.kind](fields.fields))
 
 
-def snapshot_outputs(scene: Scene, snapshot: Snapshot) -> list[Output]:
+def snapshot_messages(scene: Scene, snapshot: Snapshot) -> list[Output]:
     """The messages the node publishes for one snapshot, in its publishing order."""
-    return [_output(fields, snapshot.time_ns) for fields in snapshot_fields(scene, snapshot)]
+    return [_output(fields, snapshot.time_ns) for fields in snapshot_outputs(scene, snapshot)]
 
 
 # ----------------------------------------------------------------------------- replay
@@ -280,7 +280,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         tick = runner.advance(target_ns)
         result.rejected.extend(tick.script_errors)
         for snapshot in tick.snapshots:
-            for output in snapshot_outputs(scene, snapshot):
+            for output in snapshot_messages(scene, snapshot):
                 emit(output)
                 result.outputs += 1
         if tick.diagnostics is not None:
@@ -338,7 +338,7 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
                 if topic in bag.topics:
                     writer.add_topic(topic, msgtype)
             pending = [m for m in bag.messages if m.topic in inputs]
-        for topic, msgtype in output_topics(scene).items():
+        for topic, msgtype in output_types(scene).items():
             writer.add_topic(topic, msgtype)
         position = 0
 
@@ -375,7 +375,7 @@ def outputs_as_bag(scene: Scene, outputs: Sequence[Output], name: str = "<replay
     raw = serialize_outputs(outputs)
     messages = [bags.BagMessage(i, o.topic, o.msgtype, o.log_ns, data)
                 for i, (o, (_, _, data)) in enumerate(zip(outputs, raw))]
-    return BagContents(path=Path(name), storage="memory", topics=output_topics(scene),
+    return BagContents(path=Path(name), storage="memory", topics=output_types(scene),
                        messages=messages)
 
 

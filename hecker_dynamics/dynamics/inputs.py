@@ -1,6 +1,6 @@
 """The input buffer: which commanded wrenches act during each step.
 
-Rules (design section 4): a command starts to act at the first step that begins at or
+Rules: a command starts to act at the first step that begins at or
 after its stamp; a newer command with the same ``(body, source)`` replaces it; it stops at
 ``stamp + duration`` when it has a duration, else at ``stamp + timeout`` (the safety
 timeout, like a velocity-command timeout; 0 disables it). Commands are held constant over
@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass
 from typing import Any, Optional
 
 from .commands import InputError, WrenchCommand
+from .forces import WrenchRow
 
 
 @dataclass(frozen=True)
@@ -24,7 +25,7 @@ class Held:
     """A command in the buffer with its resolved force row and the time it stops acting."""
 
     command: WrenchCommand
-    row: tuple[Any, ...]
+    row: WrenchRow
     end_ns: Optional[int]
 
 
@@ -48,7 +49,7 @@ class InputBuffer:
             return command.stamp_ns + self.timeout_ns
         return None
 
-    def add(self, command: WrenchCommand, row: tuple[Any, ...]) -> None:
+    def add(self, command: WrenchCommand, row: WrenchRow) -> None:
         """Queue a command; raises :class:`InputError` when the buffer is full."""
         what = f"the command for '{command.body}' from '{command.source}'"
         if len(self._pending) >= self.max_pending:
@@ -106,7 +107,7 @@ class InputBuffer:
         }
 
     def import_state(self, state: dict[str, Any],
-                     row_of: Callable[[WrenchCommand], tuple[Any, ...]]) -> None:
+                     row_of: Callable[[WrenchCommand], WrenchRow]) -> None:
         """Restore :meth:`export_state`'s data; ``row_of`` resolves a command's force row."""
         def held(data: dict[str, Any]) -> Held:
             command = _command_from_data(data)

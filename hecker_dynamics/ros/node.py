@@ -37,8 +37,10 @@ from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, nod
                      plan_tick)
 from .session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, INPUT_EVENTS_TOPIC,
                       KEYFRAME_DEPTH, KEYFRAME_TOPIC, SESSION_DEPTH, SESSION_TOPIC,
-                      InputEventFields, KeyframeFields, SessionFields)
-from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo
+                      WORLD_EVENTS_DEPTH, WORLD_EVENTS_TOPIC, InputEventFields, KeyframeFields,
+                      SessionFields, WorldEventFields)
+from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
+from ..srv import SetBodyState, Step
 from .ratelimit import RateLimiter
 from ..scene.load import NODE_NAME, SceneError, WrenchTopic
 
@@ -126,13 +128,7 @@ def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray
 
 
 def _session_info(fields: SessionFields) -> SessionInfo:
-    msg = SessionInfo(
-        session=fields.session, reason=fields.reason, scene=fields.scene,
-        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
-        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
-        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
-        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
-        version=fields.version)
+    msg = SessionInfo(**fields.message_values())
     _fill_header(msg.header, header(fields.frame_id, fields.start_ns))
     return msg
 
@@ -158,12 +154,21 @@ def _input_event(fields: InputEventFields) -> InputEvent:
     return msg
 
 
+def _world_event(fields: WorldEventFields) -> WorldEvent:
+    msg = WorldEvent(session=max(fields.session, 0), sequence=fields.sequence,
+                     kind=int(fields.kind), body=fields.body, values=list(fields.values),
+                     time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    return msg
+
+
 #: Session records: their topic, message builder and keep-last depth. Reliable and
 #: transient_local, so a recorder that starts after them still receives the latest.
 RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, int]] = {
     SessionFields: (SESSION_TOPIC, _session_info, SessionInfo, SESSION_DEPTH),
     KeyframeFields: (KEYFRAME_TOPIC, _keyframe, Keyframe, KEYFRAME_DEPTH),
     InputEventFields: (INPUT_EVENTS_TOPIC, _input_event, InputEvent, INPUT_EVENTS_DEPTH),
+    WorldEventFields: (WORLD_EVENTS_TOPIC, _world_event, WorldEvent, WORLD_EVENTS_DEPTH),
 }
 
 
@@ -229,6 +234,10 @@ class DynamicsNode(Node):
                 lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
             self._wrench_topic_names[topic.name] = subscription.topic_name
         self.create_service(Trigger, "reset", self._on_reset)
+        self.create_service(Trigger, "pause", self._on_pause)
+        self.create_service(Trigger, "resume", self._on_resume)
+        self.create_service(Step, "step", self._on_step)
+        self.create_service(SetBodyState, "set_body_state", self._on_set_body_state)
         if self.options.lockstep:
             self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
             # A zero period: the timer is always ready, so the run goes as fast as it can
@@ -359,6 +368,40 @@ class DynamicsNode(Node):
         self.get_logger().info(response.message)
         return response
 
+
+    # ----------------------------------------------------------------- world services
+
+    def _answer(self, record: WorldEventFields, response: Any, done: str) -> Any:
+        """Publish the change's record and answer the call with its outcome."""
+        self._publish_records()
+        response.success = record.accepted
+        response.message = done if record.accepted else record.reason
+        (self.get_logger().info if record.accepted else self.get_logger().warning)(
+            response.message)
+        return response
+
+    def _on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Any:
+        return self._answer(self.runner.pause(), response,
+                            f"paused at {self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_resume(self, request: Trigger.Request, response: Trigger.Response) -> Any:
+        return self._answer(self.runner.resume(self._now_ns()), response,
+                            f"resumed at {self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
+        record, tick = self.runner.step(int(request.steps))
+        for snapshot in tick.snapshots:
+            for output in snapshot_outputs(self.scene, snapshot):
+                self._publish(output)
+        return self._answer(record, response, f"stepped {request.steps} step(s) to "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_set_body_state(self, request: SetBodyState.Request,
+                           response: SetBodyState.Response) -> Any:
+        record = self.runner.set_body_state(request.body, (
+            request.x, request.y, request.angle, request.vx, request.vy, request.omega))
+        return self._answer(record, response, f"moved '{request.body}' at "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
 def main(args: Optional[list[str]] = None) -> int:
     """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status."""

@@ -25,18 +25,21 @@ from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic, load_
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .session import (APPLIED_WRENCH_EVENT, WRENCH_STAMPED_EVENT, InputEventFields,
-                      KeyframeFields, SessionFields, decode_state, encode_state)
+                      KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
+                      encode_state)
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
 CLOCK_JUMP_NS = NS_PER_S
 #: The longest keyframe period accepted (a day of sim time).
 MAX_KEYFRAME_PERIOD_S = 86400.0
+#: The most steps one call of the step service takes.
+MAX_SERVICE_STEPS = 1_000_000
 #: A sim time no session reaches (about 292 years).
 FAR_FUTURE_NS = 2 ** 63 - 1
 
 #: What the runner records for the node to publish.
-Record = Union[SessionFields, InputEventFields, KeyframeFields]
+Record = Union[SessionFields, InputEventFields, WorldEventFields, KeyframeFields]
 
 # ----------------------------------------------------------------------------- node setup
 
@@ -245,6 +248,9 @@ class Runner:
         self.accepted = 0
         self.rejected = 0
         self.halted: Optional[str] = None
+        #: Paused by the pause service: the clock's ticks do not step it.
+        self.paused = False
+        self._stepping = False
         #: Restarts so far (-1 before the first start) and input messages taken so far.
         self.session = -1
         self.sequence = 0
@@ -259,6 +265,7 @@ class Runner:
         self.sim.reset(start_ns)
         self._script_index = 0
         self.halted = None
+        self.paused = False
         self._last_diagnostics_ns = None
         self._next_keyframe_step = 0
         self.started = True
@@ -326,6 +333,88 @@ class Runner:
         self.accepted += 1
         return lines
 
+    # ----------------------------------------------------------------- world changes
+
+    def set_body_state(self, body: str, values: Sequence[float]) -> WorldEventFields:
+        """Move ``body`` now (``values``: x, y, angle of its frame, vx, vy of the frame's
+        origin, omega; see :meth:`Simulation.set_body_state`)."""
+        def move() -> None:
+            if len(values) != 6:
+                raise InputError(f"a body state has 6 values, not {len(values)}")
+            x, y, angle, vx, vy, omega = (float(value) for value in values)
+            self.sim.set_body_state(body, (x, y), angle, (vx, vy), omega)
+        return self._change(WorldChange.SET_STATE, move, body, tuple(float(v) for v in values))
+
+    def pause(self) -> WorldEventFields:
+        """Stop stepping with the clock (until :meth:`resume`)."""
+        def stop() -> None:
+            if self.paused:
+                raise InputError("the simulation is paused already")
+            self.paused = True
+        return self._change(WorldChange.PAUSE, stop)
+
+    def resume(self, now_ns: int) -> WorldEventFields:
+        """Go on stepping with the clock. Following the ROS clock, the simulation skips the
+        time it stood still, to the first publish instant at or after ``now_ns``; in
+        lockstep (and for a ``now_ns`` not ahead of it) it goes on from where it stands."""
+        sim = self.sim
+        target = sim.time_ns
+        if not self.lockstep and now_ns > sim.time_ns:
+            period = self.scene.publish_period_ns
+            target = sim.time_ns + -(-(now_ns - sim.time_ns) // period) * period
+        return self.resume_at(target)
+
+    def resume_at(self, time_ns: int) -> WorldEventFields:
+        """:meth:`resume` from sim time ``time_ns`` (what a replay repeats)."""
+        def go_on() -> None:
+            if not self.paused:
+                raise InputError("the simulation is not paused")
+            self.sim.skip_to(time_ns)
+            self.paused = False
+        return self._change(WorldChange.RESUME, go_on, time_ns=time_ns)
+
+    def step(self, steps: int) -> tuple[WorldEventFields, Tick]:
+        """Take ``steps`` steps of a paused simulation; returns the record and what the
+        steps passed (their snapshots)."""
+        tick = Tick([])
+
+        def take() -> None:
+            if not self.paused:
+                raise InputError("step needs a paused simulation (call pause first)")
+            if not 1 <= steps <= MAX_SERVICE_STEPS:
+                raise InputError(f"steps must be from 1 to {MAX_SERVICE_STEPS}, not {steps}")
+            # No keyframe inside the call: a replay could not start in its middle.
+            self.paused, self._stepping = False, True
+            try:
+                done = self.advance(self.sim.time_ns + steps * self.sim.step_ns)
+            finally:
+                self.paused, self._stepping = True, False
+            tick.snapshots, tick.diverged = done.snapshots, done.diverged
+            tick.script_errors = done.script_errors
+        return self._change(WorldChange.STEP, take, values=(float(steps),)), tick
+
+    def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
+                values: tuple[float, ...] = (), time_ns: int = 0) -> WorldEventFields:
+        """Apply one change (``apply`` raises :class:`InputError` to refuse it) and record
+        it at the sim time it was made, in the input events' sequence."""
+        stamp, sequence = self.sim.time_ns, self.sequence
+        self.sequence += 1  # before the change: keyframes it takes count it as done
+        reason = ""
+        if not self.started:
+            reason = "the simulation has not started yet (waiting for the ROS clock)"
+        elif self.halted is not None:
+            reason = f"the simulation is halted ({self.halted}); reset it first"
+        else:
+            try:
+                apply()
+            except InputError as error:
+                reason = str(error)
+        record = WorldEventFields(stamp, self.session, sequence, kind, body, values, time_ns,
+                                  not reason, reason)
+        if self.record:
+            self.records.append(record)
+        return record
+
     # ----------------------------------------------------------------- stepping
 
     def advance(self, target_ns: int) -> Tick:
@@ -335,7 +424,7 @@ class Runner:
 
         After a divergence the simulation stands still until :meth:`restart`.
         """
-        if self.halted is not None:
+        if self.halted is not None or self.paused:
             return Tick([])
         sim = self.sim
         tick = Tick([])
@@ -374,7 +463,7 @@ class Runner:
                     sim.push(command)
                 except InputError as error:
                     tick.script_errors.append(f"scripted input rejected: {error}")
-        if self.keyframe_steps and sim.steps >= self._next_keyframe_step:
+        if self.keyframe_steps and sim.steps >= self._next_keyframe_step and not self._stepping:
             if self.record:
                 self.records.append(self.keyframe())
             self._next_keyframe_step = sim.steps + self.keyframe_steps
@@ -387,7 +476,7 @@ class Runner:
         if self.play_script and self._script_index < len(self.scene.script):
             stamp = sim.start_ns + self.scene.script[self._script_index].stamp_ns
             stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
-        if self.keyframe_steps:
+        if self.keyframe_steps and not self._stepping:
             stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
         return stop
 
@@ -399,7 +488,7 @@ class Runner:
         state = sim.export_state()
         q, v = state.pop("q"), state.pop("v")
         state["runner"] = {"script_index": self._script_index, "accepted": self.accepted,
-                           "rejected": self.rejected,
+                           "rejected": self.rejected, "paused": self.paused,
                            "last_diagnostics_ns": self._last_diagnostics_ns}
         return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
                               sim.model.names, tuple(x for row in q for x in row),
@@ -419,6 +508,7 @@ class Runner:
         self._script_index = int(runner["script_index"])
         self.accepted, self.rejected = int(runner["accepted"]), int(runner["rejected"])
         self._last_diagnostics_ns = runner["last_diagnostics_ns"]
+        self.paused = bool(runner["paused"])
         self.halted = None
         self.started = True
         self.session, self.sequence = keyframe.session, keyframe.next_event

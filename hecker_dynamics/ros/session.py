@@ -10,6 +10,10 @@ first by :mod:`hecker_dynamics.bags.replay`:
   the sim time it was pushed at and the ROS time it arrived at. A command stamped behind the
   sim clock acts from the step after its push, which depends on when the node's timer fired:
   the event makes that decision replayable.
+- :class:`WorldEventFields` (``~/world_events``): every change made to the running world
+  through the node's services (a body moved, the simulation paused, resumed or stepped), at
+  the sim time it was made; it shares the input events' sequence numbers, so a replay
+  applies both in the node's order.
 - :class:`KeyframeFields` (``~/keyframe``): the whole simulation state at full precision
   every ``keyframe_period`` of sim time, so a recording that starts mid-session starts at the
   nearest keyframe instead of from the scene's initial state.
@@ -20,17 +24,20 @@ JSON: Python writes floats with ``repr``, which reads back to the same bits.
 """
 from __future__ import annotations
 
+import enum
 import json
 from typing import Any, NamedTuple
 
 __all__ = ["APPLIED_WRENCH_EVENT", "WRENCH_STAMPED_EVENT", "SessionFields", "InputEventFields",
            "KeyframeFields", "encode_state", "decode_state", "SESSION_TOPIC", "KEYFRAME_TOPIC",
-           "INPUT_EVENTS_TOPIC", "SESSION_DEPTH", "KEYFRAME_DEPTH", "INPUT_EVENTS_DEPTH"]
+           "INPUT_EVENTS_TOPIC", "SESSION_DEPTH", "KEYFRAME_DEPTH", "INPUT_EVENTS_DEPTH",
+           "WORLD_EVENTS_TOPIC", "WORLD_EVENTS_DEPTH", "WorldChange", "WorldEventFields"]
 
 #: Topics, relative to the node (``~``: in its own namespace, ``/dynamics_node/...``).
 SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"
+WORLD_EVENTS_TOPIC = "~/world_events"
 
 #: Keep-last depths. One session record is all a late recorder needs; two keyframes cover a
 #: recorder that subscribes to the outputs up to a keyframe period before the keyframes;
@@ -38,6 +45,7 @@ INPUT_EVENTS_TOPIC = "~/input_events"
 SESSION_DEPTH = 1
 KEYFRAME_DEPTH = 2
 INPUT_EVENTS_DEPTH = 1000
+WORLD_EVENTS_DEPTH = 1000
 
 #: ``InputEvent.kind``: which message the event holds.
 APPLIED_WRENCH_EVENT = 0
@@ -64,6 +72,13 @@ class SessionFields(NamedTuple):
     version: str
 
 
+    def message_values(self) -> dict[str, Any]:
+        """The ``SessionInfo`` fields but the header (the start and the fixed frame)."""
+        values = self._asdict()
+        del values["start_ns"], values["frame_id"]
+        return values
+
+
 class InputEventFields(NamedTuple):
     """``hecker_dynamics/InputEvent``; ``message`` is the input message as received (an
     rclpy or rosbags ``AppliedWrench`` or ``WrenchStamped``)."""
@@ -75,6 +90,29 @@ class InputEventFields(NamedTuple):
     arrival_ns: int
     kind: int
     message: Any
+    accepted: bool
+    reason: str
+
+
+class WorldChange(enum.IntEnum):
+    """``WorldEvent.kind``: what a service changed."""
+
+    SET_STATE = 0   # values: x, y, angle of the body frame, vx, vy of its origin, omega
+    PAUSE = 1
+    RESUME = 2      # time_ns: the sim time the simulation goes on from
+    STEP = 3        # values: the number of steps
+
+
+class WorldEventFields(NamedTuple):
+    """``hecker_dynamics/WorldEvent``."""
+
+    stamp_ns: int
+    session: int
+    sequence: int
+    kind: WorldChange
+    body: str
+    values: tuple[float, ...]
+    time_ns: int
     accepted: bool
     reason: str
 

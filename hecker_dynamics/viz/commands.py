@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 from ..scene import Scene, load_scene
 from .frames import VizError

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Optional
+from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -27,18 +28,18 @@ from ..scene import Scene
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 
-__all__ = ["View", "Trail", "Drawing", "BACKGROUND", "BODY_COLOURS", "ARROW_COLOUR",
+__all__ = ["View", "Trail", "Drawing", "BACKGROUND", "BODY_COLORS", "ARROW_COLOR",
            "parse_view", "parse_size", "parse_trail", "fit_view"]
 
 BACKGROUND = "#ffffff"
-WALL_COLOUR = "#c8c8c8"
-EDGE_COLOUR = "#202020"
-SPRING_COLOUR = "#606060"
-ARROW_COLOUR = "#d62728"
-CONTACT_COLOUR = "#ff7f0e"
-TRAIL_COLOUR = "#7f7f7f"
+WALL_COLOR = "#c8c8c8"
+EDGE_COLOR = "#202020"
+SPRING_COLOR = "#606060"
+ARROW_COLOR = "#d62728"
+CONTACT_COLOR = "#ff7f0e"
+TRAIL_COLOR = "#7f7f7f"
 #: One fill per body, in the scene's order (matplotlib's tab10 without the arrow's red).
-BODY_COLOURS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
+BODY_COLORS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
                 "#ff7f0e")
 #: The longest force of a picture is drawn this fraction of the view's smaller side long.
 ARROW_FRACTION = 0.25
@@ -139,7 +140,7 @@ def fit_view(scene: Scene, frames: Sequence[Frame], size: tuple[int, int]) -> Vi
 
 
 def _with_aspect(view: View, size: tuple[int, int]) -> View:
-    """``view`` grown about its centre in one direction so that one metre is as many pixels
+    """``view`` grown about its center in one direction so that one metre is as many pixels
     across as up (equal axes)."""
     width, height = view.xmax - view.xmin, view.ymax - view.ymin
     aspect = size[0] / size[1]
@@ -211,15 +212,15 @@ class Drawing:
         cx, cy = (self.view.xmin + self.view.xmax) / 2, (self.view.ymin + self.view.ymax) / 2
         for wall in self.scene.walls:
             (px, py), (nx, ny) = wall.point, wall.normal
-            # The foot of the view centre on the wall's line, so the line spans the view.
+            # The foot of the view center on the wall's line, so the line spans the view.
             d = nx * (cx - px) + ny * (cy - py)
             fx, fy = cx - d * nx, cy - d * ny
             tx, ty = -ny, nx
             solid = [(fx + far * tx, fy + far * ty), (fx - far * tx, fy - far * ty),
                      (fx - far * tx - far * nx, fy - far * ty - far * ny),
                      (fx + far * tx - far * nx, fy + far * ty - far * ny)]
-            self.axes.add_patch(PolygonPatch(solid, closed=True, facecolor=WALL_COLOUR,
-                                             edgecolor=EDGE_COLOUR, linewidth=1.0))
+            self.axes.add_patch(PolygonPatch(solid, closed=True, facecolor=WALL_COLOR,
+                                             edgecolor=EDGE_COLOR, linewidth=1.0))
 
     def pixel(self, x: float, y: float) -> tuple[int, int]:
         """The (column, row) of the pixel that shows the fixed-frame point (x, y)."""
@@ -242,26 +243,26 @@ class Drawing:
         self.follow(frame)
         for trail in self.trails:
             xs, ys = zip(*trail.points)
-            add(axes.plot(xs, ys, color=TRAIL_COLOUR, linewidth=1.0)[0])
+            add(axes.plot(xs, ys, color=TRAIL_COLOR, linewidth=1.0)[0])
         for force in self.scene.forces:
             if isinstance(force, SpringSpec):
                 add(self._spring(force, frame.poses))
         for i, (body, pose) in enumerate(zip(self.scene.bodies, frame.poses)):
-            colour = BODY_COLOURS[i % len(BODY_COLOURS)]
+            color = BODY_COLORS[i % len(BODY_COLORS)]
             for shape in body.shapes:
-                add(axes.add_patch(self._patch(shape, pose, colour)))
+                add(axes.add_patch(self._patch(shape, pose, color)))
             cm = world_point(pose, body.mass.center_of_mass)
             tip = world_point(pose, (body.mass.center_of_mass[0] + 0.5 * self.reach[i],
                                      body.mass.center_of_mass[1]))
-            add(axes.plot([cm[0], tip[0]], [cm[1], tip[1]], color=EDGE_COLOUR,
+            add(axes.plot([cm[0], tip[0]], [cm[1], tip[1]], color=EDGE_COLOR,
                           linewidth=1.5, solid_capstyle="butt")[0])
-            add(axes.plot([cm[0]], [cm[1]], marker="o", markersize=3, color=EDGE_COLOUR)[0])
+            add(axes.plot([cm[0]], [cm[1]], marker="o", markersize=3, color=EDGE_COLOR)[0])
         if self.model is not None:
             points = self.timeline.contact_points(frame.poses, self.model)
             if points:
                 xs, ys = zip(*points)
                 add(axes.plot(xs, ys, linestyle="none", marker="o", markersize=3,
-                              color=CONTACT_COLOUR)[0])
+                              color=CONTACT_COLOR)[0])
         side = min(self.view.xmax - self.view.xmin, self.view.ymax - self.view.ymin)
         for arrow in frame.arrows:
             dx, dy = arrow.force[0] * self.force_scale, arrow.force[1] * self.force_scale
@@ -271,17 +272,17 @@ class Drawing:
                 add(axes.add_patch(FancyArrow(
                     arrow.point[0], arrow.point[1], dx, dy, width=0.008 * side,
                     head_width=2.2 * head, head_length=head, length_includes_head=True,
-                    color=ARROW_COLOUR, linewidth=0)))
+                    color=ARROW_COLOR, linewidth=0)))
         add(axes.text(0.02, 0.97, f"t = {frame.time_ns * 1e-9:.2f} s", transform=axes.transAxes,
-                      ha="left", va="top", fontsize=9, color=EDGE_COLOUR))
+                      ha="left", va="top", fontsize=9, color=EDGE_COLOR))
 
     @staticmethod
-    def _patch(shape: Polygon | Circle, pose: BodyPose, colour: str):
+    def _patch(shape: Polygon | Circle, pose: BodyPose, color: str):
         if isinstance(shape, Circle):
-            return CirclePatch(world_point(pose, shape.center), shape.radius, facecolor=colour,
-                               edgecolor=EDGE_COLOUR, linewidth=1.0)
+            return CirclePatch(world_point(pose, shape.center), shape.radius, facecolor=color,
+                               edgecolor=EDGE_COLOR, linewidth=1.0)
         return PolygonPatch([world_point(pose, v) for v in shape.vertices.tolist()],
-                            closed=True, facecolor=colour, edgecolor=EDGE_COLOUR,
+                            closed=True, facecolor=color, edgecolor=EDGE_COLOR,
                             linewidth=1.0)
 
     def _spring(self, spring: SpringSpec, poses: tuple[BodyPose, ...]):
@@ -291,7 +292,7 @@ class Drawing:
             world_point(poses[index[spring.body_b]], spring.point_b)
         width = 0.03 * min(self.view.xmax - self.view.xmin, self.view.ymax - self.view.ymin)
         line = _zigzag(a, b, width=width)
-        return self.axes.plot(line[:, 0], line[:, 1], color=SPRING_COLOUR, linewidth=1.0)[0]
+        return self.axes.plot(line[:, 0], line[:, 1], color=SPRING_COLOR, linewidth=1.0)[0]
 
     def rgba(self) -> np.ndarray:
         """The picture's pixels, (height, width, 4) uint8, rows from the top."""

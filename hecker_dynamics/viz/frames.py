@@ -12,12 +12,13 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, replace
-from typing import Iterator, NamedTuple, Optional, Sequence
+from typing import NamedTuple, Optional
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
-from ..bags.replay import input_topics, output_topics, session_times
+from ..bags.replay import input_topics, output_types, session_times
 from ..dynamics import InputError, Model, Simulation, WrenchCommand
 from ..dynamics.inputs import InputBuffer
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
@@ -187,7 +188,7 @@ def bag_timeline(scene: Scene, path: str) -> Timeline:
     except BagError as error:
         raise VizError(f"--bag: {error}") from None
     names = [body.name for body in scene.bodies]
-    pose_topics = [topic for topic, kind in output_topics(scene).items()
+    pose_topics = [topic for topic, kind in output_types(scene).items()
                    if kind == POSE_STAMPED]
     missing = [t for t in pose_topics if t not in bag.topics]
     if missing:

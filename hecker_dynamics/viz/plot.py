@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from ..bags.io import POSE_STAMPED, TWIST, BagError, read_bag, stamp_ns_of
 from ..dynamics import Model
 from ..scene import Scene
-from .draw import BODY_COLOURS
+from .draw import BODY_COLORS
 from .frames import VizError, pose_from_fields
 
 __all__ = ["Series", "read_series", "energy", "differences", "plot_bags", "QUANTITIES"]
@@ -82,8 +82,8 @@ def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
 def energy(scene: Scene, series: dict[str, Series]) -> tuple[np.ndarray, np.ndarray]:
     """The total mechanical energy at the instants where every scene body has a state.
 
-    The CM of body i is origin + R(angle) c_i and its velocity v_origin + omega perp(R c_i)
-    (Eq. 9), where c_i is the CM in the body frame.
+    The CM of body i is origin + R(angle) c_i, where c_i is the CM in the body frame, and as a
+    body point its velocity is v_origin + omega perp(R c_i) (a body point's velocity, Eq. 9).
     """
     model = Model(scene)
     names = list(model.names)
@@ -141,16 +141,16 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
             s = bag[name]
             for r in range(len(QUANTITIES)):
                 grid[r][0].plot(s.time, s.values[:, r], styles[k],
-                                color=BODY_COLOURS[b % len(BODY_COLOURS)], linewidth=1.0,
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0,
                                 label=f"{name} ({Path(first if k == 0 else second).name})")
         if scene is not None:
             t, e = energy(scene, bag)
             grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)
     if second is not None:
-        for b, (name, (times, difference)) in enumerate(differences(bags[0], bags[1]).items()):
+        for b, (times, difference) in enumerate(differences(bags[0], bags[1]).values()):
             for r in range(len(QUANTITIES)):
                 grid[r][1].plot(times, difference[:, r],
-                                color=BODY_COLOURS[b % len(BODY_COLOURS)], linewidth=1.0)
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0)
         if scene is not None:
             (ta, ea), (tc, ec) = energy(scene, bags[0]), energy(scene, bags[1])
             times, ia, ic = np.intersect1d(ta, tc, return_indices=True)

@@ -8,7 +8,8 @@ instants from the start, each drawn from the latest published pose at or before 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable, Iterator, Optional, Sequence
+from typing import Optional
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -20,8 +21,8 @@ __all__ = ["FORMATS", "check_output", "span_times", "timeline_frames", "frame_pi
 
 #: Output extensions and what they hold.
 FORMATS = {".gif": "animation", ".mp4": "animation", ".png": "still", ".svg": "still"}
-#: Colours of a GIF's one palette: enough for the fills, edges and anti-aliasing.
-GIF_COLOURS = 64
+#: Colors of a GIF's one palette: enough for the fills, edges and anti-aliasing.
+GIF_COLORS = 64
 
 
 def check_output(path: Path) -> str:
@@ -80,7 +81,7 @@ def _write_gif(path: Path, pixels: Iterator[np.ndarray], fps: float) -> int:
     for rgba in pixels:
         image = Image.fromarray(rgba[:, :, :3])
         if palette is None:
-            palette = image.quantize(colors=GIF_COLOURS, method=Image.Quantize.MEDIANCUT)
+            palette = image.quantize(colors=GIF_COLORS, method=Image.Quantize.MEDIANCUT)
         images.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
     images[0].save(path, save_all=True, append_images=images[1:], loop=0,
                    duration=10 * max(round(100 / fps), 1), optimize=False)

@@ -18,12 +18,13 @@ from typing import Any, Optional
 import numpy as np
 
 from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_outputs
+from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
 from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
 from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
-                                         InputEventFields, KeyframeFields, SessionFields)
-from hecker_dynamics.dynamics import WrenchCommand
+                                         WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
+                                         SessionFields, WorldEventFields)
+from hecker_dynamics.dynamics import Snapshot, WrenchCommand
 from hecker_dynamics.scene import Scene
 
 S = 1_000_000_000
@@ -35,6 +36,8 @@ RECORDS = {
     KeyframeFields: (f"{NODE}/keyframe", bags.KEYFRAME, bags.keyframe_message, KEYFRAME_DEPTH),
     InputEventFields: (f"{NODE}/input_events", bags.INPUT_EVENT, bags.input_event_message,
                        INPUT_EVENTS_DEPTH),
+    WorldEventFields: (f"{NODE}/world_events", bags.WORLD_EVENT, bags.world_event_message,
+                       WORLD_EVENTS_DEPTH),
 }
 
 
@@ -55,6 +58,13 @@ class LiveSession:
     published: list[Published] = field(default_factory=list)
     start_ns: int = 0
     end_ns: int = 0
+
+    def publish(self, snapshots: list[Snapshot], at_ns: int) -> None:
+        """The node's outputs for ``snapshots``, published at ROS time ``at_ns``."""
+        for snapshot in snapshots:
+            for output in snapshot_messages(self.scene, snapshot):
+                self.published.append(Published(output.topic, output.msgtype, at_ns,
+                                                output.msg))
 
 
 def _input_message(scene: Scene, rng: np.random.Generator, arrival_ns: int,
@@ -92,11 +102,13 @@ def _input_message(scene: Scene, rng: np.random.Generator, arrival_ns: int,
 def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int = 25,
              play_script: bool = True, keyframe_period_ns: int = S,
              max_steps: Optional[int] = None, reset_at: Optional[int] = None,
-             record: bool = True, lockstep: bool = False) -> LiveSession:
+             record: bool = True, lockstep: bool = False, world: int = 0) -> LiveSession:
     """Run the node's loop for ``duration_ns`` of ROS time with a jittered timer and
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
-    reset service once. In ``lockstep`` the simulation starts at sim time 0, each tick
-    steps one publish period, and a message arrives at the sim time it finds."""
+    reset service once; ``world`` times the world services are called (pause, a few steps,
+    a body moved, resume; and a call refused now and then). In ``lockstep`` the simulation
+    starts at sim time 0, each tick steps one publish period, and a message arrives at the
+    sim time it finds."""
     rng = np.random.default_rng(seed)
     t0 = 1_700_000_000 * S + int(rng.integers(S))
     period = scene.publish_period_ns
@@ -108,7 +120,9 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     ticks.sort()
     arrivals = sorted(int(t0 + rng.uniform(0, duration_ns)) for _ in range(inputs))
     timeline = sorted([(t, 1, None) for t in ticks] + [(t, 0, "input") for t in arrivals]
-                      + ([(t0 + reset_at, 0, "reset")] if reset_at is not None else []))
+                      + ([(t0 + reset_at, 0, "reset")] if reset_at is not None else [])
+                      + [(int(t0 + rng.uniform(0, duration_ns)), 0, "world")
+                         for _ in range(world)])
     runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=lockstep,
                     record=record, keyframe_period_ns=keyframe_period_ns, lockstep=lockstep,
                     wall_clock=lambda: int(rng.integers(10**6)))
@@ -129,6 +143,9 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                                                at_ns - int(rng.integers(S // 1000)), msg))
             runner.accept(APPLIED_WRENCH_TOPIC, msg,
                           runner.sim.time_ns if lockstep else at_ns)
+        elif what == "world":
+            _change_world(runner, rng, scene, runner.sim.time_ns if lockstep else at_ns,
+                          session, at_ns)
         elif what == "reset":
             if runner.started:
                 runner.restart(runner.sim.time_ns if lockstep else at_ns, "reset")
@@ -141,12 +158,25 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                 if action is TickAction.START:
                     runner.restart(at_ns, "start")
                 last_tick = target = at_ns
-            for snapshot in runner.advance(target).snapshots:
-                for output in snapshot_outputs(scene, snapshot):
-                    session.published.append(Published(output.topic, output.msgtype, at_ns,
-                                                       output.msg))
+            session.publish(runner.advance(target).snapshots, at_ns)
         publish_records(at_ns)
     return session
+
+
+def _change_world(runner: Runner, rng: np.random.Generator, scene: Scene, now_ns: int,
+                  session: LiveSession, at_ns: int) -> None:
+    """One service call as a user makes it: pause, step a few times, move a body, resume
+    (or, a tenth of the time, a call the node refuses)."""
+    if rng.random() < 0.1:
+        runner.resume(now_ns)  # refused: not paused
+        return
+    runner.pause()
+    for _ in range(int(rng.integers(3))):
+        _, tick = runner.step(int(rng.integers(1, 40)))
+        session.publish(tick.snapshots, at_ns)
+    body = scene.bodies[int(rng.integers(len(scene.bodies)))].name
+    runner.set_body_state(body, tuple(float(x) for x in rng.uniform(-1, 1, 6)))
+    runner.resume(now_ns + int(rng.uniform(0, 0.5) * S))
 
 
 def record(session: LiveSession, path: Path, seed: int, *, late_ns: int = 0,

@@ -19,7 +19,7 @@ from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags.compare import Tolerances, compare_contents
 from hecker_dynamics.bags.live import check_live, is_live_recording
 from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outputs_as_bag,
-                                         output_topics, replay_outputs)
+                                         output_types, replay_outputs)
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene
 from live_session import S, record, run_live
@@ -37,10 +37,13 @@ CASES = [
         (7, {"keyframe_period_ns": 250_000_000}, 3_100_000_000),
         (8, {"keyframe_period_ns": 0}, 0), (9, {}, 3_500_000_000),
         (12, {"lockstep": True}, 0), (13, {"lockstep": True, "reset_at": S}, 1_500_000_000),
+        (14, {"world": 3}, 0), (15, {"world": 3, "lockstep": True}, 1_200_000_000),
+        (16, {"world": 4, "max_steps": 25, "reset_at": 2 * S}, 2_500_000_000),
     ]
-] + [(name, 10 + n, {}, late) for n, (name, late) in enumerate(
+] + [(name, 10 + n, {"world": n % 2}, late) for n, (name, late) in enumerate(
     (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
-    ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2]},
+    ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2],
+                         "world": n % 3, "lockstep": n % 5 == 4},
      int(1e9 * (n % 4) * 0.8)) for n in range(int(os.environ.get("HECKER_DYNAMICS_LIVE_SEEDS", 0)))]
 
 
@@ -58,7 +61,7 @@ def test_a_recorded_live_session_replays_bit_for_bit(tmp_path, name, seed, optio
     check = _check(scene, path)
     assert check.ok, check.report.text() + "\n" + "\n".join(check.problems)
     compared = sum(t.matched for t in check.report.topics)
-    recorded = sum(1 for m in bag.messages if m.topic in output_topics(scene))
+    recorded = sum(1 for m in bag.messages if m.topic in output_types(scene))
     # Every recorded output is compared, but those a late recorder caught before its first
     # keyframe arrived (a discovery window of at most 50 ms: a few publish periods).
     assert compared + check.unchecked == recorded and check.unchecked <= 4 * len(scene.bodies)
@@ -78,7 +81,7 @@ def test_the_old_rules_do_not_reproduce_live_sessions(tmp_path):
         bag = read_bag(path)
         produced, _ = replay_outputs(scene, bag, play_script=True, skip_rejected=True)
         _, ok = compare_contents(bag, outputs_as_bag(scene, produced), tolerances=EXACT,
-                                 topics=[t for t in output_topics(scene) if t in bag.topics])
+                                 topics=[t for t in output_types(scene) if t in bag.topics])
         failures += not ok
     assert failures == 3
 
@@ -153,7 +156,7 @@ def test_the_cli_replays_a_live_session_and_refuses_options_it_records(tmp_path,
     out = capsys.readouterr().out
     assert "replayed 2 session(s)" in out and "match:" in out
     written = read_bag(tmp_path / "out")
-    assert set(output_topics(load_scene("sample"))) <= set(written.topics)
+    assert set(output_types(load_scene("sample"))) <= set(written.topics)
     assert main(["replay", "sample", str(path), "--check", "--play-script"]) == 2
     assert "--play-script do not apply" in capsys.readouterr().err
 

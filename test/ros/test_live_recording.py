@@ -2,8 +2,9 @@
 replays with ``hecker-dynamics replay sample BAG --check --atol 0``.
 
 The node, the recorder and the publishers are the real command-line tools, as a user runs
-them (``ros2 run``, ``ros2 bag record``, ``ros2 topic pub``), with the recorder started
-before the node and, in the second case, three seconds after it. Skips where ROS 2 (rclpy
+them (``ros2 run``, ``ros2 bag record``, ``ros2 topic pub``, ``ros2 service call``), with the
+recorder started before the node, three seconds after it, and with the world services
+called between the kicks. Skips where ROS 2 (rclpy
 and the ``ros2`` command) or rosbags is missing. DDS stays on this machine.
 """
 from __future__ import annotations
@@ -62,9 +63,19 @@ def _stop(process: subprocess.Popen) -> str:
     return output
 
 
-@pytest.mark.parametrize("recorder_delay", [0.0, 3.0])
+#: World changes through the node's services, made between the kicks.
+SERVICES = [
+    ["/pause", "std_srvs/srv/Trigger", "{}"],
+    ["/step", "hecker_dynamics/srv/Step", "{steps: 100}"],
+    ["/set_body_state", "hecker_dynamics/srv/SetBodyState", "{body: right, x: 1.0, y: 3.0}"],
+    ["/resume", "std_srvs/srv/Trigger", "{}"],
+]
+
+
+@pytest.mark.parametrize("recorder_delay,services", [(0.0, False), (3.0, False), (0.0, True)])
 def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_env,
-                                                                  recorder_delay, capsys):
+                                                                  recorder_delay, services,
+                                                                  capsys):
     bag = tmp_path / "live"
     processes = []
     if recorder_delay == 0.0:
@@ -82,6 +93,10 @@ def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_e
                         "hecker_dynamics/msg/AppliedWrench", kick], env=ros_env, check=True,
                        timeout=30, capture_output=True)
         time.sleep(1.0)
+        if services:
+            for name, srv, request in SERVICES:
+                subprocess.run(["ros2", "service", "call", name, srv, request], env=ros_env,
+                               check=True, timeout=30, capture_output=True)
     node_output = _stop(node)
     for process in processes:
         _stop(process)

@@ -275,7 +275,7 @@ def test_polygon_marker_is_a_closed_outline_in_the_body_frame():
     assert marker.scale[0] > 0.0
 
 
-def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
+def test_circle_marker_is_a_disc_at_the_rotated_center_and_a_radius_line():
     wheel = Circle((0.5, 0.0), 0.25)
     triangle = Polygon([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])
     markers = marker_fields(_body([triangle, wheel]), _state(angle=math.pi / 2), 0,
@@ -283,7 +283,7 @@ def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
     assert [(m.id, m.type) for m in markers] == [
         (0, MARKER_LINE_STRIP), (1, MARKER_CYLINDER), (2, MARKER_LINE_STRIP)]
     disc, spoke = markers[1], markers[2]
-    # Body at (1, 2) turned a quarter: the centre (0.5, 0) of the body frame is at (1, 2.5).
+    # Body at (1, 2) turned a quarter: the center (0.5, 0) of the body frame is at (1, 2.5).
     assert disc.pose.position == pytest.approx((1.0, 2.5, 0.0))
     assert disc.scale[:2] == (0.5, 0.5)
     assert spoke.pose.position == (1.0, 2.0, 0.0)
@@ -291,7 +291,7 @@ def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
     assert disc.color[:3] == spoke.color[:3]
 
 
-def test_markers_of_different_bodies_differ_in_colour():
+def test_markers_of_different_bodies_differ_in_color():
     shape = box(1.0, 1.0)
     first = marker_fields(_body([shape], "a"), _state(), 0, "world", 0)[0]
     second = marker_fields(_body([shape], "b"), _state(), 1, "world", 0)[0]

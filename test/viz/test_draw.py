@@ -17,7 +17,7 @@ pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
 from scene_builders import box_body, make_scene  # noqa: E402
 
 from hecker_dynamics.dynamics import WrenchCommand  # noqa: E402
-from hecker_dynamics.viz.draw import (ARROW_COLOUR, BACKGROUND, BODY_COLOURS,  # noqa: E402
+from hecker_dynamics.viz.draw import (ARROW_COLOR, BACKGROUND, BODY_COLORS,  # noqa: E402
                                       Drawing, View)
 from hecker_dynamics.viz.frames import BodyPose, Timeline  # noqa: E402
 
@@ -25,12 +25,12 @@ VIEW = View(-2.0, -1.5, 2.0, 1.5)
 SIZE = (400, 300)
 
 
-def _rgb(hex_colour: str) -> tuple[int, int, int]:
-    return tuple(int(hex_colour[i:i + 2], 16) for i in (1, 3, 5))
+def _rgb(hex_color: str) -> tuple[int, int, int]:
+    return tuple(int(hex_color[i:i + 2], 16) for i in (1, 3, 5))
 
 
 def _pixel(image: np.ndarray, x: float, y: float) -> tuple[int, int, int]:
-    """The colour shown at fixed-frame point (x, y): 100 px per metre from the view's
+    """The color shown at fixed-frame point (x, y): 100 px per metre from the view's
     top-left corner (-2, 1.5)."""
     column, row = int((x - VIEW.xmin) * 100), int((VIEW.ymax - y) * 100)
     return tuple(int(c) for c in image[row, column, :3])
@@ -53,7 +53,7 @@ def _picture(pose: BodyPose, commands=(), force_scale=None) -> np.ndarray:
 
 def test_box_is_filled_at_its_pose_and_nowhere_else():
     image = _picture(BodyPose(1.0, 0.5, 0.0))  # spans x 0.5..1.5, y 0.25..0.75
-    fill, background = _rgb(BODY_COLOURS[0]), _rgb(BACKGROUND)
+    fill, background = _rgb(BODY_COLORS[0]), _rgb(BACKGROUND)
     for x, y in [(0.75, 0.4), (1.25, 0.6), (0.6, 0.3)]:
         assert _pixel(image, x, y) == fill
     for x, y in [(1.6, 0.5), (1.0, 0.85), (1.0, 0.15), (0.4, 0.5), (-1.0, -1.0)]:
@@ -63,7 +63,7 @@ def test_box_is_filled_at_its_pose_and_nowhere_else():
 def test_turned_box_is_filled_where_the_turn_puts_it():
     # A quarter turn about the body origin: the box now spans x 0.75..1.25, y 0..1.
     image = _picture(BodyPose(1.0, 0.5, math.pi / 2))
-    fill, background = _rgb(BODY_COLOURS[0]), _rgb(BACKGROUND)
+    fill, background = _rgb(BODY_COLORS[0]), _rgb(BACKGROUND)
     for x, y in [(0.85, 0.1), (1.15, 0.9), (0.85, 0.9)]:
         assert _pixel(image, x, y) == fill
     for x, y in [(0.6, 0.5), (1.4, 0.5), (1.0, 1.1)]:  # inside the unturned box's span
@@ -81,7 +81,7 @@ def test_world_force_arrow_points_along_the_force(force, along):
     # last 0.12 m and 0.26 m wide; 0.66 m along is inside the head.
     image = _picture(BodyPose(1.0, 0.5, 0.0), [_command("world", (-1.0, 0.0), force)],
                      force_scale=0.075)
-    red, background = _rgb(ARROW_COLOUR), _rgb(BACKGROUND)
+    red, background = _rgb(ARROW_COLOR), _rgb(BACKGROUND)
     assert _pixel(image, -1.0 + 0.66 * along[0], 0.66 * along[1]) == red
     for ax, ay in [(-along[0], -along[1]), (along[1], along[0]), (-along[1], -along[0])]:
         assert _pixel(image, -1.0 + 0.66 * ax, 0.66 * ay) == background
@@ -92,7 +92,7 @@ def test_body_frame_force_turns_with_the_body():
     # the body point (0.5, 0) (the box's right edge midpoint), which is at world (0.5, 0).
     pose = BodyPose(0.5, -0.5, math.pi / 2)
     image = _picture(pose, [_command("box", (0.5, 0.0), (10.0, 0.0))], force_scale=0.075)
-    red, background = _rgb(ARROW_COLOUR), _rgb(BACKGROUND)
+    red, background = _rgb(ARROW_COLOR), _rgb(BACKGROUND)
     assert _pixel(image, 0.5, 0.66) == red
     assert _pixel(image, 0.5 + 0.66, 0.0) == background
     assert _pixel(image, 0.5 - 0.66, 0.0) == background

@@ -11,7 +11,7 @@ pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz e
 pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
 from hecker_dynamics.cli import main  # noqa: E402
 from hecker_dynamics.scene import load_scene  # noqa: E402
-from hecker_dynamics.viz.draw import ARROW_COLOUR, parse_trail  # noqa: E402
+from hecker_dynamics.viz.draw import ARROW_COLOR, parse_trail  # noqa: E402
 from hecker_dynamics.viz.frames import bag_timeline, run_timeline  # noqa: E402
 from hecker_dynamics.viz.render import frame_pixels, timeline_frames  # noqa: E402
 from PIL import Image  # noqa: E402
@@ -61,7 +61,7 @@ def test_bag_draws_the_pixels_of_its_run(replayed, name, trails, contacts):
     # draw equal pictures, and this test would prove nothing about reading poses).
     assert not np.array_equal(pixels_run[0], pixels_run[-1])
     if name == "ship":  # both engines push from t = 0: their arrows are drawn
-        red = np.array([int(ARROW_COLOUR[i:i + 2], 16) for i in (1, 3, 5)])
+        red = np.array([int(ARROW_COLOR[i:i + 2], 16) for i in (1, 3, 5)])
         assert (pixels_bag[5][:, :, :3] == red).all(axis=2).sum() > 20
 
 
