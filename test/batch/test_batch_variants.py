@@ -107,10 +107,10 @@ def test_metric_names_are_checked_against_the_columns():
 
 
 def test_summary_of_free_flight_is_exact(tmp_path):
-    """No force: the velocities never change (Eq. 5 and Eq. 14 with no force or torque), so
-    the kinetic energy 1/2 m v^2 + 1/2 I omega^2 (I = m r^2 / 2 of a disc, Eq. 13) is the
-    same double at every instant, the speed is constant and x grows monotonically, so its
-    extrema are its start and end."""
+    """No force: the velocities never change (F = m a, Eq. 5, with no force, and no angular
+    acceleration, Eq. 14, without torque), so the kinetic energy 1/2 m v^2 + 1/2 I omega^2
+    (a disc's moment of inertia I = m r^2 / 2, Eq. 13) is the same double at every instant,
+    the speed is constant and x grows monotonically, so its extrema are its start and end."""
     path = write_scene(tmp_path, {"step": 0.01, "publish_rate": 10.0, "duration": 1.0,
                                   "integrator": "semi_implicit_euler",
                                   "bodies": {"puck": {"shape": "circle", "radius": 0.5,
