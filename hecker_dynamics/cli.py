@@ -9,6 +9,8 @@
     hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
                            [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
     hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
+    hecker-dynamics sweep SCENE --set NAME=VALUES ... [--samples N --seed S] -o RESULTS
+    hecker-dynamics regress BAG_DIR ... [--scene SCENE] [--workers N] [--cluster ADDRESS]
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ from collections.abc import Sequence
 from typing import Optional
 
 from .bags.io import STORAGES, BagError
+from .batch.engines import EngineError
 from .dynamics.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
@@ -163,8 +166,8 @@ def replay_command(args: argparse.Namespace) -> int:
     from .bags.io import read_bag
     from .bags.compare import compare_contents
     from .bags.live import is_live_recording
-    from .bags.replay import (check_bag_for_scene, input_topics, output_types, outputs_as_bag,
-                         replay_outputs, replay_to_bag, session_times)
+    from .bags.replay import (input_topics, outputs_as_bag, recorded_output_topics,
+                              replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
@@ -172,14 +175,8 @@ def replay_command(args: argparse.Namespace) -> int:
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
-    outputs = output_types(scene)
-    expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
-        check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
-        if not any(bag.topics.get(t) == "geometry_msgs/msg/PoseStamped"
-                   for t in expected_topics):
-            raise BagError(f"{args.input}: --check needs recorded outputs in the bag, but it "
-                           f"has none of {', '.join(t for t in outputs if t.endswith('/pose'))}")
+        expected_topics = recorded_output_topics(scene, bag, need_inputs=not args.play_script)
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected)
@@ -305,6 +302,15 @@ def _add_writer_options(parser: argparse.ArgumentParser) -> None:
                         help="replace the output bag if it exists")
 
 
+def _add_progress_options(parser: argparse.ArgumentParser) -> None:
+    progress_group = parser.add_mutually_exclusive_group()
+    progress_group.add_argument("--progress", dest="progress", action="store_true", default=None,
+                                help="show a progress bar on stderr (default: when stderr is "
+                                     "a terminal)")
+    progress_group.add_argument("--no-progress", dest="progress", action="store_false",
+                                help="never show a progress bar")
+
+
 def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser = commands.add_parser(
         "script", help="write a scene's scripted inputs into an input bag",
@@ -354,12 +360,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
                                     "does) instead of failing")
     replay_parser.add_argument("--with-inputs", action="store_true",
                                help="copy the input messages into the output bag too")
-    progress_group = replay_parser.add_mutually_exclusive_group()
-    progress_group.add_argument("--progress", dest="progress", action="store_true", default=None,
-                                help="show a progress bar on stderr (default: when stderr is "
-                                     "a terminal)")
-    progress_group.add_argument("--no-progress", dest="progress", action="store_false",
-                                help="never show a progress bar")
+    _add_progress_options(replay_parser)
     _add_writer_options(replay_parser)
     _add_tolerance_options(replay_parser)
     replay_parser.set_defaults(handler=replay_command)
@@ -383,6 +384,11 @@ def bench_command(args: argparse.Namespace) -> int:
     from .bench.run import run_bench
     from .bench.scenes import all_scene_names
 
+    if args.batch:
+        from .bench.batch import bench_batch
+
+        bench_batch(rounds=args.rounds)
+        return 0
     known = all_scene_names()
     for name in args.scenes or []:
         if name not in known:
@@ -414,7 +420,134 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     peers.add_argument("--peers", dest="peers", action="store_true", default=True,
                        help="include installed peers (default)")
     peers.add_argument("--no-peers", dest="peers", action="store_false", help="core only")
+    bench.add_argument("--batch", action="store_true",
+                       help="instead: the speed-up of sweeps over one process (1,000 short "
+                            "and 50 long variants; see docs/batch.md)")
+    bench.add_argument("--rounds", type=_workers, default=1,
+                       help="with --batch: interleaved rounds, medians reported (default 1)")
     bench.set_defaults(handler=bench_command)
+
+
+# ----------------------------------------------------------------------------- batch
+
+def _engine(args: argparse.Namespace):
+    from .batch.engines import make_engine
+
+    engine = make_engine(args.workers, args.cluster)
+    if engine.dashboard:
+        print(f"hecker-dynamics: Dask dashboard at {engine.dashboard}", file=sys.stderr)
+    return engine
+
+
+def sweep_command(args: argparse.Namespace) -> int:
+    """Run every variant of a scene and write the table of their summaries."""
+    from .batch.metrics import parse_metric
+    from .batch.run import check_metrics, sweep
+    from .batch.variants import make_variants, parse_setting
+
+    settings = [parse_setting(text) for text in args.set]
+    metrics = [parse_metric(text) for text in args.metric or []]
+    if args.seed is not None and args.samples is None:
+        raise SceneError("--seed needs --samples")
+    variants = make_variants(args.scene, settings, samples=args.samples,
+                             seed=args.seed or 0, duration_ns=args.duration)
+    check_metrics(metrics, variants)
+    engine = _engine(args)
+    try:
+        path = sweep(variants, engine, Path(args.output), metrics=metrics,
+                     bags=Path(args.bags) if args.bags else None,
+                     progress=_want_progress(args))
+    finally:
+        engine.close()
+    print(f"wrote {len(variants)} variant(s) of {args.scene} to {path} "
+          f"({engine.workers} worker(s))")
+    return 0
+
+
+def regress_command(args: argparse.Namespace) -> int:
+    """``replay --check`` over many bags; exit 1 on a mismatch, 2 on a bag that fails."""
+    from .batch.run import find_bags, regress
+
+    bags = find_bags([Path(p) for p in args.bags])
+    if args.scene is not None:
+        load_scene(args.scene)  # a bad scene fails once, before any work
+    engine = _engine(args)
+    try:
+        results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),
+                          emit=lambda result: print(result.line(), flush=True),
+                          progress=_want_progress(args))
+    finally:
+        engine.close()
+    counts = {status: sum(r.status == status for r in results)
+              for status in ("ok", "mismatch", "error")}
+    print(f"{len(results)} bag(s): {counts['ok']} ok, {counts['mismatch']} mismatch, "
+          f"{counts['error']} error")
+    return 2 if counts["error"] else 1 if counts["mismatch"] else 0
+
+
+def _workers(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {text}")
+    return value
+
+
+def _add_engine_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--workers", type=_workers, metavar="N",
+                        help="worker processes on this machine (default: all cores); with "
+                             "--cluster local, the cluster's workers")
+    parser.add_argument("--cluster", metavar="ADDRESS",
+                        help="run on the Dask scheduler at ADDRESS (tcp://host:8786), or "
+                             "'local' for a Dask cluster on this machine that retries the "
+                             "task of a worker that dies (needs the cluster extra)")
+    _add_progress_options(parser)
+
+
+def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
+    sweep_parser = commands.add_parser(
+        "sweep", help="run a scene over a grid or a random sample of its parameters",
+        description="Run the variants of a scene that --set makes (a grid of every "
+                    "combination, or --samples N draws seeded by --seed) for its duration "
+                    "with its script, and write one row per variant: final states, energy, "
+                    "divergence, contacts, per-body extrema and --metric expressions "
+                    "(Parquet if pyarrow is installed, else CSV; rows by variant, the same "
+                    "bytes however many workers ran). See docs/batch.md.")
+    sweep_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    sweep_parser.add_argument("--set", action="append", required=True, metavar="NAME=VALUES",
+                              help="a parameter and its values: a,b,c (a list), "
+                                   "start:stop:count (evenly spaced, both ends included) or "
+                                   "start:stop (an interval, with --samples); repeatable")
+    sweep_parser.add_argument("--samples", type=_workers, metavar="N",
+                              help="draw N random variants instead of the grid")
+    sweep_parser.add_argument("--seed", type=int, metavar="S",
+                              help="seed of the random draws (default 0)")
+    sweep_parser.add_argument("--duration", type=_duration_ns, metavar="S",
+                              help="sim seconds of every variant (default: the scene's)")
+    sweep_parser.add_argument("--metric", action="append", metavar="[NAME=]EXPRESSION",
+                              help="a column computed from the final row, e.g. "
+                                   "gap=right.x-left.x; repeatable")
+    sweep_parser.add_argument("--bags", metavar="DIR",
+                              help="also write each variant's inputs and outputs as a bag "
+                                   "(and its parameters file) into DIR, for 'regress'")
+    sweep_parser.add_argument("-o", "--output", required=True, metavar="RESULTS",
+                              help="table to write (.parquet or .csv; without a suffix, "
+                                   "Parquet if pyarrow is installed, else CSV)")
+    _add_engine_options(sweep_parser)
+    sweep_parser.set_defaults(handler=sweep_command)
+
+    regress_parser = commands.add_parser(
+        "regress", help="replay --check over many bags in parallel",
+        description="Replay every bag and compare it with the outputs recorded in it, as "
+                    "'replay SCENE BAG --check' does; one line per bag and a summary. The "
+                    "scene is --scene, else the bag's hecker_dynamics.scene custom data (a "
+                    "parameters file of that name next to the bag, or a shipped scene). "
+                    "Exit 0 when all match, 1 on a mismatch, 2 when a bag cannot be checked.")
+    regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR",
+                                help="a bag directory, or a directory of bag directories")
+    regress_parser.add_argument("--scene", help="the scene of every bag")
+    _add_engine_options(regress_parser)
+    _add_tolerance_options(regress_parser)
+    regress_parser.set_defaults(handler=regress_command)
 
 
 def parser() -> argparse.ArgumentParser:
@@ -445,6 +578,7 @@ def parser() -> argparse.ArgumentParser:
     list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)
+    _add_batch_commands(commands)
     add_viz_commands(commands, seconds=_time_ns)
     return top
 
@@ -453,7 +587,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.handler(args)
-    except (SceneError, InputError, DivergenceError, BagError, VizError) as error:
+    except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2
 

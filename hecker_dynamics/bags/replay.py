@@ -40,7 +40,8 @@ from ..dynamics.simulation import Snapshot
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
            "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
-           "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene"]
+           "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
+           "recorded_output_topics"]
 
 APPLIED_WRENCH_TOPIC = "/applied_wrench"
 #: The node's fully qualified name, its diagnostics' hardware_id.
@@ -116,6 +117,22 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
                           f"{scene.source} does not have ({', '.join(foreign)}; the scene's "
                           f"bodies: {', '.join(sorted(bodies))})")
     _check_types(bag, output_types(scene))
+
+
+def recorded_output_topics(scene: Scene, bag: BagContents, *,
+                           need_inputs: bool = True) -> list[str]:
+    """The scene's output topics recorded in ``bag``, to check a replay against.
+
+    Raises :class:`ReplayError` if the bag does not fit the scene
+    (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
+    """
+    check_bag_for_scene(scene, bag, need_inputs=need_inputs)
+    outputs = output_types(scene)
+    recorded = [topic for topic in outputs if topic in bag.topics]
+    if not any(bag.topics[topic] == POSE_STAMPED for topic in recorded):
+        raise ReplayError(f"{bag.path}: --check needs recorded outputs in the bag, but it "
+                          f"has none of {', '.join(t for t in outputs if t.endswith('/pose'))}")
+    return recorded
 
 
 def _check_types(bag: BagContents, topics: dict[str, str]) -> None:

@@ -28,7 +28,8 @@ from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unf
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
-    "WrenchTopic", "load_scene", "scene_from_parameters", "scene_path", "shipped_scenes",
+    "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
+    "shipped_scenes",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
 
@@ -235,6 +236,12 @@ def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
 
 def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
     """Load a scene from a ROS 2 parameters file, or a shipped scene by name."""
+    source, params = scene_parameters(name_or_path)
+    return _read_scene(ParameterReader(params, source))
+
+
+def scene_parameters(name_or_path: Union[str, os.PathLike, None] = None) -> tuple[str, Mapping]:
+    """The source and the nested ``ros__parameters`` of a scene file, not yet checked."""
     path = scene_path(name_or_path)
     source = str(path)
     try:
@@ -249,7 +256,7 @@ def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
             params = section.get("ros__parameters")
     if not isinstance(params, Mapping):
         raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...' at the top")
-    return _read_scene(ParameterReader(params, source))
+    return source, params
 
 
 def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:

@@ -1,0 +1,233 @@
+"""What one variant of a sweep reports: the summary row of its run.
+
+A variant runs as the node runs its scene with ``play_script`` (the :class:`Runner` loop
+the offline replay uses too, with a wall clock that stands still), tick by publish tick,
+for the scene's duration. At every publish instant the row follows the total energy
+(kinetic plus the potentials of gravity and springs), each body's x, y and speed, and the
+contacts the contact pass finds there; at the end it holds the final state of each body.
+A divergence ends the run at the last finite state and is reported, not raised.
+
+User metrics are expressions over the row's numbers, e.g. ``right.x - left.x`` or
+``hypot(left.vx, left.vy)``, evaluated by a small evaluator that walks the parsed syntax
+tree and knows only numbers, names (dotted names read as one column), arithmetic,
+comparisons and a few math functions: no attribute access, indexing or calls to anything
+else, so an expression cannot reach Python.
+"""
+from __future__ import annotations
+
+import ast
+import math
+import operator
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Optional, Union
+
+from ..ros.runner import Runner
+from ..scene.parameters import SceneError
+from ..scene.load import Scene
+from ..dynamics.simulation import Snapshot
+
+__all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS"]
+
+Cell = Union[float, int, str, bool, None]
+
+#: Final-state columns of each body, ``<body>.<field>``.
+STATE_FIELDS = ("x", "y", "angle", "vx", "vy", "omega", "speed")
+
+_BINARY: dict[type, Callable[[Any, Any], Any]] = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+    ast.Div: operator.truediv, ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod,
+    ast.Pow: operator.pow}
+_UNARY: dict[type, Callable[[Any], Any]] = {ast.UAdd: operator.pos, ast.USub: operator.neg,
+                                            ast.Not: operator.not_}
+_COMPARE: dict[type, Callable[[Any, Any], Any]] = {
+    ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt, ast.GtE: operator.ge,
+    ast.Eq: operator.eq, ast.NotEq: operator.ne}
+_FUNCTIONS: dict[str, Callable[..., float]] = {
+    "abs": abs, "min": min, "max": max, "sqrt": math.sqrt, "hypot": math.hypot,
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "atan2": math.atan2, "exp": math.exp,
+    "log": math.log, "floor": math.floor, "ceil": math.ceil}
+
+
+def _dotted(node: ast.expr) -> Optional[str]:
+    """``left.x`` as the column name ``"left.x"``; None if ``node`` is not a dotted name."""
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        head = _dotted(node.value)
+        return None if head is None else f"{head}.{node.attr}"
+    return None
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A named user metric: ``NAME=EXPRESSION`` (or just the expression, named by itself)."""
+
+    name: str
+    text: str
+    tree: ast.Expression
+
+    def names(self) -> set[str]:
+        """The columns the expression reads (a function called is not one)."""
+        called = {id(node.func) for node in ast.walk(self.tree) if isinstance(node, ast.Call)}
+        found = set()
+        for node in ast.walk(self.tree):
+            if isinstance(node, (ast.Name, ast.Attribute)) and id(node) not in called:
+                found.add(_dotted(node))
+        # A dotted name's heads (``left`` of ``left.x``) are parts of it, not columns.
+        return {n for n in found if n is not None
+                and not any(o is not None and o.startswith(n + ".") for o in found)}
+
+    def check(self, columns: set[str]) -> None:
+        """Raise :class:`SceneError` if the expression reads a column the rows do not have."""
+        unknown = sorted(self.names() - columns)
+        if unknown:
+            raise SceneError(f"--metric {self.text}: unknown name(s) {', '.join(unknown)} "
+                             f"(known: {', '.join(sorted(columns))})")
+
+    def evaluate(self, row: Mapping[str, Cell]) -> Optional[float]:
+        """The value on ``row``; None where it is undefined (a math domain error, a division
+        by zero, a missing value)."""
+        try:
+            value = _evaluate(self.tree.body, row)
+        except (ArithmeticError, ValueError, TypeError):
+            return None
+        return float(value)
+
+
+def _evaluate(node: ast.expr, row: Mapping[str, Cell]) -> Any:
+    # In floats only: an integer power such as 10 ** 10 ** 10 would take forever.
+    if isinstance(node, ast.Constant):
+        return float(node.value)
+    name = _dotted(node)
+    if name is not None:
+        value = row[name]
+        if value is None:
+            raise ValueError(name)
+        return float(value)
+    if isinstance(node, ast.BinOp):
+        return _BINARY[type(node.op)](_evaluate(node.left, row), _evaluate(node.right, row))
+    if isinstance(node, ast.UnaryOp):
+        return _UNARY[type(node.op)](_evaluate(node.operand, row))
+    if isinstance(node, ast.Compare):
+        left = _evaluate(node.left, row)
+        for op, right_node in zip(node.ops, node.comparators):
+            right = _evaluate(right_node, row)
+            if not _COMPARE[type(op)](left, right):
+                return False
+            left = right
+        return True
+    if isinstance(node, ast.BoolOp):
+        values = [_evaluate(v, row) for v in node.values]
+        return all(values) if isinstance(node.op, ast.And) else any(values)
+    if isinstance(node, ast.IfExp):
+        return _evaluate(node.body if _evaluate(node.test, row) else node.orelse, row)
+    assert isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+    return _FUNCTIONS[node.func.id](*(_evaluate(a, row) for a in node.args))
+
+
+def _allowed(node: ast.AST) -> bool:
+    if isinstance(node, ast.Call):
+        return (isinstance(node.func, ast.Name) and node.func.id in _FUNCTIONS
+                and not node.keywords)
+    if isinstance(node, ast.Constant):
+        return isinstance(node.value, (int, float)) and not isinstance(node.value, bool) \
+            or node.value is True or node.value is False
+    if isinstance(node, ast.Attribute):
+        return _dotted(node) is not None
+    return isinstance(node, (ast.Expression, ast.Name, ast.Load, ast.BinOp, ast.UnaryOp,
+                             ast.Compare, ast.BoolOp, ast.IfExp, ast.And, ast.Or,
+                             *_BINARY, *_UNARY, *_COMPARE))
+
+
+def parse_metric(text: str) -> Metric:
+    """Parse ``[NAME=]EXPRESSION``; :class:`SceneError` for anything outside the grammar."""
+    name, equals, expression = text.partition("=")
+    if not equals or not name.strip().isidentifier() or expression.startswith("="):
+        name, expression = text.strip(), text
+    try:
+        tree = ast.parse(expression.strip(), mode="eval")
+    except SyntaxError as error:
+        raise SceneError(f"--metric {text}: not an expression ({error.msg})") from None
+    for node in ast.walk(tree):
+        if not _allowed(node):
+            raise SceneError(f"--metric {text}: '{ast.unparse(node)}' is not allowed (numbers, "
+                             f"names, arithmetic, comparisons and {', '.join(_FUNCTIONS)})")
+    return Metric(name.strip(), text, tree)
+
+
+# ----------------------------------------------------------------------------- running
+
+class _Extrema:
+    """Running minimum and maximum of named quantities."""
+
+    def __init__(self) -> None:
+        self.low: dict[str, float] = {}
+        self.high: dict[str, float] = {}
+
+    def add(self, name: str, value: float) -> None:
+        if name not in self.low:
+            self.low[name] = self.high[name] = value
+        else:
+            self.low[name] = min(self.low[name], value)
+            self.high[name] = max(self.high[name], value)
+
+
+def _observe(extrema: _Extrema, snapshot: Snapshot, contacts: Optional[int]) -> None:
+    extrema.add("energy", snapshot.energy)
+    if contacts is not None:
+        extrema.add("contacts", contacts)
+    for body in snapshot.bodies:
+        extrema.add(f"{body.name}.x", body.position[0])
+        extrema.add(f"{body.name}.y", body.position[1])
+        extrema.add(f"{body.name}.speed", math.hypot(*body.linear_velocity))
+
+
+def summarize(scene: Scene) -> dict[str, Cell]:
+    """Run ``scene`` for its duration with its script and return its summary row.
+
+    Columns: ``status`` (``ok`` or ``diverged``) and ``message``; ``time``, ``steps``;
+    ``energy_start``, ``energy_end``, ``energy_max``; ``contacts_end`` and ``contacts_max``
+    (None for a scene without contacts); per body ``<body>.<field>`` for the final
+    :data:`STATE_FIELDS` and ``<body>.x_min``, ``x_max``, ``y_min``, ``y_max``, ``speed_max``
+    over the publish instants (the start included).
+    """
+    runner = Runner(scene, play_script=True, wall_clock=lambda: 0)
+    sim = runner.sim
+    detector = sim.model.contacts
+
+    def contacts() -> Optional[int]:
+        return None if detector is None else len(detector.detect(sim.q))
+
+    first = sim.snapshot()
+    extrema = _Extrema()
+    _observe(extrema, first, contacts())
+    halted = runner.advance(0).diverged
+    period = scene.publish_period_ns
+    tick = 0
+    while halted is None and tick + period <= scene.duration_ns:
+        tick += period
+        result = runner.advance(tick)
+        for snapshot in result.snapshots:
+            _observe(extrema, snapshot, contacts() if snapshot is result.snapshots[-1] else None)
+        halted = result.diverged
+    last = sim.snapshot()
+    final_contacts = contacts()
+    if final_contacts is not None:
+        extrema.add("contacts", final_contacts)
+    row: dict[str, Cell] = {
+        "status": "ok" if halted is None else "diverged", "message": halted or "",
+        "time": last.time_ns * 1e-9, "steps": last.steps,
+        "energy_start": first.energy, "energy_end": last.energy,
+        "energy_max": extrema.high["energy"],
+        "contacts_end": final_contacts, "contacts_max": extrema.high.get("contacts")}
+    for body in last.bodies:
+        (x, y), (vx, vy) = body.position, body.linear_velocity
+        final = (x, y, body.angle, vx, vy, body.angular_velocity, math.hypot(vx, vy))
+        row.update({f"{body.name}.{field}": value for field, value in zip(STATE_FIELDS, final)})
+        row.update({f"{body.name}.x_min": extrema.low[f"{body.name}.x"],
+                    f"{body.name}.x_max": extrema.high[f"{body.name}.x"],
+                    f"{body.name}.y_min": extrema.low[f"{body.name}.y"],
+                    f"{body.name}.y_max": extrema.high[f"{body.name}.y"],
+                    f"{body.name}.speed_max": extrema.high[f"{body.name}.speed"]})
+    return row

@@ -1,0 +1,221 @@
+"""Sweeps and regression suites: the tasks the workers run, and the loops that hand them
+to an engine and gather the results.
+
+The task functions are module-level and take one picklable argument, so a process pool
+or a Dask worker can run them; they import only the core (no engine).
+"""
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Optional
+
+import yaml
+
+from ..bags.io import BagError, read_bag
+from ..bags.compare import Tolerances, compare_contents
+from ..scene.parameters import SceneError, unflatten
+from ..bags.replay import (outputs_as_bag, recorded_output_topics, replay_outputs,
+                          replay_to_bag, script_to_bag)
+from ..scene.load import NODE_NAME, load_scene, shipped_scenes
+from ..viz.progress import Progress
+from .engines import Engine
+from .metrics import STATE_FIELDS, Cell, Metric, summarize
+from .table import PartialRows, table_path, write_table
+from .variants import Variant
+
+__all__ = ["SweepTask", "run_variant", "sweep", "check_metrics", "BagTask", "BagResult",
+           "check_bag", "find_bags", "regress", "progress_bar"]
+
+
+# ----------------------------------------------------------------------------- progress
+
+def progress_bar(items: Iterator[Any], total: int, label: str, show: bool) -> Iterator[Any]:
+    """``items``, counted on a bar on stderr if ``show``."""
+    bar = Progress(label, total, unit="runs", enabled=show)
+    try:
+        for done, item in enumerate(items, 1):
+            bar(done / total)
+            yield item
+    finally:
+        bar.close()
+
+
+# ----------------------------------------------------------------------------- sweep
+
+@dataclass(frozen=True)
+class SweepTask:
+    """One variant to run, the metrics to evaluate on it and where to write its bag."""
+
+    variant: Variant
+    metrics: tuple[Metric, ...] = ()
+    bags: Optional[Path] = None
+
+
+def _numbers(row: Mapping[str, Cell]) -> dict[str, Cell]:
+    """The names a metric may read: the row's columns, and ``energy`` for the final energy."""
+    return {**row, "energy": row["energy_end"]}
+
+
+def run_variant(task: SweepTask) -> dict[str, Cell]:
+    """The table row of one variant: its index and values, its summary, its metrics."""
+    variant = task.variant
+    row: dict[str, Cell] = {"variant": variant.index, **dict(variant.values)}
+    row.update(summarize(variant.scene))
+    names = _numbers(row)
+    row.update({metric.name: metric.evaluate(names) for metric in task.metrics})
+    if task.bags is not None:
+        _write_bag(variant, task.bags)
+    return row
+
+
+def _write_bag(variant: Variant, directory: Path) -> None:
+    """The variant's parameters file and a bag of its scripted inputs and outputs, as
+    ``replay --check`` reads them (``regress`` finds the file next to the bag)."""
+    name = f"variant-{variant.index:06d}"
+    scene_file = directory / f"{name}.yaml"
+    scene_file.write_text(yaml.safe_dump(
+        {NODE_NAME: {"ros__parameters": unflatten(variant.parameters)}}, sort_keys=True))
+    scene = replace(variant.scene, source=str(scene_file))
+    with tempfile.TemporaryDirectory() as scratch:
+        script_to_bag(scene, Path(scratch) / "inputs")
+        replay_to_bag(scene, read_bag(Path(scratch) / "inputs"), directory / name,
+                      with_inputs=True, overwrite=True)
+
+
+def summary_columns(variant: Variant) -> set[str]:
+    """The names a metric may read on ``variant``'s row (without running it)."""
+    fixed = {"variant", "time", "steps", "energy", "energy_start", "energy_end", "energy_max",
+             "contacts_end", "contacts_max", *(column for column, _ in variant.values)}
+    extrema = ("x_min", "x_max", "y_min", "y_max", "speed_max")
+    return fixed | {f"{body.name}.{field}" for body in variant.scene.bodies
+                    for field in (*STATE_FIELDS, *extrema)}
+
+
+def check_metrics(metrics: Sequence[Metric], variants: Sequence[Variant]) -> None:
+    """Raise :class:`SceneError` for a metric that reads a name the rows do not have, or
+    whose name is already a column."""
+    if not variants:
+        return
+    columns = summary_columns(variants[0])
+    for metric in metrics:
+        metric.check(columns)
+        if metric.name in columns:
+            raise SceneError(f"--metric {metric.text}: '{metric.name}' is already a column; "
+                             "name the metric: NAME=EXPRESSION")
+
+
+def sweep(variants: Sequence[Variant], engine: Engine, output: Path, *,
+          metrics: Sequence[Metric] = (), bags: Optional[Path] = None,
+          function: Callable[[SweepTask], dict[str, Cell]] = run_variant,
+          progress: bool = False) -> Path:
+    """Run every variant on ``engine`` and write the table; returns its path.
+
+    Finished rows go to the partial file as they come (kept if the sweep fails); the
+    table, sorted by variant, is written at the end. ``function`` runs one task.
+    """
+    path = table_path(output)
+    partial = PartialRows(path.with_name(path.name + ".partial.csv"))
+    if bags is not None:
+        bags.mkdir(parents=True, exist_ok=True)
+    tasks = [SweepTask(v, tuple(metrics), bags) for v in variants]
+    rows = []
+    finished = False
+    try:
+        for _, row in progress_bar(engine.run(function, tasks), len(tasks), "sweep", progress):
+            partial.add(row)
+            rows.append(row)
+        write_table(path, rows)
+        finished = True
+    finally:
+        partial.close(keep=not finished)
+    return path
+
+
+# ----------------------------------------------------------------------------- regress
+
+@dataclass(frozen=True)
+class BagTask:
+    """One bag to check: its directory, the scene (None: from the bag) and tolerances."""
+
+    bag: Path
+    scene: Optional[str]
+    tolerances: Tolerances
+
+
+@dataclass(frozen=True)
+class BagResult:
+    """The outcome of one check: ``ok``, ``mismatch`` or ``error``, and its line."""
+
+    bag: Path
+    status: str
+    detail: str
+
+    def line(self) -> str:
+        return f"{self.status.upper():<8} {self.bag}  {self.detail}"
+
+
+def _scene_of(bag_dir: Path, name: Optional[str]) -> str:
+    """The scene a bag was made with: a parameters file next to the bag named as its
+    ``hecker_dynamics.scene`` custom data (as ``sweep --bags`` writes them), else the
+    shipped scene of that name."""
+    if name is None:
+        raise BagError(f"{bag_dir}: the bag names no scene (no 'hecker_dynamics.scene' "
+                       "custom data); give --scene")
+    beside = bag_dir.parent / f"{name}.yaml"
+    if beside.is_file():
+        return str(beside)
+    if name in shipped_scenes():
+        return name
+    raise BagError(f"{bag_dir}: the bag's scene '{name}' is neither {beside} nor a shipped "
+                   "scene; give --scene")
+
+
+def check_bag(task: BagTask) -> BagResult:
+    """``replay SCENE BAG --check`` on one bag, as a result instead of an exit status."""
+    try:
+        bag = read_bag(task.bag)
+        scene = load_scene(task.scene or _scene_of(task.bag, bag.custom_data.get(
+            "hecker_dynamics.scene")))
+        topics = recorded_output_topics(scene, bag)
+        produced, result = replay_outputs(scene, bag)
+    except (SceneError, BagError) as error:
+        return BagResult(task.bag, "error", str(error))
+    if result.halted:
+        return BagResult(task.bag, "error", result.halted)
+    report, ok = compare_contents(bag, outputs_as_bag(scene, produced),
+                                  tolerances=task.tolerances, topics=topics)
+    return BagResult(task.bag, "ok" if ok else "mismatch", report.summary())
+
+
+def find_bags(paths: Sequence[Path]) -> list[Path]:
+    """The bags named: each path is a bag directory (it has ``metadata.yaml``) or holds
+    bag directories; raises :class:`BagError` for a path that is neither."""
+    found = []
+    for path in paths:
+        if (path / "metadata.yaml").is_file():
+            found.append(path)
+            continue
+        inner = sorted(p for p in path.iterdir() if (p / "metadata.yaml").is_file()) \
+            if path.is_dir() else []
+        if not inner:
+            raise BagError(f"{path}: not a bag directory and holds none")
+        found.extend(inner)
+    return found
+
+
+def regress(bags: Sequence[Path], engine: Engine, *, scene: Optional[str],
+            tolerances: Tolerances, emit: Callable[[BagResult], None],
+            progress: bool = False) -> list[BagResult]:
+    """Check every bag on ``engine``; ``emit`` gets each result as it comes. Returns the
+    results in the order of ``bags``."""
+    tasks = [BagTask(bag, scene, tolerances) for bag in bags]
+    results: list[Optional[BagResult]] = [None] * len(tasks)
+    for position, result in progress_bar(engine.run(check_bag, tasks), len(tasks), "regress",
+                                         progress):
+        results[position] = result
+        emit(result)
+    return [r for r in results if r is not None]
+

@@ -1,0 +1,106 @@
+"""The results table of a sweep: Parquet where pyarrow is installed, else CSV.
+
+Rows are written sorted by variant index, so the file is the same bytes however many
+workers ran the variants and in whatever order they finished. CSV cells hold numbers by
+``repr`` (the shortest text that reads back as the same double), an empty cell for a
+missing value; columns come in the order of the first row, which every row of a sweep
+shares (the scene fixes the bodies).
+
+While the variants run, finished rows go to a partial CSV file next to the table as they
+come (``<table>.partial.csv``, one row per line, flushed), so a sweep that stops keeps
+what it finished; the partial file is removed once the table is written.
+"""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import io
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Optional, TextIO
+
+__all__ = ["table_format", "table_path", "write_table", "PartialRows"]
+
+FORMATS = {".parquet": "parquet", ".csv": "csv"}
+
+
+def _has_pyarrow() -> bool:
+    return importlib.util.find_spec("pyarrow") is not None
+
+
+def table_format(path: Path) -> str:
+    """``parquet`` or ``csv``: by the suffix, else Parquet when pyarrow is installed."""
+    if path.suffix in FORMATS:
+        return FORMATS[path.suffix]
+    return "parquet" if _has_pyarrow() else "csv"
+
+
+def table_path(path: Path) -> Path:
+    """``path``, with the suffix of its format added when it has neither."""
+    return path if path.suffix in FORMATS else path.with_name(
+        path.name + "." + table_format(path))
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _columns(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    columns: dict[str, None] = {}
+    for row in rows:
+        columns.update(dict.fromkeys(row))
+    return list(columns)
+
+
+def _write_csv(stream: TextIO, columns: Sequence[str], rows: Sequence[Mapping[str, Any]],
+               header: bool = True) -> None:
+    writer = csv.writer(stream, lineterminator="\n")
+    if header:
+        writer.writerow(columns)
+    for row in rows:
+        writer.writerow([_cell(row.get(c)) for c in columns])
+
+
+def write_table(path: Path, rows: Sequence[Mapping[str, Any]]) -> Path:
+    """Write ``rows`` (each with a ``variant`` index) sorted by variant; returns the path."""
+    path = table_path(path)
+    ordered = sorted(rows, key=lambda row: row["variant"])
+    columns = _columns(ordered)
+    if table_format(path) == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.table({c: [row.get(c) for row in ordered] for c in columns})
+        pq.write_table(table, path)
+    else:
+        text = io.StringIO()
+        _write_csv(text, columns, ordered)
+        path.write_text(text.getvalue())
+    return path
+
+
+class PartialRows:
+    """Finished rows appended to a CSV file as they come, in finishing order."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._stream: Optional[TextIO] = None
+        self._columns: list[str] = []
+
+    def add(self, row: Mapping[str, Any]) -> None:
+        if self._stream is None:
+            self._columns = list(row)
+            self._stream = open(self.path, "w", newline="")
+            _write_csv(self._stream, self._columns, [])
+        _write_csv(self._stream, self._columns, [row], header=False)
+        self._stream.flush()
+
+    def close(self, *, keep: bool) -> None:
+        if self._stream is not None:
+            self._stream.close()
+        if not keep:
+            self.path.unlink(missing_ok=True)

@@ -1,0 +1,171 @@
+"""Sweeps and regression suites on the process pool and on a real Dask cluster (a
+scheduler and two worker processes on loopback): the same bytes as one process, a worker
+killed mid-sweep survived, a tampered bag found."""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from dataclasses import replace
+from functools import partial
+from pathlib import Path
+
+import pytest
+
+from hecker_dynamics.bags import read_bag
+from hecker_dynamics.batch.engines import DaskCluster, ProcessPool
+from hecker_dynamics.batch.run import SweepTask, find_bags, regress, run_variant, sweep
+from hecker_dynamics.batch.variants import make_variants, parse_setting
+from hecker_dynamics.batch.metrics import parse_metric
+from hecker_dynamics.cli import main
+from hecker_dynamics.bags.compare import Tolerances
+from hecker_dynamics.bags.replay import replay_to_bag, script_to_bag
+from hecker_dynamics.scene import load_scene
+
+distributed = pytest.importorskip("distributed", reason="the cluster extra is not installed")
+import cloudpickle  # noqa: E402  (a dependency of distributed)
+
+# The tasks below live in this test module, which the workers cannot import: ship them.
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+SEC = 1_000_000_000
+SETTINGS = ("bodies.left.mass=0.5,1,2", "bodies.right.velocity[0]=-1:1:3")
+METRICS = ("gap=right.x - left.x", "spin=abs(left.omega) + abs(right.omega)")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A scheduler and two single-threaded worker processes on 127.0.0.1."""
+    local = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                     host="127.0.0.1", dashboard_address=None)
+    yield local
+    local.close()
+
+
+def _variants(**options):
+    return make_variants("sample", [parse_setting(s) for s in SETTINGS],
+                         duration_ns=SEC // 2, **options)
+
+
+def _sweep(tmp_path: Path, name: str, engine, **options) -> bytes:
+    try:
+        path = sweep(_variants(**options.pop("variants", {})), engine, tmp_path / f"{name}.csv",
+                     metrics=[parse_metric(m) for m in METRICS], progress=False, **options)
+    finally:
+        engine.close()
+    assert not list(tmp_path.glob("*.partial.csv"))  # removed once the table is written
+    return path.read_bytes()
+
+
+def test_cluster_sweep_equals_one_process_bit_for_bit(tmp_path, cluster):
+    one = _sweep(tmp_path, "one", ProcessPool(1))
+    dask = _sweep(tmp_path, "dask", DaskCluster(cluster.scheduler_address))
+    assert dask == one
+    lines = one.decode().splitlines()
+    assert len(lines) == 1 + 9 and [line.split(",")[0] for line in lines[1:]] == \
+        [str(i) for i in range(9)]
+    # Each row is the summary of the variant's own scene, run here in this process.
+    variant = _variants()[4]
+    row = run_variant(SweepTask(variant, tuple(parse_metric(m) for m in METRICS)))
+    header = lines[0].split(",")
+    cells = dict(zip(header, lines[1 + 4].split(",")))
+    assert float(cells["left.x"]) == row["left.x"] and float(cells["energy_max"]) == \
+        row["energy_max"]
+    assert float(cells["gap"]) == row["gap"] == row["right.x"] - row["left.x"]
+
+
+def test_same_seed_same_table_with_one_and_two_workers(tmp_path):
+    sampled = {"samples": 6, "seed": 11}
+    one = _sweep(tmp_path, "one", ProcessPool(1), variants=sampled)
+    two = _sweep(tmp_path, "two", ProcessPool(2), variants=sampled)
+    other = _sweep(tmp_path, "other", ProcessPool(2), variants={"samples": 6, "seed": 12})
+    assert one == two
+    assert other != one
+
+
+def _kill_once(marker: Path, task):
+    """Kill this worker process the first time variant 3 runs, then run it as usual."""
+    if task.variant.index == 3 and not marker.exists():
+        marker.touch()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return run_variant(task)
+
+
+def test_a_worker_killed_mid_sweep_loses_only_its_variant(tmp_path, cluster):
+    reference = _sweep(tmp_path, "reference", ProcessPool(1))
+    marker = tmp_path / "killed"
+    survived = _sweep(tmp_path, "survived", DaskCluster(cluster.scheduler_address),
+                      function=partial(_kill_once, marker))
+    assert marker.exists()  # a worker did die
+    assert survived == reference
+
+
+def test_a_dead_pool_worker_keeps_the_finished_rows(tmp_path):
+    from hecker_dynamics.batch.engines import EngineError
+
+    engine = ProcessPool(1)
+    with pytest.raises(EngineError, match="worker process died"):
+        sweep(_variants(), engine, tmp_path / "t.csv", progress=False,
+              function=partial(_kill_once, tmp_path / "killed"))
+    engine.close()
+    partial_rows = (tmp_path / "t.csv.partial.csv").read_text().splitlines()
+    assert [line.split(",")[0] for line in partial_rows[1:]] == ["0", "1", "2"]
+    assert not (tmp_path / "t.csv").exists()
+
+
+# ----------------------------------------------------------------------------- regress
+
+@pytest.fixture(scope="module")
+def bag_suite(tmp_path_factory):
+    """Three recorded sessions (inputs and outputs) of two shipped scenes, and one whose
+    outputs came from a heavier left body: its recorded outputs no longer match its scene."""
+    root = tmp_path_factory.mktemp("suite")
+    (root / "inputs").mkdir()
+    (root / "bags").mkdir()
+    for name, scene_name, tamper in (("a_sample", "sample", False), ("b_door", "door", False),
+                                     ("c_tampered", "sample", True), ("d_seesaw", "seesaw", False)):
+        scene = replace(load_scene(scene_name), duration_ns=SEC // 2)
+        script_to_bag(scene, root / "inputs" / name)
+        recorded = scene
+        if tamper:
+            left = replace(scene.bodies[0], mass=replace(scene.bodies[0].mass,
+                                                         mass=scene.bodies[0].mass.mass * 1.01))
+            recorded = replace(scene, bodies=(left, *scene.bodies[1:]))
+        replay_to_bag(recorded, read_bag(root / "inputs" / name), root / "bags" / name,
+                      with_inputs=True)
+    return root / "bags"
+
+
+def _regress(engine, bags):
+    lines = []
+    try:
+        results = regress(find_bags([bags]), engine, scene=None, tolerances=Tolerances(),
+                          emit=lines.append, progress=False)
+    finally:
+        engine.close()
+    return [(r.bag.name, r.status, r.detail) for r in results]
+
+
+def test_cluster_regress_equals_one_process_and_finds_the_tampered_bag(bag_suite, cluster):
+    one = _regress(ProcessPool(1), bag_suite)
+    assert [(name, status) for name, status, _ in one] == [
+        ("a_sample", "ok"), ("b_door", "ok"), ("c_tampered", "mismatch"), ("d_seesaw", "ok")]
+    assert _regress(DaskCluster(cluster.scheduler_address), bag_suite) == one
+
+
+def test_regress_command_exits_1_on_a_mismatch_and_2_on_bad_input(bag_suite, tmp_path, capsys):
+    code = main(["regress", str(bag_suite), "--workers", "2", "--no-progress"])
+    out = capsys.readouterr().out.splitlines()
+    assert code == 1
+    assert sorted(line.split()[0] for line in out[:-1]) == ["MISMATCH", "OK", "OK", "OK"]
+    assert out[-1] == "4 bag(s): 3 ok, 1 mismatch, 0 error"
+    assert main(["regress", str(bag_suite / "a_sample"), "--no-progress"]) == 0
+    capsys.readouterr()
+    # The wrong scene for a bag: it cannot be checked (exit 2), with the reason on its line.
+    assert main(["regress", str(bag_suite / "b_door"), "--scene", "ship",
+                 "--no-progress"]) == 2
+    assert "ERROR" in capsys.readouterr().out
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["regress", str(empty)]) == 2
+    assert "not a bag directory and holds none" in capsys.readouterr().err

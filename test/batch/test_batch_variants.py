@@ -1,0 +1,171 @@
+"""Sweep variants, metrics and the summary row: parsing, seeding, checking, physics."""
+from __future__ import annotations
+
+import ast
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hecker_dynamics
+from hecker_dynamics.batch.metrics import parse_metric, summarize
+from hecker_dynamics.batch.run import check_metrics
+from hecker_dynamics.batch.variants import grid, make_variants, parse_setting, sample
+from hecker_dynamics.cli import main
+from hecker_dynamics.scene import SceneError
+from scene_builders import write_scene
+
+
+def test_grid_is_every_combination_last_fastest():
+    settings = [parse_setting("bodies.left.mass=1,2"),
+                parse_setting("bodies.left.position[0]=-1:1:3")]
+    assert settings[1].values == (-1.0, 0.0, 1.0)
+    assert grid(settings) == [(1, -1.0), (1, 0.0), (1, 1.0), (2, -1.0), (2, 0.0), (2, 1.0)]
+    variants = make_variants("sample", settings, duration_ns=10**8)
+    # Each variant's scene holds its values; the rest of the scene is the file's.
+    assert [(v.scene.bodies[0].mass.mass, v.scene.bodies[0].position[0]) for v in variants] == \
+        [(1.0, -1.0), (1.0, 0.0), (1.0, 1.0), (2.0, -1.0), (2.0, 0.0), (2.0, 1.0)]
+    assert {v.scene.bodies[0].position[1] for v in variants} == {2.5}
+    assert {v.scene.duration_ns for v in variants} == {10**8}
+
+
+def test_sampling_is_the_seeded_generator():
+    settings = [parse_setting("a.b=0.5:2"), parse_setting("c=x,y,z")]
+    draws = sample(settings, 20, seed=7)
+    assert draws == sample(settings, 20, seed=7)
+    assert draws != sample(settings, 20, seed=8)
+    generator = np.random.default_rng(7)  # the documented order: variant by variant
+    expected = []
+    for _ in range(20):
+        expected.append((float(generator.uniform(0.5, 2)),
+                         ("x", "y", "z")[int(generator.integers(3))]))
+    assert draws == expected
+    assert all(0.5 <= a < 2 for a, _ in draws)
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("bodies.left.mass", "expected NAME=VALUES"),
+    ("bodies.left.mass=1,,2", "empty value"),
+    ("bodies.left.mass=1:x:3", "is not a number"),
+    ("bodies.left.mass=1:2:0", "not a positive whole number"),
+    ("bodies.left.mass=1:2:3:4", "start:stop:count or start:stop"),
+    ("bodies.left.mass=nan", "not a finite number"),
+])
+def test_malformed_settings_are_refused(text, problem):
+    with pytest.raises(SceneError, match=problem):
+        parse_setting(text)
+
+
+@pytest.mark.parametrize("setting, problem", [
+    ("bodies.lefft.mass=1,2", "no parameter 'bodies.lefft.mass' (and no group 'bodies.lefft')"),
+    ("bodies.left.masss=1", "'bodies.left.masss': is not a known parameter here"),
+    ("bodies.left.mass=0", "'bodies.left.mass': must be positive"),
+    ("bodies.left.size[2]=1", "'bodies.left.size' has 2 element(s)"),
+    ("bodies.left.mass[0]=1", "'bodies.left.mass' is not an array"),
+    ("bodies.left.mass=1:2", "needs --samples"),
+])
+def test_bad_sweep_fails_before_any_work_with_one_line(tmp_path, capsys, setting, problem):
+    output = tmp_path / "results.csv"
+    code = main(["sweep", "sample", "--set", "bodies.left.mass=1", "--set", setting,
+                 "-o", str(output), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("hecker-dynamics: error: ") and problem in err
+    assert list(tmp_path.iterdir()) == []  # no table, no partial rows: nothing ran
+
+
+def test_metric_evaluator_computes_and_refuses():
+    row = {"left.x": 1.5, "right.x": 4.0, "left.vy": -2.0, "energy": 10.0, "none": None}
+    assert parse_metric("gap=right.x - left.x").evaluate(row) == 2.5
+    assert parse_metric("hypot(3, 4) + abs(left.vy) ** 2").evaluate(row) == 9.0
+    assert parse_metric("energy > 5 and left.x < 2").evaluate(row) == 1.0
+    assert parse_metric("left.x if left.vy > 0 else -left.x").evaluate(row) == -1.5
+    metric = parse_metric("right.x / (left.x - 1.5)")
+    assert metric.name == "right.x / (left.x - 1.5)" and metric.evaluate(row) is None
+    assert parse_metric("log(left.vy)").evaluate(row) is None  # a domain error
+    assert parse_metric("none + 1").evaluate(row) is None
+    assert parse_metric("10 ** 10 ** 10").evaluate(row) is None  # overflows, in floats
+    for text in ("__import__('os')", "left.x.__class__()", "open('f')", "[1][0]", "'a'",
+                 "(lambda: 1)()", "hypot(*left)"):
+        with pytest.raises(SceneError, match="not allowed|not an expression"):
+            parse_metric(text)
+
+
+def test_metric_names_are_checked_against_the_columns():
+    variants = make_variants("sample", [parse_setting("bodies.left.mass=1")])
+    check_metrics([parse_metric("d=right.speed_max - left.x + energy + bodies.left.mass")],
+                  variants)
+    with pytest.raises(SceneError, match="unknown name.* lft.x"):
+        check_metrics([parse_metric("d=lft.x")], variants)
+    with pytest.raises(SceneError, match="unknown name.* abs"):  # a function, not called
+        check_metrics([parse_metric("d=abs + 1")], variants)
+    with pytest.raises(SceneError, match="already a column"):
+        check_metrics([parse_metric("energy=1")], variants)
+
+
+def test_summary_of_free_flight_is_exact(tmp_path):
+    """No force: the velocities never change (F = m a, Eq. 5, with no force, and no angular
+    acceleration, Eq. 14, without torque), so the kinetic energy 1/2 m v^2 + 1/2 I omega^2
+    (a disc's moment of inertia I = m r^2 / 2, Eq. 13) is the same double at every instant,
+    the speed is constant and x grows monotonically, so its extrema are its start and end."""
+    path = write_scene(tmp_path, {"step": 0.01, "publish_rate": 10.0, "duration": 1.0,
+                                  "integrator": "semi_implicit_euler",
+                                  "bodies": {"puck": {"shape": "circle", "radius": 0.5,
+                                                      "mass": 2.0, "velocity": [3.0, 4.0]}}})
+    variant, = make_variants(str(path), [parse_setting("bodies.puck.angular_velocity=0.5")])
+    row = summarize(variant.scene)
+    assert row["status"] == "ok" and row["message"] == ""
+    assert row["steps"] == 100 and row["time"] == 1.0
+    assert row["energy_start"] == row["energy_end"] == row["energy_max"] == 25.0 + 0.03125
+    assert row["puck.speed"] == row["puck.speed_max"] == 5.0
+    assert row["puck.x_min"] == 0.0 and row["puck.x_max"] == row["puck.x"]
+    assert row["puck.x"] == pytest.approx(3.0, abs=1e-12)
+    assert row["puck.omega"] == 0.5
+    assert row["contacts_end"] is None and row["contacts_max"] is None
+
+
+def test_summary_reports_a_divergence_and_keeps_the_last_finite_state(tmp_path):
+    path = write_scene(tmp_path, {
+        "step": 0.001, "duration": 0.2, "integrator": "semi_implicit_euler",
+        "bodies": {"tiny": {"shape": "circle", "radius": 0.1, "mass": 1e-3}},
+        "script": {"boom": {"time": 0.05, "body": "tiny", "frame_id": "world",
+                            "force": [1e308, 1e308], "duration": 0.1}}})
+    variant, = make_variants(str(path), [parse_setting("bodies.tiny.mass=1e-3")])
+    row = summarize(variant.scene)
+    assert row["status"] == "diverged" and "tiny diverged" in row["message"]
+    assert row["time"] < 0.2 and all(math.isfinite(row[f"tiny.{f}"]) for f in ("x", "y", "vx"))
+
+
+def test_summary_counts_contacts_of_a_resting_box(tmp_path):
+    """A box resting on a floor touches it at its two bottom corners."""
+    path = write_scene(tmp_path, {
+        "step": 0.001, "duration": 0.5, "integrator": "semi_implicit_euler",
+        "bodies": {"box": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                           "position": [0.0, 0.5]}},
+        "forces": {"g": {"type": "gravity"}},
+        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0]}}})
+    variant, = make_variants(str(path), [parse_setting("bodies.box.mass=1")])
+    row = summarize(variant.scene)
+    assert row["contacts_end"] == row["contacts_max"] == 2
+    assert row["box.y_min"] == pytest.approx(0.5, abs=1e-3)
+
+
+def test_the_core_the_node_and_the_cli_do_not_import_an_engine():
+    """Dask is the optional cluster extra: importing the package, the command line, the
+    run loop or the batch code must not pull it in; node.py imports no batch module."""
+    code = ("import sys, hecker_dynamics, hecker_dynamics.cli, hecker_dynamics.ros.runner, "
+            "hecker_dynamics.batch.run, hecker_dynamics.batch.engines; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('dask', 'distributed', 'ray')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    node, = Path(hecker_dynamics.__file__).parent.rglob("node.py")
+    imported = {alias.name if isinstance(n, ast.Import) else n.module or ""
+                for n in ast.walk(ast.parse(node.read_text()))
+                if isinstance(n, (ast.Import, ast.ImportFrom)) for alias in n.names}
+    assert "rclpy" in imported  # the node's imports were read
+    assert not any("batch" in name or "dask" in name for name in imported)
