@@ -2,7 +2,8 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` and steps the explicit methods of :mod:`.integrators`, repeating the
+as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the contact pass of
+:mod:`..contact.compiled` after each step in scenes with contacts), repeating the
 plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
@@ -150,10 +151,11 @@ class CompiledSteps:
         the last good state in (q, v)."""
         forces, integrator = self.model.compiled, self.integrator
         embedded = self.pair is not None
+        contacts = self.model.contacts
         status, taken, evaluations, substeps, rejected, size = _kernel.advance(
             forces.program, forces.inputs, self.model.oriented, self.method, self.pair,
             self.tolerance, integrator.substep_size if embedded else 0.0, q, v, self._q_new,
-            self._v_new, h, steps)
+            self._v_new, h, steps, None if contacts is None else contacts.kernel_pass())
         counters = integrator.counters
         counters.evaluations += evaluations
         if embedded:
@@ -169,8 +171,9 @@ class CompiledSteps:
 
 def compiled_steps(model: Model, integrator: Integrator) -> Optional[CompiledSteps]:
     """The kernel's stepping of ``integrator`` on ``model``, if it can take whole steps:
-    the model's forces are compiled, it has no contact pass and the method is explicit."""
-    if model.compiled is None or model.contacts is not None or \
-            integrator.name not in KERNEL_METHODS:
+    the model's forces (and its contact pass, if any) are compiled and the method is
+    explicit."""
+    if model.compiled is None or integrator.name not in KERNEL_METHODS or \
+            (model.contacts is not None and not model.contacts.compiled):
         return None
     return CompiledSteps(model, integrator)

@@ -6,11 +6,12 @@ walls respond with impulses, and the angle is wrapped. Time is kept in integer n
 (as ROS stamps are), so steps never drift and the same scene with the same inputs in the
 same order gives bit-identical states.
 
-Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
-collisions and the method is explicit, the steps between one publish instant or input
-change and the next run in the kernel in one call, with the results of Python's
-plain-float path: the same bits with the fixed-step methods (but for spring lengths whose
-squares under- or overflow), the same to rounding per step with the adaptive ones.
+Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, the steps
+between one publish instant or input change and the next run in the kernel in one call,
+contact pass included, with the results of Python's plain-float path: the same bits with
+the fixed-step methods (but for spring lengths whose squares under- or overflow, and
+circles' distances and the sub-step count, which use C's hypot for Python's math.hypot),
+the same to rounding per step with the adaptive ones.
 """
 from __future__ import annotations
 
