@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple, Optional
+from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
@@ -218,27 +218,29 @@ class ContactPass:
         self._kernel = None
         self.import_state(state)
 
-    def export_state(self) -> dict:
-        """The state kept from step to step, in plain ints and floats: the warm-start
-        impulses, one list [k0, k1, k2, k3, lx, ly, jn, jt] per contact (the names of its
-        parts, its point in body b's axes, its impulses), sorted by the names and in the
-        order the solver met them within one name."""
-        if self._kernel is not None:
-            return {"warm": [list(entry) for entry in self._kernel.impulses()]}
-        return {"warm": [[*key, *entry] for key in sorted(self._warm)
-                         for entry in self._warm[key]]}
+    def export_state(self) -> list[list[Any]]:
+        """The impulses kept for warm starting, as plain data: per pair of parts (sorted by
+        their names), the remembered contacts [lx, ly, jn, jt] (point in the second body's
+        frame, normal and tangent impulse) in the order the solver met them; the same
+        whether the pass runs in Python or in the kernel."""
+        if self._kernel is None:
+            warm = self._warm
+        else:
+            warm = {}
+            for *key, lx, ly, jn, jt in self._kernel.impulses():
+                warm.setdefault(tuple(key), []).append((lx, ly, jn, jt))
+        return [[list(key), [list(contact) for contact in warm[key]]] for key in sorted(warm)]
 
-    def import_state(self, state: dict) -> None:
-        """Continue from a state of :meth:`export_state`: the next step gives the same bits
-        as it would have after the step that state was taken at."""
-        entries = [(tuple(int(k) for k in e[:4]), tuple(float(x) for x in e[4:]))
-                   for e in state["warm"]]
+    def import_state(self, state: list[list[Any]]) -> None:
+        """Restore :meth:`export_state`'s data: the next step gives the same bits as it
+        would have after the step that data was taken at."""
+        self._warm = {tuple(int(k) for k in key): [tuple(float(x) for x in contact)
+                                                   for contact in contacts]
+                      for key, contacts in state}
         if self._kernel is not None:
-            self._kernel.set_impulses([(*key, *entry) for key, entry in entries])
-            return
-        self._warm = {}
-        for key, entry in entries:
-            self._warm.setdefault(key, []).append(entry)
+            self._kernel.set_impulses([(*key, *contact) for key, contacts in self._warm.items()
+                                       for contact in contacts])
+            self._warm = {}
 
     # ------------------------------------------------------------------ detection
 
