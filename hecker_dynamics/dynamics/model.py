@@ -79,9 +79,9 @@ class Model:
             self.compiled.set_inputs(term)
 
     def use_python(self, lean: Optional[bool] = None) -> None:
-        """Evaluate the forces and contacts in Python from now on, not in the compiled kernel: in plain
-        floats (``lean``) or with numpy (default: by the number of bodies, as without the
-        kernel). The tests and the benchmark compare the paths."""
+        """Evaluate the forces and contacts in Python from now on, not in the compiled
+        kernel: the forces in plain floats (``lean``) or with numpy (default: by the number
+        of bodies, as without the kernel). The tests and the benchmark compare the paths."""
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self.compiled = None
         if self.contacts is not None:
