@@ -389,15 +389,30 @@ def bench_command(args: argparse.Namespace) -> int:
 
         bench_batch(rounds=args.rounds)
         return 0
+    command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
+        else "hecker-dynamics bench"
+    if args.contacts:
+        from .bench.contacts import PEERS, contact_bench
+        contact_bench(args.contacts, list(PEERS) if args.peers else [], Path(args.out), command)
+        return 0
     known = all_scene_names()
     for name in args.scenes or []:
         if name not in known:
             raise SceneError(f"unknown benchmark scene '{name}' (known: {', '.join(known)})")
-    command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
-        else "hecker-dynamics bench"
     run_bench("full" if args.full else "quick", Path(args.out), args.scenes, args.peers,
               command=command)
     return 0
+
+
+def _rows(text: str) -> int:
+    """A pyramid's row count: a whole number from 1 to 100."""
+    try:
+        rows = int(text)
+    except ValueError:
+        rows = 0
+    if not 1 <= rows <= 100:
+        raise argparse.ArgumentTypeError(f"rows must be a whole number from 1 to 100, not '{text}'")
+    return rows
 
 
 def _add_bench_command(commands: argparse._SubParsersAction) -> None:
@@ -416,6 +431,9 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--out", default="docs/bench", help="output directory (default docs/bench)")
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
+    bench.add_argument("--contacts", nargs="+", type=_rows, metavar="ROWS",
+                       help="only the contact section: pyramids of these rows of boxes "
+                            "against pymunk and Box2D (writes contacts.md and contacts.csv)")
     peers = bench.add_mutually_exclusive_group()
     peers.add_argument("--peers", dest="peers", action="store_true", default=True,
                        help="include installed peers (default)")

@@ -11,7 +11,9 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    for all contacts together by sequential impulses with accumulated, clamped totals,
    warm-started from the previous step's impulses (a contact is recognised by its pair
    of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
-   Coulomb friction |j_t| <= mu j_n.
+   Coulomb friction |j_t| <= mu j_n. The work per step is bounded: at most
+   :data:`MAX_ITERATIONS` passes over the contacts, fewer when no impulse changes a
+   velocity by more than :data:`CONVERGED` relative to the fastest body;
    A contact that closed during the step bounces with restitution e if it approached
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
@@ -25,12 +27,17 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
 Fast bodies do not pass through thin ones: :meth:`ContactPass.substeps` tells the
 simulation to split a step whenever some colliding body would move more than half the
 thinnest colliding part in it.
+
+Where the compiled kernel is built and enabled, the pass runs in C
+(:mod:`.compiled`, ``src/kernel/contact.h``) with the same arithmetic and the same bits;
+:meth:`ContactPass.export_state` and :meth:`ContactPass.import_state` carry the only
+state kept from step to step, the warm-start impulses, either way.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
@@ -38,11 +45,12 @@ from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_pl
                         polygon_circle, polygon_polygon)
 from ..geometry.shapes import Circle
 from ..geometry.planar import cos_sin_of
+from . import compiled as _compiled
 
 if TYPE_CHECKING:
     from ..dynamics.model import Model
 
-MAX_ITERATIONS = 200
+MAX_ITERATIONS = 60
 CONVERGED = 1e-13
 #: Gap (m) within which shapes already count as touching, so resting contacts persist.
 MARGIN = 5e-3
@@ -55,6 +63,24 @@ CORRECTION = 0.2
 MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
+
+__all__ = ["Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_ITERATIONS", "SLOP"]
+
+
+class Contact(NamedTuple):
+    """A contact found by detection: bodies ``a`` (-1 for a wall) and ``b``, the point
+    halfway between the surfaces, the unit normal from a to b, the overlap (negative for a
+    gap within :data:`MARGIN`), restitution ``e`` and friction ``mu``, and the names of the
+    two parts (``key``: a wall is body -1 - its index) by which warm starting knows it."""
+
+    a: int
+    b: int
+    point: tuple[float, float]
+    normal: tuple[float, float]
+    depth: float
+    e: float
+    mu: float
+    key: tuple[int, int, int, int]
 
 
 @dataclass(slots=True)
@@ -113,7 +139,8 @@ class ContactRow:
 class ContactPass:
     """Contact detection and response for one scene's walls and collision groups."""
 
-    def __init__(self, model: Model, threshold: float) -> None:
+    def __init__(self, model: Model, threshold: float, compiled: bool = False) -> None:
+        """``compiled``: resolve in the kernel (:mod:`.compiled`), which must be built."""
         scene = model.scene
         self.threshold = threshold
         self.inverse_mass = (1.0 / model.mass).tolist()
@@ -167,22 +194,53 @@ class ContactPass:
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
         self.bodies = np.array(sorted(touching), dtype=int)
         self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
+        self._kernel: Optional[_compiled.CompiledContacts] = (
+            _compiled.CompiledContacts(self) if compiled else None)
 
     def reset(self) -> None:
         """Forget the impulses kept for warm starting."""
         self._warm = {}
+        if self._kernel is not None:
+            self._kernel.set_impulses([])
+
+    @property
+    def compiled(self) -> bool:
+        """True while the pass resolves in the compiled kernel."""
+        return self._kernel is not None
+
+    def kernel_pass(self):
+        """The kernel's contact pass (a capsule), for whole steps in the kernel."""
+        return self._kernel.kernel
+
+    def use_python(self) -> None:
+        """Resolve in Python from now on, carrying the warm-start impulses over."""
+        state = self.export_state()
+        self._kernel = None
+        self.import_state(state)
 
     def export_state(self) -> list[list[Any]]:
-        """The impulses kept for warm starting, as plain data: per pair of parts, the
-        remembered contacts (point in the second body's frame, normal and tangent impulse)."""
-        return [[list(key), [list(contact) for contact in contacts]]
-                for key, contacts in self._warm.items()]
+        """The impulses kept for warm starting, as plain data: per pair of parts (sorted by
+        their names), the remembered contacts [lx, ly, jn, jt] (point in the second body's
+        frame, normal and tangent impulse) in the order the solver met them; the same
+        whether the pass runs in Python or in the kernel."""
+        if self._kernel is None:
+            warm = self._warm
+        else:
+            warm = {}
+            for *key, lx, ly, jn, jt in self._kernel.impulses():
+                warm.setdefault(tuple(key), []).append((lx, ly, jn, jt))
+        return [[list(key), [list(contact) for contact in warm[key]]] for key in sorted(warm)]
 
     def import_state(self, state: list[list[Any]]) -> None:
-        """Restore :meth:`export_state`'s data."""
+        """Restore :meth:`export_state`'s data: the next step gives the same bits as it
+        would have after the step that data was taken at."""
         self._warm = {tuple(int(k) for k in key): [tuple(float(x) for x in contact)
                                                    for contact in contacts]
                       for key, contacts in state}
+        if self._kernel is not None:
+            self._kernel.set_impulses([(*key, *contact) for key, contacts in self._warm.items()
+                                       for contact in contacts])
+            self._warm = {}
 
     # ------------------------------------------------------------------ detection
 
@@ -210,12 +268,12 @@ class ContactPass:
         ys = [p[1] for p in part[1]]
         return min(xs), max(xs), min(ys), max(ys)
 
-    def detect(self, q: np.ndarray) -> list[list]:
-        """Contacts at positions ``q``: [a, b, point, normal a->b, depth, e, mu, pair], where
-        ``pair`` names the two parts (a wall is body -1 - its index)."""
+    def detect(self, q: np.ndarray) -> list[Contact]:
+        """The contacts at positions ``q``: walls first, then the pairs the broad phase
+        finds, in a deterministic order."""
         world: dict[int, list[tuple]] = {}
         poses = q.tolist()
-        contacts: list[list] = []
+        contacts: list[Contact] = []
         for w, bodies in enumerate(self.wall_bodies):
             normal, offset = self.wall_normal[w], self.wall_offset[w]
             nx, ny = normal
@@ -231,7 +289,7 @@ class ContactPass:
                              if part[0] == "circle"
                              else half_plane_polygon(normal, offset, part[1], MARGIN))
                     for point, n, depth in found:
-                        contacts.append([-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)])
+                        contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
         for a, b in self._candidate_pairs(poses) if self.pairs else ():
             for body in (a, b):
                 if body not in world:
@@ -253,7 +311,7 @@ class ContactPass:
                     pairs.append(pair)
         return pairs
 
-    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[list]:
+    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[Contact]:
         """Contacts between the parts of bodies a < b whose bounds overlap."""
         material = self.pairs[(a, b)]
         bounds_b = [self._bounds(part) for part in world[b]]
@@ -264,7 +322,7 @@ class ContactPass:
                 if u0 > x1 + MARGIN or u1 < x0 - MARGIN or v0 > y1 + MARGIN or v1 < y0 - MARGIN:
                     continue
                 for point, normal, depth in _collide(part_a, part_b):
-                    contacts.append([a, b, point, normal, depth, *material, (a, b, pa, pb)])
+                    contacts.append(Contact(a, b, point, normal, depth, *material, (a, b, pa, pb)))
         return contacts
 
     def substeps(self, q0: np.ndarray, q1: np.ndarray) -> int:
@@ -290,12 +348,15 @@ class ContactPass:
 
     def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
         """Respond to the contacts found at ``q1`` after a step of ``h`` from velocities
-        ``v0``; updates ``q1`` and ``v1`` in place."""
+        ``v0``; updates ``q1`` and ``v1`` (C-contiguous) in place."""
+        if self._kernel is not None:
+            self._kernel.resolve(q1, v1, v0, h)
+            return
         contacts = self.detect(q1)
         if not contacts:
             self._warm = {}
             return
-        touched = sorted(({c[0] for c in contacts} | {c[1] for c in contacts}) - {-1})
+        touched = sorted(({c.a for c in contacts} | {c.b for c in contacts}) - {-1})
         still = [0.0, 0.0, 0.0]
         poses = {b: q1[b].tolist() for b in touched}
         velocity = {b: v1[b].tolist() for b in touched}
@@ -317,7 +378,7 @@ class ContactPass:
                 v1[b] = velocity[b]
         self._correct_positions(rows, velocity, q1, h)
 
-    def _prepare(self, contact: list, poses: dict, velocity: dict, before: dict,
+    def _prepare(self, contact: Contact, poses: dict, velocity: dict, before: dict,
                  h: float) -> ContactRow:
         """The solver row of ``contact``, its impulses warm-started from the last step."""
         a, b, (px, py), (nx, ny), depth, e, mu, key = contact

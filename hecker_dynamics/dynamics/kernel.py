@@ -2,7 +2,8 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` and steps the explicit methods of :mod:`.integrators`, repeating the
+as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the contact pass of
+:mod:`..contact.compiled` after each step in scenes with contacts), repeating the
 plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
@@ -20,13 +21,16 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from typing import NamedTuple, Optional
+from typing import TYPE_CHECKING, NamedTuple, Optional
 
 import numpy as np
 
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
+
+if TYPE_CHECKING:
+    from ..contact.solver import ContactPass
 
 try:
     from .. import _kernel  # type: ignore[attr-defined]
@@ -137,9 +141,11 @@ class Advanced(NamedTuple):
 class CompiledSteps:
     """Whole steps of an explicit integrator on compiled forces."""
 
-    def __init__(self, forces: CompiledForces, integrator: Integrator) -> None:
-        """Steps of the method ``integrator`` names, with its embedded pair and tolerance."""
-        self.forces, self.name = forces, integrator.name
+    def __init__(self, forces: CompiledForces, integrator: Integrator,
+                 contacts: Optional[ContactPass] = None) -> None:
+        """Steps of the method ``integrator`` names, with its embedded pair and tolerance,
+        and the compiled contact pass of ``contacts`` after each step."""
+        self.forces, self.name, self.contacts = forces, integrator.name, contacts
         self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
         self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
         self.pair = None
@@ -162,7 +168,7 @@ class CompiledSteps:
         status, taken, evaluations, substeps, rejected, size = _kernel.advance(
             forces.program, forces.inputs, oriented, self.method, self.pair, self.tolerance,
             substep_size if self.pair is not None else 0.0, q, v, self._q_new, self._v_new, h,
-            steps)
+            steps, None if self.contacts is None else self.contacts.kernel_pass())
         done = Advanced(taken, evaluations, substeps, rejected, size)
         if status == _kernel.NOT_FINITE:
             return done._replace(diverged=(self._q_new.copy(), self._v_new.copy()))
@@ -172,9 +178,10 @@ class CompiledSteps:
 
 
 def compiled_steps(forces: Optional[CompiledForces], integrator: Integrator,
-                   contacts: bool) -> Optional[CompiledSteps]:
+                   contacts: Optional[ContactPass]) -> Optional[CompiledSteps]:
     """The kernel's stepping of ``integrator`` on ``forces``, if it can take whole steps:
-    the forces are compiled, there are no ``contacts`` and the method is explicit."""
-    if forces is None or contacts or integrator.name not in KERNEL_METHODS:
+    the forces (and the contact pass, if any) are compiled and the method is explicit."""
+    if forces is None or integrator.name not in KERNEL_METHODS or \
+            (contacts is not None and not contacts.compiled):
         return None
-    return CompiledSteps(forces, integrator)
+    return CompiledSteps(forces, integrator, contacts)

@@ -62,7 +62,7 @@ class Model:
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (
-            ContactPass(self, _restitution_threshold(scene))
+            ContactPass(self, _restitution_threshold(scene), compiled=self.compiled is not None)
             if scene.walls or scene.collisions else None)
 
     @property
@@ -79,11 +79,13 @@ class Model:
             self.compiled.set_inputs(term)
 
     def use_python(self, lean: Optional[bool] = None) -> None:
-        """Evaluate the forces in Python from now on, not in the compiled kernel: in plain
-        floats (``lean``) or with numpy (default: by the number of bodies, as without the
-        kernel). The tests and the benchmark compare the paths."""
+        """Evaluate the forces and contacts in Python from now on, not in the compiled
+        kernel: the forces in plain floats (``lean``) or with numpy (default: by the number
+        of bodies, as without the kernel). The tests and the benchmark compare the paths."""
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         self.compiled = None
+        if self.contacts is not None:
+            self.contacts.use_python()
 
     @property
     def oriented(self) -> bool:

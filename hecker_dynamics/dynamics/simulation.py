@@ -6,10 +6,10 @@ walls respond with impulses, and the angle is wrapped. Time is kept in integer n
 (as ROS stamps are), so steps never drift and the same scene with the same inputs in the
 same order gives bit-identical states.
 
-Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
-collisions and the method is explicit, the steps between one publish instant or input
-change and the next run in the kernel in one call, with the results of Python's
-plain-float path (:mod:`.kernel` says how far they agree).
+Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, the steps
+between one publish instant or input change and the next run in the kernel in one call,
+contact pass included, with the results of Python's plain-float path (:mod:`.kernel` and
+:mod:`..contact.compiled` say how far they agree).
 """
 from __future__ import annotations
 
@@ -112,7 +112,7 @@ class Simulation:
             self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
         self._compiled = compiled_steps(self.model.compiled, self.integrator,
-                                        self.model.contacts is not None)
+                                        self.model.contacts)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -263,7 +263,9 @@ class Simulation:
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
-        if self._compiled is None or self.model.compiled is None:
+        contacts = self.model.contacts
+        if self._compiled is None or self.model.compiled is None or \
+                (contacts is not None and not contacts.compiled):
             self._step()
             return 1
         change = self._inputs.next_change()

@@ -43,7 +43,7 @@ static double length(double x, double y)
 }
 
 /* World offset r = R(angle) l of a point l given relative to a body's CM. */
-static void offset(const Scratch *s, long body, double lx, double ly, double *rx, double *ry)
+static void offset(const hd_scratch *s, long body, double lx, double ly, double *rx, double *ry)
 {
     double c = s->cos[body], sn = s->sin[body];
     *rx = c * lx - sn * ly;
@@ -98,7 +98,7 @@ static void drag(double vx, double vy, double c, long quadratic, double *fx, dou
     *fy = -scale * vy;
 }
 
-static void add_term(const Term *t, const Scratch *s, const double *q, const double *v)
+static void add_term(const hd_term *t, const hd_scratch *s, const double *q, const double *v)
 {
     const int ni = hd_int_columns(t->kind), nr = hd_real_columns(t->kind);
     double *w = s->wrench;
@@ -179,8 +179,8 @@ static void add_term(const Term *t, const Scratch *s, const double *q, const dou
     }
 }
 
-void hd_accelerations(const Program *program, const Program *inputs, int oriented,
-                      const double *q, const double *v, double *out, Scratch *scratch)
+void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
+                      const double *q, const double *v, double *out, hd_scratch *scratch)
 {
     const long n = program->bodies;
     if (program->term_count == 0 && (inputs == NULL || inputs->term_count == 0)) {

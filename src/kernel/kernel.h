@@ -19,7 +19,7 @@
 
 /* The kinds of force term, each with its integer and real columns per instance (the
  * Python packing in hecker_dynamics/kernel.py writes the same layout). */
-enum TermKind {
+enum hd_term_kind {
     GRAVITY = 1,         /* ints: body;                     reals: wx, wy (m g)            */
     ANCHOR_SPRING = 2,   /* ints: body;                     reals: lx, ly, ax, ay, k, L0, c */
     BODY_SPRING = 3,     /* ints: a, b;                     reals: lax, lay, lbx, lby, k, L0, c */
@@ -34,14 +34,14 @@ typedef struct {
     long count;
     long *ints;     /* count x hd_int_columns(kind) */
     double *reals;  /* count x hd_real_columns(kind) */
-} Term;
+} hd_term;
 
 typedef struct {
     long bodies;
     double *inverse_mass;  /* 3 per body: 1/m, 1/m, 1/I (NULL for a program of inputs) */
     long term_count;
-    Term *terms;
-} Program;
+    hd_term *terms;
+} hd_program;
 
 int hd_int_columns(int kind);   /* 0 for an unknown kind */
 int hd_real_columns(int kind);
@@ -49,13 +49,13 @@ int hd_real_columns(int kind);
 /* Scratch space of one evaluation: cos and sin per body, the wrench per body. */
 typedef struct {
     double *cos, *sin, *wrench;
-} Scratch;
+} hd_scratch;
 
 /* (ax, ay, alpha) per body into `out` (3 N): the terms of `program`, then those of
  * `inputs` (may be NULL), summed per body and divided by mass and inertia (F = M a, Eq. 5;
  * tau = I alpha, Eq. 14). `oriented`: some term needs the bodies' angles. */
-void hd_accelerations(const Program *program, const Program *inputs, int oriented,
-                      const double *q, const double *v, double *out, Scratch *scratch);
+void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
+                      const double *q, const double *v, double *out, hd_scratch *scratch);
 
 /* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
  * `error` is error_rows x S. `needs_new_state`: the error estimate reads k_S, the slope
@@ -68,28 +68,31 @@ typedef struct {
     int needs_new_state;
     double *a;
     double *error;
-} Pair;
+} hd_pair;
 
-enum Method { EXPLICIT_EULER = 0, SEMI_IMPLICIT_EULER = 1, VELOCITY_VERLET = 2, RK4 = 3,
+enum hd_method { EXPLICIT_EULER = 0, SEMI_IMPLICIT_EULER = 1, VELOCITY_VERLET = 2, RK4 = 3,
               EMBEDDED = 4 };
 
 /* Most sub-steps of an embedded pair in one step (integrators.py: MAX_SUBSTEPS). */
 #define MAX_SUBSTEPS 100000L
 
-enum Status { ADVANCED = 0, NOT_FINITE = 1, SUBSTEP_UNDERFLOW = 2, TOO_MANY_SUBSTEPS = 3,
+enum hd_status { ADVANCED = 0, NOT_FINITE = 1, SUBSTEP_UNDERFLOW = 2, TOO_MANY_SUBSTEPS = 3,
               OUT_OF_MEMORY = 4 };
 
 typedef struct {
     long evaluations, substeps, rejected;
-} Work;
+} hd_work;
 
 /* Advance (q, v) by up to `steps` steps of `h`, wrapping angles into [-pi, pi) after each
  * step as the simulation does. Stops early at a step whose new state is not finite
  * (NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
  * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
- * step to step. `*taken` counts the steps completed. */
-int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
-               const Pair *pair, double tolerance, double *size, double *q, double *v,
-               double *q_new, double *v_new, double h, long steps, long *taken, Work *work);
+ * step to step. `*taken` counts the steps completed. `contacts` (NULL: none): the contact
+ * pass of contact.h after each step, in sub-steps as the simulation takes them. */
+struct hd_contact_model;
+int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
+               const hd_pair *pair, double tolerance, double *size,
+               struct hd_contact_model *contacts, double *q, double *v, double *q_new,
+               double *v_new, double h, long steps, long *taken, hd_work *work);
 
 #endif

@@ -10,10 +10,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "contact.h"
 #include "kernel.h"
 
 static const char *PROGRAM = "hecker_dynamics._kernel.Program";
 static const char *PAIR = "hecker_dynamics._kernel.Pair";
+static const char *CONTACTS = "hecker_dynamics._kernel.Contacts";
 
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
@@ -43,7 +45,7 @@ static int get_buffer(PyObject *object, Py_buffer *view, const char *what, char 
     return 0;
 }
 
-static void free_program(Program *p)
+static void free_program(hd_program *p)
 {
     if (p == NULL)
         return;
@@ -70,7 +72,7 @@ static void *copy_of(const Py_buffer *view)
 }
 
 /* Check the body indices of a term: targets in [0, N), axes and point owners in [-1, N). */
-static int check_bodies(const Term *t, long bodies)
+static int check_bodies(const hd_term *t, long bodies)
 {
     const int ni = hd_int_columns(t->kind);
     for (long e = 0; e < t->count; ++e) {
@@ -89,7 +91,7 @@ static int check_bodies(const Term *t, long bodies)
     return 0;
 }
 
-static int read_term(PyObject *item, Term *term, long bodies)
+static int read_term(PyObject *item, hd_term *term, long bodies)
 {
     PyObject *ints, *reals;
     if (!PyTuple_Check(item)) {  /* PyArg_ParseTuple would raise SystemError */
@@ -155,9 +157,9 @@ static PyObject *py_program(PyObject *self, PyObject *args)
     PyObject *sequence = PySequence_Tuple(terms);
     if (sequence == NULL)
         return NULL;
-    Program *p = calloc(1, sizeof(Program));
+    hd_program *p = calloc(1, sizeof(hd_program));
     Py_ssize_t count = PyTuple_GET_SIZE(sequence);
-    if (p == NULL || (p->terms = calloc(count > 0 ? (size_t)count : 1, sizeof(Term))) == NULL) {
+    if (p == NULL || (p->terms = calloc(count > 0 ? (size_t)count : 1, sizeof(hd_term))) == NULL) {
         free(p);
         Py_DECREF(sequence);
         return PyErr_NoMemory();
@@ -190,7 +192,7 @@ fail:
     return NULL;
 }
 
-static void free_pair(Pair *pair)
+static void free_pair(hd_pair *pair)
 {
     if (pair != NULL) {
         free(pair->a);
@@ -228,7 +230,7 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
         return NULL;
     }
     long rows = (long)(ev.len / 8 / slopes);
-    Pair *pair = calloc(1, sizeof(Pair));
+    hd_pair *pair = calloc(1, sizeof(hd_pair));
     if (rows < 1 || rows > 2 || ev.len != (Py_ssize_t)rows * slopes * 8) {
         PyErr_SetString(PyExc_ValueError, "error must hold 1 or 2 rows of `slopes` values");
     } else if (pair != NULL) {
@@ -253,7 +255,7 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
 }
 
 /* The program, and the inputs' program (NULL for None), both for the same bodies. */
-static int get_programs(PyObject *program, PyObject *inputs, Program **p, Program **in)
+static int get_programs(PyObject *program, PyObject *inputs, hd_program **p, hd_program **in)
 {
     *p = PyCapsule_GetPointer(program, PROGRAM);
     if (*p == NULL || (*p)->inverse_mass == NULL) {
@@ -283,7 +285,7 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
 {
     PyObject *program, *inputs, *qo, *vo, *outo;
     int oriented;
-    Program *p, *in;
+    hd_program *p, *in;
     if (!PyArg_ParseTuple(args, "OOpOOO:accelerations", &program, &inputs, &oriented, &qo,
                           &vo, &outo) ||
         get_programs(program, inputs, &p, &in) < 0)
@@ -303,7 +305,7 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
     }
     double *memory = malloc((size_t)(5 * p->bodies + 1) * sizeof(double));
     if (memory != NULL) {
-        Scratch scratch = {memory, memory + p->bodies, memory + 2 * p->bodies};
+        hd_scratch scratch = {memory, memory + p->bodies, memory + 2 * p->bodies};
         hd_accelerations(p, in, oriented, qv.buf, vv.buf, ov.buf, &scratch);
         free(memory);
     }
@@ -317,12 +319,13 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
 
 PyDoc_STRVAR(advance_doc,
 "advance(program, inputs, oriented, method, pair, tolerance, size, q, v, q_new, v_new, h,\n"
-"        steps) -> (status, taken, evaluations, substeps, rejected, size)\n\n"
+"        steps[, contacts]) -> (status, taken, evaluations, substeps, rejected, size)\n\n"
 "Advance (q, v) in place by up to ``steps`` steps of ``h`` seconds with ``method``\n"
 "(EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or EMBEDDED: the ``pair`` at\n"
 "``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
 "``status``: ADVANCED, NOT_FINITE (a new state was not finite; it is left in q_new,\n"
-"v_new), SUBSTEP_UNDERFLOW or TOO_MANY_SUBSTEPS. The GIL is released meanwhile.");
+"v_new), SUBSTEP_UNDERFLOW or TOO_MANY_SUBSTEPS. ``contacts`` (default None: none): the\n"
+"contact pass after each step. The GIL is released meanwhile.");
 
 static PyObject *py_advance(PyObject *self, PyObject *args)
 {
@@ -330,11 +333,13 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     int oriented, method;
     double tolerance, size, h;
     long steps;
-    Program *p, *in;
-    Pair *pair = NULL;
-    if (!PyArg_ParseTuple(args, "OOpiOddOOOOdl:advance", &program, &inputs, &oriented,
+    hd_program *p, *in;
+    hd_pair *pair = NULL;
+    PyObject *contacts_object = Py_None;
+    hd_contact_model *contacts = NULL;
+    if (!PyArg_ParseTuple(args, "OOpiOddOOOOdl|O:advance", &program, &inputs, &oriented,
                           &method, &pair_object, &tolerance, &size, &qo, &vo, &qno, &vno, &h,
-                          &steps) ||
+                          &steps, &contacts_object) ||
         get_programs(program, inputs, &p, &in) < 0)
         return NULL;
     if (method < EXPLICIT_EULER || method > EMBEDDED) {
@@ -343,6 +348,14 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     }
     if (method == EMBEDDED && (pair = PyCapsule_GetPointer(pair_object, PAIR)) == NULL)
         return NULL;
+    if (contacts_object != Py_None) {
+        if ((contacts = PyCapsule_GetPointer(contacts_object, CONTACTS)) == NULL)
+            return NULL;
+        if (contacts->bodies != p->bodies) {
+            PyErr_SetString(PyExc_ValueError, "contacts: a contact pass for other bodies");
+            return NULL;
+        }
+    }
     const Py_ssize_t n3 = 3 * p->bodies;
     Py_buffer views[4];
     PyObject *objects[4] = {qo, vo, qno, vno};
@@ -355,10 +368,10 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
         }
     }
     long taken = 0;
-    Work work = {0, 0, 0};
+    hd_work work = {0, 0, 0};
     int status;
     Py_BEGIN_ALLOW_THREADS
-    status = hd_advance(p, in, oriented, method, pair, tolerance, &size, views[0].buf,
+    status = hd_advance(p, in, oriented, method, pair, tolerance, &size, contacts, views[0].buf,
                      views[1].buf, views[2].buf, views[3].buf, h, steps, &taken, &work);
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 4; ++k)
@@ -369,11 +382,262 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
                          work.rejected, size);
 }
 
+
+/* ------------------------------------------------------------------ the contact pass */
+
+static void contacts_destructor(PyObject *capsule)
+{
+    hd_contact_free(PyCapsule_GetPointer(capsule, CONTACTS));
+}
+
+/* A copy of a buffer of `count` values (any count if < 0; `*got` the count read), or NULL
+ * with an exception set. */
+static void *read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
+                        Py_ssize_t *got)
+{
+    Py_buffer view;
+    if (get_buffer(object, &view, what, format, count, 0) < 0)
+        return NULL;
+    void *copy = copy_of(&view);
+    if (got != NULL)
+        *got = view.len / 8;
+    PyBuffer_Release(&view);
+    if (copy == NULL)
+        PyErr_NoMemory();
+    return copy;
+}
+
+/* Check the layout contact.py packed; -1 with an exception set if it is not one. */
+static int check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals)
+{
+    Py_ssize_t used = 0;
+    long last = -1;
+    for (long p = 0; p < m->part_count; ++p) {
+        const long body = part_ints[3 * p], kind = part_ints[3 * p + 1],
+                   count = part_ints[3 * p + 2];
+        if (body < last || body >= m->bodies || kind < HD_CIRCLE || kind > HD_OUTLINE ||
+                (kind != HD_CIRCLE && count < 3)) {
+            PyErr_SetString(PyExc_ValueError, "parts: not the layout of contact.h");
+            return -1;
+        }
+        last = body;
+        used += kind == HD_CIRCLE ? 3 : (kind == HD_POLYGON ? 4 : 2) * count;
+    }
+    if (used != reals) {
+        PyErr_SetString(PyExc_ValueError, "part_reals: not the parts' values");
+        return -1;
+    }
+    for (long w = 0; w < m->walls; ++w)
+        if (m->wall_first[w] > m->wall_first[w + 1])
+            goto bad;
+    for (long k = 0; k < m->wall_first[m->walls]; ++k)
+        if (m->wall_body[k] < 0 || m->wall_body[k] >= m->bodies)
+            goto bad;
+    for (long k = 0; k < m->colliding_count; ++k)
+        if (m->colliding[k] < 0 || m->colliding[k] >= m->bodies)
+            goto bad;
+    for (long k = 0; k < m->pair_count; ++k) {
+        const long *p = m->pair + 2 * k;
+        if (p[0] < 0 || p[0] >= p[1] || p[1] >= m->bodies ||
+                (k > 0 && (p[-2] > p[0] || (p[-2] == p[0] && p[-1] >= p[1]))))
+            goto bad;
+    }
+    return 0;
+bad:
+    PyErr_SetString(PyExc_ValueError, "walls, colliding or pairs: a body out of range or "
+                    "pairs not sorted");
+    return -1;
+}
+
+/* The parts from the packed rows: `local` copied, `placed` allocated. */
+static int build_parts(hd_contact_model *m, const long *part_ints, const double *reals)
+{
+    m->parts = calloc((size_t)m->part_count + 1, sizeof(hd_part));
+    m->part_first = calloc((size_t)m->bodies + 1, sizeof(long));
+    if (m->parts == NULL || m->part_first == NULL)
+        return -1;
+    m->max_vertices = 1;
+    for (long p = 0; p < m->part_count; ++p) {
+        hd_part *part = m->parts + p;
+        part->kind = (int)part_ints[3 * p + 1];
+        part->count = part_ints[3 * p + 2];
+        const size_t values = part->kind == HD_CIRCLE ? 3
+                              : (size_t)((part->kind == HD_POLYGON ? 4 : 2) * part->count);
+        part->local = malloc(values * sizeof(double));
+        part->placed = malloc(values * sizeof(double));
+        if (part->local == NULL || part->placed == NULL)
+            return -1;
+        memcpy(part->local, reals, values * sizeof(double));
+        reals += values;
+        if (part->count > m->max_vertices)
+            m->max_vertices = part->count;
+        m->part_first[part_ints[3 * p] + 1] += 1;
+    }
+    for (long b = 0; b < m->bodies; ++b)
+        m->part_first[b + 1] += m->part_first[b];
+    return 0;
+}
+
+PyDoc_STRVAR(contacts_doc,
+"contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
+"         wall_body, colliding, pairs, materials, threshold, thickness) -> Contacts\n\n"
+"A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
+"per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
+"wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; the\n"
+"colliding pairs (i, j), sorted, with (restitution, friction).");
+
+static PyObject *py_contacts(PyObject *self, PyObject *args)
+{
+    PyObject *o[11];
+    double threshold, thickness;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOdd:contacts", o, o + 1, o + 2, o + 3, o + 4,
+                          o + 5, o + 6, o + 7, o + 8, o + 9, o + 10, &threshold, &thickness))
+        return NULL;
+    hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
+    if (m == NULL)
+        return PyErr_NoMemory();
+    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, pairs;
+    long *part_ints = NULL;
+    double *part_reals = NULL;
+    m->threshold = threshold;
+    m->thickness = thickness;
+    if ((m->inverse_mass = read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
+        (m->inverse_inertia = read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
+        (m->reach = read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||
+        (part_ints = read_array(o[3], "part_ints", 'q', -1, &parts)) == NULL ||
+        (part_reals = read_array(o[4], "part_reals", 'd', -1, &reals)) == NULL ||
+        (m->wall = read_array(o[5], "walls", 'd', -1, &walls)) == NULL ||
+        (m->wall_first = read_array(o[6], "wall_first", 'q', walls / 5 + 1, NULL)) == NULL ||
+        (m->wall_body = read_array(o[7], "wall_body", 'q', -1, &wall_bodies)) == NULL ||
+        (m->colliding = read_array(o[8], "colliding", 'q', -1, &colliding)) == NULL ||
+        (m->pair = read_array(o[9], "pairs", 'q', -1, &pairs)) == NULL ||
+        (m->material = read_array(o[10], "materials", 'd', pairs, NULL)) == NULL)
+        goto fail;
+    m->bodies = (long)bodies;
+    m->part_count = (long)(parts / 3);
+    m->walls = (long)(walls / 5);
+    m->colliding_count = (long)colliding;
+    m->pair_count = (long)(pairs / 2);
+    if (parts % 3 || walls % 5 || pairs % 2 || m->wall_first[0] != 0 ||
+            m->wall_first[m->walls] != wall_bodies) {
+        PyErr_SetString(PyExc_ValueError, "contacts: arrays not of the layout of contact.h");
+        goto fail;
+    }
+    if (check_contacts(m, part_ints, reals) < 0)
+        goto fail;
+    if (build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    free(part_ints);
+    free(part_reals);
+    PyObject *capsule = PyCapsule_New(m, CONTACTS, contacts_destructor);
+    if (capsule == NULL)
+        hd_contact_free(m);
+    return capsule;
+fail:
+    free(part_ints);
+    free(part_reals);
+    hd_contact_free(m);
+    return NULL;
+}
+
+PyDoc_STRVAR(resolve_doc,
+"resolve(contacts, q1, v1, v0, h)\n\n"
+"The contact pass after a step of ``h`` from velocities ``v0`` to (q1, v1): updates q1\n"
+"and v1 in place (ContactPass.resolve).");
+
+static PyObject *py_resolve(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[3];
+    double h;
+    if (!PyArg_ParseTuple(args, "OOOOd:resolve", &capsule, objects, objects + 1, objects + 2,
+                          &h))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
+    if (m == NULL)
+        return NULL;
+    Py_buffer views[3];
+    const char *names[3] = {"q1", "v1", "v0"};
+    for (int k = 0; k < 3; ++k) {
+        if (get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
+            while (k-- > 0)
+                PyBuffer_Release(views + k);
+            return NULL;
+        }
+    }
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = hd_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < 3; ++k)
+        PyBuffer_Release(views + k);
+    if (status < 0)
+        return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(warm_doc,
+"warm(contacts[, impulses]) -> list\n\n"
+"The impulses kept for warm starting, as (k0, k1, k2, k3, lx, ly, jn, jt) per contact,\n"
+"sorted by the parts' names (k0..k3); with ``impulses``, replace them first.");
+
+static PyObject *py_warm(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *impulses = NULL;
+    if (!PyArg_ParseTuple(args, "O|O:warm", &capsule, &impulses))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
+    if (m == NULL)
+        return NULL;
+    if (impulses != NULL) {
+        PyObject *items = PySequence_Fast(impulses, "impulses: a sequence of tuples");
+        if (items == NULL)
+            return NULL;
+        const Py_ssize_t count = PySequence_Fast_GET_SIZE(items);
+        hd_warm *warm = malloc(((size_t)count + 1) * sizeof(hd_warm));
+        if (warm == NULL) {
+            Py_DECREF(items);
+            return PyErr_NoMemory();
+        }
+        for (Py_ssize_t i = 0; i < count; ++i) {
+            hd_warm *w = warm + i;
+            w->used = 0;
+            if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(items, i), "lllldddd", w->key,
+                                  w->key + 1, w->key + 2, w->key + 3, &w->lx, &w->ly, &w->jn,
+                                  &w->jt)) {
+                free(warm);
+                Py_DECREF(items);
+                return NULL;
+            }
+        }
+        Py_DECREF(items);
+        free(m->warm);
+        m->warm = warm;
+        m->warm_count = m->warm_capacity = (long)count;
+        hd_sort_warm(m);
+    }
+    PyObject *list = PyList_New(m->warm_count);
+    for (long i = 0; list != NULL && i < m->warm_count; ++i) {
+        const hd_warm *w = m->warm + i;
+        PyObject *item = Py_BuildValue("(lllldddd)", w->key[0], w->key[1], w->key[2],
+                                       w->key[3], w->lx, w->ly, w->jn, w->jt);
+        if (item == NULL)
+            Py_CLEAR(list);
+        else
+            PyList_SET_ITEM(list, i, item);
+    }
+    return list;
+}
+
 static PyMethodDef methods[] = {
     {"program", py_program, METH_VARARGS, program_doc},
     {"pair", py_pair, METH_VARARGS, pair_doc},
     {"accelerations", py_accelerations, METH_VARARGS, accelerations_doc},
     {"advance", py_advance, METH_VARARGS, advance_doc},
+    {"contacts", py_contacts, METH_VARARGS, contacts_doc},
+    {"resolve", py_resolve, METH_VARARGS, resolve_doc},
+    {"warm", py_warm, METH_VARARGS, warm_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -394,13 +658,28 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"VELOCITY_VERLET", VELOCITY_VERLET}, {"RK4", RK4}, {"EMBEDDED", EMBEDDED},
         {"ADVANCED", ADVANCED}, {"NOT_FINITE", NOT_FINITE},
         {"SUBSTEP_UNDERFLOW", SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", TOO_MANY_SUBSTEPS},
-        {"MAX_SUBSTEPS", MAX_SUBSTEPS},
+        {"MAX_SUBSTEPS", MAX_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
+        {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
+        {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
     };
     PyObject *m = PyModule_Create(&module);
     if (m == NULL)
         return NULL;
     for (size_t k = 0; k < sizeof constants / sizeof constants[0]; ++k) {
         if (PyModule_AddIntConstant(m, constants[k].name, constants[k].value) < 0) {
+            Py_DECREF(m);
+            return NULL;
+        }
+    }
+    /* The contact pass's tolerances, which contact/solver.py checks against its own. */
+    static const struct { const char *name; double value; } reals[] = {
+        {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
+        {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
+    };
+    for (size_t k = 0; k < sizeof reals / sizeof reals[0]; ++k) {
+        PyObject *value = PyFloat_FromDouble(reals[k].value);
+        if (value == NULL || PyModule_AddObject(m, reals[k].name, value) < 0) {
+            Py_XDECREF(value);
             Py_DECREF(m);
             return NULL;
         }

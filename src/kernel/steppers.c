@@ -8,17 +8,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "contact.h"
 #include "kernel.h"
 
 /* math.pi, the same double (strict C has no M_PI). */
 static const double PI = 3.141592653589793;
 
 typedef struct {
-    const Program *program, *inputs;
+    const hd_program *program, *inputs;
     int oriented;
     long n3;  /* 3 N: the length of q, of v and of the accelerations */
-    Scratch scratch;
-    Work *work;
+    hd_scratch scratch;
+    hd_work *work;
 } Forces;
 
 static void evaluate(Forces *f, const double *q, const double *v, double *a)
@@ -119,7 +120,7 @@ static void combine(const double *c, long count, double scale, const double *slo
 
 /* One number from the scaled error estimates: at most 1 accepts the sub-step
  * (tableaux.py: EmbeddedPair.error_norm). */
-static double error_norm(const Pair *pair, const double *scaled, long m)
+static double error_norm(const hd_pair *pair, const double *scaled, long m)
 {
     if (pair->error_rows == 1) {
         double sum = 0.0;
@@ -142,7 +143,7 @@ static double error_norm(const Pair *pair, const double *scaled, long m)
 /* One step of an embedded pair, sub-stepped to meet the tolerance (integrators.py:
  * EmbeddedRungeKutta.step, the same controller). `buffer` holds S + 3 + error_rows flat
  * states (q and v together). */
-static int embedded(Forces *f, const Pair *pair, double tolerance, double *size,
+static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *size,
                     const double *q, const double *v, double *q1, double *v1, double h,
                     double *buffer)
 {
@@ -235,7 +236,7 @@ static int all_finite(const double *x, long count)
     return 1;
 }
 
-static long buffer_states(int method, const Pair *pair)
+static long buffer_states(int method, const hd_pair *pair)
 {
     switch (method) {
     case VELOCITY_VERLET: return 3;
@@ -245,13 +246,88 @@ static long buffer_states(int method, const Pair *pair)
     }
 }
 
-int hd_advance(const Program *program, const Program *inputs, int oriented, int method,
-               const Pair *pair, double tolerance, double *size, double *q, double *v,
-               double *q_new, double *v_new, double h, long steps, long *taken, Work *work)
+typedef struct {
+    Forces *f;
+    int method;
+    const hd_pair *pair;
+    double tolerance, *size, *buffer;
+} Stepper;
+
+/* One step of the method from (q, v) to (q1, v1). */
+static int one_step(Stepper *s, const double *q, const double *v, double *q1, double *v1,
+                    double h)
+{
+    switch (s->method) {
+    case EXPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 0); return ADVANCED;
+    case SEMI_IMPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 1); return ADVANCED;
+    case VELOCITY_VERLET: velocity_verlet(s->f, q, v, q1, v1, h, s->buffer); return ADVANCED;
+    case RK4: rk4(s->f, q, v, q1, v1, h, s->buffer); return ADVANCED;
+    default:
+        return embedded(s->f, s->pair, s->tolerance, s->size, q, v, q1, v1, h, s->buffer);
+    }
+}
+
+/* How many sub-steps keep every colliding body's travel under half the thinnest colliding
+ * part (solver.py: ContactPass.substeps; C's hypot where Python's plain-float path has
+ * math.hypot, which may round the last bit differently: it changes the count only for a
+ * travel within an ulp of a multiple of the half thickness). */
+static long substeps(const hd_contact_model *m, const double *q0, const double *q1)
+{
+    if (m->colliding_count == 0)
+        return 1;
+    double farthest = 0.0;
+    for (long k = 0; k < m->colliding_count; ++k) {
+        const long i = m->colliding[k];
+        const double moved = hypot(q1[3 * i] - q0[3 * i], q1[3 * i + 1] - q0[3 * i + 1])
+                             + fabs(q1[3 * i + 2] - q0[3 * i + 2]) * m->reach[i];
+        if (k == 0 || moved > farthest)
+            farthest = moved;
+    }
+    if (!isfinite(farthest))
+        return 1;  /* a blown-up state: the finiteness check reports it */
+    const double parts = ceil(farthest / (0.5 * m->thickness));
+    return parts < 1.0 ? 1 : (parts > HD_MAX_SUBSTEPS ? HD_MAX_SUBSTEPS : (long)parts);
+}
+
+/* A step and the contact pass, in sub-steps when a colliding body would move more than half
+ * the thinnest colliding part (simulation.py: Simulation._integrate). `spare`: 4 states. */
+static int step_with_contacts(Stepper *s, hd_contact_model *m, const double *q,
+                              const double *v, double *q1, double *v1, double h, double *spare)
+{
+    const long n3 = s->f->n3;
+    int status = one_step(s, q, v, q1, v1, h);
+    if (status != ADVANCED)
+        return status;
+    const long parts = substeps(m, q, q1);
+    if (parts == 1)
+        return hd_resolve(m, q1, v1, v, h) < 0 ? OUT_OF_MEMORY : ADVANCED;
+    double *q_part = spare, *v_part = spare + n3, *q_next = spare + 2 * n3,
+           *v_next = spare + 3 * n3;
+    memcpy(q_part, q, (size_t)n3 * sizeof(double));
+    memcpy(v_part, v, (size_t)n3 * sizeof(double));
+    const double part = h / (double)parts;
+    for (long k = 0; k < parts; ++k) {
+        if ((status = one_step(s, q_part, v_part, q_next, v_next, part)) != ADVANCED)
+            return status;
+        if (hd_resolve(m, q_next, v_next, v_part, part) < 0)
+            return OUT_OF_MEMORY;
+        memcpy(q_part, q_next, (size_t)n3 * sizeof(double));
+        memcpy(v_part, v_next, (size_t)n3 * sizeof(double));
+    }
+    memcpy(q1, q_part, (size_t)n3 * sizeof(double));
+    memcpy(v1, v_part, (size_t)n3 * sizeof(double));
+    return ADVANCED;
+}
+
+int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
+               const hd_pair *pair, double tolerance, double *size, hd_contact_model *contacts,
+               double *q, double *v, double *q_new, double *v_new, double h, long steps,
+               long *taken, hd_work *work)
 {
     const long n = program->bodies, n3 = 3 * n;
     /* cos, sin (N each) and the wrench (3 N) of an evaluation, then the method's states */
-    double *memory = malloc((size_t)(5 * n + n3 * buffer_states(method, pair) + 1)
+    /* (and 4 states more for the sub-steps of a contact scene) */
+    double *memory = malloc((size_t)(5 * n + n3 * (buffer_states(method, pair) + 4) + 1)
                             * sizeof(double));
     if (memory == NULL)
         return OUT_OF_MEMORY;
@@ -259,15 +335,11 @@ int hd_advance(const Program *program, const Program *inputs, int oriented, int 
     double *buffer = memory + 5 * n;
     int status = ADVANCED;
     *taken = 0;
+    Stepper stepper = {&f, method, pair, tolerance, size, buffer};
     for (long t = 0; t < steps; ++t) {
-        switch (method) {
-        case EXPLICIT_EULER: euler(&f, q, v, q_new, v_new, h, buffer, 0); break;
-        case SEMI_IMPLICIT_EULER: euler(&f, q, v, q_new, v_new, h, buffer, 1); break;
-        case VELOCITY_VERLET: velocity_verlet(&f, q, v, q_new, v_new, h, buffer); break;
-        case RK4: rk4(&f, q, v, q_new, v_new, h, buffer); break;
-        default:
-            status = embedded(&f, pair, tolerance, size, q, v, q_new, v_new, h, buffer);
-        }
+        status = contacts == NULL ? one_step(&stepper, q, v, q_new, v_new, h)
+                                  : step_with_contacts(&stepper, contacts, q, v, q_new, v_new,
+                                                       h, buffer + n3 * buffer_states(method, pair));
         if (status != ADVANCED)
             break;
         if (!all_finite(q_new, n3) || !all_finite(v_new, n3)) {

@@ -1,0 +1,76 @@
+"""The contact pass in the compiled kernel (``src/kernel/contact.h``), when built.
+
+:class:`CompiledContacts` packs a :class:`~.solver.ContactPass`'s bodies, parts, walls and
+colliding pairs once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
+``ContactPass.resolve`` in C, operation for operation, so the two give the same bits (but
+for circles, whose distances C's ``hypot`` may round differently in the last bit from
+CPython's ``math.hypot``). The warm-start impulses live in the kernel between steps.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+try:
+    from .. import _kernel
+except ImportError:  # not built: no compiler or headers when installed
+    _kernel = None
+
+if TYPE_CHECKING:
+    from .solver import ContactPass
+
+__all__ = ["CompiledContacts", "WarmImpulse"]
+
+#: One contact's impulses kept for warm starting: the names of its two parts (k0..k3),
+#: its point in body b's axes (lx, ly), and its normal and tangent impulses.
+WarmImpulse = tuple[int, int, int, int, float, float, float, float]
+
+
+class CompiledContacts:
+    """A scene's contact pass as a kernel object."""
+
+    def __init__(self, contacts: ContactPass) -> None:
+        part_ints, part_reals = [], []
+        for body, parts in enumerate(contacts.parts):
+            for part in parts:
+                if part[0] == "circle":
+                    part_ints.append((body, _kernel.CIRCLE, 0))
+                    part_reals.extend((*part[1], part[2]))
+                    continue
+                vertices, normals = part[1], part[2]
+                part_ints.append((body, _kernel.POLYGON if normals else _kernel.OUTLINE,
+                                  len(vertices)))
+                part_reals.extend(x for point in vertices + normals for x in point)
+        wall_first = np.cumsum([0] + [len(b) for b in contacts.wall_bodies])
+        walls = [(*n, offset, *material) for n, offset, material in
+                 zip(contacts.wall_normal, contacts.wall_offset, contacts.wall_material)]
+        pairs = sorted(contacts.pairs)
+        self.kernel = _kernel.contacts(
+            _doubles(contacts.inverse_mass), _doubles(contacts.inverse_inertia),
+            _doubles(contacts.reach), _integers(part_ints), _doubles(part_reals),
+            _doubles(walls), _integers(wall_first),
+            _integers([b for bodies in contacts.wall_bodies for b in bodies]),
+            _integers(contacts.colliding), _integers(pairs),
+            _doubles([contacts.pairs[p] for p in pairs]), contacts.threshold,
+            contacts.thickness)
+
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
+        """``ContactPass.resolve`` in the kernel: (q1, v1) change in place."""
+        _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(v0), h)
+
+    def impulses(self) -> list[WarmImpulse]:
+        """The warm-start impulses, sorted by the names of their parts."""
+        return _kernel.warm(self.kernel)
+
+    def set_impulses(self, impulses: list[WarmImpulse]) -> None:
+        """Replace the warm-start impulses."""
+        _kernel.warm(self.kernel, impulses)
+
+
+def _doubles(values) -> np.ndarray:
+    return np.ascontiguousarray(np.array(values, dtype=np.float64).reshape(-1))
+
+
+def _integers(values) -> np.ndarray:
+    return np.ascontiguousarray(np.array(values, dtype=np.int64).reshape(-1))

@@ -1,0 +1,255 @@
+/* Detection: hecker_dynamics/contact/solver.py's ContactPass.detect, operation for
+ * operation: the walls against each body's bounding circle, then a sort-and-sweep broad
+ * phase on the x extent of the colliding bodies' bounding boxes (CM +- reach), then the
+ * narrow phase (manifold.c) for the parts of each candidate pair.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "contact.h"
+
+int hd_contact_prepare(hd_contact_model *m)
+{
+    const long n = m->bodies;
+    m->placed_flag = calloc((size_t)n + 1, sizeof(int));
+    m->touched = calloc((size_t)n + 1, sizeof(int));
+    m->sweep = malloc(((size_t)m->colliding_count * 5 + 1) * sizeof(double));
+    m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
+    m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
+    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity)
+        return -1;
+    m->arrived = m->velocity + 3 * (n + 1);
+    m->before = m->arrived + 3 * (n + 1);
+    m->shift = m->before + 3 * (n + 1);
+    m->poses = m->shift + 3 * (n + 1);
+    m->contacts = NULL;
+    m->rows = NULL;
+    m->warm = NULL;
+    m->contact_count = m->contact_capacity = m->row_capacity = 0;
+    m->warm_count = m->warm_capacity = 0;
+    return 0;
+}
+
+void hd_contact_free(hd_contact_model *m)
+{
+    if (m == NULL)
+        return;
+    for (long p = 0; m->parts != NULL && p < m->part_count; ++p) {
+        free(m->parts[p].local);
+        free(m->parts[p].placed);
+    }
+    free(m->parts);
+    free(m->part_first);
+    free(m->inverse_mass);
+    free(m->inverse_inertia);
+    free(m->reach);
+    free(m->wall);
+    free(m->wall_first);
+    free(m->wall_body);
+    free(m->colliding);
+    free(m->pair);
+    free(m->material);
+    free(m->placed_flag);
+    free(m->touched);
+    free(m->sweep);
+    free(m->found);
+    free(m->velocity);
+    free(m->contacts);
+    free(m->rows);
+    free(m->warm);
+    free(m);
+}
+
+/* The body's parts placed at its pose, once per detection (solver.py: _world_parts and
+ * _bounds). */
+static void place(hd_contact_model *m, const double *q, long body)
+{
+    if (m->placed_flag[body])
+        return;
+    m->placed_flag[body] = 1;
+    const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
+    const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+    for (long p = m->part_first[body]; p < m->part_first[body + 1]; ++p) {
+        hd_part *part = m->parts + p;
+        const double *l = part->local;
+        double *w = part->placed;
+        if (part->kind == HD_CIRCLE) {
+            w[0] = x + c * l[0] - s * l[1];
+            w[1] = y + s * l[0] + c * l[1];
+            w[2] = l[2];
+            part->bounds[0] = w[0] - w[2];
+            part->bounds[1] = w[0] + w[2];
+            part->bounds[2] = w[1] - w[2];
+            part->bounds[3] = w[1] + w[2];
+            continue;
+        }
+        const long k = part->count, values = part->kind == HD_POLYGON ? 2 * k : k;
+        for (long i = 0; i < k; ++i) {
+            w[2 * i] = x + c * l[2 * i] - s * l[2 * i + 1];
+            w[2 * i + 1] = y + s * l[2 * i] + c * l[2 * i + 1];
+        }
+        for (long i = k; i < values; ++i) {
+            w[2 * i] = c * l[2 * i] - s * l[2 * i + 1];
+            w[2 * i + 1] = s * l[2 * i] + c * l[2 * i + 1];
+        }
+        double x0 = w[0], x1 = w[0], y0 = w[1], y1 = w[1];
+        for (long i = 1; i < k; ++i) {
+            if (w[2 * i] < x0) x0 = w[2 * i];
+            if (w[2 * i] > x1) x1 = w[2 * i];
+            if (w[2 * i + 1] < y0) y0 = w[2 * i + 1];
+            if (w[2 * i + 1] > y1) y1 = w[2 * i + 1];
+        }
+        part->bounds[0] = x0;
+        part->bounds[1] = x1;
+        part->bounds[2] = y0;
+        part->bounds[3] = y1;
+    }
+}
+
+static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *found, int count,
+                        double e, double mu, long k0, long k1, long k2, long k3)
+{
+    if (m->contact_count + count > m->contact_capacity) {
+        long capacity = 2 * m->contact_capacity + count + 16;
+        hd_contact *grown = realloc(m->contacts, (size_t)capacity * sizeof(hd_contact));
+        if (grown == NULL)
+            return -1;
+        m->contacts = grown;
+        m->contact_capacity = capacity;
+    }
+    for (int i = 0; i < count; ++i) {
+        const hd_found *f = found + i;
+        m->contacts[m->contact_count++] = (hd_contact){a, b, f->px, f->py, f->nx, f->ny,
+                                                      f->depth, e, mu, {k0, k1, k2, k3}};
+    }
+    return 0;
+}
+
+/* solver.py: _collide, normal from A to B. */
+static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
+{
+    const double *a = pa->placed, *b = pb->placed;
+    if (pa->kind != HD_CIRCLE && pb->kind != HD_CIRCLE)
+        return hd_polygon_polygon(a, a + 2 * pa->count, pa->count, b, b + 2 * pb->count,
+                                  pb->count, HD_MARGIN, out);
+    if (pa->kind == HD_CIRCLE && pb->kind == HD_CIRCLE)
+        return hd_circle_circle(a[0], a[1], a[2], b[0], b[1], b[2], HD_MARGIN, out);
+    if (pa->kind != HD_CIRCLE)
+        return hd_polygon_circle(a, a + 2 * pa->count, pa->count, b[0], b[1], b[2], HD_MARGIN,
+                                 out);
+    const int count = hd_polygon_circle(b, b + 2 * pb->count, pb->count, a[0], a[1], a[2],
+                                        HD_MARGIN, out);
+    for (int i = 0; i < count; ++i) {
+        out[i].nx = -out[i].nx;
+        out[i].ny = -out[i].ny;
+    }
+    return count;
+}
+
+/* The material of pair (i, j), i < j, or NULL if no collision group names it. */
+static const double *material_of(const hd_contact_model *m, long i, long j)
+{
+    long low = 0, high = m->pair_count;
+    while (low < high) {
+        const long mid = low + (high - low) / 2;
+        const long *p = m->pair + 2 * mid;
+        if (p[0] < i || (p[0] == i && p[1] < j))
+            low = mid + 1;
+        else
+            high = mid;
+    }
+    if (low < m->pair_count && m->pair[2 * low] == i && m->pair[2 * low + 1] == j)
+        return m->material + 2 * low;
+    return NULL;
+}
+
+/* solver.py: _pair_contacts. */
+static int pair_contacts(hd_contact_model *m, long a, long b, const double *material)
+{
+    for (long pa = m->part_first[a]; pa < m->part_first[a + 1]; ++pa) {
+        const double *ba = m->parts[pa].bounds;
+        for (long pb = m->part_first[b]; pb < m->part_first[b + 1]; ++pb) {
+            const double *bb = m->parts[pb].bounds;
+            if (bb[0] > ba[1] + HD_MARGIN || bb[1] < ba[0] - HD_MARGIN ||
+                    bb[2] > ba[3] + HD_MARGIN || bb[3] < ba[2] - HD_MARGIN)
+                continue;
+            const int count = collide(m->parts + pa, m->parts + pb, m->found);
+            if (add_contacts(m, a, b, m->found, count, material[0], material[1], a, b,
+                             pa - m->part_first[a], pb - m->part_first[b]) < 0)
+                return -1;
+        }
+    }
+    return 0;
+}
+
+/* Python sorts the tuples (x0, body, ...): by x0, then by body. */
+static int by_left_edge(const void *p, const void *q)
+{
+    const double *u = p, *w = q;
+    if (u[0] < w[0]) return -1;
+    if (u[0] > w[0]) return 1;
+    return (u[1] > w[1]) - (u[1] < w[1]);
+}
+
+int hd_detect(hd_contact_model *m, const double *q)
+{
+    m->contact_count = 0;
+    memset(m->placed_flag, 0, (size_t)m->bodies * sizeof(int));
+    for (long w = 0; w < m->walls; ++w) {
+        const double *wall = m->wall + 5 * w;
+        const double nx = wall[0], ny = wall[1], offset = wall[2];
+        for (long k = m->wall_first[w]; k < m->wall_first[w + 1]; ++k) {
+            const long b = m->wall_body[k];
+            if (nx * q[3 * b] + ny * q[3 * b + 1] - offset > m->reach[b] + HD_MARGIN)
+                continue;
+            place(m, q, b);
+            for (long p = m->part_first[b]; p < m->part_first[b + 1]; ++p) {
+                const hd_part *part = m->parts + p;
+                const int count = part->kind == HD_CIRCLE
+                    ? hd_half_plane_circle(nx, ny, offset, part->placed[0], part->placed[1],
+                                           part->placed[2], HD_MARGIN, m->found)
+                    : hd_half_plane_polygon(nx, ny, offset, part->placed, part->count,
+                                            HD_MARGIN, m->found);
+                if (add_contacts(m, -1, b, m->found, count, wall[3], wall[4], -1 - w, b, 0,
+                                 p - m->part_first[b]) < 0)
+                    return -1;
+            }
+        }
+    }
+    if (m->pair_count == 0)
+        return 0;
+    const long count = m->colliding_count;
+    for (long k = 0; k < count; ++k) {
+        const long b = m->colliding[k];
+        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
+        double *box = m->sweep + 5 * k;
+        box[0] = x - r;
+        box[1] = (double)b;
+        box[2] = x + r;
+        box[3] = y - r;
+        box[4] = y + r;
+    }
+    qsort(m->sweep, (size_t)count, 5 * sizeof(double), by_left_edge);
+    for (long k = 0; k < count; ++k) {
+        const double *box = m->sweep + 5 * k;
+        const long b1 = (long)box[1];
+        for (long l = k + 1; l < count; ++l) {
+            const double *other = m->sweep + 5 * l;
+            if (other[0] > box[2] + HD_MARGIN)
+                break;
+            const long b2 = (long)other[1];
+            const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
+            if (!(other[3] <= box[4] + HD_MARGIN && other[4] >= box[3] - HD_MARGIN))
+                continue;
+            const double *material = material_of(m, i, j);
+            if (material == NULL)
+                continue;
+            place(m, q, i);
+            place(m, q, j);
+            if (pair_contacts(m, i, j, material) < 0)
+                return -1;
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,114 @@
+/* The contact pass in C: hecker_dynamics/contact/solver.py and collision.py, repeated
+ * operation for operation (and so bit for bit, but for math.hypot, which CPython computes
+ * itself and C's hypot may round differently in the last bit: only circles use it).
+ *
+ * manifold.c is the narrow phase (collision.py), contact.c the model, broad phase and
+ * detection (ContactPass.detect), solver.c the response (ContactPass.resolve).
+ */
+#ifndef HECKER_DYNAMICS_CONTACT_H
+#define HECKER_DYNAMICS_CONTACT_H
+
+/* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
+#define HD_MAX_ITERATIONS 60
+#define HD_CONVERGED 1e-13
+#define HD_MARGIN 5e-3
+#define HD_MATCH 1e-2
+#define HD_SLOP 1e-4
+#define HD_CORRECTION 0.2
+#define HD_MAX_CORRECTION 0.05
+#define HD_POSITION_ITERATIONS 4
+#define HD_MAX_SUBSTEPS 256
+
+/* A point of a manifold: halfway between the surfaces, unit normal from the first shape
+ * to the second, penetration depth (negative for a gap within the margin). */
+typedef struct {
+    double px, py, nx, ny, depth;
+} hd_found;
+
+/* A part in the fixed frame (circle: x, y, radius in `reals`; polygon: count vertices,
+ * then count outward normals if it collides with bodies). */
+enum hd_part_kind { HD_CIRCLE = 0, HD_POLYGON = 1, HD_OUTLINE = 2 /* vertices only */ };
+
+typedef struct {
+    int kind;
+    long count;     /* vertices of a polygon */
+    double *local;  /* body axes, relative to the CM: as `placed`, below */
+    double *placed; /* circle: x, y, r; polygon: x0, y0, ..., then nx0, ny0, ... */
+    double bounds[4];  /* x0, x1, y0, y1 of the placed part */
+} hd_part;
+
+int hd_polygon_polygon(const double *va, const double *na, long ka, const double *vb,
+                       const double *nb, long kb, double margin, hd_found *out);
+int hd_polygon_circle(const double *v, const double *n, long k, double cx, double cy,
+                      double radius, double margin, hd_found *out);
+int hd_circle_circle(double ax, double ay, double ra, double bx, double by, double rb,
+                     double margin, hd_found *out);
+int hd_half_plane_polygon(double nx, double ny, double offset, const double *v, long k,
+                          double margin, hd_found *out);
+int hd_half_plane_circle(double nx, double ny, double offset, double cx, double cy,
+                         double radius, double margin, hd_found *out);
+
+/* A contact found by detection: bodies a (-1: a wall) and b, point, normal a -> b, depth,
+ * material, and the names of its two parts (key, as in solver.py). */
+typedef struct {
+    long a, b;
+    double px, py, nx, ny, depth, e, mu;
+    long key[4];
+} hd_contact;
+
+/* One row of the impulse solver (solver.py: ContactRow). */
+typedef struct {
+    long a, b;  /* body indices into the velocity table; a wall is the last slot */
+    double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
+    double im_a, ii_a, im_b, ii_b, approach;
+    long key[4];
+} hd_row;
+
+/* A contact's impulses kept for warm starting: its point in body b's axes. */
+typedef struct {
+    long key[4];
+    double lx, ly, jn, jt;
+    int used;
+} hd_warm;
+
+typedef struct hd_contact_model {
+    long bodies;
+    double *inverse_mass, *inverse_inertia, *reach;  /* per body */
+    long *part_first;  /* bodies + 1: the parts of body i are part_first[i] .. [i + 1] - 1 */
+    hd_part *parts;
+    long part_count, max_vertices;
+    long walls;
+    double *wall;       /* per wall: nx, ny, offset, restitution, friction */
+    long *wall_first;   /* walls + 1, into wall_body */
+    long *wall_body;
+    long colliding_count;
+    long *colliding;    /* sorted */
+    long pair_count;
+    long *pair;         /* (i, j), i < j, sorted */
+    double *material;   /* per pair: restitution, friction */
+    double threshold;  /* restitution threshold (m/s) */
+    double thickness;  /* of the thinnest colliding part */
+    /* Working memory, kept from call to call, and the warm-start impulses. */
+    int *placed_flag, *touched;
+    double *sweep;      /* colliding_count x 5: x0, body, x1, y0, y1 */
+    hd_found *found;
+    hd_contact *contacts;
+    long contact_count, contact_capacity;
+    hd_row *rows;
+    long row_capacity;
+    double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
+    hd_warm *warm;
+    long warm_count, warm_capacity;
+} hd_contact_model;
+
+/* 0 on success, -1 out of memory. */
+int hd_contact_prepare(hd_contact_model *m);
+void hd_contact_free(hd_contact_model *m);
+/* The contacts at q (m->contacts, m->contact_count); -1 out of memory. */
+int hd_detect(hd_contact_model *m, const double *q);
+/* solver.py: ContactPass.resolve; q1 and v1 change in place; -1 out of memory. */
+int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h);
+/* Sort the warm-start impulses by their parts' names, keeping their order within a name. */
+void hd_sort_warm(hd_contact_model *m);
+
+#endif

@@ -1,0 +1,186 @@
+/* The narrow phase: hecker_dynamics/contact/collision.py, operation for operation.
+ *
+ * Vertices and normals are interleaved x, y pairs of a counter-clockwise convex polygon;
+ * each function writes its points to `out` and returns how many (at most 2, or one per
+ * vertex for a polygon against a wall).
+ */
+#include <math.h>
+
+#include "contact.h"
+
+/* The edge of polygon 1 along whose normal polygon 2 is farthest out, and that distance
+ * (collision.py: _max_separation; Python's min keeps the first of equal values). */
+static long max_separation(const double *v1, const double *n1, long k1, const double *v2,
+                           long k2, double *separation)
+{
+    long best_edge = 0;
+    double best = -INFINITY;
+    for (long i = 0; i < k1; ++i) {
+        const double nx = n1[2 * i], ny = n1[2 * i + 1], vx = v1[2 * i], vy = v1[2 * i + 1];
+        double s = nx * (v2[0] - vx) + ny * (v2[1] - vy);
+        for (long j = 1; j < k2; ++j) {
+            const double t = nx * (v2[2 * j] - vx) + ny * (v2[2 * j + 1] - vy);
+            if (t < s)
+                s = t;
+        }
+        if (s > best) {
+            best_edge = i;
+            best = s;
+        }
+    }
+    *separation = best;
+    return best_edge;
+}
+
+/* The part of segment p0-p1 with n . p <= offset (collision.py: _clip); returns the count. */
+static int clip(const double *p0, const double *p1, double nx, double ny, double offset,
+                double *out)
+{
+    const double d0 = nx * p0[0] + ny * p0[1] - offset;
+    const double d1 = nx * p1[0] + ny * p1[1] - offset;
+    int count = 0;
+    if (d0 <= 0.0) {
+        out[0] = p0[0];
+        out[1] = p0[1];
+        count = 1;
+    }
+    if (d1 <= 0.0) {
+        out[2 * count] = p1[0];
+        out[2 * count + 1] = p1[1];
+        count += 1;
+    }
+    if (d0 * d1 < 0.0) {
+        const double t = d0 / (d0 - d1);
+        out[2 * count] = p0[0] + t * (p1[0] - p0[0]);
+        out[2 * count + 1] = p0[1] + t * (p1[1] - p0[1]);
+        count += 1;
+    }
+    return count;
+}
+
+int hd_polygon_polygon(const double *va, const double *na, long ka, const double *vb,
+                       const double *nb, long kb, double margin, hd_found *out)
+{
+    double sep_a, sep_b;
+    const long edge_a = max_separation(va, na, ka, vb, kb, &sep_a);
+    if (sep_a > margin)
+        return 0;
+    const long edge_b = max_separation(vb, nb, kb, va, ka, &sep_b);
+    if (sep_b > margin)
+        return 0;
+    const int flip = sep_b > sep_a + 0.1 * margin;
+    const double *ref_v = flip ? vb : va, *ref_n = flip ? nb : na;
+    const double *inc_v = flip ? va : vb, *inc_n = flip ? na : nb;
+    const long edge = flip ? edge_b : edge_a, k_ref = flip ? kb : ka, k_inc = flip ? ka : kb;
+    const double nx = ref_n[2 * edge], ny = ref_n[2 * edge + 1];
+    long incident = 0;
+    double lowest = nx * inc_n[0] + ny * inc_n[1];
+    for (long i = 1; i < k_inc; ++i) {
+        const double d = nx * inc_n[2 * i] + ny * inc_n[2 * i + 1];
+        if (d < lowest) {
+            incident = i;
+            lowest = d;
+        }
+    }
+    const double *c0 = inc_v + 2 * incident, *c1 = inc_v + 2 * ((incident + 1) % k_inc);
+    const double *v1 = ref_v + 2 * edge, *v2 = ref_v + 2 * ((edge + 1) % k_ref);
+    const double tx = -ny, ty = nx;
+    double first[6], second[6];
+    if (clip(c0, c1, -tx, -ty, -(tx * v1[0] + ty * v1[1]), first) < 2)
+        return 0;
+    const int kept = clip(first, first + 2, tx, ty, tx * v2[0] + ty * v2[1], second);
+    const double front = nx * v1[0] + ny * v1[1];
+    const double normal_x = flip ? -nx : nx, normal_y = flip ? -ny : ny;
+    int count = 0;
+    for (int p = 0; p < kept; ++p) {
+        const double px = second[2 * p], py = second[2 * p + 1];
+        const double depth = front - (nx * px + ny * py);
+        if (depth >= -margin) {
+            out[count] = (hd_found){px + nx * depth / 2.0, py + ny * depth / 2.0, normal_x,
+                                    normal_y, depth};
+            count += 1;
+        }
+    }
+    return count;
+}
+
+int hd_polygon_circle(const double *v, const double *n, long k, double cx, double cy,
+                      double radius, double margin, hd_found *out)
+{
+    long edge = 0;
+    double sep = -INFINITY;
+    for (long i = 0; i < k; ++i) {
+        const double s = n[2 * i] * (cx - v[2 * i]) + n[2 * i + 1] * (cy - v[2 * i + 1]);
+        if (s > sep) {
+            edge = i;
+            sep = s;
+        }
+    }
+    if (sep > radius + margin)
+        return 0;
+    const double *v1 = v + 2 * edge, *v2 = v + 2 * ((edge + 1) % k);
+    if (sep > 0.0) {
+        const double *ends[2][2] = {{v1, v2}, {v2, v1}};
+        for (int e = 0; e < 2; ++e) {
+            const double *vertex = ends[e][0], *other = ends[e][1];
+            if ((cx - vertex[0]) * (other[0] - vertex[0]) +
+                    (cy - vertex[1]) * (other[1] - vertex[1]) <= 0.0) {
+                const double dx = cx - vertex[0], dy = cy - vertex[1];
+                const double distance = hypot(dx, dy);
+                if (distance > radius + margin || distance == 0.0)
+                    return 0;
+                const double ux = dx / distance, uy = dy / distance;
+                const double depth = radius - distance;
+                out[0] = (hd_found){vertex[0] - ux * depth / 2.0, vertex[1] - uy * depth / 2.0,
+                                    ux, uy, depth};
+                return 1;
+            }
+        }
+    }
+    const double ux = n[2 * edge], uy = n[2 * edge + 1];
+    const double depth = radius - sep;
+    out[0] = (hd_found){cx - ux * (radius - depth / 2.0), cy - uy * (radius - depth / 2.0),
+                        ux, uy, depth};
+    return 1;
+}
+
+int hd_circle_circle(double ax, double ay, double ra, double bx, double by, double rb,
+                     double margin, hd_found *out)
+{
+    const double dx = bx - ax, dy = by - ay;
+    const double distance = hypot(dx, dy);
+    const double depth = ra + rb - distance;
+    if (depth < -margin)
+        return 0;
+    const double ux = distance > 0.0 ? dx / distance : 0.0;
+    const double uy = distance > 0.0 ? dy / distance : 1.0;
+    const double reach = ra - depth / 2.0;
+    out[0] = (hd_found){ax + ux * reach, ay + uy * reach, ux, uy, depth};
+    return 1;
+}
+
+int hd_half_plane_polygon(double nx, double ny, double offset, const double *v, long k,
+                          double margin, hd_found *out)
+{
+    int count = 0;
+    for (long i = 0; i < k; ++i) {
+        const double x = v[2 * i], y = v[2 * i + 1];
+        const double depth = offset - (nx * x + ny * y);
+        if (depth > -margin) {
+            out[count] = (hd_found){x + nx * depth / 2.0, y + ny * depth / 2.0, nx, ny, depth};
+            count += 1;
+        }
+    }
+    return count;
+}
+
+int hd_half_plane_circle(double nx, double ny, double offset, double cx, double cy,
+                         double radius, double margin, hd_found *out)
+{
+    const double depth = offset - (nx * cx + ny * cy - radius);
+    if (depth <= -margin)
+        return 0;
+    const double reach = radius - depth / 2.0;
+    out[0] = (hd_found){cx - nx * reach, cy - ny * reach, nx, ny, depth};
+    return 1;
+}

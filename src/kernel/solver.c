@@ -1,0 +1,311 @@
+/* The response: hecker_dynamics/contact/solver.py's ContactPass.resolve, operation for
+ * operation. Sequential impulses (the article series' collision impulse for each contact
+ * with both bodies' mass and moment of inertia, accumulated and clamped, with Coulomb
+ * friction), warm-started from the last step's impulses, at most HD_MAX_ITERATIONS passes;
+ * then the position change h (v' - v) of each body the impulses moved, and the position
+ * correction of the overlap beyond HD_SLOP.
+ *
+ * Velocities live in a table of bodies + 1 rows of (vx, vy, omega): the last row is the
+ * walls', which stays zero (an impulse on a wall is multiplied by its zero inverse mass,
+ * as in Python).
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "contact.h"
+
+/* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
+static double py_min(double x, double y) { return y < x ? y : x; }
+static double py_max(double x, double y) { return y > x ? y : x; }
+
+/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
+static double normal_velocity(const double *va, const double *vb, const hd_row *r)
+{
+    return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
+           + (vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax) * r->ny;
+}
+
+/* Impulse (px, py) at the contact: +P to body b, -P to body a (ContactRow.push). */
+static void push(double *va, double *vb, const hd_row *r, double px, double py)
+{
+    va[0] -= px * r->im_a;
+    va[1] -= py * r->im_a;
+    va[2] -= (r->rax * py - r->ray * px) * r->ii_a;
+    vb[0] += px * r->im_b;
+    vb[1] += py * r->im_b;
+    vb[2] += (r->rbx * py - r->rby * px) * r->ii_b;
+}
+
+static int same_key(const long *k, const long *l)
+{
+    return k[0] == l[0] && k[1] == l[1] && k[2] == l[2] && k[3] == l[3];
+}
+
+static int key_order(const long *k, const long *l)
+{
+    for (int i = 0; i < 4; ++i)
+        if (k[i] != l[i])
+            return k[i] < l[i] ? -1 : 1;
+    return 0;
+}
+
+/* By key, then by position in the list (qsort is not stable: `used` holds it meanwhile). */
+static int by_key(const void *p, const void *q)
+{
+    const hd_warm *u = p, *w = q;
+    const int order = key_order(u->key, w->key);
+    return order ? order : (u->used > w->used) - (u->used < w->used);
+}
+
+void hd_sort_warm(hd_contact_model *m)
+{
+    for (long i = 0; i < m->warm_count; ++i)
+        m->warm[i].used = (int)i;
+    qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), by_key);
+    for (long i = 0; i < m->warm_count; ++i)
+        m->warm[i].used = 0;
+}
+
+/* Last step's impulses of the contact of `key` nearest this point, if within HD_MATCH,
+ * each used once (solver.py: _recall; `<=`: the last of equally near ones). */
+static void recall(hd_contact_model *m, const long *key, double rx, double ry, double angle,
+                   double *jn, double *jt)
+{
+    *jn = 0.0;
+    *jt = 0.0;
+    long low = 0, high = m->warm_count;
+    while (low < high) {
+        const long mid = low + (high - low) / 2;
+        if (key_order(m->warm[mid].key, key) < 0)
+            low = mid + 1;
+        else
+            high = mid;
+    }
+    if (low == m->warm_count || !same_key(m->warm[low].key, key))
+        return;
+    const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+    const double lx = c * rx + s * ry, ly = -s * rx + c * ry;
+    long best = -1;
+    double nearest = HD_MATCH * HD_MATCH;
+    for (long i = low; i < m->warm_count && same_key(m->warm[i].key, key); ++i) {
+        if (m->warm[i].used)
+            continue;
+        const double d = pow(m->warm[i].lx - lx, 2.0) + pow(m->warm[i].ly - ly, 2.0);
+        if (d <= nearest) {
+            best = i;
+            nearest = d;
+        }
+    }
+    if (best < 0)
+        return;
+    m->warm[best].used = 1;
+    *jn = m->warm[best].jn;
+    *jt = m->warm[best].jt;
+}
+
+/* The solver row of contact c (solver.py: _prepare). */
+static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h)
+{
+    const long wall = m->bodies;
+    const long a = c->a >= 0 ? c->a : wall, b = c->b;
+    const double *pa = m->poses + 3 * a, *pb = m->poses + 3 * b;
+    r->a = a;
+    r->b = b;
+    r->nx = c->nx;
+    r->ny = c->ny;
+    r->im_a = c->a >= 0 ? m->inverse_mass[a] : 0.0;
+    r->ii_a = c->a >= 0 ? m->inverse_inertia[a] : 0.0;
+    r->im_b = m->inverse_mass[b];
+    r->ii_b = m->inverse_inertia[b];
+    r->rax = c->a >= 0 ? c->px - pa[0] : 0.0;
+    r->ray = c->a >= 0 ? c->py - pa[1] : 0.0;
+    r->rbx = c->px - pb[0];
+    r->rby = c->py - pb[1];
+    const double nx = c->nx, ny = c->ny;
+    const double rna = r->rax * ny - r->ray * nx, rnb = r->rbx * ny - r->rby * nx;
+    const double rta = -r->rax * nx - r->ray * ny, rtb = -r->rbx * nx - r->rby * ny;
+    r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
+    r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
+    r->approach = normal_velocity(m->velocity + 3 * a, m->velocity + 3 * b, r);
+    double target = py_min(r->approach + c->depth / h, 0.0);
+    if (c->depth > 0.0 && r->approach < -m->threshold) {
+        const double impact = normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
+        target = py_max(target, -c->e * py_min(impact, 0.0));
+    }
+    r->target = target;
+    r->mu = c->mu;
+    r->depth = c->depth;
+    memcpy(r->key, c->key, sizeof r->key);
+    recall(m, c->key, r->rbx, r->rby, pb[2], &r->jn, &r->jt);
+}
+
+/* Gauss-Seidel over the rows until no impulse changes a velocity by more than
+ * HD_CONVERGED relative to the fastest body, or HD_MAX_ITERATIONS passes
+ * (solver.py: _solve_velocities). */
+static void solve_velocities(hd_contact_model *m, long count)
+{
+    double fastest = 0.0;  /* Python's max over the touched bodies, then the walls' zeros */
+    int first = 1;
+    for (long b = 0; b <= m->bodies; ++b) {
+        if (b < m->bodies && !m->touched[b])
+            continue;
+        for (int k = 0; k < 3; ++k) {
+            const double x = fabs(m->velocity[3 * b + k]);
+            if (first || x > fastest)
+                fastest = x;
+            first = 0;
+        }
+    }
+    const double scale = 1.0 + fastest;
+    for (int iteration = 0; iteration < HD_MAX_ITERATIONS; ++iteration) {
+        double largest = 0.0;
+        for (long k = 0; k < count; ++k) {
+            hd_row *r = m->rows + k;
+            double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
+            const double nx = r->nx, ny = r->ny, jn = r->jn;
+            double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
+            double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
+            const double new_n = py_max(jn + (r->target - (dvx * nx + dvy * ny)) * r->mass_n,
+                                        0.0);
+            double change = fabs(new_n - jn) / r->mass_n;
+            push(va, vb, r, (new_n - jn) * nx, (new_n - jn) * ny);
+            r->jn = new_n;
+            if (r->mu > 0.0) {
+                dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
+                dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
+                const double jt = r->jt, bound = r->mu * new_n;
+                const double new_t = py_min(py_max(jt - (-dvx * ny + dvy * nx) * r->mass_t,
+                                                   -bound), bound);
+                change = py_max(change, fabs(new_t - jt) / r->mass_t);
+                push(va, vb, r, -(new_t - jt) * ny, (new_t - jt) * nx);
+                r->jt = new_t;
+            }
+            largest = py_max(largest, change);
+        }
+        if (largest <= HD_CONVERGED * scale)
+            return;
+    }
+}
+
+/* Keep each contact's impulses with its point in body b's axes (solver.py: _remember). */
+static int remember(hd_contact_model *m, long count)
+{
+    if (count > m->warm_capacity) {
+        hd_warm *grown = realloc(m->warm, (size_t)count * sizeof(hd_warm));
+        if (grown == NULL)
+            return -1;
+        m->warm = grown;
+        m->warm_capacity = count;
+    }
+    for (long k = 0; k < count; ++k) {
+        const hd_row *r = m->rows + k;
+        const double angle = m->poses[3 * r->b + 2];
+        const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+        hd_warm *w = m->warm + k;
+        memcpy(w->key, r->key, sizeof w->key);
+        w->lx = c * r->rbx + s * r->rby;
+        w->ly = -s * r->rbx + c * r->rby;
+        w->jn = r->jn;
+        w->jt = r->jt;
+    }
+    m->warm_count = count;
+    hd_sort_warm(m);
+    return 0;
+}
+
+/* Remove overlap beyond HD_SLOP by moving positions only (solver.py: _correct_positions):
+ * the depth after the velocity change is depth - h (v_n' - v_n); each pass moves the two
+ * bodies apart along the normal by a fraction of the excess. `base` holds count depths. */
+static void correct_positions(hd_contact_model *m, long count, double *q1, double h,
+                              double *base)
+{
+    double deepest = 0.0;
+    for (long k = 0; k < count; ++k) {
+        const hd_row *r = m->rows + k;
+        base[k] = r->depth - h * (normal_velocity(m->velocity + 3 * r->a,
+                                                  m->velocity + 3 * r->b, r) - r->approach);
+        deepest = k == 0 ? base[k] : py_max(deepest, base[k]);
+    }
+    if (deepest <= HD_SLOP)
+        return;
+    memset(m->shift, 0, (size_t)(3 * (m->bodies + 1)) * sizeof(double));
+    for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
+        for (long k = 0; k < count; ++k) {
+            const hd_row *r = m->rows + k;
+            double *sa = m->shift + 3 * r->a, *sb = m->shift + 3 * r->b;
+            const double excess = base[k] - HD_SLOP - normal_velocity(sa, sb, r);
+            if (excess <= 0.0)
+                continue;
+            const double amount = py_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;
+            push(sa, sb, r, amount * r->nx, amount * r->ny);
+        }
+    }
+    for (long b = 0; b < m->bodies; ++b) {
+        const double *s = m->shift + 3 * b;
+        if (m->touched[b] && (s[0] != 0.0 || s[1] != 0.0 || s[2] != 0.0 ||
+                              isnan(s[0]) || isnan(s[1]) || isnan(s[2]))) {
+            for (int i = 0; i < 3; ++i)
+                q1[3 * b + i] += s[i];
+        }
+    }
+}
+
+int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h)
+{
+    if (hd_detect(m, q1) < 0)
+        return -1;
+    const long count = m->contact_count, n = m->bodies;
+    if (count == 0) {
+        m->warm_count = 0;
+        return 0;
+    }
+    /* The rows, then `count` doubles for the position correction's depths. */
+    const long needed = count + (count * (long)sizeof(double)) / (long)sizeof(hd_row) + 1;
+    if (needed > m->row_capacity) {
+        hd_row *grown = realloc(m->rows, (size_t)needed * sizeof(hd_row));
+        if (grown == NULL)
+            return -1;
+        m->rows = grown;
+        m->row_capacity = needed;
+    }
+    memset(m->touched, 0, (size_t)n * sizeof(int));
+    for (long k = 0; k < count; ++k) {
+        if (m->contacts[k].a >= 0)
+            m->touched[m->contacts[k].a] = 1;
+        m->touched[m->contacts[k].b] = 1;
+    }
+    for (long b = 0; b < n; ++b) {
+        if (!m->touched[b])
+            continue;
+        memcpy(m->poses + 3 * b, q1 + 3 * b, 3 * sizeof(double));
+        memcpy(m->velocity + 3 * b, v1 + 3 * b, 3 * sizeof(double));
+        memcpy(m->arrived + 3 * b, v1 + 3 * b, 3 * sizeof(double));
+        memcpy(m->before + 3 * b, v0 + 3 * b, 3 * sizeof(double));
+    }
+    memset(m->velocity + 3 * n, 0, 3 * sizeof(double));
+    memset(m->before + 3 * n, 0, 3 * sizeof(double));
+    for (long k = 0; k < count; ++k)
+        prepare(m, m->contacts + k, m->rows + k, h);
+    for (long k = 0; k < count; ++k) {  /* warm start, once every target is set */
+        const hd_row *r = m->rows + k;
+        push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,
+             r->jn * r->nx - r->jt * r->ny, r->jn * r->ny + r->jt * r->nx);
+    }
+    solve_velocities(m, count);
+    if (remember(m, count) < 0)
+        return -1;
+    for (long b = 0; b < n; ++b) {
+        if (!m->touched[b])
+            continue;
+        const double *now = m->velocity + 3 * b, *was = m->arrived + 3 * b;
+        if (now[0] == was[0] && now[1] == was[1] && now[2] == was[2])
+            continue;
+        for (int i = 0; i < 3; ++i) {
+            q1[3 * b + i] = m->poses[3 * b + i] + h * (now[i] - was[i]);
+            v1[3 * b + i] = now[i];
+        }
+    }
+    correct_positions(m, count, q1, h, (double *)(m->rows + count));
+    return 0;
+}

@@ -1,0 +1,94 @@
+"""The contact pass in the compiled kernel against the Python pass, and its saved state.
+
+The kernel repeats solver.py and collision.py operation for operation, so on boxes (no
+circle, whose distances C's hypot and CPython's math.hypot may round apart) the two give
+the same bits: positions, velocities and the warm-start impulses, compared exactly. The
+state a ContactPass carries from step to step is its warm-start impulses; a simulation
+given the positions, velocities and that state continues bit for bit.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hecker_dynamics import Simulation
+from hecker_dynamics.bench.pyramid import pyramid
+from hecker_dynamics.contact import solver
+from hecker_dynamics.dynamics import kernel
+from hecker_dynamics.scene.load import load_scene
+
+needs_kernel = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
+                                  "built or HECKER_DYNAMICS_KERNEL=0")
+
+
+def _scene(name):
+    return pyramid(4) if name == "pyramid" else load_scene(name)
+
+
+@needs_kernel
+def test_kernel_has_the_solver_constants():
+    k = kernel._kernel
+    assert (k.MAX_ITERATIONS, k.POSITION_ITERATIONS, k.MAX_CONTACT_SUBSTEPS) == \
+        (solver.MAX_ITERATIONS, solver.POSITION_ITERATIONS, solver.MAX_SUBSTEPS)
+    assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION) == \
+        (solver.CONVERGED, solver.MARGIN, solver.MATCH, solver.SLOP, solver.CORRECTION,
+         solver.MAX_CORRECTION)
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", ["pyramid", "seesaw", "door", "car_flip"])
+def test_kernel_steps_contact_scenes_with_the_bits_of_python(name):
+    """1 s of each scene (2.5 s of the pyramid settling): whole steps in the kernel and
+    steps in Python with the Python contact pass give identical states and impulses."""
+    scene = _scene(name)
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    assert fast._compiled is not None and fast.model.contacts.compiled
+    assert not slow.model.contacts.compiled
+    until = 2_500_000_000 if name == "pyramid" else 1_000_000_000
+    fast.advance_to(until)
+    slow.advance_to(until)
+    assert fast.steps == slow.steps
+    assert np.array_equal(fast.q, slow.q) and np.array_equal(fast.v, slow.v)
+    state = fast.model.contacts.export_state()
+    assert state, "the scene has contacts at the end"
+    assert state == slow.model.contacts.export_state()
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+@pytest.mark.parametrize("name", ["pyramid", "seesaw"])
+def test_restored_simulation_continues_bit_for_bit(name, compiled):
+    """Run 0.6 s, hand (q, v) and the contact pass's exported state (through plain lists,
+    as a checkpoint would) to a new simulation, and step both 0.4 s on: the same bits.
+    Without the contact state the new one differs (warm starting matters), so the test
+    can fail."""
+    if compiled and not kernel.enabled():
+        pytest.skip("the compiled kernel is not built or HECKER_DYNAMICS_KERNEL=0")
+    scene = _scene(name)
+    original = Simulation(scene)
+    if not compiled:
+        original.model.use_python()
+    original.advance_to(600_000_000)
+    saved = {"q": original.q.tolist(), "v": original.v.tolist(),
+             "contacts": original.model.contacts.export_state()}
+    assert all(type(k) is int for key, _ in saved["contacts"] for k in key)
+    assert all(type(x) is float for _, contacts in saved["contacts"] for contact in contacts
+               for x in contact)
+
+    def restored(with_contacts):
+        sim = Simulation(scene)
+        if not compiled:
+            sim.model.use_python()
+        sim.q, sim.v = np.array(saved["q"]), np.array(saved["v"])
+        if with_contacts:
+            sim.model.contacts.import_state(saved["contacts"])
+        for _ in range(100):
+            sim.step()
+        return sim
+
+    for _ in range(100):
+        original.step()
+    again, cold = restored(True), restored(False)
+    assert np.array_equal(again.q, original.q) and np.array_equal(again.v, original.v)
+    assert again.model.contacts.export_state() == original.model.contacts.export_state()
+    assert not np.array_equal(cold.q, original.q)
