@@ -96,34 +96,47 @@ class MassProperties:
     moment_of_inertia: float
 
 
-def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> bool:
-    """True if the closed segments p1-p2 and q1-q2 touch or cross."""
+def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Whether closed segments p1-p2 and q1-q2 touch or cross, element-wise over the
+    leading axes (the last holds x, y). Collinear touching is tested only where an
+    orientation is zero."""
     d1 = perp_dot(q2 - q1, p1 - q1)
     d2 = perp_dot(q2 - q1, p2 - q1)
     d3 = perp_dot(p2 - p1, q1 - p1)
     d4 = perp_dot(p2 - p1, q2 - p1)
-    if ((d1 > 0) != (d2 > 0)) and d1 != 0 and d2 != 0 and \
-            ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
-        return True
-
-    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarray) -> bool:
-        return d == 0 and min(a[0], b[0]) <= p[0] <= max(a[0], b[0]) and \
-            min(a[1], b[1]) <= p[1] <= max(a[1], b[1])
-
-    return (on_segment(q1, q2, p1, d1) or on_segment(q1, q2, p2, d2)
-            or on_segment(p1, p2, q1, d3) or on_segment(p1, p2, q2, d4))
+    touch = ((d1 > 0) != (d2 > 0)) & (d1 != 0) & (d2 != 0) & \
+        ((d3 > 0) != (d4 > 0)) & (d3 != 0) & (d4 != 0)
+    for a, b, p, d in ((q1, q2, p1, d1), (q1, q2, p2, d2), (p1, p2, q1, d3), (p1, p2, q2, d4)):
+        zero = np.nonzero(d == 0)
+        if zero[0].size:
+            a, b, p = (np.broadcast_to(x, d.shape + (2,))[zero] for x in (a, b, p))
+            touch[zero] |= np.all((np.minimum(a, b) <= p) & (p <= np.maximum(a, b)), axis=-1)
+    return touch
 
 
 def is_simple(vertices: np.ndarray) -> bool:
-    """True if no two non-adjacent edges of the polygon touch (O(k^2), for scene loading)."""
+    """True if no two non-adjacent edges of the polygon touch: all k^2 / 2 pairs tested,
+    a block of rows at a time (for scene loading, which bounds k)."""
     k = len(vertices)
-    edges = [(vertices[i], vertices[(i + 1) % k]) for i in range(k)]
-    for i in range(k):
-        for j in range(i + 1, k):
-            if j == i + 1 or (i == 0 and j == k - 1):
-                continue
-            if _segments_cross(*edges[i], *edges[j]):
-                return False
+    starts, ends = vertices, np.roll(vertices, -1, axis=0)
+    edges = ends - starts
+    turns = perp_dot(edges, np.roll(edges, -1, axis=0))
+    if np.all(turns > 0.0) or np.all(turns < 0.0):
+        # Strictly convex turns, each by less than pi, add up to whole turns: one is a
+        # simple polygon (linear work, the common case), more a star.
+        angles = np.arctan2(np.abs(turns), np.sum(edges * np.roll(edges, -1, axis=0), axis=1))
+        if float(np.sum(angles)) < 3.0 * math.pi:
+            return True
+    block = 64
+    for first in range(0, k - 2, block):
+        i = np.arange(first, min(first + block, k - 2))[:, None]
+        j = np.arange(first + 2, k)[None, :]
+        # Pairs i < j that share no vertex: j >= i + 2, and not edges 0 and k - 1.
+        apart = (j >= i + 2) & ~((i == 0) & (j == k - 1))
+        pair_i, pair_j = np.broadcast_arrays(i, j)
+        pair_i, pair_j = pair_i[apart], pair_j[apart]
+        if np.any(_segments_cross(starts[pair_i], ends[pair_i], starts[pair_j], ends[pair_j])):
+            return False
     return True
 
 
@@ -146,6 +159,8 @@ def area_properties(shape: Shape) -> AreaProperties:
     the winding.
     """
     if isinstance(shape, Circle):
+        if not shape.radius < 1e150:  # as for polygons: the second moment would overflow
+            raise GeometryError("the circle is too large to integrate in double precision")
         area = math.pi * shape.radius ** 2
         return AreaProperties(area, np.array(shape.center), area * shape.radius ** 2 / 2.0)
     if not is_simple(shape.vertices):

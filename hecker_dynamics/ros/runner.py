@@ -20,8 +20,8 @@ from .. import __version__
 from ..dynamics.commands import InputError, WrenchCommand
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
 from ..scene.fingerprint import scene_fingerprint
-from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic, load_scene,
-                          scene_from_parameters)
+from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,
+                          check_scene_request, load_scene, scene_from_parameters)
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .session import (APPLIED_WRENCH_EVENT, WRENCH_STAMPED_EVENT, InputEventFields,
@@ -86,13 +86,9 @@ def scene_for_node(params: Mapping[str, Any], source: str) -> Scene:
     default scene runs. Giving both is a :class:`SceneError`, since one would silently
     win over the other.
     """
-    scene_names = sorted(name for name in params
-                         if name.split(".", 1)[0] not in NODE_PARAMETERS)
+    check_scene_request(params, source)
     requested = params.get("scene") or None
-    if scene_names and requested:
-        raise SceneError(f"{source}: give the 'scene' parameter ('{requested}') or scene "
-                         f"parameters ({', '.join(scene_names[:3])}, ...), not both")
-    if scene_names:
+    if any(name.split(".", 1)[0] not in NODE_PARAMETERS for name in params):
         return scene_from_parameters(params, source)
     return load_scene(requested)
 

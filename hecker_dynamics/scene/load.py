@@ -17,19 +17,19 @@ from pathlib import Path
 from typing import Any, Optional, Union, overload
 
 import numpy as np
-import yaml
 
 from ..dynamics.commands import WrenchCommand
 from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
                                is_convex, mass_properties)
 from ..integrators.methods import METHODS
-from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
+from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
+from .rosyaml import merge_parameters, read_parameters_file
 
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
-    "shipped_scenes",
+    "shipped_scenes", "check_scene_request",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
 
@@ -41,6 +41,9 @@ NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
                              "max_catch_up_steps", "record_session", "keyframe_period",
                              "start_type_description_service", "qos_overrides"})
 Vec2 = tuple[float, float]
+#: Most vertices of one polygon: its simplicity check is quadratic (about 0.1 s at the
+#: bound); a finer outline is a compound body.
+MAX_VERTICES = 1024
 #: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
 TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
 
@@ -235,28 +238,62 @@ def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
 
 
 def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
-    """Load a scene from a ROS 2 parameters file, or a shipped scene by name."""
-    source, params = scene_parameters(name_or_path)
+    """Load a scene from a ROS 2 parameters file, or a shipped scene by name.
+
+    A file whose only scene parameter is ``scene`` runs the scene that names, as the node
+    does; ``scene`` together with scene parameters is refused, as the node refuses it.
+    """
+    return _load_file(scene_path(name_or_path), redirected=False)
+
+
+def _load_file(path: Path, *, redirected: bool) -> Scene:
+    source, params = scene_parameters(path)
+    requested = params.get("scene")
+    if requested:
+        check_scene_request(flatten(params), source)
+        if redirected:
+            raise SceneError(f"{source}: names another scene ('{requested}') and is itself "
+                             "named by one; give the scene file itself")
+        return _load_file(scene_path(requested), redirected=True)
     return _read_scene(ParameterReader(params, source))
 
 
 def scene_parameters(name_or_path: Union[str, os.PathLike, None] = None) -> tuple[str, Mapping]:
-    """The source and the nested ``ros__parameters`` of a scene file, not yet checked."""
+    """The source and the nested ``ros__parameters`` of a scene file, not yet checked.
+
+    The file is read as ROS 2 reads it (:mod:`.rosyaml`), and the node's parameters are
+    its ``/**`` section with its ``dynamics_node`` section over it, as ROS 2 applies them.
+    """
     path = scene_path(name_or_path)
     source = str(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as error:
-        raise SceneError(f"{source}: cannot read the file: {error}") from error
-    if not isinstance(document, Mapping):
-        raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...'")
-    params = None
-    for key, section in document.items():
-        if str(key).rsplit("/", 1)[-1] in (NODE_NAME, "**") and isinstance(section, Mapping):
-            params = section.get("ros__parameters")
-    if not isinstance(params, Mapping):
+    document = read_parameters_file(path)
+    sections = [(str(key).rsplit("/", 1)[-1] == NODE_NAME, section)
+                for key, section in document.items()
+                if str(key).rsplit("/", 1)[-1] == NODE_NAME or str(key).strip("/") == "**"]
+    params: dict[str, Any] = {}
+    # Sorted with the wildcards first: the node's own section wins where both give a value.
+    for _, section in sorted(sections, key=lambda pair: pair[0]):
+        values = section.get("ros__parameters") if isinstance(section, Mapping) else None
+        if not isinstance(values, Mapping):
+            raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...'")
+        try:
+            merge_parameters(params, dict(values))
+        except SceneError as error:
+            raise SceneError(f"{source}: {error}") from None
+    if not sections:
         raise SceneError(f"{source}: expected '{NODE_NAME}: ros__parameters: ...' at the top")
     return source, params
+
+
+def check_scene_request(params: Mapping[str, Any], source: str) -> None:
+    """Refuse a ``scene`` parameter given with scene parameters (flat dotted names):
+    one of the two would silently win over the other."""
+    scene_names = sorted(name for name in params
+                         if name.split(".", 1)[0] not in NODE_PARAMETERS)
+    requested = params.get("scene") or None
+    if scene_names and requested:
+        raise SceneError(f"{source}: give the 'scene' parameter ('{requested}') or scene "
+                         f"parameters ({', '.join(scene_names[:3])}, ...), not both")
 
 
 def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
@@ -343,8 +380,9 @@ def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
         width, height = reader.numbers("size", REQUIRED, length=2)
         return box(width, height, center, turn)
     flat = reader.numbers("vertices", REQUIRED, multiple_of=2)
-    if len(flat) < 6:
-        reader.fail("vertices", "a polygon needs at least 3 vertices (6 numbers)")
+    if not 6 <= len(flat) <= 2 * MAX_VERTICES:
+        reader.fail("vertices", f"a polygon needs 3 to {MAX_VERTICES} vertices "
+                                f"(6 to {2 * MAX_VERTICES} numbers), not {len(flat)} numbers")
     c, s = math.cos(turn), math.sin(turn)
     return Polygon(np.array([(center[0] + c * x - s * y, center[1] + s * x + c * y)
                              for x, y in zip(flat[0::2], flat[1::2])]))
@@ -369,7 +407,8 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
             densities = [d if d is not None else density for d in own]
         elif has_mass:
             relative = [d if d is not None else 1.0 for d in own]
-            unit = mass_properties(shapes, relative)
+            with np.errstate(all="ignore"):
+                unit = mass_properties(shapes, relative)
             mass = reader.number("mass", positive=True)
             densities = [d * mass / unit.mass for d in relative]
         elif all(d is not None for d in own):
@@ -378,7 +417,8 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
             reader.fail("mass", "is required (or 'density', or a density on every part)")
         if any(d <= 0.0 for d in densities):
             reader.fail("parts", "every density must be positive")
-        properties = mass_properties(shapes, densities)
+        with np.errstate(all="ignore"):  # an overflow is refused below, not printed
+            properties = mass_properties(shapes, densities)
     except GeometryError as error:
         raise SceneError(f"{reader.source}: body '{name}': {error}") from error
     points = dict(_read_points(reader))

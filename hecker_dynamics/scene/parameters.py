@@ -15,6 +15,19 @@ from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
 NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")  # used with fullmatch
+#: Most characters of a bad value quoted in an error message (a hostile file may hold
+#: megabytes in one value).
+QUOTE = 60
+
+
+def quoted(value: Any) -> str:
+    """``repr(value)``, cut to :data:`QUOTE` characters with '...' and the full length."""
+    if isinstance(value, int) and value.bit_length() > 4 * QUOTE:
+        return f"an integer of {value.bit_length()} bits"  # repr would be slow or refused
+    text = repr(value)
+    if len(text) <= QUOTE:
+        return text
+    return f"{text[:QUOTE]}... ({len(text)} characters)"
 
 
 class SceneError(ValueError):
@@ -61,8 +74,8 @@ class ParameterReader:
     def __init__(self, values: Mapping[str, Any], source: str, prefix: str = "") -> None:
         for key in values:
             if not isinstance(key, str):
-                raise SceneError(f"{source}: parameter '{prefix}{'.' if prefix else ''}{key}': "
-                                 "names must be strings")
+                name = f"{prefix}{'.' if prefix else ''}{quoted(key)}"
+                raise SceneError(f"{source}: parameter '{name}': names must be strings")
         self._values = values
         self._source = source
         self._prefix = prefix
@@ -79,7 +92,10 @@ class ParameterReader:
 
     def fail(self, key: str, problem: str) -> NoReturn:
         """Raise a :class:`SceneError` naming the source and the parameter."""
-        raise SceneError(f"{self._source}: parameter '{self.path(key)}': {problem}")
+        name = repr(self.path(key))[1:-1]  # escaped: one line whatever the name holds
+        if len(name) > 2 * QUOTE:
+            name = name[:2 * QUOTE] + "..."
+        raise SceneError(f"{self._source}: parameter '{name}': {problem}")
 
     def has(self, key: str) -> bool:
         return key in self._values
@@ -101,7 +117,7 @@ class ParameterReader:
         """A finite double (an integer is accepted), optionally bounded."""
         value = self._get(key, default)
         if not _is_number(value):
-            self.fail(key, f"must be a number, not {value!r}")
+            self.fail(key, f"must be a number, not {quoted(value)}")
         value = self._finite(key, value)
         if positive and value <= 0.0:
             self.fail(key, f"must be positive, not {value}")
@@ -116,7 +132,7 @@ class ParameterReader:
         try:
             result = float(value)
         except OverflowError:
-            self.fail(key, f"{value} is too large for a double")
+            self.fail(key, f"{quoted(value)} is too large for a double")
         if not math.isfinite(result):
             self.fail(key, f"must be finite, not {result}")
         return result
@@ -134,7 +150,7 @@ class ParameterReader:
         if isinstance(value, array.array):
             value = value.tolist()
         if not isinstance(value, (list, tuple)) or not all(_is_number(x) for x in value):
-            self.fail(key, f"must be an array of numbers, not {value!r}")
+            self.fail(key, f"must be an array of numbers, not {quoted(value)}")
         if len({type(x) for x in value}) > 1:
             self.fail(key, "mixes integers and doubles; ROS 2 parameter arrays must be "
                            "homogeneous (write every number with a decimal point)")
@@ -153,29 +169,29 @@ class ParameterReader:
     def string(self, key: str, default: Any = None, *, choices: tuple[str, ...] = ()) -> str:
         value = self._get(key, default)
         if not isinstance(value, str):
-            self.fail(key, f"must be a string, not {value!r}")
+            self.fail(key, f"must be a string, not {quoted(value)}")
         if choices and value not in choices:
-            self.fail(key, f"must be one of {', '.join(choices)}; not '{value}'")
+            self.fail(key, f"must be one of {', '.join(choices)}; not {quoted(value)}")
         return value
 
     def name(self, key: str, default: Any = None) -> str:
         """A string usable as a ROS name segment (letters, digits, underscores)."""
         value = self.string(key, default)
         if not NAME_PATTERN.fullmatch(value):
-            self.fail(key, f"'{value}' is not a valid name (letters, digits and underscores, "
+            self.fail(key, f"{quoted(value)} is not a valid name (letters, digits and underscores, "
                            "starting with a letter)")
         return value
 
     def strings(self, key: str, default: Any = None) -> tuple[str, ...]:
         value = self._get(key, default)
         if not isinstance(value, (list, tuple)) or not all(isinstance(x, str) for x in value):
-            self.fail(key, f"must be an array of strings, not {value!r}")
+            self.fail(key, f"must be an array of strings, not {quoted(value)}")
         return tuple(value)
 
     def boolean(self, key: str, default: Any = None) -> bool:
         value = self._get(key, default)
         if not isinstance(value, bool):
-            self.fail(key, f"must be true or false, not {value!r}")
+            self.fail(key, f"must be true or false, not {quoted(value)}")
         return value
 
     def raw(self, key: str, default: Any = None) -> Any:
@@ -186,7 +202,7 @@ class ParameterReader:
         """A reader for the nested parameters under ``key`` (empty when absent)."""
         value = self._get(key, _REQUIRED if required else {})
         if not isinstance(value, Mapping):
-            self.fail(key, f"must hold nested parameters, not {value!r}")
+            self.fail(key, f"must hold nested parameters, not {quoted(value)}")
         reader = ParameterReader(value, self._source, self.path(key))
         self._children.append(reader)
         return reader

@@ -1,0 +1,213 @@
+"""Scene files as ROS 2 reads them, and hostile ones refused in one line.
+
+The YAML rules are those of rcl_yaml_param_parser (libyaml events, then its own typing of
+each scalar: booleans from a fixed word list, integers by strtoll base 0, doubles by
+strtod, anything else a string; quoted scalars are strings; aliases refused). Every bad
+file gives a :class:`SceneError` whose message is one line naming the file, and the
+command line exits 2 with one line of stderr, never a traceback.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hecker_dynamics.cli import main
+from hecker_dynamics.scene.load import SceneError, load_scene
+
+HEAD = "dynamics_node:\n  ros__parameters:\n"
+BODY = ("    bodies:\n      b:\n        shape: box\n        size: [1.0, 0.5]\n"
+        "        mass: {mass}\n")
+
+
+def _scene_text(mass: str = "2.0", extra: str = "") -> str:
+    return HEAD + BODY.format(mass=mass) + extra
+
+
+def _write(tmp_path: Path, text, name: str = "scene.yaml") -> Path:
+    path = tmp_path / name
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    return path
+
+
+def _refused_in_one_line(path: Path, capsys, *fragments: str) -> str:
+    """The file is refused by load_scene and by ``run`` (exit 2, one line of stderr that
+    names the file and holds ``fragments``); returns that line."""
+    with pytest.raises(SceneError) as caught:
+        load_scene(path)
+    message = str(caught.value)
+    assert "\n" not in message and str(path) in message
+    capsys.readouterr()
+    assert main(["run", str(path), "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("hecker-dynamics: error: ")
+    assert str(path) in err
+    for fragment in fragments:
+        assert fragment in err
+    assert len(err) < 400  # the bad value is quoted by a short prefix at most
+    return err
+
+
+# ------------------------------------------------------------------ ROS 2 number forms
+
+@pytest.mark.parametrize("text, mass", [
+    ("1e-9", 1e-9), ("1.0e9", 1.0e9), ("1E3", 1e3), ("+2", 2.0), ("0x10", 16.0),
+    ("010", 8.0), (".5", 0.5), ("5.", 5.0), ("0x1p-2", 0.25),
+])
+def test_numbers_are_read_as_ros2_reads_them(tmp_path, text, mass):
+    """strtoll (base 0: hex, octal) then strtod: '1e-9' is a double, as ROS 2 reads it
+    (PyYAML's YAML 1.1 resolver made it the string '1e-9')."""
+    scene = load_scene(_write(tmp_path, _scene_text(text)))
+    assert scene.bodies[0].mass.mass == mass
+
+
+@pytest.mark.parametrize("text", ["1:30", "'2.0'", "\"2.0\"", "!!str 2.0", "1_000", "0b11",
+                                  "~", "null", "2.0.0"])
+def test_strings_that_pyyaml_reads_as_numbers_are_strings_in_ros2(tmp_path, capsys, text):
+    """'1:30' is not sexagesimal 90, '1_000' not 1000, '0b11' not 3, '~' not null: ROS 2
+    reads them as strings, so a number parameter refuses them."""
+    _refused_in_one_line(_write(tmp_path, _scene_text(text)), capsys, "bodies.b.mass",
+                         "must be a number")
+
+
+def test_ros2_booleans_words(tmp_path):
+    for word, value in (("yes", True), ("On", True), ("n", False), ("OFF", False)):
+        scene = load_scene(_write(tmp_path, _scene_text(
+            extra=f"    publish:\n      odometry: {word}\n")))
+        assert scene.publish_odometry is value
+
+
+def test_a_huge_integer_is_a_string_to_ros2_and_quoted_by_a_prefix(tmp_path, capsys):
+    digits = "9" * 5000
+    err = _refused_in_one_line(_write(tmp_path, _scene_text(digits)), capsys, "bodies.b.mass")
+    assert "9" * 100 not in err and "..." in err
+
+
+# ------------------------------------------------------------------ sections and keys
+
+def test_wildcard_and_node_sections_merge_node_first(tmp_path):
+    """ROS 2 applies '/**' and then the node's own section: both sets of parameters
+    count, the node's value wins where both give one."""
+    text = ("/**:\n  ros__parameters:\n    step: 0.002\n    duration: 3.0\n"
+            "    bodies:\n      b:\n        mass: 5.0\n        position: [1.0, 2.0]\n"
+            + _scene_text("2.0"))
+    scene = load_scene(_write(tmp_path, text))
+    assert scene.step_ns == 2_000_000 and scene.duration_ns == 3_000_000_000
+    assert scene.bodies[0].mass.mass == 2.0 and scene.bodies[0].position == (1.0, 2.0)
+    # the order of the sections in the file does not matter
+    text = _scene_text("2.0") + "/**:\n  ros__parameters:\n    bodies:\n      b:\n" \
+                                "        mass: 5.0\n"
+    assert load_scene(_write(tmp_path, text)).bodies[0].mass.mass == 2.0
+
+
+def test_duplicate_keys_as_ros2_treats_them(tmp_path):
+    """rcl keeps one value per parameter name, the last one written; a repeated mapping
+    (a node section, 'bodies') adds its parameters to the earlier one's."""
+    text = (_scene_text("2.0") + "    step: 0.002\n    step: 0.004\n"
+            "    bodies:\n      c:\n        shape: circle\n        radius: 0.5\n"
+            "        mass: 1.0\n"
+            "dynamics_node:\n  ros__parameters:\n    duration: 2.0\n")
+    scene = load_scene(_write(tmp_path, text))
+    assert scene.step_ns == 4_000_000 and scene.duration_ns == 2_000_000_000
+    assert [b.name for b in scene.bodies] == ["b", "c"]
+
+
+def test_multiple_documents_merge_as_ros2_reads_them(tmp_path):
+    text = _scene_text("2.0") + "---\ndynamics_node:\n  ros__parameters:\n    duration: 2.0\n"
+    scene = load_scene(_write(tmp_path, text))
+    assert scene.duration_ns == 2_000_000_000 and scene.bodies[0].mass.mass == 2.0
+
+
+def test_scene_parameter_with_scene_parameters_is_refused(tmp_path, capsys):
+    """As the node refuses it: one of the two would silently win."""
+    path = _write(tmp_path, _scene_text("2.0", "    scene: sample\n"))
+    _refused_in_one_line(path, capsys, "'scene'", "not both")
+
+
+def test_scene_parameter_alone_names_the_scene_to_run(tmp_path):
+    path = _write(tmp_path, HEAD + "    scene: sample\n    use_sim_time: false\n")
+    assert load_scene(path).source == load_scene("sample").source
+    loop = _write(tmp_path, HEAD + f"    scene: {tmp_path / 'loop.yaml'}\n", "loop.yaml")
+    with pytest.raises(SceneError, match="loop.yaml.*names another scene"):
+        load_scene(loop)
+
+
+# ------------------------------------------------------------------ hostile files
+
+@pytest.mark.parametrize("text, fragment", [
+    ("dynamics_node: {ros__parameters: [unclosed\n", "line 2"),
+    ("dynamics_node:\n  ros__parameters:\n    a: b: c\n", "line 3"),
+    ("dynamics_node:\n\tros__parameters: {}\n", "line 2"),
+    (_scene_text("") , "bodies.b.mass"),
+])
+def test_yaml_syntax_errors_are_one_line(tmp_path, capsys, text, fragment):
+    _refused_in_one_line(_write(tmp_path, text), capsys, fragment)
+
+
+@pytest.mark.parametrize("data", [
+    _scene_text("2.0", "    frame_id: w\xe9lt\n").encode("latin-1"),
+    b"\x00\x01\x02\xff\xfe binary",
+    b"\xff\xfe" + "x: [".encode("utf-16-le"),
+])
+def test_files_that_are_not_utf8_are_refused(tmp_path, capsys, data):
+    _refused_in_one_line(_write(tmp_path, data), capsys)
+
+
+def test_utf16_with_a_byte_order_mark_reads_as_libyaml_reads_it(tmp_path):
+    text = _scene_text("2.0")
+    path = _write(tmp_path, b"\xff\xfe" + text.encode("utf-16-le"))
+    assert load_scene(path).bodies[0].mass.mass == 2.0
+
+
+def test_billion_laughs_is_refused_at_once(tmp_path, capsys):
+    """ROS 2 refuses aliases ('Will not support aliasing'): refused before anything is
+    expanded."""
+    lines = ["a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for i in range(1, 10):
+        refs = ", ".join([f"*a{i - 1}"] * 10)
+        lines.append(f"a{i}: &a{i} [{refs}]")
+    text = HEAD + "".join(f"    {line}\n" for line in lines)
+    _refused_in_one_line(_write(tmp_path, text), capsys, "alias")
+
+
+def test_deep_nesting_is_refused(tmp_path, capsys):
+    text = HEAD + "    x: " + "{a: " * 900 + "1" + "}" * 900 + "\n"
+    _refused_in_one_line(_write(tmp_path, text), capsys, "nested")
+    text = HEAD + "    x: " + "[" * 900 + "]" * 900 + "\n"
+    _refused_in_one_line(_write(tmp_path, text), capsys)
+
+
+def test_a_huge_file_is_refused_before_it_is_parsed(tmp_path, capsys):
+    path = tmp_path / "huge.yaml"
+    with path.open("w") as out:
+        out.write(_scene_text("2.0") + "    # " + "x" * (17 << 20) + "\n")
+    _refused_in_one_line(path, capsys, "MiB")
+
+
+def test_absurd_radius_is_refused(tmp_path, capsys):
+    text = HEAD + "    bodies:\n      b:\n        shape: circle\n        radius: 1.0e200\n" \
+                  "        mass: 1.0\n"
+    _refused_in_one_line(_write(tmp_path, text), capsys, "body 'b'")
+
+
+def test_polygon_vertex_count_is_bounded_and_a_big_one_loads_fast(tmp_path, capsys):
+    """A 1000-vertex polygon loads (it took 9 s: a pair-by-pair simplicity check), with the
+    mass properties of the disc it approximates; beyond the bound one line names the
+    parameter."""
+    import math
+    n = 1000
+    flat = []
+    for k in range(n):
+        flat += [math.cos(2 * math.pi * k / n), math.sin(2 * math.pi * k / n)]
+    text = HEAD + "    bodies:\n      b:\n        shape: polygon\n        mass: 1.0\n" \
+                  f"        vertices: [{', '.join(repr(x) for x in flat)}]\n"
+    scene = load_scene(_write(tmp_path, text))
+    assert len(scene.bodies[0].shapes[0].vertices) == n
+    assert abs(scene.bodies[0].mass.moment_of_inertia - 0.5) < 1e-4  # a unit disc: m r^2 / 2
+    many = [0.0, 0.0] * 5000
+    text = HEAD + "    bodies:\n      b:\n        shape: polygon\n        mass: 1.0\n" \
+                  f"        vertices: [{', '.join(repr(x) for x in many)}]\n"
+    _refused_in_one_line(_write(tmp_path, text, "many.yaml"), capsys, "bodies.b.vertices")
