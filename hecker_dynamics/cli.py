@@ -150,9 +150,11 @@ def _tolerances(args: argparse.Namespace):
 
 def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
-    from .bags.replay import script_to_bag
+    from .bags.replay import check_session, script_to_bag
 
     scene = load_scene(args.scene)
+    duration = scene.duration_ns if args.duration is None else args.duration
+    check_session(args.start, duration, "script:", ("--start", "--duration"))
     count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
                           duration_ns=args.duration, overwrite=args.overwrite,
                           compress=args.compress)
@@ -166,11 +168,14 @@ def replay_command(args: argparse.Namespace) -> int:
     from .bags.io import read_bag
     from .bags.compare import compare_contents
     from .bags.live import is_live_recording
-    from .bags.replay import (input_topics, outputs_as_bag, recorded_output_topics,
-                              replay_outputs, replay_to_bag, session_times)
+    from .bags.replay import (check_distinct, input_topics, outputs_as_bag,
+                              recorded_output_topics, replay_outputs, replay_to_bag,
+                              session_times)
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
+    if args.output is not None:
+        check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
     if is_live_recording(bag):
@@ -325,7 +330,9 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser.add_argument("--start", type=_time_ns, default=0, metavar="S",
                                help="sim time at which the session starts, s (default 0)")
     script_parser.add_argument("--duration", type=_time_ns, metavar="S",
-                               help="session length, s (default: the scene's duration)")
+                               help="session length, s (default: the scene's duration); the "
+                                    "session must end by 2147483647 s, the latest time a "
+                                    "ROS stamp holds")
     _add_writer_options(script_parser)
     script_parser.set_defaults(handler=script_command)
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
 from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TWIST, BagContents,
-                   BagMessage, read_bag, stamp_ns_of)
+                   BagError, BagMessage, read_bag, stamp_ns_of)
 
 __all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents"]
 
@@ -219,17 +219,27 @@ def _group(keys: Sequence[int]) -> dict[tuple[int, int], int]:
 # ----------------------------------------------------------------------------- differences
 
 def _distance(a: Any, b: Any) -> float:
-    return math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
+    """|a - b|: exactly 0 only for equal vectors (hypot does not underflow as the sum of
+    squares does: 7.3e-304 apart is 7.3e-304, not 0), NaN where a component is NaN."""
+    if (a.x, a.y, a.z) == (b.x, b.y, b.z):
+        return 0.0
+    return math.hypot(a.x - b.x, a.y - b.y, a.z - b.z)
 
 
 def _rotation_angle(qa: Any, qb: Any) -> float:
-    """Angle of the rotation between two quaternions (accurate for tiny angles too)."""
+    """Angle of the rotation between two quaternions (accurate for tiny angles too).
+
+    Only equal quaternions give 0: unequal ones too close for the products to resolve
+    give the smallest positive double, so that ``--atol 0`` means bit-identical."""
+    if (qa.x, qa.y, qa.z, qa.w) == (qb.x, qb.y, qb.z, qb.w):
+        return 0.0
     # q_rel = conj(qa) * qb
     w = qa.w * qb.w + qa.x * qb.x + qa.y * qb.y + qa.z * qb.z
     x = qa.w * qb.x - qa.x * qb.w - qa.y * qb.z + qa.z * qb.y
     y = qa.w * qb.y + qa.x * qb.z - qa.y * qb.w - qa.z * qb.x
     z = qa.w * qb.z - qa.x * qb.y + qa.y * qb.x - qa.z * qb.w
-    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+    angle = 2.0 * math.atan2(math.hypot(x, y, z), abs(w))
+    return angle if angle != 0.0 else math.ulp(0.0)
 
 
 def _pose(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
@@ -340,8 +350,9 @@ def compare_contents(expected: BagContents, actual: BagContents, *,
     for topic in names:
         in_a, in_b = topic in expected.topics, topic in actual.topics
         if not in_a and not in_b:
-            report.missing_topics.append(topic)
-            continue
+            known = sorted(set(expected.topics) | set(actual.topics))
+            raise BagError(f"topic '{topic}' is in neither bag (their topics: "
+                           f"{', '.join(known[:6]) or 'none'}{', ...' if len(known) > 6 else ''})")
         if not in_b:
             report.missing_topics.append(topic)
             continue

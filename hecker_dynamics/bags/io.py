@@ -33,6 +33,7 @@ from ..ros.diagnostics import DiagnosticFields
 from ..ros.markers import MarkerFields
 from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
                            SessionFields, WorldChange, WorldEventFields)
+from ..scene.parameters import quoted
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -41,7 +42,7 @@ __all__ = [
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
     "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
-    "default_message", "stamp_ns_of",
+    "default_message", "stamp_ns_of", "MAX_STAMP_NS",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
@@ -62,6 +63,8 @@ DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 BAG_VERSION = 9
 #: Storage formats: name -> rosbags plugin name.
 STORAGES = ("mcap", "sqlite3")
+#: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
+MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 #: Prefix of the keys this package stores in a bag's ``custom_data``.
 CUSTOM_PREFIX = "hecker_dynamics."
 
@@ -471,12 +474,20 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                                    f"{previous} and {conn.msgtype}")
                 if conn.msgdef.data:
                     definitions.setdefault(conn.msgtype, conn.msgdef.data)
+            if path.is_dir() and not getattr(reader, "paths", [None]):
+                raise BagError(f"{path}: the metadata lists no storage files "
+                               "(relative_file_paths is empty)")
             selected = [c for c in connections if wanted is None or c.topic in wanted]
             messages = []
+            read: dict[int, int] = {c.id: 0 for c in selected}
             if selected:
                 for conn, log_ns, raw in reader.messages(connections=selected):
                     messages.append((log_ns, len(messages), conn.topic, conn.msgtype,
                                      bytes(raw)))
+                    read[conn.id] += 1
+            _check_counts(path, reader.message_count, connections, read,
+                          complete=len(selected) == len(connections))
+            _check_times(path, reader.start_time, reader.end_time, messages)
             custom = dict(reader.storage.metadata.custom or {}) \
                 if hasattr(reader.storage, "metadata") else {}
             storage = _storage_name(path)
@@ -495,6 +506,40 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                   for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)
+
+
+def _count(path: Path, value: Any, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise BagError(f"{path}: {what} in the metadata is {quoted(value)}, not a count of "
+                       "messages")
+    return value
+
+
+def _check_counts(path: Path, total: Any, connections: Sequence[Any], read: dict[int, int],
+                  *, complete: bool) -> None:
+    """Refuse a bag whose storage gave other message counts than its metadata states: a
+    truncated or corrupt file read in part, or metadata that is not the storage's."""
+    for conn in connections:
+        stated = _count(path, conn.msgcount, f"message_count of '{conn.topic}'")
+        if conn.id in read and read[conn.id] != stated:
+            raise BagError(f"{path}: read {read[conn.id]} messages on '{conn.topic}' but the "
+                           f"metadata states message_count {stated}; is the bag truncated "
+                           "or corrupt?")
+    stated = _count(path, total, "message_count")
+    if complete and sum(read.values()) != stated:
+        raise BagError(f"{path}: read {sum(read.values())} messages but the metadata states "
+                       f"message_count {stated}; is the bag truncated or corrupt?")
+
+
+def _check_times(path: Path, start: Any, end: Any, messages: list[tuple]) -> None:
+    """Refuse messages logged outside the span the metadata states (a corrupt log time)."""
+    if not messages:
+        return
+    first, last = min(m[0] for m in messages), max(m[0] for m in messages)
+    if isinstance(start, int) and isinstance(end, int) and not start <= first <= last < end:
+        raise BagError(f"{path}: messages are logged from {first} ns to {last} ns, outside "
+                       f"the span the metadata states ({start} ns to {end} ns); is the bag "
+                       "corrupt?")
 
 
 def _storage_name(path: Path) -> str:
@@ -527,6 +572,9 @@ class BagWriter:
         if storage not in STORAGES:
             raise BagError(f"unknown storage '{storage}' (choose from {', '.join(STORAGES)})")
         self.path = Path(path)
+        if self.path.name in ("", ".", ".."):
+            raise BagError(f"'{path}' does not name a new bag directory (give a name such "
+                           "as out_bag)")
         self.storage = storage
         self.overwrite = overwrite
         self.compress = compress
@@ -557,12 +605,19 @@ class BagWriter:
             raise BagError(f"{self.path} exists and is not a bag; not overwriting it")
         if not self.path.parent.is_dir():
             raise BagError(f"{self.path.parent}: no such directory")
-        if self._tmp.exists():
-            shutil.rmtree(self._tmp)
         plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
-        # The storage file is named after the directory, so write to a directory of the
-        # final name inside the temporary one and move it out at the end.
-        self._tmp.mkdir()
+        try:
+            # A stale temporary directory (or file) of this writer's is a killed run's.
+            if self._tmp.is_dir() and not self._tmp.is_symlink():
+                shutil.rmtree(self._tmp)
+            elif self._tmp.exists() or self._tmp.is_symlink():
+                self._tmp.unlink()
+            # The storage file is named after the directory, so write to a directory of
+            # the final name inside the temporary one and move it out at the end.
+            self._tmp.mkdir()
+        except OSError as error:
+            raise BagError(f"{self.path}: cannot create the bag "
+                           f"({error.strerror or _describe(error)})") from None
         try:
             self._writer = Writer(self._tmp / self.path.name, version=BAG_VERSION,
                                   storage_plugin=plugin)
@@ -607,9 +662,14 @@ class BagWriter:
         except Exception as error:
             self.abort()
             raise BagError(f"{self.path}: cannot finish the bag ({_describe(error)})") from None
-        if self.path.exists():
-            shutil.rmtree(self.path)
-        os.replace(self._tmp / self.path.name, self.path)
+        try:
+            if self.path.exists():
+                shutil.rmtree(self.path)
+            os.replace(self._tmp / self.path.name, self.path)
+        except OSError as error:
+            self.abort()
+            raise BagError(f"{self.path}: cannot finish the bag "
+                           f"({error.strerror or _describe(error)})") from None
         shutil.rmtree(self._tmp, ignore_errors=True)
 
     def abort(self) -> None:

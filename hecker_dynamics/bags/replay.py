@@ -41,7 +41,7 @@ from ..dynamics.simulation import Snapshot
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
            "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
-           "recorded_output_topics"]
+           "recorded_output_topics", "check_session", "check_distinct"]
 
 APPLIED_WRENCH_TOPIC = "/applied_wrench"
 #: The node's fully qualified name, its diagnostics' hardware_id.
@@ -182,7 +182,35 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
     if duration_ns < 0:
         raise ReplayError(f"{bag.path}: the session would end before it starts "
                           f"(start {start_ns * 1e-9:.9f} s, duration {duration_ns * 1e-9:g} s)")
+    check_session(start_ns, duration_ns, f"{bag.path}: the session")
     return start_ns, start_ns + duration_ns
+
+
+def check_session(start_ns: int, duration_ns: int, what: str,
+                  names: tuple[str, str] = ("start", "duration")) -> None:
+    """Refuse a session (``what``, its start and duration named by ``names``) that starts
+    before 0 (a bag's log times are unsigned) or ends after :data:`~.io.MAX_STAMP_NS`, the
+    latest time a ROS stamp holds: its messages could not be stamped."""
+    latest = f"{bags.MAX_STAMP_NS // 1_000_000_000} s, the latest time a ROS stamp " \
+             "(int32 seconds) holds"
+    if start_ns < 0:
+        raise ReplayError(f"{what} {names[0]} {start_ns * 1e-9:.9f} s is before 0 "
+                          "(bag log times cannot be negative)")
+    if start_ns > bags.MAX_STAMP_NS:
+        raise ReplayError(f"{what} {names[0]} {start_ns * 1e-9:g} s is after {latest}")
+    if start_ns + duration_ns > bags.MAX_STAMP_NS:
+        raise ReplayError(f"{what} {names[1]} {duration_ns * 1e-9:g} s ends it after {latest}")
+
+
+def check_distinct(output: Path, inputs: Sequence[Path]) -> None:
+    """Refuse an output bag that is, holds or lies inside one of ``inputs``: writing it
+    would replace the input it reads."""
+    out = Path(output).resolve()
+    for given in inputs:
+        source = Path(given).resolve()
+        if out == source or out in source.parents or source in out.parents:
+            raise ReplayError(f"{output}: the output bag would write over the input bag "
+                              f"{given}; give another output")
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -326,6 +354,7 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
     ``with_inputs`` the input messages are copied too, as ``ros2 bag record -a`` would
     hold them. ``options`` go to :func:`replay`.
     """
+    check_distinct(output, [bag.path])
     start, end = session_times(scene, bag, options.get("start_ns"), options.get("duration_ns"))
     custom = {"scene": Path(scene.source).stem, "start_ns": str(start),
               "duration_ns": str(end - start)}
@@ -392,6 +421,7 @@ def script_to_bag(scene: Scene, output: Path, *, storage: str = "mcap", start_ns
     so the bag shows every input the scene takes. Returns the number of messages.
     """
     duration = scene.duration_ns if duration_ns is None else duration_ns
+    check_session(start_ns, duration, "the session")
     custom = {"scene": Path(scene.source).stem, "start_ns": str(int(start_ns)),
               "duration_ns": str(int(duration))}
     count = 0

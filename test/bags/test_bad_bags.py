@@ -1,0 +1,197 @@
+"""Hostile bags and bag commands: each refused in one line (exit 2), none read partly.
+
+A bag that is corrupt, truncated or disagrees with its metadata is refused rather than
+read in part; no command writes over its own input; ``--atol 0`` means bit-identical;
+session times must fit a ROS stamp (int32 seconds).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from hecker_dynamics.bags.compare import compare_bags
+from hecker_dynamics.bags.io import POSE_STAMPED, BagError, BagWriter, read_bag
+from hecker_dynamics.cli import main
+from hecker_dynamics.ros import fields
+
+GOLDEN = Path(__file__).resolve().parents[1] / "golden"
+SEC = 1_000_000_000
+
+
+def _cli(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _one_line_error(capsys, *argv: str) -> str:
+    code, out, err = _cli(capsys, *argv)
+    assert code == 2, (out, err)
+    assert err.count("\n") == 1 and err.startswith("hecker-dynamics: error: "), err
+    return err
+
+
+@pytest.fixture
+def sample_out(tmp_path) -> Path:
+    """A copy of the sample scene's golden output bag."""
+    path = tmp_path / "out"
+    shutil.copytree(GOLDEN / "sample" / "output", path)
+    return path
+
+
+def _metadata(bag: Path) -> dict:
+    return yaml.safe_load((bag / "metadata.yaml").read_text())
+
+
+def _set_metadata(bag: Path, change) -> None:
+    info = _metadata(bag)
+    change(info["rosbag2_bagfile_information"])
+    (bag / "metadata.yaml").write_text(yaml.safe_dump(info))
+
+
+# ------------------------------------------------------------------ the writer
+
+@pytest.mark.parametrize("output", ["/proc/x", "/", "", ".", "..", "/proc/self/x/y"])
+def test_writer_refuses_outputs_it_cannot_create(tmp_path, capsys, output, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    err = _one_line_error(capsys, "script", "sample", "-o", output, "--overwrite")
+    assert "Traceback" not in err
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere")
+def test_writer_refuses_an_unwritable_directory(tmp_path, capsys):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        err = _one_line_error(capsys, "script", "sample", "-o", str(locked / "bag"))
+        assert str(locked / "bag") in err
+    finally:
+        locked.chmod(0o700)
+
+
+def test_a_file_where_the_partial_directory_goes_is_replaced(tmp_path, capsys):
+    """The temporary '.<name>.partial' is the writer's own: a stale file there (a killed
+    run) is removed, a directory too; the bag is then written."""
+    (tmp_path / ".bag.partial").write_text("stale")
+    code, _, err = _cli(capsys, "script", "sample", "-o", str(tmp_path / "bag"))
+    assert code == 0, err
+    assert read_bag(tmp_path / "bag").messages
+
+
+# ------------------------------------------------------------------ stamps
+
+def test_script_start_past_what_a_stamp_holds_is_refused(tmp_path, capsys):
+    err = _one_line_error(capsys, "script", "sample", "-o", str(tmp_path / "b"),
+                          "--start", "3e9")
+    assert "--start" in err and "2147483647" in err
+    assert not (tmp_path / "b").exists()
+    err = _one_line_error(capsys, "script", "sample", "-o", str(tmp_path / "b"),
+                          "--duration", "1e18")
+    assert "--duration" in err
+
+
+@pytest.mark.parametrize("key, value, fragment", [
+    ("start_ns", "3000000000000000000", "start"), ("start_ns", "-5000000000", "start"),
+    ("duration_ns", "100000000000000000000", "duration"),
+])
+def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
+        tmp_path, capsys, key, value, fragment):
+    bag = tmp_path / "in"
+    shutil.copytree(GOLDEN / "sample" / "input", bag)
+    _set_metadata(bag, lambda info: info["custom_data"].__setitem__(
+        f"hecker_dynamics.{key}", value))
+    err = _one_line_error(capsys, "replay", "sample", str(bag), "-o", str(tmp_path / "o"))
+    assert str(bag) in err and fragment in err
+    assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------------ metadata and storage
+
+@pytest.mark.parametrize("count", [0, -5, "many", 1e12, 2000, 2002])
+def test_message_count_must_match_what_was_read(sample_out, capsys, count):
+    _set_metadata(sample_out, lambda info: info.__setitem__("message_count", count))
+    err = _one_line_error(capsys, "compare", str(sample_out), str(GOLDEN / "sample" / "output"))
+    assert str(sample_out) in err and "message_count" in err
+
+
+def test_topic_message_count_must_match_what_was_read(sample_out, capsys):
+    def change(info):
+        info["topics_with_message_count"][0]["message_count"] += 1
+    _set_metadata(sample_out, change)
+    err = _one_line_error(capsys, "compare", str(sample_out), str(GOLDEN / "sample" / "output"))
+    assert "message_count" in err
+
+
+def test_empty_relative_file_paths_is_refused(sample_out, capsys):
+    _set_metadata(sample_out, lambda info: info.__setitem__("relative_file_paths", []))
+    err = _one_line_error(capsys, "replay", "sample", str(sample_out), "--check")
+    assert str(sample_out) in err
+
+
+def test_every_single_bit_flip_of_an_mcap_is_refused_or_read_whole(sample_out):
+    """Flip one bit at each of 200 places spread over the file: the bag is refused, or
+    read whole: every message of every topic. Never a part of it. (A flip inside a
+    payload or a log time can go unseen: rosbags writes no CRCs, 0 in every chunk and the
+    data end, so no reader can tell; the counts and the log-time span are checked.)"""
+    original = read_bag(sample_out)
+    mcap = sample_out / "output.mcap"
+    data = mcap.read_bytes()
+    rng = np.random.default_rng(15)
+    refused = 0
+    for offset in rng.choice(len(data), 200, replace=False):
+        flipped = bytearray(data)
+        flipped[offset] ^= 1 << int(rng.integers(8))
+        mcap.write_bytes(bytes(flipped))
+        try:
+            bag = read_bag(sample_out)
+        except BagError as error:
+            assert "\n" not in str(error)
+            refused += 1
+            continue
+        assert sorted((m.topic, len(m.raw)) for m in bag.messages) == \
+            sorted((m.topic, len(m.raw)) for m in original.messages), offset
+    assert refused  # a flip in the framing (magic, opcodes, lengths) is always seen
+
+
+# ------------------------------------------------------------------ replay and compare
+
+def test_replay_never_writes_over_its_input(tmp_path, capsys, sample_out):
+    before = {p.name: p.read_bytes() for p in sample_out.iterdir()}
+    for output in (sample_out, tmp_path, sample_out / "sub", Path(str(sample_out) + "/")):
+        err = _one_line_error(capsys, "replay", "sample", str(sample_out), "-o", str(output),
+                              "--overwrite")
+        assert "input" in err
+    assert {p.name: p.read_bytes() for p in sample_out.iterdir()} == before
+
+
+def _pose_bag(path: Path, x: float) -> None:
+    pose = fields.Pose((x, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    from hecker_dynamics.bags.io import pose_stamped_message
+    with BagWriter(path, "mcap") as writer:
+        writer.write("/b/pose", POSE_STAMPED, SEC, pose_stamped_message(
+            fields.PoseStampedFields(fields.Header(1, 0, "world"), pose)))
+
+
+def test_atol_zero_is_bit_identical(tmp_path, capsys):
+    _pose_bag(tmp_path / "a", 0.0)
+    _pose_bag(tmp_path / "b", 7.3e-304)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                        "--atol", "0")
+    assert code == 1, out
+    report, ok = compare_bags(tmp_path / "a", tmp_path / "b", atol=0.0)
+    assert not ok and report.largest()["position"] == 7.3e-304
+    _pose_bag(tmp_path / "c", 0.0)
+    assert _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "c"),
+                "--atol", "0")[0] == 0
+
+
+def test_a_topic_in_neither_bag_is_an_error_saying_so(capsys):
+    bag = str(GOLDEN / "sample" / "output")
+    err = _one_line_error(capsys, "compare", bag, bag, "--topic", "/nope")
+    assert "/nope" in err and "neither" in err
