@@ -23,6 +23,8 @@ from pathlib import Path
 from collections.abc import Sequence
 from typing import Optional
 
+import numpy as np
+
 from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .dynamics.commands import InputError
@@ -96,7 +98,7 @@ def run_command(args: argparse.Namespace) -> int:
     sim = Simulation(scene)
     first = sim.snapshot()
     started = time.perf_counter()
-    sim.play(scene.script, scene.duration_ns)
+    sim.play(scene.script, scene.duration_ns, keep=False)  # two states printed: keep none
     wall = time.perf_counter() - started
     last = sim.snapshot()
     sim_seconds = (last.time_ns - first.time_ns) * 1e-9
@@ -611,7 +613,10 @@ def parser() -> argparse.ArgumentParser:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
-        return args.handler(args)
+        # Every result is checked for finiteness (a SceneError, a DivergenceError), so
+        # numpy's overflow warnings would only add lines to the one-line error.
+        with np.errstate(all="ignore"):
+            return args.handler(args)
     except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2

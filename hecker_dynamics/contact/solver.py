@@ -348,7 +348,10 @@ class ContactPass:
 
     def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
         """Respond to the contacts found at ``q1`` after a step of ``h`` from velocities
-        ``v0``; updates ``q1`` and ``v1`` (C-contiguous) in place."""
+        ``v0``; updates ``q1`` and ``v1`` (C-contiguous) in place. A state that is not
+        finite is left to the simulation's divergence check."""
+        if not (np.isfinite(q1).all() and np.isfinite(v1).all()):
+            return
         if self._kernel is not None:
             self._kernel.resolve(q1, v1, v0, h)
             return
@@ -390,6 +393,9 @@ class ContactPass:
         rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
         mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)
         mass_t = 1.0 / (im_a + im_b + rta * rta * ii_a + rtb * rtb * ii_b)
+        if not (mass_n > 0.0 and mass_t > 0.0):
+            raise ArithmeticError("the contact's effective mass underflowed (a lever arm or "
+                                  "inverse mass too large for a double)")
         approach = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby, nx, ny)
         # End the step just touching (never pushed apart by velocity: overlap left from
         # earlier steps is the position correction's job) or, if the contact closed during

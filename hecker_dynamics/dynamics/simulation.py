@@ -20,6 +20,7 @@ from typing import Any, NamedTuple, Optional
 import numpy as np
 
 from .commands import InputError, WrenchCommand
+from .divergence import EnergyBound
 from .inputs import InputBuffer
 from ..integrators.methods import (EmbeddedRungeKutta, ImplicitTheta, IntegrationError,
                                    choose_method, make_integrator)
@@ -31,7 +32,8 @@ from ..scene.load import Scene
 
 
 class DivergenceError(RuntimeError):
-    """The state stopped being finite; the simulation kept its last finite state."""
+    """The state stopped being finite, or its energy went past what the scene's forces
+    allow (:mod:`.divergence`); the simulation kept its last good state."""
 
 
 class BodyState(NamedTuple):
@@ -130,6 +132,10 @@ class Simulation:
         self.integrator.reset()
         if self.model.contacts is not None:
             self.model.contacts.reset()
+        self._bound = EnergyBound(self.model, self.q, self.v)
+        if isinstance(self.integrator, ImplicitTheta):
+            self.integrator.step_check = self._bound.step_ok
+        self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
     @property
     def time_ns(self) -> int:
@@ -263,6 +269,7 @@ class Simulation:
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
+            self._bound.inputs_changed(self.q, self.model.inputs)
         contacts = self.model.contacts
         if self._compiled is None or self.model.compiled is None or \
                 (contacts is not None and not contacts.compiled):
@@ -301,7 +308,7 @@ class Simulation:
         """One step in Python, the inputs already updated."""
         try:
             q, v = self._integrate(self.q, self.v, self.step_seconds)
-        except (IntegrationError, np.linalg.LinAlgError) as error:
+        except (ArithmeticError, np.linalg.LinAlgError) as error:  # IntegrationError too
             raise self._failed(error) from error
         if not self._settle(q, v):
             raise self._diverged(q, v)
@@ -355,11 +362,12 @@ class Simulation:
             q, v = q1, v1
         return q, v
 
-    def advance_to(self, t_ns: int, max_steps: Optional[int] = None) -> list[Snapshot]:
+    def advance_to(self, t_ns: int, max_steps: Optional[int] = None, *,
+                   keep: bool = True) -> list[Snapshot]:
         """Step while a whole step fits before ``t_ns`` (at most ``max_steps``).
 
         Returns the snapshots at the publish instants passed: every ``publish_period_ns``
-        after the start time.
+        after the start time (none with ``keep`` false: a long run in bounded memory).
         """
         snapshots = []
         taken = 0
@@ -371,8 +379,22 @@ class Simulation:
                     limit = min(limit, max_steps - taken)
                 taken += self._advance(limit)
                 if (self._time_ns - self.start_ns) % period == 0:
-                    snapshots.append(self.snapshot())
+                    self._check_energy()
+                    if keep:
+                        snapshots.append(self.snapshot())
         return snapshots
+
+    def _check_energy(self) -> None:
+        """At a publish instant: refuse a state past the energy bound, going back to the
+        state of the last check that passed."""
+        q, v, time_ns, steps = self._checked
+        problem = self._bound.check(self.q, self.v, (self._time_ns - time_ns) * 1e-9)
+        if problem is not None:
+            now = self._time_ns
+            self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
+            raise DivergenceError(f"state diverged by t = {now * 1e-9:.6f} s: {problem}; "
+                                  f"kept the state at t = {time_ns * 1e-9:.6f} s")
+        self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
     def _steps_to_publish(self) -> int:
         """Steps from now to the next publish instant (1 if the period is not a whole
@@ -383,15 +405,17 @@ class Simulation:
         per_publish = period // step
         return per_publish - (self._time_ns - self.start_ns) // step % per_publish
 
-    def play(self, commands: tuple[WrenchCommand, ...], until_ns: int) -> list[Snapshot]:
+    def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
+             keep: bool = True) -> list[Snapshot]:
         """Push ``commands`` (stamps relative to the start time) as sim time reaches each
-        stamp, and advance to ``until_ns`` after the start; returns the snapshots passed.
-        Commands stamped at or after ``until_ns`` are not pushed."""
+        stamp, and advance to ``until_ns`` after the start; returns the snapshots passed
+        (none with ``keep`` false). Commands stamped at or after ``until_ns`` are not
+        pushed."""
         snapshots = []
         for command in sorted(commands, key=lambda c: c.stamp_ns):
             if command.stamp_ns >= until_ns:
                 break
             stamp = self.start_ns + command.stamp_ns
-            snapshots += self.advance_to(stamp)
+            snapshots += self.advance_to(stamp, keep=keep)
             self.push(replace(command, stamp_ns=stamp))
-        return snapshots + self.advance_to(self.start_ns + until_ns)
+        return snapshots + self.advance_to(self.start_ns + until_ns, keep=keep)

@@ -33,6 +33,8 @@ from .coloring import Coloring
 from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
+#: (q0, v0, q1, v1, h) -> whether the step from (q0, v0) to (q1, v1) is physically possible.
+StepCheck = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float], bool]
 
 
 class IntegrationError(ArithmeticError):
@@ -245,6 +247,11 @@ class ImplicitTheta(Integrator):
     for bit to the dense one for finite states (where the acceleration is already NaN the
     dense one spreads NaN through more entries; Newton's method refuses either). Unset,
     every column costs one evaluation.
+
+    :attr:`step_check`, if set, is called with (q0, v0, q1, v1, h) for each solved step
+    and refuses a root Newton's method reached on the wrong branch of the forces (a stiff
+    spring with a rest length carried through zero length gains energy by orders of
+    magnitude in a step); the step is then halved like one that did not converge.
     """
 
     MAX_ITERATIONS = 50
@@ -255,6 +262,7 @@ class ImplicitTheta(Integrator):
         super().__init__(name, order)
         self.theta = theta
         self.coloring_source: Optional[Callable[[], Coloring]] = None
+        self.step_check: Optional[StepCheck] = None
 
     def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -306,7 +314,12 @@ class ImplicitTheta(Integrator):
     def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray, h: float,
              halvings: int = 0) -> tuple[np.ndarray, np.ndarray]:
         try:
-            return self._solve(f, q, v, h)
+            q1, v1 = self._solve(f, q, v, h)
+            if self.step_check is not None and not self.step_check(q, v, q1, v1, h):
+                raise IntegrationError(f"{self.name}: Newton's method converged on a state "
+                                       f"with more energy than the forces can give in "
+                                       f"{h:g} s")
+            return q1, v1
         except IntegrationError:
             if halvings >= self.MAX_HALVINGS:
                 raise

@@ -1,0 +1,122 @@
+"""A bound on the energy a scene can reach, to tell a blown-up state from motion.
+
+The energy of motion and of the springs, B = K + U_springs (design.md Eq. 5 and 14 give
+K's rates), changes only by the work of the forces. Springs exchange energy with K and
+their dampers, drag, angular damping, walls and collisions (restitution at most 1) take
+it away; only gravity, constant forces and torques and inputs put work in. A force F on
+body i acting at a point r from its CM, with a torque tau, does work at the rate
+F . v_i + (r x F + tau) omega_i <= (|F| sqrt(2 / m_i) + (|r| |F| + |tau|) sqrt(2 / I_i))
+sqrt(B), since K_i = m_i |v_i|^2 / 2 + I_i omega_i^2 / 2 <= B. With c the sum of those
+coefficients, dB/dt <= c sqrt(B), so sqrt(B(t)) <= sqrt(B(0)) + int c dt / 2: from rest
+under a constant force, with equality.
+
+:class:`EnergyBound` keeps that budget as the simulation runs (c from the state at each
+check, the largest input set since the last one) and refuses a state whose B exceeds
+:data:`GROWTH` times the bound's square, and the floor of every body moving at 1 m/s and
+turning at 1 rad/s (ROS units are SI, REP 103): integration error of the explicit
+methods grows energy, by far less than that on any scene they are stable on.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+
+from .forces import AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm
+
+__all__ = ["GROWTH", "STEP_GROWTH", "EnergyBound"]
+
+#: How many times the bound's energy a state may reach before it counts as blown up.
+GROWTH = 1000.0
+#: How many times the bound's energy one implicit step may reach (:meth:`step_ok`): a
+#: resolved implicit midpoint step keeps it (1.7 at most over test_stability's stiffest
+#: run, omega h = 100); the wrong roots of issue 15 gave 4 to 60.
+STEP_GROWTH = 2.0
+
+
+class EnergyBound:
+    """The running bound of B = K + U_springs for one simulation (see the module)."""
+
+    def __init__(self, model, q: np.ndarray, v: np.ndarray) -> None:
+        self.model = model
+        self._root_inverse_mass = np.sqrt(2.0 / model.mass)
+        self._root_inverse_inertia = np.sqrt(2.0 / model.inertia)
+        self.floor = 0.5 * float(np.sum(model.mass) + np.sum(model.inertia))
+        self._root = math.sqrt(max(self.energy(q, v), 0.0))
+        self._rate = self.rate(q, model.inputs)
+        self._input_rate = 0.0
+        #: The largest B / limit seen, for tests and reports.
+        self.worst_ratio = 0.0
+
+    def energy(self, q: np.ndarray, v: np.ndarray) -> float:
+        """B: kinetic energy plus the springs' potential energy (inf where it overflows)."""
+        model = self.model
+        with np.errstate(all="ignore"):
+            kinetic = 0.5 * float(np.sum(model.mass * (v[:, 0] ** 2 + v[:, 1] ** 2))
+                                  + np.sum(model.inertia * v[:, 2] ** 2))
+            return kinetic + sum(term.potential(q) for term in model.terms
+                                 if isinstance(term, (AnchorSpringTerm, BodySpringTerm)))
+
+    def _wrench_rate(self, term: ConstantWrenchTerm, q: np.ndarray) -> float:
+        force = np.hypot(term.force[:, 0], term.force[:, 1])
+        target = q[term.body, :2]
+        owner = np.where(term.point_body >= 0, term.point_body, 0)
+        # The point is relative to its owner's CM, or fixed-frame coordinates (owner -1).
+        origin = np.where((term.point_body >= 0)[:, None], q[owner, :2], 0.0)
+        lever = np.where(term.at_point, np.hypot(*(origin - target).T) +
+                         np.hypot(term.point[:, 0], term.point[:, 1]), 0.0)
+        return float(np.sum(force * self._root_inverse_mass[term.body]
+                            + (lever * force + np.abs(term.torque))
+                            * self._root_inverse_inertia[term.body]))
+
+    def rate(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
+        """c: the coefficient of sqrt(B) in the rate of work of gravity, the constant
+        wrenches and ``inputs`` at positions ``q``."""
+        with np.errstate(all="ignore"):
+            return self._rate_of(q, inputs)
+
+    def _rate_of(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
+        total = 0.0
+        for term in self.model.terms:
+            if isinstance(term, GravityTerm):
+                weight = np.hypot(term.weights[:, 0], term.weights[:, 1])
+                total += float(np.sum(weight * self._root_inverse_mass[term.bodies]))
+            elif isinstance(term, ConstantWrenchTerm):
+                total += self._wrench_rate(term, q)
+        return total + (self._wrench_rate(inputs, q) if inputs is not None else 0.0)
+
+    def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:
+        """Count the rate of a new input set until the next check."""
+        if inputs is not None:
+            with np.errstate(all="ignore"):
+                self._input_rate = max(self._input_rate, self._wrench_rate(inputs, q))
+
+    def step_ok(self, q0: np.ndarray, v0: np.ndarray, q1: np.ndarray, v1: np.ndarray,
+                h: float) -> bool:
+        """Whether one integrator step from (q0, v0) to (q1, v1) keeps B within
+        :data:`STEP_GROWTH` times the bound over the step (an implicit method's check
+        of its root)."""
+        with np.errstate(all="ignore"):
+            root = math.sqrt(max(self.energy(q0, v0), 0.0)) + \
+                0.5 * h * self.rate(q0, self.model.inputs)
+            return bool(self.energy(q1, v1) <= STEP_GROWTH * root * root + 1e-12 * self.floor)
+
+    def limit(self) -> float:
+        """The largest B allowed now."""
+        return max(GROWTH * self._root ** 2, self.floor)
+
+    def check(self, q: np.ndarray, v: np.ndarray, seconds: float) -> Optional[str]:
+        """Advance the budget by ``seconds`` and check the state (q, v): None if it is
+        within the bound, else why not."""
+        self._root += 0.5 * seconds * (self._rate + self._input_rate)
+        energy = self.energy(q, v)
+        limit = self.limit()
+        self.worst_ratio = max(self.worst_ratio, energy / limit)
+        if not (energy <= limit and math.isfinite(energy)):
+            return (f"the energy of motion and springs grew to {energy:.3g} J, over "
+                    f"{limit:.3g} J ({GROWTH:g} times what the initial energy and the work "
+                    "of gravity, constant forces and inputs allow)")
+        self._rate = self.rate(q, self.model.inputs)
+        self._input_rate = 0.0
+        return None
