@@ -133,6 +133,7 @@ class Simulation:
         if self.model.contacts is not None:
             self.model.contacts.reset()
         self._bound = EnergyBound(self.model, self.q, self.v)
+        self._halted: Optional[str] = None  # why the energy bound stopped the run
         if isinstance(self.integrator, ImplicitTheta):
             self.integrator.step_check = self._bound.step_ok
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
@@ -266,6 +267,8 @@ class Simulation:
         """Take from 1 to ``limit`` steps (the floating-point error settings are the
         caller's) and return how many: in the compiled kernel as many as the inputs allow
         before they next change, else one in Python."""
+        if self._halted is not None:  # refused again, as a non-finite step would be
+            raise DivergenceError(self._halted)
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
@@ -392,8 +395,11 @@ class Simulation:
         if problem is not None:
             now = self._time_ns
             self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
-            raise DivergenceError(f"state diverged by t = {now * 1e-9:.6f} s: {problem}; "
-                                  f"kept the state at t = {time_ns * 1e-9:.6f} s")
+            names = ", ".join(self.model.names[:5]) + (", ..." if len(self.model.names) > 5
+                                                       else "")
+            self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
+                            f"kept the state at t = {time_ns * 1e-9:.6f} s")
+            raise DivergenceError(self._halted)
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
     def _steps_to_publish(self) -> int:
