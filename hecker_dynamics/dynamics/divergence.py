@@ -1,7 +1,8 @@
 """A bound on the energy a scene can reach, to tell a blown-up state from motion.
 
-The energy of motion and of the springs, B = K + U_springs (design.md Eq. 5 and 14 give
-K's rates), changes only by the work of the forces. Springs exchange energy with K and
+The energy of motion and of the springs, B = K + U_springs, changes only by the work of
+the forces (K's rates follow from the force by F = M a, Eq. 5, and from the torque by
+tau = I alpha, Eq. 14). Springs exchange energy with K and
 their dampers, drag, angular damping, walls and collisions (restitution at most 1) take
 it away; only gravity, constant forces and torques and inputs put work in. A force F on
 body i acting at a point r from its CM, with a torque tau, does work at the rate
@@ -19,11 +20,14 @@ methods grows energy, by far less than that on any scene they are stable on.
 from __future__ import annotations
 
 import math
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
 from .forces import AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm
+
+if TYPE_CHECKING:
+    from .model import Model
 
 __all__ = ["GROWTH", "STEP_GROWTH", "EnergyBound"]
 
@@ -38,7 +42,7 @@ STEP_GROWTH = 2.0
 class EnergyBound:
     """The running bound of B = K + U_springs for one simulation (see the module)."""
 
-    def __init__(self, model, q: np.ndarray, v: np.ndarray) -> None:
+    def __init__(self, model: Model, q: np.ndarray, v: np.ndarray) -> None:
         self.model = model
         self._root_inverse_mass = np.sqrt(2.0 / model.mass)
         self._root_inverse_inertia = np.sqrt(2.0 / model.inertia)
@@ -101,6 +105,27 @@ class EnergyBound:
             root = math.sqrt(max(self.energy(q0, v0), 0.0)) + \
                 0.5 * h * self.rate(q0, self.model.inputs)
             return bool(self.energy(q1, v1) <= STEP_GROWTH * root * root + 1e-12 * self.floor)
+
+    def moved(self, q: np.ndarray, v: np.ndarray, seconds: float) -> None:
+        """A body was set to a new state (q, v) from outside, ``seconds`` after the last
+        check: the budget is advanced as a check would, and the new energy joins it, so
+        only growth beyond it counts."""
+        self._root += 0.5 * seconds * (self._rate + self._input_rate)
+        with np.errstate(all="ignore"):
+            self._root = max(self._root, math.sqrt(max(self.energy(q, v), 0.0)))
+        self._rate = self.rate(q, self.model.inputs)
+        self._input_rate = 0.0
+
+    def export_state(self) -> dict[str, float]:
+        """The running budget, as plain floats (exact), for :meth:`import_state`."""
+        return {"root": self._root, "rate": self._rate, "input_rate": self._input_rate,
+                "worst_ratio": self.worst_ratio}
+
+    def import_state(self, state: dict[str, float]) -> None:
+        """Continue from :meth:`export_state`'s budget (of a bound of the same scene)."""
+        self._root, self._rate = float(state["root"]), float(state["rate"])
+        self._input_rate = float(state["input_rate"])
+        self.worst_ratio = float(state["worst_ratio"])
 
     def limit(self) -> float:
         """The largest B allowed now."""

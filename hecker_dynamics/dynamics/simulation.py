@@ -162,7 +162,16 @@ class Simulation:
             "inputs": self._inputs.export_state(),
             "integrator": self.integrator.export_state(),
             "contacts": None if self.model.contacts is None else self.model.contacts.export_state(),
+            "divergence": self._export_divergence(),
         }
+
+    def _export_divergence(self) -> dict[str, Any]:
+        """The energy bound's budget, the state a refused check goes back to, and why the
+        bound stopped the run (None while it runs)."""
+        q, v, time_ns, steps = self._checked
+        return {"bound": self._bound.export_state(), "checked_q": q.tolist(),
+                "checked_v": v.tolist(), "checked_time_ns": time_ns, "checked_steps": steps,
+                "halted": self._halted}
 
     def import_state(self, state: dict[str, Any]) -> None:
         """Continue from :meth:`export_state`'s data (of a simulation of the same scene)."""
@@ -180,6 +189,12 @@ class Simulation:
         self.integrator.import_state(state["integrator"])
         if self.model.contacts is not None:
             self.model.contacts.import_state(state["contacts"] or [])
+        divergence = state["divergence"]
+        self._bound.import_state(divergence["bound"])
+        self._checked = (np.array(divergence["checked_q"], dtype=float).reshape(q.shape),
+                         np.array(divergence["checked_v"], dtype=float).reshape(v.shape),
+                         int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
+        self._halted = divergence["halted"]
 
     def set_body_state(self, name: str, position: tuple[float, float], angle: float,
                        linear_velocity: tuple[float, float], angular_velocity: float) -> None:
@@ -203,6 +218,9 @@ class Simulation:
         wrap_angles_in_place(self.q[:, 2])
         if self.model.contacts is not None:
             self.model.contacts.reset()
+        # The new state is where a refused check returns to, its energy within the budget.
+        self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9)
+        self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
     def skip_to(self, time_ns: int) -> None:
         """Move the clock forward to ``time_ns`` without stepping (a resume after a pause):

@@ -17,9 +17,11 @@ import yaml
 
 from scene_builders import make_scene, write_scene
 
+from hecker_dynamics.bench.scenes import bench_scene, configure
 from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics import DivergenceError, Simulation, WrenchCommand
 from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.ros.session import decode_state, encode_state
 from hecker_dynamics.scene.load import load_scene, scene_path, shipped_scenes
 
 SEC = 1_000_000_000
@@ -151,3 +153,58 @@ def test_run_keeps_no_snapshots_for_a_long_run(monkeypatch, capsys):
     monkeypatch.setattr(simulation.Snapshot, "__init__", counting)
     assert main(["run", "sample", "--duration", "20"]) == 0
     assert len(taken) == 2
+
+
+def _restored(sim: Simulation) -> Simulation:
+    """A new simulation of ``sim``'s scene continuing from its exported state, through a
+    keyframe's JSON as a live session records it."""
+    again = Simulation(sim.scene)
+    again.import_state(decode_state(encode_state(sim.export_state())))
+    return again
+
+
+def test_a_restored_simulation_stops_where_the_original_does():
+    """The undamped 1e6 N/m oscillator on 0.05 ms explicit Euler steps: each step
+    multiplies the energy by 1 + (omega h)^2 = 1.0025, e^(0.0025 * 400) = 2.7 per 20 ms
+    publish period, so it passes six checks, then trips the bound (GROWTH = 1000).
+    Restored from a publish instant before that, it carries the bound's budget and the
+    state a refused check returns to, so it stops at the same instant, with the same
+    message and the same kept state, bit for bit."""
+    scene = configure(bench_scene("stiff"), "explicit_euler", 5e-5)
+    _, snapshots, error = _run_or_diverge(scene, 2 * SEC)
+    assert error is not None and "energy" in str(error) and len(snapshots) == 6
+    for restart in (1, len(snapshots) // 2, len(snapshots) - 1):
+        original = Simulation(scene)
+        original.advance_to(snapshots[restart - 1].time_ns)
+        copy_ = _restored(original)
+        outcomes = []
+        for sim in (original, copy_):
+            with pytest.raises(DivergenceError) as caught:
+                sim.advance_to(2 * SEC)
+            outcomes.append((str(caught.value), sim.q.tobytes(), sim.v.tobytes(),
+                             sim.time_ns, sim.steps, sim._bound.worst_ratio))
+        assert outcomes[0] == outcomes[1]
+        assert outcomes[0][0] == str(error)
+
+
+def test_a_restored_stopped_simulation_keeps_refusing():
+    scene = make_scene(_stiff_sample("semi_implicit_euler"))
+    sim, _, error = _run_or_diverge(scene, 2 * SEC)
+    again = _restored(sim)
+    with pytest.raises(DivergenceError) as caught:
+        again.step()
+    assert str(caught.value) == str(error)
+    assert again.q.tobytes() == sim.q.tobytes() and again.time_ns == sim.time_ns
+
+
+def test_setting_a_body_state_joins_its_energy_to_the_bound():
+    """A body set moving at 1e4 m/s from outside (a world service) has 5e7 J where the
+    scene started with none: that is the new budget, not a blow-up; the run goes on."""
+    scene = make_scene({"integrator": "rk4",
+                        "bodies": {"b": {"shape": "circle", "radius": 0.1, "mass": 1.0}}})
+    sim = Simulation(scene)
+    sim.advance_to(scene.publish_period_ns)
+    sim.set_body_state("b", (0.0, 0.0), 0.0, (1e4, 0.0), 0.0)
+    snapshots = sim.advance_to(SEC)
+    assert snapshots and snapshots[-1].energy == pytest.approx(0.5 * 1e4 ** 2, rel=1e-12)
+    assert sim._bound.worst_ratio <= 1.0 / GROWTH * (1 + 1e-12)

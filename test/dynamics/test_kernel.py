@@ -50,6 +50,7 @@ from scene_builders import make_scene
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.dynamics.divergence import GROWTH
 from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
@@ -287,6 +288,26 @@ def assert_identical(fast, slow, fast_snapshots, slow_snapshots):
     assert fast.integrator.counters == slow.integrator.counters
 
 
+def assert_refused_alike(fast, slow, end):
+    """The stiff spring (omega = 1000 rad/s, undamped) with 1 ms explicit Euler steps:
+    each step multiplies the energy by 1 + (omega h)^2 = 2, so at the first publish instant
+    (20 steps, one kernel chunk) it is 2^20 times the initial energy, over GROWTH times the
+    energy bound (no force does work, so the bound is the initial energy). Both paths
+    refuse that state alike and go back to the initial one."""
+    outcomes = []
+    for sim in (fast, slow):
+        with pytest.raises(DivergenceError) as caught:
+            sim.advance_to(end)
+        outcomes.append((str(caught.value), sim._bound.worst_ratio, state_bytes(sim),
+                         sim.time_ns, sim.steps, sim.integrator.counters))
+    assert outcomes[0] == outcomes[1]
+    # The refused state's energy over the limit, B_20 / (GROWTH B_0): equal to the bit on
+    # both paths above, and 2^20 / GROWTH to the rounding of 20 steps.
+    assert outcomes[0][1] == pytest.approx(2.0 ** 20 / GROWTH, rel=1e-12)
+    assert "energy" in outcomes[0][0] and fast.time_ns == 0 and fast.steps == 0
+    assert state_bytes(fast) == state_bytes(Simulation(fast.scene))
+
+
 def spy_on_chunks(sim) -> list[tuple[int, int]]:
     """Record (steps asked, steps taken) of each call into the kernel's stepping."""
     calls = []
@@ -313,6 +334,9 @@ def test_fixed_step_runs_of_the_bench_scenes_are_bit_identical(name, method):
     fast, slow = both_paths(scene)
     chunks = spy_on_chunks(fast)
     end = 250 * scene.step_ns
+    if (name, method) == ("stiff", "explicit_euler"):
+        assert_refused_alike(fast, slow, end)
+        return
     assert_identical(fast, slow, fast.advance_to(end), slow.advance_to(end))
     assert fast.steps == 250 and max(asked for asked, _ in chunks) == 20  # whole periods
     assert np.isfinite(fast.q).all()
@@ -497,8 +521,10 @@ def test_repeated_compiled_runs_are_bit_identical():
 
 def test_explicit_euler_divergence_keeps_the_same_last_finite_state():
     """The stiff spring (omega = 1000 rad/s) with 10 ms explicit Euler steps grows about
-    10x a step and overflows after some 300 steps, inside a chunk of the kernel."""
-    scene = configure(bench_scene("stiff"), "explicit_euler", 0.01)
+    10x a step and overflows after some 300 steps, inside a chunk of the kernel: with
+    publish instants 10 s apart no energy check comes first (see the next test)."""
+    scene = dataclasses.replace(configure(bench_scene("stiff"), "explicit_euler", 0.01),
+                                publish_period_ns=10_000 * MS)
     results = []
     for sim in both_paths(scene):
         with pytest.raises(DivergenceError) as caught:
@@ -511,6 +537,28 @@ def test_explicit_euler_divergence_keeps_the_same_last_finite_state():
         assert state_bytes(sim) == results[-1][1]
     assert results[0] == results[1]
     assert "state of mass diverged" in results[0][0] and results[0][3] > 100
+    assert "energy" not in results[0][0]  # stopped by the finiteness check
+
+
+def test_explicit_euler_blow_up_is_refused_by_the_bound_alike_on_both_paths():
+    """The same run publishing every 20 ms (2 steps): the energy grows by
+    1 + (omega h)^2 = 101 a step, so the first publish instant's state has 101^2 times the
+    initial energy, over GROWTH times the bound. Both paths refuse it, keep the initial
+    state, and keep refusing."""
+    scene = configure(bench_scene("stiff"), "explicit_euler", 0.01)
+    results = []
+    for sim in both_paths(scene):
+        with pytest.raises(DivergenceError) as caught:
+            sim.advance_to(10_000 * scene.step_ns)
+        results.append((str(caught.value), sim._bound.worst_ratio, state_bytes(sim),
+                        sim.time_ns, sim.steps))
+        with pytest.raises(DivergenceError) as again:
+            sim.step()
+        assert str(again.value) == results[-1][0] and state_bytes(sim) == results[-1][2]
+    assert results[0] == results[1]
+    assert results[0][1] == pytest.approx(101.0 ** 2 / GROWTH, rel=1e-12)
+    assert "state of mass diverged" in results[0][0] and "energy" in results[0][0]
+    assert results[0][3:] == (0, 0)
 
 
 def whipped_box() -> Simulation:
