@@ -6,6 +6,7 @@
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
+    hecker-dynamics bench --node
 """
 from __future__ import annotations
 
@@ -191,7 +192,9 @@ def replay_command(args: argparse.Namespace) -> int:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
-    outputs = output_topics(scene)
+    # A check against a recording of the node compares the TF it recorded too.
+    tf = args.tf or (args.check and "/tf" in bag.topics)
+    outputs = output_topics(scene, tf=tf)
     expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
         check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
@@ -201,7 +204,7 @@ def replay_command(args: argparse.Namespace) -> int:
                            f"has none of {', '.join(t for t in outputs if t.endswith('/pose'))}")
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
-                   skip_rejected=args.skip_rejected)
+                   skip_rejected=args.skip_rejected, tf=tf)
     progress = _Progress("replay", (end - start) * 1e-9) if _want_progress(args) else None
     try:
         if args.output is not None:
@@ -211,7 +214,7 @@ def replay_command(args: argparse.Namespace) -> int:
             actual = read_bag(args.output) if args.check else None
         else:
             produced, result = replay_outputs(scene, bag, progress=progress, **options)
-            actual = outputs_as_bag(scene, produced)
+            actual = outputs_as_bag(scene, produced, tf=tf)
     finally:
         if progress is not None:
             progress.close()
@@ -327,6 +330,10 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     replay_parser.add_argument("--skip-rejected", action="store_true",
                                help="drop inputs for unknown bodies or frames (as the node "
                                     "does) instead of failing")
+    replay_parser.add_argument("--tf", action="store_true",
+                               help="write /tf and /tf_static as the node publishes them "
+                                    "(when the scene's publish.tf is on; --check against a "
+                                    "bag with /tf turns it on)")
     replay_parser.add_argument("--with-inputs", action="store_true",
                                help="copy the input messages into the output bag too")
     progress_group = replay_parser.add_mutually_exclusive_group()
@@ -354,7 +361,21 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    """Run the work-precision benchmark and write its report."""
+    """Run the work-precision benchmark and write its report (``--node``: the node's cost)."""
+    if args.node:
+        from .bench.node import TARGET_SHARE, node_cost, node_table
+
+        costs = node_cost()
+        print("node work per second of sim time (share of one core): 1 kHz steps, 50 Hz "
+              "publishing, odometry, markers, diagnostics and TF on; medians of "
+              f"{costs[0].repeats} interleaved runs of 2 s")
+        print(node_table(costs))
+        ten = next((c for c in costs if c.bodies == 10), None)
+        if ten is not None:
+            print(f"10 bodies: {100 * ten.total:.2f} % of a core "
+                  f"({'within' if ten.total <= TARGET_SHARE else 'over'} the "
+                  f"{100 * TARGET_SHARE:g} % target)")
+        return 0
     from .bench.run import run_bench
     from .bench.scenes import all_scene_names
 
@@ -389,6 +410,10 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     peers.add_argument("--peers", dest="peers", action="store_true", default=True,
                        help="include installed peers (default)")
     peers.add_argument("--no-peers", dest="peers", action="store_false", help="core only")
+    bench.add_argument("--node", action="store_true",
+                       help="instead: the node's own work per tick without rclpy (stepping "
+                            "and output fields) on rings of 1, 10 and 100 bodies; prints a "
+                            "table, writes nothing")
     bench.set_defaults(handler=bench_command)
 
 

@@ -30,10 +30,13 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           TwistFields, applied_wrench_fields, ns_from_stamp, stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.markers import MarkerFields
+from ..ros.names import Durability, QosSpec, Reliability, output_qos
+from ..ros.tf import TransformFields
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
-    "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter", "NODE_QOS",
+    "TF_MESSAGE", "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter",
+    "rosbag_qos", "tf_message",
     "STORAGES", "applied_wrench_msg_path", "typestore", "read_bag", "resolve_topic",
     "default_message", "stamp_ns_of",
 ]
@@ -45,6 +48,7 @@ TWIST = "geometry_msgs/msg/Twist"
 ODOMETRY = "nav_msgs/msg/Odometry"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
 BAG_VERSION = 9
@@ -88,17 +92,19 @@ def typestore() -> Any:
     return store
 
 
-def _node_qos() -> list[Any]:
-    """The QoS the node's publishers offer: rclpy's default profile with depth 10."""
+@lru_cache(maxsize=None)
+def rosbag_qos(spec: QosSpec) -> list[Any]:
+    """A publisher's QoS (:mod:`hecker_dynamics.ros.names`) as rosbag2 metadata records it."""
     from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
                                     QosReliability, QosTime)
 
     default = QosTime(0, 0)  # rmw's "default" durations: deadline, lifespan, lease unset
-    return [Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
+    reliability = {Reliability.RELIABLE: QosReliability.RELIABLE,
+                   Reliability.BEST_EFFORT: QosReliability.BEST_EFFORT}[spec.reliability]
+    durability = {Durability.VOLATILE: QosDurability.VOLATILE,
+                  Durability.TRANSIENT_LOCAL: QosDurability.TRANSIENT_LOCAL}[spec.durability]
+    return [Qos(QosHistory.KEEP_LAST, spec.depth, reliability, durability,
                 default, default, QosLiveliness.AUTOMATIC, default, False)]
-
-
-NODE_QOS = _node_qos()
 
 
 def resolve_topic(name: str, namespace: str = "/") -> str:
@@ -220,6 +226,21 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
     return default_message(DIAGNOSTIC_ARRAY, header=header_message(head), status=[status])
 
 
+def tf_message(transforms: Iterable[TransformFields]) -> Any:
+    """``tf2_msgs/TFMessage`` from :func:`~hecker_dynamics.ros.tf.body_transforms` or
+    :func:`~hecker_dynamics.ros.tf.point_transforms`."""
+    return default_message(TF_MESSAGE, transforms=[
+        default_message(
+            "geometry_msgs/msg/TransformStamped", header=header_message(t.header),
+            child_frame_id=t.child_frame_id,
+            transform=default_message(
+                "geometry_msgs/msg/Transform",
+                translation=_vector("geometry_msgs/msg/Vector3", t.translation),
+                rotation=default_message("geometry_msgs/msg/Quaternion",
+                                         **dict(zip("xyzw", map(float, t.rotation))))))
+        for t in transforms])
+
+
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
     """``hecker_dynamics/msg/AppliedWrench`` from :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
     dsec, dnanosec = fields.duration
@@ -258,13 +279,14 @@ def wrench_stamped_message(stamp_ns: int, frame_id: str, force: Sequence[float],
 def stamp_ns_of(msg: Any) -> Optional[int]:
     """The header stamp of a message in ns, or None for a message without a header.
 
-    A ``MarkerArray`` takes the stamp of its first marker.
+    A ``MarkerArray`` takes the stamp of its first marker, a ``TFMessage`` that of its
+    first transform.
     """
     head = getattr(msg, "header", None)
     if head is None:
-        markers = getattr(msg, "markers", None)
-        if markers:
-            head = markers[0].header
+        items = getattr(msg, "markers", None) or getattr(msg, "transforms", None)
+        if items:
+            head = items[0].header
     if head is None:
         return None
     return ns_from_stamp(head.stamp.sec, head.stamp.nanosec)
@@ -410,7 +432,8 @@ def _storage_name(path: Path) -> str:
 class BagWriter:
     """Writes a rosbag2 bag atomically: into a temporary directory renamed on success.
 
-    Topics are added on first use, in that order, with the node's QoS profile; the bag
+    Topics are added on first use, in that order, with the QoS profile the node's publisher
+    on the topic offers (:func:`~hecker_dynamics.ros.names.output_qos`); the bag
     holds the message definitions and type hashes, and ``custom_data`` entries under
     ``hecker_dynamics.``. Same calls in the same order give the same bytes.
 
@@ -480,7 +503,7 @@ class BagWriter:
             return
         self._connections[topic] = self._writer.add_connection(
             topic, msgtype, typestore=typestore(), serialization_format="cdr",
-            offered_qos_profiles=NODE_QOS)
+            offered_qos_profiles=rosbag_qos(output_qos(topic)))
         self._types[topic] = msgtype
 
     def write(self, topic: str, msgtype: str, log_ns: int, msg: Any) -> bytes:

@@ -2,14 +2,16 @@
 
 Inputs are turned into commands by :mod:`.fields`, the simulation steps in fixed steps up
 to the ROS clock (or, in lockstep, as fast as it can while publishing ``/clock``), and every
-publish instant it passes becomes ``<body>/pose`` and ``<body>/twist`` messages stamped with
-its sim time. Every decision (what a message means, when the clock jumped, how far the
+publish instant it passes becomes ``<body>/pose``, ``<body>/twist`` and ``/tf`` messages
+stamped with its sim time. Names and QoS come from :mod:`.names`, the stop decisions from
+:mod:`.lifecycle`. Every decision (what a message means, when the clock jumped, how far the
 simulation lags) is made in the other modules of :mod:`hecker_dynamics.ros`; this module
 only moves data between them and rclpy.
 """
 from __future__ import annotations
 
 import dataclasses
+import signal
 import sys
 from collections.abc import Callable
 from typing import Any, Optional
@@ -17,14 +19,18 @@ from typing import Any, Optional
 import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PoseStamped, Twist, WrenchStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..dynamics.commands import WrenchCommand
@@ -32,20 +38,31 @@ from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, 
                      applied_wrench_to_command, header, stamp_from_ns, wrench_stamped_to_command)
 from .diagnostics import DiagnosticFields
 from .markers import MarkerFields
-from .outputs import DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics, snapshot_outputs
+from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
+from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
+                    NODE_NAME, RESET_SERVICE, Durability, QosSpec, Reliability, output_qos)
+from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from .runner import LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup, plan_tick
+from .tf import TransformFields
 from ..msg import AppliedWrench
 from .ratelimit import RateLimiter
-from ..scene.load import NODE_NAME, SceneError, WrenchTopic
-
-#: Keep-last depth of every publisher and subscription (reliable, volatile: rclpy's
-#: default profile for an int depth).
-QUEUE_DEPTH = 10
+from ..scene.load import SceneError, WrenchTopic
 
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
+    OutputKind.TF: TFMessage,
 }
+
+
+def qos_profile(spec: QosSpec) -> QoSProfile:
+    """The rclpy profile of a :class:`QosSpec`: keep-last, the rest rmw's defaults."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
+        reliability={Reliability.RELIABLE: ReliabilityPolicy.RELIABLE,
+                     Reliability.BEST_EFFORT: ReliabilityPolicy.BEST_EFFORT}[spec.reliability],
+        durability={Durability.VOLATILE: DurabilityPolicy.VOLATILE,
+                    Durability.TRANSIENT_LOCAL: DurabilityPolicy.TRANSIENT_LOCAL}[spec.durability])
 
 
 # ----------------------------------------------------------------------------- messages
@@ -107,6 +124,19 @@ def _marker(fields: MarkerFields) -> Marker:
     return msg
 
 
+def _tf_message(transforms: tuple[TransformFields, ...]) -> TFMessage:
+    messages = []
+    for fields in transforms:
+        msg = TransformStamped()
+        _fill_header(msg.header, fields.header)
+        msg.child_frame_id = fields.child_frame_id
+        translation, rotation = msg.transform.translation, msg.transform.rotation
+        translation.x, translation.y, translation.z = fields.translation
+        rotation.x, rotation.y, rotation.z, rotation.w = fields.rotation
+        messages.append(msg)
+    return TFMessage(transforms=messages)
+
+
 def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
     return MarkerArray(markers=[_marker(fields) for fields in markers])
 
@@ -123,7 +153,7 @@ def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray
 
 MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
-    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
+    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
 }
 
 
@@ -161,18 +191,23 @@ class DynamicsNode(Node):
         #: Done (with True, or False after a divergence) when a lockstep run reaches the
         #: scene's duration; never done otherwise.
         self.finished = Future()
+        self._outputs = SnapshotOutputs(self.scene)
         self._publishers_by_topic = {
-            topic: self.create_publisher(MESSAGE_TYPES[kind], topic, QUEUE_DEPTH)
+            topic: self.create_publisher(MESSAGE_TYPES[kind], topic,
+                                         qos_profile(output_qos(topic)))
             for topic, kind in output_topics(self.scene).items()}
-        self.create_subscription(AppliedWrench, "applied_wrench", self._on_applied_wrench,
-                                 QUEUE_DEPTH)
+        commands = qos_profile(COMMAND_QOS)
+        self.create_subscription(AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench,
+                                 commands)
         for topic in self.scene.wrench_topics:
             self.create_subscription(
                 WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
-        self.create_service(Trigger, "reset", self._on_reset)
+                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), commands)
+        self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         if self.options.lockstep:
-            self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
+            self._publish_static()
+            self._clock_publisher = self.create_publisher(ClockMessage, CLOCK_TOPIC,
+                                                          qos_profile(CLOCK_QOS))
             # A zero period: the timer is always ready, so the run goes as fast as it can
             # while the executor still serves subscriptions and the reset service.
             self._timer = self.create_timer(
@@ -230,12 +265,14 @@ class DynamicsNode(Node):
             self._warn("clock_jump", reason)
         if action is not TickAction.ADVANCE:
             self.runner.restart(now_ns)
+        if action is TickAction.START:
+            self._publish_static()
         self._last_tick_ns = now_ns
         self._advance(now_ns)
 
     def _on_lockstep_tick(self) -> None:
         """Steady timer in lockstep: one publish period per tick, then ``/clock``."""
-        if self.finished.done():
+        if self.finished.done() or not self.context.ok():
             return
         self._advance(self.sim.time_ns + self.scene.publish_period_ns)
         self._publish_clock()
@@ -246,15 +283,21 @@ class DynamicsNode(Node):
             self.finished.set_result(self.runner.halted is None)
 
     def _advance(self, target_ns: int) -> None:
-        """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed."""
+        """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed.
+
+        Nothing is published once the context is shut down (by another owner of it: this
+        node's own signal handlers only end the spin loop between two callbacks).
+        """
         tick = self.runner.advance(target_ns)
+        if not self.context.ok():
+            return
         for line in tick.script_errors:
             self._warn("script", line)
         if tick.diverged is not None:
             self.get_logger().error(
                 f"{tick.diverged}; halted until the 'reset' service is called")
         for snapshot in tick.snapshots:
-            for output in snapshot_outputs(self.scene, snapshot):
+            for output in self._outputs(snapshot):
                 self._publish(output)
         if tick.lag:
             self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
@@ -269,6 +312,12 @@ class DynamicsNode(Node):
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(
             MESSAGE_BUILDERS[output.kind](output.fields))
+
+    def _publish_static(self) -> None:
+        """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;
+        latched (transient_local), so once is enough for every later subscriber."""
+        for output in self._outputs.static(self.sim.time_ns):
+            self._publish(output)
 
     def _publish_clock(self) -> None:
         msg = ClockMessage()
@@ -295,22 +344,45 @@ class DynamicsNode(Node):
 
 
 def main(args: Optional[list[str]] = None) -> int:
-    """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status."""
-    rclpy.init(args=args)
+    """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status.
+
+    SIGINT and SIGTERM end the spin loop between two callbacks (:class:`Shutdown`), then the
+    node is destroyed and the context shut down: exit status 0 and one info line. A
+    lockstep run that diverged ends with 1, a scene that does not load with 1 and its error.
+    """
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = Shutdown()
+    previous = {signum: signal.signal(signum, stop.request) for signum in HANDLED_SIGNALS}
+    logger = rclpy.logging.get_logger(NODE_NAME)
     node = None
     try:
         node = DynamicsNode()
-        rclpy.spin_until_future_complete(node, node.finished)
-        return 0 if not node.finished.done() or node.finished.result() else 1
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        context = node.context
+        try:
+            spin_until(lambda timeout: executor.spin_once(timeout_sec=timeout),
+                       lambda: stop.requested or node.finished.done() or not context.ok())
+        except ExternalShutdownException:
+            pass
+        except rclpy_implementation.RCLError:
+            if context.ok():  # a real failure, not a publish racing a shutdown
+                raise
+        finished = node.finished.result() if node.finished.done() else None
+        status, message = stop.outcome(stop.reason(lockstep_result=finished,
+                                                   context_ok=context.ok()))
+        if message:
+            logger.info(message)
+        return status
     except SceneError as error:
-        rclpy.logging.get_logger(NODE_NAME).fatal(str(error))
+        logger.fatal(str(error))
         return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        return 0
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":
