@@ -14,7 +14,7 @@ MARKER_ADD = 0
 #: Thickness of shape outlines and of circle discs in RViz, in metres.
 MARKER_LINE_WIDTH = 0.02
 MARKER_DISC_HEIGHT = 0.01
-#: Body colours (r, g, b, a), cycled by body index.
+#: Body colors (r, g, b, a), cycled by body index.
 MARKER_COLORS = (
     (0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
     (0.84, 0.15, 0.16, 1.0), (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0),
@@ -102,7 +102,7 @@ def marker_fields(body: BodySpec, state: Any, index: int, frame_id: str,
 
     Outlines are ``LINE_STRIP`` markers whose pose is the body pose and whose points are
     the shape's vertices in the body frame; circles are ``CYLINDER`` discs plus a radius
-    line that shows the spin. ``index`` picks the body's colour.
+    line that shows the spin. ``index`` picks the body's color.
     """
     return place_markers(marker_templates(body, index), header(frame_id, stamp_ns), state,
                          body_pose(state))

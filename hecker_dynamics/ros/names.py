@@ -12,9 +12,11 @@ import enum
 from typing import NamedTuple
 
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
-           "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "LATCHED_QOS", "APPLIED_WRENCH_TOPIC",
+           "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
+           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
+           "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
 
 #: The node's name: also the top key of a scene's parameters file.
@@ -60,10 +62,15 @@ TF_QOS = QosSpec(100, Reliability.RELIABLE, Durability.VOLATILE)
 # /tf_static: tf2_ros's StaticTransformBroadcaster profile (StaticBroadcasterQoS): one
 # message, kept for late joiners (transient_local), since it is sent only once.
 TF_STATIC_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
-# Latched session information (session, keyframe, input events): the latest message is
-# what a late subscriber (a recorder started after the node) needs, so transient_local
-# with depth 1, reliable so the one message does arrive.
-LATCHED_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+# Latched session records: reliable and transient_local, so a recorder that starts after
+# them still receives them. One session record is all a late recorder needs; two
+# keyframes cover a recorder that subscribes to the outputs up to a keyframe period
+# before the keyframes; the input and world events since the latest keyframe must all
+# reach it, so their depth is large.
+SESSION_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+KEYFRAME_QOS = QosSpec(2, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+INPUT_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+WORLD_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
 
 APPLIED_WRENCH_TOPIC = "applied_wrench"
 CLOCK_TOPIC = "/clock"
@@ -74,7 +81,12 @@ DIAGNOSTICS_TOPIC = "diagnostics"
 SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"
+WORLD_EVENTS_TOPIC = "~/world_events"
 RESET_SERVICE = "reset"
+PAUSE_SERVICE = "pause"
+RESUME_SERVICE = "resume"
+STEP_SERVICE = "step"
+SET_BODY_STATE_SERVICE = "set_body_state"
 
 
 def pose_topic(body: str) -> str:

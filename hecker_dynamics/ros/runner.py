@@ -13,15 +13,33 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple, Optional
 
+from pathlib import Path
+from typing import Union
+
+from .. import __version__
 from ..dynamics.commands import InputError, WrenchCommand
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
-from ..scene.load import NODE_PARAMETERS, Scene, SceneError, load_scene, scene_from_parameters
+from ..scene.fingerprint import scene_fingerprint
+from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic, load_scene,
+                          scene_from_parameters)
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
-from .fields import NS_PER_S
+from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
+from .session import (APPLIED_WRENCH_EVENT, WRENCH_STAMPED_EVENT, InputEventFields,
+                      KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
+                      encode_state)
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
 CLOCK_JUMP_NS = NS_PER_S
+#: The longest keyframe period accepted (a day of sim time).
+MAX_KEYFRAME_PERIOD_S = 86400.0
+#: The most steps one call of the step service takes.
+MAX_SERVICE_STEPS = 1_000_000
+#: A sim time no session reaches (about 292 years).
+FAR_FUTURE_NS = 2 ** 63 - 1
+
+#: What the runner records for the node to publish.
+Record = Union[SessionFields, InputEventFields, WorldEventFields, KeyframeFields]
 
 # ----------------------------------------------------------------------------- node setup
 
@@ -33,6 +51,8 @@ class NodeOptions:
     lockstep: bool = False            # step as fast as possible and publish /clock
     play_script: bool = True          # push the scene's scripted inputs
     max_catch_up_steps: int = 1000    # physics steps one timer tick may take at most
+    record_session: bool = True       # publish ~/session, ~/input_events and ~/keyframe
+    keyframe_period: float = 1.0      # sim seconds between keyframes; 0: none
 
 
 def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
@@ -41,6 +61,8 @@ def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
     for option in dataclasses.fields(NodeOptions):
         value = params.get(option.name, option.default)
         kind = type(option.default)
+        if kind is float and type(value) is int:  # ROS 2 reads `1` as an integer
+            value = float(value)
         if type(value) is not kind:
             raise SceneError(f"{source}: parameter '{option.name}' must be a {kind.__name__}, "
                              f"not {value!r}")
@@ -49,6 +71,10 @@ def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
     if options.max_catch_up_steps < 1:
         raise SceneError(f"{source}: parameter 'max_catch_up_steps' must be at least 1, "
                          f"not {options.max_catch_up_steps}")
+    if not 0.0 <= options.keyframe_period <= MAX_KEYFRAME_PERIOD_S:
+        raise SceneError(f"{source}: parameter 'keyframe_period' must be from 0 (no "
+                         f"keyframes) to {MAX_KEYFRAME_PERIOD_S:g} s, not "
+                         f"{options.keyframe_period!r}")
     return options
 
 
@@ -183,56 +209,117 @@ class Tick:
 
 class Runner:
     """The node's run loop without ROS: a :class:`Simulation`, the scene's script, the
-    input counters and the diagnostics schedule. The rclpy node and the offline replay
-    both drive one, so a replayed session gives the node's outputs.
+    input counters, the diagnostics schedule and the session records. The rclpy node and
+    the offline replay both drive one, so a replayed session gives the node's outputs.
 
     ``max_steps`` caps the physics steps of one :meth:`advance` (the node's catch-up cap;
     None: no cap). ``wall_clock`` times the steps for the diagnostics (the replay passes a
     clock that stands still, since wall time is not reproducible). Until ``started``, inputs
     are refused (the node waits for a running ROS clock).
+
+    Every decision that the inputs alone do not fix is made at a sim instant, never at a
+    timer tick, so that ticks at other times give the same states: a scripted command is
+    pushed when the simulation arrives at the last step before its stamp, a keyframe is
+    taken when it arrives at the keyframe's step, and an input message is pushed at the sim
+    time it arrives at, which its :class:`~.session.InputEventFields` record holds. With
+    ``record`` the records pile up in :attr:`records` for the node to publish
+    (:meth:`take_records`).
     """
 
     def __init__(self, scene: Scene, *, start_ns: int = 0, play_script: bool = True,
                  max_steps: Optional[int] = None, started: bool = True,
                  hardware_id: str = "/dynamics_node",
-                 wall_clock: Callable[[], int] = time.perf_counter_ns) -> None:
+                 wall_clock: Callable[[], int] = time.perf_counter_ns,
+                 record: bool = False, keyframe_period_ns: int = 0,
+                 lockstep: bool = False) -> None:
         self.scene = scene
         self.sim = Simulation(scene, start_ns=start_ns)
         self.play_script = play_script
         self.max_steps = max_steps
-        self.started = started
+        self.started = False
         self.hardware_id = hardware_id
         self.wall_clock = wall_clock
+        self.record = record
+        self.lockstep = lockstep
+        #: Steps between keyframes (0: none): the period rounded up to whole steps.
+        self.keyframe_steps = -(-keyframe_period_ns // scene.step_ns) if keyframe_period_ns else 0
+        self.fingerprint = scene_fingerprint(scene)
+        self.records: list[Record] = []
         self.accepted = 0
         self.rejected = 0
         self.halted: Optional[str] = None
+        #: Paused by the pause service: the clock's ticks do not step it.
+        self.paused = False
+        self._stepping = False
+        #: Restarts so far (-1 before the first start) and input messages taken so far.
+        self.session = -1
+        self.sequence = 0
         self._script_index = 0
         self._last_diagnostics_ns: Optional[int] = None
+        self._next_keyframe_step = 0
+        if started:
+            self.restart(start_ns, "start")
 
-    def restart(self, start_ns: int) -> None:
-        """Restart the scene at ``start_ns`` (reset service, clock jump, first tick)."""
+    def restart(self, start_ns: int, reason: str = "reset") -> None:
+        """Restart the scene at ``start_ns`` (first tick, reset service, clock jump)."""
         self.sim.reset(start_ns)
         self._script_index = 0
         self.halted = None
+        self.paused = False
         self._last_diagnostics_ns = None
+        self._next_keyframe_step = 0
         self.started = True
+        self.session += 1
+        if self.record:
+            self.records.append(self.session_fields(reason))
 
-    def accept(self, topic: str,
-               convert: Callable[[int], tuple[WrenchCommand, list[str]]],
-               arrival_ns: int) -> list[LogLine]:
-        """Convert one input message that arrived at ``arrival_ns`` and push it.
+    def session_fields(self, reason: str) -> SessionFields:
+        """The record of the session that runs now."""
+        sim = self.sim
+        return SessionFields(
+            sim.start_ns, self.scene.frame_id, self.session, reason,
+            Path(self.scene.source).stem, self.fingerprint, sim.integrator.name, sim.step_ns,
+            self.scene.publish_period_ns, self.play_script, self.lockstep,
+            self.max_steps or 0, self.keyframe_steps * sim.step_ns, self.sequence, __version__)
 
-        ``convert`` is a :func:`applied_wrench_to_command` or
-        :func:`wrench_stamped_to_command` call waiting for the arrival time. Bad input is
-        counted in ``rejected`` and reported in the returned lines, never raised; warnings
-        about an accepted message are returned too.
+    def take_records(self) -> list[Record]:
+        """The records made since the last call, in the order they were made."""
+        records, self.records = self.records, []
+        return records
+
+    # ----------------------------------------------------------------- inputs
+
+    def accept(self, topic: str, msg: Any, arrival_ns: int,
+               wrench_topic: Optional[WrenchTopic] = None) -> list[LogLine]:
+        """Map one input message that arrived at ROS time ``arrival_ns`` and push it.
+
+        ``msg`` is an ``AppliedWrench`` (``wrench_topic`` None) or a ``WrenchStamped`` from
+        the scene's input topic ``wrench_topic``. Bad input is counted in ``rejected`` and
+        reported in the returned lines, never raised; warnings about an accepted message are
+        returned too. With ``record``, an input event records the message, the sim time it
+        was pushed at and the outcome.
         """
+        lines = self._push_message(topic, msg, arrival_ns, wrench_topic)
+        if self.record:
+            rejected = next((line.message for line in lines if line.dropped), "")
+            kind = APPLIED_WRENCH_EVENT if wrench_topic is None else WRENCH_STAMPED_EVENT
+            self.records.append(InputEventFields(
+                self.sim.time_ns, self.session, self.sequence, topic, arrival_ns, kind, msg,
+                not rejected, rejected))
+        self.sequence += 1
+        return lines
+
+    def _push_message(self, topic: str, msg: Any, arrival_ns: int,
+                      wrench_topic: Optional[WrenchTopic]) -> list[LogLine]:
         if not self.started:
             self.rejected += 1
             return [LogLine(f"{topic}:early", f"input on '{topic}' ignored: the simulation "
                                               "starts with the ROS clock (waiting for /clock)")]
         try:
-            command, warnings = convert(arrival_ns)
+            if wrench_topic is None:
+                command, warnings = applied_wrench_to_command(msg, arrival_ns)
+            else:
+                command, warnings = wrench_stamped_to_command(msg, wrench_topic, arrival_ns)
         except InputError as error:  # the message itself is bad (NaN, empty body, ...)
             self.rejected += 1
             return [LogLine(f"{topic}:message", f"input on '{topic}' rejected: {error}")]
@@ -246,30 +333,114 @@ class Runner:
         self.accepted += 1
         return lines
 
+    # ----------------------------------------------------------------- world changes
+
+    def set_body_state(self, body: str, values: Sequence[float]) -> WorldEventFields:
+        """Move ``body`` now (``values``: x, y, angle of its frame, vx, vy of the frame's
+        origin, omega; see :meth:`Simulation.set_body_state`)."""
+        def move() -> None:
+            if len(values) != 6:
+                raise InputError(f"a body state has 6 values, not {len(values)}")
+            x, y, angle, vx, vy, omega = (float(value) for value in values)
+            self.sim.set_body_state(body, (x, y), angle, (vx, vy), omega)
+        return self._change(WorldChange.SET_STATE, move, body, tuple(float(v) for v in values))
+
+    def pause(self) -> WorldEventFields:
+        """Stop stepping with the clock (until :meth:`resume`)."""
+        def stop() -> None:
+            if self.paused:
+                raise InputError("the simulation is paused already")
+            self.paused = True
+        return self._change(WorldChange.PAUSE, stop)
+
+    def resume(self, now_ns: int) -> WorldEventFields:
+        """Go on stepping with the clock. Following the ROS clock, the simulation skips the
+        time it stood still, to the first publish instant at or after ``now_ns``; in
+        lockstep (and for a ``now_ns`` not ahead of it) it goes on from where it stands."""
+        sim = self.sim
+        target = sim.time_ns
+        if not self.lockstep and now_ns > sim.time_ns:
+            period = self.scene.publish_period_ns
+            target = sim.time_ns + -(-(now_ns - sim.time_ns) // period) * period
+        return self.resume_at(target)
+
+    def resume_at(self, time_ns: int) -> WorldEventFields:
+        """:meth:`resume` from sim time ``time_ns`` (what a replay repeats)."""
+        def go_on() -> None:
+            if not self.paused:
+                raise InputError("the simulation is not paused")
+            self.sim.skip_to(time_ns)
+            self.paused = False
+        return self._change(WorldChange.RESUME, go_on, time_ns=time_ns)
+
+    def step(self, steps: int) -> tuple[WorldEventFields, Tick]:
+        """Take ``steps`` steps of a paused simulation; returns the record and what the
+        steps passed (their snapshots)."""
+        tick = Tick([])
+
+        def take() -> None:
+            if not self.paused:
+                raise InputError("step needs a paused simulation (call pause first)")
+            if not 1 <= steps <= MAX_SERVICE_STEPS:
+                raise InputError(f"steps must be from 1 to {MAX_SERVICE_STEPS}, not {steps}")
+            # No keyframe inside the call: a replay could not start in its middle.
+            self.paused, self._stepping = False, True
+            try:
+                done = self.advance(self.sim.time_ns + steps * self.sim.step_ns)
+            finally:
+                self.paused, self._stepping = True, False
+            tick.snapshots, tick.diverged = done.snapshots, done.diverged
+            tick.script_errors = done.script_errors
+        return self._change(WorldChange.STEP, take, values=(float(steps),)), tick
+
+    def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
+                values: tuple[float, ...] = (), time_ns: int = 0) -> WorldEventFields:
+        """Apply one change (``apply`` raises :class:`InputError` to refuse it) and record
+        it at the sim time it was made, in the input events' sequence."""
+        stamp, sequence = self.sim.time_ns, self.sequence
+        self.sequence += 1  # before the change: keyframes it takes count it as done
+        reason = ""
+        if not self.started:
+            reason = "the simulation has not started yet (waiting for the ROS clock)"
+        elif self.halted is not None:
+            reason = f"the simulation is halted ({self.halted}); reset it first"
+        else:
+            try:
+                apply()
+            except InputError as error:
+                reason = str(error)
+        record = WorldEventFields(stamp, self.session, sequence, kind, body, values, time_ns,
+                                  not reason, reason)
+        if self.record:
+            self.records.append(record)
+        return record
+
+    # ----------------------------------------------------------------- stepping
+
     def advance(self, target_ns: int) -> Tick:
-        """Push the scripted commands due, step towards ``target_ns`` (at most
-        ``max_steps``) and return the snapshots passed, the lag and the diagnostics due.
+        """Step towards ``target_ns`` (at most ``max_steps``), pushing the scripted
+        commands and taking the keyframes as their instants come; return the snapshots
+        passed, the lag and the diagnostics due.
 
         After a divergence the simulation stands still until :meth:`restart`.
         """
-        if self.halted is not None:
+        if self.halted is not None or self.paused:
             return Tick([])
         sim = self.sim
         tick = Tick([])
-        if self.play_script:
-            reach = target_ns if self.max_steps is None else min(
-                target_ns, sim.time_ns + self.max_steps * sim.step_ns)
-            due, self._script_index = due_script(self.scene.script, sim.start_ns,
-                                                 self._script_index, reach)
-            for command in due:
-                try:
-                    sim.push(command)
-                except InputError as error:
-                    tick.script_errors.append(f"scripted input rejected: {error}")
         steps_before = sim.steps
         wall_start_ns = self.wall_clock()
         try:
-            tick.snapshots = sim.advance_to(target_ns, max_steps=self.max_steps)
+            while True:
+                self._arrive(tick)
+                taken = sim.steps - steps_before
+                if self.max_steps is not None and taken >= self.max_steps:
+                    break
+                stop = min(target_ns, self._next_stop())
+                if sim.time_ns + sim.step_ns > stop:
+                    break
+                tick.snapshots += sim.advance_to(
+                    stop, max_steps=None if self.max_steps is None else self.max_steps - taken)
         except DivergenceError as error:
             self.halted = tick.diverged = str(error)
             tick.diagnostics = self._diagnostics(0, 0, 0)
@@ -279,6 +450,71 @@ class Runner:
         if diagnostics_due(self._last_diagnostics_ns, sim.time_ns):
             tick.diagnostics = self._diagnostics(sim.steps - steps_before, wall_ns, tick.lag)
         return tick
+
+    def _arrive(self, tick: Tick) -> None:
+        """At the simulation's present instant: push the scripted commands due by the end
+        of the next step, then take the keyframe due at this step."""
+        sim = self.sim
+        if self.play_script:
+            due, self._script_index = due_script(self.scene.script, sim.start_ns,
+                                                 self._script_index, sim.time_ns + sim.step_ns)
+            for command in due:
+                try:
+                    sim.push(command)
+                except InputError as error:
+                    tick.script_errors.append(f"scripted input rejected: {error}")
+        if self.keyframe_steps and sim.steps >= self._next_keyframe_step and not self._stepping:
+            if self.record:
+                self.records.append(self.keyframe())
+            self._next_keyframe_step = sim.steps + self.keyframe_steps
+
+    def _next_stop(self) -> int:
+        """The next instant :meth:`_arrive` has work at: the push of the next scripted
+        command or the next keyframe (far in the future when there is neither)."""
+        sim = self.sim
+        stop = FAR_FUTURE_NS
+        if self.play_script and self._script_index < len(self.scene.script):
+            stamp = sim.start_ns + self.scene.script[self._script_index].stamp_ns
+            stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
+        if self.keyframe_steps and not self._stepping:
+            stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
+        return stop
+
+    # ----------------------------------------------------------------- keyframes
+
+    def keyframe(self) -> KeyframeFields:
+        """The whole state now, at full precision (see :meth:`restore`)."""
+        sim = self.sim
+        state = sim.export_state()
+        q, v = state.pop("q"), state.pop("v")
+        state["runner"] = {"script_index": self._script_index, "accepted": self.accepted,
+                           "rejected": self.rejected, "paused": self.paused,
+                           "last_diagnostics_ns": self._last_diagnostics_ns}
+        return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
+                              sim.model.names, tuple(x for row in q for x in row),
+                              tuple(x for row in v for x in row), encode_state(state))
+
+    def restore(self, keyframe: KeyframeFields) -> None:
+        """Continue from ``keyframe`` (of a session of this scene) as the node did."""
+        if tuple(keyframe.bodies) != self.sim.model.names:
+            raise ValueError(f"a keyframe of bodies {', '.join(keyframe.bodies)} does not fit "
+                             f"the scene's {', '.join(self.sim.model.names)}")
+        state = decode_state(keyframe.state)
+        runner = state.pop("runner")
+        size = len(keyframe.bodies)
+        state["q"] = [list(keyframe.q[3 * i:3 * i + 3]) for i in range(size)]
+        state["v"] = [list(keyframe.v[3 * i:3 * i + 3]) for i in range(size)]
+        self.sim.import_state(state)
+        self._script_index = int(runner["script_index"])
+        self.accepted, self.rejected = int(runner["accepted"]), int(runner["rejected"])
+        self._last_diagnostics_ns = runner["last_diagnostics_ns"]
+        self.paused = bool(runner["paused"])
+        self.halted = None
+        self.started = True
+        self.session, self.sequence = keyframe.session, keyframe.next_event
+        self._next_keyframe_step = keyframe.steps + self.keyframe_steps
+
+    # ----------------------------------------------------------------- diagnostics
 
     def _diagnostics(self, substeps: int, wall_ns: int, lag: int) -> Optional[DiagnosticFields]:
         if not self.scene.publish_diagnostics:

@@ -14,13 +14,14 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional, Union
+from typing import Any, Optional, Union, overload
 
+import numpy as np
 import yaml
 
 from ..dynamics.commands import WrenchCommand
-from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
-                       mass_properties)
+from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
+                               is_convex, mass_properties)
 from ..integrators.methods import METHODS
 from ..ros.names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
@@ -36,8 +37,8 @@ DEFAULT_SCENE = "sample"
 INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
-                             "max_catch_up_steps", "start_type_description_service",
-                             "qos_overrides"})
+                             "max_catch_up_steps", "record_session", "keyframe_period",
+                             "start_type_description_service", "qos_overrides"})
 Vec2 = tuple[float, float]
 #: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
 TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
@@ -340,8 +341,8 @@ def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
     if len(flat) < 6:
         reader.fail("vertices", "a polygon needs at least 3 vertices (6 numbers)")
     c, s = math.cos(turn), math.sin(turn)
-    return Polygon([(center[0] + c * x - s * y, center[1] + s * x + c * y)
-                    for x, y in zip(flat[0::2], flat[1::2])])
+    return Polygon(np.array([(center[0] + c * x - s * y, center[1] + s * x + c * y)
+                             for x, y in zip(flat[0::2], flat[1::2])]))
 
 
 def _read_body(name: str, reader: ParameterReader) -> BodySpec:
@@ -367,7 +368,7 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
             mass = reader.number("mass", positive=True)
             densities = [d * mass / unit.mass for d in relative]
         elif all(d is not None for d in own):
-            densities = own
+            densities = [d for d in own if d is not None]
         else:
             reader.fail("mass", "is required (or 'density', or a density on every part)")
         if any(d <= 0.0 for d in densities):
@@ -412,8 +413,18 @@ def _body(reader: ParameterReader, key: str, points: Mapping[str, Mapping[str, V
     return body
 
 
+@overload
 def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
-           default: Any = None) -> Optional[Vec2]:
+           default: None = None) -> Optional[Vec2]: ...
+
+
+@overload
+def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
+           default: list[float]) -> Vec2: ...
+
+
+def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
+           default: Optional[list[float]] = None) -> Optional[Vec2]:
     """A body point given as [x, y] in the body frame or as the name of a declared point."""
     value = reader.raw(key, default)
     if value is None:

@@ -491,7 +491,7 @@ def test_writer_leaves_nothing_behind_on_failure(tmp_path):
 
 
 def test_applied_wrench_type_comes_from_the_msg_file():
-    path = bags.applied_wrench_msg_path()
+    path = bags.message_definition_path()
     assert path.name == "AppliedWrench.msg"
     fields = [name for name, _ in bags.typestore().fielddefs[APPLIED_WRENCH][1]]
     declared = [line.split()[1] for line in path.read_text().splitlines()

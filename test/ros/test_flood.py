@@ -5,10 +5,11 @@ bytes per message and kept it: rclpy's ``spin_once_until_future_complete`` adds 
 done-callback to the future at every turn of ``spin_until_future_complete``, and the
 node's future never completes outside lockstep. The node now spins with ``spin_once``
 (:func:`hecker_dynamics.ros.lifecycle.spin_until`); test_node_process.py floods a real node.
-Here the node's own per-message work (Runner.accept with the conversion, the rate-limited
-log lines, Runner.advance at every tick and the outputs of every snapshot, as the node
+Here the node's own per-message work (Runner.accept with the conversion and the session
+record of the input, taken after each message as the node publishes it; the rate-limited
+log lines; Runner.advance at every tick and the outputs of every snapshot, as the node
 calls them) must keep no state per message: the input buffer keeps one command per
-(body, id), the rate limiter one entry per key, the runner two counters.
+(body, id), the rate limiter one entry per key, the runner its counters.
 """
 from __future__ import annotations
 
@@ -19,7 +20,6 @@ from types import SimpleNamespace
 
 from scene_builders import box_body, make_scene
 
-from hecker_dynamics.ros.fields import applied_wrench_to_command
 from hecker_dynamics.ros.outputs import SnapshotOutputs
 from hecker_dynamics.ros.ratelimit import RateLimiter
 from hecker_dynamics.ros.runner import Runner
@@ -57,7 +57,8 @@ def test_a_million_messages_keep_memory_flat():
                         "publish": {"markers": True, "odometry": True},
                         "bodies": {"a": box_body(points={"tip": [0.5, 0.0]}),
                                    "b": box_body(position=[3.0, 0.0])}})
-    runner = Runner(scene, max_steps=1000, wall_clock=lambda: 0)
+    runner = Runner(scene, max_steps=1000, wall_clock=lambda: 0, record=True,
+                    keyframe_period_ns=1_000_000_000)
     outputs_of = SnapshotOutputs(scene)
     limiter = RateLimiter(clock=lambda: runner.sim.time_ns)
     # Good messages from 50 ids on both bodies and frames, and rejected ones: NaN, an
@@ -68,20 +69,19 @@ def test_a_million_messages_keep_memory_flat():
     bad = [_message("a", "nan", math.nan), _message("ghost", "g", 1.0),
            _message("b", "f", 1.0, frame_id="b/nowhere")]
     cycle = good + bad
-    published = logged = 0
+    published = logged = records = 0
     now_ns = 0
 
     def flood(count: int, first: int) -> None:
-        nonlocal published, logged, now_ns
+        nonlocal published, logged, records, now_ns
         for k in range(first, first + count):
-            msg = cycle[k % len(cycle)]
-            for line in runner.accept("applied_wrench",
-                                      lambda arrival, msg=msg: applied_wrench_to_command(
-                                          msg, arrival), now_ns):
+            for line in runner.accept("/applied_wrench", cycle[k % len(cycle)], now_ns):
                 logged += limiter.line(line.key, line.message) is not None
+            records += len(runner.take_records())
             if k % PER_TICK == PER_TICK - 1:
                 now_ns += scene.publish_period_ns
                 tick = runner.advance(now_ns)
+                records += len(runner.take_records())
                 for snapshot in tick.snapshots:
                     published += len(outputs_of(snapshot))
 
@@ -105,6 +105,8 @@ def test_a_million_messages_keep_memory_flat():
     assert runner.rejected == MESSAGES // len(cycle) * len(bad) + \
         max(0, MESSAGES % len(cycle) - len(good))
     assert runner.halted is None and runner.sim.time_ns == now_ns
+    # One input event per message, and the keyframes (one a second of sim time).
+    assert records >= MESSAGES
     ticks = MESSAGES // PER_TICK
     assert published == ticks * (2 * 3 + 2)    # pose, twist, odom per body; markers; /tf
     # Rate-limited: a line per key every 5 s of sim time at most, not one per message.

@@ -5,8 +5,9 @@ import ast
 from pathlib import Path
 
 from hecker_dynamics.ros import names
-from hecker_dynamics.ros.names import (COMMAND_QOS, LATCHED_QOS, STATE_QOS, TF_QOS,
-                                       TF_STATIC_QOS, Durability, Reliability, output_qos)
+from hecker_dynamics.ros.names import (COMMAND_QOS, INPUT_EVENTS_QOS, KEYFRAME_QOS,
+                                       SESSION_QOS, STATE_QOS, TF_QOS, TF_STATIC_QOS,
+                                       WORLD_EVENTS_QOS, Durability, Reliability, output_qos)
 from hecker_dynamics.ros.outputs import output_topics
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 
@@ -18,10 +19,16 @@ def test_qos_of_each_kind_of_topic():
     # Commands and state: reliable keep-last 10, volatile (what a bag of the node records).
     for spec in (COMMAND_QOS, STATE_QOS):
         assert spec == (10, Reliability.RELIABLE, Durability.VOLATILE)
-    # Latched: one message kept for late joiners, as tf2_ros's static broadcaster does.
-    assert LATCHED_QOS == TF_STATIC_QOS == (1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+    # Latched: kept for late joiners; /tf_static one message, as tf2_ros's static
+    # broadcaster; the session records as deep as a late recorder needs them.
+    assert TF_STATIC_QOS == SESSION_QOS == (1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+    for spec in (KEYFRAME_QOS, INPUT_EVENTS_QOS, WORLD_EVENTS_QOS):
+        assert (spec.reliability, spec.durability) == (Reliability.RELIABLE,
+                                                       Durability.TRANSIENT_LOCAL)
+    assert KEYFRAME_QOS.depth == 2 and INPUT_EVENTS_QOS.depth == WORLD_EVENTS_QOS.depth == 1000
     assert TF_QOS == (100, Reliability.RELIABLE, Durability.VOLATILE)
-    for topic in (names.SESSION_TOPIC, names.KEYFRAME_TOPIC, names.INPUT_EVENTS_TOPIC):
+    for topic in (names.SESSION_TOPIC, names.KEYFRAME_TOPIC, names.INPUT_EVENTS_TOPIC,
+                  names.WORLD_EVENTS_TOPIC):
         assert topic.startswith("~/")   # in the node's own namespace
 
 

@@ -192,7 +192,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     period = scene.publish_period_ns
     for k in range(1, periods + 1):
         set_clock(ros, clock, node, T0 + k * period)
-        spin_until(ros, lambda: node.sim.time_ns >= T0 + (k - 1) * period,
+        spin_until(ros, lambda k=k: node.sim.time_ns >= T0 + (k - 1) * period,
                    "the simulation to follow the clock")
     # The node's timer runs on the ROS clock from time 0, every publish period, so it
     # fires at T0 + periods * period too.
@@ -256,7 +256,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     back = T0 - 10 * S
     for k in range(5):
         set_clock(ros, clock, node, back + k * period)
-        if spin_while(ros, lambda: node.sim.start_ns > back + k * period, spins=50):
+        if spin_while(ros, lambda k=k: node.sim.start_ns > back + k * period, spins=50):
             break
     assert back <= node.sim.start_ns <= back + 4 * period
     assert node.sim.time_ns >= node.sim.start_ns
