@@ -20,7 +20,7 @@ README = (ROOT / "README.md").read_text()
 EVERY_FEATURE = dict(
     EVERY_FORCE, frame_id="world", integrator="rk4", tolerance=1e-6, duration=2.0,
     input_timeout=0.5, input_max_lead=5.0, twist_frame="world", restitution_threshold=0.01,
-    publish={"odometry": True, "markers": True, "diagnostics": True},
+    publish={"odometry": True, "markers": True, "diagnostics": True, "tf": True},
     walls={"floor": {"point": [0.0, -3.0], "normal": [0.0, 1.0], "restitution": 0.5,
                      "friction": 0.2, "bodies": ["a", "b"]}},
     collisions={"all": {"bodies": ["a", "b"], "restitution": 0.1, "friction": 0.4}},

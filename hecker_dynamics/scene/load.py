@@ -23,6 +23,7 @@ from ..dynamics.commands import WrenchCommand
 from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
                                is_convex, mass_properties)
 from ..integrators.methods import METHODS
+from ..ros.names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, unflatten
 
 __all__ = [
@@ -34,7 +35,6 @@ __all__ = [
 ]
 
 DEFAULT_SCENE = "sample"
-NODE_NAME = "dynamics_node"
 INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
@@ -183,6 +183,7 @@ class Scene:
     publish_odometry: bool
     publish_markers: bool
     publish_diagnostics: bool
+    publish_tf: bool                        # /tf per body, /tf_static per named point
     restitution_threshold: Optional[float]  # None: chosen from gravity and step
     bodies: tuple[BodySpec, ...]
     forces: tuple[ForceSpec, ...]
@@ -315,6 +316,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         publish_odometry=publish.boolean("odometry", False),
         publish_markers=publish.boolean("markers", False),
         publish_diagnostics=publish.boolean("diagnostics", False),
+        publish_tf=publish.boolean("tf", True),
         restitution_threshold=(root.number("restitution_threshold", minimum=0.0)
                                if root.has("restitution_threshold") else None),
         bodies=bodies,
