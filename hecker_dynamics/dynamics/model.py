@@ -23,6 +23,7 @@ from ..geometry.planar import perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
 from ..contact.solver import ContactPass
+from ..contact.joints import JointPass
 
 
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
@@ -62,6 +63,10 @@ class Model:
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene))
             if scene.walls or scene.collisions else None)
+        self.joints: Optional[JointPass] = JointPass(self) if scene.joints else None
+        if self.joints is not None and self.contacts is not None:
+            for pair in self.joints.connected:  # joined bodies do not collide by default
+                self.contacts.pairs.pop(pair, None)
 
     @property
     def inputs(self) -> Optional[ConstantWrenchTerm]:
@@ -118,6 +123,8 @@ class Model:
             mask[term.turns] = True
         if self.contacts is not None:
             mask[self.contacts.bodies] = True
+        if self.joints is not None:
+            mask[self.joints.bodies] = True
         return mask
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -110,7 +110,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
             self.integrator.colouring_source = self.model.jacobian_colouring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = compiled_steps(self.model, self.integrator)
+        self._compiled = (compiled_steps(self.model, self.integrator)
+                          if self.model.joints is None else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -128,6 +129,8 @@ class Simulation:
         self.integrator.reset()
         if self.model.contacts is not None:
             self.model.contacts.reset()
+        if self.model.joints is not None:
+            self.model.joints.reset(self.q)
 
     @property
     def time_ns(self) -> int:
@@ -257,11 +260,16 @@ class Simulation:
         return True
 
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """One integrator step and the contact pass; split into sub-steps when a colliding
-        body would otherwise move more than half the thinnest colliding part."""
+        """One integrator step, the joint pass and the contact pass; split into sub-steps
+        when a colliding body would otherwise move more than half the thinnest colliding
+        part. Joints go first so that the contacts have the last word on overlap; what a
+        contact impulse does to a joint the next step's joint pass corrects, positions
+        only."""
         f = self.model.accelerations
         q1, v1 = self.integrator.step(f, q, v, h)
-        contacts = self.model.contacts
+        contacts, joints = self.model.contacts, self.model.joints
+        if joints is not None:
+            joints.resolve(q, q1, v1, h)
         if contacts is None:
             return q1, v1
         parts = contacts.substeps(q, q1)
@@ -270,6 +278,8 @@ class Simulation:
             return q1, v1
         for _ in range(parts):
             q1, v1 = self.integrator.step(f, q, v, h / parts)
+            if joints is not None:
+                joints.resolve(q, q1, v1, h / parts)
             contacts.resolve(q1, v1, v, h / parts)
             q, v = q1, v1
         return q, v
