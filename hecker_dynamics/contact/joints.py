@@ -270,6 +270,7 @@ class JointPass:
         self.bodies = np.array(involved, dtype=int)
         local_index = {body: i for i, body in enumerate(involved)}
         self.specs = specs
+        self._named = named
         self._frames: dict[str, tuple[_Frame, _Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):
@@ -288,6 +289,7 @@ class JointPass:
         self.connected = sorted({tuple(sorted((model.index[s.body_a], model.index[s.body_b])))
                                  for s in specs if not isinstance(s, GearJoint)
                                  and s.body_a is not None and not s.collide_connected})
+        #: Each motor's target speed, which a command may change between steps.
         self.motor_speed = {s.name: s.motor.speed for s in specs
                             if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
         self._initial: Optional[np.ndarray] = None
@@ -314,7 +316,7 @@ class JointPass:
         for name, (a, b) in self._frames.items():
             pa, pb = a.place(start), b.place(start)
             relative = pb[4] - pa[4]
-            spec = next(s for s in self.specs if s.name == name)
+            spec = self._named[name]
             along = 0.0
             if isinstance(spec, PrismaticJoint):
                 ux, uy = self._axis(spec, pa[4])
@@ -378,8 +380,7 @@ class JointPass:
                 angle = self._joint_angle(name, pa, pb)
                 entries = _angle_entries(a.body, b.body)
                 rows += _bounded_rows(name, angle, entries, spec.lower, spec.upper,
-                                      spec.motor and Motor(self.motor_speed[name],
-                                                           spec.motor.max_effort), h)
+                                      self._motor(spec), h)
                 if spec.spring is not None:
                     rows.append(JointRow((name, "spring"), SOFT,
                                          angle - spec.spring.rest_angle, entries,
@@ -404,8 +405,7 @@ class JointPass:
                                      _angle_entries(a.body, b.body)))
                 along = self._coordinate(spec, q)
                 rows += _bounded_rows(name, along.c, along.entries, spec.lower, spec.upper,
-                                      spec.motor and Motor(self.motor_speed[name],
-                                                           spec.motor.max_effort), h)
+                                      self._motor(spec), h)
             else:  # DistanceJoint
                 dx, dy = pb[0] - pa[0], pb[1] - pa[1]
                 length = math.hypot(dx, dy)
@@ -417,6 +417,12 @@ class JointPass:
                 else:
                     rows.append(JointRow((name, "rod"), RIGID, length - spec.length, entries))
         return rows
+
+    def _motor(self, spec: Union[RevoluteJoint, PrismaticJoint]) -> Optional[Motor]:
+        """The joint's motor at the speed commanded now (:attr:`motor_speed`)."""
+        if spec.motor is None:
+            return None
+        return Motor(self.motor_speed[spec.name], spec.motor.max_effort)
 
     def _gear_row(self, spec: GearJoint, q: np.ndarray) -> JointRow:
         """angle_a + ratio angle_b = 0 over the two revolute joints' bodies."""
