@@ -45,6 +45,7 @@ setup(
     packages=["hecker_dynamics", "hecker_dynamics.bags", "hecker_dynamics.bench",
               "hecker_dynamics.contact", "hecker_dynamics.dynamics", "hecker_dynamics.geometry",
               "hecker_dynamics.integrators", "hecker_dynamics.ros", "hecker_dynamics.scene",
+              "hecker_dynamics.viz",
               "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;
@@ -56,10 +57,16 @@ setup(
                            depends=KERNEL_HEADERS, include_dirs=["src/kernel"],
                            optional=True)],
     cmdclass={"build_ext": KernelBuildExt},
-    install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10"],
+    # tqdm: the command line's progress bars (replay, render).
+    install_requires=["numpy>=1.26", "pyyaml>=5.4", "rosbags>=0.10", "tqdm>=4.60"],
     extras_require={
-        "test": ["pytest>=7", "catkin_pkg>=0.5"],
+        # The viz tests read rendered pictures back, so the test extra carries the viz one.
+        "test": ["pytest>=7", "catkin_pkg>=0.5", "matplotlib>=3.6", "Pillow>=9"],
+        # scripts/lint.sh: ruff and mypy as pyproject.toml configures them.
+        "lint": ["ruff>=0.8", "mypy>=1.10"],
         "figures": ["matplotlib>=3.6"],
+        # `hecker-dynamics render`, `plot` and `run --view` (MP4 also needs imageio-ffmpeg).
+        "viz": ["matplotlib>=3.6", "Pillow>=9"],
         # Peers for `hecker-dynamics bench` (each optional; the bench skips what is missing).
         "bench": ["pymunk>=6", "box2d-py>=2.3.8", "mujoco>=3.1", "matplotlib>=3.6"],
     },

@@ -1,11 +1,14 @@
 """``hecker-dynamics``: run scenes without ROS.
 
-    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S]
+    hecker-dynamics run [SCENE] [--duration S] [--integrator NAME] [--step S] [--view]
     hecker-dynamics scenes
     hecker-dynamics script SCENE -o INPUT_BAG
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
+    hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
+                           [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
+    hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
 """
 from __future__ import annotations
 
@@ -22,6 +25,9 @@ from .bags.io import STORAGES, BagError
 from .dynamics.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
+from .viz.commands import add_viz_commands, view_run
+from .viz.frames import VizError
+from .viz.progress import Progress, stderr_is_terminal
 
 
 def _time_ns(text: str) -> int:
@@ -71,16 +77,19 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         if scene.publish_period_ns % args.step:
             step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
             raise SceneError(f"--step {step}: the publish period "
-                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number of steps")
+                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number "
+                             "of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration
     return dataclasses.replace(scene, **changes)
 
 
-def run(args: argparse.Namespace) -> int:
+def run_command(args: argparse.Namespace) -> int:
     """Run a scene with its scripted inputs and print a summary."""
     scene = configure(load_scene(args.scene), args)
+    if args.view:
+        view_run(scene)
     sim = Simulation(scene)
     first = sim.snapshot()
     started = time.perf_counter()
@@ -103,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def scenes(args: argparse.Namespace) -> int:
+def scenes_command(args: argparse.Namespace) -> int:
     """List the shipped scenes."""
     for name in shipped_scenes():
         print(name)
@@ -122,39 +131,8 @@ def _tolerance(text: str) -> float:
     return value
 
 
-class _Progress:
-    """A progress bar on stderr, redrawn at most once per percent."""
-
-    WIDTH = 30
-
-    def __init__(self, label: str, total_s: float) -> None:
-        self.label = label
-        self.total_s = total_s
-        self.shown = -1
-
-    def __call__(self, fraction: float) -> None:
-        percent = int(100 * min(max(fraction, 0.0), 1.0))
-        if percent == self.shown:
-            return
-        self.shown = percent
-        filled = self.WIDTH * percent // 100
-        bar = "#" * filled + "." * (self.WIDTH - filled)
-        sys.stderr.write(f"\r{self.label} [{bar}] {percent:3d}% of {self.total_s:g} s sim time")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.shown >= 0:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
 def _want_progress(args: argparse.Namespace) -> bool:
-    if args.progress is not None:
-        return args.progress
-    try:
-        return sys.stderr.isatty()
-    except (AttributeError, ValueError):
-        return False
+    return args.progress if args.progress is not None else stderr_is_terminal()
 
 
 def _tolerances(args: argparse.Namespace):
@@ -167,7 +145,7 @@ def _tolerances(args: argparse.Namespace):
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
-def script(args: argparse.Namespace) -> int:
+def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import script_to_bag
 
@@ -184,14 +162,17 @@ def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
     from .bags.io import read_bag
     from .bags.compare import compare_contents
-    from .bags.replay import (check_bag_for_scene, input_topics, output_topics, outputs_as_bag,
+    from .bags.live import is_live_recording
+    from .bags.replay import (check_bag_for_scene, input_topics, output_types, outputs_as_bag,
                          replay_outputs, replay_to_bag, session_times)
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     scene = load_scene(args.scene)
     bag = read_bag(args.input)
-    outputs = output_topics(scene)
+    if is_live_recording(bag):
+        return _replay_live(args, scene, bag)
+    outputs = output_types(scene)
     expected_topics = [t for t in outputs if t in bag.topics]
     if args.check:
         check_bag_for_scene(scene, bag, need_inputs=not args.play_script)
@@ -202,7 +183,8 @@ def replay_command(args: argparse.Namespace) -> int:
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected)
-    progress = _Progress("replay", (end - start) * 1e-9) if _want_progress(args) else None
+    progress = Progress("replay", (end - start) * 1e-9, enabled=True) \
+        if _want_progress(args) else None
     try:
         if args.output is not None:
             result = replay_to_bag(scene, bag, Path(args.output), storage=args.storage,
@@ -242,6 +224,49 @@ def replay_command(args: argparse.Namespace) -> int:
         print(report.text())
     print(f"check against the outputs recorded in {args.input}: {report.summary()}")
     return 0 if ok else 1
+
+
+def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
+    """Replay a session recorded from the node with its session records (bags.live)."""
+    from .bags.io import BagWriter
+    from .bags.live import check_live
+    from .bags.replay import output_types
+
+    given = [name for name, value in (("--start", args.start is not None),
+                                      ("--duration", args.duration is not None),
+                                      ("--play-script", args.play_script),
+                                      ("--skip-rejected", args.skip_rejected)) if value]
+    if given:
+        raise BagError(f"{args.input}: a recorded session replays with the options the node "
+                       f"recorded; {', '.join(given)} do not apply to it")
+    check = check_live(scene, bag, tolerances=_tolerances(args))
+    if args.output is not None:
+        with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
+                       custom_data={"scene": Path(scene.source).stem},
+                       compress=args.compress) as writer:
+            for topic, msgtype in output_types(scene).items():
+                writer.add_topic(topic, msgtype)
+            for output in sorted(check.outputs, key=lambda o: o.log_ns):
+                writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
+    print(f"replayed {check.sessions} session(s) of {args.input} on scene {scene.source} from "
+          f"the node's records: {check.events} input event(s), {check.keyframes_checked} "
+          f"keyframe(s) compared, {len(check.outputs)} output message(s)"
+          + (f" written to {args.output}" if args.output else ""))
+    for note in check.notes:
+        print(f"hecker-dynamics: note: {note}", file=sys.stderr)
+    if check.halted:
+        print(f"hecker-dynamics: error: {check.halted}", file=sys.stderr)
+        return 2
+    if not args.check:
+        return 0
+    for problem in check.problems:
+        print(f"MISMATCH: {problem}")
+    if not check.report.ok or args.verbose:
+        print(check.report.text())
+    summary = check.report.summary() if not check.problems or not check.report.ok else \
+        f"mismatch: {len(check.problems)} recorded decision(s) or state(s) differ"
+    print(f"check against the outputs recorded in {args.input}: {summary}")
+    return 0 if check.ok else 1
 
 
 def compare_command(args: argparse.Namespace) -> int:
@@ -296,7 +321,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     script_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the scene's duration)")
     _add_writer_options(script_parser)
-    script_parser.set_defaults(handler=script)
+    script_parser.set_defaults(handler=script_command)
 
     replay_parser = commands.add_parser(
         "replay", help="replay an input bag on a scene and write the node's outputs",
@@ -411,13 +436,16 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
-    run_parser.set_defaults(handler=run)
+    run_parser.add_argument("--view", action="store_true",
+                            help="show the run in a window (needs a display and the viz extra)")
+    run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
                                       description="List the shipped scenes.")
-    list_parser.set_defaults(handler=scenes)
+    list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)
+    add_viz_commands(commands, seconds=_time_ns)
     return top
 
 
@@ -425,7 +453,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.handler(args)
-    except (SceneError, InputError, DivergenceError, BagError) as error:
+    except (SceneError, InputError, DivergenceError, BagError, VizError) as error:
         print(f"hecker-dynamics: error: {error}", file=sys.stderr)
         return 2
 

@@ -41,7 +41,7 @@ def box_body(size=(1.0, 0.5), mass=2.0, **state: Any) -> dict[str, Any]:
 
 
 def box_inertia(mass: float, width: float, height: float) -> float:
-    """Closed form for a uniform rectangle about its centre: m (w^2 + h^2) / 12."""
+    """Closed form for a uniform rectangle about its center: m (w^2 + h^2) / 12."""
     return mass * (width ** 2 + height ** 2) / 12.0
 
 

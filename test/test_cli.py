@@ -77,9 +77,9 @@ def _assert_clean_error(capsys, code, *fragments):
 
 def test_bad_scene_file_exits_2_naming_file_and_parameter(tmp_path, capsys):
     path = write_scene(tmp_path, {"bodies": {"a": {"shape": "box", "size": [1.0, 1.0],
-                                                   "mass": 1.0, "colour": "red"}}},
+                                                   "mass": 1.0, "color": "red"}}},
                        "bad.yaml")
-    _assert_clean_error(capsys, main(["run", str(path)]), str(path), "bodies.a.colour")
+    _assert_clean_error(capsys, main(["run", str(path)]), str(path), "bodies.a.color")
 
 
 def test_unknown_scene_name_exits_2(capsys):

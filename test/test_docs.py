@@ -53,8 +53,8 @@ def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
     monkeypatch.setattr(parameters.ParameterReader, "_get", spy)
     make_scene(EVERY_FEATURE)
     # Names of this scene's own bodies, forces, ... are not parameters.
-    own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick", *EVERY_FORCE["forces"],
-           "pin", "rail", "glue", "rod", "rope", "mesh", "hinge"}
+    own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick",
+           *EVERY_FORCE["forces"], "pin", "rail", "glue", "rod", "rope", "mesh", "hinge"}
     undocumented = sorted(key for key in read - own
                           if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
     assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"
@@ -76,3 +76,59 @@ def test_the_readme_command_lines_parse():
                  "RECORDED_BAG": "rec", "EXPECTED_BAG": "a", "ACTUAL_BAG": "b", "S": "1",
                  "NAME": "rk4", "T": "1e-6", "A": "1e-6"}.get(w, w) for w in words[1:]]
         parser().parse_args(args)
+
+
+#: The article's equations by their numbers in "Physics, Part 2: Angular Effects" (the
+#: README's "The article, step by step, in the code"), each with the words of which one must
+#: stand in the text that cites it, so that a citation with the wrong number fails: F = M a
+#: is Eq. 5, not Eq. 4.
+EQUATION_WORDS = {
+    1: ("derivative",),
+    3: ("center of mass", "centroid"),
+    5: ("f = m a", "force"),
+    6: ("angle", "angular acceleration"),
+    9: ("body point", "point's velocity", "v_p ="),
+    10: ("angular momentum",),
+    11: ("torque",),
+    13: ("moment of inertia",),
+    14: ("tau = i alpha", "torque / i", "over inertia", "angular acceleration"),
+}
+_CITATION = re.compile(r"\b(?:Eq|Eqs|Equation|Equations)\.?\s*\d+"
+                       r"(?:(?:\s*,\s*|\s+and\s+)(?:(?:Eq|Eqs|Equation|Equations)\.?\s*)?\d+)*")
+#: How far before a citation its words may stand (they must also follow the previous one).
+_REACH = 160
+_SOURCES = ("*.py", "*.md", "*.c", "*.h", "*.txt", "*.toml", "*.cfg", "*.xml", "run")
+
+
+def _citations() -> list[tuple[str, list[int], str, str]]:
+    """(file, cited numbers, the citation as written, the text before it) across the tree."""
+    found = []
+    for pattern in _SOURCES:
+        for path in sorted(ROOT.rglob(pattern)):
+            relative = path.relative_to(ROOT)
+            if path == Path(__file__).resolve() or any(
+                    part.startswith((".", "build")) for part in relative.parts):
+                continue
+            # Lines joined, with the comment leaders of C, Python and Markdown dropped.
+            text = re.sub(r"\s*\n\s*(?:\*|#+|//|\|)?\s*", " ", path.read_text(errors="replace"))
+            end = 0
+            for match in _CITATION.finditer(text):
+                before = text[max(end, match.start() - _REACH):match.start()]
+                numbers = [int(n) for n in re.findall(r"\d+", match.group())]
+                found.append((str(relative), numbers, match.group(), before))
+                end = match.end()
+    return found
+
+
+def test_equation_citations_name_the_right_numbers():
+    citations = _citations()
+    assert len(citations) >= 15  # the scan reached the docstrings, the docs and the C
+    wrong = [f"{file}: {cited!r} after ...{before[-60:]!r}"
+             for file, numbers, cited, before in citations for n in numbers
+             if not any(word in before.lower() for word in EQUATION_WORDS.get(n, ()))]
+    assert not wrong, "equation numbers that do not fit their text:\n" + "\n".join(wrong)
+
+
+def test_equations_are_cited_in_one_form():
+    forms = {re.match(r"\D+", cited).group().strip() for _, _, cited, _ in _citations()}
+    assert forms == {"Eq."}

@@ -47,7 +47,7 @@ class Tolerances:
     velocity: float = DEFAULT_ATOL
 
     @classmethod
-    def uniform(cls, atol: float) -> "Tolerances":
+    def uniform(cls, atol: float) -> Tolerances:
         return cls(atol, atol, atol)
 
 

@@ -9,7 +9,7 @@ The custom ``hecker_dynamics/msg/AppliedWrench`` type is registered from its ``.
 looked up where each kind of install keeps it (:func:`applied_wrench_msg_path`), so the
 definition in a bag is always the package's own.
 
-Message contents come from :mod:`hecker_dynamics.ros.mapping` (the ``*_fields`` functions the
+Message contents come from :mod:`hecker_dynamics.ros` (the ``*_fields`` functions the
 node uses too); this module only copies those fields into rosbags message objects.
 """
 from __future__ import annotations
@@ -26,18 +26,31 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from ..dynamics.commands import WrenchCommand
-from ..ros.mapping import (AppliedWrenchFields, DiagnosticFields, Header, MarkerFields,
-                      OdometryFields, Pose, PoseStampedFields, TwistFields,
-                      applied_wrench_fields, ns_from_stamp, stamp_from_ns)
+from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
+                          TwistFields, applied_wrench_fields, header, ns_from_stamp,
+                          stamp_from_ns)
+from ..ros.diagnostics import DiagnosticFields
+from ..ros.markers import MarkerFields
+from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
+                           SessionFields, WorldChange, WorldEventFields)
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
     "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter", "NODE_QOS",
-    "STORAGES", "applied_wrench_msg_path", "typestore", "read_bag", "resolve_topic",
+    "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
+    "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
+    "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
+    "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
+SESSION_INFO = "hecker_dynamics/msg/SessionInfo"
+KEYFRAME = "hecker_dynamics/msg/Keyframe"
+INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
+WORLD_EVENT = "hecker_dynamics/msg/WorldEvent"
+#: The package's own interfaces, each defined in ``msg/<Name>.msg``.
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TWIST = "geometry_msgs/msg/Twist"
@@ -61,29 +74,33 @@ class BagError(Exception):
 
 # ----------------------------------------------------------------------------- types
 
-def applied_wrench_msg_path() -> Path:
-    """The package's ``AppliedWrench.msg``: source tree, pip install, or ament share dir."""
+def message_definition_path(msgtype: str = APPLIED_WRENCH) -> Path:
+    """The package's ``<Name>.msg`` of ``msgtype``: source tree, pip install, or ament share
+    dir."""
+    name = msgtype.rsplit("/", 1)[-1] + ".msg"
     package = Path(__file__).resolve().parents[1]
     candidates = [package.parent / "msg", package / "interfaces"]
     for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
         if prefix:
             candidates.append(Path(prefix) / "share" / "hecker_dynamics" / "msg")
     for directory in candidates:
-        path = directory / "AppliedWrench.msg"
+        path = directory / name
         if path.is_file():
             return path
-    raise BagError("cannot find AppliedWrench.msg (looked in "
+    raise BagError(f"cannot find {name} (looked in "
                    + ", ".join(str(c) for c in candidates) + ")")
 
 
 @lru_cache(maxsize=1)
 def typestore() -> Any:
-    """A ROS 2 Jazzy typestore with ``hecker_dynamics/msg/AppliedWrench`` registered."""
+    """A ROS 2 Jazzy typestore with the package's messages registered."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS2_JAZZY)
-    path = applied_wrench_msg_path()
-    store.register(get_types_from_msg(path.read_text(), APPLIED_WRENCH))
+    types: dict[str, Any] = {}
+    for msgtype in PACKAGE_MESSAGES:
+        types.update(get_types_from_msg(message_definition_path(msgtype).read_text(), msgtype))
+    store.register(types)
     return store
 
 
@@ -98,6 +115,14 @@ def _node_qos() -> list[Any]:
 
 
 NODE_QOS = _node_qos()
+
+
+def latched_qos(depth: int) -> list[Any]:
+    """The QoS of the node's session records: reliable, transient_local, keep-last ``depth``
+    (what ``ros2 bag record`` stores for them, and what ``ros2 bag play`` offers again)."""
+    from rosbags.interfaces import QosDurability
+
+    return [NODE_QOS[0]._replace(depth=depth, durability=QosDurability.TRANSIENT_LOCAL)]
 
 
 def resolve_topic(name: str, namespace: str = "/") -> str:
@@ -172,19 +197,20 @@ def pose_message(fields: Pose) -> Any:
 
 
 def pose_stamped_message(fields: PoseStampedFields) -> Any:
-    """``geometry_msgs/PoseStamped`` from :func:`mapping.pose_fields`."""
+    """``geometry_msgs/PoseStamped`` from :func:`~hecker_dynamics.ros.fields.pose_fields`."""
     return default_message(POSE_STAMPED, header=header_message(fields.header),
                            pose=pose_message(fields.pose))
 
 
 def twist_message(fields: TwistFields) -> Any:
-    """``geometry_msgs/Twist`` from :func:`mapping.twist_fields`."""
+    """``geometry_msgs/Twist`` from :func:`~hecker_dynamics.ros.fields.twist_fields`."""
     return default_message(TWIST, linear=_vector("geometry_msgs/msg/Vector3", fields.linear),
                            angular=_vector("geometry_msgs/msg/Vector3", fields.angular))
 
 
 def odometry_message(fields: OdometryFields) -> Any:
-    """``nav_msgs/Odometry`` from :func:`mapping.odometry_fields` (covariances zero)."""
+    """``nav_msgs/Odometry`` from :func:`~hecker_dynamics.ros.fields.odometry_fields`
+    (covariances zero)."""
     return default_message(
         ODOMETRY, header=header_message(fields.header), child_frame_id=fields.child_frame_id,
         pose=default_message("geometry_msgs/msg/PoseWithCovariance",
@@ -205,12 +231,14 @@ def marker_message(fields: MarkerFields) -> Any:
 
 
 def marker_array_message(markers: Iterable[MarkerFields]) -> Any:
-    """``visualization_msgs/MarkerArray`` from :func:`mapping.marker_fields` results."""
+    """``visualization_msgs/MarkerArray`` from
+    :func:`~hecker_dynamics.ros.markers.marker_fields` results."""
     return default_message(MARKER_ARRAY, markers=[marker_message(m) for m in markers])
 
 
 def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
-    """``diagnostic_msgs/DiagnosticArray`` with one status from :func:`mapping.diagnostic_fields`."""
+    """``diagnostic_msgs/DiagnosticArray`` with one status from
+    :func:`~hecker_dynamics.ros.diagnostics.diagnostic_fields`."""
     status = default_message(
         "diagnostic_msgs/msg/DiagnosticStatus", level=int(fields.level), name=fields.name,
         message=fields.message, hardware_id=fields.hardware_id,
@@ -220,7 +248,8 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
 
 
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
-    """``hecker_dynamics/msg/AppliedWrench`` from :func:`mapping.applied_wrench_fields`."""
+    """``hecker_dynamics/msg/AppliedWrench`` from
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
     dsec, dnanosec = fields.duration
     return default_message(
         APPLIED_WRENCH, header=header_message(fields.header), body=fields.body, id=fields.id,
@@ -236,7 +265,7 @@ def applied_wrench_message(stamp_ns: int, frame_id: str, body: str, source: str,
                            point: Sequence[float], force: Sequence[float], torque: float,
                            duration_ns: int) -> Any:
     """A ``hecker_dynamics/msg/AppliedWrench`` with an in-plane wrench (the inverse of
-    :func:`mapping.applied_wrench_to_command`)."""
+    :func:`~hecker_dynamics.ros.fields.applied_wrench_to_command`)."""
     return applied_wrench_msg(applied_wrench_fields(WrenchCommand(
         stamp_ns, body, source, frame_id, (point[0], point[1]), (force[0], force[1]),
         torque, duration_ns)))
@@ -252,6 +281,87 @@ def wrench_stamped_message(stamp_ns: int, frame_id: str, force: Sequence[float],
             "geometry_msgs/msg/Wrench",
             force=_vector("geometry_msgs/msg/Vector3", (force[0], force[1], 0.0)),
             torque=_vector("geometry_msgs/msg/Vector3", (0.0, 0.0, torque))))
+
+
+def session_info_message(fields: SessionFields) -> Any:
+    """``hecker_dynamics/msg/SessionInfo`` of a session record."""
+    return default_message(
+        SESSION_INFO, header=header_message(header(fields.frame_id, fields.start_ns)),
+        session=fields.session, reason=fields.reason, scene=fields.scene,
+        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
+        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
+        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
+        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
+        version=fields.version)
+
+
+def session_fields(msg: Any) -> SessionFields:
+    """The session record of a ``SessionInfo`` message (the inverse of
+    :func:`session_info_message`)."""
+    return SessionFields(
+        stamp_ns_of(msg) or 0, msg.header.frame_id, int(msg.session), msg.reason, msg.scene,
+        msg.fingerprint, msg.integrator, int(msg.step_ns), int(msg.publish_period_ns),
+        bool(msg.play_script), bool(msg.lockstep), int(msg.max_catch_up_steps),
+        int(msg.keyframe_period_ns), int(msg.next_event), msg.version)
+
+
+def keyframe_message(fields: KeyframeFields) -> Any:
+    """``hecker_dynamics/msg/Keyframe`` of a keyframe record."""
+    return default_message(
+        KEYFRAME, header=header_message(header("", fields.stamp_ns)), session=fields.session,
+        steps=fields.steps, next_event=fields.next_event, bodies=list(fields.bodies),
+        q=np.array(fields.q, dtype=np.float64), v=np.array(fields.v, dtype=np.float64),
+        state=fields.state)
+
+
+def keyframe_fields(msg: Any) -> KeyframeFields:
+    """The keyframe record of a ``Keyframe`` message."""
+    return KeyframeFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.steps),
+                          int(msg.next_event), tuple(msg.bodies),
+                          tuple(float(x) for x in msg.q), tuple(float(x) for x in msg.v),
+                          msg.state)
+
+
+def input_event_message(fields: InputEventFields) -> Any:
+    """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
+    rosbags ``AppliedWrench`` or ``WrenchStamped``)."""
+    wrench_stamped = fields.kind == WRENCH_STAMPED_EVENT
+    sec, nanosec = stamp_from_ns(fields.arrival_ns)
+    return default_message(
+        INPUT_EVENT, header=header_message(header("", fields.stamp_ns)),
+        session=max(fields.session, 0), sequence=fields.sequence, topic=fields.topic,
+        arrival=default_message("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
+        kind=fields.kind,
+        applied_wrench=default_message(APPLIED_WRENCH) if wrench_stamped else fields.message,
+        wrench_stamped=fields.message if wrench_stamped else default_message(WRENCH_STAMPED),
+        accepted=fields.accepted, reason=fields.reason)
+
+
+def input_event_fields(msg: Any) -> InputEventFields:
+    """The input event record of an ``InputEvent`` message; ``message`` is the input."""
+    kind = int(msg.kind)
+    return InputEventFields(
+        stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence), msg.topic,
+        ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
+        msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else msg.applied_wrench,
+        bool(msg.accepted), msg.reason)
+
+
+def world_event_message(fields: WorldEventFields) -> Any:
+    """``hecker_dynamics/msg/WorldEvent`` of a world change record."""
+    return default_message(
+        WORLD_EVENT, header=header_message(header("", fields.stamp_ns)),
+        session=max(fields.session, 0), sequence=fields.sequence, kind=int(fields.kind),
+        body=fields.body, values=np.array(fields.values, dtype=np.float64),
+        time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+
+
+def world_event_fields(msg: Any) -> WorldEventFields:
+    """The world change record of a ``WorldEvent`` message."""
+    return WorldEventFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence),
+                            WorldChange(int(msg.kind)), msg.body,
+                            tuple(float(x) for x in msg.values), int(msg.time_ns),
+                            bool(msg.accepted), msg.reason)
 
 
 def stamp_ns_of(msg: Any) -> Optional[int]:
@@ -432,7 +542,7 @@ class BagWriter:
         self._types: dict[str, str] = {}
         self.count = 0
 
-    def __enter__(self) -> "BagWriter":
+    def __enter__(self) -> BagWriter:
         self.open()
         return self
 
@@ -470,8 +580,9 @@ class BagWriter:
             shutil.rmtree(self._tmp, ignore_errors=True)
             raise BagError(f"{self.path}: cannot create the bag ({_describe(error)})") from None
 
-    def add_topic(self, topic: str, msgtype: str) -> None:
-        """Declare ``topic`` now (so it appears in the bag even with no messages)."""
+    def add_topic(self, topic: str, msgtype: str, qos: Optional[list[Any]] = None) -> None:
+        """Declare ``topic`` now (so it appears in the bag even with no messages), offered
+        with ``qos`` (default: the node's output QoS)."""
         if topic in self._connections:
             if self._types[topic] != msgtype:
                 raise BagError(f"topic '{topic}' written with two types, {self._types[topic]} "
@@ -479,7 +590,7 @@ class BagWriter:
             return
         self._connections[topic] = self._writer.add_connection(
             topic, msgtype, typestore=typestore(), serialization_format="cdr",
-            offered_qos_profiles=NODE_QOS)
+            offered_qos_profiles=NODE_QOS if qos is None else qos)
         self._types[topic] = msgtype
 
     def write(self, topic: str, msgtype: str, log_ns: int, msg: Any) -> bytes:

@@ -6,7 +6,7 @@ The rules are the node's (``hecker_dynamics.ros.node``, non-lockstep):
   scene's scripted commands that are due (only with ``play_script``), steps up to the tick
   and publishes the snapshots it passed (at the publish instants ``start + k * period``).
 - A message that arrives between two ticks (its bag log time is the arrival time) is
-  mapped by :mod:`hecker_dynamics.ros.mapping` with its log time as receive time (a zero header
+  mapped by :mod:`hecker_dynamics.ros.fields` with its log time as receive time (a zero header
   stamp means "on arrival") and pushed while the simulation stands at the earlier tick.
   Stamps decide when a command acts; the input buffer applies them to the step.
 - Rejected inputs (NaN, expired, too far ahead) are counted and skipped, as the node logs
@@ -29,16 +29,17 @@ from typing import Any, Optional
 from . import io as bags
 from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
                    BagWriter, resolve_topic)
-from ..dynamics.commands import InputError, WrenchCommand
-from ..ros.mapping import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, Runner,
-                      applied_wrench_fields, applied_wrench_to_command, header,
-                      snapshot_outputs as snapshot_fields, wrench_stamped_to_command)
-from ..ros.mapping import output_topics as node_output_topics
+from ..dynamics.commands import InputError
+from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
+                          wrench_stamped_to_command)
+from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics,
+                           snapshot_outputs)
+from ..ros.runner import Runner
 from ..scene.load import Scene, WrenchTopic
 from ..dynamics.simulation import Snapshot
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
-           "output_topics", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
+           "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene"]
 
 APPLIED_WRENCH_TOPIC = "/applied_wrench"
@@ -87,9 +88,10 @@ def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[WrenchTopic]]]:
     return topics
 
 
-def output_topics(scene: Scene) -> dict[str, str]:
-    """Output topics of the node for ``scene`` (topic -> type), in publishing order."""
-    return {resolve_topic(topic): kind.value for topic, kind in node_output_topics(scene).items()}
+def output_types(scene: Scene) -> dict[str, str]:
+    """The node's output topics for ``scene`` as a bag names them, with their message
+    types (topic -> type), in publishing order."""
+    return {resolve_topic(topic): kind.value for topic, kind in output_topics(scene).items()}
 
 
 def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = True) -> None:
@@ -113,7 +115,7 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
         raise ReplayError(f"{bag.path}: the bag has poses of bodies the scene "
                           f"{scene.source} does not have ({', '.join(foreign)}; the scene's "
                           f"bodies: {', '.join(sorted(bodies))})")
-    _check_types(bag, output_topics(scene))
+    _check_types(bag, output_types(scene))
 
 
 def _check_types(bag: BagContents, topics: dict[str, str]) -> None:
@@ -170,24 +172,17 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
 
 @dataclass(frozen=True)
 class _Input:
-    """An input message, mapped as the node maps it on arrival (at its log time)."""
+    """An input message of the bag, at its log time (the node's arrival time)."""
 
     log_ns: int
     topic: str
-    command: Optional[WrenchCommand]
-    warnings: tuple[str, ...]
-    error: Optional[InputError]
-
-    def convert(self, _arrival_ns: int) -> tuple[WrenchCommand, list[str]]:
-        if self.error is not None:
-            raise self.error
-        assert self.command is not None
-        return self.command, list(self.warnings)
+    msg: Any
+    wrench_topic: Optional[WrenchTopic]
 
 
 def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
               result: ReplayResult) -> list[_Input]:
-    """Map the bag's input messages to commands, in log-time order.
+    """The bag's input messages in log-time order, checked against the scene.
 
     Unless ``skip_rejected``, commands for bodies or frames the scene does not have make
     the replay fail: the bag most likely belongs to another scene. With it, they go on to
@@ -203,20 +198,20 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         msgtype, wrench_topic = topics[message.topic]
         msg = message.decode()
         result.inputs += 1
+        inputs.append(_Input(message.log_ns, message.topic, msg, wrench_topic))
+        if skip_rejected:
+            continue
         try:
             if wrench_topic is None:
-                command, warnings = applied_wrench_to_command(msg, message.log_ns)
+                command, _ = applied_wrench_to_command(msg, message.log_ns)
             else:
-                command, warnings = wrench_stamped_to_command(msg, wrench_topic, message.log_ns)
-        except InputError as error:
-            inputs.append(_Input(message.log_ns, message.topic, None, (), error))
-            continue
-        if not skip_rejected:
-            if command.body not in bodies:
-                unfit.append(f"unknown body '{command.body}'")
-            elif not scene.has_frame(command.frame_id):
-                unfit.append(f"unknown frame '{command.frame_id}'")
-        inputs.append(_Input(message.log_ns, message.topic, command, tuple(warnings), None))
+                command, _ = wrench_stamped_to_command(msg, wrench_topic, message.log_ns)
+        except InputError:
+            continue  # the node rejects it too, and the replay counts it
+        if command.body not in bodies:
+            unfit.append(f"unknown body '{command.body}'")
+        elif not scene.has_frame(command.frame_id):
+            unfit.append(f"unknown frame '{command.frame_id}'")
     if unfit:
         distinct = sorted(set(unfit))
         raise ReplayError(
@@ -239,9 +234,9 @@ def _output(fields: OutputFields, log_ns: int) -> Output:
                   _MESSAGE_BUILDERS[fields.kind](fields.fields))
 
 
-def snapshot_outputs(scene: Scene, snapshot: Snapshot) -> list[Output]:
+def snapshot_messages(scene: Scene, snapshot: Snapshot) -> list[Output]:
     """The messages the node publishes for one snapshot, in its publishing order."""
-    return [_output(fields, snapshot.time_ns) for fields in snapshot_fields(scene, snapshot)]
+    return [_output(fields, snapshot.time_ns) for fields in snapshot_outputs(scene, snapshot)]
 
 
 # ----------------------------------------------------------------------------- replay
@@ -268,7 +263,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         tick = runner.advance(target_ns)
         result.rejected.extend(tick.script_errors)
         for snapshot in tick.snapshots:
-            for output in snapshot_outputs(scene, snapshot):
+            for output in snapshot_messages(scene, snapshot):
                 emit(output)
                 result.outputs += 1
         if tick.diagnostics is not None:
@@ -290,7 +285,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         while next_input < len(inputs) and inputs[next_input].log_ns < target:
             item = inputs[next_input]
             next_input += 1
-            for line in runner.accept(item.topic, item.convert, item.log_ns):
+            for line in runner.accept(item.topic, item.msg, item.log_ns, item.wrench_topic):
                 if line.dropped:
                     result.rejected.append(f"at {item.log_ns * 1e-9:.9f} s: {line.message}")
                 else:
@@ -326,7 +321,7 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
                 if topic in bag.topics:
                     writer.add_topic(topic, msgtype)
             pending = [m for m in bag.messages if m.topic in inputs]
-        for topic, msgtype in output_topics(scene).items():
+        for topic, msgtype in output_types(scene).items():
             writer.add_topic(topic, msgtype)
         position = 0
 
@@ -363,7 +358,7 @@ def outputs_as_bag(scene: Scene, outputs: Sequence[Output], name: str = "<replay
     raw = serialize_outputs(outputs)
     messages = [bags.BagMessage(i, o.topic, o.msgtype, o.log_ns, data)
                 for i, (o, (_, _, data)) in enumerate(zip(outputs, raw))]
-    return BagContents(path=Path(name), storage="memory", topics=output_topics(scene),
+    return BagContents(path=Path(name), storage="memory", topics=output_types(scene),
                        messages=messages)
 
 

@@ -1,4 +1,4 @@
-"""The work-precision benchmark of issue 6: error against cost for every integrator.
+"""The work-precision benchmark: error against cost for every integrator.
 
 ``hecker-dynamics bench`` runs it (see :mod:`hecker_dynamics.bench.run`); ``docs/benchmark.md``
 explains the method. Modules:

@@ -76,7 +76,8 @@ def _state(model: PlainModel) -> tuple[np.ndarray, np.ndarray]:
 
 def _strip(model: PlainModel, springs: bool = False, gravity: bool = False) -> PlainModel:
     """A copy of ``model`` without its springs and/or gravity (handled natively)."""
-    other = dataclasses.replace(model) if dataclasses.is_dataclass(model) else object.__new__(PlainModel)
+    other = (dataclasses.replace(model) if dataclasses.is_dataclass(model)
+             else object.__new__(PlainModel))
     other.__dict__.update(model.__dict__)
     other.constant = [list(c) for c in model.constant]
     if springs:

@@ -302,7 +302,8 @@ def free_spin_energy(model: PlainModel, q: np.ndarray, v: np.ndarray) -> float:
     e = 0.0
     for i in range(model.n):
         fx, fy, tau = model.constant[i]
-        e += 0.5 * model.mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2) + 0.5 * model.inertia[i] * v[i, 2] ** 2
+        e += (0.5 * model.mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2)
+              + 0.5 * model.inertia[i] * v[i, 2] ** 2)
         e -= fx * q[i, 0] + fy * q[i, 1] + tau * q[i, 2]
     return e
 

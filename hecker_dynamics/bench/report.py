@@ -132,7 +132,7 @@ def ring_table(ring: list[Row]) -> tuple[list[str], list[int], dict]:
 
 
 def targets(results) -> list[tuple[str, str, str]]:
-    """(target, measured, verdict) lines for the four issue-6 targets."""
+    """(target, measured, verdict) lines for the benchmark's four targets (docs/benchmark.md)."""
     lines = []
     head = headline(results.rows)
     worst = {}

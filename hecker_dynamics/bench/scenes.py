@@ -1,4 +1,4 @@
-"""Benchmark scenes of issue 6, built as Scene objects through ``scene_from_parameters``.
+"""Benchmark scenes, built as Scene objects through ``scene_from_parameters``.
 
 Each builder returns the scene at its benchmark defaults; :func:`configure` sets the
 integrator, step and tolerance (and publishes at about 50 Hz, as a node would). The tests
@@ -31,7 +31,8 @@ from typing import Any
 from ..scene.parameters import flatten
 from ..scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
 
-#: The benchmark scenes with closed-form or reference solutions, in issue order.
+#: The benchmark scenes with closed-form or reference solutions, in the order
+#: docs/benchmark.md numbers them.
 BENCH_SCENES = ("free_spin", "harmonic", "spring_pendulum", "two_bodies", "stiff")
 #: Scenes with an exact solution (the rest use :mod:`.reference`).
 EXACT_SCENES = ("free_spin", "harmonic", "stiff")
@@ -107,7 +108,7 @@ def two_bodies() -> Scene:
 
 
 def ring_initial(n: int) -> list[tuple[float, float, float, float, float, float]]:
-    """(x, y, angle, vx, vy, omega) of each box of the ring: centred on a circle whose
+    """(x, y, angle, vx, vy, omega) of each box of the ring: centered on a circle whose
     chords between neighbouring end points are close to the rest length, tangent to it,
     with a small deterministic velocity pattern so the ring moves."""
     width = RING_SIZE[0]

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Optional, Union
+from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
 
@@ -47,8 +47,8 @@ if TYPE_CHECKING:
     from ..dynamics.model import Model
 
 __all__ = [
-    "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint", "DistanceJoint",
-    "GearJoint", "JointSpec", "JointRow", "JointPass",
+    "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
+    "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass",
 ]
 
 Vec2 = tuple[float, float]
@@ -175,7 +175,10 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _negated(entries: list[tuple[int, float, float, float]]) -> list[tuple[int, float, float, float]]:
+Entries = list[tuple[int, float, float, float]]
+
+
+def _negated(entries: Entries) -> Entries:
     return [(b, -jx, -jy, -jw) for b, jx, jy, jw in entries]
 
 
@@ -286,12 +289,11 @@ class JointPass:
                        for spec in specs if isinstance(spec, GearJoint)}
         self.inverse_mass = model.inverse_mass[self.bodies].reshape(-1)
         #: Pairs of model body indices (i < j) that a joint connects and that must not collide.
-        self.connected = sorted({tuple(sorted((model.index[s.body_a], model.index[s.body_b])))
-                                 for s in specs if not isinstance(s, GearJoint)
-                                 and s.body_a is not None and not s.collide_connected})
-        #: Each motor's target speed, which a command may change between steps.
-        self.motor_speed = {s.name: s.motor.speed for s in specs
-                            if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
+        ends = [(model.index[s.body_a], model.index[s.body_b]) for s in specs
+                if not isinstance(s, GearJoint) and s.body_a is not None
+                and not s.collide_connected]
+        self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))
+                                                        for i, j in ends})
         self._initial: Optional[np.ndarray] = None
         self._rigid = np.zeros(0, dtype=int)
         self.reset()
@@ -303,10 +305,11 @@ class JointPass:
         where joint angles and slider translations are zero (default: the last one)."""
         if q is not None:
             self._initial = q[self.bodies].copy()
-        self._warm: dict[tuple[str, str], float] = {}
-        self._newton: Optional[np.ndarray] = None
-        self._last: Optional[tuple[np.ndarray, list[JointRow]]] = None
+        self.forget()
         self.efforts: dict[str, float] = {}
+        #: Each motor's target speed, which a command may change between steps.
+        self.motor_speed = {s.name: s.motor.speed for s in self.specs
+                            if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
         if self._initial is None:
             return
         start = self._initial
@@ -326,6 +329,36 @@ class JointPass:
         # Every joint gives the same rows in the same order at any pose.
         self._rigid = np.array([i for i, r in enumerate(self.rows(start, 1.0))
                                 if r.kind == RIGID], dtype=int)
+
+    def forget(self) -> None:
+        """Drop what warm-starts the next step (after a body was moved by hand)."""
+        self._warm: dict[tuple[str, str], float] = {}
+        self._newton: Optional[np.ndarray] = None
+        self._last: Optional[tuple[np.ndarray, list[JointRow]]] = None
+
+    def export_state(self) -> dict[str, Any]:
+        """What the pass carries from step to step, as plain data: the start pose, the
+        counted joint angles, the warm-start impulses, the efforts and motor speeds."""
+        return {"initial": None if self._initial is None else self._initial.tolist(),
+                "angle": dict(self._angle) if self._initial is not None else {},
+                "raw": dict(self._raw) if self._initial is not None else {},
+                "warm": [[list(key), value] for key, value in self._warm.items()],
+                "newton": None if self._newton is None else self._newton.tolist(),
+                "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`export_state`'s data."""
+        if state["initial"] is not None:
+            self._initial = np.array(state["initial"], dtype=float)
+        self.reset()
+        if self._initial is not None:
+            self._angle = {k: float(x) for k, x in state["angle"].items()}
+            self._raw = {k: float(x) for k, x in state["raw"].items()}
+        self._warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
+        self._newton = (None if state["newton"] is None
+                        else np.array(state["newton"], dtype=float))
+        self.efforts = {k: float(x) for k, x in state["efforts"].items()}
+        self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
     def _axis(self, spec: PrismaticJoint, angle_a: float) -> tuple[float, float]:
         c, s = math.cos(angle_a), math.sin(angle_a)

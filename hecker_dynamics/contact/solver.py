@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -171,6 +171,18 @@ class ContactPass:
     def reset(self) -> None:
         """Forget the impulses kept for warm starting."""
         self._warm = {}
+
+    def export_state(self) -> list[list[Any]]:
+        """The impulses kept for warm starting, as plain data: per pair of parts, the
+        remembered contacts (point in the second body's frame, normal and tangent impulse)."""
+        return [[list(key), [list(contact) for contact in contacts]]
+                for key, contacts in self._warm.items()]
+
+    def import_state(self, state: list[list[Any]]) -> None:
+        """Restore :meth:`export_state`'s data."""
+        self._warm = {tuple(int(k) for k in key): [tuple(float(x) for x in contact)
+                                                   for contact in contacts]
+                      for key, contacts in state}
 
     # ------------------------------------------------------------------ detection
 

@@ -1,10 +1,10 @@
 """Force terms: each turns the state into generalised forces (Fx, Fy, torque) per body.
 
 This is steps 3 to 5 of the article's algorithm ("Physics, Part 2: Angular Effects"):
-every force has a point of application; the forces add up at the CM (Equation 4, F = M a)
+every force has a point of application; the forces add up at the CM (F = M a, Eq. 5)
 and each contributes the torque perp-dot(r, F) about the CM, with r the offset from the CM
-to the point (Equation 6). A body point's velocity is v_P = v_CM + omega perp(r)
-(Equation 7), which springs and drag at points use.
+to the point (Eq. 11). A body point's velocity is v_P = v_CM + omega perp(r)
+(Eq. 9), which springs and drag at points use.
 
 A term exists only if the scene declares such a force, and one applied at the CM never
 touches the torque. Each term evaluates in two ways that tests hold equal to rounding:
@@ -14,14 +14,14 @@ touches the torque. Each term evaluates in two ways that tests hold equal to rou
   numpy's cost per call (about a microsecond) would outweigh the arithmetic.
 
 State layout: ``q[i] = (x_CM, y_CM, angle)`` and ``v[i] = (vx_CM, vy_CM, omega)``. Body
-points are stored as offsets from the CM in body axes; :class:`Pose` and
-:class:`ScalarPose` rotate them.
+points are stored as offsets from the CM in body axes; :class:`Kinematics` and
+:class:`ScalarKinematics` rotate them.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Protocol
+from typing import NamedTuple, Optional, Protocol
 
 import numpy as np
 
@@ -31,7 +31,7 @@ from ..geometry.planar import cos_sin, cos_sin_of
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
 
 
-class Pose:
+class Kinematics:
     """The state of one evaluation in components, with the cos and sin of each angle.
 
     Components (x, y, vx, ...) rather than (N, 2) stacks keep numpy on contiguous 1-D
@@ -52,14 +52,14 @@ class Pose:
 
     def point_velocity(self, body: np.ndarray, rx: np.ndarray,
                        ry: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """v_P = v_CM + omega perp(r) (article Equation 7)."""
+        """v_P = v_CM + omega perp(r) (Eq. 9)."""
         omega = self.omega[body]
         return self.vx[body] - omega * ry, self.vy[body] + omega * rx
 
 
 @dataclass
-class ScalarPose:
-    """The same as :class:`Pose`, as Python lists of floats."""
+class ScalarKinematics:
+    """The same as :class:`Kinematics`, as Python lists of floats."""
 
     q: list[list[float]]
     v: list[list[float]]
@@ -67,7 +67,7 @@ class ScalarPose:
     sin: list[float]
 
     @classmethod
-    def of(cls, q: list[list[float]], v: list[list[float]], oriented: bool) -> ScalarPose:
+    def of(cls, q: list[list[float]], v: list[list[float]], oriented: bool) -> ScalarKinematics:
         if not oriented:
             return cls(q, v, [], [])
         try:
@@ -96,10 +96,10 @@ class ForceTerm(Protocol):
     #: ``sources[e]``, another body (every force depends on its own body's state).
     couplings: tuple[np.ndarray, np.ndarray]
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
         """Add to ``out`` (3, N): rows Fx, Fy and torque (contiguous), vectorised."""
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         """Add to ``out`` (a [Fx, Fy, torque] list per body), in plain floats."""
 
 
@@ -177,7 +177,8 @@ def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _apply_scalar(wrench: Wrench, rx: float, ry: float, fx: float, fy: float) -> None:
-    """Add force (fx, fy) at offset (rx, ry) from the CM: the force and perp-dot torque."""
+    """Add force (fx, fy) at offset (rx, ry) from the CM: the force and perp-dot torque
+    (Eq. 11)."""
     wrench[0] += fx
     wrench[1] += fy
     wrench[2] += rx * fy - ry * fx
@@ -197,10 +198,10 @@ class GravityTerm:
         self._weights = _columns(weights)
         self._rows = list(zip(bodies.tolist(), weights.tolist()))
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
         self._sum.add_wrench(out, *self._weights)
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, (wx, wy) in self._rows:
             wrench = out[body]
             wrench[0] += wx
@@ -310,27 +311,27 @@ class AnchorSpringTerm:
         self._rows = list(zip(body.tolist(), local.tolist(), anchor.tolist(), stiffness.tolist(),
                               rest_length.tolist(), damping.tolist()))
 
-    def _stretch(self, pose: Pose) -> tuple[np.ndarray, ...]:
+    def _stretch(self, state: Kinematics) -> tuple[np.ndarray, ...]:
         """Offsets of the attachment points and the spring vectors d = p - anchor."""
-        rx, ry = pose.offset(self.body, *self._local)
+        rx, ry = state.offset(self.body, *self._local)
         ax, ay = self._anchor
-        return rx, ry, pose.x[self.body] + rx - ax, pose.y[self.body] + ry - ay
+        return rx, ry, state.x[self.body] + rx - ax, state.y[self.body] + ry - ay
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
-        rx, ry, dx, dy = self._stretch(pose)
-        fx, fy = spring_force(dx, dy, *pose.point_velocity(self.body, rx, ry), self.law)
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
+        rx, ry, dx, dy = self._stretch(state)
+        fx, fy = spring_force(dx, dy, *state.point_velocity(self.body, rx, ry), self.law)
         self._sum.add_wrench(out, fx, fy, rx * fy - ry * fx)
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, (lx, ly), (ax, ay), k, rest, c in self._rows:
-            rx, ry = pose.offset(body, lx, ly)
-            x, y, _ = pose.q[body]
+            rx, ry = state.offset(body, lx, ly)
+            x, y, _ = state.q[body]
             fx, fy = spring_force_scalar(x + rx - ax, y + ry - ay,
-                                         *pose.point_velocity(body, rx, ry), k, rest, c)
+                                         *state.point_velocity(body, rx, ry), k, rest, c)
             _apply_scalar(out[body], rx, ry, fx, fy)
 
     def potential(self, q: np.ndarray) -> float:
-        _, _, dx, dy = self._stretch(Pose(q, np.zeros_like(q)))
+        _, _, dx, dy = self._stretch(Kinematics(q, np.zeros_like(q)))
         return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
 
 
@@ -353,38 +354,38 @@ class BodySpringTerm:
                               local_b.tolist(), stiffness.tolist(), rest_length.tolist(),
                               damping.tolist()))
 
-    def _ends(self, pose: Pose) -> tuple[np.ndarray, ...]:
+    def _ends(self, state: Kinematics) -> tuple[np.ndarray, ...]:
         """Offsets of both ends from their CMs and the spring vectors d = p_A - p_B."""
         a, b = self.body_a, self.body_b
-        rax, ray = pose.offset(a, *self._local_a)
-        rbx, rby = pose.offset(b, *self._local_b)
+        rax, ray = state.offset(a, *self._local_a)
+        rbx, rby = state.offset(b, *self._local_b)
         return (rax, ray, rbx, rby,
-                pose.x[a] + rax - pose.x[b] - rbx, pose.y[a] + ray - pose.y[b] - rby)
+                state.x[a] + rax - state.x[b] - rbx, state.y[a] + ray - state.y[b] - rby)
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
-        rax, ray, rbx, rby, dx, dy = self._ends(pose)
-        vax, vay = pose.point_velocity(self.body_a, rax, ray)
-        vbx, vby = pose.point_velocity(self.body_b, rbx, rby)
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
+        rax, ray, rbx, rby, dx, dy = self._ends(state)
+        vax, vay = state.point_velocity(self.body_a, rax, ray)
+        vbx, vby = state.point_velocity(self.body_b, rbx, rby)
         fx, fy = spring_force(dx, dy, vax - vbx, vay - vby, self.law)
         self._sum_a.add_wrench(out, fx, fy, rax * fy - ray * fx)
         # End B takes -F, whose torque is perp-dot(r_B, -F).
         self._sum_b.subtract_wrench(out, fx, fy, rbx * fy - rby * fx)
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for a, (lax, lay), b, (lbx, lby), k, rest, c in self._rows:
-            rax, ray = pose.offset(a, lax, lay)
-            rbx, rby = pose.offset(b, lbx, lby)
-            xa, ya, _ = pose.q[a]
-            xb, yb, _ = pose.q[b]
-            vax, vay = pose.point_velocity(a, rax, ray)
-            vbx, vby = pose.point_velocity(b, rbx, rby)
+            rax, ray = state.offset(a, lax, lay)
+            rbx, rby = state.offset(b, lbx, lby)
+            xa, ya, _ = state.q[a]
+            xb, yb, _ = state.q[b]
+            vax, vay = state.point_velocity(a, rax, ray)
+            vbx, vby = state.point_velocity(b, rbx, rby)
             fx, fy = spring_force_scalar(xa + rax - xb - rbx, ya + ray - yb - rby,
                                          vax - vbx, vay - vby, k, rest, c)
             _apply_scalar(out[a], rax, ray, fx, fy)
             _apply_scalar(out[b], rbx, rby, -fx, -fy)
 
     def potential(self, q: np.ndarray) -> float:
-        *_, dx, dy = self._ends(Pose(q, np.zeros_like(q)))
+        *_, dx, dy = self._ends(Kinematics(q, np.zeros_like(q)))
         return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
 
 
@@ -402,7 +403,7 @@ def drag_force_scalar(vx: float, vy: float, coefficient: float,
     return -scale * vx, -scale * vy
 
 
-class CentreDragTerm:
+class CenterDragTerm:
     """Linear or quadratic drag at the CM: no torque."""
 
     uses_orientation = False
@@ -414,14 +415,14 @@ class CentreDragTerm:
         self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), coefficient.tolist(), quadratic.tolist()))
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
         body = self.body
-        self._sum.add_wrench(out, *drag_force(pose.vx[body], pose.vy[body], self.coefficient,
+        self._sum.add_wrench(out, *drag_force(state.vx[body], state.vy[body], self.coefficient,
                                               self.quadratic))
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, c, quadratic in self._rows:
-            vx, vy, _ = pose.v[body]
+            vx, vy, _ = state.v[body]
             fx, fy = drag_force_scalar(vx, vy, c, quadratic)
             out[body][0] += fx
             out[body][1] += fy
@@ -443,16 +444,16 @@ class PointDragTerm:
         self._rows = list(zip(body.tolist(), local.tolist(), coefficient.tolist(),
                               quadratic.tolist()))
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
-        rx, ry = pose.offset(self.body, *self._local)
-        fx, fy = drag_force(*pose.point_velocity(self.body, rx, ry), self.coefficient,
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
+        rx, ry = state.offset(self.body, *self._local)
+        fx, fy = drag_force(*state.point_velocity(self.body, rx, ry), self.coefficient,
                             self.quadratic)
         self._sum.add_wrench(out, fx, fy, rx * fy - ry * fx)
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, (lx, ly), c, quadratic in self._rows:
-            rx, ry = pose.offset(body, lx, ly)
-            fx, fy = drag_force_scalar(*pose.point_velocity(body, rx, ry), c, quadratic)
+            rx, ry = state.offset(body, lx, ly)
+            fx, fy = drag_force_scalar(*state.point_velocity(body, rx, ry), c, quadratic)
             _apply_scalar(out[body], rx, ry, fx, fy)
 
 
@@ -468,12 +469,25 @@ class AngularDampingTerm:
         self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), coefficient.tolist()))
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
-        self._sum.subtract(out[2], self.coefficient * pose.omega[self.body])
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
+        self._sum.subtract(out[2], self.coefficient * state.omega[self.body])
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, c in self._rows:
-            out[body][2] -= c * pose.v[body][2]
+            out[body][2] -= c * state.v[body][2]
+
+
+class WrenchRow(NamedTuple):
+    """One wrench of a :class:`ConstantWrenchTerm`: a constant force or torque of the scene,
+    or an input's applied wrench with its frame resolved (see that class for the frames)."""
+
+    body: int  # the body it acts on
+    force: tuple[float, float]
+    torque: float
+    axes_body: int  # the body whose axes the force is in; -1: the fixed frame's
+    point_body: int  # the body whose CM the point is relative to; -1: the fixed frame
+    point: tuple[float, float]
+    at_point: bool  # False: at the CM of ``body``
 
 
 class ConstantWrenchTerm:
@@ -503,29 +517,29 @@ class ConstantWrenchTerm:
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))
 
-    def add(self, pose: Pose, out: np.ndarray) -> None:
+    def add(self, state: Kinematics, out: np.ndarray) -> None:
         fx, fy = self._force
         if self.rotated.any():
             axes = np.maximum(self.axes_body, 0)
-            turned = pose.offset(axes, fx, fy)
+            turned = state.offset(axes, fx, fy)
             fx, fy = np.where(self.rotated, turned[0], fx), np.where(self.rotated, turned[1], fy)
         torque = self.torque
         if self.at_point.any():
             px, py = self._point
             if self.moving_point.any():
                 owner = np.maximum(self.point_body, 0)
-                ox, oy = pose.offset(owner, px, py)
-                px = np.where(self.moving_point, pose.x[owner] + ox, px)
-                py = np.where(self.moving_point, pose.y[owner] + oy, py)
-            rx = np.where(self.at_point, px - pose.x[self.body], 0.0)
-            ry = np.where(self.at_point, py - pose.y[self.body], 0.0)
+                ox, oy = state.offset(owner, px, py)
+                px = np.where(self.moving_point, state.x[owner] + ox, px)
+                py = np.where(self.moving_point, state.y[owner] + oy, py)
+            rx = np.where(self.at_point, px - state.x[self.body], 0.0)
+            ry = np.where(self.at_point, py - state.y[self.body], 0.0)
             torque = torque + rx * fy - ry * fx
         self._sum.add_wrench(out, fx, fy, torque)
 
-    def add_scalar(self, pose: ScalarPose, out: list[Wrench]) -> None:
+    def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, (fx, fy), torque, axes, owner, (px, py), at_point in self._rows:
             if axes >= 0:
-                fx, fy = pose.offset(axes, fx, fy)
+                fx, fy = state.offset(axes, fx, fy)
             wrench = out[body]
             wrench[2] += torque
             if not at_point:
@@ -533,7 +547,7 @@ class ConstantWrenchTerm:
                 wrench[1] += fy
                 continue
             if owner >= 0:
-                ox, oy = pose.offset(owner, px, py)
-                px, py = pose.q[owner][0] + ox, pose.q[owner][1] + oy
-            x, y, _ = pose.q[body]
+                ox, oy = state.offset(owner, px, py)
+                px, py = state.q[owner][0] + ox, state.q[owner][1] + oy
+            x, y, _ = state.q[body]
             _apply_scalar(wrench, px - x, py - y, fx, fy)

@@ -1,6 +1,6 @@
 """The input buffer: which commanded wrenches act during each step.
 
-Rules (design section 4): a command starts to act at the first step that begins at or
+Rules: a command starts to act at the first step that begins at or
 after its stamp; a newer command with the same ``(body, source)`` replaces it; it stops at
 ``stamp + duration`` when it has a duration, else at ``stamp + timeout`` (the safety
 timeout, like a velocity-command timeout; 0 disables it). Commands are held constant over
@@ -12,10 +12,12 @@ from __future__ import annotations
 import heapq
 import itertools
 from collections import Counter
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from typing import Any, Optional
 
 from .commands import InputError, WrenchCommand
+from .forces import WrenchRow
 
 
 @dataclass(frozen=True)
@@ -23,7 +25,7 @@ class Held:
     """A command in the buffer with its resolved force row and the time it stops acting."""
 
     command: WrenchCommand
-    row: tuple[Any, ...]
+    row: WrenchRow
     end_ns: Optional[int]
 
 
@@ -47,7 +49,7 @@ class InputBuffer:
             return command.stamp_ns + self.timeout_ns
         return None
 
-    def add(self, command: WrenchCommand, row: tuple[Any, ...]) -> None:
+    def add(self, command: WrenchCommand, row: WrenchRow) -> None:
         """Queue a command; raises :class:`InputError` when the buffer is full."""
         what = f"the command for '{command.body}' from '{command.source}'"
         if len(self._pending) >= self.max_pending:
@@ -91,6 +93,36 @@ class InputBuffer:
             ends.append(self._pending[0][0])
         return min(ends, default=None)
 
+    def export_state(self) -> dict[str, Any]:
+        """The buffer as plain data: pending commands in heap order with their order
+        numbers, active ones in the order they act (their rows are summed in that order),
+        and the next order number. :meth:`import_state` restores it exactly."""
+        order = next(self._order)
+        self._order = itertools.count(order)
+        return {
+            "pending": [[stamp, number, _command_data(held.command)]
+                        for stamp, number, held in self._pending],
+            "active": [_command_data(held.command) for held in self._active.values()],
+            "next_order": order,
+        }
+
+    def import_state(self, state: dict[str, Any],
+                     row_of: Callable[[WrenchCommand], WrenchRow]) -> None:
+        """Restore :meth:`export_state`'s data; ``row_of`` resolves a command's force row."""
+        def held(data: dict[str, Any]) -> Held:
+            command = _command_from_data(data)
+            return Held(command, row_of(command), self.end_of(command))
+
+        self.clear()
+        self._pending = [(int(stamp), int(number), held(data))
+                         for stamp, number, data in state["pending"]]
+        for _, _, item in self._pending:
+            self._pending_keys[(item.command.body, item.command.source)] += 1
+        for data in state["active"]:
+            item = held(data)
+            self._active[(item.command.body, item.command.source)] = item
+        self._order = itertools.count(int(state["next_order"]))
+
     def active(self) -> list[Held]:
         return list(self._active.values())
 
@@ -101,3 +133,17 @@ class InputBuffer:
 
     def __len__(self) -> int:
         return len(self._pending) + len(self._active)
+
+
+def _command_data(command: WrenchCommand) -> dict[str, Any]:
+    data = asdict(command)
+    data["point"], data["force"] = list(command.point), list(command.force)
+    return data
+
+
+def _command_from_data(data: dict[str, Any]) -> WrenchCommand:
+    return WrenchCommand(
+        stamp_ns=int(data["stamp_ns"]), body=str(data["body"]), source=str(data["source"]),
+        frame_id=str(data["frame_id"]), point=(float(data["point"][0]), float(data["point"][1])),
+        force=(float(data["force"][0]), float(data["force"][1])), torque=float(data["torque"]),
+        duration_ns=int(data["duration_ns"]))

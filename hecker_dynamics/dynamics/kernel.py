@@ -12,25 +12,24 @@ environment variable ``HECKER_DYNAMICS_KERNEL=0``, everything runs in Python.
 
 This module only translates: each force term is packed into the kernel's layout (integer
 and real columns per instance, see ``src/kernel/kernel.h``) once, and the inputs' term
-again whenever the active inputs change.
+again whenever the active inputs change. It is handed what it needs (the bodies' inverse
+masses and the terms; an integrator's settings and state) and reads nothing back: what a
+run of steps did comes back in :class:`Advanced`, for the caller to account.
 """
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple, Optional
+from collections.abc import Callable, Sequence
+from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
 
-if TYPE_CHECKING:
-    from .model import Model
-
 try:
-    from .. import _kernel
+    from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
@@ -69,7 +68,7 @@ _PACKERS: dict[type, Callable[..., Packed]] = {
                                         [t.local, t.anchor, *_law(t)]),
     BodySpringTerm: lambda t: _packed(_kernel.BODY_SPRING, [t.body_a, t.body_b],
                                       [t.local_a, t.local_b, *_law(t)]),
-    CentreDragTerm: lambda t: _packed(_kernel.CENTRE_DRAG, [t.body, t.quadratic],
+    CenterDragTerm: lambda t: _packed(_kernel.CENTER_DRAG, [t.body, t.quadratic],
                                       [t.coefficient]),
     PointDragTerm: lambda t: _packed(_kernel.POINT_DRAG, [t.body, t.quadratic],
                                      [t.local, t.coefficient]),
@@ -88,10 +87,12 @@ def pack(term: ForceTerm) -> Packed:
 class CompiledForces:
     """A model's forces as a kernel program, with the active inputs as a second one."""
 
-    def __init__(self, model: Model) -> None:
-        self.bodies = model.size
-        self.program = _kernel.program(model.size, np.ascontiguousarray(model.inverse_mass),
-                                       [pack(term) for term in model.terms])
+    def __init__(self, inverse_mass: np.ndarray, terms: Sequence[ForceTerm]) -> None:
+        """``inverse_mass``: (N, 3) rows (1/m, 1/m, 1/I) of the N bodies; ``terms``: the
+        scene's force terms."""
+        self.bodies = len(inverse_mass)
+        self.program = _kernel.program(self.bodies, np.ascontiguousarray(inverse_mass),
+                                       [pack(term) for term in terms])
         self.inputs = None
 
     def set_inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
@@ -119,19 +120,26 @@ _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
 
 
 class Advanced(NamedTuple):
-    """What :meth:`CompiledSteps.advance` did: steps completed, and why it stopped early
-    (``error``: the integrator failed; ``diverged``: the failed, non-finite new state)."""
+    """What :meth:`CompiledSteps.advance` did: steps completed, the work done (force
+    evaluations; accepted and rejected sub-steps and the sub-step size to carry on with, for
+    an embedded pair), and why it stopped early (``error``: the integrator failed;
+    ``diverged``: the failed, non-finite new state)."""
 
     taken: int
+    evaluations: int
+    substeps: int
+    rejected: int
+    substep_size: float
     error: Optional[str] = None
     diverged: Optional[tuple[np.ndarray, np.ndarray]] = None
 
 
 class CompiledSteps:
-    """Whole steps of an explicit integrator on a model's compiled forces."""
+    """Whole steps of an explicit integrator on compiled forces."""
 
-    def __init__(self, model: Model, integrator: Integrator) -> None:
-        self.model, self.integrator = model, integrator
+    def __init__(self, forces: CompiledForces, integrator: Integrator) -> None:
+        """Steps of the method ``integrator`` names, with its embedded pair and tolerance."""
+        self.forces, self.name = forces, integrator.name
         self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
         self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
         self.pair = None
@@ -142,35 +150,31 @@ class CompiledSteps:
                                      np.ascontiguousarray(pair.error), pair.error_order)
             self.tolerance = integrator.tolerance
         # Where the kernel writes each new state before it is checked: kept from call to call.
-        self._q_new, self._v_new = np.empty((model.size, 3)), np.empty((model.size, 3))
+        self._q_new, self._v_new = np.empty((forces.bodies, 3)), np.empty((forces.bodies, 3))
 
-    def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int) -> Advanced:
+    def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int, oriented: bool,
+                substep_size: float = 0.0) -> Advanced:
         """Advance (q, v), C-contiguous (N, 3) arrays, in place by up to ``steps`` steps of
         ``h`` seconds, wrapping angles after each; stop at the first failing step, leaving
-        the last good state in (q, v)."""
-        forces, integrator = self.model.compiled, self.integrator
-        embedded = self.pair is not None
+        the last good state in (q, v). ``oriented``: some active force needs the angles;
+        ``substep_size``: an embedded pair's sub-step size to start from."""
+        forces = self.forces
         status, taken, evaluations, substeps, rejected, size = _kernel.advance(
-            forces.program, forces.inputs, self.model.oriented, self.method, self.pair,
-            self.tolerance, integrator.substep_size if embedded else 0.0, q, v, self._q_new,
-            self._v_new, h, steps)
-        counters = integrator.counters
-        counters.evaluations += evaluations
-        if embedded:
-            counters.substeps += substeps
-            counters.rejected += rejected
-            integrator.substep_size = size
+            forces.program, forces.inputs, oriented, self.method, self.pair, self.tolerance,
+            substep_size if self.pair is not None else 0.0, q, v, self._q_new, self._v_new, h,
+            steps)
+        done = Advanced(taken, evaluations, substeps, rejected, size)
         if status == _kernel.NOT_FINITE:
-            return Advanced(taken, diverged=(self._q_new.copy(), self._v_new.copy()))
+            return done._replace(diverged=(self._q_new.copy(), self._v_new.copy()))
         if status != _kernel.ADVANCED:
-            return Advanced(taken, error=f"{integrator.name}: {self._failures[status]}")
-        return Advanced(taken)
+            return done._replace(error=f"{self.name}: {self._failures[status]}")
+        return done
 
 
-def compiled_steps(model: Model, integrator: Integrator) -> Optional[CompiledSteps]:
-    """The kernel's stepping of ``integrator`` on ``model``, if it can take whole steps:
-    the model's forces are compiled, it has no contact pass and the method is explicit."""
-    if model.compiled is None or model.contacts is not None or \
-            integrator.name not in KERNEL_METHODS:
+def compiled_steps(forces: Optional[CompiledForces], integrator: Integrator,
+                   contacts: bool) -> Optional[CompiledSteps]:
+    """The kernel's stepping of ``integrator`` on ``forces``, if it can take whole steps:
+    the forces are compiled, there are no ``contacts`` and the method is explicit."""
+    if forces is None or contacts or integrator.name not in KERNEL_METHODS:
         return None
-    return CompiledSteps(model, integrator)
+    return CompiledSteps(forces, integrator)

@@ -2,7 +2,8 @@
 
 ``Model.accelerations`` is steps 3 to 6 of the article's algorithm ("Physics, Part 2:
 Angular Effects"): collect the forces with their points, sum them at the CM, add up the
-perp-dot torques, and divide by the mass and by the moment of inertia (Equations 4 and 6).
+perp-dot torques (Eq. 11), and divide by the mass (F = M a, Eq. 5) and by the moment of
+inertia (tau = I alpha, Eq. 14).
 A scene without walls or collisions has no contact pass; a scene without springs has no
 spring term; a force at the CM computes no torque.
 """
@@ -10,15 +11,16 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Sequence
 from typing import Optional
 
 import numpy as np
 
 from . import kernel
-from ..integrators.colouring import Colouring, colour
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CentreDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm, Pose,
-                     ScalarPose)
+from ..integrators.coloring import Coloring, color
+from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
+                     ConstantWrenchTerm, ForceTerm, GravityTerm, Kinematics, PointDragTerm,
+                     ScalarKinematics, WrenchRow)
 from ..geometry.planar import perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
@@ -47,9 +49,9 @@ class Model:
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
-        # The scene's couplings, the inputs' couplings and the colouring of both, once asked.
+        # The scene's couplings, the inputs' couplings and the coloring of both, once asked.
         self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
-        self._colouring: Optional[tuple[tuple[tuple[int, int], ...], Colouring]] = None
+        self._coloring: Optional[tuple[tuple[tuple[int, int], ...], Coloring]] = None
         self.lean = self.size <= LEAN_BODIES if lean is None else lean
         if compiled is None:
             compiled = lean is None and kernel.enabled()
@@ -57,7 +59,7 @@ class Model:
             raise RuntimeError("the compiled kernel hecker_dynamics._kernel is not built")
         #: The kernel's program of these forces, or None: Python evaluates them.
         self.compiled: Optional[kernel.CompiledForces] = (
-            kernel.CompiledForces(self) if compiled else None)
+            kernel.CompiledForces(self.inverse_mass, self.terms) if compiled else None)
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.contacts: Optional[ContactPass] = (
@@ -97,9 +99,9 @@ class Model:
     def size(self) -> int:
         return len(self.names)
 
-    def jacobian_colouring(self) -> Colouring:
-        """The groups of bodies a Jacobian by coloured differences bumps together, for the
-        scene's forces and the inputs active now (see :mod:`.colouring`).
+    def jacobian_coloring(self) -> Coloring:
+        """The groups of bodies a Jacobian by colored differences bumps together, for the
+        scene's forces and the inputs active now (see :mod:`.coloring`).
 
         Computed when first asked for, and again only when the inputs couple other bodies
         (an input whose axes or point belong to a body other than its target); contacts are
@@ -108,9 +110,9 @@ class Model:
         if self._term_couplings is None:
             self._term_couplings = _couplings(self.terms)
         extra = _couplings(() if self._inputs is None else (self._inputs,))
-        if self._colouring is None or self._colouring[0] != extra:
-            self._colouring = (extra, colour(self.size, self._term_couplings + extra))
-        return self._colouring[1]
+        if self._coloring is None or self._coloring[0] != extra:
+            self._coloring = (extra, color(self.size, self._term_couplings + extra))
+        return self._coloring[1]
 
     def local(self, body: int, point: tuple[float, float]) -> np.ndarray:
         """A body-frame point as an offset from the body's CM, in body axes."""
@@ -128,25 +130,26 @@ class Model:
         return mask
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """(ax, ay, alpha) per body: summed forces over mass, summed torques over inertia."""
+        """(ax, ay, alpha) per body: summed forces over mass (Eq. 5), summed torques over
+        inertia (Eq. 14)."""
         if self.compiled is not None:
             return self.compiled.accelerations(q, v, self._oriented)
         terms, oriented = self._active, self._oriented
         if not terms:
             return np.zeros_like(q)
         if self.lean:
-            pose = ScalarPose.of(q.tolist(), v.tolist(), oriented)
+            state = ScalarKinematics.of(q.tolist(), v.tolist(), oriented)
             wrenches = [[0.0, 0.0, 0.0] for _ in range(self.size)]
             for term in terms:
-                term.add_scalar(pose, wrenches)
+                term.add_scalar(state, wrenches)
             return np.array([[fx * im, fy * im2, tq * ii]
                              for (fx, fy, tq), (im, im2, ii) in zip(wrenches,
                                                                     self._inverse_mass_rows)])
-        pose = Pose(q, v, oriented)
-        wrenches = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
+        columns = Kinematics(q, v, oriented)
+        sums = np.zeros((3, self.size))  # rows Fx, Fy, torque: contiguous per component
         for term in terms:
-            term.add(pose, wrenches)
-        return np.multiply(wrenches.T, self.inverse_mass, out=np.empty_like(q))
+            term.add(columns, sums)
+        return np.multiply(sums.T, self.inverse_mass, out=np.empty_like(q))
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         """Kinetic energy plus the potential energy of gravity and springs."""
@@ -157,11 +160,18 @@ class Model:
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
         """CM state from the scene's body-frame poses and origin velocities."""
-        angle = np.array([b.angle for b in self.scene.bodies])
-        omega = np.array([b.angular_velocity for b in self.scene.bodies])
-        origin = np.array([b.position for b in self.scene.bodies])
-        origin_velocity = np.array([b.velocity for b in self.scene.bodies])
-        r_cm = rotate(self.cm_local, np.cos(angle), np.sin(angle))  # origin -> CM
+        bodies = self.scene.bodies
+        return self.cm_states(np.arange(self.size), np.array([b.position for b in bodies]),
+                              np.array([b.angle for b in bodies]),
+                              np.array([b.velocity for b in bodies]),
+                              np.array([b.angular_velocity for b in bodies]))
+
+    def cm_states(self, index: np.ndarray, origin: np.ndarray, angle: np.ndarray,
+                  origin_velocity: np.ndarray, omega: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """CM states (q, v rows) of the bodies ``index`` whose body frames have these poses
+        and origin velocities: the CM's velocity is the origin's plus omega perp(r) (Eq. 9)."""
+        r_cm = rotate(self.cm_local[index], np.cos(angle), np.sin(angle))  # origin -> CM
         q = np.column_stack([origin + r_cm, angle])
         v = np.column_stack([origin_velocity + omega[:, None] * perp(r_cm), omega])
         return q, v
@@ -186,7 +196,7 @@ class Model:
                 mobility = self._mobility(*_ends(term))
                 rates.extend(np.sqrt(term.law.stiffness * mobility))
                 rates.extend(term.law.damping * mobility)
-            elif isinstance(term, CentreDragTerm):
+            elif isinstance(term, CenterDragTerm):
                 rates.extend((term.coefficient / self.mass[term.body])[~term.quadratic])
             elif isinstance(term, PointDragTerm):
                 mobility = self._mobility([(term.body, term.local)])
@@ -196,10 +206,10 @@ class Model:
         return float(max(rates))
 
     def _mobility(self, ends: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        total = 0.0
+        total: np.ndarray | float = 0.0
         for body, local in ends:
             total = total + 1.0 / self.mass[body] + np.sum(local ** 2, axis=1) / self.inertia[body]
-        return total
+        return np.asarray(total)
 
 
 def _ends(term: AnchorSpringTerm | BodySpringTerm) -> tuple[list[tuple[np.ndarray, np.ndarray]]]:
@@ -263,12 +273,12 @@ def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
             np.array([model.local(idx[s.body_b], s.point_b) for s in joined]), *law(joined)))
 
     drags = [(idx[name], s) for s in by_kind[DragSpec] for name in s.bodies]
-    centre = [(i, s) for i, s in drags if s.point is None]
+    center = [(i, s) for i, s in drags if s.point is None]
     pointed = [(i, s) for i, s in drags if s.point is not None]
-    if centre:
-        terms.append(CentreDragTerm(np.array([i for i, _ in centre]),
-                                    np.array([s.coefficient for _, s in centre]),
-                                    np.array([s.quadratic for _, s in centre])))
+    if center:
+        terms.append(CenterDragTerm(np.array([i for i, _ in center]),
+                                    np.array([s.coefficient for _, s in center]),
+                                    np.array([s.quadratic for _, s in center])))
     if pointed:
         terms.append(PointDragTerm(np.array([i for i, _ in pointed]),
                                    np.array([model.local(i, s.point) for i, s in pointed]),
@@ -286,18 +296,18 @@ def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
         for spec in wrenches:
             i = idx[spec.body]
             if isinstance(spec, ConstantTorqueSpec):
-                rows.append((i, (0.0, 0.0), spec.torque, -1, -1, (0.0, 0.0), False))
+                rows.append(WrenchRow(i, (0.0, 0.0), spec.torque, -1, -1, (0.0, 0.0), False))
             else:
                 at_point = spec.point is not None
                 local = model.local(i, spec.point) if at_point else (0.0, 0.0)
-                rows.append((i, spec.force, 0.0, i if spec.body_axes else -1, i, local, at_point))
+                rows.append(WrenchRow(i, spec.force, 0.0, i if spec.body_axes else -1, i,
+                                      tuple(local), at_point))
         terms.append(wrench_term(rows))
     return terms
 
 
-def wrench_term(rows: list[tuple]) -> ConstantWrenchTerm:
-    """Build a :class:`ConstantWrenchTerm` from rows of
-    (body, force, torque, axes_body, point_body, point, at_point)."""
+def wrench_term(rows: Sequence[WrenchRow]) -> ConstantWrenchTerm:
+    """Build a :class:`ConstantWrenchTerm` from its rows."""
     body, force, torque, axes, owner, point, at_point = zip(*rows)
     return ConstantWrenchTerm(np.array(body), np.array(force, dtype=float).reshape(-1, 2),
                               np.array(torque, dtype=float), np.array(axes), np.array(owner),

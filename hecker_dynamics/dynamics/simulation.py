@@ -9,21 +9,22 @@ same order gives bit-identical states.
 Where the compiled kernel is built (:mod:`.kernel`), the scene declares no walls or
 collisions and the method is explicit, the steps between one publish instant or input
 change and the next run in the kernel in one call, with the results of Python's
-plain-float path: the same bits with the fixed-step methods (but for spring lengths whose
-squares under- or overflow), the same to rounding per step with the adaptive ones.
+plain-float path (:mod:`.kernel` says how far they agree).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import NamedTuple, Optional
+from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
 from .commands import InputError, WrenchCommand
 from .inputs import InputBuffer
-from ..integrators.methods import ImplicitTheta, IntegrationError, choose_method, make_integrator
-from .kernel import compiled_steps
+from ..integrators.methods import (EmbeddedRungeKutta, ImplicitTheta, IntegrationError,
+                                   choose_method, make_integrator)
+from .kernel import Advanced, compiled_steps
+from .forces import WrenchRow
 from .model import Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
 from ..scene.load import Scene
@@ -107,10 +108,11 @@ class Simulation:
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
                                    self.model.contacts is not None)
         self.integrator = make_integrator(method, scene.tolerance)
-        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by coloured differences
-            self.integrator.colouring_source = self.model.jacobian_colouring
+        if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
+            self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = (compiled_steps(self.model, self.integrator)
+        self._compiled = (compiled_steps(self.model.compiled, self.integrator,
+                                         self.model.contacts is not None)
                           if self.model.joints is None else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
@@ -145,6 +147,74 @@ class Simulation:
         """The published state of every body now, with the total energy."""
         return Snapshot(self._time_ns, self._steps, self.model, self.q, self.v)
 
+    def export_state(self) -> dict[str, Any]:
+        """Everything a continuation depends on, as plain data (float64 values exact, as
+        Python floats): clock, step count, the state q and v, the input buffer, and what the
+        integrator and the contact pass carry from step to step. A simulation of the same
+        scene given it by :meth:`import_state` continues bit for bit as this one does."""
+        return {
+            "start_ns": self.start_ns, "time_ns": self._time_ns, "steps": self._steps,
+            "q": self.q.tolist(), "v": self.v.tolist(),
+            "inputs": self._inputs.export_state(),
+            "integrator": self.integrator.export_state(),
+            "contacts": None if self.model.contacts is None else self.model.contacts.export_state(),
+            "joints": None if self.model.joints is None else self.model.joints.export_state(),
+        }
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`export_state`'s data (of a simulation of the same scene)."""
+        q, v = np.array(state["q"], dtype=float), np.array(state["v"], dtype=float)
+        if q.shape != self.q.shape or v.shape != self.v.shape:
+            raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
+                             f"{self.model.size}")
+        self.start_ns, self._time_ns = int(state["start_ns"]), int(state["time_ns"])
+        self._steps = int(state["steps"])
+        self.q, self.v = q, v
+        self._inputs.import_state(state["inputs"], self._row)
+        rows = [held.row for held in self._inputs.active()]
+        self.model.inputs = wrench_term(rows) if rows else None
+        self.integrator.reset()
+        self.integrator.import_state(state["integrator"])
+        if self.model.contacts is not None:
+            self.model.contacts.import_state(state["contacts"] or [])
+        if self.model.joints is not None and state.get("joints") is not None:
+            self.model.joints.import_state(state["joints"])
+
+    def set_body_state(self, name: str, position: tuple[float, float], angle: float,
+                       linear_velocity: tuple[float, float], angular_velocity: float) -> None:
+        """Move body ``name`` now: its frame to ``position`` and ``angle``, the frame's origin
+        moving at ``linear_velocity``, turning at ``angular_velocity`` (what its pose and a
+        world-frame twist publish). The contact pass forgets its warm starts, which belonged
+        to the old positions. Raises :class:`InputError` for an unknown body or a number
+        that is not finite."""
+        index = self.model.index.get(name)
+        if index is None:
+            raise InputError(f"unknown body '{name}' (bodies: {', '.join(self.model.names)})")
+        numbers = (*position, angle, *linear_velocity, angular_velocity)
+        if not all(math.isfinite(x) for x in numbers):
+            raise InputError(f"the state for '{name}' has a non-finite value {numbers}")
+        q, v = self.model.cm_states(np.array([index]), np.array([position], dtype=float),
+                                    np.array([angle], dtype=float),
+                                    np.array([linear_velocity], dtype=float),
+                                    np.array([angular_velocity], dtype=float))
+        self.q, self.v = self.q.copy(), self.v.copy()
+        self.q[index], self.v[index] = q[0], v[0]
+        wrap_angles_in_place(self.q[:, 2])
+        if self.model.contacts is not None:
+            self.model.contacts.reset()
+        if self.model.joints is not None:  # the next step moves it back onto its joints
+            self.model.joints.forget()
+
+    def skip_to(self, time_ns: int) -> None:
+        """Move the clock forward to ``time_ns`` without stepping (a resume after a pause):
+        the start moves with it, so publish instants and scripted times keep their places
+        relative to it; commands keep their absolute stamps."""
+        shift = int(time_ns) - self._time_ns
+        if shift < 0 or shift % self.step_ns:
+            raise ValueError(f"cannot skip by {shift} ns: not a whole number of steps forward")
+        self._time_ns += shift
+        self.start_ns += shift
+
     # ----------------------------------------------------------------- inputs
 
     def push(self, command: WrenchCommand) -> None:
@@ -165,11 +235,11 @@ class Simulation:
                 f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
         self._inputs.add(command, self._row(command))
 
-    def _row(self, command: WrenchCommand) -> tuple:
+    def _row(self, command: WrenchCommand) -> WrenchRow:
         """The command as a constant-wrench row: its frame resolved to a body or the world."""
         target = self.model.index[command.body]
         if command.frame_id == self.scene.frame_id:
-            return (target, command.force, command.torque, -1, -1, command.point, True)
+            return WrenchRow(target, command.force, command.torque, -1, -1, command.point, True)
         name, _, point_name = command.frame_id.partition("/")
         owner = self.model.index.get(name)
         if owner is None:
@@ -184,8 +254,8 @@ class Simulation:
                                  f"point '{point_name}' (points: {', '.join(points) or 'none'})")
             origin = points[point_name]
         point = (origin[0] + command.point[0], origin[1] + command.point[1])
-        return (target, command.force, command.torque, owner, owner,
-                tuple(self.model.local(owner, point)), True)
+        return WrenchRow(target, command.force, command.torque, owner, owner,
+                         tuple(self.model.local(owner, point)), True)
 
     # ----------------------------------------------------------------- stepping
 
@@ -208,8 +278,12 @@ class Simulation:
         if change is not None:  # the first step that starts at or after it sees the change
             limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
         q, v = self.q.copy(), self.v.copy()
-        done = self._compiled.advance(q, v, self.step_seconds, limit)
+        integrator = self.integrator
+        embedded = integrator if isinstance(integrator, EmbeddedRungeKutta) else None
+        done = self._compiled.advance(q, v, self.step_seconds, limit, self.model.oriented,
+                                      0.0 if embedded is None else embedded.substep_size)
         self.q, self.v = q, v
+        self._account(done, embedded)
         self._steps += done.taken
         self._time_ns += done.taken * self.step_ns
         if done.error is not None:
@@ -218,6 +292,16 @@ class Simulation:
         if done.diverged is not None:
             raise self._diverged(*done.diverged)
         return done.taken
+
+    def _account(self, done: Advanced, embedded: Optional[EmbeddedRungeKutta]) -> None:
+        """Add the work of steps taken in the kernel to the integrator's counters, and
+        carry an embedded pair's sub-step size over, as its steps in Python would."""
+        counters = self.integrator.counters
+        counters.evaluations += done.evaluations
+        if embedded is not None:
+            counters.substeps += done.substeps
+            counters.rejected += done.rejected
+            embedded.substep_size = done.substep_size
 
     def _step(self) -> None:
         """One step in Python, the inputs already updated."""

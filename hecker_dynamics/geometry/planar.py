@@ -2,7 +2,7 @@
 
 ``perp`` rotates a vector a quarter turn counter-clockwise; ``perp_dot(a, b)`` is
 ``perp(a) . b``, the 2D cross product, which turns an offset and a force into a torque
-("Physics, Part 2: Angular Effects", the perp-dot product and Equation 6). The vector
+("Physics, Part 2: Angular Effects", the perp-dot torque of Eq. 11). The vector
 functions take arrays whose last axis has length 2 and broadcast over the others; the angle
 functions (``cos_sin``, ``wrap_angle``, ``wrap_angles_in_place``) take arrays of angles,
 ``cos_sin_of`` one angle.
@@ -23,7 +23,8 @@ def perp(v: np.ndarray) -> np.ndarray:
 
 
 def perp_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Return perp(a) . b = a_x b_y - a_y b_x (the torque of force ``b`` at offset ``a``)."""
+    """Return perp(a) . b = a_x b_y - a_y b_x (the torque of force ``b`` at offset ``a``,
+    Eq. 11)."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]

@@ -1,8 +1,8 @@
 """Shapes and their mass properties, integrated over the area.
 
-Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the centre of mass
-and the moment of inertia as integrals over the body, Equations 3 and 8): the mass, the
-centre of mass (CM) and the moment of inertia about the CM follow from the shape and its
+Step 1 of the article's algorithm ("Physics, Part 2: Angular Effects", the center of mass
+and the moment of inertia as integrals over the body, Eq. 3 and Eq. 13): the mass, the
+center of mass (CM) and the moment of inertia about the CM follow from the shape and its
 density. Polygons are integrated exactly by summing signed triangles fanned from the
 origin, so either winding works; circles use their closed forms; a body made of several
 shapes combines them with the parallel-axis theorem.
@@ -49,7 +49,7 @@ class Polygon:
 
 @dataclass(frozen=True)
 class Circle:
-    """A disc of ``radius`` centred at ``center`` in the body frame."""
+    """A disc of ``radius`` centered at ``center`` in the body frame."""
 
     center: tuple[float, float]
     radius: float
@@ -57,7 +57,7 @@ class Circle:
     def __post_init__(self) -> None:
         center = (float(self.center[0]), float(self.center[1]))
         if not all(math.isfinite(x) for x in (*center, self.radius)):
-            raise GeometryError("a circle's centre and radius must be finite numbers")
+            raise GeometryError("a circle's center and radius must be finite numbers")
         if self.radius <= 0.0:
             raise GeometryError(f"a circle's radius must be positive, not {self.radius}")
         object.__setattr__(self, "center", center)
@@ -69,7 +69,7 @@ Shape = Union[Polygon, Circle]
 
 def box(width: float, height: float, center: tuple[float, float] = (0.0, 0.0),
         angle: float = 0.0) -> Polygon:
-    """Return a ``width`` x ``height`` rectangle centred at ``center``, turned by ``angle``."""
+    """Return a ``width`` x ``height`` rectangle centered at ``center``, turned by ``angle``."""
     if not (width > 0.0 and height > 0.0):
         raise GeometryError(f"a box needs a positive width and height, not {width} x {height}")
     half = np.array([[-width, -height], [width, -height], [width, height], [-width, height]]) / 2
@@ -89,7 +89,7 @@ class AreaProperties:
 
 @dataclass(frozen=True)
 class MassProperties:
-    """Mass, centre of mass and moment of inertia about the CM (article Equations 3, 8)."""
+    """Mass, center of mass and moment of inertia about the CM (Eq. 3 and Eq. 13)."""
 
     mass: float
     center_of_mass: tuple[float, float]  # body frame
@@ -106,7 +106,7 @@ def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarr
             ((d3 > 0) != (d4 > 0)) and d3 != 0 and d4 != 0:
         return True
 
-    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: float) -> bool:
+    def on_segment(a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarray) -> bool:
         return d == 0 and min(a[0], b[0]) <= p[0] <= max(a[0], b[0]) and \
             min(a[1], b[1]) <= p[1] <= max(a[1], b[1])
 
@@ -168,10 +168,11 @@ def area_properties(shape: Shape) -> AreaProperties:
     return AreaProperties(area, centroid + fan, second_moment)
 
 
-def mass_properties(shapes: list[Shape] | tuple[Shape, ...], densities: list[float]) -> MassProperties:
+def mass_properties(shapes: list[Shape] | tuple[Shape, ...],
+                    densities: list[float]) -> MassProperties:
     """Combine shapes of the given densities into one body's mass, CM and inertia.
 
-    The CM is the mass-weighted mean of the shapes' centroids (article Equation 3); each
+    The CM is the mass-weighted mean of the shapes' centroids (Eq. 3); each
     shape's inertia is moved to the common CM with the parallel-axis theorem.
     """
     if len(shapes) != len(densities) or not shapes:

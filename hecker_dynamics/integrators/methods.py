@@ -3,8 +3,8 @@
 Every method advances the state ``(q, v)`` (positions and angles, velocities and angular
 velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
 
-- ``explicit_euler``: the article's own scheme (Equations 1 and 2 applied to x and omega),
-  order 1, gains energy on oscillators.
+- ``explicit_euler``: the article's own scheme, position and angle stepped through their
+  derivatives (Eq. 1 and Eq. 6); order 1, gains energy on oscillators.
 - ``semi_implicit_euler``: velocity first, then position with the new velocity; order 1,
   symplectic, bounded energy error.
 - ``velocity_verlet``: order 2, symplectic for position-dependent forces; velocity-dependent
@@ -16,7 +16,7 @@ velocities, each (N, 3)) by a step ``h`` given ``f(q, v) -> accelerations``:
   evaluations a sub-step, far fewer sub-steps at tight tolerances.
 - ``implicit_midpoint`` (order 2, A-stable, symplectic) and ``backward_euler`` (order 1,
   L-stable): solved by Newton's method, stable for stiff springs at any step. Given the
-  bodies' coupling (a :class:`~.colouring.Colouring`), their Jacobian takes coloured
+  bodies' coupling (a :class:`~.coloring.Coloring`), their Jacobian takes colored
   differences: 6 evaluations per group of bodies instead of 6 per body.
 """
 from __future__ import annotations
@@ -25,11 +25,11 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
-from .colouring import Colouring
+from .coloring import Coloring
 from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -65,6 +65,13 @@ class Integrator:
     def reset(self) -> None:
         """Forget any state carried from step to step."""
 
+    def export_state(self) -> dict[str, Any]:
+        """The state carried from step to step, as plain data (none for most methods)."""
+        return {}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`export_state`'s data."""
+
     def _f(self, f: Accelerations, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         self.counters.evaluations += 1
         return f(q, v)
@@ -76,7 +83,8 @@ class ExplicitEuler(Integrator):
     def __init__(self) -> None:
         super().__init__("explicit_euler", 1)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         a = self._f(f, q, v)
         return q + h * v, v + h * a
 
@@ -87,7 +95,8 @@ class SemiImplicitEuler(Integrator):
     def __init__(self) -> None:
         super().__init__("semi_implicit_euler", 1)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         v1 = v + h * self._f(f, q, v)
         return q + h * v1, v1
 
@@ -98,7 +107,8 @@ class VelocityVerlet(Integrator):
     def __init__(self) -> None:
         super().__init__("velocity_verlet", 2)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         a0 = self._f(f, q, v)
         q1 = q + h * v + (0.5 * h * h) * a0
         a1 = self._f(f, q1, v + h * a0)
@@ -111,7 +121,8 @@ class RungeKutta4(Integrator):
     def __init__(self) -> None:
         super().__init__("rk4", 4)
 
-    def step(self, f, q, v, h):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         k1q, k1v = v, self._f(f, q, v)
         k2q = v + 0.5 * h * k1v
         k2v = self._f(f, q + 0.5 * h * k1q, k2q)
@@ -153,7 +164,15 @@ class EmbeddedRungeKutta(Integrator):
     def reset(self) -> None:
         self.substep_size = math.inf
 
-    def step(self, f, q, v, h):
+    def export_state(self) -> dict[str, Any]:
+        """The sub-step size the controller chose last: the next step starts with it."""
+        return {"substep_size": self.substep_size}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        self.substep_size = float(state["substep_size"])
+
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
         y = np.concatenate([q.ravel(), v.ravel()])
         n = q.size
         shape = q.shape
@@ -220,9 +239,9 @@ class ImplicitTheta(Integrator):
     method fails (a step so long that the bodies turn far within it), the step is taken as
     two halves, recursively, up to :attr:`MAX_HALVINGS` times.
 
-    :attr:`colouring_source`, if set, is called at each Jacobian for the current
-    :class:`~.colouring.Colouring` of the bodies (a Simulation sets it to its model's);
-    with fewer groups than bodies the Jacobian is taken by coloured differences, equal bit
+    :attr:`coloring_source`, if set, is called at each Jacobian for the current
+    :class:`~.coloring.Coloring` of the bodies (a Simulation sets it to its model's);
+    with fewer groups than bodies the Jacobian is taken by colored differences, equal bit
     for bit to the dense one for finite states (where the acceleration is already NaN the
     dense one spreads NaN through more entries; Newton's method refuses either). Unset,
     every column costs one evaluation.
@@ -235,15 +254,15 @@ class ImplicitTheta(Integrator):
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
         super().__init__(name, order)
         self.theta = theta
-        self.colouring_source: Optional[Callable[[], Colouring]] = None
+        self.coloring_source: Optional[Callable[[], Coloring]] = None
 
     def jacobians(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
                   a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """da/dq and da/dv as (3N, 3N) matrices, by forward differences: coloured when a
-        colouring with fewer groups than bodies is given, else one column at a time."""
-        colouring = None if self.colouring_source is None else self.colouring_source()
-        if colouring is not None and len(colouring.groups) < colouring.size:
-            jacobian = partial(self._coloured_jacobian, a=a, colouring=colouring)
+        """da/dq and da/dv as (3N, 3N) matrices, by forward differences: colored when a
+        coloring with fewer groups than bodies is given, else one column at a time."""
+        coloring = None if self.coloring_source is None else self.coloring_source()
+        if coloring is not None and len(coloring.groups) < coloring.size:
+            jacobian = partial(self._colored_jacobian, a=a, coloring=coloring)
         else:
             jacobian = partial(self._dense_jacobian, a=a)
         return (jacobian(lambda bumped: self._f(f, bumped, v), q),
@@ -265,9 +284,9 @@ class ImplicitTheta(Integrator):
         return jac
 
     @staticmethod
-    def _coloured_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
-                           a: np.ndarray, colouring: Colouring) -> np.ndarray:
-        """da/dstate by coloured differences: one evaluation per state component (x, y,
+    def _colored_jacobian(f: Callable[[np.ndarray], np.ndarray], state: np.ndarray,
+                           a: np.ndarray, coloring: Coloring) -> np.ndarray:
+        """da/dstate by colored differences: one evaluation per state component (x, y,
         angle or their rates) and group, bumping that component of every body of the group
         by the dense method's step; each body's column is read from the rows of the bodies
         it influences, the rest of it is zero. The same arithmetic as the dense method."""
@@ -276,7 +295,7 @@ class ImplicitTheta(Integrator):
         delta = 1.5e-8 * np.fmax(1.0, np.abs(state))  # fmax: a NaN reads as 1, as max() does
         flat_delta = delta.ravel()
         for component in range(3):  # x, y, angle (or their rates): the flat index 3 k + c
-            for group, rows, bodies in zip(colouring.groups, colouring.rows, colouring.columns):
+            for group, rows, bodies in zip(coloring.groups, coloring.rows, coloring.columns):
                 bumped = state.copy()
                 bumped[group, component] += delta[group, component]
                 change = (f(bumped) - a).ravel()
@@ -284,7 +303,8 @@ class ImplicitTheta(Integrator):
                 jac[rows, columns] = change[rows] / flat_delta[columns]
         return jac
 
-    def step(self, f, q, v, h, halvings: int = 0):
+    def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray, h: float,
+             halvings: int = 0) -> tuple[np.ndarray, np.ndarray]:
         try:
             return self._solve(f, q, v, h)
         except IntegrationError:
@@ -328,16 +348,10 @@ METHODS = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "d
 ADAPTIVE = ("dopri5", "dop853")
 #: Largest stiffness rate x step at which ``auto`` keeps an explicit method.
 AUTO_STIFF_LIMIT = 0.5
-#: Most bodies for which ``auto`` picks an implicit method, in a scene with contacts.
-#: Measured on stiff rings with the steps in Python (h = 1 ms, stiffness x step 1 to 1000):
-#: from 16 bodies on, dopri5 was cheaper in all but one case (by up to 32x at 64 bodies:
-#: Newton's dense solve and slow convergence on turning bodies), and more accurate in every
-#: case; up to 4 bodies implicit midpoint was 2-10x cheaper at stiffness x step 25-100. A
-#: scene without contacts gets dopri5 at any size: its steps run in the compiled kernel
-#: where it is built, and there dopri5 was 7 to 500 times cheaper than implicit midpoint on
-#: stiff rings of 1, 4 and 16 bodies at stiffness x step 5 to 1000 wherever Newton's method
-#: converged (it failed on one body at 100 and 1000). The rule depends on the scene only,
-#: never on whether the kernel was built, so both builds pick the same method.
+#: Most bodies for which ``auto`` picks an implicit method, in a scene with contacts: above
+#: it Newton's dense solve costs more than dopri5's short sub-steps (docs/scenes.md has the
+#: measurements). The rule reads the scene only, never whether the kernel was built, so
+#: both builds pick the same method.
 AUTO_IMPLICIT_BODIES = 4
 
 

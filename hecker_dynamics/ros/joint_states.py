@@ -44,7 +44,8 @@ def set_motor_speed(sim: Simulation, joint: str, speed: float) -> None:
     is not finite."""
     speeds = {} if sim.model.joints is None else sim.model.joints.motor_speed
     if joint not in speeds:
-        raise InputError(f"no motor on joint '{joint}' (motors: {', '.join(sorted(speeds)) or 'none'})")
+        raise InputError(f"no motor on joint '{joint}' "
+                         f"(motors: {', '.join(sorted(speeds)) or 'none'})")
     if not math.isfinite(speed):
         raise InputError(f"motor speed for joint '{joint}' must be finite, not {speed}")
     speeds[joint] = float(speed)

@@ -1,11 +1,11 @@
 """The ROS 2 node ``dynamics_node``: thin rclpy glue over :class:`Simulation`.
 
-Inputs are turned into commands by :mod:`hecker_dynamics.ros.mapping`, the simulation steps in
-fixed steps up to the ROS clock (or, in lockstep, as fast as it can while publishing
-``/clock``), and every publish instant it passes becomes ``<body>/pose`` and
-``<body>/twist`` messages stamped with its sim time. Every decision (what a message means,
-when the clock jumped, how far the simulation lags) is made in ``mapping`` and
-``ratelimit``; this module only moves data between them and rclpy.
+Inputs are turned into commands by :mod:`.fields`, the simulation steps in fixed steps up
+to the ROS clock (or, in lockstep, as fast as it can while publishing ``/clock``), and every
+publish instant it passes becomes ``<body>/pose`` and ``<body>/twist`` messages stamped with
+its sim time. Every decision (what a message means, when the clock jumped, how far the
+simulation lags) is made in the other modules of :mod:`hecker_dynamics.ros`; this module
+only moves data between them and rclpy.
 """
 from __future__ import annotations
 
@@ -22,19 +22,25 @@ from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..dynamics.commands import WrenchCommand
-from .mapping import (DIAGNOSTICS_TOPIC, NS_PER_S, DiagnosticFields, Header, LogLine,
-                      MarkerFields, NodeOptions, OdometryFields, OutputFields, OutputKind,
-                      Pose, PoseStampedFields, Runner, TickAction, TwistFields,
-                      applied_wrench_to_command, catch_up_cap, header, node_setup,
-                      output_topics, plan_tick, snapshot_outputs, stamp_from_ns,
-                      wrench_stamped_to_command)
-from ..msg import AppliedWrench
+from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
+                     header, stamp_from_ns)
+from .diagnostics import DiagnosticFields
+from .markers import MarkerFields
+from .outputs import DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics, snapshot_outputs
+from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
+                     plan_tick)
+from .session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, INPUT_EVENTS_TOPIC,
+                      KEYFRAME_DEPTH, KEYFRAME_TOPIC, SESSION_DEPTH, SESSION_TOPIC,
+                      WORLD_EVENTS_DEPTH, WORLD_EVENTS_TOPIC, InputEventFields, KeyframeFields,
+                      SessionFields, WorldEventFields)
+from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
+from ..srv import SetBodyState, Step
 from .ratelimit import RateLimiter
 from ..scene.load import NODE_NAME, SceneError, WrenchTopic
 
@@ -121,6 +127,57 @@ def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray
     return array
 
 
+def _session_info(fields: SessionFields) -> SessionInfo:
+    msg = SessionInfo(
+        session=fields.session, reason=fields.reason, scene=fields.scene,
+        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
+        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
+        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
+        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
+        version=fields.version)
+    _fill_header(msg.header, header(fields.frame_id, fields.start_ns))
+    return msg
+
+
+def _keyframe(fields: KeyframeFields) -> Keyframe:
+    msg = Keyframe(session=fields.session, steps=fields.steps, next_event=fields.next_event,
+                   bodies=list(fields.bodies), q=list(fields.q), v=list(fields.v),
+                   state=fields.state)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    return msg
+
+
+def _input_event(fields: InputEventFields) -> InputEvent:
+    msg = InputEvent(session=max(fields.session, 0), sequence=fields.sequence,
+                     topic=fields.topic, kind=fields.kind, accepted=fields.accepted,
+                     reason=fields.reason)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    msg.arrival.sec, msg.arrival.nanosec = stamp_from_ns(fields.arrival_ns)
+    if fields.kind == APPLIED_WRENCH_EVENT:
+        msg.applied_wrench = fields.message
+    else:
+        msg.wrench_stamped = fields.message
+    return msg
+
+
+def _world_event(fields: WorldEventFields) -> WorldEvent:
+    msg = WorldEvent(session=max(fields.session, 0), sequence=fields.sequence,
+                     kind=int(fields.kind), body=fields.body, values=list(fields.values),
+                     time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+    _fill_header(msg.header, header("", fields.stamp_ns))
+    return msg
+
+
+#: Session records: their topic, message builder and keep-last depth. Reliable and
+#: transient_local, so a recorder that starts after them still receives the latest.
+RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, int]] = {
+    SessionFields: (SESSION_TOPIC, _session_info, SessionInfo, SESSION_DEPTH),
+    KeyframeFields: (KEYFRAME_TOPIC, _keyframe, Keyframe, KEYFRAME_DEPTH),
+    InputEventFields: (INPUT_EVENTS_TOPIC, _input_event, InputEvent, INPUT_EVENTS_DEPTH),
+    WorldEventFields: (WORLD_EVENTS_TOPIC, _world_event, WorldEvent, WORLD_EVENTS_DEPTH),
+}
+
+
 MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
     OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
@@ -152,25 +209,41 @@ class DynamicsNode(Node):
         cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
         for line in cap_warnings:
             self.get_logger().warning(line)
+        self._record_publishers: dict[type, Any] = {}
+        if self.options.record_session:
+            for kind, (topic, _, msgtype, depth) in RECORD_TOPICS.items():
+                self._record_publishers[kind] = self.create_publisher(msgtype, topic, QoSProfile(
+                    history=HistoryPolicy.KEEP_LAST, depth=depth,
+                    reliability=ReliabilityPolicy.RELIABLE,
+                    durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.runner = Runner(self.scene, play_script=self.options.play_script, max_steps=cap,
                              started=self.options.lockstep,
-                             hardware_id=self.get_fully_qualified_name())
+                             hardware_id=self.get_fully_qualified_name(),
+                             record=self.options.record_session,
+                             keyframe_period_ns=round(self.options.keyframe_period * NS_PER_S),
+                             lockstep=self.options.lockstep)
         self.sim = self.runner.sim
         self._limiter = RateLimiter()
         self._last_tick_ns: Optional[int] = None
+        self._wrench_topic_names: dict[str, str] = {}
         #: Done (with True, or False after a divergence) when a lockstep run reaches the
         #: scene's duration; never done otherwise.
         self.finished = Future()
         self._publishers_by_topic = {
             topic: self.create_publisher(MESSAGE_TYPES[kind], topic, QUEUE_DEPTH)
             for topic, kind in output_topics(self.scene).items()}
-        self.create_subscription(AppliedWrench, "applied_wrench", self._on_applied_wrench,
-                                 QUEUE_DEPTH)
+        self._applied_wrench = self.create_subscription(
+            AppliedWrench, "applied_wrench", self._on_applied_wrench, QUEUE_DEPTH)
         for topic in self.scene.wrench_topics:
-            self.create_subscription(
+            subscription = self.create_subscription(
                 WrenchStamped, topic.topic,
                 lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
+            self._wrench_topic_names[topic.name] = subscription.topic_name
         self.create_service(Trigger, "reset", self._on_reset)
+        self.create_service(Trigger, "pause", self._on_pause)
+        self.create_service(Trigger, "resume", self._on_resume)
+        self.create_service(Step, "step", self._on_step)
+        self.create_service(SetBodyState, "set_body_state", self._on_set_body_state)
         if self.options.lockstep:
             self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
             # A zero period: the timer is always ready, so the run goes as fast as it can
@@ -178,6 +251,7 @@ class DynamicsNode(Node):
             self._timer = self.create_timer(
                 0.0, self._on_lockstep_tick, clock=Clock(clock_type=ClockType.STEADY_TIME))
             self._publish_clock()
+            self._publish_records()  # the lockstep session starts now
         else:
             self._timer = self.create_timer(self.scene.publish_period_ns / NS_PER_S,
                                             self._on_tick)
@@ -206,14 +280,13 @@ class DynamicsNode(Node):
         return self.sim.time_ns if self.options.lockstep else self.get_clock().now().nanoseconds
 
     def _on_applied_wrench(self, msg: AppliedWrench) -> None:
-        self._log(self.runner.accept(
-            "applied_wrench", lambda now_ns: applied_wrench_to_command(msg, now_ns),
-            self._now_ns()))
+        self._log(self.runner.accept(self._applied_wrench.topic_name, msg, self._now_ns()))
+        self._publish_records()
 
     def _on_wrench_stamped(self, msg: WrenchStamped, topic: WrenchTopic) -> None:
-        convert: Callable[[int], tuple[WrenchCommand, list[str]]] = \
-            lambda now_ns: wrench_stamped_to_command(msg, topic, now_ns)
-        self._log(self.runner.accept(topic.topic, convert, self._now_ns()))
+        self._log(self.runner.accept(self._wrench_topic_names[topic.name], msg, self._now_ns(),
+                                     topic))
+        self._publish_records()
 
     # ----------------------------------------------------------------- stepping
 
@@ -226,10 +299,10 @@ class DynamicsNode(Node):
             return
         if action is TickAction.START:
             self.get_logger().info(reason)
+            self.runner.restart(now_ns, "start")
         elif action is TickAction.RESTART:
             self._warn("clock_jump", reason)
-        if action is not TickAction.ADVANCE:
-            self.runner.restart(now_ns)
+            self.runner.restart(now_ns, "clock jump")
         self._last_tick_ns = now_ns
         self._advance(now_ns)
 
@@ -248,6 +321,7 @@ class DynamicsNode(Node):
     def _advance(self, target_ns: int) -> None:
         """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed."""
         tick = self.runner.advance(target_ns)
+        self._publish_records()
         for line in tick.script_errors:
             self._warn("script", line)
         if tick.diverged is not None:
@@ -265,6 +339,12 @@ class DynamicsNode(Node):
                 _diagnostic_array(tick.diagnostics, header("", self.sim.time_ns)))
 
     # ----------------------------------------------------------------- outputs
+
+    def _publish_records(self) -> None:
+        """Publish the session records the runner made (dropped with record_session off)."""
+        for record in self.runner.take_records():
+            _, build, _, _ = RECORD_TOPICS[type(record)]
+            self._record_publishers[type(record)].publish(build(record))
 
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(
@@ -285,7 +365,8 @@ class DynamicsNode(Node):
             response.success = False
             response.message = "the ROS clock is not running yet (waiting for /clock)"
             return response
-        self.runner.restart(start_ns)
+        self.runner.restart(start_ns, "reset")
+        self._publish_records()
         if not self.options.lockstep:
             self._last_tick_ns = start_ns
         response.success = True
@@ -293,6 +374,40 @@ class DynamicsNode(Node):
         self.get_logger().info(response.message)
         return response
 
+
+    # ----------------------------------------------------------------- world services
+
+    def _answer(self, record: WorldEventFields, response: Any, done: str) -> Any:
+        """Publish the change's record and answer the call with its outcome."""
+        self._publish_records()
+        response.success = record.accepted
+        response.message = done if record.accepted else record.reason
+        (self.get_logger().info if record.accepted else self.get_logger().warning)(
+            response.message)
+        return response
+
+    def _on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Any:
+        return self._answer(self.runner.pause(), response,
+                            f"paused at {self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_resume(self, request: Trigger.Request, response: Trigger.Response) -> Any:
+        return self._answer(self.runner.resume(self._now_ns()), response,
+                            f"resumed at {self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
+        record, tick = self.runner.step(int(request.steps))
+        for snapshot in tick.snapshots:
+            for output in snapshot_outputs(self.scene, snapshot):
+                self._publish(output)
+        return self._answer(record, response, f"stepped {request.steps} step(s) to "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_set_body_state(self, request: SetBodyState.Request,
+                           response: SetBodyState.Response) -> Any:
+        record = self.runner.set_body_state(request.body, (
+            request.x, request.y, request.angle, request.vx, request.vy, request.omega))
+        return self._answer(record, response, f"moved '{request.body}' at "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
 def main(args: Optional[list[str]] = None) -> int:
     """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status."""

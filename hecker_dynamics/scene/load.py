@@ -14,13 +14,14 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional, Union
+from typing import Any, Optional, Union, overload
 
+import numpy as np
 import yaml
 
 from ..dynamics.commands import WrenchCommand
-from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box, is_convex,
-                       mass_properties)
+from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
+                               is_convex, mass_properties)
 from ..integrators.methods import METHODS
 from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint,
                               RevoluteJoint, RotarySpring, WeldJoint)
@@ -38,8 +39,8 @@ NODE_NAME = "dynamics_node"
 INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
-                             "max_catch_up_steps", "start_type_description_service",
-                             "qos_overrides"})
+                             "max_catch_up_steps", "record_session", "keyframe_period",
+                             "start_type_description_service", "qos_overrides"})
 Vec2 = tuple[float, float]
 #: A relative or absolute ROS topic name (letters, digits, underscores, '/' between tokens).
 TOPIC_PATTERN = re.compile(r"/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
@@ -343,8 +344,8 @@ def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
     if len(flat) < 6:
         reader.fail("vertices", "a polygon needs at least 3 vertices (6 numbers)")
     c, s = math.cos(turn), math.sin(turn)
-    return Polygon([(center[0] + c * x - s * y, center[1] + s * x + c * y)
-                    for x, y in zip(flat[0::2], flat[1::2])])
+    return Polygon(np.array([(center[0] + c * x - s * y, center[1] + s * x + c * y)
+                             for x, y in zip(flat[0::2], flat[1::2])]))
 
 
 def _read_body(name: str, reader: ParameterReader) -> BodySpec:
@@ -370,7 +371,7 @@ def _read_body(name: str, reader: ParameterReader) -> BodySpec:
             mass = reader.number("mass", positive=True)
             densities = [d * mass / unit.mass for d in relative]
         elif all(d is not None for d in own):
-            densities = own
+            densities = [d for d in own if d is not None]
         else:
             reader.fail("mass", "is required (or 'density', or a density on every part)")
         if any(d <= 0.0 for d in densities):
@@ -415,8 +416,18 @@ def _body(reader: ParameterReader, key: str, points: Mapping[str, Mapping[str, V
     return body
 
 
+@overload
 def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
-           default: Any = None) -> Optional[Vec2]:
+           default: None = None) -> Optional[Vec2]: ...
+
+
+@overload
+def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
+           default: list[float]) -> Vec2: ...
+
+
+def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
+           default: Optional[list[float]] = None) -> Optional[Vec2]:
     """A body point given as [x, y] in the body frame or as the name of a declared point."""
     value = reader.raw(key, default)
     if value is None:
@@ -532,14 +543,12 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
                                             reader.number("ratio", REQUIRED))))
             continue
         joints.append(_read_joint(name, kind, reader, bodies, fixed))
-    kinds = {joint.name: joint for joint in joints}
+    revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
     for reader, gear in gears:
         for key in ("joint_a", "joint_b"):
-            other = kinds.get(getattr(gear, key))
-            if not isinstance(other, RevoluteJoint):
+            if getattr(gear, key) not in revolute:
                 reader.fail(key, f"'{getattr(gear, key)}' is not a revolute joint of this "
-                                 f"scene (revolute joints: "
-                                 f"{', '.join(n for n, j in kinds.items() if isinstance(j, RevoluteJoint)) or 'none'})")
+                                 f"scene (revolute joints: {', '.join(revolute) or 'none'})")
         if gear.joint_a == gear.joint_b:
             reader.fail("joint_b", "a gear needs two different joints")
         if gear.ratio == 0.0:
@@ -581,8 +590,9 @@ def _read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[s
         point_a = given
     start_a = point_a if world else _place(bodies[name_a], point_a)
     gap = math.hypot(start_b[0] - start_a[0], start_b[1] - start_a[1])
-    common = dict(name=name, body_a=body_a, body_b=body_b, point_a=point_a, point_b=point_b,
-                  collide_connected=reader.boolean("collide_connected", False))
+    common: dict[str, Any] = dict(name=name, body_a=body_a, body_b=body_b, point_a=point_a,
+                                  point_b=point_b,
+                                  collide_connected=reader.boolean("collide_connected", False))
     if kind in ("revolute", "weld") and gap > 1e-6:
         reader.fail("point_a", f"is {gap:.6g} m from point_b at the start; a {kind} joint "
                                "joins one point of both bodies")

@@ -1,10 +1,9 @@
 /* Force terms: steps 3 to 6 of the algorithm of "Physics, Part 2: Angular Effects".
  *
- * Each force has a point of application; the forces add up at the CM (Equation 4) and
- * each adds the perp-dot torque of its offset from the CM (Equation 6); a point's velocity
- * is v_CM + omega perp(r) (Equation 7). Every function repeats, operation for operation,
- * the plain-float path of hecker_dynamics/forces.py (`add_scalar`), so the two give the
- * same bits.
+ * Each force has a point of application; the forces add up at the CM (F = M a, Eq. 5)
+ * and each adds the perp-dot torque of its offset from the CM (Eq. 11); a point's velocity
+ * is v_CM + omega perp(r) (Eq. 9). Every function repeats, operation for operation,
+ * the plain-float path of hecker_dynamics/dynamics/forces.py (`add_scalar`).
  */
 #include <float.h>
 #include <math.h>
@@ -15,7 +14,7 @@ int hd_int_columns(int kind)
 {
     switch (kind) {
     case GRAVITY: case ANCHOR_SPRING: case ANGULAR_DAMPING: return 1;
-    case BODY_SPRING: case CENTRE_DRAG: case POINT_DRAG: return 2;
+    case BODY_SPRING: case CENTER_DRAG: case POINT_DRAG: return 2;
     case WRENCH: return 4;
     default: return 0;
     }
@@ -26,7 +25,7 @@ int hd_real_columns(int kind)
     switch (kind) {
     case GRAVITY: return 2;
     case ANCHOR_SPRING: case BODY_SPRING: return 7;
-    case CENTRE_DRAG: case ANGULAR_DAMPING: return 1;
+    case CENTER_DRAG: case ANGULAR_DAMPING: return 1;
     case POINT_DRAG: return 3;
     case WRENCH: return 5;
     default: return 0;
@@ -51,7 +50,7 @@ static void offset(const Scratch *s, long body, double lx, double ly, double *rx
     *ry = sn * lx + c * ly;
 }
 
-/* v_P = v_CM + omega perp(r) (Equation 7). */
+/* v_P = v_CM + omega perp(r) (Eq. 9). */
 static void point_velocity(const double *v, long body, double rx, double ry,
                            double *vx, double *vy)
 {
@@ -60,7 +59,8 @@ static void point_velocity(const double *v, long body, double rx, double ry,
     *vy = b[1] + b[2] * rx;
 }
 
-/* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque. */
+/* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque
+ * (Eq. 11). */
 static void apply(double *wrench, double rx, double ry, double fx, double fy)
 {
     wrench[0] += fx;
@@ -133,7 +133,7 @@ static void add_term(const Term *t, const Scratch *s, const double *q, const dou
             apply(w + 3 * b, rbx, rby, -fx, -fy);
             break;
         }
-        case CENTRE_DRAG: {
+        case CENTER_DRAG: {
             long b = i[0];
             drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
             w[3 * b] += fx;

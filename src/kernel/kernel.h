@@ -1,11 +1,11 @@
 /* The compiled kernel of hecker_dynamics: force terms and explicit integrators in C.
  *
- * It does what the Python modules forces.py and model.py (the accelerations, for every
- * scene) and integrators.py (the explicit methods, for scenes without contacts) do, in the
- * same order of floating-point operations as their plain-float path, so that the
- * accelerations and the fixed-step methods give the same bits (the build must not contract
- * a * b + c into a fused multiply-add: -ffp-contract=off). Python stays the reference;
- * this is its fast path.
+ * It does what the Python modules dynamics/forces.py and dynamics/model.py (the
+ * accelerations, for every scene) and integrators/methods.py (the explicit methods, for
+ * scenes without contacts) do, in the same order of floating-point operations as their
+ * plain-float path; the build must not contract a * b + c into a fused multiply-add
+ * (-ffp-contract=off). How far the results agree with Python's is stated once, in
+ * hecker_dynamics/dynamics/kernel.py. Python stays the reference; this is its fast path.
  *
  * State layout, as in Python: q[3 i .. 3 i + 2] = (x_CM, y_CM, angle) of body i and
  * v[3 i ..] = (vx_CM, vy_CM, omega), each a C-contiguous (N, 3) array of doubles.
@@ -23,7 +23,7 @@ enum TermKind {
     GRAVITY = 1,         /* ints: body;                     reals: wx, wy (m g)            */
     ANCHOR_SPRING = 2,   /* ints: body;                     reals: lx, ly, ax, ay, k, L0, c */
     BODY_SPRING = 3,     /* ints: a, b;                     reals: lax, lay, lbx, lby, k, L0, c */
-    CENTRE_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
+    CENTER_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
     POINT_DRAG = 5,      /* ints: body, quadratic;          reals: lx, ly, c               */
     ANGULAR_DAMPING = 6, /* ints: body;                     reals: c                       */
     WRENCH = 7           /* ints: body, axes, owner, at_point; reals: fx, fy, torque, px, py */
@@ -52,8 +52,8 @@ typedef struct {
 } Scratch;
 
 /* (ax, ay, alpha) per body into `out` (3 N): the terms of `program`, then those of
- * `inputs` (may be NULL), summed per body and divided by mass and inertia (the article's
- * Equations 4 and 6). `oriented`: some term needs the bodies' angles. */
+ * `inputs` (may be NULL), summed per body and divided by mass and inertia (F = M a, Eq. 5;
+ * tau = I alpha, Eq. 14). `oriented`: some term needs the bodies' angles. */
 void hd_accelerations(const Program *program, const Program *inputs, int oriented,
                       const double *q, const double *v, double *out, Scratch *scratch);
 

@@ -388,7 +388,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
     /* The codes of kernel.h, so that the Python side never writes them again. */
     static const struct { const char *name; long value; } constants[] = {
         {"GRAVITY", GRAVITY}, {"ANCHOR_SPRING", ANCHOR_SPRING}, {"BODY_SPRING", BODY_SPRING},
-        {"CENTRE_DRAG", CENTRE_DRAG}, {"POINT_DRAG", POINT_DRAG},
+        {"CENTER_DRAG", CENTER_DRAG}, {"POINT_DRAG", POINT_DRAG},
         {"ANGULAR_DAMPING", ANGULAR_DAMPING}, {"WRENCH", WRENCH},
         {"EXPLICIT_EULER", EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", SEMI_IMPLICIT_EULER},
         {"VELOCITY_VERLET", VELOCITY_VERLET}, {"RK4", RK4}, {"EMBEDDED", EMBEDDED},

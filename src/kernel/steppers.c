@@ -1,9 +1,8 @@
 /* Integrators: step 7 of the article's algorithm, and the step loop of the simulation.
  *
- * The fixed-step methods repeat hecker_dynamics/integrators.py operation for operation
- * (numpy's element-wise arithmetic rounds each operation as C does), so they give the
- * same bits; the embedded pairs follow the same controller but sum their stages in their
- * own order, so they agree with Python to rounding, not bit for bit.
+ * The fixed-step methods repeat hecker_dynamics/integrators/methods.py operation for
+ * operation (numpy's element-wise arithmetic rounds each operation as C does); the embedded
+ * pairs follow the same controller but sum their stages in their own order.
  */
 #include <math.h>
 #include <stdlib.h>

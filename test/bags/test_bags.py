@@ -13,7 +13,7 @@ import yaml
 
 from hecker_dynamics.bags import io as bags
 
-from hecker_dynamics.ros import mapping
+from hecker_dynamics.ros import fields
 from hecker_dynamics.bags.io import (APPLIED_WRENCH, POSE_STAMPED, TWIST, WRENCH_STAMPED, BagError,
                                   BagWriter, read_bag)
 from hecker_dynamics.cli import main
@@ -107,7 +107,7 @@ def test_replay_of_a_script_bag_equals_simulation_play(tmp_path):
     poses = [o for o in produced if o.topic == "/left/pose"]
     assert len(poses) == len(snapshots) == 200
     for output, snapshot in zip(poses, snapshots):
-        expected = mapping.pose_fields(snapshot.bodies[0], "world", snapshot.time_ns)
+        expected = fields.pose_fields(snapshot.bodies[0], "world", snapshot.time_ns)
         assert output.log_ns == snapshot.time_ns
         assert tuple(vars(output.msg.pose.position)[k] for k in "xyz") == expected.pose.position
 
@@ -207,7 +207,7 @@ dynamics_node:
 
 
 def _node_session(tmp_path: Path, scene, start_ns: int, drop_input: bool = False) -> Path:
-    """Record a session the way the node runs one, using mapping.py for every message.
+    """Record a session the way the node runs one, using hecker_dynamics.ros for every message.
 
     Inputs arrive between timer ticks at odd times, some with zero stamps (act on arrival)
     and some stamped a little before or after their arrival; the node pushes each one at the
@@ -244,21 +244,21 @@ def _node_session(tmp_path: Path, scene, start_ns: int, drop_input: bool = False
             arrival, name, msgtype, msg = arrivals[index]
             index += 1
             if msgtype == APPLIED_WRENCH:
-                command, _ = mapping.applied_wrench_to_command(msg, arrival)
+                command, _ = fields.applied_wrench_to_command(msg, arrival)
             else:
-                command, _ = mapping.wrench_stamped_to_command(msg, topic, arrival)
+                command, _ = fields.wrench_stamped_to_command(msg, topic, arrival)
             sim.push(command)
         for snapshot in sim.advance_to(target):
             for n, state in enumerate(snapshot.bodies):
                 delay = 150_000 + 10_000 * n
                 stamp = snapshot.time_ns
                 records.append((stamp + delay, f"/{state.name}/pose", POSE_STAMPED,
-                                bags.pose_stamped_message(mapping.pose_fields(state, "world",
+                                bags.pose_stamped_message(fields.pose_fields(state, "world",
                                                                               stamp))))
                 records.append((stamp + delay + 40_000, f"/{state.name}/twist", TWIST,
-                                bags.twist_message(mapping.twist_fields(state, "body"))))
+                                bags.twist_message(fields.twist_fields(state, "body"))))
                 records.append((stamp + delay + 80_000, f"/{state.name}/odom", bags.ODOMETRY,
-                                bags.odometry_message(mapping.odometry_fields(state, "world",
+                                bags.odometry_message(fields.odometry_fields(state, "world",
                                                                               stamp))))
         tick = target
     path = tmp_path / ("session_dropped" if drop_input else "session")
@@ -491,7 +491,7 @@ def test_writer_leaves_nothing_behind_on_failure(tmp_path):
 
 
 def test_applied_wrench_type_comes_from_the_msg_file():
-    path = bags.applied_wrench_msg_path()
+    path = bags.message_definition_path()
     assert path.name == "AppliedWrench.msg"
     fields = [name for name, _ in bags.typestore().fielddefs[APPLIED_WRENCH][1]]
     declared = [line.split()[1] for line in path.read_text().splitlines()

@@ -14,8 +14,6 @@ leaves room for that and for the cos/sin of the rotated cases, while any wrong f
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

@@ -19,8 +19,6 @@ q += h v) and every difference from a closed form comes from the contact pass.
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -563,7 +561,7 @@ def test_scene_without_collision_groups_never_runs_the_body_pair_code(monkeypatc
 
 
 def test_step_that_overflows_in_a_colliding_scene_raises_divergence_error():
-    """Design section 7: a divergent state gives DivergenceError and keeps the last
+    """A divergent state gives DivergenceError and keeps the last
     finite state. A spring of stiffness 1e308 stretched 10 m makes an infinite force in
     one step. Without collision groups this raises DivergenceError (checked first); with
     one, the sub-step count must not trip over the non-finite travel first (it used to

@@ -1,8 +1,8 @@
 """Walls: impulses at the contact point (with rotation), restitution, resting contact, friction.
 
 References: the collision impulse j = -(1+e) v_rel.n / K, K = 1/M + (perp(r).n)^2 / I, from
-the article series ("Physics, Part 2: Angular Effects" cites it for its sample program;
-design section 1), and Coulomb friction's closed forms for a block on a floor or an incline.
+the article series ("Physics, Part 2: Angular Effects" cites it for its sample program),
+and Coulomb friction's closed forms for a block on a floor or an incline.
 
 All scenes here use semi-implicit Euler and no force other than those declared, so between
 contacts the free motion is exact in floating point (zero acceleration: v stays bit for bit,
@@ -11,8 +11,6 @@ q += h v), and every difference from the closed forms comes from the contact pas
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

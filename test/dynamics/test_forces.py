@@ -44,7 +44,7 @@ def assert_same(lean: np.ndarray, vector: np.ndarray) -> None:
 def test_every_force_term_agrees_between_lean_and_vector_paths():
     lean, vector = both_paths(make_scene(EVERY_FORCE))
     assert {type(t).__name__ for t in lean.terms} == {
-        "GravityTerm", "AnchorSpringTerm", "BodySpringTerm", "CentreDragTerm", "PointDragTerm",
+        "GravityTerm", "AnchorSpringTerm", "BodySpringTerm", "CenterDragTerm", "PointDragTerm",
         "AngularDampingTerm", "ConstantWrenchTerm"}
     for q, v in random_states(lean, 20, seed=1):
         assert_same(lean.accelerations(q, v), vector.accelerations(q, v))

@@ -8,8 +8,6 @@ additions (n <= 1000 here, so 1e-12 relative is a safe bound and any missing or 
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest

@@ -41,8 +41,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -294,8 +292,8 @@ def spy_on_chunks(sim) -> list[tuple[int, int]]:
     calls = []
     advance = sim._compiled.advance
 
-    def spy(q, v, h, steps):
-        done = advance(q, v, h, steps)
+    def spy(q, v, h, steps, *settings):
+        done = advance(q, v, h, steps, *settings)
         calls.append((steps, done.taken))
         return done
 
@@ -514,7 +512,7 @@ def test_explicit_euler_divergence_keeps_the_same_last_finite_state():
 
 
 def whipped_box() -> Simulation:
-    """A 1 kg unit box on a damped spring (c = 1000 N s/m) at the off-centre point (0.5, 0),
+    """A 1 kg unit box on a damped spring (c = 1000 N s/m) at the off-center point (0.5, 0),
     set spinning at 1e306 rad/s: RK4's first angular acceleration overflows to inf, so its
     third stage has an infinite angle, whose cosine Python's math.cos refuses (C's gives
     NaN)."""

@@ -1,4 +1,4 @@
-"""Closed-form motion: constant force and torque, torque-free spin, off-centre forces,
+"""Closed-form motion: constant force and torque, torque-free spin, off-center forces,
 the harmonic oscillator.
 
 Each test compares the core with a solution worked out by hand (the article's steps 4-6,
@@ -84,7 +84,7 @@ def test_torque_free_spin_wraps_and_keeps_the_cm_still():
     The scene's velocity is that of the body-frame origin, so a still CM needs the origin
     to start with v = omega perp(origin - CM) = offset omega (sin a0, -cos a0)."""
     omega, angle0, step = 3.7, 1.0, 0.001
-    offset = 0.3  # the box's centre, hence the CM, in the body frame
+    offset = 0.3  # the box's center, hence the CM, in the body frame
     origin_velocity = offset * omega * np.array([math.sin(angle0), -math.cos(angle0)])
     scene = make_scene({
         "step": step, "publish_rate": 100.0, "integrator": "semi_implicit_euler",
@@ -117,10 +117,10 @@ def test_torque_free_spin_wraps_and_keeps_the_cm_still():
     np.testing.assert_allclose(sim.q[0, :2], cm, atol=1e-12)
 
 
-# ----------------------------------------------------------------------------- off-centre force
+# ----------------------------------------------------------------------------- off-center force
 
-def off_centre_scene(angle: float, axes: str):
-    """A 2 m x 1 m box of 2 kg centred at (0.2, -0.1) in its frame, pushed by (3, 4) N at its
+def off_center_scene(angle: float, axes: str):
+    """A 2 m x 1 m box of 2 kg centered at (0.2, -0.1) in its frame, pushed by (3, 4) N at its
     named point 'tip' = (1.0, 0.5), which is (0.8, 0.6) from the CM in body axes."""
     return make_scene({
         "bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "center": [0.2, -0.1],
@@ -135,7 +135,7 @@ def off_centre_scene(angle: float, axes: str):
 # Hand values, I = 5/6. With angle 0 the offset r is (0.8, 0.6) in world axes too; with
 # angle pi/2 it is (-0.6, 0.8), and a body-axes force (3, 4) is (-4, 3) in world axes.
 #   tau = r_x F_y - r_y F_x
-OFF_CENTRE_CASES = [
+OFF_CENTER_CASES = [
     # angle, axes, world force, torque
     (0.0, "world", (3.0, 4.0), 0.8 * 4.0 - 0.6 * 3.0),            # 1.4
     (0.0, "body", (3.0, 4.0), 0.8 * 4.0 - 0.6 * 3.0),             # 1.4
@@ -144,9 +144,9 @@ OFF_CENTRE_CASES = [
 ]
 
 
-@pytest.mark.parametrize("angle, axes, force, torque", OFF_CENTRE_CASES)
-def test_off_centre_force_makes_perp_dot_torque(angle, axes, force, torque):
-    model = Model(off_centre_scene(angle, axes))
+@pytest.mark.parametrize("angle, axes, force, torque", OFF_CENTER_CASES)
+def test_off_center_force_makes_perp_dot_torque(angle, axes, force, torque):
+    model = Model(off_center_scene(angle, axes))
     q, v = model.initial_state()
     acc = model.accelerations(q, v)
     # cos(pi/2) is 6e-17, not 0: errors of a few 1e-16 on O(1) values.
@@ -170,7 +170,7 @@ def test_damped_spring_at_a_named_point_uses_the_point_velocity(rest_length, for
     is at (5.1, 7.2) and its tip at (4.5, 8.0), r = (-0.6, 0.8). A spring k = 10, c = 3
     joins the tip to an anchor at (4.5, 6.0), so d = (0, 2). The origin moves at (0.3, -0.2)
     and the body turns at 1.5 rad/s, so the tip moves at
-    v_P = (0.3, -0.2) + 1.5 perp((-0.5, 1.0)) = (-1.2, -0.95) (article Equation 7)."""
+    v_P = (0.3, -0.2) + 1.5 perp((-0.5, 1.0)) = (-1.2, -0.95) (Eq. 9)."""
     model = Model(make_scene({
         "bodies": {"b": {"shape": "box", "size": [2.0, 1.0], "center": [0.2, -0.1],
                          "mass": 2.0, "position": [5.0, 7.0], "angle": math.pi / 2,

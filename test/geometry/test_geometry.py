@@ -8,8 +8,6 @@ catches any wrong factor or sign (which would be O(1)).
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -98,8 +96,8 @@ def test_either_winding_gives_the_same_result(vertices):
     assert cw.mass > 0 and cw.moment_of_inertia > 0
 
 
-def test_offset_rotated_box_keeps_its_inertia_about_its_centre():
-    """A box moved to (3, -1) and turned 0.7 rad: CM at its centre, same I as unturned."""
+def test_offset_rotated_box_keeps_its_inertia_about_its_center():
+    """A box moved to (3, -1) and turned 0.7 rad: CM at its center, same I as unturned."""
     p = props([box(2.0, 1.0, (3.0, -1.0), 0.7)], [1.5])
     m = 1.5 * 2.0
     assert p.mass == pytest.approx(m, rel=REL)
@@ -247,7 +245,7 @@ def test_geometry_refuses_bad_shapes_directly():
 
 @pytest.mark.parametrize("offset", [1e2, 1e3, 1e4])
 def test_small_polygon_far_from_its_frame_origin_keeps_its_inertia(offset):
-    """A 1 cm box centred 100 m to 10 km from its frame's origin: integrating about the
+    """A 1 cm box centered 100 m to 10 km from its frame's origin: integrating about the
     frame origin and moving back to the centroid would cancel every digit (the old code gave
     a negative inertia at 100 m). Fanned from the mean vertex, the only error left is the
     rounding of the vertices themselves: ulp(offset) / 0.01 relative, at most 2e-10 here."""

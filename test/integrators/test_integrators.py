@@ -9,7 +9,7 @@ properties and integrators are tested together:
   (w = 10 rad/s), x0 = 1, v0 = 0; exact x = cos(wt).
 - ``damped``: the same with damping c = 2 N s/m; exact x = e^(-t) (cos wd t + sin(wd t)/wd),
   wd = sqrt(99). The damping force depends on the velocity, which Verlet must handle.
-- ``coupled``: a 1 m x 0.5 m box on a spring with rest length, attached 0.45 m off-centre,
+- ``coupled``: a 1 m x 0.5 m box on a spring with rest length, attached 0.45 m off-center,
   under gravity, starting turned and spinning: rotation and translation drive each other.
   No closed form; the reference is DOPRI5 at tolerance 1e-13 in one call, checked against
   Richardson-extrapolated RK4 (an independent method).
@@ -17,7 +17,7 @@ properties and integrators are tested together:
 from __future__ import annotations
 
 import math
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -55,7 +55,7 @@ def coupled_scene():
     })
 
 
-@lru_cache(maxsize=None)
+@cache
 def problem(name: str):
     """(model, final q, final v, rate w used to scale velocity errors)."""
     if name == "harmonic":
@@ -131,7 +131,8 @@ def one_step_matrix(method: str, z: float) -> np.ndarray:
     """
     if method == "semi_implicit_euler":   # v1 = v - h w^2 x; x1 = x + h v1
         return np.array([[1 - z * z, z], [-z, 1.0]])
-    if method == "velocity_verlet":       # x1 = x + h v - h^2 w^2 x / 2; v1 = v - h w^2 (x + x1) / 2
+    # velocity Verlet: x1 = x + h v - h^2 w^2 x / 2; v1 = v - h w^2 (x + x1) / 2
+    if method == "velocity_verlet":
         return np.array([[1 - z * z / 2, z], [-z * (1 - z * z / 4), 1 - z * z / 2]])
     y = -1j * z
     r = {"explicit_euler": 1 + y,

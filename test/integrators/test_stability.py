@@ -19,7 +19,8 @@ import pytest
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
 from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
 from hecker_dynamics.dynamics.model import Model
-from hecker_dynamics.geometry.planar import HALF_ANGLE_FROM, cos_sin, wrap_angle, wrap_angles_in_place
+from hecker_dynamics.geometry.planar import (HALF_ANGLE_FROM, cos_sin, wrap_angle,
+                                             wrap_angles_in_place)
 from hecker_dynamics.scene.load import load_scene
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 
@@ -233,7 +234,7 @@ def test_auto_picks_implicit_midpoint_only_when_stiff_with_contacts(kernel, monk
     assert auto(make_scene({"integrator": "auto", **FLOOR,
                             "bodies": {"b": {"shape": "circle", "radius": 1.0,
                                              "mass": 1.0}}})) == "dopri5"
-    # An off-centre spring is stiffer than its k/m says: at the tip of a thin rod the
+    # An off-center spring is stiffer than its k/m says: at the tip of a thin rod the
     # effective inverse mass is 1/m + r^2/I = 4/m, so w = sqrt(4 k / m) = 2 sqrt(k/m).
     # k/m = 10^5: w = 632 rad/s, w h = 0.63 at 1 ms though sqrt(k/m) h = 0.32.
     rod = thin_rod_scene(stiffness=10.0, step=0.001)
@@ -385,7 +386,7 @@ def test_thin_body_with_tiny_inertia_matches_a_reference():
 
 def mass_ratio_scene():
     """A 10^4 kg 2 m box and a 1 kg 0.2 m x 0.1 m box joined by a spring between
-    off-centre points; no external force. The light box is flung round at ~100 rad/s."""
+    off-center points; no external force. The light box is flung round at ~100 rad/s."""
     return make_scene({
         "bodies": {
             "heavy": {"shape": "box", "size": [2.0, 2.0], "mass": 1e4, "position": [-1.0, 0.5],
@@ -482,7 +483,7 @@ def test_seesaw_pinned_by_a_stiff_spring_stays_stable_with_implicit_methods(meth
 
 @pytest.mark.parametrize("x0, stiffness, step", [(1e4, 1e6, 0.001), (1e5, 1e8, 0.01)])
 def test_implicit_midpoint_converges_far_from_the_origin(x0, stiffness, step):
-    """A stiff off-centre spring whose anchor is 10 km or 100 km from the origin: position
+    """A stiff off-center spring whose anchor is 10 km or 100 km from the origin: position
     rounding (eps |q|) times the stiffness puts a floor under Newton's updates, which a
     purely relative test would never reach (it used to halve the step to failure). The run
     must need no halving, and the spring must hold its point: implicit midpoint conserves

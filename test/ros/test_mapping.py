@@ -16,14 +16,19 @@ import pytest
 
 from hecker_dynamics.dynamics.commands import InputError, WrenchCommand
 from hecker_dynamics.geometry.shapes import Circle, Polygon, box
-from hecker_dynamics.ros.mapping import (
-    DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN, MARKER_ADD, MARKER_CYLINDER,
-    MARKER_LINE_STRIP, NodeOptions, OutputKind, Runner, TickAction, applied_wrench_fields,
-    applied_wrench_to_command, catch_up_cap, diagnostic_fields, diagnostics_due, due_script,
-    lag_ns, marker_fields, node_options, node_setup, ns_from_stamp, odometry_fields,
-    output_topics, plain_parameters, plan_tick, pose_fields, quaternion_from_yaw,
-    scene_for_node, simulation_diagnostics, snapshot_outputs, stamp_from_ns, twist_fields,
-    wrench_stamped_to_command)
+from hecker_dynamics.ros.diagnostics import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
+                                             diagnostic_fields, diagnostics_due,
+                                             simulation_diagnostics)
+from hecker_dynamics.ros.fields import (applied_wrench_fields, applied_wrench_to_command,
+                                        ns_from_stamp, odometry_fields, pose_fields,
+                                        quaternion_from_yaw, stamp_from_ns, twist_fields,
+                                        wrench_stamped_to_command)
+from hecker_dynamics.ros.markers import (MARKER_ADD, MARKER_CYLINDER, MARKER_LINE_STRIP,
+                                         marker_fields)
+from hecker_dynamics.ros.outputs import OutputKind, output_topics, snapshot_outputs
+from hecker_dynamics.ros.runner import (NodeOptions, Runner, TickAction, catch_up_cap, due_script,
+                                        lag_ns, node_options, node_setup, plain_parameters,
+                                        plan_tick, scene_for_node)
 from hecker_dynamics.ros.ratelimit import RateLimiter
 from hecker_dynamics.scene.load import SceneError, WrenchTopic, load_scene
 from hecker_dynamics.dynamics.simulation import BodyState, Simulation
@@ -270,7 +275,7 @@ def test_polygon_marker_is_a_closed_outline_in_the_body_frame():
     assert marker.scale[0] > 0.0
 
 
-def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
+def test_circle_marker_is_a_disc_at_the_rotated_center_and_a_radius_line():
     wheel = Circle((0.5, 0.0), 0.25)
     triangle = Polygon([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])
     markers = marker_fields(_body([triangle, wheel]), _state(angle=math.pi / 2), 0,
@@ -278,7 +283,7 @@ def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
     assert [(m.id, m.type) for m in markers] == [
         (0, MARKER_LINE_STRIP), (1, MARKER_CYLINDER), (2, MARKER_LINE_STRIP)]
     disc, spoke = markers[1], markers[2]
-    # Body at (1, 2) turned a quarter: the centre (0.5, 0) of the body frame is at (1, 2.5).
+    # Body at (1, 2) turned a quarter: the center (0.5, 0) of the body frame is at (1, 2.5).
     assert disc.pose.position == pytest.approx((1.0, 2.5, 0.0))
     assert disc.scale[:2] == (0.5, 0.5)
     assert spoke.pose.position == (1.0, 2.0, 0.0)
@@ -286,7 +291,7 @@ def test_circle_marker_is_a_disc_at_the_rotated_centre_and_a_radius_line():
     assert disc.color[:3] == spoke.color[:3]
 
 
-def test_markers_of_different_bodies_differ_in_colour():
+def test_markers_of_different_bodies_differ_in_color():
     shape = box(1.0, 1.0)
     first = marker_fields(_body([shape], "a"), _state(), 0, "world", 0)[0]
     second = marker_fields(_body([shape], "b"), _state(), 1, "world", 0)[0]
@@ -507,14 +512,13 @@ def _push_left(runner, arrival_ns, stamp=(0, 0), **fields):
     msg = _namespace_applied(stamp, fields.pop("frame_id", "world"), fields.pop("body", "left"),
                              "test", (0.0, 0.0, 0.0), fields.pop("force", (1.0, 0.0, 0.0)),
                              (0.0, 0.0, 0.0), (0, 0))
-    return runner.accept("applied_wrench", lambda now: applied_wrench_to_command(msg, now),
-                         arrival_ns)
+    return runner.accept("/applied_wrench", msg, arrival_ns)
 
 
 def test_runner_refuses_input_before_the_start_and_counts_bad_input():
     runner = Runner(load_scene("sample"), started=False)
     lines = _push_left(runner, 0)
-    assert [line.key for line in lines] == ["applied_wrench:early"] and lines[0].dropped
+    assert [line.key for line in lines] == ["/applied_wrench:early"] and lines[0].dropped
     runner.restart(3 * S)
     assert runner.started and runner.sim.time_ns == 3 * S
     assert _push_left(runner, 3 * S) == []
@@ -523,13 +527,13 @@ def test_runner_refuses_input_before_the_start_and_counts_bad_input():
     frame = _push_left(runner, 3 * S, frame_id="left/nowhere")
     ahead = _push_left(runner, 3 * S, stamp=(3600, 0))
     assert [lines[0].key for lines in (nan, ghost, frame, ahead)] == [
-        "applied_wrench:message", "applied_wrench:scene", "applied_wrench:scene",
-        "applied_wrench:scene"]
+        "/applied_wrench:message", "/applied_wrench:scene", "/applied_wrench:scene",
+        "/applied_wrench:scene"]
     assert "unknown body 'ghost'" in ghost[0].message
     assert "unknown frame 'left/nowhere'" in frame[0].message
     tilted = _push_left(runner, 3 * S, force=(1.0, 0.0, 2.0))
     assert [(line.key, line.dropped) for line in tilted] == [
-        ("applied_wrench:out_of_plane", False)]
+        ("/applied_wrench:out_of_plane", False)]
     assert (runner.accepted, runner.rejected) == (2, 5)
 
 

@@ -33,9 +33,9 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
-from hecker_dynamics.ros.mapping import (applied_wrench_to_command, ns_from_stamp,  # noqa: E402
-                                     pose_fields, stamp_from_ns, twist_fields,
-                                     wrench_stamped_to_command)
+from hecker_dynamics.ros.fields import (applied_wrench_to_command, ns_from_stamp,  # noqa: E402
+                                        pose_fields, stamp_from_ns, twist_fields,
+                                        wrench_stamped_to_command)
 from hecker_dynamics.msg import AppliedWrench  # noqa: E402
 from hecker_dynamics.ros.node import DynamicsNode  # noqa: E402
 from hecker_dynamics.scene.load import load_scene, scene_from_parameters  # noqa: E402
@@ -195,7 +195,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     period = scene.publish_period_ns
     for k in range(1, periods + 1):
         set_clock(ros, clock, node, T0 + k * period)
-        spin_until(ros, lambda: node.sim.time_ns >= T0 + (k - 1) * period,
+        spin_until(ros, lambda k=k: node.sim.time_ns >= T0 + (k - 1) * period,
                    "the simulation to follow the clock")
     # The node's timer runs on the ROS clock from time 0, every publish period, so it
     # fires at T0 + periods * period too.
@@ -259,7 +259,7 @@ def test_node_follows_sim_time_and_matches_the_offline_simulation(ros):
     back = T0 - 10 * S
     for k in range(5):
         set_clock(ros, clock, node, back + k * period)
-        if spin_while(ros, lambda: node.sim.start_ns > back + k * period, spins=50):
+        if spin_while(ros, lambda k=k: node.sim.start_ns > back + k * period, spins=50):
             break
     assert back <= node.sim.start_ns <= back + 4 * period
     assert node.sim.time_ns >= node.sim.start_ns

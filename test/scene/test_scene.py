@@ -10,9 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
-import os
 import re
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -391,7 +389,7 @@ def test_terms_built_match_declared_forces():
                                             "torque": 1.0}})) == ["ConstantWrenchTerm"]
     full = make_scene(FULL)
     assert _term_names(full) == sorted([
-        "GravityTerm", "BodySpringTerm", "AnchorSpringTerm", "CentreDragTerm",
+        "GravityTerm", "BodySpringTerm", "AnchorSpringTerm", "CenterDragTerm",
         "PointDragTerm", "AngularDampingTerm", "ConstantWrenchTerm"])
     # springs: only anchored ones -> only the anchor term
     assert _term_names(_bodies_scene({"pin": {"type": "spring", "body_a": "a",
@@ -401,14 +399,14 @@ def test_terms_built_match_declared_forces():
 
 def test_can_turn_only_bodies_that_something_turns():
     """Gravity and CM drag never turn; a spring at the CM does not either; a spring at an
-    off-centre point, point drag, angular damping, torques and walls do."""
+    off-center point, point drag, angular damping, torques and walls do."""
     assert not Simulation(_bodies_scene({"g": {"type": "gravity"}, "d": {
         "type": "quadratic_drag", "coefficient": 0.1}})).model.can_turn().any()
-    centre_spring = {"s": {"type": "spring", "body_a": "a", "body_b": "b", "stiffness": 1.0}}
-    assert not Simulation(_bodies_scene(centre_spring)).model.can_turn().any()
-    off_centre = {"s": {"type": "spring", "body_a": "a", "point_a": "tip", "body_b": "b",
+    center_spring = {"s": {"type": "spring", "body_a": "a", "body_b": "b", "stiffness": 1.0}}
+    assert not Simulation(_bodies_scene(center_spring)).model.can_turn().any()
+    off_center = {"s": {"type": "spring", "body_a": "a", "point_a": "tip", "body_b": "b",
                         "stiffness": 1.0}}
-    assert list(Simulation(_bodies_scene(off_centre)).model.can_turn()) == [True, False]
+    assert list(Simulation(_bodies_scene(off_center)).model.can_turn()) == [True, False]
     damped = {"w": {"type": "angular_damping", "bodies": ["b"], "coefficient": 0.1}}
     assert list(Simulation(_bodies_scene(damped)).model.can_turn()) == [False, True]
     walled = _bodies_scene(walls={"floor": {"point": [0.0, -5.0], "normal": [0.0, 1.0],
@@ -421,7 +419,7 @@ def test_can_turn_only_bodies_that_something_turns():
 @pytest.mark.parametrize("lean", [True, False], ids=["lean", "vector"])
 def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
     """Gravity + CM drag only: no orientation is ever computed (on either evaluation path
-    the pose is built without angles) and the angular velocity stays bit-identical over
+    the kinematics are built without angles) and the angular velocity stays bit-identical over
     the run, whatever the integrator."""
     scene = _bodies_scene({"g": {"type": "gravity"},
                            "d": {"type": "linear_drag", "coefficient": 0.3},
@@ -431,7 +429,7 @@ def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
     sim.model.use_python(lean)
     assert not sim.model.can_turn().any()
     oriented = []
-    scalar_of, vector_init = forces.ScalarPose.of.__func__, forces.Pose.__init__
+    scalar_of, vector_init = forces.ScalarKinematics.of.__func__, forces.Kinematics.__init__
 
     def scalar_spy(cls, q, v, orient):
         oriented.append(orient)
@@ -440,8 +438,8 @@ def test_body_nothing_turns_does_no_torque_work(integrator, lean, monkeypatch):
     def vector_spy(self, q, v, orient=True):
         oriented.append(orient)
         vector_init(self, q, v, orient)
-    monkeypatch.setattr(forces.ScalarPose, "of", classmethod(scalar_spy))
-    monkeypatch.setattr(forces.Pose, "__init__", vector_spy)
+    monkeypatch.setattr(forces.ScalarKinematics, "of", classmethod(scalar_spy))
+    monkeypatch.setattr(forces.Kinematics, "__init__", vector_spy)
     omega0 = sim.v[:, 2].copy()
     angle0 = sim.q[:, 2].copy()
     sim.advance_to(300_000_000)

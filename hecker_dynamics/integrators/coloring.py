@@ -1,12 +1,12 @@
-"""Coloured finite differences (Curtis, Powell and Reid): which bodies may be bumped at once.
+"""Colored finite differences (Curtis, Powell and Reid): which bodies may be bumped at once.
 
 A body *influences* itself and every body whose acceleration depends on its state (the
 other end of a spring, the target of an input whose axes or point are its own). Two bodies
 that influence no body in common can have one state component bumped in the same force
 evaluation: each body's difference column is read from the rows of the bodies it
 influences, and every other row of that column is zero. Grouping the bodies so that no two
-in a group share an influenced body is a distance-2 colouring of the coupling graph; a
-greedy colouring in body order is used. A chain, or a ring of more than 5 bodies, takes 3
+in a group share an influenced body is a distance-2 coloring of the coupling graph; a
+greedy coloring in body order is used. A chain, or a ring of more than 5 bodies, takes 3
 to 5 groups whatever its length, instead of one group per body.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 
 
 @dataclass(frozen=True)
-class Colouring:
+class Coloring:
     """Groups of bodies whose state components are bumped together, and where to read them.
 
     ``groups[g]`` holds the bodies of group ``g`` (ascending); ``influenced[k]`` the bodies
@@ -47,8 +47,8 @@ class Colouring:
         return True
 
 
-def colour(size: int, couplings: Iterable[tuple[int, int]]) -> Colouring:
-    """Colour ``size`` bodies given the couplings (source, target): the target's
+def color(size: int, couplings: Iterable[tuple[int, int]]) -> Coloring:
+    """Color ``size`` bodies given the couplings (source, target): the target's
     acceleration depends on the source's state. Deterministic: greedy, in body order."""
     influenced: list[set[int]] = [{k} for k in range(size)]
     for source, target in couplings:
@@ -57,12 +57,12 @@ def colour(size: int, couplings: Iterable[tuple[int, int]]) -> Colouring:
     for k in range(size):
         for i in influenced[k]:
             influencers[i].append(k)
-    colours = [-1] * size
+    colors = [-1] * size
     for k in range(size):
-        taken = {colours[j] for i in influenced[k] for j in influencers[i]}
-        colours[k] = next(c for c in range(size) if c not in taken)
-    members: list[list[int]] = [[] for _ in range(max(colours, default=-1) + 1)]
-    for k, c in enumerate(colours):
+        taken = {colors[j] for i in influenced[k] for j in influencers[i]}
+        colors[k] = next(c for c in range(size) if c not in taken)
+    members: list[list[int]] = [[] for _ in range(max(colors, default=-1) + 1)]
+    for k, c in enumerate(colors):
         members[c].append(k)
     reach = tuple(np.array(sorted(s), dtype=np.intp) for s in influenced)
     rows, columns = [], []
@@ -70,5 +70,5 @@ def colour(size: int, couplings: Iterable[tuple[int, int]]) -> Colouring:
         pairs = [(3 * i + r, k) for k in group for i in reach[k] for r in range(3)]
         rows.append(np.array([p[0] for p in pairs], dtype=np.intp))
         columns.append(np.array([p[1] for p in pairs], dtype=np.intp))
-    return Colouring(size, tuple(np.array(g, dtype=np.intp) for g in members), reach,
+    return Coloring(size, tuple(np.array(g, dtype=np.intp) for g in members), reach,
                      tuple(rows), tuple(columns))

@@ -1,7 +1,7 @@
-"""Jacobians by coloured differences (Curtis-Powell-Reid) for the implicit methods.
+"""Jacobians by colored differences (Curtis-Powell-Reid) for the implicit methods.
 
 The model groups the bodies so that no two in a group influence a common body (a distance-2
-colouring of the coupling graph of springs and inputs in another body's frame); the
+coloring of the coupling graph of springs and inputs in another body's frame); the
 implicit methods then bump one state component of a whole group per evaluation. Each entry
 is computed by the same arithmetic as the dense Jacobian's, so the two agree bit for bit,
 and so do whole implicit runs.
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.bench.scenes import ring
-from hecker_dynamics.integrators.colouring import colour
+from hecker_dynamics.integrators.coloring import color
 from hecker_dynamics.dynamics.commands import WrenchCommand
 from hecker_dynamics.integrators.methods import ImplicitTheta
 from hecker_dynamics.dynamics.model import Model, wrench_term
@@ -86,10 +86,10 @@ def moved_state(model: Model, seed: int) -> tuple[np.ndarray, np.ndarray]:
             v + rng.normal(scale=[1.0, 1.0, 3.0], size=v.shape))
 
 
-def jacobians(model: Model, coloured: bool, seed: int = 1):
+def jacobians(model: Model, colored: bool, seed: int = 1):
     integrator = ImplicitTheta(0.5)
-    if coloured:
-        integrator.colouring_source = model.jacobian_colouring
+    if colored:
+        integrator.coloring_source = model.jacobian_coloring
     q, v = moved_state(model, seed)
     a = model.accelerations(q, v)
     return integrator.jacobians(model.accelerations, q, v, a), integrator.counters.evaluations
@@ -101,57 +101,57 @@ MODELS = {"chain": chain_model, "ring7": lambda lean: ring_model(7, lean),
 
 @pytest.mark.parametrize("name", MODELS)
 def test_no_two_bodies_of_a_group_influence_a_common_body(name):
-    colouring = MODELS[name](True).jacobian_colouring()
-    assert colouring.is_valid()
-    for group in colouring.groups:
+    coloring = MODELS[name](True).jacobian_coloring()
+    assert coloring.is_valid()
+    for group in coloring.groups:
         for j in group:
             for k in group:
                 if j < k:
-                    assert not set(colouring.influenced[j]) & set(colouring.influenced[k])
+                    assert not set(coloring.influenced[j]) & set(coloring.influenced[k])
 
 
 def test_springs_and_inputs_couple_their_bodies():
-    influenced = [set(s.tolist()) for s in chain_model(True).jacobian_colouring().influenced]
+    influenced = [set(s.tolist()) for s in chain_model(True).jacobian_coloring().influenced]
     assert influenced == [{0, 1, 6}, {0, 1, 2}, {1, 2, 3, 5}, {2, 3}, {4}, {5}, {6}]
 
 
-def test_the_colouring_follows_the_inputs():
+def test_the_coloring_follows_the_inputs():
     model = chain_model(True)
-    with_inputs = model.jacobian_colouring()
+    with_inputs = model.jacobian_coloring()
     model.inputs = None
-    without = model.jacobian_colouring()
+    without = model.jacobian_coloring()
     assert [s.tolist() for s in without.influenced[:3]] == [[0, 1], [0, 1, 2], [1, 2, 3]]
     model.inputs = wrench_term([Simulation(chain_scene())._row(COMMANDS[0])])
-    assert model.jacobian_colouring().influenced[0].tolist() == [0, 1, 6]
-    assert model.jacobian_colouring().influenced[2].tolist() == [1, 2, 3]
+    assert model.jacobian_coloring().influenced[0].tolist() == [0, 1, 6]
+    assert model.jacobian_coloring().influenced[2].tolist() == [1, 2, 3]
     assert with_inputs.influenced[2].tolist() == [1, 2, 3, 5]
 
 
 def test_a_ring_takes_three_to_five_groups():
-    assert len(ring_model(30, True).jacobian_colouring().groups) == 3
+    assert len(ring_model(30, True).jacobian_coloring().groups) == 3
     for n in (10, 31, 64, 100):
-        assert 3 <= len(ring_model(n, False).jacobian_colouring().groups) <= 5
+        assert 3 <= len(ring_model(n, False).jacobian_coloring().groups) <= 5
 
 
 @pytest.mark.parametrize("lean", [True, False])
 @pytest.mark.parametrize("name", MODELS)
-def test_coloured_jacobians_equal_the_dense_ones_bit_for_bit(name, lean):
+def test_colored_jacobians_equal_the_dense_ones_bit_for_bit(name, lean):
     model = MODELS[name](lean)
     for seed in (1, 2):
-        coloured, evaluations = jacobians(model, True, seed)
+        colored, evaluations = jacobians(model, True, seed)
         dense, _ = jacobians(model, False, seed)
-        for c, d in zip(coloured, dense):
+        for c, d in zip(colored, dense):
             assert c.tobytes() == d.tobytes()
         assert np.count_nonzero(dense[0]) > 0 and np.count_nonzero(dense[1]) > 0
-        assert evaluations == 6 * len(model.jacobian_colouring().groups) < 6 * model.size
+        assert evaluations == 6 * len(model.jacobian_coloring().groups) < 6 * model.size
 
 
-def run(scene, coloured: bool, steps: int, lean=None):
+def run(scene, colored: bool, steps: int, lean=None):
     sim = Simulation(scene)
     if lean is not None:
         sim.model.use_python(lean)
-    if not coloured:
-        sim.integrator.colouring_source = None
+    if not colored:
+        sim.integrator.coloring_source = None
     if scene.bodies[0].name == "b0":
         for command in COMMANDS:
             sim.push(command)
@@ -163,50 +163,50 @@ def run(scene, coloured: bool, steps: int, lean=None):
 @pytest.mark.parametrize("scene", [chain_scene, lambda: dataclasses.replace(
     ring(40), integrator="implicit_midpoint")], ids=["chain", "ring40"])
 def test_implicit_runs_are_the_same_bit_for_bit(scene, lean):
-    coloured, dense = run(scene(), True, 150, lean), run(scene(), False, 150, lean)
-    assert coloured.q.tobytes() == dense.q.tobytes()
-    assert coloured.v.tobytes() == dense.v.tobytes()
-    assert coloured.integrator.counters.newton_iterations == \
+    colored, dense = run(scene(), True, 150, lean), run(scene(), False, 150, lean)
+    assert colored.q.tobytes() == dense.q.tobytes()
+    assert colored.v.tobytes() == dense.v.tobytes()
+    assert colored.integrator.counters.newton_iterations == \
         dense.integrator.counters.newton_iterations
-    assert coloured.integrator.counters.evaluations < dense.integrator.counters.evaluations
-    if coloured.model.inputs is not None:  # the chain, with its inputs still active
-        assert coloured.model.jacobian_colouring().influenced[0].tolist() == [0, 1, 6]
+    assert colored.integrator.counters.evaluations < dense.integrator.counters.evaluations
+    if colored.model.inputs is not None:  # the chain, with its inputs still active
+        assert colored.model.jacobian_coloring().influenced[0].tolist() == [0, 1, 6]
 
 
-def test_backward_euler_is_coloured_too():
+def test_backward_euler_is_colored_too():
     scene = dataclasses.replace(ring(12), integrator="backward_euler")
     sim = Simulation(scene)
-    assert sim.integrator.colouring_source is not None
+    assert sim.integrator.coloring_source is not None
     sim.step()
-    groups = len(sim.model.jacobian_colouring().groups)
+    groups = len(sim.model.jacobian_coloring().groups)
     assert sim.integrator.counters.evaluations == \
         6 * groups + sim.integrator.counters.newton_iterations
 
 
 def test_a_fully_coupled_scene_keeps_the_dense_jacobian():
-    colouring = colour(3, [(0, 1), (1, 2), (2, 0)])
-    assert len(colouring.groups) == 3 and colouring.is_valid()
+    coloring = color(3, [(0, 1), (1, 2), (2, 0)])
+    assert len(coloring.groups) == 3 and coloring.is_valid()
 
 
 @pytest.mark.parametrize("lean", [True, False])
-def test_inputs_that_end_and_begin_mid_run_recolour_and_stay_bit_identical(lean):
-    """Inputs coupling other bodies end at 40 ms and a new one begins at 60 ms: the colouring
+def test_inputs_that_end_and_begin_mid_run_recolor_and_stay_bit_identical(lean):
+    """Inputs coupling other bodies end at 40 ms and a new one begins at 60 ms: the coloring
     follows (coupled, uncoupled, coupled again) and the run still equals the dense one."""
     short = tuple(dataclasses.replace(c, duration_ns=40 * MS) for c in COMMANDS)
     late = WrenchCommand(60 * MS, "b4", "late", "b0/tip", (0.0, 0.1), (1.0, 2.0), 0.1, 10**9)
     finals, influenced = [], []
-    for coloured in (True, False):
+    for colored in (True, False):
         sim = Simulation(chain_scene())
         sim.model.use_python(lean)
-        if not coloured:
-            sim.integrator.colouring_source = None
+        if not colored:
+            sim.integrator.coloring_source = None
         for command in short:
             sim.push(command)
         sim.advance_to(50 * MS)
-        influenced.append(sim.model.jacobian_colouring().influenced[0].tolist())
+        influenced.append(sim.model.jacobian_coloring().influenced[0].tolist())
         sim.push(late)
         sim.advance_to(100 * MS)
-        influenced.append(sim.model.jacobian_colouring().influenced[0].tolist())
+        influenced.append(sim.model.jacobian_coloring().influenced[0].tolist())
         finals.append((sim.q.tobytes(), sim.v.tobytes()))
     assert finals[0] == finals[1]
     # b0 reaches b1 by its spring; b6 while the tip input lasts (not at 50 ms); b4 after 60 ms.

@@ -1,0 +1,212 @@
+"""What a picture shows at one instant, read from a run of a scene or from a recorded bag.
+
+No matplotlib here: this module turns a run or a bag into the same records, so that a
+bag and the run that produced it draw the same picture. Both go through the published pose
+(``geometry_msgs/PoseStamped`` fields: the body frame's origin and a yaw quaternion),
+read back the same way; the forces are the wrench commands active at each instant, found
+with the simulation's own input buffer rules (:class:`~hecker_dynamics.dynamics.inputs.InputBuffer`)
+from the scene's script for a run and from the input messages for a bag.
+"""
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, replace
+from typing import NamedTuple, Optional
+from collections.abc import Iterator, Sequence
+
+import numpy as np
+
+from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
+from ..bags.replay import input_topics, output_types, session_times
+from ..dynamics import InputError, Model, Simulation, WrenchCommand
+from ..dynamics.inputs import InputBuffer
+from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
+from ..scene import Scene
+
+__all__ = ["VizError", "BodyPose", "Arrow", "Frame", "Timeline", "pose_from_fields",
+           "run_timeline", "bag_timeline", "frame_times", "world_point"]
+
+NS_PER_S = 1_000_000_000
+
+
+class VizError(ValueError):
+    """A picture that cannot be made; the message names the option or file and why."""
+
+
+class BodyPose(NamedTuple):
+    """The body frame's origin and angle in the fixed frame (as ``<body>/pose`` has it)."""
+
+    x: float
+    y: float
+    angle: float
+
+
+class Arrow(NamedTuple):
+    """A force at its point of application, both in the fixed frame."""
+
+    point: tuple[float, float]
+    force: tuple[float, float]
+
+
+class Frame(NamedTuple):
+    """One picture's worth of state: sim time, every body's pose, the acting forces."""
+
+    time_ns: int
+    poses: tuple[BodyPose, ...]  # in the scene's body order
+    arrows: tuple[Arrow, ...]
+
+
+def pose_from_fields(position: Sequence[float], orientation: Sequence[float]) -> BodyPose:
+    """A pose from a position and a yaw quaternion (x, y, z, w): the angle 2 atan2(z, w)."""
+    return BodyPose(float(position[0]), float(position[1]),
+                    2.0 * math.atan2(float(orientation[2]), float(orientation[3])))
+
+
+def world_point(pose: BodyPose, local: Sequence[float]) -> tuple[float, float]:
+    """A body-frame point in the fixed frame: origin + R(angle) local."""
+    c, s = math.cos(pose.angle), math.sin(pose.angle)
+    return (pose.x + c * local[0] - s * local[1], pose.y + s * local[0] + c * local[1])
+
+
+@dataclass
+class Timeline:
+    """Poses at their stamps and the commands that acted, for one scene.
+
+    ``start_ns`` and ``end_ns`` bound the session; ``stamps`` are increasing; ``poses[k]``
+    holds every body's pose at ``stamps[k]``; ``commands`` are in the order they were
+    pushed (stamps absolute).
+    """
+
+    scene: Scene
+    start_ns: int
+    end_ns: int
+    stamps: list[int]
+    poses: list[tuple[BodyPose, ...]]
+    commands: list[WrenchCommand]
+
+    def pose_at(self, time_ns: int) -> tuple[BodyPose, ...]:
+        """The latest poses at or before ``time_ns`` (the first ones before the first stamp)."""
+        k = bisect.bisect_right(self.stamps, time_ns) - 1
+        return self.poses[max(k, 0)]
+
+    def frames(self, times: Sequence[int]) -> Iterator[Frame]:
+        """The frames at increasing ``times``: held poses and the commands acting then."""
+        buffer = InputBuffer(self.scene.input_timeout_ns, max_pending=len(self.commands) + 1,
+                             max_active=len(self.commands) + 1)
+        pending = sorted(range(len(self.commands)), key=lambda i: self.commands[i].stamp_ns)
+        next_command = 0
+        index = {body.name: i for i, body in enumerate(self.scene.bodies)}
+        for time_ns in times:
+            while next_command < len(pending) and \
+                    self.commands[pending[next_command]].stamp_ns <= time_ns:
+                buffer.add(self.commands[pending[next_command]], ())
+                next_command += 1
+            buffer.update(time_ns)
+            poses = self.pose_at(time_ns)
+            arrows = tuple(self._arrow(held.command, poses, index) for held in buffer.active()
+                           if held.command.force != (0.0, 0.0))
+            yield Frame(time_ns, poses, arrows)
+
+    def _arrow(self, command: WrenchCommand, poses: tuple[BodyPose, ...],
+               index: dict[str, int]) -> Arrow:
+        """A command's force and point in the fixed frame, from the pose of its frame."""
+        if command.frame_id == self.scene.frame_id:
+            return Arrow(command.point, command.force)
+        name, _, point_name = command.frame_id.partition("/")
+        body = index[name]
+        origin = self.scene.bodies[body].points[point_name] if point_name else (0.0, 0.0)
+        pose = poses[body]
+        point = world_point(pose, (origin[0] + command.point[0], origin[1] + command.point[1]))
+        c, s = math.cos(pose.angle), math.sin(pose.angle)
+        fx, fy = command.force
+        return Arrow(point, (c * fx - s * fy, s * fx + c * fy))
+
+    def contact_points(self, poses: tuple[BodyPose, ...],
+                       model: Optional[Model] = None) -> list[tuple[float, float]]:
+        """Where the bodies at ``poses`` touch the walls and each other (the contact
+        pass's own detection, at the CMs the poses imply)."""
+        model = model or Model(self.scene)
+        if model.contacts is None:
+            return []
+        q = np.array([[*world_point(pose, model.cm_local[i]), pose.angle]
+                      for i, pose in enumerate(poses)])
+        return [tuple(contact[2]) for contact in model.contacts.detect(q)]
+
+
+def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:
+    """``round(duration x fps)`` instants from ``start_ns``, ``1/fps`` apart (whole ns)."""
+    count = round(duration_ns * fps / NS_PER_S)
+    return [start_ns + round(k * NS_PER_S / fps) for k in range(count)]
+
+
+def run_timeline(scene: Scene, end_ns: int) -> Timeline:
+    """Run ``scene`` from 0 with its script to ``end_ns``; the poses at the publish
+    instants, as the node publishes them (the replay of the scene's script bag has the same).
+    """
+    sim = Simulation(scene)
+    snapshots = sim.play(scene.script, end_ns)
+    commands = [replace(c, stamp_ns=sim.start_ns + c.stamp_ns)
+                for c in sorted(scene.script, key=lambda c: c.stamp_ns) if c.stamp_ns < end_ns]
+    stamps = [snapshot.time_ns for snapshot in snapshots]
+    poses = [tuple(pose_from_fields(*body_pose(state)) for state in snapshot.bodies)
+             for snapshot in snapshots]
+    if not stamps:
+        raise VizError(f"--duration: the run of {scene.source} publishes no pose before "
+                       f"{end_ns * 1e-9:g} s (publish period "
+                       f"{scene.publish_period_ns * 1e-9:g} s)")
+    return Timeline(scene, sim.start_ns, end_ns, stamps, poses, commands)
+
+
+def _bag_commands(scene: Scene, bag: BagContents) -> list[WrenchCommand]:
+    """The bag's input messages that fit the scene, mapped as the node maps them."""
+    topics = input_topics(scene)
+    bodies = {body.name for body in scene.bodies}
+    commands = []
+    for message in bag.messages:
+        if message.topic not in topics:
+            continue
+        _, wrench_topic = topics[message.topic]
+        try:
+            if wrench_topic is None:
+                command, _ = applied_wrench_to_command(message.decode(), message.log_ns)
+            else:
+                command, _ = wrench_stamped_to_command(message.decode(), wrench_topic,
+                                                       message.log_ns)
+            command.check_finite()
+        except InputError:
+            continue  # the node rejects it too: it never acted
+        if command.body in bodies and scene.has_frame(command.frame_id):
+            commands.append(command)
+    return commands
+
+
+def bag_timeline(scene: Scene, path: str) -> Timeline:
+    """The poses (``/<body>/pose``) and inputs of a recorded or replayed bag of ``scene``."""
+    try:
+        bag = read_bag(path)
+    except BagError as error:
+        raise VizError(f"--bag: {error}") from None
+    names = [body.name for body in scene.bodies]
+    pose_topics = [topic for topic, kind in output_types(scene).items()
+                   if kind == POSE_STAMPED]
+    missing = [t for t in pose_topics if t not in bag.topics]
+    if missing:
+        raise VizError(f"--bag {path}: no poses of {scene.source}'s bodies on "
+                       f"{', '.join(missing)} (is it a bag of this scene?)")
+    by_stamp: dict[int, dict[str, BodyPose]] = {}
+    for name, topic in zip(names, pose_topics):
+        bag.check_type(topic, POSE_STAMPED)
+        for message in bag.on(topic):
+            msg = message.decode()
+            stamp = stamp_ns_of(msg)
+            p, o = msg.pose.position, msg.pose.orientation
+            by_stamp.setdefault(message.log_ns if stamp is None else stamp, {})[name] = \
+                pose_from_fields((p.x, p.y), (o.x, o.y, o.z, o.w))
+    stamps = sorted(s for s, found in by_stamp.items() if len(found) == len(names))
+    if not stamps:
+        raise VizError(f"--bag {path}: the bag holds no instant with a pose of every body "
+                       f"({', '.join(names)})")
+    poses = [tuple(by_stamp[s][name] for name in names) for s in stamps]
+    start_ns, end_ns = session_times(scene, bag)  # as 'replay' finds them
+    return Timeline(scene, start_ns, end_ns, stamps, poses, _bag_commands(scene, bag))

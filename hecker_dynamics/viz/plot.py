@@ -1,0 +1,170 @@
+"""Poses, twists and energy of every body against time, from a bag; and two bags overlaid
+with their difference (what a failed ``replay --check`` reports in numbers, as a picture).
+
+The energy is the model's (kinetic plus the potential of gravity and springs) at the CM
+states the poses and twists imply, so it needs the scene (``--scene``): a bag holds no
+masses. Twists are read in the frame the scene publishes them in (``twist_frame``) and
+drawn in fixed-frame axes. Without a scene the twists are drawn as the bag has them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..bags.io import POSE_STAMPED, TWIST, BagError, read_bag, stamp_ns_of
+from ..dynamics import Model
+from ..scene import Scene
+from .draw import BODY_COLORS
+from .frames import VizError, pose_from_fields
+
+__all__ = ["Series", "read_series", "energy", "differences", "plot_bags", "QUANTITIES"]
+
+#: The rows of a plot: a label and a unit per quantity of a body's pose and twist.
+QUANTITIES = (("x", "m"), ("y", "m"), ("angle", "rad"), ("vx", "m/s"), ("vy", "m/s"),
+              ("omega", "rad/s"))
+
+
+@dataclass
+class Series:
+    """One body's pose and twist at the stamps of its poses, from one bag."""
+
+    body: str
+    time: np.ndarray  # s
+    values: np.ndarray  # (n, 6): x, y, angle, vx, vy, omega
+
+
+def _body_names(bag_topics: dict[str, str]) -> list[str]:
+    """Bodies with both ``/<body>/pose`` and ``/<body>/twist`` in the bag, sorted."""
+    return sorted(topic[1:-len("/pose")] for topic, kind in bag_topics.items()
+                  if kind == POSE_STAMPED and topic.endswith("/pose")
+                  and bag_topics.get(topic[:-len("/pose")] + "/twist") == TWIST)
+
+
+def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
+    """Every body's series in the bag at ``path`` (a twist pairs with the pose logged at the
+    same time, as the node publishes them together)."""
+    try:
+        bag = read_bag(path)
+    except BagError as error:
+        raise VizError(str(error)) from None
+    names = _body_names(bag.topics)
+    series = {}
+    for name in names:
+        twists = {m.log_ns: m.decode() for m in bag.on(f"/{name}/twist")}
+        rows, times = [], []
+        for message in bag.on(f"/{name}/pose"):
+            if message.log_ns not in twists:
+                continue
+            msg = message.decode()
+            p, o = msg.pose.position, msg.pose.orientation
+            x, y, angle = pose_from_fields((p.x, p.y), (o.x, o.y, o.z, o.w))
+            twist = twists[message.log_ns]
+            vx, vy = twist.linear.x, twist.linear.y
+            if scene is not None and scene.twist_frame == "body":  # to fixed-frame axes
+                c, s = math.cos(angle), math.sin(angle)
+                vx, vy = c * vx - s * vy, s * vx + c * vy
+            times.append(stamp_ns_of(msg) * 1e-9)
+            rows.append((x, y, angle, vx, vy, twist.angular.z))
+        if rows:
+            series[name] = Series(name, np.array(times), np.array(rows))
+    if not series:
+        raise VizError(f"{path}: no body has both /<body>/pose and /<body>/twist messages "
+                       "(an input bag? plot a bag written by 'replay' or recorded from the node)")
+    return series
+
+
+def energy(scene: Scene, series: dict[str, Series]) -> tuple[np.ndarray, np.ndarray]:
+    """The total mechanical energy at the instants where every scene body has a state.
+
+    The CM of body i is origin + R(angle) c_i and its velocity v_origin + omega perp(R c_i)
+    (Eq. 9), where c_i is the CM in the body frame.
+    """
+    model = Model(scene)
+    names = list(model.names)
+    missing = [n for n in names if n not in series]
+    if missing:
+        raise VizError(f"--scene {scene.source}: the bag has no states of {', '.join(missing)}")
+    common = sorted(set.intersection(*(set(series[n].time.tolist()) for n in names)))
+    times, values = [], []
+    for t in common:
+        q, v = np.zeros((len(names), 3)), np.zeros((len(names), 3))
+        for i, name in enumerate(names):
+            row = series[name].values[np.searchsorted(series[name].time, t)]
+            x, y, angle, vx, vy, omega = row
+            c, s = math.cos(angle), math.sin(angle)
+            rx = c * model.cm_local[i][0] - s * model.cm_local[i][1]
+            ry = s * model.cm_local[i][0] + c * model.cm_local[i][1]
+            q[i] = (x + rx, y + ry, angle)
+            v[i] = (vx - omega * ry, vy + omega * rx, omega)
+        times.append(t)
+        values.append(model.energy(q, v))
+    return np.array(times), np.array(values)
+
+
+def differences(first: dict[str, Series], second: dict[str, Series]
+                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per body both hold: the stamps both hold and second - first there, (n, 6), with the
+    angle difference wrapped into [-pi, pi)."""
+    result = {}
+    for name in sorted(first.keys() & second.keys()):
+        a, b = first[name], second[name]
+        times, ia, ib = np.intersect1d(a.time, b.time, return_indices=True)
+        difference = b.values[ib] - a.values[ia]
+        difference[:, 2] = (difference[:, 2] + math.pi) % (2 * math.pi) - math.pi
+        result[name] = (times, difference)
+    return result
+
+
+def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
+              scene: Optional[Scene] = None, size: tuple[int, int] = (1000, 1100)) -> None:
+    """One row per quantity (and energy with a scene); with ``second``, a column of
+    differences (second - first) at the stamps both bags hold."""
+    bags = [read_series(first, scene)] + ([read_series(second, scene)] if second else [])
+    if second is not None and not bags[0].keys() & bags[1].keys():
+        raise VizError(f"{first} and {second} have no body in common")
+    rows = len(QUANTITIES) + (scene is not None)
+    figure = Figure(figsize=(size[0] / 100, size[1] / 100), dpi=100)
+    FigureCanvasAgg(figure)
+    grid = figure.subplots(rows, 2 if second else 1, sharex=True, squeeze=False)
+    styles = ("-", "--")
+    names = sorted(set().union(*bags))
+    for k, bag in enumerate(bags):
+        for b, name in enumerate(names):
+            if name not in bag:
+                continue
+            s = bag[name]
+            for r in range(len(QUANTITIES)):
+                grid[r][0].plot(s.time, s.values[:, r], styles[k],
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0,
+                                label=f"{name} ({Path(first if k == 0 else second).name})")
+        if scene is not None:
+            t, e = energy(scene, bag)
+            grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)
+    if second is not None:
+        for b, (times, difference) in enumerate(differences(bags[0], bags[1]).values()):
+            for r in range(len(QUANTITIES)):
+                grid[r][1].plot(times, difference[:, r],
+                                color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0)
+        if scene is not None:
+            (ta, ea), (tc, ec) = energy(scene, bags[0]), energy(scene, bags[1])
+            times, ia, ic = np.intersect1d(ta, tc, return_indices=True)
+            grid[-1][1].plot(times, ec[ic] - ea[ia], color="black", linewidth=1.0)
+        grid[0][1].set_title(f"{Path(second).name} - {Path(first).name}", fontsize=9)
+    labels = [f"{q} ({unit})" for q, unit in QUANTITIES] + (["energy (J)"] if scene else [])
+    for r, label in enumerate(labels):
+        grid[r][0].set_ylabel(label, fontsize=8)
+        for axes in grid[r]:
+            axes.tick_params(labelsize=7)
+            axes.grid(True, linewidth=0.3)
+    for axes in grid[-1]:
+        axes.set_xlabel("sim time (s)", fontsize=8)
+    grid[0][0].legend(fontsize=7, loc="best")
+    figure.tight_layout()
+    figure.savefig(output, format=output.suffix.lstrip(".").lower() or "png",
+                   metadata={"Software": None} if output.suffix.lower() == ".png" else None)

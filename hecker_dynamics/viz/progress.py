@@ -1,0 +1,39 @@
+"""Progress bars for long work (runs, replays, renders, the benchmark), from tqdm.
+
+A bar goes to stderr, and by default only when stderr is a terminal, so logs and pipes
+stay clean.
+"""
+from __future__ import annotations
+
+import sys
+from typing import Optional
+
+from tqdm import tqdm
+
+__all__ = ["Progress", "stderr_is_terminal"]
+
+
+def stderr_is_terminal() -> bool:
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced or closed stderr
+        return False
+
+
+class Progress:
+    """A bar of ``total`` ``unit``; call it with the fraction done (0 to 1)."""
+
+    def __init__(self, label: str, total: float, unit: str = "s sim time",
+                 enabled: Optional[bool] = None) -> None:
+        self.total = total
+        self.bar = tqdm(total=total, desc=label, unit=unit, file=sys.stderr, leave=True,
+                        disable=not (stderr_is_terminal() if enabled is None else enabled),
+                        bar_format="{desc} {bar} {percentage:3.0f}% of {total:g} {unit} "
+                                   "[{elapsed}<{remaining}]")
+
+    def __call__(self, fraction: float) -> None:
+        done = self.total * min(max(fraction, 0.0), 1.0)
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Redraw the README's animation of every shipped scene into docs/figures/ (needs the viz
+# extra: pip install '.[viz]'). 320x240 at 10 fps keeps each GIF at a few hundred KB at most.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+render() { hecker-dynamics render "$1" -o "docs/figures/$1.gif" --fps 10 --size 320x240 "${@:2}"; }
+render sample --trail left/hook --contacts
+render seesaw --trail load
+render door --trail door/handle --contacts
+render car_flip --trail car --contacts
+render ship --trail ship

@@ -1,0 +1,169 @@
+"""Live sessions replay bit for bit: the node's loop with a jittered timer, messages early,
+late, zero-stamped, duplicated, out of order or bad, a reset, a catch-up cap, a recorder that
+starts late; each recorded as ``ros2 bag record`` would and checked with ``--atol 0``.
+
+The check is worth something only if it fails on a real change, so the same bags with one
+recorded input removed, one output changed by an ulp, a session record missing, or the wrong
+scene must fail, and the old rules (no records) must not reproduce these sessions.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import pytest
+
+from hecker_dynamics.bags import read_bag
+from hecker_dynamics.bags import io as bags
+from hecker_dynamics.bags.compare import Tolerances, compare_contents
+from hecker_dynamics.bags.live import check_live, is_live_recording
+from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outputs_as_bag,
+                                         output_types, replay_outputs)
+from hecker_dynamics.cli import main
+from hecker_dynamics.scene import load_scene
+from live_session import S, record, run_live
+
+EXACT = Tolerances(0.0, 0.0, 0.0)
+#: (scene, seed, options of the live run, how late the recorder starts): every case pushes
+#: 25 inputs of every kind over 4 s of ROS time. HECKER_DYNAMICS_LIVE_SEEDS=N adds N more
+#: random cases (a longer fuzz than CI's).
+CASES = [
+    ("sample", seed, options, late)
+    for seed, options, late in [
+        (0, {}, 0), (1, {}, 2_300_000_000), (2, {"reset_at": 3_100_000_000}, 0),
+        (3, {"reset_at": 1_500_000_000}, 2_500_000_000), (4, {"max_steps": 25}, 0),
+        (5, {"max_steps": 25}, 1_000_000_000), (6, {"play_script": False}, 0),
+        (7, {"keyframe_period_ns": 250_000_000}, 3_100_000_000),
+        (8, {"keyframe_period_ns": 0}, 0), (9, {}, 3_500_000_000),
+        (12, {"lockstep": True}, 0), (13, {"lockstep": True, "reset_at": S}, 1_500_000_000),
+        (14, {"world": 3}, 0), (15, {"world": 3, "lockstep": True}, 1_200_000_000),
+        (16, {"world": 4, "max_steps": 25, "reset_at": 2 * S}, 2_500_000_000),
+    ]
+] + [(name, 10 + n, {"world": n % 2}, late) for n, (name, late) in enumerate(
+    (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
+    ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2],
+                         "world": n % 3, "lockstep": n % 5 == 4},
+     int(1e9 * (n % 4) * 0.8)) for n in range(int(os.environ.get("HECKER_DYNAMICS_LIVE_SEEDS", 0)))]
+
+
+def _check(scene, path: Path):
+    return check_live(scene, read_bag(path), tolerances=EXACT)
+
+
+@pytest.mark.parametrize("name,seed,options,late", CASES)
+def test_a_recorded_live_session_replays_bit_for_bit(tmp_path, name, seed, options, late):
+    scene = load_scene(name)
+    session = run_live(scene, seed, **options)
+    path = record(session, tmp_path / "live", seed, late_ns=late)
+    bag = read_bag(path)
+    assert is_live_recording(bag)
+    check = _check(scene, path)
+    assert check.ok, check.report.text() + "\n" + "\n".join(check.problems)
+    compared = sum(t.matched for t in check.report.topics)
+    recorded = sum(1 for m in bag.messages if m.topic in output_types(scene))
+    # Every recorded output is compared, but those a late recorder caught before its first
+    # keyframe arrived (a discovery window of at most 50 ms: a few publish periods).
+    assert compared + check.unchecked == recorded and check.unchecked <= 4 * len(scene.bodies)
+    assert check.events > 0 and check.keyframes_checked >= (0 if not options.get(
+        "keyframe_period_ns", S) else 1)
+    reset = options.get("reset_at")
+    assert check.sessions == (2 if reset is not None and reset > late else 1)
+
+
+def test_the_old_rules_do_not_reproduce_live_sessions(tmp_path):
+    """Without the records (the rules for bags made by ``script``), jitter and late
+    commands make the replay differ: the records are what makes the check pass."""
+    scene = load_scene("sample")
+    failures = 0
+    for seed in range(3):
+        path = record(run_live(scene, seed), tmp_path / f"live{seed}", seed)
+        bag = read_bag(path)
+        produced, _ = replay_outputs(scene, bag, play_script=True, skip_rejected=True)
+        _, ok = compare_contents(bag, outputs_as_bag(scene, produced), tolerances=EXACT,
+                                 topics=[t for t in output_types(scene) if t in bag.topics])
+        failures += not ok
+    assert failures == 3
+
+
+def test_a_removed_input_message_is_caught(tmp_path):
+    scene = load_scene("sample")
+    session = run_live(scene, 21)
+    inputs = [i for i, p in enumerate(session.published) if p.topic == APPLIED_WRENCH_TOPIC]
+    middle = session.published[inputs[len(inputs) // 2]]
+    path = record(session, tmp_path / "live", 21, drop=lambda _, item: item is middle)
+    check = _check(scene, path)
+    assert not check.ok and any("has no recorded message" in p for p in check.problems)
+    assert main(["replay", "sample", str(path), "--check", "--atol", "0"]) == 1
+
+
+def test_an_output_changed_by_one_ulp_is_caught(tmp_path):
+    scene = load_scene("sample")
+    session = run_live(scene, 22)
+    poses = [p for p in session.published if p.topic == "/left/pose"]
+    target = poses[len(poses) // 2].msg
+    target.pose.position.x = math.nextafter(target.pose.position.x, math.inf)
+    path = record(session, tmp_path / "live", 22)
+    check = _check(scene, path)
+    assert not check.ok and not check.problems
+    assert check.report.largest()["position"] > 0.0
+    assert main(["replay", "sample", str(path), "--check", "--atol", "0"]) == 1
+
+
+def test_a_changed_keyframe_is_caught(tmp_path):
+    scene = load_scene("sample")
+    session = run_live(scene, 23)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    frames[-1].msg.v[0] = math.nextafter(float(frames[-1].msg.v[0]), math.inf)
+    check = _check(scene, record(session, tmp_path / "live", 23))
+    assert any("differs from the recorded keyframe" in p for p in check.problems)
+
+
+def test_another_scene_is_refused_naming_both_fingerprints(tmp_path, capsys):
+    path = record(run_live(load_scene("sample"), 24), tmp_path / "live", 24)
+    with pytest.raises(ReplayError, match="fingerprint .* but .*seesaw.yaml has fingerprint"):
+        _check(load_scene("seesaw"), path)
+    assert main(["replay", "seesaw", str(path), "--check"]) == 2
+    assert "fingerprint" in capsys.readouterr().err
+
+
+def test_missing_input_events_start_the_replay_at_a_later_keyframe(tmp_path):
+    scene = load_scene("sample")
+    session = run_live(scene, 25)
+    events = [p for p in session.published if p.topic.endswith("/input_events")]
+    lost = events[2]
+    path = record(session, tmp_path / "live", 25, drop=lambda _, item: item is lost)
+    check = _check(scene, path)
+    assert check.ok and check.unchecked > 0
+    assert any("the first whose later input events are all in the bag" in n
+               for n in check.notes)
+
+
+def test_missing_input_events_without_keyframes_are_refused(tmp_path):
+    scene = load_scene("sample")
+    session = run_live(scene, 26, keyframe_period_ns=0)
+    events = [p for p in session.published if p.topic.endswith("/input_events")]
+    lost = events[len(events) // 2]
+    path = record(session, tmp_path / "live", 26, drop=lambda _, item: item is lost)
+    with pytest.raises(ReplayError, match="lacks input events"):
+        _check(scene, path)
+
+
+def test_the_cli_replays_a_live_session_and_refuses_options_it_records(tmp_path, capsys):
+    path = record(run_live(load_scene("sample"), 27, reset_at=2 * S), tmp_path / "live", 27)
+    assert main(["replay", "sample", str(path), "--check", "--atol", "0",
+                 "-o", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "replayed 2 session(s)" in out and "match:" in out
+    written = read_bag(tmp_path / "out")
+    assert set(output_types(load_scene("sample"))) <= set(written.topics)
+    assert main(["replay", "sample", str(path), "--check", "--play-script"]) == 2
+    assert "--play-script do not apply" in capsys.readouterr().err
+
+
+def test_a_session_recorded_without_records_keeps_the_old_rules(tmp_path):
+    scene = load_scene("sample")
+    path = record(run_live(scene, 28, record=False), tmp_path / "live", 28)
+    bag = read_bag(path)
+    assert not is_live_recording(bag)
+    assert not any(bags.SESSION_INFO == t for t in bag.topics.values())

@@ -1,0 +1,108 @@
+"""One frame read back pixel by pixel: a body's fill where its shape is at its pose and
+background where it is not, and force arrows pointing along their force.
+
+The view is 4 m x 3 m drawn on 400 x 300 pixels, so one metre is exactly 100 pixels and
+the pixel of a point follows from the view alone; every sampled point is at least 5 pixels
+from an edge, a mark or another shape, so anti-aliasing cannot reach it.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz extra)")
+pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
+from scene_builders import box_body, make_scene  # noqa: E402
+
+from hecker_dynamics.dynamics import WrenchCommand  # noqa: E402
+from hecker_dynamics.viz.draw import (ARROW_COLOR, BACKGROUND, BODY_COLORS,  # noqa: E402
+                                      Drawing, View)
+from hecker_dynamics.viz.frames import BodyPose, Timeline  # noqa: E402
+
+VIEW = View(-2.0, -1.5, 2.0, 1.5)
+SIZE = (400, 300)
+
+
+def _rgb(hex_color: str) -> tuple[int, int, int]:
+    return tuple(int(hex_color[i:i + 2], 16) for i in (1, 3, 5))
+
+
+def _pixel(image: np.ndarray, x: float, y: float) -> tuple[int, int, int]:
+    """The color shown at fixed-frame point (x, y): 100 px per metre from the view's
+    top-left corner (-2, 1.5)."""
+    column, row = int((x - VIEW.xmin) * 100), int((VIEW.ymax - y) * 100)
+    return tuple(int(c) for c in image[row, column, :3])
+
+
+def _scene():
+    return make_scene({"step": 0.01, "bodies": {"box": box_body(size=(1.0, 0.5))}})
+
+
+def _picture(pose: BodyPose, commands=(), force_scale=None) -> np.ndarray:
+    scene = _scene()
+    timeline = Timeline(scene, 0, 10**9, [0], [(pose,)], list(commands))
+    drawing = Drawing(timeline, VIEW, SIZE, force_scale=force_scale)
+    assert drawing.view == VIEW  # the view already has the picture's aspect
+    drawing.draw(next(timeline.frames([0])))
+    image = drawing.rgba()
+    assert image.shape == (300, 400, 4)
+    return image
+
+
+def test_box_is_filled_at_its_pose_and_nowhere_else():
+    image = _picture(BodyPose(1.0, 0.5, 0.0))  # spans x 0.5..1.5, y 0.25..0.75
+    fill, background = _rgb(BODY_COLORS[0]), _rgb(BACKGROUND)
+    for x, y in [(0.75, 0.4), (1.25, 0.6), (0.6, 0.3)]:
+        assert _pixel(image, x, y) == fill
+    for x, y in [(1.6, 0.5), (1.0, 0.85), (1.0, 0.15), (0.4, 0.5), (-1.0, -1.0)]:
+        assert _pixel(image, x, y) == background
+
+
+def test_turned_box_is_filled_where_the_turn_puts_it():
+    # A quarter turn about the body origin: the box now spans x 0.75..1.25, y 0..1.
+    image = _picture(BodyPose(1.0, 0.5, math.pi / 2))
+    fill, background = _rgb(BODY_COLORS[0]), _rgb(BACKGROUND)
+    for x, y in [(0.85, 0.1), (1.15, 0.9), (0.85, 0.9)]:
+        assert _pixel(image, x, y) == fill
+    for x, y in [(0.6, 0.5), (1.4, 0.5), (1.0, 1.1)]:  # inside the unturned box's span
+        assert _pixel(image, x, y) == background
+
+
+def _command(frame_id, point, force):
+    return WrenchCommand(0, "box", "test", frame_id, point, force)
+
+
+@pytest.mark.parametrize("force, along", [((10.0, 0.0), (1.0, 0.0)), ((0.0, 10.0), (0.0, 1.0)),
+                                          ((-10.0, 0.0), (-1.0, 0.0))])
+def test_world_force_arrow_points_along_the_force(force, along):
+    # Scale 0.075 m/N: a 10 N arrow is 0.75 m long from its tail at (-1, 0), its head the
+    # last 0.12 m and 0.26 m wide; 0.66 m along is inside the head.
+    image = _picture(BodyPose(1.0, 0.5, 0.0), [_command("world", (-1.0, 0.0), force)],
+                     force_scale=0.075)
+    red, background = _rgb(ARROW_COLOR), _rgb(BACKGROUND)
+    assert _pixel(image, -1.0 + 0.66 * along[0], 0.66 * along[1]) == red
+    for ax, ay in [(-along[0], -along[1]), (along[1], along[0]), (-along[1], -along[0])]:
+        assert _pixel(image, -1.0 + 0.66 * ax, 0.66 * ay) == background
+
+
+def test_body_frame_force_turns_with_the_body():
+    # Force (10, 0) N in the axes of a box turned by a quarter turn points along +y, from
+    # the body point (0.5, 0) (the box's right edge midpoint), which is at world (0.5, 0).
+    pose = BodyPose(0.5, -0.5, math.pi / 2)
+    image = _picture(pose, [_command("box", (0.5, 0.0), (10.0, 0.0))], force_scale=0.075)
+    red, background = _rgb(ARROW_COLOR), _rgb(BACKGROUND)
+    assert _pixel(image, 0.5, 0.66) == red
+    assert _pixel(image, 0.5 + 0.66, 0.0) == background
+    assert _pixel(image, 0.5 - 0.66, 0.0) == background
+
+
+def test_ended_command_draws_no_arrow():
+    command = WrenchCommand(0, "box", "test", "world", (-1.0, 0.0), (10.0, 0.0),
+                            duration_ns=500_000_000)
+    scene = _scene()
+    timeline = Timeline(scene, 0, 10**9, [0], [(BodyPose(1.0, 0.5, 0.0),)], [command])
+    during, after = timeline.frames([400_000_000, 500_000_000])
+    assert len(during.arrows) == 1 and during.arrows[0].force == (10.0, 0.0)
+    assert after.arrows == ()

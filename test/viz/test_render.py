@@ -1,0 +1,173 @@
+"""Animations read back: the frame count and rate, a bag drawing the same pixels as the
+run that produced it, deterministic stills, and one-line errors for bad options."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz extra)")
+pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
+from hecker_dynamics.cli import main  # noqa: E402
+from hecker_dynamics.scene import load_scene  # noqa: E402
+from hecker_dynamics.viz.draw import ARROW_COLOR, parse_trail  # noqa: E402
+from hecker_dynamics.viz.frames import bag_timeline, run_timeline  # noqa: E402
+from hecker_dynamics.viz.render import frame_pixels, timeline_frames  # noqa: E402
+from PIL import Image  # noqa: E402
+
+SPAN_NS = 2_000_000_000
+
+
+def _one_line_error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("hecker-dynamics: error: "), err
+    return err
+
+
+@pytest.fixture(scope="module")
+def replayed(tmp_path_factory):
+    """Per scene: the bag 'replay' writes (poses and, copied, the inputs) from the scene's
+    script over the first 2 s."""
+    def make(name: str) -> Path:
+        directory = tmp_path_factory.mktemp(name)
+        assert main(["script", name, "-o", str(directory / "in"), "--duration", "2"]) == 0
+        assert main(["replay", name, str(directory / "in"), "-o", str(directory / "out"),
+                     "--with-inputs", "--no-progress"]) == 0
+        return directory / "out"
+    return {name: make(name) for name in ("ship", "sample")}
+
+
+@pytest.mark.parametrize("name, trails, contacts", [("ship", ["ship/left_engine"], False),
+                                                    ("sample", ["left", "right"], True)])
+def test_bag_draws_the_pixels_of_its_run(replayed, name, trails, contacts):
+    scene = load_scene(name)
+    run = run_timeline(scene, SPAN_NS)
+    bag = bag_timeline(scene, str(replayed[name]))
+    assert (bag.start_ns, bag.end_ns) == (0, SPAN_NS)
+    assert bag.commands == run.commands
+    fps = 10.0
+    frames_run = timeline_frames(run, 0, SPAN_NS, fps)
+    frames_bag = timeline_frames(bag, 0, SPAN_NS, fps)
+    assert frames_bag == frames_run
+    options = dict(trails=[parse_trail(scene, t) for t in trails], contacts=contacts)
+    pixels_run = list(frame_pixels(run, frames_run, (240, 180), **options))
+    pixels_bag = list(frame_pixels(bag, frames_bag, (240, 180), **options))
+    assert len(pixels_run) == len(pixels_bag) == 20
+    for a, b in zip(pixels_run, pixels_bag):
+        assert np.array_equal(a, b)
+    # The pictures move: consecutive frames differ (a bag of constant poses would also
+    # draw equal pictures, and this test would prove nothing about reading poses).
+    assert not np.array_equal(pixels_run[0], pixels_run[-1])
+    if name == "ship":  # both engines push from t = 0: their arrows are drawn
+        red = np.array([int(ARROW_COLOR[i:i + 2], 16) for i in (1, 3, 5)])
+        assert (pixels_bag[5][:, :, :3] == red).all(axis=2).sum() > 20
+
+
+def test_bag_gif_equals_run_gif(replayed, tmp_path, capsys):
+    common = ["--duration", "2", "--fps", "5", "--size", "160x120", "--trail", "ship"]
+    assert main(["render", "ship", "-o", str(tmp_path / "run.gif"), *common]) == 0
+    assert main(["render", "ship", "--bag", str(replayed["ship"]),
+                 "-o", str(tmp_path / "bag.gif"), *common]) == 0
+    assert (tmp_path / "run.gif").read_bytes() == (tmp_path / "bag.gif").read_bytes()
+
+
+@pytest.mark.parametrize("duration, fps, count", [("1.5", "8", 12), ("0.7", "10", 7),
+                                                  ("2", "2.5", 5)])
+def test_frame_count_is_span_times_fps(tmp_path, duration, fps, count):
+    output = tmp_path / "ship.gif"
+    assert main(["render", "ship", "-o", str(output), "--duration", duration, "--fps", fps,
+                 "--size", "64x48"]) == 0
+    with Image.open(output) as gif:
+        assert gif.n_frames == count
+        assert gif.size == (64, 48)
+        # GIF delays are whole centiseconds: 1/8 s is stored as 0.12 s.
+        assert gif.info["duration"] == 10 * round(100 / float(fps))
+
+
+def test_start_shifts_the_frames():
+    scene = load_scene("ship")
+    timeline = run_timeline(scene, 3 * 10**9)
+    frames = timeline_frames(timeline, 10**9, 2 * 10**9, 4.0)
+    assert [f.time_ns for f in frames] == [10**9 + k * 250_000_000 for k in range(8)]
+    # Published every 20 ms: a frame at a publish instant shows that instant's pose.
+    k = timeline.stamps.index(1_500_000_000)
+    assert frames[2].poses == timeline.poses[k]
+
+
+@pytest.mark.parametrize("suffix", [".png", ".svg"])
+def test_still_is_the_same_file_every_time(tmp_path, suffix):
+    paths = [tmp_path / f"a{suffix}", tmp_path / f"b{suffix}"]
+    for path in paths:
+        assert main(["render", "sample", "-o", str(path), "--duration", "0.5", "--fps", "10",
+                     "--trail", "left", "--contacts"]) == 0
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    if suffix == ".png":
+        with Image.open(paths[0]) as png:
+            assert png.size == (480, 360)
+
+
+def test_view_box_sets_the_picture(tmp_path):
+    # The ship starts with its body frame at the origin: a view far away shows background.
+    output = tmp_path / "empty.png"
+    assert main(["render", "ship", "-o", str(output), "--duration", "0.1",
+                 "--view", "100,100,104,103", "--size", "80x60"]) == 0
+    with Image.open(output) as png:
+        pixels = np.asarray(png.convert("RGB"))
+    text_free = pixels[20:, :]  # below the sim time label
+    assert (text_free == 255).all()
+
+
+def test_bad_options_end_in_one_line_errors(tmp_path, capsys, replayed):
+    out = str(tmp_path / "x.gif")
+    assert "unknown body 'hull'" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--trail", "hull"])
+    assert "has no point 'nose'" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--trail", "ship/nose"])
+    assert "zero size" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--view", "0,0,0,1"])
+    assert "zero size" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--view", "0,2,1,1"])
+    assert "four finite numbers" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--view", "0,0,1"])
+    assert "unknown picture type '.jpg'" in _one_line_error(
+        capsys, ["render", "ship", "-o", str(tmp_path / "x.jpg")])
+    assert "--fps" in _one_line_error(capsys, ["render", "ship", "-o", out, "--fps", "0"])
+    assert "--size" in _one_line_error(capsys, ["render", "ship", "-o", out, "--size", "big"])
+    assert "gives no frame" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--duration", "0.01", "--fps", "10"])
+    # A bag with inputs but no poses (what 'script' writes), and no bag at all.
+    assert main(["script", "ship", "-o", str(tmp_path / "inputs"), "--duration", "1"]) == 0
+    capsys.readouterr()
+    assert "no poses" in _one_line_error(
+        capsys, ["render", "ship", "--bag", str(tmp_path / "inputs"), "-o", out])
+    assert "no such bag" in _one_line_error(
+        capsys, ["render", "ship", "--bag", str(tmp_path / "nothing"), "-o", out])
+    # A bag with the pose topic declared and not one message on it.
+    from hecker_dynamics.bags.io import POSE_STAMPED, BagWriter
+    with BagWriter(tmp_path / "empty") as writer:
+        writer.add_topic("/ship/pose", POSE_STAMPED)
+    assert "no instant with a pose" in _one_line_error(
+        capsys, ["render", "ship", "--bag", str(tmp_path / "empty"), "-o", out])
+    # Another scene's bag.
+    assert "no poses" in _one_line_error(
+        capsys, ["render", "sample", "--bag", str(replayed["ship"]), "-o", out])
+    assert not Path(out).exists()
+
+
+def test_mp4_without_encoder_is_a_one_line_error(tmp_path, capsys, monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)  # import fails
+    assert "imageio-ffmpeg" in _one_line_error(
+        capsys, ["render", "ship", "-o", str(tmp_path / "x.mp4")])
+
+
+def test_run_view_without_display_is_a_one_line_error(capsys, monkeypatch):
+    import sys
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the display check is the X11/Wayland one")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert "no display" in _one_line_error(capsys, ["run", "ship", "--view"])
+
