@@ -1,7 +1,7 @@
 """Joints (hecker_dynamics.contact.joints) against exact solutions and conserved quantities.
 
 The pendulum tests use ``velocity_verlet`` with h = 1 ms: with it the joint pass is RATTLE,
-second order and symplectic (docs/scenes.md, "Joints"), so the period is within about
+second order and symplectic (docs/scenes.md, `joints.<name>`), so the period is within about
 6e-7 of the exact one at that step and the energy stays bounded.
 """
 from __future__ import annotations
@@ -465,7 +465,7 @@ def test_bad_joints_give_one_line_naming_the_file_and_parameter(tmp_path, joint,
 
 def period_errors(methods=("velocity_verlet", "semi_implicit_euler", "rk4",
                            "implicit_midpoint"), steps=(0.004, 0.002, 0.001)) -> None:
-    """Print the table of docs/scenes.md, "Joints": the pendulum's period error at 1 rad
+    """Print the table of docs/scenes.md, `joints.<name>`: the pendulum's period error at 1 rad
     by method and step, and the ratios of successive errors (4 for order two)."""
     print("| method | " + " | ".join(f"h = {1e3 * h:g} ms" for h in steps) + " | ratios |")
     print("| --- " * (len(steps) + 2) + "|")
