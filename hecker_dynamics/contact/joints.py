@@ -5,8 +5,9 @@ bodies' CM positions and angles. Its rows' Jacobians follow from the body point 
 v_P = v_CM + omega perp(r) (Eq. 9): a point constraint between P_A and P_B has the rows
 (1, 0, -r_By) and (0, 1, r_Bx) on body B (and their negatives on A), an angle constraint
 the row (0, 0, 1). An impulse lambda along a row changes a body's velocity by
-M^-1 J^T lambda: the force part by Eq. 5 and the torque part, perp(r) . P (Eq. 11), by
-Eq. 14, with the mass and moment of inertia of Eq. 13.
+M^-1 J^T lambda: the force part by Eq. 5, the torque of the impulse, perp(r) . P
+(Eq. 11), turned into a change of angular velocity over inertia (Eq. 14), with the
+moment of inertia of Eq. 13.
 
 :class:`JointPass` runs after each integrator step, which has moved the bodies from
 (q0, v0) to (q1, v1) under the smooth forces alone. It does what RATTLE does to a
