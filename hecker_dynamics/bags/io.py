@@ -287,12 +287,7 @@ def session_info_message(fields: SessionFields) -> Any:
     """``hecker_dynamics/msg/SessionInfo`` of a session record."""
     return default_message(
         SESSION_INFO, header=header_message(header(fields.frame_id, fields.start_ns)),
-        session=fields.session, reason=fields.reason, scene=fields.scene,
-        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
-        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
-        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
-        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
-        version=fields.version)
+        **fields.message_values())
 
 
 def session_fields(msg: Any) -> SessionFields:

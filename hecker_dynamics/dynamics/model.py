@@ -170,7 +170,8 @@ class Model:
                   origin_velocity: np.ndarray, omega: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
         """CM states (q, v rows) of the bodies ``index`` whose body frames have these poses
-        and origin velocities: the CM's velocity is the origin's plus omega perp(r) (Eq. 9)."""
+        and origin velocities: the CM, a body point, moves at the origin's velocity plus
+        omega perp(r), a body point's velocity (Eq. 9)."""
         r_cm = rotate(self.cm_local[index], np.cos(angle), np.sin(angle))  # origin -> CM
         q = np.column_stack([origin + r_cm, angle])
         v = np.column_stack([origin_velocity + omega[:, None] * perp(r_cm), omega])

@@ -128,13 +128,7 @@ def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray
 
 
 def _session_info(fields: SessionFields) -> SessionInfo:
-    msg = SessionInfo(
-        session=fields.session, reason=fields.reason, scene=fields.scene,
-        fingerprint=fields.fingerprint, integrator=fields.integrator, step_ns=fields.step_ns,
-        publish_period_ns=fields.publish_period_ns, play_script=fields.play_script,
-        lockstep=fields.lockstep, max_catch_up_steps=fields.max_catch_up_steps,
-        keyframe_period_ns=fields.keyframe_period_ns, next_event=fields.next_event,
-        version=fields.version)
+    msg = SessionInfo(**fields.message_values())
     _fill_header(msg.header, header(fields.frame_id, fields.start_ns))
     return msg
 

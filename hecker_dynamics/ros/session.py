@@ -72,6 +72,13 @@ class SessionFields(NamedTuple):
     version: str
 
 
+    def message_values(self) -> dict[str, Any]:
+        """The ``SessionInfo`` fields but the header (the start and the fixed frame)."""
+        values = self._asdict()
+        del values["start_ns"], values["frame_id"]
+        return values
+
+
 class InputEventFields(NamedTuple):
     """``hecker_dynamics/InputEvent``; ``message`` is the input message as received (an
     rclpy or rosbags ``AppliedWrench`` or ``WrenchStamped``)."""

@@ -82,8 +82,8 @@ def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
 def energy(scene: Scene, series: dict[str, Series]) -> tuple[np.ndarray, np.ndarray]:
     """The total mechanical energy at the instants where every scene body has a state.
 
-    The CM of body i is origin + R(angle) c_i and its velocity v_origin + omega perp(R c_i)
-    (Eq. 9), where c_i is the CM in the body frame.
+    The CM of body i is origin + R(angle) c_i, where c_i is the CM in the body frame, and as a
+    body point its velocity is v_origin + omega perp(R c_i) (a body point's velocity, Eq. 9).
     """
     model = Model(scene)
     names = list(model.names)
