@@ -6,6 +6,7 @@
     hecker-dynamics replay SCENE INPUT_BAG -o OUTPUT_BAG [--check]
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
+    hecker-dynamics bench --node
     hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
                            [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
     hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
@@ -182,11 +183,14 @@ def replay_command(args: argparse.Namespace) -> int:
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
+    # A check against a recording of the node compares the TF it recorded too.
+    tf = args.tf or (args.check and "/tf" in bag.topics)
     if args.check:
-        expected_topics = recorded_output_topics(scene, bag, need_inputs=not args.play_script)
+        expected_topics = recorded_output_topics(scene, bag, need_inputs=not args.play_script,
+                                                 tf=tf)
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
-                   skip_rejected=args.skip_rejected)
+                   skip_rejected=args.skip_rejected, tf=tf)
     progress = Progress("replay", (end - start) * 1e-9, enabled=True) \
         if _want_progress(args) else None
     try:
@@ -197,7 +201,7 @@ def replay_command(args: argparse.Namespace) -> int:
             actual = read_bag(args.output) if args.check else None
         else:
             produced, result = replay_outputs(scene, bag, progress=progress, **options)
-            actual = outputs_as_bag(scene, produced)
+            actual = outputs_as_bag(scene, produced, tf=tf)
     finally:
         if progress is not None:
             progress.close()
@@ -367,6 +371,10 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     replay_parser.add_argument("--skip-rejected", action="store_true",
                                help="drop inputs for unknown bodies or frames (as the node "
                                     "does) instead of failing")
+    replay_parser.add_argument("--tf", action="store_true",
+                               help="write /tf and /tf_static as the node publishes them "
+                                    "(when the scene's publish.tf is on; --check against a "
+                                    "bag with /tf turns it on)")
     replay_parser.add_argument("--with-inputs", action="store_true",
                                help="copy the input messages into the output bag too")
     _add_progress_options(replay_parser)
@@ -389,7 +397,21 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    """Run the work-precision benchmark and write its report."""
+    """Run the work-precision benchmark and write its report (``--node``: the node's cost)."""
+    if args.node:
+        from .bench.node import TARGET_SHARE, node_cost, node_table
+
+        costs = node_cost()
+        print("node work per second of sim time (share of one core): 1 kHz steps, 50 Hz "
+              "publishing, odometry, markers, diagnostics and TF on; medians of "
+              f"{costs[0].repeats} interleaved runs of 2 s")
+        print(node_table(costs))
+        ten = next((c for c in costs if c.bodies == 10), None)
+        if ten is not None:
+            print(f"10 bodies: {100 * ten.total:.2f} % of a core "
+                  f"({'within' if ten.total <= TARGET_SHARE else 'over'} the "
+                  f"{100 * TARGET_SHARE:g} % target)")
+        return 0
     from .bench.run import run_bench
     from .bench.scenes import all_scene_names
 
@@ -452,6 +474,10 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                             "and 50 long variants; see docs/batch.md)")
     bench.add_argument("--rounds", type=_workers, default=1,
                        help="with --batch: interleaved rounds, medians reported (default 1)")
+    bench.add_argument("--node", action="store_true",
+                       help="instead: the node's own work per tick without rclpy (stepping "
+                            "and output fields) on rings of 1, 10 and 100 bodies; prints a "
+                            "table, writes nothing")
     bench.set_defaults(handler=bench_command)
 
 

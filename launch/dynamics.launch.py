@@ -5,6 +5,10 @@ the default) or the path of a parameters file, resolved by the package's own rul
 (:func:`hecker_dynamics.scene.load.scene_path`, which finds shipped scenes in
 ``share/hecker_dynamics/config`` through ``AMENT_PREFIX_PATH``), so an unknown name fails
 here with the list of shipped scenes. ``use_sim_time`` makes the node follow /clock.
+
+``rviz:=true`` also starts RViz2 with the package's view (rviz/hecker_dynamics.rviz: TF and
+the shape markers) in the scene's fixed frame, and turns the node's markers on;
+``markers:=true|false`` sets them either way (``auto``: on with RViz, else as the scene says).
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -12,22 +16,45 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
+RVIZ_CONFIG = 'rviz/hecker_dynamics.rviz'
+
+
+def _markers_on(rviz: bool, markers: str):
+    """The ``publish.markers`` override: None keeps the scene's setting."""
+    if markers == 'auto':
+        return True if rviz else None
+    return markers == 'true'
+
 
 def _dynamics_node(context):
-    from hecker_dynamics.scene.load import scene_path
+    from ament_index_python.packages import get_package_share_directory
+    from hecker_dynamics.scene.load import load_scene, scene_path
 
     params_file = str(scene_path(LaunchConfiguration('scene').perform(context)).resolve())
-    return [Node(
+    rviz = LaunchConfiguration('rviz').perform(context) == 'true'
+    overrides = {'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'),
+                                                value_type=bool)}
+    markers = _markers_on(rviz, LaunchConfiguration('markers').perform(context))
+    if markers is not None:
+        overrides['publish.markers'] = markers
+    actions = [Node(
         package='hecker_dynamics',
         executable='dynamics_node',
         name='dynamics_node',
         output='screen',
-        parameters=[
-            params_file,
-            {'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'),
-                                            value_type=bool)},
-        ],
+        parameters=[params_file, overrides],
     )]
+    if rviz:
+        config = f"{get_package_share_directory('hecker_dynamics')}/{RVIZ_CONFIG}"
+        actions.append(Node(
+            package='rviz2',
+            executable='rviz2',
+            name='rviz2',
+            arguments=['-d', config, '-f', load_scene(params_file).frame_id],
+            parameters=[{'use_sim_time': ParameterValue(LaunchConfiguration('use_sim_time'),
+                                                        value_type=bool)}],
+        ))
+    return actions
 
 
 def generate_launch_description():
@@ -38,5 +65,12 @@ def generate_launch_description():
         DeclareLaunchArgument(
             'use_sim_time', default_value='false', choices=['true', 'false'],
             description='follow /clock instead of the system clock'),
+        DeclareLaunchArgument(
+            'rviz', default_value='false', choices=['true', 'false'],
+            description='also start RViz2 with the package view (TF and shape markers)'),
+        DeclareLaunchArgument(
+            'markers', default_value='auto', choices=['auto', 'true', 'false'],
+            description="publish the shape markers (auto: on with rviz:=true, else the "
+                        "scene's publish.markers)"),
         OpaqueFunction(function=_dynamics_node),
     ])

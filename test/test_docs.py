@@ -20,11 +20,23 @@ README = (ROOT / "README.md").read_text()
 EVERY_FEATURE = dict(
     EVERY_FORCE, frame_id="world", integrator="rk4", tolerance=1e-6, duration=2.0,
     input_timeout=0.5, input_max_lead=5.0, twist_frame="world", restitution_threshold=0.01,
-    publish={"odometry": True, "markers": True, "diagnostics": True},
+    publish={"odometry": True, "markers": True, "diagnostics": True, "tf": True},
     walls={"floor": {"point": [0.0, -3.0], "normal": [0.0, 1.0], "restitution": 0.5,
                      "friction": 0.2, "bodies": ["a", "b"]}},
     collisions={"all": {"bodies": ["a", "b"], "restitution": 0.1, "friction": 0.4}},
     wrench_topics={"jet": {"topic": "a/jet", "body": "a", "frame_id": "a/tip"}},
+    joints={"pin": {"type": "revolute", "body_a": "a", "point_a": [0.0, 0.0], "body_b": "c",
+                    "point_b": [2.0, -0.5], "lower": -1.0, "upper": 1.0,
+                    "motor": {"speed": 1.0, "max_torque": 2.0}, "collide_connected": True,
+                    "spring": {"stiffness": 1.0, "damping": 0.1, "rest_angle": 0.0}},
+            "rail": {"type": "prismatic", "body_b": "b", "axis": [1.0, 0.0], "lower": -1.0,
+                     "upper": 1.0, "motor": {"speed": 0.0, "max_force": 1.0}},
+            "glue": {"type": "weld", "body_a": "b", "body_b": "c", "frequency": 2.0,
+                     "damping_ratio": 0.5},
+            "rod": {"type": "distance", "body_a": "a", "body_b": "b", "length": 1.0},
+            "rope": {"type": "distance", "body_a": "a", "body_b": "c", "max_length": 9.0},
+            "mesh": {"type": "gear", "joint_a": "pin", "joint_b": "hinge", "ratio": 2.0},
+            "hinge": {"type": "revolute", "body_b": "b"}},
     script={"kick": {"time": 0.5, "body": "a", "id": "k", "frame_id": "a", "point": [0.1, 0.0],
                      "force": [1.0, 0.0], "torque": 0.1, "duration": 0.2}},
 )
@@ -42,7 +54,7 @@ def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
     make_scene(EVERY_FEATURE)
     # Names of this scene's own bodies, forces, ... are not parameters.
     own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick",
-           *EVERY_FORCE["forces"]}
+           *EVERY_FORCE["forces"], "pin", "rail", "glue", "rod", "rope", "mesh", "hinge"}
     undocumented = sorted(key for key in read - own
                           if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
     assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"

@@ -11,11 +11,13 @@ of the same-index message on the sibling ``.../pose`` topic when both topics hav
 number of messages (a bag recorded from the node logs them at arrival, not at sim time),
 else by log time. Several messages with one stamp match in order. Differences measured:
 
-- position: distance between positions (PoseStamped, Odometry, Marker poses and points),
+- position: distance between positions (PoseStamped, Odometry, Marker poses and points,
+  TFMessage translations),
 - angle: rotation between orientations (radians, from the quaternions),
 - velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry).
 
-Other fields (frames, names, marker types and counts, diagnostic levels) must be equal;
+Other fields (frames, names, marker types and counts, diagnostic levels, the parent and
+child frames of each transform) must be equal;
 diagnostic values are not compared (they hold wall times). Messages of other types are
 compared byte for byte. A message whose stamp the other bag lacks is missing or extra.
 """
@@ -28,8 +30,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
-from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TWIST, BagContents,
-                   BagError, BagMessage, read_bag, stamp_ns_of)
+from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TF_MESSAGE, TWIST,
+                 BagContents, BagError, BagMessage, read_bag, stamp_ns_of)
 
 __all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents"]
 
@@ -287,6 +289,16 @@ def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
             _pose(report, ma.pose, mb.pose, stamp)
             for pa, pb in zip(ma.points, mb.points):
                 report.position.update(_distance(pa, pb), stamp)
+    elif msgtype == TF_MESSAGE:
+        frames_a = [(t.header.frame_id, t.child_frame_id) for t in a.transforms]
+        if frames_a != [(t.header.frame_id, t.child_frame_id) for t in b.transforms]:
+            report.note(f"at {stamp * 1e-9:.6f} s: transforms of other frames")
+            return
+        for ta, tb in zip(a.transforms, b.transforms):
+            report.position.update(_distance(ta.transform.translation,
+                                             tb.transform.translation), stamp)
+            report.angle.update(_rotation_angle(ta.transform.rotation, tb.transform.rotation),
+                                stamp)
     elif msgtype == DIAGNOSTIC_ARRAY:
         sa = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in a.status]
         sb = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in b.status]
@@ -306,7 +318,8 @@ def _compare_topic(topic: str, msgtype: str, expected: BagContents,
     report = TopicReport(topic, msgtype)
     ea, aa = expected.on(topic), actual.on(topic)
     report.expected, report.actual = len(ea), len(aa)
-    structured = msgtype in (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY)
+    structured = msgtype in (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY,
+                             TF_MESSAGE)
     if structured:
         da, db = _decode_all(ea), _decode_all(aa)
     else:

@@ -19,7 +19,7 @@ import shutil
 import sqlite3
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, cache
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -31,13 +31,16 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.markers import MarkerFields
+from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
 from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
                            SessionFields, WorldChange, WorldEventFields)
+from ..ros.tf import TransformFields
 from ..scene.parameters import quoted
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
-    "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter", "NODE_QOS",
+    "TF_MESSAGE", "WRENCH_STAMPED", "BagError", "BagMessage", "BagContents", "BagWriter",
+    "NODE_QOS", "rosbag_qos", "tf_message",
     "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
@@ -58,6 +61,7 @@ TWIST = "geometry_msgs/msg/Twist"
 ODOMETRY = "nav_msgs/msg/Odometry"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
 BAG_VERSION = 9
@@ -107,25 +111,29 @@ def typestore() -> Any:
     return store
 
 
-def _node_qos() -> list[Any]:
-    """The QoS the node's publishers offer: rclpy's default profile with depth 10."""
+@cache
+def rosbag_qos(spec: QosSpec) -> list[Any]:
+    """A publisher's QoS (:mod:`hecker_dynamics.ros.names`) as rosbag2 metadata records it."""
     from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
                                     QosReliability, QosTime)
 
     default = QosTime(0, 0)  # rmw's "default" durations: deadline, lifespan, lease unset
-    return [Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
+    reliability = {Reliability.RELIABLE: QosReliability.RELIABLE,
+                   Reliability.BEST_EFFORT: QosReliability.BEST_EFFORT}[spec.reliability]
+    durability = {Durability.VOLATILE: QosDurability.VOLATILE,
+                  Durability.TRANSIENT_LOCAL: QosDurability.TRANSIENT_LOCAL}[spec.durability]
+    return [Qos(QosHistory.KEEP_LAST, spec.depth, reliability, durability,
                 default, default, QosLiveliness.AUTOMATIC, default, False)]
 
 
-NODE_QOS = _node_qos()
+#: The QoS the node's state publishers offer (reliable, volatile, keep last 10).
+NODE_QOS = rosbag_qos(STATE_QOS)
 
 
 def latched_qos(depth: int) -> list[Any]:
     """The QoS of the node's session records: reliable, transient_local, keep-last ``depth``
     (what ``ros2 bag record`` stores for them, and what ``ros2 bag play`` offers again)."""
-    from rosbags.interfaces import QosDurability
-
-    return [NODE_QOS[0]._replace(depth=depth, durability=QosDurability.TRANSIENT_LOCAL)]
+    return rosbag_qos(QosSpec(depth, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL))
 
 
 def resolve_topic(name: str, namespace: str = "/") -> str:
@@ -250,6 +258,21 @@ def diagnostic_array_message(fields: DiagnosticFields, head: Header) -> Any:
     return default_message(DIAGNOSTIC_ARRAY, header=header_message(head), status=[status])
 
 
+def tf_message(transforms: Iterable[TransformFields]) -> Any:
+    """``tf2_msgs/TFMessage`` from :func:`~hecker_dynamics.ros.tf.body_transforms` or
+    :func:`~hecker_dynamics.ros.tf.point_transforms`."""
+    return default_message(TF_MESSAGE, transforms=[
+        default_message(
+            "geometry_msgs/msg/TransformStamped", header=header_message(t.header),
+            child_frame_id=t.child_frame_id,
+            transform=default_message(
+                "geometry_msgs/msg/Transform",
+                translation=_vector("geometry_msgs/msg/Vector3", t.translation),
+                rotation=default_message("geometry_msgs/msg/Quaternion",
+                                         **dict(zip("xyzw", map(float, t.rotation))))))
+        for t in transforms])
+
+
 def applied_wrench_msg(fields: AppliedWrenchFields) -> Any:
     """``hecker_dynamics/msg/AppliedWrench`` from
     :func:`~hecker_dynamics.ros.fields.applied_wrench_fields`."""
@@ -365,13 +388,14 @@ def world_event_fields(msg: Any) -> WorldEventFields:
 def stamp_ns_of(msg: Any) -> Optional[int]:
     """The header stamp of a message in ns, or None for a message without a header.
 
-    A ``MarkerArray`` takes the stamp of its first marker.
+    A ``MarkerArray`` takes the stamp of its first marker, a ``TFMessage`` that of its
+    first transform.
     """
     head = getattr(msg, "header", None)
     if head is None:
-        markers = getattr(msg, "markers", None)
-        if markers:
-            head = markers[0].header
+        items = getattr(msg, "markers", None) or getattr(msg, "transforms", None)
+        if items:
+            head = items[0].header
     if head is None:
         return None
     return ns_from_stamp(head.stamp.sec, head.stamp.nanosec)
@@ -559,7 +583,8 @@ def _storage_name(path: Path) -> str:
 class BagWriter:
     """Writes a rosbag2 bag atomically: into a temporary directory renamed on success.
 
-    Topics are added on first use, in that order, with the node's QoS profile; the bag
+    Topics are added on first use, in that order, with the QoS profile the node's publisher
+    on the topic offers (:func:`~hecker_dynamics.ros.names.output_qos`); the bag
     holds the message definitions and type hashes, and ``custom_data`` entries under
     ``hecker_dynamics.``. Same calls in the same order give the same bytes.
 
@@ -632,7 +657,7 @@ class BagWriter:
 
     def add_topic(self, topic: str, msgtype: str, qos: Optional[list[Any]] = None) -> None:
         """Declare ``topic`` now (so it appears in the bag even with no messages), offered
-        with ``qos`` (default: the node's output QoS)."""
+        with ``qos`` (default: the QoS of the node's publisher on the topic)."""
         if topic in self._connections:
             if self._types[topic] != msgtype:
                 raise BagError(f"topic '{topic}' written with two types, {self._types[topic]} "
@@ -640,7 +665,7 @@ class BagWriter:
             return
         self._connections[topic] = self._writer.add_connection(
             topic, msgtype, typestore=typestore(), serialization_format="cdr",
-            offered_qos_profiles=NODE_QOS if qos is None else qos)
+            offered_qos_profiles=rosbag_qos(output_qos(topic)) if qos is None else qos)
         self._types[topic] = msgtype
 
     def write(self, topic: str, msgtype: str, log_ns: int, msg: Any) -> bytes:

@@ -19,7 +19,8 @@ keyframe period (``~/keyframe``). A replay of a recorded session
    has no header, by its place in the sequence of snapshots).
 
 ``/diagnostics`` is not compared: it holds wall times and the node publishes it at timer
-ticks. Recorded outputs before the replay's start (a recorder that subscribed to them before
+ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes.
+Recorded outputs before the replay's start (a recorder that subscribed to them before
 it received a keyframe) are counted as not checked. Input messages recorded on the input
 topics are checked against the events: an event whose message is missing in the middle of
 the recorded span of its topic means the bag was changed or the recorder dropped it.
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Union
 
+from ..ros.names import TF_STATIC_TOPIC
 from ..ros.outputs import DIAGNOSTICS_TOPIC
 from ..ros.runner import Runner
 from ..ros.session import (InputEventFields, KeyframeFields, SessionFields, WorldChange,
@@ -138,8 +140,8 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
     """The recorded outputs in log order: per session and topic those with a header stamp
     (with it), and per topic those without (``Twist``, with None), which are placed in the
     sequence of all sessions' snapshots instead (see :func:`_align`)."""
-    compared = {topic for topic in output_types(scene)
-                if topic != resolve_topic(DIAGNOSTICS_TOPIC)}
+    compared = set(output_types(scene, tf=True)) - {resolve_topic(DIAGNOSTICS_TOPIC),
+                                                    TF_STATIC_TOPIC}
     stamped: dict[int, Recorded] = defaultdict(lambda: defaultdict(list))
     unstamped: Recorded = defaultdict(list)
     for message in bag.messages:
@@ -405,7 +407,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
         runner.restore(keyframe)
         if keyframe.steps and (keyframe.stamp_ns - info.start_ns) % scene.publish_period_ns == 0:
             # The node published this instant on arriving there, before the keyframe.
-            produced.extend(snapshot_messages(scene, runner.sim.snapshot()))
+            produced.extend(snapshot_messages(scene, runner.sim.snapshot(), tf=True))
     runner.take_records()
     start_ns = runner.sim.time_ns
     recorded_keyframes = {k.stamp_ns: k for k in session.keyframes}
@@ -413,7 +415,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     def advance(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         for snapshot in tick.snapshots:
-            produced.extend(snapshot_messages(scene, snapshot))
+            produced.extend(snapshot_messages(scene, snapshot, tf=True))
         if tick.diverged is not None:
             check.halted = tick.diverged
         for record in runner.take_records():
@@ -464,5 +466,5 @@ def _change(runner: Runner, event: WorldEventFields, produced: list[Output],
         return runner.resume_at(event.time_ns)
     record, tick = runner.step(int(event.values[0]) if event.values else 0)
     for snapshot in tick.snapshots:
-        produced.extend(snapshot_messages(scene, snapshot))
+        produced.extend(snapshot_messages(scene, snapshot, tf=True))
     return record

@@ -16,8 +16,11 @@ The rules are the node's (``hecker_dynamics.ros.node``, non-lockstep):
 
 Outputs are the node's: ``/<body>/pose`` (PoseStamped), ``/<body>/twist`` (Twist), and when
 the scene enables them ``/<body>/odom``, ``/markers`` and ``/diagnostics``; every message is
-logged at its sim time. Diagnostics carry a zero ``step_wall_time`` (wall time is not
-reproducible). Everything is deterministic: same scene and bag, same bytes.
+logged at its sim time. ``/tf`` and ``/tf_static`` (TFMessage, when the scene publishes TF)
+are written only when asked for (``tf=True``, ``replay --tf``), so that bags replayed before
+the node published TF, the golden bags among them, keep their bytes. Diagnostics carry a
+zero ``step_wall_time`` (wall time is not reproducible). Everything is deterministic: same
+scene and bag, same bytes.
 """
 from __future__ import annotations
 
@@ -32,8 +35,9 @@ from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagE
 from ..dynamics.commands import InputError
 from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
                           wrench_stamped_to_command)
-from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics,
-                           snapshot_outputs)
+from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME
+from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, SnapshotOutputs,
+                           output_topics)
 from ..ros.runner import Runner
 from ..scene.load import Scene, WrenchTopic
 from ..dynamics.simulation import Snapshot
@@ -43,9 +47,9 @@ __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "inp
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
            "recorded_output_topics", "check_session", "check_distinct"]
 
-APPLIED_WRENCH_TOPIC = "/applied_wrench"
+APPLIED_WRENCH_TOPIC = resolve_topic(APPLIED_WRENCH_NAME)
 #: The node's fully qualified name, its diagnostics' hardware_id.
-NODE_FQN = "/dynamics_node"
+NODE_FQN = resolve_topic(NODE_NAME)
 
 
 class ReplayError(BagError):
@@ -89,10 +93,12 @@ def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[WrenchTopic]]]:
     return topics
 
 
-def output_types(scene: Scene) -> dict[str, str]:
+def output_types(scene: Scene, *, tf: bool = False) -> dict[str, str]:
     """The node's output topics for ``scene`` as a bag names them, with their message
-    types (topic -> type), in publishing order."""
-    return {resolve_topic(topic): kind.value for topic, kind in output_topics(scene).items()}
+    types (topic -> type), in publishing order; with ``tf``, ``/tf`` and ``/tf_static``
+    too if the scene publishes TF."""
+    return {resolve_topic(topic): kind.value
+            for topic, kind in output_topics(scene, tf=tf and scene.publish_tf).items()}
 
 
 def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = True) -> None:
@@ -119,15 +125,16 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
     _check_types(bag, output_types(scene))
 
 
-def recorded_output_topics(scene: Scene, bag: BagContents, *,
-                           need_inputs: bool = True) -> list[str]:
-    """The scene's output topics recorded in ``bag``, to check a replay against.
+def recorded_output_topics(scene: Scene, bag: BagContents, *, need_inputs: bool = True,
+                           tf: bool = False) -> list[str]:
+    """The scene's output topics recorded in ``bag`` (with ``tf``, TF's too), to check a
+    replay against.
 
     Raises :class:`ReplayError` if the bag does not fit the scene
     (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
     """
     check_bag_for_scene(scene, bag, need_inputs=need_inputs)
-    outputs = output_types(scene)
+    outputs = output_types(scene, tf=tf)
     recorded = [topic for topic in outputs if topic in bag.topics]
     if not any(bag.topics[topic] == POSE_STAMPED for topic in recorded):
         raise ReplayError(f"{bag.path}: --check needs recorded outputs in the bag, but it "
@@ -271,6 +278,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
 _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: bags.pose_stamped_message, OutputKind.TWIST: bags.twist_message,
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
+    OutputKind.TF: bags.tf_message,
 }
 
 
@@ -279,16 +287,17 @@ def _output(fields: OutputFields, log_ns: int) -> Output:
                   _MESSAGE_BUILDERS[fields.kind](fields.fields))
 
 
-def snapshot_messages(scene: Scene, snapshot: Snapshot) -> list[Output]:
+def snapshot_messages(scene: Scene, snapshot: Snapshot, *, tf: bool = False) -> list[Output]:
     """The messages the node publishes for one snapshot, in its publishing order."""
-    return [_output(fields, snapshot.time_ns) for fields in snapshot_outputs(scene, snapshot)]
+    fields = SnapshotOutputs(scene, tf=tf and scene.publish_tf)(snapshot)
+    return [_output(output, snapshot.time_ns) for output in fields]
 
 
 # ----------------------------------------------------------------------------- replay
 
 def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
            start_ns: Optional[int] = None, duration_ns: Optional[int] = None,
-           play_script: bool = False, skip_rejected: bool = False,
+           play_script: bool = False, skip_rejected: bool = False, tf: bool = False,
            progress: Optional[Callable[[float], None]] = None) -> ReplayResult:
     """Replay the inputs of ``bag`` on ``scene``; ``emit`` receives every output in order.
 
@@ -303,13 +312,18 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
     runner = Runner(scene, start_ns=start, play_script=play_script, hardware_id=NODE_FQN,
                     wall_clock=lambda: 0)
     sim = runner.sim
+    outputs_of = SnapshotOutputs(scene, tf=tf and scene.publish_tf)
+    # The node latches the named points' transforms once, before its first tick.
+    for fields in outputs_of.static(start):
+        emit(_output(fields, start))
+        result.outputs += 1
 
     def run_tick(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         result.rejected.extend(tick.script_errors)
         for snapshot in tick.snapshots:
-            for output in snapshot_messages(scene, snapshot):
-                emit(output)
+            for fields in outputs_of(snapshot):
+                emit(_output(fields, snapshot.time_ns))
                 result.outputs += 1
         if tick.diagnostics is not None:
             emit(Output(resolve_topic(DIAGNOSTICS_TOPIC), OutputKind.DIAGNOSTICS.value,
@@ -367,7 +381,7 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
                 if topic in bag.topics:
                     writer.add_topic(topic, msgtype)
             pending = [m for m in bag.messages if m.topic in inputs]
-        for topic, msgtype in output_types(scene).items():
+        for topic, msgtype in output_types(scene, tf=options.get("tf", False)).items():
             writer.add_topic(topic, msgtype)
         position = 0
 
@@ -399,12 +413,14 @@ def serialize_outputs(outputs: Sequence[Output]) -> list[tuple[str, int, bytes]]
     return [(o.topic, o.log_ns, bytes(store.serialize_cdr(o.msg, o.msgtype))) for o in outputs]
 
 
-def outputs_as_bag(scene: Scene, outputs: Sequence[Output], name: str = "<replay>") -> BagContents:
-    """The outputs as an in-memory :class:`BagContents` (every output topic declared)."""
+def outputs_as_bag(scene: Scene, outputs: Sequence[Output], name: str = "<replay>", *,
+                   tf: bool = False) -> BagContents:
+    """The outputs as an in-memory :class:`BagContents` (every output topic declared; TF's
+    with ``tf``)."""
     raw = serialize_outputs(outputs)
     messages = [bags.BagMessage(i, o.topic, o.msgtype, o.log_ns, data)
                 for i, (o, (_, _, data)) in enumerate(zip(outputs, raw))]
-    return BagContents(path=Path(name), storage="memory", topics=output_types(scene),
+    return BagContents(path=Path(name), storage="memory", topics=output_types(scene, tf=tf),
                        messages=messages)
 
 

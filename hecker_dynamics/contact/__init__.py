@@ -1,5 +1,10 @@
 """Contacts: where shapes touch (``collision``, the narrow phase) and the impulses that
-keep them apart (``solver``), built only for scenes that declare walls or collisions."""
+keep them apart (``solver``), built only for scenes that declare walls or collisions; and
+joints (``joints``): pins, sliders, welds, rods, ropes and gears, built only for scenes
+that declare them."""
+from .joints import (DistanceJoint, GearJoint, JointPass, JointSpec, PrismaticJoint,
+                     RevoluteJoint, WeldJoint)
 from .solver import Contact, ContactPass, ContactRow
 
-__all__ = ["Contact", "ContactPass", "ContactRow"]
+__all__ = ["Contact", "ContactPass", "ContactRow", "JointPass", "JointSpec", "RevoluteJoint",
+           "PrismaticJoint", "WeldJoint", "DistanceJoint", "GearJoint"]

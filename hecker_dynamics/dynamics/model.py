@@ -25,6 +25,7 @@ from ..geometry.planar import perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
 from ..contact.solver import ContactPass
+from ..contact.joints import JointPass
 
 
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
@@ -64,6 +65,10 @@ class Model:
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene), compiled=self.compiled is not None)
             if scene.walls or scene.collisions else None)
+        self.joints: Optional[JointPass] = JointPass(self) if scene.joints else None
+        if self.joints is not None and self.contacts is not None:
+            for pair in self.joints.connected:  # joined bodies do not collide by default
+                self.contacts.pairs.pop(pair, None)
 
     @property
     def inputs(self) -> Optional[ConstantWrenchTerm]:
@@ -122,6 +127,8 @@ class Model:
             mask[term.turns] = True
         if self.contacts is not None:
             mask[self.contacts.bodies] = True
+        if self.joints is not None:
+            mask[self.joints.bodies] = True
         return mask
 
     def accelerations(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:

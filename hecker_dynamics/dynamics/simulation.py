@@ -113,8 +113,9 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = compiled_steps(self.model.compiled, self.integrator,
-                                        self.model.contacts)
+        self._compiled = (compiled_steps(self.model.compiled, self.integrator,
+                                         self.model.contacts)
+                          if self.model.joints is None else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -132,6 +133,8 @@ class Simulation:
         self.integrator.reset()
         if self.model.contacts is not None:
             self.model.contacts.reset()
+        if self.model.joints is not None:
+            self.model.joints.reset(self.q)
         self._bound = EnergyBound(self.model, self.q, self.v)
         self._halted: Optional[str] = None  # why the energy bound stopped the run
         if isinstance(self.integrator, ImplicitTheta):
@@ -162,6 +165,7 @@ class Simulation:
             "inputs": self._inputs.export_state(),
             "integrator": self.integrator.export_state(),
             "contacts": None if self.model.contacts is None else self.model.contacts.export_state(),
+            "joints": None if self.model.joints is None else self.model.joints.export_state(),
             "divergence": self._export_divergence(),
         }
 
@@ -189,6 +193,8 @@ class Simulation:
         self.integrator.import_state(state["integrator"])
         if self.model.contacts is not None:
             self.model.contacts.import_state(state["contacts"] or [])
+        if self.model.joints is not None and state.get("joints") is not None:
+            self.model.joints.import_state(state["joints"])
         divergence = state["divergence"]
         self._bound.import_state(divergence["bound"])
         self._checked = (np.array(divergence["checked_q"], dtype=float).reshape(q.shape),
@@ -218,6 +224,8 @@ class Simulation:
         wrap_angles_in_place(self.q[:, 2])
         if self.model.contacts is not None:
             self.model.contacts.reset()
+        if self.model.joints is not None:  # the next step moves it back onto its joints
+            self.model.joints.forget()
         # The new state is where a refused check returns to, its energy within the budget.
         self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9)
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
@@ -366,11 +374,16 @@ class Simulation:
         return True
 
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """One integrator step and the contact pass; split into sub-steps when a colliding
-        body would otherwise move more than half the thinnest colliding part."""
+        """One integrator step, the joint pass and the contact pass; split into sub-steps
+        when a colliding body would otherwise move more than half the thinnest colliding
+        part. Joints go first so that the contacts have the last word on overlap; what a
+        contact impulse does to a joint the next step's joint pass corrects, positions
+        only."""
         f = self.model.accelerations
         q1, v1 = self.integrator.step(f, q, v, h)
-        contacts = self.model.contacts
+        contacts, joints = self.model.contacts, self.model.joints
+        if joints is not None:
+            joints.resolve(q, q1, v1, h)
         if contacts is None:
             return q1, v1
         parts = contacts.substeps(q, q1)
@@ -379,6 +392,8 @@ class Simulation:
             return q1, v1
         for _ in range(parts):
             q1, v1 = self.integrator.step(f, q, v, h / parts)
+            if joints is not None:
+                joints.resolve(q, q1, v1, h / parts)
             contacts.resolve(q1, v1, v, h / parts)
             q, v = q1, v1
         return q, v

@@ -7,6 +7,7 @@ from typing import Any, NamedTuple, Optional
 from ..dynamics.simulation import Simulation
 from .fields import NS_PER_S
 
+# diagnostic_msgs/msg/DiagnosticStatus levels (a ``byte`` field: rclpy wants
 # ``bytes([level])``, rosbags an int).
 DIAGNOSTIC_OK = 0
 DIAGNOSTIC_WARN = 1

@@ -57,12 +57,22 @@ def _out_of_plane_warnings(what: str, values: Mapping[str, float]) -> list[str]:
             "torque z and point x, y act in the plane)"]
 
 
-def _wrench_numbers(wrench: Any) -> dict[str, float]:
-    return {
-        "force.x": float(wrench.force.x), "force.y": float(wrench.force.y),
-        "force.z": float(wrench.force.z), "torque.x": float(wrench.torque.x),
-        "torque.y": float(wrench.torque.y), "torque.z": float(wrench.torque.z),
-    }
+#: The numbers of a ``geometry_msgs/Wrench``, in the order :func:`_wrench_numbers` reads them.
+WRENCH_NAMES = ("force.x", "force.y", "force.z", "torque.x", "torque.y", "torque.z")
+POINT_NAMES = ("point.x", "point.y", "point.z")
+
+
+def _wrench_numbers(wrench: Any) -> tuple[float, ...]:
+    force, torque = wrench.force, wrench.torque
+    return (float(force.x), float(force.y), float(force.z),
+            float(torque.x), float(torque.y), float(torque.z))
+
+
+def _check_numbers(what: str, names: Sequence[str], values: Sequence[float]) -> None:
+    """Raise :class:`InputError` naming every non-finite value (the names only on failure:
+    this runs for every input message)."""
+    if not all(map(math.isfinite, values)):
+        _require_finite(what, dict(zip(names, values)))
 
 
 def _start_ns(stamp: Any, receive_ns: int) -> int:
@@ -81,13 +91,13 @@ def applied_wrench_to_command(msg: Any, receive_ns: int) -> tuple[WrenchCommand,
     negative duration; returns a warning for non-zero out-of-plane components.
     """
     body = str(msg.body)
-    what = f"AppliedWrench for body '{body}' from '{msg.id}'"
     if not body:
         raise InputError("AppliedWrench with an empty 'body' field; the message is ignored")
-    numbers = _wrench_numbers(msg.wrench)
-    numbers.update({"point.x": float(msg.point.x), "point.y": float(msg.point.y),
-                    "point.z": float(msg.point.z)})
-    _require_finite(what, numbers)
+    point = msg.point
+    fx, fy, fz, tx, ty, tz, px, py, pz = numbers = _wrench_numbers(msg.wrench) + (
+        float(point.x), float(point.y), float(point.z))
+    what = f"AppliedWrench for body '{body}' from '{msg.id}'"
+    _check_numbers(what, WRENCH_NAMES + POINT_NAMES, numbers)
     duration_ns = ns_from_stamp(msg.duration.sec, msg.duration.nanosec)
     if duration_ns < 0:
         raise InputError(f"{what}: negative duration {duration_ns * 1e-9:g} s; "
@@ -97,13 +107,14 @@ def applied_wrench_to_command(msg: Any, receive_ns: int) -> tuple[WrenchCommand,
         body=body,
         source=str(msg.id),
         frame_id=str(msg.header.frame_id) or body,
-        point=(numbers["point.x"], numbers["point.y"]),
-        force=(numbers["force.x"], numbers["force.y"]),
-        torque=numbers["torque.z"],
+        point=(px, py),
+        force=(fx, fy),
+        torque=tz,
         duration_ns=duration_ns,
     )
     warnings = _out_of_plane_warnings(what, {
-        k: numbers[k] for k in ("force.z", "torque.x", "torque.y", "point.z")})
+        "force.z": fz, "torque.x": tx, "torque.y": ty, "point.z": pz}) if (
+        fz or tx or ty or pz) else []
     return command, warnings
 
 
@@ -117,19 +128,19 @@ def wrench_stamped_to_command(msg: Any, topic: WrenchTopic,
     for a NaN or infinite number; returns a warning for non-zero out-of-plane components.
     """
     what = f"WrenchStamped on '{topic.topic}' for body '{topic.body}'"
-    numbers = _wrench_numbers(msg.wrench)
-    _require_finite(what, numbers)
+    fx, fy, fz, tx, ty, tz = numbers = _wrench_numbers(msg.wrench)
+    _check_numbers(what, WRENCH_NAMES, numbers)
     command = WrenchCommand(
         stamp_ns=_start_ns(msg.header.stamp, receive_ns),
         body=topic.body,
         source=topic.name,
         frame_id=str(msg.header.frame_id) or topic.frame_id,
         point=(0.0, 0.0),
-        force=(numbers["force.x"], numbers["force.y"]),
-        torque=numbers["torque.z"],
+        force=(fx, fy),
+        torque=tz,
     )
     warnings = _out_of_plane_warnings(what, {
-        k: numbers[k] for k in ("force.z", "torque.x", "torque.y")})
+        "force.z": fz, "torque.x": tx, "torque.y": ty}) if (fz or tx or ty) else []
     return command, warnings
 
 

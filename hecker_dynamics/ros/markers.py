@@ -1,7 +1,7 @@
 """RViz markers of the bodies' shapes (``visualization_msgs/MarkerArray`` fields), without ROS."""
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Optional
 
 from ..geometry.shapes import Circle, Polygon
 from ..scene.load import BodySpec
@@ -20,7 +20,6 @@ MARKER_COLORS = (
     (0.84, 0.15, 0.16, 1.0), (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0),
 )
 
-# diagnostic_msgs/msg/DiagnosticStatus levels (a ``byte`` field: rclpy wants
 
 class MarkerFields(NamedTuple):
     """The ``visualization_msgs/Marker`` fields a shape sets; the others keep defaults."""
@@ -36,29 +35,65 @@ class MarkerFields(NamedTuple):
     points: tuple[Vec3, ...]
 
 
-def _shape_markers(shape: Any, pose: Pose, angle: float, head: Header, ns: str,
-                   first_id: int, color: tuple[float, float, float, float]) -> list[MarkerFields]:
+class MarkerTemplate(NamedTuple):
+    """One shape's marker before it is placed: every field but the header and the pose
+    (left at :data:`UNPLACED`), and ``offset``, the marker's origin in the body frame (a
+    circle's centre for its disc), or None when the marker sits at the body frame's origin."""
+
+    fields: MarkerFields
+    offset: Optional[tuple[float, float]]
+
+
+#: The header and pose of a marker not yet placed.
+UNPLACED = (Header(0, 0, ""), Pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)))
+
+
+def _shape_templates(shape: Any, ns: str, first_id: int,
+                     color: tuple[float, float, float, float]) -> list[MarkerTemplate]:
     """Markers of one shape: a closed outline for a polygon; a disc and a radius for a circle."""
+    head, pose = UNPLACED
     line_scale = (MARKER_LINE_WIDTH, 0.0, 0.0)
     if isinstance(shape, Polygon):
         outline = [(float(x), float(y), 0.0) for x, y in shape.vertices]
         outline.append(outline[0])
-        return [MarkerFields(head, ns, first_id, MARKER_LINE_STRIP, MARKER_ADD, pose,
-                             line_scale, color, tuple(outline))]
+        return [MarkerTemplate(MarkerFields(head, ns, first_id, MARKER_LINE_STRIP, MARKER_ADD,
+                                            pose, line_scale, color, tuple(outline)), None)]
     if isinstance(shape, Circle):
         cx, cy = float(shape.center[0]), float(shape.center[1])
-        ox, oy = _rotate((cx, cy), angle)
-        disc_pose = Pose((pose.position[0] + ox, pose.position[1] + oy, 0.0), pose.orientation)
         diameter = 2.0 * float(shape.radius)
         disc_color = (color[0], color[1], color[2], 0.5 * color[3])
         radius_line = ((cx, cy, 0.0), (cx + float(shape.radius), cy, 0.0))
         return [
-            MarkerFields(head, ns, first_id, MARKER_CYLINDER, MARKER_ADD, disc_pose,
-                         (diameter, diameter, MARKER_DISC_HEIGHT), disc_color, ()),
-            MarkerFields(head, ns, first_id + 1, MARKER_LINE_STRIP, MARKER_ADD, pose,
-                         line_scale, color, radius_line),
+            MarkerTemplate(MarkerFields(head, ns, first_id, MARKER_CYLINDER, MARKER_ADD, pose,
+                                        (diameter, diameter, MARKER_DISC_HEIGHT), disc_color,
+                                        ()), (cx, cy)),
+            MarkerTemplate(MarkerFields(head, ns, first_id + 1, MARKER_LINE_STRIP, MARKER_ADD,
+                                        pose, line_scale, color, radius_line), None),
         ]
     raise TypeError(f"no marker for a shape of type {type(shape).__name__}")
+
+
+def marker_templates(body: BodySpec, index: int) -> tuple[MarkerTemplate, ...]:
+    """The fixed parts of ``body``'s markers, in namespace ``body.name``; ``index`` picks
+    the body's colour. Made once per body; :func:`place_markers` adds pose and header."""
+    color = MARKER_COLORS[index % len(MARKER_COLORS)]
+    templates: list[MarkerTemplate] = []
+    for shape in body.shapes:
+        templates.extend(_shape_templates(shape, body.name, len(templates), color))
+    return tuple(templates)
+
+
+def place_markers(templates: tuple[MarkerTemplate, ...], head: Header, state: Any,
+                  pose: Pose) -> list[MarkerFields]:
+    """The markers of ``templates`` at ``state`` (a ``BodyState``; ``pose`` its body pose)."""
+    markers = []
+    for template in templates:
+        at = pose
+        if template.offset is not None:
+            ox, oy = _rotate(template.offset, float(state.angle))
+            at = Pose((pose.position[0] + ox, pose.position[1] + oy, 0.0), pose.orientation)
+        markers.append(template.fields._replace(header=head, pose=at))
+    return markers
 
 
 def marker_fields(body: BodySpec, state: Any, index: int, frame_id: str,
@@ -69,11 +104,5 @@ def marker_fields(body: BodySpec, state: Any, index: int, frame_id: str,
     the shape's vertices in the body frame; circles are ``CYLINDER`` discs plus a radius
     line that shows the spin. ``index`` picks the body's color.
     """
-    head = header(frame_id, stamp_ns)
-    pose = body_pose(state)
-    color = MARKER_COLORS[index % len(MARKER_COLORS)]
-    markers: list[MarkerFields] = []
-    for shape in body.shapes:
-        markers.extend(_shape_markers(shape, pose, float(state.angle), head, body.name,
-                                      len(markers), color))
-    return markers
+    return place_markers(marker_templates(body, index), header(frame_id, stamp_ns), state,
+                         body_pose(state))

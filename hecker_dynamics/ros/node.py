@@ -10,6 +10,7 @@ only moves data between them and rclpy.
 from __future__ import annotations
 
 import dataclasses
+import signal
 import sys
 from collections.abc import Callable
 from typing import Any, Optional
@@ -17,41 +18,57 @@ from typing import Any, Optional
 import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PoseStamped, Twist, WrenchStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
 from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
                      header, stamp_from_ns)
 from .diagnostics import DiagnosticFields
 from .markers import MarkerFields
-from .outputs import DIAGNOSTICS_TOPIC, OutputFields, OutputKind, output_topics, snapshot_outputs
+from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
+from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
+                    NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
+                    SET_BODY_STATE_SERVICE, STEP_SERVICE, Durability, QosSpec, Reliability,
+                    output_qos)
+from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
                      plan_tick)
-from .session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, INPUT_EVENTS_TOPIC,
-                      KEYFRAME_DEPTH, KEYFRAME_TOPIC, SESSION_DEPTH, SESSION_TOPIC,
-                      WORLD_EVENTS_DEPTH, WORLD_EVENTS_TOPIC, InputEventFields, KeyframeFields,
-                      SessionFields, WorldEventFields)
+from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
+                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
+from .session import (APPLIED_WRENCH_EVENT, InputEventFields, KeyframeFields, SessionFields,
+                      WorldEventFields)
+from .tf import TransformFields
 from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
 from ..srv import SetBodyState, Step
 from .ratelimit import RateLimiter
-from ..scene.load import NODE_NAME, SceneError, WrenchTopic
-
-#: Keep-last depth of every publisher and subscription (reliable, volatile: rclpy's
-#: default profile for an int depth).
-QUEUE_DEPTH = 10
+from ..scene.load import SceneError, WrenchTopic
 
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
+    OutputKind.TF: TFMessage,
 }
+
+
+def qos_profile(spec: QosSpec) -> QoSProfile:
+    """The rclpy profile of a :class:`QosSpec`: keep-last, the rest rmw's defaults."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=spec.depth,
+        reliability={Reliability.RELIABLE: ReliabilityPolicy.RELIABLE,
+                     Reliability.BEST_EFFORT: ReliabilityPolicy.BEST_EFFORT}[spec.reliability],
+        durability={Durability.VOLATILE: DurabilityPolicy.VOLATILE,
+                    Durability.TRANSIENT_LOCAL: DurabilityPolicy.TRANSIENT_LOCAL}[spec.durability])
 
 
 # ----------------------------------------------------------------------------- messages
@@ -113,6 +130,19 @@ def _marker(fields: MarkerFields) -> Marker:
     return msg
 
 
+def _tf_message(transforms: tuple[TransformFields, ...]) -> TFMessage:
+    messages = []
+    for fields in transforms:
+        msg = TransformStamped()
+        _fill_header(msg.header, fields.header)
+        msg.child_frame_id = fields.child_frame_id
+        translation, rotation = msg.transform.translation, msg.transform.rotation
+        translation.x, translation.y, translation.z = fields.translation
+        rotation.x, rotation.y, rotation.z, rotation.w = fields.rotation
+        messages.append(msg)
+    return TFMessage(transforms=messages)
+
+
 def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
     return MarkerArray(markers=[_marker(fields) for fields in markers])
 
@@ -162,19 +192,19 @@ def _world_event(fields: WorldEventFields) -> WorldEvent:
     return msg
 
 
-#: Session records: their topic, message builder and keep-last depth. Reliable and
-#: transient_local, so a recorder that starts after them still receives the latest.
-RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, int]] = {
-    SessionFields: (SESSION_TOPIC, _session_info, SessionInfo, SESSION_DEPTH),
-    KeyframeFields: (KEYFRAME_TOPIC, _keyframe, Keyframe, KEYFRAME_DEPTH),
-    InputEventFields: (INPUT_EVENTS_TOPIC, _input_event, InputEvent, INPUT_EVENTS_DEPTH),
-    WorldEventFields: (WORLD_EVENTS_TOPIC, _world_event, WorldEvent, WORLD_EVENTS_DEPTH),
+#: Session records: their topic, message builder, type and QoS (reliable and
+#: transient_local, so a recorder that starts after them still receives the latest).
+RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, QosSpec]] = {
+    SessionFields: (SESSION_TOPIC, _session_info, SessionInfo, SESSION_QOS),
+    KeyframeFields: (KEYFRAME_TOPIC, _keyframe, Keyframe, KEYFRAME_QOS),
+    InputEventFields: (INPUT_EVENTS_TOPIC, _input_event, InputEvent, INPUT_EVENTS_QOS),
+    WorldEventFields: (WORLD_EVENTS_TOPIC, _world_event, WorldEvent, WORLD_EVENTS_QOS),
 }
 
 
 MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
-    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
+    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
 }
 
 
@@ -205,11 +235,9 @@ class DynamicsNode(Node):
             self.get_logger().warning(line)
         self._record_publishers: dict[type, Any] = {}
         if self.options.record_session:
-            for kind, (topic, _, msgtype, depth) in RECORD_TOPICS.items():
-                self._record_publishers[kind] = self.create_publisher(msgtype, topic, QoSProfile(
-                    history=HistoryPolicy.KEEP_LAST, depth=depth,
-                    reliability=ReliabilityPolicy.RELIABLE,
-                    durability=DurabilityPolicy.TRANSIENT_LOCAL))
+            for kind, (topic, _, msgtype, qos) in RECORD_TOPICS.items():
+                self._record_publishers[kind] = self.create_publisher(msgtype, topic,
+                                                                      qos_profile(qos))
         self.runner = Runner(self.scene, play_script=self.options.play_script, max_steps=cap,
                              started=self.options.lockstep,
                              hardware_id=self.get_fully_qualified_name(),
@@ -223,23 +251,29 @@ class DynamicsNode(Node):
         #: Done (with True, or False after a divergence) when a lockstep run reaches the
         #: scene's duration; never done otherwise.
         self.finished = Future()
+        self._outputs = SnapshotOutputs(self.scene)
         self._publishers_by_topic = {
-            topic: self.create_publisher(MESSAGE_TYPES[kind], topic, QUEUE_DEPTH)
+            topic: self.create_publisher(MESSAGE_TYPES[kind], topic,
+                                         qos_profile(output_qos(topic)))
             for topic, kind in output_topics(self.scene).items()}
         self._applied_wrench = self.create_subscription(
-            AppliedWrench, "applied_wrench", self._on_applied_wrench, QUEUE_DEPTH)
+            AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench,
+            qos_profile(COMMAND_QOS))
         for topic in self.scene.wrench_topics:
             subscription = self.create_subscription(
                 WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic), QUEUE_DEPTH)
+                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic),
+                qos_profile(COMMAND_QOS))
             self._wrench_topic_names[topic.name] = subscription.topic_name
-        self.create_service(Trigger, "reset", self._on_reset)
-        self.create_service(Trigger, "pause", self._on_pause)
-        self.create_service(Trigger, "resume", self._on_resume)
-        self.create_service(Step, "step", self._on_step)
-        self.create_service(SetBodyState, "set_body_state", self._on_set_body_state)
+        self.create_service(Trigger, RESET_SERVICE, self._on_reset)
+        self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)
+        self.create_service(Trigger, RESUME_SERVICE, self._on_resume)
+        self.create_service(Step, STEP_SERVICE, self._on_step)
+        self.create_service(SetBodyState, SET_BODY_STATE_SERVICE, self._on_set_body_state)
         if self.options.lockstep:
-            self._clock_publisher = self.create_publisher(ClockMessage, "/clock", QUEUE_DEPTH)
+            self._publish_static()
+            self._clock_publisher = self.create_publisher(ClockMessage, CLOCK_TOPIC,
+                                                          qos_profile(CLOCK_QOS))
             # A zero period: the timer is always ready, so the run goes as fast as it can
             # while the executor still serves subscriptions and the reset service.
             self._timer = self.create_timer(
@@ -294,6 +328,7 @@ class DynamicsNode(Node):
         if action is TickAction.START:
             self.get_logger().info(reason)
             self.runner.restart(now_ns, "start")
+            self._publish_static()
         elif action is TickAction.RESTART:
             self._warn("clock_jump", reason)
             self.runner.restart(now_ns, "clock jump")
@@ -302,7 +337,7 @@ class DynamicsNode(Node):
 
     def _on_lockstep_tick(self) -> None:
         """Steady timer in lockstep: one publish period per tick, then ``/clock``."""
-        if self.finished.done():
+        if self.finished.done() or not self.context.ok():
             return
         self._advance(self.sim.time_ns + self.scene.publish_period_ns)
         self._publish_clock()
@@ -313,8 +348,14 @@ class DynamicsNode(Node):
             self.finished.set_result(self.runner.halted is None)
 
     def _advance(self, target_ns: int) -> None:
-        """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed."""
+        """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed.
+
+        Nothing is published once the context is shut down (by another owner of it: this
+        node's own signal handlers only end the spin loop between two callbacks).
+        """
         tick = self.runner.advance(target_ns)
+        if not self.context.ok():
+            return
         self._publish_records()
         for line in tick.script_errors:
             self._warn("script", line)
@@ -322,7 +363,7 @@ class DynamicsNode(Node):
             self.get_logger().error(
                 f"{tick.diverged}; halted until the 'reset' service is called")
         for snapshot in tick.snapshots:
-            for output in snapshot_outputs(self.scene, snapshot):
+            for output in self._outputs(snapshot):
                 self._publish(output)
         if tick.lag:
             self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
@@ -343,6 +384,12 @@ class DynamicsNode(Node):
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(
             MESSAGE_BUILDERS[output.kind](output.fields))
+
+    def _publish_static(self) -> None:
+        """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;
+        latched (transient_local), so once is enough for every later subscriber."""
+        for output in self._outputs.static(self.sim.time_ns):
+            self._publish(output)
 
     def _publish_clock(self) -> None:
         msg = ClockMessage()
@@ -391,7 +438,7 @@ class DynamicsNode(Node):
     def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
         record, tick = self.runner.step(int(request.steps))
         for snapshot in tick.snapshots:
-            for output in snapshot_outputs(self.scene, snapshot):
+            for output in self._outputs(snapshot):
                 self._publish(output)
         return self._answer(record, response, f"stepped {request.steps} step(s) to "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
@@ -404,22 +451,45 @@ class DynamicsNode(Node):
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
 def main(args: Optional[list[str]] = None) -> int:
-    """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status."""
-    rclpy.init(args=args)
+    """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status.
+
+    SIGINT and SIGTERM end the spin loop between two callbacks (:class:`Shutdown`), then the
+    node is destroyed and the context shut down: exit status 0 and one info line. A
+    lockstep run that diverged ends with 1, a scene that does not load with 1 and its error.
+    """
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = Shutdown()
+    previous = {signum: signal.signal(signum, stop.request) for signum in HANDLED_SIGNALS}
+    logger = rclpy.logging.get_logger(NODE_NAME)
     node = None
     try:
         node = DynamicsNode()
-        rclpy.spin_until_future_complete(node, node.finished)
-        return 0 if not node.finished.done() or node.finished.result() else 1
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        context = node.context
+        try:
+            spin_until(lambda timeout: executor.spin_once(timeout_sec=timeout),
+                       lambda: stop.requested or node.finished.done() or not context.ok())
+        except ExternalShutdownException:
+            pass
+        except rclpy_implementation.RCLError:
+            if context.ok():  # a real failure, not a publish racing a shutdown
+                raise
+        finished = node.finished.result() if node.finished.done() else None
+        status, message = stop.outcome(stop.reason(lockstep_result=finished,
+                                                   context_ok=context.ok()))
+        if message:
+            logger.info(message)
+        return status
     except SceneError as error:
-        rclpy.logging.get_logger(NODE_NAME).fatal(str(error))
+        logger.fatal(str(error))
         return 1
-    except (KeyboardInterrupt, ExternalShutdownException):
-        return 0
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

@@ -2,12 +2,19 @@
 from __future__ import annotations
 
 import enum
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Optional
 
 from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
-from .fields import odometry_fields, pose_fields, twist_fields
-from .markers import MarkerFields, marker_fields
+from .fields import OdometryFields, PoseStampedFields, body_pose, header, twist_fields
+from .markers import MarkerFields, marker_templates, place_markers
+from .names import (DIAGNOSTICS_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC, TF_TOPIC,
+                    odometry_topic, pose_topic, twist_topic)
+from .tf import body_transforms, point_transforms
+
+__all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "OutputFields",
+           "SnapshotOutputs", "snapshot_outputs"]
+
 
 class OutputKind(enum.Enum):
     """The kinds of message the node publishes."""
@@ -17,55 +24,100 @@ class OutputKind(enum.Enum):
     ODOMETRY = "nav_msgs/msg/Odometry"
     MARKERS = "visualization_msgs/msg/MarkerArray"
     DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
+    TF = "tf2_msgs/msg/TFMessage"
 
 
-#: The node's diagnostics topic (relative: in the node's namespace).
-DIAGNOSTICS_TOPIC = "diagnostics"
+def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
+    return scene.publish_tf if tf is None else tf
 
 
-def output_topics(scene: Scene) -> dict[str, OutputKind]:
-    """The node's output topics for ``scene`` (relative names) and kinds, in publishing
-    order: per body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
-    ``markers`` and ``diagnostics`` if the scene enables them."""
+def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, OutputKind]:
+    """The node's output topics for ``scene`` and their kinds, in publishing order: per
+    body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
+    ``markers``, ``/tf`` and ``/tf_static``, and ``diagnostics``, each if enabled.
+
+    ``tf`` overrides the scene's ``publish.tf`` (the offline replay leaves TF out unless
+    asked, so bags replayed before TF existed keep their bytes).
+    """
     topics: dict[str, OutputKind] = {}
     for body in scene.bodies:
-        topics[f"{body.name}/pose"] = OutputKind.POSE
-        topics[f"{body.name}/twist"] = OutputKind.TWIST
+        topics[pose_topic(body.name)] = OutputKind.POSE
+        topics[twist_topic(body.name)] = OutputKind.TWIST
         if scene.publish_odometry:
-            topics[f"{body.name}/odom"] = OutputKind.ODOMETRY
+            topics[odometry_topic(body.name)] = OutputKind.ODOMETRY
     if scene.publish_markers:
-        topics["markers"] = OutputKind.MARKERS
+        topics[MARKERS_TOPIC] = OutputKind.MARKERS
+    if _with_tf(scene, tf):
+        topics[TF_TOPIC] = OutputKind.TF
+        topics[TF_STATIC_TOPIC] = OutputKind.TF
     if scene.publish_diagnostics:
         topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
     return topics
 
 
 class OutputFields(NamedTuple):
-    """One message to publish: relative topic, kind, and the fields (the kind's ``*Fields``
-    tuple; for markers a tuple of :class:`MarkerFields`)."""
+    """One message to publish: topic, kind, and the fields (the kind's ``*Fields`` tuple;
+    for markers a tuple of :class:`MarkerFields`, for TF a tuple of ``TransformFields``)."""
 
     topic: str
     kind: OutputKind
     fields: Any
 
 
-def snapshot_outputs(scene: Scene, snapshot: Snapshot) -> list[OutputFields]:
-    """The messages the node publishes for one snapshot, in publishing order."""
-    frame_id = scene.frame_id
-    stamp = snapshot.time_ns
-    outputs = []
-    markers: list[MarkerFields] = []
-    for index, state in enumerate(snapshot.bodies):
-        name = state.name
-        outputs.append(OutputFields(f"{name}/pose", OutputKind.POSE,
-                                    pose_fields(state, frame_id, stamp)))
-        outputs.append(OutputFields(f"{name}/twist", OutputKind.TWIST,
-                                    twist_fields(state, scene.twist_frame)))
-        if scene.publish_odometry:
-            outputs.append(OutputFields(f"{name}/odom", OutputKind.ODOMETRY,
-                                        odometry_fields(state, frame_id, stamp)))
+class SnapshotOutputs:
+    """The messages the node publishes for each snapshot of ``scene``, in publishing order.
+
+    Everything that does not change between snapshots (topic names, which outputs are on
+    and the markers' shapes) is worked out once here; per snapshot one header serves every
+    message of the fixed frame and each body's pose is computed once for its pose,
+    odometry, markers and transform.
+    """
+
+    def __init__(self, scene: Scene, *, tf: Optional[bool] = None) -> None:
+        self.scene = scene
+        self.tf = _with_tf(scene, tf)
+        self._topics = tuple((pose_topic(b.name), twist_topic(b.name), odometry_topic(b.name))
+                             for b in scene.bodies)
+        self._markers = tuple(marker_templates(b, index) for index, b in enumerate(scene.bodies)
+                              ) if scene.publish_markers else ()
+
+    def __call__(self, snapshot: Snapshot) -> list[OutputFields]:
+        scene = self.scene
+        frame_id = scene.frame_id
+        stamp = snapshot.time_ns
+        head = header(frame_id, stamp)
+        body_twist = scene.twist_frame == "body"
+        outputs = []
+        markers: list[MarkerFields] = []
+        for index, state in enumerate(snapshot.bodies):
+            pose, twist, odom = self._topics[index]
+            body_pose_fields = body_pose(state)
+            twist_fields_ = twist_fields(state, scene.twist_frame)
+            outputs.append(OutputFields(pose, OutputKind.POSE,
+                                        PoseStampedFields(head, body_pose_fields)))
+            outputs.append(OutputFields(twist, OutputKind.TWIST, twist_fields_))
+            if scene.publish_odometry:
+                outputs.append(OutputFields(odom, OutputKind.ODOMETRY, OdometryFields(
+                    head, state.name, body_pose_fields,
+                    twist_fields_ if body_twist else twist_fields(state, "body"))))
+            if scene.publish_markers:
+                markers.extend(place_markers(self._markers[index], head, state,
+                                             body_pose_fields))
         if scene.publish_markers:
-            markers.extend(marker_fields(scene.bodies[index], state, index, frame_id, stamp))
-    if scene.publish_markers:
-        outputs.append(OutputFields("markers", OutputKind.MARKERS, tuple(markers)))
-    return outputs
+            outputs.append(OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, tuple(markers)))
+        if self.tf:
+            outputs.append(OutputFields(TF_TOPIC, OutputKind.TF,
+                                        body_transforms(head, snapshot.bodies)))
+        return outputs
+
+    def static(self, stamp_ns: int) -> list[OutputFields]:
+        """``/tf_static`` (published once, latched): empty without TF or named points."""
+        transforms = point_transforms(self.scene, stamp_ns) if self.tf else ()
+        return [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
+
+
+def snapshot_outputs(scene: Scene, snapshot: Snapshot, *,
+                     tf: Optional[bool] = None) -> list[OutputFields]:
+    """The messages the node publishes for one snapshot (see :class:`SnapshotOutputs`,
+    which makes the per-scene constants once for many snapshots)."""
+    return SnapshotOutputs(scene, tf=tf)(snapshot)

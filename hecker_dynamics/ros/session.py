@@ -28,24 +28,20 @@ import enum
 import json
 from typing import Any, NamedTuple
 
+# The record topics (relative to the node: ``~`` is its own namespace) and their QoS.
+from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
+                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
+
 __all__ = ["APPLIED_WRENCH_EVENT", "WRENCH_STAMPED_EVENT", "SessionFields", "InputEventFields",
            "KeyframeFields", "encode_state", "decode_state", "SESSION_TOPIC", "KEYFRAME_TOPIC",
            "INPUT_EVENTS_TOPIC", "SESSION_DEPTH", "KEYFRAME_DEPTH", "INPUT_EVENTS_DEPTH",
            "WORLD_EVENTS_TOPIC", "WORLD_EVENTS_DEPTH", "WorldChange", "WorldEventFields"]
 
-#: Topics, relative to the node (``~``: in its own namespace, ``/dynamics_node/...``).
-SESSION_TOPIC = "~/session"
-KEYFRAME_TOPIC = "~/keyframe"
-INPUT_EVENTS_TOPIC = "~/input_events"
-WORLD_EVENTS_TOPIC = "~/world_events"
-
-#: Keep-last depths. One session record is all a late recorder needs; two keyframes cover a
-#: recorder that subscribes to the outputs up to a keyframe period before the keyframes;
-#: the input events since the latest keyframe must all reach it, so their depth is large.
-SESSION_DEPTH = 1
-KEYFRAME_DEPTH = 2
-INPUT_EVENTS_DEPTH = 1000
-WORLD_EVENTS_DEPTH = 1000
+#: Keep-last depths of the record topics (their QoS and the reasons: :mod:`.names`).
+SESSION_DEPTH = SESSION_QOS.depth
+KEYFRAME_DEPTH = KEYFRAME_QOS.depth
+INPUT_EVENTS_DEPTH = INPUT_EVENTS_QOS.depth
+WORLD_EVENTS_DEPTH = WORLD_EVENTS_QOS.depth
 
 #: ``InputEvent.kind``: which message the event holds.
 APPLIED_WRENCH_EVENT = 0

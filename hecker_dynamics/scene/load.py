@@ -22,6 +22,9 @@ from ..dynamics.commands import WrenchCommand
 from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
                                is_convex, mass_properties)
 from ..integrators.methods import METHODS
+from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint,
+                              RevoluteJoint, RotarySpring, WeldJoint)
+from ..ros.names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
 
@@ -34,7 +37,6 @@ __all__ = [
 ]
 
 DEFAULT_SCENE = "sample"
-NODE_NAME = "dynamics_node"
 INTEGRATORS = (*METHODS, "auto")
 #: Parameters that belong to the node, not the scene; the scene reader lets them pass.
 NODE_PARAMETERS = frozenset({"use_sim_time", "scene", "lockstep", "play_script",
@@ -186,6 +188,7 @@ class Scene:
     publish_odometry: bool
     publish_markers: bool
     publish_diagnostics: bool
+    publish_tf: bool                        # /tf per body, /tf_static per named point
     restitution_threshold: Optional[float]  # None: chosen from gravity and step
     bodies: tuple[BodySpec, ...]
     forces: tuple[ForceSpec, ...]
@@ -193,6 +196,7 @@ class Scene:
     collisions: tuple[CollisionGroup, ...]
     wrench_topics: tuple[WrenchTopic, ...]
     script: tuple[WrenchCommand, ...]
+    joints: tuple[JointSpec, ...] = ()
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -337,6 +341,7 @@ def _read_scene(root: ParameterReader) -> Scene:
     forces = tuple(_read_force(name, r, points) for name, r in root.named_children("forces"))
     walls = tuple(_read_wall(name, r, body_names) for name, r in root.named_children("walls"))
     collisions = _read_collisions(root, {b.name: b for b in bodies})
+    joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
     publish = root.child("publish")
     scene = Scene(
         source=root.source,
@@ -352,6 +357,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         publish_odometry=publish.boolean("odometry", False),
         publish_markers=publish.boolean("markers", False),
         publish_diagnostics=publish.boolean("diagnostics", False),
+        publish_tf=publish.boolean("tf", True),
         restitution_threshold=(root.number("restitution_threshold", minimum=0.0)
                                if root.has("restitution_threshold") else None),
         bodies=bodies,
@@ -363,6 +369,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         script=tuple(sorted((_read_command(name, r, frame_id, points)
                              for name, r in root.named_children("script")),
                             key=lambda c: (c.stamp_ns, c.source))),
+        joints=joints,
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
@@ -567,6 +574,123 @@ def _read_collisions(root: ParameterReader,
                                      reader.number("restitution", 0.2, minimum=0.0, maximum=1.0),
                                      reader.number("friction", 0.5, minimum=0.0)))
     return tuple(groups)
+
+
+JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")
+
+
+def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
+                 fixed: str) -> tuple[JointSpec, ...]:
+    """Joints; a gear names two revolute joints of the same scene."""
+    joints: list[JointSpec] = []
+    gears = []
+    for name, reader in root.named_children("joints"):
+        kind = reader.string("type", REQUIRED, choices=JOINT_TYPES)
+        if kind == "gear":
+            gears.append((reader, GearJoint(name, reader.string("joint_a", REQUIRED),
+                                            reader.string("joint_b", REQUIRED),
+                                            reader.number("ratio", REQUIRED))))
+            continue
+        joints.append(_read_joint(name, kind, reader, bodies, fixed))
+    revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
+    for reader, gear in gears:
+        for key in ("joint_a", "joint_b"):
+            if getattr(gear, key) not in revolute:
+                reader.fail(key, f"'{getattr(gear, key)}' is not a revolute joint of this "
+                                 f"scene (revolute joints: {', '.join(revolute) or 'none'})")
+        if gear.joint_a == gear.joint_b:
+            reader.fail("joint_b", "a gear needs two different joints")
+        if gear.ratio == 0.0:
+            reader.fail("ratio", "must not be zero")
+        joints.append(gear)
+    return tuple(sorted(joints, key=lambda j: j.name))
+
+
+def _place(body: BodySpec, point: Vec2) -> Vec2:
+    """A body-frame point in the fixed frame at the body's initial pose."""
+    c, s = math.cos(body.angle), math.sin(body.angle)
+    return (body.position[0] + c * point[0] - s * point[1],
+            body.position[1] + s * point[0] + c * point[1])
+
+
+def _read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+                fixed: str) -> JointSpec:
+    """A joint between ``body_a`` (default: the fixed frame) and ``body_b``. ``point_b``
+    (default the body frame's origin) is a point of body_b; ``point_a`` one of body_a, or
+    fixed-frame coordinates, by default where point_b is at the start (a distance joint:
+    body_a's origin)."""
+    points = {b: spec.points for b, spec in bodies.items()}
+    name_a = reader.string("body_a", fixed)
+    if name_a != fixed and name_a not in bodies:
+        reader.fail("body_a", f"names an unknown body '{name_a}' (nor the fixed frame '{fixed}')")
+    body_b = _body(reader, "body_b", points)
+    if body_b == name_a:
+        reader.fail("body_b", "a joint cannot join a body to itself")
+    point_b = _point(reader, "point_b", points[body_b], [0.0, 0.0])
+    start_b = _place(bodies[body_b], point_b)
+    world = name_a == fixed
+    body_a = None if world else name_a
+    default_a = (None if kind != "distance" else [0.0, 0.0])
+    given = (reader.vector("point_a", default_a) if world and reader.has("point_a")
+             else _point(reader, "point_a", {} if world else points[name_a], default_a))
+    if given is None:  # where point_b starts, in body_a's frame
+        point_a = start_b if world else _local_point(bodies[name_a], start_b)
+    else:
+        point_a = given
+    start_a = point_a if world else _place(bodies[name_a], point_a)
+    gap = math.hypot(start_b[0] - start_a[0], start_b[1] - start_a[1])
+    common: dict[str, Any] = dict(name=name, body_a=body_a, body_b=body_b, point_a=point_a,
+                                  point_b=point_b,
+                                  collide_connected=reader.boolean("collide_connected", False))
+    if kind in ("revolute", "weld") and gap > 1e-6:
+        reader.fail("point_a", f"is {gap:.6g} m from point_b at the start; a {kind} joint "
+                               "joins one point of both bodies")
+    if kind == "weld":
+        return WeldJoint(**common, frequency=reader.number("frequency", 0.0, minimum=0.0),
+                         damping_ratio=reader.number("damping_ratio", 1.0, minimum=0.0))
+    if kind == "distance":
+        if reader.has("length") and reader.has("max_length"):
+            reader.fail("max_length", "a distance joint is a rod ('length') or a rope "
+                                      "('max_length'), not both")
+        rope = reader.has("max_length")
+        length = reader.number("max_length" if rope else "length", gap, positive=True)
+        if rope and gap > length:
+            reader.fail("max_length", f"the points start {gap:.6g} m apart, beyond {length}")
+        return DistanceJoint(**common, length=length, rope=rope)
+    lower = reader.number("lower") if reader.has("lower") else None
+    upper = reader.number("upper") if reader.has("upper") else None
+    if lower is not None and upper is not None and lower > upper:
+        reader.fail("upper", f"must be at least lower ({lower}), not {upper}")
+    if (lower is not None and lower > 0.0) or (upper is not None and upper < 0.0):
+        reader.fail("lower" if lower is not None and lower > 0.0 else "upper",
+                    "the joint starts at 0, which must lie between lower and upper")
+    effort = "max_torque" if kind == "revolute" else "max_force"
+    motor = None
+    if reader.has("motor"):
+        settings = reader.child("motor")
+        motor = Motor(settings.number("speed", 0.0),
+                      settings.number(effort, REQUIRED, minimum=0.0))
+    if kind == "prismatic":
+        ax, ay = reader.vector("axis", REQUIRED)
+        length = math.hypot(ax, ay)
+        if length == 0.0:
+            reader.fail("axis", "must not be the zero vector")
+        return PrismaticJoint(**common, axis=(ax / length, ay / length), lower=lower,
+                              upper=upper, motor=motor)
+    spring = None
+    if reader.has("spring"):
+        settings = reader.child("spring")
+        spring = RotarySpring(settings.number("stiffness", REQUIRED, minimum=0.0),
+                              settings.number("damping", 0.0, minimum=0.0),
+                              settings.number("rest_angle", 0.0))
+    return RevoluteJoint(**common, lower=lower, upper=upper, motor=motor, spring=spring)
+
+
+def _local_point(body: BodySpec, point: Vec2) -> Vec2:
+    """A fixed-frame point in the body frame at the body's initial pose."""
+    c, s = math.cos(body.angle), math.sin(body.angle)
+    dx, dy = point[0] - body.position[0], point[1] - body.position[1]
+    return (c * dx + s * dy, -s * dx + c * dy)
 
 
 def frame_known(frame: str, fixed: str, points: Mapping[str, Mapping[str, Vec2]]) -> bool:

@@ -62,7 +62,7 @@ class LiveSession:
     def publish(self, snapshots: list[Snapshot], at_ns: int) -> None:
         """The node's outputs for ``snapshots``, published at ROS time ``at_ns``."""
         for snapshot in snapshots:
-            for output in snapshot_messages(self.scene, snapshot):
+            for output in snapshot_messages(self.scene, snapshot, tf=True):
                 self.published.append(Published(output.topic, output.msgtype, at_ns,
                                                 output.msg))
 

@@ -486,19 +486,22 @@ def test_output_topics_and_snapshot_outputs_follow_the_scene():
     scene = scene_for_node({**ONE_BODY, "bodies.ball.shape": "circle",
                             "bodies.ball.radius": 0.2, "bodies.ball.mass": 1.0,
                             "bodies.ball.position": [3.0, 0.0]}, "test")
-    assert output_topics(scene) == {"puck/pose": OutputKind.POSE, "puck/twist": OutputKind.TWIST,
-                                    "ball/pose": OutputKind.POSE, "ball/twist": OutputKind.TWIST}
+    assert output_topics(scene, tf=False) == {
+        "puck/pose": OutputKind.POSE, "puck/twist": OutputKind.TWIST,
+        "ball/pose": OutputKind.POSE, "ball/twist": OutputKind.TWIST}
     everything = scene_for_node({**ONE_BODY, "publish.odometry": True,
                                  "publish.markers": True, "publish.diagnostics": True}, "test")
     assert list(output_topics(everything).items()) == [
         ("puck/pose", OutputKind.POSE), ("puck/twist", OutputKind.TWIST),
         ("puck/odom", OutputKind.ODOMETRY), ("markers", OutputKind.MARKERS),
+        ("/tf", OutputKind.TF), ("/tf_static", OutputKind.TF),
         ("diagnostics", OutputKind.DIAGNOSTICS)]
     sim = Simulation(everything, start_ns=S)
     snapshot = sim.advance_to(S + everything.publish_period_ns)[-1]
     state = snapshot.bodies[0]
     outputs = snapshot_outputs(everything, snapshot)
-    assert [(o.topic, o.kind) for o in outputs] == list(output_topics(everything).items())[:-1]
+    # Every topic but the latched /tf_static and the diagnostics (due once a second).
+    assert [(o.topic, o.kind) for o in outputs] == list(output_topics(everything).items())[:-2]
     assert outputs[0].fields == pose_fields(state, "world", snapshot.time_ns)
     assert outputs[1].fields == twist_fields(state, everything.twist_frame)
     assert outputs[2].fields == odometry_fields(state, "world", snapshot.time_ns)

@@ -16,12 +16,9 @@ from types import SimpleNamespace
 
 import pytest
 
-rclpy = pytest.importorskip(
-    "rclpy", reason="rclpy is not installed: the node tests need ROS 2 Jazzy "
-                    "(source /opt/ros/jazzy/setup.bash)")
-pytest.importorskip(
-    "hecker_dynamics.msg", reason="the generated hecker_dynamics.msg module is missing: "
-                                  "build with colcon and source install/setup.bash")
+from jazzy import require_jazzy
+
+rclpy = require_jazzy()
 
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402

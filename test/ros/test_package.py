@@ -21,7 +21,7 @@ MSG_TYPE = "hecker_dynamics/msg/AppliedWrench"
 
 #: Messages and services the node imports, each with the package that provides it.
 NODE_INTERFACES = ("builtin_interfaces", "diagnostic_msgs", "geometry_msgs", "nav_msgs",
-                   "rosgraph_msgs", "std_msgs", "std_srvs", "visualization_msgs")
+                   "rosgraph_msgs", "std_msgs", "std_srvs", "tf2_msgs", "visualization_msgs")
 
 
 @pytest.fixture(scope="module")
@@ -63,8 +63,20 @@ def test_manifest_declares_every_dependency(manifest):
             "launch_ros"} <= execute
     assert "ament_cmake_pytest" in _names(manifest.test_depends)
     assert "python3-dev" in build  # Python.h for the compiled kernel (rosdep's python.yaml)
-    # rosbags has no rosdep key: the node and the build must not need it.
+    # rosbags has only a pip rosdep key (python3-rosbags-pip in rosdistro's python.yaml):
+    # the tests may use it, the node and the build must not need it.
     assert not any("rosbags" in name for name in build | execute | buildtool)
+    assert "python3-rosbags-pip" in _names(manifest.test_depends)
+
+
+def test_node_interfaces_are_the_node_modules_imports():
+    """Every ``<package>.msg`` / ``<package>.srv`` the node imports is in NODE_INTERFACES
+    (so the manifest test above covers it); the package's own messages aside."""
+    tree = ast.parse((ROOT / PACKAGE / "ros" / "node.py").read_text())
+    imported = {node.module.split(".")[0] for node in ast.walk(tree)
+                if isinstance(node, ast.ImportFrom) and node.module and node.level == 0
+                and node.module.split(".")[-1] in ("msg", "srv")}
+    assert imported and imported <= set(NODE_INTERFACES), imported - set(NODE_INTERFACES)
 
 
 def test_manifest_version_matches_setup_py(manifest):
@@ -91,7 +103,7 @@ def test_cmake_generates_the_interface_and_installs_beside_it(cmake):
     assert generate.start() < install_python.start()
     assert re.search(r"install\(PROGRAMS scripts/dynamics_node\s+DESTINATION "
                      r"lib/\$\{PROJECT_NAME\}", cmake)
-    assert re.search(r"install\(DIRECTORY config launch\s+DESTINATION "
+    assert re.search(r"install\(DIRECTORY config launch rviz\s+DESTINATION "
                      r"share/\$\{PROJECT_NAME\}", cmake)
     assert "ament_export_dependencies(rosidl_default_runtime)" in cmake
     assert cmake.rstrip().endswith("ament_package()")
@@ -221,12 +233,74 @@ def test_launch_file_declares_scene_and_use_sim_time():
     declared = {call.args[0].value for call in ast.walk(tree)
                 if isinstance(call, ast.Call) and getattr(call.func, "id", "") ==
                 "DeclareLaunchArgument"}
-    assert declared == {"scene", "use_sim_time"}
+    assert declared == {"scene", "use_sim_time", "rviz", "markers"}
+
+
+def _launch_tree() -> ast.Module:
+    return ast.parse((ROOT / "launch" / "dynamics.launch.py").read_text())
+
+
+def _launch_function(name: str):
+    """One plain function of the launch file, compiled alone (launch is not installed here)."""
+    tree = _launch_tree()
+    [function] = [node for node in tree.body
+                  if isinstance(node, ast.FunctionDef) and node.name == name]
+    namespace: dict = {}
+    exec(compile(ast.Module([function], []), "dynamics.launch.py", "exec"), namespace)
+    return namespace[name]
+
+
+def test_launch_file_turns_markers_on_with_rviz():
+    markers_on = _launch_function("_markers_on")
+    assert markers_on(True, "auto") is True      # RViz: markers on by default
+    assert markers_on(False, "auto") is None     # no RViz: the scene decides
+    assert markers_on(True, "false") is False and markers_on(False, "true") is True
+    text = (ROOT / "launch" / "dynamics.launch.py").read_text()
+    assert "overrides['publish.markers'] = markers" in text
+    # rviz2 opens the installed config in the scene's own fixed frame.
+    assert "RVIZ_CONFIG = 'rviz/hecker_dynamics.rviz'" in text
+    assert "arguments=['-d', config, '-f', load_scene(params_file).frame_id]" in text
+
+
+def _rviz_config() -> dict:
+    import yaml
+
+    return yaml.safe_load((ROOT / "rviz" / "hecker_dynamics.rviz").read_text())
+
+
+def test_rviz_config_shows_the_nodes_tf_and_markers():
+    from scene_builders import box_body, make_scene
+
+    from hecker_dynamics.ros.names import MARKERS_TOPIC
+    from hecker_dynamics.ros.outputs import OutputKind, output_topics
+    from hecker_dynamics.bags.io import resolve_topic
+
+    manager = _rviz_config()["Visualization Manager"]
+    # The scene's default fixed frame (a scene that does not set frame_id).
+    scene = make_scene({"bodies": {"puck": box_body()}, "publish": {"markers": True}})
+    assert manager["Global Options"]["Fixed Frame"] == scene.frame_id
+    displays = {d["Class"]: d for d in manager["Displays"]}
+    assert {"rviz_default_plugins/TF", "rviz_default_plugins/MarkerArray"} <= set(displays)
+    assert all(d["Enabled"] for d in displays.values())
+    # Every topic a display subscribes to is one the node publishes, with its type.
+    published = {resolve_topic(topic): kind for topic, kind in output_topics(scene).items()}
+    markers = displays["rviz_default_plugins/MarkerArray"]["Topic"]
+    assert markers["Value"] == resolve_topic(MARKERS_TOPIC)
+    assert published[markers["Value"]] is OutputKind.MARKERS
+    assert published["/tf"] is OutputKind.TF   # the TF display reads /tf and /tf_static
+    # The subscription matches the publisher's QoS (reliable, volatile, keep last).
+    assert (markers["Reliability Policy"], markers["Durability Policy"],
+            markers["History Policy"]) == ("Reliable", "Volatile", "Keep Last")
+
+
+def test_cmake_installs_the_rviz_config(cmake):
+    assert (ROOT / "rviz" / "hecker_dynamics.rviz").is_file()
+    assert re.search(r"install\(DIRECTORY [^)]*\brviz\b[^)]*DESTINATION share/", cmake)
 
 
 def test_launch_file_resolves_scenes_with_the_core_rule():
     # No copy of the rule that tells a shipped scene name from a path: the launch file
     # calls the core's scene_path.
     text = (ROOT / "launch" / "dynamics.launch.py").read_text()
-    assert "from hecker_dynamics.scene.load import scene_path" in text
+    assert "from hecker_dynamics.scene.load import load_scene, scene_path" in text
     assert "scene_path(LaunchConfiguration('scene').perform(context))" in text

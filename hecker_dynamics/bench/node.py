@@ -1,0 +1,97 @@
+"""The node's own cost without rclpy: the Python work of its timer ticks.
+
+Each 50 Hz tick of the node runs :meth:`Runner.advance` (the scene's script, 20 physics
+steps at 1 kHz, the diagnostics when due) and builds the fields of every output of the
+snapshot it passed (:class:`SnapshotOutputs`: pose, twist and odometry per body, the
+markers and ``/tf``). Both are timed here on rings of 1, 10 and 100 bodies
+(:func:`~hecker_dynamics.bench.scenes.ring`) with every output on; their sum per second of
+sim time is the share of one core the node needs to keep up with the clock, before rclpy
+copies the fields into messages and serializes them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import statistics
+import time
+from typing import NamedTuple
+
+from ..ros.outputs import SnapshotOutputs
+from ..ros.runner import Runner
+from ..scene.load import Scene
+from .scenes import ring
+
+__all__ = ["NODE_BODIES", "NodeCost", "node_scene", "node_cost", "node_table"]
+
+NODE_BODIES = (1, 10, 100)
+#: The node's default timing: 1 kHz physics, 50 Hz publishing.
+STEP_NS = 1_000_000
+PUBLISH_PERIOD_NS = 20_000_000
+#: The target share of one core for 10 bodies.
+TARGET_SHARE = 0.05
+
+
+class NodeCost(NamedTuple):
+    """Median CPU seconds of node work per second of sim time (a share of one core)."""
+
+    bodies: int
+    advance: float    # Runner.advance: script, physics steps, diagnostics
+    outputs: float    # the fields of every output of every snapshot
+    repeats: int
+
+    @property
+    def total(self) -> float:
+        return self.advance + self.outputs
+
+
+def node_scene(bodies: int) -> Scene:
+    """A ring of ``bodies`` boxes stepped at 1 kHz, published at 50 Hz, every output on."""
+    return dataclasses.replace(ring(bodies), step_ns=STEP_NS, publish_period_ns=PUBLISH_PERIOD_NS,
+                               publish_odometry=True, publish_markers=True,
+                               publish_diagnostics=True, publish_tf=True)
+
+
+def _run(scene: Scene, seconds: float) -> tuple[float, float]:
+    runner = Runner(scene)
+    outputs_of = SnapshotOutputs(scene)
+    # CPU time of this process, not wall time: on a loaded machine the wall clock also
+    # counts the time other processes held the core.
+    clock = time.process_time
+    advance = outputs = 0.0
+    target = 0
+    for _ in range(round(seconds * 1e9 / scene.publish_period_ns)):
+        target += scene.publish_period_ns
+        start = clock()
+        tick = runner.advance(target)
+        middle = clock()
+        for snapshot in tick.snapshots:
+            outputs_of(snapshot)
+        end = clock()
+        advance += middle - start
+        outputs += end - middle
+    return advance / seconds, outputs / seconds
+
+
+def node_cost(bodies_list: tuple[int, ...] = NODE_BODIES, seconds: float = 2.0,
+              repeats: int = 5) -> list[NodeCost]:
+    """The node's work per sim second on each ring size: medians of ``repeats`` runs of
+    ``seconds`` of sim time, the sizes interleaved in every round (so the machine's load
+    falls on all of them alike)."""
+    scenes = {n: node_scene(n) for n in bodies_list}
+    samples: dict[int, list[tuple[float, float]]] = {n: [] for n in bodies_list}
+    for _ in range(repeats):
+        for n, scene in scenes.items():
+            samples[n].append(_run(scene, seconds))
+    return [NodeCost(n, statistics.median(a for a, _ in samples[n]),
+                     statistics.median(o for _, o in samples[n]), repeats)
+            for n in bodies_list]
+
+
+def node_table(costs: list[NodeCost]) -> str:
+    """A Markdown table of the costs, in percent of one core."""
+    lines = ["| bodies | Runner.advance | output fields | total | per tick |",
+             "| ---: | ---: | ---: | ---: | ---: |"]
+    ticks_per_s = 1e9 / PUBLISH_PERIOD_NS
+    for cost in costs:
+        lines.append(f"| {cost.bodies} | {100 * cost.advance:.2f} % | {100 * cost.outputs:.2f} % "
+                     f"| {100 * cost.total:.2f} % | {1e6 * cost.total / ticks_per_s:.0f} us |")
+    return "\n".join(lines)

@@ -1,0 +1,609 @@
+"""Joints: pins, sliders, welds, rods, ropes and gears, as constraints solved after each step.
+
+A joint is a set of scalar constraints C(q) = 0 (or C(q) >= 0 for a limit or a rope) on the
+bodies' CM positions and angles. Its rows' Jacobians follow from the body point velocity
+v_P = v_CM + omega perp(r) (Eq. 9): a point constraint between P_A and P_B has the rows
+(1, 0, -r_By) and (0, 1, r_Bx) on body B (and their negatives on A), an angle constraint
+the row (0, 0, 1). An impulse lambda along a row changes a body's velocity by
+M^-1 J^T lambda: the force part by Eq. 5, the torque of the impulse, perp(r) . P
+(Eq. 11), turned into a change of angular velocity over inertia (Eq. 14), with the
+moment of inertia of Eq. 13.
+
+:class:`JointPass` runs after each integrator step, which has moved the bodies from
+(q0, v0) to (q1, v1) under the smooth forces alone. It does what RATTLE does to a
+constrained velocity Verlet step (Andersen 1983; Leimkuhler and Skeel 1994):
+
+1. *Position, with velocity*: find the constraint impulse that, acting along the
+   Jacobians at q0 (where the step began), brings q1 back to the constraints' values at
+   q0, by Newton's method: q1 += M^-1 G(q0)^T nu. The velocity gets the same impulse,
+   v1 += (that change of q1) / h, as RATTLE's first half kick does. With
+   ``velocity_verlet`` this is RATTLE (second order, symplectic: the energy stays
+   bounded); with another method of order two or more the pass is of order two.
+2. *Drift, positions only*: whatever error q0 already had (left by the contact pass or by
+   rounding), and any limit or rope passed, is removed by moving positions only
+   (nonlinear Gauss-Seidel, as Box2D v2 and Chipmunk correct positions), so drift
+   correction never adds kinetic energy.
+3. *Velocity*: at the final positions, impulses make every rigid row's velocity zero
+   (RATTLE's second half kick), limits' velocities at least -C/h (speculative: a joint may
+   approach its limit as far as it reaches it at the next step's end), motors' velocities
+   their target within their largest impulse (max effort x h), and soft rows (a revolute
+   spring, a soft weld) follow the implicit spring-damper law of Box2D v3's soft step,
+   lambda = -h (k C(q + h Cdot') + c Cdot').
+
+The rigid rows of a stage are one block solved exactly (a small dense system); rows with
+bounds (limits, motors, ropes) are solved around it by sequential impulses (projected
+Gauss-Seidel), warm-started from the previous step's impulses. Only the bodies some joint
+names take part. Revolute angles are tracked across turns, so a gear keeps counting and a
+limit beyond pi works.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Optional, Union
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from ..dynamics.model import Model
+
+__all__ = [
+    "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
+    "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass",
+]
+
+Vec2 = tuple[float, float]
+#: A constraint error (m or rad) counted as met by the position stages.
+TOLERANCE = 1e-12
+NEWTON_ITERATIONS = 20
+DRIFT_ITERATIONS = 8
+#: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
+MAX_ITERATIONS = 200
+CONVERGED = 1e-13
+
+
+@dataclass(frozen=True)
+class Motor:
+    """Drives a joint's coordinate at ``speed`` (rad/s or m/s) with at most ``max_effort``
+    (N m or N)."""
+
+    speed: float
+    max_effort: float
+
+
+@dataclass(frozen=True)
+class RotarySpring:
+    """A torque -k (angle - rest_angle) - c (angular velocity) about a revolute joint."""
+
+    stiffness: float
+    damping: float
+    rest_angle: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class JointEnds:
+    """What every joint but a gear has: ``body_a`` (None: the fixed frame) and ``body_b``,
+    a point of each (fixed-frame coordinates for the fixed frame), and whether the two
+    bodies still collide."""
+
+    name: str
+    body_a: Optional[str]
+    body_b: str
+    point_a: Vec2
+    point_b: Vec2
+    collide_connected: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class RevoluteJoint(JointEnds):
+    """A pin: point ``point_a`` of ``body_a`` (fixed-frame coordinates when ``body_a`` is
+    None, the world) and ``point_b`` of ``body_b`` (body frame) stay together. The joint
+    angle is body_b's angle relative to body_a's, zero at the start; ``lower`` and
+    ``upper`` bound it."""
+
+    lower: Optional[float] = None
+    upper: Optional[float] = None
+    motor: Optional[Motor] = None
+    spring: Optional[RotarySpring] = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class PrismaticJoint(JointEnds):
+    """A slider: ``point_b`` moves along the line through ``point_a`` with direction
+    ``axis`` (unit, in body_a's frame or the fixed frame), and the bodies keep their
+    relative angle. The translation along the axis is zero at the start."""
+
+    axis: Vec2
+    lower: Optional[float] = None
+    upper: Optional[float] = None
+    motor: Optional[Motor] = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class WeldJoint(JointEnds):
+    """The two bodies hold their relative pose at the start; with ``frequency`` > 0 (Hz)
+    a spring-damper of that frequency and ``damping_ratio`` holds it instead."""
+
+    frequency: float = 0.0
+    damping_ratio: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class DistanceJoint(JointEnds):
+    """A rod keeps the points ``length`` apart; a rope (``rope``) at most ``length``."""
+
+    length: float
+    rope: bool = False
+
+
+@dataclass(frozen=True)
+class GearJoint:
+    """Two revolute joints' angles tied: angle_a + ratio angle_b stays zero (meshing gears
+    of radii r_a and r_b turn opposite ways: ratio = r_b / r_a)."""
+
+    name: str
+    joint_a: str
+    joint_b: str
+    ratio: float
+
+
+JointSpec = Union[RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint]
+
+# Row kinds.
+RIGID, LIMIT, MOTOR, SOFT = "rigid", "limit", "motor", "soft"
+
+
+@dataclass(slots=True)
+class JointRow:
+    """One scalar constraint at given positions: its ``key`` (joint, part), ``kind``,
+    value ``c``, Jacobian ``entries`` [(body, jx, jy, jw)] (local body indices), and for a
+    motor its ``speed`` and largest effort ``bound``, for a soft row its ``stiffness``
+    and ``damping`` (per unit effective mass when ``scaled``)."""
+
+    key: tuple[str, str]
+    kind: str
+    c: float
+    entries: list[tuple[int, float, float, float]]
+    speed: float = 0.0
+    bound: float = math.inf
+    stiffness: float = 0.0
+    damping: float = 0.0
+    scaled: bool = False
+
+
+def _wrap(angle: float) -> float:
+    """``angle`` in [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+Entries = list[tuple[int, float, float, float]]
+
+
+def _negated(entries: Entries) -> Entries:
+    return [(b, -jx, -jy, -jw) for b, jx, jy, jw in entries]
+
+
+class _Frame:
+    """A joint end: a body's CM pose (or the world) and a point in it."""
+
+    __slots__ = ("body", "local")
+
+    def __init__(self, body: int, local: tuple[float, float]) -> None:
+        self.body, self.local = body, local  # body -1: the world; local then fixed-frame
+
+    def place(self, q: np.ndarray) -> tuple[float, float, float, float, float]:
+        """(x, y) of the point, its arm (r_x, r_y) from the CM, and the body angle."""
+        if self.body < 0:
+            return self.local[0], self.local[1], 0.0, 0.0, 0.0
+        x, y, angle = q[self.body]
+        c, s = math.cos(angle), math.sin(angle)
+        rx = c * self.local[0] - s * self.local[1]
+        ry = s * self.local[0] + c * self.local[1]
+        return x + rx, y + ry, rx, ry, angle
+
+
+def _line(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+    """Jacobian entries of u . (P_B - P_A) for a direction u fixed in body A: on B
+    (u, perp(r_B) . u), on A (-u, -perp(P_B - x_A) . u), since u turns with A."""
+    entries = []
+    if b.body >= 0:
+        entries.append((b.body, ux, uy, ux * -pb[3] + uy * pb[2]))
+    if a.body >= 0:
+        dx, dy = pa[2] + pb[0] - pa[0], pa[3] + pb[1] - pa[1]  # P_B - x_A
+        entries.append((a.body, -ux, -uy, -(ux * -dy + uy * dx)))
+    return entries
+
+
+def _fixed(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+    """Jacobian entries of u . (P_B - P_A) for a direction u fixed in the world (or
+    following both ends): on B (u, perp(r_B) . u), on A (-u, -perp(r_A) . u)."""
+    entries = []
+    if b.body >= 0:
+        entries.append((b.body, ux, uy, ux * -pb[3] + uy * pb[2]))
+    if a.body >= 0:
+        entries.append((a.body, -ux, -uy, -(ux * -pa[3] + uy * pa[2])))
+    return entries
+
+
+def _point_rows(name: str, a: _Frame, b: _Frame, pa: tuple, pb: tuple, kind: str,
+                stiffness: float = 0.0, damping: float = 0.0) -> list[JointRow]:
+    """The two rows of P_B - P_A = 0 (x and y); a soft row's ``stiffness`` and
+    ``damping`` are per unit effective mass."""
+    return [JointRow((name, axis), kind, ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]),
+                     _fixed(a, b, pa, pb, ux, uy), stiffness=stiffness, damping=damping,
+                     scaled=True)
+            for axis, (ux, uy) in (("x", (1.0, 0.0)), ("y", (0.0, 1.0)))]
+
+
+def _angle_entries(a: int, b: int, scale: float = 1.0) -> list:
+    entries = [(b, 0.0, 0.0, scale)]
+    if a >= 0:
+        entries.append((a, 0.0, 0.0, -scale))
+    return entries
+
+
+def _bounded_rows(name: str, value: float, entries: list, lower: Optional[float],
+                  upper: Optional[float], motor: Optional[Motor], h: float) -> list[JointRow]:
+    """Limit rows (value - lower >= 0, upper - value >= 0) and a motor row on a joint
+    coordinate ``value`` whose Jacobian is ``entries``."""
+    rows = []
+    if lower is not None:
+        rows.append(JointRow((name, "lower"), LIMIT, value - lower, entries))
+    if upper is not None:
+        rows.append(JointRow((name, "upper"), LIMIT, upper - value, _negated(entries)))
+    if motor is not None:
+        rows.append(JointRow((name, "motor"), MOTOR, value, entries, speed=motor.speed,
+                             bound=motor.max_effort * h))
+    return rows
+
+
+#: Parts of a joint that act along its coordinate, with the sign of their effort.
+EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
+
+
+class JointPass:
+    """The scene's joints, solved after each integrator step (see the module docstring)."""
+
+    def __init__(self, model: Model) -> None:
+        scene = model.scene
+        specs = scene.joints
+        named = {spec.name: spec for spec in specs}
+        involved = sorted({model.index[n] for spec in specs if not isinstance(spec, GearJoint)
+                           for n in (spec.body_a, spec.body_b) if n is not None})
+        #: Indices (in the model) of the bodies some joint holds; rows use their positions.
+        self.bodies = np.array(involved, dtype=int)
+        local_index = {body: i for i, body in enumerate(involved)}
+        self.specs = specs
+        self._named = named
+        self._frames: dict[str, tuple[_Frame, _Frame]] = {}
+        for spec in specs:
+            if isinstance(spec, GearJoint):
+                continue
+            ia = -1 if spec.body_a is None else model.index[spec.body_a]
+            ib = model.index[spec.body_b]
+            point_a = (tuple(spec.point_a) if ia < 0
+                       else tuple(model.local(ia, spec.point_a).tolist()))
+            self._frames[spec.name] = (
+                _Frame(-1 if ia < 0 else local_index[ia], point_a),
+                _Frame(local_index[ib], tuple(model.local(ib, spec.point_b).tolist())))
+        self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
+                       for spec in specs if isinstance(spec, GearJoint)}
+        self.inverse_mass = model.inverse_mass[self.bodies].reshape(-1)
+        #: Pairs of model body indices (i < j) that a joint connects and that must not collide.
+        ends = [(model.index[s.body_a], model.index[s.body_b]) for s in specs
+                if not isinstance(s, GearJoint) and s.body_a is not None
+                and not s.collide_connected]
+        self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))
+                                                        for i, j in ends})
+        self._initial: Optional[np.ndarray] = None
+        self._rigid = np.zeros(0, dtype=int)
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+
+    def reset(self, q: Optional[np.ndarray] = None) -> None:
+        """Forget warm-start impulses; take ``q`` (all bodies) as the joints' start pose,
+        where joint angles and slider translations are zero (default: the last one)."""
+        if q is not None:
+            self._initial = q[self.bodies].copy()
+        self.forget()
+        self.efforts: dict[str, float] = {}
+        #: Each motor's target speed, which a command may change between steps.
+        self.motor_speed = {s.name: s.motor.speed for s in self.specs
+                            if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
+        if self._initial is None:
+            return
+        start = self._initial
+        self._reference = {}  # per joint: initial relative angle and translation
+        self._raw: dict[str, float] = {}
+        self._angle: dict[str, float] = {}
+        for name, (a, b) in self._frames.items():
+            pa, pb = a.place(start), b.place(start)
+            relative = pb[4] - pa[4]
+            spec = self._named[name]
+            along = 0.0
+            if isinstance(spec, PrismaticJoint):
+                ux, uy = self._axis(spec, pa[4])
+                along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1])
+            self._reference[name] = (relative, along)
+            self._raw[name], self._angle[name] = relative, 0.0
+        # Every joint gives the same rows in the same order at any pose.
+        self._rigid = np.array([i for i, r in enumerate(self.rows(start, 1.0))
+                                if r.kind == RIGID], dtype=int)
+
+    def forget(self) -> None:
+        """Drop what warm-starts the next step (after a body was moved by hand)."""
+        self._warm: dict[tuple[str, str], float] = {}
+        self._newton: Optional[np.ndarray] = None
+        self._last: Optional[tuple[np.ndarray, list[JointRow]]] = None
+
+    def export_state(self) -> dict[str, Any]:
+        """What the pass carries from step to step, as plain data: the start pose, the
+        counted joint angles, the warm-start impulses, the efforts and motor speeds."""
+        return {"initial": None if self._initial is None else self._initial.tolist(),
+                "angle": dict(self._angle) if self._initial is not None else {},
+                "raw": dict(self._raw) if self._initial is not None else {},
+                "warm": [[list(key), value] for key, value in self._warm.items()],
+                "newton": None if self._newton is None else self._newton.tolist(),
+                "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Restore :meth:`export_state`'s data."""
+        if state["initial"] is not None:
+            self._initial = np.array(state["initial"], dtype=float)
+        self.reset()
+        if self._initial is not None:
+            self._angle = {k: float(x) for k, x in state["angle"].items()}
+            self._raw = {k: float(x) for k, x in state["raw"].items()}
+        self._warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
+        self._newton = (None if state["newton"] is None
+                        else np.array(state["newton"], dtype=float))
+        self.efforts = {k: float(x) for k, x in state["efforts"].items()}
+        self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
+
+    def _axis(self, spec: PrismaticJoint, angle_a: float) -> tuple[float, float]:
+        c, s = math.cos(angle_a), math.sin(angle_a)
+        return c * spec.axis[0] - s * spec.axis[1], s * spec.axis[0] + c * spec.axis[1]
+
+    def _joint_angle(self, name: str, pa: tuple, pb: tuple) -> float:
+        """body_b's angle relative to body_a's since the start, counting whole turns."""
+        raw = pb[4] - pa[4]
+        return self._angle[name] + _wrap(raw - self._raw[name])
+
+    def joint_state(self, q: np.ndarray, v: np.ndarray) -> dict[str, tuple[float, float, float]]:
+        """(position, velocity, effort) of each revolute (rad, rad/s, N m) and prismatic
+        (m, m/s, N) joint at the state (q, v) of all bodies: the fields of
+        sensor_msgs/JointState. The effort is the last step's motor, limit and spring
+        impulse along the joint over the step."""
+        mine, vel = q[self.bodies], v[self.bodies].reshape(-1)
+        state = {}
+        for spec in self.specs:
+            if not isinstance(spec, (RevoluteJoint, PrismaticJoint)):
+                continue
+            row = self._coordinate(spec, mine)
+            rate = sum(jx * vel[3 * b] + jy * vel[3 * b + 1] + jw * vel[3 * b + 2]
+                       for b, jx, jy, jw in row.entries)
+            state[spec.name] = (row.c, rate, self.efforts.get(spec.name, 0.0))
+        return state
+
+    def _coordinate(self, spec: Union[RevoluteJoint, PrismaticJoint], q: np.ndarray) -> JointRow:
+        """The joint's coordinate (angle or translation) at ``q`` as a row."""
+        a, b = self._frames[spec.name]
+        pa, pb = a.place(q), b.place(q)
+        if isinstance(spec, RevoluteJoint):
+            return JointRow((spec.name, "angle"), MOTOR, self._joint_angle(spec.name, pa, pb),
+                            _angle_entries(a.body, b.body))
+        ux, uy = self._axis(spec, pa[4])
+        along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self._reference[spec.name][1]
+        return JointRow((spec.name, "along"), MOTOR, along, _line(a, b, pa, pb, ux, uy))
+
+    # ------------------------------------------------------------------ rows
+
+    def rows(self, q: np.ndarray, h: float) -> list[JointRow]:
+        """Every joint's rows at positions ``q`` (the joint bodies only, local order)."""
+        rows: list[JointRow] = []
+        for spec in self.specs:
+            if isinstance(spec, GearJoint):
+                rows.append(self._gear_row(spec, q))
+                continue
+            a, b = self._frames[spec.name]
+            pa, pb = a.place(q), b.place(q)
+            name = spec.name
+            if isinstance(spec, RevoluteJoint):
+                rows += _point_rows(name, a, b, pa, pb, RIGID)
+                angle = self._joint_angle(name, pa, pb)
+                entries = _angle_entries(a.body, b.body)
+                rows += _bounded_rows(name, angle, entries, spec.lower, spec.upper,
+                                      self._motor(spec), h)
+                if spec.spring is not None:
+                    rows.append(JointRow((name, "spring"), SOFT,
+                                         angle - spec.spring.rest_angle, entries,
+                                         stiffness=spec.spring.stiffness,
+                                         damping=spec.spring.damping))
+            elif isinstance(spec, WeldJoint):
+                kind = SOFT if spec.frequency > 0.0 else RIGID
+                omega = 2.0 * math.pi * spec.frequency
+                k, c = omega * omega, 2.0 * spec.damping_ratio * omega
+                rows += _point_rows(name, a, b, pa, pb, kind, k, c)
+                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                rows.append(JointRow((name, "angle"), kind, relative,
+                                     _angle_entries(a.body, b.body), stiffness=k, damping=c,
+                                     scaled=True))
+            elif isinstance(spec, PrismaticJoint):
+                ux, uy = self._axis(spec, pa[4])
+                across = -uy * (pb[0] - pa[0]) + ux * (pb[1] - pa[1])
+                rows.append(JointRow((name, "across"), RIGID, across,
+                                     _line(a, b, pa, pb, -uy, ux)))
+                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                rows.append(JointRow((name, "angle"), RIGID, relative,
+                                     _angle_entries(a.body, b.body)))
+                along = self._coordinate(spec, q)
+                rows += _bounded_rows(name, along.c, along.entries, spec.lower, spec.upper,
+                                      self._motor(spec), h)
+            else:  # DistanceJoint
+                dx, dy = pb[0] - pa[0], pb[1] - pa[1]
+                length = math.hypot(dx, dy)
+                ux, uy = (dx / length, dy / length) if length > 0.0 else (1.0, 0.0)
+                entries = _fixed(a, b, pa, pb, ux, uy)  # d|d| = u . d(P_B - P_A)
+                if spec.rope:
+                    rows.append(JointRow((name, "rope"), LIMIT, spec.length - length,
+                                         _negated(entries)))
+                else:
+                    rows.append(JointRow((name, "rod"), RIGID, length - spec.length, entries))
+        return rows
+
+    def _motor(self, spec: Union[RevoluteJoint, PrismaticJoint]) -> Optional[Motor]:
+        """The joint's motor at the speed commanded now (:attr:`motor_speed`)."""
+        if spec.motor is None:
+            return None
+        return Motor(self.motor_speed[spec.name], spec.motor.max_effort)
+
+    def _gear_row(self, spec: GearJoint, q: np.ndarray) -> JointRow:
+        """angle_a + ratio angle_b = 0 over the two revolute joints' bodies."""
+        value, entries = 0.0, []
+        for joint, scale in ((self._gears[spec.name][0], 1.0), (self._gears[spec.name][1],
+                                                               spec.ratio)):
+            a, b = self._frames[joint.name]
+            value += scale * self._joint_angle(joint.name, a.place(q), b.place(q))
+            entries += _angle_entries(a.body, b.body, scale)
+        return JointRow((spec.name, "gear"), RIGID, value, entries)
+
+    def _jacobian(self, rows: list[JointRow]) -> np.ndarray:
+        matrix = np.zeros((len(rows), self.inverse_mass.size))
+        for i, row in enumerate(rows):
+            for b, jx, jy, jw in row.entries:
+                matrix[i, 3 * b] += jx
+                matrix[i, 3 * b + 1] += jy
+                matrix[i, 3 * b + 2] += jw
+        return matrix
+
+    # ------------------------------------------------------------------ the pass
+
+    def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
+        """Constrain the step from ``q0`` to (``q1``, ``v1``) of length ``h``; updates
+        ``q1`` and ``v1`` (all bodies) in place."""
+        if self._initial is None:
+            self.reset(q0)
+        index = self.bodies
+        start = q0[index]
+        if self._last is not None and np.array_equal(self._last[0], start):
+            rows0 = self._last[1]  # the last step ended here: the same rows
+        else:
+            rows0 = self.rows(start, h)
+        q = q1[index].copy()
+        moved = q.copy()
+        rows = self._hold(rows0, q, h)
+        v = v1[index].reshape(-1) + (q - moved).reshape(-1) / h
+        rows = self._correct(rows, q, h)
+        v = self._velocities(rows, v, h)
+        for name, (a, b) in self._frames.items():  # keep counting whole turns from here
+            pa, pb = a.place(q), b.place(q)
+            self._angle[name] = self._joint_angle(name, pa, pb)
+            self._raw[name] = pb[4] - pa[4]
+        self._last = (q.copy(), rows)
+        q1[index] = q
+        v1[index] = v.reshape(-1, 3)
+
+    def _hold(self, rows0: list[JointRow], q: np.ndarray, h: float) -> list[JointRow]:
+        """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
+        at the step's start (Newton's method, warm-started from the last step's
+        multipliers); returns the rows at the new ``q``."""
+        rigid = self._rigid
+        if not rigid.size:
+            return self.rows(q, h)
+        g0 = self._jacobian([rows0[i] for i in rigid])
+        target = np.array([rows0[i].c for i in rigid])
+        direction = self.inverse_mass[:, None] * g0.T  # M^-1 G0^T
+        nu = np.zeros(rigid.size) if self._newton is None else self._newton.copy()
+        q += (direction @ nu).reshape(q.shape)
+        for _ in range(NEWTON_ITERATIONS):
+            rows = self.rows(q, h)
+            now = [rows[i] for i in rigid]
+            error = np.array([r.c for r in now]) - target
+            if float(np.max(np.abs(error))) <= TOLERANCE:
+                break
+            step = np.linalg.solve(self._jacobian(now) @ direction, -error)
+            nu += step
+            q += (direction @ step).reshape(q.shape)
+        else:
+            rows = self.rows(q, h)
+        self._newton = nu
+        return rows
+
+    def _correct(self, rows: list[JointRow], q: np.ndarray, h: float) -> list[JointRow]:
+        """Stage 2: remove drift of the rigid rows and limits passed, positions only;
+        returns the rows at the corrected ``q``."""
+        for _ in range(DRIFT_ITERATIONS):
+            if not any((r.kind == RIGID and abs(r.c) > TOLERANCE)
+                       or (r.kind == LIMIT and r.c < -TOLERANCE) for r in rows):
+                break
+            active = [r for r in rows if r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0)]
+            g = self._jacobian(active)
+            direction = self.inverse_mass[:, None] * g.T
+            shift = np.linalg.solve(g @ direction, -np.array([r.c for r in active]))
+            q += (direction @ shift).reshape(q.shape)
+            rows = self.rows(q, h)
+        return rows
+
+    def _velocities(self, rows: list[JointRow], v: np.ndarray, h: float) -> np.ndarray:
+        """Stage 3: the impulses at the final positions; returns the new velocities and
+        keeps each row's impulse for warm starting and the joints' efforts."""
+        g = self._jacobian(rows)
+        direction = self.inverse_mass[:, None] * g.T
+        k = g @ direction
+        rate = g @ v
+        b = -rate
+        lower = np.full(len(rows), -math.inf)
+        upper = np.full(len(rows), math.inf)
+        for i, row in enumerate(rows):
+            if row.kind == LIMIT:
+                b[i] -= max(row.c, 0.0) / h
+                lower[i] = 0.0
+            elif row.kind == MOTOR:
+                b[i] += row.speed
+                lower[i], upper[i] = -row.bound, row.bound
+            elif row.kind == SOFT:
+                scale = 1.0 / k[i, i] if row.scaled else 1.0
+                stiffness, damping = row.stiffness * scale, row.damping * scale
+                compliance = stiffness * h + damping
+                if compliance == 0.0:  # a spring of zero stiffness and damping holds nothing
+                    lower[i] = upper[i] = 0.0
+                    continue
+                k[i, i] += 1.0 / (h * compliance)
+                b[i] -= stiffness * row.c / compliance
+        impulse = _solve(k, b, lower, upper, np.array([self._warm.get(r.key, 0.0)
+                                                       for r in rows]))
+        self._warm = {row.key: float(x) for row, x in zip(rows, impulse)}
+        self.efforts = {}
+        for row, x in zip(rows, impulse.tolist()):
+            sign = EFFORT_SIGNS.get(row.key[1])
+            if sign is not None:
+                self.efforts[row.key[0]] = self.efforts.get(row.key[0], 0.0) + sign * x / h
+        return v + direction @ impulse
+
+
+def _solve(k: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+           warm: np.ndarray) -> np.ndarray:
+    """Impulses x with (K x - b)_i = 0 where lower_i < x_i < upper_i, >= 0 at lower_i and
+    <= 0 at upper_i: the unbounded rows as one block solved exactly, each bounded row by a
+    projected Gauss-Seidel update, alternated until no bounded impulse changes by more than
+    :data:`CONVERGED` relative to the largest."""
+    free = np.isinf(lower) & np.isinf(upper)
+    bounded = np.flatnonzero(~free)
+    x = np.where(free, 0.0, np.clip(warm, lower, upper))
+    if not bounded.size:
+        return np.linalg.solve(k, b)
+    free_index = np.flatnonzero(free)
+    k_free = k[np.ix_(free_index, free_index)]
+    for _ in range(MAX_ITERATIONS):
+        if free_index.size:
+            x[free_index] = np.linalg.solve(
+                k_free, b[free_index] - k[np.ix_(free_index, bounded)] @ x[bounded])
+        largest = 0.0
+        for i in bounded.tolist():
+            new = min(max(x[i] + (b[i] - k[i] @ x) / k[i, i], lower[i]), upper[i])
+            largest = max(largest, abs(new - x[i]))
+            x[i] = new
+        if largest <= CONVERGED * (1.0 + float(np.max(np.abs(x)))):
+            break
+    return x

@@ -1,0 +1,51 @@
+"""Joint states out and motor speeds in, as plain fields (no ROS import).
+
+:func:`joint_state_fields` gives the fields of a ``sensor_msgs/JointState`` for the
+scene's revolute and prismatic joints (position, velocity and the effort of their motors,
+limits and springs over the last step), which the node would publish on ``joint_states``;
+:func:`set_motor_speed` holds a new target speed for a joint's motor.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Optional
+
+from ..dynamics.commands import InputError
+from ..dynamics.simulation import Simulation
+from .fields import Header, header
+
+__all__ = ["JointStateFields", "joint_state_fields", "set_motor_speed"]
+
+
+class JointStateFields(NamedTuple):
+    header: Header
+    name: tuple[str, ...]
+    position: tuple[float, ...]  # rad or m
+    velocity: tuple[float, ...]  # rad/s or m/s
+    effort: tuple[float, ...]  # N m or N
+
+
+def joint_state_fields(sim: Simulation, stamp_ns: int) -> Optional[JointStateFields]:
+    """The JointState of the simulation's current state, joints sorted by name; None for
+    a scene without revolute or prismatic joints."""
+    joints = sim.model.joints
+    state = {} if joints is None else joints.joint_state(sim.q, sim.v)
+    if not state:
+        return None
+    names = tuple(sorted(state))
+    position, velocity, effort = (tuple(float(state[n][i]) for n in names) for i in range(3))
+    return JointStateFields(header(sim.scene.frame_id, stamp_ns), names, position, velocity,
+                            effort)
+
+
+def set_motor_speed(sim: Simulation, joint: str, speed: float) -> None:
+    """Drive the motor of ``joint`` at ``speed`` from the next step on; raises
+    :class:`InputError` (and changes nothing) for a joint without a motor or a speed that
+    is not finite."""
+    speeds = {} if sim.model.joints is None else sim.model.joints.motor_speed
+    if joint not in speeds:
+        raise InputError(f"no motor on joint '{joint}' "
+                         f"(motors: {', '.join(sorted(speeds)) or 'none'})")
+    if not math.isfinite(speed):
+        raise InputError(f"motor speed for joint '{joint}' must be finite, not {speed}")
+    speeds[joint] = float(speed)

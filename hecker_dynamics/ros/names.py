@@ -1,0 +1,109 @@
+"""The node's name, its topic and service names, and the QoS of each, as plain data.
+
+Everything the node offers on the ROS graph is named here once; the rclpy node turns the
+:class:`QosSpec` values into ``rclpy.qos.QoSProfile`` in one place, and the bag writer
+records the same profiles in a bag's metadata. Relative names resolve in the node's
+namespace, ``~/`` names in the node's own (``/dynamics_node/session``), absolute names are
+global (``/tf``, ``/clock``). No ROS import.
+"""
+from __future__ import annotations
+
+import enum
+from typing import NamedTuple
+
+__all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
+           "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
+           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
+           "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
+           "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
+           "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
+           "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
+
+#: The node's name: also the top key of a scene's parameters file.
+NODE_NAME = "dynamics_node"
+
+
+class Reliability(enum.Enum):
+    """``rmw`` reliability; the values are rosbag2's metadata spelling."""
+
+    RELIABLE = "reliable"
+    BEST_EFFORT = "best_effort"
+
+
+class Durability(enum.Enum):
+    """``rmw`` durability; the values are rosbag2's metadata spelling."""
+
+    VOLATILE = "volatile"
+    TRANSIENT_LOCAL = "transient_local"
+
+
+class QosSpec(NamedTuple):
+    """A keep-last QoS profile: queue depth, reliability and durability (the rest default)."""
+
+    depth: int
+    reliability: Reliability
+    durability: Durability
+
+
+# Commands (AppliedWrench, the scene's WrenchStamped topics): reliable, so a command sent
+# once (a kick, a hold with a duration) is not silently lost; keep-last 10 so a burst
+# between two executor turns queues instead of overwriting, and a flood is dropped by the
+# middleware at a fixed depth instead of growing a queue.
+COMMAND_QOS = QosSpec(10, Reliability.RELIABLE, Durability.VOLATILE)
+# State (poses, twists, odometry, markers, diagnostics): only the newest sample matters,
+# so keep-last and volatile; reliable (rclpy's default) because a reliable publisher also
+# serves best-effort subscribers, while a best-effort one would refuse RViz's and
+# ros2 bag's reliable default subscriptions.
+STATE_QOS = QosSpec(10, Reliability.RELIABLE, Durability.VOLATILE)
+# /clock in lockstep: what rosgraph's clock publishers offer (reliable, keep-last 10).
+CLOCK_QOS = QosSpec(10, Reliability.RELIABLE, Durability.VOLATILE)
+# /tf: tf2_ros's TransformBroadcaster profile (DynamicBroadcasterQoS: keep-last 100).
+TF_QOS = QosSpec(100, Reliability.RELIABLE, Durability.VOLATILE)
+# /tf_static: tf2_ros's StaticTransformBroadcaster profile (StaticBroadcasterQoS): one
+# message, kept for late joiners (transient_local), since it is sent only once.
+TF_STATIC_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+# Latched session records: reliable and transient_local, so a recorder that starts after
+# them still receives them. One session record is all a late recorder needs; two
+# keyframes cover a recorder that subscribes to the outputs up to a keyframe period
+# before the keyframes; the input and world events since the latest keyframe must all
+# reach it, so their depth is large.
+SESSION_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+KEYFRAME_QOS = QosSpec(2, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+INPUT_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+WORLD_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+
+APPLIED_WRENCH_TOPIC = "applied_wrench"
+CLOCK_TOPIC = "/clock"
+TF_TOPIC = "/tf"
+TF_STATIC_TOPIC = "/tf_static"
+MARKERS_TOPIC = "markers"
+DIAGNOSTICS_TOPIC = "diagnostics"
+SESSION_TOPIC = "~/session"
+KEYFRAME_TOPIC = "~/keyframe"
+INPUT_EVENTS_TOPIC = "~/input_events"
+WORLD_EVENTS_TOPIC = "~/world_events"
+RESET_SERVICE = "reset"
+PAUSE_SERVICE = "pause"
+RESUME_SERVICE = "resume"
+STEP_SERVICE = "step"
+SET_BODY_STATE_SERVICE = "set_body_state"
+
+
+def pose_topic(body: str) -> str:
+    """``<body>/pose`` (``geometry_msgs/PoseStamped``)."""
+    return f"{body}/pose"
+
+
+def twist_topic(body: str) -> str:
+    """``<body>/twist`` (``geometry_msgs/Twist``)."""
+    return f"{body}/twist"
+
+
+def odometry_topic(body: str) -> str:
+    """``<body>/odom`` (``nav_msgs/Odometry``)."""
+    return f"{body}/odom"
+
+
+def output_qos(topic: str) -> QosSpec:
+    """The QoS of the node's publisher on ``topic`` (any of its outputs but ``/clock``)."""
+    return {TF_TOPIC: TF_QOS, TF_STATIC_TOPIC: TF_STATIC_QOS}.get(topic, STATE_QOS)

@@ -1,0 +1,49 @@
+"""Joint states and motor speeds as plain fields (hecker_dynamics.ros.joint_states)."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from hecker_dynamics.dynamics import InputError, Simulation
+from hecker_dynamics.ros.joint_states import joint_state_fields, set_motor_speed
+from scene_builders import make_scene
+
+SCENE = {
+    "step": 0.001, "integrator": "velocity_verlet", "publish_rate": 10.0,
+    "bodies": {"wheel": {"shape": "circle", "radius": 0.2, "mass": 1.0},
+               "cart": {"shape": "box", "size": [0.2, 0.1], "mass": 2.0}},
+    "joints": {"axle": {"type": "revolute", "body_b": "wheel",
+                        "motor": {"speed": 2.0, "max_torque": 100.0}},
+               "rail": {"type": "prismatic", "body_b": "cart", "axis": [1.0, 0.0]}},
+}
+
+
+def test_joint_state_fields_name_each_joint_with_its_state():
+    sim = Simulation(make_scene(SCENE))
+    for _ in range(100):
+        sim.step()
+    fields = joint_state_fields(sim, sim.time_ns)
+    assert fields.name == ("axle", "rail")
+    assert fields.header.frame_id == "world"
+    assert fields.velocity[0] == pytest.approx(2.0, abs=1e-12)  # the motor holds its speed
+    # A motor acts on velocities after the step's positions: the angle lags one step.
+    assert fields.position[0] == pytest.approx(2.0 * (sim.time_ns * 1e-9 - 0.001), rel=1e-12)
+    assert fields.position[1] == 0.0 and fields.velocity[1] == 0.0
+    assert fields.effort == (0.0, 0.0)  # nothing resists: the motor gives no torque
+
+
+def test_a_scene_without_joints_has_no_joint_state():
+    scene = {"bodies": {"ball": {"shape": "circle", "radius": 0.1, "mass": 1.0}}}
+    assert joint_state_fields(Simulation(make_scene(scene)), 0) is None
+
+
+def test_a_motor_speed_command_is_held_and_bad_ones_are_refused():
+    sim = Simulation(make_scene(SCENE))
+    set_motor_speed(sim, "axle", -3.0)
+    sim.step()
+    assert joint_state_fields(sim, sim.time_ns).velocity[0] == pytest.approx(-3.0, abs=1e-12)
+    with pytest.raises(InputError, match="no motor on joint 'rail'.*axle"):
+        set_motor_speed(sim, "rail", 1.0)
+    with pytest.raises(InputError, match="finite"):
+        set_motor_speed(sim, "axle", math.nan)
