@@ -12,7 +12,7 @@ from typing import NamedTuple, Optional
 
 from ..dynamics.commands import InputError
 from ..dynamics.simulation import Simulation
-from .mapping import Header, header
+from .fields import Header, header
 
 __all__ = ["JointStateFields", "joint_state_fields", "set_motor_speed"]
 
