@@ -163,7 +163,7 @@ def test_the_core_the_node_and_the_cli_do_not_import_an_engine():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"
-    node, = Path(hecker_dynamics.__file__).parent.rglob("node.py")
+    node = Path(hecker_dynamics.__file__).parent / "ros" / "node.py"
     imported = {alias.name if isinstance(n, ast.Import) else n.module or ""
                 for n in ast.walk(ast.parse(node.read_text()))
                 if isinstance(n, (ast.Import, ast.ImportFrom)) for alias in n.names}
