@@ -136,19 +136,18 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
             session.published.append(Published(topic, msgtype, at_ns, build(record), depth))
 
     for at_ns, _, what in timeline:
+        now_ns = runner.sim.time_ns if lockstep else at_ns  # the node's _now_ns
         if what == "input":
-            msg = _input_message(scene, rng, runner.sim.time_ns if lockstep else at_ns, sent)
+            msg = _input_message(scene, rng, now_ns, sent)
             sent.append(msg)
             session.published.append(Published(APPLIED_WRENCH_TOPIC, bags.APPLIED_WRENCH,
                                                at_ns - int(rng.integers(S // 1000)), msg))
-            runner.accept(APPLIED_WRENCH_TOPIC, msg,
-                          runner.sim.time_ns if lockstep else at_ns)
+            runner.accept(APPLIED_WRENCH_TOPIC, msg, now_ns)
         elif what == "world":
-            _change_world(runner, rng, scene, runner.sim.time_ns if lockstep else at_ns,
-                          session, at_ns)
+            _change_world(runner, rng, scene, now_ns, session, at_ns)
         elif what == "reset":
             if runner.started:
-                runner.restart(runner.sim.time_ns if lockstep else at_ns, "reset")
+                runner.restart(now_ns, "reset")
                 last_tick = at_ns
         else:
             if lockstep:
