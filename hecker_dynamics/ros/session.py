@@ -12,8 +12,8 @@ first by :mod:`hecker_dynamics.bags.replay`:
   the event makes that decision replayable.
 - :class:`WorldEventFields` (``~/world_events``): every change made to the running world
   through the node's services (a body moved, spawned or deleted, the simulation paused,
-  resumed or stepped), at the sim time it was made; it shares the input events' sequence numbers, so a replay
-  applies both in the node's order.
+  resumed or stepped), at the sim time it was made; it shares the input events' sequence
+  numbers, so a replay applies both in the node's order.
 - :class:`KeyframeFields` (``~/keyframe``): the whole simulation state at full precision
   every ``keyframe_period`` of sim time, so a recording that starts mid-session starts at the
   nearest keyframe instead of from the scene's initial state.
@@ -21,7 +21,8 @@ first by :mod:`hecker_dynamics.bags.replay`:
 The rest of a keyframe's state (commands held and pending, what the integrator and the
 contact pass carry from step to step, the script's position, the input counters, and the
 bodies spawned and deleted since the session's start, so that a replay starting there
-has the world the node had) travels as JSON: Python writes floats with ``repr``, which reads back to the same bits.
+has the world the node had) travels as JSON: Python writes floats with ``repr``, which
+reads back to the same bits.
 """
 from __future__ import annotations
 
