@@ -374,7 +374,8 @@ def world_event_message(fields: WorldEventFields) -> Any:
         WORLD_EVENT, header=header_message(header("", fields.stamp_ns)),
         session=max(fields.session, 0), sequence=fields.sequence, kind=int(fields.kind),
         body=fields.body, values=np.array(fields.values, dtype=np.float64),
-        time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+        time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason,
+        spec=fields.spec, collisions=list(fields.collisions))
 
 
 def world_event_fields(msg: Any) -> WorldEventFields:
@@ -382,7 +383,8 @@ def world_event_fields(msg: Any) -> WorldEventFields:
     return WorldEventFields(stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence),
                             WorldChange(int(msg.kind)), msg.body,
                             tuple(float(x) for x in msg.values), int(msg.time_ns),
-                            bool(msg.accepted), msg.reason)
+                            bool(msg.accepted), msg.reason, msg.spec,
+                            tuple(str(c) for c in msg.collisions))
 
 
 def stamp_ns_of(msg: Any) -> Optional[int]:

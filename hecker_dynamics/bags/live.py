@@ -11,12 +11,13 @@ keyframe period (``~/keyframe``). A replay of a recorded session
    all in the bag (or from the session's start), in a :class:`~hecker_dynamics.ros.runner.Runner`
    with the recorded options;
 3. pushes each recorded input event's message at its recorded sim time, with its recorded
-   arrival time, makes each recorded world change (a body moved, a pause, resume or step)
-   again at its sim time, in the node's order, and steps on to the last recorded output;
-   the same runner takes keyframes at the same instants, and each must equal the recorded
-   one;
-4. compares every recorded output with the replayed one of the same stamp (``Twist``, which
-   has no header, by its place in the sequence of snapshots).
+   arrival time, makes each recorded world change (a body moved, spawned or deleted, a
+   pause, resume or step) again at its sim time, in the node's order, and steps on to the
+   last recorded output; the same runner takes keyframes at the same instants, and each
+   must equal the recorded one. A keyframe holds the bodies spawned and deleted before it,
+   so a replay that starts there starts in the world the node had;
+4. compares every recorded output, spawned bodies' included, with the replayed one of the
+   same stamp (``Twist``, which has no header, by its place in the sequence of snapshots).
 
 ``/diagnostics`` is not compared: it holds wall times and the node publishes it at timer
 ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes.
@@ -35,12 +36,13 @@ from pathlib import Path
 from typing import Optional, Union
 
 from ..ros.names import TF_STATIC_TOPIC
-from ..ros.outputs import DIAGNOSTICS_TOPIC
+from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import Runner
 from ..ros.session import (InputEventFields, KeyframeFields, SessionFields, WorldChange,
-                           WorldEventFields)
+                           WorldEventFields, decode_state)
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene, WrenchTopic
+from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_contents
 from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagMessage,
@@ -140,8 +142,8 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
     """The recorded outputs in log order: per session and topic those with a header stamp
     (with it), and per topic those without (``Twist``, with None), which are placed in the
     sequence of all sessions' snapshots instead (see :func:`_align`)."""
-    compared = set(output_types(scene, tf=True)) - {resolve_topic(DIAGNOSTICS_TOPIC),
-                                                    TF_STATIC_TOPIC}
+    compared = (set(output_types(scene, tf=True)) | _spawned_topics(scene, sessions)) - {
+        resolve_topic(DIAGNOSTICS_TOPIC), TF_STATIC_TOPIC}
     stamped: dict[int, Recorded] = defaultdict(lambda: defaultdict(list))
     unstamped: Recorded = defaultdict(list)
     for message in bag.messages:
@@ -154,6 +156,27 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
             session = _session_of(sessions, message, stamp)
             stamped[session.info.session][message.topic].append((message, stamp))
     return stamped, unstamped
+
+
+def _spawned_topics(scene: Scene, sessions: Sequence[RecordedSession]) -> set[str]:
+    """The output topics of the bodies spawned in ``sessions``, by their records: the
+    world events and the edits the keyframes hold."""
+    names = {event.body for session in sessions for event in session.events.values()
+             if isinstance(event, WorldEventFields) and event.kind is WorldChange.SPAWN}
+    for session in sessions:
+        for keyframe in session.keyframes:
+            names.update(edit.body for edit in _keyframe_edits(keyframe)
+                         if edit.kind is EditKind.SPAWN)
+    return {resolve_topic(topic) for name in names for topic in body_topics(scene, name)}
+
+
+def _keyframe_edits(keyframe: KeyframeFields) -> list[WorldEdit]:
+    try:
+        return [WorldEdit.from_data(data)
+                for data in decode_state(keyframe.state).get("world", [])]
+    except (ValueError, TypeError, AttributeError) as error:
+        raise ReplayError(f"the keyframe of session {keyframe.session} at "
+                          f"{keyframe.stamp_ns * 1e-9:.9f} s has a bad world: {error}") from None
 
 
 def _sibling(topic: str) -> Optional[str]:
@@ -404,10 +427,14 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     runner.session = info.session
     produced: list[Output] = []
     if keyframe is not None:
-        runner.restore(keyframe)
+        try:
+            runner.restore(keyframe)
+        except ValueError as error:  # a scene error too: a world that does not rebuild
+            raise ReplayError(f"session {info.session}: cannot start at the keyframe at "
+                              f"{keyframe.stamp_ns * 1e-9:.9f} s: {error}") from None
         if keyframe.steps and (keyframe.stamp_ns - info.start_ns) % scene.publish_period_ns == 0:
             # The node published this instant on arriving there, before the keyframe.
-            produced.extend(snapshot_messages(scene, runner.sim.snapshot(), tf=True))
+            produced.extend(snapshot_messages(runner.scene, runner.sim.snapshot(), tf=True))
     runner.take_records()
     start_ns = runner.sim.time_ns
     recorded_keyframes = {k.stamp_ns: k for k in session.keyframes}
@@ -415,7 +442,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     def advance(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         for snapshot in tick.snapshots:
-            produced.extend(snapshot_messages(scene, snapshot, tf=True))
+            produced.extend(snapshot_messages(runner.scene, snapshot, tf=True))
         if tick.diverged is not None:
             check.halted = tick.diverged
         for record in runner.take_records():
@@ -436,7 +463,7 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
         advance(event.stamp_ns)
         check.events += 1
         if isinstance(event, WorldEventFields):
-            accepted = _change(runner, event, produced, scene).accepted
+            accepted = _change(runner, event, produced).accepted
         else:
             if event.topic not in topics:
                 raise ReplayError(f"session {info.session}: input event {event.sequence} is "
@@ -455,16 +482,20 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     return produced, start_ns
 
 
-def _change(runner: Runner, event: WorldEventFields, produced: list[Output],
-            scene: Scene) -> WorldEventFields:
+def _change(runner: Runner, event: WorldEventFields,
+            produced: list[Output]) -> WorldEventFields:
     """Make the recorded world change again; a step's snapshots join the outputs."""
     if event.kind is WorldChange.SET_STATE:
         return runner.set_body_state(event.body, event.values)
+    if event.kind is WorldChange.SPAWN:
+        return runner.spawn_body(event.body, event.spec, event.collisions)
+    if event.kind is WorldChange.DELETE:
+        return runner.delete_body(event.body)
     if event.kind is WorldChange.PAUSE:
         return runner.pause()
     if event.kind is WorldChange.RESUME:
         return runner.resume_at(event.time_ns)
     record, tick = runner.step(int(event.values[0]) if event.values else 0)
     for snapshot in tick.snapshots:
-        produced.extend(snapshot_messages(scene, snapshot, tf=True))
+        produced.extend(snapshot_messages(runner.scene, snapshot, tf=True))
     return record

@@ -230,6 +230,56 @@ class Simulation:
         self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9)
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
+    def with_world(self, scene: Scene) -> Simulation:
+        """A simulation of ``scene``, this one's world with bodies spawned or deleted (by
+        name: :mod:`hecker_dynamics.scene.world`), going on from this one's state now.
+
+        The bodies that stay keep their state; a spawned body starts in its scene's initial
+        state. The clock and step count, the integrator (the same method, whatever
+        ``scene.integrator`` would pick) and what it carries, the joints' state and the
+        commands held and pending carry over, the contacts' warm starts too where both
+        bodies stay; commands on a deleted body, or given in its frame, are dropped. The
+        energy bound goes on as after a moved body: the new energy joins its budget. The
+        same change at the same state gives the same bits, and a spawn into a simulation
+        that has not stepped gives the simulation of ``scene`` from its start.
+        """
+        state = self.export_state()
+        sim = Simulation(replace(scene, integrator=self.integrator.name), start_ns=self.start_ns)
+        old, new = self.model.index, sim.model.index
+        q, v = sim.q.tolist(), sim.v.tolist()
+        for name, i in new.items():
+            if name in old:
+                q[i], v[i] = state["q"][old[name]], state["v"][old[name]]
+        state["q"], state["v"] = q, v
+        fixed = scene.frame_id
+
+        def kept(command: dict[str, Any]) -> bool:
+            owner = str(command["frame_id"]).partition("/")[0]
+            return command["body"] in new and (command["frame_id"] == fixed or owner in new)
+
+        inputs = state["inputs"]
+        inputs["pending"] = [entry for entry in inputs["pending"] if kept(entry[2])]
+        inputs["active"] = [command for command in inputs["active"] if kept(command)]
+        remap = {old[name]: i for name, i in new.items() if name in old}
+
+        def key(a: int, b: int, *parts: int) -> Optional[list[int]]:
+            if (a >= 0 and a not in remap) or b not in remap:
+                return None
+            return [remap[a] if a >= 0 else a, remap[b], *parts]
+
+        if sim.model.contacts is not None:
+            warm = [(key(*pair), contacts) for pair, contacts in (state["contacts"] or [])]
+            state["contacts"] = [[pair, contacts] for pair, contacts in warm if pair is not None]
+        else:
+            state["contacts"] = None
+        # The new state is where a refused check returns to, as after a moved body.
+        divergence = state["divergence"]
+        divergence.update(checked_q=q, checked_v=v, checked_time_ns=self._time_ns,
+                          checked_steps=self._steps)
+        sim.import_state(state)
+        sim._bound.moved(sim.q, sim.v, (self._time_ns - self._checked[2]) * 1e-9)
+        return sim
+
     def skip_to(self, time_ns: int) -> None:
         """Move the clock forward to ``time_ns`` without stepping (a resume after a pause):
         the start moves with it, so publish instants and scripted times keep their places

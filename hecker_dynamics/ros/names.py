@@ -17,6 +17,7 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
+           "SPAWN_BODY_SERVICE", "DELETE_BODY_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
 
 #: The node's name: also the top key of a scene's parameters file.
@@ -87,6 +88,8 @@ PAUSE_SERVICE = "pause"
 RESUME_SERVICE = "resume"
 STEP_SERVICE = "step"
 SET_BODY_STATE_SERVICE = "set_body_state"
+SPAWN_BODY_SERVICE = "spawn_body"
+DELETE_BODY_SERVICE = "delete_body"
 
 
 def pose_topic(body: str) -> str:

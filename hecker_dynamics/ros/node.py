@@ -41,6 +41,7 @@ from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, D
                     NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
                     SET_BODY_STATE_SERVICE, STEP_SERVICE, Durability, QosSpec, Reliability,
                     output_qos)
+from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
 from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
                      plan_tick)
@@ -50,7 +51,7 @@ from .session import (APPLIED_WRENCH_EVENT, InputEventFields, KeyframeFields, Se
                       WorldEventFields)
 from .tf import TransformFields
 from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
-from ..srv import SetBodyState, Step
+from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .ratelimit import RateLimiter
 from ..scene.load import SceneError, WrenchTopic
 
@@ -187,7 +188,8 @@ def _input_event(fields: InputEventFields) -> InputEvent:
 def _world_event(fields: WorldEventFields) -> WorldEvent:
     msg = WorldEvent(session=max(fields.session, 0), sequence=fields.sequence,
                      kind=int(fields.kind), body=fields.body, values=list(fields.values),
-                     time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason)
+                     time_ns=fields.time_ns, accepted=fields.accepted, reason=fields.reason,
+                     spec=fields.spec, collisions=list(fields.collisions))
     _fill_header(msg.header, header("", fields.stamp_ns))
     return msg
 
@@ -244,7 +246,6 @@ class DynamicsNode(Node):
                              record=self.options.record_session,
                              keyframe_period_ns=round(self.options.keyframe_period * NS_PER_S),
                              lockstep=self.options.lockstep)
-        self.sim = self.runner.sim
         self._limiter = RateLimiter()
         self._last_tick_ns: Optional[int] = None
         self._wrench_topic_names: dict[str, str] = {}
@@ -270,6 +271,8 @@ class DynamicsNode(Node):
         self.create_service(Trigger, RESUME_SERVICE, self._on_resume)
         self.create_service(Step, STEP_SERVICE, self._on_step)
         self.create_service(SetBodyState, SET_BODY_STATE_SERVICE, self._on_set_body_state)
+        self.create_service(SpawnBody, SPAWN_BODY_SERVICE, self._on_spawn_body)
+        self.create_service(DeleteBody, DELETE_BODY_SERVICE, self._on_delete_body)
         if self.options.lockstep:
             self._publish_static()
             self._clock_publisher = self.create_publisher(ClockMessage, CLOCK_TOPIC,
@@ -289,6 +292,11 @@ class DynamicsNode(Node):
             f"{self.scene.step_ns / NS_PER_S:g} s, publishing every "
             f"{self.scene.publish_period_ns / NS_PER_S:g} s"
             + (", lockstep" if self.options.lockstep else ""))
+
+    @property
+    def sim(self) -> Any:
+        """The simulation that runs now (a spawn, a delete or a restart replaces it)."""
+        return self.runner.sim
 
     # ----------------------------------------------------------------- logging
 
@@ -380,6 +388,23 @@ class DynamicsNode(Node):
         for record in self.runner.take_records():
             _, build, _, _ = RECORD_TOPICS[type(record)]
             self._record_publishers[type(record)].publish(build(record))
+        if self._outputs.scene is not self.runner.scene:
+            self._follow_world()
+
+    def _follow_world(self) -> None:
+        """Outputs for the world that runs now, after a spawn, a delete, or a restart that
+        undid them: publishers of the bodies gone are destroyed, the new bodies' created,
+        and ``/tf_static`` is sent again with the named points of every body there is."""
+        scene = self.runner.scene
+        self._outputs = SnapshotOutputs(scene)
+        topics = output_topics(scene)
+        for topic in [t for t in self._publishers_by_topic if t not in topics]:
+            self.destroy_publisher(self._publishers_by_topic.pop(topic))
+        for topic, kind in topics.items():
+            if topic not in self._publishers_by_topic:
+                self._publishers_by_topic[topic] = self.create_publisher(
+                    MESSAGE_TYPES[kind], topic, qos_profile(output_qos(topic)))
+        self._publish_static()
 
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(
@@ -448,6 +473,17 @@ class DynamicsNode(Node):
         record = self.runner.set_body_state(request.body, (
             request.x, request.y, request.angle, request.vx, request.vy, request.omega))
         return self._answer(record, response, f"moved '{request.body}' at "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_spawn_body(self, request: SpawnBody.Request, response: SpawnBody.Response) -> Any:
+        record = self.runner.spawn_body(request.name, request.body, list(request.collisions))
+        return self._answer(record, response, f"spawned '{request.name}' at "
+                                              f"{self.sim.time_ns / NS_PER_S:.9f} s")
+
+    def _on_delete_body(self, request: DeleteBody.Request,
+                        response: DeleteBody.Response) -> Any:
+        record = self.runner.delete_body(request.name)
+        return self._answer(record, response, f"deleted '{request.name}' at "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
 def main(args: Optional[list[str]] = None) -> int:

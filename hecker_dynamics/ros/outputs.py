@@ -12,7 +12,7 @@ from .names import (DIAGNOSTICS_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC, TF_TOPIC,
                     odometry_topic, pose_topic, twist_topic)
 from .tf import body_transforms, point_transforms
 
-__all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "OutputFields",
+__all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",
            "SnapshotOutputs", "snapshot_outputs"]
 
 
@@ -31,6 +31,14 @@ def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
     return scene.publish_tf if tf is None else tf
 
 
+def body_topics(scene: Scene, body: str) -> dict[str, OutputKind]:
+    """The output topics of one body of ``scene`` (a spawned one too) and their kinds."""
+    topics = {pose_topic(body): OutputKind.POSE, twist_topic(body): OutputKind.TWIST}
+    if scene.publish_odometry:
+        topics[odometry_topic(body)] = OutputKind.ODOMETRY
+    return topics
+
+
 def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, OutputKind]:
     """The node's output topics for ``scene`` and their kinds, in publishing order: per
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
@@ -41,10 +49,7 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     """
     topics: dict[str, OutputKind] = {}
     for body in scene.bodies:
-        topics[pose_topic(body.name)] = OutputKind.POSE
-        topics[twist_topic(body.name)] = OutputKind.TWIST
-        if scene.publish_odometry:
-            topics[odometry_topic(body.name)] = OutputKind.ODOMETRY
+        topics.update(body_topics(scene, body.name))
     if scene.publish_markers:
         topics[MARKERS_TOPIC] = OutputKind.MARKERS
     if _with_tf(scene, tf):

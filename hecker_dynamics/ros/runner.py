@@ -22,6 +22,7 @@ from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,
                           check_scene_request, load_scene, scene_from_parameters)
+from ..scene.world import EditKind, WorldEdit, apply_edits
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .session import (APPLIED_WRENCH_EVENT, WRENCH_STAMPED_EVENT, InputEventFields,
@@ -220,6 +221,10 @@ class Runner:
     time it arrives at, which its :class:`~.session.InputEventFields` record holds. With
     ``record`` the records pile up in :attr:`records` for the node to publish
     (:meth:`take_records`).
+
+    :attr:`scene` is the world that runs now: the scene given (:attr:`base_scene`) with the
+    bodies spawned and deleted since the session's start (:attr:`edits`); a restart
+    returns to the scene given.
     """
 
     def __init__(self, scene: Scene, *, start_ns: int = 0, play_script: bool = True,
@@ -228,7 +233,8 @@ class Runner:
                  wall_clock: Callable[[], int] = time.perf_counter_ns,
                  record: bool = False, keyframe_period_ns: int = 0,
                  lockstep: bool = False) -> None:
-        self.scene = scene
+        self.base_scene = self.scene = scene
+        self.edits: list[WorldEdit] = []
         self.sim = Simulation(scene, start_ns=start_ns)
         self.play_script = play_script
         self.max_steps = max_steps
@@ -258,7 +264,11 @@ class Runner:
 
     def restart(self, start_ns: int, reason: str = "reset") -> None:
         """Restart the scene at ``start_ns`` (first tick, reset service, clock jump)."""
-        self.sim.reset(start_ns)
+        if self.edits:  # back to the scene given, without the bodies spawned or deleted
+            self.scene, self.edits = self.base_scene, []
+            self.sim = Simulation(self.scene, start_ns=start_ns)
+        else:
+            self.sim.reset(start_ns)
         self._script_index = 0
         self.halted = None
         self.paused = False
@@ -271,11 +281,11 @@ class Runner:
 
     def session_fields(self, reason: str) -> SessionFields:
         """The record of the session that runs now."""
-        sim = self.sim
+        sim, scene = self.sim, self.base_scene
         return SessionFields(
-            sim.start_ns, self.scene.frame_id, self.session, reason,
-            Path(self.scene.source).stem, self.fingerprint, sim.integrator.name, sim.step_ns,
-            self.scene.publish_period_ns, self.play_script, self.lockstep,
+            sim.start_ns, scene.frame_id, self.session, reason,
+            Path(scene.source).stem, self.fingerprint, sim.integrator.name, sim.step_ns,
+            scene.publish_period_ns, self.play_script, self.lockstep,
             self.max_steps or 0, self.keyframe_steps * sim.step_ns, self.sequence, __version__)
 
     def take_records(self) -> list[Record]:
@@ -391,8 +401,32 @@ class Runner:
             tick.script_errors = done.script_errors
         return self._change(WorldChange.STEP, take, values=(float(steps),)), tick
 
+    def spawn_body(self, name: str, spec: str,
+                   collisions: Sequence[str] = ()) -> WorldEventFields:
+        """Add body ``name`` now, read from ``spec`` (the YAML of a scene's
+        ``bodies.<name>``), joining the collision groups ``collisions``; the rules are
+        :mod:`hecker_dynamics.scene.world`'s, the carry-over :meth:`Simulation.with_world`'s."""
+        edit = WorldEdit(EditKind.SPAWN, name, spec, tuple(collisions))
+        return self._change(WorldChange.SPAWN, lambda: self._edit(edit), name, spec=spec,
+                            collisions=edit.collisions)
+
+    def delete_body(self, name: str) -> WorldEventFields:
+        """Remove body ``name`` now (refused while a spring, joint or input names it)."""
+        return self._change(WorldChange.DELETE,
+                            lambda: self._edit(WorldEdit(EditKind.DELETE, name)), name)
+
+    def _edit(self, edit: WorldEdit) -> None:
+        try:
+            scene = edit.apply(self.scene)
+        except SceneError as error:
+            raise InputError(str(error)) from None
+        self.sim = self.sim.with_world(scene)
+        self.scene = scene
+        self.edits.append(edit)
+
     def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
-                values: tuple[float, ...] = (), time_ns: int = 0) -> WorldEventFields:
+                values: tuple[float, ...] = (), time_ns: int = 0, spec: str = "",
+                collisions: tuple[str, ...] = ()) -> WorldEventFields:
         """Apply one change (``apply`` raises :class:`InputError` to refuse it) and record
         it at the sim time it was made, in the input events' sequence."""
         stamp, sequence = self.sim.time_ns, self.sequence
@@ -408,7 +442,7 @@ class Runner:
             except InputError as error:
                 reason = str(error)
         record = WorldEventFields(stamp, self.session, sequence, kind, body, values, time_ns,
-                                  not reason, reason)
+                                  not reason, reason, spec, collisions)
         if self.record:
             self.records.append(record)
         return record
@@ -488,16 +522,25 @@ class Runner:
         state["runner"] = {"script_index": self._script_index, "accepted": self.accepted,
                            "rejected": self.rejected, "paused": self.paused,
                            "last_diagnostics_ns": self._last_diagnostics_ns}
+        if self.edits:  # a keyframe of the scene given holds what it always held
+            state["world"] = [edit.as_data() for edit in self.edits]
         return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
                               sim.model.names, tuple(x for row in q for x in row),
                               tuple(x for row in v for x in row), encode_state(state))
 
     def restore(self, keyframe: KeyframeFields) -> None:
-        """Continue from ``keyframe`` (of a session of this scene) as the node did."""
-        if tuple(keyframe.bodies) != self.sim.model.names:
-            raise ValueError(f"a keyframe of bodies {', '.join(keyframe.bodies)} does not fit "
-                             f"the scene's {', '.join(self.sim.model.names)}")
+        """Continue from ``keyframe`` (of a session of this scene) as the node did, in the
+        world it had then (the scene with the bodies spawned and deleted it records)."""
         state = decode_state(keyframe.state)
+        edits = [WorldEdit.from_data(data) for data in state.pop("world", [])]
+        scene = apply_edits(self.base_scene, edits)
+        names = tuple(body.name for body in scene.bodies)
+        if tuple(keyframe.bodies) != names:
+            raise ValueError(f"a keyframe of bodies {', '.join(keyframe.bodies)} does not fit "
+                             f"the scene's {', '.join(names)}")
+        if edits or self.edits:
+            self.scene, self.edits = scene, edits
+            self.sim = Simulation(self.base_scene, start_ns=self.sim.start_ns).with_world(scene)
         runner = state.pop("runner")
         size = len(keyframe.bodies)
         state["q"] = [list(keyframe.q[3 * i:3 * i + 3]) for i in range(size)]

@@ -11,16 +11,18 @@ first by :mod:`hecker_dynamics.bags.replay`:
   sim clock acts from the step after its push, which depends on when the node's timer fired:
   the event makes that decision replayable.
 - :class:`WorldEventFields` (``~/world_events``): every change made to the running world
-  through the node's services (a body moved, the simulation paused, resumed or stepped), at
-  the sim time it was made; it shares the input events' sequence numbers, so a replay
-  applies both in the node's order.
+  through the node's services (a body moved, spawned or deleted, the simulation paused,
+  resumed or stepped), at the sim time it was made; it shares the input events' sequence
+  numbers, so a replay applies both in the node's order.
 - :class:`KeyframeFields` (``~/keyframe``): the whole simulation state at full precision
   every ``keyframe_period`` of sim time, so a recording that starts mid-session starts at the
   nearest keyframe instead of from the scene's initial state.
 
 The rest of a keyframe's state (commands held and pending, what the integrator and the
-contact pass carry from step to step, the script's position, the input counters) travels as
-JSON: Python writes floats with ``repr``, which reads back to the same bits.
+contact pass carry from step to step, the script's position, the input counters, and the
+bodies spawned and deleted since the session's start, so that a replay starting there
+has the world the node had) travels as JSON: Python writes floats with ``repr``, which
+reads back to the same bits.
 """
 from __future__ import annotations
 
@@ -97,6 +99,8 @@ class WorldChange(enum.IntEnum):
     PAUSE = 1
     RESUME = 2      # time_ns: the sim time the simulation goes on from
     STEP = 3        # values: the number of steps
+    SPAWN = 4       # spec: the body's YAML; collisions: the collision groups it joins
+    DELETE = 5
 
 
 class WorldEventFields(NamedTuple):
@@ -111,6 +115,8 @@ class WorldEventFields(NamedTuple):
     time_ns: int
     accepted: bool
     reason: str
+    spec: str = ""
+    collisions: tuple[str, ...] = ()
 
 
 class KeyframeFields(NamedTuple):

@@ -32,7 +32,7 @@ __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
-    "shipped_scenes", "check_scene_request",
+    "shipped_scenes", "check_scene_request", "read_body", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
 
@@ -331,7 +331,7 @@ def _read_scene(root: ParameterReader) -> Scene:
             abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish:
         root.fail("publish_rate", f"{rate} Hz is not a whole number of physics steps "
                                   f"of {step_ns * 1e-9} s")
-    bodies = tuple(_read_body(name, r) for name, r in root.named_children("bodies"))
+    bodies = tuple(read_body(name, r) for name, r in root.named_children("bodies"))
     if not bodies:
         root.fail("bodies", "a scene needs at least one body")
     body_names = {b.name for b in bodies}
@@ -395,7 +395,7 @@ def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:
                              for x, y in zip(flat[0::2], flat[1::2])]))
 
 
-def _read_body(name: str, reader: ParameterReader) -> BodySpec:
+def read_body(name: str, reader: ParameterReader) -> BodySpec:
     try:
         if reader.has("parts"):
             parts = list(reader.named_children("parts"))
@@ -565,15 +565,20 @@ def _read_collisions(root: ParameterReader,
                                           f"group '{seen[pair]}'")
                 seen[pair] = name
         for member in members:
-            for shape in bodies[member].shapes:
-                if isinstance(shape, Polygon) and not is_convex(shape.vertices):
-                    raise SceneError(f"{reader.source}: body '{member}': a polygon that "
-                                     f"collides must be convex (collision group '{name}'); "
-                                     "make it a compound body of convex parts")
+            check_collidable(bodies[member], name, reader.source)
         groups.append(CollisionGroup(name, members,
                                      reader.number("restitution", 0.2, minimum=0.0, maximum=1.0),
                                      reader.number("friction", 0.5, minimum=0.0)))
     return tuple(groups)
+
+
+def check_collidable(body: BodySpec, group: str, source: str) -> None:
+    """Refuse a body of collision group ``group`` with a concave polygon part."""
+    for shape in body.shapes:
+        if isinstance(shape, Polygon) and not is_convex(shape.vertices):
+            raise SceneError(f"{source}: body '{body.name}': a polygon that collides must be "
+                             f"convex (collision group '{group}'); make it a compound body "
+                             "of convex parts")
 
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")

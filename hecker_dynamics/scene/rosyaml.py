@@ -29,7 +29,8 @@ import yaml
 
 from .parameters import SceneError, quoted
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "merge_parameters", "read_parameters_file", "ros_scalar"]
+__all__ = ["MAX_BYTES", "MAX_DEPTH", "merge_parameters", "read_parameters_file",
+           "read_parameters_text", "ros_scalar"]
 
 #: Largest parameters file read (bytes): a scene with thousands of bodies is far smaller.
 MAX_BYTES = 16 << 20
@@ -159,7 +160,8 @@ class _Builder:
         except SceneError as error:
             raise self.fail(event, str(error)) from None
 
-    def stream(self, events: Iterator[yaml.Event]) -> dict:
+    def stream(self, events: Iterator[yaml.Event], top: str) -> dict:
+        """The merged mappings of every document; ``top`` says what a document holds."""
         merged: dict[Any, Any] = {}
         for event in events:
             if isinstance(event, (yaml.StreamStartEvent, yaml.StreamEndEvent,
@@ -167,8 +169,7 @@ class _Builder:
                 continue
             document = self.value(events, event, 1)
             if not isinstance(document, dict):
-                raise self.fail(event, "expected node sections ('dynamics_node: "
-                                       "ros__parameters: ...') at the top")
+                raise self.fail(event, f"expected {top} at the top")
             for key, section in document.items():
                 self.merge(merged, key, section, event)
         return merged
@@ -188,16 +189,16 @@ def merge_parameters(mapping: dict, values: dict) -> None:
             mapping[key] = value
 
 
-def _yaml_error(source: str, error: yaml.YAMLError) -> SceneError:
+def _yaml_error(source: str, error: yaml.YAMLError, what: str) -> SceneError:
     """One line from PyYAML's multi-line error: where, and what."""
     mark = getattr(error, "problem_mark", None) or getattr(error, "context_mark", None)
     problem = getattr(error, "problem", None) or getattr(error, "reason", None) or str(error)
     problem = " ".join(str(problem).split())
     if isinstance(error, yaml.reader.ReaderError):
-        return SceneError(f"{source}: not a UTF-8 (or UTF-16 with a byte order mark) text "
-                          f"file: {error.reason} at byte {error.position}")
+        return SceneError(f"{source}: not UTF-8 (or UTF-16 with a byte order mark) text: "
+                          f"{error.reason} at byte {error.position}")
     where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-    return SceneError(f"{source}: cannot read the file: {where}{problem}")
+    return SceneError(f"{source}: cannot read {what}: {where}{problem}")
 
 
 def read_parameters_file(path: Path) -> dict:
@@ -211,7 +212,22 @@ def read_parameters_file(path: Path) -> dict:
         data = path.read_bytes()
     except OSError as error:
         raise SceneError(f"{source}: cannot read the file: {error.strerror or error}") from None
+    return _parse(data, source, "node sections ('dynamics_node: ros__parameters: ...')",
+                  "the file")
+
+
+def read_parameters_text(text: str, source: str, top: str) -> dict:
+    """Parameters given as YAML text (a service request's), read as a file is: the merged
+    mappings of its documents, ``top`` saying what they hold in an error."""
+    data = text.encode()
+    if len(data) > MAX_BYTES:
+        raise SceneError(f"{source}: the text has {len(data) / (1 << 20):.1f} MiB; it may have "
+                         f"at most {MAX_BYTES >> 20} MiB")
+    return _parse(data, source, top, "the text")
+
+
+def _parse(data: bytes, source: str, top: str, what: str) -> dict:
     try:
-        return _Builder(source).stream(iter(yaml.parse(data, Loader=_LOADER)))
+        return _Builder(source).stream(iter(yaml.parse(data, Loader=_LOADER)), top)
     except yaml.YAMLError as error:
-        raise _yaml_error(source, error) from None
+        raise _yaml_error(source, error, what) from None

@@ -10,7 +10,7 @@ its arrival, a small random delay after it was published (in order per topic).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
@@ -59,10 +59,11 @@ class LiveSession:
     start_ns: int = 0
     end_ns: int = 0
 
-    def publish(self, snapshots: list[Snapshot], at_ns: int) -> None:
-        """The node's outputs for ``snapshots``, published at ROS time ``at_ns``."""
+    def publish(self, snapshots: list[Snapshot], at_ns: int, world: Scene) -> None:
+        """The node's outputs for ``snapshots`` of the world ``world`` (the scene with the
+        bodies spawned and deleted so far), published at ROS time ``at_ns``."""
         for snapshot in snapshots:
-            for output in snapshot_messages(self.scene, snapshot, tf=True):
+            for output in snapshot_messages(world, snapshot, tf=True):
                 self.published.append(Published(output.topic, output.msgtype, at_ns,
                                                 output.msg))
 
@@ -99,14 +100,21 @@ def _input_message(scene: Scene, rng: np.random.Generator, arrival_ns: int,
     return bags.applied_wrench_msg(applied_wrench_fields(command))
 
 
+#: A call of the spawn or delete service: ("spawn", name, YAML, collision groups) or
+#: ("delete", name).
+BodyCall = tuple[Any, ...]
+
+
 def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int = 25,
              play_script: bool = True, keyframe_period_ns: int = S,
              max_steps: Optional[int] = None, reset_at: Optional[int] = None,
-             record: bool = True, lockstep: bool = False, world: int = 0) -> LiveSession:
+             record: bool = True, lockstep: bool = False, world: int = 0,
+             bodies: Sequence[tuple[int, BodyCall]] = ()) -> LiveSession:
     """Run the node's loop for ``duration_ns`` of ROS time with a jittered timer and
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
     reset service once; ``world`` times the world services are called (pause, a few steps,
-    a body moved, resume; and a call refused now and then). In ``lockstep`` the simulation
+    a body moved, resume; and a call refused now and then); ``bodies`` spawns and deletes
+    bodies, each call at its time (ns after the start). In ``lockstep`` the simulation
     starts at sim time 0, each tick steps one publish period, and a message arrives at the
     sim time it finds."""
     rng = np.random.default_rng(seed)
@@ -122,7 +130,8 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     timeline = sorted([(t, 1, None) for t in ticks] + [(t, 0, "input") for t in arrivals]
                       + ([(t0 + reset_at, 0, "reset")] if reset_at is not None else [])
                       + [(int(t0 + rng.uniform(0, duration_ns)), 0, "world")
-                         for _ in range(world)])
+                         for _ in range(world)]
+                      + [(t0 + at, 0, f"body:{n}") for n, (at, _) in enumerate(bodies)])
     runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=lockstep,
                     record=record, keyframe_period_ns=keyframe_period_ns, lockstep=lockstep,
                     wall_clock=lambda: int(rng.integers(10**6)))
@@ -138,13 +147,19 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     for at_ns, _, what in timeline:
         now_ns = runner.sim.time_ns if lockstep else at_ns  # the node's _now_ns
         if what == "input":
-            msg = _input_message(scene, rng, now_ns, sent)
+            msg = _input_message(runner.scene, rng, now_ns, sent)
             sent.append(msg)
             session.published.append(Published(APPLIED_WRENCH_TOPIC, bags.APPLIED_WRENCH,
                                                at_ns - int(rng.integers(S // 1000)), msg))
             runner.accept(APPLIED_WRENCH_TOPIC, msg, now_ns)
         elif what == "world":
-            _change_world(runner, rng, scene, now_ns, session, at_ns)
+            _change_world(runner, rng, now_ns, session, at_ns)
+        elif what is not None and what.startswith("body:"):
+            call = bodies[int(what[5:])][1]
+            if call[0] == "spawn":
+                runner.spawn_body(*call[1:])
+            else:
+                runner.delete_body(*call[1:])
         elif what == "reset":
             if runner.started:
                 runner.restart(now_ns, "reset")
@@ -157,12 +172,12 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                 if action is TickAction.START:
                     runner.restart(at_ns, "start")
                 last_tick = target = at_ns
-            session.publish(runner.advance(target).snapshots, at_ns)
+            session.publish(runner.advance(target).snapshots, at_ns, runner.scene)
         publish_records(at_ns)
     return session
 
 
-def _change_world(runner: Runner, rng: np.random.Generator, scene: Scene, now_ns: int,
+def _change_world(runner: Runner, rng: np.random.Generator, now_ns: int,
                   session: LiveSession, at_ns: int) -> None:
     """One service call as a user makes it: pause, step a few times, move a body, resume
     (or, a tenth of the time, a call the node refuses)."""
@@ -172,8 +187,9 @@ def _change_world(runner: Runner, rng: np.random.Generator, scene: Scene, now_ns
     runner.pause()
     for _ in range(int(rng.integers(3))):
         _, tick = runner.step(int(rng.integers(1, 40)))
-        session.publish(tick.snapshots, at_ns)
-    body = scene.bodies[int(rng.integers(len(scene.bodies)))].name
+        session.publish(tick.snapshots, at_ns, runner.scene)
+    bodies = runner.scene.bodies
+    body = bodies[int(rng.integers(len(bodies)))].name
     runner.set_body_state(body, tuple(float(x) for x in rng.uniform(-1, 1, 6)))
     runner.resume(now_ns + int(rng.uniform(0, 0.5) * S))
 

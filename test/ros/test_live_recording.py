@@ -4,8 +4,9 @@ replays with ``hecker-dynamics replay sample BAG --check --atol 0``.
 The node, the recorder and the publishers are the real command-line tools, as a user runs
 them (``ros2 run``, ``ros2 bag record``, ``ros2 topic pub``, ``ros2 service call``), with the
 recorder started before the node, three seconds after it, and with the world services
-called between the kicks. Skips where ROS 2 (rclpy
-and the ``ros2`` command) or rosbags is missing. DDS stays on this machine.
+called between the kicks (pause, step, set_body_state, resume; or bodies spawned and
+deleted). Skips where ROS 2 (rclpy and the ``ros2`` command) or rosbags is missing. DDS
+stays on this machine.
 """
 from __future__ import annotations
 
@@ -72,7 +73,19 @@ SERVICES = [
 ]
 
 
-@pytest.mark.parametrize("recorder_delay,services", [(0.0, False), (3.0, False), (0.0, True)])
+#: Bodies spawned and deleted through the node's services; the second spawn and the
+#: delete of a body the spring holds are refused, and recorded so.
+BODY_SERVICES = [
+    ["/spawn_body", "hecker_dynamics/srv/SpawnBody",
+     "{name: ball, body: '{shape: circle, radius: 0.15, mass: 1.0, position: [0.5, 4.0]}'}"],
+    ["/spawn_body", "hecker_dynamics/srv/SpawnBody",
+     "{name: bad, body: '{shape: circle, radius: -1.0, mass: 1.0}'}"],
+    ["/delete_body", "hecker_dynamics/srv/DeleteBody", "{name: left}"],
+]
+
+
+@pytest.mark.parametrize("recorder_delay,services", [(0.0, False), (3.0, False), (0.0, True),
+                                                     (0.0, "bodies"), (3.0, "bodies")])
 def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_env,
                                                                   recorder_delay, services,
                                                                   capsys):
@@ -93,10 +106,12 @@ def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_e
                         "hecker_dynamics/msg/AppliedWrench", kick], env=ros_env, check=True,
                        timeout=30, capture_output=True)
         time.sleep(1.0)
-        if services:
-            for name, srv, request in SERVICES:
-                subprocess.run(["ros2", "service", "call", name, srv, request], env=ros_env,
-                               check=True, timeout=30, capture_output=True)
+        calls = {True: SERVICES, "bodies": BODY_SERVICES}.get(services, [])
+        if services == "bodies" and kick == KICKS[-1]:  # the ball goes again, by the end
+            calls = [["/delete_body", "hecker_dynamics/srv/DeleteBody", "{name: ball}"]]
+        for name, srv, request in calls:
+            subprocess.run(["ros2", "service", "call", name, srv, request], env=ros_env,
+                           check=True, timeout=30, capture_output=True)
     node_output = _stop(node)
     for process in processes:
         _stop(process)

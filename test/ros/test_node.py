@@ -298,3 +298,56 @@ def test_lockstep_runs_the_scripted_duration_and_publishes_clock(ros):
     for pose in poses:
         snapshot = by_time[ns_from_stamp(pose.header.stamp.sec, pose.header.stamp.nanosec)]
         assert_pose_matches(pose, snapshot.bodies[0], scene.frame_id)
+
+
+def _call(ros, srv_type, name: str, **fields):
+    client = ros.helper.create_client(srv_type, name)
+    assert client.wait_for_service(timeout_sec=10.0), name
+    future = client.call_async(srv_type.Request(**fields))
+    spin_until(ros, future.done, f"the {name} service")
+    return future.result()
+
+
+def test_spawn_body_and_delete_body_change_the_world_and_its_publishers(ros):
+    """On the default scene with the test's /clock: a ball spawned gets its pose and twist
+    publishers and moves as the run loop moves it; deleted, its publishers go. Bad calls
+    answer with one line and change nothing."""
+    from hecker_dynamics.ros.runner import Runner
+    from hecker_dynamics.srv import DeleteBody, SpawnBody
+
+    node = ros.start({"use_sim_time": True, "play_script": False})
+    clock = ros.helper.create_publisher(Clock, "/clock", 10)
+    set_clock(ros, clock, node, T0)
+    spin_until(ros, lambda: node.runner.started, "the simulation to start with the clock")
+    ball = "{shape: circle, radius: 0.15, mass: 1.0, position: [0.5, 4.0]}"
+    answer = _call(ros, SpawnBody, "spawn_body", name="ball", body=ball)
+    assert answer.success, answer.message
+    assert [b.name for b in node.runner.scene.bodies] == ["ball", "left", "right"]
+    ball_topic = f"{NAMESPACE}/ball/pose"
+    spin_until(ros, lambda: node.count_publishers(ball_topic) == 1, "the ball's publisher")
+    poses = collect(ros, PoseStamped, "ball/pose")
+    spin_until(ros, lambda: node.count_subscribers(ball_topic) >= 1, "the subscription")
+    period = node.scene.publish_period_ns
+    for k in range(1, 11):
+        set_clock(ros, clock, node, T0 + k * period)
+        spin_until(ros, lambda k=k: node.sim.time_ns >= T0 + (k - 1) * period,
+                   "the simulation to follow the clock")
+    spin_until(ros, lambda: len(poses) >= 5, "the ball's poses")
+    offline = Runner(load_scene(None), start_ns=T0, play_script=False)
+    offline.spawn_body("ball", ball)
+    by_time = {s.time_ns: s for s in offline.advance(T0 + 10 * period).snapshots}
+    for pose in poses:
+        stamp = ns_from_stamp(pose.header.stamp.sec, pose.header.stamp.nanosec)
+        assert_pose_matches(pose, by_time[stamp].bodies[0], "world")
+
+    for fields, reason in ((dict(name="ball", body=ball), "already a body"),
+                           (dict(name="x", body="{shape: circle, radius: -1.0, mass: 1.0}"),
+                            "parameter 'bodies.x.radius': must be positive")):
+        answer = _call(ros, SpawnBody, "spawn_body", **fields)
+        assert not answer.success and reason in answer.message and "\n" not in answer.message
+    answer = _call(ros, DeleteBody, "delete_body", name="left")
+    assert not answer.success and "spring 'link'" in answer.message
+    answer = _call(ros, DeleteBody, "delete_body", name="ball")
+    assert answer.success, answer.message
+    spin_until(ros, lambda: node.count_publishers(ball_topic) == 0, "the ball's publisher to go")
+    assert node.runner.sim.model.names == ("left", "right")

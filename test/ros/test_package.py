@@ -90,6 +90,10 @@ def test_manifest_version_matches_setup_py(manifest):
 def test_cmake_generates_the_interface_and_installs_beside_it(cmake):
     generate = re.search(r"rosidl_generate_interfaces\((.*?)\)", cmake, re.S)
     assert generate and '"msg/AppliedWrench.msg"' in generate.group(1)
+    interfaces = sorted(f"{p.parent.name}/{p.name}" for folder in ("msg", "srv")
+                        for p in (ROOT / folder).glob("*.*"))
+    assert "srv/SpawnBody.srv" in interfaces and "srv/DeleteBody.srv" in interfaces
+    assert re.findall(r'"((?:msg|srv)/[^"]+)"', generate.group(1)) == interfaces
     for dependency in ("builtin_interfaces", "geometry_msgs", "std_msgs"):
         assert dependency in generate.group(1)
         assert f"find_package({dependency} REQUIRED)" in cmake
