@@ -98,8 +98,12 @@ def run_command(args: argparse.Namespace) -> int:
         view_run(scene)
     sim = Simulation(scene)
     first = sim.snapshot()
+    progress = Progress("run", scene.duration_ns * 1e-9, enabled=_want_progress(args))
     started = time.perf_counter()
-    sim.play(scene.script, scene.duration_ns, keep=False)  # two states printed: keep none
+    try:  # two states printed: keep none
+        sim.play(scene.script, scene.duration_ns, keep=False, progress=progress)
+    finally:
+        progress.close()
     wall = time.perf_counter() - started
     last = sim.snapshot()
     sim_seconds = (last.time_ns - first.time_ns) * 1e-9
@@ -624,6 +628,7 @@ def parser() -> argparse.ArgumentParser:
                             help="override the tolerance of dopri5, dop853 / auto")
     run_parser.add_argument("--view", action="store_true",
                             help="show the run in a window (needs a display and the viz extra)")
+    _add_progress_options(run_parser)
     run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
