@@ -56,3 +56,15 @@ def test_run_bar_counts_the_scene_duration_on_a_terminal():
 def test_run_writes_nothing_to_stderr_when_it_is_not_a_terminal():
     out, err = _run(["run", "ship", "--duration", "2.5"], terminal=False)
     assert out.startswith("scene ") and err == ""
+
+
+def test_bench_bar_counts_its_parts_on_a_terminal(tmp_path):
+    """The contact section in three parts: one pyramid, one scene, the node's cost."""
+    argv = ["bench", "--contacts", "2", "--scenes", "car_flip", "--no-peers",
+            "--out", str(tmp_path)]
+    out, err = _run(argv, terminal=True)
+    assert "target 3." in out
+    bar = _last_bar(err)
+    assert bar.startswith("bench contacts ") and "100% of 3 parts" in bar, err
+    out, err = _run(argv, terminal=False)
+    assert "target 3." in out and err == ""

@@ -57,7 +57,7 @@ TARGET = 0.5
 #: Rounds of the whole-scene runs.
 ROUNDS = 3
 
-Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(n), positions()
+Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(n), poses()
 
 
 def contact_scene_names() -> list[str]:
@@ -78,7 +78,7 @@ def _ours(scene: Scene) -> Engine:
     def step(count: int) -> None:
         sim.advance_to(sim.time_ns + count * sim.step_ns)
 
-    return step, lambda: sim.q[:, :2].copy()
+    return step, lambda: sim.q.copy()
 
 
 def pyramid_engines(rows: int, peers: list[str]) -> dict[str, Engine]:
@@ -96,7 +96,7 @@ def pyramid_engines(rows: int, peers: list[str]) -> dict[str, Engine]:
 def measure_pyramid(rows: int, peers: list[str]) -> dict[str, tuple[float, float]]:
     """Per engine: (median cost per step in s, largest displacement of a box in m)."""
     engines = pyramid_engines(rows, peers)
-    start = {name: positions() for name, (_, positions) in engines.items()}
+    start = {name: poses()[:, :2] for name, (_, poses) in engines.items()}
     costs: dict[str, list[float]] = {name: [] for name in engines}
     for _ in range(round(PYRAMID_DURATION / STEP) // BLOCK):
         for name, (step, _) in engines.items():
@@ -104,7 +104,7 @@ def measure_pyramid(rows: int, peers: list[str]) -> dict[str, tuple[float, float
             step(BLOCK)
             costs[name].append((time.perf_counter() - begin) / BLOCK)
     return {name: (statistics.median(costs[name]),
-                   float(np.abs(engines[name][1]() - start[name]).max()))
+                   float(np.abs(engines[name][1]()[:, :2] - start[name]).max()))
             for name in engines}
 
 
@@ -113,13 +113,12 @@ def measure_pyramid(rows: int, peers: list[str]) -> dict[str, tuple[float, float
 def _peer_run(peer: str, scene: Scene, springs: str, duration: float) -> Outcome:
     """Build the scene in ``peer`` (untimed), then step ``duration`` (timed)."""
     h = scene.step_ns * 1e-9
-    step, positions = scene_engine(peer, scene, h, springs)
+    step, poses = scene_engine(peer, scene, h, springs)
     count = max(1, round(duration / h))
     start = time.perf_counter()
     step(count)
     wall = time.perf_counter() - start
-    q = np.zeros((len(scene.bodies), 3))
-    q[:, :2] = positions()
+    q = poses()
     return Outcome(wall, q, np.zeros_like(q), steps=count)
 
 

@@ -1,7 +1,7 @@
 """Scenes with walls, collisions and scripts in pymunk and Box2D 2.3, for timing.
 
 :func:`scene_engine` builds a scene (its bodies with their shapes, walls, collision groups,
-forces and scripted wrenches) in a peer and returns ``step(count)`` and ``positions()``.
+forces and scripted wrenches) in a peer and returns ``step(count)`` and ``poses()`` (x, y, angle of every CM).
 The contact solvers differ, so the runs are compared by cost, not by state. How each peer
 is set up, in what its users would call its best honest configuration:
 
@@ -50,7 +50,7 @@ WALL_HALF_LENGTH = 100.0
 #: pymunk's sleep threshold where sleeping is on (its users' usual half second).
 PYMUNK_SLEEP_S = 0.5
 
-Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(count), positions()
+Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(count), poses()
 Material = Optional[tuple[float, float]]  # (restitution, friction)
 
 
@@ -273,7 +273,7 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
             space.step(h)
             done[0] += 1
 
-    return step, lambda: np.array([tuple(b.position) for b in bodies])
+    return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
 def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
@@ -332,7 +332,7 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
             world.Step(h, 8, 3)
             done[0] += 1
 
-    return step, lambda: np.array([tuple(b.position) for b in bodies])
+    return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
 def scene_engine(peer: str, scene: Scene, h: float, springs: str = "python",
