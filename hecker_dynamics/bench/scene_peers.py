@@ -1,9 +1,10 @@
 """Scenes with walls, collisions and scripts in pymunk and Box2D 2.3, for timing.
 
 :func:`scene_engine` builds a scene (its bodies with their shapes, walls, collision groups,
-forces and scripted wrenches) in a peer and returns ``step(count)`` and ``poses()`` (x, y, angle of every CM).
-The contact solvers differ, so the runs are compared by cost, not by state. How each peer
-is set up, in what its users would call its best honest configuration:
+forces and scripted wrenches) in a peer and returns ``step(count)`` and ``poses()`` (x, y
+and angle of every CM). The contact solvers differ, so the runs are compared by cost, not
+by state. How each peer is set up, in what its users would call its best honest
+configuration:
 
 - Bodies at their CMs with the scene's mass and moment of inertia; each shape of a body
   (polygons, circles) as the peer's shape in the CM frame.
