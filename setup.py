@@ -76,7 +76,8 @@ setup(
         # `hecker-dynamics render`, `plot` and `run --view` (MP4 also needs imageio-ffmpeg).
         "viz": ["matplotlib>=3.6", "Pillow>=9"],
         # Peers for `hecker-dynamics bench` (each optional; the bench skips what is missing).
-        "bench": ["pymunk>=6", "box2d-py>=2.3.8", "mujoco>=3.1", "matplotlib>=3.6"],
+        # Box2D 2.3.10 installs from a wheel; the older box2d-py needs swig to build.
+        "bench": ["pymunk>=6", "Box2D>=2.3.10", "mujoco>=3.1", "matplotlib>=3.6"],
     },
     entry_points={"console_scripts": ["hecker-dynamics = hecker_dynamics.cli:main"]},
 )
