@@ -157,9 +157,9 @@ class PlainModel:
     def wrenches(self, states: list[tuple[float, float, float, float, float, float]]
                  ) -> list[list[float]]:
         """Force (fx, fy) and torque about the CM on every body, from each body's CM state
-        (x, y, angle, vx, vy, omega) as plain floats: the scene's force law (Eq. 9 for the
-        velocity of a point, Eq. 11 for the torque), as a user of a peer engine would
-        write it in Python."""
+        (x, y, angle, vx, vy, omega) as plain floats: the scene's force law (a body
+        point's velocity by Eq. 9, the torque about the CM by Eq. 11), as a user of a peer
+        engine would write it in Python."""
         total = [list(c) for c in self.constant]
         cs = [(math.cos(state[2]), math.sin(state[2])) for state in states]
 
