@@ -212,6 +212,33 @@ def _forces(layout: _Layout, model: PlainModel, h_ns: int):
     return wrenches
 
 
+def _stepper(layout: _Layout, model: PlainModel, h: float, bodies: list,
+             read: Callable[[], list], push: Callable[..., None],
+             advance: Callable[[], None]) -> Callable[[int], None]:
+    """step(count): before each step, the Python forces and the scripted wrenches go on the
+    bodies (``push(body, force, point of application or None, torque, wake)``), then
+    ``advance`` takes the peer's step."""
+    wrenches = _forces(layout, model, round(h * 1e9))
+    done = [0]
+    states: list = []
+
+    def grab() -> list:
+        states[:] = read()
+        return states
+
+    def step(count: int) -> None:
+        for _ in range(count):
+            total = wrenches(done[0], grab)
+            if total is not None:
+                wrench, pushed = total
+                for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, wrench)):
+                    push(body, (fx, fy), _line_of_action(state, fx, fy, tau), tau, i in pushed)
+            advance()
+            done[0] += 1
+
+    return step
+
+
 def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
     import pymunk
 
@@ -249,31 +276,18 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         for a, la, b, lb, k, rest, damp in layout.model.springs:
             other = space.static_body if b < 0 else bodies[b]
             space.add(pymunk.DampedSpring(bodies[a], other, la, lb, rest, k, damp))
-    wrenches = _forces(layout, model, round(h * 1e9))
-    done = [0]
-
-    states: list = []
-
     def read() -> list:
-        states[:] = [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in bodies]
-        return states
+        return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in bodies]
 
-    def step(count: int) -> None:
-        for _ in range(count):
-            total = wrenches(done[0], read)
-            if total is not None:
-                wrench, pushed = total
-                for body, state, (fx, fy, tau) in zip(bodies, states, wrench):
-                    point = _line_of_action(state, fx, fy, tau)
-                    if point is not None:
-                        body.apply_force_at_world_point((fx, fy), point)
-                    elif tau:
-                        body.torque = tau
-                for i in pushed:  # a push wakes a sleeping body, as in the core
-                    bodies[i].activate()
-            space.step(h)
-            done[0] += 1
+    def push(body, force, point, torque: float, wake: bool) -> None:
+        if point is not None:
+            body.apply_force_at_world_point(force, point)
+        elif torque:
+            body.torque = torque
+        if wake:  # a push wakes a sleeping body, as in the core
+            body.activate()
 
+    step = _stepper(layout, model, h, bodies, read, push, lambda: space.step(h))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
@@ -309,30 +323,16 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         ground.CreateEdgeFixture(vertices=[wall.start, wall.end], restitution=wall.restitution,
                                  friction=_over_root(wall.friction, own_friction) ** 2,
                                  categoryBits=wall.category, maskBits=wall.mask)
-    wrenches = _forces(layout, model, round(h * 1e9))
-    done = [0]
-
-    states: list = []
-
     def read() -> list:
-        states[:] = [(*b.position, b.angle, *b.linearVelocity, b.angularVelocity)
-                     for b in bodies]
-        return states
+        return [(*b.position, b.angle, *b.linearVelocity, b.angularVelocity) for b in bodies]
 
-    def step(count: int) -> None:
-        for _ in range(count):
-            total = wrenches(done[0], read)
-            if total is not None:
-                wrench, pushed = total
-                for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, wrench)):
-                    point = _line_of_action(state, fx, fy, tau)  # only a push wakes a body
-                    if point is not None:
-                        body.ApplyForce((fx, fy), point, i in pushed)
-                    elif tau:
-                        body.ApplyTorque(tau, i in pushed)
-            world.Step(h, 8, 3)
-            done[0] += 1
+    def push(body, force, point, torque: float, wake: bool) -> None:
+        if point is not None:  # only a push wakes a sleeping body
+            body.ApplyForce(force, point, wake)
+        elif torque:
+            body.ApplyTorque(torque, wake)
 
+    step = _stepper(layout, model, h, bodies, read, push, lambda: world.Step(h, 8, 3))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
