@@ -485,7 +485,7 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                        help="benchmark or shipped scenes to run (default: all)")
     bench.add_argument("--contacts", nargs="*", type=_rows, metavar="ROWS",
                        help="instead: the contact section against pymunk and Box2D, with "
-                            "issue 13's targets: pyramids of these rows of boxes (default "
+                            "its targets: pyramids of these rows of boxes (default "
                             "3 6 10 14 20 30), the box of 100 balls and the shipped contact "
                             "scenes over their full durations (--scenes narrows them), and "
                             "the node's cost with a floor (writes contacts.md, contacts.csv)")

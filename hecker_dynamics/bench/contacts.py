@@ -1,5 +1,5 @@
 """The contact section of ``hecker-dynamics bench``: the contact scenes against the peers,
-and issue 13's targets.
+and the contact targets.
 
 Three measurements, each engine in the same run, interleaved:
 
@@ -16,7 +16,7 @@ Three measurements, each engine in the same run, interleaved:
   sleeping as their users have it.
 - **The node's cost** (:mod:`.node`) on its ring of 10 bodies dropped onto a floor.
 
-Issue 13's targets, each reported as met or missed with its ratio: (1) every pyramid per
+The contact targets, each reported as met or missed with its ratio: (1) every pyramid per
 step at most 0.5 of pymunk's cost; (2) the default scene (``sample``) over its full 10 s,
 a step at most 0.5 of pymunk's with the same forces in Python; (3) the node at 10 bodies
 with a floor at most 1 ms of CPU per 20 ms tick. (Target 1 also asks for at most Box2D
@@ -164,7 +164,7 @@ class ContactResults:
 
 
 def targets(results: ContactResults) -> list[tuple[str, str, str]]:
-    """(target, measured, verdict) for issue 13's targets 1 to 3."""
+    """(target, measured, verdict) for the contact targets 1 to 3."""
     lines = []
     ratios = [(p["rows"], p["ratio_pymunk"]) for p in results.pyramids if "ratio_pymunk" in p]
     if ratios:
@@ -249,7 +249,7 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
     md = [f"Command: `{command}`", "",
           f"Load average (1, 5, 15 min) before: {before[0]:.2f}, {before[1]:.2f}, "
           f"{before[2]:.2f}; after: {after[0]:.2f}, {after[1]:.2f}, {after[2]:.2f}.", "",
-          "## Issue 13's targets", "", "| target | measured | verdict |", "|---|---|---|"]
+          "## Contact targets", "", "| target | measured | verdict |", "|---|---|---|"]
     md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
     if results.pyramids:
         names = ["hecker_dynamics"] + [p for p in peers if f"{p}_us" in results.pyramids[0]]
