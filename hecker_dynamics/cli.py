@@ -98,8 +98,12 @@ def run_command(args: argparse.Namespace) -> int:
         view_run(scene)
     sim = Simulation(scene)
     first = sim.snapshot()
+    progress = Progress("run", scene.duration_ns * 1e-9, enabled=_want_progress(args))
     started = time.perf_counter()
-    sim.play(scene.script, scene.duration_ns, keep=False)  # two states printed: keep none
+    try:  # two states printed: keep none
+        sim.play(scene.script, scene.duration_ns, keep=False, progress=progress)
+    finally:
+        progress.close()
     wall = time.perf_counter() - started
     last = sim.snapshot()
     sim_seconds = (last.time_ns - first.time_ns) * 1e-9
@@ -397,11 +401,17 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
 
 
 def bench_command(args: argparse.Namespace) -> int:
-    """Run the work-precision benchmark and write its report (``--node``: the node's cost)."""
+    """Run the work-precision benchmark and write its report (``--node``: the node's cost;
+    ``--contacts``: the contact section; ``--batch``: sweeps' speed-up)."""
+    enabled = _want_progress(args)
+
+    def bar(label: str, parts: int) -> Progress:
+        return Progress(label, parts, unit="parts", enabled=enabled)
+
     if args.node:
         from .bench.node import TARGET_SHARE, node_cost, node_table
 
-        costs = node_cost()
+        costs = node_cost(bar=bar)
         print("node work per second of sim time (share of one core): 1 kHz steps, 50 Hz "
               "publishing, odometry, markers, diagnostics and TF on; medians of "
               f"{costs[0].repeats} interleaved runs of 2 s")
@@ -418,20 +428,31 @@ def bench_command(args: argparse.Namespace) -> int:
     if args.batch:
         from .bench.batch import bench_batch
 
-        bench_batch(rounds=args.rounds)
+        bench_batch(rounds=args.rounds, bar=bar)
         return 0
     command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
         else "hecker-dynamics bench"
-    if args.contacts:
-        from .bench.contacts import PEERS, contact_bench
-        contact_bench(args.contacts, list(PEERS) if args.peers else [], Path(args.out), command)
+    if args.contacts is not None:
+        from .bench.contacts import PYRAMID_ROWS, contact_bench, contact_scene_names, targets
+        from .bench.scene_peers import SCENE_PEERS
+
+        known = contact_scene_names()
+        for name in args.scenes or []:
+            if name not in known:
+                raise SceneError(f"--scenes {name}: not a contact scene (known: "
+                                 f"{', '.join(known)})")
+        results = contact_bench(args.contacts or list(PYRAMID_ROWS),
+                                list(SCENE_PEERS) if args.peers else [], Path(args.out),
+                                command, scenes=args.scenes, bar=bar)
+        for target, measured, verdict in targets(results):
+            print(f"target {target}: {measured}: {verdict}")
         return 0
     known = all_scene_names()
     for name in args.scenes or []:
         if name not in known:
             raise SceneError(f"unknown benchmark scene '{name}' (known: {', '.join(known)})")
     run_bench("full" if args.full else "quick", Path(args.out), args.scenes, args.peers,
-              command=command)
+              command=command, bar=bar)
     return 0
 
 
@@ -462,9 +483,12 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--out", default="docs/bench", help="output directory (default docs/bench)")
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
-    bench.add_argument("--contacts", nargs="+", type=_rows, metavar="ROWS",
-                       help="only the contact section: pyramids of these rows of boxes "
-                            "against pymunk and Box2D (writes contacts.md and contacts.csv)")
+    bench.add_argument("--contacts", nargs="*", type=_rows, metavar="ROWS",
+                       help="instead: the contact section against pymunk and Box2D, with "
+                            "its targets: pyramids of these rows of boxes (default "
+                            "3 6 10 14 20 30), the box of 100 balls and the shipped contact "
+                            "scenes over their full durations (--scenes narrows them), and "
+                            "the node's cost with a floor (writes contacts.md, contacts.csv)")
     peers = bench.add_mutually_exclusive_group()
     peers.add_argument("--peers", dest="peers", action="store_true", default=True,
                        help="include installed peers (default)")
@@ -478,6 +502,7 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                        help="instead: the node's own work per tick without rclpy (stepping "
                             "and output fields) on rings of 1, 10 and 100 bodies; prints a "
                             "table, writes nothing")
+    _add_progress_options(bench)
     bench.set_defaults(handler=bench_command)
 
 
@@ -624,6 +649,7 @@ def parser() -> argparse.ArgumentParser:
                             help="override the tolerance of dopri5, dop853 / auto")
     run_parser.add_argument("--view", action="store_true",
                             help="show the run in a window (needs a display and the viz extra)")
+    _add_progress_options(run_parser)
     run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",

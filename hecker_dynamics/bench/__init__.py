@@ -8,7 +8,12 @@ explains the method. Modules:
 - :mod:`.measure`: timing (median of interleaved repeats) and errors;
 - :mod:`.peers`: optional pymunk, Box2D and MuJoCo adapters, checked against plain loops;
 - :mod:`.ring`: the ring scale test and its plain C loop;
-- :mod:`.report`: CSV, Markdown and the work-precision figure.
+- :mod:`.report`: CSV, Markdown and the work-precision figure;
+- :mod:`.contacts`: the contact section (``bench --contacts``) and its targets, on
+  the scenes of :mod:`.pyramid` and the shipped ones, with the peers of
+  :mod:`.scene_peers`;
+- :mod:`.node`: the node's own cost (``bench --node``); :mod:`.batch`: sweeps' speed-up
+  (``bench --batch``).
 
 Nothing here is imported by the core, and the peers and matplotlib are optional.
 """

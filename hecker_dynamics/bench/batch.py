@@ -15,10 +15,12 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Optional
 
 from ..batch.engines import DaskCluster, Engine, ProcessPool, default_workers
 from ..batch.run import sweep
 from ..batch.variants import make_variants, parse_setting
+from ..viz.progress import BarFactory, run_parts
 
 __all__ = ["WORKLOADS", "bench_batch"]
 
@@ -39,30 +41,33 @@ def _engines(workers: int) -> dict[str, Callable[[], Engine]]:
 
 
 def bench_batch(rounds: int = 1, workers: int | None = None,
-                report: Callable[[str], None] = print) -> dict[tuple[str, str], float]:
+                report: Callable[[str], None] = print,
+                bar: Optional[BarFactory] = None) -> dict[tuple[str, str], float]:
     """Median wall time (s) of each (workload, engine); prints a table with the speed-ups."""
     workers = workers or default_workers()
     engines = _engines(workers)
     times: dict[tuple[str, str], list[float]] = {}
+    tables: dict[str, bytes] = {}
     with tempfile.TemporaryDirectory() as scratch:
+        def one(workload: str, variants: list, name: str) -> None:
+            started = time.perf_counter()
+            engine = engines[name]()
+            try:
+                path = sweep(variants, engine, Path(scratch) / "table.csv", progress=False)
+            finally:
+                engine.close()
+            times.setdefault((workload, name), []).append(time.perf_counter() - started)
+            table = tables.setdefault(workload, path.read_bytes())
+            if path.read_bytes() != table:
+                raise AssertionError(f"{name}: the {workload} table differs")
+
+        work = []
         for workload, (count, duration_ns) in WORKLOADS.items():
             masses = f"bodies.left.mass=0.5:2:{count}"
             variants = make_variants("sample", [parse_setting(masses)], duration_ns=duration_ns)
-            reference = None
-            for _ in range(rounds):
-                for name, make in engines.items():
-                    started = time.perf_counter()
-                    engine = make()
-                    try:
-                        path = sweep(variants, engine, Path(scratch) / "table.csv",
-                                     progress=False)
-                    finally:
-                        engine.close()
-                    times.setdefault((workload, name), []).append(time.perf_counter() - started)
-                    table = path.read_bytes()
-                    reference = reference or table
-                    if table != reference:
-                        raise AssertionError(f"{name}: the {workload} table differs")
+            work += [(name, lambda w=workload, v=variants, name=name: one(w, v, name))
+                     for _ in range(rounds) for name in engines]
+        run_parts(work, bar, "bench batch")
     medians = {key: statistics.median(values) for key, values in times.items()}
     report(f"{'workload':<34}{'engine':<26}{'wall s':>9}{'speed-up':>10}")
     for workload, (count, duration_ns) in WORKLOADS.items():

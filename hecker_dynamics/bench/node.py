@@ -13,11 +13,12 @@ from __future__ import annotations
 import dataclasses
 import statistics
 import time
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 from ..ros.outputs import SnapshotOutputs
 from ..ros.runner import Runner
 from ..scene.load import Scene
+from ..viz.progress import BarFactory, run_parts
 from .scenes import ring
 
 __all__ = ["NODE_BODIES", "NodeCost", "node_scene", "node_cost", "node_table"]
@@ -26,7 +27,7 @@ NODE_BODIES = (1, 10, 100)
 #: The node's default timing: 1 kHz physics, 50 Hz publishing.
 STEP_NS = 1_000_000
 PUBLISH_PERIOD_NS = 20_000_000
-#: The target share of one core for 10 bodies.
+#: The target share of one core for 10 bodies: 1 ms of CPU per 20 ms tick.
 TARGET_SHARE = 0.05
 
 
@@ -43,9 +44,11 @@ class NodeCost(NamedTuple):
         return self.advance + self.outputs
 
 
-def node_scene(bodies: int) -> Scene:
-    """A ring of ``bodies`` boxes stepped at 1 kHz, published at 50 Hz, every output on."""
-    return dataclasses.replace(ring(bodies), step_ns=STEP_NS, publish_period_ns=PUBLISH_PERIOD_NS,
+def node_scene(bodies: int, floor: bool = False) -> Scene:
+    """A ring of ``bodies`` boxes stepped at 1 kHz, published at 50 Hz, every output on;
+    with ``floor``, falling onto a floor and resting on it (:func:`~.scenes.ring`)."""
+    return dataclasses.replace(ring(bodies, floor=floor), step_ns=STEP_NS,
+                               publish_period_ns=PUBLISH_PERIOD_NS,
                                publish_odometry=True, publish_markers=True,
                                publish_diagnostics=True, publish_tf=True)
 
@@ -72,15 +75,15 @@ def _run(scene: Scene, seconds: float) -> tuple[float, float]:
 
 
 def node_cost(bodies_list: tuple[int, ...] = NODE_BODIES, seconds: float = 2.0,
-              repeats: int = 5) -> list[NodeCost]:
-    """The node's work per sim second on each ring size: medians of ``repeats`` runs of
-    ``seconds`` of sim time, the sizes interleaved in every round (so the machine's load
-    falls on all of them alike)."""
-    scenes = {n: node_scene(n) for n in bodies_list}
+              repeats: int = 5, floor: bool = False,
+              bar: Optional[BarFactory] = None) -> list[NodeCost]:
+    """The node's work per sim second on each ring size (``floor``: on a floor): medians of
+    ``repeats`` runs of ``seconds`` of sim time, the sizes interleaved in every round (so
+    the machine's load falls on all of them alike)."""
+    scenes = {n: node_scene(n, floor) for n in bodies_list}
     samples: dict[int, list[tuple[float, float]]] = {n: [] for n in bodies_list}
-    for _ in range(repeats):
-        for n, scene in scenes.items():
-            samples[n].append(_run(scene, seconds))
+    run_parts([(f"{n} bodies", lambda n=n, scene=scene: samples[n].append(_run(scene, seconds)))
+               for _ in range(repeats) for n, scene in scenes.items()], bar, "bench node")
     return [NodeCost(n, statistics.median(a for a, _ in samples[n]),
                      statistics.median(o for _, o in samples[n]), repeats)
             for n in bodies_list]

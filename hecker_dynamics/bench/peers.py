@@ -32,7 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..scene.load import Gravity, Scene
+from ..scene.load import Scene
 from .measure import Case, Outcome
 from .reference import PlainModel
 
@@ -69,27 +69,6 @@ def version(peer: str) -> str:
         return "not installed"
 
 
-def _state(model: PlainModel) -> tuple[np.ndarray, np.ndarray]:
-    n = model.n
-    return model.y0[:3 * n].reshape(n, 3).copy(), model.y0[3 * n:].reshape(n, 3).copy()
-
-
-def _strip(model: PlainModel, springs: bool = False, gravity: bool = False) -> PlainModel:
-    """A copy of ``model`` without its springs and/or gravity (handled natively)."""
-    other = (dataclasses.replace(model) if dataclasses.is_dataclass(model)
-             else object.__new__(PlainModel))
-    other.__dict__.update(model.__dict__)
-    other.constant = [list(c) for c in model.constant]
-    if springs:
-        other.springs = []
-    if gravity:
-        for i, gx, gy in model.gravity:
-            other.constant[i][0] -= model.mass[i] * gx
-            other.constant[i][1] -= model.mass[i] * gy
-        other.gravity = []
-    return other
-
-
 def _no_contacts(scene: Scene) -> Scene:
     return dataclasses.replace(scene, walls=(), collisions=(), script=())
 
@@ -101,13 +80,13 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
 
     model = PlainModel(_no_contacts(scene))
     native = method == "native"
-    python_model = _strip(model, springs=native, gravity=native) if native else model
+    python_model = model.without(springs=native, gravity=native) if native else model
     has_python_forces = bool(python_model.springs or python_model.drags or python_model.angular
                              or python_model.forces or any(any(c) for c in python_model.constant))
     space = pymunk.Space()
     if native and model.gravity:
         space.gravity = model.gravity[0][1:]
-    q, v = _state(model)
+    q, v = model.start()
     bodies = []
     for i in range(model.n):
         body = pymunk.Body(model.mass[i], model.inertia[i])
@@ -124,28 +103,20 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
                 space.add(pymunk.DampedSpring(bodies[a], static, la, lb, rest, k, damp))
             else:
                 space.add(pymunk.DampedSpring(bodies[a], bodies[b], la, lb, rest, k, damp))
-    n = model.n
-    cache = {"step": -1, "acc": None}
+    cache: dict = {"step": -1, "wrenches": None}
     counter = [0]
 
-    def all_accelerations() -> list[float]:
-        y = np.empty(6 * n)
-        for i, body in enumerate(bodies):
-            px, py = body.position
-            vx, vy = body.velocity
-            y[3 * i:3 * i + 3] = (px, py, body.angle)
-            y[3 * n + 3 * i:3 * n + 3 * i + 3] = (vx, vy, body.angular_velocity)
-        return python_model.accelerations(y)
+    def all_wrenches() -> list[list[float]]:
+        return python_model.wrenches([(*b.position, b.angle, *b.velocity, b.angular_velocity)
+                                      for b in bodies])
 
     index = {id(b): i for i, b in enumerate(bodies)}
 
     def velocity_func(body, gravity, damping, dt):
         if cache["step"] != counter[0]:
-            cache["step"], cache["acc"] = counter[0], all_accelerations()
-        i = index[id(body)]
-        a = cache["acc"]
-        body.force = (a[3 * i] * model.mass[i], a[3 * i + 1] * model.mass[i])
-        body.torque = a[3 * i + 2] * model.inertia[i]
+            cache["step"], cache["wrenches"] = counter[0], all_wrenches()
+        fx, fy, tau = cache["wrenches"][index[id(body)]]
+        body.force, body.torque = (fx, fy), tau
         pymunk.Body.update_velocity(body, gravity, damping, dt)
 
     if has_python_forces and not forces_before_step:
@@ -155,10 +126,8 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
     def step(count: int) -> None:
         for _ in range(count):
             if forces_before_step and has_python_forces:
-                a = all_accelerations()
-                for i, body in enumerate(bodies):
-                    body.force = (a[3 * i] * model.mass[i], a[3 * i + 1] * model.mass[i])
-                    body.torque = a[3 * i + 2] * model.inertia[i]
+                for body, (fx, fy, tau) in zip(bodies, all_wrenches()):
+                    body.force, body.torque = (fx, fy), tau
             counter[0] += 1
             space.step(h)
 
@@ -176,10 +145,10 @@ def _box2d_build(scene: Scene, method: str, h: float):
     import Box2D
 
     model = PlainModel(_no_contacts(scene))
-    forces = _strip(model, gravity=True)
+    forces = model.without(gravity=True)
     world = Box2D.b2World(gravity=model.gravity[0][1:] if model.gravity else (0.0, 0.0),
                           doSleep=False)
-    q, v = _state(model)
+    q, v = model.start()
     bodies = []
     for i in range(model.n):
         body = world.CreateDynamicBody(position=(q[i, 0], q[i, 1]), angle=q[i, 2],
@@ -189,24 +158,17 @@ def _box2d_build(scene: Scene, method: str, h: float):
         mass.mass, mass.center, mass.I = model.mass[i], (0.0, 0.0), model.inertia[i]
         body.massData = mass
         bodies.append(body)
-    n = model.n
     active = bool(forces.springs or forces.drags or forces.angular or forces.forces
                   or any(any(c) for c in forces.constant))
 
     def step(count: int) -> None:
-        y = np.empty(6 * n)
         for _ in range(count):
             if active:
-                for i, body in enumerate(bodies):
-                    px, py = body.position
-                    vx, vy = body.linearVelocity
-                    y[3 * i:3 * i + 3] = (px, py, body.angle)
-                    y[3 * n + 3 * i:3 * n + 3 * i + 3] = (vx, vy, body.angularVelocity)
-                a = forces.accelerations(y)
-                for i, body in enumerate(bodies):
-                    body.ApplyForceToCenter((a[3 * i] * model.mass[i],
-                                             a[3 * i + 1] * model.mass[i]), True)
-                    body.ApplyTorque(a[3 * i + 2] * model.inertia[i], True)
+                wrenches = forces.wrenches([(*b.position, b.angle, *b.linearVelocity,
+                                             b.angularVelocity) for b in bodies])
+                for body, (fx, fy, tau) in zip(bodies, wrenches):
+                    body.ApplyForceToCenter((fx, fy), True)
+                    body.ApplyTorque(tau, True)
             world.Step(h, 8, 3)
 
     def state() -> tuple[np.ndarray, np.ndarray]:
@@ -281,7 +243,7 @@ def _mujoco_build(scene: Scene, method: str, h: float):
     m = mujoco.MjModel.from_xml_string(mujoco_xml(scene, method, h))
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
     d = mujoco.MjData(m)
-    q, v = _state(model)
+    q, v = model.start()
     d.qpos[:] = q.ravel()
     d.qvel[:] = v.ravel()
     for i in range(model.n):  # constant world forces and torques at the CM
@@ -396,94 +358,3 @@ def check_peer(peer: str, method: str, name: str, scene: Scene, h: float = 1e-3,
     return Check(peer, method + (" (forces before step)" if forces_before_step else ""),
                  scheme, name, h, steps, float(np.max(np.abs(q - qp))),
                  float(np.max(np.abs(qp))))
-
-
-# ----------------------------------------------------------------------------- default scene
-
-def sample_run(peer: str, scene: Scene, h: float, duration: float) -> Outcome:
-    """The default scene in pymunk or Box2D: its boxes, walls (static segments with the
-    scene's restitution and friction), native gravity and the spring applied from Python
-    each step (pymunk: in ``velocity_func``); the scripted kick is left out. For timing
-    one step against the core's, not for accuracy (the contact solvers differ)."""
-    model = _strip(PlainModel(_no_contacts(scene)), gravity=True)
-    q, v = _state(model)
-    g = next((f.acceleration for f in scene.forces if isinstance(f, Gravity)), (0.0, 0.0))
-    steps = max(1, round(duration / h))
-    n = model.n
-    y = np.empty(6 * n)
-    walls = []
-    for w in scene.walls:  # a long segment along the wall line
-        (px, py), (nx, ny) = w.point, w.normal
-        walls.append(((px - 100 * ny, py + 100 * nx), (px + 100 * ny, py - 100 * nx),
-                      w.restitution, w.friction))
-    sizes = [b.shapes[0].vertices for b in scene.bodies]
-    if peer == "pymunk":
-        import pymunk
-        space = pymunk.Space()
-        space.gravity = g
-        bodies = []
-        for i in range(n):
-            body = pymunk.Body(model.mass[i], model.inertia[i])
-            body.position, body.angle = (q[i, 0], q[i, 1]), q[i, 2]
-            body.velocity, body.angular_velocity = (v[i, 0], v[i, 1]), v[i, 2]
-            shape = pymunk.Poly(body, [tuple(p) for p in sizes[i].tolist()])
-            shape.elasticity, shape.friction = 0.8, 0.2
-            space.add(body, shape)
-            bodies.append(body)
-        for a, b, e, mu in walls:
-            seg = pymunk.Segment(space.static_body, a, b, 0.0)
-            seg.elasticity, seg.friction = e, mu
-            space.add(seg)
-        cache = {"step": -1, "acc": None}
-        counter = [0]
-        index = {id(b): i for i, b in enumerate(bodies)}
-
-        def velocity_func(body, gravity, damping, dt):
-            if cache["step"] != counter[0]:
-                for i, bb in enumerate(bodies):
-                    y[3 * i:3 * i + 3] = (*bb.position, bb.angle)
-                    y[3 * n + 3 * i:3 * n + 3 * i + 3] = (*bb.velocity, bb.angular_velocity)
-                cache["step"], cache["acc"] = counter[0], model.accelerations(y)
-            i, a = index[id(body)], cache["acc"]
-            body.force = (a[3 * i] * model.mass[i], a[3 * i + 1] * model.mass[i])
-            body.torque = a[3 * i + 2] * model.inertia[i]
-            pymunk.Body.update_velocity(body, gravity, damping, dt)
-
-        for body in bodies:
-            body.velocity_func = velocity_func
-        start = time.perf_counter()
-        for _ in range(steps):
-            counter[0] += 1
-            space.step(h)
-        wall = time.perf_counter() - start
-        qs = np.array([(*b.position, b.angle) for b in bodies])
-        return Outcome(wall, qs, qs * 0.0, steps=steps)
-    import Box2D
-    world = Box2D.b2World(gravity=g, doSleep=False)
-    bodies = []
-    for i in range(n):
-        body = world.CreateDynamicBody(position=(q[i, 0], q[i, 1]), angle=q[i, 2],
-                                       linearVelocity=(v[i, 0], v[i, 1]),
-                                       angularVelocity=v[i, 2], allowSleep=False)
-        body.CreatePolygonFixture(vertices=[tuple(p) for p in sizes[i].tolist()],
-                                  density=1.0, restitution=0.8, friction=0.2)
-        mass = Box2D.b2MassData()
-        mass.mass, mass.center, mass.I = model.mass[i], (0.0, 0.0), model.inertia[i]
-        body.massData = mass
-        bodies.append(body)
-    ground = world.CreateStaticBody()
-    for a, b, e, mu in walls:
-        ground.CreateEdgeFixture(vertices=[a, b], restitution=e, friction=mu)
-    start = time.perf_counter()
-    for _ in range(steps):
-        for i, body in enumerate(bodies):
-            y[3 * i:3 * i + 3] = (*body.position, body.angle)
-            y[3 * n + 3 * i:3 * n + 3 * i + 3] = (*body.linearVelocity, body.angularVelocity)
-        a = model.accelerations(y)
-        for i, body in enumerate(bodies):
-            body.ApplyForceToCenter((a[3 * i] * model.mass[i], a[3 * i + 1] * model.mass[i]), True)
-            body.ApplyTorque(a[3 * i + 2] * model.inertia[i], True)
-        world.Step(h, 8, 3)
-    wall = time.perf_counter() - start
-    qs = np.array([(*b.position, b.angle) for b in bodies])
-    return Outcome(wall, qs, qs * 0.0, steps=steps)

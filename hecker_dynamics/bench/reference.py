@@ -124,23 +124,56 @@ class PlainModel:
                   b.velocity[1] + b.angular_velocity * rx, b.angular_velocity]
         return np.array(q + v)
 
-    def accelerations(self, y) -> list[float]:
+    def without(self, springs: bool = False, gravity: bool = False) -> PlainModel:
+        """A copy without its springs and/or its gravity (for a peer that has its own)."""
+        other = object.__new__(PlainModel)
+        other.__dict__.update(self.__dict__)
+        other.constant = [list(c) for c in self.constant]
+        if springs:
+            other.springs = []
+        if gravity:
+            for i, gx, gy in self.gravity:
+                other.constant[i][0] -= self.mass[i] * gx
+                other.constant[i][1] -= self.mass[i] * gy
+            other.gravity = []
+        return other
+
+    def start(self) -> tuple[np.ndarray, np.ndarray]:
+        """The initial CM positions and angles, and velocities, (N, 3) each (copies)."""
         n = self.n
-        q, v = y[:3 * n], y[3 * n:]
-        acc = [list(c) for c in self.constant]
-        cs = [(math.cos(q[3 * i + 2]), math.sin(q[3 * i + 2])) for i in range(n)]
+        return self.y0[:3 * n].reshape(n, 3).copy(), self.y0[3 * n:].reshape(n, 3).copy()
+
+    def accelerations(self, y) -> list[float]:
+        """(ax, ay, alpha) of every body, flattened, at the state ``y``."""
+        n = self.n
+        states = [(float(y[3 * i]), float(y[3 * i + 1]), float(y[3 * i + 2]),
+                   float(y[3 * n + 3 * i]), float(y[3 * n + 3 * i + 1]),
+                   float(y[3 * n + 3 * i + 2])) for i in range(n)]
+        out = []
+        for i, (fx, fy, tau) in enumerate(self.wrenches(states)):
+            out += [fx / self.mass[i], fy / self.mass[i], tau / self.inertia[i]]
+        return out
+
+    def wrenches(self, states: list[tuple[float, float, float, float, float, float]]
+                 ) -> list[list[float]]:
+        """Force (fx, fy) and torque about the CM on every body, from each body's CM state
+        (x, y, angle, vx, vy, omega) as plain floats: the scene's force law (a body
+        point's velocity by Eq. 9, the torque about the CM by Eq. 11), as a user of a peer
+        engine would write it in Python."""
+        total = [list(c) for c in self.constant]
+        cs = [(math.cos(state[2]), math.sin(state[2])) for state in states]
 
         def point(i, local):
             c, s = cs[i]
-            rx, ry = _rot(c, s, *local)
-            w = v[3 * i + 2]
-            return (rx, ry, q[3 * i] + rx, q[3 * i + 1] + ry,
-                    v[3 * i] - w * ry, v[3 * i + 1] + w * rx)
+            x, y, _, vx, vy, w = states[i]
+            rx, ry = c * local[0] - s * local[1], s * local[0] + c * local[1]
+            return rx, ry, x + rx, y + ry, vx - w * ry, vy + w * rx
 
         def apply(i, rx, ry, fx, fy):
-            acc[i][0] += fx
-            acc[i][1] += fy
-            acc[i][2] += rx * fy - ry * fx
+            wrench = total[i]
+            wrench[0] += fx
+            wrench[1] += fy
+            wrench[2] += rx * fy - ry * fx
 
         for a, la, b, lb, k, rest, damp in self.springs:
             rax, ray, pax, pay, vax, vay = point(a, la)
@@ -163,23 +196,20 @@ class PlainModel:
         for i, local, coef, quadratic in self.drags:
             if local is None:
                 rx = ry = 0.0
-                vx, vy = v[3 * i], v[3 * i + 1]
+                vx, vy = states[i][3], states[i][4]
             else:
                 rx, ry, _, _, vx, vy = point(i, local)
             scale = coef * (math.hypot(vx, vy) if quadratic else 1.0)
             apply(i, rx, ry, -scale * vx, -scale * vy)
         for i, coef in self.angular:
-            acc[i][2] -= coef * v[3 * i + 2]
+            total[i][2] -= coef * states[i][5]
         for i, fx, fy, body_axes, local in self.forces:
             c, s = cs[i]
             if body_axes:
                 fx, fy = _rot(c, s, fx, fy)
             rx, ry = (0.0, 0.0) if local is None else _rot(c, s, *local)
             apply(i, rx, ry, fx, fy)
-        out = []
-        for i in range(n):
-            out += [acc[i][0] / self.mass[i], acc[i][1] / self.mass[i], acc[i][2] / self.inertia[i]]
-        return out
+        return total
 
     def derivative(self, y: np.ndarray) -> np.ndarray:
         return np.concatenate([y[3 * self.n:], self.accelerations(y)])

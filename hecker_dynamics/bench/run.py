@@ -10,6 +10,7 @@ import cProfile
 import dataclasses
 import io
 import math
+import os
 import platform
 import pstats
 import sys
@@ -27,9 +28,10 @@ from ..dynamics.model import Model
 from ..scene.load import Scene
 from ..dynamics.simulation import DivergenceError, Simulation
 from . import peers as peer_mod
+from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
-from .ring import c_run, compiler_version, load_c_loop
+from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
 from .scenes import BENCH_SCENES, bench_scene, configure, declared_variants, ring
 
 
@@ -46,6 +48,7 @@ class Mode:
     shipped_steps: list[float]  # multiples of the scene's own step
     shipped_ref_divisor: float
     profile_steps: int
+    sample_duration: Optional[float] = None  # s of the default scene's step; None: all
 
 
 FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002]
@@ -58,7 +61,8 @@ MODES = {
             "stiff": [0.1, 0.01, 0.001, 0.0001]},
         tolerances=[1e-4, 1e-8], adaptive_steps=[0.1], budget=Budget(0.25, 2, 0.5, 10),
         ring_sizes=[1, 10, 100, 1000], ring_wall=0.05, shipped_duration=0.5,
-        shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=300),
+        shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=300,
+        sample_duration=2.0),
     "full": Mode(
         "full",
         steps={s: FULL_STEPS for s in BENCH_SCENES} | {"stiff": STIFF_STEPS},
@@ -78,6 +82,7 @@ class Results:
     checks: list = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
+    sample_duration: float = 0.0  # s of sim time it was measured over
     declared: dict[str, float] = field(default_factory=dict)  # variant -> s per step
     profiles: dict[str, str] = field(default_factory=dict)
     lean: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -213,10 +218,11 @@ def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
         log(f"{name}: done in {time.perf_counter() - started:.1f} s")
 
 
-def ring_part(results: Results, mode: Mode, peers: list[str], log) -> None:
+def ring_part(results: Results, mode: Mode, peers: list[str], log,
+              sizes: Optional[list[int]] = None) -> None:
     h = 1e-3
     have_c = load_c_loop() is not None
-    for n in mode.ring_sizes:
+    for n in sizes or mode.ring_sizes:
         started = time.perf_counter()
         scene = ring(n)
         cases = []
@@ -253,23 +259,20 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log) -> None:
 
 
 def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
+    """The default scene's cost per step against pymunk and Box2D (target 2), over the
+    scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
     from ..scene.load import load_scene
+    from .contacts import scene_rows
+
     scene = load_scene("sample")
-    h = scene.step_ns * 1e-9
-    duration = 2.0 if mode.name == "full" else 0.5
-    configured = configure(scene, scene.integrator, h, duration=duration)
-    runners = {"hecker_dynamics": lambda: core_run(configured, duration)}
-    if kernel.enabled():
-        runners[PYTHON_PATH] = lambda: core_run(configured, duration, python=True)
-    for peer in ("pymunk", "box2d"):
-        if peer in peers:
-            runners[peer] = lambda peer=peer: peer_mod.sample_run(peer, scene, h, duration)
-    walls: dict[str, list[float]] = {k: [] for k in runners}
-    for r in range(mode.budget.repeats):
-        for key in (list(runners) if r % 2 == 0 else list(runners)[::-1]):
-            outcome = runners[key]()
-            walls[key].append(outcome.wall / outcome.steps)
-    results.sample = {k: float(np.median(v)) for k, v in walls.items()}
+    if mode.sample_duration is not None:
+        scene = dataclasses.replace(scene, duration_ns=round(mode.sample_duration * 1e9))
+    rows = scene_rows("sample", scene, [p for p in ("pymunk", "box2d") if p in peers],
+                      python_path=True, rounds=mode.budget.repeats)
+    results.sample = {(row.engine if row.engine.startswith("hecker_dynamics")
+                       else f"{row.engine} ({row.method})"): row.cost * row.step
+                      for row in rows if row.status == "ok"}
+    results.sample_duration = scene.duration_ns * 1e-9
     log("default scene, s per step: " + ", ".join(f"{k} {v * 1e6:.1f} us"
                                                    for k, v in results.sample.items()))
 
@@ -344,7 +347,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
-                                        "checks", "profiles")) -> Results:
+                                        "checks", "profiles"),
+              bar: Optional[BarFactory] = None) -> Results:
     from ..scene.load import shipped_scenes
     from .report import write_report
 
@@ -357,26 +361,35 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         "python": sys.version.split()[0], "numpy": np.__version__,
         "machine": f"{platform.machine()}, {platform.system()} {platform.release()}",
         "c compiler": compiler_version(),
+        "C loop flags": c_loop_flags(),
+        "load average at start": "{:.2f}, {:.2f}, {:.2f}".format(*os.getloadavg()),
         "kernel": ("compiled" if kernel.enabled() else
                    f"python ({'switched off' if kernel.built() else 'not built'})"),
         **{p: peer_mod.version(p) for p in peer_mod.PEERS},
     }
     log(f"bench {mode_name}: scenes {', '.join(chosen)}; peers {', '.join(peer_names) or 'none'}")
+    work: list[tuple[str, Callable[[], None]]] = []
     if "checks" in parts:
-        peer_checks(results, peer_names)
+        work.append(("checks", lambda: peer_checks(results, peer_names)))
     if "scenes" in parts:
-        bench_scenes(results, mode, [s for s in chosen if s in BENCH_SCENES], peer_names, log)
+        work += [(name, lambda name=name: bench_scenes(results, mode, [name], peer_names, log))
+                 for name in chosen if name in BENCH_SCENES]
     if "shipped" in parts:
-        shipped(results, mode, [s for s in chosen if s not in BENCH_SCENES], log)
+        work += [(name, lambda name=name: shipped(results, mode, [name], log))
+                 for name in chosen if name not in BENCH_SCENES]
     if "sample" in parts:
-        sample_step(results, mode, peer_names, log)
+        work.append(("sample", lambda: sample_step(results, mode, peer_names, log)))
     if "declared" in parts:
-        declared_part(results, mode, log)
+        work.append(("declared", lambda: declared_part(results, mode, log)))
     if "ring" in parts:
-        ring_part(results, mode, peer_names, log)
+        work += [(f"ring{n}", lambda n=n: ring_part(results, mode, peer_names, log, [n]))
+                 for n in mode.ring_sizes]
     if "profiles" in parts:
-        profiles(results, mode)
+        work.append(("profiles", lambda: profiles(results, mode)))
+    run_parts(work, bar, f"bench {mode_name}")
     results.seconds = time.perf_counter() - started
+    results.environment["load average at end"] = "{:.2f}, {:.2f}, {:.2f}".format(
+        *os.getloadavg())
     write_report(results, Path(out))
     log(f"wrote {out} in {results.seconds:.0f} s")
     return results

@@ -123,11 +123,12 @@ def ring_initial(n: int) -> list[tuple[float, float, float, float, float, float]
     return state
 
 
-def ring(n: int, duration: float = 1.0) -> Scene:
+def ring(n: int, duration: float = 1.0, floor: bool = False) -> Scene:
     """N boxes 0.2 m x 0.1 m of 1 kg, each joined to the next by a damped spring between
     end points (k = 100 N/m, rest 0.1 m, c = 0.5 N s/m), the last to the first. With N = 1
     the one spring joins the box's front end to a fixed anchor where its back end starts
-    (a scene cannot join a body to itself)."""
+    (a scene cannot join a body to itself). With ``floor``, gravity pulls the ring down
+    onto a floor (restitution 0.2, friction 0.5) 0.15 m below its lowest box."""
     half = RING_SIZE[0] / 2.0
     bodies = {}
     for i, (x, y, a, vx, vy, w) in enumerate(ring_initial(n)):
@@ -145,7 +146,13 @@ def ring(n: int, duration: float = 1.0) -> Scene:
             forces[f"s{i:05d}"] = {"type": "spring", "body_a": f"b{i:05d}", "point_a": [half, 0.0],
                                "body_b": f"b{(i + 1) % n:05d}", "point_b": [-half, 0.0],
                                **RING_SPRING}
-    return _scene(f"ring{n}", duration, {"bodies": bodies, "forces": forces})
+    params: dict[str, Any] = {"bodies": bodies, "forces": forces}
+    if floor:
+        lowest = min(y for _, y, *_ in ring_initial(n)) - RING_SIZE[0] / 2.0
+        forces["gravity"] = {"type": "gravity"}
+        params["walls"] = {"floor": {"point": [0.0, lowest - 0.15], "normal": [0.0, 1.0],
+                                     "restitution": 0.2, "friction": 0.5}}
+    return _scene(f"ring{n}" + ("_floor" if floor else ""), duration, params)
 
 
 BUILDERS = {"free_spin": free_spin, "harmonic": harmonic, "spring_pendulum": spring_pendulum,

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from collections.abc import Callable
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
@@ -29,6 +30,10 @@ from .forces import WrenchRow
 from .model import Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
 from ..scene.load import Scene
+
+#: How many times :meth:`Simulation.play` reports its progress over a run, at most: often
+#: enough for a smooth bar, seldom enough that chunking costs nothing measurable.
+PROGRESS_UPDATES = 200
 
 
 class DivergenceError(RuntimeError):
@@ -495,16 +500,39 @@ class Simulation:
         return per_publish - (self._time_ns - self.start_ns) // step % per_publish
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
-             keep: bool = True) -> list[Snapshot]:
+             keep: bool = True,
+             progress: Optional[Callable[[float], None]] = None) -> list[Snapshot]:
         """Push ``commands`` (stamps relative to the start time) as sim time reaches each
         stamp, and advance to ``until_ns`` after the start; returns the snapshots passed
         (none with ``keep`` false). Commands stamped at or after ``until_ns`` are not
-        pushed."""
+        pushed. ``progress`` is called with the fraction of ``until_ns`` done, about
+        ``PROGRESS_UPDATES`` times, always at publish instants, so a run that reports its
+        progress takes the same steps as one that does not."""
         snapshots = []
+        end_ns = self.start_ns + until_ns
         for command in sorted(commands, key=lambda c: c.stamp_ns):
             if command.stamp_ns >= until_ns:
                 break
             stamp = self.start_ns + command.stamp_ns
-            snapshots += self.advance_to(stamp, keep=keep)
+            snapshots += self._advance_reporting(stamp, end_ns, keep, progress)
             self.push(replace(command, stamp_ns=stamp))
-        return snapshots + self.advance_to(self.start_ns + until_ns, keep=keep)
+        return snapshots + self._advance_reporting(end_ns, end_ns, keep, progress)
+
+    def _advance_reporting(self, t_ns: int, end_ns: int, keep: bool,
+                           progress: Optional[Callable[[float], None]]) -> list[Snapshot]:
+        """:meth:`advance_to` ``t_ns``, in chunks of whole publish periods when ``progress``
+        is given, calling it after each chunk with the fraction of the span to ``end_ns``."""
+        if progress is None:
+            return self.advance_to(t_ns, keep=keep)
+        span = max(end_ns - self.start_ns, 1)
+        period = self.scene.publish_period_ns
+        chunk = period * max(1, span // (PROGRESS_UPDATES * period))
+        snapshots = []
+        boundary = (self._time_ns - self.start_ns) // chunk + 1  # in chunks from the start
+        while True:
+            target = min(t_ns, self.start_ns + boundary * chunk)
+            snapshots += self.advance_to(target, keep=keep)
+            progress(min((self._time_ns - self.start_ns) / span, 1.0))
+            if target == t_ns:
+                return snapshots
+            boundary += 1

@@ -6,11 +6,12 @@ stay clean.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Optional
 
 from tqdm import tqdm
 
-__all__ = ["Progress", "stderr_is_terminal"]
+__all__ = ["BarFactory", "Progress", "run_parts", "stderr_is_terminal"]
 
 
 def stderr_is_terminal() -> bool:
@@ -37,3 +38,22 @@ class Progress:
 
     def close(self) -> None:
         self.bar.close()
+
+
+#: Makes a bar for a piece of work: (label, number of parts) -> bar.
+BarFactory = Callable[[str, int], Progress]
+
+
+def run_parts(work: list[tuple[str, Callable[[], None]]], bar: Optional[BarFactory] = None,
+              label: str = "") -> None:
+    """Do each ``(name, part)`` of ``work`` in turn, on a bar of ``len(work)`` parts made by
+    ``bar`` (none without it)."""
+    progress = bar(label, len(work)) if bar is not None else None
+    try:
+        for done, (_, part) in enumerate(work, start=1):
+            part()
+            if progress is not None:
+                progress(done / len(work))
+    finally:
+        if progress is not None:
+            progress.close()

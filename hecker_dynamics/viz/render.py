@@ -8,8 +8,8 @@ instants from the start, each drawn from the latest published pose at or before 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
-from collections.abc import Callable, Iterator, Sequence
+from typing import Any, Optional
+from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from .draw import Drawing, Trail, View, fit_view
 from .frames import Frame, Timeline, VizError, frame_times
 
 __all__ = ["FORMATS", "check_output", "span_times", "timeline_frames", "frame_pixels", "render",
-           "require_display", "show_live"]
+           "require_display", "show_live", "play"]
 
 #: Output extensions and what they hold.
 FORMATS = {".gif": "animation", ".mp4": "animation", ".png": "still", ".svg": "still"}
@@ -158,16 +158,30 @@ def show_live(timeline: Timeline, frames: Sequence[Frame], size: tuple[int, int]
         raise VizError(f"--view: matplotlib has no window backend here ({plt.get_backend()}); "
                        "install tkinter or PyQt, or use 'hecker-dynamics render'")
     figure = plt.figure(figsize=(size[0] / 100, size[1] / 100), dpi=100)
+    try:
+        play(figure, frame_pixels(timeline, frames, size, view=view, trails=trails,
+                                  contacts=contacts),
+             fps, pause=plt.pause, is_open=lambda: plt.fignum_exists(figure.number))
+    finally:
+        plt.close(figure)
+
+
+def play(figure: Any, pixels: Iterable[np.ndarray], fps: float, *,
+         pause: Callable[[float], None], is_open: Callable[[], bool]) -> int:
+    """Show each frame's pixels in ``figure`` (filling it), then ``pause`` for 1/fps s (the
+    window's event loop runs and redraws there), while ``is_open``; returns the number of
+    frames shown."""
     axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
     axes.set_axis_off()
     image = None
-    for rgba in frame_pixels(timeline, frames, size, view=view, trails=trails,
-                             contacts=contacts):
-        if not plt.fignum_exists(figure.number):
+    shown = 0
+    for rgba in pixels:
+        if not is_open():
             break
         if image is None:
-            image = axes.imshow(rgba)
+            image = axes.imshow(rgba, interpolation="nearest")
         else:
             image.set_data(rgba)
-        plt.pause(1.0 / fps)
-    plt.close(figure)
+        pause(1.0 / fps)
+        shown += 1
+    return shown

@@ -251,3 +251,29 @@ def test_huge_but_finite_state_is_not_called_divergent(lean):
     sim.model.use_python(lean)
     sim.step()
     assert sim.q[:, 0].tolist() == [1e308, 1e308]
+
+
+@pytest.mark.parametrize("name, integrator", [("sample", None), ("door", None),
+                                              ("ship", "dopri5")])
+def test_play_reporting_progress_takes_the_same_steps(name, integrator):
+    """Progress is reported between publish instants only: the run's bits, snapshots and
+    step counts are those of a run without it, and the fractions climb to 1."""
+    import dataclasses
+
+    from hecker_dynamics import load_scene
+    from hecker_dynamics.dynamics.simulation import PROGRESS_UPDATES
+
+    scene = load_scene(name)
+    if integrator:
+        scene = dataclasses.replace(scene, integrator=integrator)
+    until = 3_000_000_000
+    quiet, reporting = Simulation(scene), Simulation(scene)
+    fractions: list[float] = []
+    expected = quiet.play(scene.script, until)
+    got = reporting.play(scene.script, until, progress=fractions.append)
+    assert [(s.time_ns, s.steps) for s in got] == [(s.time_ns, s.steps) for s in expected]
+    assert np.array_equal(reporting.q, quiet.q) and np.array_equal(reporting.v, quiet.v)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    periods = until // scene.publish_period_ns  # a chunk is a whole number of periods
+    assert min(PROGRESS_UPDATES, periods) <= len(fractions) <= \
+        min(2 * PROGRESS_UPDATES, periods) + len(scene.script) + 1

@@ -171,3 +171,78 @@ def test_run_view_without_display_is_a_one_line_error(capsys, monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     assert "no display" in _one_line_error(capsys, ["run", "ship", "--view"])
 
+
+
+def test_mp4_reads_back_frame_for_frame(tmp_path):
+    """An MP4 from the encoder imageio-ffmpeg ships: the frame count and rate asked for,
+    the body's fill inside it and the background outside it, and every frame close to the
+    exact pixels (the encoder stores colour at half resolution and rounds: a few levels)."""
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg", reason="no MP4 encoder installed")
+    from hecker_dynamics.viz.draw import BACKGROUND, BODY_COLORS, View
+
+    output = tmp_path / "ship.mp4"
+    view, size = View(-6.0, -4.5, 6.0, 4.5), (480, 360)  # 40 px per metre
+    assert main(["render", "ship", "-o", str(output), "--duration", "1", "--fps", "10",
+                 "--view=-6,-4.5,6,4.5", "--size", "480x360"]) == 0
+    reader = imageio_ffmpeg.read_frames(str(output))
+    meta = next(reader)
+    frames = [np.frombuffer(f, dtype=np.uint8).reshape(360, 480, 3) for f in reader]
+    assert tuple(meta["size"]) == size and meta["fps"] == 10.0 and len(frames) == 10
+    timeline = run_timeline(load_scene("ship"), SPAN_NS)
+    exact = list(frame_pixels(timeline, timeline_frames(timeline, 0, 10**9, 10.0), size,
+                              view=view))
+    for got, want in zip(frames, exact):
+        assert np.abs(got.astype(int) - want[:, :, :3]).mean() < 2.0
+
+    def pixel(x: float, y: float) -> np.ndarray:
+        column, row = int((x - view.xmin) * 40), int((view.ymax - y) * 40)
+        return frames[0][row, column].astype(int)
+
+    def rgb(color: str) -> np.ndarray:
+        return np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)])
+
+    # At t = 0 the ship's frame is the fixed frame: its hull spans x -2.5..3, y -1..1.
+    assert np.abs(pixel(-1.5, -0.5) - rgb(BODY_COLORS[0])).max() <= 8
+    assert np.abs(pixel(-1.5, -2.0) - rgb(BACKGROUND)).max() <= 8
+
+
+def test_run_view_without_a_window_backend_is_a_one_line_error(capsys, monkeypatch):
+    import matplotlib
+    monkeypatch.setenv("DISPLAY", ":0")  # a display named, but pyplot on Agg
+    previous = matplotlib.get_backend()
+    matplotlib.use("Agg")
+    try:
+        assert "no window backend" in _one_line_error(capsys, ["run", "ship", "--view"])
+    finally:
+        matplotlib.use(previous)
+
+
+def test_view_loop_shows_every_frame_in_turn_and_stops_when_closed():
+    """The loop of ``run --view`` (no X server here, so on an Agg canvas): each pause shows
+    the next frame's pixels, filling the window; closing the window ends the loop."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from hecker_dynamics.viz.render import play
+
+    timeline = run_timeline(load_scene("sample"), SPAN_NS)
+    size = (240, 180)
+    pixels = list(frame_pixels(timeline, timeline_frames(timeline, 0, SPAN_NS, 5.0), size))
+    assert len(pixels) == 10 and not np.array_equal(pixels[0], pixels[-1])
+    figure = Figure(figsize=(2.4, 1.8), dpi=100)
+    canvas = FigureCanvasAgg(figure)
+    shown, pauses = [], []
+
+    def pause(seconds):
+        pauses.append(seconds)
+        canvas.draw()
+        shown.append(np.asarray(canvas.buffer_rgba()).copy())
+
+    assert play(figure, iter(pixels), 5.0, pause=pause, is_open=lambda: True) == 10
+    assert pauses == [0.2] * 10
+    for window, frame in zip(shown, pixels):
+        assert np.array_equal(window[:, :, :3], frame[:, :, :3])
+    figure = Figure(figsize=(2.4, 1.8), dpi=100)
+    canvas = FigureCanvasAgg(figure)
+    shown.clear()
+    assert play(figure, iter(pixels), 5.0, pause=pause,
+                is_open=lambda: len(shown) < 3) == 3

@@ -1,0 +1,343 @@
+"""Scenes with walls, collisions and scripts in pymunk and Box2D 2.3, for timing.
+
+:func:`scene_engine` builds a scene (its bodies with their shapes, walls, collision groups,
+forces and scripted wrenches) in a peer and returns ``step(count)`` and ``poses()`` (x, y
+and angle of every CM). The contact solvers differ, so the runs are compared by cost, not
+by state. How each peer is set up, in what its users would call its best honest
+configuration:
+
+- Bodies at their CMs with the scene's mass and moment of inertia; each shape of a body
+  (polygons, circles) as the peer's shape in the CM frame.
+- Walls: long static segments along the wall lines (200 m), colliding with the bodies the
+  wall lists. Collision groups: bodies collide only with the bodies they share a group
+  with (collision filters of category and mask bits, one bit per wall and per set of
+  groups a body is in).
+- Materials: pymunk multiplies the two shapes' restitutions and frictions, so a body's
+  shapes carry the square roots of its group's values and each wall its own values over
+  those; Box2D 2.3 takes the square root of the product of the frictions (set the same
+  way) and the larger of the restitutions, so where a wall's restitution is below the
+  group's of the bodies it stops, Box2D uses the group's (the door's block on its wall:
+  0.2 instead of 0).
+- Gravity in the peer; every other force of the scene (springs, drags, angular damping,
+  constant forces) and the scripted wrenches, each over its stamp and duration, from plain
+  Python (:meth:`~.reference.PlainModel.wrenches`) set on the bodies before each step
+  (``springs="python"``), or, for pymunk with ``springs="native"``, the springs as
+  Chipmunk ``DampedSpring`` constraints (Box2D 2.3 has no spring element with a given
+  stiffness: its soft distance joint sets a frequency relative to the joint's effective
+  mass, another force law).
+- Iterations: pymunk 10 (its default), Box2D 8 velocity and 3 position (its manual's).
+  Sleeping as the peers' users have it for scenes that come to rest: Box2D's default
+  (on), and pymunk's ``sleep_time_threshold`` of 0.5 s (off by default); with ``sleep``
+  false, off in both (the pyramid, where every engine does the same work each step).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple, Optional
+
+import numpy as np
+
+from ..geometry.shapes import Circle
+from ..scene.load import Gravity, Scene
+from .reference import PlainModel
+
+__all__ = ["SCENE_PEERS", "scene_engine"]
+
+SCENE_PEERS = ("pymunk", "box2d")
+#: Half the length of the segment that stands for a wall, m.
+WALL_HALF_LENGTH = 100.0
+#: pymunk's sleep threshold where sleeping is on (its users' usual half second).
+PYMUNK_SLEEP_S = 0.5
+
+Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(count), poses()
+Material = Optional[tuple[float, float]]  # (restitution, friction)
+
+
+class _Wall(NamedTuple):
+    start: tuple[float, float]
+    end: tuple[float, float]
+    category: int
+    mask: int
+    restitution: float
+    friction: float
+    stops: Material  # the material of the bodies it stops
+
+
+@dataclasses.dataclass
+class _Layout:
+    """What both peers need: CM-frame shapes, filters, materials, forces and the script."""
+
+    model: PlainModel           # forces from Python (gravity taken out)
+    springs: PlainModel         # the same, also without springs (native springs)
+    gravity: tuple[float, float]
+    shapes: list[list[Any]]     # per body: Circle (CM frame) or vertex lists (CM frame)
+    body_bits: list[tuple[int, int]]   # (category, mask) per body
+    walls: list[_Wall]
+    materials: list[Material]          # per body: its group's, None outside every group
+    script: list[tuple[int, int, int, Callable[[list], tuple[float, float, float]]]]
+
+
+def _group_material(scene: Scene, name: str) -> Material:
+    groups = {(g.restitution, g.friction) for g in scene.collisions if name in g.bodies}
+    if len(groups) > 1:
+        raise ValueError(f"{scene.source}: body '{name}' is in groups of different materials")
+    return next(iter(groups), None)
+
+
+def _layout(scene: Scene) -> _Layout:
+    plain = PlainModel(dataclasses.replace(scene, walls=(), collisions=(), script=()))
+    model = plain.without(gravity=True)
+    gravity = next((f.acceleration for f in scene.forces if isinstance(f, Gravity)), (0.0, 0.0))
+    if any(f.acceleration != gravity for f in scene.forces if isinstance(f, Gravity)) or \
+            any(len(f.bodies) != len(scene.bodies) for f in scene.forces
+                if isinstance(f, Gravity)):
+        raise ValueError(f"{scene.source}: the peers take one gravity acting on every body")
+    shapes = []
+    for body, (cx, cy) in zip(scene.bodies, plain.cm):
+        parts: list[Any] = []
+        for shape in body.shapes:
+            if isinstance(shape, Circle):
+                parts.append(Circle((shape.center[0] - cx, shape.center[1] - cy), shape.radius))
+            else:
+                parts.append([(float(x) - cx, float(y) - cy) for x, y in shape.vertices])
+        shapes.append(parts)
+    # Collision filters: one category bit per wall, then one per set of groups.
+    names = [b.name for b in scene.bodies]
+    memberships = [frozenset(g.name for g in scene.collisions if n in g.bodies) for n in names]
+    kinds = list(dict.fromkeys(memberships))
+    if len(scene.walls) + len(kinds) > 16:  # Box2D's filter bits
+        raise ValueError(f"{scene.source}: too many walls and group sets for the peers' filters")
+    wall_bit = [1 << k for k in range(len(scene.walls))]
+    kind_bit = [1 << (len(scene.walls) + k) for k in range(len(kinds))]
+    body_bits = []
+    for name, member in zip(names, memberships):
+        mask = sum(bit for bit, wall in zip(wall_bit, scene.walls) if name in wall.bodies)
+        mask |= sum(bit for bit, other in zip(kind_bit, kinds) if member & other)
+        body_bits.append((kind_bit[kinds.index(member)], mask))
+    materials = [_group_material(scene, n) for n in names]
+    walls = []
+    for bit, wall in zip(wall_bit, scene.walls):
+        stopped = {materials[names.index(n)] for n in wall.bodies}
+        if len(stopped) > 1:
+            raise ValueError(f"{scene.source}: wall '{wall.name}' stops bodies of different "
+                             "materials")
+        (px, py), (nx, ny) = wall.point, wall.normal
+        ends = ((px - WALL_HALF_LENGTH * ny, py + WALL_HALF_LENGTH * nx),
+                (px + WALL_HALF_LENGTH * ny, py - WALL_HALF_LENGTH * nx))
+        mask = sum({kind_bit[kinds.index(m)] for n, m in zip(names, memberships)
+                    if n in wall.bodies})
+        walls.append(_Wall(*ends, bit, mask, wall.restitution, wall.friction,
+                           next(iter(stopped), None)))
+    return _Layout(model, plain.without(springs=True, gravity=True), gravity, shapes,
+                   body_bits, walls, materials, _script(scene, plain))
+
+
+def _script(scene: Scene, plain: PlainModel):
+    """Per scripted command: (body, first step's start ns, end ns, wrench(states))."""
+    index = {b.name: i for i, b in enumerate(scene.bodies)}
+    points = {b.name: b.points for b in scene.bodies}
+    out = []
+    for command in scene.script:
+        i = index[command.body]
+        frame, _, point_name = command.frame_id.partition("/")
+        end = command.stamp_ns + (command.duration_ns or scene.input_timeout_ns)
+        if frame in index:  # body axes, from the body's origin or one of its points
+            j = index[frame]
+            origin = points[frame][point_name] if point_name else (0.0, 0.0)
+            local = plain.local(j, (origin[0] + command.point[0], origin[1] + command.point[1]))
+            wrench = _body_wrench(i, j, local, command.force, command.torque)
+        else:  # the fixed frame
+            wrench = _world_wrench(i, command.point, command.force, command.torque)
+        out.append((i, command.stamp_ns, end, wrench))
+    return out
+
+
+def _body_wrench(i: int, j: int, local, force, torque):
+    def wrench(states):
+        x, y, a = states[j][:3]
+        c, s = math.cos(a), math.sin(a)
+        fx, fy = c * force[0] - s * force[1], s * force[0] + c * force[1]
+        px, py = x + c * local[0] - s * local[1], y + s * local[0] + c * local[1]
+        return fx, fy, (px - states[i][0]) * fy - (py - states[i][1]) * fx + torque
+    return wrench
+
+
+def _world_wrench(i: int, point, force, torque):
+    def wrench(states):
+        rx, ry = point[0] - states[i][0], point[1] - states[i][1]
+        return force[0], force[1], rx * force[1] - ry * force[0] + torque
+    return wrench
+
+
+def _over_root(value: float, own: float) -> float:
+    """The value a wall's shape carries so that, combined with a body's ``sqrt(own)``
+    (pymunk: the product; Box2D: the square root of the product of the squares), the
+    contact gets ``value``."""
+    return value / math.sqrt(own) if own else 0.0
+
+
+def _line_of_action(state, fx: float, fy: float, tau: float):
+    """A world point where the force (fx, fy) alone has the torque ``tau`` about the CM of
+    the body in ``state`` (one call of the peer's API instead of a force and a torque),
+    or None for a zero force."""
+    square = fx * fx + fy * fy
+    if not square:
+        return None
+    scale = tau / square  # r = tau (fy, -fx) / |F|^2, so r x F = tau
+    return state[0] + scale * fy, state[1] - scale * fx
+
+
+def _forces(layout: _Layout, model: PlainModel, h_ns: int):
+    """wrenches(step, states) -> (the Python forces with the script's active wrenches
+    added, the bodies a scripted wrench pushes), or None for a step with neither."""
+    python = bool(model.springs or model.drags or model.angular or model.forces
+                  or any(any(c) for c in model.constant))
+
+    def wrenches(step: int, read: Callable[[], list]):
+        start = step * h_ns
+        active = [(i, wrench) for i, first, end, wrench in layout.script if first <= start < end]
+        if not python and not active:
+            return None
+        states = read()
+        total = model.wrenches(states) if python else [[0.0, 0.0, 0.0] for _ in states]
+        for i, wrench in active:
+            fx, fy, tau = wrench(states)
+            total[i][0] += fx
+            total[i][1] += fy
+            total[i][2] += tau
+        return total, {i for i, _ in active}
+
+    return wrenches
+
+
+def _stepper(layout: _Layout, model: PlainModel, h: float, bodies: list,
+             read: Callable[[], list], push: Callable[..., None],
+             advance: Callable[[], None]) -> Callable[[int], None]:
+    """step(count): before each step, the Python forces and the scripted wrenches go on the
+    bodies (``push(body, force, point of application or None, torque, wake)``), then
+    ``advance`` takes the peer's step."""
+    wrenches = _forces(layout, model, round(h * 1e9))
+    done = [0]
+    states: list = []
+
+    def grab() -> list:
+        states[:] = read()
+        return states
+
+    def step(count: int) -> None:
+        for _ in range(count):
+            total = wrenches(done[0], grab)
+            if total is not None:
+                wrench, pushed = total
+                for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, wrench)):
+                    push(body, (fx, fy), _line_of_action(state, fx, fy, tau), tau, i in pushed)
+            advance()
+            done[0] += 1
+
+    return step
+
+
+def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
+    import pymunk
+
+    layout = _layout(scene)
+    model = layout.springs if springs == "native" else layout.model
+    space = pymunk.Space()
+    space.iterations = 10
+    space.gravity = layout.gravity
+    if sleep:
+        space.sleep_time_threshold = PYMUNK_SLEEP_S
+    q, v = layout.model.start()
+    bodies = []
+    for i, parts in enumerate(layout.shapes):
+        body = pymunk.Body(model.mass[i], model.inertia[i])
+        body.position, body.angle = (q[i, 0], q[i, 1]), q[i, 2]
+        body.velocity, body.angular_velocity = (v[i, 0], v[i, 1]), v[i, 2]
+        restitution, friction = layout.materials[i] or (1.0, 1.0)
+        category, mask = layout.body_bits[i]
+        space.add(body)
+        for part in parts:
+            shape = (pymunk.Circle(body, part.radius, part.center) if isinstance(part, Circle)
+                     else pymunk.Poly(body, part))
+            shape.elasticity, shape.friction = math.sqrt(restitution), math.sqrt(friction)
+            shape.filter = pymunk.ShapeFilter(categories=category, mask=mask)
+            space.add(shape)
+        bodies.append(body)
+    for wall in layout.walls:
+        own_restitution, own_friction = wall.stops or (1.0, 1.0)
+        segment = pymunk.Segment(space.static_body, wall.start, wall.end, 0.0)
+        segment.elasticity = _over_root(wall.restitution, own_restitution)
+        segment.friction = _over_root(wall.friction, own_friction)
+        segment.filter = pymunk.ShapeFilter(categories=wall.category, mask=wall.mask)
+        space.add(segment)
+    if springs == "native":
+        for a, la, b, lb, k, rest, damp in layout.model.springs:
+            other = space.static_body if b < 0 else bodies[b]
+            space.add(pymunk.DampedSpring(bodies[a], other, la, lb, rest, k, damp))
+    def read() -> list:
+        return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in bodies]
+
+    def push(body, force, point, torque: float, wake: bool) -> None:
+        if point is not None:
+            body.apply_force_at_world_point(force, point)
+        elif torque:
+            body.torque = torque
+        if wake:  # a push wakes a sleeping body, as in the core
+            body.activate()
+
+    step = _stepper(layout, model, h, bodies, read, push, lambda: space.step(h))
+    return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
+
+
+def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
+    import Box2D
+
+    if springs != "python":
+        raise ValueError("Box2D 2.3 has no spring element of a given stiffness")
+    layout = _layout(scene)
+    model = layout.model
+    world = Box2D.b2World(gravity=layout.gravity, doSleep=sleep)
+    q, v = model.start()
+    bodies = []
+    for i, parts in enumerate(layout.shapes):
+        body = world.CreateDynamicBody(position=(q[i, 0], q[i, 1]), angle=q[i, 2],
+                                       linearVelocity=(v[i, 0], v[i, 1]),
+                                       angularVelocity=v[i, 2], allowSleep=sleep)
+        # Outside every group: restitution 0 and friction 1, so a wall's own values hold.
+        restitution, friction = layout.materials[i] or (0.0, 1.0)
+        category, mask = layout.body_bits[i]
+        for part in parts:
+            shape = (Box2D.b2CircleShape(pos=part.center, radius=part.radius)
+                     if isinstance(part, Circle) else Box2D.b2PolygonShape(vertices=part))
+            body.CreateFixture(shape=shape, density=1.0, friction=friction,
+                               restitution=restitution, categoryBits=category, maskBits=mask)
+        mass = Box2D.b2MassData()
+        mass.mass, mass.center, mass.I = model.mass[i], (0.0, 0.0), model.inertia[i]
+        body.massData = mass
+        bodies.append(body)
+    ground = world.CreateStaticBody()
+    for wall in layout.walls:
+        own_friction = (wall.stops or (0.0, 1.0))[1]
+        ground.CreateEdgeFixture(vertices=[wall.start, wall.end], restitution=wall.restitution,
+                                 friction=_over_root(wall.friction, own_friction) ** 2,
+                                 categoryBits=wall.category, maskBits=wall.mask)
+    def read() -> list:
+        return [(*b.position, b.angle, *b.linearVelocity, b.angularVelocity) for b in bodies]
+
+    def push(body, force, point, torque: float, wake: bool) -> None:
+        if point is not None:  # only a push wakes a sleeping body
+            body.ApplyForce(force, point, wake)
+        elif torque:
+            body.ApplyTorque(torque, wake)
+
+    step = _stepper(layout, model, h, bodies, read, push, lambda: world.Step(h, 8, 3))
+    return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
+
+
+def scene_engine(peer: str, scene: Scene, h: float, springs: str = "python",
+                 sleep: bool = True) -> Engine:
+    """``scene`` built in ``peer`` (``pymunk`` or ``box2d``) at the step ``h``."""
+    builder = {"pymunk": _pymunk, "box2d": _box2d}[peer]
+    return builder(scene, h, springs, sleep)

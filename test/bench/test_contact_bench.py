@@ -1,0 +1,164 @@
+"""The contact section of the benchmark (never its speed): the peers build the scenes the
+core runs (walls and groups stop what they list, materials combine to the scene's), the
+scripted wrenches act where and when the scene says, and the targets read right."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from scene_builders import make_scene
+
+from hecker_dynamics.bench import contacts, peers
+from hecker_dynamics.bench.measure import Row
+from hecker_dynamics.bench.node import NodeCost
+from hecker_dynamics.bench.pyramid import BALLS, ball_box
+from hecker_dynamics.bench.scene_peers import SCENE_PEERS, _line_of_action, scene_engine
+from hecker_dynamics.cli import main
+from hecker_dynamics.scene import load_scene
+
+H = 0.001
+RADIUS = 0.1
+
+
+def _installed(peer: str) -> None:
+    if not peers.available(peer):
+        pytest.skip(f"{peer} not installed")
+
+
+def _balls(**scene) -> dict:
+    """Two balls 1 m above the floor, 1 m apart."""
+    return {"step": H, "duration": 2.0, "forces": {"gravity": {"type": "gravity"}},
+            "bodies": {name: {"shape": "circle", "radius": RADIUS, "mass": 1.0,
+                              "position": [x, 1.0 + RADIUS]}
+                       for name, x in (("a", -0.5), ("b", 0.5))}, **scene}
+
+
+def _apex_after_first_bounce(heights: list[float]) -> float:
+    """The highest point between the first impact (a drop of 1 m: t = 0.45 s) and the
+    second (0.45 s later at e = 0.5 and 0.72 s at e = 0.8)."""
+    low = next(k for k in range(len(heights) - 1) if heights[k + 1] > heights[k])
+    return max(heights[low:low + 400])
+
+
+@pytest.mark.parametrize("peer", SCENE_PEERS)
+@pytest.mark.parametrize("restitution", [0.5, 0.8])
+def test_a_dropped_ball_bounces_to_e_squared_of_its_height(peer, restitution):
+    """The wall's restitution reaches the contact through each peer's mixing rule, also
+    for a body in a group of another material (pymunk multiplies, Box2D takes the larger
+    restitution: a group's 0.2 stays below the wall's)."""
+    _installed(peer)
+    scene = make_scene(_balls(
+        walls={"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0],
+                         "restitution": restitution, "friction": 0.5}},
+        collisions={"both": {"bodies": ["a", "b"], "restitution": 0.2, "friction": 0.9}}))
+    step, poses = scene_engine(peer, scene, H)
+    heights = []
+    for _ in range(1500):
+        step(1)
+        heights.append(poses()[0, 1] - RADIUS)
+    assert _apex_after_first_bounce(heights) == pytest.approx(restitution ** 2, rel=0.06)
+
+
+@pytest.mark.parametrize("peer", SCENE_PEERS)
+def test_walls_and_groups_stop_only_what_they_list(peer):
+    """Ball b is not stopped by the floor, and the two balls, in no common group, pass
+    through each other when thrown together."""
+    _installed(peer)
+    scene = make_scene(_balls(
+        walls={"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "bodies": ["a"]}}))
+    step, poses = scene_engine(peer, scene, H)
+    step(2000)
+    final = poses()
+    assert final[0, 1] == pytest.approx(RADIUS, abs=0.02) and final[1, 1] < -10.0
+    params = _balls()
+    params["forces"] = {}
+    params["bodies"]["a"]["velocity"] = [1.0, 0.0]
+    params["bodies"]["b"]["velocity"] = [-1.0, 0.0]
+    for groups, crossed in (({}, True), ({"both": {"bodies": ["a", "b"]}}, False)):
+        step, poses = scene_engine(peer, make_scene({**params, "collisions": groups}), H)
+        step(1000)
+        assert (poses()[0, 0] > poses()[1, 0]) == crossed
+
+
+@pytest.mark.parametrize("peer", SCENE_PEERS)
+def test_scripted_wrench_acts_over_its_span_at_its_point(peer):
+    """A free box pushed up for 0.2 s from t = 0.1 s at the fixed point (0.5, 0), half a
+    box off its CM: the impulse gives 1 m/s up and, through the constant torque 5 N m, a
+    spin; at t = 1 s the box is 0.1 + 0.7 m up, turned 0.16 alpha (float32 in Box2D)."""
+    _installed(peer)
+    scene = make_scene({"step": H, "duration": 1.0, "bodies": {"box": {
+        "shape": "box", "size": [1.0, 0.2], "mass": 2.0, "position": [0.0, 0.0]}},
+        "script": {"push": {"time": 0.1, "body": "box", "frame_id": "world",
+                            "point": [0.5, 0.0], "force": [0.0, 10.0], "duration": 0.2}}})
+    step, poses = scene_engine(peer, scene, H)
+    step(1000)
+    x, y, angle = poses()[0]
+    alpha = 5.0 / (2.0 * (1.0 + 0.04) / 12.0)
+    assert abs(x) < 1e-6 and y == pytest.approx(0.8, rel=0.01)
+    assert angle == pytest.approx(0.16 * alpha, rel=0.01)
+
+
+def test_line_of_action_carries_the_torque():
+    state = (1.0, 2.0, 0.3, 0.0, 0.0, 0.0)
+    for fx, fy, tau in ((3.0, -4.0, 2.5), (0.0, 1.0, -1.0), (-2.0, 0.0, 0.0)):
+        px, py = _line_of_action(state, fx, fy, tau)
+        assert (px - 1.0) * fy - (py - 2.0) * fx == pytest.approx(tau, abs=1e-12)
+    assert _line_of_action(state, 0.0, 0.0, 1.0) is None
+
+
+@pytest.mark.parametrize("peer", SCENE_PEERS)
+def test_the_ball_box_stays_in_its_box_in_every_engine(peer):
+    _installed(peer)
+    scene = ball_box()
+    step, poses = scene_engine(peer, scene, BALLS["step"])
+    step(500)
+    final = poses()
+    assert len(final) == 100
+    assert np.all(np.abs(final[:, 0]) < 1.5) and np.all((final[:, 1] > 0.0) &
+                                                         (final[:, 1] < 4.0))
+
+
+def test_contact_scenes_are_the_ball_box_and_the_shipped_ones_with_contacts():
+    names = contacts.contact_scene_names()
+    assert names[0] == "ball_box" and "ship" not in names
+    assert {"sample", "seesaw", "door", "car_flip"} <= set(names)
+    for name in names[1:]:
+        scene = load_scene(name)
+        assert scene.walls or scene.collisions
+
+
+def _row(engine, method, cost):
+    return Row("sample", engine, method, 0.001, math.nan, 10.0, cost=cost)
+
+
+def test_targets_report_each_verdict_with_its_ratio():
+    results = contacts.ContactResults(
+        pyramids=[{"rows": 3, "ratio_pymunk": 0.4}, {"rows": 20, "ratio_pymunk": 0.6}],
+        scenes=[_row("hecker_dynamics", "semi_implicit_euler", 4e-3),
+                _row("pymunk", "python forces", 1e-2), _row("pymunk", "DampedSpring", 2e-3)],
+        node=NodeCost(10, 0.04, 0.011, 5))
+    one, two, three = contacts.targets(results)
+    assert one[2] == "missed" and "3 rows: 0.40, 20 rows: 0.60; met at 1 of 2" in one[1]
+    assert two[2] == "met" and "4.0 us vs 10.0 us: ratio 0.40" in two[1] and "2.00" in two[1]
+    assert three[2] == "missed" and "1.02 ms per tick" in three[1] and "ratio 1.02" in three[1]
+
+
+def test_contact_bench_writes_its_tables(tmp_path):
+    results = contacts.contact_bench([2], [], tmp_path, "test", scenes=["car_flip"],
+                                     log=lambda s: None)
+    text = (tmp_path / "contacts.md").read_text()
+    assert "Load average" in text and "| 2 (3) |" in text and "| car_flip | 5 | 1 |" in text
+    assert [t[0][:2] for t in contacts.targets(results)] == ["3."]  # no peer: no ratio
+    for block in text.split("\n\n"):
+        lines = [line for line in block.splitlines() if line.startswith("|")]
+        if lines:
+            assert len({line.count("|") for line in lines}) == 1, block
+    rows = (tmp_path / "contacts.csv").read_text().splitlines()
+    assert rows[0].startswith("section,") and len(rows) == 1 + 1 + 1
+
+
+def test_cli_contacts_refuses_a_scene_without_contacts(capsys):
+    assert main(["bench", "--contacts", "2", "--scenes", "ship"]) == 2
+    assert "not a contact scene" in capsys.readouterr().err
