@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
-from .forces import AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm
+from .forces import (AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm,
+                     ScalarKinematics)
 
 if TYPE_CHECKING:
     from .model import Model
@@ -47,6 +48,20 @@ class EnergyBound:
         self._root_inverse_mass = np.sqrt(2.0 / model.mass)
         self._root_inverse_inertia = np.sqrt(2.0 / model.inertia)
         self.floor = 0.5 * float(np.sum(model.mass) + np.sum(model.inertia))
+        self._springs = [term for term in model.terms
+                         if isinstance(term, (AnchorSpringTerm, BodySpringTerm))]
+        self._wrenches = [term for term in model.terms if isinstance(term, ConstantWrenchTerm)]
+        with np.errstate(all="ignore"):  # gravity's rate does not depend on the state
+            self._gravity_rate = sum(
+                float(np.sum(np.hypot(term.weights[:, 0], term.weights[:, 1])
+                             * self._root_inverse_mass[term.bodies]))
+                for term in model.terms if isinstance(term, GravityTerm))
+        # Up to Model.lean's size the checks run in plain floats, as the forces do: numpy's
+        # per-call cost would be most of a small scene's work at each publish instant.
+        self._lean = model.lean
+        self._mass, self._inertia = model.mass.tolist(), model.inertia.tolist()
+        self._roots = list(zip(self._root_inverse_mass.tolist(),
+                               self._root_inverse_inertia.tolist()))
         self._root = math.sqrt(max(self.energy(q, v), 0.0))
         self._rate = self.rate(q, model.inputs)
         self._input_rate = 0.0
@@ -55,14 +70,23 @@ class EnergyBound:
 
     def energy(self, q: np.ndarray, v: np.ndarray) -> float:
         """B: kinetic energy plus the springs' potential energy (inf where it overflows)."""
+        if self._lean:
+            kinetic = 0.0
+            for (vx, vy, omega), m, i in zip(v.tolist(), self._mass, self._inertia):
+                kinetic += m * (vx * vx + vy * vy) + i * (omega * omega)
+            if not self._springs:
+                return 0.5 * kinetic
+            state = ScalarKinematics.of(q.tolist(), [], True)
+            return 0.5 * kinetic + sum(term.potential_scalar(state) for term in self._springs)
         model = self.model
         with np.errstate(all="ignore"):
             kinetic = 0.5 * float(np.sum(model.mass * (v[:, 0] ** 2 + v[:, 1] ** 2))
                                   + np.sum(model.inertia * v[:, 2] ** 2))
-            return kinetic + sum(term.potential(q) for term in model.terms
-                                 if isinstance(term, (AnchorSpringTerm, BodySpringTerm)))
+            return kinetic + sum(term.potential(q) for term in self._springs)
 
     def _wrench_rate(self, term: ConstantWrenchTerm, q: np.ndarray) -> float:
+        if self._lean:
+            return self._wrench_rate_scalar(term, q.tolist())
         force = np.hypot(term.force[:, 0], term.force[:, 1])
         target = q[term.body, :2]
         owner = np.where(term.point_body >= 0, term.point_body, 0)
@@ -77,17 +101,28 @@ class EnergyBound:
     def rate(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
         """c: the coefficient of sqrt(B) in the rate of work of gravity, the constant
         wrenches and ``inputs`` at positions ``q``."""
+        if self._lean:
+            return self._rate_of(q, inputs)
         with np.errstate(all="ignore"):
             return self._rate_of(q, inputs)
 
-    def _rate_of(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
+    def _wrench_rate_scalar(self, term: ConstantWrenchTerm, q: list[list[float]]) -> float:
+        """:meth:`_wrench_rate` in plain floats, row by row."""
         total = 0.0
-        for term in self.model.terms:
-            if isinstance(term, GravityTerm):
-                weight = np.hypot(term.weights[:, 0], term.weights[:, 1])
-                total += float(np.sum(weight * self._root_inverse_mass[term.bodies]))
-            elif isinstance(term, ConstantWrenchTerm):
-                total += self._wrench_rate(term, q)
+        for body, (fx, fy), torque, _, owner, (px, py), at_point in term.rows:
+            force = math.hypot(fx, fy)
+            root_mass, root_inertia = self._roots[body]
+            lever = 0.0
+            if at_point:
+                ox, oy = (q[owner][0], q[owner][1]) if owner >= 0 else (0.0, 0.0)
+                lever = math.hypot(ox - q[body][0], oy - q[body][1]) + math.hypot(px, py)
+            total += force * root_mass + (lever * force + abs(torque)) * root_inertia
+        return total
+
+    def _rate_of(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
+        total = self._gravity_rate
+        for term in self._wrenches:
+            total += self._wrench_rate(term, q)
         return total + (self._wrench_rate(inputs, q) if inputs is not None else 0.0)
 
     def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:

@@ -295,6 +295,12 @@ def spring_energy(dx: np.ndarray, dy: np.ndarray, stiffness: np.ndarray,
     return float(np.sum(0.5 * stiffness * (length - rest_length) ** 2))
 
 
+def spring_energy_scalar(dx: float, dy: float, stiffness: float, rest_length: float) -> float:
+    """k (|d| - L0)^2 / 2 of one spring in plain floats (inf where it overflows)."""
+    stretch = math.hypot(dx, dy) - rest_length
+    return 0.5 * stiffness * (stretch * stretch)
+
+
 class AnchorSpringTerm:
     """Damped springs from body points to fixed anchors."""
 
@@ -333,6 +339,14 @@ class AnchorSpringTerm:
     def potential(self, q: np.ndarray) -> float:
         _, _, dx, dy = self._stretch(Kinematics(q, np.zeros_like(q)))
         return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
+
+    def potential_scalar(self, state: ScalarKinematics) -> float:
+        total = 0.0
+        for body, (lx, ly), (ax, ay), k, rest, _ in self._rows:
+            rx, ry = state.offset(body, lx, ly)
+            x, y, _ = state.q[body]
+            total += spring_energy_scalar(x + rx - ax, y + ry - ay, k, rest)
+        return total
 
 
 class BodySpringTerm:
@@ -387,6 +401,16 @@ class BodySpringTerm:
     def potential(self, q: np.ndarray) -> float:
         *_, dx, dy = self._ends(Kinematics(q, np.zeros_like(q)))
         return spring_energy(dx, dy, self.law.stiffness, self.law.rest_length)
+
+    def potential_scalar(self, state: ScalarKinematics) -> float:
+        total = 0.0
+        for a, (lax, lay), b, (lbx, lby), k, rest, _ in self._rows:
+            rax, ray = state.offset(a, lax, lay)
+            rbx, rby = state.offset(b, lbx, lby)
+            xa, ya, _ = state.q[a]
+            xb, yb, _ = state.q[b]
+            total += spring_energy_scalar(xa + rax - xb - rbx, ya + ray - yb - rby, k, rest)
+        return total
 
 
 def drag_force(vx: np.ndarray, vy: np.ndarray, coefficient: np.ndarray,
@@ -516,6 +540,12 @@ class ConstantWrenchTerm:
         self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))
+
+    @property
+    def rows(self) -> list[tuple]:
+        """Each wrench as (body, force, torque, axes_body, point_body, point, at_point) in
+        plain Python values."""
+        return self._rows
 
     def add(self, state: Kinematics, out: np.ndarray) -> None:
         fx, fy = self._force
