@@ -46,6 +46,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from ..dynamics.model import Model
+    from .joints_kernel import CompiledJoints
 
 __all__ = [
     "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
@@ -171,6 +172,13 @@ class JointRow:
     scaled: bool = False
 
 
+def weld_law(weld: WeldJoint) -> tuple[float, float]:
+    """A soft weld's stiffness and damping per unit effective mass: omega^2 and
+    2 zeta omega of its frequency (zero for a rigid weld)."""
+    omega = 2.0 * math.pi * weld.frequency
+    return omega * omega, 2.0 * weld.damping_ratio * omega
+
+
 def _wrap(angle: float) -> float:
     """``angle`` in [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
@@ -265,7 +273,9 @@ EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(self, model: Model, compiled: bool = False) -> None:
+        """``compiled``: resolve in the kernel (:mod:`.joints_kernel`), which must be
+        built."""
         scene = model.scene
         specs = scene.joints
         named = {spec.name: spec for spec in specs}
@@ -276,7 +286,7 @@ class JointPass:
         local_index = {body: i for i, body in enumerate(involved)}
         self.specs = specs
         self._named = named
-        self._frames: dict[str, tuple[_Frame, _Frame]] = {}
+        self.frames: dict[str, tuple[_Frame, _Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):
                 continue
@@ -284,7 +294,7 @@ class JointPass:
             ib = model.index[spec.body_b]
             point_a = (tuple(spec.point_a) if ia < 0
                        else tuple(model.local(ia, spec.point_a).tolist()))
-            self._frames[spec.name] = (
+            self.frames[spec.name] = (
                 _Frame(-1 if ia < 0 else local_index[ia], point_a),
                 _Frame(local_index[ib], tuple(model.local(ib, spec.point_b).tolist())))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
@@ -298,11 +308,46 @@ class JointPass:
         self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))
                                                         for i, j in ends})
         self._initial: Optional[np.ndarray] = None
-        self._rigid: list[int] = []
+        self.rigid: list[int] = []
         #: Each row's (joint, part), in the order the rows come at any pose.
         self.keys: list[tuple[str, str]] = []
-        self._kernel: Optional[Any] = None
+        #: Each row's kind (:data:`RIGID`, ...), in the same order.
+        self.kinds: list[str] = []
         self.reset()
+        self._compiled = compiled
+        self._kernel: Optional[CompiledJoints] = None  # made at the first step
+
+    @property
+    def compiled(self) -> bool:
+        """True while the pass resolves in the compiled kernel."""
+        return self._compiled
+
+    def use_python(self) -> None:
+        """Resolve in Python from now on."""
+        self._compiled, self._kernel = False, None
+
+    def _in_kernel(self) -> CompiledJoints:
+        """The kernel's pass, made once the start pose has fixed the rows."""
+        if self._kernel is None:
+            from .joints_kernel import CompiledJoints
+            self._kernel = CompiledJoints(self)
+        return self._kernel
+
+    def kernel_pass(self) -> Any:
+        """The kernel's joint pass (a capsule) with this pass's state loaded, for whole
+        steps in the kernel; :meth:`kernel_done` reads the state back after them."""
+        compiled = self._in_kernel()
+        compiled.load()
+        return compiled.kernel
+
+    def kernel_done(self) -> None:
+        """Read the state back from the kernel after steps :meth:`kernel_pass` began."""
+        self._in_kernel().save()
+
+    def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float) -> None:
+        """Take the warm starts, Newton multipliers and last step length the kernel left."""
+        self.warm, self.newton, self.step_h = warm, newton, step_h
+        self._set_efforts()
 
     # ------------------------------------------------------------------ state
 
@@ -319,10 +364,10 @@ class JointPass:
         if self._initial is None:
             return
         start = self._initial.reshape(-1).tolist()
-        self._reference = {}  # per joint: initial relative angle and translation
-        self._raw: dict[str, float] = {}
-        self._angle: dict[str, float] = {}
-        for name, (a, b) in self._frames.items():
+        self.reference = {}  # per joint: initial relative angle and translation
+        self.raw: dict[str, float] = {}
+        self.angle: dict[str, float] = {}
+        for name, (a, b) in self.frames.items():
             pa, pb = a.place(start), b.place(start)
             relative = pb[4] - pa[4]
             spec = self._named[name]
@@ -330,28 +375,29 @@ class JointPass:
             if isinstance(spec, PrismaticJoint):
                 ux, uy = self._axis(spec, pa[4])
                 along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1])
-            self._reference[name] = (relative, along)
-            self._raw[name], self._angle[name] = relative, 0.0
+            self.reference[name] = (relative, along)
+            self.raw[name], self.angle[name] = relative, 0.0
         # Every joint gives the same rows in the same order at any pose.
         template = self.rows(start, 1.0)
-        self._rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
+        self.rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
         self.keys = [r.key for r in template]
-        self._warm = [0.0] * len(template)
+        self.kinds = [r.kind for r in template]
+        self.warm = [0.0] * len(template)
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
-        self._warm: list[float] = [0.0] * len(self.keys)
-        self._newton: Optional[list[float]] = None
-        self._step_h = 1.0
+        self.warm: list[float] = [0.0] * len(self.keys)
+        self.newton: Optional[list[float]] = None
+        self.step_h = 1.0
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
         counted joint angles, the warm-start impulses, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
-                "angle": dict(self._angle) if self._initial is not None else {},
-                "raw": dict(self._raw) if self._initial is not None else {},
-                "warm": [[list(key), value] for key, value in zip(self.keys, self._warm)],
-                "newton": None if self._newton is None else list(self._newton),
+                "angle": dict(self.angle) if self._initial is not None else {},
+                "raw": dict(self.raw) if self._initial is not None else {},
+                "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
+                "newton": None if self.newton is None else list(self.newton),
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
     def import_state(self, state: dict[str, Any]) -> None:
@@ -360,11 +406,11 @@ class JointPass:
             self._initial = np.array(state["initial"], dtype=float)
         self.reset()
         if self._initial is not None:
-            self._angle = {k: float(x) for k, x in state["angle"].items()}
-            self._raw = {k: float(x) for k, x in state["raw"].items()}
+            self.angle = {k: float(x) for k, x in state["angle"].items()}
+            self.raw = {k: float(x) for k, x in state["raw"].items()}
         warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
-        self._warm = [warm.get(key, 0.0) for key in self.keys]
-        self._newton = (None if state["newton"] is None
+        self.warm = [warm.get(key, 0.0) for key in self.keys]
+        self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
@@ -376,7 +422,7 @@ class JointPass:
     def _joint_angle(self, name: str, pa: tuple, pb: tuple) -> float:
         """body_b's angle relative to body_a's since the start, counting whole turns."""
         raw = pb[4] - pa[4]
-        return self._angle[name] + _wrap(raw - self._raw[name])
+        return self.angle[name] + _wrap(raw - self.raw[name])
 
     def joint_state(self, q: np.ndarray, v: np.ndarray) -> dict[str, tuple[float, float, float]]:
         """(position, velocity, effort) of each revolute (rad, rad/s, N m) and prismatic
@@ -396,13 +442,13 @@ class JointPass:
 
     def _coordinate(self, spec: Union[RevoluteJoint, PrismaticJoint], q: list[float]) -> JointRow:
         """The joint's coordinate (angle or translation) at ``q`` as a row."""
-        a, b = self._frames[spec.name]
+        a, b = self.frames[spec.name]
         pa, pb = a.place(q), b.place(q)
         if isinstance(spec, RevoluteJoint):
             return JointRow((spec.name, "angle"), MOTOR, self._joint_angle(spec.name, pa, pb),
                             _angle_entries(a.body, b.body))
         ux, uy = self._axis(spec, pa[4])
-        along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self._reference[spec.name][1]
+        along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self.reference[spec.name][1]
         return JointRow((spec.name, "along"), MOTOR, along, _line(a, b, pa, pb, ux, uy))
 
     # ------------------------------------------------------------------ rows
@@ -414,7 +460,7 @@ class JointPass:
             if isinstance(spec, GearJoint):
                 rows.append(self._gear_row(spec, q))
                 continue
-            a, b = self._frames[spec.name]
+            a, b = self.frames[spec.name]
             pa, pb = a.place(q), b.place(q)
             name = spec.name
             if isinstance(spec, RevoluteJoint):
@@ -430,10 +476,9 @@ class JointPass:
                                          damping=spec.spring.damping))
             elif isinstance(spec, WeldJoint):
                 kind = SOFT if spec.frequency > 0.0 else RIGID
-                omega = 2.0 * math.pi * spec.frequency
-                k, c = omega * omega, 2.0 * spec.damping_ratio * omega
+                k, c = weld_law(spec)
                 rows += _point_rows(name, a, b, pa, pb, kind, k, c)
-                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), kind, relative,
                                      _angle_entries(a.body, b.body), stiffness=k, damping=c,
                                      scaled=True))
@@ -442,7 +487,7 @@ class JointPass:
                 across = -uy * (pb[0] - pa[0]) + ux * (pb[1] - pa[1])
                 rows.append(JointRow((name, "across"), RIGID, across,
                                      _line(a, b, pa, pb, -uy, ux)))
-                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), RIGID, relative,
                                      _angle_entries(a.body, b.body)))
                 along = self._coordinate(spec, q)
@@ -471,7 +516,7 @@ class JointPass:
         value, entries = 0.0, []
         for joint, scale in ((self._gears[spec.name][0], 1.0), (self._gears[spec.name][1],
                                                                spec.ratio)):
-            a, b = self._frames[joint.name]
+            a, b = self.frames[joint.name]
             value += scale * self._joint_angle(joint.name, a.place(q), b.place(q))
             entries += _angle_entries(a.body, b.body, scale)
         return JointRow((spec.name, "gear"), RIGID, value, entries)
@@ -484,8 +529,8 @@ class JointPass:
         if self._initial is None:
             self.reset(q0)
         index = self.bodies
-        if self._kernel is not None:
-            self._kernel.resolve(self, q0, q1, v1, h)
+        if self._compiled:
+            self._in_kernel().resolve(q0, q1, v1, h)
             return
         start = q0[index].reshape(-1).tolist()
         q = q1[index].reshape(-1).tolist()
@@ -502,36 +547,36 @@ class JointPass:
 
     def _count_turns(self, q: list[float]) -> None:
         """Keep counting whole turns of each joint angle from the pose ``q``."""
-        for name, (a, b) in self._frames.items():
+        for name, (a, b) in self.frames.items():
             pa, pb = a.place(q), b.place(q)
-            self._angle[name] = self._joint_angle(name, pa, pb)
-            self._raw[name] = pb[4] - pa[4]
+            self.angle[name] = self._joint_angle(name, pa, pb)
+            self.raw[name] = pb[4] - pa[4]
 
     def _hold(self, rows0: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
         symmetric: factored by :func:`_lu`), warm-started from the last step's
         multipliers; returns the rows at the new ``q``."""
-        if not self._rigid:
+        if not self.rigid:
             return self.rows(q, h)
-        rigid = [rows0[i] for i in self._rigid]
+        rigid = [rows0[i] for i in self.rigid]
         direction = _directions(rigid, self.inverse_mass)
         width = _bandwidth(rigid)
         target = [row.c for row in rigid]
-        nu = [0.0] * len(rigid) if self._newton is None else list(self._newton)
+        nu = [0.0] * len(rigid) if self.newton is None else list(self.newton)
         _apply(q, direction, nu)
         for _ in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
-            error = [rows[i].c - c0 for i, c0 in zip(self._rigid, target)]
+            error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
             if max(abs(e) for e in error) <= TOLERANCE:
                 break
-            matrix = _lu(_products([rows[i] for i in self._rigid], direction, width), width)
+            matrix = _lu(_products([rows[i] for i in self.rigid], direction, width), width)
             step = _lu_solve(matrix, width, [-e for e in error])
             nu = [a + b for a, b in zip(nu, step)]
             _apply(q, direction, step)
         else:
             rows = self.rows(q, h)
-        self._newton = nu
+        self.newton = nu
         return rows
 
     def _correct(self, rows: list[JointRow], q: list[float], h: float) -> list[JointRow]:
@@ -573,17 +618,17 @@ class JointPass:
                     continue
                 k.band[i][0] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(k, b, lower, upper, self._warm)
+        impulse = _solve(k, b, lower, upper, self.warm)
         _apply(v, direction, impulse)
-        self._warm = impulse
-        self._step_h = h
+        self.warm = impulse
+        self.step_h = h
         self._set_efforts()
 
     def _set_efforts(self) -> None:
         """Each joint's effort: its motor, limit and spring impulses over the last step."""
         self.efforts = {}
-        h = self._step_h
-        for (joint, part), x in zip(self.keys, self._warm):
+        h = self.step_h
+        for (joint, part), x in zip(self.keys, self.warm):
             sign = EFFORT_SIGNS.get(part)
             if sign is not None:
                 self.efforts[joint] = self.efforts.get(joint, 0.0) + sign * x / h

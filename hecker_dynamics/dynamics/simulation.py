@@ -113,9 +113,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = (compiled_steps(self.model.compiled, self.integrator,
-                                         self.model.contacts)
-                          if self.model.joints is None else None)
+        self._compiled = compiled_steps(self.model.compiled, self.integrator,
+                                        self.model.contacts, self.model.joints)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -299,9 +298,10 @@ class Simulation:
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
             self._bound.inputs_changed(self.q, self.model.inputs)
-        contacts = self.model.contacts
+        contacts, joints = self.model.contacts, self.model.joints
         if self._compiled is None or self.model.compiled is None or \
-                (contacts is not None and not contacts.compiled):
+                (contacts is not None and not contacts.compiled) or \
+                (joints is not None and not joints.compiled):
             self._step()
             return 1
         change = self._inputs.next_change()
