@@ -30,11 +30,30 @@ constrained velocity Verlet step (Andersen 1983; Leimkuhler and Skeel 1994):
    spring, a soft weld) follow the implicit spring-damper law of Box2D v3's soft step,
    lambda = -h (k C(q + h Cdot') + c Cdot').
 
-The rigid rows of a stage are one block solved exactly (a small dense system); rows with
-bounds (limits, motors, ropes) are solved around it by sequential impulses (projected
-Gauss-Seidel), warm-started from the previous step's impulses. Only the bodies some joint
-names take part. Revolute angles are tracked across turns, so a gear keeps counting and a
-limit beyond pi works.
+The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
+ropes) are solved around it by sequential impulses (projected Gauss-Seidel), warm-started
+from the previous step's impulses. The blocks are factored in their band, in plain floats
+(no LAPACK, whose order of operations C could not repeat): K = J M^-1 J^T of independent
+rigid rows is symmetric positive definite, so L D L^T without pivoting (:func:`_factor`);
+the Newton matrix G(q) M^-1 G(q0)^T is not symmetric, so L U without pivoting
+(:func:`_lu`). The bandwidth is how far apart two rows on the same body are in the rows'
+order (the joints' order by name), so a chain whose joint names sort along it costs
+O(n w^2) per factorization, not O(n^3). Only the bodies some joint names take part.
+Revolute angles are tracked across turns, so a gear keeps counting and a limit beyond pi
+works.
+
+Why a pass of its own rather than rows in the contact solver's sequential impulses:
+accuracy. A velocity-level solver is first order in the step, and the smooth-force
+integrators (RK4, the embedded pairs, the implicit methods) cannot wrap one inside their
+stages without dropping to first order; the projection above keeps order two with every
+method of order two or more (docs/scenes.md has the measured periods). The price is that
+joints and contacts solve apart: in every step and contact sub-step the joints go first
+and the contacts last (they have the last word on overlap), and what a contact does to a
+joint the next step's joint pass corrects by positions only; a contact force that depends
+on a joint's reaction (a bar wedged between two pinned gears) comes out too small.
+
+The compiled kernel's ``src/kernel/joint.c`` repeats this module operation for operation
+(:mod:`.joints_kernel` packs it), so both give the same bits.
 """
 from __future__ import annotations
 
