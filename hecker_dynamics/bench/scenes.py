@@ -186,8 +186,13 @@ def bench_scene(name: str) -> Scene:
     return load_scene(name)
 
 
+#: The seesaw pinned by its stiff spring: the shipped scene with stiff forces on which the
+#: implicit methods' stability runs go to omega*dt = 100.
+STIFF_SEESAW = "seesaw" + SPRINGS
+
+
 def all_scene_names() -> list[str]:
-    return [*BENCH_SCENES, *shipped_scenes()]
+    return [*BENCH_SCENES, *shipped_scenes(), STIFF_SEESAW]
 
 
 def configure(scene: Scene, integrator: str, step: float, tolerance: float = 1e-6,

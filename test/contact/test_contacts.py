@@ -513,9 +513,10 @@ def test_door_stays_held_against_the_block():
     start: its lower face touches it at a = -0.03155 rad. From 2 s (the swing has stopped)
     to the end, through the second, harder push, the door angle stays within 1.1e-4 rad of
     the angle at which it touches that corner where the block is then (the slop, 1e-4 m,
-    at the corner's 0.952 m from the hinge is 1.05e-4 rad; measured: 1.0515e-4): the rigid hinge passes the push on to the block, which the
-    floor's drag lets creep (0.3 mm and 1.7 mrad by 6 s), so the block stays within 1 mm of
-    its place; the door comes to rest (1e-3 rad/s)."""
+    at the corner's 0.952 m from the hinge is 1.05e-4 rad; measured: 1.0515e-4): the
+    rigid hinge passes the push on to the block, which the floor's drag lets creep (0.3 mm
+    and 1.7 mrad by 6 s), so the block stays within 1 mm of its place; the door comes to
+    rest (1e-3 rad/s)."""
     scene = load_scene("door")
     sim = Simulation(scene)
     snaps = sim.play(scene.script, scene.duration_ns)
