@@ -30,6 +30,7 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           TwistFields, applied_wrench_fields, header, ns_from_stamp,
                           stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
+from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
 from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
@@ -62,6 +63,7 @@ ODOMETRY = "nav_msgs/msg/Odometry"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+JOINT_STATE = "sensor_msgs/msg/JointState"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
 BAG_VERSION = 9
@@ -193,6 +195,16 @@ def header_message(fields: Header) -> Any:
                            stamp=default_message("builtin_interfaces/msg/Time",
                                                  sec=fields.sec, nanosec=fields.nanosec),
                            frame_id=fields.frame_id)
+
+
+def joint_state_message(fields: JointStateFields) -> Any:
+    """``sensor_msgs/JointState`` from
+    :func:`~hecker_dynamics.ros.joint_states.snapshot_joint_states`."""
+    return default_message(JOINT_STATE, header=header_message(fields.header),
+                           name=list(fields.name),
+                           position=np.array(fields.position, dtype=np.float64),
+                           velocity=np.array(fields.velocity, dtype=np.float64),
+                           effort=np.array(fields.effort, dtype=np.float64))
 
 
 def _vector(msgtype: str, xyz: Sequence[float]) -> Any:

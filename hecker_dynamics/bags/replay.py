@@ -278,7 +278,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
 _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: bags.pose_stamped_message, OutputKind.TWIST: bags.twist_message,
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
-    OutputKind.TF: bags.tf_message,
+    OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
 }
 
 

@@ -666,7 +666,7 @@ Directions = list[list[tuple[int, float, float, float]]]
 
 def _directions(rows: list[JointRow], inverse_mass: list[float]) -> Directions:
     """Per row, M^-1 J^T: how an impulse along the row changes each body's velocity (the
-    force part by Eq. 5, the torque part by Eq. 14)."""
+    force part by Eq. 5, the angular part by tau = I alpha, Eq. 14)."""
     return [[(b, inverse_mass[3 * b] * jx, inverse_mass[3 * b + 1] * jy,
               inverse_mass[3 * b + 2] * jw) for b, jx, jy, jw in row.entries] for row in rows]
 

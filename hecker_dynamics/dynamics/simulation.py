@@ -56,11 +56,15 @@ class Snapshot:
     thousands of bodies and with long steps.
     """
 
-    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies")
+    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
                  v: np.ndarray) -> None:
         self.time_ns, self.steps = time_ns, steps
+        #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
+        #: joint pass counts turns and keeps its efforts from step to step.
+        self.joints: dict[str, tuple[float, float, float]] = (
+            {} if model.joints is None else model.joints.joint_state(q, v))
         self._model, self._q, self._v = model, q.copy(), v.copy()
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None

@@ -15,6 +15,7 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
            "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
+           "JOINT_STATES_TOPIC",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
@@ -78,6 +79,8 @@ TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 MARKERS_TOPIC = "markers"
 DIAGNOSTICS_TOPIC = "diagnostics"
+#: ``sensor_msgs/JointState`` of the scene's revolute and prismatic joints, as robots publish.
+JOINT_STATES_TOPIC = "joint_states"
 SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"

@@ -28,6 +28,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
+from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
@@ -35,6 +36,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
                      header, stamp_from_ns)
 from .diagnostics import DiagnosticFields
+from .joint_states import JointStateFields
 from .markers import MarkerFields
 from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
 from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
@@ -57,7 +59,7 @@ from ..scene.load import SceneError, WrenchTopic
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
-    OutputKind.TF: TFMessage,
+    OutputKind.TF: TFMessage, OutputKind.JOINT_STATE: JointState,
 }
 
 
@@ -143,6 +145,13 @@ def _tf_message(transforms: tuple[TransformFields, ...]) -> TFMessage:
     return TFMessage(transforms=messages)
 
 
+def _joint_state(fields: JointStateFields) -> JointState:
+    msg = JointState(name=list(fields.name), position=list(fields.position),
+                     velocity=list(fields.velocity), effort=list(fields.effort))
+    _fill_header(msg.header, fields.header)
+    return msg
+
+
 def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
     return MarkerArray(markers=[_marker(fields) for fields in markers])
 
@@ -205,6 +214,7 @@ RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, QosSpec]] = {
 MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
     OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
+    OutputKind.JOINT_STATE: _joint_state,
 }
 
 
