@@ -15,9 +15,24 @@ from ..dynamics.simulation import Simulation, Snapshot
 from ..scene.load import Scene
 from ..contact.joints import PrismaticJoint, RevoluteJoint
 from .fields import Header, header
+from .names import motor_topic
 
-__all__ = ["JointStateFields", "has_joint_states", "joint_state_fields", "snapshot_joint_states",
-           "set_motor_speed"]
+__all__ = ["JointStateFields", "MotorTopic", "has_joint_states", "joint_state_fields",
+           "motor_topics", "snapshot_joint_states", "set_motor_speed"]
+
+
+class MotorTopic(NamedTuple):
+    """A motor's command topic (:func:`~.names.motor_topic`): ``std_msgs/Float64`` messages
+    whose ``data`` is the target speed of ``joint``'s motor, held until the next one."""
+
+    joint: str
+    topic: str
+
+
+def motor_topics(scene: Scene) -> tuple[MotorTopic, ...]:
+    """The command topic of each motor of ``scene``, joints sorted by name."""
+    return tuple(MotorTopic(j.name, motor_topic(j.name)) for j in scene.joints
+                 if isinstance(j, (RevoluteJoint, PrismaticJoint)) and j.motor is not None)
 
 
 class JointStateFields(NamedTuple):

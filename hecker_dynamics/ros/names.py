@@ -15,7 +15,7 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
            "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
-           "JOINT_STATES_TOPIC",
+           "JOINT_STATES_TOPIC", "motor_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
@@ -105,6 +105,11 @@ def twist_topic(body: str) -> str:
 def odometry_topic(body: str) -> str:
     """``<body>/odom`` (``nav_msgs/Odometry``)."""
     return f"{body}/odom"
+
+
+def motor_topic(joint: str) -> str:
+    """A motor's command topic (``std_msgs/Float64``: its target speed, rad/s or m/s)."""
+    return f"{joint}/motor_speed"
 
 
 def output_qos(topic: str) -> QosSpec:
