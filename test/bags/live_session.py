@@ -110,9 +110,9 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
     reset service once; ``world`` times the world services are called (pause, a few steps,
     a body moved, resume; and a call refused now and then); ``motors`` speed commands go to
-    the scene's motor topics (one in ten not finite, which the node refuses). In ``lockstep`` the simulation
-    starts at sim time 0, each tick steps one publish period, and a message arrives at the
-    sim time it finds."""
+    the scene's motor topics (one in ten not finite, which the node refuses). In
+    ``lockstep`` the simulation starts at sim time 0, each tick steps one publish period,
+    and a message arrives at the sim time it finds."""
     rng = np.random.default_rng(seed)
     t0 = 1_700_000_000 * S + int(rng.integers(S))
     period = scene.publish_period_ns
