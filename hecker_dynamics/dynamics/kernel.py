@@ -2,8 +2,9 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the contact pass of
-:mod:`..contact.compiled` after each step in scenes with contacts), repeating the
+as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the joint pass
+of :mod:`..contact.joints_kernel` and the contact pass of :mod:`..contact.compiled` after
+each step in scenes with joints and contacts), repeating the
 plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.

@@ -8,7 +8,7 @@ same order gives bit-identical states.
 
 Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, the steps
 between one publish instant or input change and the next run in the kernel in one call,
-contact pass included, with the results of Python's plain-float path (:mod:`.kernel` and
+joint and contact passes included, with the results of Python's plain-float path (:mod:`.kernel` and
 :mod:`..contact.compiled` say how far they agree).
 """
 from __future__ import annotations
