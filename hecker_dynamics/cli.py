@@ -7,6 +7,7 @@
     hecker-dynamics compare EXPECTED_BAG ACTUAL_BAG [--atol A]
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
     hecker-dynamics bench --node
+    hecker-dynamics bench --joints
     hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
                            [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
     hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
@@ -432,6 +433,10 @@ def bench_command(args: argparse.Namespace) -> int:
         return 0
     command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
         else "hecker-dynamics bench"
+    if args.joints:
+        from .bench.joints import PEERS as JOINT_PEERS, joint_bench
+        joint_bench(list(JOINT_PEERS) if args.peers else [], Path(args.out), command)
+        return 0
     if args.contacts is not None:
         from .bench.contacts import PYRAMID_ROWS, contact_bench, contact_scene_names, targets
         from .bench.scene_peers import SCENE_PEERS
@@ -483,6 +488,10 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--out", default="docs/bench", help="output directory (default docs/bench)")
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
+    bench.add_argument("--joints", action="store_true",
+                       help="only the joint section: a chain of 100 links against pymunk "
+                            "and Box2D, and the seesaw and door on joints against springs "
+                            "(writes joints.md and joints.csv)")
     bench.add_argument("--contacts", nargs="*", type=_rows, metavar="ROWS",
                        help="instead: the contact section against pymunk and Box2D, with "
                             "its targets: pyramids of these rows of boxes (default "

@@ -7,5 +7,6 @@ render() { hecker-dynamics render "$1" -o "docs/figures/$1.gif" --fps 10 --size 
 render sample --trail left/hook --contacts
 render seesaw --trail load
 render door --trail door/handle --contacts
+render gears --trail bar --contacts
 render car_flip --trail car --contacts
 render ship --trail ship

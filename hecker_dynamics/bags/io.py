@@ -30,10 +30,12 @@ from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, Pos
                           TwistFields, applied_wrench_fields, header, ns_from_stamp,
                           stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
+from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
-from ..ros.session import (WRENCH_STAMPED_EVENT, InputEventFields, KeyframeFields,
-                           SessionFields, WorldChange, WorldEventFields)
+from ..ros.session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
+                           InputEventFields, KeyframeFields, SessionFields, WorldChange,
+                           WorldEventFields)
 from ..ros.tf import TransformFields
 from ..scene.parameters import quoted
 
@@ -62,6 +64,8 @@ ODOMETRY = "nav_msgs/msg/Odometry"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+JOINT_STATE = "sensor_msgs/msg/JointState"
+FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
 BAG_VERSION = 9
@@ -193,6 +197,16 @@ def header_message(fields: Header) -> Any:
                            stamp=default_message("builtin_interfaces/msg/Time",
                                                  sec=fields.sec, nanosec=fields.nanosec),
                            frame_id=fields.frame_id)
+
+
+def joint_state_message(fields: JointStateFields) -> Any:
+    """``sensor_msgs/JointState`` from
+    :func:`~hecker_dynamics.ros.joint_states.snapshot_joint_states`."""
+    return default_message(JOINT_STATE, header=header_message(fields.header),
+                           name=list(fields.name),
+                           position=np.array(fields.position, dtype=np.float64),
+                           velocity=np.array(fields.velocity, dtype=np.float64),
+                           effort=np.array(fields.effort, dtype=np.float64))
 
 
 def _vector(msgtype: str, xyz: Sequence[float]) -> Any:
@@ -343,19 +357,25 @@ def keyframe_fields(msg: Any) -> KeyframeFields:
                           msg.state)
 
 
+#: The message type an input event of each kind holds.
+_EVENT_TYPES = {APPLIED_WRENCH_EVENT: APPLIED_WRENCH, WRENCH_STAMPED_EVENT: WRENCH_STAMPED,
+                MOTOR_SPEED_EVENT: FLOAT64}
+
+
 def input_event_message(fields: InputEventFields) -> Any:
     """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
-    rosbags ``AppliedWrench`` or ``WrenchStamped``)."""
-    wrench_stamped = fields.kind == WRENCH_STAMPED_EVENT
+    rosbags ``AppliedWrench``, ``WrenchStamped`` or ``Float64``)."""
+    slots = {APPLIED_WRENCH: "applied_wrench", WRENCH_STAMPED: "wrench_stamped",
+             FLOAT64: "motor_speed"}
+    held = _EVENT_TYPES[fields.kind]
+    messages = {slot: fields.message if msgtype == held else default_message(msgtype)
+                for msgtype, slot in slots.items()}
     sec, nanosec = stamp_from_ns(fields.arrival_ns)
     return default_message(
         INPUT_EVENT, header=header_message(header("", fields.stamp_ns)),
         session=max(fields.session, 0), sequence=fields.sequence, topic=fields.topic,
         arrival=default_message("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
-        kind=fields.kind,
-        applied_wrench=default_message(APPLIED_WRENCH) if wrench_stamped else fields.message,
-        wrench_stamped=fields.message if wrench_stamped else default_message(WRENCH_STAMPED),
-        accepted=fields.accepted, reason=fields.reason)
+        kind=fields.kind, **messages, accepted=fields.accepted, reason=fields.reason)
 
 
 def input_event_fields(msg: Any) -> InputEventFields:
@@ -364,7 +384,8 @@ def input_event_fields(msg: Any) -> InputEventFields:
     return InputEventFields(
         stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence), msg.topic,
         ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
-        msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else msg.applied_wrench,
+        msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else
+        msg.motor_speed if kind == MOTOR_SPEED_EVENT else msg.applied_wrench,
         bool(msg.accepted), msg.reason)
 
 

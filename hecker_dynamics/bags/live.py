@@ -36,12 +36,13 @@ from pathlib import Path
 from typing import Optional, Union
 
 from ..ros.names import TF_STATIC_TOPIC
+from ..ros.joint_states import MotorTopic
 from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
-from ..ros.runner import Runner
+from ..ros.runner import InputSource, Runner
 from ..ros.session import (InputEventFields, KeyframeFields, SessionFields, WorldChange,
                            WorldEventFields, decode_state)
 from ..scene.fingerprint import scene_fingerprint
-from ..scene.load import Scene, WrenchTopic
+from ..scene.load import Scene
 from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_contents
@@ -261,7 +262,7 @@ def _as_message(output: Output, raw: dict[int, bytes]) -> BagMessage:
 
 # ----------------------------------------------------------------------------- replay
 
-def _wrench_topics(scene: Scene) -> dict[str, Optional[WrenchTopic]]:
+def _wrench_topics(scene: Scene) -> dict[str, Optional[InputSource]]:
     return {topic: wrench_topic for topic, (_, wrench_topic) in input_topics(scene).items()}
 
 
@@ -304,7 +305,7 @@ def _ranges(numbers: list[int]) -> str:
 
 
 def _check_inputs(bag: BagContents, events: list[InputEventFields],
-                  topics: dict[str, Optional[WrenchTopic]]) -> list[str]:
+                  topics: dict[str, Optional[InputSource]]) -> list[str]:
     """Events whose message is missing from the middle of its topic's recorded span."""
     store = bags.typestore()
     recorded: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
@@ -322,7 +323,9 @@ def _check_inputs(bag: BagContents, events: list[InputEventFields],
         for event in events:
             if event.topic != topic or not first <= event.arrival_ns <= last:
                 continue
-            msgtype = bags.APPLIED_WRENCH if topics[topic] is None else bags.WRENCH_STAMPED
+            source = topics[topic]
+            msgtype = (bags.APPLIED_WRENCH if source is None else bags.FLOAT64
+                       if isinstance(source, MotorTopic) else bags.WRENCH_STAMPED)
             raw = bytes(store.serialize_cdr(event.message, msgtype))
             if available[raw]:
                 available[raw] -= 1
@@ -411,7 +414,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
 
 
 def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_ns: int,
-                    topics: dict[str, Optional[WrenchTopic]], check: LiveCheck
+                    topics: dict[str, Optional[InputSource]], check: LiveCheck
                     ) -> tuple[list[Output], int]:
     """Replay one session up to ``last_ns``; returns the outputs and the replay's start."""
     info = session.info

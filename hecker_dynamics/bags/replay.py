@@ -38,8 +38,9 @@ from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, head
 from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME
 from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, SnapshotOutputs,
                            output_topics)
-from ..ros.runner import Runner
-from ..scene.load import Scene, WrenchTopic
+from ..ros.joint_states import MotorTopic, motor_topics
+from ..ros.runner import InputSource, Runner
+from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
@@ -84,12 +85,15 @@ class ReplayResult:
 
 # ----------------------------------------------------------------------------- topics
 
-def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[WrenchTopic]]]:
-    """Input topics of the node for ``scene``: topic -> (message type, WrenchTopic or None)."""
-    topics: dict[str, tuple[str, Optional[WrenchTopic]]] = {
+def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[InputSource]]]:
+    """Input topics of the node for ``scene``: topic -> (message type, source), the source
+    None for ``applied_wrench``, else the scene's WrenchTopic or a motor's MotorTopic."""
+    topics: dict[str, tuple[str, Optional[InputSource]]] = {
         APPLIED_WRENCH_TOPIC: (APPLIED_WRENCH, None)}
     for wrench_topic in scene.wrench_topics:
         topics[resolve_topic(wrench_topic.topic)] = (WRENCH_STAMPED, wrench_topic)
+    for motor in motor_topics(scene):
+        topics[resolve_topic(motor.topic)] = (bags.FLOAT64, motor)
     return topics
 
 
@@ -229,7 +233,7 @@ class _Input:
     log_ns: int
     topic: str
     msg: Any
-    wrench_topic: Optional[WrenchTopic]
+    wrench_topic: Optional[InputSource]
 
 
 def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
@@ -251,7 +255,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         msg = message.decode()
         result.inputs += 1
         inputs.append(_Input(message.log_ns, message.topic, msg, wrench_topic))
-        if skip_rejected:
+        if skip_rejected or isinstance(wrench_topic, MotorTopic):  # a motor of the scene
             continue
         try:
             if wrench_topic is None:
@@ -278,7 +282,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
 _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: bags.pose_stamped_message, OutputKind.TWIST: bags.twist_message,
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
-    OutputKind.TF: bags.tf_message,
+    OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
 }
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..integrators.methods import ADAPTIVE
 from .measure import Row
+from .scenes import STIFF_SEESAW
 
 THRESHOLDS = (1e-3, 1e-6, 1e-9)
 ENGINES = ("hecker_dynamics", "pymunk", "box2d", "mujoco")
@@ -182,9 +183,9 @@ def targets(results) -> list[tuple[str, str, str]]:
                 lines.append((f"3b. ring, semi-implicit Euler cheaper than {peer} at every N",
                               "ratios " + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios),
                               "met" if not bad else "missed"))
-    stiff = [r for r in results.rows if r.scene in ("stiff", "seesaw")
+    stiff = [r for r in results.rows if r.scene in ("stiff", STIFF_SEESAW)
              and r.method in ("implicit_midpoint", "backward_euler")]
-    for scene in ("stiff", "seesaw"):
+    for scene in ("stiff", STIFF_SEESAW):
         mine = [r for r in stiff if r.scene == scene]
         if not mine:
             continue

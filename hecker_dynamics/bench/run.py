@@ -32,7 +32,8 @@ from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
-from .scenes import BENCH_SCENES, bench_scene, configure, declared_variants, ring
+from .scenes import (BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants,
+                     ring)
 
 
 @dataclass
@@ -204,7 +205,7 @@ def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
         steps = [own * f for f in mode.shipped_steps]
         omega = Model(scene).stiffness()
         stiff: list[float] = []
-        if omega > 0 and (name == "seesaw" or mode.name == "full"):  # out to omega*dt = 100
+        if omega > 0 and (name == STIFF_SEESAW or mode.name == "full"):  # to omega*dt = 100
             stiff = [h for h in (_dividing_step(x / omega, duration) for x in (10.0, 30.0, 100.0))
                      if h is not None and h > max(steps)]
         steps = [h for h in steps if _divides(h, duration)] or [own]
@@ -355,7 +356,7 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
     mode = MODES[mode_name]
     started = time.perf_counter()
     results = Results(mode_name, command=command)
-    chosen = scenes or [*BENCH_SCENES, *shipped_scenes()]
+    chosen = scenes or [*BENCH_SCENES, *shipped_scenes(), STIFF_SEESAW]
     peer_names = [p for p in peer_mod.PEERS if peers and peer_mod.available(p)]
     results.environment = {
         "python": sys.version.split()[0], "numpy": np.__version__,

@@ -29,7 +29,8 @@ import math
 from typing import Any
 
 from ..scene.parameters import flatten
-from ..scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
+from ..contact.joints import RevoluteJoint
+from ..scene.load import Scene, SpringSpec, load_scene, scene_from_parameters, shipped_scenes
 
 #: The benchmark scenes with closed-form or reference solutions, in the order
 #: docs/benchmark.md numbers them.
@@ -159,15 +160,46 @@ BUILDERS = {"free_spin": free_spin, "harmonic": harmonic, "spring_pendulum": spr
             "two_bodies": two_bodies, "stiff": stiff}
 
 
+#: Shipped scenes whose pins are revolute joints to the world, with the stiffness (N/m) and
+#: damping (N s/m) of the zero-length springs that pinned them before they had joints.
+SPRING_PINS = {"seesaw": (200000.0, 400.0), "door": (100000.0, 200.0)}
+#: The name of a shipped scene pinned by springs: ``<scene>`` + SPRINGS.
+SPRINGS = "_springs"
+
+
+def pinned_by_springs(name: str) -> Scene:
+    """The shipped scene ``name`` (one of :data:`SPRING_PINS`) with each revolute joint to
+    the world replaced by a stiff zero-length spring from the same body point to the same
+    anchor: a pin made of a spring, which wobbles and makes the forces stiff. A spring
+    cannot stop a turn, so the joints' limits are gone too (the seesaw's stop)."""
+    stiffness, damping = SPRING_PINS[name]
+    scene = load_scene(name)
+    springs = tuple(SpringSpec(f"pin_{joint.name}", joint.body_b, joint.point_b, None,
+                               joint.point_a, stiffness, 0.0, damping)
+                    for joint in scene.joints
+                    if isinstance(joint, RevoluteJoint) and joint.body_a is None)
+    kept = tuple(joint for joint in scene.joints
+                 if not (isinstance(joint, RevoluteJoint) and joint.body_a is None))
+    return dataclasses.replace(scene, forces=scene.forces + springs, joints=kept)
+
+
 def bench_scene(name: str) -> Scene:
-    """A benchmark scene (1)-(5) by name, or a shipped scene (6) by its name."""
+    """A benchmark scene (1)-(5) by name, a shipped scene (6) by its name, or one pinned
+    by springs (:func:`pinned_by_springs`) by its name and :data:`SPRINGS`."""
     if name in BUILDERS:
         return BUILDERS[name]()
+    if name.endswith(SPRINGS) and name[:-len(SPRINGS)] in SPRING_PINS:
+        return pinned_by_springs(name[:-len(SPRINGS)])
     return load_scene(name)
 
 
+#: The seesaw pinned by its stiff spring: the shipped scene with stiff forces on which the
+#: implicit methods' stability runs go to omega*dt = 100.
+STIFF_SEESAW = "seesaw" + SPRINGS
+
+
 def all_scene_names() -> list[str]:
-    return [*BENCH_SCENES, *shipped_scenes()]
+    return [*BENCH_SCENES, *shipped_scenes(), STIFF_SEESAW]
 
 
 def configure(scene: Scene, integrator: str, step: float, tolerance: float = 1e-6,

@@ -30,11 +30,30 @@ constrained velocity Verlet step (Andersen 1983; Leimkuhler and Skeel 1994):
    spring, a soft weld) follow the implicit spring-damper law of Box2D v3's soft step,
    lambda = -h (k C(q + h Cdot') + c Cdot').
 
-The rigid rows of a stage are one block solved exactly (a small dense system); rows with
-bounds (limits, motors, ropes) are solved around it by sequential impulses (projected
-Gauss-Seidel), warm-started from the previous step's impulses. Only the bodies some joint
-names take part. Revolute angles are tracked across turns, so a gear keeps counting and a
-limit beyond pi works.
+The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
+ropes) are solved around it by sequential impulses (projected Gauss-Seidel), warm-started
+from the previous step's impulses. The blocks are factored in their band, in plain floats
+(no LAPACK, whose order of operations C could not repeat): K = J M^-1 J^T of independent
+rigid rows is symmetric positive definite, so L D L^T without pivoting (:func:`_factor`);
+the Newton matrix G(q) M^-1 G(q0)^T is not symmetric, so L U without pivoting
+(:func:`_lu`). The bandwidth is how far apart two rows on the same body are in the rows'
+order (the joints' order by name), so a chain whose joint names sort along it costs
+O(n w^2) per factorization, not O(n^3). Only the bodies some joint names take part.
+Revolute angles are tracked across turns, so a gear keeps counting and a limit beyond pi
+works.
+
+Why a pass of its own rather than rows in the contact solver's sequential impulses:
+accuracy. A velocity-level solver is first order in the step, and the smooth-force
+integrators (RK4, the embedded pairs, the implicit methods) cannot wrap one inside their
+stages without dropping to first order; the projection above keeps order two with every
+method of order two or more (docs/scenes.md has the measured periods). The price is that
+joints and contacts solve apart: in every step and contact sub-step the joints go first
+and the contacts last (they have the last word on overlap), and what a contact does to a
+joint the next step's joint pass corrects by positions only; a contact force that depends
+on a joint's reaction (a bar wedged between two pinned gears) comes out too small.
+
+The compiled kernel's ``src/kernel/joint.c`` repeats this module operation for operation
+(:mod:`.joints_kernel` packs it), so both give the same bits.
 """
 from __future__ import annotations
 
@@ -46,6 +65,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from ..dynamics.model import Model
+    from .joints_kernel import CompiledJoints
 
 __all__ = [
     "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
@@ -55,7 +75,7 @@ __all__ = [
 Vec2 = tuple[float, float]
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
-NEWTON_ITERATIONS = 20
+NEWTON_ITERATIONS = 50
 DRIFT_ITERATIONS = 8
 #: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
 MAX_ITERATIONS = 200
@@ -171,6 +191,13 @@ class JointRow:
     scaled: bool = False
 
 
+def weld_law(weld: WeldJoint) -> tuple[float, float]:
+    """A soft weld's stiffness and damping per unit effective mass: omega^2 and
+    2 zeta omega of its frequency (zero for a rigid weld)."""
+    omega = 2.0 * math.pi * weld.frequency
+    return omega * omega, 2.0 * weld.damping_ratio * omega
+
+
 def _wrap(angle: float) -> float:
     """``angle`` in [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
@@ -191,11 +218,12 @@ class _Frame:
     def __init__(self, body: int, local: tuple[float, float]) -> None:
         self.body, self.local = body, local  # body -1: the world; local then fixed-frame
 
-    def place(self, q: np.ndarray) -> tuple[float, float, float, float, float]:
-        """(x, y) of the point, its arm (r_x, r_y) from the CM, and the body angle."""
+    def place(self, q: list[float]) -> tuple[float, float, float, float, float]:
+        """(x, y) of the point, its arm (r_x, r_y) from the CM, and the body angle, at
+        the poses ``q`` (3 values per body)."""
         if self.body < 0:
             return self.local[0], self.local[1], 0.0, 0.0, 0.0
-        x, y, angle = q[self.body]
+        x, y, angle = q[3 * self.body], q[3 * self.body + 1], q[3 * self.body + 2]
         c, s = math.cos(angle), math.sin(angle)
         rx = c * self.local[0] - s * self.local[1]
         ry = s * self.local[0] + c * self.local[1]
@@ -264,7 +292,9 @@ EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(self, model: Model, compiled: bool = False) -> None:
+        """``compiled``: resolve in the kernel (:mod:`.joints_kernel`), which must be
+        built."""
         scene = model.scene
         specs = scene.joints
         named = {spec.name: spec for spec in specs}
@@ -275,7 +305,7 @@ class JointPass:
         local_index = {body: i for i, body in enumerate(involved)}
         self.specs = specs
         self._named = named
-        self._frames: dict[str, tuple[_Frame, _Frame]] = {}
+        self.frames: dict[str, tuple[_Frame, _Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):
                 continue
@@ -283,12 +313,13 @@ class JointPass:
             ib = model.index[spec.body_b]
             point_a = (tuple(spec.point_a) if ia < 0
                        else tuple(model.local(ia, spec.point_a).tolist()))
-            self._frames[spec.name] = (
+            self.frames[spec.name] = (
                 _Frame(-1 if ia < 0 else local_index[ia], point_a),
                 _Frame(local_index[ib], tuple(model.local(ib, spec.point_b).tolist())))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
                        for spec in specs if isinstance(spec, GearJoint)}
-        self.inverse_mass = model.inverse_mass[self.bodies].reshape(-1)
+        #: 1/m, 1/m, 1/I of each of those bodies.
+        self.inverse_mass: list[float] = model.inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of model body indices (i < j) that a joint connects and that must not collide.
         ends = [(model.index[s.body_a], model.index[s.body_b]) for s in specs
                 if not isinstance(s, GearJoint) and s.body_a is not None
@@ -296,8 +327,46 @@ class JointPass:
         self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))
                                                         for i, j in ends})
         self._initial: Optional[np.ndarray] = None
-        self._rigid = np.zeros(0, dtype=int)
+        self.rigid: list[int] = []
+        #: Each row's (joint, part), in the order the rows come at any pose.
+        self.keys: list[tuple[str, str]] = []
+        #: Each row's kind (:data:`RIGID`, ...), in the same order.
+        self.kinds: list[str] = []
         self.reset()
+        self._compiled = compiled
+        self._kernel: Optional[CompiledJoints] = None  # made at the first step
+
+    @property
+    def compiled(self) -> bool:
+        """True while the pass resolves in the compiled kernel."""
+        return self._compiled
+
+    def use_python(self) -> None:
+        """Resolve in Python from now on."""
+        self._compiled, self._kernel = False, None
+
+    def _in_kernel(self) -> CompiledJoints:
+        """The kernel's pass, made once the start pose has fixed the rows."""
+        if self._kernel is None:
+            from .joints_kernel import CompiledJoints
+            self._kernel = CompiledJoints(self)
+        return self._kernel
+
+    def kernel_pass(self) -> Any:
+        """The kernel's joint pass (a capsule) with this pass's state loaded, for whole
+        steps in the kernel; :meth:`kernel_done` reads the state back after them."""
+        compiled = self._in_kernel()
+        compiled.load()
+        return compiled.kernel
+
+    def kernel_done(self) -> None:
+        """Read the state back from the kernel after steps :meth:`kernel_pass` began."""
+        self._in_kernel().save()
+
+    def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float) -> None:
+        """Take the warm starts, Newton multipliers and last step length the kernel left."""
+        self.warm, self.newton, self.step_h = warm, newton, step_h
+        self._set_efforts()
 
     # ------------------------------------------------------------------ state
 
@@ -313,11 +382,11 @@ class JointPass:
                             if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
         if self._initial is None:
             return
-        start = self._initial
-        self._reference = {}  # per joint: initial relative angle and translation
-        self._raw: dict[str, float] = {}
-        self._angle: dict[str, float] = {}
-        for name, (a, b) in self._frames.items():
+        start = self._initial.reshape(-1).tolist()
+        self.reference = {}  # per joint: initial relative angle and translation
+        self.raw: dict[str, float] = {}
+        self.angle: dict[str, float] = {}
+        for name, (a, b) in self.frames.items():
             pa, pb = a.place(start), b.place(start)
             relative = pb[4] - pa[4]
             spec = self._named[name]
@@ -325,26 +394,29 @@ class JointPass:
             if isinstance(spec, PrismaticJoint):
                 ux, uy = self._axis(spec, pa[4])
                 along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1])
-            self._reference[name] = (relative, along)
-            self._raw[name], self._angle[name] = relative, 0.0
+            self.reference[name] = (relative, along)
+            self.raw[name], self.angle[name] = relative, 0.0
         # Every joint gives the same rows in the same order at any pose.
-        self._rigid = np.array([i for i, r in enumerate(self.rows(start, 1.0))
-                                if r.kind == RIGID], dtype=int)
+        template = self.rows(start, 1.0)
+        self.rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
+        self.keys = [r.key for r in template]
+        self.kinds = [r.kind for r in template]
+        self.warm = [0.0] * len(template)
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
-        self._warm: dict[tuple[str, str], float] = {}
-        self._newton: Optional[np.ndarray] = None
-        self._last: Optional[tuple[np.ndarray, list[JointRow]]] = None
+        self.warm: list[float] = [0.0] * len(self.keys)
+        self.newton: Optional[list[float]] = None
+        self.step_h = 1.0
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
         counted joint angles, the warm-start impulses, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
-                "angle": dict(self._angle) if self._initial is not None else {},
-                "raw": dict(self._raw) if self._initial is not None else {},
-                "warm": [[list(key), value] for key, value in self._warm.items()],
-                "newton": None if self._newton is None else self._newton.tolist(),
+                "angle": dict(self.angle) if self._initial is not None else {},
+                "raw": dict(self.raw) if self._initial is not None else {},
+                "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
+                "newton": None if self.newton is None else list(self.newton),
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
     def import_state(self, state: dict[str, Any]) -> None:
@@ -353,11 +425,12 @@ class JointPass:
             self._initial = np.array(state["initial"], dtype=float)
         self.reset()
         if self._initial is not None:
-            self._angle = {k: float(x) for k, x in state["angle"].items()}
-            self._raw = {k: float(x) for k, x in state["raw"].items()}
-        self._warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
-        self._newton = (None if state["newton"] is None
-                        else np.array(state["newton"], dtype=float))
+            self.angle = {k: float(x) for k, x in state["angle"].items()}
+            self.raw = {k: float(x) for k, x in state["raw"].items()}
+        warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
+        self.warm = [warm.get(key, 0.0) for key in self.keys]
+        self.newton = (None if state["newton"] is None
+                        else [float(x) for x in state["newton"]])
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
@@ -368,14 +441,14 @@ class JointPass:
     def _joint_angle(self, name: str, pa: tuple, pb: tuple) -> float:
         """body_b's angle relative to body_a's since the start, counting whole turns."""
         raw = pb[4] - pa[4]
-        return self._angle[name] + _wrap(raw - self._raw[name])
+        return self.angle[name] + _wrap(raw - self.raw[name])
 
     def joint_state(self, q: np.ndarray, v: np.ndarray) -> dict[str, tuple[float, float, float]]:
         """(position, velocity, effort) of each revolute (rad, rad/s, N m) and prismatic
         (m, m/s, N) joint at the state (q, v) of all bodies: the fields of
         sensor_msgs/JointState. The effort is the last step's motor, limit and spring
         impulse along the joint over the step."""
-        mine, vel = q[self.bodies], v[self.bodies].reshape(-1)
+        mine, vel = q[self.bodies].reshape(-1).tolist(), v[self.bodies].reshape(-1).tolist()
         state = {}
         for spec in self.specs:
             if not isinstance(spec, (RevoluteJoint, PrismaticJoint)):
@@ -386,27 +459,27 @@ class JointPass:
             state[spec.name] = (row.c, rate, self.efforts.get(spec.name, 0.0))
         return state
 
-    def _coordinate(self, spec: Union[RevoluteJoint, PrismaticJoint], q: np.ndarray) -> JointRow:
+    def _coordinate(self, spec: Union[RevoluteJoint, PrismaticJoint], q: list[float]) -> JointRow:
         """The joint's coordinate (angle or translation) at ``q`` as a row."""
-        a, b = self._frames[spec.name]
+        a, b = self.frames[spec.name]
         pa, pb = a.place(q), b.place(q)
         if isinstance(spec, RevoluteJoint):
             return JointRow((spec.name, "angle"), MOTOR, self._joint_angle(spec.name, pa, pb),
                             _angle_entries(a.body, b.body))
         ux, uy = self._axis(spec, pa[4])
-        along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self._reference[spec.name][1]
+        along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self.reference[spec.name][1]
         return JointRow((spec.name, "along"), MOTOR, along, _line(a, b, pa, pb, ux, uy))
 
     # ------------------------------------------------------------------ rows
 
-    def rows(self, q: np.ndarray, h: float) -> list[JointRow]:
+    def rows(self, q: list[float], h: float) -> list[JointRow]:
         """Every joint's rows at positions ``q`` (the joint bodies only, local order)."""
         rows: list[JointRow] = []
         for spec in self.specs:
             if isinstance(spec, GearJoint):
                 rows.append(self._gear_row(spec, q))
                 continue
-            a, b = self._frames[spec.name]
+            a, b = self.frames[spec.name]
             pa, pb = a.place(q), b.place(q)
             name = spec.name
             if isinstance(spec, RevoluteJoint):
@@ -422,10 +495,9 @@ class JointPass:
                                          damping=spec.spring.damping))
             elif isinstance(spec, WeldJoint):
                 kind = SOFT if spec.frequency > 0.0 else RIGID
-                omega = 2.0 * math.pi * spec.frequency
-                k, c = omega * omega, 2.0 * spec.damping_ratio * omega
+                k, c = weld_law(spec)
                 rows += _point_rows(name, a, b, pa, pb, kind, k, c)
-                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), kind, relative,
                                      _angle_entries(a.body, b.body), stiffness=k, damping=c,
                                      scaled=True))
@@ -434,7 +506,7 @@ class JointPass:
                 across = -uy * (pb[0] - pa[0]) + ux * (pb[1] - pa[1])
                 rows.append(JointRow((name, "across"), RIGID, across,
                                      _line(a, b, pa, pb, -uy, ux)))
-                relative = _wrap(pb[4] - pa[4] - self._reference[name][0])
+                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), RIGID, relative,
                                      _angle_entries(a.body, b.body)))
                 along = self._coordinate(spec, q)
@@ -442,7 +514,7 @@ class JointPass:
                                       self._motor(spec), h)
             else:  # DistanceJoint
                 dx, dy = pb[0] - pa[0], pb[1] - pa[1]
-                length = math.hypot(dx, dy)
+                length = math.sqrt(dx * dx + dy * dy)  # as C computes it
                 ux, uy = (dx / length, dy / length) if length > 0.0 else (1.0, 0.0)
                 entries = _fixed(a, b, pa, pb, ux, uy)  # d|d| = u . d(P_B - P_A)
                 if spec.rope:
@@ -458,24 +530,15 @@ class JointPass:
             return None
         return Motor(self.motor_speed[spec.name], spec.motor.max_effort)
 
-    def _gear_row(self, spec: GearJoint, q: np.ndarray) -> JointRow:
+    def _gear_row(self, spec: GearJoint, q: list[float]) -> JointRow:
         """angle_a + ratio angle_b = 0 over the two revolute joints' bodies."""
         value, entries = 0.0, []
         for joint, scale in ((self._gears[spec.name][0], 1.0), (self._gears[spec.name][1],
                                                                spec.ratio)):
-            a, b = self._frames[joint.name]
+            a, b = self.frames[joint.name]
             value += scale * self._joint_angle(joint.name, a.place(q), b.place(q))
             entries += _angle_entries(a.body, b.body, scale)
         return JointRow((spec.name, "gear"), RIGID, value, entries)
-
-    def _jacobian(self, rows: list[JointRow]) -> np.ndarray:
-        matrix = np.zeros((len(rows), self.inverse_mass.size))
-        for i, row in enumerate(rows):
-            for b, jx, jy, jw in row.entries:
-                matrix[i, 3 * b] += jx
-                matrix[i, 3 * b + 1] += jy
-                matrix[i, 3 * b + 2] += jw
-        return matrix
 
     # ------------------------------------------------------------------ the pass
 
@@ -485,52 +548,57 @@ class JointPass:
         if self._initial is None:
             self.reset(q0)
         index = self.bodies
-        start = q0[index]
-        if self._last is not None and np.array_equal(self._last[0], start):
-            rows0 = self._last[1]  # the last step ended here: the same rows
-        else:
-            rows0 = self.rows(start, h)
-        q = q1[index].copy()
-        moved = q.copy()
-        rows = self._hold(rows0, q, h)
-        v = v1[index].reshape(-1) + (q - moved).reshape(-1) / h
+        if self._compiled:
+            self._in_kernel().resolve(q0, q1, v1, h)
+            return
+        start = q0[index].reshape(-1).tolist()
+        q = q1[index].reshape(-1).tolist()
+        moved = list(q)
+        rows = self._hold(self.rows(start, h), q, h)
+        v = v1[index].reshape(-1).tolist()
+        for k, (now, before) in enumerate(zip(q, moved)):
+            v[k] += (now - before) / h
         rows = self._correct(rows, q, h)
-        v = self._velocities(rows, v, h)
-        for name, (a, b) in self._frames.items():  # keep counting whole turns from here
-            pa, pb = a.place(q), b.place(q)
-            self._angle[name] = self._joint_angle(name, pa, pb)
-            self._raw[name] = pb[4] - pa[4]
-        self._last = (q.copy(), rows)
-        q1[index] = q
-        v1[index] = v.reshape(-1, 3)
+        self._velocities(rows, v, h)
+        self._count_turns(q)
+        q1[index] = np.array(q).reshape(-1, 3)
+        v1[index] = np.array(v).reshape(-1, 3)
 
-    def _hold(self, rows0: list[JointRow], q: np.ndarray, h: float) -> list[JointRow]:
+    def _count_turns(self, q: list[float]) -> None:
+        """Keep counting whole turns of each joint angle from the pose ``q``."""
+        for name, (a, b) in self.frames.items():
+            pa, pb = a.place(q), b.place(q)
+            self.angle[name] = self._joint_angle(name, pa, pb)
+            self.raw[name] = pb[4] - pa[4]
+
+    def _hold(self, rows0: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
-        at the step's start (Newton's method, warm-started from the last step's
-        multipliers); returns the rows at the new ``q``."""
-        rigid = self._rigid
-        if not rigid.size:
+        at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
+        symmetric: factored by :func:`_lu`), warm-started from the last step's
+        multipliers; returns the rows at the new ``q``."""
+        if not self.rigid:
             return self.rows(q, h)
-        g0 = self._jacobian([rows0[i] for i in rigid])
-        target = np.array([rows0[i].c for i in rigid])
-        direction = self.inverse_mass[:, None] * g0.T  # M^-1 G0^T
-        nu = np.zeros(rigid.size) if self._newton is None else self._newton.copy()
-        q += (direction @ nu).reshape(q.shape)
+        rigid = [rows0[i] for i in self.rigid]
+        direction = _directions(rigid, self.inverse_mass)
+        width = _bandwidth(rigid)
+        target = [row.c for row in rigid]
+        nu = [0.0] * len(rigid) if self.newton is None else list(self.newton)
+        _apply(q, direction, nu)
         for _ in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
-            now = [rows[i] for i in rigid]
-            error = np.array([r.c for r in now]) - target
-            if float(np.max(np.abs(error))) <= TOLERANCE:
+            error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
+            if max(abs(e) for e in error) <= TOLERANCE:
                 break
-            step = np.linalg.solve(self._jacobian(now) @ direction, -error)
-            nu += step
-            q += (direction @ step).reshape(q.shape)
+            matrix = _lu(_products([rows[i] for i in self.rigid], direction, width), width)
+            step = _lu_solve(matrix, width, [-e for e in error])
+            nu = [a + b for a, b in zip(nu, step)]
+            _apply(q, direction, step)
         else:
             rows = self.rows(q, h)
-        self._newton = nu
+        self.newton = nu
         return rows
 
-    def _correct(self, rows: list[JointRow], q: np.ndarray, h: float) -> list[JointRow]:
+    def _correct(self, rows: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 2: remove drift of the rigid rows and limits passed, positions only;
         returns the rows at the corrected ``q``."""
         for _ in range(DRIFT_ITERATIONS):
@@ -538,72 +606,259 @@ class JointPass:
                        or (r.kind == LIMIT and r.c < -TOLERANCE) for r in rows):
                 break
             active = [r for r in rows if r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0)]
-            g = self._jacobian(active)
-            direction = self.inverse_mass[:, None] * g.T
-            shift = np.linalg.solve(g @ direction, -np.array([r.c for r in active]))
-            q += (direction @ shift).reshape(q.shape)
+            direction = _directions(active, self.inverse_mass)
+            shift = _substitute(_factor(_normal_matrix(active, direction)),
+                                [-r.c for r in active])
+            _apply(q, direction, shift)
             rows = self.rows(q, h)
         return rows
 
-    def _velocities(self, rows: list[JointRow], v: np.ndarray, h: float) -> np.ndarray:
-        """Stage 3: the impulses at the final positions; returns the new velocities and
-        keeps each row's impulse for warm starting and the joints' efforts."""
-        g = self._jacobian(rows)
-        direction = self.inverse_mass[:, None] * g.T
-        k = g @ direction
-        rate = g @ v
-        b = -rate
-        lower = np.full(len(rows), -math.inf)
-        upper = np.full(len(rows), math.inf)
+    def _velocities(self, rows: list[JointRow], v: list[float], h: float) -> None:
+        """Stage 3: the impulses at the final positions; changes ``v`` in place and keeps
+        each row's impulse for warm starting and the joints' efforts."""
+        direction = _directions(rows, self.inverse_mass)
+        k = _normal_matrix(rows, direction)
+        b = [-_rate(row, v) for row in rows]
+        lower = [-math.inf] * len(rows)
+        upper = [math.inf] * len(rows)
         for i, row in enumerate(rows):
             if row.kind == LIMIT:
-                b[i] -= max(row.c, 0.0) / h
+                b[i] -= (0.0 if 0.0 > row.c else row.c) / h
                 lower[i] = 0.0
             elif row.kind == MOTOR:
                 b[i] += row.speed
                 lower[i], upper[i] = -row.bound, row.bound
             elif row.kind == SOFT:
-                scale = 1.0 / k[i, i] if row.scaled else 1.0
+                scale = 1.0 / k.band[i][0] if row.scaled else 1.0
                 stiffness, damping = row.stiffness * scale, row.damping * scale
                 compliance = stiffness * h + damping
                 if compliance == 0.0:  # a spring of zero stiffness and damping holds nothing
                     lower[i] = upper[i] = 0.0
                     continue
-                k[i, i] += 1.0 / (h * compliance)
+                k.band[i][0] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(k, b, lower, upper, np.array([self._warm.get(r.key, 0.0)
-                                                       for r in rows]))
-        self._warm = {row.key: float(x) for row, x in zip(rows, impulse)}
+        impulse = _solve(k, b, lower, upper, self.warm)
+        _apply(v, direction, impulse)
+        self.warm = impulse
+        self.step_h = h
+        self._set_efforts()
+
+    def _set_efforts(self) -> None:
+        """Each joint's effort: its motor, limit and spring impulses over the last step."""
         self.efforts = {}
-        for row, x in zip(rows, impulse.tolist()):
-            sign = EFFORT_SIGNS.get(row.key[1])
+        h = self.step_h
+        for (joint, part), x in zip(self.keys, self.warm):
+            sign = EFFORT_SIGNS.get(part)
             if sign is not None:
-                self.efforts[row.key[0]] = self.efforts.get(row.key[0], 0.0) + sign * x / h
-        return v + direction @ impulse
+                self.efforts[joint] = self.efforts.get(joint, 0.0) + sign * x / h
 
 
-def _solve(k: np.ndarray, b: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-           warm: np.ndarray) -> np.ndarray:
+def _rate(row: JointRow, v: list[float]) -> float:
+    """The row's velocity J v."""
+    rate = 0.0
+    for b, jx, jy, jw in row.entries:
+        rate += jx * v[3 * b] + jy * v[3 * b + 1] + jw * v[3 * b + 2]
+    return rate
+
+
+Directions = list[list[tuple[int, float, float, float]]]
+
+
+def _directions(rows: list[JointRow], inverse_mass: list[float]) -> Directions:
+    """Per row, M^-1 J^T: how an impulse along the row changes each body's velocity (the
+    force part by Eq. 5, the angular part by tau = I alpha, Eq. 14)."""
+    return [[(b, inverse_mass[3 * b] * jx, inverse_mass[3 * b + 1] * jy,
+              inverse_mass[3 * b + 2] * jw) for b, jx, jy, jw in row.entries] for row in rows]
+
+
+def _apply(x: list[float], direction: Directions, impulse: list[float]) -> None:
+    """x += M^-1 J^T impulse, row by row (x: positions or velocities, 3 per body)."""
+    for entries, amount in zip(direction, impulse):
+        for b, dx, dy, dw in entries:
+            x[3 * b] += dx * amount
+            x[3 * b + 1] += dy * amount
+            x[3 * b + 2] += dw * amount
+
+
+@dataclass(slots=True)
+class Band:
+    """A symmetric matrix by its lower band: ``band[i][d]`` = K[i, i - d] for d from 0 to
+    ``width`` (zero where i - d < 0 or outside the band)."""
+
+    width: int
+    band: list[list[float]]
+
+    def at(self, i: int, j: int) -> float:
+        """K[i, j] for |i - j| <= width."""
+        return self.band[i][i - j] if j <= i else self.band[j][j - i]
+
+    def part(self, index: list[int]) -> Band:
+        """The submatrix of the rows and columns ``index`` (ascending), same width."""
+        w = self.width
+        return Band(w, [[self.at(i, index[p - d]) if d <= p and i - index[p - d] <= w
+                         else 0.0 for d in range(w + 1)] for p, i in enumerate(index)])
+
+
+def _bandwidth(rows: list[JointRow]) -> int:
+    """How far apart in ``rows``' order two rows on the same body are at most: the
+    bandwidth of J M^-1 J^T (so a chain declared link by link has a narrow band, whatever
+    its length)."""
+    first: dict[int, int] = {}
+    width = 0
+    for i, row in enumerate(rows):
+        for entry in row.entries:
+            width = max(width, i - first.setdefault(entry[0], i))
+    return width
+
+
+def _dot(row: JointRow, entries: list[tuple[int, float, float, float]]) -> float:
+    """J_row . (M^-1 J^T)_column: the bodies the two share."""
+    s = 0.0
+    for b, jx, jy, jw in row.entries:
+        for c, dx, dy, dw in entries:
+            if b == c:
+                s += jx * dx + jy * dy + jw * dw
+    return s
+
+
+def _products(rows: list[JointRow], direction: Directions, width: int) -> list[list[float]]:
+    """G M^-1 G0^T for the rows G and the directions M^-1 G0^T of the same rows at other
+    positions, by its band: ``[i][j - i + width]`` = entry (i, j)."""
+    n = len(rows)
+    return [[_dot(row, direction[j]) if 0 <= j < n else 0.0
+             for j in range(i - width, i + width + 1)] for i, row in enumerate(rows)]
+
+
+def _lu(a: list[list[float]], w: int) -> list[list[float]]:
+    """A = L U in A's band (:func:`_products`' layout), in place, without pivoting: the
+    Newton matrix is K of :func:`_normal_matrix` changed by the step's motion, so its
+    pivots stay near K's, which are positive."""
+    n = len(a)
+    for k in range(n):
+        pivot = a[k][w]
+        if not pivot != 0.0:
+            raise np.linalg.LinAlgError(f"the joints' rows are dependent (zero pivot at row "
+                                        f"{k}): a joint repeats what others hold")
+        for i in range(k + 1, min(n, k + w + 1)):
+            factor = a[i][k - i + w] / pivot
+            a[i][k - i + w] = factor
+            for j in range(k + 1, min(n, k + w + 1)):
+                a[i][j - i + w] -= factor * a[k][j - k + w]
+    return a
+
+
+def _lu_solve(a: list[list[float]], w: int, rhs: list[float]) -> list[float]:
+    """x with L U x = rhs for :func:`_lu`'s factors."""
+    n = len(rhs)
+    x = list(rhs)
+    for i in range(n):
+        s = x[i]
+        for k in range(i - w if i > w else 0, i):
+            s -= a[i][k - i + w] * x[k]
+        x[i] = s
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for j in range(i + 1, min(n, i + w + 1)):
+            s -= a[i][j - i + w] * x[j]
+        x[i] = s / a[i][w]
+    return x
+
+
+def _normal_matrix(rows: list[JointRow], direction: Directions) -> Band:
+    """K = J M^-1 J^T of ``rows``, by its lower band (:func:`_bandwidth`)."""
+    width = _bandwidth(rows)
+    band = []
+    for i, row in enumerate(rows):
+        line = [0.0] * (width + 1)
+        for d in range(min(i, width) + 1):
+            line[d] = _dot(row, direction[i - d])
+        band.append(line)
+    return Band(width, band)
+
+
+Factors = tuple[int, list[list[float]], list[float]]
+
+
+def _factor(k: Band) -> Factors:
+    """K = L D L^T in K's band, without pivoting (K of independent rigid rows, and of the
+    rows with the soft rows' compliance added, is symmetric positive definite): O(n w^2)
+    for n rows of bandwidth w. Returns (w, L by its lower band, D)."""
+    w, band = k.width, k.band
+    n = len(band)
+    low = [[0.0] * (w + 1) for _ in range(n)]
+    diag = [0.0] * n
+    for i in range(n):
+        start = i - w if i > w else 0
+        li = low[i]
+        for j in range(start, i):
+            s = band[i][i - j]
+            lj = low[j]
+            for m in range(start, j):
+                s -= li[i - m] * diag[m] * lj[j - m]
+            li[i - j] = s / diag[j]
+        s = band[i][0]
+        for m in range(start, i):
+            s -= li[i - m] * diag[m] * li[i - m]
+        if not s > 0.0:
+            raise np.linalg.LinAlgError(f"the joints' rows are dependent (pivot {s!r} at "
+                                        f"row {i}): a joint repeats what others hold")
+        diag[i] = s
+    return w, low, diag
+
+
+def _substitute(factors: Factors, rhs: list[float]) -> list[float]:
+    """x with L D L^T x = rhs."""
+    w, low, diag = factors
+    n = len(rhs)
+    x = list(rhs)
+    for i in range(n):
+        s = x[i]
+        for m in range(i - w if i > w else 0, i):
+            s -= low[i][i - m] * x[m]
+        x[i] = s / diag[i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for j in range(i + 1, min(n, i + w + 1)):
+            s -= low[j][j - i] * x[j]
+        x[i] = s
+    return x
+
+
+def _solve(k: Band, b: list[float], lower: list[float], upper: list[float],
+           warm: list[float]) -> list[float]:
     """Impulses x with (K x - b)_i = 0 where lower_i < x_i < upper_i, >= 0 at lower_i and
-    <= 0 at upper_i: the unbounded rows as one block solved exactly, each bounded row by a
-    projected Gauss-Seidel update, alternated until no bounded impulse changes by more than
-    :data:`CONVERGED` relative to the largest."""
-    free = np.isinf(lower) & np.isinf(upper)
-    bounded = np.flatnonzero(~free)
-    x = np.where(free, 0.0, np.clip(warm, lower, upper))
-    if not bounded.size:
-        return np.linalg.solve(k, b)
-    free_index = np.flatnonzero(free)
-    k_free = k[np.ix_(free_index, free_index)]
+    <= 0 at upper_i: the unbounded rows as one block solved exactly (L D L^T), each bounded
+    row by a projected Gauss-Seidel update, alternated until no bounded impulse changes by
+    more than :data:`CONVERGED` relative to the largest."""
+    n, w = len(b), k.width
+    free = [lo == -math.inf and up == math.inf for lo, up in zip(lower, upper)]
+    if all(free):
+        return _substitute(_factor(k), b)
+    x = [0.0 if f else min(max(x0, lo), up)
+         for f, x0, lo, up in zip(free, warm, lower, upper)]
+    free_index = [i for i in range(n) if free[i]]
+    bounded = [i for i in range(n) if not free[i]]
+    factors = _factor(k.part(free_index)) if free_index else None
     for _ in range(MAX_ITERATIONS):
-        if free_index.size:
-            x[free_index] = np.linalg.solve(
-                k_free, b[free_index] - k[np.ix_(free_index, bounded)] @ x[bounded])
+        if factors is not None:
+            rhs = []
+            for i in free_index:
+                s = 0.0
+                for j in range(i - w if i > w else 0, min(n, i + w + 1)):
+                    if not free[j]:
+                        s += k.at(i, j) * x[j]
+                rhs.append(b[i] - s)
+            for i, xi in zip(free_index, _substitute(factors, rhs)):
+                x[i] = xi
         largest = 0.0
-        for i in bounded.tolist():
-            new = min(max(x[i] + (b[i] - k[i] @ x) / k[i, i], lower[i]), upper[i])
-            largest = max(largest, abs(new - x[i]))
+        for i in bounded:
+            s = 0.0
+            for j in range(i - w if i > w else 0, min(n, i + w + 1)):
+                s += k.at(i, j) * x[j]
+            new = min(max(x[i] + (b[i] - s) / k.band[i][0], lower[i]), upper[i])
+            change = abs(new - x[i])
+            largest = change if change > largest else largest
             x[i] = new
-        if largest <= CONVERGED * (1.0 + float(np.max(np.abs(x)))):
+        if largest <= CONVERGED * (1.0 + max(abs(xi) for xi in x)):
             break
     return x

@@ -2,8 +2,9 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the contact pass of
-:mod:`..contact.compiled` after each step in scenes with contacts), repeating the
+as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the joint pass
+of :mod:`..contact.joints_kernel` and the contact pass of :mod:`..contact.compiled` after
+each step in scenes with joints and contacts), repeating the
 plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
@@ -30,6 +31,7 @@ from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, Cente
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
 
 if TYPE_CHECKING:
+    from ..contact.joints import JointPass
     from ..contact.solver import ContactPass
 
 try:
@@ -120,7 +122,9 @@ KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
 #: The kernel's failures of an integrator, by the name of their status code.
 _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
              "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
-                                  "one step"}
+                                  "one step",
+             "JOINTS_DEPENDENT": "the joints' rows are dependent (a joint repeats what "
+                                 "others hold)"}
 
 
 class Advanced(NamedTuple):
@@ -142,10 +146,13 @@ class CompiledSteps:
     """Whole steps of an explicit integrator on compiled forces."""
 
     def __init__(self, forces: CompiledForces, integrator: Integrator,
-                 contacts: Optional[ContactPass] = None) -> None:
+                 contacts: Optional[ContactPass] = None,
+                 joints: Optional[JointPass] = None) -> None:
         """Steps of the method ``integrator`` names, with its embedded pair and tolerance,
-        and the compiled contact pass of ``contacts`` after each step."""
+        and the compiled joint pass of ``joints`` and contact pass of ``contacts`` after
+        each step."""
         self.forces, self.name, self.contacts = forces, integrator.name, contacts
+        self.joints = joints
         self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
         self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
         self.pair = None
@@ -168,7 +175,10 @@ class CompiledSteps:
         status, taken, evaluations, substeps, rejected, size = _kernel.advance(
             forces.program, forces.inputs, oriented, self.method, self.pair, self.tolerance,
             substep_size if self.pair is not None else 0.0, q, v, self._q_new, self._v_new, h,
-            steps, None if self.contacts is None else self.contacts.kernel_pass())
+            steps, None if self.contacts is None else self.contacts.kernel_pass(),
+            None if self.joints is None else self.joints.kernel_pass())
+        if self.joints is not None:
+            self.joints.kernel_done()
         done = Advanced(taken, evaluations, substeps, rejected, size)
         if status == _kernel.NOT_FINITE:
             return done._replace(diverged=(self._q_new.copy(), self._v_new.copy()))
@@ -178,10 +188,13 @@ class CompiledSteps:
 
 
 def compiled_steps(forces: Optional[CompiledForces], integrator: Integrator,
-                   contacts: Optional[ContactPass]) -> Optional[CompiledSteps]:
+                   contacts: Optional[ContactPass],
+                   joints: Optional[JointPass] = None) -> Optional[CompiledSteps]:
     """The kernel's stepping of ``integrator`` on ``forces``, if it can take whole steps:
-    the forces (and the contact pass, if any) are compiled and the method is explicit."""
+    the forces (and the contact and joint passes, if any) are compiled and the method is
+    explicit."""
     if forces is None or integrator.name not in KERNEL_METHODS or \
-            (contacts is not None and not contacts.compiled):
+            (contacts is not None and not contacts.compiled) or \
+            (joints is not None and not joints.compiled):
         return None
-    return CompiledSteps(forces, integrator, contacts)
+    return CompiledSteps(forces, integrator, contacts, joints)

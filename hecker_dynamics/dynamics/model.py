@@ -65,7 +65,8 @@ class Model:
         self.contacts: Optional[ContactPass] = (
             ContactPass(self, _restitution_threshold(scene), compiled=self.compiled is not None)
             if scene.walls or scene.collisions else None)
-        self.joints: Optional[JointPass] = JointPass(self) if scene.joints else None
+        self.joints: Optional[JointPass] = (JointPass(self, compiled=self.compiled is not None)
+                                             if scene.joints else None)
         if self.joints is not None and self.contacts is not None:
             for pair in self.joints.connected:  # joined bodies do not collide by default
                 self.contacts.pairs.pop(pair, None)
@@ -91,6 +92,8 @@ class Model:
         self.compiled = None
         if self.contacts is not None:
             self.contacts.use_python()
+        if self.joints is not None:
+            self.joints.use_python()
 
     @property
     def oriented(self) -> bool:

@@ -8,7 +8,7 @@ same order gives bit-identical states.
 
 Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, the steps
 between one publish instant or input change and the next run in the kernel in one call,
-contact pass included, with the results of Python's plain-float path (:mod:`.kernel` and
+joint and contact passes included, with the results of Python's plain-float path (:mod:`.kernel` and
 :mod:`..contact.compiled` say how far they agree).
 """
 from __future__ import annotations
@@ -61,11 +61,15 @@ class Snapshot:
     thousands of bodies and with long steps.
     """
 
-    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies")
+    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
                  v: np.ndarray) -> None:
         self.time_ns, self.steps = time_ns, steps
+        #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
+        #: joint pass counts turns and keeps its efforts from step to step.
+        self.joints: dict[str, tuple[float, float, float]] = (
+            {} if model.joints is None else model.joints.joint_state(q, v))
         self._model, self._q, self._v = model, q.copy(), v.copy()
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
@@ -118,9 +122,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = (compiled_steps(self.model.compiled, self.integrator,
-                                         self.model.contacts)
-                          if self.model.joints is None else None)
+        self._compiled = compiled_steps(self.model.compiled, self.integrator,
+                                        self.model.contacts, self.model.joints)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -354,9 +357,10 @@ class Simulation:
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
             self._bound.inputs_changed(self.q, self.model.inputs)
-        contacts = self.model.contacts
+        contacts, joints = self.model.contacts, self.model.joints
         if self._compiled is None or self.model.compiled is None or \
-                (contacts is not None and not contacts.compiled):
+                (contacts is not None and not contacts.compiled) or \
+                (joints is not None and not joints.compiled):
             self._step()
             return 1
         change = self._inputs.next_change()

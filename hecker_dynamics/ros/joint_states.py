@@ -11,10 +11,28 @@ import math
 from typing import NamedTuple, Optional
 
 from ..dynamics.commands import InputError
-from ..dynamics.simulation import Simulation
+from ..dynamics.simulation import Simulation, Snapshot
+from ..scene.load import Scene
+from ..contact.joints import PrismaticJoint, RevoluteJoint
 from .fields import Header, header
+from .names import motor_topic
 
-__all__ = ["JointStateFields", "joint_state_fields", "set_motor_speed"]
+__all__ = ["JointStateFields", "MotorTopic", "has_joint_states", "joint_state_fields",
+           "motor_topics", "snapshot_joint_states", "set_motor_speed"]
+
+
+class MotorTopic(NamedTuple):
+    """A motor's command topic (:func:`~.names.motor_topic`): ``std_msgs/Float64`` messages
+    whose ``data`` is the target speed of ``joint``'s motor, held until the next one."""
+
+    joint: str
+    topic: str
+
+
+def motor_topics(scene: Scene) -> tuple[MotorTopic, ...]:
+    """The command topic of each motor of ``scene``, joints sorted by name."""
+    return tuple(MotorTopic(j.name, motor_topic(j.name)) for j in scene.joints
+                 if isinstance(j, (RevoluteJoint, PrismaticJoint)) and j.motor is not None)
 
 
 class JointStateFields(NamedTuple):
@@ -25,17 +43,28 @@ class JointStateFields(NamedTuple):
     effort: tuple[float, ...]  # N m or N
 
 
-def joint_state_fields(sim: Simulation, stamp_ns: int) -> Optional[JointStateFields]:
-    """The JointState of the simulation's current state, joints sorted by name; None for
-    a scene without revolute or prismatic joints."""
-    joints = sim.model.joints
-    state = {} if joints is None else joints.joint_state(sim.q, sim.v)
+def has_joint_states(scene: Scene) -> bool:
+    """True if ``scene`` has revolute or prismatic joints, whose states the node publishes."""
+    return any(isinstance(j, (RevoluteJoint, PrismaticJoint)) for j in scene.joints)
+
+
+def snapshot_joint_states(frame_id: str, snapshot: Snapshot) -> Optional[JointStateFields]:
+    """The JointState of a snapshot, joints sorted by name; None for a scene without
+    revolute or prismatic joints."""
+    state = snapshot.joints
     if not state:
         return None
     names = tuple(sorted(state))
     position, velocity, effort = (tuple(float(state[n][i]) for n in names) for i in range(3))
-    return JointStateFields(header(sim.scene.frame_id, stamp_ns), names, position, velocity,
+    return JointStateFields(header(frame_id, snapshot.time_ns), names, position, velocity,
                             effort)
+
+
+def joint_state_fields(sim: Simulation, stamp_ns: int) -> Optional[JointStateFields]:
+    """The JointState of the simulation's current state, stamped ``stamp_ns``."""
+    fields = snapshot_joint_states(sim.scene.frame_id, sim.snapshot())
+    return None if fields is None else fields._replace(header=header(sim.scene.frame_id,
+                                                                      stamp_ns))
 
 
 def set_motor_speed(sim: Simulation, joint: str, speed: float) -> None:

@@ -15,6 +15,7 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
            "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
+           "JOINT_STATES_TOPIC", "motor_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "SPAWN_BODY_SERVICE", "DELETE_BODY_SERVICE",
@@ -79,6 +80,8 @@ TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 MARKERS_TOPIC = "markers"
 DIAGNOSTICS_TOPIC = "diagnostics"
+#: ``sensor_msgs/JointState`` of the scene's revolute and prismatic joints, as robots publish.
+JOINT_STATES_TOPIC = "joint_states"
 SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"
@@ -105,6 +108,11 @@ def twist_topic(body: str) -> str:
 def odometry_topic(body: str) -> str:
     """``<body>/odom`` (``nav_msgs/Odometry``)."""
     return f"{body}/odom"
+
+
+def motor_topic(joint: str) -> str:
+    """A motor's command topic (``std_msgs/Float64``: its target speed, rad/s or m/s)."""
+    return f"{joint}/motor_speed"
 
 
 def output_qos(topic: str) -> QosSpec:

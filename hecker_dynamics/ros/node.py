@@ -28,6 +28,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
+from std_msgs.msg import Float64
+from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
@@ -35,6 +37,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
                      header, stamp_from_ns)
 from .diagnostics import DiagnosticFields
+from .joint_states import JointStateFields, MotorTopic, motor_topics
 from .markers import MarkerFields
 from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
 from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
@@ -47,8 +50,8 @@ from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, nod
                      plan_tick)
 from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
                     SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
-from .session import (APPLIED_WRENCH_EVENT, InputEventFields, KeyframeFields, SessionFields,
-                      WorldEventFields)
+from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
+                      SessionFields, WorldEventFields)
 from .tf import TransformFields
 from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
 from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
@@ -58,7 +61,7 @@ from ..scene.load import SceneError, WrenchTopic
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
-    OutputKind.TF: TFMessage,
+    OutputKind.TF: TFMessage, OutputKind.JOINT_STATE: JointState,
 }
 
 
@@ -144,6 +147,13 @@ def _tf_message(transforms: tuple[TransformFields, ...]) -> TFMessage:
     return TFMessage(transforms=messages)
 
 
+def _joint_state(fields: JointStateFields) -> JointState:
+    msg = JointState(name=list(fields.name), position=list(fields.position),
+                     velocity=list(fields.velocity), effort=list(fields.effort))
+    _fill_header(msg.header, fields.header)
+    return msg
+
+
 def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
     return MarkerArray(markers=[_marker(fields) for fields in markers])
 
@@ -180,6 +190,8 @@ def _input_event(fields: InputEventFields) -> InputEvent:
     msg.arrival.sec, msg.arrival.nanosec = stamp_from_ns(fields.arrival_ns)
     if fields.kind == APPLIED_WRENCH_EVENT:
         msg.applied_wrench = fields.message
+    elif fields.kind == MOTOR_SPEED_EVENT:
+        msg.motor_speed = fields.message
     else:
         msg.wrench_stamped = fields.message
     return msg
@@ -207,6 +219,7 @@ RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, QosSpec]] = {
 MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
     OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
+    OutputKind.JOINT_STATE: _joint_state,
 }
 
 
@@ -266,6 +279,11 @@ class DynamicsNode(Node):
                 lambda msg, topic=topic: self._on_wrench_stamped(msg, topic),
                 qos_profile(COMMAND_QOS))
             self._wrench_topic_names[topic.name] = subscription.topic_name
+        for motor in motor_topics(self.scene):
+            subscription = self.create_subscription(
+                Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor),
+                qos_profile(COMMAND_QOS))
+            self._wrench_topic_names[motor.topic] = subscription.topic_name
         self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)
         self.create_service(Trigger, RESUME_SERVICE, self._on_resume)
@@ -322,6 +340,11 @@ class DynamicsNode(Node):
     def _on_wrench_stamped(self, msg: WrenchStamped, topic: WrenchTopic) -> None:
         self._log(self.runner.accept(self._wrench_topic_names[topic.name], msg, self._now_ns(),
                                      topic))
+        self._publish_records()
+
+    def _on_motor_speed(self, msg: Float64, motor: MotorTopic) -> None:
+        self._log(self.runner.accept(self._wrench_topic_names[motor.topic], msg,
+                                     self._now_ns(), motor))
         self._publish_records()
 
     # ----------------------------------------------------------------- stepping

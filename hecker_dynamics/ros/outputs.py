@@ -7,9 +7,10 @@ from typing import Any, NamedTuple, Optional
 from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
 from .fields import OdometryFields, PoseStampedFields, body_pose, header, twist_fields
+from .joint_states import has_joint_states, snapshot_joint_states
 from .markers import MarkerFields, marker_templates, place_markers
-from .names import (DIAGNOSTICS_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC, TF_TOPIC,
-                    odometry_topic, pose_topic, twist_topic)
+from .names import (DIAGNOSTICS_TOPIC, JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC,
+                    TF_TOPIC, odometry_topic, pose_topic, twist_topic)
 from .tf import body_transforms, point_transforms
 
 __all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",
@@ -25,6 +26,7 @@ class OutputKind(enum.Enum):
     MARKERS = "visualization_msgs/msg/MarkerArray"
     DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
     TF = "tf2_msgs/msg/TFMessage"
+    JOINT_STATE = "sensor_msgs/msg/JointState"
 
 
 def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
@@ -42,7 +44,8 @@ def body_topics(scene: Scene, body: str) -> dict[str, OutputKind]:
 def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, OutputKind]:
     """The node's output topics for ``scene`` and their kinds, in publishing order: per
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
-    ``markers``, ``/tf`` and ``/tf_static``, and ``diagnostics``, each if enabled.
+    ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``joint_states`` if the scene
+    has revolute or prismatic joints, and ``diagnostics`` if enabled.
 
     ``tf`` overrides the scene's ``publish.tf`` (the offline replay leaves TF out unless
     asked, so bags replayed before TF existed keep their bytes).
@@ -55,6 +58,8 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     if _with_tf(scene, tf):
         topics[TF_TOPIC] = OutputKind.TF
         topics[TF_STATIC_TOPIC] = OutputKind.TF
+    if has_joint_states(scene):
+        topics[JOINT_STATES_TOPIC] = OutputKind.JOINT_STATE
     if scene.publish_diagnostics:
         topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
     return topics
@@ -113,6 +118,10 @@ class SnapshotOutputs:
         if self.tf:
             outputs.append(OutputFields(TF_TOPIC, OutputKind.TF,
                                         body_transforms(head, snapshot.bodies)))
+        joint_states = snapshot_joint_states(frame_id, snapshot)
+        if joint_states is not None:
+            outputs.append(OutputFields(JOINT_STATES_TOPIC, OutputKind.JOINT_STATE,
+                                        joint_states))
         return outputs
 
     def static(self, stamp_ns: int) -> list[OutputFields]:

@@ -25,7 +25,9 @@ from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,
 from ..scene.world import EditKind, WorldEdit, apply_edits
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
-from .session import (APPLIED_WRENCH_EVENT, WRENCH_STAMPED_EVENT, InputEventFields,
+from .joint_states import MotorTopic, set_motor_speed
+from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
+                      InputEventFields,
                       KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
                       encode_state)
 
@@ -41,6 +43,8 @@ FAR_FUTURE_NS = 2 ** 63 - 1
 
 #: What the runner records for the node to publish.
 Record = Union[SessionFields, InputEventFields, WorldEventFields, KeyframeFields]
+#: Where an input message other than an ``AppliedWrench`` came from.
+InputSource = Union[WrenchTopic, MotorTopic]
 
 # ----------------------------------------------------------------------------- node setup
 
@@ -296,19 +300,21 @@ class Runner:
     # ----------------------------------------------------------------- inputs
 
     def accept(self, topic: str, msg: Any, arrival_ns: int,
-               wrench_topic: Optional[WrenchTopic] = None) -> list[LogLine]:
+               wrench_topic: Optional[InputSource] = None) -> list[LogLine]:
         """Map one input message that arrived at ROS time ``arrival_ns`` and push it.
 
-        ``msg`` is an ``AppliedWrench`` (``wrench_topic`` None) or a ``WrenchStamped`` from
-        the scene's input topic ``wrench_topic``. Bad input is counted in ``rejected`` and
-        reported in the returned lines, never raised; warnings about an accepted message are
-        returned too. With ``record``, an input event records the message, the sim time it
-        was pushed at and the outcome.
+        ``msg`` is an ``AppliedWrench`` (``wrench_topic`` None), a ``WrenchStamped`` from
+        the scene's input topic ``wrench_topic``, or a ``Float64`` from a motor's topic (a
+        :class:`MotorTopic`: the motor holds that speed from the next step on). Bad input
+        is counted in ``rejected`` and reported in the returned lines, never raised;
+        warnings about an accepted message are returned too. With ``record``, an input
+        event records the message, the sim time it was pushed at and the outcome.
         """
         lines = self._push_message(topic, msg, arrival_ns, wrench_topic)
         if self.record:
             rejected = next((line.message for line in lines if line.dropped), "")
-            kind = APPLIED_WRENCH_EVENT if wrench_topic is None else WRENCH_STAMPED_EVENT
+            kind = (APPLIED_WRENCH_EVENT if wrench_topic is None else MOTOR_SPEED_EVENT
+                    if isinstance(wrench_topic, MotorTopic) else WRENCH_STAMPED_EVENT)
             self.records.append(InputEventFields(
                 self.sim.time_ns, self.session, self.sequence, topic, arrival_ns, kind, msg,
                 not rejected, rejected))
@@ -316,11 +322,19 @@ class Runner:
         return lines
 
     def _push_message(self, topic: str, msg: Any, arrival_ns: int,
-                      wrench_topic: Optional[WrenchTopic]) -> list[LogLine]:
+                      wrench_topic: Optional[InputSource]) -> list[LogLine]:
         if not self.started:
             self.rejected += 1
             return [LogLine(f"{topic}:early", f"input on '{topic}' ignored: the simulation "
                                               "starts with the ROS clock (waiting for /clock)")]
+        if isinstance(wrench_topic, MotorTopic):
+            try:
+                set_motor_speed(self.sim, wrench_topic.joint, float(msg.data))
+            except InputError as error:
+                self.rejected += 1
+                return [LogLine(f"{topic}:message", f"input on '{topic}' rejected: {error}")]
+            self.accepted += 1
+            return []
         try:
             if wrench_topic is None:
                 command, warnings = applied_wrench_to_command(msg, arrival_ns)

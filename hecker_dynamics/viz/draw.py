@@ -1,5 +1,10 @@
-"""Draw one frame of a scene with matplotlib (Agg, no window): bodies, springs, walls,
-forces at their points of application, contact points, trails and the sim time.
+"""Draw one frame of a scene with matplotlib (Agg, no window): bodies, springs, joints,
+walls, forces at their points of application, contact points, trails and the sim time.
+
+Joints are drawn over the bodies: a pin (revolute) as a ring at its point, a weld as a
+square, a slider (prismatic) as a ring on a short line along its axis, a rod as a solid
+line and a rope as a dashed one between their points, a gear as a dotted line between its
+two pins.
 
 The article's subject is where each force acts: a force F at a point r from the CM turns
 the body by the torque perp(r) . F (Eq. 11), so every applied force is drawn as an arrow
@@ -25,6 +30,8 @@ from matplotlib.patches import FancyArrow, Polygon as PolygonPatch
 from ..geometry import Circle, Polygon
 from ..dynamics import Model
 from ..scene import Scene
+from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, PrismaticJoint,
+                              RevoluteJoint, WeldJoint)
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 
@@ -38,6 +45,7 @@ SPRING_COLOR = "#606060"
 ARROW_COLOR = "#d62728"
 CONTACT_COLOR = "#ff7f0e"
 TRAIL_COLOR = "#7f7f7f"
+JOINT_COLOR = "#ffffff"
 #: One fill per body, in the scene's order (matplotlib's tab10 without the arrow's red).
 BODY_COLORS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
                 "#ff7f0e")
@@ -198,6 +206,8 @@ class Drawing:
         self.force_scale = force_scale if force_scale is not None else \
             (ARROW_FRACTION * side / largest if largest > 0 else 0.0)
         self._artists: list = []
+        self._index = {body.name: i for i, body in enumerate(self.scene.bodies)}
+        self._named = {j.name: j for j in self.scene.joints}
         self._draw_walls()
 
     @staticmethod
@@ -257,6 +267,9 @@ class Drawing:
             add(axes.plot([cm[0], tip[0]], [cm[1], tip[1]], color=EDGE_COLOR,
                           linewidth=1.5, solid_capstyle="butt")[0])
             add(axes.plot([cm[0]], [cm[1]], marker="o", markersize=3, color=EDGE_COLOR)[0])
+        for joint in self.scene.joints:
+            for artist in self._joint(joint, frame.poses):
+                add(artist)
         if self.model is not None:
             points = self.timeline.contact_points(frame.poses, self.model)
             if points:
@@ -293,6 +306,45 @@ class Drawing:
         width = 0.03 * min(self.view.xmax - self.view.xmin, self.view.ymax - self.view.ymin)
         line = _zigzag(a, b, width=width)
         return self.axes.plot(line[:, 0], line[:, 1], color=SPRING_COLOR, linewidth=1.0)[0]
+
+    def _ends(self, joint: JointSpec, poses: tuple[BodyPose, ...]
+              ) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Where a joint's two points are now (fixed-frame coordinates)."""
+        assert not isinstance(joint, GearJoint)
+        index = self._index
+        a = joint.point_a if joint.body_a is None else \
+            world_point(poses[index[joint.body_a]], joint.point_a)
+        return a, world_point(poses[index[joint.body_b]], joint.point_b)
+
+    def _joint(self, joint: JointSpec, poses: tuple[BodyPose, ...]) -> list:
+        axes, side = self.axes, min(self.view.xmax - self.view.xmin,
+                                    self.view.ymax - self.view.ymin)
+        mark = dict(color=JOINT_COLOR, markeredgecolor=EDGE_COLOR, markersize=6,
+                    linestyle="none")
+        if isinstance(joint, GearJoint):
+            pins = [self._ends(self._named[name], poses)[1]
+                    for name in (joint.joint_a, joint.joint_b)]
+            (xa, ya), (xb, yb) = pins
+            return [axes.plot([xa, xb], [ya, yb], color=EDGE_COLOR, linewidth=1.0,
+                              linestyle=":")[0]]
+        a, b = self._ends(joint, poses)
+        if isinstance(joint, DistanceJoint):
+            return [axes.plot([a[0], b[0]], [a[1], b[1]], color=EDGE_COLOR, linewidth=1.5,
+                              linestyle="--" if joint.rope else "-")[0]]
+        artists = []
+        if isinstance(joint, PrismaticJoint):
+            angle = 0.0 if joint.body_a is None else \
+                poses[self._index[joint.body_a]].angle
+            c, s = math.cos(angle), math.sin(angle)
+            ux, uy = c * joint.axis[0] - s * joint.axis[1], s * joint.axis[0] + c * joint.axis[1]
+            reach = 0.1 * side
+            artists.append(axes.plot([a[0] - reach * ux, a[0] + reach * ux],
+                                     [a[1] - reach * uy, a[1] + reach * uy],
+                                     color=EDGE_COLOR, linewidth=1.0)[0])
+        marker = "s" if isinstance(joint, WeldJoint) else "o"
+        assert isinstance(joint, (RevoluteJoint, PrismaticJoint, WeldJoint))
+        artists.append(axes.plot([b[0]], [b[1]], marker=marker, **mark)[0])
+        return artists
 
     def rgba(self) -> np.ndarray:
         """The picture's pixels, (height, width, 4) uint8, rows from the top."""

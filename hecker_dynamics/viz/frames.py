@@ -19,6 +19,7 @@ import numpy as np
 
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
 from ..bags.replay import input_topics, output_types, session_times
+from ..ros.joint_states import MotorTopic
 from ..dynamics import InputError, Model, Simulation, WrenchCommand
 from ..dynamics.inputs import InputBuffer
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
@@ -167,6 +168,8 @@ def _bag_commands(scene: Scene, bag: BagContents) -> list[WrenchCommand]:
         if message.topic not in topics:
             continue
         _, wrench_topic = topics[message.topic]
+        if isinstance(wrench_topic, MotorTopic):
+            continue  # a motor's speed: no force to draw
         try:
             if wrench_topic is None:
                 command, _ = applied_wrench_to_command(message.decode(), message.log_ns)

@@ -77,7 +77,7 @@ enum hd_method { EXPLICIT_EULER = 0, SEMI_IMPLICIT_EULER = 1, VELOCITY_VERLET = 
 #define MAX_SUBSTEPS 100000L
 
 enum hd_status { ADVANCED = 0, NOT_FINITE = 1, SUBSTEP_UNDERFLOW = 2, TOO_MANY_SUBSTEPS = 3,
-              OUT_OF_MEMORY = 4 };
+              OUT_OF_MEMORY = 4, JOINTS_DEPENDENT = 5 };
 
 typedef struct {
     long evaluations, substeps, rejected;
@@ -88,11 +88,14 @@ typedef struct {
  * (NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
  * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
  * step to step. `*taken` counts the steps completed. `contacts` (NULL: none): the contact
- * pass of contact.h after each step, in sub-steps as the simulation takes them. */
+ * pass of contact.h after each step, in sub-steps as the simulation takes them; `joints`
+ * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts
+ * (JOINTS_DEPENDENT: a factorization of its rows failed). */
 struct hd_contact_model;
+struct hd_joint_model;
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
                const hd_pair *pair, double tolerance, double *size,
-               struct hd_contact_model *contacts, double *q, double *v, double *q_new,
+               struct hd_contact_model *contacts, struct hd_joint_model *joints, double *q, double *v, double *q_new,
                double *v_new, double h, long steps, long *taken, hd_work *work);
 
 #endif

@@ -11,11 +11,13 @@
 #include <string.h>
 
 #include "contact.h"
+#include "joint.h"
 #include "kernel.h"
 
 static const char *PROGRAM = "hecker_dynamics._kernel.Program";
 static const char *PAIR = "hecker_dynamics._kernel.Pair";
 static const char *CONTACTS = "hecker_dynamics._kernel.Contacts";
+static const char *JOINTS = "hecker_dynamics._kernel.Joints";
 
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
@@ -319,13 +321,15 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
 
 PyDoc_STRVAR(advance_doc,
 "advance(program, inputs, oriented, method, pair, tolerance, size, q, v, q_new, v_new, h,\n"
-"        steps[, contacts]) -> (status, taken, evaluations, substeps, rejected, size)\n\n"
+"        steps[, contacts[, joints]]) -> (status, taken, evaluations, substeps, rejected,\n"
+"        size)\n\n"
 "Advance (q, v) in place by up to ``steps`` steps of ``h`` seconds with ``method``\n"
 "(EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or EMBEDDED: the ``pair`` at\n"
 "``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
 "``status``: ADVANCED, NOT_FINITE (a new state was not finite; it is left in q_new,\n"
-"v_new), SUBSTEP_UNDERFLOW or TOO_MANY_SUBSTEPS. ``contacts`` (default None: none): the\n"
-"contact pass after each step. The GIL is released meanwhile.");
+"v_new), SUBSTEP_UNDERFLOW, TOO_MANY_SUBSTEPS or JOINTS_DEPENDENT. ``contacts`` (default\n"
+"None: none): the contact pass after each step; ``joints`` (default None: none) the joint\n"
+"pass, before it. The GIL is released meanwhile.");
 
 static PyObject *py_advance(PyObject *self, PyObject *args)
 {
@@ -335,11 +339,12 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     long steps;
     hd_program *p, *in;
     hd_pair *pair = NULL;
-    PyObject *contacts_object = Py_None;
+    PyObject *contacts_object = Py_None, *joints_object = Py_None;
     hd_contact_model *contacts = NULL;
-    if (!PyArg_ParseTuple(args, "OOpiOddOOOOdl|O:advance", &program, &inputs, &oriented,
+    hd_joint_model *joints = NULL;
+    if (!PyArg_ParseTuple(args, "OOpiOddOOOOdl|OO:advance", &program, &inputs, &oriented,
                           &method, &pair_object, &tolerance, &size, &qo, &vo, &qno, &vno, &h,
-                          &steps, &contacts_object) ||
+                          &steps, &contacts_object, &joints_object) ||
         get_programs(program, inputs, &p, &in) < 0)
         return NULL;
     if (method < EXPLICIT_EULER || method > EMBEDDED) {
@@ -356,6 +361,15 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
             return NULL;
         }
     }
+    if (joints_object != Py_None) {
+        if ((joints = PyCapsule_GetPointer(joints_object, JOINTS)) == NULL)
+            return NULL;
+        for (long k = 0; k < joints->body_count; ++k)
+            if (joints->bodies[k] >= p->bodies) {
+                PyErr_SetString(PyExc_ValueError, "joints: a joint pass for other bodies");
+                return NULL;
+            }
+    }
     const Py_ssize_t n3 = 3 * p->bodies;
     Py_buffer views[4];
     PyObject *objects[4] = {qo, vo, qno, vno};
@@ -371,7 +385,8 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     hd_work work = {0, 0, 0};
     int status;
     Py_BEGIN_ALLOW_THREADS
-    status = hd_advance(p, in, oriented, method, pair, tolerance, &size, contacts, views[0].buf,
+    status = hd_advance(p, in, oriented, method, pair, tolerance, &size, contacts, joints,
+                        views[0].buf,
                      views[1].buf, views[2].buf, views[3].buf, h, steps, &taken, &work);
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 4; ++k)
@@ -630,6 +645,195 @@ static PyObject *py_warm(PyObject *self, PyObject *args)
     return list;
 }
 
+/* ------------------------------------------------------------------ the joint pass */
+
+static void joints_destructor(PyObject *capsule)
+{
+    hd_joints_free(PyCapsule_GetPointer(capsule, JOINTS));
+}
+
+PyDoc_STRVAR(joints_doc,
+"joints(bodies, inverse_mass, ints, reals, rows) -> Joints\n\n"
+"A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
+"1/m, 1/I; per joint HD_JOINT_INTS ints and HD_JOINT_REALS reals; ``rows``: the number of\n"
+"rows JointPass counts, which the kernel checks against its own.");
+
+static PyObject *py_joints(PyObject *self, PyObject *args)
+{
+    PyObject *o[4];
+    long rows;
+    if (!PyArg_ParseTuple(args, "OOOOl:joints", o, o + 1, o + 2, o + 3, &rows))
+        return NULL;
+    hd_joint_model *m = calloc(1, sizeof(hd_joint_model));
+    if (m == NULL)
+        return PyErr_NoMemory();
+    Py_ssize_t bodies, ints_count;
+    long *ints = NULL;
+    double *reals = NULL;
+    if ((m->bodies = read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
+        (m->inverse_mass = read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
+        (ints = read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
+        (reals = read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
+                            NULL)) == NULL)
+        goto fail;
+    m->body_count = (long)bodies;
+    m->joint_count = (long)(ints_count / HD_JOINT_INTS);
+    if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,
+                                                          sizeof(hd_joint))) == NULL) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "joints: ints not of the layout of joint.h");
+        goto fail;
+    }
+    for (long i = 0; i < m->joint_count; ++i) {
+        const long *n = ints + HD_JOINT_INTS * i;
+        const double *r = reals + HD_JOINT_REALS * i;
+        hd_joint *jt = m->joints + i;
+        jt->kind = (int)n[0], jt->a = n[1], jt->b = n[2];
+        jt->has_lower = n[3] != 0, jt->has_upper = n[4] != 0, jt->has_motor = n[5] != 0;
+        jt->has_spring = n[6] != 0, jt->gear_a = n[7], jt->gear_b = n[8];
+        int ok = jt->kind >= HD_REVOLUTE && jt->kind <= HD_GEAR;
+        if (jt->kind == HD_GEAR)
+            ok = ok && 0 <= n[7] && n[7] < m->joint_count && 0 <= n[8] && n[8] < m->joint_count
+                 && ints[HD_JOINT_INTS * n[7]] == HD_REVOLUTE
+                 && ints[HD_JOINT_INTS * n[8]] == HD_REVOLUTE;
+        else
+            ok = ok && -1 <= jt->a && jt->a < m->body_count && 0 <= jt->b && jt->b < m->body_count;
+        if (!ok) {
+            PyErr_Format(PyExc_ValueError, "joint %ld: not the layout of joint.h", i);
+            goto fail;
+        }
+        memcpy(jt->point_a, r, 2 * sizeof(double));
+        memcpy(jt->point_b, r + 2, 2 * sizeof(double));
+        memcpy(jt->axis, r + 4, 2 * sizeof(double));
+        jt->lower = r[6], jt->upper = r[7], jt->max_effort = r[8], jt->stiffness = r[9];
+        jt->damping = r[10], jt->rest = r[11], jt->length = r[12], jt->ratio = r[13];
+    }
+    for (Py_ssize_t k = 0; k < bodies; ++k)
+        if (m->bodies[k] < 0) {
+            PyErr_SetString(PyExc_ValueError, "joints: a negative body index");
+            goto fail;
+        }
+    if (hd_joints_prepare(m) != HD_JOINTS_OK) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    if (m->row_count != rows) {
+        PyErr_Format(PyExc_ValueError, "joints: %ld rows in the kernel, %ld in Python",
+                     m->row_count, rows);
+        goto fail;
+    }
+    free(ints);
+    free(reals);
+    PyObject *capsule = PyCapsule_New(m, JOINTS, joints_destructor);
+    if (capsule == NULL)
+        hd_joints_free(m);
+    return capsule;
+fail:
+    free(ints);
+    free(reals);
+    hd_joints_free(m);
+    return NULL;
+}
+
+/* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
+ * whether those are set, and the last step's length. */
+static Py_ssize_t joint_state_length(const hd_joint_model *m)
+{
+    return HD_JOINT_STATE * m->joint_count + m->row_count + m->rigid_count + 2;
+}
+
+PyDoc_STRVAR(joint_state_doc,
+"joint_state(joints, state, load)\n\n"
+"Copy the joint pass's state (joint.h: HD_JOINT_STATE per joint, the warm-start impulses,\n"
+"the Newton multipliers, 1.0 if those are set, the last step's length) from ``state``\n"
+"into the kernel (``load``) or from the kernel into ``state``.");
+
+static PyObject *py_joint_state(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *object;
+    int load;
+    if (!PyArg_ParseTuple(args, "OOp:joint_state", &capsule, &object, &load))
+        return NULL;
+    hd_joint_model *m = PyCapsule_GetPointer(capsule, JOINTS);
+    Py_buffer view;
+    if (m == NULL || get_buffer(object, &view, "state", 'd', joint_state_length(m), !load) < 0)
+        return NULL;
+    double *s = view.buf;
+    for (long i = 0; i < m->joint_count; ++i, s += HD_JOINT_STATE) {
+        hd_joint *jt = m->joints + i;
+        double *fields[HD_JOINT_STATE] = {&jt->reference_angle, &jt->reference_along,
+                                          &jt->angle, &jt->raw, &jt->motor_speed};
+        for (int k = 0; k < HD_JOINT_STATE; ++k) {
+            if (load)
+                *fields[k] = s[k];
+            else
+                s[k] = *fields[k];
+        }
+    }
+    const size_t warm = (size_t)m->row_count * sizeof(double),
+                 newton = (size_t)m->rigid_count * sizeof(double);
+    if (load) {
+        memcpy(m->warm, s, warm);
+        memcpy(m->newton, s + m->row_count, newton);
+        m->newton_valid = s[m->row_count + m->rigid_count] != 0.0;
+        m->last_h = s[m->row_count + m->rigid_count + 1];
+    } else {
+        memcpy(s, m->warm, warm);
+        memcpy(s + m->row_count, m->newton, newton);
+        s[m->row_count + m->rigid_count] = m->newton_valid ? 1.0 : 0.0;
+        s[m->row_count + m->rigid_count + 1] = m->last_h;
+    }
+    PyBuffer_Release(&view);
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(joints_resolve_doc,
+"joints_resolve(joints, bodies, q0, q1, v1, h)\n\n"
+"The joint pass after a step of ``h`` from q0 to (q1, v1) of ``bodies`` bodies: updates\n"
+"q1 and v1 in place (JointPass.resolve). Raises ArithmeticError if the joints' rows are\n"
+"dependent.");
+
+static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[3];
+    long bodies;
+    double h;
+    if (!PyArg_ParseTuple(args, "OlOOOd:joints_resolve", &capsule, &bodies, objects,
+                          objects + 1, objects + 2, &h))
+        return NULL;
+    hd_joint_model *m = PyCapsule_GetPointer(capsule, JOINTS);
+    if (m == NULL)
+        return NULL;
+    for (long k = 0; k < m->body_count; ++k)
+        if (m->bodies[k] >= bodies) {
+            PyErr_SetString(PyExc_ValueError, "joints_resolve: a joint's body out of range");
+            return NULL;
+        }
+    Py_buffer views[3];
+    const char *names[3] = {"q0", "q1", "v1"};
+    for (int k = 0; k < 3; ++k) {
+        if (get_buffer(objects[k], views + k, names[k], 'd', 3 * bodies, k > 0) < 0) {
+            while (k-- > 0)
+                PyBuffer_Release(views + k);
+            return NULL;
+        }
+    }
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = hd_joints_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < 3; ++k)
+        PyBuffer_Release(views + k);
+    if (status == HD_JOINTS_OUT_OF_MEMORY)
+        return PyErr_NoMemory();
+    if (status == HD_JOINTS_DEPENDENT) {
+        PyErr_SetString(PyExc_ArithmeticError, "the joints' rows are dependent: a joint "
+                        "repeats what others hold");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"program", py_program, METH_VARARGS, program_doc},
     {"pair", py_pair, METH_VARARGS, pair_doc},
@@ -638,6 +842,9 @@ static PyMethodDef methods[] = {
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},
     {"warm", py_warm, METH_VARARGS, warm_doc},
+    {"joints", py_joints, METH_VARARGS, joints_doc},
+    {"joint_state", py_joint_state, METH_VARARGS, joint_state_doc},
+    {"joints_resolve", py_joints_resolve, METH_VARARGS, joints_resolve_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -661,6 +868,12 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"MAX_SUBSTEPS", MAX_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
         {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
+        {"JOINTS_DEPENDENT", JOINTS_DEPENDENT}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
+        {"JOINT_DRIFT_ITERATIONS", HD_DRIFT_ITERATIONS},
+        {"JOINT_MAX_ITERATIONS", HD_JOINT_MAX_ITERATIONS}, {"JOINT_INTS", HD_JOINT_INTS},
+        {"JOINT_REALS", HD_JOINT_REALS}, {"JOINT_STATE", HD_JOINT_STATE},
+        {"REVOLUTE", HD_REVOLUTE}, {"PRISMATIC", HD_PRISMATIC}, {"WELD", HD_WELD},
+        {"ROD", HD_ROD}, {"ROPE", HD_ROPE}, {"GEAR", HD_GEAR},
     };
     PyObject *m = PyModule_Create(&module);
     if (m == NULL)
@@ -675,6 +888,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
     static const struct { const char *name; double value; } reals[] = {
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
+        {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
     };
     for (size_t k = 0; k < sizeof reals / sizeof reals[0]; ++k) {
         PyObject *value = PyFloat_FromDouble(reals[k].value);

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "joint.h"
 #include "kernel.h"
 
 /* math.pi, the same double (strict C has no M_PI). */
@@ -267,6 +268,21 @@ static int one_step(Stepper *s, const double *q, const double *v, double *q1, do
     }
 }
 
+/* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
+ * simulation.py: Simulation._integrate takes them: the joints first, then the contacts. */
+static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
+                            const double *v, double *q1, double *v1, double h)
+{
+    int status = one_step(s, q, v, q1, v1, h);
+    if (status != ADVANCED || joints == NULL)
+        return status;
+    switch (hd_joints_resolve(joints, q, q1, v1, h)) {
+    case HD_JOINTS_OK: return ADVANCED;
+    case HD_JOINTS_DEPENDENT: return JOINTS_DEPENDENT;
+    default: return OUT_OF_MEMORY;
+    }
+}
+
 /* How many sub-steps keep every colliding body's travel under half the thinnest colliding
  * part (solver.py: ContactPass.substeps; C's hypot where Python's plain-float path has
  * math.hypot, which may round the last bit differently: it changes the count only for a
@@ -291,11 +307,12 @@ static long substeps(const hd_contact_model *m, const double *q0, const double *
 
 /* A step and the contact pass, in sub-steps when a colliding body would move more than half
  * the thinnest colliding part (simulation.py: Simulation._integrate). `spare`: 4 states. */
-static int step_with_contacts(Stepper *s, hd_contact_model *m, const double *q,
-                              const double *v, double *q1, double *v1, double h, double *spare)
+static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *joints,
+                              const double *q, const double *v, double *q1, double *v1,
+                              double h, double *spare)
 {
     const long n3 = s->f->n3;
-    int status = one_step(s, q, v, q1, v1, h);
+    int status = constrained_step(s, joints, q, v, q1, v1, h);
     if (status != ADVANCED)
         return status;
     const long parts = substeps(m, q, q1);
@@ -307,7 +324,8 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, const double *q,
     memcpy(v_part, v, (size_t)n3 * sizeof(double));
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
-        if ((status = one_step(s, q_part, v_part, q_next, v_next, part)) != ADVANCED)
+        if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part))
+                != ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, v_part, part) < 0)
             return OUT_OF_MEMORY;
@@ -321,7 +339,7 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, const double *q,
 
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
                const hd_pair *pair, double tolerance, double *size, hd_contact_model *contacts,
-               double *q, double *v, double *q_new, double *v_new, double h, long steps,
+               hd_joint_model *joints, double *q, double *v, double *q_new, double *v_new, double h, long steps,
                long *taken, hd_work *work)
 {
     const long n = program->bodies, n3 = 3 * n;
@@ -337,9 +355,10 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
     *taken = 0;
     Stepper stepper = {&f, method, pair, tolerance, size, buffer};
     for (long t = 0; t < steps; ++t) {
-        status = contacts == NULL ? one_step(&stepper, q, v, q_new, v_new, h)
-                                  : step_with_contacts(&stepper, contacts, q, v, q_new, v_new,
-                                                       h, buffer + n3 * buffer_states(method, pair));
+        status = contacts == NULL
+                 ? constrained_step(&stepper, joints, q, v, q_new, v_new, h)
+                 : step_with_contacts(&stepper, contacts, joints, q, v, q_new, v_new, h,
+                                      buffer + n3 * buffer_states(method, pair));
         if (status != ADVANCED)
             break;
         if (!all_finite(q_new, n3) || !all_finite(v_new, n3)) {

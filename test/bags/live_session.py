@@ -19,7 +19,9 @@ import numpy as np
 
 from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
+from hecker_dynamics.bags.io import resolve_topic
 from hecker_dynamics.ros.fields import applied_wrench_fields
+from hecker_dynamics.ros.joint_states import motor_topics
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
 from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
                                          WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
@@ -109,14 +111,15 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
              play_script: bool = True, keyframe_period_ns: int = S,
              max_steps: Optional[int] = None, reset_at: Optional[int] = None,
              record: bool = True, lockstep: bool = False, world: int = 0,
-             bodies: Sequence[tuple[int, BodyCall]] = ()) -> LiveSession:
+             bodies: Sequence[tuple[int, BodyCall]] = (), motors: int = 0) -> LiveSession:
     """Run the node's loop for ``duration_ns`` of ROS time with a jittered timer and
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
     reset service once; ``world`` times the world services are called (pause, a few steps,
     a body moved, resume; and a call refused now and then); ``bodies`` spawns and deletes
-    bodies, each call at its time (ns after the start). In ``lockstep`` the simulation
-    starts at sim time 0, each tick steps one publish period, and a message arrives at the
-    sim time it finds."""
+    bodies, each call at its time (ns after the start); ``motors`` speed commands go to
+    the scene's motor topics (one in ten not finite, which the node refuses). In
+    ``lockstep`` the simulation starts at sim time 0, each tick steps one publish period,
+    and a message arrives at the sim time it finds."""
     rng = np.random.default_rng(seed)
     t0 = 1_700_000_000 * S + int(rng.integers(S))
     period = scene.publish_period_ns
@@ -131,6 +134,8 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                       + ([(t0 + reset_at, 0, "reset")] if reset_at is not None else [])
                       + [(int(t0 + rng.uniform(0, duration_ns)), 0, "world")
                          for _ in range(world)]
+                      + [(int(t0 + rng.uniform(0, duration_ns)), 0, "motor")
+                         for _ in range(motors)]
                       + [(t0 + at, 0, f"body:{n}") for n, (at, _) in enumerate(bodies)])
     runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=lockstep,
                     record=record, keyframe_period_ns=keyframe_period_ns, lockstep=lockstep,
@@ -160,6 +165,14 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                 runner.spawn_body(*call[1:])
             else:
                 runner.delete_body(*call[1:])
+        elif what == "motor":
+            motor = motor_topics(scene)[int(rng.integers(len(motor_topics(scene))))]
+            speed = float(rng.uniform(-4.0, 4.0)) if rng.random() > 0.1 else math.nan
+            msg = bags.default_message(bags.FLOAT64, data=speed)
+            topic = resolve_topic(motor.topic)
+            session.published.append(Published(topic, bags.FLOAT64,
+                                               at_ns - int(rng.integers(S // 1000)), msg))
+            runner.accept(topic, msg, now_ns, motor)
         elif what == "reset":
             if runner.started:
                 runner.restart(now_ns, "reset")

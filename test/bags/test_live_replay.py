@@ -22,6 +22,7 @@ from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outp
                                          output_types, replay_outputs)
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene
+from hecker_dynamics.ros.session import MOTOR_SPEED_EVENT
 from live_session import S, record, run_live
 
 EXACT = Tolerances(0.0, 0.0, 0.0)
@@ -42,6 +43,9 @@ CASES = [
     ]
 ] + [(name, 10 + n, {"world": n % 2}, late) for n, (name, late) in enumerate(
     (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
+    ("gears", 20, {"motors": 8}, 0), ("gears", 21, {"motors": 8, "world": 1}, 1_300_000_000),
+    ("gears", 22, {"motors": 8, "lockstep": True, "keyframe_period_ns": 250_000_000},
+     2_100_000_000)] + [
     ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2],
                          "world": n % 3, "lockstep": n % 5 == 4},
      int(1e9 * (n % 4) * 0.8)) for n in range(int(os.environ.get("HECKER_DYNAMICS_LIVE_SEEDS", 0)))]
@@ -247,3 +251,24 @@ def test_the_cli_replays_a_session_with_a_spawned_body(tmp_path, capsys):
     assert "match:" in capsys.readouterr().out
     written = read_bag(tmp_path / "out")
     assert {"/ball/pose", "/ball/twist"} <= set(written.topics)
+
+def test_motor_commands_are_recorded_and_a_replay_without_them_differs(tmp_path, monkeypatch):
+    """The gears session's motor commands (std_msgs/Float64 on ``small_axle/motor_speed``)
+    are input events, accepted or (not finite) rejected as the node decided; they change
+    the published joint states, so a replay that ignores them fails the check: the
+    bit-for-bit pass above is no accident."""
+    scene = load_scene("gears")
+    session = run_live(scene, 20, motors=8)
+    motor = "/small_axle/motor_speed"
+    assert sum(p.topic == motor for p in session.published) == 8
+    path = record(session, tmp_path / "live", 20)
+    events = [bags.input_event_fields(m.decode()) for m in read_bag(path).on(
+        "/dynamics_node/input_events")]
+    mine = [e for e in events if e.topic == motor]
+    assert len(mine) == 8 and {e.kind for e in mine} == {MOTOR_SPEED_EVENT}
+    assert all(e.accepted == math.isfinite(e.message.data) for e in mine)
+    speeds = {round(float(m.decode().velocity[1]), 6) for m in read_bag(path).on("/joint_states")}
+    assert len(speeds) > 3  # the motor followed several commanded speeds
+    assert _check(scene, path).ok
+    monkeypatch.setattr("hecker_dynamics.ros.runner.set_motor_speed", lambda *args: None)
+    assert not _check(scene, path).ok

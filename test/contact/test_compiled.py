@@ -58,8 +58,8 @@ def test_kernel_steps_contact_scenes_with_the_bits_of_python(name):
 @pytest.mark.parametrize("compiled", [False, True])
 @pytest.mark.parametrize("name", ["pyramid", "seesaw"])
 def test_restored_simulation_continues_bit_for_bit(name, compiled):
-    """Run 0.6 s, hand (q, v) and the contact pass's exported state (through plain lists,
-    as a checkpoint would) to a new simulation, and step both 0.4 s on: the same bits.
+    """Run 0.6 s, hand (q, v) and the contact (and joint) passes' exported state (through
+    plain lists, as a checkpoint would) to a new simulation, and step both 0.4 s on: the same bits.
     Without the contact state the new one differs (warm starting matters), so the test
     can fail."""
     if compiled and not kernel.enabled():
@@ -69,8 +69,10 @@ def test_restored_simulation_continues_bit_for_bit(name, compiled):
     if not compiled:
         original.model.use_python()
     original.advance_to(600_000_000)
+    joints = original.model.joints  # the seesaw's pin carries its own state
     saved = {"q": original.q.tolist(), "v": original.v.tolist(),
-             "contacts": original.model.contacts.export_state()}
+             "contacts": original.model.contacts.export_state(),
+             "joints": None if joints is None else joints.export_state()}
     assert all(type(k) is int for key, _ in saved["contacts"] for k in key)
     assert all(type(x) is float for _, contacts in saved["contacts"] for contact in contacts
                for x in contact)
@@ -80,6 +82,8 @@ def test_restored_simulation_continues_bit_for_bit(name, compiled):
         if not compiled:
             sim.model.use_python()
         sim.q, sim.v = np.array(saved["q"]), np.array(saved["v"])
+        if saved["joints"] is not None:
+            sim.model.joints.import_state(saved["joints"])
         if with_contacts:
             sim.model.contacts.import_state(saved["contacts"])
         for _ in range(100):

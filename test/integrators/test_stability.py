@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
+from hecker_dynamics.bench.scenes import pinned_by_springs
 from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.geometry.planar import (HALF_ANGLE_FROM, cos_sin, wrap_angle,
                                              wrap_angles_in_place)
-from hecker_dynamics.scene.load import load_scene
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 
 EPS = np.finfo(float).eps
@@ -454,15 +454,16 @@ def test_large_mass_ratio_conserves_momentum(method, steps, keeps_angular):
 @pytest.mark.parametrize("method", ["implicit_midpoint", "backward_euler"])
 @pytest.mark.parametrize("omega_h", [10.0, 100.0])
 def test_seesaw_pinned_by_a_stiff_spring_stays_stable_with_implicit_methods(method, omega_h):
-    """The shipped seesaw's plank hangs on a zero-length spring of k = 2e5 N/m (a pin made
-    of a spring). At omega*h = 10 and 100 (omega from Model.stiffness(), ~109 rad/s), with
-    contacts, the implicit methods stay finite, the pin holds (its stretch stays within
-    2.4 times the static stretch under the whole load, (20 + 2 + 150) kg g / k = 8.4 mm),
+    """The shipped seesaw with its plank hung on a zero-length spring of k = 2e5 N/m (a pin
+    made of a spring: bench.scenes.pinned_by_springs) instead of its revolute joint. At
+    omega*h = 10 and 100 (omega from Model.stiffness(), ~109 rad/s), with contacts, the
+    implicit methods stay finite, the pin holds (its stretch stays within 2.4 times the
+    static stretch under the whole load, (20 + 2 + 150) kg g / k = 8.4 mm),
     and the energy never rises more than 1 % above the start (the contacts only take
     energy out; 1 % allows the position corrections' small work). At omega*h = 100
     Newton's method fails on the full step (the plank turns far within it), so the step is
     halved: the counter shows it."""
-    scene = load_scene("seesaw")
+    scene = pinned_by_springs("seesaw")
     omega = Model(scene).stiffness()
     steps = max(1, round(4.0 * omega / omega_h))
     step_ns = 4_000_000_000 // steps

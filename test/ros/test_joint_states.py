@@ -47,3 +47,32 @@ def test_a_motor_speed_command_is_held_and_bad_ones_are_refused():
         set_motor_speed(sim, "rail", 1.0)
     with pytest.raises(InputError, match="finite"):
         set_motor_speed(sim, "axle", math.nan)
+
+
+def test_each_publish_instant_carries_the_joint_states_of_its_own_time():
+    """The node's outputs for a snapshot end with ``joint_states``: the joints' state when
+    the snapshot was taken, not when it is published (the kernel steps past several
+    publish instants in one call, and the pass keeps its efforts and turn counts)."""
+    from hecker_dynamics.ros.outputs import OutputKind, SnapshotOutputs, output_topics
+    scene = make_scene(SCENE)
+    sim = Simulation(scene)
+    snapshots = sim.advance_to(300_000_000)
+    assert len(snapshots) == 3
+    assert output_topics(scene)["joint_states"] is OutputKind.JOINT_STATE
+    outputs = SnapshotOutputs(scene)
+    angles = []
+    for snapshot in snapshots:
+        last = outputs(snapshot)[-1]
+        assert (last.topic, last.kind) == ("joint_states", OutputKind.JOINT_STATE)
+        assert (last.fields.header.sec, last.fields.header.nanosec) == \
+            divmod(snapshot.time_ns, 1_000_000_000)
+        angles.append(last.fields.position[0])
+    # the motor turns the wheel at 2 rad/s: 0.2 rad between instants (less the lag's step)
+    assert angles[1] - angles[0] == pytest.approx(0.2, abs=1e-9)
+    assert angles[2] - angles[1] == pytest.approx(0.2, abs=1e-9)
+
+
+def test_a_scene_without_joints_publishes_no_joint_states():
+    from hecker_dynamics.ros.outputs import output_topics
+    scene = make_scene({k: v for k, v in SCENE.items() if k != "joints"})
+    assert "joint_states" not in output_topics(scene)

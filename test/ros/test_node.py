@@ -351,3 +351,43 @@ def test_spawn_body_and_delete_body_change_the_world_and_its_publishers(ros):
     assert answer.success, answer.message
     spin_until(ros, lambda: node.count_publishers(ball_topic) == 0, "the ball's publisher to go")
     assert node.runner.sim.model.names == ("left", "right")
+
+
+def test_joint_states_and_motor_commands_on_the_gears(ros):
+    """The gears in lockstep: ``joint_states`` carries the offline run's joint states at
+    each publish instant until the first motor command, and a ``std_msgs/Float64`` on
+    ``small_axle/motor_speed`` sets the motor's speed and is recorded as an input event of
+    kind MOTOR_SPEED."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+    from hecker_dynamics.msg import InputEvent
+    from hecker_dynamics.ros.session import MOTOR_SPEED_EVENT
+
+    states = collect(ros, JointState, "joint_states")
+    events = collect(ros, InputEvent, "dynamics_node/input_events")
+    node = ros.start({"scene": "gears", "lockstep": True})
+    command = ros.helper.create_publisher(Float64, "small_axle/motor_speed", 10)
+
+    def commanded() -> bool:
+        command.publish(Float64(data=-1.0))
+        return node.sim.model.joints.motor_speed["small_axle"] == -1.0
+    spin_until(ros, commanded, "the motor command to arrive")
+    spin_until(ros, node.finished.done, "the lockstep run to end", limit_s=120.0)
+    spin_until(ros, lambda: any(e.kind == MOTOR_SPEED_EVENT for e in events),
+               "the motor command's input event")
+    event = next(e for e in events if e.kind == MOTOR_SPEED_EVENT)
+    assert event.accepted and event.motor_speed.data == -1.0
+    pushed = ns_from_stamp(event.header.stamp.sec, event.header.stamp.nanosec)
+    scene = node.scene
+    offline = Simulation(scene, start_ns=0)
+    by_time = {s.time_ns: s for s in offline.play(scene.script, until_ns=pushed)}
+    compared = 0
+    for msg in states:
+        stamp = ns_from_stamp(msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if stamp in by_time:
+            joints = by_time[stamp].joints
+            assert list(msg.name) == sorted(joints)
+            assert list(msg.position) == [joints[n][0] for n in msg.name]
+            assert list(msg.effort) == [joints[n][2] for n in msg.name]
+            compared += 1
+    assert compared > 0

@@ -106,3 +106,22 @@ def test_ended_command_draws_no_arrow():
     during, after = timeline.frames([400_000_000, 500_000_000])
     assert len(during.arrows) == 1 and during.arrows[0].force == (10.0, 0.0)
     assert after.arrows == ()
+
+
+def test_a_pin_is_drawn_at_its_point_as_the_body_turns():
+    """A box pinned to the world at its left end, (-1, 0.5): the pin's ring is white at
+    that point, over the box's fill, whatever the box's angle."""
+    from hecker_dynamics.viz.draw import JOINT_COLOR
+    scene = make_scene({"step": 0.01, "bodies": {"box": box_body(size=(1.0, 0.5),
+                                                               position=[-0.5, 0.5])},
+                        "joints": {"pin": {"type": "revolute", "body_b": "box",
+                                           "point_b": [-0.5, 0.0]}}})
+    for angle in (0.0, 0.7):
+        pose = BodyPose(-1.0 + 0.5 * math.cos(angle), 0.5 + 0.5 * math.sin(angle), angle)
+        timeline = Timeline(scene, 0, 10**9, [0], [(pose,)], [])
+        drawing = Drawing(timeline, VIEW, SIZE)
+        drawing.draw(next(timeline.frames([0])))
+        image = drawing.rgba()
+        assert _pixel(image, -1.0, 0.5) == _rgb(JOINT_COLOR)
+        assert _pixel(image, -1.0 + 0.3 * math.cos(angle), 0.5 + 0.3 * math.sin(angle)) == \
+            _rgb(BODY_COLORS[0])

@@ -1,0 +1,78 @@
+/* The joint pass in C: hecker_dynamics/contact/joints.py (JointPass.resolve), repeated
+ * operation for operation and so bit for bit.
+ *
+ * A joint is described once (hd_joint, packed by JointPass.kernel_pass); its state (the
+ * start pose's references, the counted joint angles, the motors' speeds, the warm-start
+ * impulses and Newton multipliers) is loaded before and read back after each call, so
+ * Python's JointPass stays the one owner of it. Bodies are the pass's own (local) list:
+ * `bodies` maps them to the model's indices.
+ */
+#ifndef HECKER_DYNAMICS_JOINT_H
+#define HECKER_DYNAMICS_JOINT_H
+
+/* The constants of contact/joints.py; the binding exports them and joints.py checks them. */
+#define HD_JOINT_TOLERANCE 1e-12
+#define HD_NEWTON_ITERATIONS 50
+#define HD_DRIFT_ITERATIONS 8
+#define HD_JOINT_MAX_ITERATIONS 200
+#define HD_JOINT_CONVERGED 1e-13
+
+enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3, HD_ROPE = 4,
+                     HD_GEAR = 5 };
+enum hd_row_kind { HD_RIGID = 0, HD_LIMIT = 1, HD_MOTOR = 2, HD_SOFT = 3 };
+
+/* Packed columns per joint (joints.py: JointPass.kernel_pass writes them). */
+#define HD_JOINT_INTS 9   /* kind, a, b, lower?, upper?, motor?, spring (or soft weld)?, gear a, b */
+#define HD_JOINT_REALS 14 /* point_a (2), point_b (2), axis (2), lower, upper, max_effort,
+                             stiffness, damping, rest_angle, length, ratio */
+#define HD_JOINT_STATE 5  /* per joint: reference angle, reference translation, counted
+                             angle, raw relative angle, motor speed */
+
+typedef struct {
+    int kind;
+    long a, b;  /* local body indices; a = -1: the fixed frame (point_a in its coordinates) */
+    int has_lower, has_upper, has_motor, has_spring;  /* has_spring: a soft weld too */
+    long gear_a, gear_b;  /* a gear's two revolute joints (indices into the joints) */
+    double point_a[2], point_b[2], axis[2];
+    double lower, upper, max_effort, stiffness, damping, rest, length, ratio;
+    /* state */
+    double reference_angle, reference_along, angle, raw, motor_speed;
+} hd_joint;
+
+/* One scalar constraint (joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
+typedef struct {
+    int kind, count, scaled;
+    long body[4];
+    double j[4][3];
+    double c, speed, bound, stiffness, damping;
+} hd_joint_row;
+
+typedef struct hd_joint_model {
+    long joint_count, body_count, row_count, rigid_count, width;
+    long *bodies;          /* body_count model indices */
+    double *inverse_mass;  /* 3 per local body */
+    hd_joint *joints;
+    long *rigid;           /* the rigid rows' indices */
+    double *warm, *newton; /* row_count, rigid_count */
+    int newton_valid;
+    double last_h;
+    /* working memory */
+    double *memory;
+    hd_joint_row *rows0, *rows, *subset, *dir0, *dir;
+    double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *lower, *upper, *x;
+    double *matrix, *band, *part, *low, *diag;
+    long *first, *free_index, *bounded;
+    int *free;
+} hd_joint_model;
+
+enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_DEPENDENT = -2 };
+
+/* Allocate the working memory once the joints, bodies and masses are set; counts the rows
+ * (row_count, rigid_count, rigid) and the bandwidth; HD_JOINTS_OUT_OF_MEMORY or OK. */
+int hd_joints_prepare(hd_joint_model *m);
+void hd_joints_free(hd_joint_model *m);
+/* joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
+ * place; HD_JOINTS_DEPENDENT when a factorization meets a pivot that is not positive. */
+int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);
+
+#endif

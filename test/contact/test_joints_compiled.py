@@ -1,0 +1,132 @@
+"""The joint pass in the compiled kernel against the Python pass: the same bits.
+
+The kernel repeats contact/joints.py operation for operation (src/kernel/joint.c), the
+band factorizations included, so scenes with joints stepped in the kernel and in Python
+give identical positions, velocities, efforts and carried state, for every fixed-step
+method the kernel steps, and for a method stepped in Python with the kernel's joint pass.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hecker_dynamics import Simulation
+from hecker_dynamics.contact import joints
+from hecker_dynamics.dynamics import kernel
+from scene_builders import make_scene
+from test_joints import chain_scene, gear_scene, pendulum_scene, slider_scene, weld_scenes
+
+pytestmark = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
+                                "built or HECKER_DYNAMICS_KERNEL=0")
+
+
+SCENES = {
+    "pendulum": lambda method: pendulum_scene(1.0, method=method),
+    "chain": lambda method: _method(chain_scene(20), method),
+    "gears": lambda method: _method(gear_scene(2.0, {"speed": 5.0, "max_torque": 0.3},
+                                               {"lower": -1.0, "upper": 1.0}), method),
+    "slider": lambda method: _method(slider_scene(lower=-0.1, upper=0.05, motor={
+        "speed": 0.5, "max_force": 40.0}), method),
+    "weld": lambda method: _method(weld_scenes()[0], method),
+    "soft_weld_rope": lambda method: make_scene({
+        "step": 0.001, "integrator": method, "publish_rate": 10.0,
+        "bodies": {"a": {"shape": "box", "size": [0.4, 0.2], "mass": 1.0},
+                   "b": {"shape": "box", "size": [0.4, 0.2], "mass": 1.0,
+                         "position": [0.4, 0.0]},
+                   "bob": {"shape": "circle", "radius": 0.05, "mass": 0.5,
+                           "position": [0.6, -0.3]}},
+        "forces": {"gravity": {"type": "gravity"}},
+        "joints": {"hinge": {"type": "revolute", "body_b": "a", "point_b": [-0.2, 0.0],
+                             "spring": {"stiffness": 3.0, "damping": 0.1}},
+                   "glue": {"type": "weld", "body_a": "a", "body_b": "b",
+                            "point_b": [-0.2, 0.0], "frequency": 4.0, "damping_ratio": 0.3},
+                   "rope": {"type": "distance", "body_a": "b", "point_a": [0.2, 0.0],
+                            "body_b": "bob", "max_length": 0.45},
+                   "rod": {"type": "distance", "body_b": "bob", "point_a": [0.9, 0.0],
+                           "length": 0.5}}}),
+}
+
+
+def _method(scene, method):
+    """``scene`` with another integrator."""
+    return replace(scene, integrator=method)
+
+
+def _compare(fast: Simulation, slow: Simulation) -> None:
+    assert fast.steps == slow.steps
+    assert np.array_equal(fast.q, slow.q) and np.array_equal(fast.v, slow.v)
+    assert fast.model.joints.export_state() == slow.model.joints.export_state()
+
+
+@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler",
+                                    "velocity_verlet", "rk4"])
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_kernel_steps_joint_scenes_with_the_bits_of_python(name, method):
+    """0.6 s of each scene: whole steps in the kernel, and steps in Python with the
+    Python joint pass, give identical states and joint states."""
+    scene = SCENES[name](method)
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    assert fast._compiled is not None and fast.model.joints.compiled
+    assert not slow.model.joints.compiled
+    fast.advance_to(600_000_000)
+    slow.advance_to(600_000_000)
+    _compare(fast, slow)
+    assert any(x != 0.0 for x in fast.model.joints.warm)
+
+
+@pytest.mark.parametrize("name", ["chain", "gears", "slider"])
+def test_the_kernels_joint_pass_after_a_python_step_has_the_bits_of_python(name):
+    """implicit_midpoint steps in Python; its joint pass runs in C (joints_resolve) or in
+    Python: the same bits."""
+    scene = SCENES[name]("implicit_midpoint")
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.joints.use_python()
+    assert fast._compiled is None and fast.model.joints.compiled
+    for _ in range(300):
+        fast.step()
+        slow.step()
+    _compare(fast, slow)
+
+
+def test_a_motor_command_between_kernel_calls_is_seen_by_the_kernel():
+    scene = SCENES["gears"]("velocity_verlet")
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    for sim in (fast, slow):
+        sim.advance_to(400_000_000)
+        sim.model.joints.motor_speed["axle_a"] = -3.0
+        sim.advance_to(900_000_000)
+    _compare(fast, slow)
+    assert fast.model.joints.efforts["axle_a"] == pytest.approx(-0.3, rel=1e-12)
+
+
+def test_kernel_has_the_joint_constants():
+    k = kernel._kernel
+    assert (k.JOINT_TOLERANCE, k.JOINT_CONVERGED, k.JOINT_NEWTON_ITERATIONS,
+            k.JOINT_DRIFT_ITERATIONS, k.JOINT_MAX_ITERATIONS) == \
+        (joints.TOLERANCE, joints.CONVERGED, joints.NEWTON_ITERATIONS,
+         joints.DRIFT_ITERATIONS, joints.MAX_ITERATIONS)
+
+
+def test_dependent_joints_fail_in_one_line_in_kernel_and_python():
+    """Two pins at the same point of the same body: their rows repeat each other."""
+    pins = {name: {"type": "revolute", "body_b": "rod", "point_b": [0.0, 0.5]}
+            for name in ("one", "two")}
+    scene = make_scene({"step": 0.001, "integrator": "velocity_verlet",
+                        "bodies": {"rod": {"shape": "box", "size": [0.05, 1.0], "mass": 1.0,
+                                           "position": [0.0, -0.5], "velocity": [0.1, 0.0]}},
+                        "forces": {"gravity": {"type": "gravity"}}, "joints": pins})
+    messages = []
+    for python in (False, True):
+        sim = Simulation(scene)
+        if python:
+            sim.model.use_python()
+        with pytest.raises(Exception) as failure:
+            sim.advance_to(10_000_000)
+        messages.append(str(failure.value))
+    assert all("dependent" in m and "\n" not in m for m in messages)
+    assert not math.isnan(Simulation(scene).q[0, 0])
