@@ -188,13 +188,13 @@ def test_delete_removes_the_body_from_every_list_and_what_acts_on_it_alone():
     world = deleted(make_scene(params), "block")
     assert [b.name for b in world.bodies] == ["door"]
     assert not any(isinstance(f, ConstantTorqueSpec) for f in world.forces)
-    assert [f.name for f in world.forces] == ["hinge", "hinge_friction"]  # drag: no bodies
+    assert [f.name for f in world.forces] == ["hinge_friction"]  # drag: no bodies
     assert world.walls[0].bodies == () and world.collisions == ()       # the wall stays
 
 
 @pytest.mark.parametrize("scene,body,message", [
     ("sample", "left", "body 'left' is named by spring 'link', scripted input 'kick'"),
-    ("seesaw", "plank", "spring 'pin'"),
+    ("seesaw", "plank", "joint 'pin'"),
     ("ship", "ship", "the last body"),
     ("seesaw", "ghost", "no body 'ghost' (bodies: load, plank, wall_block, weight)"),
 ])
