@@ -11,9 +11,12 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    for all contacts together by sequential impulses with accumulated, clamped totals,
    warm-started from the previous step's impulses (a contact is recognised by its pair
    of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
-   Coulomb friction |j_t| <= mu j_n. The work per step is bounded: at most
-   :data:`MAX_ITERATIONS` passes over the contacts, fewer when no impulse changes a
-   velocity by more than :data:`CONVERGED` relative to the fastest body;
+   Coulomb friction |j_t| <= mu j_n. The two points of a manifold are solved as one block
+   (:class:`Block`, the 2 x 2 complementarity problem), which a stack of boxes needs to
+   converge in few passes. The work per step is bounded by the number of contacts alone
+   (:func:`passes`): up to :data:`WORK` contact solves (at least :data:`MIN_ITERATIONS`,
+   at most :data:`MAX_ITERATIONS` passes), fewer when no impulse changes a velocity by
+   more than :data:`CONVERGED` relative to the fastest body;
    A contact that closed during the step bounces with restitution e if it approached
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
@@ -50,8 +53,19 @@ from . import compiled as _compiled
 if TYPE_CHECKING:
     from ..dynamics.model import Model
 
-MAX_ITERATIONS = 60
+#: The velocity solver's passes over the contacts per step: as many as fit in
+#: :data:`WORK` solves of a contact or two-point manifold, but at least
+#: :data:`MIN_ITERATIONS` and at most :data:`MAX_ITERATIONS`, and fewer when converged
+#: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
+#: body). So a scene's cost per step is bounded by its number of contacts alone: small
+#: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
+WORK = 1000
+MIN_ITERATIONS = 8
+MAX_ITERATIONS = 40
 CONVERGED = 1e-13
+#: Largest condition number of a two-point manifold's 2 x 2 effective-mass matrix that is
+#: still solved as one block.
+MAX_CONDITION = 1000.0
 #: Gap (m) within which shapes already count as touching, so resting contacts persist.
 MARGIN = 5e-3
 #: Distance (m) within which a contact point is taken for last step's, for warm starting.
@@ -64,7 +78,8 @@ MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
 
-__all__ = ["Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_ITERATIONS", "SLOP"]
+__all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION", "MAX_ITERATIONS", "MIN_ITERATIONS",
+           "WORK", "passes", "SLOP"]
 
 
 class Contact(NamedTuple):
@@ -438,29 +453,17 @@ class ContactPass:
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 
     def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
-        """Gauss-Seidel over the rows until no impulse changes a velocity by more than
-        :data:`CONVERGED` relative to the fastest body, or :data:`MAX_ITERATIONS` passes."""
+        """Gauss-Seidel passes over the rows, each two-point manifold as one block
+        (:class:`Block`), every other contact point by point, until no impulse changes a
+        velocity by more than :data:`CONVERGED` relative to the fastest body, or
+        :func:`passes` passes."""
+        schedule = _schedule(rows)
         scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
-        for _ in range(MAX_ITERATIONS):
+        for _ in range(passes(len(schedule))):
             largest = 0.0
-            for row in rows:
-                va, vb = velocity[row.a], velocity[row.b]
-                rax, ray, rbx, rby, nx, ny = row.rax, row.ray, row.rbx, row.rby, row.nx, row.ny
-                jn, mass_n = row.jn, row.mass_n
-                dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
-                dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                new_n = max(jn + (row.target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
-                change = abs(new_n - jn) / mass_n
-                row.push(velocity, (new_n - jn) * nx, (new_n - jn) * ny)
-                row.jn = new_n
-                if row.mu > 0.0:
-                    dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
-                    dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                    jt, mass_t, bound = row.jt, row.mass_t, row.mu * new_n
-                    new_t = min(max(jt - (-dvx * ny + dvy * nx) * mass_t, -bound), bound)
-                    change = max(change, abs(new_t - jt) / mass_t)
-                    row.push(velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
-                    row.jt = new_t
+            for unit in schedule:
+                change = (unit.solve(velocity) if isinstance(unit, Block)
+                          else _solve_point(unit, velocity))
                 largest = max(largest, change)
             if largest <= CONVERGED * scale:
                 return
@@ -494,6 +497,124 @@ def _normal_velocity(va: list, vb: list, rax: float, ray: float, rbx: float, rby
     """(v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n: negative when approaching."""
     return ((vb[0] - vb[2] * rby - va[0] + va[2] * ray) * nx
             + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
+
+
+def passes(units: int) -> int:
+    """The most passes of the velocity solver over ``units`` contacts and blocks."""
+    return min(max(WORK // units, MIN_ITERATIONS), MAX_ITERATIONS)
+
+
+def _solve_normal(row: ContactRow, velocity: dict) -> float:
+    """One contact's normal impulse: the accumulated total that brings its normal velocity
+    to its target, clamped at zero (contacts push, never pull). Returns the change of the
+    normal velocity."""
+    jn = row.jn
+    new_n = max(jn + (row.target - row.normal_velocity(velocity)) * row.mass_n, 0.0)
+    row.push(velocity, (new_n - jn) * row.nx, (new_n - jn) * row.ny)
+    row.jn = new_n
+    return abs(new_n - jn) / row.mass_n
+
+
+def _solve_friction(row: ContactRow, velocity: dict) -> float:
+    """One contact's tangent impulse: the accumulated total that stops its sliding, within
+    Coulomb's cone |j_t| <= mu j_n. Returns the change of the tangent velocity."""
+    if not row.mu > 0.0:
+        return 0.0
+    va, vb = velocity[row.a], velocity[row.b]
+    dvx = vb[0] - vb[2] * row.rby - va[0] + va[2] * row.ray
+    dvy = vb[1] + vb[2] * row.rbx - va[1] - va[2] * row.rax
+    jt, bound = row.jt, row.mu * row.jn
+    new_t = min(max(jt - (-dvx * row.ny + dvy * row.nx) * row.mass_t, -bound), bound)
+    row.push(velocity, -(new_t - jt) * row.ny, (new_t - jt) * row.nx)
+    row.jt = new_t
+    return abs(new_t - jt) / row.mass_t
+
+
+def _solve_point(row: ContactRow, velocity: dict) -> float:
+    """A contact solved on its own: normal impulse, then friction. Returns the larger
+    velocity change."""
+    change = _solve_normal(row, velocity)
+    return max(change, _solve_friction(row, velocity))
+
+
+@dataclass(slots=True)
+class Block:
+    """The two points of one manifold (same bodies, same normal), whose normal impulses
+    are solved together: the 2 x 2 linear complementarity problem
+    K x + b >= 0, x >= 0, x . (K x + b) = 0, by trying which points are active (Box2D's
+    block solver). K's entries k11, k12, k22 are the two points' effective inverse masses
+    along n and their coupling; (inv11, inv12, inv22) is K's inverse."""
+
+    first: ContactRow
+    second: ContactRow
+    k11: float
+    k12: float
+    k22: float
+    inv11: float
+    inv12: float
+    inv22: float
+
+    def solve(self, velocity: dict) -> float:
+        """Both normal impulses at once, then each point's friction. Returns the largest
+        velocity change."""
+        one, two = self.first, self.second
+        old1, old2 = one.jn, two.jn
+        b1 = one.normal_velocity(velocity) - one.target - (self.k11 * old1 + self.k12 * old2)
+        b2 = two.normal_velocity(velocity) - two.target - (self.k12 * old1 + self.k22 * old2)
+        x1 = -(self.inv11 * b1 + self.inv12 * b2)
+        x2 = -(self.inv12 * b1 + self.inv22 * b2)
+        if not (x1 >= 0.0 and x2 >= 0.0):  # both pushing failed: only the first
+            x1, x2 = -one.mass_n * b1, 0.0
+            if not (x1 >= 0.0 and self.k12 * x1 + b2 >= 0.0):  # only the second
+                x1, x2 = 0.0, -two.mass_n * b2
+                if not (x2 >= 0.0 and self.k12 * x2 + b1 >= 0.0):  # neither
+                    x1, x2 = 0.0, 0.0
+                    if not (b1 >= 0.0 and b2 >= 0.0):
+                        x1, x2 = old1, old2  # no solution (degenerate): leave them
+        one.push(velocity, (x1 - old1) * one.nx, (x1 - old1) * one.ny)
+        two.push(velocity, (x2 - old2) * two.nx, (x2 - old2) * two.ny)
+        one.jn, two.jn = x1, x2
+        change = max(abs(x1 - old1) / one.mass_n, abs(x2 - old2) / two.mass_n)
+        change = max(change, _solve_friction(one, velocity))
+        return max(change, _solve_friction(two, velocity))
+
+
+def _block(one: ContactRow, two: ContactRow) -> Optional[Block]:
+    """The block of two points of a manifold, or None where K is too ill-conditioned
+    (condition number above :data:`MAX_CONDITION`: points almost on one line through the
+    bodies' CMs), which are then solved point by point."""
+    nx, ny = one.nx, one.ny
+    rna1, rnb1 = one.rax * ny - one.ray * nx, one.rbx * ny - one.rby * nx
+    rna2, rnb2 = two.rax * ny - two.ray * nx, two.rbx * ny - two.rby * nx
+    mass = one.im_a + one.im_b
+    k11 = mass + rna1 * rna1 * one.ii_a + rnb1 * rnb1 * one.ii_b
+    k22 = mass + rna2 * rna2 * one.ii_a + rnb2 * rnb2 * one.ii_b
+    k12 = mass + rna1 * rna2 * one.ii_a + rnb1 * rnb2 * one.ii_b
+    determinant = k11 * k22 - k12 * k12
+    if not k11 * k11 < MAX_CONDITION * determinant:
+        return None
+    inverse = 1.0 / determinant
+    return Block(one, two, k11, k12, k22, k22 * inverse, -k12 * inverse, k11 * inverse)
+
+
+def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:
+    """The solver's units in row order: a :class:`Block` for each manifold of exactly two
+    points (consecutive rows of one pair of parts with one normal), else single rows."""
+    units: list[ContactRow | Block] = []
+    count, k = len(rows), 0
+    while k < count:
+        row = rows[k]
+        end = k + 1
+        while end < count and rows[end].key == row.key:
+            end += 1
+        block = (_block(row, rows[k + 1]) if end - k == 2 and row.nx == rows[k + 1].nx
+                 and row.ny == rows[k + 1].ny else None)
+        if block is None:
+            units.extend(rows[k:end])
+        else:
+            units.append(block)
+        k = end
+    return units
 
 
 def _collide(part_a: tuple, part_b: tuple) -> list:

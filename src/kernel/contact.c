@@ -25,6 +25,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->poses = m->shift + 3 * (n + 1);
     m->contacts = NULL;
     m->rows = NULL;
+    m->units = NULL;
     m->warm = NULL;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;
@@ -57,6 +58,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->velocity);
     free(m->contacts);
     free(m->rows);
+    free(m->units);
     free(m->warm);
     free(m);
 }

@@ -9,8 +9,11 @@
 #define HECKER_DYNAMICS_CONTACT_H
 
 /* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
-#define HD_MAX_ITERATIONS 60
+#define HD_WORK 1000
+#define HD_MIN_ITERATIONS 8
+#define HD_MAX_ITERATIONS 40
 #define HD_CONVERGED 1e-13
+#define HD_MAX_CONDITION 1000.0
 #define HD_MARGIN 5e-3
 #define HD_MATCH 1e-2
 #define HD_SLOP 1e-4
@@ -64,6 +67,15 @@ typedef struct {
     long key[4];
 } hd_row;
 
+/* A unit of the velocity solver: the single row `first`, or (pair) the two-point
+ * manifold of rows first and first + 1 solved as one block, with its effective-mass
+ * matrix K = [k11 k12; k12 k22] and K's inverse (solver.py: Block). */
+typedef struct {
+    long first;
+    int pair;
+    double k11, k12, k22, inv11, inv12, inv22;
+} hd_unit;
+
 /* A contact's impulses kept for warm starting: its point in body b's axes. */
 typedef struct {
     long key[4];
@@ -95,6 +107,7 @@ typedef struct hd_contact_model {
     hd_contact *contacts;
     long contact_count, contact_capacity;
     hd_row *rows;
+    hd_unit *units;     /* row_capacity of them */
     long row_capacity;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
     hd_warm *warm;

@@ -660,6 +660,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"SUBSTEP_UNDERFLOW", SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", TOO_MANY_SUBSTEPS},
         {"MAX_SUBSTEPS", MAX_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
         {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
+        {"MIN_ITERATIONS", HD_MIN_ITERATIONS}, {"WORK", HD_WORK},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
     };
     PyObject *m = PyModule_Create(&module);
@@ -675,6 +676,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
     static const struct { const char *name; double value; } reals[] = {
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
+        {"MAX_CONDITION", HD_MAX_CONDITION},
     };
     for (size_t k = 0; k < sizeof reals / sizeof reals[0]; ++k) {
         PyObject *value = PyFloat_FromDouble(reals[k].value);

@@ -1,7 +1,8 @@
 /* The response: hecker_dynamics/contact/solver.py's ContactPass.resolve, operation for
  * operation. Sequential impulses (the article series' collision impulse for each contact
  * with both bodies' mass and moment of inertia, accumulated and clamped, with Coulomb
- * friction), warm-started from the last step's impulses, at most HD_MAX_ITERATIONS passes;
+ * friction), warm-started from the last step's impulses, two-point manifolds solved as
+ * blocks, at most HD_WORK / units passes (within HD_MIN_ITERATIONS .. HD_MAX_ITERATIONS);
  * then the position change h (v' - v) of each body the impulses moved, and the position
  * correction of the overlap beyond HD_SLOP.
  *
@@ -140,9 +141,120 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     recall(m, c->key, r->rbx, r->rby, pb[2], &r->jn, &r->jt);
 }
 
-/* Gauss-Seidel over the rows until no impulse changes a velocity by more than
- * HD_CONVERGED relative to the fastest body, or HD_MAX_ITERATIONS passes
- * (solver.py: _solve_velocities). */
+/* One contact's normal impulse, clamped at zero; returns the change of its normal
+ * velocity (solver.py: _solve_normal). */
+static double solve_normal(hd_row *r, double *va, double *vb)
+{
+    const double jn = r->jn;
+    const double new_n = py_max(jn + (r->target - normal_velocity(va, vb, r)) * r->mass_n, 0.0);
+    push(va, vb, r, (new_n - jn) * r->nx, (new_n - jn) * r->ny);
+    r->jn = new_n;
+    return fabs(new_n - jn) / r->mass_n;
+}
+
+/* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
+ * velocity (solver.py: _solve_friction). */
+static double solve_friction(hd_row *r, double *va, double *vb)
+{
+    if (!(r->mu > 0.0))
+        return 0.0;
+    const double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
+    const double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
+    const double jt = r->jt, bound = r->mu * r->jn;
+    const double new_t = py_min(py_max(jt - (-dvx * r->ny + dvy * r->nx) * r->mass_t, -bound),
+                                bound);
+    push(va, vb, r, -(new_t - jt) * r->ny, (new_t - jt) * r->nx);
+    r->jt = new_t;
+    return fabs(new_t - jt) / r->mass_t;
+}
+
+/* The two normal impulses of a two-point manifold at once, as the 2 x 2 linear
+ * complementarity problem, then each point's friction (solver.py: Block.solve). */
+static double solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va, double *vb)
+{
+    const double old1 = one->jn, old2 = two->jn;
+    const double b1 = normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
+    const double b2 = normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
+    double x1 = -(u->inv11 * b1 + u->inv12 * b2);
+    double x2 = -(u->inv12 * b1 + u->inv22 * b2);
+    if (!(x1 >= 0.0 && x2 >= 0.0)) {
+        x1 = -one->mass_n * b1;
+        x2 = 0.0;
+        if (!(x1 >= 0.0 && u->k12 * x1 + b2 >= 0.0)) {
+            x1 = 0.0;
+            x2 = -two->mass_n * b2;
+            if (!(x2 >= 0.0 && u->k12 * x2 + b1 >= 0.0)) {
+                x1 = 0.0;
+                x2 = 0.0;
+                if (!(b1 >= 0.0 && b2 >= 0.0)) {
+                    x1 = old1;
+                    x2 = old2;
+                }
+            }
+        }
+    }
+    push(va, vb, one, (x1 - old1) * one->nx, (x1 - old1) * one->ny);
+    push(va, vb, two, (x2 - old2) * two->nx, (x2 - old2) * two->ny);
+    one->jn = x1;
+    two->jn = x2;
+    double change = py_max(fabs(x1 - old1) / one->mass_n, fabs(x2 - old2) / two->mass_n);
+    change = py_max(change, solve_friction(one, va, vb));
+    return py_max(change, solve_friction(two, va, vb));
+}
+
+/* The block of rows one and two, or 0 where K is too ill-conditioned (solver.py: _block). */
+static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
+{
+    const double nx = one->nx, ny = one->ny;
+    const double rna1 = one->rax * ny - one->ray * nx, rnb1 = one->rbx * ny - one->rby * nx;
+    const double rna2 = two->rax * ny - two->ray * nx, rnb2 = two->rbx * ny - two->rby * nx;
+    const double mass = one->im_a + one->im_b;
+    const double k11 = mass + rna1 * rna1 * one->ii_a + rnb1 * rnb1 * one->ii_b;
+    const double k22 = mass + rna2 * rna2 * one->ii_a + rnb2 * rnb2 * one->ii_b;
+    const double k12 = mass + rna1 * rna2 * one->ii_a + rnb1 * rnb2 * one->ii_b;
+    const double determinant = k11 * k22 - k12 * k12;
+    if (!(k11 * k11 < HD_MAX_CONDITION * determinant))
+        return 0;
+    const double inverse = 1.0 / determinant;
+    u->k11 = k11;
+    u->k12 = k12;
+    u->k22 = k22;
+    u->inv11 = k22 * inverse;
+    u->inv12 = -k12 * inverse;
+    u->inv22 = k11 * inverse;
+    return 1;
+}
+
+/* The solver's units in row order: a block for each manifold of exactly two points (with
+ * one normal), else single rows (solver.py: _schedule); returns their count. */
+static long schedule(hd_contact_model *m, long count)
+{
+    long units = 0;
+    for (long k = 0; k < count;) {
+        const hd_row *r = m->rows + k;
+        long end = k + 1;
+        while (end < count && same_key(m->rows[end].key, r->key))
+            end += 1;
+        hd_unit *u = m->units + units;
+        if (end - k == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
+            u->first = k;
+            u->pair = 1;
+            units += 1;
+        } else {
+            for (long i = k; i < end; ++i) {
+                m->units[units].first = i;
+                m->units[units].pair = 0;
+                units += 1;
+            }
+        }
+        k = end;
+    }
+    return units;
+}
+
+/* Gauss-Seidel passes over the units until no impulse changes a velocity by more than
+ * HD_CONVERGED relative to the fastest body, or HD_WORK / units passes, but at least
+ * HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS (solver.py: _solve_velocities). */
 static void solve_velocities(hd_contact_model *m, long count)
 {
     double fastest = 0.0;  /* Python's max over the touched bodies, then the walls' zeros */
@@ -158,28 +270,22 @@ static void solve_velocities(hd_contact_model *m, long count)
         }
     }
     const double scale = 1.0 + fastest;
-    for (int iteration = 0; iteration < HD_MAX_ITERATIONS; ++iteration) {
+    const long units = schedule(m, count);
+    long passes = HD_WORK / units;
+    passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
+    passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+    for (long iteration = 0; iteration < passes; ++iteration) {
         double largest = 0.0;
-        for (long k = 0; k < count; ++k) {
-            hd_row *r = m->rows + k;
+        for (long k = 0; k < units; ++k) {
+            const hd_unit *u = m->units + k;
+            hd_row *r = m->rows + u->first;
             double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
-            const double nx = r->nx, ny = r->ny, jn = r->jn;
-            double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
-            double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
-            const double new_n = py_max(jn + (r->target - (dvx * nx + dvy * ny)) * r->mass_n,
-                                        0.0);
-            double change = fabs(new_n - jn) / r->mass_n;
-            push(va, vb, r, (new_n - jn) * nx, (new_n - jn) * ny);
-            r->jn = new_n;
-            if (r->mu > 0.0) {
-                dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
-                dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
-                const double jt = r->jt, bound = r->mu * new_n;
-                const double new_t = py_min(py_max(jt - (-dvx * ny + dvy * nx) * r->mass_t,
-                                                   -bound), bound);
-                change = py_max(change, fabs(new_t - jt) / r->mass_t);
-                push(va, vb, r, -(new_t - jt) * ny, (new_t - jt) * nx);
-                r->jt = new_t;
+            double change;
+            if (u->pair) {
+                change = solve_block(u, r, r + 1, va, vb);
+            } else {
+                change = solve_normal(r, va, vb);
+                change = py_max(change, solve_friction(r, va, vb));
             }
             largest = py_max(largest, change);
         }
@@ -267,6 +373,10 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, do
         if (grown == NULL)
             return -1;
         m->rows = grown;
+        hd_unit *units = realloc(m->units, (size_t)needed * sizeof(hd_unit));
+        if (units == NULL)
+            return -1;
+        m->units = units;
         m->row_capacity = needed;
     }
     memset(m->touched, 0, (size_t)n * sizeof(int));

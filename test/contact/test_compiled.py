@@ -28,11 +28,14 @@ def _scene(name):
 @needs_kernel
 def test_kernel_has_the_solver_constants():
     k = kernel._kernel
-    assert (k.MAX_ITERATIONS, k.POSITION_ITERATIONS, k.MAX_CONTACT_SUBSTEPS) == \
-        (solver.MAX_ITERATIONS, solver.POSITION_ITERATIONS, solver.MAX_SUBSTEPS)
-    assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION) == \
+    assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.POSITION_ITERATIONS,
+            k.MAX_CONTACT_SUBSTEPS) == \
+        (solver.MAX_ITERATIONS, solver.MIN_ITERATIONS, solver.WORK, solver.POSITION_ITERATIONS,
+         solver.MAX_SUBSTEPS)
+    assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION,
+            k.MAX_CONDITION) == \
         (solver.CONVERGED, solver.MARGIN, solver.MATCH, solver.SLOP, solver.CORRECTION,
-         solver.MAX_CORRECTION)
+         solver.MAX_CORRECTION, solver.MAX_CONDITION)
 
 
 @needs_kernel
