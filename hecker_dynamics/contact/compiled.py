@@ -60,7 +60,8 @@ class CompiledContacts:
         _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(v0), h)
 
     def impulses(self) -> list[WarmImpulse]:
-        """The warm-start impulses, sorted by the names of their parts."""
+        """The warm-start impulses, those of one pair of parts together and in the order
+        the solver met them."""
         return _kernel.warm(self.kernel)
 
     def set_impulses(self, impulses: list[WarmImpulse]) -> None:

@@ -17,7 +17,9 @@ int hd_contact_prepare(hd_contact_model *m)
     m->sweep = malloc(((size_t)m->colliding_count * 5 + 1) * sizeof(double));
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
-    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity)
+    m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
+    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
+            !m->cos_sin)
         return -1;
     m->arrived = m->velocity + 3 * (n + 1);
     m->before = m->arrived + 3 * (n + 1);
@@ -27,6 +29,8 @@ int hd_contact_prepare(hd_contact_model *m)
     m->rows = NULL;
     m->units = NULL;
     m->warm = NULL;
+    m->warm_table = NULL;
+    m->warm_table_size = 0;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;
     return 0;
@@ -60,6 +64,8 @@ void hd_contact_free(hd_contact_model *m)
     free(m->rows);
     free(m->units);
     free(m->warm);
+    free(m->warm_table);
+    free(m->cos_sin);
     free(m);
 }
 
@@ -72,6 +78,8 @@ static void place(hd_contact_model *m, const double *q, long body)
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
     const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+    m->cos_sin[2 * body] = c;
+    m->cos_sin[2 * body + 1] = s;
     for (long p = m->part_first[body]; p < m->part_first[body + 1]; ++p) {
         hd_part *part = m->parts + p;
         const double *l = part->local;
@@ -194,6 +202,25 @@ static int by_left_edge(const void *p, const void *q)
     return (u[1] > w[1]) - (u[1] < w[1]);
 }
 
+/* Sort the boxes by_left_edge. They are sorted as in the last step and bodies move
+ * little in a step, so insertion sort does about one comparison per box; the order is
+ * total (bodies differ), so it is the one any sort gives. */
+static void sort_boxes(double *boxes, long count)
+{
+    for (long k = 1; k < count; ++k) {
+        if (by_left_edge(boxes + 5 * (k - 1), boxes + 5 * k) <= 0)
+            continue;
+        double box[5];
+        memcpy(box, boxes + 5 * k, sizeof box);
+        long l = k;
+        while (l > 0 && by_left_edge(boxes + 5 * (l - 1), box) > 0) {
+            memcpy(boxes + 5 * l, boxes + 5 * (l - 1), sizeof box);
+            l -= 1;
+        }
+        memcpy(boxes + 5 * l, box, sizeof box);
+    }
+}
+
 int hd_detect(hd_contact_model *m, const double *q)
 {
     m->contact_count = 0;
@@ -223,16 +250,17 @@ int hd_detect(hd_contact_model *m, const double *q)
         return 0;
     const long count = m->colliding_count;
     for (long k = 0; k < count; ++k) {
-        const long b = m->colliding[k];
-        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
         double *box = m->sweep + 5 * k;
+        const long b = m->sweep_order ? (long)box[1] : m->colliding[k];
+        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
         box[0] = x - r;
         box[1] = (double)b;
         box[2] = x + r;
         box[3] = y - r;
         box[4] = y + r;
     }
-    qsort(m->sweep, (size_t)count, 5 * sizeof(double), by_left_edge);
+    sort_boxes(m->sweep, count);
+    m->sweep_order = 1;
     for (long k = 0; k < count; ++k) {
         const double *box = m->sweep + 5 * k;
         const long b1 = (long)box[1];

@@ -22,6 +22,14 @@
 #define HD_POSITION_ITERATIONS 4
 #define HD_MAX_SUBSTEPS 256
 
+/* The small functions of the solver's inner loop, always inlined (GCC left them as
+ * calls); inlining changes no floating-point operation. */
+#if defined(__GNUC__)
+#define HD_HOT inline __attribute__((always_inline))
+#else
+#define HD_HOT __forceinline
+#endif
+
 /* A point of a manifold: halfway between the surfaces, unit normal from the first shape
  * to the second, penetration depth (negative for a gap within the margin). */
 typedef struct {
@@ -103,6 +111,7 @@ typedef struct hd_contact_model {
     /* Working memory, kept from call to call, and the warm-start impulses. */
     int *placed_flag, *touched;
     double *sweep;      /* colliding_count x 5: x0, body, x1, y0, y1 */
+    int sweep_order;    /* 1 once `sweep` holds the last detection's order of the bodies */
     hd_found *found;
     hd_contact *contacts;
     long contact_count, contact_capacity;
@@ -110,8 +119,11 @@ typedef struct hd_contact_model {
     hd_unit *units;     /* row_capacity of them */
     long row_capacity;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
-    hd_warm *warm;
+    double *cos_sin;    /* bodies x 2: of each placed body's angle */
+    hd_warm *warm;      /* in the order of the rows they came from */
     long warm_count, warm_capacity;
+    long *warm_table;   /* open addressing: the first impulse of each key, or -1 */
+    long warm_table_size;
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */
@@ -121,7 +133,8 @@ void hd_contact_free(hd_contact_model *m);
 int hd_detect(hd_contact_model *m, const double *q);
 /* solver.py: ContactPass.resolve; q1 and v1 change in place; -1 out of memory. */
 int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h);
-/* Sort the warm-start impulses by their parts' names, keeping their order within a name. */
-void hd_sort_warm(hd_contact_model *m);
+/* After the warm-start impulses were replaced: group them by their parts' names (sorted,
+ * keeping their order within a name) and index them; -1 out of memory. */
+int hd_set_warm(hd_contact_model *m);
 
 #endif

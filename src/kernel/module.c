@@ -580,7 +580,8 @@ static PyObject *py_resolve(PyObject *self, PyObject *args)
 PyDoc_STRVAR(warm_doc,
 "warm(contacts[, impulses]) -> list\n\n"
 "The impulses kept for warm starting, as (k0, k1, k2, k3, lx, ly, jn, jt) per contact,\n"
-"sorted by the parts' names (k0..k3); with ``impulses``, replace them first.");
+"those of one pair of parts (k0..k3) together and in the order the solver met them; with\n"
+"``impulses``, replace them first.");
 
 static PyObject *py_warm(PyObject *self, PyObject *args)
 {
@@ -615,7 +616,8 @@ static PyObject *py_warm(PyObject *self, PyObject *args)
         free(m->warm);
         m->warm = warm;
         m->warm_count = m->warm_capacity = (long)count;
-        hd_sort_warm(m);
+        if (hd_set_warm(m) < 0)
+            return PyErr_NoMemory();
     }
     PyObject *list = PyList_New(m->warm_count);
     for (long i = 0; list != NULL && i < m->warm_count; ++i) {

@@ -17,18 +17,18 @@
 #include "contact.h"
 
 /* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
-static double py_min(double x, double y) { return y < x ? y : x; }
-static double py_max(double x, double y) { return y > x ? y : x; }
+static HD_HOT double py_min(double x, double y) { return y < x ? y : x; }
+static HD_HOT double py_max(double x, double y) { return y > x ? y : x; }
 
 /* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
-static double normal_velocity(const double *va, const double *vb, const hd_row *r)
+static HD_HOT double normal_velocity(const double *va, const double *vb, const hd_row *r)
 {
     return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
            + (vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax) * r->ny;
 }
 
 /* Impulse (px, py) at the contact: +P to body b, -P to body a (ContactRow.push). */
-static void push(double *va, double *vb, const hd_row *r, double px, double py)
+static HD_HOT void push(double *va, double *vb, const hd_row *r, double px, double py)
 {
     va[0] -= px * r->im_a;
     va[1] -= py * r->im_a;
@@ -59,33 +59,77 @@ static int by_key(const void *p, const void *q)
     return order ? order : (u->used > w->used) - (u->used < w->used);
 }
 
-void hd_sort_warm(hd_contact_model *m)
+static unsigned long hash_key(const long *k)
+{
+    unsigned long h = 1469598103934665603UL;
+    for (int i = 0; i < 4; ++i)
+        h = (h ^ (unsigned long)k[i]) * 1099511628211UL;
+    return h ^ (h >> 29);
+}
+
+/* The table from each key to its first warm-start impulse: the impulses of one key are
+ * contiguous (one pair of parts is detected at once); -1 out of memory. */
+static int index_warm(hd_contact_model *m)
+{
+    long size = 16;
+    while (size < 2 * m->warm_count)
+        size *= 2;
+    if (size > m->warm_table_size) {
+        long *grown = realloc(m->warm_table, (size_t)size * sizeof(long));
+        if (grown == NULL)
+            return -1;
+        m->warm_table = grown;
+        m->warm_table_size = size;
+    }
+    size = m->warm_table_size;
+    for (long i = 0; i < size; ++i)
+        m->warm_table[i] = -1;
+    for (long k = 0; k < m->warm_count; ++k) {
+        if (k > 0 && same_key(m->warm[k - 1].key, m->warm[k].key))
+            continue;
+        unsigned long slot = hash_key(m->warm[k].key) & (unsigned long)(size - 1);
+        while (m->warm_table[slot] >= 0)
+            slot = (slot + 1) & (unsigned long)(size - 1);
+        m->warm_table[slot] = k;
+    }
+    return 0;
+}
+
+int hd_set_warm(hd_contact_model *m)
 {
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = (int)i;
     qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), by_key);
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = 0;
+    return index_warm(m);
+}
+
+/* The first warm-start impulse of `key`, or -1. */
+static long find_warm(const hd_contact_model *m, const long *key)
+{
+    if (m->warm_count == 0)
+        return -1;
+    const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
+    for (unsigned long slot = hash_key(key) & mask; m->warm_table[slot] >= 0;
+         slot = (slot + 1) & mask) {
+        if (same_key(m->warm[m->warm_table[slot]].key, key))
+            return m->warm_table[slot];
+    }
+    return -1;
 }
 
 /* Last step's impulses of the contact of `key` nearest this point, if within HD_MATCH,
- * each used once (solver.py: _recall; `<=`: the last of equally near ones). */
-static void recall(hd_contact_model *m, const long *key, double rx, double ry, double angle,
-                   double *jn, double *jt)
+ * each used once (solver.py: _recall; `<=`: the last of equally near ones); (c, s) the
+ * cosine and sine of body b's angle. */
+static void recall(hd_contact_model *m, const long *key, double rx, double ry, double c,
+                   double s, double *jn, double *jt)
 {
     *jn = 0.0;
     *jt = 0.0;
-    long low = 0, high = m->warm_count;
-    while (low < high) {
-        const long mid = low + (high - low) / 2;
-        if (key_order(m->warm[mid].key, key) < 0)
-            low = mid + 1;
-        else
-            high = mid;
-    }
-    if (low == m->warm_count || !same_key(m->warm[low].key, key))
+    const long low = find_warm(m, key);
+    if (low < 0)
         return;
-    const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
     const double lx = c * rx + s * ry, ly = -s * rx + c * ry;
     long best = -1;
     double nearest = HD_MATCH * HD_MATCH;
@@ -138,12 +182,12 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
-    recall(m, c->key, r->rbx, r->rby, pb[2], &r->jn, &r->jt);
+    recall(m, c->key, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn, &r->jt);
 }
 
 /* One contact's normal impulse, clamped at zero; returns the change of its normal
  * velocity (solver.py: _solve_normal). */
-static double solve_normal(hd_row *r, double *va, double *vb)
+static HD_HOT double solve_normal(hd_row *r, double *va, double *vb)
 {
     const double jn = r->jn;
     const double new_n = py_max(jn + (r->target - normal_velocity(va, vb, r)) * r->mass_n, 0.0);
@@ -154,7 +198,7 @@ static double solve_normal(hd_row *r, double *va, double *vb)
 
 /* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
  * velocity (solver.py: _solve_friction). */
-static double solve_friction(hd_row *r, double *va, double *vb)
+static HD_HOT double solve_friction(hd_row *r, double *va, double *vb)
 {
     if (!(r->mu > 0.0))
         return 0.0;
@@ -306,18 +350,17 @@ static int remember(hd_contact_model *m, long count)
     }
     for (long k = 0; k < count; ++k) {
         const hd_row *r = m->rows + k;
-        const double angle = m->poses[3 * r->b + 2];
-        const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+        const double c = m->cos_sin[2 * r->b], s = m->cos_sin[2 * r->b + 1];
         hd_warm *w = m->warm + k;
         memcpy(w->key, r->key, sizeof w->key);
         w->lx = c * r->rbx + s * r->rby;
         w->ly = -s * r->rbx + c * r->rby;
         w->jn = r->jn;
         w->jt = r->jt;
+        w->used = 0;
     }
     m->warm_count = count;
-    hd_sort_warm(m);
-    return 0;
+    return index_warm(m);
 }
 
 /* Remove overlap beyond HD_SLOP by moving positions only (solver.py: _correct_positions):
