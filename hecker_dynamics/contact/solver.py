@@ -78,8 +78,8 @@ MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
 
-__all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION", "MAX_ITERATIONS", "MIN_ITERATIONS",
-           "WORK", "passes", "SLOP"]
+__all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION",
+           "MAX_ITERATIONS", "MIN_ITERATIONS", "SLOP", "WORK", "passes"]
 
 
 class Contact(NamedTuple):
