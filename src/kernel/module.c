@@ -78,9 +78,9 @@ static int check_bodies(const hd_term *t, long bodies)
     for (long e = 0; e < t->count; ++e) {
         const long *i = t->ints + ni * e;
         int ok = i[0] >= 0 && i[0] < bodies;
-        if (t->kind == BODY_SPRING)
+        if (t->kind == HD_BODY_SPRING)
             ok = ok && i[1] >= 0 && i[1] < bodies;
-        if (t->kind == WRENCH)
+        if (t->kind == HD_WRENCH)
             ok = ok && i[1] >= -1 && i[1] < bodies && i[2] >= -1 && i[2] < bodies;
         if (!ok) {
             PyErr_Format(PyExc_ValueError, "term of kind %d, instance %ld: a body index is "
@@ -342,11 +342,11 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
                           &steps, &contacts_object) ||
         get_programs(program, inputs, &p, &in) < 0)
         return NULL;
-    if (method < EXPLICIT_EULER || method > EMBEDDED) {
+    if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
         PyErr_Format(PyExc_ValueError, "unknown method %d", method);
         return NULL;
     }
-    if (method == EMBEDDED && (pair = PyCapsule_GetPointer(pair_object, PAIR)) == NULL)
+    if (method == HD_EMBEDDED && (pair = PyCapsule_GetPointer(pair_object, PAIR)) == NULL)
         return NULL;
     if (contacts_object != Py_None) {
         if ((contacts = PyCapsule_GetPointer(contacts_object, CONTACTS)) == NULL)
@@ -376,7 +376,7 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 4; ++k)
         PyBuffer_Release(views + k);
-    if (status == OUT_OF_MEMORY)
+    if (status == HD_OUT_OF_MEMORY)
         return PyErr_NoMemory();
     return Py_BuildValue("illlld", status, taken, work.evaluations, work.substeps,
                          work.rejected, size);
@@ -653,14 +653,15 @@ PyMODINIT_FUNC PyInit__kernel(void)
 {
     /* The codes of kernel.h, so that the Python side never writes them again. */
     static const struct { const char *name; long value; } constants[] = {
-        {"GRAVITY", GRAVITY}, {"ANCHOR_SPRING", ANCHOR_SPRING}, {"BODY_SPRING", BODY_SPRING},
-        {"CENTER_DRAG", CENTER_DRAG}, {"POINT_DRAG", POINT_DRAG},
-        {"ANGULAR_DAMPING", ANGULAR_DAMPING}, {"WRENCH", WRENCH},
-        {"EXPLICIT_EULER", EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", SEMI_IMPLICIT_EULER},
-        {"VELOCITY_VERLET", VELOCITY_VERLET}, {"RK4", RK4}, {"EMBEDDED", EMBEDDED},
-        {"ADVANCED", ADVANCED}, {"NOT_FINITE", NOT_FINITE},
-        {"SUBSTEP_UNDERFLOW", SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", TOO_MANY_SUBSTEPS},
-        {"MAX_SUBSTEPS", MAX_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
+        {"GRAVITY", HD_GRAVITY}, {"ANCHOR_SPRING", HD_ANCHOR_SPRING},
+        {"BODY_SPRING", HD_BODY_SPRING},
+        {"CENTER_DRAG", HD_CENTER_DRAG}, {"POINT_DRAG", HD_POINT_DRAG},
+        {"ANGULAR_DAMPING", HD_ANGULAR_DAMPING}, {"WRENCH", HD_WRENCH},
+        {"EXPLICIT_EULER", HD_EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", HD_SEMI_IMPLICIT_EULER},
+        {"VELOCITY_VERLET", HD_VELOCITY_VERLET}, {"RK4", HD_RK4}, {"EMBEDDED", HD_EMBEDDED},
+        {"ADVANCED", HD_ADVANCED}, {"NOT_FINITE", HD_NOT_FINITE},
+        {"SUBSTEP_UNDERFLOW", HD_SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", HD_TOO_MANY_SUBSTEPS},
+        {"MAX_SUBSTEPS", HD_MAX_PAIR_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
         {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
         {"MIN_ITERATIONS", HD_MIN_ITERATIONS}, {"WORK", HD_WORK},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
