@@ -40,18 +40,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
-from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
-                        polygon_circle, polygon_polygon)
+from .collision import (CirclePart, ConvexPolygon, Part, PolygonPart, circle_circle,
+                        half_plane_circle, half_plane_polygon, polygon_circle, polygon_polygon)
 from ..geometry.shapes import Circle
 from ..geometry.planar import cos_sin_of
 from . import compiled as _compiled
 
 if TYPE_CHECKING:
-    from ..dynamics.model import Model
+    from ..scene.load import Scene
 
 #: The velocity solver's passes over the contacts per step: as many as fit in
 #: :data:`WORK` solves of a contact or two-point manifold, but at least
@@ -154,48 +155,56 @@ class ContactRow:
 class ContactPass:
     """Contact detection and response for one scene's walls and collision groups."""
 
-    def __init__(self, model: Model, threshold: float, compiled: bool = False) -> None:
-        """``compiled``: resolve in the kernel (:mod:`.compiled`), which must be built."""
-        scene = model.scene
+    def __init__(self, scene: Scene, mass: np.ndarray, inertia: np.ndarray,
+                 center_of_mass: np.ndarray, threshold: float, *, lean: bool,
+                 apart: Iterable[tuple[int, int]] = (), compiled: bool = False) -> None:
+        """The pass for ``scene``'s walls and collision groups, with the bodies' ``mass``,
+        moment of ``inertia`` and ``center_of_mass`` (N x 2, body axes) in the scene's
+        order; ``threshold``: the approach speed below which contacts do not bounce;
+        ``lean``: plain floats rather than numpy where both would do; ``apart``: pairs of
+        bodies (i < j) that do not collide although a group names them; ``compiled``:
+        resolve in the kernel (:mod:`.compiled`), which must be built."""
+        index = {body.name: i for i, body in enumerate(scene.bodies)}
         self.threshold = threshold
-        self.inverse_mass = (1.0 / model.mass).tolist()
-        self.inverse_inertia = (1.0 / model.inertia).tolist()
+        self.inverse_mass = (1.0 / mass).tolist()
+        self.inverse_inertia = (1.0 / inertia).tolist()
         self.wall_normal = [tuple(w.normal) for w in scene.walls]
         self.wall_offset = [w.normal[0] * w.point[0] + w.normal[1] * w.point[1]
                             for w in scene.walls]
         self.wall_material = [(w.restitution, w.friction) for w in scene.walls]
-        self.wall_bodies = [sorted(model.index[b] for b in w.bodies) for w in scene.walls]
-        self.pairs = {}  # (i, j), i < j -> (restitution, friction)
+        self.wall_bodies = [sorted(index[b] for b in w.bodies) for w in scene.walls]
+        self.pairs: dict[tuple[int, int], tuple[float, float]] = {}  # -> (e, mu)
         for group in scene.collisions:
-            members = sorted(model.index[b] for b in group.bodies)
+            members = sorted(index[b] for b in group.bodies)
             for n, i in enumerate(members):
                 for j in members[n + 1:]:
                     self.pairs[(i, j)] = (group.restitution, group.friction)
-        # Per body, its parts relative to the CM in body axes, as plain floats:
-        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals). Walls need
-        # only the vertices, so a body no collision group names may be concave; the scene
+        for pair in apart:
+            self.pairs.pop(pair, None)
+        # Per body, its parts relative to the CM in body axes, as plain floats; the scene
         # loader has checked that colliding bodies are convex.
         colliding = sorted({i for pair in self.pairs for i in pair})
-        self.parts: list[list[tuple]] = []
+        self.parts: list[list[Part]] = []
         reach, thickness = [], []
         for i, body in enumerate(scene.bodies):
-            parts, extents, widths = [], [], []
+            parts: list[Part] = []
+            extents, widths = [], []
             for shape in body.shapes:
                 if isinstance(shape, Circle):
-                    centre = model.local(i, shape.center)
-                    parts.append(("circle", tuple(centre.tolist()), shape.radius))
-                    extents.append(float(np.hypot(*centre)) + shape.radius)
+                    center = np.asarray(shape.center, dtype=float) - center_of_mass[i]
+                    parts.append(CirclePart(tuple(center.tolist()), shape.radius))
+                    extents.append(float(np.hypot(*center)) + shape.radius)
                     widths.append(2.0 * shape.radius)
                     continue
-                local = shape.vertices - model.cm_local[i]
+                local = shape.vertices - center_of_mass[i]
                 extents.append(float(np.max(np.hypot(local[:, 0], local[:, 1]))))
                 if i in colliding:
                     poly = ConvexPolygon.from_vertices(local)
-                    parts.append(("polygon", [tuple(p) for p in poly.vertices.tolist()],
-                                  [tuple(n) for n in poly.normals.tolist()]))
+                    parts.append(PolygonPart([tuple(p) for p in poly.vertices.tolist()],
+                                             [tuple(n) for n in poly.normals.tolist()]))
                     widths.append(2.0 * poly.inradius)
                 else:
-                    parts.append(("polygon", [tuple(p) for p in local.tolist()], []))
+                    parts.append(PolygonPart([tuple(p) for p in local.tolist()], []))
             self.parts.append(parts)
             reach.append(max(extents))
             thickness.append(min(widths, default=math.inf))
@@ -203,7 +212,7 @@ class ContactPass:
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
         self.thickness = min((thickness[i] for i in colliding), default=math.inf)
-        self._lean = model.lean
+        self._lean = lean
         self._colliding_index = np.array(colliding, dtype=int)
         self._colliding_reach = np.array([reach[i] for i in colliding])
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
@@ -259,34 +268,35 @@ class ContactPass:
 
     # ------------------------------------------------------------------ detection
 
-    def _world_parts(self, pose: list[float], body: int) -> list[tuple]:
+    def _world_parts(self, pose: list[float], body: int) -> list[Part]:
         """The body's parts placed at ``pose`` = [x, y, angle] of its CM."""
         x, y, angle = pose
         c, s = cos_sin_of(angle)
-        placed = []
+        placed: list[Part] = []
         for part in self.parts[body]:
-            if part[0] == "circle":
-                lx, ly = part[1]
-                placed.append(("circle", (x + c * lx - s * ly, y + s * lx + c * ly), part[2]))
+            if isinstance(part, CirclePart):
+                lx, ly = part.center
+                placed.append(CirclePart((x + c * lx - s * ly, y + s * lx + c * ly),
+                                         part.radius))
             else:
-                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part[1]]
-                normals = [(c * a - s * b, s * a + c * b) for a, b in part[2]]
-                placed.append(("polygon", verts, normals))
+                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part.vertices]
+                normals = [(c * a - s * b, s * a + c * b) for a, b in part.normals]
+                placed.append(PolygonPart(verts, normals))
         return placed
 
     @staticmethod
-    def _bounds(part: tuple) -> tuple[float, float, float, float]:
-        if part[0] == "circle":
-            (x, y), r = part[1], part[2]
+    def _bounds(part: Part) -> tuple[float, float, float, float]:
+        if isinstance(part, CirclePart):
+            (x, y), r = part
             return x - r, x + r, y - r, y + r
-        xs = [p[0] for p in part[1]]
-        ys = [p[1] for p in part[1]]
+        xs = [p[0] for p in part.vertices]
+        ys = [p[1] for p in part.vertices]
         return min(xs), max(xs), min(ys), max(ys)
 
     def detect(self, q: np.ndarray) -> list[Contact]:
         """The contacts at positions ``q``: walls first, then the pairs the broad phase
         finds, in a deterministic order."""
-        world: dict[int, list[tuple]] = {}
+        world: dict[int, list[Part]] = {}
         poses = q.tolist()
         contacts: list[Contact] = []
         for w, bodies in enumerate(self.wall_bodies):
@@ -300,9 +310,9 @@ class ContactPass:
                 if b not in world:
                     world[b] = self._world_parts(poses[b], b)
                 for p, part in enumerate(world[b]):
-                    found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
-                             if part[0] == "circle"
-                             else half_plane_polygon(normal, offset, part[1], MARGIN))
+                    found = (half_plane_circle(normal, offset, *part, MARGIN)
+                             if isinstance(part, CirclePart)
+                             else half_plane_polygon(normal, offset, part.vertices, MARGIN))
                     for point, n, depth in found:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
         for a, b in self._candidate_pairs(poses) if self.pairs else ():
@@ -326,7 +336,7 @@ class ContactPass:
                     pairs.append(pair)
         return pairs
 
-    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[Contact]:
+    def _pair_contacts(self, a: int, b: int, world: dict[int, list[Part]]) -> list[Contact]:
         """Contacts between the parts of bodies a < b whose bounds overlap."""
         material = self.pairs[(a, b)]
         bounds_b = [self._bounds(part) for part in world[b]]
@@ -617,13 +627,13 @@ def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:
     return units
 
 
-def _collide(part_a: tuple, part_b: tuple) -> list:
+def _collide(part_a: Part, part_b: Part) -> list:
     """Narrow phase for two placed parts, normal from A to B."""
-    if part_a[0] == "polygon" and part_b[0] == "polygon":
-        return polygon_polygon(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    if part_a[0] == "circle" and part_b[0] == "circle":
-        return circle_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    if part_a[0] == "polygon":
-        return polygon_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    flipped = polygon_circle(part_b[1], part_b[2], part_a[1], part_a[2], MARGIN)
-    return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]
+    if isinstance(part_a, CirclePart):
+        if isinstance(part_b, CirclePart):
+            return circle_circle(*part_a, *part_b, MARGIN)
+        flipped = polygon_circle(*part_b, *part_a, MARGIN)
+        return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]
+    if isinstance(part_b, CirclePart):
+        return polygon_circle(*part_a, *part_b, MARGIN)
+    return polygon_polygon(*part_a, *part_b, MARGIN)
