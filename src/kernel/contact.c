@@ -9,6 +9,8 @@
 
 #include "contact.h"
 
+static int index_pairs(hd_contact_model *m);
+
 int hd_contact_prepare(hd_contact_model *m)
 {
     const long n = m->bodies;
@@ -19,7 +21,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
     if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
-            !m->cos_sin)
+            !m->cos_sin || index_pairs(m) < 0)
         return -1;
     m->arrived = m->velocity + 3 * (n + 1);
     m->before = m->arrived + 3 * (n + 1);
@@ -66,6 +68,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->warm);
     free(m->warm_table);
     free(m->cos_sin);
+    free(m->pair_table);
     free(m);
 }
 
@@ -157,20 +160,46 @@ static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
     return count;
 }
 
+static unsigned long hash_pair(long i, long j)
+{
+    unsigned long h = ((unsigned long)i * 0x9E3779B97F4A7C15UL) ^ (unsigned long)j;
+    h *= 0xBF58476D1CE4E5B9UL;
+    return h ^ (h >> 31);
+}
+
+/* The table from each colliding pair to its index in `pair` (open addressing, at most half
+ * full); -1 out of memory. */
+static int index_pairs(hd_contact_model *m)
+{
+    long size = 16;
+    while (size < 2 * m->pair_count)
+        size *= 2;
+    m->pair_table = malloc((size_t)size * sizeof(long));
+    if (m->pair_table == NULL)
+        return -1;
+    m->pair_table_size = size;
+    for (long k = 0; k < size; ++k)
+        m->pair_table[k] = -1;
+    for (long k = 0; k < m->pair_count; ++k) {
+        unsigned long slot = hash_pair(m->pair[2 * k], m->pair[2 * k + 1]) &
+                             (unsigned long)(size - 1);
+        while (m->pair_table[slot] >= 0)
+            slot = (slot + 1) & (unsigned long)(size - 1);
+        m->pair_table[slot] = k;
+    }
+    return 0;
+}
+
 /* The material of pair (i, j), i < j, or NULL if no collision group names it. */
 static const double *material_of(const hd_contact_model *m, long i, long j)
 {
-    long low = 0, high = m->pair_count;
-    while (low < high) {
-        const long mid = low + (high - low) / 2;
-        const long *p = m->pair + 2 * mid;
-        if (p[0] < i || (p[0] == i && p[1] < j))
-            low = mid + 1;
-        else
-            high = mid;
+    const unsigned long mask = (unsigned long)(m->pair_table_size - 1);
+    for (unsigned long slot = hash_pair(i, j) & mask; m->pair_table[slot] >= 0;
+         slot = (slot + 1) & mask) {
+        const long k = m->pair_table[slot];
+        if (m->pair[2 * k] == i && m->pair[2 * k + 1] == j)
+            return m->material + 2 * k;
     }
-    if (low < m->pair_count && m->pair[2 * low] == i && m->pair[2 * low + 1] == j)
-        return m->material + 2 * low;
     return NULL;
 }
 

@@ -106,6 +106,8 @@ typedef struct hd_contact_model {
     long pair_count;
     long *pair;         /* (i, j), i < j, sorted */
     double *material;   /* per pair: restitution, friction */
+    long *pair_table;   /* open addressing: the index of each pair, or -1 */
+    long pair_table_size;
     double threshold;  /* restitution threshold (m/s) */
     double thickness;  /* of the thinnest colliding part */
     /* Working memory, kept from call to call, and the warm-start impulses. */
