@@ -58,6 +58,23 @@ def test_kernel_steps_contact_scenes_with_the_bits_of_python(name):
     assert state == slow.model.contacts.export_state()
 
 
+@needs_kernel
+def test_kernel_solves_a_large_pyramid_with_the_bits_of_python():
+    """A pyramid of 16 rows (136 boxes, more than WORK / MIN_ITERATIONS blocks and
+    contacts, so every step takes the minimum of passes rather than converging) for 0.2 s:
+    kernel and Python give identical states and impulses."""
+    scene = pyramid(16)
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    fast.advance_to(200_000_000)
+    slow.advance_to(200_000_000)
+    assert np.array_equal(fast.q, slow.q) and np.array_equal(fast.v, slow.v)
+    state = fast.model.contacts.export_state()
+    assert state == slow.model.contacts.export_state()
+    contacts = sum(len(remembered) for _, remembered in state)
+    assert solver.passes(contacts // 2) == solver.MIN_ITERATIONS  # at most 2 per manifold
+
+
 @pytest.mark.parametrize("compiled", [False, True])
 @pytest.mark.parametrize("name", ["pyramid", "seesaw"])
 def test_restored_simulation_continues_bit_for_bit(name, compiled):
