@@ -14,10 +14,11 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    Coulomb friction |j_t| <= mu j_n. The two points of a manifold are solved as one block
    (:class:`Block`, the 2 x 2 complementarity problem), which a stack of boxes needs to
    converge in few passes. The work per step is bounded by the number of contacts alone
-   (:func:`passes`): up to :data:`WORK` contact solves (at least :data:`MIN_ITERATIONS`,
-   at most :data:`MAX_ITERATIONS` passes), fewer when no impulse changes a velocity by
-   more than :data:`CONVERGED` relative to the fastest body;
-   A contact that closed during the step bounces with restitution e if it approached
+   (:func:`passes`), island by island (bodies joined through contacts, which share no
+   body with another island): up to :data:`WORK` contact solves (at least
+   :data:`MIN_ITERATIONS`, at most :data:`MAX_ITERATIONS` passes), fewer when no impulse
+   changes a velocity by more than :data:`CONVERGED` relative to the island's fastest
+   body. A contact that closed during the step bounces with restitution e if it approached
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
    so resting contacts stay at rest;
@@ -464,19 +465,22 @@ class ContactPass:
 
     def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
         """Gauss-Seidel passes over the rows, each two-point manifold as one block
-        (:class:`Block`), every other contact point by point, until no impulse changes a
-        velocity by more than :data:`CONVERGED` relative to the fastest body, or
-        :func:`passes` passes."""
-        schedule = _schedule(rows)
-        scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
-        for _ in range(passes(len(schedule))):
-            largest = 0.0
-            for unit in schedule:
-                change = (unit.solve(velocity) if isinstance(unit, Block)
-                          else _solve_point(unit, velocity))
-                largest = max(largest, change)
-            if largest <= CONVERGED * scale:
-                return
+        (:class:`Block`), every other contact point by point, island by island (bodies
+        that touch, through contacts with each other, share no body with another island):
+        each until no impulse changes a velocity by more than :data:`CONVERGED` relative
+        to its fastest body, or :func:`passes` passes for its own number of units. Islands
+        are independent, so each gets the bits it would get alone."""
+        for island in _islands(_schedule(rows)):
+            scale = 1.0 + max(abs(x) for unit in island for body in _unit_bodies(unit)
+                              for x in velocity[body])
+            for _ in range(passes(len(island))):
+                largest = 0.0
+                for unit in island:
+                    change = (unit.solve(velocity) if isinstance(unit, Block)
+                              else _solve_point(unit, velocity))
+                    largest = max(largest, change)
+                if largest <= CONVERGED * scale:
+                    break
 
     def _correct_positions(self, rows: list[ContactRow], velocity: dict, q1: np.ndarray,
                            h: float) -> None:
@@ -605,6 +609,37 @@ def _block(one: ContactRow, two: ContactRow) -> Optional[Block]:
         return None
     inverse = 1.0 / determinant
     return Block(one, two, k11, k12, k22, k22 * inverse, -k12 * inverse, k11 * inverse)
+
+
+def _unit_bodies(unit: ContactRow | Block) -> tuple[int, int]:
+    """The two bodies of a solver unit (the first -1 for a wall)."""
+    row = unit.first if isinstance(unit, Block) else unit
+    return row.a, row.b
+
+
+def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
+    """The units grouped by island (union-find over the bodies they join; walls join
+    nothing), in order of each island's first unit, each island's units in their order."""
+    parent: dict[int, int] = {}
+
+    def root(body: int) -> int:
+        while parent[body] != body:
+            parent[body] = parent[parent[body]]
+            body = parent[body]
+        return body
+
+    for unit in units:
+        a, b = _unit_bodies(unit)
+        parent.setdefault(b, b)
+        if a >= 0:
+            parent.setdefault(a, a)
+            ra, rb = root(a), root(b)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    islands: dict[int, list[ContactRow | Block]] = {}
+    for unit in units:
+        islands.setdefault(root(_unit_bodies(unit)[1]), []).append(unit)
+    return list(islands.values())
 
 
 def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:

@@ -20,8 +20,10 @@ int hd_contact_prepare(hd_contact_model *m)
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
+    m->parent = malloc((size_t)(2 * (n + 1)) * sizeof(long));
+    m->island_of = m->parent == NULL ? NULL : m->parent + n + 1;
     if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
-            !m->cos_sin || index_pairs(m) < 0)
+            !m->cos_sin || !m->parent || index_pairs(m) < 0)
         return -1;
     m->arrived = m->velocity + 3 * (n + 1);
     m->before = m->arrived + 3 * (n + 1);
@@ -30,6 +32,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->contacts = NULL;
     m->rows = NULL;
     m->units = NULL;
+    m->order = NULL;
     m->warm = NULL;
     m->warm_table = NULL;
     m->warm_table_size = 0;
@@ -65,6 +68,8 @@ void hd_contact_free(hd_contact_model *m)
     free(m->contacts);
     free(m->rows);
     free(m->units);
+    free(m->order);
+    free(m->parent);
     free(m->warm);
     free(m->warm_table);
     free(m->cos_sin);

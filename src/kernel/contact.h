@@ -119,6 +119,10 @@ typedef struct hd_contact_model {
     long contact_count, contact_capacity;
     hd_row *rows;
     hd_unit *units;     /* row_capacity of them */
+    /* The islands (row_capacity each, island_start one more): the units in island order,
+     * each unit's island, where each island starts, and a cursor per island. */
+    long *order, *unit_island, *island_start, *island_fill;
+    long *parent, *island_of;  /* bodies + 1: union-find over the bodies, island of a root */
     long row_capacity;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
     double *cos_sin;    /* bodies x 2: of each placed body's angle */

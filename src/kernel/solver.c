@@ -2,7 +2,8 @@
  * operation. Sequential impulses (the article series' collision impulse for each contact
  * with both bodies' mass and moment of inertia, accumulated and clamped, with Coulomb
  * friction), warm-started from the last step's impulses, two-point manifolds solved as
- * blocks, at most HD_WORK / units passes (within HD_MIN_ITERATIONS .. HD_MAX_ITERATIONS);
+ * blocks, island by island, each with at most HD_WORK / (its units) passes (within
+ * HD_MIN_ITERATIONS .. HD_MAX_ITERATIONS);
  * then the position change h (v' - v) of each body the impulses moved, and the position
  * correction of the overlap beyond HD_SLOP.
  *
@@ -296,45 +297,97 @@ static long schedule(hd_contact_model *m, long count)
     return units;
 }
 
-/* Gauss-Seidel passes over the units until no impulse changes a velocity by more than
- * HD_CONVERGED relative to the fastest body, or HD_WORK / units passes, but at least
- * HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS (solver.py: _solve_velocities). */
+static long root_of(long *parent, long body)
+{
+    while (parent[body] != body) {
+        parent[body] = parent[parent[body]];
+        body = parent[body];
+    }
+    return body;
+}
+
+/* Group the units by island (solver.py: _islands): m->order holds the units' indices,
+ * each island's together and in their order, island i from m->island_start[i] to
+ * [i + 1]; returns the number of islands. */
+static long islands(hd_contact_model *m, long units)
+{
+    const long wall = m->bodies;
+    long *parent = m->parent, *island = m->island_of;
+    for (long k = 0; k < units; ++k) {
+        const hd_row *r = m->rows + m->units[k].first;
+        parent[r->a] = r->a;
+        parent[r->b] = r->b;
+        island[r->a] = island[r->b] = -1;
+    }
+    for (long k = 0; k < units; ++k) {
+        const hd_row *r = m->rows + m->units[k].first;
+        if (r->a == wall)
+            continue;
+        const long ra = root_of(parent, r->a), rb = root_of(parent, r->b);
+        if (ra != rb)
+            parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
+    }
+    long count = 0;
+    for (long k = 0; k < units; ++k) {  /* islands numbered by first unit; their sizes */
+        const long root = root_of(parent, m->rows[m->units[k].first].b);
+        if (island[root] < 0) {
+            island[root] = count;
+            m->island_start[++count] = 0;
+        }
+        m->unit_island[k] = island[root];
+        m->island_start[island[root] + 1] += 1;
+    }
+    m->island_start[0] = 0;
+    for (long i = 0; i < count; ++i)
+        m->island_start[i + 1] += m->island_start[i];
+    for (long i = 0; i < count; ++i)
+        m->island_fill[i] = m->island_start[i];
+    for (long k = 0; k < units; ++k)
+        m->order[m->island_fill[m->unit_island[k]]++] = k;
+    return count;
+}
+
+/* Gauss-Seidel passes over the units island by island, each until no impulse changes a
+ * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
+ * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
+ * (solver.py: _solve_velocities). */
 static void solve_velocities(hd_contact_model *m, long count)
 {
-    double fastest = 0.0;  /* Python's max over the touched bodies, then the walls' zeros */
-    int first = 1;
-    for (long b = 0; b <= m->bodies; ++b) {
-        if (b < m->bodies && !m->touched[b])
-            continue;
-        for (int k = 0; k < 3; ++k) {
-            const double x = fabs(m->velocity[3 * b + k]);
-            if (first || x > fastest)
-                fastest = x;
-            first = 0;
-        }
-    }
-    const double scale = 1.0 + fastest;
     const long units = schedule(m, count);
-    long passes = HD_WORK / units;
-    passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
-    passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
-    for (long iteration = 0; iteration < passes; ++iteration) {
-        double largest = 0.0;
-        for (long k = 0; k < units; ++k) {
-            const hd_unit *u = m->units + k;
-            hd_row *r = m->rows + u->first;
-            double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
-            double change;
-            if (u->pair) {
-                change = solve_block(u, r, r + 1, va, vb);
-            } else {
-                change = solve_normal(r, va, vb);
-                change = py_max(change, solve_friction(r, va, vb));
+    const long count_islands = islands(m, units);
+    for (long i = 0; i < count_islands; ++i) {
+        const long *members = m->order + m->island_start[i];
+        const long size = m->island_start[i + 1] - m->island_start[i];
+        double fastest = 0.0;
+        for (long k = 0; k < size; ++k) {
+            const hd_row *r = m->rows + m->units[members[k]].first;
+            for (int c = 0; c < 3; ++c) {
+                fastest = py_max(py_max(fastest, fabs(m->velocity[3 * r->a + c])),
+                                 fabs(m->velocity[3 * r->b + c]));
             }
-            largest = py_max(largest, change);
         }
-        if (largest <= HD_CONVERGED * scale)
-            return;
+        const double scale = 1.0 + fastest;
+        long passes = HD_WORK / size;
+        passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
+        passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+        for (long iteration = 0; iteration < passes; ++iteration) {
+            double largest = 0.0;
+            for (long k = 0; k < size; ++k) {
+                const hd_unit *u = m->units + members[k];
+                hd_row *r = m->rows + u->first;
+                double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
+                double change;
+                if (u->pair) {
+                    change = solve_block(u, r, r + 1, va, vb);
+                } else {
+                    change = solve_normal(r, va, vb);
+                    change = py_max(change, solve_friction(r, va, vb));
+                }
+                largest = py_max(largest, change);
+            }
+            if (largest <= HD_CONVERGED * scale)
+                break;
+        }
     }
 }
 
@@ -420,6 +473,13 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, do
         if (units == NULL)
             return -1;
         m->units = units;
+        long *order = realloc(m->order, (size_t)(4 * needed + 1) * sizeof(long));
+        if (order == NULL)
+            return -1;
+        m->order = order;
+        m->unit_island = order + needed;
+        m->island_start = order + 2 * needed;
+        m->island_fill = order + 3 * needed + 1;
         m->row_capacity = needed;
     }
     memset(m->touched, 0, (size_t)n * sizeof(int));
