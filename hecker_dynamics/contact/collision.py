@@ -154,7 +154,8 @@ def polygon_circle(verts: list[Point], normals: list[Point], center: Point,
     v1, v2 = verts[edge], verts[(edge + 1) % len(verts)]
     if sep > 0.0:
         for vertex, other in ((v1, v2), (v2, v1)):
-            if (cx - vertex[0]) * (other[0] - vertex[0]) + (cy - vertex[1]) * (other[1] - vertex[1]) <= 0.0:
+            if ((cx - vertex[0]) * (other[0] - vertex[0])
+                    + (cy - vertex[1]) * (other[1] - vertex[1])) <= 0.0:
                 dx, dy = cx - vertex[0], cy - vertex[1]
                 distance = math.hypot(dx, dy)
                 if distance > radius + margin or distance == 0.0:
