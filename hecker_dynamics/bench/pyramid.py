@@ -26,7 +26,7 @@ STEP = 0.004
 
 
 def pyramid_positions(rows: int) -> list[tuple[float, float]]:
-    """Box centres, bottom row first, each row left to right."""
+    """Box centers, bottom row first, each row left to right."""
     pitch = BOX + GAP
     return [((column - 0.5 * (rows - 1 - row)) * pitch, 0.5 * BOX + row * BOX)
             for row in range(rows) for column in range(rows - row)]

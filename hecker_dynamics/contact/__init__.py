@@ -4,7 +4,9 @@ joints (``joints``): pins, sliders, welds, rods, ropes and gears, built only for
 that declare them."""
 from .joints import (DistanceJoint, GearJoint, JointPass, JointSpec, PrismaticJoint,
                      RevoluteJoint, WeldJoint)
-from .solver import Contact, ContactPass, ContactRow
+from .collision import CirclePart, Part, PolygonPart
+from .solver import Block, Contact, ContactPass, ContactRow
 
-__all__ = ["Contact", "ContactPass", "ContactRow", "JointPass", "JointSpec", "RevoluteJoint",
-           "PrismaticJoint", "WeldJoint", "DistanceJoint", "GearJoint"]
+__all__ = ["Block", "CirclePart", "Contact", "ContactPass", "ContactRow", "Part", "PolygonPart",
+           "JointPass", "JointSpec", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
+           "DistanceJoint", "GearJoint"]

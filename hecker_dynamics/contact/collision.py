@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple, Union
 
 import numpy as np
 
@@ -28,6 +29,27 @@ from ..geometry.planar import perp_dot
 
 Point = tuple[float, float]
 ContactPoint = tuple[Point, Point, float]
+
+
+class CirclePart(NamedTuple):
+    """A circular part of a body: its center and radius (in body axes relative to the CM,
+    or placed in the fixed frame)."""
+
+    center: tuple[float, float]
+    radius: float
+
+
+class PolygonPart(NamedTuple):
+    """A polygonal part of a body: its vertices and the outward unit normals of its edges
+    (edge i from vertex i to i + 1), in body axes relative to the CM or placed. A body that
+    collides only with walls keeps its outline as given and no normals: walls need only the
+    vertices, so it may be concave."""
+
+    vertices: list[tuple[float, float]]
+    normals: list[tuple[float, float]]
+
+
+Part = Union[CirclePart, PolygonPart]
 
 
 @dataclass(frozen=True)
@@ -53,8 +75,8 @@ class ConvexPolygon:
     @property
     def inradius(self) -> float:
         """Distance from the vertex centroid to the nearest edge: half a thickness."""
-        centre = self.vertices.mean(axis=0)
-        return float(np.min(np.einsum("ki,ki->k", self.normals, self.vertices - centre)))
+        center = self.vertices.mean(axis=0)
+        return float(np.min(np.einsum("ki,ki->k", self.normals, self.vertices - center)))
 
 
 def _max_separation(verts1: list[Point], normals1: list[Point],
@@ -118,10 +140,10 @@ def polygon_polygon(verts_a: list[Point], normals_a: list[Point], verts_b: list[
     return contacts
 
 
-def polygon_circle(verts: list[Point], normals: list[Point], centre: Point,
+def polygon_circle(verts: list[Point], normals: list[Point], center: Point,
                    radius: float, margin: float) -> list[ContactPoint]:
     """Contact of a convex polygon and a circle (normal from the polygon to the circle)."""
-    cx, cy = centre
+    cx, cy = center
     edge, sep = 0, -math.inf
     for i, ((nx, ny), (vx, vy)) in enumerate(zip(normals, verts)):
         s = nx * (cx - vx) + ny * (cy - vy)
@@ -132,7 +154,8 @@ def polygon_circle(verts: list[Point], normals: list[Point], centre: Point,
     v1, v2 = verts[edge], verts[(edge + 1) % len(verts)]
     if sep > 0.0:
         for vertex, other in ((v1, v2), (v2, v1)):
-            if (cx - vertex[0]) * (other[0] - vertex[0]) + (cy - vertex[1]) * (other[1] - vertex[1]) <= 0.0:
+            if ((cx - vertex[0]) * (other[0] - vertex[0])
+                    + (cy - vertex[1]) * (other[1] - vertex[1])) <= 0.0:
                 dx, dy = cx - vertex[0], cy - vertex[1]
                 distance = math.hypot(dx, dy)
                 if distance > radius + margin or distance == 0.0:
@@ -147,17 +170,17 @@ def polygon_circle(verts: list[Point], normals: list[Point], centre: Point,
     return [(point, n, depth)]
 
 
-def circle_circle(centre_a: Point, radius_a: float, centre_b: Point,
+def circle_circle(center_a: Point, radius_a: float, center_b: Point,
                   radius_b: float, margin: float) -> list[ContactPoint]:
     """Contact of two circles (normal from A to B)."""
-    dx, dy = centre_b[0] - centre_a[0], centre_b[1] - centre_a[1]
+    dx, dy = center_b[0] - center_a[0], center_b[1] - center_a[1]
     distance = math.hypot(dx, dy)
     depth = radius_a + radius_b - distance
     if depth < -margin:
         return []
     n = (dx / distance, dy / distance) if distance > 0.0 else (0.0, 1.0)
     reach = radius_a - depth / 2.0
-    return [((centre_a[0] + n[0] * reach, centre_a[1] + n[1] * reach), n, depth)]
+    return [((center_a[0] + n[0] * reach, center_a[1] + n[1] * reach), n, depth)]
 
 
 def half_plane_polygon(normal: Point, offset: float, verts: list[Point],
@@ -172,12 +195,12 @@ def half_plane_polygon(normal: Point, offset: float, verts: list[Point],
     return contacts
 
 
-def half_plane_circle(normal: Point, offset: float, centre: Point,
+def half_plane_circle(normal: Point, offset: float, center: Point,
                       radius: float, margin: float) -> list[ContactPoint]:
     """A circle behind the wall n . x >= offset (normal from wall to body)."""
     nx, ny = normal
-    depth = offset - (nx * centre[0] + ny * centre[1] - radius)
+    depth = offset - (nx * center[0] + ny * center[1] - radius)
     if depth <= -margin:
         return []
     reach = radius - depth / 2.0
-    return [((centre[0] - nx * reach, centre[1] - ny * reach), normal, depth)]
+    return [((center[0] - nx * reach, center[1] - ny * reach), normal, depth)]

@@ -17,6 +17,8 @@ try:
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
+from .collision import CirclePart
+
 if TYPE_CHECKING:
     from .solver import ContactPass
 
@@ -34,11 +36,11 @@ class CompiledContacts:
         part_ints, part_reals = [], []
         for body, parts in enumerate(contacts.parts):
             for part in parts:
-                if part[0] == "circle":
+                if isinstance(part, CirclePart):
                     part_ints.append((body, _kernel.CIRCLE, 0))
-                    part_reals.extend((*part[1], part[2]))
+                    part_reals.extend((*part.center, part.radius))
                     continue
-                vertices, normals = part[1], part[2]
+                vertices, normals = part
                 part_ints.append((body, _kernel.POLYGON if normals else _kernel.OUTLINE,
                                   len(vertices)))
                 part_reals.extend(x for point in vertices + normals for x in point)
@@ -60,7 +62,8 @@ class CompiledContacts:
         _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(v0), h)
 
     def impulses(self) -> list[WarmImpulse]:
-        """The warm-start impulses, sorted by the names of their parts."""
+        """The warm-start impulses, those of one pair of parts together and in the order
+        the solver met them."""
         return _kernel.warm(self.kernel)
 
     def set_impulses(self, impulses: list[WarmImpulse]) -> None:

@@ -11,10 +11,14 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    for all contacts together by sequential impulses with accumulated, clamped totals,
    warm-started from the previous step's impulses (a contact is recognised by its pair
    of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
-   Coulomb friction |j_t| <= mu j_n. The work per step is bounded: at most
-   :data:`MAX_ITERATIONS` passes over the contacts, fewer when no impulse changes a
-   velocity by more than :data:`CONVERGED` relative to the fastest body;
-   A contact that closed during the step bounces with restitution e if it approached
+   Coulomb friction |j_t| <= mu j_n. The two points of a manifold are solved as one block
+   (:class:`Block`, the 2 x 2 complementarity problem), which a stack of boxes needs to
+   converge in few passes. The work per step is bounded by the number of contacts alone
+   (:func:`passes`), island by island (bodies joined through contacts, which share no
+   body with another island): up to :data:`WORK` contact solves (at least
+   :data:`MIN_ITERATIONS`, at most :data:`MAX_ITERATIONS` passes), fewer when no impulse
+   changes a velocity by more than :data:`CONVERGED` relative to the island's fastest
+   body. A contact that closed during the step bounces with restitution e if it approached
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
    so resting contacts stay at rest;
@@ -37,21 +41,33 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
-from .collision import (ConvexPolygon, circle_circle, half_plane_circle, half_plane_polygon,
-                        polygon_circle, polygon_polygon)
+from .collision import (CirclePart, ConvexPolygon, Part, PolygonPart, circle_circle,
+                        half_plane_circle, half_plane_polygon, polygon_circle, polygon_polygon)
 from ..geometry.shapes import Circle
 from ..geometry.planar import cos_sin_of
 from . import compiled as _compiled
 
 if TYPE_CHECKING:
-    from ..dynamics.model import Model
+    from ..scene.load import Scene
 
-MAX_ITERATIONS = 60
+#: The velocity solver's passes over the contacts per step: as many as fit in
+#: :data:`WORK` solves of a contact or two-point manifold, but at least
+#: :data:`MIN_ITERATIONS` and at most :data:`MAX_ITERATIONS`, and fewer when converged
+#: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
+#: body). So a scene's cost per step is bounded by its number of contacts alone: small
+#: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
+WORK = 1000
+MIN_ITERATIONS = 8
+MAX_ITERATIONS = 40
 CONVERGED = 1e-13
+#: Largest condition number of a two-point manifold's 2 x 2 effective-mass matrix that is
+#: still solved as one block.
+MAX_CONDITION = 1000.0
 #: Gap (m) within which shapes already count as touching, so resting contacts persist.
 MARGIN = 5e-3
 #: Distance (m) within which a contact point is taken for last step's, for warm starting.
@@ -64,7 +80,8 @@ MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
 
-__all__ = ["Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_ITERATIONS", "SLOP"]
+__all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION",
+           "MAX_ITERATIONS", "MIN_ITERATIONS", "SLOP", "WORK", "passes"]
 
 
 class Contact(NamedTuple):
@@ -139,48 +156,56 @@ class ContactRow:
 class ContactPass:
     """Contact detection and response for one scene's walls and collision groups."""
 
-    def __init__(self, model: Model, threshold: float, compiled: bool = False) -> None:
-        """``compiled``: resolve in the kernel (:mod:`.compiled`), which must be built."""
-        scene = model.scene
+    def __init__(self, scene: Scene, mass: np.ndarray, inertia: np.ndarray,
+                 center_of_mass: np.ndarray, threshold: float, *, lean: bool,
+                 apart: Iterable[tuple[int, int]] = (), compiled: bool = False) -> None:
+        """The pass for ``scene``'s walls and collision groups, with the bodies' ``mass``,
+        moment of ``inertia`` and ``center_of_mass`` (N x 2, body axes) in the scene's
+        order; ``threshold``: the approach speed below which contacts do not bounce;
+        ``lean``: plain floats rather than numpy where both would do; ``apart``: pairs of
+        bodies (i < j) that do not collide although a group names them; ``compiled``:
+        resolve in the kernel (:mod:`.compiled`), which must be built."""
+        index = {body.name: i for i, body in enumerate(scene.bodies)}
         self.threshold = threshold
-        self.inverse_mass = (1.0 / model.mass).tolist()
-        self.inverse_inertia = (1.0 / model.inertia).tolist()
+        self.inverse_mass = (1.0 / mass).tolist()
+        self.inverse_inertia = (1.0 / inertia).tolist()
         self.wall_normal = [tuple(w.normal) for w in scene.walls]
         self.wall_offset = [w.normal[0] * w.point[0] + w.normal[1] * w.point[1]
                             for w in scene.walls]
         self.wall_material = [(w.restitution, w.friction) for w in scene.walls]
-        self.wall_bodies = [sorted(model.index[b] for b in w.bodies) for w in scene.walls]
-        self.pairs = {}  # (i, j), i < j -> (restitution, friction)
+        self.wall_bodies = [sorted(index[b] for b in w.bodies) for w in scene.walls]
+        self.pairs: dict[tuple[int, int], tuple[float, float]] = {}  # -> (e, mu)
         for group in scene.collisions:
-            members = sorted(model.index[b] for b in group.bodies)
+            members = sorted(index[b] for b in group.bodies)
             for n, i in enumerate(members):
                 for j in members[n + 1:]:
                     self.pairs[(i, j)] = (group.restitution, group.friction)
-        # Per body, its parts relative to the CM in body axes, as plain floats:
-        # ("circle", (x, y), radius) or ("polygon", vertices, outward normals). Walls need
-        # only the vertices, so a body no collision group names may be concave; the scene
+        for pair in apart:
+            self.pairs.pop(pair, None)
+        # Per body, its parts relative to the CM in body axes, as plain floats; the scene
         # loader has checked that colliding bodies are convex.
         colliding = sorted({i for pair in self.pairs for i in pair})
-        self.parts: list[list[tuple]] = []
+        self.parts: list[list[Part]] = []
         reach, thickness = [], []
         for i, body in enumerate(scene.bodies):
-            parts, extents, widths = [], [], []
+            parts: list[Part] = []
+            extents, widths = [], []
             for shape in body.shapes:
                 if isinstance(shape, Circle):
-                    centre = model.local(i, shape.center)
-                    parts.append(("circle", tuple(centre.tolist()), shape.radius))
-                    extents.append(float(np.hypot(*centre)) + shape.radius)
+                    center = np.asarray(shape.center, dtype=float) - center_of_mass[i]
+                    parts.append(CirclePart(tuple(center.tolist()), shape.radius))
+                    extents.append(float(np.hypot(*center)) + shape.radius)
                     widths.append(2.0 * shape.radius)
                     continue
-                local = shape.vertices - model.cm_local[i]
+                local = shape.vertices - center_of_mass[i]
                 extents.append(float(np.max(np.hypot(local[:, 0], local[:, 1]))))
                 if i in colliding:
                     poly = ConvexPolygon.from_vertices(local)
-                    parts.append(("polygon", [tuple(p) for p in poly.vertices.tolist()],
-                                  [tuple(n) for n in poly.normals.tolist()]))
+                    parts.append(PolygonPart([tuple(p) for p in poly.vertices.tolist()],
+                                             [tuple(n) for n in poly.normals.tolist()]))
                     widths.append(2.0 * poly.inradius)
                 else:
-                    parts.append(("polygon", [tuple(p) for p in local.tolist()], []))
+                    parts.append(PolygonPart([tuple(p) for p in local.tolist()], []))
             self.parts.append(parts)
             reach.append(max(extents))
             thickness.append(min(widths, default=math.inf))
@@ -188,7 +213,7 @@ class ContactPass:
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
         self.thickness = min((thickness[i] for i in colliding), default=math.inf)
-        self._lean = model.lean
+        self._lean = lean
         self._colliding_index = np.array(colliding, dtype=int)
         self._colliding_reach = np.array([reach[i] for i in colliding])
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
@@ -244,34 +269,35 @@ class ContactPass:
 
     # ------------------------------------------------------------------ detection
 
-    def _world_parts(self, pose: list[float], body: int) -> list[tuple]:
+    def _world_parts(self, pose: list[float], body: int) -> list[Part]:
         """The body's parts placed at ``pose`` = [x, y, angle] of its CM."""
         x, y, angle = pose
         c, s = cos_sin_of(angle)
-        placed = []
+        placed: list[Part] = []
         for part in self.parts[body]:
-            if part[0] == "circle":
-                lx, ly = part[1]
-                placed.append(("circle", (x + c * lx - s * ly, y + s * lx + c * ly), part[2]))
+            if isinstance(part, CirclePart):
+                lx, ly = part.center
+                placed.append(CirclePart((x + c * lx - s * ly, y + s * lx + c * ly),
+                                         part.radius))
             else:
-                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part[1]]
-                normals = [(c * a - s * b, s * a + c * b) for a, b in part[2]]
-                placed.append(("polygon", verts, normals))
+                verts = [(x + c * a - s * b, y + s * a + c * b) for a, b in part.vertices]
+                normals = [(c * a - s * b, s * a + c * b) for a, b in part.normals]
+                placed.append(PolygonPart(verts, normals))
         return placed
 
     @staticmethod
-    def _bounds(part: tuple) -> tuple[float, float, float, float]:
-        if part[0] == "circle":
-            (x, y), r = part[1], part[2]
+    def _bounds(part: Part) -> tuple[float, float, float, float]:
+        if isinstance(part, CirclePart):
+            (x, y), r = part
             return x - r, x + r, y - r, y + r
-        xs = [p[0] for p in part[1]]
-        ys = [p[1] for p in part[1]]
+        xs = [p[0] for p in part.vertices]
+        ys = [p[1] for p in part.vertices]
         return min(xs), max(xs), min(ys), max(ys)
 
     def detect(self, q: np.ndarray) -> list[Contact]:
         """The contacts at positions ``q``: walls first, then the pairs the broad phase
         finds, in a deterministic order."""
-        world: dict[int, list[tuple]] = {}
+        world: dict[int, list[Part]] = {}
         poses = q.tolist()
         contacts: list[Contact] = []
         for w, bodies in enumerate(self.wall_bodies):
@@ -285,9 +311,9 @@ class ContactPass:
                 if b not in world:
                     world[b] = self._world_parts(poses[b], b)
                 for p, part in enumerate(world[b]):
-                    found = (half_plane_circle(normal, offset, part[1], part[2], MARGIN)
-                             if part[0] == "circle"
-                             else half_plane_polygon(normal, offset, part[1], MARGIN))
+                    found = (half_plane_circle(normal, offset, *part, MARGIN)
+                             if isinstance(part, CirclePart)
+                             else half_plane_polygon(normal, offset, part.vertices, MARGIN))
                     for point, n, depth in found:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
         for a, b in self._candidate_pairs(poses) if self.pairs else ():
@@ -311,7 +337,7 @@ class ContactPass:
                     pairs.append(pair)
         return pairs
 
-    def _pair_contacts(self, a: int, b: int, world: dict[int, list[tuple]]) -> list[Contact]:
+    def _pair_contacts(self, a: int, b: int, world: dict[int, list[Part]]) -> list[Contact]:
         """Contacts between the parts of bodies a < b whose bounds overlap."""
         material = self.pairs[(a, b)]
         bounds_b = [self._bounds(part) for part in world[b]]
@@ -438,32 +464,23 @@ class ContactPass:
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 
     def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
-        """Gauss-Seidel over the rows until no impulse changes a velocity by more than
-        :data:`CONVERGED` relative to the fastest body, or :data:`MAX_ITERATIONS` passes."""
-        scale = 1.0 + max(abs(x) for v in velocity.values() for x in v)
-        for _ in range(MAX_ITERATIONS):
-            largest = 0.0
-            for row in rows:
-                va, vb = velocity[row.a], velocity[row.b]
-                rax, ray, rbx, rby, nx, ny = row.rax, row.ray, row.rbx, row.rby, row.nx, row.ny
-                jn, mass_n = row.jn, row.mass_n
-                dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
-                dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                new_n = max(jn + (row.target - (dvx * nx + dvy * ny)) * mass_n, 0.0)
-                change = abs(new_n - jn) / mass_n
-                row.push(velocity, (new_n - jn) * nx, (new_n - jn) * ny)
-                row.jn = new_n
-                if row.mu > 0.0:
-                    dvx = vb[0] - vb[2] * rby - va[0] + va[2] * ray
-                    dvy = vb[1] + vb[2] * rbx - va[1] - va[2] * rax
-                    jt, mass_t, bound = row.jt, row.mass_t, row.mu * new_n
-                    new_t = min(max(jt - (-dvx * ny + dvy * nx) * mass_t, -bound), bound)
-                    change = max(change, abs(new_t - jt) / mass_t)
-                    row.push(velocity, -(new_t - jt) * ny, (new_t - jt) * nx)
-                    row.jt = new_t
-                largest = max(largest, change)
-            if largest <= CONVERGED * scale:
-                return
+        """Gauss-Seidel passes over the rows, each two-point manifold as one block
+        (:class:`Block`), every other contact point by point, island by island (bodies
+        that touch, through contacts with each other, share no body with another island):
+        each until no impulse changes a velocity by more than :data:`CONVERGED` relative
+        to its fastest body, or :func:`passes` passes for its own number of units. Islands
+        are independent, so each gets the bits it would get alone."""
+        for island in _islands(_schedule(rows)):
+            scale = 1.0 + max(abs(x) for unit in island for body in _unit_bodies(unit)
+                              for x in velocity[body])
+            for _ in range(passes(len(island))):
+                largest = 0.0
+                for unit in island:
+                    change = (unit.solve(velocity) if isinstance(unit, Block)
+                              else _solve_point(unit, velocity))
+                    largest = max(largest, change)
+                if largest <= CONVERGED * scale:
+                    break
 
     def _correct_positions(self, rows: list[ContactRow], velocity: dict, q1: np.ndarray,
                            h: float) -> None:
@@ -496,13 +513,162 @@ def _normal_velocity(va: list, vb: list, rax: float, ray: float, rbx: float, rby
             + (vb[1] + vb[2] * rbx - va[1] - va[2] * rax) * ny)
 
 
-def _collide(part_a: tuple, part_b: tuple) -> list:
+def passes(units: int) -> int:
+    """The most passes of the velocity solver over ``units`` contacts and blocks."""
+    return min(max(WORK // units, MIN_ITERATIONS), MAX_ITERATIONS)
+
+
+def _solve_normal(row: ContactRow, velocity: dict) -> float:
+    """One contact's normal impulse: the accumulated total that brings its normal velocity
+    to its target, clamped at zero (contacts push, never pull). Returns the change of the
+    normal velocity."""
+    jn = row.jn
+    new_n = max(jn + (row.target - row.normal_velocity(velocity)) * row.mass_n, 0.0)
+    row.push(velocity, (new_n - jn) * row.nx, (new_n - jn) * row.ny)
+    row.jn = new_n
+    return abs(new_n - jn) / row.mass_n
+
+
+def _solve_friction(row: ContactRow, velocity: dict) -> float:
+    """One contact's tangent impulse: the accumulated total that stops its sliding, within
+    Coulomb's cone |j_t| <= mu j_n. Returns the change of the tangent velocity."""
+    if not row.mu > 0.0:
+        return 0.0
+    va, vb = velocity[row.a], velocity[row.b]
+    dvx = vb[0] - vb[2] * row.rby - va[0] + va[2] * row.ray
+    dvy = vb[1] + vb[2] * row.rbx - va[1] - va[2] * row.rax
+    jt, bound = row.jt, row.mu * row.jn
+    new_t = min(max(jt - (-dvx * row.ny + dvy * row.nx) * row.mass_t, -bound), bound)
+    row.push(velocity, -(new_t - jt) * row.ny, (new_t - jt) * row.nx)
+    row.jt = new_t
+    return abs(new_t - jt) / row.mass_t
+
+
+def _solve_point(row: ContactRow, velocity: dict) -> float:
+    """A contact solved on its own: normal impulse, then friction. Returns the larger
+    velocity change."""
+    change = _solve_normal(row, velocity)
+    return max(change, _solve_friction(row, velocity))
+
+
+@dataclass(slots=True)
+class Block:
+    """The two points of one manifold (same bodies, same normal), whose normal impulses
+    are solved together: the 2 x 2 linear complementarity problem
+    K x + b >= 0, x >= 0, x . (K x + b) = 0, by trying which points are active (Box2D's
+    block solver). K's entries k11, k12, k22 are the two points' effective inverse masses
+    along n and their coupling; (inv11, inv12, inv22) is K's inverse."""
+
+    first: ContactRow
+    second: ContactRow
+    k11: float
+    k12: float
+    k22: float
+    inv11: float
+    inv12: float
+    inv22: float
+
+    def solve(self, velocity: dict) -> float:
+        """Both normal impulses at once, then each point's friction. Returns the largest
+        velocity change."""
+        one, two = self.first, self.second
+        old1, old2 = one.jn, two.jn
+        b1 = one.normal_velocity(velocity) - one.target - (self.k11 * old1 + self.k12 * old2)
+        b2 = two.normal_velocity(velocity) - two.target - (self.k12 * old1 + self.k22 * old2)
+        x1 = -(self.inv11 * b1 + self.inv12 * b2)
+        x2 = -(self.inv12 * b1 + self.inv22 * b2)
+        if not (x1 >= 0.0 and x2 >= 0.0):  # both pushing failed: only the first
+            x1, x2 = -one.mass_n * b1, 0.0
+            if not (x1 >= 0.0 and self.k12 * x1 + b2 >= 0.0):  # only the second
+                x1, x2 = 0.0, -two.mass_n * b2
+                if not (x2 >= 0.0 and self.k12 * x2 + b1 >= 0.0):  # neither
+                    x1, x2 = 0.0, 0.0
+                    if not (b1 >= 0.0 and b2 >= 0.0):
+                        x1, x2 = old1, old2  # no solution (degenerate): leave them
+        one.push(velocity, (x1 - old1) * one.nx, (x1 - old1) * one.ny)
+        two.push(velocity, (x2 - old2) * two.nx, (x2 - old2) * two.ny)
+        one.jn, two.jn = x1, x2
+        change = max(abs(x1 - old1) / one.mass_n, abs(x2 - old2) / two.mass_n)
+        change = max(change, _solve_friction(one, velocity))
+        return max(change, _solve_friction(two, velocity))
+
+
+def _block(one: ContactRow, two: ContactRow) -> Optional[Block]:
+    """The block of two points of a manifold, or None where K is too ill-conditioned
+    (condition number above :data:`MAX_CONDITION`: points almost on one line through the
+    bodies' CMs), which are then solved point by point."""
+    nx, ny = one.nx, one.ny
+    rna1, rnb1 = one.rax * ny - one.ray * nx, one.rbx * ny - one.rby * nx
+    rna2, rnb2 = two.rax * ny - two.ray * nx, two.rbx * ny - two.rby * nx
+    mass = one.im_a + one.im_b
+    k11 = mass + rna1 * rna1 * one.ii_a + rnb1 * rnb1 * one.ii_b
+    k22 = mass + rna2 * rna2 * one.ii_a + rnb2 * rnb2 * one.ii_b
+    k12 = mass + rna1 * rna2 * one.ii_a + rnb1 * rnb2 * one.ii_b
+    determinant = k11 * k22 - k12 * k12
+    if not k11 * k11 < MAX_CONDITION * determinant:
+        return None
+    inverse = 1.0 / determinant
+    return Block(one, two, k11, k12, k22, k22 * inverse, -k12 * inverse, k11 * inverse)
+
+
+def _unit_bodies(unit: ContactRow | Block) -> tuple[int, int]:
+    """The two bodies of a solver unit (the first -1 for a wall)."""
+    row = unit.first if isinstance(unit, Block) else unit
+    return row.a, row.b
+
+
+def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
+    """The units grouped by island (union-find over the bodies they join; walls join
+    nothing), in order of each island's first unit, each island's units in their order."""
+    parent: dict[int, int] = {}
+
+    def root(body: int) -> int:
+        while parent[body] != body:
+            parent[body] = parent[parent[body]]
+            body = parent[body]
+        return body
+
+    for unit in units:
+        a, b = _unit_bodies(unit)
+        parent.setdefault(b, b)
+        if a >= 0:
+            parent.setdefault(a, a)
+            ra, rb = root(a), root(b)
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    islands: dict[int, list[ContactRow | Block]] = {}
+    for unit in units:
+        islands.setdefault(root(_unit_bodies(unit)[1]), []).append(unit)
+    return list(islands.values())
+
+
+def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:
+    """The solver's units in row order: a :class:`Block` for each manifold of exactly two
+    points (consecutive rows of one pair of parts with one normal), else single rows."""
+    units: list[ContactRow | Block] = []
+    count, k = len(rows), 0
+    while k < count:
+        row = rows[k]
+        end = k + 1
+        while end < count and rows[end].key == row.key:
+            end += 1
+        block = (_block(row, rows[k + 1]) if end - k == 2 and row.nx == rows[k + 1].nx
+                 and row.ny == rows[k + 1].ny else None)
+        if block is None:
+            units.extend(rows[k:end])
+        else:
+            units.append(block)
+        k = end
+    return units
+
+
+def _collide(part_a: Part, part_b: Part) -> list:
     """Narrow phase for two placed parts, normal from A to B."""
-    if part_a[0] == "polygon" and part_b[0] == "polygon":
-        return polygon_polygon(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    if part_a[0] == "circle" and part_b[0] == "circle":
-        return circle_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    if part_a[0] == "polygon":
-        return polygon_circle(part_a[1], part_a[2], part_b[1], part_b[2], MARGIN)
-    flipped = polygon_circle(part_b[1], part_b[2], part_a[1], part_a[2], MARGIN)
-    return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]
+    if isinstance(part_a, CirclePart):
+        if isinstance(part_b, CirclePart):
+            return circle_circle(*part_a, *part_b, MARGIN)
+        flipped = polygon_circle(*part_b, *part_a, MARGIN)
+        return [(point, (-n[0], -n[1]), depth) for point, n, depth in flipped]
+    if isinstance(part_b, CirclePart):
+        return polygon_circle(*part_a, *part_b, MARGIN)
+    return polygon_polygon(*part_a, *part_b, MARGIN)

@@ -62,14 +62,15 @@ class Model:
             kernel.CompiledForces(self.inverse_mass, self.terms) if compiled else None)
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
+        self.joints: Optional[JointPass] = (
+            JointPass(self, compiled=self.compiled is not None) if scene.joints else None)
         self.contacts: Optional[ContactPass] = (
-            ContactPass(self, _restitution_threshold(scene), compiled=self.compiled is not None)
+            ContactPass(scene, self.mass, self.inertia, self.cm_local,
+                        _restitution_threshold(scene), lean=self.lean,
+                        # joined bodies do not collide by default
+                        apart=() if self.joints is None else self.joints.connected,
+                        compiled=self.compiled is not None)
             if scene.walls or scene.collisions else None)
-        self.joints: Optional[JointPass] = (JointPass(self, compiled=self.compiled is not None)
-                                             if scene.joints else None)
-        if self.joints is not None and self.contacts is not None:
-            for pair in self.joints.connected:  # joined bodies do not collide by default
-                self.contacts.pairs.pop(pair, None)
 
     @property
     def inputs(self) -> Optional[ConstantWrenchTerm]:

@@ -38,7 +38,7 @@ class MarkerFields(NamedTuple):
 class MarkerTemplate(NamedTuple):
     """One shape's marker before it is placed: every field but the header and the pose
     (left at :data:`UNPLACED`), and ``offset``, the marker's origin in the body frame (a
-    circle's centre for its disc), or None when the marker sits at the body frame's origin."""
+    circle's center for its disc), or None when the marker sits at the body frame's origin."""
 
     fields: MarkerFields
     offset: Optional[tuple[float, float]]

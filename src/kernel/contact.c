@@ -9,6 +9,8 @@
 
 #include "contact.h"
 
+static int index_pairs(hd_contact_model *m);
+
 int hd_contact_prepare(hd_contact_model *m)
 {
     const long n = m->bodies;
@@ -17,7 +19,11 @@ int hd_contact_prepare(hd_contact_model *m)
     m->sweep = malloc(((size_t)m->colliding_count * 5 + 1) * sizeof(double));
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
-    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity)
+    m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
+    m->parent = malloc((size_t)(2 * (n + 1)) * sizeof(long));
+    m->island_of = m->parent == NULL ? NULL : m->parent + n + 1;
+    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
+            !m->cos_sin || !m->parent || index_pairs(m) < 0)
         return -1;
     m->arrived = m->velocity + 3 * (n + 1);
     m->before = m->arrived + 3 * (n + 1);
@@ -25,7 +31,11 @@ int hd_contact_prepare(hd_contact_model *m)
     m->poses = m->shift + 3 * (n + 1);
     m->contacts = NULL;
     m->rows = NULL;
+    m->units = NULL;
+    m->order = NULL;
     m->warm = NULL;
+    m->warm_table = NULL;
+    m->warm_table_size = 0;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;
     return 0;
@@ -57,7 +67,13 @@ void hd_contact_free(hd_contact_model *m)
     free(m->velocity);
     free(m->contacts);
     free(m->rows);
+    free(m->units);
+    free(m->order);
+    free(m->parent);
     free(m->warm);
+    free(m->warm_table);
+    free(m->cos_sin);
+    free(m->pair_table);
     free(m);
 }
 
@@ -70,6 +86,8 @@ static void place(hd_contact_model *m, const double *q, long body)
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
     const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+    m->cos_sin[2 * body] = c;
+    m->cos_sin[2 * body + 1] = s;
     for (long p = m->part_first[body]; p < m->part_first[body + 1]; ++p) {
         hd_part *part = m->parts + p;
         const double *l = part->local;
@@ -147,20 +165,46 @@ static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
     return count;
 }
 
+static unsigned long hash_pair(long i, long j)
+{
+    unsigned long h = ((unsigned long)i * 0x9E3779B97F4A7C15UL) ^ (unsigned long)j;
+    h *= 0xBF58476D1CE4E5B9UL;
+    return h ^ (h >> 31);
+}
+
+/* The table from each colliding pair to its index in `pair` (open addressing, at most half
+ * full); -1 out of memory. */
+static int index_pairs(hd_contact_model *m)
+{
+    long size = 16;
+    while (size < 2 * m->pair_count)
+        size *= 2;
+    m->pair_table = malloc((size_t)size * sizeof(long));
+    if (m->pair_table == NULL)
+        return -1;
+    m->pair_table_size = size;
+    for (long k = 0; k < size; ++k)
+        m->pair_table[k] = -1;
+    for (long k = 0; k < m->pair_count; ++k) {
+        unsigned long slot = hash_pair(m->pair[2 * k], m->pair[2 * k + 1]) &
+                             (unsigned long)(size - 1);
+        while (m->pair_table[slot] >= 0)
+            slot = (slot + 1) & (unsigned long)(size - 1);
+        m->pair_table[slot] = k;
+    }
+    return 0;
+}
+
 /* The material of pair (i, j), i < j, or NULL if no collision group names it. */
 static const double *material_of(const hd_contact_model *m, long i, long j)
 {
-    long low = 0, high = m->pair_count;
-    while (low < high) {
-        const long mid = low + (high - low) / 2;
-        const long *p = m->pair + 2 * mid;
-        if (p[0] < i || (p[0] == i && p[1] < j))
-            low = mid + 1;
-        else
-            high = mid;
+    const unsigned long mask = (unsigned long)(m->pair_table_size - 1);
+    for (unsigned long slot = hash_pair(i, j) & mask; m->pair_table[slot] >= 0;
+         slot = (slot + 1) & mask) {
+        const long k = m->pair_table[slot];
+        if (m->pair[2 * k] == i && m->pair[2 * k + 1] == j)
+            return m->material + 2 * k;
     }
-    if (low < m->pair_count && m->pair[2 * low] == i && m->pair[2 * low + 1] == j)
-        return m->material + 2 * low;
     return NULL;
 }
 
@@ -192,6 +236,25 @@ static int by_left_edge(const void *p, const void *q)
     return (u[1] > w[1]) - (u[1] < w[1]);
 }
 
+/* Sort the boxes by_left_edge. They are sorted as in the last step and bodies move
+ * little in a step, so insertion sort does about one comparison per box; the order is
+ * total (bodies differ), so it is the one any sort gives. */
+static void sort_boxes(double *boxes, long count)
+{
+    for (long k = 1; k < count; ++k) {
+        if (by_left_edge(boxes + 5 * (k - 1), boxes + 5 * k) <= 0)
+            continue;
+        double box[5];
+        memcpy(box, boxes + 5 * k, sizeof box);
+        long l = k;
+        while (l > 0 && by_left_edge(boxes + 5 * (l - 1), box) > 0) {
+            memcpy(boxes + 5 * l, boxes + 5 * (l - 1), sizeof box);
+            l -= 1;
+        }
+        memcpy(boxes + 5 * l, box, sizeof box);
+    }
+}
+
 int hd_detect(hd_contact_model *m, const double *q)
 {
     m->contact_count = 0;
@@ -221,16 +284,17 @@ int hd_detect(hd_contact_model *m, const double *q)
         return 0;
     const long count = m->colliding_count;
     for (long k = 0; k < count; ++k) {
-        const long b = m->colliding[k];
-        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
         double *box = m->sweep + 5 * k;
+        const long b = m->sweep_order ? (long)box[1] : m->colliding[k];
+        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
         box[0] = x - r;
         box[1] = (double)b;
         box[2] = x + r;
         box[3] = y - r;
         box[4] = y + r;
     }
-    qsort(m->sweep, (size_t)count, 5 * sizeof(double), by_left_edge);
+    sort_boxes(m->sweep, count);
+    m->sweep_order = 1;
     for (long k = 0; k < count; ++k) {
         const double *box = m->sweep + 5 * k;
         const long b1 = (long)box[1];

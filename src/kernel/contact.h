@@ -9,8 +9,11 @@
 #define HECKER_DYNAMICS_CONTACT_H
 
 /* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
-#define HD_MAX_ITERATIONS 60
+#define HD_WORK 1000
+#define HD_MIN_ITERATIONS 8
+#define HD_MAX_ITERATIONS 40
 #define HD_CONVERGED 1e-13
+#define HD_MAX_CONDITION 1000.0
 #define HD_MARGIN 5e-3
 #define HD_MATCH 1e-2
 #define HD_SLOP 1e-4
@@ -18,6 +21,14 @@
 #define HD_MAX_CORRECTION 0.05
 #define HD_POSITION_ITERATIONS 4
 #define HD_MAX_SUBSTEPS 256
+
+/* The small functions of the solver's inner loop, always inlined (GCC left them as
+ * calls); inlining changes no floating-point operation. */
+#if defined(__GNUC__)
+#define HD_HOT inline __attribute__((always_inline))
+#else
+#define HD_HOT __forceinline
+#endif
 
 /* A point of a manifold: halfway between the surfaces, unit normal from the first shape
  * to the second, penetration depth (negative for a gap within the margin). */
@@ -64,6 +75,15 @@ typedef struct {
     long key[4];
 } hd_row;
 
+/* A unit of the velocity solver: the single row `first`, or (pair) the two-point
+ * manifold of rows first and first + 1 solved as one block, with its effective-mass
+ * matrix K = [k11 k12; k12 k22] and K's inverse (solver.py: Block). */
+typedef struct {
+    long first;
+    int pair;
+    double k11, k12, k22, inv11, inv12, inv22;
+} hd_unit;
+
 /* A contact's impulses kept for warm starting: its point in body b's axes. */
 typedef struct {
     long key[4];
@@ -86,19 +106,30 @@ typedef struct hd_contact_model {
     long pair_count;
     long *pair;         /* (i, j), i < j, sorted */
     double *material;   /* per pair: restitution, friction */
+    long *pair_table;   /* open addressing: the index of each pair, or -1 */
+    long pair_table_size;
     double threshold;  /* restitution threshold (m/s) */
     double thickness;  /* of the thinnest colliding part */
     /* Working memory, kept from call to call, and the warm-start impulses. */
     int *placed_flag, *touched;
     double *sweep;      /* colliding_count x 5: x0, body, x1, y0, y1 */
+    int sweep_order;    /* 1 once `sweep` holds the last detection's order of the bodies */
     hd_found *found;
     hd_contact *contacts;
     long contact_count, contact_capacity;
     hd_row *rows;
+    hd_unit *units;     /* row_capacity of them */
+    /* The islands (row_capacity each, island_start one more): the units in island order,
+     * each unit's island, where each island starts, and a cursor per island. */
+    long *order, *unit_island, *island_start, *island_fill;
+    long *parent, *island_of;  /* bodies + 1: union-find over the bodies, island of a root */
     long row_capacity;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
-    hd_warm *warm;
+    double *cos_sin;    /* bodies x 2: of each placed body's angle */
+    hd_warm *warm;      /* in the order of the rows they came from */
     long warm_count, warm_capacity;
+    long *warm_table;   /* open addressing: the first impulse of each key, or -1 */
+    long warm_table_size;
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */
@@ -108,7 +139,8 @@ void hd_contact_free(hd_contact_model *m);
 int hd_detect(hd_contact_model *m, const double *q);
 /* solver.py: ContactPass.resolve; q1 and v1 change in place; -1 out of memory. */
 int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h);
-/* Sort the warm-start impulses by their parts' names, keeping their order within a name. */
-void hd_sort_warm(hd_contact_model *m);
+/* After the warm-start impulses were replaced: group them by their parts' names (sorted,
+ * keeping their order within a name) and index them; -1 out of memory. */
+int hd_set_warm(hd_contact_model *m);
 
 #endif

@@ -13,9 +13,9 @@
 int hd_int_columns(int kind)
 {
     switch (kind) {
-    case GRAVITY: case ANCHOR_SPRING: case ANGULAR_DAMPING: return 1;
-    case BODY_SPRING: case CENTER_DRAG: case POINT_DRAG: return 2;
-    case WRENCH: return 4;
+    case HD_GRAVITY: case HD_ANCHOR_SPRING: case HD_ANGULAR_DAMPING: return 1;
+    case HD_BODY_SPRING: case HD_CENTER_DRAG: case HD_POINT_DRAG: return 2;
+    case HD_WRENCH: return 4;
     default: return 0;
     }
 }
@@ -23,11 +23,11 @@ int hd_int_columns(int kind)
 int hd_real_columns(int kind)
 {
     switch (kind) {
-    case GRAVITY: return 2;
-    case ANCHOR_SPRING: case BODY_SPRING: return 7;
-    case CENTER_DRAG: case ANGULAR_DAMPING: return 1;
-    case POINT_DRAG: return 3;
-    case WRENCH: return 5;
+    case HD_GRAVITY: return 2;
+    case HD_ANCHOR_SPRING: case HD_BODY_SPRING: return 7;
+    case HD_CENTER_DRAG: case HD_ANGULAR_DAMPING: return 1;
+    case HD_POINT_DRAG: return 3;
+    case HD_WRENCH: return 5;
     default: return 0;
     }
 }
@@ -107,11 +107,11 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
         const double *r = t->reals + nr * e;
         double rx, ry, vx, vy, fx, fy;
         switch (t->kind) {
-        case GRAVITY:
+        case HD_GRAVITY:
             w[3 * i[0]] += r[0];
             w[3 * i[0] + 1] += r[1];
             break;
-        case ANCHOR_SPRING: {
+        case HD_ANCHOR_SPRING: {
             long b = i[0];
             offset(s, b, r[0], r[1], &rx, &ry);
             point_velocity(v, b, rx, ry, &vx, &vy);
@@ -120,7 +120,7 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             apply(w + 3 * b, rx, ry, fx, fy);
             break;
         }
-        case BODY_SPRING: {
+        case HD_BODY_SPRING: {
             long a = i[0], b = i[1];
             double rax, ray, rbx, rby, vax, vay, vbx, vby;
             offset(s, a, r[0], r[1], &rax, &ray);
@@ -133,14 +133,14 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             apply(w + 3 * b, rbx, rby, -fx, -fy);
             break;
         }
-        case CENTER_DRAG: {
+        case HD_CENTER_DRAG: {
             long b = i[0];
             drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
             w[3 * b] += fx;
             w[3 * b + 1] += fy;
             break;
         }
-        case POINT_DRAG: {
+        case HD_POINT_DRAG: {
             long b = i[0];
             offset(s, b, r[0], r[1], &rx, &ry);
             point_velocity(v, b, rx, ry, &vx, &vy);
@@ -148,10 +148,10 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             apply(w + 3 * b, rx, ry, fx, fy);
             break;
         }
-        case ANGULAR_DAMPING:
+        case HD_ANGULAR_DAMPING:
             w[3 * i[0] + 2] -= r[0] * v[3 * i[0] + 2];
             break;
-        case WRENCH: {
+        case HD_WRENCH: {
             long b = i[0], axes = i[1], owner = i[2];
             double px = r[3], py = r[4];
             fx = r[0];

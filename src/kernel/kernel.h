@@ -20,13 +20,13 @@
 /* The kinds of force term, each with its integer and real columns per instance (the
  * Python packing in hecker_dynamics/kernel.py writes the same layout). */
 enum hd_term_kind {
-    GRAVITY = 1,         /* ints: body;                     reals: wx, wy (m g)            */
-    ANCHOR_SPRING = 2,   /* ints: body;                     reals: lx, ly, ax, ay, k, L0, c */
-    BODY_SPRING = 3,     /* ints: a, b;                     reals: lax, lay, lbx, lby, k, L0, c */
-    CENTER_DRAG = 4,     /* ints: body, quadratic;          reals: c                       */
-    POINT_DRAG = 5,      /* ints: body, quadratic;          reals: lx, ly, c               */
-    ANGULAR_DAMPING = 6, /* ints: body;                     reals: c                       */
-    WRENCH = 7           /* ints: body, axes, owner, at_point; reals: fx, fy, torque, px, py */
+    HD_GRAVITY = 1,         /* ints: body;                 reals: wx, wy (m g)            */
+    HD_ANCHOR_SPRING = 2,   /* ints: body;                 reals: lx, ly, ax, ay, k, L0, c */
+    HD_BODY_SPRING = 3,     /* ints: a, b;                 reals: lax, lay, lbx, lby, k, L0, c */
+    HD_CENTER_DRAG = 4,     /* ints: body, quadratic;      reals: c                       */
+    HD_POINT_DRAG = 5,      /* ints: body, quadratic;      reals: lx, ly, c               */
+    HD_ANGULAR_DAMPING = 6, /* ints: body;                 reals: c                       */
+    HD_WRENCH = 7  /* ints: body, axes, owner, at_point; reals: fx, fy, torque, px, py */
 };
 
 typedef struct {
@@ -70,14 +70,15 @@ typedef struct {
     double *error;
 } hd_pair;
 
-enum hd_method { EXPLICIT_EULER = 0, SEMI_IMPLICIT_EULER = 1, VELOCITY_VERLET = 2, RK4 = 3,
-              EMBEDDED = 4 };
+enum hd_method { HD_EXPLICIT_EULER = 0, HD_SEMI_IMPLICIT_EULER = 1, HD_VELOCITY_VERLET = 2,
+                 HD_RK4 = 3, HD_EMBEDDED = 4 };
 
 /* Most sub-steps of an embedded pair in one step (integrators.py: MAX_SUBSTEPS). */
-#define MAX_SUBSTEPS 100000L
+#define HD_MAX_PAIR_SUBSTEPS 100000L
 
-enum hd_status { ADVANCED = 0, NOT_FINITE = 1, SUBSTEP_UNDERFLOW = 2, TOO_MANY_SUBSTEPS = 3,
-              OUT_OF_MEMORY = 4, JOINTS_DEPENDENT = 5 };
+enum hd_status { HD_ADVANCED = 0, HD_NOT_FINITE = 1, HD_SUBSTEP_UNDERFLOW = 2,
+                 HD_TOO_MANY_SUBSTEPS = 3, HD_OUT_OF_MEMORY = 4,
+                 HD_DEPENDENT_JOINTS = 5 };
 
 typedef struct {
     long evaluations, substeps, rejected;
@@ -85,12 +86,12 @@ typedef struct {
 
 /* Advance (q, v) by up to `steps` steps of `h`, wrapping angles into [-pi, pi) after each
  * step as the simulation does. Stops early at a step whose new state is not finite
- * (NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
+ * (HD_NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
  * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
  * step to step. `*taken` counts the steps completed. `contacts` (NULL: none): the contact
  * pass of contact.h after each step, in sub-steps as the simulation takes them; `joints`
  * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts
- * (JOINTS_DEPENDENT: a factorization of its rows failed). */
+ * (HD_DEPENDENT_JOINTS: a factorization of its rows failed). */
 struct hd_contact_model;
 struct hd_joint_model;
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,

@@ -9,9 +9,10 @@
 #include "contact.h"
 
 /* The edge of polygon 1 along whose normal polygon 2 is farthest out, and that distance
- * (collision.py: _max_separation; Python's min keeps the first of equal values). */
+ * (collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
+ * the first edge farther out than `margin`: the polygons are apart, whichever edge is. */
 static long max_separation(const double *v1, const double *n1, long k1, const double *v2,
-                           long k2, double *separation)
+                           long k2, double margin, double *separation)
 {
     long best_edge = 0;
     double best = -INFINITY;
@@ -26,6 +27,8 @@ static long max_separation(const double *v1, const double *n1, long k1, const do
         if (s > best) {
             best_edge = i;
             best = s;
+            if (best > margin)
+                break;
         }
     }
     *separation = best;
@@ -62,10 +65,10 @@ int hd_polygon_polygon(const double *va, const double *na, long ka, const double
                        const double *nb, long kb, double margin, hd_found *out)
 {
     double sep_a, sep_b;
-    const long edge_a = max_separation(va, na, ka, vb, kb, &sep_a);
+    const long edge_a = max_separation(va, na, ka, vb, kb, margin, &sep_a);
     if (sep_a > margin)
         return 0;
-    const long edge_b = max_separation(vb, nb, kb, va, ka, &sep_b);
+    const long edge_b = max_separation(vb, nb, kb, va, ka, margin, &sep_b);
     if (sep_b > margin)
         return 0;
     const int flip = sep_b > sep_a + 0.1 * margin;

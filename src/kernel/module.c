@@ -80,9 +80,9 @@ static int check_bodies(const hd_term *t, long bodies)
     for (long e = 0; e < t->count; ++e) {
         const long *i = t->ints + ni * e;
         int ok = i[0] >= 0 && i[0] < bodies;
-        if (t->kind == BODY_SPRING)
+        if (t->kind == HD_BODY_SPRING)
             ok = ok && i[1] >= 0 && i[1] < bodies;
-        if (t->kind == WRENCH)
+        if (t->kind == HD_WRENCH)
             ok = ok && i[1] >= -1 && i[1] < bodies && i[2] >= -1 && i[2] < bodies;
         if (!ok) {
             PyErr_Format(PyExc_ValueError, "term of kind %d, instance %ld: a body index is "
@@ -347,11 +347,11 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
                           &steps, &contacts_object, &joints_object) ||
         get_programs(program, inputs, &p, &in) < 0)
         return NULL;
-    if (method < EXPLICIT_EULER || method > EMBEDDED) {
+    if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
         PyErr_Format(PyExc_ValueError, "unknown method %d", method);
         return NULL;
     }
-    if (method == EMBEDDED && (pair = PyCapsule_GetPointer(pair_object, PAIR)) == NULL)
+    if (method == HD_EMBEDDED && (pair = PyCapsule_GetPointer(pair_object, PAIR)) == NULL)
         return NULL;
     if (contacts_object != Py_None) {
         if ((contacts = PyCapsule_GetPointer(contacts_object, CONTACTS)) == NULL)
@@ -391,7 +391,7 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 4; ++k)
         PyBuffer_Release(views + k);
-    if (status == OUT_OF_MEMORY)
+    if (status == HD_OUT_OF_MEMORY)
         return PyErr_NoMemory();
     return Py_BuildValue("illlld", status, taken, work.evaluations, work.substeps,
                          work.rejected, size);
@@ -595,7 +595,8 @@ static PyObject *py_resolve(PyObject *self, PyObject *args)
 PyDoc_STRVAR(warm_doc,
 "warm(contacts[, impulses]) -> list\n\n"
 "The impulses kept for warm starting, as (k0, k1, k2, k3, lx, ly, jn, jt) per contact,\n"
-"sorted by the parts' names (k0..k3); with ``impulses``, replace them first.");
+"those of one pair of parts (k0..k3) together and in the order the solver met them; with\n"
+"``impulses``, replace them first.");
 
 static PyObject *py_warm(PyObject *self, PyObject *args)
 {
@@ -630,7 +631,8 @@ static PyObject *py_warm(PyObject *self, PyObject *args)
         free(m->warm);
         m->warm = warm;
         m->warm_count = m->warm_capacity = (long)count;
-        hd_sort_warm(m);
+        if (hd_set_warm(m) < 0)
+            return PyErr_NoMemory();
     }
     PyObject *list = PyList_New(m->warm_count);
     for (long i = 0; list != NULL && i < m->warm_count; ++i) {
@@ -858,17 +860,19 @@ PyMODINIT_FUNC PyInit__kernel(void)
 {
     /* The codes of kernel.h, so that the Python side never writes them again. */
     static const struct { const char *name; long value; } constants[] = {
-        {"GRAVITY", GRAVITY}, {"ANCHOR_SPRING", ANCHOR_SPRING}, {"BODY_SPRING", BODY_SPRING},
-        {"CENTER_DRAG", CENTER_DRAG}, {"POINT_DRAG", POINT_DRAG},
-        {"ANGULAR_DAMPING", ANGULAR_DAMPING}, {"WRENCH", WRENCH},
-        {"EXPLICIT_EULER", EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", SEMI_IMPLICIT_EULER},
-        {"VELOCITY_VERLET", VELOCITY_VERLET}, {"RK4", RK4}, {"EMBEDDED", EMBEDDED},
-        {"ADVANCED", ADVANCED}, {"NOT_FINITE", NOT_FINITE},
-        {"SUBSTEP_UNDERFLOW", SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", TOO_MANY_SUBSTEPS},
-        {"MAX_SUBSTEPS", MAX_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
+        {"GRAVITY", HD_GRAVITY}, {"ANCHOR_SPRING", HD_ANCHOR_SPRING},
+        {"BODY_SPRING", HD_BODY_SPRING},
+        {"CENTER_DRAG", HD_CENTER_DRAG}, {"POINT_DRAG", HD_POINT_DRAG},
+        {"ANGULAR_DAMPING", HD_ANGULAR_DAMPING}, {"WRENCH", HD_WRENCH},
+        {"EXPLICIT_EULER", HD_EXPLICIT_EULER}, {"SEMI_IMPLICIT_EULER", HD_SEMI_IMPLICIT_EULER},
+        {"VELOCITY_VERLET", HD_VELOCITY_VERLET}, {"RK4", HD_RK4}, {"EMBEDDED", HD_EMBEDDED},
+        {"ADVANCED", HD_ADVANCED}, {"NOT_FINITE", HD_NOT_FINITE},
+        {"SUBSTEP_UNDERFLOW", HD_SUBSTEP_UNDERFLOW}, {"TOO_MANY_SUBSTEPS", HD_TOO_MANY_SUBSTEPS},
+        {"MAX_SUBSTEPS", HD_MAX_PAIR_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
         {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
+        {"MIN_ITERATIONS", HD_MIN_ITERATIONS}, {"WORK", HD_WORK},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
-        {"JOINTS_DEPENDENT", JOINTS_DEPENDENT}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
+        {"JOINTS_DEPENDENT", HD_DEPENDENT_JOINTS}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
         {"JOINT_DRIFT_ITERATIONS", HD_DRIFT_ITERATIONS},
         {"JOINT_MAX_ITERATIONS", HD_JOINT_MAX_ITERATIONS}, {"JOINT_INTS", HD_JOINT_INTS},
         {"JOINT_REALS", HD_JOINT_REALS}, {"JOINT_STATE", HD_JOINT_STATE},
@@ -889,6 +893,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
         {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
+        {"MAX_CONDITION", HD_MAX_CONDITION},
     };
     for (size_t k = 0; k < sizeof reals / sizeof reals[0]; ++k) {
         PyObject *value = PyFloat_FromDouble(reals[k].value);

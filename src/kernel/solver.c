@@ -1,7 +1,9 @@
 /* The response: hecker_dynamics/contact/solver.py's ContactPass.resolve, operation for
  * operation. Sequential impulses (the article series' collision impulse for each contact
  * with both bodies' mass and moment of inertia, accumulated and clamped, with Coulomb
- * friction), warm-started from the last step's impulses, at most HD_MAX_ITERATIONS passes;
+ * friction), warm-started from the last step's impulses, two-point manifolds solved as
+ * blocks, island by island, each with at most HD_WORK / (its units) passes (within
+ * HD_MIN_ITERATIONS .. HD_MAX_ITERATIONS);
  * then the position change h (v' - v) of each body the impulses moved, and the position
  * correction of the overlap beyond HD_SLOP.
  *
@@ -16,18 +18,18 @@
 #include "contact.h"
 
 /* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
-static double py_min(double x, double y) { return y < x ? y : x; }
-static double py_max(double x, double y) { return y > x ? y : x; }
+static HD_HOT double py_min(double x, double y) { return y < x ? y : x; }
+static HD_HOT double py_max(double x, double y) { return y > x ? y : x; }
 
 /* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
-static double normal_velocity(const double *va, const double *vb, const hd_row *r)
+static HD_HOT double normal_velocity(const double *va, const double *vb, const hd_row *r)
 {
     return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
            + (vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax) * r->ny;
 }
 
 /* Impulse (px, py) at the contact: +P to body b, -P to body a (ContactRow.push). */
-static void push(double *va, double *vb, const hd_row *r, double px, double py)
+static HD_HOT void push(double *va, double *vb, const hd_row *r, double px, double py)
 {
     va[0] -= px * r->im_a;
     va[1] -= py * r->im_a;
@@ -58,33 +60,77 @@ static int by_key(const void *p, const void *q)
     return order ? order : (u->used > w->used) - (u->used < w->used);
 }
 
-void hd_sort_warm(hd_contact_model *m)
+static unsigned long hash_key(const long *k)
+{
+    unsigned long h = 1469598103934665603UL;
+    for (int i = 0; i < 4; ++i)
+        h = (h ^ (unsigned long)k[i]) * 1099511628211UL;
+    return h ^ (h >> 29);
+}
+
+/* The table from each key to its first warm-start impulse: the impulses of one key are
+ * contiguous (one pair of parts is detected at once); -1 out of memory. */
+static int index_warm(hd_contact_model *m)
+{
+    long size = 16;
+    while (size < 2 * m->warm_count)
+        size *= 2;
+    if (size > m->warm_table_size) {
+        long *grown = realloc(m->warm_table, (size_t)size * sizeof(long));
+        if (grown == NULL)
+            return -1;
+        m->warm_table = grown;
+        m->warm_table_size = size;
+    }
+    size = m->warm_table_size;
+    for (long i = 0; i < size; ++i)
+        m->warm_table[i] = -1;
+    for (long k = 0; k < m->warm_count; ++k) {
+        if (k > 0 && same_key(m->warm[k - 1].key, m->warm[k].key))
+            continue;
+        unsigned long slot = hash_key(m->warm[k].key) & (unsigned long)(size - 1);
+        while (m->warm_table[slot] >= 0)
+            slot = (slot + 1) & (unsigned long)(size - 1);
+        m->warm_table[slot] = k;
+    }
+    return 0;
+}
+
+int hd_set_warm(hd_contact_model *m)
 {
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = (int)i;
     qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), by_key);
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = 0;
+    return index_warm(m);
+}
+
+/* The first warm-start impulse of `key`, or -1. */
+static long find_warm(const hd_contact_model *m, const long *key)
+{
+    if (m->warm_count == 0)
+        return -1;
+    const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
+    for (unsigned long slot = hash_key(key) & mask; m->warm_table[slot] >= 0;
+         slot = (slot + 1) & mask) {
+        if (same_key(m->warm[m->warm_table[slot]].key, key))
+            return m->warm_table[slot];
+    }
+    return -1;
 }
 
 /* Last step's impulses of the contact of `key` nearest this point, if within HD_MATCH,
- * each used once (solver.py: _recall; `<=`: the last of equally near ones). */
-static void recall(hd_contact_model *m, const long *key, double rx, double ry, double angle,
-                   double *jn, double *jt)
+ * each used once (solver.py: _recall; `<=`: the last of equally near ones); (c, s) the
+ * cosine and sine of body b's angle. */
+static void recall(hd_contact_model *m, const long *key, double rx, double ry, double c,
+                   double s, double *jn, double *jt)
 {
     *jn = 0.0;
     *jt = 0.0;
-    long low = 0, high = m->warm_count;
-    while (low < high) {
-        const long mid = low + (high - low) / 2;
-        if (key_order(m->warm[mid].key, key) < 0)
-            low = mid + 1;
-        else
-            high = mid;
-    }
-    if (low == m->warm_count || !same_key(m->warm[low].key, key))
+    const long low = find_warm(m, key);
+    if (low < 0)
         return;
-    const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
     const double lx = c * rx + s * ry, ly = -s * rx + c * ry;
     long best = -1;
     double nearest = HD_MATCH * HD_MATCH;
@@ -137,54 +183,211 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
-    recall(m, c->key, r->rbx, r->rby, pb[2], &r->jn, &r->jt);
+    recall(m, c->key, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn, &r->jt);
 }
 
-/* Gauss-Seidel over the rows until no impulse changes a velocity by more than
- * HD_CONVERGED relative to the fastest body, or HD_MAX_ITERATIONS passes
+/* One contact's normal impulse, clamped at zero; returns the change of its normal
+ * velocity (solver.py: _solve_normal). */
+static HD_HOT double solve_normal(hd_row *r, double *va, double *vb)
+{
+    const double jn = r->jn;
+    const double new_n = py_max(jn + (r->target - normal_velocity(va, vb, r)) * r->mass_n, 0.0);
+    push(va, vb, r, (new_n - jn) * r->nx, (new_n - jn) * r->ny);
+    r->jn = new_n;
+    return fabs(new_n - jn) / r->mass_n;
+}
+
+/* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
+ * velocity (solver.py: _solve_friction). */
+static HD_HOT double solve_friction(hd_row *r, double *va, double *vb)
+{
+    if (!(r->mu > 0.0))
+        return 0.0;
+    const double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
+    const double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
+    const double jt = r->jt, bound = r->mu * r->jn;
+    const double new_t = py_min(py_max(jt - (-dvx * r->ny + dvy * r->nx) * r->mass_t, -bound),
+                                bound);
+    push(va, vb, r, -(new_t - jt) * r->ny, (new_t - jt) * r->nx);
+    r->jt = new_t;
+    return fabs(new_t - jt) / r->mass_t;
+}
+
+/* The two normal impulses of a two-point manifold at once, as the 2 x 2 linear
+ * complementarity problem, then each point's friction (solver.py: Block.solve). */
+static double solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va, double *vb)
+{
+    const double old1 = one->jn, old2 = two->jn;
+    const double b1 = normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
+    const double b2 = normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
+    double x1 = -(u->inv11 * b1 + u->inv12 * b2);
+    double x2 = -(u->inv12 * b1 + u->inv22 * b2);
+    if (!(x1 >= 0.0 && x2 >= 0.0)) {
+        x1 = -one->mass_n * b1;
+        x2 = 0.0;
+        if (!(x1 >= 0.0 && u->k12 * x1 + b2 >= 0.0)) {
+            x1 = 0.0;
+            x2 = -two->mass_n * b2;
+            if (!(x2 >= 0.0 && u->k12 * x2 + b1 >= 0.0)) {
+                x1 = 0.0;
+                x2 = 0.0;
+                if (!(b1 >= 0.0 && b2 >= 0.0)) {
+                    x1 = old1;
+                    x2 = old2;
+                }
+            }
+        }
+    }
+    push(va, vb, one, (x1 - old1) * one->nx, (x1 - old1) * one->ny);
+    push(va, vb, two, (x2 - old2) * two->nx, (x2 - old2) * two->ny);
+    one->jn = x1;
+    two->jn = x2;
+    double change = py_max(fabs(x1 - old1) / one->mass_n, fabs(x2 - old2) / two->mass_n);
+    change = py_max(change, solve_friction(one, va, vb));
+    return py_max(change, solve_friction(two, va, vb));
+}
+
+/* The block of rows one and two, or 0 where K is too ill-conditioned (solver.py: _block). */
+static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
+{
+    const double nx = one->nx, ny = one->ny;
+    const double rna1 = one->rax * ny - one->ray * nx, rnb1 = one->rbx * ny - one->rby * nx;
+    const double rna2 = two->rax * ny - two->ray * nx, rnb2 = two->rbx * ny - two->rby * nx;
+    const double mass = one->im_a + one->im_b;
+    const double k11 = mass + rna1 * rna1 * one->ii_a + rnb1 * rnb1 * one->ii_b;
+    const double k22 = mass + rna2 * rna2 * one->ii_a + rnb2 * rnb2 * one->ii_b;
+    const double k12 = mass + rna1 * rna2 * one->ii_a + rnb1 * rnb2 * one->ii_b;
+    const double determinant = k11 * k22 - k12 * k12;
+    if (!(k11 * k11 < HD_MAX_CONDITION * determinant))
+        return 0;
+    const double inverse = 1.0 / determinant;
+    u->k11 = k11;
+    u->k12 = k12;
+    u->k22 = k22;
+    u->inv11 = k22 * inverse;
+    u->inv12 = -k12 * inverse;
+    u->inv22 = k11 * inverse;
+    return 1;
+}
+
+/* The solver's units in row order: a block for each manifold of exactly two points (with
+ * one normal), else single rows (solver.py: _schedule); returns their count. */
+static long schedule(hd_contact_model *m, long count)
+{
+    long units = 0;
+    for (long k = 0; k < count;) {
+        const hd_row *r = m->rows + k;
+        long end = k + 1;
+        while (end < count && same_key(m->rows[end].key, r->key))
+            end += 1;
+        hd_unit *u = m->units + units;
+        if (end - k == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
+            u->first = k;
+            u->pair = 1;
+            units += 1;
+        } else {
+            for (long i = k; i < end; ++i) {
+                m->units[units].first = i;
+                m->units[units].pair = 0;
+                units += 1;
+            }
+        }
+        k = end;
+    }
+    return units;
+}
+
+static long root_of(long *parent, long body)
+{
+    while (parent[body] != body) {
+        parent[body] = parent[parent[body]];
+        body = parent[body];
+    }
+    return body;
+}
+
+/* Group the units by island (solver.py: _islands): m->order holds the units' indices,
+ * each island's together and in their order, island i from m->island_start[i] to
+ * [i + 1]; returns the number of islands. */
+static long islands(hd_contact_model *m, long units)
+{
+    const long wall = m->bodies;
+    long *parent = m->parent, *island = m->island_of;
+    for (long k = 0; k < units; ++k) {
+        const hd_row *r = m->rows + m->units[k].first;
+        parent[r->a] = r->a;
+        parent[r->b] = r->b;
+        island[r->a] = island[r->b] = -1;
+    }
+    for (long k = 0; k < units; ++k) {
+        const hd_row *r = m->rows + m->units[k].first;
+        if (r->a == wall)
+            continue;
+        const long ra = root_of(parent, r->a), rb = root_of(parent, r->b);
+        if (ra != rb)
+            parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
+    }
+    long count = 0;
+    for (long k = 0; k < units; ++k) {  /* islands numbered by first unit; their sizes */
+        const long root = root_of(parent, m->rows[m->units[k].first].b);
+        if (island[root] < 0) {
+            island[root] = count;
+            m->island_start[++count] = 0;
+        }
+        m->unit_island[k] = island[root];
+        m->island_start[island[root] + 1] += 1;
+    }
+    m->island_start[0] = 0;
+    for (long i = 0; i < count; ++i)
+        m->island_start[i + 1] += m->island_start[i];
+    for (long i = 0; i < count; ++i)
+        m->island_fill[i] = m->island_start[i];
+    for (long k = 0; k < units; ++k)
+        m->order[m->island_fill[m->unit_island[k]]++] = k;
+    return count;
+}
+
+/* Gauss-Seidel passes over the units island by island, each until no impulse changes a
+ * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
+ * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
  * (solver.py: _solve_velocities). */
 static void solve_velocities(hd_contact_model *m, long count)
 {
-    double fastest = 0.0;  /* Python's max over the touched bodies, then the walls' zeros */
-    int first = 1;
-    for (long b = 0; b <= m->bodies; ++b) {
-        if (b < m->bodies && !m->touched[b])
-            continue;
-        for (int k = 0; k < 3; ++k) {
-            const double x = fabs(m->velocity[3 * b + k]);
-            if (first || x > fastest)
-                fastest = x;
-            first = 0;
-        }
-    }
-    const double scale = 1.0 + fastest;
-    for (int iteration = 0; iteration < HD_MAX_ITERATIONS; ++iteration) {
-        double largest = 0.0;
-        for (long k = 0; k < count; ++k) {
-            hd_row *r = m->rows + k;
-            double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
-            const double nx = r->nx, ny = r->ny, jn = r->jn;
-            double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
-            double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
-            const double new_n = py_max(jn + (r->target - (dvx * nx + dvy * ny)) * r->mass_n,
-                                        0.0);
-            double change = fabs(new_n - jn) / r->mass_n;
-            push(va, vb, r, (new_n - jn) * nx, (new_n - jn) * ny);
-            r->jn = new_n;
-            if (r->mu > 0.0) {
-                dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
-                dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
-                const double jt = r->jt, bound = r->mu * new_n;
-                const double new_t = py_min(py_max(jt - (-dvx * ny + dvy * nx) * r->mass_t,
-                                                   -bound), bound);
-                change = py_max(change, fabs(new_t - jt) / r->mass_t);
-                push(va, vb, r, -(new_t - jt) * ny, (new_t - jt) * nx);
-                r->jt = new_t;
+    const long units = schedule(m, count);
+    const long count_islands = islands(m, units);
+    for (long i = 0; i < count_islands; ++i) {
+        const long *members = m->order + m->island_start[i];
+        const long size = m->island_start[i + 1] - m->island_start[i];
+        double fastest = 0.0;
+        for (long k = 0; k < size; ++k) {
+            const hd_row *r = m->rows + m->units[members[k]].first;
+            for (int c = 0; c < 3; ++c) {
+                fastest = py_max(py_max(fastest, fabs(m->velocity[3 * r->a + c])),
+                                 fabs(m->velocity[3 * r->b + c]));
             }
-            largest = py_max(largest, change);
         }
-        if (largest <= HD_CONVERGED * scale)
-            return;
+        const double scale = 1.0 + fastest;
+        long passes = HD_WORK / size;
+        passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
+        passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+        for (long iteration = 0; iteration < passes; ++iteration) {
+            double largest = 0.0;
+            for (long k = 0; k < size; ++k) {
+                const hd_unit *u = m->units + members[k];
+                hd_row *r = m->rows + u->first;
+                double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
+                double change;
+                if (u->pair) {
+                    change = solve_block(u, r, r + 1, va, vb);
+                } else {
+                    change = solve_normal(r, va, vb);
+                    change = py_max(change, solve_friction(r, va, vb));
+                }
+                largest = py_max(largest, change);
+            }
+            if (largest <= HD_CONVERGED * scale)
+                break;
+        }
     }
 }
 
@@ -200,18 +403,17 @@ static int remember(hd_contact_model *m, long count)
     }
     for (long k = 0; k < count; ++k) {
         const hd_row *r = m->rows + k;
-        const double angle = m->poses[3 * r->b + 2];
-        const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
+        const double c = m->cos_sin[2 * r->b], s = m->cos_sin[2 * r->b + 1];
         hd_warm *w = m->warm + k;
         memcpy(w->key, r->key, sizeof w->key);
         w->lx = c * r->rbx + s * r->rby;
         w->ly = -s * r->rbx + c * r->rby;
         w->jn = r->jn;
         w->jt = r->jt;
+        w->used = 0;
     }
     m->warm_count = count;
-    hd_sort_warm(m);
-    return 0;
+    return index_warm(m);
 }
 
 /* Remove overlap beyond HD_SLOP by moving positions only (solver.py: _correct_positions):
@@ -267,6 +469,17 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, do
         if (grown == NULL)
             return -1;
         m->rows = grown;
+        hd_unit *units = realloc(m->units, (size_t)needed * sizeof(hd_unit));
+        if (units == NULL)
+            return -1;
+        m->units = units;
+        long *order = realloc(m->order, (size_t)(4 * needed + 1) * sizeof(long));
+        if (order == NULL)
+            return -1;
+        m->order = order;
+        m->unit_island = order + needed;
+        m->island_start = order + 2 * needed;
+        m->island_fill = order + 3 * needed + 1;
         m->row_capacity = needed;
     }
     memset(m->touched, 0, (size_t)n * sizeof(int));

@@ -158,7 +158,7 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
     memcpy(y + n3, v, (size_t)n3 * sizeof(double));
     rhs(f, y, slopes);
     double step = fmin(*size, h), done = 0.0;
-    for (long count = 0; count < MAX_SUBSTEPS; ++count) {
+    for (long count = 0; count < HD_MAX_PAIR_SUBSTEPS; ++count) {
         const double remaining = h - done;
         const int last = step >= remaining * (1.0 - 1e-12);
         const double trial = last ? remaining : step;
@@ -197,16 +197,16 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
                 *size = trial >= step ? trial * factor : step;
                 memcpy(q1, y, (size_t)n3 * sizeof(double));
                 memcpy(v1, y + n3, (size_t)n3 * sizeof(double));
-                return ADVANCED;
+                return HD_ADVANCED;
             }
         } else {
             f->work->rejected += 1;
         }
         step = trial * factor;
         if (step < 1e-14 * h)
-            return SUBSTEP_UNDERFLOW;
+            return HD_SUBSTEP_UNDERFLOW;
     }
-    return TOO_MANY_SUBSTEPS;
+    return HD_TOO_MANY_SUBSTEPS;
 }
 
 /* Wrap angles into [-pi, pi), touching only those outside (planar.py: wrap_angle, with
@@ -240,9 +240,9 @@ static int all_finite(const double *x, long count)
 static long buffer_states(int method, const hd_pair *pair)
 {
     switch (method) {
-    case VELOCITY_VERLET: return 3;
-    case RK4: return 8;
-    case EMBEDDED: return 2 * (pair->slopes + 3 + pair->error_rows);  /* in units of 3 N */
+    case HD_VELOCITY_VERLET: return 3;
+    case HD_RK4: return 8;
+    case HD_EMBEDDED: return 2 * (pair->slopes + 3 + pair->error_rows);  /* in units of 3 N */
     default: return 1;
     }
 }
@@ -259,10 +259,10 @@ static int one_step(Stepper *s, const double *q, const double *v, double *q1, do
                     double h)
 {
     switch (s->method) {
-    case EXPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 0); return ADVANCED;
-    case SEMI_IMPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 1); return ADVANCED;
-    case VELOCITY_VERLET: velocity_verlet(s->f, q, v, q1, v1, h, s->buffer); return ADVANCED;
-    case RK4: rk4(s->f, q, v, q1, v1, h, s->buffer); return ADVANCED;
+    case HD_EXPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 0); return HD_ADVANCED;
+    case HD_SEMI_IMPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 1); return HD_ADVANCED;
+    case HD_VELOCITY_VERLET: velocity_verlet(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
+    case HD_RK4: rk4(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
     default:
         return embedded(s->f, s->pair, s->tolerance, s->size, q, v, q1, v1, h, s->buffer);
     }
@@ -274,12 +274,12 @@ static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
                             const double *v, double *q1, double *v1, double h)
 {
     int status = one_step(s, q, v, q1, v1, h);
-    if (status != ADVANCED || joints == NULL)
+    if (status != HD_ADVANCED || joints == NULL)
         return status;
     switch (hd_joints_resolve(joints, q, q1, v1, h)) {
-    case HD_JOINTS_OK: return ADVANCED;
-    case HD_JOINTS_DEPENDENT: return JOINTS_DEPENDENT;
-    default: return OUT_OF_MEMORY;
+    case HD_JOINTS_OK: return HD_ADVANCED;
+    case HD_JOINTS_DEPENDENT: return HD_DEPENDENT_JOINTS;
+    default: return HD_OUT_OF_MEMORY;
     }
 }
 
@@ -313,11 +313,11 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
 {
     const long n3 = s->f->n3;
     int status = constrained_step(s, joints, q, v, q1, v1, h);
-    if (status != ADVANCED)
+    if (status != HD_ADVANCED)
         return status;
     const long parts = substeps(m, q, q1);
     if (parts == 1)
-        return hd_resolve(m, q1, v1, v, h) < 0 ? OUT_OF_MEMORY : ADVANCED;
+        return hd_resolve(m, q1, v1, v, h) < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
     double *q_part = spare, *v_part = spare + n3, *q_next = spare + 2 * n3,
            *v_next = spare + 3 * n3;
     memcpy(q_part, q, (size_t)n3 * sizeof(double));
@@ -325,16 +325,16 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
         if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part))
-                != ADVANCED)
+                != HD_ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, v_part, part) < 0)
-            return OUT_OF_MEMORY;
+            return HD_OUT_OF_MEMORY;
         memcpy(q_part, q_next, (size_t)n3 * sizeof(double));
         memcpy(v_part, v_next, (size_t)n3 * sizeof(double));
     }
     memcpy(q1, q_part, (size_t)n3 * sizeof(double));
     memcpy(v1, v_part, (size_t)n3 * sizeof(double));
-    return ADVANCED;
+    return HD_ADVANCED;
 }
 
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
@@ -348,10 +348,10 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
     double *memory = malloc((size_t)(5 * n + n3 * (buffer_states(method, pair) + 4) + 1)
                             * sizeof(double));
     if (memory == NULL)
-        return OUT_OF_MEMORY;
+        return HD_OUT_OF_MEMORY;
     Forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
     double *buffer = memory + 5 * n;
-    int status = ADVANCED;
+    int status = HD_ADVANCED;
     *taken = 0;
     Stepper stepper = {&f, method, pair, tolerance, size, buffer};
     for (long t = 0; t < steps; ++t) {
@@ -359,10 +359,10 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
                  ? constrained_step(&stepper, joints, q, v, q_new, v_new, h)
                  : step_with_contacts(&stepper, contacts, joints, q, v, q_new, v_new, h,
                                       buffer + n3 * buffer_states(method, pair));
-        if (status != ADVANCED)
+        if (status != HD_ADVANCED)
             break;
         if (!all_finite(q_new, n3) || !all_finite(v_new, n3)) {
-            status = NOT_FINITE;
+            status = HD_NOT_FINITE;
             break;
         }
         wrap_angles(q_new, n);
