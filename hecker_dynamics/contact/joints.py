@@ -64,7 +64,7 @@ from typing import TYPE_CHECKING, Any, Optional, Union
 import numpy as np
 
 if TYPE_CHECKING:
-    from ..dynamics.model import Model
+    from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
 __all__ = [
@@ -292,15 +292,23 @@ EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
-    def __init__(self, model: Model, compiled: bool = False) -> None:
-        """``compiled``: resolve in the kernel (:mod:`.joints_kernel`), which must be
-        built."""
-        scene = model.scene
+    def __init__(self, scene: Scene, inverse_mass: np.ndarray, cm_local: np.ndarray,
+                 compiled: bool = False) -> None:
+        """The joints of ``scene``, whose bodies have the inverse masses and moments of
+        inertia ``inverse_mass`` (rows 1/m, 1/m, 1/I) and their CMs at ``cm_local`` in their
+        body frames; ``compiled``: resolve in the kernel (:mod:`.joints_kernel`), which must
+        be built."""
         specs = scene.joints
         named = {spec.name: spec for spec in specs}
-        involved = sorted({model.index[n] for spec in specs if not isinstance(spec, GearJoint)
+        index = {body.name: i for i, body in enumerate(scene.bodies)}
+
+        def local(body: int, point: Vec2) -> Vec2:  # body-frame point -> offset from the CM
+            x, y = (np.asarray(point, dtype=float) - cm_local[body]).tolist()
+            return x, y
+
+        involved = sorted({index[n] for spec in specs if not isinstance(spec, GearJoint)
                            for n in (spec.body_a, spec.body_b) if n is not None})
-        #: Indices (in the model) of the bodies some joint holds; rows use their positions.
+        #: Indices (in the scene) of the bodies some joint holds; rows use their positions.
         self.bodies = np.array(involved, dtype=int)
         local_index = {body: i for i, body in enumerate(involved)}
         self.specs = specs
@@ -309,19 +317,17 @@ class JointPass:
         for spec in specs:
             if isinstance(spec, GearJoint):
                 continue
-            ia = -1 if spec.body_a is None else model.index[spec.body_a]
-            ib = model.index[spec.body_b]
-            point_a = (tuple(spec.point_a) if ia < 0
-                       else tuple(model.local(ia, spec.point_a).tolist()))
-            self.frames[spec.name] = (
-                _Frame(-1 if ia < 0 else local_index[ia], point_a),
-                _Frame(local_index[ib], tuple(model.local(ib, spec.point_b).tolist())))
+            ia = -1 if spec.body_a is None else index[spec.body_a]
+            ib = index[spec.body_b]
+            point_a = tuple(spec.point_a) if ia < 0 else local(ia, spec.point_a)
+            self.frames[spec.name] = (_Frame(-1 if ia < 0 else local_index[ia], point_a),
+                                      _Frame(local_index[ib], local(ib, spec.point_b)))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
                        for spec in specs if isinstance(spec, GearJoint)}
         #: 1/m, 1/m, 1/I of each of those bodies.
-        self.inverse_mass: list[float] = model.inverse_mass[self.bodies].reshape(-1).tolist()
-        #: Pairs of model body indices (i < j) that a joint connects and that must not collide.
-        ends = [(model.index[s.body_a], model.index[s.body_b]) for s in specs
+        self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
+        #: Pairs of body indices (i < j) that a joint connects and that must not collide.
+        ends = [(index[s.body_a], index[s.body_b]) for s in specs
                 if not isinstance(s, GearJoint) and s.body_a is not None
                 and not s.collide_connected]
         self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))

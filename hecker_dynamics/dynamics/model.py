@@ -63,7 +63,8 @@ class Model:
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.joints: Optional[JointPass] = (
-            JointPass(self, compiled=self.compiled is not None) if scene.joints else None)
+            JointPass(scene, self.inverse_mass, self.cm_local, compiled=self.compiled is not None)
+            if scene.joints else None)
         self.contacts: Optional[ContactPass] = (
             ContactPass(scene, self.mass, self.inertia, self.cm_local,
                         _restitution_threshold(scene), lean=self.lean,
