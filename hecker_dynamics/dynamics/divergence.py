@@ -36,7 +36,7 @@ __all__ = ["GROWTH", "STEP_GROWTH", "EnergyBound"]
 GROWTH = 1000.0
 #: How many times the bound's energy one implicit step may reach (:meth:`step_ok`): a
 #: resolved implicit midpoint step keeps it (1.7 at most over test_stability's stiffest
-#: run, omega h = 100); the wrong roots of issue 15 gave 4 to 60.
+#: run, omega h = 100); Newton iterations that land on a wrong root give 4 to 60.
 STEP_GROWTH = 2.0
 
 
