@@ -151,7 +151,7 @@ def test_a_flood_from_a_real_publisher_keeps_the_node_flat(ros):
             target = received() + BURST
             for k in range(start, start + BURST):
                 publisher.publish(messages[k % 100])
-            _spin(executor, lambda: received() >= target)
+            _spin(executor, lambda target=target: received() >= target)
     try:
         _spin(executor, lambda: node.runner.started)
         flood(5_000)                      # warm-up: every structure at its steady size
