@@ -50,16 +50,20 @@ def ros_env(tmp_path):
 
 
 def _start(command: list[str], env: dict[str, str]) -> subprocess.Popen:
+    """A command in a process group of its own, as a shell runs a foreground job."""
     return subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
+                            text=True, start_new_session=True)
 
 
 def _stop(process: subprocess.Popen) -> str:
-    process.send_signal(signal.SIGINT)
+    """Ctrl-C: SIGINT to the whole group. ``ros2 run`` does not pass a signal on to the
+    node it starts (it waits for a node that the terminal signals too), so a SIGINT to
+    its process alone leaves the node running."""
+    os.killpg(process.pid, signal.SIGINT)
     try:
         output, _ = process.communicate(timeout=20)
     except subprocess.TimeoutExpired:
-        process.kill()
+        os.killpg(process.pid, signal.SIGKILL)
         output, _ = process.communicate()
     return output
 
