@@ -274,6 +274,11 @@ class ContactPass:
         if self._kernel is not None:
             self._kernel.set_sleep(self)
 
+    def sleeping(self) -> list[int]:
+        """The bodies asleep now, in order."""
+        self._sync_sleep()
+        return [b for b, island in enumerate(self.island) if island >= 0]
+
     def _calm(self, held: Iterable[int]) -> list[bool]:
         """Per body, whether it may sleep while inputs are held on ``held``."""
         restless = self._restless | set(held)
