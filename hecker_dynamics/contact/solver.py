@@ -30,14 +30,15 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
 
 Resting islands may sleep (the scene's ``contacts.sleep``): a body of the pass that only
 gravity and contacts push (no spring, drag, constant force or joint of the scene, no input
-held on it) rests while its fastest point, at |v| + reach |omega| (reach: its farthest shape point
-from the CM), moves at most :data:`SLEEP_SPEED`; an island (bodies joined through contacts, walls joining
-nothing) whose every body has rested :data:`TIME_TO_SLEEP` falls asleep: its velocities
-become zero, and from then on each step puts its bodies back where they were, with zero
-velocity, before detection, which skips its walls and its own pairs. An island wakes, its
-bodies' rest times back at zero, when an awake body touches one of its bodies, an input
-is held on one of them, or the state is set from outside (:meth:`ContactPass.reset`);
-its contacts' warm-start impulses are kept while it sleeps.
+held on it) rests while its fastest point, at |v| + reach |omega| (reach: its farthest
+shape point from the CM), moves at most :data:`SLEEP_SPEED`; an island (bodies joined
+through contacts, walls joining nothing) whose every body has rested
+:data:`TIME_TO_SLEEP` falls asleep: its velocities become zero, and from then on each
+step puts its bodies back where they were, with zero velocity, before detection, which
+skips its walls and its own pairs. An island wakes, its bodies' rest times back at zero,
+when an awake body touches one of its bodies, an input is held on one of them, or the
+state is set from outside (:meth:`ContactPass.reset`); its contacts' warm-start impulses
+are kept while it sleeps.
 
 Fast bodies do not pass through thin ones: :meth:`ContactPass.substeps` tells the
 simulation to split a step whenever some colliding body would move more than half the

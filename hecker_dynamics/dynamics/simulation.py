@@ -222,8 +222,8 @@ class Simulation:
         """Move body ``name`` now: its frame to ``position`` and ``angle``, the frame's origin
         moving at ``linear_velocity``, turning at ``angular_velocity`` (what its pose and a
         world-frame twist publish). The contact pass forgets its warm starts, which belonged
-        to the old positions, and every body wakes. Raises :class:`InputError` for an unknown body or a number
-        that is not finite."""
+        to the old positions, and every body wakes. Raises :class:`InputError` for an
+        unknown body or a number that is not finite."""
         index = self.model.index.get(name)
         if index is None:
             raise InputError(f"unknown body '{name}' (bodies: {', '.join(self.model.names)})")
@@ -285,10 +285,10 @@ class Simulation:
             return [remap[a] if a >= 0 else a, remap[b], *parts]
 
         if sim.model.contacts is not None:
-            kept = state["contacts"] or []
-            if isinstance(kept, dict):  # sleeping: only the warm starts carry over
-                kept = kept["warm"]
-            warm = [(key(*pair), contacts) for pair, contacts in kept]
+            carried = state["contacts"] or []
+            if isinstance(carried, dict):  # sleeping: only the warm starts carry over
+                carried = carried["warm"]
+            warm = [(key(*pair), contacts) for pair, contacts in carried]
             state["contacts"] = [[pair, contacts] for pair, contacts in warm if pair is not None]
         else:
             state["contacts"] = None
