@@ -21,6 +21,7 @@ from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.contact import solver
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.load import SceneError
 
 H = 0.004
 STEP_NS = 4_000_000
@@ -32,7 +33,7 @@ paths = pytest.mark.parametrize("compiled", [
         "HECKER_DYNAMICS_KERNEL=0"))])
 
 
-def _stack(sleep: bool = True, dropper: bool = False, extra: dict | None = None):
+def _stack(sleep: object = True, dropper: bool = False, extra: dict | None = None):
     """Three 0.5 m boxes stacked on the floor, touching; ``dropper``: a fourth box 6 m up
     above them, which lands on the stack after about 1 s."""
     bodies = {name: {"shape": "box", "size": [0.5, 0.5], "mass": 1.0,
@@ -199,3 +200,19 @@ def test_restored_sleeping_simulation_continues_bit_for_bit(compiled, at_ns):
         differs |= cold.model.contacts.sleeping() != original.model.contacts.sleeping()
     assert again.model.contacts.export_state() == original.model.contacts.export_state()
     assert differs
+
+
+def test_the_scene_reads_contacts_sleep_and_names_a_bad_value():
+    """Default off; a value that is not a boolean is refused naming file and parameter; the
+    bodies a spring, drag or constant force acts on are the restless ones."""
+    assert not _stack(sleep=False).sleep and _stack().sleep
+    assert not Simulation(make_scene({"bodies": {"a": {"shape": "circle", "radius": 0.1,
+                                                       "mass": 1.0}}})).scene.sleep
+    with pytest.raises(SceneError, match=r"^test-scene: parameter 'contacts.sleep': must be "
+                                         "true or false"):
+        _stack(sleep="yes")
+    pushed = _stack(extra={"push": {"type": "constant_force", "body": "box1",
+                                    "force": [0.0, 1.0]},
+                           "air": {"type": "linear_drag", "bodies": ["box2"],
+                                   "coefficient": 0.1}})
+    assert Simulation(pushed).model.contacts.calm == [True, False, False]
