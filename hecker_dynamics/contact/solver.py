@@ -414,6 +414,8 @@ class ContactPass:
                              else half_plane_polygon(normal, offset, part.vertices, MARGIN))
                     for point, n, depth in found:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
+        if island is not None and all(island[b] >= 0 for b in self.colliding):
+            return contacts  # with every colliding body asleep no pair needs looking at
         for a, b in self._candidate_pairs(poses) if self.pairs else ():
             sleeping = -1 if island is None else max(island[a], island[b])
             if sleeping >= 0 and min(island[a], island[b]) >= 0:  # type: ignore[index]

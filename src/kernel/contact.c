@@ -296,6 +296,11 @@ int hd_detect(hd_contact_model *m, const double *q)
     if (m->pair_count == 0)
         return 0;
     const long count = m->colliding_count;
+    long awake = 0;  /* with every colliding body asleep no pair needs looking at */
+    while (awake < count && m->island[m->colliding[awake]] >= 0)
+        awake += 1;
+    if (awake == count)
+        return 0;
     for (long k = 0; k < count; ++k) {
         double *box = m->sweep + 5 * k;
         const long b = m->sweep_order ? (long)box[1] : m->colliding[k];
@@ -319,11 +324,11 @@ int hd_detect(hd_contact_model *m, const double *q)
             const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
             if (!(other[3] <= box[4] + HD_MARGIN && other[4] >= box[3] - HD_MARGIN))
                 continue;
-            const double *material = material_of(m, i, j);
-            if (material == NULL)
-                continue;
             const long sleeping = m->island[i] > m->island[j] ? m->island[i] : m->island[j];
             if (sleeping >= 0 && m->island[i] >= 0 && m->island[j] >= 0)
+                continue;
+            const double *material = material_of(m, i, j);
+            if (material == NULL)
                 continue;
             place(m, q, i);
             place(m, q, j);
