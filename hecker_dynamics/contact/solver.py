@@ -549,18 +549,9 @@ class ContactPass:
         island, rested = self.island, self.rested
         awake = [b for b, sleeping in enumerate(island) if sleeping < 0]
         parent = {b: b for b in awake}
-
-        def root(body: int) -> int:
-            while parent[body] != body:
-                parent[body] = parent[parent[body]]
-                body = parent[body]
-            return body
-
         for row in rows:
             if row.a >= 0:
-                ra, rb = root(row.a), root(row.b)
-                if ra != rb:
-                    parent[max(ra, rb)] = min(ra, rb)
+                _join(parent, row.a, row.b)
         velocities = v1.tolist()
         shortest: dict[int, float] = {}
         for b in awake:
@@ -568,10 +559,10 @@ class ContactPass:
             resting = self.calm[b] and (math.sqrt(vx * vx + vy * vy)
                                         + self.reach[b] * abs(omega) <= SLEEP_SPEED)
             rested[b] = rested[b] + h if resting else 0.0
-            r = root(b)
+            r = _root(parent, b)
             shortest[r] = min(shortest.get(r, rested[b]), rested[b])
         for b in awake:
-            r = root(b)
+            r = _root(parent, b)
             if shortest[r] >= TIME_TO_SLEEP:
                 island[b] = r
                 v1[b] = 0.0
@@ -791,25 +782,31 @@ def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
     """The units grouped by island (union-find over the bodies they join; walls join
     nothing), in order of each island's first unit, each island's units in their order."""
     parent: dict[int, int] = {}
-
-    def root(body: int) -> int:
-        while parent[body] != body:
-            parent[body] = parent[parent[body]]
-            body = parent[body]
-        return body
-
     for unit in units:
         a, b = _unit_bodies(unit)
         parent.setdefault(b, b)
         if a >= 0:
             parent.setdefault(a, a)
-            ra, rb = root(a), root(b)
-            if ra != rb:
-                parent[max(ra, rb)] = min(ra, rb)
+            _join(parent, a, b)
     islands: dict[int, list[ContactRow | Block]] = {}
     for unit in units:
-        islands.setdefault(root(_unit_bodies(unit)[1]), []).append(unit)
+        islands.setdefault(_root(parent, _unit_bodies(unit)[1]), []).append(unit)
     return list(islands.values())
+
+
+def _root(parent: dict[int, int], body: int) -> int:
+    """The root of ``body``'s set in the union-find forest ``parent`` (halving the path)."""
+    while parent[body] != body:
+        parent[body] = parent[parent[body]]
+        body = parent[body]
+    return body
+
+
+def _join(parent: dict[int, int], a: int, b: int) -> None:
+    """Join the sets of bodies a and b under the lower root."""
+    ra, rb = _root(parent, a), _root(parent, b)
+    if ra != rb:
+        parent[max(ra, rb)] = min(ra, rb)
 
 
 def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:
