@@ -216,3 +216,18 @@ def test_the_scene_reads_contacts_sleep_and_names_a_bad_value():
                            "air": {"type": "linear_drag", "bodies": ["box2"],
                                    "coefficient": 0.1}})
     assert Simulation(pushed).model.contacts.calm == [True, False, False]
+
+
+@paths
+def test_a_spawn_or_delete_wakes_every_body(compiled):
+    """with_world (here: the world given again, as a spawn and delete leave the others)
+    wakes the sleeping stack; it keeps its pose and sleeps again after TIME_TO_SLEEP."""
+    scene = _stack()
+    sim = _simulation(scene, compiled)
+    _until_asleep(sim, [0, 1, 2])
+    moved = sim.with_world(scene)
+    if not compiled:
+        moved.model.use_python()
+    assert moved.model.contacts.sleeping() == [] and np.array_equal(moved.q, sim.q)
+    start = moved.time_ns * 1e-9
+    assert _until_asleep(moved, [0, 1, 2]) >= start + solver.TIME_TO_SLEEP
