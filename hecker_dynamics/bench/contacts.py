@@ -5,15 +5,17 @@ Three measurements, each engine in the same run, interleaved:
 
 - **Pyramids** of :mod:`.pyramid` (rows 3 to 30): 2 s in blocks of 25 steps, the blocks
   of all engines interleaved (one block each in turn), cost per step the median over the
-  blocks; sleeping off in every engine (hecker_dynamics has none), so each does the same
-  work every step; "moved" is how far the farthest box got from its start.
+  blocks; each engine with sleeping off, so each does the same work every step, and again
+  with sleeping on (``contacts.sleep``; the peers' own sleeping, as in whole scenes),
+  labelled "(sleeping)"; "moved" is how far the farthest box got from its start.
 - **Whole scenes over their full durations**, resting phases included: the box of 100
   balls (:func:`~.pyramid.ball_box`, 5 s) and every shipped scene with walls or
   collisions, with their scripts. Each run builds its engine afresh (not timed) and steps
   the whole duration; 3 rounds over all engines, alternating direction; cost per step the
   median over the rounds. The peers as :mod:`.scene_peers` sets them up: forces from
   Python, and pymunk also with its own ``DampedSpring`` where the scene has springs;
-  sleeping as their users have it.
+  sleeping as their users have it. hecker_dynamics runs each scene as it is and with
+  sleeping on (configuration "..., sleeping").
 - **The node's cost** (:mod:`.node`) on its ring of 10 bodies dropped onto a floor.
 
 The contact targets, each reported as met or missed with its ratio: (1) every pyramid per
@@ -24,6 +26,7 @@ v3's cost where its bindings are installed; they are not installable here.)
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import statistics
@@ -45,7 +48,7 @@ from .peers import available
 from .pyramid import STEP, ball_box, pyramid
 from .scene_peers import SCENE_PEERS, scene_engine
 
-__all__ = ["BLOCK", "PYRAMID_DURATION", "PYRAMID_ROWS", "TARGET", "ContactResults",
+__all__ = ["BLOCK", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET", "ContactResults",
            "contact_bench", "contact_scene_names", "measure_pyramid", "pyramid_engines",
            "scene_rows"]
 
@@ -81,15 +84,22 @@ def _ours(scene: Scene) -> Engine:
     return step, lambda: sim.q.copy()
 
 
+#: The suffix of an engine's name with sleeping on.
+SLEEPING = " (sleeping)"
+
+
 def pyramid_engines(rows: int, peers: list[str]) -> dict[str, Engine]:
-    """hecker_dynamics and each installed peer of ``peers`` on the pyramid of ``rows``."""
-    scene = pyramid(rows)
-    engines = {"hecker_dynamics": _ours(scene)}
-    for name in peers:
-        try:
-            engines[name] = scene_engine(name, scene, STEP, sleep=False)
-        except ImportError:
-            continue
+    """hecker_dynamics and each installed peer of ``peers`` on the pyramid of ``rows``,
+    with sleeping off, then each again with sleeping on (named with :data:`SLEEPING`)."""
+    engines: dict[str, Engine] = {}
+    for sleep, suffix in ((False, ""), (True, SLEEPING)):
+        scene = pyramid(rows, sleep=sleep)
+        engines["hecker_dynamics" + suffix] = _ours(scene)
+        for name in peers:
+            try:
+                engines[name + suffix] = scene_engine(name, scene, STEP, sleep=sleep)
+            except ImportError:
+                continue
     return engines
 
 
@@ -130,8 +140,12 @@ def scene_rows(name: str, scene: Scene, peers: list[str], python_path: bool = Fa
     from .run import PYTHON_PATH, core_run
 
     h, duration = scene.step_ns * 1e-9, scene.duration_ns * 1e-9
+    sleeping = dataclasses.replace(scene, sleep=True)
     cases = [Case(name, "hecker_dynamics", scene.integrator, h, math.nan, duration,
                   lambda d: core_run(scene, d))]
+    if not scene.sleep:
+        cases.append(Case(name, "hecker_dynamics", f"{scene.integrator}, sleeping", h,
+                          math.nan, duration, lambda d: core_run(sleeping, d)))
     if python_path and kernel.enabled():
         cases.append(Case(name, PYTHON_PATH, scene.integrator, h, math.nan, duration,
                           lambda d: core_run(scene, d, python=True)))
@@ -203,6 +217,9 @@ def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> dic
     for name in peers:
         if name in result:
             row[f"ratio_{name}"] = ours / result[name][0]
+        if name + SLEEPING in result:
+            row[f"ratio_{name}{SLEEPING}"] = (result["hecker_dynamics" + SLEEPING][0]
+                                              / result[name + SLEEPING][0])
     log(f"pyramid {rows} rows: " + ", ".join(
         f"{name} {cost * 1e6:.1f} us (moved {drift:.2g} m)"
         for name, (cost, drift) in result.items()))
@@ -251,9 +268,12 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
           f"{before[2]:.2f}; after: {after[0]:.2f}, {after[1]:.2f}, {after[2]:.2f}.", "",
           "## Contact targets", "", "| target | measured | verdict |", "|---|---|---|"]
     md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
-    if results.pyramids:
-        names = ["hecker_dynamics"] + [p for p in peers if f"{p}_us" in results.pyramids[0]]
-        md += ["", "## Pyramids (h = 4 ms, 2 s, sleeping off)", "",
+    for suffix, title in (("", "sleeping off"), (SLEEPING, "sleeping on in every engine")):
+        if not results.pyramids:
+            break
+        names = [n + suffix for n in ["hecker_dynamics", *peers]
+                 if f"{n}{suffix}_us" in results.pyramids[0]]
+        md += ["", f"## Pyramids (h = 4 ms, 2 s, {title})", "",
                "| rows (boxes) | " + " | ".join(f"{n} us/step (moved m)" for n in names)
                + "".join(f" | ratio to {n}" for n in names[1:]) + " |",
                "|---" * (1 + 2 * len(names) - 1) + "|"]
@@ -264,19 +284,24 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
     if results.scenes:
         md += ["", "## Whole scenes over their full durations (median of 3 rounds)", "",
                "| scene | duration s | step ms | engine | configuration | us/step | "
-               "ours / this |", "|---|---|---|---|---|---|---|"]
+               "ours / this | ours sleeping / this |", "|---|---|---|---|---|---|---|---|"]
         for row in results.scenes:
             ours = results.per_step(row.scene, "hecker_dynamics")
+            asleep = min((r.cost * r.step for r in results.scenes if r.scene == row.scene
+                          and r.engine == "hecker_dynamics" and r.method.endswith(", sleeping")
+                          and r.status == "ok"), default=math.nan)
             mine = row.cost * row.step
             md.append(f"| {row.scene} | {row.duration:g} | {row.step * 1e3:g} | {row.engine} | "
-                      f"{row.method} | {mine * 1e6:.1f} | {ours / mine:.2f} |")
+                      f"{row.method} | {mine * 1e6:.1f} | {ours / mine:.2f} | "
+                      f"{asleep / mine:.2f} |")
     if results.node is not None:
         md += ["", "## The node's cost, 10 bodies on a floor (1 kHz steps, 50 Hz outputs)",
                "", node_table([results.node])]
     (out / "contacts.md").write_text("\n".join(md) + "\n")
     lines = ["section,scene,engine,configuration,step_s,duration_s,us_per_step,moved_m"]
     for row in results.pyramids:
-        for name in ["hecker_dynamics", *peers]:
+        for name in [n + suffix for suffix in ("", SLEEPING)
+                     for n in ["hecker_dynamics", *peers]]:
             if f"{name}_us" in row:
                 lines.append(f"pyramid,pyramid{row['rows']},{name},,{STEP!r},"
                              f"{PYRAMID_DURATION!r},{row[f'{name}_us']!r},"

@@ -32,8 +32,10 @@ def pyramid_positions(rows: int) -> list[tuple[float, float]]:
             for row in range(rows) for column in range(rows - row)]
 
 
-def pyramid(rows: int, duration: float = 2.0, integrator: str = "semi_implicit_euler") -> Scene:
-    """The pyramid of ``rows`` rows (rows (rows + 1) / 2 boxes) at the benchmark's settings."""
+def pyramid(rows: int, duration: float = 2.0, integrator: str = "semi_implicit_euler",
+            sleep: bool = False) -> Scene:
+    """The pyramid of ``rows`` rows (rows (rows + 1) / 2 boxes) at the benchmark's settings;
+    ``sleep``: resting islands sleep (the scene's ``contacts.sleep``)."""
     names = [f"box{k}" for k in range(rows * (rows + 1) // 2)]
     bodies = {name: {"shape": "box", "size": [BOX, BOX], "mass": 1.0, "position": list(p)}
               for name, p in zip(names, pyramid_positions(rows))}
@@ -44,6 +46,7 @@ def pyramid(rows: int, duration: float = 2.0, integrator: str = "semi_implicit_e
         "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": 0.0,
                             "friction": FRICTION}},
         "collisions": {"boxes": {"bodies": names, "restitution": 0.0, "friction": FRICTION}},
+        "contacts": {"sleep": sleep},
     }
     return scene_from_parameters(flatten(params), f"bench:pyramid{rows}")
 
@@ -52,9 +55,10 @@ def pyramid(rows: int, duration: float = 2.0, integrator: str = "semi_implicit_e
 BALLS = {"grid": 10, "radius": 0.1, "mass": 0.5, "step": 0.002, "duration": 5.0}
 
 
-def ball_box() -> Scene:
-    """The box of 100 balls with friction (see the module's docstring)."""
-    grid, radius = BALLS["grid"], BALLS["radius"]
+def ball_box(sleep: bool = False, grid: int = BALLS["grid"]) -> Scene:
+    """The box of 100 balls with friction (see the module's docstring); ``sleep``: resting
+    islands sleep; ``grid``: balls per side of the starting grid."""
+    radius = BALLS["radius"]
     names = [f"ball{k:03d}" for k in range(grid * grid)]
     bodies = {}
     for k, name in enumerate(names):
@@ -74,5 +78,6 @@ def ball_box() -> Scene:
         "forces": {"gravity": {"type": "gravity"}},
         "walls": {name: {**wall, **material} for name, wall in walls.items()},
         "collisions": {"balls": {"bodies": names, **material}},
+        "contacts": {"sleep": sleep},
     }
     return scene_from_parameters(flatten(params), "bench:ball_box")

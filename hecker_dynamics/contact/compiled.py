@@ -4,7 +4,8 @@
 colliding pairs once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
 ``ContactPass.resolve`` in C, operation for operation, so the two give the same bits (but
 for circles, whose distances C's ``hypot`` may round differently in the last bit from
-CPython's ``math.hypot``). The warm-start impulses live in the kernel between steps.
+CPython's ``math.hypot``). The warm-start impulses, and with sleeping on the bodies' rest
+times and sleeping islands, live in the kernel between steps.
 """
 from __future__ import annotations
 
@@ -56,10 +57,25 @@ class CompiledContacts:
             _integers(contacts.colliding), _integers(pairs),
             _doubles([contacts.pairs[p] for p in pairs]), contacts.threshold,
             contacts.thickness)
+        if contacts.sleep:
+            self.set_sleep(contacts)
 
-    def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, q0: np.ndarray, v0: np.ndarray,
+                h: float) -> None:
         """``ContactPass.resolve`` in the kernel: (q1, v1) change in place."""
-        _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(v0), h)
+        _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(q0),
+                        np.ascontiguousarray(v0), h)
+
+    def set_sleep(self, contacts: ContactPass) -> None:
+        """Take sleeping on or off and each body's calm flag, rest time and sleeping island
+        from ``contacts``."""
+        _kernel.sleep(self.kernel, int(contacts.sleep), _integers(contacts.calm),
+                      _doubles(contacts.rested), _integers(contacts.island))
+
+    def sleep_state(self) -> tuple[list[float], list[int]]:
+        """Each body's rest time and sleeping island (-1: awake)."""
+        rested, island = _kernel.sleep(self.kernel)
+        return rested, island
 
     def impulses(self) -> list[WarmImpulse]:
         """The warm-start impulses, those of one pair of parts together and in the order

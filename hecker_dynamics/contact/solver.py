@@ -28,6 +28,18 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
 4. pushes apart what still overlaps by more than a small slop, a fraction per step, by
    moving positions only (no velocity, so no kinetic energy, is added).
 
+Resting islands may sleep (the scene's ``contacts.sleep``): a body of the pass that only
+gravity and contacts push (no spring, drag, constant force or joint of the scene, no input
+held on it) rests while its fastest point, at |v| + reach |omega| (reach: its farthest
+shape point from the CM), moves at most :data:`SLEEP_SPEED`; an island (bodies joined
+through contacts, walls joining nothing) whose every body has rested
+:data:`TIME_TO_SLEEP` falls asleep: its velocities become zero, and from then on each
+step puts its bodies back where they were, with zero velocity, before detection, which
+skips its walls and its own pairs. An island wakes, its bodies' rest times back at zero,
+when an awake body touches one of its bodies, an input is held on one of them, or the
+state is set from outside (:meth:`ContactPass.reset`); its contacts' warm-start impulses
+are kept while it sleeps.
+
 Fast bodies do not pass through thin ones: :meth:`ContactPass.substeps` tells the
 simulation to split a step whenever some colliding body would move more than half the
 thinnest colliding part in it.
@@ -35,7 +47,8 @@ thinnest colliding part in it.
 Where the compiled kernel is built and enabled, the pass runs in C
 (:mod:`.compiled`, ``src/kernel/contact.h``) with the same arithmetic and the same bits;
 :meth:`ContactPass.export_state` and :meth:`ContactPass.import_state` carry the only
-state kept from step to step, the warm-start impulses, either way.
+state kept from step to step, the warm-start impulses and, with sleeping on, each body's
+rest time and island, either way.
 """
 from __future__ import annotations
 
@@ -79,9 +92,15 @@ CORRECTION = 0.2
 MAX_CORRECTION = 0.05
 POSITION_ITERATIONS = 4
 MAX_SUBSTEPS = 256
+#: Sleeping: the largest speed (m/s) of a resting body's fastest point, |v| + reach |omega|
+#: (Box2D v3's default sleep threshold), and how long (s) every body of an island must rest
+#: before it sleeps (Box2D's time to sleep).
+SLEEP_SPEED = 0.05
+TIME_TO_SLEEP = 0.5
 
 __all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION",
-           "MAX_ITERATIONS", "MIN_ITERATIONS", "SLOP", "WORK", "passes"]
+           "MAX_ITERATIONS", "MIN_ITERATIONS", "SLEEP_SPEED", "SLOP", "TIME_TO_SLEEP", "WORK",
+           "passes"]
 
 
 class Contact(NamedTuple):
@@ -158,13 +177,16 @@ class ContactPass:
 
     def __init__(self, scene: Scene, mass: np.ndarray, inertia: np.ndarray,
                  center_of_mass: np.ndarray, threshold: float, *, lean: bool,
-                 apart: Iterable[tuple[int, int]] = (), compiled: bool = False) -> None:
+                 apart: Iterable[tuple[int, int]] = (), compiled: bool = False,
+                 sleep: bool = False, restless: Iterable[int] = ()) -> None:
         """The pass for ``scene``'s walls and collision groups, with the bodies' ``mass``,
         moment of ``inertia`` and ``center_of_mass`` (N x 2, body axes) in the scene's
         order; ``threshold``: the approach speed below which contacts do not bounce;
         ``lean``: plain floats rather than numpy where both would do; ``apart``: pairs of
         bodies (i < j) that do not collide although a group names them; ``compiled``:
-        resolve in the kernel (:mod:`.compiled`), which must be built."""
+        resolve in the kernel (:mod:`.compiled`), which must be built; ``sleep``: let
+        resting islands sleep; ``restless``: bodies that never sleep (pushed by more than
+        gravity and contacts)."""
         index = {body.name: i for i, body in enumerate(scene.bodies)}
         self.threshold = threshold
         self.inverse_mass = (1.0 / mass).tolist()
@@ -219,14 +241,63 @@ class ContactPass:
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
         self.bodies = np.array(sorted(touching), dtype=int)
         self._warm: dict[tuple, list[tuple[float, float, float, float]]] = {}
+        self.sleep = sleep
+        self._restless = frozenset(int(b) for b in restless)
+        size = len(scene.bodies)
+        #: Per body: whether it may sleep, how long it has rested (s), and the island it
+        #: sleeps in (the lowest body of it; -1 while awake).
+        self._members = {int(b) for b in self.bodies}
+        self.rested = [0.0] * size
+        self.island = [-1] * size
+        self.calm = self._calm(())
+        self._woken: set[int] = set()
         self._kernel: Optional[_compiled.CompiledContacts] = (
             _compiled.CompiledContacts(self) if compiled else None)
 
     def reset(self) -> None:
-        """Forget the impulses kept for warm starting."""
+        """Forget the impulses kept for warm starting, and wake every body (held by no
+        input: see :meth:`hold`)."""
         self._warm = {}
+        self.calm = self._calm(())
+        self.rested = [0.0] * len(self.rested)
+        self.island = [-1] * len(self.island)
         if self._kernel is not None:
             self._kernel.set_impulses([])
+            self._kernel.set_sleep(self)
+
+    def hold(self, bodies: Iterable[int]) -> None:
+        """Inputs are held on ``bodies`` (and on no other): wake their islands and keep
+        them awake while the inputs last."""
+        held = set(bodies)
+        self.calm = self._calm(held)
+        self._sync_sleep()
+        self._wake({self.island[b] for b in held} - {-1})
+        if self._kernel is not None:
+            self._kernel.set_sleep(self)
+
+    def sleeping(self) -> list[int]:
+        """The bodies asleep now, in order."""
+        self._sync_sleep()
+        return [b for b, island in enumerate(self.island) if island >= 0]
+
+    def _calm(self, held: Iterable[int]) -> list[bool]:
+        """Per body, whether it may sleep while inputs are held on ``held``."""
+        restless = self._restless | set(held)
+        return [b in self._members and b not in restless for b in range(len(self.island))]
+
+    def _sync_sleep(self) -> None:
+        """Take the rest times and islands from the kernel, where it holds them."""
+        if self._kernel is not None:
+            self.rested, self.island = self._kernel.sleep_state()
+
+    def _wake(self, islands: set[int]) -> None:
+        """Wake the bodies of the sleeping ``islands``."""
+        if not islands:
+            return
+        for b, sleeping in enumerate(self.island):
+            if sleeping in islands:
+                self.island[b] = -1
+                self.rested[b] = 0.0
 
     @property
     def compiled(self) -> bool:
@@ -243,11 +314,20 @@ class ContactPass:
         self._kernel = None
         self.import_state(state)
 
-    def export_state(self) -> list[list[Any]]:
+    def export_state(self) -> list[list[Any]] | dict[str, Any]:
         """The impulses kept for warm starting, as plain data: per pair of parts (sorted by
         their names), the remembered contacts [lx, ly, jn, jt] (point in the second body's
         frame, normal and tangent impulse) in the order the solver met them; the same
-        whether the pass runs in Python or in the kernel."""
+        whether the pass runs in Python or in the kernel. With sleeping on, a dict of
+        those (``warm``) and per body its rest time (``rested``) and sleeping island
+        (``island``)."""
+        warm_state = self._export_warm()
+        if not self.sleep:
+            return warm_state
+        self._sync_sleep()
+        return {"warm": warm_state, "rested": list(self.rested), "island": list(self.island)}
+
+    def _export_warm(self) -> list[list[Any]]:
         if self._kernel is None:
             warm = self._warm
         else:
@@ -256,9 +336,19 @@ class ContactPass:
                 warm.setdefault(tuple(key), []).append((lx, ly, jn, jt))
         return [[list(key), [list(contact) for contact in warm[key]]] for key in sorted(warm)]
 
-    def import_state(self, state: list[list[Any]]) -> None:
+    def import_state(self, state: list[list[Any]] | dict[str, Any]) -> None:
         """Restore :meth:`export_state`'s data: the next step gives the same bits as it
-        would have after the step that data was taken at."""
+        would have after the step that data was taken at. Warm starts alone (a list) wake
+        every body."""
+        if isinstance(state, dict):
+            self.rested = [float(t) for t in state["rested"]]
+            self.island = [int(i) for i in state["island"]]
+            state = state["warm"]
+        else:
+            self.rested = [0.0] * len(self.rested)
+            self.island = [-1] * len(self.island)
+        if self._kernel is not None:
+            self._kernel.set_sleep(self)
         self._warm = {tuple(int(k) for k in key): [tuple(float(x) for x in contact)
                                                    for contact in contacts]
                       for key, contacts in state}
@@ -297,6 +387,12 @@ class ContactPass:
     def detect(self, q: np.ndarray) -> list[Contact]:
         """The contacts at positions ``q``: walls first, then the pairs the broad phase
         finds, in a deterministic order."""
+        return self._detect(q, None)
+
+    def _detect(self, q: np.ndarray, island: Optional[list[int]]) -> list[Contact]:
+        """:meth:`detect`, but with ``island`` (each body's sleeping island, -1 awake)
+        skipping sleeping bodies' walls and pairs and noting in ``_woken`` the islands an
+        awake body touches."""
         world: dict[int, list[Part]] = {}
         poses = q.tolist()
         contacts: list[Contact] = []
@@ -305,6 +401,8 @@ class ContactPass:
             nx, ny = normal
             e, mu = self.wall_material[w]
             for b in bodies:
+                if island is not None and island[b] >= 0:
+                    continue
                 x, y, _ = poses[b]
                 if nx * x + ny * y - offset > self.reach[b] + MARGIN:
                     continue  # the body's bounding circle is clear of the wall
@@ -316,11 +414,19 @@ class ContactPass:
                              else half_plane_polygon(normal, offset, part.vertices, MARGIN))
                     for point, n, depth in found:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
+        if island is not None and all(island[b] >= 0 for b in self.colliding):
+            return contacts  # with every colliding body asleep no pair needs looking at
         for a, b in self._candidate_pairs(poses) if self.pairs else ():
+            sleeping = -1 if island is None else max(island[a], island[b])
+            if sleeping >= 0 and min(island[a], island[b]) >= 0:  # type: ignore[index]
+                continue
             for body in (a, b):
                 if body not in world:
                     world[body] = self._world_parts(poses[body], body)
-            contacts.extend(self._pair_contacts(a, b, world))
+            found = self._pair_contacts(a, b, world)
+            if found and sleeping >= 0:
+                self._woken.add(sleeping)
+            contacts.extend(found)
         return contacts
 
     def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int]]:
@@ -372,18 +478,21 @@ class ContactPass:
 
     # ------------------------------------------------------------------ response
 
-    def resolve(self, q1: np.ndarray, v1: np.ndarray, v0: np.ndarray, h: float) -> None:
-        """Respond to the contacts found at ``q1`` after a step of ``h`` from velocities
-        ``v0``; updates ``q1`` and ``v1`` (C-contiguous) in place. A state that is not
-        finite is left to the simulation's divergence check."""
+    def resolve(self, q1: np.ndarray, v1: np.ndarray, q0: np.ndarray, v0: np.ndarray,
+                h: float) -> None:
+        """Respond to the contacts found at ``q1`` after a step of ``h`` from (``q0``,
+        ``v0``); updates ``q1`` and ``v1`` (C-contiguous) in place; sleeping bodies go back
+        to (q0, v0). A state that is not finite is left to the simulation's divergence
+        check."""
         if not (np.isfinite(q1).all() and np.isfinite(v1).all()):
             return
         if self._kernel is not None:
-            self._kernel.resolve(q1, v1, v0, h)
+            self._kernel.resolve(q1, v1, q0, v0, h)
             return
-        contacts = self.detect(q1)
+        contacts = self._awake_contacts(q1, v1, q0, v0)
         if not contacts:
-            self._warm = {}
+            self._warm = self._sleeping_warm()
+            self._doze([], v1, h)
             return
         touched = sorted(({c.a for c in contacts} | {c.b for c in contacts}) - {-1})
         still = [0.0, 0.0, 0.0]
@@ -406,6 +515,57 @@ class ContactPass:
                 q1[b] = poses[b]
                 v1[b] = velocity[b]
         self._correct_positions(rows, velocity, q1, h)
+        self._doze(rows, v1, h)
+
+    def _awake_contacts(self, q1: np.ndarray, v1: np.ndarray, q0: np.ndarray,
+                        v0: np.ndarray) -> list[Contact]:
+        """The contacts of the awake bodies at ``q1``, after putting the sleeping ones back
+        at (q0, v0) and waking the islands that awake bodies touch."""
+        if not self.sleep:
+            return self.detect(q1)
+        for b, sleeping in enumerate(self.island):
+            if sleeping >= 0:
+                q1[b], v1[b] = q0[b], v0[b]
+        while True:
+            self._woken = set()
+            contacts = self._detect(q1, self.island)
+            if not self._woken:
+                return contacts
+            self._wake(self._woken)
+
+    def _sleeping_warm(self) -> dict[tuple, list[tuple[float, float, float, float]]]:
+        """The warm-start impulses of the sleeping islands' contacts, kept while they
+        sleep."""
+        if not self.sleep:
+            return {}
+        return {key: warm for key, warm in self._warm.items() if self.island[key[1]] >= 0}
+
+    def _doze(self, rows: list[ContactRow], v1: np.ndarray, h: float) -> None:
+        """Add ``h`` to the rest time of each awake body that may sleep and rests (else
+        start it again at zero), and put to sleep, with zero velocity, each island of awake
+        bodies (joined by ``rows``) whose every body has rested :data:`TIME_TO_SLEEP`."""
+        if not self.sleep:
+            return
+        island, rested = self.island, self.rested
+        awake = [b for b, sleeping in enumerate(island) if sleeping < 0]
+        parent = {b: b for b in awake}
+        for row in rows:
+            if row.a >= 0:
+                _join(parent, row.a, row.b)
+        velocities = v1.tolist()
+        shortest: dict[int, float] = {}
+        for b in awake:
+            vx, vy, omega = velocities[b]
+            resting = self.calm[b] and (math.sqrt(vx * vx + vy * vy)
+                                        + self.reach[b] * abs(omega) <= SLEEP_SPEED)
+            rested[b] = rested[b] + h if resting else 0.0
+            r = _root(parent, b)
+            shortest[r] = min(shortest.get(r, rested[b]), rested[b])
+        for b in awake:
+            r = _root(parent, b)
+            if shortest[r] >= TIME_TO_SLEEP:
+                island[b] = r
+                v1[b] = 0.0
 
     def _prepare(self, contact: Contact, poses: dict, velocity: dict, before: dict,
                  h: float) -> ContactRow:
@@ -455,8 +615,9 @@ class ContactPass:
         return jn, jt
 
     def _remember(self, rows: list[ContactRow], poses: dict) -> None:
-        """Keep each contact's impulses with its point in the second body's frame."""
-        self._warm = {}
+        """Keep each contact's impulses with its point in the second body's frame (and
+        those of the sleeping islands)."""
+        self._warm = self._sleeping_warm()
         for row in rows:
             rbx, rby, angle = row.rbx, row.rby, poses[row.b][2]
             c, s = cos_sin_of(angle)
@@ -621,25 +782,31 @@ def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
     """The units grouped by island (union-find over the bodies they join; walls join
     nothing), in order of each island's first unit, each island's units in their order."""
     parent: dict[int, int] = {}
-
-    def root(body: int) -> int:
-        while parent[body] != body:
-            parent[body] = parent[parent[body]]
-            body = parent[body]
-        return body
-
     for unit in units:
         a, b = _unit_bodies(unit)
         parent.setdefault(b, b)
         if a >= 0:
             parent.setdefault(a, a)
-            ra, rb = root(a), root(b)
-            if ra != rb:
-                parent[max(ra, rb)] = min(ra, rb)
+            _join(parent, a, b)
     islands: dict[int, list[ContactRow | Block]] = {}
     for unit in units:
-        islands.setdefault(root(_unit_bodies(unit)[1]), []).append(unit)
+        islands.setdefault(_root(parent, _unit_bodies(unit)[1]), []).append(unit)
     return list(islands.values())
+
+
+def _root(parent: dict[int, int], body: int) -> int:
+    """The root of ``body``'s set in the union-find forest ``parent`` (halving the path)."""
+    while parent[body] != body:
+        parent[body] = parent[parent[body]]
+        body = parent[body]
+    return body
+
+
+def _join(parent: dict[int, int], a: int, b: int) -> None:
+    """Join the sets of bodies a and b under the lower root."""
+    ra, rb = _root(parent, a), _root(parent, b)
+    if ra != rb:
+        parent[max(ra, rb)] = min(ra, rb)
 
 
 def _schedule(rows: list[ContactRow]) -> list[ContactRow | Block]:

@@ -70,7 +70,8 @@ class Model:
                         _restitution_threshold(scene), lean=self.lean,
                         # joined bodies do not collide by default
                         apart=() if self.joints is None else self.joints.connected,
-                        compiled=self.compiled is not None)
+                        compiled=self.compiled is not None, sleep=scene.sleep,
+                        restless=_restless(self, scene))
             if scene.walls or scene.collisions else None)
 
     @property
@@ -240,6 +241,23 @@ def _restitution_threshold(scene: Scene) -> float:
     g = max((math.hypot(*f.acceleration) for f in scene.forces if isinstance(f, Gravity)),
             default=0.0)
     return max(1e-3, 4.0 * g * scene.step_ns * 1e-9)
+
+
+def _restless(model: Model, scene: Scene) -> set[int]:
+    """The bodies that never sleep: those a force of the scene other than gravity, or a
+    joint, acts on (a sleeping body feels only gravity and contacts, both held off)."""
+    names: set[str] = set()
+    for spec in scene.forces:
+        if isinstance(spec, Gravity):
+            continue
+        for field in ("body", "body_a", "body_b"):
+            if isinstance(getattr(spec, field, None), str):
+                names.add(getattr(spec, field))
+        names.update(getattr(spec, "bodies", ()))
+    restless = {model.index[name] for name in names}
+    if model.joints is not None:
+        restless.update(int(b) for b in model.joints.bodies)
+    return restless
 
 
 def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:

@@ -201,6 +201,7 @@ class Simulation:
         self.integrator.import_state(state["integrator"])
         if self.model.contacts is not None:
             self.model.contacts.import_state(state["contacts"] or [])
+        self._hold(rows)
         if self.model.joints is not None and state.get("joints") is not None:
             self.model.joints.import_state(state["joints"])
         divergence = state["divergence"]
@@ -210,13 +211,19 @@ class Simulation:
                          int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
         self._halted = divergence["halted"]
 
+    def _hold(self, rows: list[WrenchRow]) -> None:
+        """Keep the bodies the inputs push awake (where resting islands sleep)."""
+        contacts = self.model.contacts
+        if contacts is not None and contacts.sleep:
+            contacts.hold(row.body for row in rows)
+
     def set_body_state(self, name: str, position: tuple[float, float], angle: float,
                        linear_velocity: tuple[float, float], angular_velocity: float) -> None:
         """Move body ``name`` now: its frame to ``position`` and ``angle``, the frame's origin
         moving at ``linear_velocity``, turning at ``angular_velocity`` (what its pose and a
         world-frame twist publish). The contact pass forgets its warm starts, which belonged
-        to the old positions. Raises :class:`InputError` for an unknown body or a number
-        that is not finite."""
+        to the old positions, and every body wakes. Raises :class:`InputError` for an
+        unknown body or a number that is not finite."""
         index = self.model.index.get(name)
         if index is None:
             raise InputError(f"unknown body '{name}' (bodies: {', '.join(self.model.names)})")
@@ -232,6 +239,7 @@ class Simulation:
         wrap_angles_in_place(self.q[:, 2])
         if self.model.contacts is not None:
             self.model.contacts.reset()
+            self._hold([held.row for held in self._inputs.active()])
         if self.model.joints is not None:  # the next step moves it back onto its joints
             self.model.joints.forget()
         # The new state is where a refused check returns to, its energy within the budget.
@@ -249,7 +257,8 @@ class Simulation:
         bodies stay; commands on a deleted body, or given in its frame, are dropped. The
         energy bound goes on as after a moved body: the new energy joins its budget. The
         same change at the same state gives the same bits, and a spawn into a simulation
-        that has not stepped gives the simulation of ``scene`` from its start.
+        that has not stepped gives the simulation of ``scene`` from its start. Every body
+        is awake afterwards.
         """
         state = self.export_state()
         sim = Simulation(replace(scene, integrator=self.integrator.name), start_ns=self.start_ns)
@@ -276,7 +285,10 @@ class Simulation:
             return [remap[a] if a >= 0 else a, remap[b], *parts]
 
         if sim.model.contacts is not None:
-            warm = [(key(*pair), contacts) for pair, contacts in (state["contacts"] or [])]
+            carried = state["contacts"] or []
+            if isinstance(carried, dict):  # sleeping: only the warm starts carry over
+                carried = carried["warm"]
+            warm = [(key(*pair), contacts) for pair, contacts in carried]
             state["contacts"] = [[pair, contacts] for pair, contacts in warm if pair is not None]
         else:
             state["contacts"] = None
@@ -357,6 +369,7 @@ class Simulation:
             rows = [held.row for held in self._inputs.active()]
             self.model.inputs = wrench_term(rows) if rows else None
             self._bound.inputs_changed(self.q, self.model.inputs)
+            self._hold(rows)
         contacts, joints = self.model.contacts, self.model.joints
         if self._compiled is None or self.model.compiled is None or \
                 (contacts is not None and not contacts.compiled) or \
@@ -447,13 +460,13 @@ class Simulation:
             return q1, v1
         parts = contacts.substeps(q, q1)
         if parts == 1:
-            contacts.resolve(q1, v1, v, h)
+            contacts.resolve(q1, v1, q, v, h)
             return q1, v1
         for _ in range(parts):
             q1, v1 = self.integrator.step(f, q, v, h / parts)
             if joints is not None:
                 joints.resolve(q, q1, v1, h / parts)
-            contacts.resolve(q1, v1, v, h / parts)
+            contacts.resolve(q1, v1, q, v, h / parts)
             q, v = q1, v1
         return q, v
 

@@ -197,6 +197,7 @@ class Scene:
     wrench_topics: tuple[WrenchTopic, ...]
     script: tuple[WrenchCommand, ...]
     joints: tuple[JointSpec, ...] = ()
+    sleep: bool = False  # resting islands of the contact pass sleep
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -370,6 +371,7 @@ def _read_scene(root: ParameterReader) -> Scene:
                              for name, r in root.named_children("script")),
                             key=lambda c: (c.stamp_ns, c.source))),
         joints=joints,
+        sleep=root.child("contacts").boolean("sleep", False),
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene

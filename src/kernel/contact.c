@@ -22,9 +22,17 @@ int hd_contact_prepare(hd_contact_model *m)
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
     m->parent = malloc((size_t)(2 * (n + 1)) * sizeof(long));
     m->island_of = m->parent == NULL ? NULL : m->parent + n + 1;
+    m->calm = calloc(2 * ((size_t)n + 1), sizeof(int));
+    m->wake = m->calm == NULL ? NULL : m->calm + n + 1;
+    m->rested = calloc((size_t)n + 1, sizeof(double));
+    m->island = malloc(((size_t)n + 1) * sizeof(long));
     if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
-            !m->cos_sin || !m->parent || index_pairs(m) < 0)
+            !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island ||
+            index_pairs(m) < 0)
         return -1;
+    for (long b = 0; b <= n; ++b)
+        m->island[b] = -1;
+    m->sleep = m->woken = 0;
     m->arrived = m->velocity + 3 * (n + 1);
     m->before = m->arrived + 3 * (n + 1);
     m->shift = m->before + 3 * (n + 1);
@@ -74,6 +82,9 @@ void hd_contact_free(hd_contact_model *m)
     free(m->warm_table);
     free(m->cos_sin);
     free(m->pair_table);
+    free(m->calm);
+    free(m->rested);
+    free(m->island);
     free(m);
 }
 
@@ -264,6 +275,8 @@ int hd_detect(hd_contact_model *m, const double *q)
         const double nx = wall[0], ny = wall[1], offset = wall[2];
         for (long k = m->wall_first[w]; k < m->wall_first[w + 1]; ++k) {
             const long b = m->wall_body[k];
+            if (m->island[b] >= 0)
+                continue;
             if (nx * q[3 * b] + ny * q[3 * b + 1] - offset > m->reach[b] + HD_MARGIN)
                 continue;
             place(m, q, b);
@@ -283,6 +296,11 @@ int hd_detect(hd_contact_model *m, const double *q)
     if (m->pair_count == 0)
         return 0;
     const long count = m->colliding_count;
+    long awake = 0;  /* with every colliding body asleep no pair needs looking at */
+    while (awake < count && m->island[m->colliding[awake]] >= 0)
+        awake += 1;
+    if (awake == count)
+        return 0;
     for (long k = 0; k < count; ++k) {
         double *box = m->sweep + 5 * k;
         const long b = m->sweep_order ? (long)box[1] : m->colliding[k];
@@ -306,13 +324,21 @@ int hd_detect(hd_contact_model *m, const double *q)
             const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
             if (!(other[3] <= box[4] + HD_MARGIN && other[4] >= box[3] - HD_MARGIN))
                 continue;
+            const long sleeping = m->island[i] > m->island[j] ? m->island[i] : m->island[j];
+            if (sleeping >= 0 && m->island[i] >= 0 && m->island[j] >= 0)
+                continue;
             const double *material = material_of(m, i, j);
             if (material == NULL)
                 continue;
             place(m, q, i);
             place(m, q, j);
+            const long found = m->contact_count;
             if (pair_contacts(m, i, j, material) < 0)
                 return -1;
+            if (sleeping >= 0 && m->contact_count > found) {
+                m->wake[sleeping] = 1;
+                m->woken = 1;
+            }
         }
     }
     return 0;

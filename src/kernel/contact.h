@@ -21,6 +21,8 @@
 #define HD_MAX_CORRECTION 0.05
 #define HD_POSITION_ITERATIONS 4
 #define HD_MAX_SUBSTEPS 256
+#define HD_SLEEP_SPEED 0.05
+#define HD_TIME_TO_SLEEP 0.5
 
 /* The small functions of the solver's inner loop, always inlined (GCC left them as
  * calls); inlining changes no floating-point operation. */
@@ -130,15 +132,26 @@ typedef struct hd_contact_model {
     long warm_count, warm_capacity;
     long *warm_table;   /* open addressing: the first impulse of each key, or -1 */
     long warm_table_size;
+    /* Sleeping (solver.py: ContactPass._doze): on or off; per body whether it may sleep
+     * (calm), its rest time (s) and its sleeping island (the island's lowest body; -1
+     * awake); per island, whether an awake body touched it in this detection (wake), and
+     * whether any did (woken). */
+    int sleep, woken;
+    int *calm, *wake;
+    double *rested;
+    long *island;
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */
 int hd_contact_prepare(hd_contact_model *m);
 void hd_contact_free(hd_contact_model *m);
-/* The contacts at q (m->contacts, m->contact_count); -1 out of memory. */
+/* The contacts at q (m->contacts, m->contact_count) of the awake bodies, marking in
+ * m->wake the sleeping islands an awake body touches; -1 out of memory. */
 int hd_detect(hd_contact_model *m, const double *q);
-/* solver.py: ContactPass.resolve; q1 and v1 change in place; -1 out of memory. */
-int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h);
+/* solver.py: ContactPass.resolve after a step from (q0, v0); q1 and v1 change in place,
+ * sleeping bodies back at (q0, v0); -1 out of memory. */
+int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
+               const double *v0, double h);
 /* After the warm-start impulses were replaced: group them by their parts' names (sorted,
  * keeping their order within a name) and index them; -1 out of memory. */
 int hd_set_warm(hd_contact_model *m);

@@ -558,23 +558,23 @@ fail:
 }
 
 PyDoc_STRVAR(resolve_doc,
-"resolve(contacts, q1, v1, v0, h)\n\n"
-"The contact pass after a step of ``h`` from velocities ``v0`` to (q1, v1): updates q1\n"
-"and v1 in place (ContactPass.resolve).");
+"resolve(contacts, q1, v1, q0, v0, h)\n\n"
+"The contact pass after a step of ``h`` from (q0, v0) to (q1, v1): updates q1 and v1 in\n"
+"place, sleeping bodies back at (q0, v0) (ContactPass.resolve).");
 
 static PyObject *py_resolve(PyObject *self, PyObject *args)
 {
-    PyObject *capsule, *objects[3];
+    PyObject *capsule, *objects[4];
     double h;
-    if (!PyArg_ParseTuple(args, "OOOOd:resolve", &capsule, objects, objects + 1, objects + 2,
-                          &h))
+    if (!PyArg_ParseTuple(args, "OOOOOd:resolve", &capsule, objects, objects + 1, objects + 2,
+                          objects + 3, &h))
         return NULL;
     hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
     if (m == NULL)
         return NULL;
-    Py_buffer views[3];
-    const char *names[3] = {"q1", "v1", "v0"};
-    for (int k = 0; k < 3; ++k) {
+    Py_buffer views[4];
+    const char *names[4] = {"q1", "v1", "q0", "v0"};
+    for (int k = 0; k < 4; ++k) {
         if (get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
             while (k-- > 0)
                 PyBuffer_Release(views + k);
@@ -583,13 +583,75 @@ static PyObject *py_resolve(PyObject *self, PyObject *args)
     }
     int status;
     Py_BEGIN_ALLOW_THREADS
-    status = hd_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    status = hd_resolve(m, views[0].buf, views[1].buf, views[2].buf, views[3].buf, h);
     Py_END_ALLOW_THREADS
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < 4; ++k)
         PyBuffer_Release(views + k);
     if (status < 0)
         return PyErr_NoMemory();
     Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(sleep_doc,
+"sleep(contacts[, enabled, calm, rested, island]) -> (rested, island)\n\n"
+"Sleeping of resting islands (ContactPass._doze): per body its rest time (s) and\n"
+"sleeping island (-1: awake); with the arguments, first turn sleeping on or off and set\n"
+"per body whether it may sleep (calm), its rest time and its island.");
+
+static PyObject *py_sleep(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[3] = {NULL, NULL, NULL};
+    int enabled = 0;
+    if (!PyArg_ParseTuple(args, "O|iOOO:sleep", &capsule, &enabled, objects, objects + 1,
+                          objects + 2))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
+    if (m == NULL)
+        return NULL;
+    if (objects[0] != NULL) {
+        if (objects[2] == NULL) {
+            PyErr_SetString(PyExc_TypeError, "sleep: give enabled, calm, rested and island");
+            return NULL;
+        }
+        Py_buffer views[3];
+        const char *names[3] = {"calm", "rested", "island"};
+        const char kinds[3] = {'q', 'd', 'q'};
+        for (int k = 0; k < 3; ++k) {
+            if (get_buffer(objects[k], views + k, names[k], kinds[k], m->bodies, 0) < 0) {
+                while (k-- > 0)
+                    PyBuffer_Release(views + k);
+                return NULL;
+            }
+        }
+        const long long *calm = views[0].buf, *island = views[2].buf;
+        const double *rested = views[1].buf;
+        m->sleep = enabled != 0;
+        for (long b = 0; b < m->bodies; ++b) {
+            m->calm[b] = calm[b] != 0;
+            m->rested[b] = rested[b];
+            m->island[b] = (long)island[b];
+        }
+        for (int k = 0; k < 3; ++k)
+            PyBuffer_Release(views + k);
+    }
+    PyObject *rested = PyList_New(m->bodies), *island = PyList_New(m->bodies);
+    for (long b = 0; rested != NULL && island != NULL && b < m->bodies; ++b) {
+        PyObject *t = PyFloat_FromDouble(m->rested[b]), *i = PyLong_FromLong(m->island[b]);
+        if (t == NULL || i == NULL) {
+            Py_XDECREF(t);
+            Py_XDECREF(i);
+            Py_CLEAR(rested);
+            break;
+        }
+        PyList_SET_ITEM(rested, b, t);
+        PyList_SET_ITEM(island, b, i);
+    }
+    if (rested == NULL || island == NULL) {
+        Py_XDECREF(rested);
+        Py_XDECREF(island);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", rested, island);
 }
 
 PyDoc_STRVAR(warm_doc,
@@ -844,6 +906,7 @@ static PyMethodDef methods[] = {
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},
     {"warm", py_warm, METH_VARARGS, warm_doc},
+    {"sleep", py_sleep, METH_VARARGS, sleep_doc},
     {"joints", py_joints, METH_VARARGS, joints_doc},
     {"joint_state", py_joint_state, METH_VARARGS, joint_state_doc},
     {"joints_resolve", py_joints_resolve, METH_VARARGS, joints_resolve_doc},
@@ -893,7 +956,8 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
         {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
-        {"MAX_CONDITION", HD_MAX_CONDITION},
+        {"MAX_CONDITION", HD_MAX_CONDITION}, {"SLEEP_SPEED", HD_SLEEP_SPEED},
+        {"TIME_TO_SLEEP", HD_TIME_TO_SLEEP},
     };
     for (size_t k = 0; k < sizeof reals / sizeof reals[0]; ++k) {
         PyObject *value = PyFloat_FromDouble(reals[k].value);

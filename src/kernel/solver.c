@@ -391,20 +391,38 @@ static void solve_velocities(hd_contact_model *m, long count)
     }
 }
 
-/* Keep each contact's impulses with its point in body b's axes (solver.py: _remember). */
+/* Keep only the warm-start impulses of the sleeping islands' contacts, in their order
+ * (solver.py: _sleeping_warm); returns how many. */
+static long keep_sleeping_warm(hd_contact_model *m)
+{
+    long kept = 0;
+    for (long k = 0; m->sleep && k < m->warm_count; ++k) {
+        if (m->island[m->warm[k].key[1]] < 0)
+            continue;
+        m->warm[kept] = m->warm[k];
+        m->warm[kept].used = 0;
+        kept += 1;
+    }
+    m->warm_count = kept;
+    return kept;
+}
+
+/* Keep each contact's impulses with its point in body b's axes, after those of the
+ * sleeping islands (solver.py: _remember). */
 static int remember(hd_contact_model *m, long count)
 {
-    if (count > m->warm_capacity) {
-        hd_warm *grown = realloc(m->warm, (size_t)count * sizeof(hd_warm));
+    const long kept = keep_sleeping_warm(m);
+    if (kept + count > m->warm_capacity) {
+        hd_warm *grown = realloc(m->warm, (size_t)(kept + count) * sizeof(hd_warm));
         if (grown == NULL)
             return -1;
         m->warm = grown;
-        m->warm_capacity = count;
+        m->warm_capacity = kept + count;
     }
     for (long k = 0; k < count; ++k) {
         const hd_row *r = m->rows + k;
         const double c = m->cos_sin[2 * r->b], s = m->cos_sin[2 * r->b + 1];
-        hd_warm *w = m->warm + k;
+        hd_warm *w = m->warm + kept + k;
         memcpy(w->key, r->key, sizeof w->key);
         w->lx = c * r->rbx + s * r->rby;
         w->ly = -s * r->rbx + c * r->rby;
@@ -412,8 +430,76 @@ static int remember(hd_contact_model *m, long count)
         w->jt = r->jt;
         w->used = 0;
     }
-    m->warm_count = count;
+    m->warm_count = kept + count;
     return index_warm(m);
+}
+
+/* Put the sleeping bodies back at (q0, v0) (solver.py: _awake_contacts). */
+static void hold(const hd_contact_model *m, double *q1, double *v1, const double *q0,
+                 const double *v0)
+{
+    for (long b = 0; b < m->bodies; ++b) {
+        if (m->island[b] < 0)
+            continue;
+        memcpy(q1 + 3 * b, q0 + 3 * b, 3 * sizeof(double));
+        memcpy(v1 + 3 * b, v0 + 3 * b, 3 * sizeof(double));
+    }
+}
+
+/* Wake the islands detection marked (solver.py: _wake). */
+static void wake_marked(hd_contact_model *m)
+{
+    for (long b = 0; b < m->bodies; ++b) {
+        if (m->island[b] >= 0 && m->wake[m->island[b]]) {
+            m->island[b] = -1;
+            m->rested[b] = 0.0;
+        }
+    }
+    memset(m->wake, 0, (size_t)(m->bodies + 1) * sizeof(int));
+    m->woken = 0;
+}
+
+/* The rest times of the awake bodies after a step of h, and sleep, with zero velocity, for
+ * each island of awake bodies (joined by the `count` rows) whose every body has rested
+ * HD_TIME_TO_SLEEP (solver.py: _doze). */
+static void doze(hd_contact_model *m, double *v1, long count, double h)
+{
+    if (!m->sleep)
+        return;
+    const long n = m->bodies, wall = m->bodies;
+    long *parent = m->parent;
+    double *shortest = m->shift;
+    for (long b = 0; b < n; ++b) {
+        parent[b] = b;
+        shortest[b] = INFINITY;
+    }
+    for (long k = 0; k < count; ++k) {
+        const hd_row *r = m->rows + k;
+        if (r->a == wall)
+            continue;
+        const long ra = root_of(parent, r->a), rb = root_of(parent, r->b);
+        if (ra != rb)
+            parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
+    }
+    for (long b = 0; b < n; ++b) {
+        if (m->island[b] >= 0)
+            continue;
+        const double *v = v1 + 3 * b;
+        const int resting = m->calm[b] && sqrt(v[0] * v[0] + v[1] * v[1])
+                                            + m->reach[b] * fabs(v[2]) <= HD_SLEEP_SPEED;
+        m->rested[b] = resting ? m->rested[b] + h : 0.0;
+        const long r = root_of(parent, b);
+        shortest[r] = py_min(shortest[r], m->rested[b]);
+    }
+    for (long b = 0; b < n; ++b) {
+        if (m->island[b] >= 0)
+            continue;
+        const long r = root_of(parent, b);
+        if (shortest[r] >= HD_TIME_TO_SLEEP) {
+            m->island[b] = r;
+            v1[3 * b] = v1[3 * b + 1] = v1[3 * b + 2] = 0.0;
+        }
+    }
 }
 
 /* Remove overlap beyond HD_SLOP by moving positions only (solver.py: _correct_positions):
@@ -453,14 +539,23 @@ static void correct_positions(hd_contact_model *m, long count, double *q1, doubl
     }
 }
 
-int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, double h)
+int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
+               const double *v0, double h)
 {
-    if (hd_detect(m, q1) < 0)
-        return -1;
+    if (m->sleep)
+        hold(m, q1, v1, q0, v0);
+    for (;;) {
+        if (hd_detect(m, q1) < 0)
+            return -1;
+        if (!m->woken)
+            break;
+        wake_marked(m);
+    }
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
-        m->warm_count = 0;
-        return 0;
+        keep_sleeping_warm(m);
+        doze(m, v1, 0, h);
+        return m->sleep ? index_warm(m) : 0;
     }
     /* The rows, then `count` doubles for the position correction's depths. */
     const long needed = count + (count * (long)sizeof(double)) / (long)sizeof(hd_row) + 1;
@@ -520,5 +615,6 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *v0, do
         }
     }
     correct_positions(m, count, q1, h, (double *)(m->rows + count));
+    doze(m, v1, count, h);
     return 0;
 }

@@ -317,7 +317,7 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
         return status;
     const long parts = substeps(m, q, q1);
     if (parts == 1)
-        return hd_resolve(m, q1, v1, v, h) < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
+        return hd_resolve(m, q1, v1, q, v, h) < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
     double *q_part = spare, *v_part = spare + n3, *q_next = spare + 2 * n3,
            *v_next = spare + 3 * n3;
     memcpy(q_part, q, (size_t)n3 * sizeof(double));
@@ -327,7 +327,7 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
         if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part))
                 != HD_ADVANCED)
             return status;
-        if (hd_resolve(m, q_next, v_next, v_part, part) < 0)
+        if (hd_resolve(m, q_next, v_next, q_part, v_part, part) < 0)
             return HD_OUT_OF_MEMORY;
         memcpy(q_part, q_next, (size_t)n3 * sizeof(double));
         memcpy(v_part, v_next, (size_t)n3 * sizeof(double));

@@ -156,7 +156,9 @@ def test_contact_bench_writes_its_tables(tmp_path):
         if lines:
             assert len({line.count("|") for line in lines}) == 1, block
     rows = (tmp_path / "contacts.csv").read_text().splitlines()
-    assert rows[0].startswith("section,") and len(rows) == 1 + 1 + 1
+    # the pyramid and the scene, each with sleeping off and on
+    assert rows[0].startswith("section,") and len(rows) == 1 + 2 + 2
+    assert "hecker_dynamics (sleeping) us/step" in text and "semi_implicit_euler, sleeping" in text
 
 
 def test_cli_contacts_refuses_a_scene_without_contacts(capsys):
