@@ -25,7 +25,7 @@ from typing import NamedTuple, Union
 import numpy as np
 
 from ..geometry.shapes import is_convex
-from ..geometry.planar import perp_dot
+from ..geometry.planar import magnitude, perp_dot
 
 Point = tuple[float, float]
 ContactPoint = tuple[Point, Point, float]
@@ -157,7 +157,7 @@ def polygon_circle(verts: list[Point], normals: list[Point], center: Point,
             if ((cx - vertex[0]) * (other[0] - vertex[0])
                     + (cy - vertex[1]) * (other[1] - vertex[1])) <= 0.0:
                 dx, dy = cx - vertex[0], cy - vertex[1]
-                distance = math.hypot(dx, dy)
+                distance = magnitude(dx, dy)
                 if distance > radius + margin or distance == 0.0:
                     return []
                 n = (dx / distance, dy / distance)
@@ -174,7 +174,7 @@ def circle_circle(center_a: Point, radius_a: float, center_b: Point,
                   radius_b: float, margin: float) -> list[ContactPoint]:
     """Contact of two circles (normal from A to B)."""
     dx, dy = center_b[0] - center_a[0], center_b[1] - center_a[1]
-    distance = math.hypot(dx, dy)
+    distance = magnitude(dx, dy)
     depth = radius_a + radius_b - distance
     if depth < -margin:
         return []

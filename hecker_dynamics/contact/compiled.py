@@ -2,10 +2,10 @@
 
 :class:`CompiledContacts` packs a :class:`~.solver.ContactPass`'s bodies, parts, walls and
 colliding pairs once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
-``ContactPass.resolve`` in C, operation for operation, so the two give the same bits (but
-for circles, whose distances C's ``hypot`` may round differently in the last bit from
-CPython's ``math.hypot``). The warm-start impulses, and with sleeping on the bodies' rest
-times and sleeping islands, live in the kernel between steps.
+``ContactPass.resolve`` in C, operation for operation, so the two give the same bits
+(lengths by :func:`~hecker_dynamics.geometry.planar.magnitude`, as C's ``hd_length``, not
+by ``hypot``, which C and CPython may round apart). The warm-start impulses, and with
+sleeping on the bodies' rest times and sleeping islands, live in the kernel between steps.
 """
 from __future__ import annotations
 

@@ -62,7 +62,7 @@ import numpy as np
 from .collision import (CirclePart, ConvexPolygon, Part, PolygonPart, circle_circle,
                         half_plane_circle, half_plane_polygon, polygon_circle, polygon_polygon)
 from ..geometry.shapes import Circle
-from ..geometry.planar import cos_sin_of
+from ..geometry.planar import cos_sin_of, magnitude
 from . import compiled as _compiled
 
 if TYPE_CHECKING:
@@ -464,7 +464,7 @@ class ContactPass:
             return 1
         if self._lean:  # a few bodies: plain floats beat numpy's cost per call
             before, after = q0.tolist(), q1.tolist()
-            farthest = max(math.hypot(after[i][0] - before[i][0], after[i][1] - before[i][1])
+            farthest = max(magnitude(after[i][0] - before[i][0], after[i][1] - before[i][1])
                            + abs(after[i][2] - before[i][2]) * self.reach[i]
                            for i in self.colliding)
         else:

@@ -25,7 +25,7 @@ from typing import NamedTuple, Optional, Protocol
 
 import numpy as np
 
-from ..geometry.planar import cos_sin, cos_sin_of
+from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE, cos_sin, cos_sin_of, magnitude
 
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
@@ -211,20 +211,6 @@ class GravityTerm:
         return -float(np.sum(self.weights * q[self.bodies, :2]))
 
 
-#: Squared lengths in which sqrt(dx^2 + dy^2) keeps its digits: below, squares underflow.
-_SMALLEST_SQUARE, _LARGEST_SQUARE = float(np.finfo(float).tiny), float(np.finfo(float).max)
-
-
-def magnitude(x: float, y: float) -> float:
-    """|(x, y)| in plain floats: the square root of the sum of squares where that neither
-    underflows nor overflows (as :func:`_direction` does for arrays), else ``math.hypot``.
-    The compiled kernel computes it the same way."""
-    square = x * x + y * y
-    if _SMALLEST_SQUARE <= square <= _LARGEST_SQUARE:
-        return math.sqrt(square)
-    return math.hypot(x, y)
-
-
 class SpringLaw:
     """Stiffness k, rest length L0 and damping c of a group of springs, with the group's
     zero-rest-length springs (the linear law) found once."""
@@ -266,7 +252,7 @@ def _direction(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     """
     square = dx * dx
     square += dy * dy
-    if square.min() >= _SMALLEST_SQUARE and square.max() <= _LARGEST_SQUARE:
+    if square.min() >= SMALLEST_SQUARE and square.max() <= LARGEST_SQUARE:
         length = np.sqrt(square, out=square)
         return length, dx / length, dy / length
     length = np.hypot(dx, dy)

@@ -101,3 +101,18 @@ def wrap_angles_in_place(theta: np.ndarray) -> None:
         return
     outside = np.flatnonzero((theta < -math.pi) | (theta >= math.pi))
     theta[outside] = wrap_angle(theta[outside])
+
+
+#: Squared lengths in which sqrt(dx^2 + dy^2) keeps its digits: below, squares underflow.
+SMALLEST_SQUARE, LARGEST_SQUARE = float(np.finfo(float).tiny), float(np.finfo(float).max)
+
+
+def magnitude(x: float, y: float) -> float:
+    """|(x, y)| in plain floats: the square root of the sum of squares where that neither
+    underflows nor overflows, else ``math.hypot``. The compiled kernel computes it the same
+    way (``hd_length``), so the two agree to the bit, which C's ``hypot`` and CPython's
+    ``math.hypot`` do not always do."""
+    square = x * x + y * y
+    if SMALLEST_SQUARE <= square <= LARGEST_SQUARE:
+        return math.sqrt(square)
+    return math.hypot(x, y)

@@ -32,16 +32,6 @@ int hd_real_columns(int kind)
     }
 }
 
-/* |(x, y)|: sqrt of the sum of squares where it neither underflows nor overflows, else
- * hypot (forces.py: `magnitude`). */
-static double length(double x, double y)
-{
-    double square = x * x + y * y;
-    if (square >= DBL_MIN && square <= DBL_MAX)
-        return sqrt(square);
-    return hypot(x, y);
-}
-
 /* World offset r = R(angle) l of a point l given relative to a body's CM. */
 static void offset(const hd_scratch *s, long body, double lx, double ly, double *rx, double *ry)
 {
@@ -78,7 +68,7 @@ static void spring(double dx, double dy, double dvx, double dvy, double k, doubl
         *fy = -k * dy - c * dvy;
         return;
     }
-    double l = length(dx, dy);
+    double l = hd_length(dx, dy);
     if (l == 0.0) {
         *fx = 0.0;
         *fy = 0.0;
@@ -93,7 +83,7 @@ static void spring(double dx, double dy, double dvx, double dvy, double k, doubl
 /* -c v (linear) or -c |v| v (quadratic). */
 static void drag(double vx, double vy, double c, long quadratic, double *fx, double *fy)
 {
-    double scale = quadratic ? c * length(vx, vy) : c;
+    double scale = quadratic ? c * hd_length(vx, vy) : c;
     *fx = -scale * vx;
     *fy = -scale * vy;
 }

@@ -13,7 +13,20 @@
 #ifndef HECKER_DYNAMICS_KERNEL_H
 #define HECKER_DYNAMICS_KERNEL_H
 
+#include <float.h>
+#include <math.h>
 #include <stddef.h>
+
+/* |(x, y)|: sqrt of the sum of squares where it neither underflows nor overflows, else
+ * hypot (geometry/planar.py: `magnitude`), so that C and Python round it alike; C's hypot
+ * and CPython's math.hypot may differ in the last bit. */
+static inline double hd_length(double x, double y)
+{
+    const double square = x * x + y * y;
+    if (square >= DBL_MIN && square <= DBL_MAX)
+        return sqrt(square);
+    return hypot(x, y);
+}
 
 /* Exported names carry the prefix hd_: a plain `advance` would be bound to glibc's. */
 

@@ -7,6 +7,7 @@
 #include <math.h>
 
 #include "contact.h"
+#include "kernel.h"
 
 /* The edge of polygon 1 along whose normal polygon 2 is farthest out, and that distance
  * (collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
@@ -129,7 +130,7 @@ int hd_polygon_circle(const double *v, const double *n, long k, double cx, doubl
             if ((cx - vertex[0]) * (other[0] - vertex[0]) +
                     (cy - vertex[1]) * (other[1] - vertex[1]) <= 0.0) {
                 const double dx = cx - vertex[0], dy = cy - vertex[1];
-                const double distance = hypot(dx, dy);
+                const double distance = hd_length(dx, dy);
                 if (distance > radius + margin || distance == 0.0)
                     return 0;
                 const double ux = dx / distance, uy = dy / distance;
@@ -151,7 +152,7 @@ int hd_circle_circle(double ax, double ay, double ra, double bx, double by, doub
                      double margin, hd_found *out)
 {
     const double dx = bx - ax, dy = by - ay;
-    const double distance = hypot(dx, dy);
+    const double distance = hd_length(dx, dy);
     const double depth = ra + rb - distance;
     if (depth < -margin)
         return 0;

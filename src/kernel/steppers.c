@@ -284,9 +284,7 @@ static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
 }
 
 /* How many sub-steps keep every colliding body's travel under half the thinnest colliding
- * part (solver.py: ContactPass.substeps; C's hypot where Python's plain-float path has
- * math.hypot, which may round the last bit differently: it changes the count only for a
- * travel within an ulp of a multiple of the half thickness). */
+ * part (solver.py: ContactPass.substeps, its plain-float path). */
 static long substeps(const hd_contact_model *m, const double *q0, const double *q1)
 {
     if (m->colliding_count == 0)
@@ -294,7 +292,7 @@ static long substeps(const hd_contact_model *m, const double *q0, const double *
     double farthest = 0.0;
     for (long k = 0; k < m->colliding_count; ++k) {
         const long i = m->colliding[k];
-        const double moved = hypot(q1[3 * i] - q0[3 * i], q1[3 * i + 1] - q0[3 * i + 1])
+        const double moved = hd_length(q1[3 * i] - q0[3 * i], q1[3 * i + 1] - q0[3 * i + 1])
                              + fabs(q1[3 * i + 2] - q0[3 * i + 2]) * m->reach[i];
         if (k == 0 || moved > farthest)
             farthest = moved;

@@ -1,7 +1,6 @@
 """The contact pass in the compiled kernel against the Python pass, and its saved state.
 
-The kernel repeats solver.py and collision.py operation for operation, so on boxes (no
-circle, whose distances C's hypot and CPython's math.hypot may round apart) the two give
+The kernel repeats solver.py and collision.py operation for operation, so the two give
 the same bits: positions, velocities and the warm-start impulses, compared exactly. The
 state a ContactPass carries from step to step is its warm-start impulses; a simulation
 given the positions, velocities and that state continues bit for bit.
@@ -100,17 +99,16 @@ def test_kernel_sleeps_a_pyramid_with_the_bits_of_python(rows):
 
 @needs_kernel
 def test_kernel_sleeps_a_small_ball_box_as_python():
-    """The ball box with 16 balls and sleeping on, 4 s: the balls' distances go through C's
-    hypot and CPython's math.hypot, which round apart in the last bit now and then (the
-    two paths first differ by 1.4e-17 m at step 153, with sleeping on or off alike), so
-    the states agree to 1e-5 m and 1e-3 m/s (measured: 7e-7 m) rather than bit for bit;
-    the same balls sleep at the end."""
+    """The ball box with 16 balls and sleeping on, 4 s: circles' distances are taken as
+    the square root of the sum of squares on both paths (C's hypot and CPython's
+    math.hypot round apart now and then: before, the paths differed by 1.4e-17 m from
+    step 153 on), so the states are the same bits, and the same balls sleep."""
     scene = ball_box(sleep=True, grid=4)
     fast, slow = Simulation(scene), Simulation(scene)
     slow.model.use_python()
     fast.advance_to(4 * SECOND)
     slow.advance_to(4 * SECOND)
-    assert np.abs(fast.q - slow.q).max() < 1e-5 and np.abs(fast.v - slow.v).max() < 1e-3
+    assert np.array_equal(fast.q, slow.q) and np.array_equal(fast.v, slow.v)
     asleep = fast.model.contacts.sleeping()
     assert asleep == slow.model.contacts.sleeping() and len(asleep) >= 8
 
