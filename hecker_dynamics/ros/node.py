@@ -471,8 +471,12 @@ class DynamicsNode(Node):
         self._publish_records()
         response.success = record.accepted
         response.message = done if record.accepted else record.reason
-        (self.get_logger().info if record.accepted else self.get_logger().warning)(
-            response.message)
+        # rclpy keys a logger's per-call-site context on the calling line and refuses a
+        # second severity there, so each severity gets its own line.
+        if record.accepted:
+            self.get_logger().info(response.message)
+        else:
+            self.get_logger().warning(response.message)
         return response
 
     def _on_pause(self, request: Trigger.Request, response: Trigger.Response) -> Any:

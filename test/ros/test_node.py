@@ -300,11 +300,11 @@ def test_lockstep_runs_the_scripted_duration_and_publishes_clock(ros):
         assert_pose_matches(pose, snapshot.bodies[0], scene.frame_id)
 
 
-def _call(ros, srv_type, name: str, **fields):
-    client = ros.helper.create_client(srv_type, name)
-    assert client.wait_for_service(timeout_sec=10.0), name
+def _call(ros, srv_type, service: str, /, **fields):
+    client = ros.helper.create_client(srv_type, service)
+    assert client.wait_for_service(timeout_sec=10.0), service
     future = client.call_async(srv_type.Request(**fields))
-    spin_until(ros, future.done, f"the {name} service")
+    spin_until(ros, future.done, f"the {service} service")
     return future.result()
 
 
