@@ -124,7 +124,7 @@ def test_head_on_boxes_obey_momentum_and_restitution(masses, e):
     assert gap >= -SLOP
 
 
-# ------------------------------------------------------------------ off-centre hits
+# ------------------------------------------------------------------ off-center hits
 
 def _step_to_impact(sim):
     """Step until the next (force-free, semi-implicit) step puts the bodies in overlap;
@@ -160,7 +160,7 @@ def _impulse_prediction(sim, q1, v, contact, e):
 @pytest.mark.parametrize("e", [0.3, 0.7, 1.0])
 def test_box_face_hits_a_corner_and_sets_both_spinning(e):
     """A 0.4 x 1 box moving +x at 3 m/s hits, with its right face, the leftmost corner of
-    a 1 x 0.5 box turned 0.4 rad at rest, 6 cm below the mover's centre line. Both
+    a 1 x 0.5 box turned 0.4 rad at rest, 6 cm below the mover's center line. Both
     bodies' new velocities and spins are the impulse formula's (rel 1e-12: a few flops of
     rounding), the single contact lies on the turned box's corner (1e-12 m), and angular
     momentum about a fixed point is unchanged through the impact and after (rel 1e-13).
@@ -195,9 +195,9 @@ def test_box_face_hits_a_corner_and_sets_both_spinning(e):
 
 
 @pytest.mark.parametrize("offset", [0.15, -0.2])
-def test_circle_hits_a_box_off_centre(offset):
+def test_circle_hits_a_box_off_center(offset):
     """A disc (r = 0.1, 0.5 kg) at 3 m/s hits the left face of a resting 1 x 0.5 box
-    ``offset`` from its centre line (e = 0.6, no friction). The box spins at
+    ``offset`` from its center line (e = 0.6, no friction). The box spins at
     omega_B = (r_B x j n)/I_B with j from the formula; the disc's spin is untouched
     (its arm is along n); momentum and angular momentum conserved (rel 1e-13)."""
     e = 0.6
@@ -210,7 +210,7 @@ def test_circle_hits_a_box_off_centre(offset):
     q1, v, contacts = _step_to_impact(sim)
     assert len(contacts) == 1
     point = np.asarray(contacts[0][2])
-    assert point[1] == pytest.approx(offset, abs=1e-12)  # on the line of centres' height
+    assert point[1] == pytest.approx(offset, abs=1e-12)  # on the line of centers' height
     # halfway between the box's face x = -0.5 and the disc's surface, depth past it
     assert point[0] == pytest.approx(-0.5 + contacts[0][4] / 2, abs=1e-12)
     expected, _ = _impulse_prediction(sim, q1, v, contacts[0], e)
@@ -355,9 +355,9 @@ def _plank_slope(angle_deg, mu):
     a = math.radians(angle_deg)
     n = np.array([-math.sin(a), math.cos(a)])
     t = np.array([math.cos(a), math.sin(a)])
-    centre = (0.1 + 0.125) * n + 1.0 * t
+    center = (0.1 + 0.125) * n + 1.0 * t
     sim = _sim({"plank": box_body((6.0, 0.2), 1e12, angle=a),
-                "box": box_body((0.5, 0.25), 2.0, position=centre.tolist(), angle=a)},
+                "box": box_body((0.5, 0.25), 2.0, position=center.tolist(), angle=a)},
                _group("plank", "box", e=0.0, mu=mu), None,
                {"g": {"type": "gravity", "bodies": ["box"]}})
     return sim, sim.model.index["box"], a, t, n
@@ -430,7 +430,7 @@ def test_disc_rolls_down_a_tilted_plank():
 
 def _bullet_scene(shape):
     """A 5 cm bullet at 100 m/s towards a 2 cm thick, 100 kg plate whose left face is at
-    x = 0. Unsplit 1 ms steps put the bullet's centre at x = -0.04 (clear by 1.5 cm) and
+    x = 0. Unsplit 1 ms steps put the bullet's center at x = -0.04 (clear by 1.5 cm) and
     then at x = 0.06 (past the plate by 1.5 cm): it would never be seen touching."""
     if shape == "circle":
         bullet = {"shape": "circle", "radius": 0.025, "mass": 0.05,
@@ -475,7 +475,7 @@ def test_without_sub_steps_the_same_bullet_tunnels(shape, monkeypatch):
 @pytest.mark.parametrize("method", METHODS)
 def test_bounce_with_every_integrator(method):
     """A 10 x 6 cm box (20 m/s, spinning, turned) hits a 2 cm plate (spinning slowly)
-    off-centre with friction, e = 0.5; both spins are damped (an external torque only, so
+    off-center with friction, e = 0.5; both spins are damped (an external torque only, so
     linear momentum is still conserved, and the integrators really differ: the damped
     angular rate is what each method integrates). Sub-steps split each step (2-3 parts).
 
@@ -585,7 +585,7 @@ def test_door_stays_held_against_the_block():
 
 def test_car_flip_lands_on_its_roof():
     """The car ends upside down (angle pi within 1e-3 rad) resting on the cabin roof: the
-    roof is 0.8 m above the body-frame origin (cabin centre 0.55 + half height 0.25), so
+    roof is 0.8 m above the body-frame origin (cabin center 0.55 + half height 0.25), so
     the origin ends 0.8 m up (2 REST) and still (1e-6)."""
     scene = load_scene("car_flip")
     sim = Simulation(scene)
