@@ -30,18 +30,18 @@ TOL = 1e-12
 SQ2 = math.sqrt(2.0)
 
 
-def polygon(local, centre=(0.0, 0.0), angle=0.0):
+def polygon(local, center=(0.0, 0.0), angle=0.0):
     """A convex polygon placed in the world: (vertices, normals) as lists of tuples."""
     poly = ConvexPolygon.from_vertices(np.asarray(local, dtype=float))
     R = rotation(angle)
-    verts = poly.vertices @ R.T + np.asarray(centre, dtype=float)
+    verts = poly.vertices @ R.T + np.asarray(center, dtype=float)
     normals = poly.normals @ R.T
     return [tuple(v) for v in verts.tolist()], [tuple(n) for n in normals.tolist()]
 
 
-def box(centre, w, h, angle=0.0):
+def box(center, w, h, angle=0.0):
     return polygon([[-w / 2, -h / 2], [w / 2, -h / 2], [w / 2, h / 2], [-w / 2, h / 2]],
-                   centre, angle)
+                   center, angle)
 
 
 def as_array(contacts):
@@ -287,12 +287,12 @@ def test_circle_near_a_corner_within_and_beyond_margin(corner, direction):
     c, d, r = np.array(corner), np.array(direction), 0.2
     near = polygon_circle(*A, tuple(c + d * (r + 0.003)), r, MARGIN)
     check(near, [c + d * 0.003 / 2], d, [-0.003])
-    far_centre = c + d * (r + 0.007)
-    assert max(abs(far_centre[0]) - 1.0, abs(far_centre[1]) - 0.5) < r + MARGIN
-    assert polygon_circle(*A, tuple(far_centre), r, MARGIN) == []
+    far_center = c + d * (r + 0.007)
+    assert max(abs(far_center[0]) - 1.0, abs(far_center[1]) - 0.5) < r + MARGIN
+    assert polygon_circle(*A, tuple(far_center), r, MARGIN) == []
 
 
-def test_circle_centre_inside_the_polygon():
+def test_circle_center_inside_the_polygon():
     """Centre (0.9, 0) inside A, 0.1 from its right face: depth r + 0.1 = 0.3, normal +x;
     the point is halfway between the face (x = 1) and the circle's far side (x = 0.7)."""
     check(polygon_circle(*A, (0.9, 0.0), 0.2, MARGIN), [[0.85, 0.0]], (1.0, 0.0), [0.3])
@@ -303,14 +303,14 @@ def test_circle_on_a_turned_polygon():
     (2, 1); a circle 0.04 into the face from vertex 0 to vertex 1, whose outward normal is
     at pi/6 in the hexagon's frame. Worked out in that frame and turned: normal R n, point
     0.02 inside the face along R n, depth 0.04."""
-    angle, centre = 0.7, np.array([2.0, 1.0])
+    angle, center = 0.7, np.array([2.0, 1.0])
     local = [[math.cos(k * math.pi / 3), math.sin(k * math.pi / 3)] for k in range(6)]
-    hexagon = polygon(local, centre, angle)
+    hexagon = polygon(local, center, angle)
     apothem, r = math.sqrt(3) / 2, 0.3
     R = rotation(angle)
     n_local = np.array([math.cos(math.pi / 6), math.sin(math.pi / 6)])  # face 0 -> 1
-    circle = R @ (n_local * (apothem + r - 0.04)) + centre
-    point = R @ (n_local * (apothem - 0.02)) + centre
+    circle = R @ (n_local * (apothem + r - 0.04)) + center
+    point = R @ (n_local * (apothem - 0.02)) + center
     check(polygon_circle(*hexagon, tuple(circle), r, MARGIN), [point], R @ n_local, [0.04])
 
 
@@ -327,7 +327,7 @@ def test_circle_near_a_face_margin(gap, reported):
 
 def test_circles_overlapping():
     """r = 0.5 at the origin and r = 0.6 at (0.6, 0.8): distance 1, depth 0.1, normal
-    (0.6, 0.8); the point 0.45 from the first centre (halfway across the overlap)."""
+    (0.6, 0.8); the point 0.45 from the first center (halfway across the overlap)."""
     forward = circle_circle((0.0, 0.0), 0.5, (0.6, 0.8), 0.6, MARGIN)
     check(forward, [[0.27, 0.36]], (0.6, 0.8), [0.1])
     swapped_agrees(forward, circle_circle((0.6, 0.8), 0.6, (0.0, 0.0), 0.5, MARGIN))
@@ -343,7 +343,7 @@ def test_circles_margin(gap, reported):
 
 
 def test_concentric_circles_get_a_defined_normal():
-    """No direction between equal centres: the narrow phase picks +y (documented in
+    """No direction between equal centers: the narrow phase picks +y (documented in
     circle_circle) and reports the full depth r_a + r_b, never a NaN."""
     (point, normal, depth), = circle_circle((1.0, 2.0), 0.3, (1.0, 2.0), 0.2, MARGIN)
     assert normal == (0.0, 1.0) and depth == pytest.approx(0.5, abs=TOL)
@@ -359,9 +359,9 @@ def test_tilted_box_behind_a_floor():
     angle = 0.1
     R = rotation(angle)
     low = R @ [-1.0, -0.5]
-    centre = np.array([0.4, -low[1] - 0.01])
-    verts, _ = box(centre, 2.0, 1.0, angle)
-    corner = low + centre
+    center = np.array([0.4, -low[1] - 0.01])
+    verts, _ = box(center, 2.0, 1.0, angle)
+    corner = low + center
     check(half_plane_polygon((0.0, 1.0), 0.0, verts, MARGIN),
           [[corner[0], -0.005]], (0.0, 1.0), [0.01])
 
@@ -372,9 +372,9 @@ def test_box_resting_on_a_sloped_wall():
     a = math.radians(30.0)
     n = np.array([-math.sin(a), math.cos(a)])
     t = np.array([math.cos(a), math.sin(a)])
-    centre = n * (0.5 + 0.5 - 0.002) + 0.7 * t
-    verts, _ = box(centre, 2.0, 1.0, a)
-    bottom = [centre - 0.5 * n + s * t for s in (-1.0, 1.0)]
+    center = n * (0.5 + 0.5 - 0.002) + 0.7 * t
+    verts, _ = box(center, 2.0, 1.0, a)
+    bottom = [center - 0.5 * n + s * t for s in (-1.0, 1.0)]
     check(half_plane_polygon(tuple(n), 0.5, verts, MARGIN),
           [p + n * 0.001 for p in bottom], n, [0.002, 0.002])
 
@@ -414,7 +414,7 @@ def test_compound_body_collides_part_by_part():
         "all": {"bodies": ["base", "tee"], "restitution": 0.0, "friction": 0.5}}}))
     found = sim.model.contacts.detect(sim.q)
     base, tee = sim.model.index["base"], sim.model.index["tee"]
-    # the stem is the part centred at the body-frame origin
+    # the stem is the part centerd at the body-frame origin
     stem = [p for p, shape in enumerate(sim.scene.bodies[tee].shapes)
             if abs(float(np.mean(shape.vertices[:, 1]))) < 1e-12]
     assert len(found) == 2

@@ -483,8 +483,8 @@ if __name__ == "__main__":  # PYTHONPATH=test python test/contact/test_joints.py
 def test_the_shipped_gears_keep_their_ratio_then_jam_on_the_bar():
     """The shipped ``gears`` scene: while the bar is held (to 1.5 s) and falls (about 0.25 s
     more), the motor turns the train at its 2 rad/s and the angles keep the ratio to 1e-9
-    rad. From 2 s to the end the bar sits wedged in the gap between the rims (its centre
-    below the small rim's top at y = 1.28, above the line of the centres, its sides either
+    rad. From 2 s to the end the bar sits wedged in the gap between the rims (its center
+    below the small rim's top at y = 1.28, above the line of the centers, its sides either
     side of the gap at x = 0.28 to 0.32), and the motor gives its full 20 N m (to 1e-12)
     without reaching its speed: the train runs below a fifth of it (measured: 0.22 to 0.28
     rad/s; the joint and contact passes solve apart, so the wedge brakes the train but lets

@@ -67,7 +67,7 @@ def test_elastic_corner_impact_conserves_kinetic_energy(normal):
         impacts += not np.array_equal(v, sim.v)
     assert impacts >= 1, "the box never reached the wall: the test proves nothing"
     assert sim.v[0, :2] @ n > 0.0, "the box must move away from the wall after the bounce"
-    assert abs(sim.v[0, 2] - 1.5) > 1e-3, "an off-centre impact must change the spin"
+    assert abs(sim.v[0, 2] - 1.5) > 1e-3, "an off-center impact must change the spin"
     assert _kinetic(sim) == pytest.approx(before, rel=1e-13)
 
 
