@@ -13,8 +13,9 @@ python3 -m venv "$venv"
 "$venv/bin/python" -c "import numpy; print('numpy', numpy.__version__)"
 # -I and pytest's own script: the installed package is imported, not the source tree that
 # `python -m pytest` would put first on sys.path, so the tests run the compiled kernel
-# where pip built it (HECKER_DYNAMICS_KERNEL=0 in the environment switches it off).
+# where pip built it (HECKER_DYNAMICS_KERNEL=0 in the environment switches it off);
+# -n auto: one pytest-xdist worker per core.
 kernel=$("$venv/bin/python" -I -c "import importlib.util as u
 print('installed' if u.find_spec('hecker_dynamics._kernel') else 'not built')")
 echo "compiled kernel: $kernel${HECKER_DYNAMICS_KERNEL:+ (HECKER_DYNAMICS_KERNEL=$HECKER_DYNAMICS_KERNEL)}"
-"$venv/bin/pytest" -q -p no:cacheprovider "$@"
+"$venv/bin/pytest" -q -p no:cacheprovider -n auto "$@"
