@@ -20,14 +20,19 @@ threshold, so comparisons use the first few impacts only, well before t_inf.
 """
 from __future__ import annotations
 
+import csv
 import math
-from dataclasses import dataclass
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from pathlib import Path
 from typing import Any
 
 from ..scene.load import Scene, scene_from_parameters
 from ..scene.parameters import flatten
 
-__all__ = ["BallDrop", "ball_drop_scene"]
+__all__ = ["BENCH_DROP", "BallDrop", "BounceRow", "ball_drop_scene", "bounce_bench",
+           "bounce_table", "write_bounce_csv"]
 
 
 @dataclass(frozen=True)
@@ -122,3 +127,190 @@ def ball_drop_scene(drop: BallDrop, step: float, integrator: str, *, tolerance: 
         **(extra or {}),
     }
     return scene_from_parameters(flatten(params), "ball_drop")
+
+
+# ----------------------------------------------------------------------------- the bench
+
+#: The drop of the benchmark's case: 1 m of fall to the first impact, e = 0.8; its first
+#: :data:`BOUNCES` impacts come before :data:`DURATION` (t_5 = 2.58 s, t_6 = 2.88 s).
+BENCH_DROP = BallDrop(height=1.1, radius=0.1, gravity=9.81, restitution=0.8)
+BOUNCES = 5
+DURATION = 2.8
+#: The engine names of the case's rows: events on (Python path), events off in the
+#: kernel where it is built, and off in Python (the like-for-like cost of the events).
+EVENTS = "hecker_dynamics events"
+CORE = "hecker_dynamics"
+CORE_PYTHON = "hecker_dynamics (python)"
+FIXED_METHODS = ("semi_implicit_euler", "velocity_verlet", "rk4")
+ADAPTIVE_STEP = 0.01  # the longest sub-step of dopri5 and dop853
+
+
+@dataclass
+class BounceRow:
+    """One configuration of the ball drop: cost (wall s per sim s, median of interleaved
+    repeats), work, and its errors against :data:`BENCH_DROP`'s closed form over
+    [0, :data:`DURATION`]: the largest height error of the center at the step ends (m) and
+    the largest error of the first :data:`BOUNCES` impact times (s; nan where fewer were
+    seen)."""
+
+    engine: str
+    method: str
+    step: float
+    tolerance: float
+    cost: float = math.nan
+    evaluations: int = 0
+    height_error: float = math.nan
+    impact_error: float = math.nan
+    impacts: int = 0
+
+
+def _sampled_impacts(times: list[float], heights: list[float]) -> list[float]:
+    """Where a run reports no impact times: the step ends at which the sampled height has
+    a local minimum (where the bounce was applied, give or take a step)."""
+    return [times[n] for n in range(1, len(heights) - 1)
+            if heights[n] < heights[n - 1] and heights[n] <= heights[n + 1]]
+
+
+def _errors(row: BounceRow, times: list[float], heights: list[float],
+            impacts: list[float]) -> None:
+    drop = BENCH_DROP
+    row.height_error = max(abs(y - drop.state(t)[0]) for t, y in zip(times, heights))
+    row.impacts = len(impacts)
+    if len(impacts) >= BOUNCES:
+        row.impact_error = max(abs(t - drop.impact_time(k + 1))
+                               for k, t in enumerate(impacts[:BOUNCES]))
+
+
+def _core_trace(row: BounceRow, scene: Scene) -> None:
+    """Errors of ours, from a run step by step (the same bits as the timed run's)."""
+    from ..dynamics.simulation import Simulation
+
+    sim = Simulation(scene)
+    if row.engine == CORE_PYTHON:
+        sim.model.use_python()
+    times, heights = [], []
+    for _ in range(round(DURATION / row.step)):
+        sim.step()
+        times.append(sim.time_ns * 1e-9)
+        heights.append(float(sim.q[0, 1]))
+    impacts = ([i.time for i in sim.impacts] if row.engine == EVENTS
+               else _sampled_impacts(times, heights))
+    _errors(row, times, heights, impacts)
+
+
+def _core_case(row: BounceRow, scene: Scene):
+    from ..dynamics.simulation import Simulation
+    from .measure import Case, Outcome
+
+    def run(duration: float) -> Outcome:
+        sim = Simulation(scene)
+        if row.engine == CORE_PYTHON:
+            sim.model.use_python()
+        start = time.perf_counter()
+        sim.advance_to(round(duration * 1e9), keep=False)
+        wall = time.perf_counter() - start
+        return Outcome(wall, sim.q.copy(), sim.v.copy(), sim.steps,
+                       sim.integrator.counters.evaluations)
+
+    return Case("ball_drop", row.engine, row.method, row.step, row.tolerance, DURATION, run)
+
+
+def _peer_case(row: BounceRow, scene: Scene):
+    from .measure import Case, Outcome
+    from .scene_peers import scene_engine
+
+    def run(duration: float) -> Outcome:
+        step, poses = scene_engine(row.engine, scene, row.step)
+        steps = round(duration / row.step)
+        start = time.perf_counter()
+        step(steps)
+        wall = time.perf_counter() - start
+        q = poses()
+        return Outcome(wall, q, q * 0.0, steps)
+
+    return Case("ball_drop", row.engine, row.method, row.step, math.nan, DURATION, run)
+
+
+def _peer_trace(row: BounceRow, scene: Scene) -> None:
+    from .scene_peers import scene_engine
+
+    step, poses = scene_engine(row.engine, scene, row.step)
+    times, heights = [], []
+    for n in range(round(DURATION / row.step)):
+        step(1)
+        times.append((n + 1) * row.step)
+        heights.append(float(poses()[0, 1]))
+    _errors(row, times, heights, _sampled_impacts(times, heights))
+
+
+def bounce_bench(tolerances: list[float], steps: list[float], peers: list[str],
+                 budget: Any, log: Callable[[str], None] = lambda s: None) -> list[BounceRow]:
+    """The ball drop's rows: ``dopri5`` and ``dop853`` (h = :data:`ADAPTIVE_STEP`) at each
+    of ``tolerances``, the fixed-step methods and ``peers`` at each of ``steps``, ours with
+    and without event location; errors from a traced run, costs by :func:`.measure.measure`
+    (interleaved repeats within ``budget``)."""
+    from .measure import measure
+
+    configs: list[tuple[BounceRow, Scene]] = []
+    for events in (True, False):
+        engines = [EVENTS] if events else [CORE, CORE_PYTHON]
+        for engine in engines:
+            for method in ("dopri5", "dop853"):
+                for tol in tolerances:
+                    configs.append((BounceRow(engine, method, ADAPTIVE_STEP, tol),
+                                    ball_drop_scene(BENCH_DROP, ADAPTIVE_STEP, method,
+                                                    tolerance=tol, events=events,
+                                                    duration=DURATION)))
+            for method in FIXED_METHODS:
+                for h in steps:
+                    configs.append((BounceRow(engine, method, h, math.nan),
+                                    ball_drop_scene(BENCH_DROP, h, method, events=events,
+                                                    duration=DURATION)))
+    for peer in peers:
+        for h in steps:
+            configs.append((BounceRow(peer, "own", h, math.nan),
+                            ball_drop_scene(BENCH_DROP, h, "semi_implicit_euler",
+                                            duration=DURATION)))
+    cases = []
+    for row, scene in configs:
+        peer = row.engine in peers
+        (_peer_trace if peer else _core_trace)(row, scene)
+        cases.append((_peer_case if peer else _core_case)(row, scene))
+    log(f"ball_drop: {len(configs)} configurations traced")
+    for (row, _), measured in zip(configs, measure(cases, budget, log=log)):
+        row.cost = measured.cost
+        row.evaluations = measured.evaluations
+    return [row for row, _ in configs]
+
+
+def write_bounce_csv(rows: list[BounceRow], path: Path) -> None:
+    """The ball drop's rows as CSV, one column per :class:`BounceRow` field."""
+    names = [f.name for f in fields(BounceRow)]
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(names)
+        writer.writerows([getattr(row, name) for name in names] for row in rows)
+
+
+def bounce_table(rows: list[BounceRow]) -> list[str]:
+    """The report's Markdown section for the ball drop."""
+    def g(x: float) -> str:
+        return "-" if not math.isfinite(x) else f"{x:.2g}"
+
+    drop = BENCH_DROP
+    md = ["## Ball drop: impacts against the closed form", "",
+          f"A ball (r = {drop.radius:g} m) dropped from {drop.height:g} m (center) on a "
+          f"frictionless floor, e = {drop.restitution:g}, over {DURATION:g} s (the first "
+          f"{BOUNCES} impacts; Zeno time {drop.zeno_time:.3f} s). Errors against the closed "
+          "form (hecker_dynamics.bench.bounce): largest center-height error at the step "
+          f"ends (m) and largest error of the first {BOUNCES} impact times (s: located "
+          "impacts with events, else the step ends of the lowest sampled heights). "
+          f"`{EVENTS}`: `contacts.events` on (steps in Python); `{CORE}`: off (in the "
+          f"kernel where built); `{CORE_PYTHON}`: off, in Python. Peers with their own "
+          "restitution (no event location). dopri5 and dop853 at h = "
+          f"{ADAPTIVE_STEP:g} s (the longest sub-step). Method: docs/benchmark.md.", "",
+          "| engine | method | h | tol | cost (s/s) | evaluations | height err (m) | "
+          "impact time err (s) |", "|---|---|---|---|---|---|---|---|"]
+    md += [f"| {r.engine} | {r.method} | {r.step:g} | {g(r.tolerance)} | {g(r.cost)} | "
+           f"{r.evaluations} | {g(r.height_error)} | {g(r.impact_error)} |" for r in rows]
+    return md
