@@ -162,6 +162,7 @@ class BounceRow:
     height_error: float = math.nan
     impact_error: float = math.nan
     impacts: int = 0
+    status: str = "ok"  # or skipped (over the run budget: no cost), failed, diverged
 
 
 def _sampled_impacts(times: list[float], heights: list[float]) -> list[float]:
@@ -278,7 +279,7 @@ def bounce_bench(tolerances: list[float], steps: list[float], peers: list[str],
         cases.append((_peer_case if peer else _core_case)(row, scene))
     log(f"ball_drop: {len(configs)} configurations traced")
     for (row, _), measured in zip(configs, measure(cases, budget, log=log)):
-        row.cost = measured.cost
+        row.cost, row.status = measured.cost, measured.status
         row.evaluations = measured.evaluations
     return [row for row, _ in configs]
 
@@ -311,6 +312,7 @@ def bounce_table(rows: list[BounceRow]) -> list[str]:
           f"{ADAPTIVE_STEP:g} s (the longest sub-step). Method: docs/benchmark.md.", "",
           "| engine | method | h | tol | cost (s/s) | evaluations | height err (m) | "
           "impact time err (s) |", "|---|---|---|---|---|---|---|---|"]
-    md += [f"| {r.engine} | {r.method} | {r.step:g} | {g(r.tolerance)} | {g(r.cost)} | "
+    md += [f"| {r.engine} | {r.method} | {r.step:g} | {g(r.tolerance)} | "
+           f"{g(r.cost) if r.status == 'ok' else r.status} | "
            f"{r.evaluations} | {g(r.height_error)} | {g(r.impact_error)} |" for r in rows]
     return md

@@ -25,8 +25,10 @@ integrator step from (q0, v0) over h is taken by :meth:`WallEvents.step` instead
 
 A crossing that approaches slower than the threshold does not bounce: it is left to the
 contact pass at the end of the step (resting contact, friction while resting), as without
-events. Pairs already touching or overlapping at the start, sleeping bodies and body pairs
-are the contact pass's too. The contact pass runs at the end of every step as before.
+events; one slower than the threshold at both ends of the step (a resting body sinking by
+a step's gravity) is left to it without a root find. Pairs already touching or
+overlapping at the start, sleeping bodies and body pairs are the contact pass's too. The
+contact pass runs at the end of every step as before.
 
 Deterministic: the root find is a fixed sequence of floating-point operations. The kernel
 has no event location: scenes with ``contacts.events`` on take the Python path of the
@@ -86,19 +88,42 @@ class WallEvents:
     def gaps(self, q: np.ndarray, pairs: list[tuple[int, int]]) -> list[float]:
         """Each pair's gap at ``q``: the signed distance of the body's shape from the
         wall (negative when it overlaps)."""
+        return [gap for gap, _ in self._nearest(q, pairs)]
+
+    def _nearest(self, q: np.ndarray,
+                 pairs: list[tuple[int, int]]) -> list[tuple[float, tuple[float, float]]]:
+        """Each pair's gap at ``q`` and the body's shape point nearest the wall."""
         contacts = self.contacts
         poses = q.tolist()
         out = []
         for w, b in pairs:
             (nx, ny), offset = contacts.wall_normal[w], contacts.wall_offset[w]
-            gap = math.inf
+            gap, nearest = math.inf, (0.0, 0.0)
             for part in contacts._world_parts(poses[b], b):
                 if isinstance(part, CirclePart):
                     (x, y), radius = part
-                    gap = min(gap, nx * x + ny * y - offset - radius)
+                    points = [(x - nx * radius, y - ny * radius)]
                 else:
-                    gap = min(gap, min(nx * x + ny * y - offset for x, y in part.vertices))
-            out.append(gap)
+                    points = part.vertices
+                for x, y in points:
+                    distance = nx * x + ny * y - offset
+                    if distance < gap:
+                        gap, nearest = distance, (x, y)
+            out.append((gap, nearest))
+        return out
+
+    def _fast(self, q: np.ndarray, v: np.ndarray, pairs: list[tuple[int, int]]) -> list[bool]:
+        """Per pair, whether the body's point nearest the wall approaches it faster than
+        the restitution threshold, v_P = v + omega perp(r) (Eq. 9) along the normal."""
+        contacts = self.contacts
+        poses, velocities = q.tolist(), v.tolist()
+        out = []
+        for (w, b), (_, (px, py)) in zip(pairs, self._nearest(q, pairs)):
+            nx, ny = contacts.wall_normal[w]
+            x, y, _ = poses[b]
+            vx, vy, omega = velocities[b]
+            normal = (vx - omega * (py - y)) * nx + (vy + omega * (px - x)) * ny
+            out.append(normal < -contacts.threshold)
         return out
 
     def step(self, step: Step, f: Callable, q: np.ndarray, v: np.ndarray, h: float,
@@ -121,6 +146,13 @@ class WallEvents:
             crossing = [(pair, gap) for pair, gap in zip(candidates, before) if gap > 0.0]
             after = self.gaps(q1, [pair for pair, _ in crossing])
             crossing = [(pair, gap) for (pair, gap), end in zip(crossing, after) if end < 0.0]
+            # A crossing slower than the threshold at both ends (a resting body sinking by
+            # a step's gravity) will not bounce: the contact pass's, with no root find.
+            pairs = [pair for pair, _ in crossing]
+            fast = [start_fast or end_fast for start_fast, end_fast in
+                    zip(self._fast(q, v, pairs), self._fast(q1, v1, pairs))]
+            slow.update(pair for pair, quick in zip(pairs, fast) if not quick)
+            crossing = [entry for entry, quick in zip(crossing, fast) if quick]
             if not crossing:
                 break
             pairs = [pair for pair, _ in crossing]
