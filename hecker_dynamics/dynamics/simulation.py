@@ -455,9 +455,9 @@ class Simulation:
         return True
 
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """One integrator step, the joint pass and the contact pass; split into sub-steps
-        when a colliding body would otherwise move more than half the thinnest colliding
-        part. Joints go first so that the contacts have the last word on overlap; what a
+        """One integrator step (with the wall impacts inside it located, where the scene
+        asks), the joint pass and the contact pass; split into sub-steps when a colliding
+        body would otherwise move more than half the thinnest colliding part. Joints go first so that the contacts have the last word on overlap; what a
         contact impulse does to a joint the next step's joint pass corrects, positions
         only."""
         f = self.model.accelerations
