@@ -197,3 +197,27 @@ def test_a_resting_pyramid_gives_the_same_bits_with_events_on():
         sim.advance_to(1_000_000_000, keep=False)
     assert located.impacts == []
     assert np.array_equal(plain.q, located.q) and np.array_equal(plain.v, located.v)
+
+
+def test_a_step_split_for_a_colliding_pair_logs_its_impact_once():
+    """Two balls (r = 0.05) that collide with each other make the simulation split a step
+    in which one moves more than half a ball (20 m/s x 10 ms = 0.2 m: 4 sub-steps, 2 in
+    the step of the bounce); the first attempt's located impact is dropped with it, and
+    the sub-steps locate it again: no gravity, center 1.055 m up at 20 m/s down, so the
+    touch at 1.005 / 20 s."""
+    sim = Simulation(make_scene({
+        "step": 0.01, "integrator": "dopri5", "tolerance": 1e-10,
+        "contacts": {"events": True},
+        "bodies": {"fast": {"shape": "circle", "radius": 0.05, "mass": 1.0,
+                            "position": [0.0, 1.055], "velocity": [0.0, -20.0]},
+                   "slow": {"shape": "circle", "radius": 0.05, "mass": 1.0,
+                            "position": [3.0, 1.0]}},
+        "collisions": {"balls": {"bodies": ["fast", "slow"]}},
+        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": 0.5,
+                            "friction": 0.0}}}))
+    assert sim.model.contacts.substeps(sim.q, sim.q + [[0.0, -0.2, 0.0], [0.0, 0.0, 0.0]]) == 4
+    for _ in range(8):
+        sim.step()
+    (impact,) = sim.impacts
+    assert impact.time == pytest.approx(1.005 / 20.0, abs=1e-9)
+    assert sim.v[0, 1] == pytest.approx(10.0, rel=1e-12)
