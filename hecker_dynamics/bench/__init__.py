@@ -8,6 +8,8 @@ explains the method. Modules:
 - :mod:`.measure`: timing (median of interleaved repeats) and errors;
 - :mod:`.peers`: optional pymunk, Box2D and MuJoCo adapters, checked against plain loops;
 - :mod:`.ring`: the ring scale test and its plain C loop;
+- :mod:`.bounce`: the ball drop's closed form and its rows, with and without event
+  location, against pymunk and Box2D;
 - :mod:`.report`: CSV, Markdown and the work-precision figure;
 - :mod:`.contacts`: the contact section (``bench --contacts``) and its targets, on
   the scenes of :mod:`.pyramid` and the shipped ones, with the peers of

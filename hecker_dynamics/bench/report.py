@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 from ..integrators.methods import ADAPTIVE
+from .bounce import bounce_table, write_bounce_csv
 from .measure import Row
 from .scenes import STIFF_SEESAW
 
@@ -202,6 +203,8 @@ def write_report(results, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     write_csv(results.rows, out / "results.csv")
     write_csv(results.ring, out / "ring.csv")
+    if results.bounce:
+        write_bounce_csv(results.bounce, out / "bounce.csv")
     has_figure = figure(results.rows, out / "work_precision.png") if results.rows else False
     md = [f"# Benchmark results ({results.mode} mode)", "",
           f"Produced by `{results.command or 'hecker-dynamics bench'}` in "
@@ -249,6 +252,8 @@ def write_report(results, out: Path) -> None:
                "1 s); a scene pays for contacts only when it declares walls or collisions.",
                "", "| declared | us per step |", "|---|---|"]
         md += [f"| {k} | {v * 1e6:.1f} |" for k, v in results.declared.items()]
+    if results.bounce:
+        md += ["", *bounce_table(results.bounce)]
     if results.ring:
         keys, sizes, table = ring_table(results.ring)
         md += ["", "## Ring: ns per body-step against N (h = 1 ms)", "",

@@ -28,6 +28,7 @@ from ..dynamics.model import Model
 from ..scene.load import Scene
 from ..dynamics.simulation import DivergenceError, Simulation
 from . import peers as peer_mod
+from .bounce import BounceRow, bounce_bench
 from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
@@ -50,6 +51,9 @@ class Mode:
     shipped_ref_divisor: float
     profile_steps: int
     sample_duration: Optional[float] = None  # s of the default scene's step; None: all
+    # The ball drop (:mod:`.bounce`): tolerances of the adaptive methods, steps of the rest.
+    bounce_tolerances: list[float] = field(default_factory=lambda: [1e-6, 1e-10])
+    bounce_steps: list[float] = field(default_factory=lambda: [0.004, 0.001])
 
 
 FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002]
@@ -71,7 +75,8 @@ MODES = {
         adaptive_steps=[0.5, 0.1, 0.02], budget=Budget(1.0, 3, 1.0, 20),
         ring_sizes=[1, 10, 100, 1000, 10000], ring_wall=0.2,
         shipped_duration=4.0, shipped_steps=[4.0, 2.0, 1.0, 0.5], shipped_ref_divisor=4.0,
-        profile_steps=3000),
+        profile_steps=3000, bounce_tolerances=[10.0 ** -k for k in range(4, 13, 2)],
+        bounce_steps=[0.004, 0.001, 0.00025]),
 }
 
 
@@ -86,6 +91,7 @@ class Results:
     sample_duration: float = 0.0  # s of sim time it was measured over
     declared: dict[str, float] = field(default_factory=dict)  # variant -> s per step
     profiles: dict[str, str] = field(default_factory=dict)
+    bounce: list[BounceRow] = field(default_factory=list)  # the ball drop's rows
     lean: dict[str, tuple[float, float]] = field(default_factory=dict)
     cross_check: dict[str, float] = field(default_factory=dict)
     environment: dict[str, str] = field(default_factory=dict)
@@ -278,6 +284,15 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
                                                    for k, v in results.sample.items()))
 
 
+def bounce_part(results: Results, mode: Mode, peers: list[str], log) -> None:
+    """The ball drop against its closed form, with and without event location, and the
+    scene peers (pymunk, Box2D 2.3) with their own restitution."""
+    from .scene_peers import SCENE_PEERS
+
+    results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps,
+                                  [p for p in peers if p in SCENE_PEERS], mode.budget, log)
+
+
 def declared_part(results: Results, mode: Mode, log) -> None:
     """Cost per step of one scene with and without a (never used) contact pass declared."""
     variants = declared_variants()
@@ -348,7 +363,7 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
-                                        "checks", "profiles"),
+                                        "bounce", "checks", "profiles"),
               bar: Optional[BarFactory] = None) -> Results:
     from ..scene.load import shipped_scenes
     from .report import write_report
@@ -382,6 +397,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         work.append(("sample", lambda: sample_step(results, mode, peer_names, log)))
     if "declared" in parts:
         work.append(("declared", lambda: declared_part(results, mode, log)))
+    if "bounce" in parts:
+        work.append(("ball_drop", lambda: bounce_part(results, mode, peer_names, log)))
     if "ring" in parts:
         work += [(f"ring{n}", lambda n=n: ring_part(results, mode, peer_names, log, [n]))
                  for n in mode.ring_sizes]

@@ -570,7 +570,26 @@ class ContactPass:
     def _prepare(self, contact: Contact, poses: dict, velocity: dict, before: dict,
                  h: float) -> ContactRow:
         """The solver row of ``contact``, its impulses warm-started from the last step."""
-        a, b, (px, py), (nx, ny), depth, e, mu, key = contact
+        row = self._row(contact, poses, velocity)
+        a, b, approach, depth = row.a, row.b, row.approach, row.depth
+        # End the step just touching (never pushed apart by velocity: overlap left from
+        # earlier steps is the position correction's job) or, if the contact closed during
+        # the step fast enough, bounce. The bounce reverses the approach speed from before
+        # the step: the speed the forces added during the step was not there at impact, and
+        # reversing it too would add energy at every bounce.
+        target = min(approach + depth / h, 0.0)
+        if depth > 0.0 and approach < -self.threshold:
+            impact = _normal_velocity(before[a], before[b], row.rax, row.ray, row.rbx, row.rby,
+                                      row.nx, row.ny)
+            target = max(target, -contact.e * min(impact, 0.0))
+        row.target = target
+        row.jn, row.jt = self._recall(contact.key, row.rbx, row.rby, poses[b][2])
+        return row
+
+    def _row(self, contact: Contact, poses: dict, velocity: dict) -> ContactRow:
+        """The solver row of ``contact`` at ``poses`` and ``velocity``: arms, effective
+        masses and approach speed, with no impulse yet and target 0."""
+        a, b, (px, py), (nx, ny), depth, _, mu, key = contact
         im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
         im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
         rax, ray = (px - poses[a][0], py - poses[a][1]) if a >= 0 else (0.0, 0.0)
@@ -583,18 +602,32 @@ class ContactPass:
             raise ArithmeticError("the contact's effective mass underflowed (a lever arm or "
                                   "inverse mass too large for a double)")
         approach = _normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby, nx, ny)
-        # End the step just touching (never pushed apart by velocity: overlap left from
-        # earlier steps is the position correction's job) or, if the contact closed during
-        # the step fast enough, bounce. The bounce reverses the approach speed from before
-        # the step: the speed the forces added during the step was not there at impact, and
-        # reversing it too would add energy at every bounce.
-        target = min(approach + depth / h, 0.0)
-        if depth > 0.0 and approach < -self.threshold:
-            impact = _normal_velocity(before[a], before[b], rax, ray, rbx, rby, nx, ny)
-            target = max(target, -e * min(impact, 0.0))
-        jn, jt = self._recall(key, rbx, rby, poses[b][2])
-        return ContactRow(a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt,
+        return ContactRow(a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, 0.0, mu, 0.0, 0.0,
                           depth, im_a, ii_a, im_b, ii_b, approach, key)
+
+    def impact(self, q: np.ndarray, v: np.ndarray, contacts: list[Contact]) -> bool:
+        """Bounce at the instant of touch: the impulses of ``contacts`` (found at ``q``,
+        where the shapes just touch) that give each contact approaching faster than the
+        restitution threshold the normal velocity -e v_n, by the same solver and friction
+        as :meth:`resolve` (the collision impulse j = -(1 + e) v_rel.n / K for a single
+        point), no warm start and no position change; updates ``v`` in place. False (and
+        ``v`` unchanged) when no contact approaches that fast: a resting contact is the
+        contact pass's."""
+        touched = sorted(({c.b for c in contacts} | {c.a for c in contacts}) - {-1})
+        poses = {b: q[b].tolist() for b in touched}
+        velocity = {b: v[b].tolist() for b in touched}
+        velocity[-1] = [0.0, 0.0, 0.0]
+        rows = [self._row(contact, poses, velocity) for contact in contacts]
+        bouncing = [row.approach < -self.threshold for row in rows]
+        if not any(bouncing):
+            return False
+        for row, contact, bounces in zip(rows, contacts, bouncing):
+            if bounces:  # the others end touching (target 0) or, separating, get nothing
+                row.target = -contact.e * row.approach
+        self._solve_velocities(rows, velocity)
+        for b in touched:
+            v[b] = velocity[b]
+        return True
 
     def _recall(self, pair: tuple, rx: float, ry: float, angle: float) -> tuple[float, float]:
         """Last step's impulses of the contact of ``pair`` nearest this point, if within

@@ -26,6 +26,7 @@ from .inputs import InputBuffer
 from ..integrators.methods import (EmbeddedRungeKutta, ImplicitTheta, IntegrationError,
                                    choose_method, make_integrator)
 from .kernel import Advanced, compiled_steps
+from ..contact.events import Impact, WallEvents
 from .forces import WrenchRow
 from .model import Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
@@ -121,9 +122,15 @@ class Simulation:
         self.integrator = make_integrator(method, scene.tolerance)
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
-        # Whole steps in the compiled kernel, used while the model's forces are compiled.
-        self._compiled = compiled_steps(self.model.compiled, self.integrator,
-                                        self.model.contacts, self.model.joints)
+        contacts = self.model.contacts
+        #: Wall impacts located inside the step (``contacts.events``), or None.
+        self._events = (WallEvents(contacts, scene.tolerance)
+                        if scene.events and contacts is not None and contacts.wall_bodies
+                        else None)
+        # Whole steps in the compiled kernel, used while the model's forces are compiled;
+        # the kernel locates no events, so a scene that asks for them steps in Python.
+        self._compiled = None if self._events is not None else compiled_steps(
+            self.model.compiled, self.integrator, contacts, self.model.joints)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -143,6 +150,8 @@ class Simulation:
             self.model.contacts.reset()
         if self.model.joints is not None:
             self.model.joints.reset(self.q)
+        if self._events is not None:
+            self._events.reset()
         self._bound = EnergyBound(self.model, self.q, self.v)
         self._halted: Optional[str] = None  # why the energy bound stopped the run
         if isinstance(self.integrator, ImplicitTheta):
@@ -446,13 +455,14 @@ class Simulation:
         return True
 
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-        """One integrator step, the joint pass and the contact pass; split into sub-steps
-        when a colliding body would otherwise move more than half the thinnest colliding
-        part. Joints go first so that the contacts have the last word on overlap; what a
-        contact impulse does to a joint the next step's joint pass corrects, positions
-        only."""
+        """One integrator step (with the wall impacts inside it located, where the scene
+        asks), the joint pass and the contact pass; split into sub-steps when a colliding
+        body would otherwise move more than half the thinnest colliding part. Joints go
+        first so that the contacts have the last word on overlap; what a contact impulse
+        does to a joint the next step's joint pass corrects, positions only."""
         f = self.model.accelerations
-        q1, v1 = self.integrator.step(f, q, v, h)
+        start = self._time_ns * 1e-9
+        q1, v1 = self._free_step(f, q, v, h, start)
         contacts, joints = self.model.contacts, self.model.joints
         if joints is not None:
             joints.resolve(q, q1, v1, h)
@@ -462,13 +472,27 @@ class Simulation:
         if parts == 1:
             contacts.resolve(q1, v1, q, v, h)
             return q1, v1
-        for _ in range(parts):
-            q1, v1 = self.integrator.step(f, q, v, h / parts)
+        for part in range(parts):
+            q1, v1 = self._free_step(f, q, v, h / parts, start + part * (h / parts))
             if joints is not None:
                 joints.resolve(q, q1, v1, h / parts)
             contacts.resolve(q1, v1, q, v, h / parts)
             q, v = q1, v1
         return q, v
+
+    def _free_step(self, f: Callable[[np.ndarray, np.ndarray], np.ndarray], q: np.ndarray,
+                   v: np.ndarray, h: float, start: float) -> tuple[np.ndarray, np.ndarray]:
+        """One integrator step of ``h`` from time ``start`` (s), with the wall impacts
+        inside it located and answered where the scene asks (:mod:`..contact.events`)."""
+        if self._events is None:
+            return self.integrator.step(f, q, v, h)
+        return self._events.step(self.integrator.step, f, q, v, h, start)
+
+    @property
+    def impacts(self) -> list[Impact]:
+        """The latest wall impacts located inside steps, oldest first (empty without
+        ``contacts.events``)."""
+        return [] if self._events is None else list(self._events.impacts)
 
     def advance_to(self, t_ns: int, max_steps: Optional[int] = None, *,
                    keep: bool = True) -> list[Snapshot]:

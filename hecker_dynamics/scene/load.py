@@ -198,6 +198,7 @@ class Scene:
     script: tuple[WrenchCommand, ...]
     joints: tuple[JointSpec, ...] = ()
     sleep: bool = False  # resting islands of the contact pass sleep
+    events: bool = False  # wall impacts located inside the step (contact/events.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -344,6 +345,7 @@ def _read_scene(root: ParameterReader) -> Scene:
     collisions = _read_collisions(root, {b.name: b for b in bodies})
     joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
     publish = root.child("publish")
+    contacts = root.child("contacts")
     scene = Scene(
         source=root.source,
         frame_id=frame_id,
@@ -371,7 +373,8 @@ def _read_scene(root: ParameterReader) -> Scene:
                              for name, r in root.named_children("script")),
                             key=lambda c: (c.stamp_ns, c.source))),
         joints=joints,
-        sleep=root.child("contacts").boolean("sleep", False),
+        sleep=contacts.boolean("sleep", False),
+        events=contacts.boolean("events", False),
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
