@@ -448,9 +448,10 @@ class Simulation:
     def _integrate(self, q: np.ndarray, v: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """One integrator step, the joint pass and the contact pass; split into sub-steps
         when a colliding body would otherwise move more than half the thinnest colliding
-        part. Joints go first so that the contacts have the last word on overlap; what a
-        contact impulse does to a joint the next step's joint pass corrects, positions
-        only."""
+        part. Joints go first so that the contacts have the last word on overlap; the
+        contact pass solves the joints' velocity rows with the contacts of their islands,
+        and what that leaves in the positions the next step's joint pass corrects,
+        positions only."""
         f = self.model.accelerations
         q1, v1 = self.integrator.step(f, q, v, h)
         contacts, joints = self.model.contacts, self.model.joints
