@@ -25,6 +25,15 @@ configuration:
   Chipmunk ``DampedSpring`` constraints (Box2D 2.3 has no spring element with a given
   stiffness: its soft distance joint sets a frequency relative to the joint's effective
   mass, another force law).
+- Joints: each revolute joint as the peer's pin (pymunk ``PivotJoint``, Box2D
+  ``RevoluteJoint``) at the same two points, with its limits (pymunk ``RotaryLimitJoint``,
+  Box2D's limit; one missing bound taken as a full turn beyond the start) and its motor
+  (pymunk ``SimpleMotor`` with ``max_force`` the maximum torque, Box2D's motor with
+  ``maxMotorTorque``); each gear joint as the peer's gear (pymunk ``GearJoint`` of the two
+  bodies' angles, so only between two pins to the world; Box2D ``GearJoint`` of the two
+  revolute joints, whose ``coordinate_a + ratio coordinate_b`` is the core's). Joined bodies
+  do not collide unless the joint says so. Other joint types (sliders, welds, rods, ropes)
+  and rotary springs are not built: such a scene is refused.
 - Iterations: pymunk 10 (its default), Box2D 8 velocity and 3 position (its manual's).
   Sleeping as the peers' users have it for scenes that come to rest: Box2D's default
   (on), and pymunk's ``sleep_time_threshold`` of 0.5 s (off by default); with ``sleep``
@@ -39,6 +48,7 @@ from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
+from ..contact.joints import GearJoint, RevoluteJoint
 from ..geometry.shapes import Circle
 from ..scene.load import Gravity, Scene
 from .reference import PlainModel
@@ -53,6 +63,30 @@ PYMUNK_SLEEP_S = 0.5
 
 Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(count), poses()
 Material = Optional[tuple[float, float]]  # (restitution, friction)
+
+
+class _Pin(NamedTuple):
+    """A revolute joint: bodies ``a`` (-1: the world) and ``b``, the anchors in their CM
+    frames (the world's: fixed-frame coordinates), b's angle relative to a's at the start,
+    the limits on the joint angle (zero at the start), the motor (speed, maximum torque)
+    and whether the two bodies collide."""
+
+    a: int
+    anchor_a: tuple[float, float]
+    b: int
+    anchor_b: tuple[float, float]
+    reference: float
+    limits: Optional[tuple[float, float]]
+    motor: Optional[tuple[float, float]]
+    collide: bool
+
+
+class _Gear(NamedTuple):
+    """A gear joint: angle of pin ``first`` + ``ratio`` angle of pin ``second`` = 0."""
+
+    first: int
+    second: int
+    ratio: float
 
 
 class _Wall(NamedTuple):
@@ -77,6 +111,8 @@ class _Layout:
     walls: list[_Wall]
     materials: list[Material]          # per body: its group's, None outside every group
     script: list[tuple[int, int, int, Callable[[list], tuple[float, float, float]]]]
+    pins: list[_Pin]
+    gears: list[_Gear]
 
 
 def _group_material(scene: Scene, name: str) -> Material:
@@ -130,8 +166,37 @@ def _layout(scene: Scene) -> _Layout:
                     if n in wall.bodies})
         walls.append(_Wall(*ends, bit, mask, wall.restitution, wall.friction,
                            next(iter(stopped), None)))
+    pins, gears = _joints(scene, plain)
     return _Layout(model, plain.without(springs=True, gravity=True), gravity, shapes,
-                   body_bits, walls, materials, _script(scene, plain))
+                   body_bits, walls, materials, _script(scene, plain), pins, gears)
+
+
+def _joints(scene: Scene, plain: PlainModel) -> tuple[list[_Pin], list[_Gear]]:
+    """The scene's revolute and gear joints for the peers (others refused)."""
+    index = {b.name: i for i, b in enumerate(scene.bodies)}
+    angle = [b.angle for b in scene.bodies]
+    order = {spec.name: k for k, spec in
+             enumerate(s for s in scene.joints if isinstance(s, RevoluteJoint))}
+    pins, gears = [], []
+    for spec in scene.joints:
+        if isinstance(spec, GearJoint):
+            gears.append(_Gear(order[spec.joint_a], order[spec.joint_b], spec.ratio))
+            continue
+        if not isinstance(spec, RevoluteJoint) or spec.spring is not None:
+            raise ValueError(f"{scene.source}: joint '{spec.name}': the peers build revolute "
+                             "joints (without springs) and gears only")
+        b = index[spec.body_b]
+        a = -1 if spec.body_a is None else index[spec.body_a]
+        anchor_a = tuple(spec.point_a) if a < 0 else plain.local(a, spec.point_a)
+        reference = angle[b] - (0.0 if a < 0 else angle[a])
+        limits = None
+        if spec.lower is not None or spec.upper is not None:
+            limits = (-2.0 * math.pi if spec.lower is None else spec.lower,
+                      2.0 * math.pi if spec.upper is None else spec.upper)
+        motor = None if spec.motor is None else (spec.motor.speed, spec.motor.max_effort)
+        pins.append(_Pin(a, anchor_a, b, plain.local(b, spec.point_b), reference, limits,
+                         motor, spec.collide_connected))
+    return pins, gears
 
 
 def _script(scene: Scene, plain: PlainModel):
@@ -276,6 +341,7 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         for a, la, b, lb, k, rest, damp in layout.model.springs:
             other = space.static_body if b < 0 else bodies[b]
             space.add(pymunk.DampedSpring(bodies[a], other, la, lb, rest, k, damp))
+    _pymunk_joints(pymunk, space, layout, bodies)
     def read() -> list:
         return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in bodies]
 
@@ -289,6 +355,49 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
 
     step = _stepper(layout, model, h, bodies, read, push, lambda: space.step(h))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
+
+
+def _pymunk_joints(pymunk: Any, space: Any, layout: _Layout, bodies: list) -> None:
+    """The pins, their limits and motors, and the gears (see the module docstring)."""
+    for pin in layout.pins:
+        a = space.static_body if pin.a < 0 else bodies[pin.a]
+        b = bodies[pin.b]
+        parts = [pymunk.PivotJoint(a, b, pin.anchor_a, pin.anchor_b)]
+        if pin.limits is not None:  # pymunk limits b.angle - a.angle
+            parts.append(pymunk.RotaryLimitJoint(a, b, pin.reference + pin.limits[0],
+                                                 pin.reference + pin.limits[1]))
+        if pin.motor is not None:  # Chipmunk drives b.w - a.w to -rate
+            motor = pymunk.SimpleMotor(a, b, -pin.motor[0])
+            motor.max_force = pin.motor[1]
+            parts.append(motor)
+        for part in parts:
+            part.collide_bodies = pin.collide
+            space.add(part)
+    for gear in layout.gears:
+        first, second = layout.pins[gear.first], layout.pins[gear.second]
+        if first.a >= 0 or second.a >= 0:
+            raise ValueError("pymunk's GearJoint ties two bodies' angles: gears between "
+                             "pins to the world only")
+        # Chipmunk holds ratio angle_B - angle_A = phase; the core angle_A + r angle_B = 0
+        # (from the start): ratio -r, phase -r angle_B0 - angle_A0.
+        ratio = -gear.ratio
+        space.add(pymunk.GearJoint(bodies[first.b], bodies[second.b],
+                                   ratio * second.reference - first.reference, ratio))
+
+
+#: The most vertices pybox2d takes in one polygon (b2_maxPolygonVertices is 16, exclusive).
+BOX2D_MOST_VERTICES = 15
+
+
+def _fan(vertices: list) -> list[list]:
+    """A convex polygon as convex pieces of at most :data:`BOX2D_MOST_VERTICES` vertices
+    (the gears' 24-sided rims): fans from its first vertex, each piece sharing its last
+    vertex with the next. The mass is set apart, so only the outline matters."""
+    if len(vertices) <= BOX2D_MOST_VERTICES:
+        return [vertices]
+    step = BOX2D_MOST_VERTICES - 2
+    return [[vertices[0], *vertices[k:k + step + 1]]
+            for k in range(1, len(vertices) - 1, step)]
 
 
 def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
@@ -309,10 +418,13 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         restitution, friction = layout.materials[i] or (0.0, 1.0)
         category, mask = layout.body_bits[i]
         for part in parts:
-            shape = (Box2D.b2CircleShape(pos=part.center, radius=part.radius)
-                     if isinstance(part, Circle) else Box2D.b2PolygonShape(vertices=part))
-            body.CreateFixture(shape=shape, density=1.0, friction=friction,
-                               restitution=restitution, categoryBits=category, maskBits=mask)
+            shapes = ([Box2D.b2CircleShape(pos=part.center, radius=part.radius)]
+                      if isinstance(part, Circle)
+                      else [Box2D.b2PolygonShape(vertices=piece) for piece in _fan(part)])
+            for shape in shapes:
+                body.CreateFixture(shape=shape, density=1.0, friction=friction,
+                                   restitution=restitution, categoryBits=category,
+                                   maskBits=mask)
         mass = Box2D.b2MassData()
         mass.mass, mass.center, mass.I = model.mass[i], (0.0, 0.0), model.inertia[i]
         body.massData = mass
@@ -323,6 +435,20 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         ground.CreateEdgeFixture(vertices=[wall.start, wall.end], restitution=wall.restitution,
                                  friction=_over_root(wall.friction, own_friction) ** 2,
                                  categoryBits=wall.category, maskBits=wall.mask)
+    pins = []
+    for pin in layout.pins:  # Box2D's joint angle: angle_B - angle_A - referenceAngle
+        lower, upper = pin.limits or (0.0, 0.0)
+        speed, torque = pin.motor or (0.0, 0.0)
+        pins.append(world.CreateRevoluteJoint(
+            bodyA=ground if pin.a < 0 else bodies[pin.a], bodyB=bodies[pin.b],
+            localAnchorA=pin.anchor_a, localAnchorB=pin.anchor_b,
+            referenceAngle=pin.reference, enableLimit=pin.limits is not None,
+            lowerAngle=lower, upperAngle=upper, enableMotor=pin.motor is not None,
+            motorSpeed=speed, maxMotorTorque=torque, collideConnected=pin.collide))
+    for gear in layout.gears:  # Box2D's coordinate_1 + ratio coordinate_2, as the core's
+        first, second = pins[gear.first], pins[gear.second]
+        world.CreateGearJoint(bodyA=first.bodyB, bodyB=second.bodyB, joint1=first,
+                              joint2=second, ratio=gear.ratio)
     def read() -> list:
         return [(*b.position, b.angle, *b.linearVelocity, b.angularVelocity) for b in bodies]
 

@@ -9,7 +9,7 @@ sleeping on the bodies' rest times and sleeping islands, live in the kernel betw
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -61,10 +61,11 @@ class CompiledContacts:
             self.set_sleep(contacts)
 
     def resolve(self, q1: np.ndarray, v1: np.ndarray, q0: np.ndarray, v0: np.ndarray,
-                h: float) -> None:
-        """``ContactPass.resolve`` in the kernel: (q1, v1) change in place."""
+                h: float, joints: Any = None) -> None:
+        """``ContactPass.resolve`` in the kernel: (q1, v1) change in place; ``joints``: the
+        kernel's joint pass (a capsule) whose last rows the solve sweeps too."""
         _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(q0),
-                        np.ascontiguousarray(v0), h)
+                        np.ascontiguousarray(v0), h, joints)
 
     def set_sleep(self, contacts: ContactPass) -> None:
         """Take sleeping on or off and each body's calm flag, rest time and sleeping island

@@ -42,15 +42,17 @@ O(n w^2) per factorization, not O(n^3). Only the bodies some joint names take pa
 Revolute angles are tracked across turns, so a gear keeps counting and a limit beyond pi
 works.
 
-Why a pass of its own rather than rows in the contact solver's sequential impulses:
-accuracy. A velocity-level solver is first order in the step, and the smooth-force
+Why a pass of its own first, rather than rows in the contact solver's sequential impulses
+alone: accuracy. A velocity-level solver is first order in the step, and the smooth-force
 integrators (RK4, the embedded pairs, the implicit methods) cannot wrap one inside their
 stages without dropping to first order; the projection above keeps order two with every
-method of order two or more (docs/scenes.md has the measured periods). The price is that
-joints and contacts solve apart: in every step and contact sub-step the joints go first
-and the contacts last (they have the last word on overlap), and what a contact does to a
-joint the next step's joint pass corrects by positions only; a contact force that depends
-on a joint's reaction (a bar wedged between two pinned gears) comes out too small.
+method of order two or more (docs/scenes.md has the measured periods). In every step and
+contact sub-step the joints go first and the contacts last (they have the last word on
+overlap); in each contact island that holds a jointed body the contact solver then sweeps
+the velocity rows of this pass's last stage with the contacts (:mod:`.coupled`,
+:meth:`JointPass.contact_units`), so that a contact force that depends on a joint's
+reaction (a bar wedged between two pinned gears) comes out whole; what that leaves in the
+positions the next step's joint pass corrects, by positions only.
 
 The compiled kernel's ``src/kernel/joint.c`` repeats this module operation for operation
 (:mod:`.joints_kernel` packs it), so both give the same bits.
@@ -62,6 +64,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
+
+from .coupled import JointUnit
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
@@ -333,6 +337,11 @@ class JointPass:
         self.connected: list[tuple[int, int]] = sorted({(min(i, j), max(i, j))
                                                         for i, j in ends})
         self._initial: Optional[np.ndarray] = None
+        #: The last velocity stage's rows and their directions M^-1 J^T.
+        self._last: tuple[list[JointRow], Directions] = ([], [])
+        #: The velocities (3 per body) before the last velocity stage: those the
+        #: positions moved with.
+        self._settled: list[float] = []
         self.rigid: list[int] = []
         #: Each row's (joint, part), in the order the rows come at any pose.
         self.keys: list[tuple[str, str]] = []
@@ -408,10 +417,13 @@ class JointPass:
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
         self.warm = [0.0] * len(template)
+        self.extra = [0.0] * len(template)
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
         self.warm: list[float] = [0.0] * len(self.keys)
+        #: The extra impulses the last contact solve added (:meth:`take_extra`).
+        self.extra: list[float] = [0.0] * len(self.keys)
         self.newton: Optional[list[float]] = None
         self.step_h = 1.0
 
@@ -423,6 +435,7 @@ class JointPass:
                 "raw": dict(self.raw) if self._initial is not None else {},
                 "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
                 "newton": None if self.newton is None else list(self.newton),
+                "extra": [[list(key), value] for key, value in zip(self.keys, self.extra)],
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
     def import_state(self, state: dict[str, Any]) -> None:
@@ -435,6 +448,8 @@ class JointPass:
             self.raw = {k: float(x) for k, x in state["raw"].items()}
         warm = {(str(a), str(b)): float(x) for (a, b), x in state["warm"]}
         self.warm = [warm.get(key, 0.0) for key in self.keys]
+        extra = {(str(a), str(b)): float(x) for (a, b), x in state.get("extra", [])}
+        self.extra = [extra.get(key, 0.0) for key in self.keys]
         self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
@@ -565,6 +580,7 @@ class JointPass:
         for k, (now, before) in enumerate(zip(q, moved)):
             v[k] += (now - before) / h
         rows = self._correct(rows, q, h)
+        self._settled = v[:]
         self._velocities(rows, v, h)
         self._count_turns(q)
         q1[index] = np.array(q).reshape(-1, 3)
@@ -647,6 +663,50 @@ class JointPass:
         _apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h
+        self._last = (rows, direction)
+        self._set_efforts()
+
+    def contact_units(self) -> list[JointUnit]:
+        """The velocity rows of the last step's joint pass as units of the contact solve
+        (:mod:`.coupled`): every row but the soft ones, on the scene's body indices, with
+        the bounds left by the impulses this pass gave them."""
+        if self._compiled:
+            raise RuntimeError("the joint pass runs in the kernel: its rows are the kernel's")
+        rows, direction = self._last
+        index = self.bodies.tolist()
+        h = self.step_h
+        units = []
+        for slot, (row, towards, x) in enumerate(zip(rows, direction, self.warm)):
+            if row.kind == SOFT:
+                continue
+            target, lower, upper = 0.0, -math.inf, math.inf
+            if row.kind == LIMIT:
+                target, lower = -(0.0 if 0.0 > row.c else row.c) / h, -x
+            elif row.kind == MOTOR:
+                target, lower, upper = row.speed, -row.bound - x, row.bound - x
+            units.append(JointUnit(slot, [(index[b], jx, jy, jw) for b, jx, jy, jw in row.entries],
+                                   [(index[b], dx, dy, dw) for b, dx, dy, dw in towards],
+                                   1.0 / _dot(row, towards), target, lower, upper,
+                                   min(max(self.extra[slot], lower), upper)))
+        return units
+
+    def settled_velocities(self) -> dict[int, list[float]]:
+        """Per body (the scene's index), its velocity before the last step's velocity
+        stage, which the step's positions moved with: the contact pass moves a body by h
+        times the change from it (a motor's kick that a contact stops did not move the
+        body, so stopping it must not move the body back)."""
+        v = self._settled
+        return {int(b): v[3 * k: 3 * k + 3] for k, b in enumerate(self.bodies)}
+
+    def take_extra(self, units: list[JointUnit]) -> None:
+        """Add the extra impulses the contact solve gave ``units`` to this step's impulses
+        (so to the efforts and to the next step's warm start), and keep them to warm-start
+        the next contact solve; ``units`` the solve left out count as zero."""
+        self.extra = [0.0] * len(self.keys)
+        for unit in units:
+            if unit.extra != 0.0:
+                self.warm[unit.slot] += unit.extra
+                self.extra[unit.slot] = unit.extra
         self._set_efforts()
 
     def _set_efforts(self) -> None:

@@ -8,7 +8,8 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
 2. solves for impulses at the contact points with both bodies' mass and moment of
    inertia: the article series' collision impulse
    j = -(1 + e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
-   for all contacts together by sequential impulses with accumulated, clamped totals,
+   for all contacts together (and the velocity rows of the joints of their islands:
+   :mod:`.coupled`) by sequential impulses with accumulated, clamped totals,
    warm-started from the previous step's impulses (a contact is recognised by its pair
    of parts and its point, fixed in the second body, staying within :data:`MATCH`), plus
    Coulomb friction |j_t| <= mu j_n. The two points of a manifold are solved as one block
@@ -22,9 +23,10 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
    so resting contacts stay at rest;
-3. moves each body whose velocity the impulses changed by h times that change, so a body
-   held still by contacts does not move at all and a sliding body moves with the velocity
-   friction left it;
+3. moves each body whose velocity the impulses changed by h times the change from the
+   velocity its position moved with in the step (a jointed body's before the joint pass's
+   velocity stage), so a body held still by contacts does not move at all and a sliding
+   body moves with the velocity friction left it;
 4. pushes apart what still overlaps by more than a small slop, a fraction per step, by
    moving positions only (no velocity, so no kinetic energy, is added).
 
@@ -64,9 +66,11 @@ from .collision import (CirclePart, ConvexPolygon, Part, PolygonPart, circle_cir
 from ..geometry.shapes import Circle
 from ..geometry.planar import cos_sin_of, magnitude
 from . import compiled as _compiled
+from .coupled import JointUnit
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
+    from .joints import JointPass
 
 #: The velocity solver's passes over the contacts per step: as many as fit in
 #: :data:`WORK` solves of a contact or two-point manifold, but at least
@@ -178,7 +182,8 @@ class ContactPass:
     def __init__(self, scene: Scene, mass: np.ndarray, inertia: np.ndarray,
                  center_of_mass: np.ndarray, threshold: float, *, lean: bool,
                  apart: Iterable[tuple[int, int]] = (), compiled: bool = False,
-                 sleep: bool = False, restless: Iterable[int] = ()) -> None:
+                 sleep: bool = False, restless: Iterable[int] = (),
+                 joints: Optional[JointPass] = None) -> None:
         """The pass for ``scene``'s walls and collision groups, with the bodies' ``mass``,
         moment of ``inertia`` and ``center_of_mass`` (N x 2, body axes) in the scene's
         order; ``threshold``: the approach speed below which contacts do not bounce;
@@ -186,7 +191,8 @@ class ContactPass:
         bodies (i < j) that do not collide although a group names them; ``compiled``:
         resolve in the kernel (:mod:`.compiled`), which must be built; ``sleep``: let
         resting islands sleep; ``restless``: bodies that never sleep (pushed by more than
-        gravity and contacts)."""
+        gravity and contacts); ``joints``: the scene's joint pass, whose velocity rows the
+        solve sweeps with the contacts of the islands they are in (:mod:`.coupled`)."""
         index = {body.name: i for i, body in enumerate(scene.bodies)}
         self.threshold = threshold
         self.inverse_mass = (1.0 / mass).tolist()
@@ -251,6 +257,7 @@ class ContactPass:
         self.island = [-1] * size
         self.calm = self._calm(())
         self._woken: set[int] = set()
+        self._joints = joints
         self._kernel: Optional[_compiled.CompiledContacts] = (
             _compiled.CompiledContacts(self) if compiled else None)
 
@@ -486,32 +493,49 @@ class ContactPass:
         check."""
         if not (np.isfinite(q1).all() and np.isfinite(v1).all()):
             return
+        joints = self._joints
+        if self._kernel is not None and joints is not None and not joints.compiled:
+            self.use_python()  # the joint rows are Python's: solve with them here
         if self._kernel is not None:
-            self._kernel.resolve(q1, v1, q0, v0, h)
+            if joints is None:
+                self._kernel.resolve(q1, v1, q0, v0, h)
+                return
+            self._kernel.resolve(q1, v1, q0, v0, h, joints.kernel_pass())
+            joints.kernel_done()
             return
         contacts = self._awake_contacts(q1, v1, q0, v0)
         if not contacts:
+            if joints is not None:
+                joints.take_extra([])
             self._warm = self._sleeping_warm()
             self._doze([], v1, h)
             return
-        touched = sorted(({c.a for c in contacts} | {c.b for c in contacts}) - {-1})
+        units = [] if joints is None else joints.contact_units()
+        touched = sorted(({c.a for c in contacts} | {c.b for c in contacts}
+                          | {b for unit in units for b in unit.bodies()}) - {-1})
         still = [0.0, 0.0, 0.0]
         poses = {b: q1[b].tolist() for b in touched}
         velocity = {b: v1[b].tolist() for b in touched}
         velocity[-1] = still
         arrived = {b: list(velocity[b]) for b in touched}
+        moved = dict(arrived)  # the velocities the step's positions moved with
+        if joints is not None:
+            moved.update(joints.settled_velocities())
+        moved[-1] = still
         before = {b: v0[b].tolist() for b in touched}
         before[-1] = still
-        rows = [self._prepare(c, poses, velocity, before, h) for c in contacts]
+        rows = [self._prepare(c, poses, moved, before, h) for c in contacts]
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
             row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
-        self._solve_velocities(rows, velocity)
+        self._solve_velocities(rows, velocity, units)
+        if joints is not None:
+            joints.take_extra(units)
         self._remember(rows, poses)
         for b in touched:
             if velocity[b] != arrived[b]:
                 poses[b] = [p + h * (new - old)
-                            for p, new, old in zip(poses[b], velocity[b], arrived[b])]
+                            for p, new, old in zip(poses[b], velocity[b], moved[b])]
                 q1[b] = poses[b]
                 v1[b] = velocity[b]
         self._correct_positions(rows, velocity, q1, h)
@@ -569,7 +593,8 @@ class ContactPass:
 
     def _prepare(self, contact: Contact, poses: dict, velocity: dict, before: dict,
                  h: float) -> ContactRow:
-        """The solver row of ``contact``, its impulses warm-started from the last step."""
+        """The solver row of ``contact``, its impulses warm-started from the last step;
+        ``velocity``: the bodies' velocities the step's positions moved with."""
         row = self._row(contact, poses, velocity)
         a, b, approach, depth = row.a, row.b, row.approach, row.depth
         # End the step just touching (never pushed apart by velocity: overlap left from
@@ -624,7 +649,7 @@ class ContactPass:
         for row, contact, bounces in zip(rows, contacts, bouncing):
             if bounces:  # the others end touching (target 0) or, separating, get nothing
                 row.target = -contact.e * row.approach
-        self._solve_velocities(rows, velocity)
+        self._solve_velocities(rows, velocity, [])
         for b in touched:
             v[b] = velocity[b]
         return True
@@ -657,22 +682,33 @@ class ContactPass:
             self._warm.setdefault(row.key, []).append(
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 
-    def _solve_velocities(self, rows: list[ContactRow], velocity: dict) -> None:
+    def _solve_velocities(self, rows: list[ContactRow], velocity: dict,
+                          joint_units: list[JointUnit]) -> None:
         """Gauss-Seidel passes over the rows, each two-point manifold as one block
-        (:class:`Block`), every other contact point by point, island by island (bodies
-        that touch, through contacts with each other, share no body with another island):
-        each until no impulse changes a velocity by more than :data:`CONVERGED` relative
-        to its fastest body, or :func:`passes` passes for its own number of units. Islands
-        are independent, so each gets the bits it would get alone."""
-        for island in _islands(_schedule(rows)):
-            scale = 1.0 + max(abs(x) for unit in island for body in _unit_bodies(unit)
-                              for x in velocity[body])
-            for _ in range(passes(len(island))):
+        (:class:`Block`), every other contact point by point, then the velocity rows of the
+        joints in the island (:mod:`.coupled`), island by island (bodies that touch,
+        through contacts or joints, share no body with another island; a joint's rows are
+        swept only in an island that has a contact): each until no impulse changes a
+        velocity by more than :data:`CONVERGED` relative to its fastest body, or
+        :func:`passes` passes for its own number of units. Islands are independent, so
+        each gets the bits it would get alone."""
+        for island, coupled in _islands(_schedule(rows), joint_units):
+            for joint in coupled:
+                joint.warm_start(velocity)
+            fastest = max(abs(x) for unit in island for body in _unit_bodies(unit)
+                          for x in velocity[body])
+            for joint in coupled:
+                fastest = max(fastest, max(abs(x) for body in joint.bodies()
+                                           for x in velocity[body]))
+            scale = 1.0 + fastest
+            for _ in range(passes(len(island) + len(coupled))):
                 largest = 0.0
                 for unit in island:
                     change = (unit.solve(velocity) if isinstance(unit, Block)
                               else _solve_point(unit, velocity))
                     largest = max(largest, change)
+                for joint in coupled:
+                    largest = max(largest, joint.solve(velocity))
                 if largest <= CONVERGED * scale:
                     break
 
@@ -811,9 +847,12 @@ def _unit_bodies(unit: ContactRow | Block) -> tuple[int, int]:
     return row.a, row.b
 
 
-def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
-    """The units grouped by island (union-find over the bodies they join; walls join
-    nothing), in order of each island's first unit, each island's units in their order."""
+def _islands(units: list[ContactRow | Block], joints: list[JointUnit]
+             ) -> list[tuple[list[ContactRow | Block], list[JointUnit]]]:
+    """The units grouped by island (union-find over the bodies they join, contacts and
+    joints; walls and the fixed frame join nothing), in order of each island's first
+    unit, each island's units in their order, with the joint rows of that island (in the
+    joint pass's order); joint rows of islands without a contact are left out."""
     parent: dict[int, int] = {}
     for unit in units:
         a, b = _unit_bodies(unit)
@@ -821,9 +860,19 @@ def _islands(units: list[ContactRow | Block]) -> list[list[ContactRow | Block]]:
         if a >= 0:
             parent.setdefault(a, a)
             _join(parent, a, b)
-    islands: dict[int, list[ContactRow | Block]] = {}
+    for joint in joints:
+        first, *others = joint.bodies()
+        parent.setdefault(first, first)
+        for body in others:
+            parent.setdefault(body, body)
+            _join(parent, first, body)
+    islands: dict[int, tuple[list[ContactRow | Block], list[JointUnit]]] = {}
     for unit in units:
-        islands.setdefault(_root(parent, _unit_bodies(unit)[1]), []).append(unit)
+        islands.setdefault(_root(parent, _unit_bodies(unit)[1]), ([], []))[0].append(unit)
+    for joint in joints:
+        island = islands.get(_root(parent, joint.entries[0][0]))
+        if island is not None:
+            island[1].append(joint)
     return list(islands.values())
 
 

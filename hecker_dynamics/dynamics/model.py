@@ -71,7 +71,7 @@ class Model:
                         # joined bodies do not collide by default
                         apart=() if self.joints is None else self.joints.connected,
                         compiled=self.compiled is not None, sleep=scene.sleep,
-                        restless=_restless(self, scene))
+                        restless=_restless(self, scene), joints=self.joints)
             if scene.walls or scene.collisions else None)
 
     @property

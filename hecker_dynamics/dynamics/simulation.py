@@ -458,8 +458,9 @@ class Simulation:
         """One integrator step (with the wall impacts inside it located, where the scene
         asks), the joint pass and the contact pass; split into sub-steps when a colliding
         body would otherwise move more than half the thinnest colliding part. Joints go
-        first so that the contacts have the last word on overlap; what a contact impulse
-        does to a joint the next step's joint pass corrects, positions only."""
+        first so that the contacts have the last word on overlap; the contact pass solves
+        the joints' velocity rows with the contacts of their islands, and what that leaves
+        in the positions the next step's joint pass corrects, positions only."""
         f = self.model.accelerations
         start = self._time_ns * 1e-9
         q1, v1 = self._free_step(f, q, v, h, start)

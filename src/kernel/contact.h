@@ -140,6 +140,10 @@ typedef struct hd_contact_model {
     int *calm, *wake;
     double *rested;
     long *island;
+    /* The joint pass whose velocity rows hd_resolve sweeps with the contacts (coupled.h;
+     * NULL: none), set by the caller for the call, and the rows' working memory. */
+    struct hd_joint_model *joints;
+    struct hd_coupled *coupled;
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */

@@ -278,6 +278,11 @@ static double dot(const hd_joint_row *row, const hd_joint_row *direction)
     return s;
 }
 
+double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
+{
+    return dot(row, direction);
+}
+
 /* joints.py: _products, band (2 w + 1 per row). */
 static void products(const hd_joint_row *rows, const hd_joint_row *direction, long n, long w,
                      double *a)
@@ -609,7 +614,10 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
         return status;
     for (long k = 0; k < 3 * nb; ++k)
         m->v[k] += (m->q[k] - m->moved[k]) / h;
-    if ((status = correct(m, h)) != HD_JOINTS_OK || (status = velocities(m, h)) != HD_JOINTS_OK)
+    if ((status = correct(m, h)) != HD_JOINTS_OK)
+        return status;
+    memcpy(m->settled, m->v, (size_t)(3 * nb) * sizeof(double));
+    if ((status = velocities(m, h)) != HD_JOINTS_OK)
         return status;
     for (long i = 0; i < m->joint_count; ++i) {  /* JointPass._count_turns */
         hd_joint *jt = m->joints + i;
@@ -656,8 +664,11 @@ int hd_joints_prepare(hd_joint_model *m)
     m->free = malloc(R * sizeof(int));
     m->warm = calloc(R, sizeof(double));
     m->newton = calloc(R, sizeof(double));
+    m->extra = calloc(R, sizeof(double));
+    m->settled = calloc(B, sizeof(double));
     if (m->rigid == NULL || m->rows0 == NULL || m->memory == NULL || m->free_index == NULL ||
-            m->free == NULL || m->warm == NULL || m->newton == NULL)
+            m->free == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
+            m->settled == NULL)
         return HD_JOINTS_OUT_OF_MEMORY;
     m->rows = m->rows0 + R, m->subset = m->rows + R, m->dir0 = m->subset + R;
     m->dir = m->dir0 + R;
@@ -687,6 +698,8 @@ void hd_joints_free(hd_joint_model *m)
     free(m->rigid);
     free(m->warm);
     free(m->newton);
+    free(m->extra);
+    free(m->settled);
     free(m->memory);
     free(m->rows0);
     free(m->first);

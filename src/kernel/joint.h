@@ -54,6 +54,9 @@ typedef struct hd_joint_model {
     hd_joint *joints;
     long *rigid;           /* the rigid rows' indices */
     double *warm, *newton; /* row_count, rigid_count */
+    /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
+     * the velocities before the last velocity stage (3 per body). */
+    double *extra, *settled;
     int newton_valid;
     double last_h;
     /* working memory */
@@ -71,6 +74,8 @@ enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS
  * (row_count, rigid_count, rigid) and the bandwidth; HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
+/* joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
+double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
 /* joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
  * place; HD_JOINTS_DEPENDENT when a factorization meets a pivot that is not positive. */
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "coupled.h"
 #include "joint.h"
 #include "kernel.h"
 
@@ -402,7 +403,10 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
 
 static void contacts_destructor(PyObject *capsule)
 {
-    hd_contact_free(PyCapsule_GetPointer(capsule, CONTACTS));
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
+    if (m != NULL)
+        hd_coupled_free(m->coupled);
+    hd_contact_free(m);
 }
 
 /* A copy of a buffer of `count` values (any count if < 0; `*got` the count read), or NULL
@@ -558,20 +562,31 @@ fail:
 }
 
 PyDoc_STRVAR(resolve_doc,
-"resolve(contacts, q1, v1, q0, v0, h)\n\n"
+"resolve(contacts, q1, v1, q0, v0, h[, joints])\n\n"
 "The contact pass after a step of ``h`` from (q0, v0) to (q1, v1): updates q1 and v1 in\n"
-"place, sleeping bodies back at (q0, v0) (ContactPass.resolve).");
+"place, sleeping bodies back at (q0, v0) (ContactPass.resolve); with the joint pass\n"
+"``joints`` (not None), its last velocity rows solved with the contacts.");
 
 static PyObject *py_resolve(PyObject *self, PyObject *args)
 {
-    PyObject *capsule, *objects[4];
+    PyObject *capsule, *objects[4], *joints_object = Py_None;
     double h;
-    if (!PyArg_ParseTuple(args, "OOOOOd:resolve", &capsule, objects, objects + 1, objects + 2,
-                          objects + 3, &h))
+    if (!PyArg_ParseTuple(args, "OOOOOd|O:resolve", &capsule, objects, objects + 1, objects + 2,
+                          objects + 3, &h, &joints_object))
         return NULL;
     hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
     if (m == NULL)
         return NULL;
+    hd_joint_model *joints = NULL;
+    if (joints_object != Py_None) {
+        if ((joints = PyCapsule_GetPointer(joints_object, JOINTS)) == NULL)
+            return NULL;
+        for (long k = 0; k < joints->body_count; ++k)
+            if (joints->bodies[k] >= m->bodies) {
+                PyErr_SetString(PyExc_ValueError, "resolve: a joint pass for other bodies");
+                return NULL;
+            }
+    }
     Py_buffer views[4];
     const char *names[4] = {"q1", "v1", "q0", "v0"};
     for (int k = 0; k < 4; ++k) {
@@ -583,7 +598,9 @@ static PyObject *py_resolve(PyObject *self, PyObject *args)
     }
     int status;
     Py_BEGIN_ALLOW_THREADS
+    m->joints = joints;
     status = hd_resolve(m, views[0].buf, views[1].buf, views[2].buf, views[3].buf, h);
+    m->joints = NULL;
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 4; ++k)
         PyBuffer_Release(views + k);
@@ -800,16 +817,18 @@ fail:
 }
 
 /* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
- * whether those are set, and the last step's length. */
+ * the contact solve's extra impulses, whether the multipliers are set, and the last
+ * step's length. */
 static Py_ssize_t joint_state_length(const hd_joint_model *m)
 {
-    return HD_JOINT_STATE * m->joint_count + m->row_count + m->rigid_count + 2;
+    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 2;
 }
 
 PyDoc_STRVAR(joint_state_doc,
 "joint_state(joints, state, load)\n\n"
 "Copy the joint pass's state (joint.h: HD_JOINT_STATE per joint, the warm-start impulses,\n"
-"the Newton multipliers, 1.0 if those are set, the last step's length) from ``state``\n"
+"the Newton multipliers, the contact solve's extra impulses, 1.0 if the multipliers are\n"
+"set, the last step's length) from ``state``\n"
 "into the kernel (``load``) or from the kernel into ``state``.");
 
 static PyObject *py_joint_state(PyObject *self, PyObject *args)
@@ -836,16 +855,19 @@ static PyObject *py_joint_state(PyObject *self, PyObject *args)
     }
     const size_t warm = (size_t)m->row_count * sizeof(double),
                  newton = (size_t)m->rigid_count * sizeof(double);
+    const long flags = 2 * m->row_count + m->rigid_count;
     if (load) {
         memcpy(m->warm, s, warm);
         memcpy(m->newton, s + m->row_count, newton);
-        m->newton_valid = s[m->row_count + m->rigid_count] != 0.0;
-        m->last_h = s[m->row_count + m->rigid_count + 1];
+        memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
+        m->newton_valid = s[flags] != 0.0;
+        m->last_h = s[flags + 1];
     } else {
         memcpy(s, m->warm, warm);
         memcpy(s + m->row_count, m->newton, newton);
-        s[m->row_count + m->rigid_count] = m->newton_valid ? 1.0 : 0.0;
-        s[m->row_count + m->rigid_count + 1] = m->last_h;
+        memcpy(s + m->row_count + m->rigid_count, m->extra, warm);
+        s[flags] = m->newton_valid ? 1.0 : 0.0;
+        s[flags + 1] = m->last_h;
     }
     PyBuffer_Release(&view);
     Py_RETURN_NONE;

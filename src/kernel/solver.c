@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "coupled.h"
 
 /* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
 static HD_HOT double py_min(double x, double y) { return y < x ? y : x; }
@@ -150,8 +151,10 @@ static void recall(hd_contact_model *m, const long *key, double rx, double ry, d
     *jt = m->warm[best].jt;
 }
 
-/* The solver row of contact c (solver.py: _prepare). */
-static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h)
+/* The solver row of contact c (solver.py: _prepare); `reference`: the velocities the
+ * step's positions moved with. */
+static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h,
+                    const double *reference)
 {
     const long wall = m->bodies;
     const long a = c->a >= 0 ? c->a : wall, b = c->b;
@@ -173,7 +176,7 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     const double rta = -r->rax * nx - r->ray * ny, rtb = -r->rbx * nx - r->rby * ny;
     r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
     r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
-    r->approach = normal_velocity(m->velocity + 3 * a, m->velocity + 3 * b, r);
+    r->approach = normal_velocity(reference + 3 * a, reference + 3 * b, r);
     double target = py_min(r->approach + c->depth / h, 0.0);
     if (c->depth > 0.0 && r->approach < -m->threshold) {
         const double impact = normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
@@ -306,6 +309,8 @@ static long root_of(long *parent, long body)
     return body;
 }
 
+long hd_root(long *parent, long body) { return root_of(parent, body); }
+
 /* Group the units by island (solver.py: _islands): m->order holds the units' indices,
  * each island's together and in their order, island i from m->island_start[i] to
  * [i + 1]; returns the number of islands. */
@@ -313,6 +318,7 @@ static long islands(hd_contact_model *m, long units)
 {
     const long wall = m->bodies;
     long *parent = m->parent, *island = m->island_of;
+    hd_coupled_reset(m, parent, island);
     for (long k = 0; k < units; ++k) {
         const hd_row *r = m->rows + m->units[k].first;
         parent[r->a] = r->a;
@@ -327,6 +333,7 @@ static long islands(hd_contact_model *m, long units)
         if (ra != rb)
             parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
     }
+    hd_coupled_join(m, parent);
     long count = 0;
     for (long k = 0; k < units; ++k) {  /* islands numbered by first unit; their sizes */
         const long root = root_of(parent, m->rows[m->units[k].first].b);
@@ -344,20 +351,23 @@ static long islands(hd_contact_model *m, long units)
         m->island_fill[i] = m->island_start[i];
     for (long k = 0; k < units; ++k)
         m->order[m->island_fill[m->unit_island[k]]++] = k;
-    return count;
+    return hd_coupled_islands(m, parent, island, count) < 0 ? -1 : count;
 }
 
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
  * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
  * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
  * (solver.py: _solve_velocities). */
-static void solve_velocities(hd_contact_model *m, long count)
+static int solve_velocities(hd_contact_model *m, long count)
 {
     const long units = schedule(m, count);
     const long count_islands = islands(m, units);
+    if (count_islands < 0)
+        return -1;
     for (long i = 0; i < count_islands; ++i) {
         const long *members = m->order + m->island_start[i];
         const long size = m->island_start[i + 1] - m->island_start[i];
+        hd_coupled_warm_start(m, i);
         double fastest = 0.0;
         for (long k = 0; k < size; ++k) {
             const hd_row *r = m->rows + m->units[members[k]].first;
@@ -366,8 +376,8 @@ static void solve_velocities(hd_contact_model *m, long count)
                                  fabs(m->velocity[3 * r->b + c]));
             }
         }
-        const double scale = 1.0 + fastest;
-        long passes = HD_WORK / size;
+        const double scale = 1.0 + hd_coupled_fastest(m, i, fastest);
+        long passes = HD_WORK / (size + hd_coupled_size(m, i));
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
         for (long iteration = 0; iteration < passes; ++iteration) {
@@ -385,10 +395,12 @@ static void solve_velocities(hd_contact_model *m, long count)
                 }
                 largest = py_max(largest, change);
             }
+            largest = hd_coupled_sweep(m, i, largest);
             if (largest <= HD_CONVERGED * scale)
                 break;
         }
     }
+    return 0;
 }
 
 /* Keep only the warm-start impulses of the sleeping islands' contacts, in their order
@@ -553,6 +565,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     }
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
+        hd_coupled_store(m, 0);
         keep_sleeping_warm(m);
         doze(m, v1, 0, h);
         return m->sleep ? index_warm(m) : 0;
@@ -583,6 +596,8 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
             m->touched[m->contacts[k].a] = 1;
         m->touched[m->contacts[k].b] = 1;
     }
+    if (m->joints != NULL && hd_couple(m) < 0)
+        return -1;
     for (long b = 0; b < n; ++b) {
         if (!m->touched[b])
             continue;
@@ -593,14 +608,18 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     }
     memset(m->velocity + 3 * n, 0, 3 * sizeof(double));
     memset(m->before + 3 * n, 0, 3 * sizeof(double));
+    memset(m->arrived + 3 * n, 0, 3 * sizeof(double));
+    const double *reference = hd_coupled_reference(m);
     for (long k = 0; k < count; ++k)
-        prepare(m, m->contacts + k, m->rows + k, h);
+        prepare(m, m->contacts + k, m->rows + k, h, reference);
     for (long k = 0; k < count; ++k) {  /* warm start, once every target is set */
         const hd_row *r = m->rows + k;
         push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,
              r->jn * r->nx - r->jt * r->ny, r->jn * r->ny + r->jt * r->nx);
     }
-    solve_velocities(m, count);
+    if (solve_velocities(m, count) < 0)
+        return -1;
+    hd_coupled_store(m, 1);
     if (remember(m, count) < 0)
         return -1;
     for (long b = 0; b < n; ++b) {
@@ -610,7 +629,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
         if (now[0] == was[0] && now[1] == was[1] && now[2] == was[2])
             continue;
         for (int i = 0; i < 3; ++i) {
-            q1[3 * b + i] = m->poses[3 * b + i] + h * (now[i] - was[i]);
+            q1[3 * b + i] = m->poses[3 * b + i] + h * (now[i] - reference[3 * b + i]);
             v1[3 * b + i] = now[i];
         }
     }

@@ -352,6 +352,8 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
     int status = HD_ADVANCED;
     *taken = 0;
     Stepper stepper = {&f, method, pair, tolerance, size, buffer};
+    if (contacts != NULL)
+        contacts->joints = joints;  /* for these steps: coupled.h */
     for (long t = 0; t < steps; ++t) {
         status = contacts == NULL
                  ? constrained_step(&stepper, joints, q, v, q_new, v_new, h)
@@ -368,6 +370,8 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
         memcpy(v, v_new, (size_t)n3 * sizeof(double));
         *taken += 1;
     }
+    if (contacts != NULL)
+        contacts->joints = NULL;
     free(memory);
     return status;
 }

@@ -486,9 +486,8 @@ def test_the_shipped_gears_keep_their_ratio_then_jam_on_the_bar():
     rad. From 2 s to the end the bar sits wedged in the gap between the rims (its center
     below the small rim's top at y = 1.28, above the line of the centers, its sides either
     side of the gap at x = 0.28 to 0.32), and the motor gives its full 20 N m (to 1e-12)
-    without reaching its speed: the train runs below a fifth of it (measured: 0.22 to 0.28
-    rad/s; the joint and contact passes solve apart, so the wedge brakes the train but lets
-    it creep)."""
+    without reaching its speed: the train runs below a fifth of it (the joints' rows are
+    solved with the contacts, so it stops: test/contact/test_coupled.py)."""
     scene = load_scene("gears")
     sim = Simulation(scene)
     for command in scene.script:
