@@ -553,9 +553,11 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     }
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
-        keep_sleeping_warm(m);
+        /* Every impulse kept (a scene fully asleep): the table indexes them already. */
+        const long had = m->warm_count;
+        const int same = keep_sleeping_warm(m) == had;
         doze(m, v1, 0, h);
-        return m->sleep ? index_warm(m) : 0;
+        return m->sleep && !same ? index_warm(m) : 0;
     }
     /* The rows, then `count` doubles for the position correction's depths. */
     const long needed = count + (count * (long)sizeof(double)) / (long)sizeof(hd_row) + 1;
