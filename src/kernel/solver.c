@@ -399,7 +399,8 @@ static long keep_sleeping_warm(hd_contact_model *m)
     for (long k = 0; m->sleep && k < m->warm_count; ++k) {
         if (m->island[m->warm[k].key[1]] < 0)
             continue;
-        m->warm[kept] = m->warm[k];
+        if (kept != k)  /* while none was dropped each stays in place */
+            m->warm[kept] = m->warm[k];
         m->warm[kept].used = 0;
         kept += 1;
     }
