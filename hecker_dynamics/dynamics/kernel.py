@@ -53,6 +53,12 @@ def enabled() -> bool:
     return built() and os.environ.get(SWITCH, "1") != "0"
 
 
+def kinetic(v: np.ndarray, mass: np.ndarray, inertia: np.ndarray) -> float:
+    """The kinetic energy of the velocities ``v`` (C-contiguous (N, 3)) in the kernel,
+    body by body as :class:`~.divergence.EnergyBound`'s plain-float loop sums it."""
+    return float(_kernel.kinetic(v, mass, inertia))
+
+
 Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h
 
 

@@ -65,13 +65,14 @@ class Snapshot:
     __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
-                 v: np.ndarray) -> None:
+                 v: np.ndarray, *, copy: bool = True) -> None:
+        """``copy`` false: (q, v) are the snapshot's own, never changed in place."""
         self.time_ns, self.steps = time_ns, steps
         #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
         #: joint pass counts turns and keeps its efforts from step to step.
         self.joints: dict[str, tuple[float, float, float]] = (
             {} if model.joints is None else model.joints.joint_state(q, v))
-        self._model, self._q, self._v = model, q.copy(), v.copy()
+        self._model, self._q, self._v = model, q.copy() if copy else q, v.copy() if copy else v
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
 
@@ -513,8 +514,10 @@ class Simulation:
                 taken += self._advance(limit)
                 if (self._time_ns - self.start_ns) % period == 0:
                     self._check_energy()
-                    if keep:
-                        snapshots.append(self.snapshot())
+                    if keep:  # the state just checked: its copies are kept unchanged
+                        q, v = self._checked[:2]
+                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model, q, v,
+                                                  copy=False))
         return snapshots
 
     def _check_energy(self) -> None:

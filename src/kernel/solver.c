@@ -411,7 +411,8 @@ static long keep_sleeping_warm(hd_contact_model *m)
     for (long k = 0; m->sleep && k < m->warm_count; ++k) {
         if (m->island[m->warm[k].key[1]] < 0)
             continue;
-        m->warm[kept] = m->warm[k];
+        if (kept != k)  /* while none was dropped each stays in place */
+            m->warm[kept] = m->warm[k];
         m->warm[kept].used = 0;
         kept += 1;
     }
@@ -566,9 +567,11 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
         hd_coupled_store(m, 0);
-        keep_sleeping_warm(m);
+        /* Every impulse kept (a scene fully asleep): the table indexes them already. */
+        const long had = m->warm_count;
+        const int same = keep_sleeping_warm(m) == had;
         doze(m, v1, 0, h);
-        return m->sleep ? index_warm(m) : 0;
+        return m->sleep && !same ? index_warm(m) : 0;
     }
     /* The rows, then `count` doubles for the position correction's depths. */
     const long needed = count + (count * (long)sizeof(double)) / (long)sizeof(hd_row) + 1;

@@ -196,6 +196,20 @@ def test_no_active_terms_give_zeros():
         assert a.tobytes() == lean.accelerations(q, v).tobytes() == np.zeros((3, 3)).tobytes()
 
 
+@pytest.mark.parametrize("bodies", [1, 3, 21, 200])
+def test_kinetic_energy_is_the_plain_float_loops_bits(bodies):
+    """The energy bound's kinetic energy in the kernel sums as its plain-float loop does:
+    velocities over 16 decades, so that a change of order or a fused multiply-add would
+    show in the last bits."""
+    rng = np.random.default_rng(bodies)
+    v = rng.normal(size=(bodies, 3)) * 10.0 ** rng.uniform(-8, 8, size=(bodies, 3))
+    mass, inertia = rng.uniform(0.1, 9.0, bodies), rng.uniform(0.01, 3.0, bodies)
+    loop = 0.0
+    for (vx, vy, omega), m, i in zip(v.tolist(), mass.tolist(), inertia.tolist()):
+        loop += m * (vx * vx + vy * vy) + i * (omega * omega)
+    assert kernel.kinetic(v, mass, inertia) == 0.5 * loop
+
+
 def test_spring_ends_that_coincide_give_no_spring_force():
     """Springs with a rest length whose ends meet (at points off the CMs: angle 0 makes
     the offsets exact, so d is exactly zero) have no direction and give no force, damped or
