@@ -71,8 +71,9 @@ setup(
         # pyarrow 26 refuses numpy 1.x, which ROS 2 Jazzy ships (25 reads both).
         # pytest-xdist: scripts/test.sh runs the suite on every core, which keeps .ci/run's
         # three runs under CI's 20 minutes on two cores.
-        "test": ["pytest>=7", "pytest-xdist>=3.5", "catkin_pkg>=0.5", "matplotlib>=3.6", "Pillow>=9",
-                 "dask[distributed]>=2023.4", "imageio-ffmpeg>=0.4.9", "pyarrow>=14,<26"],
+        "test": ["pytest>=7", "pytest-xdist>=3.5", "catkin_pkg>=0.5", "matplotlib>=3.6",
+                 "Pillow>=9", "dask[distributed]>=2023.4", "imageio-ffmpeg>=0.4.9",
+                 "pyarrow>=14,<26"],
         # Sweeps and regression suites on a Dask cluster (`--cluster ADDRESS`).
         "cluster": ["dask[distributed]>=2023.4"],
         # scripts/lint.sh: ruff and mypy as pyproject.toml configures them.
