@@ -20,7 +20,11 @@ keyframe period (``~/keyframe``). A replay of a recorded session
    same stamp (``Twist``, which has no header, by its place in the sequence of snapshots).
 
 ``/diagnostics`` is not compared: it holds wall times and the node publishes it at timer
-ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes.
+ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes;
+nor a ``markers`` array of ``DELETE`` markers alone, which the node sends when bodies are
+gone (:meth:`~hecker_dynamics.ros.outputs.SnapshotOutputs.markers_gone`): it follows from the
+world events compared above, and after a restart from the world before it, which the new
+session's records do not hold.
 Recorded outputs before the replay's start (a recorder that subscribed to them before
 it received a keyframe) are counted as not checked. Input messages recorded on the input
 topics are checked against the events: an event whose message is missing in the middle of
@@ -35,7 +39,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Union
 
-from ..ros.names import TF_STATIC_TOPIC
+from ..ros.markers import MARKER_DELETE
+from ..ros.names import MARKERS_TOPIC, TF_STATIC_TOPIC
 from ..ros.joint_states import MotorTopic
 from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import InputSource, Runner
@@ -147,16 +152,27 @@ def _recorded_outputs(scene: Scene, bag: BagContents, sessions: Sequence[Recorde
         resolve_topic(DIAGNOSTICS_TOPIC), TF_STATIC_TOPIC}
     stamped: dict[int, Recorded] = defaultdict(lambda: defaultdict(list))
     unstamped: Recorded = defaultdict(list)
+    markers = resolve_topic(MARKERS_TOPIC)
     for message in bag.messages:
         if message.topic not in compared:
             continue
-        stamp = bags.stamp_ns_of(message.decode())
+        msg = message.decode()
+        if message.topic == markers and _deletes_only(msg):
+            continue
+        stamp = bags.stamp_ns_of(msg)
         if stamp is None:
             unstamped[message.topic].append((message, None))
         else:
             session = _session_of(sessions, message, stamp)
             stamped[session.info.session][message.topic].append((message, stamp))
     return stamped, unstamped
+
+
+def _deletes_only(msg: object) -> bool:
+    """Whether ``msg``, a ``MarkerArray``, holds ``DELETE`` markers alone (see the module
+    docstring)."""
+    items = getattr(msg, "markers", ())
+    return bool(items) and all(m.action == MARKER_DELETE for m in items)
 
 
 def _spawned_topics(scene: Scene, sessions: Sequence[RecordedSession]) -> set[str]:

@@ -1,6 +1,7 @@
 """RViz markers of the bodies' shapes (``visualization_msgs/MarkerArray`` fields), without ROS."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any, NamedTuple, Optional
 
 from ..geometry.shapes import Circle, Polygon
@@ -11,6 +12,7 @@ from .fields import Header, Pose, Vec3, _rotate, body_pose, header
 MARKER_CYLINDER = 3
 MARKER_LINE_STRIP = 4
 MARKER_ADD = 0
+MARKER_DELETE = 2
 #: Thickness of shape outlines and of circle discs in RViz, in metres.
 MARKER_LINE_WIDTH = 0.02
 MARKER_DISC_HEIGHT = 0.01
@@ -42,6 +44,15 @@ class MarkerTemplate(NamedTuple):
 
     fields: MarkerFields
     offset: Optional[tuple[float, float]]
+
+
+#: A marker's identity in RViz: its namespace and id (an ``ADD`` of the same pair replaces it).
+MarkerKey = tuple[str, int]
+
+
+def marker_keys(templates: Iterable[MarkerTemplate]) -> frozenset[MarkerKey]:
+    """The namespace and id of each of ``templates``' markers."""
+    return frozenset((t.fields.ns, t.fields.id) for t in templates)
 
 
 #: The header and pose of a marker not yet placed.
@@ -106,3 +117,13 @@ def marker_fields(body: BodySpec, state: Any, index: int, frame_id: str,
     """
     return place_markers(marker_templates(body, index), header(frame_id, stamp_ns), state,
                          body_pose(state))
+
+
+def delete_markers(gone: Iterable[MarkerKey], head: Header) -> tuple[MarkerFields, ...]:
+    """``DELETE`` markers for ``gone``: RViz keeps a marker until a ``DELETE`` of its
+    namespace and id arrives (visualization_msgs/Marker; the other fields are ignored), so a
+    deleted body's shapes would stay on screen at their last pose without these."""
+    # The type is ignored by a DELETE; the shapes' outline type keeps the field meaningful.
+    return tuple(MarkerFields(head, ns, id_, MARKER_LINE_STRIP, MARKER_DELETE, UNPLACED[1],
+                              (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), ())
+                 for ns, id_ in sorted(gone))

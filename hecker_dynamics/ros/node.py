@@ -417,9 +417,10 @@ class DynamicsNode(Node):
     def _follow_world(self) -> None:
         """Outputs for the world that runs now, after a spawn, a delete, or a restart that
         undid them: publishers of the bodies gone are destroyed, the new bodies' created,
-        and ``/tf_static`` is sent again with the named points of every body there is."""
+        ``DELETE`` markers take the bodies gone out of RViz, and ``/tf_static`` is sent
+        again with the named points of every body there is."""
         scene = self.runner.scene
-        self._outputs = SnapshotOutputs(scene)
+        previous, self._outputs = self._outputs, SnapshotOutputs(scene)
         topics = output_topics(scene)
         for topic in [t for t in self._publishers_by_topic if t not in topics]:
             self.destroy_publisher(self._publishers_by_topic.pop(topic))
@@ -427,6 +428,8 @@ class DynamicsNode(Node):
             if topic not in self._publishers_by_topic:
                 self._publishers_by_topic[topic] = self.create_publisher(
                     MESSAGE_TYPES[kind], topic, qos_profile(output_qos(topic)))
+        for output in self._outputs.markers_gone(previous, self.sim.time_ns):
+            self._publish(output)
         self._publish_static()
 
     def _publish(self, output: OutputFields) -> None:

@@ -8,7 +8,8 @@ from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
 from .fields import OdometryFields, PoseStampedFields, body_pose, header, twist_fields
 from .joint_states import has_joint_states, snapshot_joint_states
-from .markers import MarkerFields, marker_templates, place_markers
+from .markers import (MarkerFields, MarkerKey, delete_markers, marker_keys, marker_templates,
+                      place_markers)
 from .names import (DIAGNOSTICS_TOPIC, JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC,
                     TF_TOPIC, odometry_topic, pose_topic, twist_topic)
 from .tf import body_transforms, point_transforms
@@ -90,6 +91,9 @@ class SnapshotOutputs:
                              for b in scene.bodies)
         self._markers = tuple(marker_templates(b, index) for index, b in enumerate(scene.bodies)
                               ) if scene.publish_markers else ()
+        #: The namespace and id of every marker these outputs publish.
+        self.marker_keys: frozenset[MarkerKey] = frozenset().union(
+            *(marker_keys(templates) for templates in self._markers))
 
     def __call__(self, snapshot: Snapshot) -> list[OutputFields]:
         scene = self.scene
@@ -123,6 +127,16 @@ class SnapshotOutputs:
             outputs.append(OutputFields(JOINT_STATES_TOPIC, OutputKind.JOINT_STATE,
                                         joint_states))
         return outputs
+
+    def markers_gone(self, previous: SnapshotOutputs, stamp_ns: int) -> list[OutputFields]:
+        """After a world change (a delete, or a spawn undone by a restart): one
+        ``MarkerArray`` of ``DELETE`` markers for what ``previous`` published and these
+        outputs do not, so RViz drops a body that is gone; empty when nothing is."""
+        gone = previous.marker_keys - self.marker_keys
+        if not gone or not self.scene.publish_markers:
+            return []
+        head = header(self.scene.frame_id, stamp_ns)
+        return [OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, delete_markers(gone, head))]
 
     def static(self, stamp_ns: int) -> list[OutputFields]:
         """``/tf_static`` (published once, latched): empty without TF or named points."""

@@ -22,6 +22,7 @@ from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
 from hecker_dynamics.bags.io import resolve_topic
 from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.joint_states import motor_topics
+from hecker_dynamics.ros.outputs import SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
 from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
                                          WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
@@ -144,10 +145,18 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     sent: list[Any] = []
     last_tick: Optional[int] = None
 
+    shown = [SnapshotOutputs(runner.scene)]
+
     def publish_records(at_ns: int) -> None:
         for record in runner.take_records():
             topic, msgtype, build, depth = RECORDS[type(record)]
             session.published.append(Published(topic, msgtype, at_ns, build(record), depth))
+        if shown[0].scene is not runner.scene:  # the node's _follow_world
+            previous = shown[0]
+            shown[0] = SnapshotOutputs(runner.scene)
+            for gone in shown[0].markers_gone(previous, runner.sim.time_ns):
+                session.published.append(Published(resolve_topic(gone.topic), bags.MARKER_ARRAY,
+                                                   at_ns, bags.marker_array_message(gone.fields)))
 
     for at_ns, _, what in timeline:
         now_ns = runner.sim.time_ns if lockstep else at_ns  # the node's _now_ns

@@ -8,6 +8,7 @@ scene must fail, and the old rules (no records) must not reproduce these session
 """
 from __future__ import annotations
 
+import copy
 import math
 import os
 from pathlib import Path
@@ -22,8 +23,11 @@ from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outp
                                          output_types, replay_outputs)
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene
+from hecker_dynamics.scene.load import scene_parameters
+from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
 from hecker_dynamics.ros.session import MOTOR_SPEED_EVENT
 from live_session import S, record, run_live
+from scene_builders import make_scene
 
 EXACT = Tolerances(0.0, 0.0, 0.0)
 #: (scene, seed, options of the live run, how late the recorder starts): every case pushes
@@ -229,6 +233,32 @@ def test_spawned_and_deleted_bodies_replay_bit_for_bit(tmp_path, name, seed, cal
         assert all(c.accepted for c in body_changes)
     if seed == 42:
         assert not body_changes and check.keyframes_checked >= 1
+
+
+@pytest.mark.parametrize("name,seed,calls,options", [
+    ("sample", 60, [(800_000_000, SPAWN_BALL), (2_600_000_000, ("delete", "ball"))], {}),
+    ("sample", 61, [(S, SPAWN_BALL)], {"reset_at": 2_500_000_000}),
+    ("seesaw", 62, [(1_300_000_000, ("delete", "load"))], {"lockstep": True}),
+])
+def test_delete_markers_of_bodies_gone_are_recorded_and_the_rest_replays(tmp_path, name, seed,
+                                                                        calls, options):
+    """With markers on, a body gone (deleted, or spawned and undone by a reset) gets one
+    array of DELETE markers in the bag; the live check leaves it out and matches every
+    other recorded marker array bit for bit."""
+    params = copy.deepcopy(dict(scene_parameters(name)[1]))
+    params.setdefault("publish", {})["markers"] = True
+    scene = make_scene(params)
+    path = record(run_live(scene, seed, bodies=calls, **options), tmp_path / "live", seed)
+    bag = read_bag(path)
+    check = _check(scene, path)
+    assert check.ok, check.report.text() + "\n" + "\n".join(check.problems)
+    arrays = [m.decode() for m in bag.messages if m.topic == "/markers"]
+    deletes = [a for a in arrays if {m.action for m in a.markers} == {MARKER_DELETE}]
+    assert [{m.ns for m in a.markers} for a in deletes] == [{calls[-1][1][1]}]
+    assert all({m.action for m in a.markers} == {MARKER_ADD} for a in arrays
+               if a not in deletes)
+    compared = {t.topic: t.matched for t in check.report.topics}
+    assert check.unchecked == 0 and compared["/markers"] == len(arrays) - 1
 
 
 def test_a_keyframe_with_a_spawned_body_changed_is_caught(tmp_path):

@@ -16,6 +16,9 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
+from hecker_dynamics.ros.names import MARKERS_TOPIC
+from hecker_dynamics.ros.outputs import OutputKind, SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner
 from hecker_dynamics.ros.session import KeyframeFields, WorldChange
 from hecker_dynamics.scene import load_scene
@@ -303,3 +306,64 @@ def test_changes_are_refused_before_the_start():
     runner = Runner(load_scene("sample"), started=False, record=True)
     assert "has not started" in runner.spawn_body("ball", BALL).reason
     assert "has not started" in runner.delete_body("left").reason
+
+
+# ----------------------------------------------------------------------------- RViz markers
+
+def _with_markers(name: str) -> Any:
+    params = _file_params(name)
+    params.setdefault("publish", {})["markers"] = True
+    return make_scene(params)
+
+
+def _markers_of(outputs: SnapshotOutputs, runner: Runner) -> dict[tuple[str, int], Any]:
+    """The ADD markers the outputs publish for the runner's state, by namespace and id."""
+    (array,) = [o.fields for o in outputs(runner.sim.snapshot()) if o.topic == MARKERS_TOPIC]
+    assert {m.action for m in array} == {MARKER_ADD}
+    return {(m.ns, m.id): m for m in array}
+
+
+def test_a_deleted_body_gets_a_delete_marker_once_and_the_others_keep_theirs():
+    """The seesaw's load deleted: one MarkerArray of DELETE markers, one per marker the
+    load had (ns "load"), and none for the bodies that stay; the next world change that
+    leaves the load gone sends nothing for it again."""
+    runner = Runner(_with_markers("seesaw"))
+    runner.advance(300_000_000)
+    before = SnapshotOutputs(runner.scene)
+    shown = _markers_of(before, runner)
+    assert runner.delete_body("load").accepted
+    after = SnapshotOutputs(runner.scene)
+    (gone,) = after.markers_gone(before, runner.sim.time_ns)
+    assert gone.topic == MARKERS_TOPIC and gone.kind is OutputKind.MARKERS
+    load_keys = {key for key in shown if key[0] == "load"}
+    assert load_keys and [(m.ns, m.id) for m in gone.fields] == sorted(load_keys)
+    assert {m.action for m in gone.fields} == {MARKER_DELETE}
+    assert {m.header for m in gone.fields} == {(0, 300_000_000, runner.scene.frame_id)}
+    kept = _markers_of(after, runner)
+    assert set(kept) == set(shown) - load_keys
+    # The same shapes, poses and points as before the delete (colors follow body order).
+    for key, marker in kept.items():
+        assert marker._replace(color=shown[key].color) == shown[key]
+    assert after.markers_gone(after, runner.sim.time_ns) == []
+    assert runner.spawn_body("ball", BALL).accepted
+    spawned_outputs = SnapshotOutputs(runner.scene)
+    assert spawned_outputs.markers_gone(after, runner.sim.time_ns) == []
+
+
+def test_a_restart_deletes_the_markers_of_the_spawned_bodies_alone():
+    runner = Runner(_with_markers("seesaw"), record=True)
+    runner.advance(S)
+    assert runner.spawn_body("ball", BALL).accepted
+    spawned = SnapshotOutputs(runner.scene)
+    runner.restart(5 * S)
+    (gone,) = SnapshotOutputs(runner.scene).markers_gone(spawned, runner.sim.time_ns)
+    assert {(m.ns, m.action) for m in gone.fields} == {("ball", MARKER_DELETE)}
+    assert len(gone.fields) == 2  # a circle's disc and its radius line
+
+
+def test_no_delete_markers_where_the_scene_publishes_none():
+    runner = Runner(load_scene("seesaw"))
+    runner.advance(S)
+    before = SnapshotOutputs(runner.scene)
+    assert runner.delete_body("load").accepted
+    assert SnapshotOutputs(runner.scene).markers_gone(before, runner.sim.time_ns) == []
