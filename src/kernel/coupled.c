@@ -112,10 +112,8 @@ int hd_coupled_islands(hd_contact_model *m, long *parent, const long *island, lo
     if (m->joints == NULL)
         return 0;
     hd_coupled *c = m->coupled;
-    long *start = malloc((size_t)(count + 2) * sizeof(long));
-    if (start == NULL)
-        return -1;
-    memset(start, 0, (size_t)(count + 2) * sizeof(long));
+    long *start = c->start;  /* count + 1 slots: row counts, then each island's start */
+    memset(start, 0, (size_t)(count + 1) * sizeof(long));
     for (long k = 0; k < c->count; ++k) {
         c->island[k] = island[hd_root(parent, c->rows[k].body[0])];
         if (c->island[k] >= 0)
@@ -123,13 +121,14 @@ int hd_coupled_islands(hd_contact_model *m, long *parent, const long *island, lo
     }
     for (long i = 0; i < count; ++i)
         start[i + 1] += start[i];
-    long *fill = c->start;  /* count + 1 slots: each island's cursor, then its start */
-    memcpy(fill, start, (size_t)(count + 1) * sizeof(long));
+    /* Fill with start[i] as island i's cursor, which leaves it at island i + 1's start;
+       shifting back by one slot restores the starts without a second buffer. */
     for (long k = 0; k < c->count; ++k)
         if (c->island[k] >= 0)
-            c->order[fill[c->island[k]]++] = k;
-    memcpy(c->start, start, (size_t)(count + 1) * sizeof(long));
-    free(start);
+            c->order[start[c->island[k]]++] = k;
+    for (long i = count; i > 0; --i)
+        start[i] = start[i - 1];
+    start[0] = 0;
     return 0;
 }
 
