@@ -453,7 +453,8 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
                               f"{keyframe.stamp_ns * 1e-9:.9f} s: {error}") from None
         if keyframe.steps and (keyframe.stamp_ns - info.start_ns) % scene.publish_period_ns == 0:
             # The node published this instant on arriving there, before the keyframe.
-            produced.extend(snapshot_messages(runner.scene, runner.sim.snapshot(), tf=True))
+            produced.extend(snapshot_messages(runner.scene, runner.sim.snapshot(), tf=True,
+                                              base=runner.base_scene))
     runner.take_records()
     start_ns = runner.sim.time_ns
     recorded_keyframes = {k.stamp_ns: k for k in session.keyframes}
@@ -461,7 +462,8 @@ def _replay_session(scene: Scene, session: RecordedSession, first_ns: int, last_
     def advance(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         for snapshot in tick.snapshots:
-            produced.extend(snapshot_messages(runner.scene, snapshot, tf=True))
+            produced.extend(snapshot_messages(runner.scene, snapshot, tf=True,
+                                              base=runner.base_scene))
         if tick.diverged is not None:
             check.halted = tick.diverged
         for record in runner.take_records():
@@ -516,5 +518,6 @@ def _change(runner: Runner, event: WorldEventFields,
         return runner.resume_at(event.time_ns)
     record, tick = runner.step(int(event.values[0]) if event.values else 0)
     for snapshot in tick.snapshots:
-        produced.extend(snapshot_messages(runner.scene, snapshot, tf=True))
+        produced.extend(snapshot_messages(runner.scene, snapshot, tf=True,
+                                          base=runner.base_scene))
     return record

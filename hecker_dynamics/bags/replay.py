@@ -291,9 +291,11 @@ def _output(fields: OutputFields, log_ns: int) -> Output:
                   _MESSAGE_BUILDERS[fields.kind](fields.fields))
 
 
-def snapshot_messages(scene: Scene, snapshot: Snapshot, *, tf: bool = False) -> list[Output]:
-    """The messages the node publishes for one snapshot, in its publishing order."""
-    fields = SnapshotOutputs(scene, tf=tf and scene.publish_tf)(snapshot)
+def snapshot_messages(scene: Scene, snapshot: Snapshot, *, tf: bool = False,
+                      base: Optional[Scene] = None) -> list[Output]:
+    """The messages the node publishes for one snapshot, in its publishing order, in the
+    world ``scene`` that started as ``base`` (default ``scene``)."""
+    fields = SnapshotOutputs(scene, tf=tf and scene.publish_tf, base=base)(snapshot)
     return [_output(output, snapshot.time_ns) for output in fields]
 
 

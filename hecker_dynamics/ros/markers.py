@@ -1,11 +1,12 @@
 """RViz markers of the bodies' shapes (``visualization_msgs/MarkerArray`` fields), without ROS."""
 from __future__ import annotations
 
+import zlib
 from collections.abc import Iterable
 from typing import Any, NamedTuple, Optional
 
 from ..geometry.shapes import Circle, Polygon
-from ..scene.load import BodySpec
+from ..scene.load import BodySpec, Scene
 from .fields import Header, Pose, Vec3, _rotate, body_pose, header
 
 # visualization_msgs/msg/Marker constants.
@@ -16,7 +17,7 @@ MARKER_DELETE = 2
 #: Thickness of shape outlines and of circle discs in RViz, in metres.
 MARKER_LINE_WIDTH = 0.02
 MARKER_DISC_HEIGHT = 0.01
-#: Body colors (r, g, b, a), cycled by body index.
+#: Body colors (r, g, b, a), cycled by :func:`color_slot`.
 MARKER_COLORS = (
     (0.12, 0.47, 0.71, 1.0), (1.0, 0.5, 0.05, 1.0), (0.17, 0.63, 0.17, 1.0),
     (0.84, 0.15, 0.16, 1.0), (0.58, 0.4, 0.74, 1.0), (0.55, 0.34, 0.29, 1.0),
@@ -84,9 +85,20 @@ def _shape_templates(shape: Any, ns: str, first_id: int,
     raise TypeError(f"no marker for a shape of type {type(shape).__name__}")
 
 
+def color_slot(name: str, base: Scene) -> int:
+    """The colour of body ``name`` in a world that started as ``base``: its place among
+    ``base``'s bodies, else (a spawned body) one picked by a checksum of its name. A world
+    change leaves every other body's colour as it was, live and in a replay alike."""
+    for index, body in enumerate(base.bodies):
+        if body.name == name:
+            return index
+    return len(base.bodies) + zlib.crc32(name.encode())
+
+
 def marker_templates(body: BodySpec, index: int) -> tuple[MarkerTemplate, ...]:
     """The fixed parts of ``body``'s markers, in namespace ``body.name``; ``index`` picks
-    the body's colour. Made once per body; :func:`place_markers` adds pose and header."""
+    the body's colour (:func:`color_slot`). Made once per body; :func:`place_markers` adds
+    pose and header."""
     color = MARKER_COLORS[index % len(MARKER_COLORS)]
     templates: list[MarkerTemplate] = []
     for shape in body.shapes:

@@ -265,7 +265,7 @@ class DynamicsNode(Node):
         #: Done (with True, or False after a divergence) when a lockstep run reaches the
         #: scene's duration; never done otherwise.
         self.finished = Future()
-        self._outputs = SnapshotOutputs(self.scene)
+        self._outputs = SnapshotOutputs(self.scene, base=self.runner.base_scene)
         self._publishers_by_topic = {
             topic: self.create_publisher(MESSAGE_TYPES[kind], topic,
                                          qos_profile(output_qos(topic)))
@@ -420,7 +420,8 @@ class DynamicsNode(Node):
         ``DELETE`` markers take the bodies gone out of RViz, and ``/tf_static`` is sent
         again with the named points of every body there is."""
         scene = self.runner.scene
-        previous, self._outputs = self._outputs, SnapshotOutputs(scene)
+        previous, self._outputs = self._outputs, SnapshotOutputs(
+            scene, base=self.runner.base_scene)
         topics = output_topics(scene)
         for topic in [t for t in self._publishers_by_topic if t not in topics]:
             self.destroy_publisher(self._publishers_by_topic.pop(topic))

@@ -8,8 +8,8 @@ from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
 from .fields import OdometryFields, PoseStampedFields, body_pose, header, twist_fields
 from .joint_states import has_joint_states, snapshot_joint_states
-from .markers import (MarkerFields, MarkerKey, delete_markers, marker_keys, marker_templates,
-                      place_markers)
+from .markers import (MarkerFields, MarkerKey, color_slot, delete_markers, marker_keys,
+                      marker_templates, place_markers)
 from .names import (DIAGNOSTICS_TOPIC, JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC,
                     TF_TOPIC, odometry_topic, pose_topic, twist_topic)
 from .tf import body_transforms, point_transforms
@@ -84,13 +84,16 @@ class SnapshotOutputs:
     odometry, markers and transform.
     """
 
-    def __init__(self, scene: Scene, *, tf: Optional[bool] = None) -> None:
+    def __init__(self, scene: Scene, *, tf: Optional[bool] = None,
+                 base: Optional[Scene] = None) -> None:
+        """``base``: the scene the world started as (default ``scene``), which fixes the
+        bodies' marker colours (:func:`~.markers.color_slot`)."""
         self.scene = scene
         self.tf = _with_tf(scene, tf)
         self._topics = tuple((pose_topic(b.name), twist_topic(b.name), odometry_topic(b.name))
                              for b in scene.bodies)
-        self._markers = tuple(marker_templates(b, index) for index, b in enumerate(scene.bodies)
-                              ) if scene.publish_markers else ()
+        self._markers = tuple(marker_templates(b, color_slot(b.name, base or scene))
+                              for b in scene.bodies) if scene.publish_markers else ()
         #: The namespace and id of every marker these outputs publish.
         self.marker_keys: frozenset[MarkerKey] = frozenset().union(
             *(marker_keys(templates) for templates in self._markers))

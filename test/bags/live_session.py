@@ -66,7 +66,7 @@ class LiveSession:
         """The node's outputs for ``snapshots`` of the world ``world`` (the scene with the
         bodies spawned and deleted so far), published at ROS time ``at_ns``."""
         for snapshot in snapshots:
-            for output in snapshot_messages(world, snapshot, tf=True):
+            for output in snapshot_messages(world, snapshot, tf=True, base=self.scene):
                 self.published.append(Published(output.topic, output.msgtype, at_ns,
                                                 output.msg))
 
@@ -145,7 +145,7 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
     sent: list[Any] = []
     last_tick: Optional[int] = None
 
-    shown = [SnapshotOutputs(runner.scene)]
+    shown = [SnapshotOutputs(runner.scene, base=scene)]
 
     def publish_records(at_ns: int) -> None:
         for record in runner.take_records():
@@ -153,7 +153,7 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
             session.published.append(Published(topic, msgtype, at_ns, build(record), depth))
         if shown[0].scene is not runner.scene:  # the node's _follow_world
             previous = shown[0]
-            shown[0] = SnapshotOutputs(runner.scene)
+            shown[0] = SnapshotOutputs(runner.scene, base=scene)
             for gone in shown[0].markers_gone(previous, runner.sim.time_ns):
                 session.published.append(Published(resolve_topic(gone.topic), bags.MARKER_ARRAY,
                                                    at_ns, bags.marker_array_message(gone.fields)))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.dynamics.commands import WrenchCommand
-from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
+from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_COLORS, MARKER_DELETE, color_slot
 from hecker_dynamics.ros.names import MARKERS_TOPIC
 from hecker_dynamics.ros.outputs import OutputKind, SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner
@@ -332,7 +332,7 @@ def test_a_deleted_body_gets_a_delete_marker_once_and_the_others_keep_theirs():
     before = SnapshotOutputs(runner.scene)
     shown = _markers_of(before, runner)
     assert runner.delete_body("load").accepted
-    after = SnapshotOutputs(runner.scene)
+    after = SnapshotOutputs(runner.scene, base=runner.base_scene)
     (gone,) = after.markers_gone(before, runner.sim.time_ns)
     assert gone.topic == MARKERS_TOPIC and gone.kind is OutputKind.MARKERS
     load_keys = {key for key in shown if key[0] == "load"}
@@ -341,13 +341,21 @@ def test_a_deleted_body_gets_a_delete_marker_once_and_the_others_keep_theirs():
     assert {m.header for m in gone.fields} == {(0, 300_000_000, runner.scene.frame_id)}
     kept = _markers_of(after, runner)
     assert set(kept) == set(shown) - load_keys
-    # The same shapes, poses and points as before the delete (colors follow body order).
+    # The same shapes, poses, points and colours as before the delete: colours come from
+    # the scene the world started as, where numbering the bodies of the world left (the
+    # seesaw's first body gone) would shift every other body's colour.
     for key, marker in kept.items():
-        assert marker._replace(color=shown[key].color) == shown[key]
+        assert marker == shown[key], key
+    renumbered = _markers_of(SnapshotOutputs(runner.scene), runner)
+    assert all(renumbered[key].color != shown[key].color for key in kept)
     assert after.markers_gone(after, runner.sim.time_ns) == []
     assert runner.spawn_body("ball", BALL).accepted
-    spawned_outputs = SnapshotOutputs(runner.scene)
+    spawned_outputs = SnapshotOutputs(runner.scene, base=runner.base_scene)
     assert spawned_outputs.markers_gone(after, runner.sim.time_ns) == []
+    ball = [m for key, m in _markers_of(spawned_outputs, runner).items() if key[0] == "ball"]
+    assert {m.color for m in ball} == {
+        MARKER_COLORS[color_slot("ball", runner.base_scene) % len(MARKER_COLORS)][:3] + (0.5,),
+        MARKER_COLORS[color_slot("ball", runner.base_scene) % len(MARKER_COLORS)]}
 
 
 def test_a_restart_deletes_the_markers_of_the_spawned_bodies_alone():
