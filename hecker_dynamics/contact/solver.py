@@ -287,6 +287,14 @@ class ContactPass:
         self._sync_sleep()
         return [b for b, island in enumerate(self.island) if island >= 0]
 
+    def everything_asleep(self) -> bool:
+        """Whether every body of the scene sleeps: a step would put each back where it
+        started and find no contact."""
+        if not self.sleep:
+            return False
+        self._sync_sleep()
+        return all(island >= 0 for island in self.island)
+
     def _calm(self, held: Iterable[int]) -> list[bool]:
         """Per body, whether it may sleep while inputs are held on ``held``."""
         restless = self._restless | set(held)

@@ -231,3 +231,33 @@ def test_a_spawn_or_delete_wakes_every_body(compiled):
     assert moved.model.contacts.sleeping() == [] and np.array_equal(moved.q, sim.q)
     start = moved.time_ns * 1e-9
     assert _until_asleep(moved, [0, 1, 2]) >= start + solver.TIME_TO_SLEEP
+
+
+@paths
+def test_steps_of_a_scene_fully_asleep_are_skipped_and_change_no_bit(compiled, monkeypatch):
+    """Once every body sleeps, a step is skipped (no force evaluation, in the kernel and in
+    Python): it would put each body back where it started. The bits are those of taking
+    every step in full (Python with the skip turned off), through the sleep, a push that
+    wakes the stack and the sleep after it."""
+    def run(sim: Simulation) -> tuple[list[np.ndarray], list[int]]:
+        states, evaluations = [], []
+        for k in range(round(2.5 / H)):
+            if k == round(1.2 / H):
+                sim.push(WrenchCommand(sim.time_ns, "box2", "test", "box2", (0.0, 0.0),
+                                       (7.0, 0.0), duration_ns=100_000_000))
+            sim.step()
+            states.append(np.concatenate([sim.q, sim.v]))
+            evaluations.append(sim.integrator.counters.evaluations)
+        return states, evaluations
+
+    with monkeypatch.context() as patch:
+        patch.setattr("hecker_dynamics.dynamics.simulation.FIXED_STEP", ())
+        full, full_evaluations = run(_simulation(_stack(), False))
+    sim = _simulation(_stack(), compiled)
+    skipped, evaluations = run(sim)
+    assert all(np.array_equal(a, b) for a, b in zip(full, skipped))
+    assert np.diff(full_evaluations).min() == 1  # semi-implicit Euler: one per step
+    idle = [k for k in range(1, len(evaluations)) if evaluations[k] == evaluations[k - 1]]
+    # Asleep from about 0.5 s until the push at 1.2 s, and again about 0.5 s after it.
+    assert idle and idle[0] * H < 0.6 and any(k * H > 1.9 for k in idle)
+    assert not any(round(1.2 / H) <= k < round(1.3 / H) for k in idle)
