@@ -19,8 +19,11 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    body with another island): up to :data:`WORK` contact solves (at least
    :data:`MIN_ITERATIONS`, at most :data:`MAX_ITERATIONS` passes), fewer when no impulse
    changes a velocity by more than :data:`CONVERGED` relative to the island's fastest
-   body. A contact that closed during the step bounces with restitution e if it approached
-   faster than the restitution threshold; otherwise its normal velocity is made just
+   body. An island of at least :data:`WIDE_UNITS` units and no joint rows is swept in
+   colour order (units of one colour share no body; Box2D v3's graph colouring), so that
+   the compiled kernel can solve four blocks of a colour at once. A contact that closed
+   during the step bounces with restitution e if it approached faster than the
+   restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
    so resting contacts stay at rest;
 3. moves each body whose velocity the impulses changed by h times the change from the
@@ -82,6 +85,11 @@ WORK = 1000
 MIN_ITERATIONS = 8
 MAX_ITERATIONS = 40
 CONVERGED = 1e-13
+#: An island of at least :data:`WIDE_UNITS` units and no joint rows is swept in colour
+#: order (:func:`_coloured`, :data:`COLOURS` colours at most), in which the compiled kernel
+#: solves four blocks of one colour at once (``src/kernel/wide.h``) with these same bits.
+WIDE_UNITS = 64
+COLOURS = 64
 #: Largest condition number of a two-point manifold's 2 x 2 effective-mass matrix that is
 #: still solved as one block.
 MAX_CONDITION = 1000.0
@@ -102,9 +110,9 @@ MAX_SUBSTEPS = 256
 SLEEP_SPEED = 0.05
 TIME_TO_SLEEP = 0.5
 
-__all__ = ["Block", "Contact", "ContactPass", "ContactRow", "CONVERGED", "MAX_CONDITION",
-           "MAX_ITERATIONS", "MIN_ITERATIONS", "SLEEP_SPEED", "SLOP", "TIME_TO_SLEEP", "WORK",
-           "passes"]
+__all__ = ["Block", "COLOURS", "Contact", "ContactPass", "ContactRow", "CONVERGED",
+           "MAX_CONDITION", "MAX_ITERATIONS", "MIN_ITERATIONS", "SLEEP_SPEED", "SLOP",
+           "TIME_TO_SLEEP", "WIDE_UNITS", "WORK", "passes"]
 
 
 class Contact(NamedTuple):
@@ -699,8 +707,11 @@ class ContactPass:
         swept only in an island that has a contact): each until no impulse changes a
         velocity by more than :data:`CONVERGED` relative to its fastest body, or
         :func:`passes` passes for its own number of units. Islands are independent, so
-        each gets the bits it would get alone."""
+        each gets the bits it would get alone; a big island without joint rows is swept in
+        colour order (:func:`_coloured`)."""
         for island, coupled in _islands(_schedule(rows), joint_units):
+            if len(island) >= WIDE_UNITS and not coupled:
+                island = _coloured(island)
             for joint in coupled:
                 joint.warm_start(velocity)
             fastest = max(abs(x) for unit in island for body in _unit_bodies(unit)
@@ -882,6 +893,26 @@ def _islands(units: list[ContactRow | Block], joints: list[JointUnit]
         if island is not None:
             island[1].append(joint)
     return list(islands.values())
+
+
+def _coloured(island: list[ContactRow | Block]) -> list[ContactRow | Block]:
+    """The island's units by colour, greedy first fit in their order: each unit takes the
+    lowest of :data:`COLOURS` colours that neither of its bodies has yet (a wall has none),
+    and the units that fit none come last, in their order. Units of one colour share no
+    body, so they could be solved in any order, or at once, with the same result: a wall's
+    velocity stays zero (Box2D v3's graph colouring, ``src/constraint_graph.c``)."""
+    taken: dict[int, int] = {}
+    colours: list[list[ContactRow | Block]] = [[] for _ in range(COLOURS + 1)]
+    for unit in island:
+        a, b = _unit_bodies(unit)
+        free = ~(taken.get(a, 0) | taken.get(b, 0)) & ((1 << COLOURS) - 1)
+        colour = (free & -free).bit_length() - 1 if free else COLOURS
+        if free:
+            if a >= 0:
+                taken[a] = taken.get(a, 0) | 1 << colour
+            taken[b] = taken.get(b, 0) | 1 << colour
+        colours[colour].append(unit)
+    return [unit for units in colours for unit in units]
 
 
 def _root(parent: dict[int, int], body: int) -> int:

@@ -21,6 +21,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
@@ -267,8 +268,7 @@ class DynamicsNode(Node):
         self.finished = Future()
         self._outputs = SnapshotOutputs(self.scene, base=self.runner.base_scene)
         self._publishers_by_topic = {
-            topic: self.create_publisher(MESSAGE_TYPES[kind], topic,
-                                         qos_profile(output_qos(topic)))
+            topic: self._output_publisher(kind, topic)
             for topic, kind in output_topics(self.scene).items()}
         self._applied_wrench = self.create_subscription(
             AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench,
@@ -427,11 +427,19 @@ class DynamicsNode(Node):
             self.destroy_publisher(self._publishers_by_topic.pop(topic))
         for topic, kind in topics.items():
             if topic not in self._publishers_by_topic:
-                self._publishers_by_topic[topic] = self.create_publisher(
-                    MESSAGE_TYPES[kind], topic, qos_profile(output_qos(topic)))
+                self._publishers_by_topic[topic] = self._output_publisher(kind, topic)
         for output in self._outputs.markers_gone(previous, self.sim.time_ns):
             self._publish(output)
         self._publish_static()
+
+    def _output_publisher(self, kind: OutputKind, topic: str) -> Any:
+        """The publisher of an output topic, without rclpy's default QoS-event handlers:
+        each is a waitable the executor adds to its wait set on every wake, which with
+        three topics a body cost more than the publishing itself (py-spy on Jazzy); a
+        subscriber with an incompatible profile is still warned by its own handlers."""
+        return self.create_publisher(
+            MESSAGE_TYPES[kind], topic, qos_profile(output_qos(topic)),
+            event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
 
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(

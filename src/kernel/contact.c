@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "wide.h"
 
 static int index_pairs(hd_contact_model *m);
 
@@ -44,6 +45,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->warm = NULL;
     m->warm_table = NULL;
     m->warm_table_size = 0;
+    m->wide = NULL;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;
     return 0;
@@ -85,6 +87,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->calm);
     free(m->rested);
     free(m->island);
+    hd_wide_free(m->wide);
     free(m);
 }
 

@@ -144,6 +144,7 @@ typedef struct hd_contact_model {
      * NULL: none), set by the caller for the call, and the rows' working memory. */
     struct hd_joint_model *joints;
     struct hd_coupled *coupled;
+    struct hd_wide *wide;  /* wide.h's working memory, made on first use */
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */

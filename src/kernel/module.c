@@ -14,6 +14,7 @@
 #include "coupled.h"
 #include "joint.h"
 #include "kernel.h"
+#include "wide.h"
 
 static const char *PROGRAM = "hecker_dynamics._kernel.Program";
 static const char *PAIR = "hecker_dynamics._kernel.Pair";
@@ -993,6 +994,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"MAX_SUBSTEPS", HD_MAX_PAIR_SUBSTEPS}, {"CIRCLE", HD_CIRCLE}, {"POLYGON", HD_POLYGON},
         {"OUTLINE", HD_OUTLINE}, {"MAX_ITERATIONS", HD_MAX_ITERATIONS},
         {"MIN_ITERATIONS", HD_MIN_ITERATIONS}, {"WORK", HD_WORK},
+        {"WIDE_UNITS", HD_WIDE_UNITS}, {"COLOURS", HD_COLOURS},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
         {"JOINTS_DEPENDENT", HD_DEPENDENT_JOINTS}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
         {"JOINT_DRIFT_ITERATIONS", HD_DRIFT_ITERATIONS},

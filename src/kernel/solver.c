@@ -17,28 +17,8 @@
 
 #include "contact.h"
 #include "coupled.h"
-
-/* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
-static HD_HOT double py_min(double x, double y) { return y < x ? y : x; }
-static HD_HOT double py_max(double x, double y) { return y > x ? y : x; }
-
-/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
-static HD_HOT double normal_velocity(const double *va, const double *vb, const hd_row *r)
-{
-    return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
-           + (vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax) * r->ny;
-}
-
-/* Impulse (px, py) at the contact: +P to body b, -P to body a (ContactRow.push). */
-static HD_HOT void push(double *va, double *vb, const hd_row *r, double px, double py)
-{
-    va[0] -= px * r->im_a;
-    va[1] -= py * r->im_a;
-    va[2] -= (r->rax * py - r->ray * px) * r->ii_a;
-    vb[0] += px * r->im_b;
-    vb[1] += py * r->im_b;
-    vb[2] += (r->rbx * py - r->rby * px) * r->ii_b;
-}
+#include "rows.h"
+#include "wide.h"
 
 static int same_key(const long *k, const long *l)
 {
@@ -189,67 +169,6 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     recall(m, c->key, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn, &r->jt);
 }
 
-/* One contact's normal impulse, clamped at zero; returns the change of its normal
- * velocity (solver.py: _solve_normal). */
-static HD_HOT double solve_normal(hd_row *r, double *va, double *vb)
-{
-    const double jn = r->jn;
-    const double new_n = py_max(jn + (r->target - normal_velocity(va, vb, r)) * r->mass_n, 0.0);
-    push(va, vb, r, (new_n - jn) * r->nx, (new_n - jn) * r->ny);
-    r->jn = new_n;
-    return fabs(new_n - jn) / r->mass_n;
-}
-
-/* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
- * velocity (solver.py: _solve_friction). */
-static HD_HOT double solve_friction(hd_row *r, double *va, double *vb)
-{
-    if (!(r->mu > 0.0))
-        return 0.0;
-    const double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
-    const double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
-    const double jt = r->jt, bound = r->mu * r->jn;
-    const double new_t = py_min(py_max(jt - (-dvx * r->ny + dvy * r->nx) * r->mass_t, -bound),
-                                bound);
-    push(va, vb, r, -(new_t - jt) * r->ny, (new_t - jt) * r->nx);
-    r->jt = new_t;
-    return fabs(new_t - jt) / r->mass_t;
-}
-
-/* The two normal impulses of a two-point manifold at once, as the 2 x 2 linear
- * complementarity problem, then each point's friction (solver.py: Block.solve). */
-static double solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va, double *vb)
-{
-    const double old1 = one->jn, old2 = two->jn;
-    const double b1 = normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
-    const double b2 = normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
-    double x1 = -(u->inv11 * b1 + u->inv12 * b2);
-    double x2 = -(u->inv12 * b1 + u->inv22 * b2);
-    if (!(x1 >= 0.0 && x2 >= 0.0)) {
-        x1 = -one->mass_n * b1;
-        x2 = 0.0;
-        if (!(x1 >= 0.0 && u->k12 * x1 + b2 >= 0.0)) {
-            x1 = 0.0;
-            x2 = -two->mass_n * b2;
-            if (!(x2 >= 0.0 && u->k12 * x2 + b1 >= 0.0)) {
-                x1 = 0.0;
-                x2 = 0.0;
-                if (!(b1 >= 0.0 && b2 >= 0.0)) {
-                    x1 = old1;
-                    x2 = old2;
-                }
-            }
-        }
-    }
-    push(va, vb, one, (x1 - old1) * one->nx, (x1 - old1) * one->ny);
-    push(va, vb, two, (x2 - old2) * two->nx, (x2 - old2) * two->ny);
-    one->jn = x1;
-    two->jn = x2;
-    double change = py_max(fabs(x1 - old1) / one->mass_n, fabs(x2 - old2) / two->mass_n);
-    change = py_max(change, solve_friction(one, va, vb));
-    return py_max(change, solve_friction(two, va, vb));
-}
-
 /* The block of rows one and two, or 0 where K is too ill-conditioned (solver.py: _block). */
 static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
 {
@@ -380,21 +299,15 @@ static int solve_velocities(hd_contact_model *m, long count)
         long passes = HD_WORK / (size + hd_coupled_size(m, i));
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+        if (size >= HD_WIDE_UNITS && hd_coupled_size(m, i) == 0) {
+            if (hd_wide_solve(m, members, size, passes, scale) < 0)
+                return -1;
+            continue;
+        }
         for (long iteration = 0; iteration < passes; ++iteration) {
             double largest = 0.0;
-            for (long k = 0; k < size; ++k) {
-                const hd_unit *u = m->units + members[k];
-                hd_row *r = m->rows + u->first;
-                double *va = m->velocity + 3 * r->a, *vb = m->velocity + 3 * r->b;
-                double change;
-                if (u->pair) {
-                    change = solve_block(u, r, r + 1, va, vb);
-                } else {
-                    change = solve_normal(r, va, vb);
-                    change = py_max(change, solve_friction(r, va, vb));
-                }
-                largest = py_max(largest, change);
-            }
+            for (long k = 0; k < size; ++k)
+                largest = py_max(largest, solve_unit(m->units + members[k], m->rows, m->velocity));
             largest = hd_coupled_sweep(m, i, largest);
             if (largest <= HD_CONVERGED * scale)
                 break;

@@ -40,6 +40,7 @@ def test_kernel_has_the_solver_constants():
         (solver.CONVERGED, solver.MARGIN, solver.MATCH, solver.SLOP, solver.CORRECTION,
          solver.MAX_CORRECTION, solver.MAX_CONDITION)
     assert (k.SLEEP_SPEED, k.TIME_TO_SLEEP) == (solver.SLEEP_SPEED, solver.TIME_TO_SLEEP)
+    assert (k.WIDE_UNITS, k.COLOURS) == (solver.WIDE_UNITS, solver.COLOURS)
 
 
 @needs_kernel
@@ -183,3 +184,28 @@ def test_restored_simulation_continues_bit_for_bit(name, compiled):
     assert np.array_equal(again.q, original.q) and np.array_equal(again.v, original.v)
     assert again.model.contacts.export_state() == original.model.contacts.export_state()
     assert not np.array_equal(cold.q, original.q)
+
+
+def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
+    """A body touched by 70 units (more than COLOURS) and a ring of units between walls
+    and pairs: every colour's units share no body but the walls', each unit appears once,
+    each colour keeps the island's order, and the 6 units of body 0 that fit no colour come
+    last in their order."""
+    from types import SimpleNamespace
+
+    spokes = [SimpleNamespace(a=0, b=k) for k in range(1, 71)]
+    ring = [SimpleNamespace(a=-1 if k % 3 == 0 else k, b=k + 1) for k in range(71, 140)]
+    island = [unit for pair in zip(spokes, ring) for unit in pair] + spokes[len(ring):]
+    order = solver._coloured(island)
+    assert sorted(map(id, order)) == sorted(map(id, island))
+    assert order[-6:] == spokes[-6:]
+    groups, used = [[]], set()
+    for unit in order[:-6]:  # split where a unit shares a body with its colour
+        bodies = {unit.a, unit.b} - {-1}
+        if bodies & used or (groups[-1] and island.index(unit) < island.index(groups[-1][-1])):
+            groups.append([])
+            used = set()
+        groups[-1].append(unit)
+        used |= bodies
+    assert len(groups) == solver.COLOURS
+    assert all(sum(unit.a == 0 for unit in group) == 1 for group in groups)

@@ -1,0 +1,388 @@
+/* The coloured solve of a big island: wide.h. The colours are greedy, first fit in island
+ * order (solver.py: _coloured); within each colour its two-point blocks go four at a time
+ * through lanes of GCC's vector extensions (AVX where the CPU has it, else two SSE2
+ * halves: the same IEEE operations, so the same bits), and every other unit of the colour
+ * through rows.h one by one.
+ */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "contact.h"
+#include "rows.h"
+#include "wide.h"
+
+#define HD_LANES 4
+
+#if defined(__GNUC__)
+#define HD_VECTORS 1
+/* The vector helpers are always inlined, so no vector crosses a call and the ABI of
+ * passing one (which AVX changes) never applies. */
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double hd_v4 __attribute__((vector_size(32), aligned(32)));
+typedef int64_t hd_m4 __attribute__((vector_size(32), aligned(32)));
+#else
+#define HD_VECTORS 0
+typedef struct { double lane[HD_LANES]; } hd_v4;
+#endif
+
+/* Four blocks of one colour, lane by lane: rows one and two of each, the body pair, the
+ * block's K and K^-1, and the rows' impulses while the passes run. */
+typedef struct {
+    hd_v4 rax1, ray1, rbx1, rby1, rax2, ray2, rbx2, rby2, nx, ny, im_a, ii_a, im_b, ii_b;
+    hd_v4 target1, target2, mass_n1, mass_n2, mass_t1, mass_t2, mu1, mu2;
+    hd_v4 k11, k12, k22, inv11, inv12, inv22, jn1, jn2, jt1, jt2;
+    long a[HD_LANES], b[HD_LANES], first[HD_LANES];
+} hd_lanes;
+
+struct hd_wide {
+    long capacity;          /* units */
+    int *colour;            /* per unit of the island, in island order */
+    long *sorted;           /* the island's units by colour, each colour's in island order */
+    long *single;           /* per colour, the units not in lanes */
+    long colour_start[HD_COLOURS + 2];  /* of each colour's units in `sorted` */
+    long lane_start[HD_COLOURS + 2], single_start[HD_COLOURS + 2];
+    uint64_t *used;         /* bodies + 1: the colours each body has */
+    hd_lanes *lanes;
+};
+
+void hd_wide_free(struct hd_wide *w)
+{
+    if (w == NULL)
+        return;
+    free(w->colour);
+    free(w->sorted);
+    free(w->single);
+    free(w->used);
+    free(w->lanes);
+    free(w);
+}
+
+static int reserve(hd_contact_model *m, long size)
+{
+    if (m->wide == NULL) {
+        m->wide = calloc(1, sizeof(struct hd_wide));
+        if (m->wide == NULL)
+            return -1;
+        m->wide->used = calloc((size_t)m->bodies + 1, sizeof(uint64_t));
+        if (m->wide->used == NULL)
+            return -1;
+    }
+    struct hd_wide *w = m->wide;
+    if (size > w->capacity) {
+        free(w->colour);
+        free(w->sorted);
+        free(w->single);
+        free(w->lanes);
+        w->colour = malloc((size_t)size * sizeof(int));
+        w->sorted = malloc((size_t)size * sizeof(long));
+        w->single = malloc((size_t)size * sizeof(long));
+#if HD_VECTORS
+        /* The vectors need their own alignment, which malloc does not promise. */
+        w->lanes = aligned_alloc(_Alignof(hd_lanes), (size_t)(size / HD_LANES + 1) * sizeof(hd_lanes));
+        const int lanes_ok = w->lanes != NULL;
+#else
+        const int lanes_ok = 1;
+#endif
+        if (!w->colour || !w->sorted || !w->single || !lanes_ok) {
+            w->capacity = 0;
+            return -1;
+        }
+        w->capacity = size;
+    }
+    return 0;
+}
+
+static int lowest_free(uint64_t taken)
+{
+    if (taken == UINT64_MAX)
+        return HD_COLOURS;
+    int colour = 0;
+    while (taken & ((uint64_t)1 << colour))
+        colour += 1;
+    return colour;
+}
+
+/* Each unit's colour: the lowest that neither of its bodies has yet (the walls' slot takes
+ * none), or HD_COLOURS when none is left; then the units sorted by colour. */
+static void colour_units(hd_contact_model *m, const long *members, long size)
+{
+    struct hd_wide *w = m->wide;
+    const long wall = m->bodies;
+    long count[HD_COLOURS + 2] = {0};
+    for (long k = 0; k < size; ++k) {
+        const hd_row *r = m->rows + m->units[members[k]].first;
+        const uint64_t taken = (r->a == wall ? 0 : w->used[r->a]) | w->used[r->b];
+        const int colour = lowest_free(taken);
+        if (colour < HD_COLOURS) {
+            if (r->a != wall)
+                w->used[r->a] |= (uint64_t)1 << colour;
+            w->used[r->b] |= (uint64_t)1 << colour;
+        }
+        w->colour[k] = colour;
+        count[colour + 1] += 1;
+    }
+    for (long k = 0; k < size; ++k) {
+        const hd_row *r = m->rows + m->units[members[k]].first;
+        w->used[r->a] = w->used[r->b] = 0;
+    }
+    w->used[wall] = 0;
+    for (int c = 0; c <= HD_COLOURS; ++c)
+        count[c + 1] += count[c];
+    memcpy(w->colour_start, count, sizeof count);
+    for (long k = 0; k < size; ++k)
+        w->sorted[count[w->colour[k]]++] = members[k];
+}
+
+static double *lane(hd_v4 *v, int l) { return (double *)v + l; }
+
+/* Four blocks of the units `pair`, into lanes. */
+static void load_lanes(const hd_contact_model *m, const long *pair, hd_lanes *x)
+{
+    for (int l = 0; l < HD_LANES; ++l) {
+        const hd_unit *u = m->units + pair[l];
+        const hd_row *one = m->rows + u->first, *two = one + 1;
+        x->a[l] = one->a;
+        x->b[l] = one->b;
+        x->first[l] = u->first;
+        *lane(&x->rax1, l) = one->rax;
+        *lane(&x->ray1, l) = one->ray;
+        *lane(&x->rbx1, l) = one->rbx;
+        *lane(&x->rby1, l) = one->rby;
+        *lane(&x->rax2, l) = two->rax;
+        *lane(&x->ray2, l) = two->ray;
+        *lane(&x->rbx2, l) = two->rbx;
+        *lane(&x->rby2, l) = two->rby;
+        *lane(&x->nx, l) = one->nx;
+        *lane(&x->ny, l) = one->ny;
+        *lane(&x->im_a, l) = one->im_a;
+        *lane(&x->ii_a, l) = one->ii_a;
+        *lane(&x->im_b, l) = one->im_b;
+        *lane(&x->ii_b, l) = one->ii_b;
+        *lane(&x->target1, l) = one->target;
+        *lane(&x->target2, l) = two->target;
+        *lane(&x->mass_n1, l) = one->mass_n;
+        *lane(&x->mass_n2, l) = two->mass_n;
+        *lane(&x->mass_t1, l) = one->mass_t;
+        *lane(&x->mass_t2, l) = two->mass_t;
+        *lane(&x->mu1, l) = one->mu;
+        *lane(&x->mu2, l) = two->mu;
+        *lane(&x->k11, l) = u->k11;
+        *lane(&x->k12, l) = u->k12;
+        *lane(&x->k22, l) = u->k22;
+        *lane(&x->inv11, l) = u->inv11;
+        *lane(&x->inv12, l) = u->inv12;
+        *lane(&x->inv22, l) = u->inv22;
+        *lane(&x->jn1, l) = one->jn;
+        *lane(&x->jn2, l) = two->jn;
+        *lane(&x->jt1, l) = one->jt;
+        *lane(&x->jt2, l) = two->jt;
+    }
+}
+
+static void store_lanes(hd_contact_model *m, hd_lanes *x)
+{
+    for (int l = 0; l < HD_LANES; ++l) {
+        hd_row *one = m->rows + x->first[l], *two = one + 1;
+        one->jn = *lane(&x->jn1, l);
+        two->jn = *lane(&x->jn2, l);
+        one->jt = *lane(&x->jt1, l);
+        two->jt = *lane(&x->jt2, l);
+    }
+}
+
+#if HD_VECTORS
+/* m ? x : y, lane by lane (m: all ones or all zeros). */
+static HD_HOT hd_v4 pick(hd_m4 m, hd_v4 x, hd_v4 y)
+{
+    return (hd_v4)(((hd_m4)x & m) | ((hd_m4)y & ~m));
+}
+
+static HD_HOT hd_v4 max_v(hd_v4 x, hd_v4 y) { return pick(y > x, y, x); }  /* py_max */
+static HD_HOT hd_v4 min_v(hd_v4 x, hd_v4 y) { return pick(y < x, y, x); }  /* py_min */
+
+static HD_HOT hd_v4 abs_v(hd_v4 x)
+{
+    const hd_m4 magnitude = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+    return (hd_v4)((hd_m4)x & magnitude);
+}
+
+/* A body's velocity, lane by lane: (vx, vy, omega) of body[l] in each lane l. */
+typedef struct {
+    hd_v4 x, y, w;
+} hd_twist4;
+
+static HD_HOT hd_twist4 gather(const double *velocity, const long *body)
+{
+    const double *p0 = velocity + 3 * body[0], *p1 = velocity + 3 * body[1],
+                 *p2 = velocity + 3 * body[2], *p3 = velocity + 3 * body[3];
+    return (hd_twist4){{p0[0], p1[0], p2[0], p3[0]}, {p0[1], p1[1], p2[1], p3[1]},
+                       {p0[2], p1[2], p2[2], p3[2]}};
+}
+
+static HD_HOT void scatter(double *velocity, const long *body, hd_twist4 v)
+{
+    for (int l = 0; l < HD_LANES; ++l) {
+        double *p = velocity + 3 * body[l];
+        p[0] = v.x[l];
+        p[1] = v.y[l];
+        p[2] = v.w[l];
+    }
+}
+
+/* rows.h's normal_velocity, lane by lane. */
+static HD_HOT hd_v4 normal_velocity4(hd_twist4 va, hd_twist4 vb, hd_v4 rax, hd_v4 ray,
+                                     hd_v4 rbx, hd_v4 rby, hd_v4 nx, hd_v4 ny)
+{
+    return (vb.x - vb.w * rby - va.x + va.w * ray) * nx
+           + (vb.y + vb.w * rbx - va.y - va.w * rax) * ny;
+}
+
+/* rows.h's push, lane by lane. */
+static HD_HOT void push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
+                         hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 px, hd_v4 py)
+{
+    va->x = va->x - px * x->im_a;
+    va->y = va->y - py * x->im_a;
+    va->w = va->w - (rax * py - ray * px) * x->ii_a;
+    vb->x = vb->x + px * x->im_b;
+    vb->y = vb->y + py * x->im_b;
+    vb->w = vb->w + (rbx * py - rby * px) * x->ii_b;
+}
+
+/* rows.h's solve_friction, lane by lane: a lane without friction keeps its velocities and
+ * impulse (pushing a zero impulse could turn a -0 velocity into +0). */
+static HD_HOT hd_v4 friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
+                              hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 mass_t, hd_v4 mu,
+                              hd_v4 jn, hd_v4 *jt)
+{
+    const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
+    const hd_m4 on = mu > zero;
+    const hd_v4 dvx = vb->x - vb->w * rby - va->x + va->w * ray;
+    const hd_v4 dvy = vb->y + vb->w * rbx - va->y - va->w * rax;
+    const hd_v4 old = *jt, bound = mu * jn;
+    const hd_v4 new_t = min_v(max_v(old - (-dvx * x->ny + dvy * x->nx) * mass_t, -bound), bound);
+    hd_twist4 a = *va, b = *vb;
+    push4(&a, &b, x, rax, ray, rbx, rby, -(new_t - old) * x->ny, (new_t - old) * x->nx);
+    va->x = pick(on, a.x, va->x);
+    va->y = pick(on, a.y, va->y);
+    va->w = pick(on, a.w, va->w);
+    vb->x = pick(on, b.x, vb->x);
+    vb->y = pick(on, b.y, vb->y);
+    vb->w = pick(on, b.w, vb->w);
+    *jt = pick(on, new_t, old);
+    return pick(on, abs_v(new_t - old) / mass_t, zero);
+}
+
+/* rows.h's solve_block in four lanes; returns the lanes' largest changes folded into
+ * `largest` as py_max folds them. */
+static HD_HOT hd_v4 block4(hd_lanes *x, double *velocity, hd_v4 largest)
+{
+    const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
+    hd_twist4 va = gather(velocity, x->a), vb = gather(velocity, x->b);
+    const hd_v4 old1 = x->jn1, old2 = x->jn2;
+    const hd_v4 b1 = normal_velocity4(va, vb, x->rax1, x->ray1, x->rbx1, x->rby1, x->nx, x->ny)
+                     - x->target1 - (x->k11 * old1 + x->k12 * old2);
+    const hd_v4 b2 = normal_velocity4(va, vb, x->rax2, x->ray2, x->rbx2, x->rby2, x->nx, x->ny)
+                     - x->target2 - (x->k12 * old1 + x->k22 * old2);
+    /* The cascade of solve_block, innermost case first. */
+    const hd_v4 both1 = -(x->inv11 * b1 + x->inv12 * b2), both2 = -(x->inv12 * b1 + x->inv22 * b2);
+    const hd_v4 first1 = -x->mass_n1 * b1, second2 = -x->mass_n2 * b2;
+    const hd_m4 both = (both1 >= zero) & (both2 >= zero);
+    const hd_m4 first = (first1 >= zero) & (x->k12 * first1 + b2 >= zero);
+    const hd_m4 second = (second2 >= zero) & (x->k12 * second2 + b1 >= zero);
+    const hd_m4 apart = (b1 >= zero) & (b2 >= zero);
+    hd_v4 x1 = pick(apart, zero, old1), x2 = pick(apart, zero, old2);
+    x1 = pick(second, zero, x1);
+    x2 = pick(second, second2, x2);
+    x1 = pick(first, first1, x1);
+    x2 = pick(first, zero, x2);
+    x1 = pick(both, both1, x1);
+    x2 = pick(both, both2, x2);
+    push4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1, (x1 - old1) * x->nx,
+          (x1 - old1) * x->ny);
+    push4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2, (x2 - old2) * x->nx,
+          (x2 - old2) * x->ny);
+    x->jn1 = x1;
+    x->jn2 = x2;
+    hd_v4 change = max_v(abs_v(x1 - old1) / x->mass_n1, abs_v(x2 - old2) / x->mass_n2);
+    change = max_v(change, friction4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1,
+                                     x->mass_t1, x->mu1, x1, &x->jt1));
+    change = max_v(change, friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
+                                     x->mass_t2, x->mu2, x2, &x->jt2));
+    scatter(velocity, x->a, va);
+    scatter(velocity, x->b, vb);
+    return max_v(largest, change);
+}
+
+/* One pass over `count` lanes of one colour; AVX where the CPU has it. */
+#if defined(__x86_64__) && defined(__GLIBC__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
+{
+    hd_v4 most = {largest, largest, largest, largest};
+    for (long k = 0; k < count; ++k)
+        most = block4(lanes + k, velocity, most);
+    for (int l = 0; l < HD_LANES; ++l)
+        largest = py_max(largest, most[l]);
+    return largest;
+}
+#else
+static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
+{
+    (void)lanes;
+    (void)count;
+    (void)velocity;
+    return largest;
+}
+#endif
+
+int hd_wide_solve(hd_contact_model *m, const long *members, long size, long passes,
+                  double scale)
+{
+    if (reserve(m, size) < 0)
+        return -1;
+    struct hd_wide *w = m->wide;
+    colour_units(m, members, size);
+    /* Each colour's blocks four to a set of lanes, the rest of it one by one (the units
+     * that fit no colour one by one in their order). */
+    long lanes = 0, singles = 0;
+    for (int c = 0; c <= HD_COLOURS; ++c) {
+        w->lane_start[c] = lanes;
+        w->single_start[c] = singles;
+        long pair[HD_LANES];
+        int filled = 0;
+        for (long k = w->colour_start[c]; k < w->colour_start[c + 1]; ++k) {
+            const long u = w->sorted[k];
+            if (HD_VECTORS && c < HD_COLOURS && m->units[u].pair) {
+                pair[filled++] = u;
+                if (filled == HD_LANES) {
+                    load_lanes(m, pair, w->lanes + lanes++);
+                    filled = 0;
+                }
+            } else {
+                w->single[singles++] = u;
+            }
+        }
+        for (int f = 0; f < filled; ++f)
+            w->single[singles++] = pair[f];
+    }
+    w->lane_start[HD_COLOURS + 1] = lanes;
+    w->single_start[HD_COLOURS + 1] = singles;
+    for (long iteration = 0; iteration < passes; ++iteration) {
+        double largest = 0.0;
+        for (int c = 0; c <= HD_COLOURS; ++c) {
+            largest = pass_lanes(w->lanes + w->lane_start[c],
+                                 w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
+            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
+                largest = py_max(largest, solve_unit(m->units + w->single[s], m->rows,
+                                                     m->velocity));
+        }
+        if (largest <= HD_CONVERGED * scale)
+            break;
+    }
+    for (long k = 0; k < lanes; ++k)
+        store_lanes(m, w->lanes + k);
+    return 0;
+}

@@ -1,0 +1,29 @@
+/* The coloured solve of a big island (solver.py: _coloured): its units in colour order,
+ * four two-point blocks of one colour at a time in SIMD lanes.
+ *
+ * A colour's units share no body but the walls' slot, whose velocity stays +0 (it is
+ * only ever changed by a product with a zero inverse mass), so they can be solved in any
+ * order, or at once, and give the bits the Python path's sequential sweep in colour order
+ * gives; `largest` is a maximum of non-negative changes, which no order changes either.
+ */
+#ifndef HECKER_DYNAMICS_WIDE_H
+#define HECKER_DYNAMICS_WIDE_H
+
+#include "contact.h"
+
+/* The constants of contact/solver.py: islands of at least HD_WIDE_UNITS units (and no
+ * joint rows) are solved in colour order; HD_COLOURS colours at most, the units that fit
+ * none last, one by one in their order. */
+#define HD_WIDE_UNITS 64
+#define HD_COLOURS 64
+
+struct hd_wide;
+
+/* At most `passes` Gauss-Seidel passes over the island's `size` units (`members`, indices
+ * into m->units, in island order) in colour order, until no impulse changes a velocity by
+ * more than HD_CONVERGED * scale; 0 on success, -1 out of memory. */
+int hd_wide_solve(hd_contact_model *m, const long *members, long size, long passes,
+                  double scale);
+void hd_wide_free(struct hd_wide *w);
+
+#endif
