@@ -64,6 +64,8 @@ static int reserve(hd_contact_model *m, long size)
         m->wide = calloc(1, sizeof(struct hd_wide));
         if (m->wide == NULL)
             return -1;
+    }
+    if (m->wide->used == NULL) {
         m->wide->used = calloc((size_t)m->bodies + 1, sizeof(uint64_t));
         if (m->wide->used == NULL)
             return -1;
