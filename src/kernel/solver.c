@@ -296,10 +296,11 @@ static int solve_velocities(hd_contact_model *m, long count)
             }
         }
         const double scale = 1.0 + hd_coupled_fastest(m, i, fastest);
-        long passes = HD_WORK / (size + hd_coupled_size(m, i));
+        const long coupled = hd_coupled_size(m, i);
+        long passes = HD_WORK / (size + coupled);
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
-        if (size >= HD_WIDE_UNITS && hd_coupled_size(m, i) == 0) {
+        if (size >= HD_WIDE_UNITS && coupled == 0) {
             if (hd_wide_solve(m, members, size, passes, scale) < 0)
                 return -1;
             continue;

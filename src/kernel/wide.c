@@ -128,7 +128,6 @@ static void colour_units(hd_contact_model *m, const long *members, long size)
         const hd_row *r = m->rows + m->units[members[k]].first;
         w->used[r->a] = w->used[r->b] = 0;
     }
-    w->used[wall] = 0;
     for (int c = 0; c <= HD_COLOURS; ++c)
         count[c + 1] += count[c];
     memcpy(w->colour_start, count, sizeof count);
