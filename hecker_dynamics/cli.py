@@ -509,7 +509,7 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                        help="with --batch: interleaved rounds, medians reported (default 1)")
     bench.add_argument("--node", action="store_true",
                        help="instead: the node's own work per tick without rclpy (stepping "
-                            "and output fields) on rings of 1, 10 and 100 bodies; prints a "
+                            "and output messages) on rings of 1, 10 and 100 bodies; prints a "
                             "table, writes nothing")
     _add_progress_options(bench)
     bench.set_defaults(handler=bench_command)

@@ -1,12 +1,13 @@
 """The node's own cost without rclpy: the Python work of its timer ticks.
 
 Each 50 Hz tick of the node runs :meth:`Runner.advance` (the scene's script, 20 physics
-steps at 1 kHz, the diagnostics when due) and builds the fields of every output of the
-snapshot it passed (:class:`SnapshotOutputs`: pose, twist and odometry per body, the
-markers and ``/tf``). Both are timed here on rings of 1, 10 and 100 bodies
+steps at 1 kHz, the diagnostics when due), then builds every output of the snapshot it
+passed (:class:`SnapshotOutputs`: pose, twist and odometry per body, the markers and
+``/tf``) and serializes each (:func:`~hecker_dynamics.ros.cdr.serialize_output`), the
+bytes it hands to rclpy's ``publish``. Both are timed here on rings of 1, 10 and 100 bodies
 (:func:`~hecker_dynamics.bench.scenes.ring`) with every output on; their sum per second of
 sim time is the share of one core the node needs to keep up with the clock, before rclpy
-copies the fields into messages and serializes them.
+publishes and its executor wakes.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import statistics
 import time
 from typing import NamedTuple, Optional
 
+from ..ros.cdr import serialize_output
 from ..ros.outputs import SnapshotOutputs
 from ..ros.runner import Runner
 from ..scene.load import Scene
@@ -36,7 +38,7 @@ class NodeCost(NamedTuple):
 
     bodies: int
     advance: float    # Runner.advance: script, physics steps, diagnostics
-    outputs: float    # the fields of every output of every snapshot
+    outputs: float    # every output of every snapshot, built and serialized
     repeats: int
 
     @property
@@ -67,7 +69,8 @@ def _run(scene: Scene, seconds: float) -> tuple[float, float]:
         tick = runner.advance(target)
         middle = clock()
         for snapshot in tick.snapshots:
-            outputs_of(snapshot)
+            for output in outputs_of(snapshot):
+                serialize_output(output)
         end = clock()
         advance += middle - start
         outputs += end - middle
@@ -91,7 +94,7 @@ def node_cost(bodies_list: tuple[int, ...] = NODE_BODIES, seconds: float = 2.0,
 
 def node_table(costs: list[NodeCost]) -> str:
     """A Markdown table of the costs, in percent of one core."""
-    lines = ["| bodies | Runner.advance | output fields | total | per tick |",
+    lines = ["| bodies | Runner.advance | output messages | total | per tick |",
              "| ---: | ---: | ---: | ---: | ---: |"]
     ticks_per_s = 1e9 / PUBLISH_PERIOD_NS
     for cost in costs:

@@ -18,10 +18,10 @@ from typing import Any, Optional
 import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, WrenchStamped
+from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
@@ -33,13 +33,12 @@ from std_msgs.msg import Float64
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
-from .fields import (NS_PER_S, Header, OdometryFields, Pose, PoseStampedFields, TwistFields,
-                     header, stamp_from_ns)
+from .cdr import serialize_output
+from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .diagnostics import DiagnosticFields
-from .joint_states import JointStateFields, MotorTopic, motor_topics
-from .markers import MarkerFields
+from .joint_states import MotorTopic, motor_topics
 from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
 from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
                     NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
@@ -53,7 +52,6 @@ from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME
                     SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
 from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
                       SessionFields, WorldEventFields)
-from .tf import TransformFields
 from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
 from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .ratelimit import RateLimiter
@@ -77,7 +75,8 @@ def qos_profile(spec: QosSpec) -> QoSProfile:
 
 
 # ----------------------------------------------------------------------------- messages
-# Each function copies a plain-fields tuple from mapping into an rclpy message. rosidl's
+# The outputs are published as CDR bytes (:mod:`.cdr`); what is built here are the
+# messages published now and then: the session records and the diagnostics. rosidl's
 # Python setters check types: floats for float64 fields, ints for integer fields, and
 # bytes of length one for ``byte`` fields (DiagnosticStatus.level).
 
@@ -85,78 +84,6 @@ def _fill_header(msg: Any, fields: Header) -> None:
     msg.stamp.sec = fields.sec
     msg.stamp.nanosec = fields.nanosec
     msg.frame_id = fields.frame_id
-
-
-def _fill_pose(msg: Any, fields: Pose) -> None:
-    msg.position.x, msg.position.y, msg.position.z = fields.position
-    (msg.orientation.x, msg.orientation.y, msg.orientation.z,
-     msg.orientation.w) = fields.orientation
-
-
-def _fill_twist(msg: Any, fields: TwistFields) -> None:
-    msg.linear.x, msg.linear.y, msg.linear.z = fields.linear
-    msg.angular.x, msg.angular.y, msg.angular.z = fields.angular
-
-
-def _pose_stamped(fields: PoseStampedFields) -> PoseStamped:
-    msg = PoseStamped()
-    _fill_header(msg.header, fields.header)
-    _fill_pose(msg.pose, fields.pose)
-    return msg
-
-
-def _twist(fields: TwistFields) -> Twist:
-    msg = Twist()
-    _fill_twist(msg, fields)
-    return msg
-
-
-def _odometry(fields: OdometryFields) -> Odometry:
-    """Covariances keep their default zeros (float64[36] numpy arrays): unknown."""
-    msg = Odometry()
-    _fill_header(msg.header, fields.header)
-    msg.child_frame_id = fields.child_frame_id
-    _fill_pose(msg.pose.pose, fields.pose)
-    _fill_twist(msg.twist.twist, fields.twist)
-    return msg
-
-
-def _marker(fields: MarkerFields) -> Marker:
-    msg = Marker()
-    _fill_header(msg.header, fields.header)
-    msg.ns = fields.ns
-    msg.id = fields.id
-    msg.type = fields.type
-    msg.action = fields.action
-    _fill_pose(msg.pose, fields.pose)
-    msg.scale.x, msg.scale.y, msg.scale.z = fields.scale
-    msg.color.r, msg.color.g, msg.color.b, msg.color.a = fields.color
-    msg.points = [Point(x=x, y=y, z=z) for x, y, z in fields.points]
-    return msg
-
-
-def _tf_message(transforms: tuple[TransformFields, ...]) -> TFMessage:
-    messages = []
-    for fields in transforms:
-        msg = TransformStamped()
-        _fill_header(msg.header, fields.header)
-        msg.child_frame_id = fields.child_frame_id
-        translation, rotation = msg.transform.translation, msg.transform.rotation
-        translation.x, translation.y, translation.z = fields.translation
-        rotation.x, rotation.y, rotation.z, rotation.w = fields.rotation
-        messages.append(msg)
-    return TFMessage(transforms=messages)
-
-
-def _joint_state(fields: JointStateFields) -> JointState:
-    msg = JointState(name=list(fields.name), position=list(fields.position),
-                     velocity=list(fields.velocity), effort=list(fields.effort))
-    _fill_header(msg.header, fields.header)
-    return msg
-
-
-def _marker_array(markers: tuple[MarkerFields, ...]) -> MarkerArray:
-    return MarkerArray(markers=[_marker(fields) for fields in markers])
 
 
 def _diagnostic_array(fields: DiagnosticFields, head: Header) -> DiagnosticArray:
@@ -217,13 +144,6 @@ RECORD_TOPICS: dict[type, tuple[str, Callable[[Any], Any], type, QosSpec]] = {
 }
 
 
-MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
-    OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
-    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
-    OutputKind.JOINT_STATE: _joint_state,
-}
-
-
 # ----------------------------------------------------------------------------- node
 
 class DynamicsNode(Node):
@@ -252,8 +172,7 @@ class DynamicsNode(Node):
         self._record_publishers: dict[type, Any] = {}
         if self.options.record_session:
             for kind, (topic, _, msgtype, qos) in RECORD_TOPICS.items():
-                self._record_publishers[kind] = self.create_publisher(msgtype, topic,
-                                                                      qos_profile(qos))
+                self._record_publishers[kind] = self._publisher(msgtype, topic, qos)
         self.runner = Runner(self.scene, play_script=self.options.play_script, max_steps=cap,
                              started=self.options.lockstep,
                              hardware_id=self.get_fully_qualified_name(),
@@ -270,19 +189,16 @@ class DynamicsNode(Node):
         self._publishers_by_topic = {
             topic: self._output_publisher(kind, topic)
             for topic, kind in output_topics(self.scene).items()}
-        self._applied_wrench = self.create_subscription(
-            AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench,
-            qos_profile(COMMAND_QOS))
+        self._applied_wrench = self._command_subscription(
+            AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench)
         for topic in self.scene.wrench_topics:
-            subscription = self.create_subscription(
+            subscription = self._command_subscription(
                 WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic),
-                qos_profile(COMMAND_QOS))
+                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic))
             self._wrench_topic_names[topic.name] = subscription.topic_name
         for motor in motor_topics(self.scene):
-            subscription = self.create_subscription(
-                Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor),
-                qos_profile(COMMAND_QOS))
+            subscription = self._command_subscription(
+                Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor))
             self._wrench_topic_names[motor.topic] = subscription.topic_name
         self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)
@@ -293,8 +209,7 @@ class DynamicsNode(Node):
         self.create_service(DeleteBody, DELETE_BODY_SERVICE, self._on_delete_body)
         if self.options.lockstep:
             self._publish_static()
-            self._clock_publisher = self.create_publisher(ClockMessage, CLOCK_TOPIC,
-                                                          qos_profile(CLOCK_QOS))
+            self._clock_publisher = self._publisher(ClockMessage, CLOCK_TOPIC, CLOCK_QOS)
             # A zero period: the timer is always ready, so the run goes as fast as it can
             # while the executor still serves subscriptions and the reset service.
             self._timer = self.create_timer(
@@ -432,18 +347,30 @@ class DynamicsNode(Node):
             self._publish(output)
         self._publish_static()
 
-    def _output_publisher(self, kind: OutputKind, topic: str) -> Any:
-        """The publisher of an output topic, without rclpy's default QoS-event handlers:
-        each is a waitable the executor adds to its wait set on every wake, which with
-        three topics a body cost more than the publishing itself (py-spy on Jazzy); a
-        subscriber with an incompatible profile is still warned by its own handlers."""
+    # rclpy gives every publisher and subscription default QoS-event handlers unless told
+    # otherwise. Each is a waitable that the executor adds to its wait set, counts and
+    # checks on every wake; with three topics a body they cost more than the publishing
+    # itself (py-spy on Jazzy). The peer with an incompatible profile is still warned by
+    # its own handlers.
+
+    def _publisher(self, msgtype: type, topic: str, qos: QosSpec) -> Any:
+        """A publisher without rclpy's default QoS-event handlers."""
         return self.create_publisher(
-            MESSAGE_TYPES[kind], topic, qos_profile(output_qos(topic)),
+            msgtype, topic, qos_profile(qos),
             event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
 
+    def _command_subscription(self, msgtype: type, topic: str,
+                              callback: Callable[[Any], None]) -> Any:
+        """A subscription to commands, without rclpy's default QoS-event handlers."""
+        return self.create_subscription(
+            msgtype, topic, callback, qos_profile(COMMAND_QOS),
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+
+    def _output_publisher(self, kind: OutputKind, topic: str) -> Any:
+        return self._publisher(MESSAGE_TYPES[kind], topic, output_qos(topic))
+
     def _publish(self, output: OutputFields) -> None:
-        self._publishers_by_topic[output.topic].publish(
-            MESSAGE_BUILDERS[output.kind](output.fields))
+        self._publishers_by_topic[output.topic].publish(serialize_output(output))
 
     def _publish_static(self) -> None:
         """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;

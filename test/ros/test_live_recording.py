@@ -5,8 +5,8 @@ The node, the recorder and the publishers are the real command-line tools, as a 
 them (``ros2 run``, ``ros2 bag record``, ``ros2 topic pub``, ``ros2 service call``), with the
 recorder started before the node, three seconds after it, and with the world services
 called between the kicks (pause, step, set_body_state, resume; or bodies spawned and
-deleted). Skips where ROS 2 (rclpy and the ``ros2`` command) or rosbags is missing. DDS
-stays on this machine.
+deleted). Skips where ROS 2 (rclpy, the ``ros2`` command and its ``bag`` verb) or rosbags
+is missing. DDS stays on this machine.
 """
 from __future__ import annotations
 
@@ -25,6 +25,9 @@ pytest.importorskip("rosbags", reason="rosbags is not installed (pip install ros
 if shutil.which("ros2") is None:
     pytest.skip("the ros2 command is not on PATH (source /opt/ros/jazzy/setup.bash)",
                 allow_module_level=True)
+if subprocess.run(["ros2", "bag", "-h"], capture_output=True, timeout=60).returncode != 0:
+    pytest.skip("`ros2 bag` is not installed (apt install ros-jazzy-rosbag2 "
+                "ros-jazzy-rosbag2-storage-mcap)", allow_module_level=True)
 
 from hecker_dynamics.cli import main  # noqa: E402
 

@@ -8,6 +8,7 @@ what they compare does not depend on how fast the machine is; the time limits in
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -26,6 +27,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
@@ -34,8 +36,11 @@ from hecker_dynamics.ros.fields import (applied_wrench_to_command, ns_from_stamp
                                         pose_fields, stamp_from_ns, twist_fields,
                                         wrench_stamped_to_command)
 from hecker_dynamics.msg import AppliedWrench  # noqa: E402
-from hecker_dynamics.ros.node import DynamicsNode  # noqa: E402
-from hecker_dynamics.scene.load import load_scene, scene_from_parameters  # noqa: E402
+from hecker_dynamics.ros.cdr import serialize_output  # noqa: E402
+from hecker_dynamics.ros.node import MESSAGE_TYPES, DynamicsNode  # noqa: E402
+from hecker_dynamics.ros.outputs import SnapshotOutputs  # noqa: E402
+from hecker_dynamics.scene.load import (load_scene, scene_from_parameters,  # noqa: E402
+                                        shipped_scenes)
 from hecker_dynamics.dynamics.simulation import Simulation  # noqa: E402
 
 S = 1_000_000_000
@@ -391,3 +396,20 @@ def test_joint_states_and_motor_commands_on_the_gears(ros):
             assert list(msg.effort) == [joints[n][2] for n in msg.name]
             compared += 1
     assert compared > 0
+
+
+def test_the_published_bytes_are_what_rclpy_serializes():
+    # The node publishes its outputs as CDR bytes (hecker_dynamics.ros.cdr): rclpy's own
+    # typesupport reads each as its message type and writes exactly those bytes again.
+    kinds = set()
+    for name in shipped_scenes():
+        scene = dataclasses.replace(load_scene(name), publish_markers=True,
+                                    publish_odometry=True, publish_tf=True)
+        outputs = SnapshotOutputs(scene, tf=True)
+        snapshot = Simulation(scene).advance_to(S // 4)[-1]
+        for output in outputs(snapshot) + outputs.static(snapshot.time_ns):
+            raw = serialize_output(output)
+            message = deserialize_message(raw, MESSAGE_TYPES[output.kind])
+            assert serialize_message(message) == raw, (name, output.topic)
+            kinds.add(output.kind)
+    assert len(kinds) == len(MESSAGE_TYPES) - 1  # all but the diagnostics
