@@ -287,6 +287,9 @@ def test_rviz_config_shows_the_nodes_tf_and_markers():
     displays = {d["Class"]: d for d in manager["Displays"]}
     assert {"rviz_default_plugins/TF", "rviz_default_plugins/MarkerArray"} <= set(displays)
     assert all(d["Enabled"] for d in displays.values())
+    # RViz2's TF axes are 0.2 m and its names 0.1 m tall times Marker Scale: at the view's
+    # 60 px/m, 0.5 gave 3 px names that nobody can read (seen under Xvfb on Jazzy).
+    assert displays["rviz_default_plugins/TF"]["Marker Scale"] >= 2
     # Every topic a display subscribes to is one the node publishes, with its type.
     published = {resolve_topic(topic): kind for topic, kind in output_topics(scene).items()}
     markers = displays["rviz_default_plugins/MarkerArray"]["Topic"]
