@@ -299,6 +299,9 @@ def test_rviz_config_shows_the_nodes_tf_and_markers():
     # The subscription matches the publisher's QoS (reliable, volatile, keep last).
     assert (markers["Reliability Policy"], markers["Durability Policy"],
             markers["History Policy"]) == ("Reliable", "Volatile", "Keep Last")
+    # RViz2 takes one array a rendered frame, slower than the node publishes: a queue
+    # deeper than 1 makes the shapes trail their TF frames (seen: ~0.2 s at depth 10).
+    assert markers["Depth"] == 1
 
 
 def test_cmake_installs_the_rviz_config(cmake):
