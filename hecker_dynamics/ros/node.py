@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import signal
 import sys
+import threading
 from collections.abc import Callable
 from typing import Any, Optional
 
@@ -22,7 +23,8 @@ from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import (ConditionReachedException, ExternalShutdownException,
+                              ShutdownException, SingleThreadedExecutor)
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -39,7 +41,7 @@ from .cdr import serialize_output
 from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .diagnostics import DiagnosticFields
 from .joint_states import MotorTopic, motor_topics
-from .lifecycle import HANDLED_SIGNALS, Shutdown, spin_until
+from .lifecycle import HANDLED_SIGNALS, Shutdown, serve, tick_every
 from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
                     NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
                     SET_BODY_STATE_SERVICE, STEP_SERVICE, Durability, QosSpec, Reliability,
@@ -169,6 +171,9 @@ class DynamicsNode(Node):
         cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
         for line in cap_warnings:
             self.get_logger().warning(line)
+        #: Held by each callback and tick where they run in threads of their own
+        #: (:meth:`tick_thread`), so that one never sees the other half done.
+        self.lock = threading.Lock()
         self._record_publishers: dict[type, Any] = {}
         if self.options.record_session:
             for kind, (topic, _, msgtype, qos) in RECORD_TOPICS.items():
@@ -265,7 +270,7 @@ class DynamicsNode(Node):
     # ----------------------------------------------------------------- stepping
 
     def _on_tick(self) -> None:
-        """Timer on the node clock (ROS time): step the simulation up to now."""
+        """Each publish period on the node clock (ROS time): step the simulation up to now."""
         now_ns = self.get_clock().now().nanoseconds
         action, reason = plan_tick(now_ns, self._last_tick_ns)
         if action is TickAction.WAIT:
@@ -280,6 +285,25 @@ class DynamicsNode(Node):
             self.runner.restart(now_ns, "clock jump")
         self._last_tick_ns = now_ns
         self._advance(now_ns)
+
+    def tick_thread(self, stopped: Callable[[], bool],
+                    woken: threading.Event) -> Optional[Callable[[], None]]:
+        """Take the ticks off the executor, to a thread of their own that runs the returned
+        function (:func:`tick_every` until ``stopped()``; ``woken`` ends its wait), each
+        tick holding :attr:`lock`; destroys the node's timer. An rclpy timer costs a tick
+        two turns of the executor (:mod:`.lifecycle`). None, and the timer stays, in
+        lockstep and on ROS time (``use_sim_time``), whose timer follows ``/clock``."""
+        if self.options.lockstep or self.get_clock().ros_time_is_active:
+            return None
+        self.destroy_timer(self._timer)
+
+        def tick() -> None:
+            with self.lock:
+                self._on_tick()
+
+        def ticks() -> None:
+            tick_every(self.scene.publish_period_ns / NS_PER_S, tick, stopped, woken)
+        return ticks
 
     def _on_lockstep_tick(self) -> None:
         """Steady timer in lockstep: one publish period per tick, then ``/clock``."""
@@ -297,7 +321,7 @@ class DynamicsNode(Node):
         """Step towards ``target_ns`` (at most the catch-up cap) and publish what was passed.
 
         Nothing is published once the context is shut down (by another owner of it: this
-        node's own signal handlers only end the spin loop between two callbacks).
+        node's own signal handlers only end the callbacks after the one that runs).
         """
         tick = self.runner.advance(target_ns)
         if not self.context.ok():
@@ -452,11 +476,28 @@ class DynamicsNode(Node):
         return self._answer(record, response, f"deleted '{request.name}' at "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
+def run_callbacks(executor: SingleThreadedExecutor, stopped: Callable[[], bool],
+                  lock: threading.Lock) -> None:
+    """Run the executor's callbacks one by one, each holding ``lock``, until ``stopped()``,
+    which is checked before each wait and whenever a wait returns (``wake`` ends a wait).
+    Waits without a timeout: ``spin_once(timeout_sec)`` would create a timer for it at
+    every turn."""
+    while True:
+        try:
+            handler, _, _ = executor.wait_for_ready_callbacks(None, None, stopped)
+        except (ConditionReachedException, ShutdownException):
+            return
+        with lock:
+            handler()
+        handler.result()  # raises what the callback raised, as spin_once does
+
+
 def main(args: Optional[list[str]] = None) -> int:
     """Entry point of ``ros2 run hecker_dynamics dynamics_node``; returns the exit status.
 
-    SIGINT and SIGTERM end the spin loop between two callbacks (:class:`Shutdown`), then the
-    node is destroyed and the context shut down: exit status 0 and one info line. A
+    The callbacks, and on the system clock the ticks, run in worker threads (:func:`serve`);
+    SIGINT and SIGTERM end them after the callback or tick that runs (:class:`Shutdown`),
+    then the node is destroyed and the context shut down: exit status 0 and one info line. A
     lockstep run that diverged ends with 1, a scene that does not load with 1 and its error.
     """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -469,9 +510,21 @@ def main(args: Optional[list[str]] = None) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         context = node.context
+        woken = threading.Event()
+
+        def stopped() -> bool:
+            return stop.requested or node.finished.done() or not context.ok()
+
+        def callbacks() -> None:
+            run_callbacks(executor, stopped, node.lock)
+        ticks = node.tick_thread(stopped, woken)
+
+        def wake() -> None:
+            executor.wake()
+            woken.set()
+        stop.wake = wake
         try:
-            spin_until(lambda timeout: executor.spin_once(timeout_sec=timeout),
-                       lambda: stop.requested or node.finished.done() or not context.ok())
+            serve([callbacks] if ticks is None else [callbacks, ticks], stop)
         except ExternalShutdownException:
             pass
         except rclpy_implementation.RCLError:

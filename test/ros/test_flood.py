@@ -3,8 +3,9 @@
 On Jazzy a flood of 10,000 AppliedWrench messages a second grew the node by about 115
 bytes per message and kept it: rclpy's ``spin_once_until_future_complete`` adds a
 done-callback to the future at every turn of ``spin_until_future_complete``, and the
-node's future never completes outside lockstep. The node now spins with ``spin_once``
-(:func:`hecker_dynamics.ros.lifecycle.spin_until`); test_node_process.py floods a real node.
+node's future never completes outside lockstep. The node now runs its callbacks with
+``wait_for_ready_callbacks`` (:func:`hecker_dynamics.ros.node.run_callbacks`);
+test_node_process.py floods a real node.
 Here the node's own per-message work (Runner.accept with the conversion and the session
 record of the input, taken after each message as the node publishes it; the rate-limited
 log lines; Runner.advance at every tick and the outputs of every snapshot, as the node

@@ -1,16 +1,18 @@
-"""The node's stop decisions without ROS: signals, lockstep results, the spin loop.
+"""The node's stop decisions without ROS: signals, lockstep results, the worker thread.
 
-The rclpy side (a node process that gets SIGINT or SIGTERM) is in test_node_process.py.
+The rclpy side (the executor's loop in a node process that gets SIGINT or SIGTERM) is in
+test_node_process.py.
 """
 from __future__ import annotations
 
 import os
 import signal
+import threading
 
 import pytest
 
-from hecker_dynamics.ros.lifecycle import (HANDLED_SIGNALS, POLL_S, Outcome, Shutdown,
-                                           StopReason, spin_until)
+from hecker_dynamics.ros.lifecycle import (HANDLED_SIGNALS, Outcome, Shutdown, StopReason, serve,
+                                           tick_every)
 
 
 def test_the_first_signal_is_the_reason_and_later_ones_change_nothing():
@@ -52,32 +54,101 @@ def test_lockstep_results_and_a_context_shut_down_elsewhere():
         stop.reason(lockstep_result=None, context_ok=True)
 
 
-def test_a_real_signal_during_a_callback_ends_the_loop_before_the_next_one():
-    """The handler only records the signal: the callback that was running finishes (no
-    KeyboardInterrupt inside it), and no callback runs after it."""
+def test_a_real_signal_wakes_the_waiting_worker_and_ends_it():
+    """The worker's wait has no timeout (as the node's executor waits): only the handler's
+    wake ends it. The signal may be delivered to the worker's thread, where Python does not
+    run handlers; the main thread, waiting in turns of POLL_S, runs it."""
     stop = Shutdown()
-    calls: list[float] = []
-    published_after_signal = []
+    woken = threading.Event()
+    stop.wake = woken.set
+    turns: list[str] = []
 
-    def spin_once(timeout: float) -> None:
-        calls.append(timeout)
-        if len(calls) == 3:
-            os.kill(os.getpid(), signal.SIGINT)   # arrives in the middle of this callback
-            published_after_signal.append(stop.requested)
+    def run_callbacks() -> None:
+        while not stop.requested:
+            turns.append(threading.current_thread().name)
+            if len(turns) == 3:
+                os.kill(os.getpid(), signal.SIGINT)
+                assert woken.wait(timeout=60.0), "the handler never woke the worker"
     previous = signal.signal(signal.SIGINT, stop.request)
     try:
-        spin_until(spin_once, lambda: stop.requested or len(calls) > 10)
+        serve([run_callbacks], stop)
     finally:
         signal.signal(signal.SIGINT, previous)
-    assert calls == [POLL_S] * 3
-    assert stop.signal == signal.SIGINT
-    # Python runs the handler between bytecodes, so by the end of the callback it has run.
-    assert published_after_signal == [True]
+    assert turns == ["run_callbacks"] * 3
+    assert stop.signal == signal.SIGINT and stop.repeated == 0
 
 
-def test_spin_until_checks_before_every_turn():
-    calls = []
-    spin_until(calls.append, lambda: True)
-    assert calls == []
-    spin_until(calls.append, lambda: len(calls) >= 4, poll_s=0.25)
-    assert calls == [0.25] * 4
+def test_only_the_first_request_wakes_the_worker():
+    stop = Shutdown()
+    wakes: list[None] = []
+    stop.wake = lambda: wakes.append(None)
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGINT):
+        stop.request(signum)
+    assert len(wakes) == 1 and stop.repeated == 2
+
+
+def test_a_worker_that_raises_stops_the_others_and_its_error_is_raised():
+    stop = Shutdown()
+    woken = threading.Event()
+    stop.wake = woken.set
+
+    def run_callbacks() -> None:
+        raise RuntimeError(f"raised in {threading.current_thread().name}")
+
+    def ticks() -> None:
+        assert woken.wait(timeout=60.0), "the failure never woke the other worker"
+    with pytest.raises(RuntimeError, match="raised in run_callbacks"):
+        serve([run_callbacks, ticks], stop, poll_s=0.01)
+    assert stop.failed and stop.requested and stop.signal is None
+    assert threading.active_count() == 1  # both workers were joined
+
+
+def test_serve_returns_when_the_workers_end():
+    ran = []
+    serve([lambda: ran.append(threading.current_thread() is threading.main_thread())] * 2,
+          Shutdown())
+    assert ran == [False, False]
+
+
+class FakeTime(threading.Event):
+    """A clock that a wait moves on by its timeout (or not at all once set)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+    def wait(self, timeout=None) -> bool:
+        if not self.is_set() and timeout is not None and timeout > 0:
+            self.now += timeout
+        return self.is_set()
+
+
+def test_ticks_come_every_period_and_a_late_one_is_followed_by_the_next_due():
+    """An rcl timer's schedule: start + k period; after a tick that took 3.5 periods, one
+    tick at once (its time was due), then the next multiple of the period, none missed
+    made up in a burst."""
+    fake = FakeTime()
+    times: list[float] = []
+
+    def tick() -> None:
+        times.append(fake.now)
+        if len(times) == 3:
+            fake.now += 0.07
+    tick_every(0.02, tick, lambda: len(times) >= 6, fake, clock=fake)
+    assert [t - 100.0 for t in times] == pytest.approx(
+        [0.02, 0.04, 0.06, 0.13, 0.14, 0.16], abs=1e-9)
+
+
+def test_the_stop_ends_the_ticks_without_another_one():
+    fake = FakeTime()
+    times: list[float] = []
+
+    def tick() -> None:
+        times.append(fake.now)
+        if len(times) == 2:
+            fake.set()
+    tick_every(0.02, tick, fake.is_set, fake, clock=fake)
+    assert len(times) == 2
