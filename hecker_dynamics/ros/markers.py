@@ -115,7 +115,9 @@ def place_markers(templates: tuple[MarkerTemplate, ...], head: Header, state: An
         if template.offset is not None:
             ox, oy = _rotate(template.offset, float(state.angle))
             at = Pose((pose.position[0] + ox, pose.position[1] + oy, 0.0), pose.orientation)
-        markers.append(template.fields._replace(header=head, pose=at))
+        # The constructor, not _replace: this runs for every marker of every tick.
+        _, ns, id_, type_, action, _, scale, color, points = template.fields
+        markers.append(MarkerFields(head, ns, id_, type_, action, at, scale, color, points))
     return markers
 
 

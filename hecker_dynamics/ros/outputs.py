@@ -106,9 +106,11 @@ class SnapshotOutputs:
         body_twist = scene.twist_frame == "body"
         outputs = []
         markers: list[MarkerFields] = []
+        poses = []
         for index, state in enumerate(snapshot.bodies):
             pose, twist, odom = self._topics[index]
             body_pose_fields = body_pose(state)
+            poses.append(body_pose_fields)
             twist_fields_ = twist_fields(state, scene.twist_frame)
             outputs.append(OutputFields(pose, OutputKind.POSE,
                                         PoseStampedFields(head, body_pose_fields)))
@@ -124,7 +126,7 @@ class SnapshotOutputs:
             outputs.append(OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, tuple(markers)))
         if self.tf:
             outputs.append(OutputFields(TF_TOPIC, OutputKind.TF,
-                                        body_transforms(head, snapshot.bodies)))
+                                        body_transforms(head, snapshot.bodies, poses)))
         joint_states = snapshot_joint_states(frame_id, snapshot)
         if joint_states is not None:
             outputs.append(OutputFields(JOINT_STATES_TOPIC, OutputKind.JOINT_STATE,

@@ -10,10 +10,10 @@ is how a scene and an input's ``header.frame_id`` already name them
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Optional
 
 from ..scene.load import Scene
-from .fields import Header, Quaternion, Vec3, header, quaternion_from_yaw
+from .fields import Header, Pose, Quaternion, Vec3, body_pose, header
 
 __all__ = ["TransformFields", "body_transforms", "point_transforms", "IDENTITY"]
 
@@ -31,15 +31,16 @@ class TransformFields(NamedTuple):
     rotation: Quaternion
 
 
-def body_transforms(head: Header, states: Sequence[Any]) -> tuple[TransformFields, ...]:
+def body_transforms(head: Header, states: Sequence[Any],
+                    poses: Optional[Sequence[Pose]] = None) -> tuple[TransformFields, ...]:
     """``/tf``: the fixed frame and stamp of ``head`` to each body frame, from ``BodyState``
-    values. All transforms share ``head`` (a named tuple, never changed), as the node's
-    poses of the same instant do."""
-    return tuple(
-        TransformFields(head, state.name,
-                        (float(state.position[0]), float(state.position[1]), 0.0),
-                        quaternion_from_yaw(state.angle))
-        for state in states)
+    values (and their body poses, :func:`~.fields.body_pose`, where the caller has them).
+    All transforms share ``head`` (a named tuple, never changed), as the node's poses of the
+    same instant do."""
+    if poses is None:
+        poses = [body_pose(state) for state in states]
+    return tuple(TransformFields(head, state.name, pose.position, pose.orientation)
+                 for state, pose in zip(states, poses))
 
 
 def point_transforms(scene: Scene, stamp_ns: int) -> tuple[TransformFields, ...]:
