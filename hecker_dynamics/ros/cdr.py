@@ -85,9 +85,18 @@ def _text(text: str) -> tuple[int, bytes]:
     return len(data) + 1, data
 
 
+#: The last header serialized and its part and values: a tick's messages share one
+#: header object (:class:`~.outputs.SnapshotOutputs`), so most look-ups end here.
+_last_header: list[Any] = [None, None]
+
+
 def _header(fields: Header) -> tuple[Part, tuple[Any, ...]]:
+    if fields is _last_header[0]:
+        return _last_header[1]
     size, data = _text(fields.frame_id)
-    return ("header", size), (fields.sec, fields.nanosec, size, data)
+    done = ("header", size), (fields.sec, fields.nanosec, size, data)
+    _last_header[:] = fields, done
+    return done
 
 
 def _string(text: str) -> tuple[Part, tuple[Any, ...]]:
