@@ -57,6 +57,9 @@ from .replay import Output, ReplayError, input_topics, output_types, snapshot_me
 
 #: What a session's event sequence holds.
 Event = Union[InputEventFields, WorldEventFields]
+#: Most twists in a row a recorder may have lost where the check still finds the next one:
+#: ten publish periods, 0.2 s at the default rate.
+LOST_TWISTS = 10
 
 __all__ = ["RecordedSession", "LiveCheck", "recorded_sessions", "is_live_recording",
            "check_live"]
@@ -210,7 +213,9 @@ def _align(recorded: Recorded, produced: dict[str, list[Output]], raw: dict[int,
     replayed twists (one per replayed snapshot) where the recorded ones match bit for bit,
     searched from where the sibling pose received just before it (in ``poses``, else in
     ``recorded``) puts it; where none matches, that place stands, so the comparison reports
-    the difference."""
+    the difference. Where no one place fits them all, a recorded twist that differs from
+    its place looks for its match among the next :data:`LOST_TWISTS` (the recorder lost
+    the ones before it), so one lost twist moves none of the others."""
     expected: list[BagMessage] = []
     actual: list[BagMessage] = []
     unchecked = 0
@@ -219,9 +224,10 @@ def _align(recorded: Recorded, produced: dict[str, list[Output]], raw: dict[int,
         if messages and messages[0][1] is None:
             pose_topic = _sibling(topic)
             sibling = (poses or recorded).get(pose_topic, []) if pose_topic else []
-            offset = _twist_offset([m for m, _ in messages], replayed, raw, sibling)
-            for j, (message, _) in enumerate(messages):
-                index = offset + j
+            twists = [m for m, _ in messages]
+            places = _twist_places(twists, replayed, raw,
+                                   _twist_offset(twists, replayed, raw, sibling))
+            for message, index in zip(twists, places):
                 if index < 0:
                     unchecked += 1
                 elif index < len(replayed):
@@ -244,7 +250,9 @@ def _align(recorded: Recorded, produced: dict[str, list[Output]], raw: dict[int,
 def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],
                   poses: list[tuple[BagMessage, Optional[int]]]) -> int:
     """Where the recorded twists start in the replayed sequence (see :func:`_align`); negative
-    when the recording began before the replay's first snapshot."""
+    when the recording began before the replay's first snapshot. The place nearest the
+    sibling poses' guess where all of them match, else where the most of them in a row
+    from the first do (a twist lost later breaks that row), else the guess."""
     stamps = [o.log_ns for o in replayed]
     guess = 0
     if poses and messages and stamps:
@@ -257,15 +265,42 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
             guess = -sum(1 for _, s in poses if s is not None and stamp <= s < stamps[0])
     count = len(messages)
 
-    def matches(offset: int) -> bool:
-        return all(messages[j].raw == raw[id(replayed[offset + j])]
-                   for j in range(max(0, -offset), count) if offset + j < len(replayed))
+    def matching(offset: int) -> int:
+        """How many twists in a row match from the first the replay has at ``offset``."""
+        checked = range(max(0, -offset), min(count, len(replayed) - offset))
+        for row, j in enumerate(checked):
+            if messages[j].raw != raw[id(replayed[offset + j])]:
+                return row
+        return count
 
+    best, longest = guess, 0
     for distance in range(len(replayed) + count + 1):
         for offset in (guess - distance, guess + distance):
-            if -count < offset < len(replayed) and matches(offset):
-                return offset
-    return guess
+            if -count < offset < len(replayed):
+                row = matching(offset)
+                if row == count:
+                    return offset
+                if row > longest:
+                    best, longest = offset, row
+    return best
+
+
+def _twist_places(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],
+                  offset: int) -> list[int]:
+    """The index in ``replayed`` of each recorded twist, the first at ``offset``, each next
+    one after the last, at the first of :data:`LOST_TWISTS` + 1 places on that matches it
+    bit for bit, else right after the last (see :func:`_align`)."""
+    places = []
+    place = offset
+    for message in messages:
+        if place >= 0:  # before the replay's first snapshot a twist stays unchecked
+            for later in range(place, min(place + LOST_TWISTS + 1, len(replayed))):
+                if raw[id(replayed[later])] == message.raw:
+                    place = later
+                    break
+        places.append(place)
+        place += 1
+    return places
 
 
 def _relogged(message: BagMessage, log_ns: int) -> BagMessage:
