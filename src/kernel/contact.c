@@ -45,6 +45,8 @@ int hd_contact_prepare(hd_contact_model *m)
     m->warm = NULL;
     m->warm_table = NULL;
     m->warm_table_size = 0;
+    m->warm_indexed = 0;
+    m->warm_awake = 0;
     m->wide = NULL;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;

@@ -132,6 +132,8 @@ typedef struct hd_contact_model {
     long warm_count, warm_capacity;
     long *warm_table;   /* open addressing: the first impulse of each key, or -1 */
     long warm_table_size;
+    int warm_indexed;   /* 1 while warm_table indexes `warm`: built only when needed */
+    long warm_awake;    /* the first impulse after the sleeping islands' */
     /* Sleeping (solver.py: ContactPass._doze): on or off; per body whether it may sleep
      * (calm), its rest time (s) and its sleeping island (the island's lowest body; -1
      * awake); per island, whether an awake body touched it in this detection (wake), and
@@ -158,7 +160,7 @@ int hd_detect(hd_contact_model *m, const double *q);
 int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
                const double *v0, double h);
 /* After the warm-start impulses were replaced: group them by their parts' names (sorted,
- * keeping their order within a name) and index them; -1 out of memory. */
-int hd_set_warm(hd_contact_model *m);
+ * keeping their order within a name). */
+void hd_set_warm(hd_contact_model *m);
 
 #endif
