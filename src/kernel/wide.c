@@ -374,6 +374,8 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
     for (long iteration = 0; iteration < passes; ++iteration) {
         double largest = 0.0;
         for (int c = 0; c <= HD_COLOURS; ++c) {
+            if (w->colour_start[c + 1] == w->colour_start[c])
+                continue;  /* a colour none of the island's units has */
             largest = pass_lanes(w->lanes + w->lane_start[c],
                                  w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
