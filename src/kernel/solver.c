@@ -88,23 +88,44 @@ void hd_set_warm(hd_contact_model *m)
     m->warm_indexed = m->warm_awake = 0;
 }
 
+/* How far find_warm looks from where the last key's impulses ended before it asks the
+ * table. */
+#define HD_NEAR 64
+
+/* The first impulse of `key` within HD_NEAR of warm[next], a run's first, nearest first;
+ * -1 if none. */
+static long near_warm(const hd_contact_model *m, const long *key, long next)
+{
+    for (long d = 0; d <= HD_NEAR; ++d) {
+        if (next + d < m->warm_count && same_key(m->warm[next + d].key, key))
+            return next + d;  /* a run's first: warm[next + d - 1] was not the key's */
+        long i = next - 1 - d;
+        if (i >= 0 && same_key(m->warm[i].key, key)) {
+            while (i > 0 && same_key(m->warm[i - 1].key, key))  /* from the run's last */
+                i -= 1;
+            return i;
+        }
+    }
+    return -1;
+}
+
 /* The warm-start impulses of `key`, warm[*low] to warm[*end - 1] (none: *low = *end =
  * -1); `next`: where the last key's ended (or the first of last step's contacts' starts);
  * -1 out of memory.
  *
  * Each key's impulses are one run (its pair of parts is detected once a step, and no
- * awake contact has a sleeping island's key), so a run that starts with `key` is the one
+ * awake contact has a sleeping island's key), so a run of `key` found anywhere is the one
  * the table holds. The contacts come in detection order, and last step's impulses were
  * kept in the order of its contacts, after the sleeping islands', so most often the run
- * starts at `next`: then neither the table nor a hash is needed. */
+ * starts at `next`, or a few runs off where bodies swapped places in the sweep's order:
+ * then neither the table nor a hash is needed. */
 static int find_warm(hd_contact_model *m, const long *key, long next, long *low, long *end)
 {
     *low = *end = -1;
     if (m->warm_count == 0)
         return 0;
-    if (next < m->warm_count && same_key(m->warm[next].key, key)) {
-        *low = next;
-    } else {
+    *low = near_warm(m, key, next);
+    if (*low < 0) {
         if (!m->warm_indexed && index_warm(m) < 0)
             return -1;
         const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
