@@ -114,8 +114,12 @@ typedef struct hd_contact_model {
     double thickness;  /* of the thinnest colliding part */
     /* Working memory, kept from call to call, and the warm-start impulses. */
     int *placed_flag, *touched;
-    double *sweep;      /* colliding_count x 5: x0, body, x1, y0, y1 */
-    int sweep_order;    /* 1 once `sweep` holds the last detection's order of the bodies */
+    /* The broad phase's boxes, as columns so that the sweep reads each edge contiguously:
+     * colliding_count left edges, then as many right, bottom and top edges, and the box's
+     * body; in the last detection's order once sweep_order is 1. */
+    double *sweep;
+    long *sweep_body;
+    int sweep_order;
     hd_found *found;
     hd_contact *contacts;
     long contact_count, contact_capacity;
