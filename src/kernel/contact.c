@@ -96,12 +96,9 @@ void hd_contact_free(hd_contact_model *m)
     free(m);
 }
 
-/* The body's parts placed at its pose, once per detection (solver.py: _world_parts and
- * _bounds). */
-static void place(hd_contact_model *m, const double *q, long body)
+/* The body's parts placed at its pose (solver.py: _world_parts and _bounds). */
+static void place_parts(hd_contact_model *m, const double *q, long body)
 {
-    if (m->placed_flag[body])
-        return;
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
     const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
@@ -142,6 +139,14 @@ static void place(hd_contact_model *m, const double *q, long body)
         part->bounds[2] = y0;
         part->bounds[3] = y1;
     }
+}
+
+/* place_parts once per detection; inlined, so that the pairs of a body placed already
+ * (most of them) make no call. */
+static inline void place(hd_contact_model *m, const double *q, long body)
+{
+    if (!m->placed_flag[body])
+        place_parts(m, q, body);
 }
 
 static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *found, int count,
