@@ -163,7 +163,8 @@ static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *fou
     for (int i = 0; i < count; ++i) {
         const hd_found *f = found + i;
         m->contacts[m->contact_count++] = (hd_contact){a, b, f->px, f->py, f->nx, f->ny,
-                                                      f->depth, e, mu, {k0, k1, k2, k3}};
+                                                      f->depth, e, mu, {k0, k1, k2, k3},
+                                                      count};
     }
     return 0;
 }

@@ -62,19 +62,23 @@ int hd_half_plane_circle(double nx, double ny, double offset, double cx, double 
                          double radius, double margin, hd_found *out);
 
 /* A contact found by detection: bodies a (-1: a wall) and b, point, normal a -> b, depth,
- * material, and the names of its two parts (key, as in solver.py). */
+ * material, and the names of its two parts (key, as in solver.py); `points`: how many
+ * contacts its pair of parts has, all found together, one after the other (and a key is
+ * found once a detection, so they are the run of its key that solver.py groups). */
 typedef struct {
     long a, b;
     double px, py, nx, ny, depth, e, mu;
     long key[4];
+    int points;
 } hd_contact;
 
-/* One row of the impulse solver (solver.py: ContactRow). */
+/* One row of the impulse solver (solver.py: ContactRow); `points` as its contact's. */
 typedef struct {
     long a, b;  /* body indices into the velocity table; a wall is the last slot */
     double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
     double im_a, ii_a, im_b, ii_b, approach;
     long key[4];
+    int points;
 } hd_row;
 
 /* A unit of the velocity solver: the single row `first`, or (pair) the two-point

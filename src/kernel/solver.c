@@ -209,6 +209,7 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
+    r->points = c->points;
     recall(m, low, end, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
            &r->jt);
 }
@@ -237,17 +238,16 @@ static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
 }
 
 /* The solver's units in row order: a block for each manifold of exactly two points (with
- * one normal), else single rows (solver.py: _schedule); returns their count. */
+ * one normal), else single rows (solver.py: _schedule, whose runs of one key are the
+ * rows' `points`); returns their count. */
 static long schedule(hd_contact_model *m, long count)
 {
     long units = 0;
     for (long k = 0; k < count;) {
         const hd_row *r = m->rows + k;
-        long end = k + 1;
-        while (end < count && same_key(m->rows[end].key, r->key))
-            end += 1;
+        const long end = k + r->points;
         hd_unit *u = m->units + units;
-        if (end - k == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
+        if (r->points == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
             u->first = k;
             u->pair = 1;
             units += 1;
@@ -572,14 +572,16 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     memset(m->before + 3 * n, 0, 3 * sizeof(double));
     memset(m->arrived + 3 * n, 0, 3 * sizeof(double));
     const double *reference = hd_coupled_reference(m);
-    /* The impulses of the contact's key, and where the last key found ended. */
-    long low = -1, end = -1, next = m->warm_awake;
+    /* The impulses of the contact's key, where the last key found ended, and where the
+     * contacts of the contact's key end. */
+    long low = -1, end = -1, next = m->warm_awake, run = 0;
     for (long k = 0; k < count; ++k) {
         const hd_contact *c = m->contacts + k;
-        if (k == 0 || !same_key(c->key, c[-1].key)) {
+        if (k == run) {
             if (find_warm(m, c->key, next, &low, &end) < 0)
                 return -1;
             next = end < 0 ? next : end;
+            run = k + c->points;
         }
         prepare(m, c, m->rows + k, h, reference, low, end);
     }
