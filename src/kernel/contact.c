@@ -17,7 +17,8 @@ int hd_contact_prepare(hd_contact_model *m)
     const long n = m->bodies;
     m->placed_flag = calloc((size_t)n + 1, sizeof(int));
     m->touched = calloc((size_t)n + 1, sizeof(int));
-    m->sweep = malloc(((size_t)m->colliding_count * 5 + 1) * sizeof(double));
+    m->sweep = malloc(((size_t)m->colliding_count * 4 + 1) * sizeof(double));
+    m->sweep_body = malloc(((size_t)m->colliding_count + 1) * sizeof(long));
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
@@ -27,7 +28,8 @@ int hd_contact_prepare(hd_contact_model *m)
     m->wake = m->calm == NULL ? NULL : m->calm + n + 1;
     m->rested = calloc((size_t)n + 1, sizeof(double));
     m->island = malloc(((size_t)n + 1) * sizeof(long));
-    if (!m->placed_flag || !m->touched || !m->sweep || !m->found || !m->velocity ||
+    if (!m->placed_flag || !m->touched || !m->sweep || !m->sweep_body || !m->found ||
+            !m->velocity ||
             !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island ||
             index_pairs(m) < 0)
         return -1;
@@ -45,6 +47,8 @@ int hd_contact_prepare(hd_contact_model *m)
     m->warm = NULL;
     m->warm_table = NULL;
     m->warm_table_size = 0;
+    m->warm_indexed = 0;
+    m->warm_awake = 0;
     m->wide = NULL;
     m->contact_count = m->contact_capacity = m->row_capacity = 0;
     m->warm_count = m->warm_capacity = 0;
@@ -73,6 +77,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->placed_flag);
     free(m->touched);
     free(m->sweep);
+    free(m->sweep_body);
     free(m->found);
     free(m->velocity);
     free(m->contacts);
@@ -91,12 +96,9 @@ void hd_contact_free(hd_contact_model *m)
     free(m);
 }
 
-/* The body's parts placed at its pose, once per detection (solver.py: _world_parts and
- * _bounds). */
-static void place(hd_contact_model *m, const double *q, long body)
+/* The body's parts placed at its pose (solver.py: _world_parts and _bounds). */
+static void place_parts(hd_contact_model *m, const double *q, long body)
 {
-    if (m->placed_flag[body])
-        return;
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
     const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
@@ -139,6 +141,14 @@ static void place(hd_contact_model *m, const double *q, long body)
     }
 }
 
+/* place_parts once per detection; inlined, so that the pairs of a body placed already
+ * (most of them) make no call. */
+static inline void place(hd_contact_model *m, const double *q, long body)
+{
+    if (!m->placed_flag[body])
+        place_parts(m, q, body);
+}
+
 static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *found, int count,
                         double e, double mu, long k0, long k1, long k2, long k3)
 {
@@ -153,7 +163,8 @@ static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *fou
     for (int i = 0; i < count; ++i) {
         const hd_found *f = found + i;
         m->contacts[m->contact_count++] = (hd_contact){a, b, f->px, f->py, f->nx, f->ny,
-                                                      f->depth, e, mu, {k0, k1, k2, k3}};
+                                                      f->depth, e, mu, {k0, k1, k2, k3},
+                                                      count};
     }
     return 0;
 }
@@ -241,31 +252,35 @@ static int pair_contacts(hd_contact_model *m, long a, long b, const double *mate
     return 0;
 }
 
-/* Python sorts the tuples (x0, body, ...): by x0, then by body. */
-static int by_left_edge(const void *p, const void *q)
+/* Python sorts the tuples (x0, body, ...): by x0, then by body. Whether box (x0, body)
+ * comes after box (y0, other). */
+static int after(double x0, long body, double y0, long other)
 {
-    const double *u = p, *w = q;
-    if (u[0] < w[0]) return -1;
-    if (u[0] > w[0]) return 1;
-    return (u[1] > w[1]) - (u[1] < w[1]);
+    return x0 > y0 || (!(x0 < y0) && body > other);
 }
 
-/* Sort the boxes by_left_edge. They are sorted as in the last step and bodies move
- * little in a step, so insertion sort does about one comparison per box; the order is
- * total (bodies differ), so it is the one any sort gives. */
-static void sort_boxes(double *boxes, long count)
+/* Sort the boxes (`count` of each of the four edges from `edge` on, and their bodies) by
+ * left edge, then body. They are sorted as in the last step and bodies move little in a
+ * step, so insertion sort does about one comparison per box; the order is total (bodies
+ * differ), so it is the one any sort gives. */
+static void sort_boxes(double *edge, long *body, long count)
 {
     for (long k = 1; k < count; ++k) {
-        if (by_left_edge(boxes + 5 * (k - 1), boxes + 5 * k) <= 0)
+        if (!after(edge[k - 1], body[k - 1], edge[k], body[k]))
             continue;
-        double box[5];
-        memcpy(box, boxes + 5 * k, sizeof box);
+        double box[4];
+        for (int e = 0; e < 4; ++e)
+            box[e] = edge[e * count + k];
+        const long b = body[k];
         long l = k;
-        while (l > 0 && by_left_edge(boxes + 5 * (l - 1), box) > 0) {
-            memcpy(boxes + 5 * l, boxes + 5 * (l - 1), sizeof box);
-            l -= 1;
+        for (; l > 0 && after(edge[l - 1], body[l - 1], box[0], b); --l) {
+            for (int e = 0; e < 4; ++e)
+                edge[e * count + l] = edge[e * count + l - 1];
+            body[l] = body[l - 1];
         }
-        memcpy(boxes + 5 * l, box, sizeof box);
+        for (int e = 0; e < 4; ++e)
+            edge[e * count + l] = box[e];
+        body[l] = b;
     }
 }
 
@@ -304,29 +319,28 @@ int hd_detect(hd_contact_model *m, const double *q)
         awake += 1;
     if (awake == count)
         return 0;
+    double *left = m->sweep, *right = left + count, *bottom = right + count,
+           *top = bottom + count;
     for (long k = 0; k < count; ++k) {
-        double *box = m->sweep + 5 * k;
-        const long b = m->sweep_order ? (long)box[1] : m->colliding[k];
+        const long b = m->sweep_order ? m->sweep_body[k] : m->colliding[k];
         const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
-        box[0] = x - r;
-        box[1] = (double)b;
-        box[2] = x + r;
-        box[3] = y - r;
-        box[4] = y + r;
+        left[k] = x - r;
+        right[k] = x + r;
+        bottom[k] = y - r;
+        top[k] = y + r;
+        m->sweep_body[k] = b;
     }
-    sort_boxes(m->sweep, count);
+    sort_boxes(m->sweep, m->sweep_body, count);
     m->sweep_order = 1;
     for (long k = 0; k < count; ++k) {
-        const double *box = m->sweep + 5 * k;
-        const long b1 = (long)box[1];
-        for (long l = k + 1; l < count; ++l) {
-            const double *other = m->sweep + 5 * l;
-            if (other[0] > box[2] + HD_MARGIN)
-                break;
-            const long b2 = (long)other[1];
-            const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
-            if (!(other[3] <= box[4] + HD_MARGIN && other[4] >= box[3] - HD_MARGIN))
+        const long b1 = m->sweep_body[k];
+        const double reach = right[k] + HD_MARGIN, low = bottom[k] - HD_MARGIN,
+                     high = top[k] + HD_MARGIN;
+        for (long l = k + 1; l < count && !(left[l] > reach); ++l) {
+            if (!(bottom[l] <= high && top[l] >= low))
                 continue;
+            const long b2 = m->sweep_body[l];
+            const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
             const long sleeping = m->island[i] > m->island[j] ? m->island[i] : m->island[j];
             if (sleeping >= 0 && m->island[i] >= 0 && m->island[j] >= 0)
                 continue;

@@ -62,19 +62,23 @@ int hd_half_plane_circle(double nx, double ny, double offset, double cx, double 
                          double radius, double margin, hd_found *out);
 
 /* A contact found by detection: bodies a (-1: a wall) and b, point, normal a -> b, depth,
- * material, and the names of its two parts (key, as in solver.py). */
+ * material, and the names of its two parts (key, as in solver.py); `points`: how many
+ * contacts its pair of parts has, all found together, one after the other (and a key is
+ * found once a detection, so they are the run of its key that solver.py groups). */
 typedef struct {
     long a, b;
     double px, py, nx, ny, depth, e, mu;
     long key[4];
+    int points;
 } hd_contact;
 
-/* One row of the impulse solver (solver.py: ContactRow). */
+/* One row of the impulse solver (solver.py: ContactRow); `points` as its contact's. */
 typedef struct {
     long a, b;  /* body indices into the velocity table; a wall is the last slot */
     double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
     double im_a, ii_a, im_b, ii_b, approach;
     long key[4];
+    int points;
 } hd_row;
 
 /* A unit of the velocity solver: the single row `first`, or (pair) the two-point
@@ -114,8 +118,12 @@ typedef struct hd_contact_model {
     double thickness;  /* of the thinnest colliding part */
     /* Working memory, kept from call to call, and the warm-start impulses. */
     int *placed_flag, *touched;
-    double *sweep;      /* colliding_count x 5: x0, body, x1, y0, y1 */
-    int sweep_order;    /* 1 once `sweep` holds the last detection's order of the bodies */
+    /* The broad phase's boxes, as columns so that the sweep reads each edge contiguously:
+     * colliding_count left edges, then as many right, bottom and top edges, and the box's
+     * body; in the last detection's order once sweep_order is 1. */
+    double *sweep;
+    long *sweep_body;
+    int sweep_order;
     hd_found *found;
     hd_contact *contacts;
     long contact_count, contact_capacity;
@@ -132,6 +140,8 @@ typedef struct hd_contact_model {
     long warm_count, warm_capacity;
     long *warm_table;   /* open addressing: the first impulse of each key, or -1 */
     long warm_table_size;
+    int warm_indexed;   /* 1 while warm_table indexes `warm`: built only when needed */
+    long warm_awake;    /* the first impulse after the sleeping islands' */
     /* Sleeping (solver.py: ContactPass._doze): on or off; per body whether it may sleep
      * (calm), its rest time (s) and its sleeping island (the island's lowest body; -1
      * awake); per island, whether an awake body touched it in this detection (wake), and
@@ -158,7 +168,7 @@ int hd_detect(hd_contact_model *m, const double *q);
 int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
                const double *v0, double h);
 /* After the warm-start impulses were replaced: group them by their parts' names (sorted,
- * keeping their order within a name) and index them; -1 out of memory. */
-int hd_set_warm(hd_contact_model *m);
+ * keeping their order within a name). */
+void hd_set_warm(hd_contact_model *m);
 
 #endif

@@ -747,8 +747,7 @@ static PyObject *py_warm(PyObject *self, PyObject *args)
         free(m->warm);
         m->warm = warm;
         m->warm_count = m->warm_capacity = (long)count;
-        if (hd_set_warm(m) < 0)
-            return PyErr_NoMemory();
+        hd_set_warm(m);
     }
     PyObject *list = PyList_New(m->warm_count);
     for (long i = 0; list != NULL && i < m->warm_count; ++i) {

@@ -74,48 +74,91 @@ static int index_warm(hd_contact_model *m)
             slot = (slot + 1) & (unsigned long)(size - 1);
         m->warm_table[slot] = k;
     }
+    m->warm_indexed = 1;
     return 0;
 }
 
-int hd_set_warm(hd_contact_model *m)
+void hd_set_warm(hd_contact_model *m)
 {
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = (int)i;
     qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), by_key);
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = 0;
-    return index_warm(m);
+    m->warm_indexed = m->warm_awake = 0;
 }
 
-/* The first warm-start impulse of `key`, or -1. */
-static long find_warm(const hd_contact_model *m, const long *key)
+/* How far find_warm looks from where the last key's impulses ended before it asks the
+ * table. */
+#define HD_NEAR 64
+
+/* The first impulse of `key` within HD_NEAR of warm[next], a run's first, nearest first;
+ * -1 if none. */
+static long near_warm(const hd_contact_model *m, const long *key, long next)
 {
-    if (m->warm_count == 0)
-        return -1;
-    const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
-    for (unsigned long slot = hash_key(key) & mask; m->warm_table[slot] >= 0;
-         slot = (slot + 1) & mask) {
-        if (same_key(m->warm[m->warm_table[slot]].key, key))
-            return m->warm_table[slot];
+    for (long d = 0; d <= HD_NEAR; ++d) {
+        if (next + d < m->warm_count && same_key(m->warm[next + d].key, key))
+            return next + d;  /* a run's first: warm[next + d - 1] was not the key's */
+        long i = next - 1 - d;
+        if (i >= 0 && same_key(m->warm[i].key, key)) {
+            while (i > 0 && same_key(m->warm[i - 1].key, key))  /* from the run's last */
+                i -= 1;
+            return i;
+        }
     }
     return -1;
 }
 
-/* Last step's impulses of the contact of `key` nearest this point, if within HD_MATCH,
- * each used once (solver.py: _recall; `<=`: the last of equally near ones); (c, s) the
- * cosine and sine of body b's angle. */
-static void recall(hd_contact_model *m, const long *key, double rx, double ry, double c,
+/* The warm-start impulses of `key`, warm[*low] to warm[*end - 1] (none: *low = *end =
+ * -1); `next`: where the last key's ended (or the first of last step's contacts' starts);
+ * -1 out of memory.
+ *
+ * Each key's impulses are one run (its pair of parts is detected once a step, and no
+ * awake contact has a sleeping island's key), so a run of `key` found anywhere is the one
+ * the table holds. The contacts come in detection order, and last step's impulses were
+ * kept in the order of its contacts, after the sleeping islands', so most often the run
+ * starts at `next`, or a few runs off where bodies swapped places in the sweep's order:
+ * then neither the table nor a hash is needed. */
+static int find_warm(hd_contact_model *m, const long *key, long next, long *low, long *end)
+{
+    *low = *end = -1;
+    if (m->warm_count == 0)
+        return 0;
+    *low = near_warm(m, key, next);
+    if (*low < 0) {
+        if (!m->warm_indexed && index_warm(m) < 0)
+            return -1;
+        const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
+        for (unsigned long slot = hash_key(key) & mask; m->warm_table[slot] >= 0;
+             slot = (slot + 1) & mask) {
+            if (same_key(m->warm[m->warm_table[slot]].key, key)) {
+                *low = m->warm_table[slot];
+                break;
+            }
+        }
+        if (*low < 0)
+            return 0;
+    }
+    *end = *low + 1;
+    while (*end < m->warm_count && same_key(m->warm[*end].key, key))
+        *end += 1;
+    return 0;
+}
+
+/* Last step's impulses of the contact nearest this point among warm[low] to
+ * warm[end - 1], its key's, if within HD_MATCH, each used once (solver.py: _recall; `<=`:
+ * the last of equally near ones); (c, s) the cosine and sine of body b's angle. */
+static void recall(hd_contact_model *m, long low, long end, double rx, double ry, double c,
                    double s, double *jn, double *jt)
 {
     *jn = 0.0;
     *jt = 0.0;
-    const long low = find_warm(m, key);
     if (low < 0)
         return;
     const double lx = c * rx + s * ry, ly = -s * rx + c * ry;
     long best = -1;
     double nearest = HD_MATCH * HD_MATCH;
-    for (long i = low; i < m->warm_count && same_key(m->warm[i].key, key); ++i) {
+    for (long i = low; i < end; ++i) {
         if (m->warm[i].used)
             continue;
         const double d = pow(m->warm[i].lx - lx, 2.0) + pow(m->warm[i].ly - ly, 2.0);
@@ -132,9 +175,9 @@ static void recall(hd_contact_model *m, const long *key, double rx, double ry, d
 }
 
 /* The solver row of contact c (solver.py: _prepare); `reference`: the velocities the
- * step's positions moved with. */
+ * step's positions moved with; warm[low] to warm[end - 1]: its key's impulses. */
 static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h,
-                    const double *reference)
+                    const double *reference, long low, long end)
 {
     const long wall = m->bodies;
     const long a = c->a >= 0 ? c->a : wall, b = c->b;
@@ -166,7 +209,9 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
-    recall(m, c->key, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn, &r->jt);
+    r->points = c->points;
+    recall(m, low, end, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
+           &r->jt);
 }
 
 /* The block of rows one and two, or 0 where K is too ill-conditioned (solver.py: _block). */
@@ -193,17 +238,16 @@ static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
 }
 
 /* The solver's units in row order: a block for each manifold of exactly two points (with
- * one normal), else single rows (solver.py: _schedule); returns their count. */
+ * one normal), else single rows (solver.py: _schedule, whose runs of one key are the
+ * rows' `points`); returns their count. */
 static long schedule(hd_contact_model *m, long count)
 {
     long units = 0;
     for (long k = 0; k < count;) {
         const hd_row *r = m->rows + k;
-        long end = k + 1;
-        while (end < count && same_key(m->rows[end].key, r->key))
-            end += 1;
+        const long end = k + r->points;
         hd_unit *u = m->units + units;
-        if (end - k == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
+        if (r->points == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
             u->first = k;
             u->pair = 1;
             units += 1;
@@ -330,7 +374,9 @@ static long keep_sleeping_warm(hd_contact_model *m)
         m->warm[kept].used = 0;
         kept += 1;
     }
-    m->warm_count = kept;
+    if (kept != m->warm_count)
+        m->warm_indexed = 0;
+    m->warm_count = m->warm_awake = kept;
     return kept;
 }
 
@@ -358,7 +404,8 @@ static int remember(hd_contact_model *m, long count)
         w->used = 0;
     }
     m->warm_count = kept + count;
-    return index_warm(m);
+    m->warm_indexed = 0;
+    return 0;
 }
 
 /* Put the sleeping bodies back at (q0, v0) (solver.py: _awake_contacts). */
@@ -481,11 +528,9 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
         hd_coupled_store(m, 0);
-        /* Every impulse kept (a scene fully asleep): the table indexes them already. */
-        const long had = m->warm_count;
-        const int same = keep_sleeping_warm(m) == had;
+        keep_sleeping_warm(m);
         doze(m, v1, 0, h);
-        return m->sleep && !same ? index_warm(m) : 0;
+        return 0;
     }
     /* The rows, then `count` doubles for the position correction's depths. */
     const long needed = count + (count * (long)sizeof(double)) / (long)sizeof(hd_row) + 1;
@@ -527,8 +572,19 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     memset(m->before + 3 * n, 0, 3 * sizeof(double));
     memset(m->arrived + 3 * n, 0, 3 * sizeof(double));
     const double *reference = hd_coupled_reference(m);
-    for (long k = 0; k < count; ++k)
-        prepare(m, m->contacts + k, m->rows + k, h, reference);
+    /* The impulses of the contact's key, where the last key found ended, and where the
+     * contacts of the contact's key end. */
+    long low = -1, end = -1, next = m->warm_awake, run = 0;
+    for (long k = 0; k < count; ++k) {
+        const hd_contact *c = m->contacts + k;
+        if (k == run) {
+            if (find_warm(m, c->key, next, &low, &end) < 0)
+                return -1;
+            next = end < 0 ? next : end;
+            run = k + c->points;
+        }
+        prepare(m, c, m->rows + k, h, reference, low, end);
+    }
     for (long k = 0; k < count; ++k) {  /* warm start, once every target is set */
         const hd_row *r = m->rows + k;
         push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,

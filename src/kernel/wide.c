@@ -221,14 +221,24 @@ static HD_HOT hd_twist4 gather(const double *velocity, const long *body)
                        {p0[2], p1[2], p2[2], p3[2]}};
 }
 
+/* gather's inverse, lane by lane in lane order; spelled out, not looped, as GCC then
+ * stores straight from the vector registers (a loop sent each vector through the stack). */
 static HD_HOT void scatter(double *velocity, const long *body, hd_twist4 v)
 {
-    for (int l = 0; l < HD_LANES; ++l) {
-        double *p = velocity + 3 * body[l];
-        p[0] = v.x[l];
-        p[1] = v.y[l];
-        p[2] = v.w[l];
-    }
+    double *p0 = velocity + 3 * body[0], *p1 = velocity + 3 * body[1],
+           *p2 = velocity + 3 * body[2], *p3 = velocity + 3 * body[3];
+    p0[0] = v.x[0];
+    p0[1] = v.y[0];
+    p0[2] = v.w[0];
+    p1[0] = v.x[1];
+    p1[1] = v.y[1];
+    p1[2] = v.w[1];
+    p2[0] = v.x[2];
+    p2[1] = v.y[2];
+    p2[2] = v.w[2];
+    p3[0] = v.x[3];
+    p3[1] = v.y[3];
+    p3[2] = v.w[3];
 }
 
 /* rows.h's normal_velocity, lane by lane. */
@@ -374,6 +384,8 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
     for (long iteration = 0; iteration < passes; ++iteration) {
         double largest = 0.0;
         for (int c = 0; c <= HD_COLOURS; ++c) {
+            if (w->colour_start[c + 1] == w->colour_start[c])
+                continue;  /* a colour none of the island's units has */
             largest = pass_lanes(w->lanes + w->lane_start[c],
                                  w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
