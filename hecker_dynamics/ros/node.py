@@ -476,6 +476,7 @@ class DynamicsNode(Node):
         return self._answer(record, response, f"deleted '{request.name}' at "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
+
 def run_callbacks(executor: SingleThreadedExecutor, stopped: Callable[[], bool],
                   lock: threading.Lock) -> None:
     """Run the executor's callbacks one by one, each holding ``lock``, until ``stopped()``,
