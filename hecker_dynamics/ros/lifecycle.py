@@ -5,9 +5,8 @@ handlers) that only call :meth:`Shutdown.request`. rclpy's own handlers shut the
 down from a separate thread (the deferred signal handler of ``_rclpy_pybind11``) while a
 timer callback may be publishing, which then fails with "publisher's context is invalid";
 with the request recorded instead, the callbacks stop and the context is shut down after
-the last publish. ``ros2 launch`` stops a
-node with SIGINT, then SIGTERM after its timeout, so both end the same way: exit status 0
-and one info line.
+the last publish. ``ros2 launch`` stops a node with SIGINT, then SIGTERM after its
+timeout, so both end the same way: exit status 0 and one info line.
 
 The node's work runs in worker threads (:func:`serve`): the executor's callbacks, which
 wait for work with no timeout, and, on the system clock, the ticks (:func:`tick_every`).
