@@ -18,7 +18,7 @@ from __future__ import annotations
 import functools
 import struct
 from collections.abc import Callable, Iterable
-from typing import Any
+from typing import Any, Optional
 
 from .fields import Header, OdometryFields, PoseStampedFields, TwistFields
 from .joint_states import JointStateFields
@@ -85,17 +85,21 @@ def _text(text: str) -> tuple[int, bytes]:
     return len(data) + 1, data
 
 
-#: The last header serialized and its part and values: a tick's messages share one
-#: header object (:class:`~.outputs.SnapshotOutputs`), so most look-ups end here.
-_last_header: list[Any] = [None, None]
+#: The last header serialized with its part and values, one tuple: a tick's messages
+#: share one header object (:class:`~.outputs.SnapshotOutputs`), so most look-ups end
+#: here. Read and replaced whole, so a serialization in another thread never pairs one
+#: header with another's values.
+_last_header: Optional[tuple[Header, tuple[Part, tuple[Any, ...]]]] = None
 
 
 def _header(fields: Header) -> tuple[Part, tuple[Any, ...]]:
-    if fields is _last_header[0]:
-        return _last_header[1]
+    global _last_header
+    last = _last_header
+    if last is not None and last[0] is fields:
+        return last[1]
     size, data = _text(fields.frame_id)
     done = ("header", size), (fields.sec, fields.nanosec, size, data)
-    _last_header[:] = fields, done
+    _last_header = (fields, done)
     return done
 
 
