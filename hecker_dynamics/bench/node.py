@@ -1,13 +1,12 @@
 """The node's own cost without rclpy: the Python work of its timer ticks.
 
 Each 50 Hz tick of the node runs :meth:`Runner.advance` (the scene's script, 20 physics
-steps at 1 kHz, the diagnostics when due), then builds every output of the snapshot it
-passed (:class:`SnapshotOutputs`: pose, twist and odometry per body, the markers and
-``/tf``) and serializes each (:func:`~hecker_dynamics.ros.cdr.serialize_output`), the
-bytes it hands to rclpy's ``publish``. Both are timed here on rings of 1, 10 and 100 bodies
-(:func:`~hecker_dynamics.bench.scenes.ring`) with every output on; their sum per second of
-sim time is the share of one core the node needs to keep up with the clock, before rclpy
-publishes and its executor wakes.
+steps at 1 kHz, the diagnostics when due), then serializes every output of the snapshot
+it passed (:class:`~hecker_dynamics.ros.cdr.SnapshotSerializer`: pose, twist and odometry
+per body, the markers and ``/tf``), the bytes it hands to rclpy's ``publish``. Both are
+timed here on rings of 1, 10 and 100 bodies (:func:`~hecker_dynamics.bench.scenes.ring`)
+with every output on; their sum per second of sim time is the share of one core the node
+needs to keep up with the clock, before rclpy publishes and its executor wakes.
 """
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ import statistics
 import time
 from typing import NamedTuple, Optional
 
-from ..ros.cdr import serialize_output
+from ..ros.cdr import SnapshotSerializer
 from ..ros.outputs import SnapshotOutputs
 from ..ros.runner import Runner
 from ..scene.load import Scene
@@ -57,7 +56,7 @@ def node_scene(bodies: int, floor: bool = False) -> Scene:
 
 def _run(scene: Scene, seconds: float) -> tuple[float, float]:
     runner = Runner(scene)
-    outputs_of = SnapshotOutputs(scene)
+    serialize = SnapshotSerializer(SnapshotOutputs(scene))
     # CPU time of this process, not wall time: on a loaded machine the wall clock also
     # counts the time other processes held the core.
     clock = time.process_time
@@ -69,8 +68,7 @@ def _run(scene: Scene, seconds: float) -> tuple[float, float]:
         tick = runner.advance(target)
         middle = clock()
         for snapshot in tick.snapshots:
-            for output in outputs_of(snapshot):
-                serialize_output(output)
+            serialize(snapshot)
         end = clock()
         advance += middle - start
         outputs += end - middle

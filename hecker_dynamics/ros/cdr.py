@@ -4,8 +4,11 @@ rclpy's ``Publisher.publish`` takes the bytes of a serialized message as well as
 object and hands them to rmw as they are (``rcl_publish_serialized_message``). Building a
 rosidl message in Python and converting it to C cost the node more than its simulation:
 on Jazzy 14 us for a ``PoseStamped`` and 330 us for a ``MarkerArray`` of 20 markers, where
-publishing their bytes takes 2.5 and 1.5 us. The bytes here are the ones rosbag2 stores
-for the same message and rosbags writes; the tests hold them to rosbags' serializer for
+publishing their bytes takes 2.5 and 1.5 us. Building the fields tuples of every message
+(:class:`~.outputs.SnapshotOutputs`) and packing each still cost 0.2 ms a tick for ten
+bodies, so a tick's messages are packed straight from its body states
+(:class:`SnapshotSerializer`). The bytes here are the ones rosbag2 stores for the same
+message and rosbags writes; the tests hold them to rosbags' serializer of the fields for
 every output kind, and on Jazzy to rclpy's.
 
 CDR aligns each primitive to its own size, counted from the start of the payload (after
@@ -20,13 +23,16 @@ import struct
 from collections.abc import Callable, Iterable
 from typing import Any, Optional
 
-from .fields import Header, OdometryFields, PoseStampedFields, TwistFields
-from .joint_states import JointStateFields
-from .markers import MarkerFields
-from .outputs import OutputFields, OutputKind
-from .tf import TransformFields
+from ..dynamics.simulation import Snapshot
+from .fields import Header, body_pose, header, twist_fields
+from .joint_states import JointStateFields, snapshot_joint_states
+from .markers import MarkerFields, marker_pose
+from .names import JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_TOPIC
+from .outputs import OutputFields, OutputKind, SnapshotOutputs
+from .tf import IDENTITY, TransformFields
 
-__all__ = ["ENCAPSULATION", "Part", "layout", "serialize_output", "SERIALIZERS"]
+__all__ = ["ENCAPSULATION", "Part", "Slots", "layout", "serialize_output", "SERIALIZERS",
+           "SnapshotSerializer"]
 
 #: Representation identifier CDR_LE and two bytes of options: what rmw writes.
 ENCAPSULATION = b"\x00\x01\x00\x00"
@@ -39,6 +45,10 @@ ENCAPSULATION = b"\x00\x01\x00\x00"
 #: frame_id is that string (four values: sec, nanosec, size, bytes); ``"raw"``: that many
 #: bytes serialized beforehand at a multiple of 4 (one value).
 Part = tuple[str, int]
+
+#: Where a message's values of a header and of a pose (7 float64: position, orientation)
+#: start, in the values list of the array that holds it.
+Slots = tuple[int, int]
 
 _PRIMITIVES = {"d": 8, "f": 4, "i": 4, "I": 4, "B": 1}
 
@@ -112,31 +122,8 @@ def _pack(parts: list[Part], values: list[Any]) -> bytes:
     return ENCAPSULATION + layout(tuple(parts)).pack(*values)
 
 
-def _pose_stamped(fields: PoseStampedFields) -> bytes:
-    """``geometry_msgs/PoseStamped``: header, position (x, y, z), orientation (x, y, z, w)."""
-    head, head_values = _header(fields.header)
-    pose = fields.pose
-    return ENCAPSULATION + layout((head, ("d", 7))).pack(
-        *head_values, *pose.position, *pose.orientation)
-
-
+#: ``geometry_msgs/Twist``: linear, angular (six float64 need no padding).
 _TWIST = struct.Struct("<6d")
-
-
-def _twist(fields: TwistFields) -> bytes:
-    """``geometry_msgs/Twist``: linear, angular (six float64 need no padding)."""
-    return ENCAPSULATION + _TWIST.pack(*fields.linear, *fields.angular)
-
-
-def _odometry(fields: OdometryFields) -> bytes:
-    """``nav_msgs/Odometry``, both covariances zero (unknown)."""
-    head, head_values = _header(fields.header)
-    child, child_values = _string(fields.child_frame_id)
-    pose, twist = fields.pose, fields.twist
-    return ENCAPSULATION + layout(
-        (head, child, ("d", 7), ("zeros", 36), ("d", 6), ("zeros", 36))).pack(
-        *head_values, *child_values, *pose.position, *pose.orientation, *twist.linear,
-        *twist.angular)
 
 
 def _marker_defaults() -> bytes:
@@ -156,7 +143,7 @@ _MARKER_DEFAULTS = _marker_defaults()
 _MARKER_TAIL: Part = ("raw", len(_MARKER_DEFAULTS))
 
 
-def _marker(parts: list[Part], values: list[Any], fields: MarkerFields) -> None:
+def _marker(parts: list[Part], values: list[Any], fields: MarkerFields) -> Slots:
     """``visualization_msgs/Marker``: header, ns, id, type, action, pose, scale, color
     (float32 r, g, b, a), no lifetime (int32 sec, uint32 nanosec), not frame_locked
     (uint8), points, then :func:`_marker_defaults`."""
@@ -166,12 +153,14 @@ def _marker(parts: list[Part], values: list[Any], fields: MarkerFields) -> None:
     parts += (head, ns, ("i", 3), ("d", 10), ("f", 4), ("i", 1), ("I", 1), ("B", 1),
               ("I", 1), ("d", 3 * len(points)), _MARKER_TAIL)
     pose = fields.pose
+    slots = len(values), len(values) + 9
     values += (*head_values, *ns_values, fields.id, fields.type, fields.action,
                *pose.position, *pose.orientation, *fields.scale, *fields.color, 0, 0, 0,
                len(points))
     for point in points:
         values += point
     values.append(_MARKER_DEFAULTS)
+    return slots
 
 
 def _marker_array(markers: Iterable[MarkerFields]) -> bytes:
@@ -184,17 +173,23 @@ def _marker_array(markers: Iterable[MarkerFields]) -> bytes:
     return _pack(parts, values)
 
 
+def _transform(parts: list[Part], values: list[Any], transform: TransformFields) -> Slots:
+    """``geometry_msgs/TransformStamped``: header, child_frame_id, translation, rotation."""
+    head, head_values = _header(transform.header)
+    child, child_values = _string(transform.child_frame_id)
+    parts += (head, child, ("d", 7))
+    slots = len(values), len(values) + 6
+    values += (*head_values, *child_values, *transform.translation, *transform.rotation)
+    return slots
+
+
 def _tf_message(transforms: Iterable[TransformFields]) -> bytes:
-    """``tf2_msgs/TFMessage``: a ``geometry_msgs/TransformStamped`` each (header,
-    child_frame_id, translation, rotation)."""
+    """``tf2_msgs/TFMessage``: a ``TransformStamped`` each."""
     transforms = tuple(transforms)
     parts: list[Part] = [("I", 1)]
     values: list[Any] = [len(transforms)]
     for transform in transforms:
-        head, head_values = _header(transform.header)
-        child, child_values = _string(transform.child_frame_id)
-        parts += (head, child, ("d", 7))
-        values += (*head_values, *child_values, *transform.translation, *transform.rotation)
+        _transform(parts, values, transform)
     return _pack(parts, values)
 
 
@@ -214,19 +209,93 @@ def _joint_state(fields: JointStateFields) -> bytes:
     return _pack(parts, values)
 
 
-#: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`).
+#: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`) that the
+#: node publishes apart from the snapshots' (:class:`SnapshotSerializer`): markers that
+#: delete, ``/tf_static``, and joint states, which a snapshot serializes this way too.
 SERIALIZERS: dict[OutputKind, Callable[[Any], bytes]] = {
-    OutputKind.POSE: _pose_stamped, OutputKind.TWIST: _twist,
-    OutputKind.ODOMETRY: _odometry, OutputKind.MARKERS: _marker_array,
-    OutputKind.TF: _tf_message, OutputKind.JOINT_STATE: _joint_state,
+    OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
+    OutputKind.JOINT_STATE: _joint_state,
 }
-
-
-#: :data:`SERIALIZERS` by the identity of the kind: an Enum member hashes in Python code,
-#: and the node looks a serializer up for every message it publishes.
-_SERIALIZER_OF = {id(kind): serialize for kind, serialize in SERIALIZERS.items()}
 
 
 def serialize_output(output: OutputFields) -> bytes:
     """The serialized message of one output, as rclpy's ``publish`` takes it."""
-    return _SERIALIZER_OF[id(output.kind)](output.fields)
+    return SERIALIZERS[output.kind](output.fields)
+
+
+class SnapshotSerializer:
+    """The messages of each snapshot serialized: what ``outputs`` (a
+    :class:`~.outputs.SnapshotOutputs`) gives for it, in its order, as ``(topic, bytes)``.
+
+    A world's layouts do not change from tick to tick: the fixed frame's name sizes every
+    header, a body's name its odometry's child frame, its shapes its markers. So each
+    message's packer is compiled here once, and the marker and transform arrays keep their
+    values between ticks: a tick packs each message once, after writing the stamp and the
+    poses into their slots, and builds none of the fields tuples.
+    """
+
+    def __init__(self, outputs: SnapshotOutputs) -> None:
+        self.outputs = outputs
+        scene = outputs.scene
+        head = header(scene.frame_id, 0)
+        head_part, _ = _header(head)
+        self._pose = layout((head_part, ("d", 7)))
+        self._children = tuple(_string(body.name) for body in scene.bodies)
+        self._odometry = tuple(
+            layout((head_part, child, ("d", 7), ("zeros", 36), ("d", 6), ("zeros", 36)))
+            for child, _ in self._children)
+        parts: list[Part] = [("I", 1)]
+        #: The marker array's values, and per body its markers' templates and slots.
+        self._marker_values: list[Any] = [sum(map(len, outputs.templates))]
+        self._marker_slots = tuple(
+            tuple((template, *_marker(parts, self._marker_values,
+                                      template.fields._replace(header=head)))
+                  for template in templates)
+            for templates in outputs.templates)
+        self._markers = layout(tuple(parts))
+        parts = [("I", 1)]
+        self._tf_values: list[Any] = [len(scene.bodies)]
+        self._tf_slots = tuple(
+            _transform(parts, self._tf_values, TransformFields(head, body.name,
+                                                               (0.0, 0.0, 0.0), IDENTITY))
+            for body in scene.bodies)
+        self._tf = layout(tuple(parts))
+
+    def __call__(self, snapshot: Snapshot) -> list[tuple[str, bytes]]:
+        outputs = self.outputs
+        scene = outputs.scene
+        head_values = _header(header(scene.frame_id, snapshot.time_ns))[1]
+        odometry, body_twist = scene.publish_odometry, scene.twist_frame == "body"
+        markers, marker_values = scene.publish_markers, self._marker_values
+        tf_values = self._tf_values
+        messages = []
+        for index, state in enumerate(snapshot.bodies):
+            pose_topic, twist_topic, odometry_topic = outputs.topics[index]
+            pose = body_pose(state)
+            numbers = pose.position + pose.orientation
+            twist = twist_fields(state, scene.twist_frame)
+            messages.append((pose_topic, ENCAPSULATION + self._pose.pack(*head_values, *numbers)))
+            messages.append((twist_topic,
+                             ENCAPSULATION + _TWIST.pack(*twist.linear, *twist.angular)))
+            if odometry:
+                child = twist if body_twist else twist_fields(state, "body")
+                messages.append((odometry_topic, ENCAPSULATION + self._odometry[index].pack(
+                    *head_values, *self._children[index][1], *numbers, *child.linear,
+                    *child.angular)))
+            if markers:
+                for template, at_head, at_pose in self._marker_slots[index]:
+                    placed = marker_pose(template, state, pose)
+                    marker_values[at_head:at_head + 4] = head_values
+                    marker_values[at_pose:at_pose + 7] = placed.position + placed.orientation
+            if outputs.tf:
+                at_head, at_pose = self._tf_slots[index]
+                tf_values[at_head:at_head + 4] = head_values
+                tf_values[at_pose:at_pose + 7] = numbers
+        if markers:
+            messages.append((MARKERS_TOPIC, ENCAPSULATION + self._markers.pack(*marker_values)))
+        if outputs.tf:
+            messages.append((TF_TOPIC, ENCAPSULATION + self._tf.pack(*tf_values)))
+        joint_states = snapshot_joint_states(scene.frame_id, snapshot)
+        if joint_states is not None:
+            messages.append((JOINT_STATES_TOPIC, _joint_state(joint_states)))
+        return messages

@@ -106,18 +106,24 @@ def marker_templates(body: BodySpec, index: int) -> tuple[MarkerTemplate, ...]:
     return tuple(templates)
 
 
+def marker_pose(template: MarkerTemplate, state: Any, pose: Pose) -> Pose:
+    """Where ``template``'s marker sits for ``state`` (a ``BodyState``; ``pose`` its body
+    pose): the body pose, moved to the marker's offset where it has one."""
+    if template.offset is None:
+        return pose
+    ox, oy = _rotate(template.offset, float(state.angle))
+    return Pose((pose.position[0] + ox, pose.position[1] + oy, 0.0), pose.orientation)
+
+
 def place_markers(templates: tuple[MarkerTemplate, ...], head: Header, state: Any,
                   pose: Pose) -> list[MarkerFields]:
     """The markers of ``templates`` at ``state`` (a ``BodyState``; ``pose`` its body pose)."""
     markers = []
     for template in templates:
-        at = pose
-        if template.offset is not None:
-            ox, oy = _rotate(template.offset, float(state.angle))
-            at = Pose((pose.position[0] + ox, pose.position[1] + oy, 0.0), pose.orientation)
         # The constructor, not _replace: this runs for every marker of every tick.
         _, ns, id_, type_, action, _, scale, color, points = template.fields
-        markers.append(MarkerFields(head, ns, id_, type_, action, at, scale, color, points))
+        markers.append(MarkerFields(head, ns, id_, type_, action,
+                                    marker_pose(template, state, pose), scale, color, points))
     return markers
 
 

@@ -37,7 +37,8 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
-from .cdr import serialize_output
+from ..dynamics.simulation import Snapshot
+from .cdr import SnapshotSerializer, serialize_output
 from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .diagnostics import DiagnosticFields
 from .joint_states import MotorTopic, motor_topics
@@ -191,6 +192,7 @@ class DynamicsNode(Node):
         #: scene's duration; never done otherwise.
         self.finished = Future()
         self._outputs = SnapshotOutputs(self.scene, base=self.runner.base_scene)
+        self._serialize = SnapshotSerializer(self._outputs)
         self._publishers_by_topic = {
             topic: self._output_publisher(kind, topic)
             for topic, kind in output_topics(self.scene).items()}
@@ -333,8 +335,7 @@ class DynamicsNode(Node):
             self.get_logger().error(
                 f"{tick.diverged}; halted until the 'reset' service is called")
         for snapshot in tick.snapshots:
-            for output in self._outputs(snapshot):
-                self._publish(output)
+            self._publish_snapshot(snapshot)
         if tick.lag:
             self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
                                  f"clock (a tick takes at most {self.runner.max_steps} steps: "
@@ -361,6 +362,7 @@ class DynamicsNode(Node):
         scene = self.runner.scene
         previous, self._outputs = self._outputs, SnapshotOutputs(
             scene, base=self.runner.base_scene)
+        self._serialize = SnapshotSerializer(self._outputs)
         topics = output_topics(scene)
         for topic in [t for t in self._publishers_by_topic if t not in topics]:
             self.destroy_publisher(self._publishers_by_topic.pop(topic))
@@ -395,6 +397,11 @@ class DynamicsNode(Node):
 
     def _publish(self, output: OutputFields) -> None:
         self._publishers_by_topic[output.topic].publish(serialize_output(output))
+
+    def _publish_snapshot(self, snapshot: Snapshot) -> None:
+        publishers = self._publishers_by_topic
+        for topic, data in self._serialize(snapshot):
+            publishers[topic].publish(data)
 
     def _publish_static(self) -> None:
         """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;
@@ -453,8 +460,7 @@ class DynamicsNode(Node):
     def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
         record, tick = self.runner.step(int(request.steps))
         for snapshot in tick.snapshots:
-            for output in self._outputs(snapshot):
-                self._publish(output)
+            self._publish_snapshot(snapshot)
         return self._answer(record, response, f"stepped {request.steps} step(s) to "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 

@@ -90,13 +90,15 @@ class SnapshotOutputs:
         bodies' marker colours (:func:`~.markers.color_slot`)."""
         self.scene = scene
         self.tf = _with_tf(scene, tf)
-        self._topics = tuple((pose_topic(b.name), twist_topic(b.name), odometry_topic(b.name))
-                             for b in scene.bodies)
-        self._markers = tuple(marker_templates(b, color_slot(b.name, base or scene))
-                              for b in scene.bodies) if scene.publish_markers else ()
+        #: Per body: its pose, twist and odometry topics.
+        self.topics = tuple((pose_topic(b.name), twist_topic(b.name), odometry_topic(b.name))
+                            for b in scene.bodies)
+        #: Per body: its markers' templates (none with markers off).
+        self.templates = tuple(marker_templates(b, color_slot(b.name, base or scene))
+                               for b in scene.bodies) if scene.publish_markers else ()
         #: The namespace and id of every marker these outputs publish.
         self.marker_keys: frozenset[MarkerKey] = frozenset().union(
-            *(marker_keys(templates) for templates in self._markers))
+            *(marker_keys(templates) for templates in self.templates))
 
     def __call__(self, snapshot: Snapshot) -> list[OutputFields]:
         scene = self.scene
@@ -108,7 +110,7 @@ class SnapshotOutputs:
         markers: list[MarkerFields] = []
         poses = []
         for index, state in enumerate(snapshot.bodies):
-            pose, twist, odom = self._topics[index]
+            pose, twist, odom = self.topics[index]
             body_pose_fields = body_pose(state)
             poses.append(body_pose_fields)
             twist_fields_ = twist_fields(state, scene.twist_frame)
@@ -120,7 +122,7 @@ class SnapshotOutputs:
                     head, state.name, body_pose_fields,
                     twist_fields_ if body_twist else twist_fields(state, "body"))))
             if scene.publish_markers:
-                markers.extend(place_markers(self._markers[index], head, state,
+                markers.extend(place_markers(self.templates[index], head, state,
                                              body_pose_fields))
         if scene.publish_markers:
             outputs.append(OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, tuple(markers)))

@@ -2,25 +2,30 @@
 
 The node publishes these bytes as they are, so each must be the CDR of the message rosbags
 (and rosbag2, and rclpy: test_node.py checks that on Jazzy) makes of the same fields, byte
-for byte: every output kind of every shipped scene, and the strings, stamps and sequences
-whose lengths move CDR's padding.
+for byte: every output kind of every shipped scene, as a snapshot's serializer packs them
+and as the serializers of single outputs do, and the strings, stamps and sequences whose
+lengths move CDR's padding.
 """
 from __future__ import annotations
 
 import dataclasses
+import struct
 
 import pytest
 
 from hecker_dynamics.bags.io import typestore
 from hecker_dynamics.bags.replay import _MESSAGE_BUILDERS
 from hecker_dynamics.dynamics.simulation import Simulation
-from hecker_dynamics.ros.cdr import ENCAPSULATION, SERIALIZERS, serialize_output
-from hecker_dynamics.ros.fields import Header, Pose, PoseStampedFields, TwistFields
+from hecker_dynamics.ros.cdr import (ENCAPSULATION, SERIALIZERS, SnapshotSerializer,
+                                     serialize_output)
+from hecker_dynamics.ros.fields import Header, Pose
 from hecker_dynamics.ros.joint_states import JointStateFields
+from hecker_dynamics.ros.names import twist_topic
 from hecker_dynamics.ros.markers import MARKER_LINE_STRIP, MarkerFields, delete_markers
-from hecker_dynamics.ros.outputs import OutputFields, OutputKind, SnapshotOutputs
+from hecker_dynamics.ros.outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from hecker_dynamics.ros.tf import TransformFields
-from hecker_dynamics.scene.load import load_scene, shipped_scenes
+from hecker_dynamics.scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
+from hecker_dynamics.scene.parameters import flatten
 
 S = 1_000_000_000
 
@@ -35,23 +40,69 @@ def _assert_as_rosbags(outputs: list[OutputFields]) -> None:
         assert serialize_output(output) == _rosbags_bytes(output), output.topic
 
 
-def test_every_output_kind_has_a_serializer():
-    # Diagnostics go out once a second as a message object, not through these.
-    assert set(SERIALIZERS) == set(OutputKind) - {OutputKind.DIAGNOSTICS}
+def _everything(scene: Scene, twist_frame: str = "world") -> Scene:
+    return dataclasses.replace(scene, publish_markers=True, publish_odometry=True,
+                               publish_tf=True, twist_frame=twist_frame)
 
 
-@pytest.mark.parametrize("name", shipped_scenes())
-def test_every_output_of_a_shipped_scene_is_what_rosbags_serializes(name):
-    scene = dataclasses.replace(load_scene(name), publish_markers=True,
-                                publish_odometry=True, publish_tf=True)
+def _assert_snapshots_as_rosbags(scene: Scene, count: int = 2) -> list[list[tuple[str, bytes]]]:
+    """Serialize ``count`` snapshots (the first and the last of 0.25 s) with one serializer,
+    as the node does tick after tick, against rosbags' bytes of the same snapshots' fields."""
     outputs = SnapshotOutputs(scene, tf=True)
+    serialize = SnapshotSerializer(outputs)
     snapshots = Simulation(scene).advance_to(S // 4)
-    assert snapshots
-    for snapshot in (snapshots[0], snapshots[-1]):
-        produced = outputs(snapshot) + outputs.static(snapshot.time_ns)
-        assert {OutputKind.POSE, OutputKind.TWIST, OutputKind.ODOMETRY, OutputKind.MARKERS,
-                OutputKind.TF} <= {output.kind for output in produced}
-        _assert_as_rosbags(produced)
+    assert len(snapshots) >= count
+    packed = []
+    for snapshot in (snapshots[0], snapshots[-1])[:count]:
+        fields = outputs(snapshot)
+        messages = serialize(snapshot)
+        assert [topic for topic, _ in messages] == [output.topic for output in fields]
+        for (topic, data), output in zip(messages, fields):
+            assert data == _rosbags_bytes(output), topic
+        packed.append(messages)
+    return packed
+
+
+def test_every_output_kind_is_serialized_by_snapshot_or_on_its_own():
+    # Diagnostics go out once a second as a message object, not through these.
+    assert set(SERIALIZERS) | {OutputKind.POSE, OutputKind.TWIST, OutputKind.ODOMETRY} == \
+        set(OutputKind) - {OutputKind.DIAGNOSTICS}
+
+
+@pytest.mark.parametrize("twist_frame", ["world", "body"])
+@pytest.mark.parametrize("name", shipped_scenes())
+def test_every_output_of_a_shipped_scene_is_what_rosbags_serializes(name, twist_frame):
+    scene = _everything(load_scene(name), twist_frame)
+    kinds = set(output_topics(scene).values())
+    assert {OutputKind.POSE, OutputKind.TWIST, OutputKind.ODOMETRY, OutputKind.MARKERS,
+            OutputKind.TF} <= kinds
+    _assert_snapshots_as_rosbags(scene)
+    static = SnapshotOutputs(scene, tf=True).static(S)
+    _assert_as_rosbags(static)
+
+
+@pytest.mark.parametrize("length", range(1, 9))
+def test_a_snapshot_keeps_the_padding_right_for_names_of_every_length(length):
+    # The fixed frame's name sizes every header, a body's name its odometry's child frame
+    # and its markers' namespace: 1 to 8 bytes put the float64 after them at every offset
+    # modulo 8; "ü" is two bytes of UTF-8, so bytes are counted.
+    bodies = {"abcdefgh"[:length]: {"shape": "box", "size": [0.5, 0.3], "mass": 1.0,
+                                    "velocity": [1.0, -0.5], "angular_velocity": 2.0},
+              "stuvwxyz"[:length]: {"shape": "circle", "radius": 0.2, "mass": 2.0,
+                                    "position": [1.0, 0.0], "angular_velocity": -1.0}}
+    params = {"frame_id": ("ü" + "abcdefgh")[:length], "bodies": bodies,
+              "forces": {"gravity": {"type": "gravity"}}, "step": 0.01, "publish_rate": 50.0}
+    _assert_snapshots_as_rosbags(_everything(scene_from_parameters(flatten(params), "names")))
+
+
+def test_a_twist_is_the_header_then_six_float64():
+    scene = _everything(load_scene("sample"))
+    messages = dict(_assert_snapshots_as_rosbags(scene, count=1)[0])
+    snapshot = Simulation(scene).advance_to(S // 4)[0]
+    for state in snapshot.bodies:
+        (vx, vy), omega = state.linear_velocity, state.angular_velocity
+        assert messages[twist_topic(state.name)] == ENCAPSULATION + struct.pack(
+            "<6d", vx, vy, 0.0, 0.0, 0.0, omega)
 
 
 def _pose(x: float) -> Pose:
@@ -69,7 +120,6 @@ def test_strings_of_every_length_modulo_eight_keep_the_padding_right(length):
     transforms = tuple(TransformFields(head, name[:k], (1.0, 2.0, 0.0), (0.0, 0.0, 0.0, 1.0))
                        for k in range(length + 1))
     _assert_as_rosbags([
-        OutputFields("p", OutputKind.POSE, PoseStampedFields(head, _pose(0.5))),
         OutputFields("m", OutputKind.MARKERS, (marker, marker._replace(ns=name[:1]))),
         OutputFields("m", OutputKind.MARKERS, delete_markers({(name, 1), ("b", 2)}, head)),
         OutputFields("tf", OutputKind.TF, transforms),
@@ -92,9 +142,3 @@ def test_empty_sequences_have_their_length_and_no_padding():
     ])
 
 
-def test_a_twist_is_the_header_then_six_float64():
-    raw = serialize_output(OutputFields("t", OutputKind.TWIST,
-                                        TwistFields((1.0, 2.0, 0.0), (0.0, 0.0, -0.5))))
-    assert raw[:4] == ENCAPSULATION and len(raw) == 4 + 6 * 8
-    assert raw == _rosbags_bytes(OutputFields("t", OutputKind.TWIST,
-                                              TwistFields((1.0, 2.0, 0.0), (0.0, 0.0, -0.5))))
