@@ -27,9 +27,11 @@ from rclpy.executors import (ConditionReachedException, ExternalShutdownExceptio
                               ShutdownException, SingleThreadedExecutor)
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
+from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_msgs.msg import Float64
 from sensor_msgs.msg import JointState
@@ -50,7 +52,7 @@ from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, D
 from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
 from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
-                     plan_tick)
+                     plan_tick, refused_change)
 from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
                     SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
 from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
@@ -169,6 +171,7 @@ class DynamicsNode(Node):
         params = {name: parameter.value
                   for name, parameter in self.get_parameters_by_prefix("").items()}
         self.options, self.scene = node_setup(params, f"parameters of {self.get_name()}")
+        self.add_on_set_parameters_callback(self._refuse_parameter_change)
         cap, cap_warnings = catch_up_cap(self.options.max_catch_up_steps, self.scene)
         for line in cap_warnings:
             self.get_logger().warning(line)
@@ -343,6 +346,11 @@ class DynamicsNode(Node):
         if tick.diagnostics is not None:
             self._publishers_by_topic[DIAGNOSTICS_TOPIC].publish(
                 _diagnostic_array(tick.diagnostics, header("", self.sim.time_ns)))
+
+    def _refuse_parameter_change(self, parameters: list[Parameter]) -> SetParametersResult:
+        """Every change, with the reason ``ros2 param set`` prints (:func:`refused_change`)."""
+        return SetParametersResult(successful=False,
+                                   reason=refused_change([p.name for p in parameters]))
 
     # ----------------------------------------------------------------- outputs
 

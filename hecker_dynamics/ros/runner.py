@@ -186,6 +186,14 @@ def node_setup(params: Mapping[str, Any], source: str) -> tuple[NodeOptions, Sce
     return node_options(params, source), scene_for_node(params, source)
 
 
+def refused_change(names: Sequence[str]) -> str:
+    """Why the node refuses to change its parameters ``names`` while it runs: it reads
+    every one once, at start (the scene, its options, ``use_sim_time``, which picks how it
+    ticks), so a change accepted would not take effect."""
+    return (f"{', '.join(names)}: read at start only; change the world with the node's "
+            "services (spawn_body, delete_body, set_body_state, reset) or restart the node")
+
+
 # ----------------------------------------------------------------------------- run loop
 
 class LogLine(NamedTuple):

@@ -36,9 +36,10 @@ from hecker_dynamics.ros.fields import (applied_wrench_to_command, ns_from_stamp
                                         pose_fields, stamp_from_ns, twist_fields,
                                         wrench_stamped_to_command)
 from hecker_dynamics.msg import AppliedWrench  # noqa: E402
-from hecker_dynamics.ros.cdr import serialize_output  # noqa: E402
+from hecker_dynamics.ros.cdr import SnapshotSerializer, serialize_output  # noqa: E402
 from hecker_dynamics.ros.node import MESSAGE_TYPES, DynamicsNode  # noqa: E402
-from hecker_dynamics.ros.outputs import SnapshotOutputs  # noqa: E402
+from hecker_dynamics.ros.outputs import SnapshotOutputs, output_topics  # noqa: E402
+from hecker_dynamics.ros.runner import refused_change  # noqa: E402
 from hecker_dynamics.scene.load import (load_scene, scene_from_parameters,  # noqa: E402
                                         shipped_scenes)
 from hecker_dynamics.dynamics.simulation import Simulation  # noqa: E402
@@ -281,6 +282,19 @@ def test_node_without_parameters_runs_the_default_scene(ros):
         assert (stamp - node.sim.start_ns) % default.publish_period_ns == 0
 
 
+def test_the_node_refuses_parameter_changes_it_would_not_follow(ros):
+    # Everything is read at start: a change accepted would leave the running world and the
+    # way the node ticks as they were, so `ros2 param set` is told so instead.
+    node = ros.start({"scene": "sample"})
+    for name, value in (("scene", "ship"), ("use_sim_time", True), ("lockstep", True)):
+        before = node.get_parameter(name).value
+        result, = node.set_parameters([Parameter(name, value=value)])
+        assert not result.successful and result.reason == refused_change([name])
+        assert node.get_parameter(name).value == before
+    assert not node.get_clock().ros_time_is_active
+    assert [b.name for b in node.scene.bodies] == [b.name for b in load_scene("sample").bodies]
+
+
 def test_lockstep_runs_the_scripted_duration_and_publishes_clock(ros):
     clocks = collect(ros, Clock, "/clock")
     node = ros.start({"lockstep": True})
@@ -407,9 +421,12 @@ def test_the_published_bytes_are_what_rclpy_serializes():
                                     publish_odometry=True, publish_tf=True)
         outputs = SnapshotOutputs(scene, tf=True)
         snapshot = Simulation(scene).advance_to(S // 4)[-1]
-        for output in outputs(snapshot) + outputs.static(snapshot.time_ns):
-            raw = serialize_output(output)
-            message = deserialize_message(raw, MESSAGE_TYPES[output.kind])
-            assert serialize_message(message) == raw, (name, output.topic)
-            kinds.add(output.kind)
+        kind_of = output_topics(scene, tf=True)
+        packed = SnapshotSerializer(outputs)(snapshot) + [
+            (output.topic, serialize_output(output))
+            for output in outputs.static(snapshot.time_ns)]
+        for topic, raw in packed:
+            message = deserialize_message(raw, MESSAGE_TYPES[kind_of[topic]])
+            assert serialize_message(message) == raw, (name, topic)
+            kinds.add(kind_of[topic])
     assert len(kinds) == len(MESSAGE_TYPES) - 1  # all but the diagnostics

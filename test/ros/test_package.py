@@ -21,8 +21,8 @@ MSG_TYPE = "hecker_dynamics/msg/AppliedWrench"
 
 #: Messages and services the node imports, each with the package that provides it.
 NODE_INTERFACES = ("builtin_interfaces", "diagnostic_msgs", "geometry_msgs", "nav_msgs",
-                   "rosgraph_msgs", "sensor_msgs", "std_msgs", "std_srvs", "tf2_msgs",
-                   "visualization_msgs")
+                   "rcl_interfaces", "rosgraph_msgs", "sensor_msgs", "std_msgs", "std_srvs",
+                   "tf2_msgs", "visualization_msgs")
 
 
 @pytest.fixture(scope="module")
