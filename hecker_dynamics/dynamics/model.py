@@ -21,7 +21,7 @@ from ..integrators.coloring import Coloring, color
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, Kinematics, PointDragTerm,
                      ScalarKinematics, WrenchRow)
-from ..geometry.planar import perp, rotate
+from ..geometry.planar import cos_sin_of, perp, rotate
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                     Gravity, Scene, SpringSpec)
 from ..contact.solver import ContactPass
@@ -31,6 +31,9 @@ from ..contact.joints import JointPass
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
 #: above it with numpy (``add``): the crossing point measured by ``hecker-dynamics bench``.
 LEAN_BODIES = 32
+
+#: A body frame in plain floats: origin (x, y), angle, origin velocity (vx, vy), omega.
+FrameRow = tuple[tuple[float, float], float, tuple[float, float], float]
 
 
 class Model:
@@ -48,6 +51,7 @@ class Model:
         self.inertia = np.array([b.mass.moment_of_inertia for b in scene.bodies])
         self.inverse_mass = np.column_stack([1.0 / self.mass, 1.0 / self.mass, 1.0 / self.inertia])
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
+        self._cm_local_rows = [(float(x), float(y)) for x, y in self.cm_local]
         self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
         # The scene's couplings, the inputs' couplings and the coloring of both, once asked.
         self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
@@ -189,6 +193,19 @@ class Model:
         """Origin positions and origin velocities of the body frames (fixed-frame axes)."""
         r_origin = -rotate(self.cm_local, np.cos(q[:, 2]), np.sin(q[:, 2]))  # CM -> origin
         return q[:, :2] + r_origin, v[:, :2] + v[:, 2:3] * perp(r_origin)
+
+    def body_frame_rows(self, q: list[list[float]], v: list[list[float]]) -> list[FrameRow]:
+        """:meth:`body_frames` in plain floats, a row per body with its angle and angular
+        velocity: the same operations on the same values, so the same bits (numpy's
+        float64 cos and sin are the C library's, as math's are; test_simulation checks),
+        but for the sign of the NaN an infinite angle gives. A small world's publish
+        instant spent most of its frames' time in numpy's per-call cost."""
+        rows = []
+        for (x, y, angle), (vx, vy, omega), (lx, ly) in zip(q, v, self._cm_local_rows):
+            c, s = cos_sin_of(angle)
+            rx, ry = -(c * lx - s * ly), -(s * lx + c * ly)  # CM -> origin
+            rows.append(((x + rx, y + ry), angle, (vx + omega * -ry, vy + omega * rx), omega))
+        return rows
 
     def stiffness(self) -> float:
         """Largest rate (1/s) the forces can impose: spring frequencies and damping rates.

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
@@ -29,7 +29,7 @@ from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTh
 from .kernel import Advanced, compiled_steps
 from ..contact.events import Impact, WallEvents
 from .forces import WrenchRow
-from .model import Model, wrench_term
+from .model import FrameRow, Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
 from ..scene.load import Scene
 
@@ -91,12 +91,17 @@ class Snapshot:
     @property
     def bodies(self) -> tuple[BodyState, ...]:
         if self._bodies is None:
-            with np.errstate(all="ignore"):
-                origin, velocity = self._model.body_frames(self._q, self._v)
-            columns = zip(self._model.names, origin.tolist(), self._q[:, 2].tolist(),
-                          velocity.tolist(), self._v[:, 2].tolist())
-            self._bodies = tuple(BodyState(name, (x, y), a, (vx, vy), w)
-                                 for name, (x, y), a, (vx, vy), w in columns)
+            model = self._model
+            if model.lean:
+                frames: Iterable[FrameRow] = model.body_frame_rows(self._q.tolist(),
+                                                                   self._v.tolist())
+            else:
+                with np.errstate(all="ignore"):
+                    origin, velocity = model.body_frames(self._q, self._v)
+                frames = zip(map(tuple, origin.tolist()), self._q[:, 2].tolist(),
+                             map(tuple, velocity.tolist()), self._v[:, 2].tolist())
+            self._bodies = tuple(BodyState(name, *frame)
+                                 for name, frame in zip(model.names, frames))
         return self._bodies
 
     def __eq__(self, other: object) -> bool:

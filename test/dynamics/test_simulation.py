@@ -18,6 +18,8 @@ from scene_builders import make_scene
 
 from hecker_dynamics import (DivergenceError, Simulation, WrenchCommand,
                              load_scene)
+from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.scene.load import shipped_scenes
 from hecker_dynamics.integrators.methods import METHODS
 
 MS = 1_000_000
@@ -184,6 +186,33 @@ def test_snapshot_state_is_the_state_at_its_instant():
     again = b.snapshot()
     b.q[:], b.v[:] = 7.0, 7.0  # the simulation's arrays changed in place
     assert repr(again) == expected
+
+
+@pytest.mark.parametrize("name", shipped_scenes())
+def test_lean_body_frames_are_numpys_to_the_bit(name):
+    """A small world's snapshot takes its body frames in plain floats: the bits of the
+    numpy path (the sign of zero included), for off-centre CMs, any angle, and NaN where
+    an angle is infinite, so a snapshot does not depend on the world's size."""
+    model = Model(load_scene(name))
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        q, v = rng.normal(0.0, 3.0, (2, model.size, 3))
+        q[:, 2] = rng.uniform(-np.pi, np.pi, model.size) if trial % 3 else \
+            rng.normal(0.0, 1e6, model.size)
+        if trial == 1:
+            q[0, 2], v[0, 0] = np.inf, np.nan
+        q[:, :2] *= rng.integers(0, 2, (model.size, 2))  # zeros of both signs, too
+        q[:, :2] *= rng.choice([-1.0, 1.0], (model.size, 2))
+        with np.errstate(all="ignore"):
+            origin, velocity = model.body_frames(q, v)
+        rows = model.body_frame_rows(q.tolist(), v.tolist())
+        lean = np.array([[x, y, vx, vy] for (x, y), _, (vx, vy), _ in rows])
+        numpy = np.column_stack([origin, velocity])
+        # Every bit, the sign of zero too, but a NaN's sign and payload.
+        assert np.array_equal(np.isnan(lean), np.isnan(numpy))
+        known = ~np.isnan(numpy)
+        assert lean[known].tobytes() == numpy[known].tobytes()
+        assert [(a, w) for _, a, _, w in rows] == list(zip(q[:, 2].tolist(), v[:, 2].tolist()))
 
 
 def test_time_in_integer_ns_never_drifts():
