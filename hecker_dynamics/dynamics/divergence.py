@@ -82,6 +82,11 @@ class EnergyBound:
             half = self._kinetic(v)
             if not self._springs:
                 return half
+            compiled = self.model.compiled
+            if self._compiled and compiled is not None:
+                # The same sum in the kernel: at each publish instant, a ring of 10 springs
+                # spent 50 us of the running node's tick in the plain-float loop.
+                return half + kernel.spring_potential(compiled, np.ascontiguousarray(q))
             state = ScalarKinematics.of(q.tolist(), [], True)
             return half + sum(term.potential_scalar(state) for term in self._springs)
         model = self.model

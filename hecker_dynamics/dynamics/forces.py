@@ -282,8 +282,9 @@ def spring_energy(dx: np.ndarray, dy: np.ndarray, stiffness: np.ndarray,
 
 
 def spring_energy_scalar(dx: float, dy: float, stiffness: float, rest_length: float) -> float:
-    """k (|d| - L0)^2 / 2 of one spring in plain floats (inf where it overflows)."""
-    stretch = math.hypot(dx, dy) - rest_length
+    """k (|d| - L0)^2 / 2 of one spring in plain floats (inf where it overflows); |d| as
+    the kernel computes it (``magnitude``), so that its sum gives the same bits."""
+    stretch = magnitude(dx, dy) - rest_length
     return 0.5 * stiffness * (stretch * stretch)
 
 

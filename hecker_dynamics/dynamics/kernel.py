@@ -2,10 +2,11 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` and steps the explicit methods of :mod:`.integrators` (with the joint pass
-of :mod:`..contact.joints_kernel` and the contact pass of :mod:`..contact.compiled` after
-each step in scenes with joints and contacts), repeating the
-plain-float path operation for operation: the accelerations and the fixed-step methods
+as :mod:`.forces` (and the energy bound's sums of :mod:`.divergence`: kinetic energy and
+the springs' potential) and steps the explicit methods of :mod:`.integrators` (with the
+joint pass of :mod:`..contact.joints_kernel` and the contact pass of
+:mod:`..contact.compiled` after each step in scenes with joints and contacts), repeating
+the plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
 (Spring lengths whose squares under- or overflow, below 1e-154 m or above 1e154 m, use
@@ -57,6 +58,13 @@ def kinetic(v: np.ndarray, mass: np.ndarray, inertia: np.ndarray) -> float:
     """The kinetic energy of the velocities ``v`` (C-contiguous (N, 3)) in the kernel,
     body by body as :class:`~.divergence.EnergyBound`'s plain-float loop sums it."""
     return float(_kernel.kinetic(v, mass, inertia))
+
+
+def spring_potential(forces: CompiledForces, q: np.ndarray) -> float:
+    """The springs' potential energy at ``q`` (C-contiguous (N, 3)) in the kernel, term by
+    term and spring by spring as :class:`~.divergence.EnergyBound`'s plain-float sum of
+    ``potential_scalar`` adds it."""
+    return float(_kernel.potential(forces.program, q))
 
 
 Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h

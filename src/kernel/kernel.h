@@ -70,6 +70,11 @@ typedef struct {
 void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
                       const double *q, const double *v, double *out, hd_scratch *scratch);
 
+/* The springs' potential energy at q, sum k (|d| - L0)^2 / 2, term by term in the
+ * program's order and spring by spring within each, as divergence.py's plain-float sum
+ * of forces.py's `potential_scalar` adds it, so that the two give the same bits. */
+double hd_spring_potential(const hd_program *program, const double *q, hd_scratch *scratch);
+
 /* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
  * `error` is error_rows x S. `needs_new_state`: the error estimate reads k_S, the slope
  * at the new state (else k_S is evaluated only for an accepted sub-step); set once, when

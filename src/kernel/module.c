@@ -357,6 +357,35 @@ static PyObject *py_kinetic(PyObject *self, PyObject *args)
     return PyFloat_FromDouble(0.5 * kinetic);
 }
 
+PyDoc_STRVAR(potential_doc,
+"potential(program, q)\n\n"
+"The potential energy of the springs of ``program`` at ``q`` (3 float64 values per body),\n"
+"summed in the order of divergence.py's plain-float sum, so that the two give the same\n"
+"bits.");
+
+static PyObject *py_potential(PyObject *self, PyObject *args)
+{
+    PyObject *program, *qo;
+    hd_program *p, *in;
+    if (!PyArg_ParseTuple(args, "OO:potential", &program, &qo) ||
+        get_programs(program, Py_None, &p, &in) < 0)
+        return NULL;
+    Py_buffer qv;
+    if (get_buffer(qo, &qv, "q", 'd', 3 * p->bodies, 0) < 0)
+        return NULL;
+    double *memory = malloc((size_t)(2 * p->bodies + 1) * sizeof(double));
+    double springs = 0.0;
+    if (memory != NULL) {
+        hd_scratch scratch = {memory, memory + p->bodies, NULL};
+        springs = hd_spring_potential(p, qv.buf, &scratch);
+        free(memory);
+    }
+    PyBuffer_Release(&qv);
+    if (memory == NULL)
+        return PyErr_NoMemory();
+    return PyFloat_FromDouble(springs);
+}
+
 PyDoc_STRVAR(advance_doc,
 "advance(program, inputs, oriented, method, pair, tolerance, size, q, v, q_new, v_new, h,\n"
 "        steps[, contacts[, joints]]) -> (status, taken, evaluations, substeps, rejected,\n"
@@ -962,6 +991,7 @@ static PyMethodDef methods[] = {
     {"accelerations", py_accelerations, METH_VARARGS, accelerations_doc},
     {"advance", py_advance, METH_VARARGS, advance_doc},
     {"kinetic", py_kinetic, METH_VARARGS, kinetic_doc},
+    {"potential", py_potential, METH_VARARGS, potential_doc},
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},
     {"warm", py_warm, METH_VARARGS, warm_doc},

@@ -50,7 +50,8 @@ from scene_builders import make_scene
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics.commands import WrenchCommand
-from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.dynamics.divergence import GROWTH, EnergyBound
+from hecker_dynamics.dynamics.forces import AnchorSpringTerm, BodySpringTerm, ScalarKinematics
 from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
@@ -208,6 +209,27 @@ def test_kinetic_energy_is_the_plain_float_loops_bits(bodies):
     for (vx, vy, omega), m, i in zip(v.tolist(), mass.tolist(), inertia.tolist()):
         loop += m * (vx * vx + vy * vy) + i * (omega * omega)
     assert kernel.kinetic(v, mass, inertia) == 0.5 * loop
+
+
+@pytest.mark.parametrize("forces", [("anchor_spring_rest",), ("body_spring_rest",),
+                                    tuple(FORCES)], ids=["anchor", "body", "all"])
+def test_spring_potential_is_the_plain_float_sums_bits(forces):
+    """The energy bound's spring potential in the kernel adds term by term and spring by
+    spring as its plain-float sum of ``potential_scalar`` does, on states over 200
+    decades (lengths whose squares leave the range take the two hypots, which may differ:
+    see the module docstring)."""
+    model = compiled_model(scene_of(forces))
+    springs = [t for t in model.terms if isinstance(t, (AnchorSpringTerm, BodySpringTerm))]
+    assert springs
+    for k, (q, _) in enumerate(random_states(model.size, 60, seed=11)):
+        q = q * 10.0 ** ((k % 5 - 2) * 50)
+        state = ScalarKinematics.of(q.tolist(), [], True)
+        loop = sum(term.potential_scalar(state) for term in springs)
+        compiled = kernel.spring_potential(model.compiled, np.ascontiguousarray(q))
+        assert np.float64(compiled).tobytes() == np.float64(loop).tobytes() or \
+            (math.isnan(compiled) and math.isnan(loop))
+        bound = EnergyBound(model, q, np.zeros_like(q))
+        assert bound.energy(q, np.zeros_like(q)) == 0.0 + compiled or math.isnan(compiled)
 
 
 def test_spring_ends_that_coincide_give_no_spring_force():
