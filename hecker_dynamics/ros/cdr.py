@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterable
 from typing import Any, Optional
 
 from ..dynamics.simulation import Snapshot
-from .fields import Header, body_pose, header, twist_fields
+from .fields import Header, body_pose, header, odometry_twist, twist_fields
 from .joint_states import JointStateFields, snapshot_joint_states
 from .markers import MarkerFields, marker_pose
 from .names import JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_TOPIC
@@ -265,7 +265,7 @@ class SnapshotSerializer:
         outputs = self.outputs
         scene = outputs.scene
         head_values = _header(header(scene.frame_id, snapshot.time_ns))[1]
-        odometry, body_twist = scene.publish_odometry, scene.twist_frame == "body"
+        odometry = scene.publish_odometry
         markers, marker_values = scene.publish_markers, self._marker_values
         tf_values = self._tf_values
         messages = []
@@ -278,7 +278,7 @@ class SnapshotSerializer:
             messages.append((twist_topic,
                              ENCAPSULATION + _TWIST.pack(*twist.linear, *twist.angular)))
             if odometry:
-                child = twist if body_twist else twist_fields(state, "body")
+                child = odometry_twist(state, twist, scene.twist_frame)
                 messages.append((odometry_topic, ENCAPSULATION + self._odometry[index].pack(
                     *head_values, *self._children[index][1], *numbers, *child.linear,
                     *child.angular)))

@@ -231,6 +231,12 @@ def twist_fields(state: Any, twist_frame: str) -> TwistFields:
     return TwistFields((float(vx), float(vy), 0.0), (0.0, 0.0, float(state.angular_velocity)))
 
 
+def odometry_twist(state: Any, twist: TwistFields, twist_frame: str) -> TwistFields:
+    """``<body>/odom``'s twist, in the body's axes (its child frame): ``twist``, the one
+    published on ``<body>/twist`` in ``twist_frame``, where that already is the body's."""
+    return twist if twist_frame == "body" else twist_fields(state, "body")
+
+
 def odometry_fields(state: Any, frame_id: str, stamp_ns: int) -> OdometryFields:
     """``<body>/odom``: pose in ``frame_id``, twist in the body's axes (child frame)."""
     return OdometryFields(header(frame_id, stamp_ns), state.name, body_pose(state),

@@ -6,7 +6,8 @@ from typing import Any, NamedTuple, Optional
 
 from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
-from .fields import OdometryFields, PoseStampedFields, body_pose, header, twist_fields
+from .fields import (OdometryFields, PoseStampedFields, body_pose, header, odometry_twist,
+                     twist_fields)
 from .joint_states import has_joint_states, snapshot_joint_states
 from .markers import (MarkerFields, MarkerKey, color_slot, delete_markers, marker_keys,
                       marker_templates, place_markers)
@@ -105,7 +106,6 @@ class SnapshotOutputs:
         frame_id = scene.frame_id
         stamp = snapshot.time_ns
         head = header(frame_id, stamp)
-        body_twist = scene.twist_frame == "body"
         outputs = []
         markers: list[MarkerFields] = []
         poses = []
@@ -120,7 +120,7 @@ class SnapshotOutputs:
             if scene.publish_odometry:
                 outputs.append(OutputFields(odom, OutputKind.ODOMETRY, OdometryFields(
                     head, state.name, body_pose_fields,
-                    twist_fields_ if body_twist else twist_fields(state, "body"))))
+                    odometry_twist(state, twist_fields_, scene.twist_frame))))
             if scene.publish_markers:
                 markers.extend(place_markers(self.templates[index], head, state,
                                              body_pose_fields))
