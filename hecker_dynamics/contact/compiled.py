@@ -1,7 +1,7 @@
 """The contact pass in the compiled kernel (``src/kernel/contact.h``), when built.
 
 :class:`CompiledContacts` packs a :class:`~.solver.ContactPass`'s bodies, parts, walls and
-colliding pairs once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
+pairs' materials once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
 ``ContactPass.resolve`` in C, operation for operation, so the two give the same bits
 (lengths by :func:`~hecker_dynamics.geometry.planar.magnitude`, as C's ``hd_length``, not
 by ``hypot``, which C and CPython may round apart). The warm-start impulses, and with
@@ -48,14 +48,14 @@ class CompiledContacts:
         wall_first = np.cumsum([0] + [len(b) for b in contacts.wall_bodies])
         walls = [(*n, offset, *material) for n, offset, material in
                  zip(contacts.wall_normal, contacts.wall_offset, contacts.wall_material)]
-        pairs = sorted(contacts.pairs)
+        pairs = contacts.pairs
         self.kernel = _kernel.contacts(
             _doubles(contacts.inverse_mass), _doubles(contacts.inverse_inertia),
             _doubles(contacts.reach), _integers(part_ints), _doubles(part_reals),
             _doubles(walls), _integers(wall_first),
             _integers([b for bodies in contacts.wall_bodies for b in bodies]),
-            _integers(contacts.colliding), _integers(pairs),
-            _doubles([contacts.pairs[p] for p in pairs]), contacts.threshold,
+            _integers(contacts.colliding), _integers(pairs.classes), _integers(pairs.table),
+            _doubles(pairs.materials), _integers(pairs.apart), contacts.threshold,
             contacts.thickness)
         if contacts.sleep:
             self.set_sleep(contacts)

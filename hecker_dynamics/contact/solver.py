@@ -70,6 +70,7 @@ from ..geometry.shapes import Circle
 from ..geometry.planar import cos_sin_of, magnitude
 from . import compiled as _compiled
 from .coupled import JointUnit
+from .materials import Material, PairMaterials
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
@@ -210,17 +211,12 @@ class ContactPass:
                             for w in scene.walls]
         self.wall_material = [(w.restitution, w.friction) for w in scene.walls]
         self.wall_bodies = [sorted(index[b] for b in w.bodies) for w in scene.walls]
-        self.pairs: dict[tuple[int, int], tuple[float, float]] = {}  # -> (e, mu)
-        for group in scene.collisions:
-            members = sorted(index[b] for b in group.bodies)
-            for n, i in enumerate(members):
-                for j in members[n + 1:]:
-                    self.pairs[(i, j)] = (group.restitution, group.friction)
-        for pair in apart:
-            self.pairs.pop(pair, None)
+        self.pairs = PairMaterials([([index[b] for b in group.bodies], group.restitution,
+                                     group.friction) for group in scene.collisions],
+                                   len(scene.bodies), apart)
         # Per body, its parts relative to the CM in body axes, as plain floats; the scene
         # loader has checked that colliding bodies are convex.
-        colliding = sorted({i for pair in self.pairs for i in pair})
+        colliding = self.pairs.colliding()
         self.parts: list[list[Part]] = []
         reach, thickness = [], []
         for i, body in enumerate(scene.bodies):
@@ -439,21 +435,22 @@ class ContactPass:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
         if island is not None and all(island[b] >= 0 for b in self.colliding):
             return contacts  # with every colliding body asleep no pair needs looking at
-        for a, b in self._candidate_pairs(poses) if self.pairs else ():
+        for a, b, material in self._candidate_pairs(poses) if self.colliding else ():
             sleeping = -1 if island is None else max(island[a], island[b])
             if sleeping >= 0 and min(island[a], island[b]) >= 0:  # type: ignore[index]
                 continue
             for body in (a, b):
                 if body not in world:
                     world[body] = self._world_parts(poses[body], body)
-            found = self._pair_contacts(a, b, world)
+            found = self._pair_contacts(a, b, material, world)
             if found and sleeping >= 0:
                 self._woken.add(sleeping)
             contacts.extend(found)
         return contacts
 
-    def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int]]:
-        """Colliding pairs whose bounding boxes (CM +- reach) overlap: sort and sweep on x."""
+    def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int, Material]]:
+        """Colliding pairs whose bounding boxes (CM +- reach) overlap, with their material:
+        sort and sweep on x."""
         boxes = sorted((x - self.reach[b], b, x + self.reach[b], y - self.reach[b],
                         y + self.reach[b]) for b in self.colliding for x, y, _ in (poses[b],))
         pairs = []
@@ -461,14 +458,17 @@ class ContactPass:
             for u0, b2, _, v0, v1 in boxes[n + 1:]:
                 if u0 > x1 + MARGIN:
                     break
-                pair = (b1, b2) if b1 < b2 else (b2, b1)
-                if v0 <= y1 + MARGIN and v1 >= y0 - MARGIN and pair in self.pairs:
-                    pairs.append(pair)
+                if not (v0 <= y1 + MARGIN and v1 >= y0 - MARGIN):
+                    continue
+                a, b = (b1, b2) if b1 < b2 else (b2, b1)
+                material = self.pairs.get(a, b)
+                if material is not None:
+                    pairs.append((a, b, material))
         return pairs
 
-    def _pair_contacts(self, a: int, b: int, world: dict[int, list[Part]]) -> list[Contact]:
-        """Contacts between the parts of bodies a < b whose bounds overlap."""
-        material = self.pairs[(a, b)]
+    def _pair_contacts(self, a: int, b: int, material: Material,
+                       world: dict[int, list[Part]]) -> list[Contact]:
+        """Contacts between the parts of bodies a < b whose bounds overlap, of ``material``."""
         bounds_b = [self._bounds(part) for part in world[b]]
         contacts = []
         for pa, part_a in enumerate(world[a]):

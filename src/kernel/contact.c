@@ -10,8 +10,6 @@
 #include "contact.h"
 #include "wide.h"
 
-static int index_pairs(hd_contact_model *m);
-
 int hd_contact_prepare(hd_contact_model *m)
 {
     const long n = m->bodies;
@@ -30,8 +28,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->island = malloc(((size_t)n + 1) * sizeof(long));
     if (!m->placed_flag || !m->touched || !m->sweep || !m->sweep_body || !m->found ||
             !m->velocity ||
-            !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island ||
-            index_pairs(m) < 0)
+            !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island)
         return -1;
     for (long b = 0; b <= n; ++b)
         m->island[b] = -1;
@@ -72,8 +69,10 @@ void hd_contact_free(hd_contact_model *m)
     free(m->wall_first);
     free(m->wall_body);
     free(m->colliding);
-    free(m->pair);
+    free(m->body_class);
+    free(m->class_group);
     free(m->material);
+    free(m->apart);
     free(m->placed_flag);
     free(m->touched);
     free(m->sweep);
@@ -88,7 +87,6 @@ void hd_contact_free(hd_contact_model *m)
     free(m->warm);
     free(m->warm_table);
     free(m->cos_sin);
-    free(m->pair_table);
     free(m->calm);
     free(m->rested);
     free(m->island);
@@ -190,47 +188,32 @@ static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
     return count;
 }
 
-static unsigned long hash_pair(long i, long j)
+/* Whether pair (i, j), i < j, is among the sorted pairs that do not collide. */
+static int is_apart(const hd_contact_model *m, long i, long j)
 {
-    unsigned long h = ((unsigned long)i * 0x9E3779B97F4A7C15UL) ^ (unsigned long)j;
-    h *= 0xBF58476D1CE4E5B9UL;
-    return h ^ (h >> 31);
-}
-
-/* The table from each colliding pair to its index in `pair` (open addressing, at most half
- * full); -1 out of memory. */
-static int index_pairs(hd_contact_model *m)
-{
-    long size = 16;
-    while (size < 2 * m->pair_count)
-        size *= 2;
-    m->pair_table = malloc((size_t)size * sizeof(long));
-    if (m->pair_table == NULL)
-        return -1;
-    m->pair_table_size = size;
-    for (long k = 0; k < size; ++k)
-        m->pair_table[k] = -1;
-    for (long k = 0; k < m->pair_count; ++k) {
-        unsigned long slot = hash_pair(m->pair[2 * k], m->pair[2 * k + 1]) &
-                             (unsigned long)(size - 1);
-        while (m->pair_table[slot] >= 0)
-            slot = (slot + 1) & (unsigned long)(size - 1);
-        m->pair_table[slot] = k;
+    long low = 0, high = m->apart_count;
+    while (low < high) {
+        const long mid = low + (high - low) / 2;
+        const long *p = m->apart + 2 * mid;
+        if (p[0] < i || (p[0] == i && p[1] < j))
+            low = mid + 1;
+        else
+            high = mid;
     }
-    return 0;
+    return low < m->apart_count && m->apart[2 * low] == i && m->apart[2 * low + 1] == j;
 }
 
-/* The material of pair (i, j), i < j, or NULL if no collision group names it. */
+/* The material of pair (i, j), i < j, or NULL if it does not collide
+ * (materials.py: PairMaterials.get). */
 static const double *material_of(const hd_contact_model *m, long i, long j)
 {
-    const unsigned long mask = (unsigned long)(m->pair_table_size - 1);
-    for (unsigned long slot = hash_pair(i, j) & mask; m->pair_table[slot] >= 0;
-         slot = (slot + 1) & mask) {
-        const long k = m->pair_table[slot];
-        if (m->pair[2 * k] == i && m->pair[2 * k + 1] == j)
-            return m->material + 2 * k;
-    }
-    return NULL;
+    const long c = m->body_class[i], d = m->body_class[j];
+    if (c < 0 || d < 0)
+        return NULL;
+    const long group = m->class_group[c * m->class_count + d];
+    if (group < 0 || (m->apart_count > 0 && is_apart(m, i, j)))
+        return NULL;
+    return m->material + 2 * group;
 }
 
 /* solver.py: _pair_contacts. */
@@ -311,8 +294,6 @@ int hd_detect(hd_contact_model *m, const double *q)
             }
         }
     }
-    if (m->pair_count == 0)
-        return 0;
     const long count = m->colliding_count;
     long awake = 0;  /* with every colliding body asleep no pair needs looking at */
     while (awake < count && m->island[m->colliding[awake]] >= 0)

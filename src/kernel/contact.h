@@ -109,11 +109,16 @@ typedef struct hd_contact_model {
     long *wall_body;
     long colliding_count;
     long *colliding;    /* sorted */
-    long pair_count;
-    long *pair;         /* (i, j), i < j, sorted */
-    double *material;   /* per pair: restitution, friction */
-    long *pair_table;   /* open addressing: the index of each pair, or -1 */
-    long pair_table_size;
+    /* Which pairs collide (materials.py: PairMaterials): per body its class (-1: in no
+     * group), per pair of classes the group of their material (-1: none), per group its
+     * restitution and friction, and the pairs (i, j), i < j, sorted, that a group names
+     * but do not collide. */
+    long *body_class;
+    long class_count;
+    long *class_group;  /* class_count x class_count */
+    double *material;
+    long apart_count;
+    long *apart;
     double threshold;  /* restitution threshold (m/s) */
     double thickness;  /* of the thinnest colliding part */
     /* Working memory, kept from call to call, and the warm-start impulses. */

@@ -493,7 +493,8 @@ static void *read_array(PyObject *object, const char *what, char format, Py_ssiz
 }
 
 /* Check the layout contact.py packed; -1 with an exception set if it is not one. */
-static int check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals)
+static int check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals,
+                          long groups)
 {
     Py_ssize_t used = 0;
     long last = -1;
@@ -521,16 +522,22 @@ static int check_contacts(const hd_contact_model *m, const long *part_ints, Py_s
     for (long k = 0; k < m->colliding_count; ++k)
         if (m->colliding[k] < 0 || m->colliding[k] >= m->bodies)
             goto bad;
-    for (long k = 0; k < m->pair_count; ++k) {
-        const long *p = m->pair + 2 * k;
+    for (long k = 0; k < m->apart_count; ++k) {
+        const long *p = m->apart + 2 * k;
         if (p[0] < 0 || p[0] >= p[1] || p[1] >= m->bodies ||
                 (k > 0 && (p[-2] > p[0] || (p[-2] == p[0] && p[-1] >= p[1]))))
             goto bad;
     }
+    for (long b = 0; b < m->bodies; ++b)
+        if (m->body_class[b] < -1 || m->body_class[b] >= m->class_count)
+            goto bad;
+    for (long k = 0; k < m->class_count * m->class_count; ++k)
+        if (m->class_group[k] < -1 || m->class_group[k] >= groups)
+            goto bad;
     return 0;
 bad:
-    PyErr_SetString(PyExc_ValueError, "walls, colliding or pairs: a body out of range or "
-                    "pairs not sorted");
+    PyErr_SetString(PyExc_ValueError, "walls, colliding, classes or apart: a body, class or "
+                    "group out of range or apart not sorted");
     return -1;
 }
 
@@ -565,23 +572,26 @@ static int build_parts(hd_contact_model *m, const long *part_ints, const double 
 
 PyDoc_STRVAR(contacts_doc,
 "contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
-"         wall_body, colliding, pairs, materials, threshold, thickness) -> Contacts\n\n"
+"         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
+"         thickness) -> Contacts\n\n"
 "A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
-"wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; the\n"
-"colliding pairs (i, j), sorted, with (restitution, friction).");
+"wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
+"body its class, per pair of classes their group, per group (restitution, friction), and\n"
+"the pairs (i, j), sorted, that do not collide (materials.py: PairMaterials).");
 
 static PyObject *py_contacts(PyObject *self, PyObject *args)
 {
-    PyObject *o[11];
+    PyObject *o[13];
     double threshold, thickness;
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOdd:contacts", o, o + 1, o + 2, o + 3, o + 4,
-                          o + 5, o + 6, o + 7, o + 8, o + 9, o + 10, &threshold, &thickness))
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOdd:contacts", o, o + 1, o + 2, o + 3, o + 4,
+                          o + 5, o + 6, o + 7, o + 8, o + 9, o + 10, o + 11, o + 12,
+                          &threshold, &thickness))
         return NULL;
     hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
     if (m == NULL)
         return PyErr_NoMemory();
-    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, pairs;
+    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, cells, materials, apart;
     long *part_ints = NULL;
     double *part_reals = NULL;
     m->threshold = threshold;
@@ -595,20 +605,25 @@ static PyObject *py_contacts(PyObject *self, PyObject *args)
         (m->wall_first = read_array(o[6], "wall_first", 'q', walls / 5 + 1, NULL)) == NULL ||
         (m->wall_body = read_array(o[7], "wall_body", 'q', -1, &wall_bodies)) == NULL ||
         (m->colliding = read_array(o[8], "colliding", 'q', -1, &colliding)) == NULL ||
-        (m->pair = read_array(o[9], "pairs", 'q', -1, &pairs)) == NULL ||
-        (m->material = read_array(o[10], "materials", 'd', pairs, NULL)) == NULL)
+        (m->body_class = read_array(o[9], "classes", 'q', bodies, NULL)) == NULL ||
+        (m->class_group = read_array(o[10], "class_groups", 'q', -1, &cells)) == NULL ||
+        (m->material = read_array(o[11], "materials", 'd', -1, &materials)) == NULL ||
+        (m->apart = read_array(o[12], "apart", 'q', -1, &apart)) == NULL)
         goto fail;
     m->bodies = (long)bodies;
     m->part_count = (long)(parts / 3);
     m->walls = (long)(walls / 5);
     m->colliding_count = (long)colliding;
-    m->pair_count = (long)(pairs / 2);
-    if (parts % 3 || walls % 5 || pairs % 2 || m->wall_first[0] != 0 ||
+    m->apart_count = (long)(apart / 2);
+    while (m->class_count * m->class_count < cells)
+        m->class_count += 1;
+    if (parts % 3 || walls % 5 || apart % 2 || materials % 2 ||
+            m->class_count * m->class_count != cells || m->wall_first[0] != 0 ||
             m->wall_first[m->walls] != wall_bodies) {
         PyErr_SetString(PyExc_ValueError, "contacts: arrays not of the layout of contact.h");
         goto fail;
     }
-    if (check_contacts(m, part_ints, reals) < 0)
+    if (check_contacts(m, part_ints, reals, (long)(materials / 2)) < 0)
         goto fail;
     if (build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
         PyErr_NoMemory();

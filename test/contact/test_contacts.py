@@ -618,7 +618,7 @@ def test_scene_without_collision_groups_never_runs_the_body_pair_code(monkeypatc
     scene = load_scene("sample")
     assert scene.walls and not scene.collisions
     sim = Simulation(scene)
-    assert sim.model.contacts is not None and not sim.model.contacts.pairs
+    assert sim.model.contacts is not None and not sim.model.contacts.colliding
     sim.model.use_python()  # the Python pass, whose methods are watched
     sim.play(scene.script, SECOND)
     assert len(calls) >= 1000
