@@ -544,7 +544,7 @@ class ContactPass:
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
             row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
-        self._solve_velocities(rows, velocity, units)
+        islands = self._solve_velocities(rows, velocity, units)
         if joints is not None:
             joints.take_extra(units)
         self._remember(rows, poses)
@@ -554,7 +554,7 @@ class ContactPass:
                             for p, new, old in zip(poses[b], velocity[b], moved[b])]
                 q1[b] = poses[b]
                 v1[b] = velocity[b]
-        self._correct_positions(rows, velocity, q1, h)
+        self._correct_positions(islands, velocity, q1, h)
         self._doze(rows, v1, h)
 
     def _awake_contacts(self, q1: np.ndarray, v1: np.ndarray, q0: np.ndarray,
@@ -699,7 +699,7 @@ class ContactPass:
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt))
 
     def _solve_velocities(self, rows: list[ContactRow], velocity: dict,
-                          joint_units: list[JointUnit]) -> None:
+                          joint_units: list[JointUnit]) -> list[list[ContactRow | Block]]:
         """Gauss-Seidel passes over the rows, each two-point manifold as one block
         (:class:`Block`), every other contact point by point, then the velocity rows of the
         joints in the island (:mod:`.coupled`), island by island (bodies that touch,
@@ -708,10 +708,12 @@ class ContactPass:
         velocity by more than :data:`CONVERGED` relative to its fastest body, or
         :func:`passes` passes for its own number of units. Islands are independent, so
         each gets the bits it would get alone; a big island without joint rows is swept in
-        colour order (:func:`_coloured`)."""
+        colour order (:func:`_coloured`). Returns each island's units in the order swept."""
+        swept = []
         for island, coupled in _islands(_schedule(rows), joint_units):
             if len(island) >= WIDE_UNITS and not coupled:
                 island = _coloured(island)
+            swept.append(island)
             for joint in coupled:
                 joint.warm_start(velocity)
             fastest = max(abs(x) for unit in island for body in _unit_bodies(unit)
@@ -730,26 +732,34 @@ class ContactPass:
                     largest = max(largest, joint.solve(velocity))
                 if largest <= CONVERGED * scale:
                     break
+        return swept
 
-    def _correct_positions(self, rows: list[ContactRow], velocity: dict, q1: np.ndarray,
-                           h: float) -> None:
-        """Remove overlap beyond :data:`SLOP` by moving positions only.
+    def _correct_positions(self, islands: list[list[ContactRow | Block]], velocity: dict,
+                           q1: np.ndarray, h: float) -> None:
+        """Remove overlap beyond :data:`SLOP` by moving positions only, island by island,
+        each in the order its velocities were swept; an island with no contact that deep
+        moves nothing (islands share no body, so each gets the bits it would get alone).
 
         A contact's depth after the velocity change is depth - h (v_n' - v_n), linear in the
         arms; each pass moves the two bodies apart along the normal by a fraction of the
         excess, weighted by their inverse masses and inertias.
         """
-        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach) for row in rows]
-        if max(base) <= SLOP:
-            return
         shift = {b: [0.0, 0.0, 0.0] for b in velocity}
-        for _ in range(POSITION_ITERATIONS):
-            for row, depth in zip(rows, base):
-                excess = depth - SLOP - row.normal_velocity(shift)
-                if excess <= 0.0:
-                    continue
-                push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n
-                row.push(shift, push * row.nx, push * row.ny)
+        for island in islands:
+            rows = [row for unit in island
+                    for row in ((unit.first, unit.second) if isinstance(unit, Block)
+                                else (unit,))]
+            base = [row.depth - h * (row.normal_velocity(velocity) - row.approach)
+                    for row in rows]
+            if max(base) <= SLOP:
+                continue
+            for _ in range(POSITION_ITERATIONS):
+                for row, depth in zip(rows, base):
+                    excess = depth - SLOP - row.normal_velocity(shift)
+                    if excess <= 0.0:
+                        continue
+                    push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n
+                    row.push(shift, push * row.nx, push * row.ny)
         for b, s in shift.items():
             if b >= 0 and any(s):
                 q1[b] += s

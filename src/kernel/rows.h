@@ -104,4 +104,41 @@ static HD_HOT double solve_unit(const hd_unit *u, hd_row *rows, double *velocity
     return py_max(change, solve_friction(r, va, vb));
 }
 
+/* The depths of the rows of the units `members` (size of them) after the velocity
+ * change, depth - h (v_n' - v_n), into base[row]; whether the deepest is beyond HD_SLOP,
+ * the deepest found as Python's max() finds it, in the units' order
+ * (solver.py: _correct_positions). */
+static inline int depths_after(const hd_contact_model *m, const long *members, long size,
+                               double h, double *base)
+{
+    double deepest = 0.0;
+    for (long k = 0; k < size; ++k) {
+        const hd_unit *u = m->units + members[k];
+        for (long i = u->first; i <= u->first + u->pair; ++i) {
+            const hd_row *r = m->rows + i;
+            base[i] = r->depth - h * (normal_velocity(m->velocity + 3 * r->a,
+                                                      m->velocity + 3 * r->b, r) - r->approach);
+            deepest = k == 0 && i == u->first ? base[i] : py_max(deepest, base[i]);
+        }
+    }
+    return !(deepest <= HD_SLOP);
+}
+
+/* One pass of the position correction over a unit's rows: each moves its bodies' shifts
+ * apart along the normal by a fraction of the excess of its depth `base` beyond HD_SLOP
+ * (solver.py: _correct_positions). */
+static HD_HOT void correct_unit(const hd_unit *u, const hd_row *rows, const double *base,
+                                double *shift)
+{
+    for (long i = u->first; i <= u->first + u->pair; ++i) {
+        const hd_row *r = rows + i;
+        double *sa = shift + 3 * r->a, *sb = shift + 3 * r->b;
+        const double excess = base[i] - HD_SLOP - normal_velocity(sa, sb, r);
+        if (excess <= 0.0)
+            continue;
+        const double amount = py_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;
+        push(sa, sb, r, amount * r->nx, amount * r->ny);
+    }
+}
+
 #endif

@@ -320,8 +320,10 @@ static long islands(hd_contact_model *m, long units)
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
  * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
  * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
- * (solver.py: _solve_velocities). */
-static int solve_velocities(hd_contact_model *m, long count)
+ * (solver.py: _solve_velocities); then each island's position correction into m->shift,
+ * in the order its units were swept (solver.py: _correct_positions), with `base` for
+ * the rows' depths. */
+static int solve_velocities(hd_contact_model *m, long count, double h, double *base)
 {
     const long units = schedule(m, count);
     const long count_islands = islands(m, units);
@@ -345,7 +347,7 @@ static int solve_velocities(hd_contact_model *m, long count)
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
         if (size >= HD_WIDE_UNITS && coupled == 0) {
-            if (hd_wide_solve(m, members, size, passes, scale) < 0)
+            if (hd_wide_solve(m, members, size, passes, scale, h, base) < 0)
                 return -1;
             continue;
         }
@@ -356,6 +358,12 @@ static int solve_velocities(hd_contact_model *m, long count)
             largest = hd_coupled_sweep(m, i, largest);
             if (largest <= HD_CONVERGED * scale)
                 break;
+        }
+        if (!depths_after(m, members, size, h, base))
+            continue;
+        for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
+            for (long k = 0; k < size; ++k)
+                correct_unit(m->units + members[k], m->rows, base, m->shift);
         }
     }
     return 0;
@@ -476,33 +484,9 @@ static void doze(hd_contact_model *m, double *v1, long count, double h)
     }
 }
 
-/* Remove overlap beyond HD_SLOP by moving positions only (solver.py: _correct_positions):
- * the depth after the velocity change is depth - h (v_n' - v_n); each pass moves the two
- * bodies apart along the normal by a fraction of the excess. `base` holds count depths. */
-static void correct_positions(hd_contact_model *m, long count, double *q1, double h,
-                              double *base)
+/* Move the bodies by the position correction's shifts (solver.py: _correct_positions). */
+static void apply_shifts(const hd_contact_model *m, double *q1)
 {
-    double deepest = 0.0;
-    for (long k = 0; k < count; ++k) {
-        const hd_row *r = m->rows + k;
-        base[k] = r->depth - h * (normal_velocity(m->velocity + 3 * r->a,
-                                                  m->velocity + 3 * r->b, r) - r->approach);
-        deepest = k == 0 ? base[k] : py_max(deepest, base[k]);
-    }
-    if (deepest <= HD_SLOP)
-        return;
-    memset(m->shift, 0, (size_t)(3 * (m->bodies + 1)) * sizeof(double));
-    for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
-        for (long k = 0; k < count; ++k) {
-            const hd_row *r = m->rows + k;
-            double *sa = m->shift + 3 * r->a, *sb = m->shift + 3 * r->b;
-            const double excess = base[k] - HD_SLOP - normal_velocity(sa, sb, r);
-            if (excess <= 0.0)
-                continue;
-            const double amount = py_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;
-            push(sa, sb, r, amount * r->nx, amount * r->ny);
-        }
-    }
     for (long b = 0; b < m->bodies; ++b) {
         const double *s = m->shift + 3 * b;
         if (m->touched[b] && (s[0] != 0.0 || s[1] != 0.0 || s[2] != 0.0 ||
@@ -590,7 +574,8 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
         push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,
              r->jn * r->nx - r->jt * r->ny, r->jn * r->ny + r->jt * r->nx);
     }
-    if (solve_velocities(m, count) < 0)
+    memset(m->shift, 0, (size_t)(3 * (n + 1)) * sizeof(double));
+    if (solve_velocities(m, count, h, (double *)(m->rows + count)) < 0)
         return -1;
     hd_coupled_store(m, 1);
     if (remember(m, count) < 0)
@@ -606,7 +591,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
             v1[3 * b + i] = now[i];
         }
     }
-    correct_positions(m, count, q1, h, (double *)(m->rows + count));
+    apply_shifts(m, q1);
     doze(m, v1, count, h);
     return 0;
 }

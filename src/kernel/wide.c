@@ -27,11 +27,12 @@ typedef struct { double lane[HD_LANES]; } hd_v4;
 #endif
 
 /* Four blocks of one colour, lane by lane: rows one and two of each, the body pair, the
- * block's K and K^-1, and the rows' impulses while the passes run. */
+ * block's K and K^-1, the rows' impulses while the passes run, then their depths for the
+ * position correction. */
 typedef struct {
     hd_v4 rax1, ray1, rbx1, rby1, rax2, ray2, rbx2, rby2, nx, ny, im_a, ii_a, im_b, ii_b;
     hd_v4 target1, target2, mass_n1, mass_n2, mass_t1, mass_t2, mu1, mu2;
-    hd_v4 k11, k12, k22, inv11, inv12, inv22, jn1, jn2, jt1, jt2;
+    hd_v4 k11, k12, k22, inv11, inv12, inv22, jn1, jn2, jt1, jt2, base1, base2;
     long a[HD_LANES], b[HD_LANES], first[HD_LANES];
 } hd_lanes;
 
@@ -181,7 +182,8 @@ static void load_lanes(const hd_contact_model *m, const long *pair, hd_lanes *x)
     }
 }
 
-static void store_lanes(hd_contact_model *m, hd_lanes *x)
+/* The lanes' impulses back into their rows, and the rows' depths `base` into the lanes. */
+static void store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
 {
     for (int l = 0; l < HD_LANES; ++l) {
         hd_row *one = m->rows + x->first[l], *two = one + 1;
@@ -189,6 +191,8 @@ static void store_lanes(hd_contact_model *m, hd_lanes *x)
         two->jn = *lane(&x->jn2, l);
         one->jt = *lane(&x->jt1, l);
         two->jt = *lane(&x->jt2, l);
+        *lane(&x->base1, l) = base[x->first[l]];
+        *lane(&x->base2, l) = base[x->first[l] + 1];
     }
 }
 
@@ -326,11 +330,39 @@ static HD_HOT hd_v4 block4(hd_lanes *x, double *velocity, hd_v4 largest)
     return max_v(largest, change);
 }
 
-/* One pass over `count` lanes of one colour; AVX where the CPU has it. */
+/* rows.h's correct_unit for one row in four lanes: a lane whose excess is not positive
+ * keeps its shifts. */
+static HD_HOT void correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_v4 rax,
+                            hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
+{
+    const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
+    const hd_v4 slop = {HD_SLOP, HD_SLOP, HD_SLOP, HD_SLOP};
+    const hd_v4 fraction = {HD_CORRECTION, HD_CORRECTION, HD_CORRECTION, HD_CORRECTION};
+    const hd_v4 most = {HD_MAX_CORRECTION, HD_MAX_CORRECTION, HD_MAX_CORRECTION,
+                        HD_MAX_CORRECTION};
+    const hd_v4 excess = base - slop - normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
+    const hd_m4 on = ~(excess <= zero);
+    const hd_v4 amount = min_v(fraction * excess, most) * mass_n;
+    hd_twist4 a = *sa, b = *sb;
+    push4(&a, &b, x, rax, ray, rbx, rby, amount * x->nx, amount * x->ny);
+    sa->x = pick(on, a.x, sa->x);
+    sa->y = pick(on, a.y, sa->y);
+    sa->w = pick(on, a.w, sa->w);
+    sb->x = pick(on, b.x, sb->x);
+    sb->y = pick(on, b.y, sb->y);
+    sb->w = pick(on, b.w, sb->w);
+}
+
+/* The lanes' per-CPU passes: AVX where the CPU has it. */
 #if defined(__x86_64__) && defined(__GLIBC__)
-__attribute__((target_clones("avx2", "default")))
+#define HD_PER_CPU __attribute__((target_clones("avx2", "default")))
+#else
+#define HD_PER_CPU
 #endif
-static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
+
+/* One pass over `count` lanes of one colour. */
+HD_PER_CPU static double pass_lanes(hd_lanes *lanes, long count, double *velocity,
+                                    double largest)
 {
     hd_v4 most = {largest, largest, largest, largest};
     for (long k = 0; k < count; ++k)
@@ -338,6 +370,19 @@ static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double l
     for (int l = 0; l < HD_LANES; ++l)
         largest = py_max(largest, most[l]);
     return largest;
+}
+
+/* One pass of the position correction over `count` lanes of one colour. */
+HD_PER_CPU static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
+{
+    for (long k = 0; k < count; ++k) {
+        const hd_lanes *x = lanes + k;
+        hd_twist4 sa = gather(shift, x->a), sb = gather(shift, x->b);
+        correct4(&sa, &sb, x, x->rax1, x->ray1, x->rbx1, x->rby1, x->base1, x->mass_n1);
+        correct4(&sa, &sb, x, x->rax2, x->ray2, x->rbx2, x->rby2, x->base2, x->mass_n2);
+        scatter(shift, x->a, sa);
+        scatter(shift, x->b, sb);
+    }
 }
 #else
 static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
@@ -347,10 +392,17 @@ static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double l
     (void)velocity;
     return largest;
 }
+
+static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
+{
+    (void)lanes;
+    (void)count;
+    (void)shift;
+}
 #endif
 
 int hd_wide_solve(hd_contact_model *m, const long *members, long size, long passes,
-                  double scale)
+                  double scale, double h, double *base)
 {
     if (reserve(m, size) < 0)
         return -1;
@@ -395,7 +447,16 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
         if (largest <= HD_CONVERGED * scale)
             break;
     }
+    const int deep = depths_after(m, w->sorted, size, h, base);
     for (long k = 0; k < lanes; ++k)
-        store_lanes(m, w->lanes + k);
+        store_lanes(m, w->lanes + k, base);
+    for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
+        for (int c = 0; c <= HD_COLOURS; ++c) {
+            correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
+                          m->shift);
+            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
+                correct_unit(m->units + w->single[s], m->rows, base, m->shift);
+        }
+    }
     return 0;
 }
