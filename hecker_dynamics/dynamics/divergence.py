@@ -75,7 +75,10 @@ class EnergyBound:
         if self._compiled and not self._lean:
             # The kernel's sum body by body costs a fraction of numpy's per publish
             # instant; above the lean size Python's numpy sum agrees with it to rounding,
-            # as the forces do.
+            # as the forces do. Without springs nothing here needs numpy's error state,
+            # whose setting cost most of a small scene's check.
+            if not self._springs:
+                return self._kinetic(v)
             with np.errstate(all="ignore"):
                 return self._kinetic(v) + sum(term.potential(q) for term in self._springs)
         if self._lean:
@@ -123,7 +126,7 @@ class EnergyBound:
     def rate(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
         """c: the coefficient of sqrt(B) in the rate of work of gravity, the constant
         wrenches and ``inputs`` at positions ``q``."""
-        if self._lean:
+        if self._lean or (not self._wrenches and inputs is None):
             return self._rate_of(q, inputs)
         with np.errstate(all="ignore"):
             return self._rate_of(q, inputs)
