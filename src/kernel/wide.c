@@ -1,8 +1,9 @@
 /* The coloured solve of a big island: wide.h. The colours are greedy, first fit in island
  * order (solver.py: _coloured); within each colour its two-point blocks go four at a time
  * through lanes of GCC's vector extensions (AVX where the CPU has it, else two SSE2
- * halves: the same IEEE operations, so the same bits), and every other unit of the colour
- * through rows.h one by one.
+ * halves: the same IEEE operations, so the same bits), a colour's last four padded with
+ * empty lanes, and every other unit of the colour (one-point contacts, and all the units
+ * that fit no colour) through rows.h one by one.
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -81,8 +82,10 @@ static int reserve(hd_contact_model *m, long size)
         w->sorted = malloc((size_t)size * sizeof(long));
         w->single = malloc((size_t)size * sizeof(long));
 #if HD_VECTORS
-        /* The vectors need their own alignment, which malloc does not promise. */
-        w->lanes = aligned_alloc(_Alignof(hd_lanes), (size_t)(size / HD_LANES + 1) * sizeof(hd_lanes));
+        /* The vectors need their own alignment, which malloc does not promise. Each colour
+         * but the last fills its sets of lanes but one, which it pads. */
+        const size_t sets = (size_t)(size / HD_LANES + HD_COLOURS);
+        w->lanes = aligned_alloc(_Alignof(hd_lanes), sets * sizeof(hd_lanes));
         const int lanes_ok = w->lanes != NULL;
 #else
         const int lanes_ok = 1;
@@ -138,10 +141,19 @@ static void colour_units(hd_contact_model *m, const long *members, long size)
 
 static double *lane(hd_v4 *v, int l) { return (double *)v + l; }
 
-/* Four blocks of the units `pair`, into lanes. */
-static void load_lanes(const hd_contact_model *m, const long *pair, hd_lanes *x)
+/* The blocks of the `filled` units `pair` into lanes, the lanes beyond them empty: the
+ * walls' slot on both sides, no arms, normal or inverse masses, so they push it by zeros
+ * only, which keep it +0, and change nothing (unit effective masses, no friction). */
+static void load_lanes(const hd_contact_model *m, const long *pair, int filled, hd_lanes *x)
 {
-    for (int l = 0; l < HD_LANES; ++l) {
+    memset(x, 0, sizeof *x);
+    for (int l = filled; l < HD_LANES; ++l) {
+        x->a[l] = x->b[l] = m->bodies;
+        x->first[l] = -1;
+        *lane(&x->mass_n1, l) = *lane(&x->mass_n2, l) = 1.0;
+        *lane(&x->mass_t1, l) = *lane(&x->mass_t2, l) = 1.0;
+    }
+    for (int l = 0; l < filled; ++l) {
         const hd_unit *u = m->units + pair[l];
         const hd_row *one = m->rows + u->first, *two = one + 1;
         x->a[l] = one->a;
@@ -185,7 +197,7 @@ static void load_lanes(const hd_contact_model *m, const long *pair, hd_lanes *x)
 /* The lanes' impulses back into their rows, and the rows' depths `base` into the lanes. */
 static void store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
 {
-    for (int l = 0; l < HD_LANES; ++l) {
+    for (int l = 0; l < HD_LANES && x->first[l] >= 0; ++l) {
         hd_row *one = m->rows + x->first[l], *two = one + 1;
         one->jn = *lane(&x->jn1, l);
         two->jn = *lane(&x->jn2, l);
@@ -289,12 +301,12 @@ static HD_HOT hd_v4 friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, h
     return pick(on, abs_v(new_t - old) / mass_t, zero);
 }
 
-/* rows.h's solve_block in four lanes; returns the lanes' largest changes folded into
- * `largest` as py_max folds them. */
-static HD_HOT hd_v4 block4(hd_lanes *x, double *velocity, hd_v4 largest)
+/* rows.h's solve_block in four lanes, on their bodies' velocities *pa and *pb; returns
+ * each lane's largest change. */
+static HD_HOT hd_v4 block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
-    hd_twist4 va = gather(velocity, x->a), vb = gather(velocity, x->b);
+    hd_twist4 va = *pa, vb = *pb;
     const hd_v4 old1 = x->jn1, old2 = x->jn2;
     const hd_v4 b1 = normal_velocity4(va, vb, x->rax1, x->ray1, x->rbx1, x->rby1, x->nx, x->ny)
                      - x->target1 - (x->k11 * old1 + x->k12 * old2);
@@ -325,9 +337,9 @@ static HD_HOT hd_v4 block4(hd_lanes *x, double *velocity, hd_v4 largest)
                                      x->mass_t1, x->mu1, x1, &x->jt1));
     change = max_v(change, friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
                                      x->mass_t2, x->mu2, x2, &x->jt2));
-    scatter(velocity, x->a, va);
-    scatter(velocity, x->b, vb);
-    return max_v(largest, change);
+    *pa = va;
+    *pb = vb;
+    return change;
 }
 
 /* rows.h's correct_unit for one row in four lanes: a lane whose excess is not positive
@@ -360,13 +372,66 @@ static HD_HOT void correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_
 #define HD_PER_CPU
 #endif
 
+/* Sets of lanes solved together, all gathered before any is scattered (a colour's blocks
+ * share no moving body): each set's solve is one long chain of dependent operations, and
+ * only with GCC's scheduling before register allocation (-fschedule-insns, setup.py)
+ * do the sets' chains overlap. */
+#define HD_GROUP 2
+
+/* block4 over the `n` sets of lanes from x; their changes fold in order into `most`, as
+ * one set at a time would fold them. */
+static HD_HOT void solve_sets(hd_lanes *x, int n, double *velocity, hd_v4 *most)
+{
+    hd_twist4 a[HD_GROUP], b[HD_GROUP];
+    hd_v4 change[HD_GROUP];
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g) {
+        a[g] = gather(velocity, x[g].a);
+        b[g] = gather(velocity, x[g].b);
+    }
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g)
+        change[g] = block4(x + g, a + g, b + g);
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g) {
+        scatter(velocity, x[g].a, a[g]);
+        scatter(velocity, x[g].b, b[g]);
+        *most = max_v(*most, change[g]);
+    }
+}
+
+/* correct4 over both rows of the `n` sets of lanes from x. */
+static HD_HOT void correct_sets(const hd_lanes *x, int n, double *shift)
+{
+    hd_twist4 a[HD_GROUP], b[HD_GROUP];
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g) {
+        a[g] = gather(shift, x[g].a);
+        b[g] = gather(shift, x[g].b);
+    }
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g) {
+        const hd_lanes *y = x + g;
+        correct4(a + g, b + g, y, y->rax1, y->ray1, y->rbx1, y->rby1, y->base1, y->mass_n1);
+        correct4(a + g, b + g, y, y->rax2, y->ray2, y->rbx2, y->rby2, y->base2, y->mass_n2);
+    }
+#pragma GCC unroll 4
+    for (int g = 0; g < n; ++g) {
+        scatter(shift, x[g].a, a[g]);
+        scatter(shift, x[g].b, b[g]);
+    }
+}
+
 /* One pass over `count` lanes of one colour. */
 HD_PER_CPU static double pass_lanes(hd_lanes *lanes, long count, double *velocity,
                                     double largest)
 {
     hd_v4 most = {largest, largest, largest, largest};
-    for (long k = 0; k < count; ++k)
-        most = block4(lanes + k, velocity, most);
+    long k = 0;
+    for (; k + HD_GROUP <= count; k += HD_GROUP)
+        solve_sets(lanes + k, HD_GROUP, velocity, &most);
+    for (; k < count; ++k)
+        solve_sets(lanes + k, 1, velocity, &most);
     for (int l = 0; l < HD_LANES; ++l)
         largest = py_max(largest, most[l]);
     return largest;
@@ -375,14 +440,11 @@ HD_PER_CPU static double pass_lanes(hd_lanes *lanes, long count, double *velocit
 /* One pass of the position correction over `count` lanes of one colour. */
 HD_PER_CPU static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
 {
-    for (long k = 0; k < count; ++k) {
-        const hd_lanes *x = lanes + k;
-        hd_twist4 sa = gather(shift, x->a), sb = gather(shift, x->b);
-        correct4(&sa, &sb, x, x->rax1, x->ray1, x->rbx1, x->rby1, x->base1, x->mass_n1);
-        correct4(&sa, &sb, x, x->rax2, x->ray2, x->rbx2, x->rby2, x->base2, x->mass_n2);
-        scatter(shift, x->a, sa);
-        scatter(shift, x->b, sb);
-    }
+    long k = 0;
+    for (; k + HD_GROUP <= count; k += HD_GROUP)
+        correct_sets(lanes + k, HD_GROUP, shift);
+    for (; k < count; ++k)
+        correct_sets(lanes + k, 1, shift);
 }
 #else
 static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
@@ -421,15 +483,15 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
             if (HD_VECTORS && c < HD_COLOURS && m->units[u].pair) {
                 pair[filled++] = u;
                 if (filled == HD_LANES) {
-                    load_lanes(m, pair, w->lanes + lanes++);
+                    load_lanes(m, pair, filled, w->lanes + lanes++);
                     filled = 0;
                 }
             } else {
                 w->single[singles++] = u;
             }
         }
-        for (int f = 0; f < filled; ++f)
-            w->single[singles++] = pair[f];
+        if (filled > 0)
+            load_lanes(m, pair, filled, w->lanes + lanes++);
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;

@@ -155,6 +155,9 @@ def test_cmake_builds_the_kernel_as_setup_py_does(cmake):
     assert options, "CMakeLists.txt sets no compiler flags for _kernel"
     assert options.group(1).split() == [f for f in gnu_flags if not f.startswith("-std=")]
     assert options.group(2).split() == _setup_py_value("MSVC_FLAGS")
+    gcc = re.search(r'if\(CMAKE_C_COMPILER_ID STREQUAL "GNU"\)\s+'
+                    r"target_compile_options\(_kernel PRIVATE ([^)]*)\)", cmake)
+    assert gcc and gcc.group(1).split() == _setup_py_value("GCC_FLAGS")
     assert re.search(r"set_target_properties\(_kernel PROPERTIES C_STANDARD 11 "
                      r"C_STANDARD_REQUIRED ON C_EXTENSIONS ON\)", cmake)
     assert '["m"]' in setup and "target_link_libraries(_kernel PRIVATE m)" in cmake
