@@ -82,8 +82,8 @@ if TYPE_CHECKING:
 #: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
 #: body). So a scene's cost per step is bounded by its number of contacts alone: small
 #: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
-WORK = 1000
-MIN_ITERATIONS = 8
+WORK = 600
+MIN_ITERATIONS = 6
 MAX_ITERATIONS = 40
 CONVERGED = 1e-13
 #: An island of at least :data:`WIDE_UNITS` units and no joint rows is swept in colour

@@ -9,8 +9,8 @@
 #define HECKER_DYNAMICS_CONTACT_H
 
 /* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
-#define HD_WORK 1000
-#define HD_MIN_ITERATIONS 8
+#define HD_WORK 600
+#define HD_MIN_ITERATIONS 6
 #define HD_MAX_ITERATIONS 40
 #define HD_CONVERGED 1e-13
 #define HD_MAX_CONDITION 1000.0
