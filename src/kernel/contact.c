@@ -1,7 +1,8 @@
 /* Detection: hecker_dynamics/contact/solver.py's ContactPass.detect, operation for
  * operation: the walls against each body's bounding circle, then a sort-and-sweep broad
- * phase on the x extent of the colliding bodies' bounding boxes (CM +- reach), then the
- * narrow phase (manifold.c) for the parts of each candidate pair.
+ * phase on the x extent of the colliding bodies' bounding boxes (CM +- reach; in bands in
+ * y in a tall pile, for the same pairs), then the narrow phase (manifold.c) for the parts
+ * of each candidate pair.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -17,6 +18,13 @@ int hd_contact_prepare(hd_contact_model *m)
     m->touched = calloc((size_t)n + 1, sizeof(int));
     m->sweep = malloc(((size_t)m->colliding_count * 4 + 1) * sizeof(double));
     m->sweep_body = malloc(((size_t)m->colliding_count + 1) * sizeof(long));
+    m->band_end = malloc((4 * (size_t)m->colliding_count + 1) * sizeof(long));
+    m->band_next = m->band_end == NULL ? NULL : m->band_end + m->colliding_count + 1;
+    m->band_from = m->band_next == NULL ? NULL : m->band_next + m->colliding_count;
+    m->band_to = m->band_from == NULL ? NULL : m->band_from + m->colliding_count;
+    m->band_capacity = 3 * m->colliding_count + 1;  /* grown when boxes span more */
+    m->band_edge = malloc(3 * (size_t)m->band_capacity * sizeof(double));
+    m->band_body = malloc((size_t)m->band_capacity * sizeof(long));
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
@@ -26,7 +34,8 @@ int hd_contact_prepare(hd_contact_model *m)
     m->wake = m->calm == NULL ? NULL : m->calm + n + 1;
     m->rested = calloc((size_t)n + 1, sizeof(double));
     m->island = malloc(((size_t)n + 1) * sizeof(long));
-    if (!m->placed_flag || !m->touched || !m->sweep || !m->sweep_body || !m->found ||
+    if (!m->placed_flag || !m->touched || !m->sweep || !m->sweep_body || !m->band_end ||
+            !m->band_edge || !m->band_body || !m->found ||
             !m->velocity ||
             !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island)
         return -1;
@@ -77,6 +86,9 @@ void hd_contact_free(hd_contact_model *m)
     free(m->touched);
     free(m->sweep);
     free(m->sweep_body);
+    free(m->band_end);
+    free(m->band_edge);
+    free(m->band_body);
     free(m->found);
     free(m->velocity);
     free(m->contacts);
@@ -267,6 +279,137 @@ static void sort_boxes(double *edge, long *body, long count)
     }
 }
 
+/* The sweep (solver.py: _candidate_pairs) pairs each box with the boxes after it up to the
+ * first whose left edge is past its right edge, those that overlap in y too, in that
+ * order. In a tall pile most of those are far off in y (a box's x range spans a box or two
+ * of every row, and only the rows next to it overlap it in y), so the sweep can look for
+ * box k's pairs in one band in y, which lists in sweep order the boxes that may overlap k
+ * in y.
+ *
+ * Band j holds y from base + j / scale on, the last all above. Box l is in every band from
+ * that of low_l - below to that of top_l (low: bottom - margin, high: top + margin, as the
+ * sweep computes them), where `below` is at least high_k - low_k for every box k; box k
+ * looks in the band of low_k, one of its own as low_k <= top_k. That band holds each box l
+ * that overlaps k in y: top_l >= low_k, and bottom_l <= high_k, so that low_l - below <=
+ * high_k - below <= low_k; the band of y only grows with y (each step rounds
+ * monotonically), so low_k's band lies in l's. With every edge finite the left edges
+ * ascend in sweep order, so the boxes after k in its band up to the first past k's right
+ * edge are the sweep's pairs of k in y.
+ *
+ * One band (last 0) is the sweep's own columns: with an edge not finite (the left edges
+ * may not ascend, and the sweep's comparisons with NaN decide) or low_k > top_k (a
+ * negative reach), with fewer boxes than HD_BAND_BOXES or room for fewer bands than
+ * HD_MIN_BANDS, where listing the boxes band by band costs more than the sweep spends on
+ * the boxes far off in y (in a pyramid of boxes, about as much at 15 bands, 20 rows), or
+ * with a box nearly as tall as the pile. */
+#define HD_BAND_BOXES 64
+#define HD_MIN_BANDS 16
+
+typedef struct {
+    double base, scale, below;
+    long last;
+} hd_bands;
+
+/* The band of y: (y - base) * scale rounded down, at most the last. */
+static inline long band_of(const hd_bands *bands, double y)
+{
+    const double t = (y - bands->base) * bands->scale;
+    return t < (double)bands->last ? (long)t : bands->last;
+}
+
+/* What plan_bands needs to know of the boxes, gathered as hd_detect makes them. */
+typedef struct {
+    double lowest, highest, widest;  /* the least low, the greatest top and high - low */
+    int wild;                        /* an edge not finite, or low > top */
+} hd_extent;
+
+static inline void extend(hd_extent *extent, double left, double right, double bottom,
+                          double top)
+{
+    const double low = bottom - HD_MARGIN, high = top + HD_MARGIN;
+    extent->wild |= !(isfinite(left) && isfinite(right) && isfinite(bottom) &&
+                      isfinite(top) && low <= top);
+    extent->lowest = low < extent->lowest ? low : extent->lowest;
+    extent->highest = top > extent->highest ? top : extent->highest;
+    extent->widest = high - low > extent->widest ? high - low : extent->widest;
+}
+
+/* Bands as tall as the tallest box with margins, so that a box is in two or three of them,
+ * or taller to make one per box at most; or one band. */
+static hd_bands plan_bands(const hd_extent *extent, long count)
+{
+    const hd_bands one = {0, 0, 0, 0};
+    if (count < HD_BAND_BOXES || extent->wild)
+        return one;
+    /* high - low rounded may fall short of the exact difference by a relative 2^-53; a
+     * relative 2^-40 more covers it. */
+    const double widest = extent->widest, below = (1 + 0x1p-40) * widest,
+                 base = extent->lowest - below, span = extent->highest - base,
+                 room = span / widest;
+    if (!(isfinite(span) && room >= HD_MIN_BANDS))
+        return one;
+    const long bands = room < (double)count ? (long)room : count;
+    const double scale = (double)bands / span;
+    return isfinite(scale) ? (hd_bands){base, scale, below, bands - 1} : one;
+}
+
+/* Copy the boxes band by band into m->band_edge (their left, bottom and top edges, as
+ * columns of m->band_capacity) and m->band_body, and note where box k's pairs may be: from
+ * m->band_from[k], just after k in the band of low_k, to m->band_to[k]; -1 out of
+ * memory. */
+static int list_bands(hd_contact_model *m, long count, const hd_bands *bands)
+{
+    const double *left = m->sweep, *bottom = left + 2 * count, *top = bottom + count;
+    long *end = m->band_end, *next = m->band_next;
+    /* Each box adds 1 to the boxes of its first band and takes it off after its last: the
+     * running sum counts the boxes of each band. */
+    memset(end, 0, (size_t)(bands->last + 2) * sizeof(long));
+    for (long k = 0; k < count; ++k) {
+        end[band_of(bands, bottom[k] - HD_MARGIN - bands->below)] += 1;
+        end[band_of(bands, top[k]) + 1] -= 1;
+    }
+    long total = 0, boxes = 0;
+    for (long j = 0; j <= bands->last; ++j) {
+        boxes += end[j];
+        total += boxes;
+        end[j] = next[j] = total;
+    }
+    if (total > m->band_capacity) {  /* room to span more later; nothing to keep */
+        const long capacity = total + count;
+        double *edge = malloc(3 * (size_t)capacity * sizeof(double));
+        long *body = malloc((size_t)capacity * sizeof(long));
+        if (edge == NULL || body == NULL) {
+            free(edge);
+            free(body);
+            return -1;
+        }
+        free(m->band_edge);
+        free(m->band_body);
+        m->band_edge = edge;
+        m->band_body = body;
+        m->band_capacity = capacity;
+    }
+    double *edge = m->band_edge;
+    const long capacity = m->band_capacity;
+    /* From the last box back, so that each band lists its boxes in sweep order and box k
+     * is at next[j] once it is in band j. */
+    for (long k = count - 1; k >= 0; --k) {
+        const double low = bottom[k] - HD_MARGIN;
+        for (long j = band_of(bands, low - bands->below), j1 = band_of(bands, top[k]);
+                j <= j1; ++j) {
+            const long p = --next[j];
+            edge[p] = left[k];
+            edge[capacity + p] = bottom[k];
+            edge[2 * capacity + p] = top[k];
+            m->band_body[p] = m->sweep_body[k];
+        }
+        const long own = band_of(bands, low);
+        m->band_from[k] = next[own] + 1;
+        m->band_to[k] = end[own];
+    }
+    return 0;
+}
+
 int hd_detect(hd_contact_model *m, const double *q)
 {
     m->contact_count = 0;
@@ -302,6 +445,7 @@ int hd_detect(hd_contact_model *m, const double *q)
         return 0;
     double *left = m->sweep, *right = left + count, *bottom = right + count,
            *top = bottom + count;
+    hd_extent extent = {INFINITY, -INFINITY, 0, 0};
     for (long k = 0; k < count; ++k) {
         const long b = m->sweep_order ? m->sweep_body[k] : m->colliding[k];
         const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b];
@@ -310,17 +454,28 @@ int hd_detect(hd_contact_model *m, const double *q)
         bottom[k] = y - r;
         top[k] = y + r;
         m->sweep_body[k] = b;
+        extend(&extent, left[k], right[k], bottom[k], top[k]);
     }
     sort_boxes(m->sweep, m->sweep_body, count);
     m->sweep_order = 1;
+    const hd_bands bands = plan_bands(&extent, count);
+    /* One band: the sweep's own columns, each box's pairs from the next box on. */
+    const int banded = bands.last > 0;
+    if (banded && list_bands(m, count, &bands) < 0)
+        return -1;
+    const double *band_left = banded ? m->band_edge : left,
+                 *band_bottom = banded ? band_left + m->band_capacity : bottom,
+                 *band_top = banded ? band_bottom + m->band_capacity : top;
+    const long *band_body = banded ? m->band_body : m->sweep_body;
     for (long k = 0; k < count; ++k) {
         const long b1 = m->sweep_body[k];
         const double reach = right[k] + HD_MARGIN, low = bottom[k] - HD_MARGIN,
                      high = top[k] + HD_MARGIN;
-        for (long l = k + 1; l < count && !(left[l] > reach); ++l) {
-            if (!(bottom[l] <= high && top[l] >= low))
+        for (long p = banded ? m->band_from[k] : k + 1, end = banded ? m->band_to[k] : count;
+                p < end && !(band_left[p] > reach); ++p) {
+            if (!(band_bottom[p] <= high && band_top[p] >= low))
                 continue;
-            const long b2 = m->sweep_body[l];
+            const long b2 = band_body[p];
             const long i = b1 < b2 ? b1 : b2, j = b1 < b2 ? b2 : b1;
             const long sleeping = m->island[i] > m->island[j] ? m->island[i] : m->island[j];
             if (sleeping >= 0 && m->island[i] >= 0 && m->island[j] >= 0)

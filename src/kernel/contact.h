@@ -129,6 +129,13 @@ typedef struct hd_contact_model {
     double *sweep;
     long *sweep_body;
     int sweep_order;
+    /* The sweep's bands in y (contact.c: list_bands): per band (colliding_count at most)
+     * where its boxes end and a cursor; the boxes band by band, their left, bottom and top
+     * edges as columns (band_capacity each) and their bodies; per box where its pairs may
+     * be (from, to). */
+    long *band_end, *band_next, *band_from, *band_to, *band_body;
+    double *band_edge;
+    long band_capacity;
     hd_found *found;
     hd_contact *contacts;
     long contact_count, contact_capacity;
