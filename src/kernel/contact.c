@@ -50,6 +50,9 @@ int hd_contact_prepare(hd_contact_model *m)
     m->rows = NULL;
     m->units = NULL;
     m->order = NULL;
+    m->seen = NULL;
+    m->seen_count = m->seen_capacity = m->island_count = 0;
+    m->islands_known = 0;
     m->warm = NULL;
     m->warm_table = NULL;
     m->warm_table_size = 0;
@@ -95,6 +98,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->rows);
     free(m->units);
     free(m->order);
+    free(m->seen);
     free(m->parent);
     free(m->warm);
     free(m->warm_table);

@@ -146,6 +146,12 @@ typedef struct hd_contact_model {
     long *order, *unit_island, *island_start, *island_fill;
     long *parent, *island_of;  /* bodies + 1: union-find over the bodies, island of a root */
     long row_capacity;
+    /* The units the islands above (island_count of them) and wide.h's colours were made
+     * for: per unit its body a, then body b twice plus its pair flag (seen_count units,
+     * room for seen_capacity); islands_known: 0 while they were not, or are no more. */
+    long *seen;
+    long seen_count, seen_capacity, island_count;
+    int islands_known;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
     double *cos_sin;    /* bodies x 2: of each placed body's angle */
     hd_warm *warm;      /* in the order of the rows they came from */

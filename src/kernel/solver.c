@@ -317,6 +317,37 @@ static long islands(hd_contact_model *m, long units)
     return hd_coupled_islands(m, parent, island, count) < 0 ? -1 : count;
 }
 
+/* Whether the `units` are last step's, each with the same bodies and pair flag, so that
+ * their islands and the big islands' colours, functions of those alone, are still in
+ * m->order and wide.h's memory; keeps them as the units seen. Never with joint rows,
+ * which join islands too. -1 out of memory. */
+static int same_units(hd_contact_model *m, long units)
+{
+    int same = m->islands_known && units == m->seen_count;
+    m->islands_known = 0;
+    if (m->joints != NULL)
+        return 0;
+    if (units > m->seen_capacity) {
+        long *grown = realloc(m->seen, (size_t)(2 * units) * sizeof(long));
+        if (grown == NULL)
+            return -1;
+        m->seen = grown;
+        m->seen_capacity = units;
+    }
+    for (long k = 0; k < units; ++k) {
+        const hd_unit *u = m->units + k;
+        const hd_row *r = m->rows + u->first;
+        const long tail = 2 * r->b + u->pair;
+        if (!same || m->seen[2 * k] != r->a || m->seen[2 * k + 1] != tail) {
+            same = 0;
+            m->seen[2 * k] = r->a;
+            m->seen[2 * k + 1] = tail;
+        }
+    }
+    m->seen_count = units;
+    return same;
+}
+
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
  * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
  * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
@@ -326,9 +357,15 @@ static long islands(hd_contact_model *m, long units)
 static int solve_velocities(hd_contact_model *m, long count, double h, double *base)
 {
     const long units = schedule(m, count);
-    const long count_islands = islands(m, units);
+    const int same = same_units(m, units);
+    if (same < 0)
+        return -1;
+    if (!same)
+        m->island_count = islands(m, units);
+    const long count_islands = m->island_count;
     if (count_islands < 0)
         return -1;
+    long wide = 0;  /* the islands solved in colour order so far */
     for (long i = 0; i < count_islands; ++i) {
         const long *members = m->order + m->island_start[i];
         const long size = m->island_start[i + 1] - m->island_start[i];
@@ -347,7 +384,7 @@ static int solve_velocities(hd_contact_model *m, long count, double h, double *b
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
         if (size >= HD_WIDE_UNITS && coupled == 0) {
-            if (hd_wide_solve(m, members, size, passes, scale, h, base) < 0)
+            if (hd_wide_solve(m, wide++, same, members, size, passes, scale, h, base) < 0)
                 return -1;
             continue;
         }
@@ -366,6 +403,7 @@ static int solve_velocities(hd_contact_model *m, long count, double h, double *b
                 correct_unit(m->units + members[k], m->rows, base, m->shift);
         }
     }
+    m->islands_known = m->joints == NULL;
     return 0;
 }
 
@@ -535,6 +573,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
         m->island_start = order + 2 * needed;
         m->island_fill = order + 3 * needed + 1;
         m->row_capacity = needed;
+        m->islands_known = 0;  /* the islands moved */
     }
     memset(m->touched, 0, (size_t)n * sizeof(int));
     for (long k = 0; k < count; ++k) {

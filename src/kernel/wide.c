@@ -37,12 +37,17 @@ typedef struct {
     long a[HD_LANES], b[HD_LANES], first[HD_LANES];
 } hd_lanes;
 
+/* The colours of each island solved here are kept from step to step, for as long as
+ * its units are the same (solver.c: same_units). */
 struct hd_wide {
-    long capacity;          /* units */
+    long capacity;          /* units of an island */
+    long sorted_capacity;   /* units of all islands */
+    long colourings;        /* islands */
     int *colour;            /* per unit of the island, in island order */
-    long *sorted;           /* the island's units by colour, each colour's in island order */
+    long *sorted;           /* each island's units by colour, each colour's in island order,
+                             * where its units are in m->order */
+    long (*colour_start)[HD_COLOURS + 2];  /* per island: its colours' units in `sorted` */
     long *single;           /* per colour, the units not in lanes */
-    long colour_start[HD_COLOURS + 2];  /* of each colour's units in `sorted` */
     long lane_start[HD_COLOURS + 2], single_start[HD_COLOURS + 2];
     uint64_t *used;         /* bodies + 1: the colours each body has */
     hd_lanes *lanes;
@@ -54,13 +59,16 @@ void hd_wide_free(struct hd_wide *w)
         return;
     free(w->colour);
     free(w->sorted);
+    free(w->colour_start);
     free(w->single);
     free(w->used);
     free(w->lanes);
     free(w);
 }
 
-static int reserve(hd_contact_model *m, long size)
+/* Room for island `wide` of `size` units, and for its colours, and the other islands',
+ * kept. */
+static int reserve(hd_contact_model *m, long wide, long size)
 {
     if (m->wide == NULL) {
         m->wide = calloc(1, sizeof(struct hd_wide));
@@ -73,13 +81,26 @@ static int reserve(hd_contact_model *m, long size)
             return -1;
     }
     struct hd_wide *w = m->wide;
+    if (m->row_capacity > w->sorted_capacity) {
+        long *sorted = realloc(w->sorted, (size_t)m->row_capacity * sizeof(long));
+        if (sorted == NULL)
+            return -1;
+        w->sorted = sorted;
+        w->sorted_capacity = m->row_capacity;
+    }
+    if (wide >= w->colourings) {
+        long(*starts)[HD_COLOURS + 2] = realloc(w->colour_start,
+                                                (size_t)(wide + 1) * sizeof *starts);
+        if (starts == NULL)
+            return -1;
+        w->colour_start = starts;
+        w->colourings = wide + 1;
+    }
     if (size > w->capacity) {
         free(w->colour);
-        free(w->sorted);
         free(w->single);
         free(w->lanes);
         w->colour = malloc((size_t)size * sizeof(int));
-        w->sorted = malloc((size_t)size * sizeof(long));
         w->single = malloc((size_t)size * sizeof(long));
 #if HD_VECTORS
         /* The vectors need their own alignment, which malloc does not promise. Each colour
@@ -90,7 +111,7 @@ static int reserve(hd_contact_model *m, long size)
 #else
         const int lanes_ok = 1;
 #endif
-        if (!w->colour || !w->sorted || !w->single || !lanes_ok) {
+        if (!w->colour || !w->single || !lanes_ok) {
             w->capacity = 0;
             return -1;
         }
@@ -110,8 +131,10 @@ static int lowest_free(uint64_t taken)
 }
 
 /* Each unit's colour: the lowest that neither of its bodies has yet (the walls' slot takes
- * none), or HD_COLOURS when none is left; then the units sorted by colour. */
-static void colour_units(hd_contact_model *m, const long *members, long size)
+ * none), or HD_COLOURS when none is left; then the units sorted by colour into `sorted`,
+ * where the colours start into `colour_start`. */
+static void colour_units(hd_contact_model *m, const long *members, long size, long *sorted,
+                         long *colour_start)
 {
     struct hd_wide *w = m->wide;
     const long wall = m->bodies;
@@ -134,9 +157,9 @@ static void colour_units(hd_contact_model *m, const long *members, long size)
     }
     for (int c = 0; c <= HD_COLOURS; ++c)
         count[c + 1] += count[c];
-    memcpy(w->colour_start, count, sizeof count);
+    memcpy(colour_start, count, sizeof count);
     for (long k = 0; k < size; ++k)
-        w->sorted[count[w->colour[k]]++] = members[k];
+        sorted[count[w->colour[k]]++] = members[k];
 }
 
 static double *lane(hd_v4 *v, int l) { return (double *)v + l; }
@@ -463,13 +486,15 @@ static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
 }
 #endif
 
-int hd_wide_solve(hd_contact_model *m, const long *members, long size, long passes,
-                  double scale, double h, double *base)
+int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
+                  long passes, double scale, double h, double *base)
 {
-    if (reserve(m, size) < 0)
+    if (reserve(m, wide, size) < 0)
         return -1;
     struct hd_wide *w = m->wide;
-    colour_units(m, members, size);
+    long *sorted = w->sorted + (members - m->order), *colour_start = w->colour_start[wide];
+    if (!known)
+        colour_units(m, members, size, sorted, colour_start);
     /* Each colour's blocks four to a set of lanes, the rest of it one by one (the units
      * that fit no colour one by one in their order). */
     long lanes = 0, singles = 0;
@@ -478,8 +503,8 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
         w->single_start[c] = singles;
         long pair[HD_LANES];
         int filled = 0;
-        for (long k = w->colour_start[c]; k < w->colour_start[c + 1]; ++k) {
-            const long u = w->sorted[k];
+        for (long k = colour_start[c]; k < colour_start[c + 1]; ++k) {
+            const long u = sorted[k];
             if (HD_VECTORS && c < HD_COLOURS && m->units[u].pair) {
                 pair[filled++] = u;
                 if (filled == HD_LANES) {
@@ -498,7 +523,7 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
     for (long iteration = 0; iteration < passes; ++iteration) {
         double largest = 0.0;
         for (int c = 0; c <= HD_COLOURS; ++c) {
-            if (w->colour_start[c + 1] == w->colour_start[c])
+            if (colour_start[c + 1] == colour_start[c])
                 continue;  /* a colour none of the island's units has */
             largest = pass_lanes(w->lanes + w->lane_start[c],
                                  w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
@@ -509,7 +534,7 @@ int hd_wide_solve(hd_contact_model *m, const long *members, long size, long pass
         if (largest <= HD_CONVERGED * scale)
             break;
     }
-    const int deep = depths_after(m, w->sorted, size, h, base);
+    const int deep = depths_after(m, sorted, size, h, base);
     for (long k = 0; k < lanes; ++k)
         store_lanes(m, w->lanes + k, base);
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
