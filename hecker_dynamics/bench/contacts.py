@@ -50,7 +50,7 @@ from .scene_peers import SCENE_PEERS, scene_engine
 
 __all__ = ["BLOCK", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET", "ContactResults",
            "contact_bench", "contact_scene_names", "measure_pyramid", "pyramid_engines",
-           "scene_rows"]
+           "pyramid_figure", "pyramid_series", "scene_rows"]
 
 BLOCK = 25
 PYRAMID_DURATION = 2.0
@@ -245,7 +245,8 @@ def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: st
                   bar: Optional[BarFactory] = None) -> ContactResults:
     """Measure the pyramids of ``rows_list``, the whole ``scenes`` (default: every contact
     scene) and the node's cost with a floor; write ``contacts.md`` and ``contacts.csv``
-    to ``out``."""
+    to ``out``, and ``contacts.png`` (:func:`pyramid_figure`) where matplotlib is
+    installed."""
     results = ContactResults(load=[os.getloadavg()])
     peers = [p for p in peers if p in SCENE_PEERS and available(p)]
     names = contact_scene_names() if scenes is None else scenes
@@ -269,6 +270,60 @@ def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: st
     return results
 
 
+def pyramid_series(results: ContactResults, peers: list[str]) -> dict[str, list[tuple]]:
+    """The pyramids' figure's data, sleeping off: per engine (ours first, then each peer
+    run) its (boxes, us per step) by size, and per peer ``ratio to <peer>`` its (rows,
+    our cost over the peer's)."""
+    series: dict[str, list[tuple]] = {}
+    for name in ["hecker_dynamics", *peers]:
+        points = [(row["boxes"], row[f"{name}_us"]) for row in results.pyramids
+                  if f"{name}_us" in row]
+        if points:
+            series[name] = points
+    for name in peers:
+        points = [(row["rows"], row[f"ratio_{name}"]) for row in results.pyramids
+                  if f"ratio_{name}" in row]
+        if points:
+            series[f"ratio to {name}"] = points
+    return series
+
+
+def pyramid_figure(results: ContactResults, peers: list[str], path: Path) -> bool:
+    """Draw :func:`pyramid_series` to ``path``: cost per step against boxes, and our cost
+    over each peer's against rows with target 1's line; False without matplotlib."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    series = pyramid_series(results, peers)
+    fig, (cost, ratio) = plt.subplots(1, 2, figsize=(10, 4))
+    markers = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^"}
+    for name, points in series.items():
+        if name.startswith("ratio to "):
+            peer = name[len("ratio to "):]
+            ratio.plot(*zip(*points), marker=markers.get(peer, "x"), label=f"ours / {peer}")
+        else:
+            cost.loglog(*zip(*points), marker=markers.get(name, "x"),
+                        ls="-" if name == "hecker_dynamics" else "--", label=name)
+    cost.set_xlabel("boxes")
+    cost.set_ylabel("us per step (h = 4 ms, sleeping off)")
+    cost.set_title("pyramids of boxes: cost per step")
+    ratio.axhline(TARGET, color="grey", lw=1, ls=":", label=f"target 1 ({TARGET:g})")
+    ratio.set_ylim(0.0, 1.0)
+    ratio.set_xlabel("rows")
+    ratio.set_ylabel("our cost / the peer's")
+    ratio.set_title("pyramids of boxes: our cost over the peer's")
+    for ax in (cost, ratio):
+        ax.legend(fontsize=8)
+        ax.grid(True, which="both", lw=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return True
+
+
 def write_contacts(results: ContactResults, peers: list[str], out: Path, command: str) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (before, after) = results.load[0], results.load[-1]
@@ -277,6 +332,8 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
           f"{before[2]:.2f}; after: {after[0]:.2f}, {after[1]:.2f}, {after[2]:.2f}.", "",
           "## Contact targets", "", "| target | measured | verdict |", "|---|---|---|"]
     md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
+    if results.pyramids and pyramid_figure(results, peers, out / "contacts.png"):
+        md += ["", "![pyramids: cost per step, and our cost over the peers'](contacts.png)"]
     for suffix, title in (("", "sleeping off"), (SLEEPING, "sleeping on in every engine")):
         if not results.pyramids:
             break

@@ -159,6 +159,28 @@ def test_contact_bench_writes_its_tables(tmp_path):
     # the pyramid and the scene, each with sleeping off and on
     assert rows[0].startswith("section,") and len(rows) == 1 + 2 + 2
     assert "hecker_dynamics (sleeping) us/step" in text and "semi_implicit_euler, sleeping" in text
+    drawn = (tmp_path / "contacts.png").exists()
+    assert drawn == ("](contacts.png)" in text)
+
+
+def test_pyramid_figure_draws_each_engine_and_each_ratio(tmp_path):
+    """The figure's data are the tables' numbers: per engine its cost by boxes, per peer
+    our cost over its by rows; drawn, it is one PNG of two panels (1000 x 400 pixels)."""
+    results = contacts.ContactResults(pyramids=[
+        {"rows": 3, "boxes": 6, "hecker_dynamics_us": 3.0, "pymunk_us": 6.0,
+         "ratio_pymunk": 0.5},
+        {"rows": 20, "boxes": 210, "hecker_dynamics_us": 120.0, "pymunk_us": 300.0,
+         "ratio_pymunk": 0.4}])
+    series = contacts.pyramid_series(results, ["pymunk", "box2d"])
+    assert series == {"hecker_dynamics": [(6, 3.0), (210, 120.0)],
+                      "pymunk": [(6, 6.0), (210, 300.0)],
+                      "ratio to pymunk": [(3, 0.5), (20, 0.4)]}
+    pytest.importorskip("matplotlib")
+    image = pytest.importorskip("PIL.Image")
+    path = tmp_path / "contacts.png"
+    assert contacts.pyramid_figure(results, ["pymunk"], path)
+    with image.open(path) as picture:
+        assert picture.size == (1000, 400)
 
 
 def test_cli_contacts_refuses_a_scene_without_contacts(capsys):
