@@ -46,6 +46,7 @@ from .measure import Budget, Case, Outcome, Row, measure
 from .node import PUBLISH_PERIOD_NS, TARGET_SHARE, NodeCost, node_cost, node_table
 from .peers import available
 from .pyramid import STEP, ball_box, pyramid
+from .report import MARKERS, agg_pyplot
 from .scene_peers import SCENE_PEERS, scene_engine
 
 __all__ = ["BLOCK", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET", "ContactResults",
@@ -122,9 +123,11 @@ def measure_pyramid(rows: int, peers: list[str],
                 costs[name].append((time.perf_counter() - begin) / BLOCK)
         for name in engines:
             medians.setdefault(name, []).append(statistics.median(costs[name]))
-        moved = {name: float(np.abs(engines[name][1]()[:, :2] - start[name]).max())
-                 for name in engines}
-    return {name: (statistics.median(medians[name]), moved[name]) for name in medians}
+    # Every round steps the same engines from the same start, so the last round's boxes
+    # moved as each round's did.
+    return {name: (statistics.median(medians[name]),
+                   float(np.abs(poses()[:, :2] - start[name]).max()))
+            for name, (_, poses) in engines.items()}
 
 
 # ----------------------------------------------------------------------------- whole scenes
@@ -270,43 +273,31 @@ def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: st
     return results
 
 
-def pyramid_series(results: ContactResults, peers: list[str]) -> dict[str, list[tuple]]:
+def pyramid_series(results: ContactResults,
+                   peers: list[str]) -> tuple[dict[str, list[tuple]], dict[str, list[tuple]]]:
     """The pyramids' figure's data, sleeping off: per engine (ours first, then each peer
-    run) its (boxes, us per step) by size, and per peer ``ratio to <peer>`` its (rows,
-    our cost over the peer's)."""
-    series: dict[str, list[tuple]] = {}
-    for name in ["hecker_dynamics", *peers]:
-        points = [(row["boxes"], row[f"{name}_us"]) for row in results.pyramids
-                  if f"{name}_us" in row]
-        if points:
-            series[name] = points
-    for name in peers:
-        points = [(row["rows"], row[f"ratio_{name}"]) for row in results.pyramids
-                  if f"ratio_{name}" in row]
-        if points:
-            series[f"ratio to {name}"] = points
-    return series
+    run) its (boxes, us per step) by size; per peer its (rows, our cost over the peer's)."""
+    costs = {name: [(row["boxes"], row[f"{name}_us"]) for row in results.pyramids
+                    if f"{name}_us" in row] for name in ["hecker_dynamics", *peers]}
+    ratios = {name: [(row["rows"], row[f"ratio_{name}"]) for row in results.pyramids
+                     if f"ratio_{name}" in row] for name in peers}
+    return ({name: points for name, points in costs.items() if points},
+            {name: points for name, points in ratios.items() if points})
 
 
 def pyramid_figure(results: ContactResults, peers: list[str], path: Path) -> bool:
     """Draw :func:`pyramid_series` to ``path``: cost per step against boxes, and our cost
     over each peer's against rows with target 1's line; False without matplotlib."""
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = agg_pyplot()
+    if plt is None:
         return False
-    series = pyramid_series(results, peers)
+    costs, ratios = pyramid_series(results, peers)
     fig, (cost, ratio) = plt.subplots(1, 2, figsize=(10, 4))
-    markers = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^"}
-    for name, points in series.items():
-        if name.startswith("ratio to "):
-            peer = name[len("ratio to "):]
-            ratio.plot(*zip(*points), marker=markers.get(peer, "x"), label=f"ours / {peer}")
-        else:
-            cost.loglog(*zip(*points), marker=markers.get(name, "x"),
-                        ls="-" if name == "hecker_dynamics" else "--", label=name)
+    for name, points in costs.items():
+        cost.loglog(*zip(*points), marker=MARKERS.get(name, "x"),
+                    ls="-" if name == "hecker_dynamics" else "--", label=name)
+    for name, points in ratios.items():
+        ratio.plot(*zip(*points), marker=MARKERS.get(name, "x"), label=f"ours / {name}")
     cost.set_xlabel("boxes")
     cost.set_ylabel("us per step (h = 4 ms, sleeping off)")
     cost.set_title("pyramids of boxes: cost per step")

@@ -82,18 +82,30 @@ def _ratio_text(x: float, skipped: bool = False) -> str:
     return f"{x:.2f} ({'met' if x <= 0.5 else 'missed'})"
 
 
-def figure(rows: list[Row], path: Path) -> bool:
+#: Each engine's marker in the bench's figures.
+MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
+
+
+def agg_pyplot():
+    """matplotlib's pyplot drawing to files (the Agg backend), or None where matplotlib is
+    not installed or does not load."""
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except Exception:
+        return None
+    return plt
+
+
+def figure(rows: list[Row], path: Path) -> bool:
+    plt = agg_pyplot()
+    if plt is None:
         return False
     scenes = list(dict.fromkeys(r.scene for r in rows))
     cols = 3
     rows_n = math.ceil(len(scenes) / cols)
     fig, axes = plt.subplots(rows_n, cols, figsize=(5 * cols, 4 * rows_n), squeeze=False)
-    markers = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
     for ax, scene in zip(axes.ravel(), scenes):
         ax.set_prop_cycle(color=plt.cm.tab20.colors)  # up to 20 series per panel, all distinct
         groups: dict[tuple, list[Row]] = {}
@@ -107,7 +119,7 @@ def figure(rows: list[Row], path: Path) -> bool:
             label = f"{engine if engine != 'hecker_dynamics' else 'hd'} {method}" + \
                 (f" h={step:g}" if step else "")
             ax.loglog([r.cost for r in group], [max(r.position_error, 1e-16) for r in group],
-                      marker=markers.get(engine, "x"), ms=3, lw=1,
+                      marker=MARKERS.get(engine, "x"), ms=3, lw=1,
                       ls="-" if engine == "hecker_dynamics" else "--", label=label)
         for t in (1e-3, 1e-6, 1e-9):
             ax.axhline(t, color="grey", lw=0.5, ls=":")
