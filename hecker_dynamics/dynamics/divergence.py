@@ -172,7 +172,7 @@ class EnergyBound:
                     self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
                                          spec.name))
         self._speeds: dict[str, float] = {}
-        self._inputs_set = self._motors_moved = False
+        self._inputs_set = self._motors_moved = self._stale = False
         #: The largest excess of B over the limit seen, for tests and reports.
         self.worst_ratio = 0.0
         #: The bodies of the unit a failed check refused.
@@ -306,7 +306,7 @@ class EnergyBound:
         self._set(RATE, [steady + rate for steady, rate in zip(self._steady, rates)])
         self._set(INPUT_RATE, [0.0] * len(rates))
         self._inputs_set = self._motors_moved = False
-        self._varying = bool(terms)
+        self._stale = bool(terms)  # to take again, if only to drop inputs that ended
         if self._motors:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
             self._set(POWER, self._powers(self._speeds))
@@ -372,7 +372,9 @@ class EnergyBound:
         self.worst_ratio = max(self.worst_ratio, worst)
         if not worst <= 1.0:
             return self._problem()
-        if self._varying or self._inputs_set or self._motors_moved:
+        # The rates follow the state where constant wrenches or inputs act.
+        if self._stale or self.model.inputs is not None or self._inputs_set or \
+                self._motors_moved:
             self._refresh(q)
         return None
 
@@ -472,6 +474,7 @@ class EnergyBound:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
             self._set(POWER, self._powers(self._speeds))
         self._inputs_set = any(self.row(INPUT_RATE))
+        self._stale = True
         self.worst_ratio = float(state["worst_ratio"])
 
     def carried(self, state: dict[str, Any], sources: Sequence[Optional[int]]) -> dict[str, Any]:

@@ -656,3 +656,30 @@ def test_a_spawn_carries_the_budgets_of_the_units_it_joins():
     assert carried["root"][1] == pytest.approx(math.hypot(old["root"][1], old["root"][2]),
                                                rel=1e-15)
     assert carried["root"][0] == old["root"][0] and carried["root"][2] == old["root"][3]
+
+
+@pytest.mark.parametrize("name", ["sample", "gears"])
+def test_a_restored_simulation_carries_the_budgets_through_inputs_and_motors(name):
+    """Restored from a keyframe's JSON while an input acts at a fixed-frame point (its
+    lever arm changes as the body moves) and, in gears, after a motor's speed changed, a
+    simulation keeps every unit's budget as the original does, bit for bit, as the input
+    ends and the motor changes again: live replays compare the budgets in their
+    keyframes."""
+    scene = load_scene(name)
+    body = scene.bodies[0].name
+    push = WrenchCommand(SEC // 2, body, "test", "world", (1.0, 2.0), (30.0, 5.0), 2.0,
+                         SEC // 2)
+    original = Simulation(scene)
+    original.play((push,), SEC // 2 + PERIOD, keep=False)
+    joints = original.model.joints
+    motor = next(iter(joints.motor_speed)) if joints is not None else None
+    if motor is not None:
+        set_motor_speed(original, motor, 5.0)
+    original.advance_to(original.time_ns + PERIOD // 2)
+    copy_ = _restored(original)
+    for sim in (original, copy_):
+        sim.advance_to(sim.time_ns + SEC)  # past the input's end
+        if motor is not None:
+            set_motor_speed(sim, motor, -1.0)
+        sim.advance_to(sim.time_ns + SEC // 3)
+    assert copy_.export_state() == original.export_state()

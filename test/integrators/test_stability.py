@@ -230,6 +230,21 @@ def test_a_blow_up_beside_a_body_of_any_mass_is_refused(method, spring_mass, rat
     assert sim.snapshot().energy <= GROWTH * start + floor
 
 
+def test_a_slow_explicit_euler_drift_is_refused_when_it_passes_the_growth_factor():
+    """Explicit Euler at omega h = 0.1 multiplies the oscillator's energy by exactly 1.01
+    a step: slightly growing runs pass, until the first publish instant (every 20 steps)
+    past GROWTH times the start: 1.01^680 = 869 passes, 1.01^700 = 1060 is refused at
+    t = 0.70 s, keeping the state of 0.68 s."""
+    scene = oscillator(1e4, position=(1.0, 0.0), integrator="explicit_euler",
+                       publish_rate=50.0)
+    sim = Simulation(scene)
+    start = sim.snapshot().energy
+    with pytest.raises(DivergenceError, match="by t = 0.700000 s"):
+        sim.advance_to(1_000_000_000)
+    assert sim.steps == 680
+    assert sim.snapshot().energy == pytest.approx(start * 1.01 ** 680, rel=1e-9)
+
+
 def test_simulation_raises_on_divergence_and_keeps_its_last_finite_state():
     scene = oscillator(K_STIFF, position=(0.01, 0.0), step=0.1, integrator="rk4")
     sim = Simulation(scene)
