@@ -60,7 +60,7 @@ def unit_energy(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
     energy bound's ``budget``, in the kernel, as :class:`~.divergence.EnergyBound`'s
     plain-float loop sums them (``springs``: :attr:`CompiledForces.program` of the
     springs, or None)."""
-    _kernel.unit_energy(springs, q, v, statics, unit, budget)
+    _kernel.bound(springs, q, v, statics, unit, budget)
 
 
 def bound_check(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
@@ -68,7 +68,7 @@ def bound_check(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
     """One check of the energy bound in the kernel, as
     :meth:`~.divergence.EnergyBound._check_python` does it: the largest ratio of a unit's
     excess to its limit."""
-    return float(_kernel.bound_check(springs, q, v, statics, unit, budget, seconds, growth))
+    return float(_kernel.bound(springs, q, v, statics, unit, budget, seconds, growth))
 
 
 Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h

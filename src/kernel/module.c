@@ -321,7 +321,7 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
-/* The arguments of unit_energy and bound_check: the springs' program (or None), q, v,
+/* The arguments of bound: the springs' program (or None), q, v,
  * the statics (masses, moments of inertia, floors), the unit of each body and the budget
  * (writable), checked against each other. */
 typedef struct {
@@ -396,41 +396,31 @@ static int run_bound(bound_args *a, int check, double seconds, double growth, do
     return 0;
 }
 
-PyDoc_STRVAR(unit_energy_doc,
-"unit_energy(springs, q, v, statics, unit, budget)\n\n"
-"Each unit's energy of motion and springs at (q, v) into row ENERGY of ``budget`` and its\n"
-"excess over the bodies' floors into row EXCESS (divergence.py's `_sums`, with\n"
-"the same bits). ``springs``: a program of the springs, or None; ``statics``: masses,\n"
-"moments of inertia and floors, one per body each; ``unit``: int64, one per body;\n"
-"``budget``: float64, writable, 8 rows of one value per unit.");
+PyDoc_STRVAR(bound_doc,
+"bound(springs, q, v, statics, unit, budget[, seconds, growth]) -> float or None\n\n"
+"The energy bound (divergence.py, with the same bits). Without ``seconds``: each unit's\n"
+"energy of motion and springs at (q, v) into row ENERGY of ``budget`` and its excess over\n"
+"the bodies' floors into row EXCESS (`_sums`). With them: one check (`_check_python`),\n"
+"the budget advanced by ``seconds`` and the limits ``growth`` times its square; returns\n"
+"the largest ratio of a unit's excess to its limit. ``springs``: a program of the\n"
+"springs, or None; ``statics``: masses, moments of inertia and floors, one per body\n"
+"each; ``unit``: int64, one per body; ``budget``: float64, writable, 8 rows of one value\n"
+"per unit.");
 
-static PyObject *py_unit_energy(PyObject *self, PyObject *args)
+static PyObject *py_bound(PyObject *self, PyObject *args)
 {
-    PyObject *springs, *objects[5];
+    PyObject *springs, *objects[5], *seconds = NULL;
+    double growth = 0.0, worst = 0.0;
     bound_args a;
-    if (!PyArg_ParseTuple(args, "OOOOOO:unit_energy", &springs, objects, objects + 1,
-                          objects + 2, objects + 3, objects + 4) ||
-        get_bound_args(&a, springs, objects) < 0 || run_bound(&a, 0, 0.0, 0.0, NULL) < 0)
+    if (!PyArg_ParseTuple(args, "OOOOOO|Od:bound", &springs, objects, objects + 1,
+                          objects + 2, objects + 3, objects + 4, &seconds, &growth))
         return NULL;
-    Py_RETURN_NONE;
-}
-
-PyDoc_STRVAR(bound_check_doc,
-"bound_check(springs, q, v, statics, unit, budget, seconds, growth) -> float\n\n"
-"One check of the energy bound (divergence.py's `_check_python`, with the same bits): the\n"
-"arguments of unit_energy, the seconds since the last check and the growth allowed;\n"
-"returns the largest ratio of a unit's excess to its limit.");
-
-static PyObject *py_bound_check(PyObject *self, PyObject *args)
-{
-    PyObject *springs, *objects[5];
-    double seconds, growth, worst = 0.0;
-    bound_args a;
-    if (!PyArg_ParseTuple(args, "OOOOOOdd:bound_check", &springs, objects, objects + 1,
-                          objects + 2, objects + 3, objects + 4, &seconds, &growth) ||
-        get_bound_args(&a, springs, objects) < 0 ||
-        run_bound(&a, 1, seconds, growth, &worst) < 0)
+    const double interval = seconds == NULL ? 0.0 : PyFloat_AsDouble(seconds);
+    if ((seconds != NULL && PyErr_Occurred()) || get_bound_args(&a, springs, objects) < 0 ||
+        run_bound(&a, seconds != NULL, interval, growth, &worst) < 0)
         return NULL;
+    if (seconds == NULL)
+        Py_RETURN_NONE;
     return PyFloat_FromDouble(worst);
 }
 
@@ -1053,8 +1043,7 @@ static PyMethodDef methods[] = {
     {"pair", py_pair, METH_VARARGS, pair_doc},
     {"accelerations", py_accelerations, METH_VARARGS, accelerations_doc},
     {"advance", py_advance, METH_VARARGS, advance_doc},
-    {"unit_energy", py_unit_energy, METH_VARARGS, unit_energy_doc},
-    {"bound_check", py_bound_check, METH_VARARGS, bound_check_doc},
+    {"bound", py_bound, METH_VARARGS, bound_doc},
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},
     {"warm", py_warm, METH_VARARGS, warm_doc},
