@@ -138,7 +138,9 @@ class EnergyBound:
         springs = [term for term in model.terms
                    if isinstance(term, (AnchorSpringTerm, BodySpringTerm))]
         self._springs = _spring_rows(springs)
-        if not model.lean:  # the same as arrays, for numpy
+        # Python sums in plain floats up to Model.lean's size, as the forces do.
+        self._lean = model.lean
+        if not self._lean:  # the same as arrays, for numpy
             self._arrays = (model.mass, model.inertia, np.array(floor))
             a, la, b, lb, k, rest = zip(*self._springs) if springs else ((),) * 6
             self._spring_columns = (np.array(a, dtype=int), np.array(la).reshape(-1, 2),
@@ -173,7 +175,7 @@ class EnergyBound:
                                          spec.name))
         self._speeds: dict[str, float] = {}
         self._inputs_set = self._motors_moved = self._stale = False
-        #: The largest excess of B over the limit seen, for tests and reports.
+        #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
         self.worst_ratio = 0.0
         #: The bodies of the unit a failed check refused.
         self.over: tuple[int, ...] = ()
@@ -202,7 +204,7 @@ class EnergyBound:
         ``hd_unit_energy`` adds them: in plain floats up to Model.lean's size, above it
         with numpy's elementwise operations and in-order ``np.add.at`` (the same
         operations in the same order, so the same bits)."""
-        if not self.model.lean:
+        if not self._lean:
             return self._sums_arrays(q, v)
         count = len(self.members)
         energy, excess = [0.0] * count, [0.0] * count
