@@ -17,7 +17,7 @@ from typing import Optional
 
 from ..scene.load import Scene
 from .compare import CompareReport, Tolerances, compare_contents
-from .coverage import Coverage
+from .coverage import Coverage, span
 from .io import BagContents
 from .live import check_live, is_live_recording
 from .replay import (ReplayError, input_topics, output_types, outputs_as_bag,
@@ -85,16 +85,27 @@ def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
             if topic not in topics and topic in bag.topics:
                 coverage.not_compared[topic] = "not named by --topic"
         wanted = {t: wanted[t] for t in topics}
-    absent = [t for t in wanted if t not in bag.topics]
+    held = {m.topic for m in bag.messages}
+    absent = [t for t in wanted if t not in held and any(m.topic == t for m in actual.messages)]
     if absent:
         coverage.fail(f"{', '.join(absent)} not recorded: the node publishes them for "
                       f"{scene.source} (--topic names the topics a recording holds on "
                       "purpose; --partial accepts a partial recording)", missing=True)
     report, _ = compare_contents(bag, actual, tolerances=tolerances,
-                                 topics=[t for t in wanted if t in bag.topics])
+                                 topics=[t for t in wanted if t in held])
     for compared in report.topics:
         coverage.topic(compared.topic).recorded = compared.expected
         coverage.topic(compared.topic).checked = compared.matched
+        if compared.extra:
+            coverage.fail(f"{compared.topic}: {len(compared.extra)} outputs of the replay not "
+                          f"recorded, {span(min(compared.extra), max(compared.extra))}",
+                          missing=True)
+            if partial:  # accepted: the comparison is of what was recorded
+                compared.extra = []
+        if compared.missing:
+            coverage.fail(f"{compared.topic}: {len(compared.missing)} recorded outputs the "
+                          f"replay does not publish, "
+                          f"{span(min(compared.missing), max(compared.missing))}")
     inputs = input_topics(scene)
     coverage.inputs = sum(1 for m in bag.messages if m.topic in inputs)
     return report, coverage

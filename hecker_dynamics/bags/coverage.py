@@ -22,8 +22,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-__all__ = ["DISCOVERY_NS", "STOP_NS", "LOST_RUN", "LOST_SHARE", "Stretch", "TopicCoverage",
-           "Coverage", "seconds", "span"]
+__all__ = ["DISCOVERY_NS", "STOP_NS", "INPUT_LAG_NS", "LOST_RUN", "LOST_SHARE", "Stretch",
+           "TopicCoverage", "Coverage", "seconds", "span", "runs"]
 
 #: How long ``ros2 bag record -a`` may take to subscribe to a topic after it starts or the
 #: topic appears: its polling for new topics (100 ms) and the middleware's discovery.
@@ -31,6 +31,9 @@ DISCOVERY_NS = 1_000_000_000
 #: How far apart the recorder's subscriptions may end when it stops: it drops them one by
 #: one, and each may still deliver what was in flight.
 STOP_NS = 500_000_000
+#: How much later than the node's record of an input message the recorder may log the
+#: message itself: both come from the same publisher, the record by way of the node.
+INPUT_LAG_NS = 50_000_000
 #: Most outputs in a row that a recorder under load may lose on one topic...
 LOST_RUN = 5
 #: ... and the largest share of a topic's outputs it may lose (at least one output).

@@ -55,20 +55,20 @@ from typing import Optional, Union
 from ..dynamics.simulation import Snapshot
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
-from ..ros.names import MARKERS_TOPIC, TF_STATIC_TOPIC
+from ..ros.names import CLOCK_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
 from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import InputSource, Runner
 from ..ros.session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, MOTOR_SPEED_EVENT,
                            WORLD_EVENTS_DEPTH, WRENCH_STAMPED_EVENT, InputEventFields,
                            KeyframeFields, SessionFields, WorldChange, WorldEventFields,
-                           decode_state)
+                           decode_state, encode_state)
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene
 from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_pairs
-from .coverage import (DISCOVERY_NS, LOST_RUN, LOST_SHARE, STOP_NS, Coverage, Stretch, runs,
-                       seconds, span)
+from .coverage import (DISCOVERY_NS, INPUT_LAG_NS, LOST_RUN, LOST_SHARE, STOP_NS, Coverage,
+                       Stretch, runs, seconds, span)
 from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
                  BagMessage, resolve_topic)
 from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
@@ -147,6 +147,11 @@ def _decode_record(message: BagMessage, msgtype: str, coverage: Coverage) -> Opt
         msg = message.decode()
         if msgtype == SESSION_INFO:
             return bags.session_fields(msg)
+        if msg.header.frame_id:
+            coverage.fail(f"record {message.index} on '{message.topic}' logged at "
+                          f"{seconds(message.log_ns)} s names a frame "
+                          f"({msg.header.frame_id!r}), which the node never does")
+            return None
         if msgtype == KEYFRAME:
             return bags.keyframe_fields(msg)
         if msgtype == INPUT_EVENT:
@@ -199,8 +204,9 @@ def recorded_sessions(bag: BagContents, coverage: Optional[Coverage] = None
             elif known.info != record:
                 coverage.fail(f"two different records of session {record.session}")
     numbers = sorted(sessions)
-    for gap in sorted(set(range(numbers[0], numbers[-1] + 1)) - set(numbers)) if numbers else ():
-        coverage.fail(f"the record of session {gap} is missing (sessions "
+    gaps = _gaps(numbers, numbers[0], numbers[-1] + 1) if numbers else []
+    if gaps:
+        coverage.fail(f"the record(s) of session(s) {_ranges(gaps)} missing (sessions "
                       f"{numbers[0]} to {numbers[-1]} are recorded)")
     earlier = 0
     for message, record in read:
@@ -454,24 +460,26 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
                     coverage: Coverage, latched_full: bool
                     ) -> tuple[Optional[KeyframeFields], list[Event], list[Event]]:
     """The keyframe to start from (None: the session's start), the events to push from
-    there and those recorded before it, which are not replayed.
+    there and those recorded before it.
 
-    The start is the earliest state record whose later events are all in the bag, and at
-    most :data:`MAX_PRELUDE_NS` before the first recorded output. Missing events fail the
-    check (``missing``: --partial accepts them), but for the oldest ones of a recorder that
-    started late, which received as many as the node keeps (``latched_full``)."""
+    The start is the earliest state record whose later events are all in the bag (a
+    session's first keyframe rather than its start: the counts of inputs the node carries
+    over restarts are in it), and at most :data:`MAX_PRELUDE_NS` before the first recorded
+    output. Missing events fail the check (``missing``: --partial accepts them), but for the
+    oldest ones of a recorder that started late, which received as many as the node keeps
+    (``latched_full``)."""
     events = session.events
     needed_to = max([k.next_event for k in session.keyframes]
                     + [max(events, default=session.info.next_event - 1) + 1])
-    missing = [s for s in range(session.info.next_event, needed_to) if s not in events]
+    missing = _gaps(sorted(events), session.info.next_event, needed_to)
     lowest = min(events, default=needed_to)
-    holes = [s for s in missing if s > lowest]
+    holes = [(a, b) for a, b in missing if b > lowest]
     starts: list[tuple[int, int, Optional[KeyframeFields]]] = [
         (k.stamp_ns, k.next_event, k) for k in session.keyframes]
     if not any(k.steps == 0 for k in session.keyframes):
         starts.insert(0, (session.info.start_ns, session.info.next_event, None))
     usable = [(stamp, first, k) for stamp, first, k in starts
-              if all(s in events for s in range(first, needed_to))]
+              if all(b < first for _, b in missing)]
     if not usable:
         raise ReplayError(
             f"session {session.number}: the bag lacks input or world event records "
@@ -494,17 +502,31 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
         where = (f"before the keyframe at {seconds(keyframe.stamp_ns)} s" if keyframe
                  else "before the session's start")
         gone = holes or missing
+        many = len(gone) > 1 or gone[0][0] != gone[0][1]
         coverage.fail(f"session {session.number}: input or world event "
-                      f"record{'s' if len(gone) > 1 else ''} {_ranges(gone)} missing; nothing "
+                      f"record{'s' if many else ''} {_ranges(gone)} missing; nothing "
                       f"{where} could be replayed", missing=True)
     pushed = [events[s] for s in sorted(events) if s >= first_event]
     before = [events[s] for s in sorted(events) if s < first_event]
     return keyframe, pushed, before
 
 
-def _ranges(numbers: list[int]) -> str:
-    shown = [str(first) if first == last else f"{first} to {last}"
-             for first, last in runs(numbers)]
+def _gaps(held: list[int], first: int, end: int) -> list[tuple[int, int]]:
+    """The runs (first, last) of numbers from ``first`` to before ``end`` that the sorted
+    ``held`` lacks (without counting them one by one: a record may claim any number)."""
+    gaps = []
+    expected = first
+    for number in held + [end]:
+        if number > expected:
+            gaps.append((expected, min(number, end) - 1))
+        expected = max(expected, number + 1)
+        if expected >= end:
+            break
+    return [(a, b) for a, b in gaps if a <= b]
+
+
+def _ranges(found: list[tuple[int, int]]) -> str:
+    shown = [str(first) if first == last else f"{first} to {last}" for first, last in found]
     return ", ".join(shown[:4]) + (f" and {len(shown) - 4} more runs" if len(shown) > 4 else "")
 
 
@@ -534,6 +556,10 @@ def _world_shape(event: WorldEventFields) -> Optional[str]:
     if kind is not WorldChange.SPAWN and (event.spec or event.collisions):
         return "a body's description"
     return None
+
+
+class _Stuck(Exception):
+    """A replay that cannot go on from the recorded state (its message says why)."""
 
 
 class _SessionReplay:
@@ -584,7 +610,11 @@ class _SessionReplay:
                 self.runner.scene, snapshot, tf=True, base=self.runner.base_scene))
 
     def advance(self, target_ns: int) -> None:
-        tick = self.runner.advance(target_ns)
+        try:
+            tick = self.runner.advance(target_ns)
+        except (ArithmeticError, ValueError) as error:  # a state no run of the node reaches
+            raise _Stuck(f"cannot be replayed on from {seconds(self.runner.sim.time_ns)} s: "
+                         f"{type(error).__name__}: {error}") from None
         self.publish(tick.snapshots)
         if tick.diverged is not None and self.check.halted is None:
             self.check.halted = tick.diverged
@@ -598,6 +628,12 @@ class _SessionReplay:
     def run(self, events: Sequence[Event], end_ns: int, coverage: Coverage) -> None:
         """Push ``events`` at their sim times and step on to ``end_ns``; a record that the
         replay cannot follow ends it with a failure."""
+        try:
+            self._run(events, end_ns, coverage)
+        except _Stuck as stuck:
+            coverage.fail(f"session {self.session.number}: {stuck}")
+
+    def _run(self, events: Sequence[Event], end_ns: int, coverage: Coverage) -> None:
         number = self.session.number
         for event in events:
             if event.stamp_ns > end_ns:
@@ -608,6 +644,11 @@ class _SessionReplay:
                               "before it had reached: out of place")
                 return
             self.advance(event.stamp_ns)
+            if self.runner.sim.time_ns != event.stamp_ns:
+                coverage.fail(f"{_name(event)} was made at {seconds(event.stamp_ns)} s, where "
+                              "the simulation never stood (it steps from "
+                              f"{seconds(self.runner.sim.time_ns)} s): out of place")
+                return
             problem = self.apply(event)
             if problem is not None:
                 coverage.fail(f"session {number}: {_name(event)} {problem}")
@@ -664,6 +705,54 @@ class _SessionReplay:
         if tick.diverged is not None and self.check.halted is None:
             self.check.halted = tick.diverged
         return record
+
+
+def _check_first_keyframe(scene: Scene, session: RecordedSession, keyframe: KeyframeFields,
+                          before: list[Event], check: LiveCheck,
+                          topics: dict[str, Optional[InputSource]]) -> list[Event]:
+    """Replay the events of a session that came before its first keyframe (between a
+    restart and the node's next tick) from the session's start, and compare the keyframe
+    the replay then takes with the recorded one, but for the counts the node carries over
+    restarts (inputs taken and refused, the order of commands). Returns the events before
+    the keyframe that this could not replay (none of the session's, or all of them)."""
+    ours = [e for e in before if e.sequence >= session.info.next_event]
+    if len(ours) != keyframe.next_event - session.info.next_event \
+            or any(e.stamp_ns != session.info.start_ns for e in ours):
+        return before
+    scratch = _SessionReplay(scene, session, _Replayed(), LiveCheck(
+        check.report, Coverage(partial=True)), topics)
+    coverage = check.coverage
+    for event in ours:
+        problem = scratch.apply(event)
+        if problem is not None:
+            coverage.fail(f"session {session.number}: {_name(event)} {problem}")
+        coverage.input_events += isinstance(event, InputEventFields)
+        coverage.world_events += isinstance(event, WorldEventFields)
+        check.events += 1
+    scratch.runner.take_records()
+    try:
+        scratch.advance(session.info.start_ns)
+    except _Stuck as stuck:
+        coverage.fail(f"session {session.number}: {stuck}")
+    mine = scratch.taken.get(keyframe.stamp_ns)
+    if mine is None or _carried(mine, keyframe) != keyframe:
+        coverage.fail(f"session {session.number}: the state at {seconds(keyframe.stamp_ns)} s "
+                      "differs from the recorded keyframe")
+    else:
+        check.keyframes_checked += 1
+    return [e for e in before if e.sequence < session.info.next_event]
+
+
+def _carried(keyframe: KeyframeFields, like: KeyframeFields) -> KeyframeFields:
+    """``keyframe`` with the counts the node carries over restarts taken from ``like``."""
+    try:
+        state, other = decode_state(keyframe.state), decode_state(like.state)
+        state["runner"]["accepted"] = other["runner"]["accepted"]
+        state["runner"]["rejected"] = other["runner"]["rejected"]
+        state["inputs"]["next_order"] = other["inputs"]["next_order"]
+    except (ValueError, KeyError, TypeError):
+        return keyframe
+    return keyframe._replace(state=encode_state(state))
 
 
 # ----------------------------------------------------------------------------- the check
@@ -733,17 +822,19 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     produced_topics = (set(output_types(scene, tf=True))
                        | {resolve_topic(t) for name in spawned for t in body_topics(scene, name)})
     skipped = {resolve_topic(DIAGNOSTICS_TOPIC): "wall times, published at timer ticks",
-               TF_STATIC_TOPIC: "published once, fixed by the scene"}
+               TF_STATIC_TOPIC: "published once, fixed by the scene",
+               CLOCK_TOPIC: "published at lockstep ticks"}
     if topics is not None:
-        unknown = [t for t in topics if t not in produced_topics]
+        unknown = [t for t in topics if t not in produced_topics or t in skipped]
         if unknown:
-            raise ReplayError(f"--topic {unknown[0]}: not an output the node publishes for "
-                              f"{scene.source} (its outputs: {', '.join(sorted(produced_topics))})")
+            why = f" ({skipped[unknown[0]]})" if unknown[0] in skipped else ""
+            raise ReplayError(f"--topic {unknown[0]}: not an output the check compares for "
+                              f"{scene.source}{why}; it compares "
+                              f"{', '.join(sorted(produced_topics - set(skipped)))}")
         skipped.update({t: "not named by --topic" for t in produced_topics - set(topics)})
     compared = produced_topics - set(skipped)
     for topic, why in skipped.items():
-        if topic in bag.topics and topic in produced_topics | {resolve_topic(DIAGNOSTICS_TOPIC),
-                                                               TF_STATIC_TOPIC}:
+        if topic in bag.topics:
             coverage.not_compared[topic] = why
     recorded = _read_outputs(bag, compared, coverage)
     if not any(recorded.topics.values()):
@@ -761,6 +852,9 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
                         for _, stamp in messages)
         keyframe, events, before = _starting_point(session, stamps[0] if stamps else None,
                                                    coverage, latched_full)
+        if keyframe is not None and keyframe.steps == 0:
+            before = _check_first_keyframe(scene, session, keyframe, before, check,
+                                           wrench_topics)
         if before:
             coverage.notes.append(f"session {session.number}: {len(before)} event record(s) "
                                   "before the state the replay starts from not replayed")
@@ -1147,15 +1241,24 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
         if message.topic in topics:
             recorded[message.topic].append(message)
     first_event: dict[str, int] = {}
-    # Copies of one message are interchangeable: those recorded go to the events whose
-    # message the recorder must have written first.
-    events: dict[tuple[str, bytes], list[tuple[bool, InputEventFields]]] = defaultdict(list)
+    copies: dict[tuple[str, bytes], list[int]] = defaultdict(list)
+    for topic, messages in recorded.items():
+        for message in messages:
+            copies[topic, message.raw].append(message.log_ns)
     for session in sessions:
         for sequence, event in sorted(session.events.items()):
             if not isinstance(event, InputEventFields):
                 continue
             log = session.event_logs[sequence]
             first_event.setdefault(event.topic, log)
+            # Its copy: the latest of the same bytes logged before the node's record of it
+            # (give or take INPUT_LAG_NS), which the events before it did not take.
+            logs = copies.get((event.topic, _input_bytes(event)), [])
+            eligible = [t for t in logs if t <= log + INPUT_LAG_NS]
+            if eligible:
+                logs.remove(max(eligible))
+                coverage.inputs += 1
+                continue
             messages = recorded.get(event.topic, [])
             within = bool(messages) and messages[0].log_ns <= event.arrival_ns <= \
                 messages[-1].log_ns
@@ -1163,24 +1266,17 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
             running = first is not None and last is not None and \
                 first <= event.stamp_ns < last and \
                 log > first_event[event.topic] + DISCOVERY_NS
-            events[event.topic, _input_bytes(event)].append((within or running, event))
-    copies: dict[tuple[str, bytes], int] = defaultdict(int)
-    for topic, messages in recorded.items():
-        for message in messages:
-            copies[topic, message.raw] += 1
-    for key, found in events.items():
-        available = copies.get(key, 0)
-        coverage.inputs += min(available, len(found))
-        copies[key] = max(0, available - len(found))
-        needed = [event for required, event in found if required]
-        for event in needed[available:]:
-            coverage.fail(f"input event {event.sequence} ({event.topic}, arrived "
-                          f"{seconds(event.arrival_ns)} s) has no recorded message on "
-                          f"{event.topic}, though the recorder recorded the node's outputs "
-                          "before and after it: the bag lost or changed it", missing=True)
+            if within or running:
+                coverage.fail(f"input event {event.sequence} ({event.topic}, arrived "
+                              f"{seconds(event.arrival_ns)} s) has no recorded message on "
+                              f"{event.topic} logged by the node's record of it, though the "
+                              "recorder recorded "
+                              + ("that topic" if within else "the node's outputs")
+                              + " before and after it: the bag lost, changed or moved it",
+                              missing=True)
     left: dict[str, int] = defaultdict(int)
-    for (topic, _), count in copies.items():
-        left[topic] += count
+    for (topic, _), logs in copies.items():
+        left[topic] += len(logs)
     for topic, count in sorted(left.items()):
         if count:
             coverage.notes.append(f"{count} message(s) on {topic} that the node did not take "

@@ -293,3 +293,75 @@ def test_a_replay_that_diverges_writes_no_bag_and_claims_no_span(tmp_path, capsy
     assert code == 2 and err.count("\n") == 1 and "diverged" in err
     assert not (tmp_path / "out").exists() and not list(tmp_path.glob(".out*"))
     assert "to 10.000000000 s" not in out and "diverged after" in out
+
+
+# ----------------------------------------------------------------------------- more honest
+
+@pytest.mark.parametrize("name,seed,options,recorder", [
+    ("sample", 30, {"reset_at": 1_500_000_000}, {"stop_ns": 3_200_000_000}),
+    ("sample", 31, {"lockstep": True, "world": 2}, {"late_ns": 1_100_000_000,
+                                                    "stop_ns": 3_000_000_000}),
+    ("gears", 32, {"motors": 8, "world": 1}, {"discovery_ns": 300_000_000}),
+    ("sample", 33, {"bodies": [(700_000_000, ("spawn", "ball", BALL, ())),
+                               (2_500_000_000, ("delete", "ball"))]},
+     {"late_ns": 500_000_000, "stop_ns": 3_500_000_000, "discovery_ns": 200_000_000}),
+])
+def test_honest_recordings_of_every_kind_pass_with_every_output_checked(
+        tmp_path, capsys, name, seed, options, recorder):
+    """Recorders that start late, stop early and discover topics slowly (each topic within
+    0.3 s): every recorded output is checked, and what they did not record is named."""
+    path = record(run_live(load_scene(name), seed, **options), tmp_path / "live", seed,
+                  **recorder)
+    bag = read_bag(path)
+    outputs = sum(m.topic == "/tf" or m.topic.endswith(("/pose", "/twist"))
+                  or m.topic == "/joint_states" for m in bag.messages)
+    code, out, err = _check(capsys, path, name)
+    verdict = _verdict(out)
+    assert code == 0, out + err
+    assert f"match: checked {outputs} of {outputs} recorded outputs" in verdict
+
+
+# ----------------------------------------------------------------------------- other bags
+
+def test_a_script_bag_must_hold_every_output_topic(tmp_path, capsys):
+    """A bag made by ``replay -o --with-inputs`` (no session records): a topic removed
+    fails, ``--topic`` checks the rest, and the verdict says what was checked."""
+    assert main(["script", "sample", "-o", str(tmp_path / "in"), "--duration", "1"]) == 0
+    assert main(["replay", "sample", str(tmp_path / "in"), "-o", str(tmp_path / "out"),
+                 "--with-inputs"]) == 0
+    capsys.readouterr()
+    code, out, _ = _check(capsys, tmp_path / "out")
+    assert code == 0 and "match: checked 200 of 200 recorded outputs on 4 topics" in \
+        _verdict(out)
+    cut = _rewrite(tmp_path / "out", tmp_path / "cut",
+                   lambda m: None if m.topic == "/right/twist" else m.raw)
+    code, out, _ = _check(capsys, cut)
+    assert code == 1 and "/right/twist not recorded" in _verdict(out)
+    code, out, _ = _check(capsys, cut, "sample", *[a for t in ("/left/pose", "/left/twist",
+                                                                "/right/pose")
+                                                   for a in ("--topic", t)])
+    verdict = _verdict(out)
+    assert code == 0 and "checked 150 of 150 recorded outputs on 3 topics" in verdict
+
+
+def test_regress_finds_scene_files_in_the_directory_named(tmp_path, capsys, sample_session):
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    (scenes / "my_sample.yaml").write_text(Path(load_scene("sample").source).read_text())
+    bag = _named_bag(tmp_path, sample_session, "live", "my_sample")
+    assert main(["regress", str(bag), "--workers", "1", "--no-progress"]) == 2
+    assert "neither" in capsys.readouterr().out
+    assert main(["regress", str(bag), "--scene-dir", str(scenes), "--workers", "1",
+                 "--no-progress"]) == 0
+    assert "OK" in capsys.readouterr().out
+
+
+def test_a_sessions_first_keyframe_is_checked_too(tmp_path, capsys):
+    """The keyframe a session starts with is compared with a replay from the session's
+    start (it was the replay's trusted starting point), after a reset too."""
+    session = run_live(load_scene("sample"), 2, reset_at=3_100_000_000)
+    firsts = [p for p in session.published if p.topic.endswith("/keyframe") and p.msg.steps == 0]
+    assert len(firsts) == 2
+    firsts[1].msg.q[0] = math.nextafter(float(firsts[1].msg.q[0]), math.inf)
+    _mismatch(capsys, record(session, tmp_path / "live", 2), "session 1: the state at",
+              "differs from the recorded keyframe")
