@@ -7,30 +7,31 @@ time each input message was pushed at (``~/input_events``), each change made thr
 services (``~/world_events``, in the same sequence) and the whole state every keyframe
 period (``~/keyframe``). A check of a recorded session
 
-1. reads the records and refuses those that contradict each other: two different records
-   of one session, sequence number or keyframe; records out of their session's range or
-   logged out of order; a session record missing between two recorded ones;
+1. reads the records and fails on those that contradict each other (:mod:`.records`);
 2. for each recorded session, starts from the earliest state record (the session's start,
    else a keyframe) whose later events are all in the bag. Events missing after it fail
    the check (the recorder receives them all: they are latched, and the latest 1000 of
    each kind reach a recorder that starts late), unless ``partial``: then it starts after
    the last gap and names what it did not check;
-3. pushes each recorded input event's message at its recorded sim time with its recorded
-   arrival time and makes each recorded world change again, in the node's order, in a
-   :class:`~hecker_dynamics.ros.runner.Runner` with the recorded options, to the last
-   recorded output, event or keyframe. Each event must be accepted or refused as the node
-   did, each recorded keyframe must be one the replay takes and equal it;
+3. pushes each recorded input event's message at its recorded sim time, which must be one
+   the simulation stood at, with its recorded arrival time and makes each recorded world
+   change again, in the node's order, in a :class:`~hecker_dynamics.ros.runner.Runner`
+   with the recorded options, to the last recorded output, event or keyframe. Each event
+   must be accepted or refused as the node did, each recorded keyframe must be one the
+   replay takes and equal it (a session's first too: see :func:`_check_first_keyframe`);
 4. matches every recorded output with the replayed one of its stamp (``Twist``, which has
    no header, by its place among the replayed twists), and compares them
    (:func:`~hecker_dynamics.bags.compare.compare_pairs`). A recorded output the replay
-   does not publish, or recorded twice, fails;
+   does not publish, recorded twice or out of order fails;
 5. accounts for every replayed output the recording lacks
    (:mod:`~hecker_dynamics.bags.coverage`): not recorded by the recorder's doing (before
    it subscribed to the topic, after it stopped, a few lost under load), or missing;
-6. checks the recorded input messages against the events: an event whose message the
-   recorder should have written (it recorded outputs before and after the event, and the
-   topic had been published on for :data:`~.coverage.DISCOVERY_NS`) fails the check
-   without it.
+6. checks the recorded input messages against the events: each event takes a copy of its
+   message logged before the node's record of it (give or take
+   :data:`~.coverage.INPUT_LAG_NS`); one without fails the check where the recorder
+   recorded the topic, or the node's outputs, before and after it (after
+   :data:`~.coverage.DISCOVERY_NS` of the topic's first event: the first messages of a new
+   topic come before the recorder subscribes to it).
 
 Where a replayed output was published in log time is bounded by what was recorded around
 it: a replayed output was published after every recorded output of an earlier snapshot and
@@ -39,8 +40,9 @@ time of its session and before every record of a later session.
 
 ``/diagnostics`` is not compared: it holds wall times and the node publishes it at timer
 ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes;
-nor a ``markers`` array of ``DELETE`` markers alone, which the node sends when bodies are
-gone (:meth:`~hecker_dynamics.ros.outputs.SnapshotOutputs.markers_gone`): it follows from the
+nor ``/clock`` (lockstep ticks), nor a ``markers`` array of ``DELETE`` markers alone,
+which the node sends when bodies are gone
+(:meth:`~hecker_dynamics.ros.outputs.SnapshotOutputs.markers_gone`): it follows from the
 world events compared above, and after a restart from the world before it, which the new
 session's records do not hold.
 """
@@ -50,7 +52,7 @@ import bisect
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Optional, Union
+from typing import Optional
 
 from ..dynamics.simulation import Snapshot
 from ..ros.joint_states import MotorTopic
@@ -60,47 +62,26 @@ from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import InputSource, Runner
 from ..ros.session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, MOTOR_SPEED_EVENT,
                            WORLD_EVENTS_DEPTH, WRENCH_STAMPED_EVENT, InputEventFields,
-                           KeyframeFields, SessionFields, WorldChange, WorldEventFields,
+                           KeyframeFields, WorldChange, WorldEventFields,
                            decode_state, encode_state)
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene
-from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_pairs
 from .coverage import (DISCOVERY_NS, INPUT_LAG_NS, LOST_RUN, LOST_SHARE, STOP_NS, Coverage,
                        Stretch, runs, seconds, span)
-from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
+from .io import (INPUT_EVENT, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
                  BagMessage, resolve_topic)
+from .records import (RECORD_TYPES, Event, RecordedSession, gaps, input_bytes,
+                      is_live_recording, ranges_text, record_name, recorded_sessions,
+                      spawned_bodies)
 from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
 
-#: What a session's event sequence holds.
-Event = Union[InputEventFields, WorldEventFields]
-Record = Union[SessionFields, KeyframeFields, InputEventFields, WorldEventFields]
 #: Most twists in a row a recorder may have lost where the check still finds the next one:
 #: ten publish periods, 0.2 s at the default rate.
 LOST_TWISTS = 10
-#: The record types, by the message type that carries each.
-RECORD_TYPES = (SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
 
-__all__ = ["RecordedSession", "LiveCheck", "recorded_sessions", "is_live_recording",
-           "check_live", "RECORD_TYPES"]
-
-
-@dataclass
-class RecordedSession:
-    """What a bag holds of one session of the node, with the log time of each record."""
-
-    info: SessionFields
-    info_log_ns: int
-    keyframes: list[KeyframeFields] = field(default_factory=list)
-    keyframe_logs: dict[int, int] = field(default_factory=dict)   # stamp -> log time
-    #: Input events and world changes by their shared sequence number.
-    events: dict[int, Event] = field(default_factory=dict)
-    event_logs: dict[int, int] = field(default_factory=dict)      # sequence -> log time
-
-    @property
-    def number(self) -> int:
-        return self.info.session
+__all__ = ["LiveCheck", "check_live", "is_live_recording", "recorded_sessions"]
 
 
 @dataclass
@@ -133,172 +114,7 @@ class LiveCheck:
         return self.coverage.notes
 
 
-def is_live_recording(bag: BagContents) -> bool:
-    """Whether the bag holds the node's session records (a live recording): a topic of any
-    of their types."""
-    return any(msgtype in RECORD_TYPES for msgtype in bag.topics.values())
-
-
 # ----------------------------------------------------------------------------- records
-
-def _decode_record(message: BagMessage, msgtype: str, coverage: Coverage) -> Optional[Record]:
-    """The record a message holds, or None (and a failure) if it cannot be read."""
-    try:
-        msg = message.decode()
-        if msgtype == SESSION_INFO:
-            return bags.session_fields(msg)
-        if msg.header.frame_id:
-            coverage.fail(f"record {message.index} on '{message.topic}' logged at "
-                          f"{seconds(message.log_ns)} s names a frame "
-                          f"({msg.header.frame_id!r}), which the node never does")
-            return None
-        if msgtype == KEYFRAME:
-            return bags.keyframe_fields(msg)
-        if msgtype == INPUT_EVENT:
-            return bags.input_event_fields(msg)
-        return bags.world_event_fields(msg)
-    except BagError as error:
-        coverage.fail(f"{error}")
-    except (ValueError, TypeError, AttributeError, OverflowError) as error:
-        coverage.fail(f"record {message.index} on '{message.topic}' logged at "
-                      f"{seconds(message.log_ns)} s cannot be read: {error}")
-    return None
-
-
-def _order_key(record: Record) -> tuple[int, int]:
-    """The order the node publishes records of one kind in."""
-    if isinstance(record, SessionFields):
-        return record.session, 0
-    if isinstance(record, KeyframeFields):
-        return record.session, record.stamp_ns
-    return record.session, record.sequence
-
-
-def recorded_sessions(bag: BagContents, coverage: Optional[Coverage] = None
-                      ) -> dict[int, RecordedSession]:
-    """The sessions of the node recorded in ``bag``, by session number; what contradicts
-    goes to ``coverage.failures`` (see the module docstring)."""
-    coverage = coverage if coverage is not None else Coverage()
-    read: list[tuple[BagMessage, Record]] = []
-    last: dict[str, tuple[tuple[int, int], Record]] = {}
-    for message in bag.messages:
-        msgtype = bag.topics[message.topic]
-        if msgtype not in RECORD_TYPES:
-            continue
-        record = _decode_record(message, msgtype, coverage)
-        if record is None:
-            continue
-        key = _order_key(record)
-        previous = last.get(message.topic)
-        if previous is not None and key < previous[0]:
-            coverage.fail(f"{message.topic}: the record logged at {seconds(message.log_ns)} s "
-                          f"({_name(record)}) comes after {_name(previous[1])}: out of place")
-        last[message.topic] = (key, record)
-        read.append((message, record))
-    sessions: dict[int, RecordedSession] = {}
-    for message, record in read:
-        if isinstance(record, SessionFields):
-            known = sessions.get(record.session)
-            if known is None:
-                sessions[record.session] = RecordedSession(record, message.log_ns)
-            elif known.info != record:
-                coverage.fail(f"two different records of session {record.session}")
-    numbers = sorted(sessions)
-    gaps = _gaps(numbers, numbers[0], numbers[-1] + 1) if numbers else []
-    if gaps:
-        coverage.fail(f"the record(s) of session(s) {_ranges(gaps)} missing (sessions "
-                      f"{numbers[0]} to {numbers[-1]} are recorded)")
-    earlier = 0
-    for message, record in read:
-        if isinstance(record, SessionFields):
-            continue
-        session = sessions.get(record.session)
-        if session is None:
-            if numbers and record.session < numbers[0]:
-                earlier += 1  # latched records of a session before the recording
-            else:
-                coverage.fail(f"{_name(record)} belongs to session {record.session}, whose "
-                              "session record is missing")
-            continue
-        if isinstance(record, KeyframeFields):
-            _add_keyframe(session, record, message.log_ns, coverage)
-        else:
-            _add_event(session, record, message.log_ns, sessions, coverage)
-    if earlier:
-        coverage.notes.append(f"{earlier} record(s) of sessions before the first recorded one "
-                              "(received latched by a recorder that started late) not used")
-    for session in sessions.values():
-        session.keyframes.sort(key=lambda k: k.stamp_ns)
-    return sessions
-
-
-def _name(record: Record) -> str:
-    if isinstance(record, SessionFields):
-        return f"the record of session {record.session}"
-    if isinstance(record, KeyframeFields):
-        return f"the keyframe of session {record.session} at {seconds(record.stamp_ns)} s"
-    kind = "input" if isinstance(record, InputEventFields) else "world"
-    return f"{kind} event record {record.sequence} of session {record.session}"
-
-
-def _add_keyframe(session: RecordedSession, keyframe: KeyframeFields, log_ns: int,
-                  coverage: Coverage) -> None:
-    known = next((k for k in session.keyframes if k.stamp_ns == keyframe.stamp_ns), None)
-    if known is not None:
-        if known != keyframe:
-            coverage.fail(f"two different keyframes of session {session.number} at "
-                          f"{seconds(keyframe.stamp_ns)} s")
-        return
-    if keyframe.stamp_ns < session.info.start_ns or keyframe.next_event < session.info.next_event:
-        coverage.fail(f"{_name(keyframe)} (next event {keyframe.next_event}) is outside its "
-                      f"session, which starts at {seconds(session.info.start_ns)} s with event "
-                      f"{session.info.next_event}")
-        return
-    session.keyframes.append(keyframe)
-    session.keyframe_logs[keyframe.stamp_ns] = log_ns
-
-
-def _add_event(session: RecordedSession, event: Event, log_ns: int,
-               sessions: dict[int, RecordedSession], coverage: Coverage) -> None:
-    known = session.events.get(event.sequence)
-    if known is not None:
-        if not _same_event(known, event):
-            coverage.fail(f"two different event records numbered {event.sequence} in session "
-                          f"{session.number}")
-        return
-    following = sessions.get(session.number + 1)
-    if event.sequence < session.info.next_event:
-        # The node numbers the inputs it refuses before its first tick in session 0.
-        if session.number == 0 and not event.accepted:
-            return
-        coverage.fail(f"{_name(event)} comes before its session, which starts with event "
-                      f"{session.info.next_event}: out of place")
-    elif following is not None and event.sequence >= following.info.next_event:
-        coverage.fail(f"{_name(event)} comes after its session, which ends before event "
-                      f"{following.info.next_event}: out of place")
-    else:
-        session.events[event.sequence] = event
-        session.event_logs[event.sequence] = log_ns
-
-
-def _same_event(a: Event, b: Event) -> bool:
-    """Equal records (an input event's message compared by its serialized bytes)."""
-    if type(a) is not type(b):
-        return False
-    if isinstance(a, InputEventFields) and isinstance(b, InputEventFields):
-        return a._replace(message=None) == b._replace(message=None) and \
-            _input_bytes(a) == _input_bytes(b)
-    return a == b
-
-
-def _input_bytes(event: InputEventFields) -> bytes:
-    kind = {APPLIED_WRENCH_EVENT: bags.APPLIED_WRENCH, WRENCH_STAMPED_EVENT: bags.WRENCH_STAMPED,
-            MOTOR_SPEED_EVENT: bags.FLOAT64}.get(event.kind, bags.APPLIED_WRENCH)
-    try:
-        return bytes(bags.typestore().serialize_cdr(event.message, kind))
-    except Exception:  # a message the kind does not fit: compared as unequal to any other
-        return repr(event.message).encode()
-
 
 # ----------------------------------------------------------------------------- outputs
 
@@ -321,32 +137,6 @@ def _deletes_only(msg: object) -> bool:
     docstring)."""
     items = getattr(msg, "markers", ())
     return bool(items) and all(m.action == MARKER_DELETE for m in items)
-
-
-def _spawned(sessions: Iterable[RecordedSession]) -> dict[str, Optional[int]]:
-    """The bodies spawned in ``sessions``, by their records (the world events and the edits
-    the keyframes hold), with the log time of the first spawn record of each (None when
-    only a keyframe tells of it)."""
-    names: dict[str, Optional[int]] = {}
-    for session in sessions:
-        for sequence, event in sorted(session.events.items()):
-            if isinstance(event, WorldEventFields) and event.kind is WorldChange.SPAWN \
-                    and event.accepted:
-                names.setdefault(event.body, session.event_logs[sequence])
-        for keyframe in session.keyframes:
-            for edit in _keyframe_edits(keyframe):
-                if edit.kind is EditKind.SPAWN:
-                    names.setdefault(edit.body, None)
-    return names
-
-
-def _keyframe_edits(keyframe: KeyframeFields) -> list[WorldEdit]:
-    try:
-        return [WorldEdit.from_data(data)
-                for data in decode_state(keyframe.state).get("world", [])]
-    except (ValueError, TypeError, AttributeError, KeyError) as error:
-        raise ReplayError(f"the keyframe of session {keyframe.session} at "
-                          f"{seconds(keyframe.stamp_ns)} s has a bad world: {error}") from None
 
 
 def _sibling(topic: str) -> Optional[str]:
@@ -471,7 +261,7 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
     events = session.events
     needed_to = max([k.next_event for k in session.keyframes]
                     + [max(events, default=session.info.next_event - 1) + 1])
-    missing = _gaps(sorted(events), session.info.next_event, needed_to)
+    missing = gaps(sorted(events), session.info.next_event, needed_to)
     lowest = min(events, default=needed_to)
     holes = [(a, b) for a, b in missing if b > lowest]
     starts: list[tuple[int, int, Optional[KeyframeFields]]] = [
@@ -483,7 +273,7 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
     if not usable:
         raise ReplayError(
             f"session {session.number}: the bag lacks input or world event records "
-            f"{_ranges(missing)} and "
+            f"{ranges_text(missing)} and "
             "has no keyframe after them to start from (record ~/input_events and "
             "~/world_events from the node's start)")
     if first_output_ns is not None:
@@ -504,30 +294,11 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
         gone = holes or missing
         many = len(gone) > 1 or gone[0][0] != gone[0][1]
         coverage.fail(f"session {session.number}: input or world event "
-                      f"record{'s' if many else ''} {_ranges(gone)} missing; nothing "
+                      f"record{'s' if many else ''} {ranges_text(gone)} missing; nothing "
                       f"{where} could be replayed", missing=True)
     pushed = [events[s] for s in sorted(events) if s >= first_event]
     before = [events[s] for s in sorted(events) if s < first_event]
     return keyframe, pushed, before
-
-
-def _gaps(held: list[int], first: int, end: int) -> list[tuple[int, int]]:
-    """The runs (first, last) of numbers from ``first`` to before ``end`` that the sorted
-    ``held`` lacks (without counting them one by one: a record may claim any number)."""
-    gaps = []
-    expected = first
-    for number in held + [end]:
-        if number > expected:
-            gaps.append((expected, min(number, end) - 1))
-        expected = max(expected, number + 1)
-        if expected >= end:
-            break
-    return [(a, b) for a, b in gaps if a <= b]
-
-
-def _ranges(found: list[tuple[int, int]]) -> str:
-    shown = [str(first) if first == last else f"{first} to {last}" for first, last in found]
-    return ", ".join(shown[:4]) + (f" and {len(shown) - 4} more runs" if len(shown) > 4 else "")
 
 
 #: The longest stretch of sim time a replay steps through before the first recorded output
@@ -639,19 +410,19 @@ class _SessionReplay:
             if event.stamp_ns > end_ns:
                 break
             if event.stamp_ns < self.runner.sim.time_ns:
-                coverage.fail(f"{_name(event)} was made at {seconds(event.stamp_ns)} s, before "
-                              f"the sim time {seconds(self.runner.sim.time_ns)} s the events "
-                              "before it had reached: out of place")
+                coverage.fail(f"{record_name(event)} was made at {seconds(event.stamp_ns)} s, "
+                              f"before the sim time {seconds(self.runner.sim.time_ns)} s the "
+                              "events before it had reached: out of place")
                 return
             self.advance(event.stamp_ns)
             if self.runner.sim.time_ns != event.stamp_ns:
-                coverage.fail(f"{_name(event)} was made at {seconds(event.stamp_ns)} s, where "
-                              "the simulation never stood (it steps from "
+                coverage.fail(f"{record_name(event)} was made at {seconds(event.stamp_ns)} s, "
+                              "where the simulation never stood (it steps from "
                               f"{seconds(self.runner.sim.time_ns)} s): out of place")
                 return
             problem = self.apply(event)
             if problem is not None:
-                coverage.fail(f"session {number}: {_name(event)} {problem}")
+                coverage.fail(f"session {number}: {record_name(event)} {problem}")
                 if problem.startswith("cannot"):
                     return
             if isinstance(event, WorldEventFields):
@@ -725,7 +496,7 @@ def _check_first_keyframe(scene: Scene, session: RecordedSession, keyframe: Keyf
     for event in ours:
         problem = scratch.apply(event)
         if problem is not None:
-            coverage.fail(f"session {session.number}: {_name(event)} {problem}")
+            coverage.fail(f"session {session.number}: {record_name(event)} {problem}")
         coverage.input_events += isinstance(event, InputEventFields)
         coverage.world_events += isinstance(event, WorldEventFields)
         check.events += 1
@@ -818,7 +589,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
                 f"{session.info.fingerprint}), but {scene.source} has fingerprint "
                 f"{fingerprint}")
     ordered = [sessions[n] for n in sorted(sessions)]
-    spawned = _spawned(ordered)
+    spawned = spawned_bodies(ordered)
     produced_topics = (set(output_types(scene, tf=True))
                        | {resolve_topic(t) for name in spawned for t in body_topics(scene, name)})
     skipped = {resolve_topic(DIAGNOSTICS_TOPIC): "wall times, published at timer ticks",
@@ -1202,7 +973,7 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
                 continue  # before the replay's start, or past its end (failed already)
             mine = taken.get(stamp)
             if mine is None:
-                coverage.fail(f"{_name(keyframe)} is not one the node took (the replay took "
+                coverage.fail(f"{record_name(keyframe)} is not one the node took (the replay took "
                               "none there)")
             elif mine is keyframe:
                 continue  # the keyframe the replay started from
@@ -1253,7 +1024,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
             first_event.setdefault(event.topic, log)
             # Its copy: the latest of the same bytes logged before the node's record of it
             # (give or take INPUT_LAG_NS), which the events before it did not take.
-            logs = copies.get((event.topic, _input_bytes(event)), [])
+            logs = copies.get((event.topic, input_bytes(event)), [])
             eligible = [t for t in logs if t <= log + INPUT_LAG_NS]
             if eligible:
                 logs.remove(max(eligible))
