@@ -186,8 +186,7 @@ class Coverage:
         out += [f"{name:<{width}}  not compared: {why}"
                 for name, why in sorted(self.not_compared.items())]
         out += [f"note: {note}" for note in self.notes]
-        out += [f"MISSING: {failure}" if failure.endswith("missing)") else f"FAIL: {failure}"
-                for failure in self.failures]
+        out += [f"FAIL: {failure}" for failure in self.failures]
         return out
 
 

@@ -365,3 +365,15 @@ def test_a_sessions_first_keyframe_is_checked_too(tmp_path, capsys):
     firsts[1].msg.q[0] = math.nextafter(float(firsts[1].msg.q[0]), math.inf)
     _mismatch(capsys, record(session, tmp_path / "live", 2), "session 1: the state at",
               "differs from the recorded keyframe")
+
+
+def test_coverage_options_are_refused_where_they_mean_nothing(tmp_path, capsys,
+                                                              sample_session):
+    path = record(sample_session, tmp_path / "live", 14)
+    for argv, needle in ((["-o", str(tmp_path / "out"), "--partial"], "give --check"),
+                         (["--check", "--topic", "/applied_wrench"], "not an output"),
+                         (["--check", "--topic", "/tf_static"], "not an output")):
+        code = main(["replay", "sample", str(path), *argv])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and needle in err, err
+    assert not (tmp_path / "out").exists()
