@@ -28,10 +28,6 @@ from typing import TYPE_CHECKING, Optional
 import numpy as np
 
 from .bags.io import STORAGES, BagError
-
-if TYPE_CHECKING:
-    from .bags.check import RecordingCheck
-    from .bags.io import BagContents
 from .batch.engines import EngineError
 from .dynamics.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
@@ -39,6 +35,10 @@ from .dynamics.simulation import DivergenceError, Simulation
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
+
+if TYPE_CHECKING:
+    from .bags.check import RecordingCheck
+    from .bags.io import BagContents
 
 
 def _time_ns(text: str) -> int:
@@ -280,8 +280,9 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag: BagContents) -> in
             for output in sorted(live.outputs, key=lambda o: o.log_ns):
                 writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
     print(f"replayed {live.sessions} session(s) of {args.input} on scene {scene.source} from "
-          f"the node's records: {live.events} input event(s), {live.keyframes_checked} "
-          f"keyframe(s) compared, {len(live.outputs)} output message(s)"
+          f"the node's records: {live.events} input and world event(s), "
+          f"{live.keyframes_checked} keyframe(s) compared, {len(live.outputs)} output "
+          "message(s)"
           + (f" written to {args.output}" if args.output else ""))
     if not args.check:
         for note in live.notes + live.problems:
