@@ -50,12 +50,14 @@ BASES = [
 ]
 #: (message type, field) whose changes the check does not claim to see, unless they change
 #: an output: the session record's version, scene name, reason and catch-up cap, and its
-#: play_script and lockstep (seen through the script's commands and the resumes they
-#: change); the reason texts of events; an input event's arrival time and the message slots
-#: its kind leaves unused. The keyframe a replay starts from (a session's first, at its step
-#: 0) is checked through what follows it.
+#: play_script, lockstep and keyframe period (seen through the script's commands, the
+#: resumes and the keyframes they change); the reason texts of events; an input event's
+#: arrival time and the message slots its kind leaves unused; what a refused service call
+#: asked for. The keyframe a replay starts from (a session's first, at its step 0) is
+#: checked through what follows it.
 HARMLESS = {(bags.SESSION_INFO, f) for f in ("version", "scene", "reason", "max_catch_up_steps",
-                                             "play_script", "lockstep")} | {
+                                             "play_script", "lockstep",
+                                             "keyframe_period_ns")} | {
     (bags.INPUT_EVENT, "reason"), (bags.INPUT_EVENT, "arrival"), (bags.WORLD_EVENT, "reason")}
 SLOTS = {0: "applied_wrench", 1: "wrench_stamped", 2: "motor_speed"}
 
@@ -306,6 +308,8 @@ def _harmless(original: Message, changed: Optional[set[str]], messages: list[Mes
                 m.topic == decoded.topic and m.raw == bytes(store.serialize_cdr(held, msgtype))
                 for m in messages):
             allowed.add(slot)
+    if original.msgtype == bags.WORLD_EVENT and not decoded.accepted:
+        allowed |= {"body", "values", "time_ns", "spec", "collisions"}
     if original.msgtype == bags.KEYFRAME and decoded.steps == 0:
         return True  # a session's first: what a replay starts from
     return changed <= allowed
