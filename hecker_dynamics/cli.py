@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 from collections.abc import Sequence
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
@@ -35,6 +35,10 @@ from .dynamics.simulation import DivergenceError, Simulation
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
+
+if TYPE_CHECKING:
+    from .bags.check import RecordingCheck
+    from .bags.io import BagContents
 
 
 def _time_ns(text: str) -> int:
@@ -174,7 +178,7 @@ def script_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
     from .bags.io import read_bag
-    from .bags.compare import compare_contents
+    from .bags.check import RecordingCheck, check_outputs
     from .bags.live import is_live_recording
     from .bags.replay import (check_distinct, input_topics, outputs_as_bag,
                               recorded_output_topics, replay_outputs, replay_to_bag,
@@ -182,6 +186,8 @@ def replay_command(args: argparse.Namespace) -> int:
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
+    if (args.topic or args.partial) and not args.check:
+        raise BagError("--topic and --partial say what --check compares; give --check")
     if args.output is not None:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
@@ -189,10 +195,9 @@ def replay_command(args: argparse.Namespace) -> int:
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
     # A check against a recording of the node compares the TF it recorded too.
-    tf = args.tf or (args.check and "/tf" in bag.topics)
+    tf = args.tf or (args.check and ("/tf" in bag.topics or "/tf" in (args.topic or ())))
     if args.check:
-        expected_topics = recorded_output_topics(scene, bag, need_inputs=not args.play_script,
-                                                 tf=tf)
+        recorded_output_topics(scene, bag, need_inputs=not args.play_script, tf=tf)
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected, tf=tf)
@@ -203,19 +208,22 @@ def replay_command(args: argparse.Namespace) -> int:
             result = replay_to_bag(scene, bag, Path(args.output), storage=args.storage,
                                    overwrite=args.overwrite, with_inputs=args.with_inputs,
                                    compress=args.compress, progress=progress, **options)
-            actual = read_bag(args.output) if args.check else None
         else:
             produced, result = replay_outputs(scene, bag, progress=progress, **options)
-            actual = outputs_as_bag(scene, produced, tf=tf)
     finally:
         if progress is not None:
             progress.close()
     inputs = [t for t in input_topics(scene) if t in bag.topics]
+    written = f" written to {args.output}" if args.output and not result.halted else ""
     print(f"replayed {result.inputs} input message(s) from {', '.join(inputs) or 'no topic'} "
           f"on scene {scene.source}: {result.accepted} accepted, {len(result.rejected)} "
-          f"rejected; sim time {start * 1e-9:.9f} s to {end * 1e-9:.9f} s, {result.steps} steps, "
-          f"{result.outputs} output message(s)" + (f" written to {args.output}"
-                                                  if args.output else ""))
+          f"rejected; sim time {start * 1e-9:.9f} s to {result.reached_ns * 1e-9:.9f} s, "
+          f"{result.steps} steps, {result.outputs} output message(s){written}"
+          + (f"; the state diverged after {result.reached_ns * 1e-9:.9f} s, so no bag was "
+             "written" if result.halted and args.output else ""))
+    if result.halted:
+        print(f"hecker-dynamics: error: {result.halted}", file=sys.stderr)
+        return 2
     for line in result.rejected[:5]:
         print(f"hecker-dynamics: warning: input rejected: {line}", file=sys.stderr)
     if len(result.rejected) > 5:
@@ -226,21 +234,26 @@ def replay_command(args: argparse.Namespace) -> int:
     if result.ignored_after_end:
         print(f"hecker-dynamics: warning: {result.ignored_after_end} input message(s) after "
               "the end of the session were not replayed", file=sys.stderr)
-    if result.halted:
-        print(f"hecker-dynamics: error: {result.halted}", file=sys.stderr)
-        return 2
     if not args.check:
         return 0
-    report, ok = compare_contents(bag, actual, tolerances=_tolerances(args),
-                                  topics=expected_topics)
-    if not ok or args.verbose:
-        print(report.text())
-    print(f"check against the outputs recorded in {args.input}: {report.summary()}")
-    return 0 if ok else 1
+    actual = read_bag(args.output) if args.output is not None else \
+        outputs_as_bag(scene, produced, tf=tf)
+    report, coverage = check_outputs(scene, bag, actual, tolerances=_tolerances(args), tf=tf,
+                                     topics=args.topic, partial=args.partial)
+    return _verdict(args, RecordingCheck(args.input, report, coverage, live=False))
 
 
-def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
+def _verdict(args: argparse.Namespace, check: RecordingCheck) -> int:
+    """Print a check's report and its one-line verdict; exit status 0 or 1."""
+    for line in check.lines(args.verbose):
+        print(line)
+    print(f"check against the recording {args.input}: {check.verdict()}")
+    return 0 if check.ok else 1
+
+
+def _replay_live(args: argparse.Namespace, scene: Scene, bag: BagContents) -> int:
     """Replay a session recorded from the node with its session records (bags.live)."""
+    from .bags.check import RecordingCheck
     from .bags.io import BagWriter
     from .bags.live import check_live
     from .bags.replay import output_types
@@ -252,34 +265,31 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag) -> int:
     if given:
         raise BagError(f"{args.input}: a recorded session replays with the options the node "
                        f"recorded; {', '.join(given)} do not apply to it")
-    check = check_live(scene, bag, tolerances=_tolerances(args))
+    # Without --check, replay what the records allow (as --partial does) and write it.
+    live = check_live(scene, bag, tolerances=_tolerances(args), topics=args.topic,
+                      partial=args.partial or not args.check)
+    if live.halted:
+        raise BagError(f"{args.input}: {live.halted}" + (
+            "; no bag was written" if args.output is not None else ""))
     if args.output is not None:
         with BagWriter(Path(args.output), args.storage, overwrite=args.overwrite,
                        custom_data={"scene": Path(scene.source).stem},
                        compress=args.compress) as writer:
             for topic, msgtype in output_types(scene).items():
                 writer.add_topic(topic, msgtype)
-            for output in sorted(check.outputs, key=lambda o: o.log_ns):
+            for output in sorted(live.outputs, key=lambda o: o.log_ns):
                 writer.write(output.topic, output.msgtype, output.log_ns, output.msg)
-    print(f"replayed {check.sessions} session(s) of {args.input} on scene {scene.source} from "
-          f"the node's records: {check.events} input event(s), {check.keyframes_checked} "
-          f"keyframe(s) compared, {len(check.outputs)} output message(s)"
+    print(f"replayed {live.sessions} session(s) of {args.input} on scene {scene.source} from "
+          f"the node's records: {live.events} input and world event(s), "
+          f"{live.keyframes_checked} keyframe(s) compared, {len(live.outputs)} output "
+          "message(s)"
           + (f" written to {args.output}" if args.output else ""))
-    for note in check.notes:
-        print(f"hecker-dynamics: note: {note}", file=sys.stderr)
-    if check.halted:
-        print(f"hecker-dynamics: error: {check.halted}", file=sys.stderr)
-        return 2
     if not args.check:
+        for note in live.notes + live.problems:
+            print(f"hecker-dynamics: note: {note}", file=sys.stderr)
         return 0
-    for problem in check.problems:
-        print(f"MISMATCH: {problem}")
-    if not check.report.ok or args.verbose:
-        print(check.report.text())
-    summary = check.report.summary() if not check.problems or not check.report.ok else \
-        f"mismatch: {len(check.problems)} recorded decision(s) or state(s) differ"
-    print(f"check against the outputs recorded in {args.input}: {summary}")
-    return 0 if check.ok else 1
+    return _verdict(args, RecordingCheck(args.input, live.report, live.coverage, live=True,
+                                         sessions=live.sessions))
 
 
 def compare_command(args: argparse.Namespace) -> int:
@@ -307,6 +317,16 @@ def _add_tolerance_options(parser: argparse.ArgumentParser) -> None:
                         help="override --atol for linear and angular velocities")
     parser.add_argument("-v", "--verbose", action="store_true",
                         help="print the full per-topic report even when the bags match")
+
+
+def _add_coverage_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--topic", action="append", metavar="TOPIC",
+                        help="check only this output topic (repeatable), for a recording "
+                             "that holds some topics on purpose; by default every output "
+                             "topic of the scene must be recorded")
+    parser.add_argument("--partial", action="store_true",
+                        help="accept a recording that lacks topics, stretches of outputs or "
+                             "records, and name what was not checked")
 
 
 def _add_writer_options(parser: argparse.ArgumentParser) -> None:
@@ -354,8 +374,11 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
                     "the node's stamp rules (a zero stamp means the log time), and write "
                     "what the node publishes (/<body>/pose, /<body>/twist and the optional "
                     "topics the scene enables) into a new bag, logged at sim time. With "
-                    "--check, compare the replay with the outputs recorded in the input bag "
-                    "(a session recorded with 'ros2 bag record -a'); exit 1 on a mismatch.")
+                    "--check, compare the replay with everything the input bag records (a "
+                    "session recorded with 'ros2 bag record -a'): every output on every "
+                    "topic the scene publishes, and the node's records; exit 1 on a "
+                    "mismatch, or when a topic, a stretch of outputs or a record is missing "
+                    "(see --topic, --partial).")
     replay_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
     replay_parser.add_argument("input", metavar="INPUT_BAG", help="bag with the input messages")
     replay_parser.add_argument("-o", "--output", metavar="OUTPUT_BAG",
@@ -385,6 +408,7 @@ def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
     _add_progress_options(replay_parser)
     _add_writer_options(replay_parser)
     _add_tolerance_options(replay_parser)
+    _add_coverage_options(replay_parser)
     replay_parser.set_defaults(handler=replay_command)
 
     compare_parser = commands.add_parser(
@@ -558,11 +582,14 @@ def regress_command(args: argparse.Namespace) -> int:
     bags = find_bags([Path(p) for p in args.bags])
     if args.scene is not None:
         load_scene(args.scene)  # a bad scene fails once, before any work
+    if args.scene_dir is not None and not Path(args.scene_dir).is_dir():
+        raise BagError(f"--scene-dir {args.scene_dir}: no such directory")
     engine = _engine(args)
     try:
         results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),
                           emit=lambda result: print(result.line(), flush=True),
-                          progress=_want_progress(args))
+                          progress=_want_progress(args), scene_dir=args.scene_dir,
+                          topics=args.topic, partial=args.partial)
     finally:
         engine.close()
     counts = {status: sum(r.status == status for r in results)
@@ -624,16 +651,22 @@ def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
 
     regress_parser = commands.add_parser(
         "regress", help="replay --check over many bags in parallel",
-        description="Replay every bag and compare it with the outputs recorded in it, as "
+        description="Replay every bag and check it against what it records, as "
                     "'replay SCENE BAG --check' does; one line per bag and a summary. The "
-                    "scene is --scene, else the bag's hecker_dynamics.scene custom data (a "
-                    "parameters file of that name next to the bag, or a shipped scene). "
-                    "Exit 0 when all match, 1 on a mismatch, 2 when a bag cannot be checked.")
+                    "scene is --scene, else the bag's hecker_dynamics.scene custom data: a "
+                    "name (no directory) of a parameters file in --scene-dir (default: the "
+                    "directory that holds the bag), else of a shipped scene. Exit 0 when all "
+                    "match, 1 on a mismatch, 2 when a bag cannot be checked.")
     regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR",
                                 help="a bag directory, or a directory of bag directories")
     regress_parser.add_argument("--scene", help="the scene of every bag")
+    regress_parser.add_argument("--scene-dir", metavar="DIR",
+                                help="where the parameters files the bags name are (default: "
+                                     "the directory that holds each bag, as 'sweep --bags' "
+                                     "writes them)")
     _add_engine_options(regress_parser)
     _add_tolerance_options(regress_parser)
+    _add_coverage_options(regress_parser)
     regress_parser.set_defaults(handler=regress_command)
 
 

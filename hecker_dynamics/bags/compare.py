@@ -16,10 +16,13 @@ else by log time. Several messages with one stamp match in order. Differences me
 - angle: rotation between orientations (radians, from the quaternions),
 - velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry).
 
-Other fields (frames, names, marker types and counts, diagnostic levels, the parent and
-child frames of each transform) must be equal;
-diagnostic values are not compared (they hold wall times). Messages of other types are
-compared byte for byte. A message whose stamp the other bag lacks is missing or extra.
+Every other field (stamps, frames, names, marker types, counts, colours and scales, the
+parent and child frames of each transform, ...) must be equal: the message with the
+measured fields of the other copied in must have the other's bytes. Diagnostics are
+compared by level, name, hardware_id and keys only (their values hold wall times).
+Messages of other types are compared byte for byte, and so is every message when all
+tolerances are 0 (``--atol 0`` means bit-identical: -0.0 is not 0.0). A message whose
+stamp the other bag lacks is missing or extra.
 """
 from __future__ import annotations
 
@@ -33,7 +36,8 @@ from typing import Any, Optional, Union
 from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TF_MESSAGE, TWIST,
                  BagContents, BagError, BagMessage, read_bag, stamp_ns_of)
 
-__all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents"]
+__all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents",
+           "compare_pairs"]
 
 DEFAULT_ATOL = 1e-9
 #: How many individual problems a topic report keeps (the counts are always complete).
@@ -51,6 +55,11 @@ class Tolerances:
     @classmethod
     def uniform(cls, atol: float) -> Tolerances:
         return cls(atol, atol, atol)
+
+    @property
+    def exact(self) -> bool:
+        """Whether every tolerance is 0: the messages must be bit-identical."""
+        return self.position == self.angle == self.velocity == 0.0
 
 
 @dataclass
@@ -260,8 +269,72 @@ def _header(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
                     f"'{b.header.frame_id}'")
 
 
+#: Per structured type, where its measured vectors and quaternions are: ``(path, ...)``
+#: from the message, ``*`` for every item of a sequence.
+_MEASURED: dict[str, tuple[tuple[str, ...], ...]] = {
+    POSE_STAMPED: (("pose", "position"), ("pose", "orientation")),
+    TWIST: (("linear",), ("angular",)),
+    ODOMETRY: (("pose", "pose", "position"), ("pose", "pose", "orientation"),
+               ("twist", "twist", "linear"), ("twist", "twist", "angular")),
+    MARKER_ARRAY: (("markers", "*", "pose", "position"), ("markers", "*", "pose", "orientation"),
+                   ("markers", "*", "points", "*")),
+    TF_MESSAGE: (("transforms", "*", "transform", "translation"),
+                 ("transforms", "*", "transform", "rotation")),
+}
+
+
+def _items(msg: Any, path: tuple[str, ...]) -> list[Any]:
+    """The objects at ``path`` in ``msg`` (``*``: each item of a sequence)."""
+    found = [msg]
+    for name in path:
+        found = [item for obj in found
+                 for item in (list(obj) if name == "*" else [getattr(obj, name)])]
+    return found
+
+
+def _same_elsewhere(msgtype: str, a: Any, b: Any, raw_a: bytes) -> bool:
+    """Whether ``b`` with the measured vectors of ``a`` copied in serializes to ``raw_a``:
+    every field but the measured ones is equal (``a`` and ``b`` of equal structure)."""
+    from .io import typestore
+
+    for path in _MEASURED[msgtype]:
+        for source, target in zip(_items(a, path), _items(b, path)):
+            for name in ("x", "y", "z", "w"):
+                if hasattr(source, name):
+                    setattr(target, name, getattr(source, name))
+    try:
+        return bytes(typestore().serialize_cdr(b, msgtype)) == raw_a
+    except Exception:  # a field of b the serializer refuses: not equal
+        return False
+
+
 def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
-                     eb: BagMessage, b: Any, stamp: int) -> None:
+                     eb: BagMessage, b: Any, stamp: int, exact: bool = False) -> None:
+    """Measure the differences of one matched pair into ``report`` and note those in the
+    fields that must be equal; ``exact``: the bytes must be equal too."""
+    if exact and ea.raw == eb.raw:
+        return
+    pair = TopicReport(report.topic, msgtype)
+    _measure(pair, msgtype, ea, a, eb, b, stamp)
+    measured = (pair.position, pair.angle, pair.velocity, pair.angular_velocity)
+    if not pair.different and msgtype in _MEASURED and not _same_elsewhere(msgtype, a, b,
+                                                                           ea.raw):
+        pair.note(f"at {stamp * 1e-9:.6f} s: fields other than positions, angles and "
+                  "velocities differ")
+    elif exact and not pair.different and msgtype != DIAGNOSTIC_ARRAY \
+            and not any(w.value for w in measured):
+        pair.note(f"at {stamp * 1e-9:.6f} s: message bytes differ (equal values: a zero's "
+                  "sign or a NaN's bits; --atol 0 asks for bit-identical messages)")
+    for name in ("position", "angle", "velocity", "angular_velocity"):
+        worst = getattr(pair, name)
+        if worst.stamp_ns is not None:
+            getattr(report, name).update(worst.value, worst.stamp_ns)
+    for detail in pair.details:
+        report.note(detail)
+
+
+def _measure(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
+             eb: BagMessage, b: Any, stamp: int) -> None:
     if msgtype == POSE_STAMPED:
         _header(report, a, b, stamp)
         _pose(report, a.pose, b.pose, stamp)
@@ -313,13 +386,34 @@ def _decode_all(messages: Sequence[BagMessage]) -> list[Any]:
     return [m.decode() for m in messages]
 
 
+#: The types compared field by field (the rest byte for byte).
+_STRUCTURED = (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY, TF_MESSAGE)
+
+
+def compare_pairs(topic: str, msgtype: str,
+                  pairs: Sequence[tuple[BagMessage, BagMessage, int]],
+                  tolerances: Tolerances) -> TopicReport:
+    """The report of ``topic`` whose messages were matched already: each pair is the
+    expected message, the actual one and the stamp they share."""
+    report = TopicReport(topic, msgtype, expected=len(pairs), actual=len(pairs),
+                         matched=len(pairs))
+    exact = tolerances.exact
+    for ea, eb, stamp in pairs:
+        if exact and ea.raw == eb.raw:
+            continue
+        if msgtype in _STRUCTURED:
+            _compare_message(report, msgtype, ea, ea.decode(), eb, eb.decode(), stamp, exact)
+        else:
+            _compare_message(report, msgtype, ea, None, eb, None, stamp, exact)
+    return report
+
+
 def _compare_topic(topic: str, msgtype: str, expected: BagContents,
-                   actual: BagContents) -> TopicReport:
+                   actual: BagContents, exact: bool) -> TopicReport:
     report = TopicReport(topic, msgtype)
     ea, aa = expected.on(topic), actual.on(topic)
     report.expected, report.actual = len(ea), len(aa)
-    structured = msgtype in (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY,
-                             TF_MESSAGE)
+    structured = msgtype in _STRUCTURED
     if structured:
         da, db = _decode_all(ea), _decode_all(aa)
     else:
@@ -345,7 +439,7 @@ def _compare_topic(topic: str, msgtype: str, expected: BagContents,
             report.missing.append(key[0])
             continue
         report.matched += 1
-        _compare_message(report, msgtype, ea[ia], da[ia], aa[ib], db[ib], key[0])
+        _compare_message(report, msgtype, ea[ia], da[ia], aa[ib], db[ib], key[0], exact)
     report.extra = [key[0] for key in gb if key not in ga]
     return report
 
@@ -376,7 +470,8 @@ def compare_contents(expected: BagContents, actual: BagContents, *,
             report.type_mismatches.append(f"{topic}: expected {expected.topics[topic]}, "
                                           f"actual {actual.topics[topic]}")
             continue
-        report.topics.append(_compare_topic(topic, expected.topics[topic], expected, actual))
+        report.topics.append(_compare_topic(topic, expected.topics[topic], expected, actual,
+                                            tol.exact))
     return report, report.ok
 
 

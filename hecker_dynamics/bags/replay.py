@@ -81,6 +81,7 @@ class ReplayResult:
     outputs: int = 0
     steps: int = 0
     halted: Optional[str] = None  # the divergence that stopped the simulation
+    reached_ns: int = 0           # the sim time the replay reached (end_ns unless halted)
 
 
 # ----------------------------------------------------------------------------- topics
@@ -361,6 +362,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
             progress((tick - start) / (end - start) if end > start else 1.0)
     result.accepted = runner.accepted
     result.steps = sim.steps
+    result.reached_ns = sim.time_ns
     result.ignored_after_end = len(inputs) - next_input
     return result
 
@@ -372,14 +374,17 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
 
     Every output topic of the scene is declared (even if no message is published). With
     ``with_inputs`` the input messages are copied too, as ``ros2 bag record -a`` would
-    hold them. ``options`` go to :func:`replay`.
+    hold them. ``options`` go to :func:`replay`. A replay that diverges (``halted``)
+    writes no bag: its custom data would claim a session it did not reach.
     """
     check_distinct(output, [bag.path])
     start, end = session_times(scene, bag, options.get("start_ns"), options.get("duration_ns"))
     custom = {"scene": Path(scene.source).stem, "start_ns": str(start),
               "duration_ns": str(end - start)}
-    with BagWriter(output, storage, overwrite=overwrite, custom_data=custom,
-                   compress=compress) as writer:
+    writer = BagWriter(output, storage, overwrite=overwrite, custom_data=custom,
+                       compress=compress)
+    writer.open()
+    try:
         inputs = input_topics(scene)
         pending = []
         if with_inputs:
@@ -402,6 +407,13 @@ def replay_to_bag(scene: Scene, bag: BagContents, output: Path, *, storage: str 
         result = replay(scene, bag, emit, **options)
         for message in pending[position:]:
             writer.write_raw(message.topic, message.log_ns, message.raw)
+    except BaseException:
+        writer.abort()
+        raise
+    if result.halted is not None:
+        writer.abort()
+    else:
+        writer.close()
     return result
 
 

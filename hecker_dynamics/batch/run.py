@@ -6,6 +6,7 @@ or a Dask worker can run them; they import only the core (no engine).
 """
 from __future__ import annotations
 
+import re
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -14,11 +15,13 @@ from typing import Any, Optional
 
 import yaml
 
+from ..bags.check import check_recording
 from ..bags.io import BagError, read_bag
-from ..bags.compare import Tolerances, compare_contents
-from ..scene.parameters import SceneError, unflatten
-from ..bags.replay import (outputs_as_bag, recorded_output_topics, replay_outputs,
-                          replay_to_bag, script_to_bag)
+from ..bags.compare import Tolerances
+from ..dynamics.commands import InputError
+from ..dynamics.simulation import DivergenceError
+from ..scene.parameters import SceneError, quoted, unflatten
+from ..bags.replay import replay_to_bag, script_to_bag
 from ..scene.load import NODE_NAME, load_scene, shipped_scenes
 from ..viz.progress import Progress
 from .engines import Engine
@@ -138,11 +141,15 @@ def sweep(variants: Sequence[Variant], engine: Engine, output: Path, *,
 
 @dataclass(frozen=True)
 class BagTask:
-    """One bag to check: its directory, the scene (None: from the bag) and tolerances."""
+    """One bag to check: its directory, the scene (None: from the bag), tolerances, where
+    the scene files the bags name are (None: beside each bag), and what to check."""
 
     bag: Path
     scene: Optional[str]
     tolerances: Tolerances
+    scene_dir: Optional[str] = None
+    topics: Optional[tuple[str, ...]] = None
+    partial: bool = False
 
 
 @dataclass(frozen=True)
@@ -157,20 +164,32 @@ class BagResult:
         return f"{self.status.upper():<8} {self.bag}  {self.detail}"
 
 
-def _scene_of(bag_dir: Path, name: Optional[str]) -> str:
-    """The scene a bag was made with: a parameters file next to the bag named as its
-    ``hecker_dynamics.scene`` custom data (as ``sweep --bags`` writes them), else the
-    shipped scene of that name."""
+#: A scene name a bag may give: a file name without a directory (letters, digits, ``_``,
+#: ``-`` and ``.``, not first), short enough for any file system.
+SCENE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}")
+
+
+def _scene_of(bag_dir: Path, name: Optional[str], scene_dir: Optional[str]) -> str:
+    """The scene a bag names in its ``hecker_dynamics.scene`` custom data: a parameters
+    file of that name in ``scene_dir`` (default: the directory that holds the bag, where
+    ``sweep --bags`` writes them), else the shipped scene of that name. Nothing else: a
+    name with a directory in it, or too long for a file, is refused."""
     if name is None:
         raise BagError(f"{bag_dir}: the bag names no scene (no 'hecker_dynamics.scene' "
                        "custom data); give --scene")
-    beside = bag_dir.parent / f"{name}.yaml"
+    if not SCENE_NAME.fullmatch(name):
+        shown = quoted(name if len(name) <= 60 else name[:57] + "...")
+        raise BagError(f"{bag_dir}: the bag's scene {shown} is not a scene name (a file name "
+                       "without a directory, at most 100 letters, digits, '_', '-', '.'); "
+                       "give --scene")
+    directory = Path(scene_dir) if scene_dir is not None else bag_dir.parent
+    beside = directory / f"{name}.yaml"
     if beside.is_file():
         return str(beside)
     if name in shipped_scenes():
         return name
     raise BagError(f"{bag_dir}: the bag's scene '{name}' is neither {beside} nor a shipped "
-                   "scene; give --scene")
+                   "scene; give --scene or --scene-dir")
 
 
 def check_bag(task: BagTask) -> BagResult:
@@ -178,16 +197,14 @@ def check_bag(task: BagTask) -> BagResult:
     try:
         bag = read_bag(task.bag)
         scene = load_scene(task.scene or _scene_of(task.bag, bag.custom_data.get(
-            "hecker_dynamics.scene")))
-        topics = recorded_output_topics(scene, bag)
-        produced, result = replay_outputs(scene, bag)
-    except (SceneError, BagError) as error:
+            "hecker_dynamics.scene"), task.scene_dir))
+        check = check_recording(scene, bag, tolerances=task.tolerances, topics=task.topics,
+                                partial=task.partial)
+    except (SceneError, BagError, InputError, DivergenceError, OSError) as error:
         return BagResult(task.bag, "error", str(error))
-    if result.halted:
-        return BagResult(task.bag, "error", result.halted)
-    report, ok = compare_contents(bag, outputs_as_bag(scene, produced),
-                                  tolerances=task.tolerances, topics=topics)
-    return BagResult(task.bag, "ok" if ok else "mismatch", report.summary())
+    if check.halted:
+        return BagResult(task.bag, "error", check.halted)
+    return BagResult(task.bag, "ok" if check.ok else "mismatch", check.verdict())
 
 
 def find_bags(paths: Sequence[Path]) -> list[Path]:
@@ -208,10 +225,13 @@ def find_bags(paths: Sequence[Path]) -> list[Path]:
 
 def regress(bags: Sequence[Path], engine: Engine, *, scene: Optional[str],
             tolerances: Tolerances, emit: Callable[[BagResult], None],
-            progress: bool = False) -> list[BagResult]:
+            progress: bool = False, scene_dir: Optional[str] = None,
+            topics: Optional[Sequence[str]] = None, partial: bool = False) -> list[BagResult]:
     """Check every bag on ``engine``; ``emit`` gets each result as it comes. Returns the
-    results in the order of ``bags``."""
-    tasks = [BagTask(bag, scene, tolerances) for bag in bags]
+    results in the order of ``bags``. ``scene_dir``, ``topics`` and ``partial``: see
+    :class:`BagTask`."""
+    tasks = [BagTask(bag, scene, tolerances, scene_dir,
+                     tuple(topics) if topics is not None else None, partial) for bag in bags]
     results: list[Optional[BagResult]] = [None] * len(tasks)
     for position, result in progress_bar(engine.run(check_bag, tasks), len(tasks), "regress",
                                          progress):

@@ -216,15 +216,45 @@ def _change_world(runner: Runner, rng: np.random.Generator, now_ns: int,
     runner.resume(now_ns + int(rng.uniform(0, 0.5) * S))
 
 
+#: The types of the messages a user sends the node.
+INPUT_TYPES = frozenset({bags.APPLIED_WRENCH, bags.WRENCH_STAMPED, bags.FLOAT64})
+
+
+def _appears(first: Published, node_start_ns: int, period_ns: int) -> int:
+    """When the publisher of ``first``'s topic appears: the node's records and outputs at
+    the node's start (a spawned body's a publish period before its first message), a
+    user's input publisher when it sends its first message."""
+    if first.msgtype in INPUT_TYPES:
+        return first.publish_ns
+    if first.depth is not None:
+        return node_start_ns
+    return max(node_start_ns, first.publish_ns - period_ns)
+
+
 def record(session: LiveSession, path: Path, seed: int, *, late_ns: int = 0,
-           discovery_ns: int = 50_000_000,
+           discovery_ns: int = 50_000_000, stop_ns: Optional[int] = None,
            drop: Callable[[int, Published], bool] = lambda index, item: False) -> Path:
-    """Write what a recorder started ``late_ns`` after the node would have logged, less the
-    messages ``drop`` picks (by their index among the logged ones, and their content)."""
+    """Write what a recorder started ``late_ns`` after the node and stopped ``stop_ns``
+    after the node's start (None: after the node) would have logged, less the messages
+    ``drop`` picks (by their index among the logged ones, and their content).
+
+    As ``ros2 bag record -a`` does, the recorder subscribes to a topic once it has seen
+    its publisher: within ``discovery_ns`` of its own start, or of the topic's appearance
+    for a topic that appears later (a spawned body's, about a publish period before its
+    first message; an input topic's, at its first message, which is lost). On stopping,
+    it drops its subscriptions one by one within a few milliseconds."""
     rng = np.random.default_rng(seed + 1000)
     start = session.start_ns + late_ns
-    topics = list(dict.fromkeys(p.topic for p in session.published))
-    subscribed = {topic: start + int(rng.uniform(0, discovery_ns)) for topic in topics}
+    period = session.scene.publish_period_ns
+    first: dict[str, Published] = {}
+    for item in session.published:
+        first.setdefault(item.topic, item)
+    appear = {topic: _appears(item, session.start_ns, period) for topic, item in first.items()}
+    subscribed = {topic: max(start, appear[topic]) + int(rng.uniform(0, discovery_ns))
+                  for topic in first}
+    stopping = np.random.default_rng(seed + 2000)
+    unsubscribed = {topic: (session.start_ns + stop_ns + int(stopping.integers(5_000_000))
+                            if stop_ns is not None else None) for topic in first}
     logged: list[tuple[int, int, Published]] = []
     last_log: dict[str, int] = {}
     latched: dict[str, list[Published]] = {}
@@ -238,7 +268,9 @@ def record(session: LiveSession, path: Path, seed: int, *, late_ns: int = 0,
             continue
         log = max(last_log.get(item.topic, 0), item.publish_ns + int(rng.integers(1, S // 500)))
         last_log[item.topic] = log
-        logged.append((log, order, item))
+        end = unsubscribed[item.topic]
+        if end is None or log < end:
+            logged.append((log, order, item))
     for topic, kept in latched.items():  # delivered on subscribing, before anything newer
         for n, item in enumerate(kept):
             logged.append((subscribed[topic] + n, -len(kept) + n, item))

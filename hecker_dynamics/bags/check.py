@@ -1,0 +1,130 @@
+"""The check of a recording against its replay, as ``replay --check`` and ``regress`` run it.
+
+A live recording (one with the node's session records) is checked by
+:func:`~hecker_dynamics.bags.live.check_live`; any other bag by the rules of bags made by
+``script`` and ``replay``: its inputs replayed from their log times
+(:func:`~hecker_dynamics.bags.replay.replay`) and its outputs compared topic by topic with
+the replay's (:func:`~hecker_dynamics.bags.compare.compare_contents`), where a message on
+either side only is a mismatch. In both, every output topic the scene publishes must be in
+the bag, unless named otherwise by ``topics`` or accepted missing by ``partial``
+(:mod:`~hecker_dynamics.bags.coverage`).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Optional
+
+from ..scene.load import Scene
+from .compare import CompareReport, Tolerances, compare_contents
+from .coverage import Coverage, span
+from .io import BagContents
+from .live import check_live, is_live_recording
+from .replay import (ReplayError, input_topics, output_types, outputs_as_bag,
+                     recorded_output_topics, replay_outputs)
+
+__all__ = ["RecordingCheck", "check_recording", "check_outputs"]
+
+
+@dataclass
+class RecordingCheck:
+    """The outcome of a check: the comparison of the outputs matched, the coverage, and the
+    divergence that stopped the replay, if one did."""
+
+    path: str
+    report: CompareReport
+    coverage: Coverage
+    live: bool
+    halted: Optional[str] = None
+    sessions: int = 0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.halted is None and self.report.ok and self.coverage.ok
+
+    def verdict(self) -> str:
+        """One line: ``match:`` and what was checked, or ``mismatch:`` and the first
+        reason."""
+        if self.ok:
+            big = self.report.largest()
+            parts = [self.coverage.counts(live=self.live), self.coverage.unchecked(),
+                     f"largest difference position {big['position']:.3g}, angle "
+                     f"{big['angle']:.3g}, velocity "
+                     f"{max(big['velocity'], big['angular_velocity']):.3g}"]
+            return "match: " + "; ".join(part for part in parts if part)
+        reasons = list(self.coverage.failures)
+        if not self.report.ok:
+            reasons.append(self.report.summary().removeprefix("mismatch: "))
+        more = f" (and {len(reasons) - 1} more problems)" if len(reasons) > 1 else ""
+        return f"mismatch: {reasons[0]}{more}"
+
+    def lines(self, verbose: bool = False) -> list[str]:
+        """The full report: the coverage per topic, then (on a mismatch, or ``verbose``)
+        the comparison."""
+        out = self.coverage.lines()
+        if verbose or not self.report.ok:
+            out.append(self.report.text())
+        return out
+
+
+def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
+                  tolerances: Tolerances, tf: bool, topics: Optional[Sequence[str]] = None,
+                  partial: bool = False) -> tuple[CompareReport, Coverage]:
+    """Compare the outputs recorded in a bag without session records with the replay's
+    (``actual``): every output topic of the scene (``tf``: TF's too; ``topics``: those
+    named) must be recorded, unless ``partial``."""
+    wanted = output_types(scene, tf=tf)
+    coverage = Coverage(partial=partial)
+    if topics is not None:
+        unknown = [t for t in topics if t not in wanted]
+        if unknown:
+            raise ReplayError(f"--topic {unknown[0]}: not an output the node publishes for "
+                              f"{scene.source} (its outputs: {', '.join(wanted)})")
+        for topic in wanted:
+            if topic not in topics and topic in bag.topics:
+                coverage.not_compared[topic] = "not named by --topic"
+        wanted = {t: wanted[t] for t in topics}
+    held = {m.topic for m in bag.messages}
+    absent = [t for t in wanted if t not in held and any(m.topic == t for m in actual.messages)]
+    if absent:
+        coverage.fail(f"{', '.join(absent)} not recorded: the node publishes them for "
+                      f"{scene.source} (--topic names the topics a recording holds on "
+                      "purpose; --partial accepts a partial recording)", missing=True)
+    report, _ = compare_contents(bag, actual, tolerances=tolerances,
+                                 topics=[t for t in wanted if t in held])
+    for compared in report.topics:
+        coverage.topic(compared.topic).recorded = compared.expected
+        coverage.topic(compared.topic).checked = compared.matched
+        if compared.extra:
+            coverage.fail(f"{compared.topic}: {len(compared.extra)} outputs of the replay not "
+                          f"recorded, {span(min(compared.extra), max(compared.extra))}",
+                          missing=True)
+            if partial:  # accepted: the comparison is of what was recorded
+                compared.extra = []
+        if compared.missing:
+            coverage.fail(f"{compared.topic}: {len(compared.missing)} recorded outputs the "
+                          f"replay does not publish, "
+                          f"{span(min(compared.missing), max(compared.missing))}")
+    inputs = input_topics(scene)
+    coverage.inputs = sum(1 for m in bag.messages if m.topic in inputs)
+    return report, coverage
+
+
+def check_recording(scene: Scene, bag: BagContents, *, tolerances: Tolerances,
+                    topics: Optional[Sequence[str]] = None,
+                    partial: bool = False) -> RecordingCheck:
+    """``replay SCENE BAG --check``: replay the bag on ``scene`` and check everything it
+    holds (see the module docstring). Raises
+    :class:`~hecker_dynamics.bags.replay.ReplayError` for a bag that cannot be checked."""
+    if is_live_recording(bag):
+        live = check_live(scene, bag, tolerances=tolerances, topics=topics, partial=partial)
+        return RecordingCheck(str(bag.path), live.report, live.coverage, True, live.halted,
+                              live.sessions)
+    tf = "/tf" in bag.topics or "/tf" in (topics or ())
+    recorded_output_topics(scene, bag, tf=tf)
+    produced, result = replay_outputs(scene, bag, tf=tf)
+    report, coverage = check_outputs(scene, bag, outputs_as_bag(scene, produced, tf=tf),
+                                     tolerances=tolerances, tf=tf, topics=topics,
+                                     partial=partial)
+    return RecordingCheck(str(bag.path), report, coverage, False, result.halted)
