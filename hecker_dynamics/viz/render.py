@@ -20,7 +20,7 @@ import numpy as np
 
 from ..files import replacing
 from ..scene import Scene
-from .draw import Drawing, Trail, View, fit_view
+from .draw import BACKGROUND, DRAWING_COLORS, Drawing, Trail, View, fit_view
 from .frames import NS_PER_S, Frame, Timeline, VizError, frame_times
 
 __all__ = ["FORMATS", "check_output", "check_run", "gif_delays", "span_times",
@@ -118,19 +118,57 @@ def frame_pixels(timeline: Timeline, frames: Sequence[Frame], size: tuple[int, i
             progress((k + 1) / len(frames))
 
 
+def _rgb(color: str) -> tuple[int, int, int]:
+    return int(color[1:3], 16), int(color[3:5], 16), int(color[5:7], 16)
+
+
+def _gif_palette(first: np.ndarray) -> np.ndarray:
+    """The one palette of a GIF, (GIF_COLORS, 3): every colour a drawing uses, exactly, and
+    each halfway to the background (the anti-aliased edges of arrows, springs and text),
+    so a force or a contact that first shows in a later frame keeps its colour; the rest
+    from the first frame's pixels ``first`` (Pillow's median cut)."""
+    from PIL import Image
+
+    named = list(dict.fromkeys(_rgb(c) for c in DRAWING_COLORS))
+    background = _rgb(BACKGROUND)
+    halfway = [tuple((a + b + 1) // 2 for a, b in zip(c, background)) for c in named
+               if c != background]
+    fixed = list(dict.fromkeys(named + halfway))
+    rest = Image.fromarray(first).quantize(colors=GIF_COLORS - len(fixed),
+                                           method=Image.Quantize.MEDIANCUT).getpalette()
+    colors = fixed + [tuple(rest[3 * i:3 * i + 3]) for i in range(GIF_COLORS - len(fixed))]
+    return np.array(colors, dtype=np.int64)
+
+
+def _nearest(rgb: np.ndarray, palette: np.ndarray) -> np.ndarray:
+    """Each pixel's index of its nearest palette colour (the first of equals), (h, w) uint8.
+    Exact, unlike Pillow's quantize to a given palette, which looks colours up in a coarse
+    cube and turns a pure colour into a neighbour. A frame has few distinct colours, so
+    only those are compared."""
+    packed = (rgb[:, :, 0].astype(np.int64) << 16 | rgb[:, :, 1].astype(np.int64) << 8
+              | rgb[:, :, 2]).ravel()
+    colors, inverse = np.unique(packed, return_inverse=True)
+    unpacked = np.stack([colors >> 16, (colors >> 8) & 255, colors & 255], axis=1)
+    distance = ((unpacked[:, None, :] - palette[None, :, :]) ** 2).sum(axis=2)
+    return distance.argmin(axis=1).astype(np.uint8)[inverse.ravel()].reshape(rgb.shape[:2])
+
+
 def _write_gif(path: Path, pixels: Iterator[np.ndarray], fps: float) -> int:
-    """One palette from the first frame, no dithering: flat fills stay flat, and Pillow
-    stores each later frame as its change from the one before, which keeps the file small.
-    The delays are :func:`gif_delays`."""
+    """One palette (:func:`_gif_palette`), each pixel its nearest colour, no dithering:
+    flat fills stay flat, and Pillow stores each later frame as its change from the one
+    before, which keeps the file small. The delays are :func:`gif_delays`."""
     from PIL import Image
 
     images = []
-    palette = None
+    palette: Optional[np.ndarray] = None
     for rgba in pixels:
-        image = Image.fromarray(rgba[:, :, :3])
+        rgb = np.ascontiguousarray(rgba[:, :, :3])
         if palette is None:
-            palette = image.quantize(colors=GIF_COLORS, method=Image.Quantize.MEDIANCUT)
-        images.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
+            palette = _gif_palette(rgb)
+        image = Image.frombytes("P", (rgb.shape[1], rgb.shape[0]),
+                                _nearest(rgb, palette).tobytes())
+        image.putpalette(palette.astype(np.uint8).ravel().tolist())
+        images.append(image)
     images[0].save(path, format="GIF", save_all=True, append_images=images[1:], loop=0,
                    duration=gif_delays(len(images), fps), optimize=False)
     return len(images)

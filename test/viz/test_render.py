@@ -248,6 +248,36 @@ def test_view_loop_shows_every_frame_in_turn_and_stops_when_closed():
                 is_open=lambda: len(shown) < 3) == 3
 
 
+@pytest.mark.parametrize("name, start, duration", [("sample", "2.8", "0.4"),
+                                                   ("door", "0.3", "0.4"),
+                                                   ("car_flip", "0.8", "0.4")])
+def test_gif_keeps_every_colour_of_the_drawing(tmp_path, name, start, duration):
+    """A force that starts after the first frame (the sample's kick at 3 s, the door's push
+    at 0.5 s) is red in the GIF as in the exact pixels (and the PNG): every pixel drawn in
+    one of the drawing's colours has that colour in every frame of the GIF."""
+    from hecker_dynamics.viz.draw import DRAWING_COLORS
+
+    output = tmp_path / f"{name}.gif"
+    assert main(["render", name, "-o", str(output), "--start", start, "--duration", duration,
+                 "--fps", "10", "--size", "480x360", "--contacts"]) == 0
+    start_ns, duration_ns = round(float(start) * 1e9), round(float(duration) * 1e9)
+    timeline = run_timeline(load_scene(name), start_ns + duration_ns)
+    exact = list(frame_pixels(timeline, timeline_frames(timeline, start_ns, duration_ns, 10.0),
+                              (480, 360), contacts=True))
+    red = np.array([int(ARROW_COLOR[i:i + 2], 16) for i in (1, 3, 5)])
+    assert not (exact[0][:, :, :3] == red).all(axis=2).any()  # no force in the first frame
+    assert any((frame[:, :, :3] == red).all(axis=2).sum() > 20 for frame in exact)
+    with Image.open(output) as gif:
+        assert gif.n_frames == len(exact)
+        for k, want in enumerate(exact):
+            gif.seek(k)
+            got = np.asarray(gif.convert("RGB"))
+            for color in set(DRAWING_COLORS):
+                rgb = np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)])
+                drawn = (want[:, :, :3] == rgb).all(axis=2)
+                assert (got[drawn] == rgb).all(), (k, color)
+
+
 @pytest.mark.parametrize("fps", ["8", "30", "33.333", "50", "0.5"])
 def test_gif_plays_at_the_rate_asked(tmp_path, fps):
     """GIF delays are whole centiseconds: frame k shows from round(100 k / fps) cs on, so the
