@@ -560,6 +560,8 @@ def _engine(args: argparse.Namespace):
     from .batch.engines import make_engine
 
     engine = make_engine(args.workers, args.cluster)
+    for note in engine.notes:
+        print(f"hecker-dynamics: warning: {note}", file=sys.stderr)
     if engine.dashboard:
         print(f"hecker-dynamics: Dask dashboard at {engine.dashboard}", file=sys.stderr)
     return engine
