@@ -7,6 +7,11 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
+import pytest
+
+# The command line imports rosbags as it starts: without it every case would fail alike.
+pytest.importorskip("rosbags", reason="rosbags is not installed: the command line needs it")
+
 #: Seconds one case may take (a scene of 0.05 s sim time, a bag of a few thousand
 #: messages): a hang is a failure, not a wait.
 CASE_TIMEOUT = 30.0
