@@ -9,7 +9,9 @@ the results come, in finishing order; the caller puts them back in order.
   start from a fork server (``spawn`` where there is none): forking this process, which
   runs threads (the pool's own, a progress bar's), could copy a lock some thread holds
   and deadlock the child; Python 3.12 warns of it and 3.14 no longer forks by default.
-  The fork server imports the task module once, so a worker starts without importing it.
+  The fork server imports the task module once, so a worker starts without importing it;
+  a worker imports the main module again, so a script that runs a sweep keeps its top
+  level under ``if __name__ == "__main__":`` (the command line's entry points do).
 - :class:`DaskCluster` (``--cluster ADDRESS``, or ``--cluster local`` for a
   ``LocalCluster`` of worker processes on this machine): each task is a
   ``client.submit(..., retries=N)``, collected with ``as_completed``. The scheduler
