@@ -1,6 +1,6 @@
 """Without rosbags (a ROS machine need not have it) the tests that need it skip with the
 reason, at collection or while they run, and the others run: none errors
-(test/conftest.py). Checked in a child pytest with rosbags hidden (HECKER_TEST_HIDE)."""
+(test/optional_modules.py). Checked in a child pytest with rosbags hidden (HECKER_TEST_HIDE)."""
 from __future__ import annotations
 
 import subprocess
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import SkipWithoutModule
+from optional_modules import SkipWithoutModule
 
 ROOT = Path(__file__).resolve().parents[1]
 
