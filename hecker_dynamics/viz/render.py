@@ -5,9 +5,10 @@ A still (PNG, SVG) shows the last frame of the span, with the trails of the whol
 frames are those of :func:`~hecker_dynamics.viz.frames.frame_times`: ``round(span x fps)``
 instants from the start, each drawn from the latest published pose at or before it.
 
-A picture is bounded before any work: at most :data:`MAX_FRAMES` frames, a GIF's held
-frames at most :data:`GIF_PIXELS` pixels, and a run at most :data:`MAX_RUN_POSES` published
-instants; a GIF at most :data:`GIF_MAX_FPS` frames a second. The file is written beside
+A picture is bounded before any work: at most :data:`MAX_FRAMES` frames, an animation's
+frames at most :data:`MAX_PIXELS` pixels together and a GIF's (all held until it is
+written) at most :data:`GIF_PIXELS`, a run at most :data:`MAX_RUN_POSES` published
+instants, a GIF at most :data:`GIF_MAX_FPS` frames a second. The file is written beside
 its name and moved into place (:func:`hecker_dynamics.files.replacing`).
 """
 from __future__ import annotations
@@ -25,7 +26,7 @@ from .frames import NS_PER_S, Frame, Timeline, VizError, frame_times
 
 __all__ = ["FORMATS", "check_output", "check_run", "gif_delays", "span_times",
            "timeline_frames", "frame_pixels", "render", "require_display", "show_live", "play",
-           "MAX_FRAMES", "MAX_RUN_POSES", "GIF_PIXELS", "GIF_MAX_FPS"]
+           "MAX_FRAMES", "MAX_PIXELS", "MAX_RUN_POSES", "GIF_PIXELS", "GIF_MAX_FPS"]
 
 #: Output extensions and what they hold.
 FORMATS = {".gif": "animation", ".mp4": "animation", ".png": "still", ".svg": "still"}
@@ -36,6 +37,9 @@ MAX_FRAMES = 10_000
 #: A GIF's frames are all held until it is written, a byte a pixel: at most 256 MiB of them
 #: (some 1,500 frames of 480 x 360).
 GIF_PIXELS = 2 ** 28
+#: The most pixels of an animation, all frames together: 2**32 is the 10,000 frames of
+#: 480 x 360 many times over, or 256 frames of 4096 x 4096 (drawing those takes minutes).
+MAX_PIXELS = 2 ** 32
 #: GIF players show a delay under 2 centiseconds as 10: faster GIFs play slow. A delay is
 #: at most 65535 centiseconds.
 GIF_MAX_FPS = 50.0
@@ -193,8 +197,14 @@ def _write_mp4(path: Path, pixels: Iterator[np.ndarray], fps: float,
 
 def check_span(output: Path, size: tuple[int, int], start_ns: int, duration_ns: int,
                fps: float) -> list[int]:
-    """:func:`span_times`, and for a GIF its rate and the memory its frames take."""
+    """:func:`span_times`, an animation's pixels, and for a GIF its rate and the memory its
+    frames take."""
     times = span_times(start_ns, duration_ns, fps)
+    animation = FORMATS.get(output.suffix.lower()) == "animation"
+    if animation and len(times) * size[0] * size[1] > MAX_PIXELS:
+        raise VizError(f"-o {output}: {len(times)} frames of {size[0]}x{size[1]} are over "
+                       f"the {MAX_PIXELS:.3g} pixels a picture may have; draw fewer or "
+                       "smaller frames")
     if output.suffix.lower() == ".gif":
         gif_delays(0, fps)
         if len(times) * size[0] * size[1] > GIF_PIXELS:

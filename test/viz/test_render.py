@@ -305,6 +305,7 @@ def test_gif_plays_at_the_rate_asked(tmp_path, fps):
     (["--duration", "1e9", "-o", "{tmp}/x.mp4"], "over the 10000 a picture may have"),
     (["--start", "1e6", "--duration", "1"], "over the 100000 a picture keeps"),
     (["--fps", "50", "--duration", "100", "--size", "480x360"], "MiB of frames a GIF"),
+    (["--duration", "100", "--size", "4096x4096", "-o", "{tmp}/x.mp4"], "pixels a picture"),
 ])
 def test_render_spans_and_rates_are_bounded_before_the_run(tmp_path, capsys, monkeypatch,
                                                           argv, problem):
