@@ -12,6 +12,8 @@ import pytest
 
 fcntl = pytest.importorskip("fcntl", reason="no pseudo-terminals on this platform")
 termios = pytest.importorskip("termios", reason="no pseudo-terminals on this platform")
+# The command line these start imports rosbags as it starts.
+pytest.importorskip("rosbags", reason="rosbags is not installed: the command line needs it")
 
 
 def _run(argv: list[str], terminal: bool) -> tuple[str, str]:
