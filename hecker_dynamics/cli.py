@@ -17,18 +17,21 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import decimal
 import sys
 import time
 from pathlib import Path
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
 from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
+from .batch.variants import MAX_VARIANTS
+from .files import OutputError, check_folder
 from .dynamics.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
@@ -458,11 +461,16 @@ def bench_command(args: argparse.Namespace) -> int:
     command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
         else "hecker-dynamics bench"
     if args.joints:
-        from .bench.joints import PEERS as JOINT_PEERS, joint_bench
-        joint_bench(list(JOINT_PEERS) if args.peers else [], Path(args.out), command)
+        from .bench.joints import JOINT_FILES, PEERS as JOINT_PEERS, joint_bench
+
+        out = _bench_out(args, JOINT_FILES)
+        with _bench_writing(out):
+            joint_bench(list(JOINT_PEERS) if args.peers else [], out, command)
+        print(f"wrote {out}")
         return 0
     if args.contacts is not None:
-        from .bench.contacts import PYRAMID_ROWS, contact_bench, contact_scene_names, targets
+        from .bench.contacts import (CONTACT_FILES, PYRAMID_ROWS, contact_bench,
+                                     contact_scene_names, targets)
         from .bench.scene_peers import SCENE_PEERS
 
         known = contact_scene_names()
@@ -470,19 +478,46 @@ def bench_command(args: argparse.Namespace) -> int:
             if name not in known:
                 raise SceneError(f"--scenes {name}: not a contact scene (known: "
                                  f"{', '.join(known)})")
-        results = contact_bench(args.contacts or list(PYRAMID_ROWS),
-                                list(SCENE_PEERS) if args.peers else [], Path(args.out),
-                                command, scenes=args.scenes, bar=bar)
+        out = _bench_out(args, CONTACT_FILES)
+        with _bench_writing(out):
+            results = contact_bench(args.contacts or list(PYRAMID_ROWS),
+                                    list(SCENE_PEERS) if args.peers else [], out,
+                                    command, scenes=args.scenes, bar=bar)
         for target, measured, verdict in targets(results):
             print(f"target {target}: {measured}: {verdict}")
+        print(f"wrote {out}")
         return 0
+    from .bench.report import REPORT_FILES
+
     known = all_scene_names()
     for name in args.scenes or []:
         if name not in known:
             raise SceneError(f"unknown benchmark scene '{name}' (known: {', '.join(known)})")
-    run_bench("full" if args.full else "quick", Path(args.out), args.scenes, args.peers,
-              command=command, bar=bar)
+    out = _bench_out(args, REPORT_FILES)
+    with _bench_writing(out):
+        run_bench("full" if args.full else "quick", out, args.scenes, args.peers,
+                  command=command, bar=bar)
     return 0
+
+
+def _bench_out(args: argparse.Namespace, names: Sequence[str]) -> Path:
+    """``--out``, checked for the files the bench writes there; by default a new folder
+    under the system's temporary folder, so a bench run in a clone leaves its tracked
+    report alone."""
+    if args.out is None:
+        from .bench.report import new_report_folder
+
+        return new_report_folder()
+    return check_folder(args.out, option="--out", names=names, overwrite=args.overwrite)
+
+
+@contextlib.contextmanager
+def _bench_writing(out: Path) -> Iterator[None]:
+    """The report is written at the end of the run: a failure then is one line too."""
+    try:
+        yield
+    except OSError as error:
+        raise OutputError(f"--out {out}: cannot write the report: {error}") from None
 
 
 def _rows(text: str) -> int:
@@ -509,7 +544,11 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                       help="small sweep, about 1-2 minutes (default)")
     size.add_argument("--full", dest="full", action="store_true",
                       help="the documented sweep, up to about 20 minutes")
-    bench.add_argument("--out", default="docs/bench", help="output directory (default docs/bench)")
+    bench.add_argument("--out", metavar="DIR",
+                       help="folder to write the report into (default: a new folder under "
+                            "the system's temporary folder, printed at the end)")
+    bench.add_argument("--overwrite", action="store_true",
+                       help="replace the report files in --out DIR if they exist")
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
     bench.add_argument("--joints", action="store_true",
@@ -545,6 +584,8 @@ def _engine(args: argparse.Namespace):
     from .batch.engines import make_engine
 
     engine = make_engine(args.workers, args.cluster)
+    for note in engine.notes:
+        print(f"hecker-dynamics: warning: {note}", file=sys.stderr)
     if engine.dashboard:
         print(f"hecker-dynamics: Dask dashboard at {engine.dashboard}", file=sys.stderr)
     return engine
@@ -553,9 +594,11 @@ def _engine(args: argparse.Namespace):
 def sweep_command(args: argparse.Namespace) -> int:
     """Run every variant of a scene and write the table of their summaries."""
     from .batch.metrics import parse_metric
-    from .batch.run import check_metrics, sweep
+    from .batch.run import bag_names, check_metrics, sweep
+    from .batch.table import check_table, partial_path
     from .batch.variants import make_variants, parse_setting
 
+    output = check_table(args.output, overwrite=args.overwrite)
     settings = [parse_setting(text) for text in args.set]
     metrics = [parse_metric(text) for text in args.metric or []]
     if args.seed is not None and args.samples is None:
@@ -563,11 +606,16 @@ def sweep_command(args: argparse.Namespace) -> int:
     variants = make_variants(args.scene, settings, samples=args.samples,
                              seed=args.seed or 0, duration_ns=args.duration)
     check_metrics(metrics, variants)
+    bags = None
+    if args.bags is not None:
+        bags = check_folder(args.bags, option="--bags", names=bag_names(variants),
+                            overwrite=args.overwrite)
+        if bags.resolve() in (output.resolve(), partial_path(output).resolve()):
+            raise OutputError(f"--bags {args.bags}: is where -o writes the table")
     engine = _engine(args)
     try:
-        path = sweep(variants, engine, Path(args.output), metrics=metrics,
-                     bags=Path(args.bags) if args.bags else None,
-                     progress=_want_progress(args))
+        path = sweep(variants, engine, output, metrics=metrics, bags=bags,
+                     progress=_want_progress(args), overwrite=args.overwrite)
     finally:
         engine.close()
     print(f"wrote {len(variants)} variant(s) of {args.scene} to {path} "
@@ -599,11 +647,33 @@ def regress_command(args: argparse.Namespace) -> int:
     return 2 if counts["error"] else 1 if counts["mismatch"] else 0
 
 
-def _workers(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {text}")
+def _whole(text: str, low: int, high: int) -> int:
+    """A whole number from ``low`` to ``high``."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text}") from None
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be a whole number from {low} to {high}, "
+                                         f"not {text}")
     return value
+
+
+#: The most worker processes: each is a Python with numpy (some 60 MB); more than this
+#: would only fill the memory.
+MAX_WORKERS = 256
+
+
+def _workers(text: str) -> int:
+    return _whole(text, 1, MAX_WORKERS)
+
+
+def _samples(text: str) -> int:
+    return _whole(text, 1, MAX_VARIANTS)
+
+
+def _seed(text: str) -> int:
+    return _whole(text, 0, 2 ** 64 - 1)
 
 
 def _add_engine_options(parser: argparse.ArgumentParser) -> None:
@@ -631,10 +701,11 @@ def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
                               help="a parameter and its values: a,b,c (a list), "
                                    "start:stop:count (evenly spaced, both ends included) or "
                                    "start:stop (an interval, with --samples); repeatable")
-    sweep_parser.add_argument("--samples", type=_workers, metavar="N",
-                              help="draw N random variants instead of the grid")
-    sweep_parser.add_argument("--seed", type=int, metavar="S",
-                              help="seed of the random draws (default 0)")
+    sweep_parser.add_argument("--samples", type=_samples, metavar="N",
+                              help=f"draw N random variants instead of the grid (at most "
+                                   f"{MAX_VARIANTS}, as many as a grid may have)")
+    sweep_parser.add_argument("--seed", type=_seed, metavar="S",
+                              help="seed of the random draws, 0 to 2**64 - 1 (default 0)")
     sweep_parser.add_argument("--duration", type=_duration_ns, metavar="S",
                               help="sim seconds of every variant (default: the scene's)")
     sweep_parser.add_argument("--metric", action="append", metavar="[NAME=]EXPRESSION",
@@ -646,6 +717,9 @@ def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
     sweep_parser.add_argument("-o", "--output", required=True, metavar="RESULTS",
                               help="table to write (.parquet or .csv; without a suffix, "
                                    "Parquet if pyarrow is installed, else CSV)")
+    sweep_parser.add_argument("--overwrite", action="store_true",
+                              help="replace the table, its partial file and the bags in "
+                                   "--bags DIR if they exist")
     _add_engine_options(sweep_parser)
     sweep_parser.set_defaults(handler=sweep_command)
 
@@ -704,15 +778,26 @@ def parser() -> argparse.ArgumentParser:
     return top
 
 
+def _one_line(text: str) -> str:
+    """``text`` with its line breaks and other unprintable characters (a file name may hold
+    any) written as escapes, so an error stays one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
+    # A file name that is not valid UTF-8 reaches Python as escapes (surrogates); printed
+    # back in a report line it must not end the run with an encoding error.
+    if hasattr(sys.stdout, "reconfigure"):
+        sys.stdout.reconfigure(errors="backslashreplace")
     try:
         # Every result is checked for finiteness (a SceneError, a DivergenceError), so
         # numpy's overflow warnings would only add lines to the one-line error.
         with np.errstate(all="ignore"):
             return args.handler(args)
-    except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError) as error:
-        print(f"hecker-dynamics: error: {error}", file=sys.stderr)
+    except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError,
+            OutputError) as error:
+        print(f"hecker-dynamics: error: {_one_line(str(error))}", file=sys.stderr)
         return 2
 
 

@@ -9,9 +9,13 @@ here with the list of shipped scenes. ``use_sim_time`` makes the node follow /cl
 ``rviz:=true`` also starts RViz2 with the package's view (rviz/hecker_dynamics.rviz: TF and
 the shape markers) in the scene's fixed frame, and turns the node's markers on;
 ``markers:=true|false`` sets them either way (``auto``: on with RViz, else as the scene says).
+Where RViz2 is not installed (a headless machine), the node starts alone and one log line
+says why there is no RViz.
 """
+import os
+
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.actions import DeclareLaunchArgument, LogInfo, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
@@ -24,6 +28,22 @@ def _markers_on(rviz: bool, markers: str):
     if markers == 'auto':
         return True if rviz else None
     return markers == 'true'
+
+
+def _rviz_missing():
+    """Why RViz2 cannot start here, or None: its package and executable looked up as
+    launch_ros's Node looks an executable up (the package's ament prefix, then
+    lib/<package>/<executable>), so a missing one is found before the launch would fail."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+
+    try:
+        prefix = get_package_prefix('rviz2')
+    except PackageNotFoundError:
+        return 'the rviz2 package is not installed (apt install ros-jazzy-rviz2)'
+    executable = os.path.join(prefix, 'lib', 'rviz2', 'rviz2')
+    if not os.access(executable, os.X_OK):
+        return f'the rviz2 package has no executable {executable}'
+    return None
 
 
 def _dynamics_node(context):
@@ -44,7 +64,11 @@ def _dynamics_node(context):
         output='screen',
         parameters=[params_file, overrides],
     )]
-    if rviz:
+    missing = _rviz_missing() if rviz else None
+    if missing:
+        actions.append(LogInfo(msg=f'rviz:=true, but no RViz: {missing}; the node runs '
+                                   'without it'))
+    elif rviz:
         config = f"{get_package_share_directory('hecker_dynamics')}/{RVIZ_CONFIG}"
         actions.append(Node(
             package='rviz2',

@@ -3,7 +3,7 @@
 # extra: pip install '.[viz]'). 320x240 at 10 fps keeps each GIF at a few hundred KB at most.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-render() { hecker-dynamics render "$1" -o "docs/figures/$1.gif" --fps 10 --size 320x240 "${@:2}"; }
+render() { hecker-dynamics render "$1" -o "docs/figures/$1.gif" --overwrite --fps 10 --size 320x240 "${@:2}"; }
 render sample --trail left/hook --contacts
 render seesaw --trail load
 render door --trail door/handle --contacts

@@ -1,10 +1,17 @@
 """Shared by every test: this folder is on ``sys.path`` (pytest puts a rootdir conftest's
 folder there), so test modules import the scene builders in ``scene_builders`` and the
 numerical helpers in ``helpers`` without path changes of their own. The package itself is
-imported from where it is installed (``scripts/test.sh`` runs pytest with ``-I``)."""
+imported from where it is installed (``scripts/test.sh`` runs pytest with ``-I``).
+
+Where rosbags is not installed, the tests that import it skip with the reason
+(:mod:`optional_modules`)."""
 from __future__ import annotations
 
 import pytest
+
+import optional_modules
+
+optional_modules.install()
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:

@@ -11,7 +11,10 @@ User metrics are expressions over the row's numbers, e.g. ``right.x - left.x`` o
 ``hypot(left.vx, left.vy)``, evaluated by a small evaluator that walks the parsed syntax
 tree and knows only numbers, names (dotted names read as one column), arithmetic,
 comparisons and a few math functions: no attribute access, indexing or calls to anything
-else, so an expression cannot reach Python.
+else, so an expression cannot reach Python. Its size is bounded before it is parsed
+(:data:`MAX_LENGTH` characters, :data:`MAX_DEPTH` levels of nesting), each function's
+number of arguments is checked, and ``**`` is ``math.pow`` (a negative number to a
+fractional power is undefined, an empty cell, not a complex number).
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ from ..scene.parameters import SceneError
 from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
 
-__all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS"]
+__all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS", "MAX_LENGTH", "MAX_DEPTH"]
 
 Cell = Union[float, int, str, bool, None]
 
@@ -37,7 +40,7 @@ STATE_FIELDS = ("x", "y", "angle", "vx", "vy", "omega", "speed")
 _BINARY: dict[type, Callable[[Any, Any], Any]] = {
     ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
     ast.Div: operator.truediv, ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod,
-    ast.Pow: operator.pow}
+    ast.Pow: math.pow}
 _UNARY: dict[type, Callable[[Any], Any]] = {ast.UAdd: operator.pos, ast.USub: operator.neg,
                                             ast.Not: operator.not_}
 _COMPARE: dict[type, Callable[[Any, Any], Any]] = {
@@ -47,6 +50,16 @@ _FUNCTIONS: dict[str, Callable[..., float]] = {
     "abs": abs, "min": min, "max": max, "sqrt": math.sqrt, "hypot": math.hypot,
     "sin": math.sin, "cos": math.cos, "tan": math.tan, "atan2": math.atan2, "exp": math.exp,
     "log": math.log, "floor": math.floor, "ceil": math.ceil}
+#: How many arguments each function takes: (at least, at most; None: any number).
+_ARITY: dict[str, tuple[int, Optional[int]]] = {
+    "abs": (1, 1), "min": (2, None), "max": (2, None), "sqrt": (1, 1), "hypot": (1, None),
+    "sin": (1, 1), "cos": (1, 1), "tan": (1, 1), "atan2": (2, 2), "exp": (1, 1),
+    "log": (1, 2), "floor": (1, 1), "ceil": (1, 1)}
+#: The longest expression, in characters, and its deepest nesting, in syntax-tree levels:
+#: far above any formula over a row, far below what the parser and the evaluator's
+#: recursion can take.
+MAX_LENGTH = 1000
+MAX_DEPTH = 200
 
 
 def _dotted(node: ast.expr) -> Optional[str]:
@@ -140,8 +153,32 @@ def _allowed(node: ast.AST) -> bool:
                              *_BINARY, *_UNARY, *_COMPARE))
 
 
+def _depth(tree: ast.AST) -> int:
+    """The deepest nesting of ``tree`` (without recursion: it is not yet known to be small)."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return deepest
+
+
+def _check_call(text: str, node: ast.Call) -> None:
+    assert isinstance(node.func, ast.Name)
+    low, high = _ARITY[node.func.id]
+    given = len(node.args)
+    if given < low or (high is not None and given > high):
+        wanted = f"{low}" if low == high else f"{low} or more" if high is None \
+            else f"{low} to {high}"
+        raise SceneError(f"--metric {text}: {node.func.id}() takes {wanted} argument(s), "
+                         f"not {given}")
+
+
 def parse_metric(text: str) -> Metric:
-    """Parse ``[NAME=]EXPRESSION``; :class:`SceneError` for anything outside the grammar."""
+    """Parse ``[NAME=]EXPRESSION``; :class:`SceneError` for anything outside the grammar
+    or its bounds."""
+    if len(text) > MAX_LENGTH:
+        raise SceneError(f"--metric {text[:40]}...: longer than {MAX_LENGTH} characters")
     name, equals, expression = text.partition("=")
     if not equals or not name.strip().isidentifier() or expression.startswith("="):
         name, expression = text.strip(), text
@@ -149,10 +186,16 @@ def parse_metric(text: str) -> Metric:
         tree = ast.parse(expression.strip(), mode="eval")
     except SyntaxError as error:
         raise SceneError(f"--metric {text}: not an expression ({error.msg})") from None
+    except (MemoryError, RecursionError, ValueError):  # ValueError: a NUL character
+        raise SceneError(f"--metric {text}: not an expression the parser can read") from None
+    if _depth(tree) > MAX_DEPTH:
+        raise SceneError(f"--metric {text}: nested deeper than {MAX_DEPTH} levels")
     for node in ast.walk(tree):
         if not _allowed(node):
             raise SceneError(f"--metric {text}: '{ast.unparse(node)}' is not allowed (numbers, "
                              f"names, arithmetic, comparisons and {', '.join(_FUNCTIONS)})")
+        if isinstance(node, ast.Call):
+            _check_call(text, node)
     return Metric(name.strip(), text, tree)
 
 

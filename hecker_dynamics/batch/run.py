@@ -18,6 +18,7 @@ import yaml
 from ..bags.check import check_recording
 from ..bags.io import BagError, read_bag
 from ..bags.compare import Tolerances
+from ..files import OutputError
 from ..dynamics.commands import InputError
 from ..dynamics.simulation import DivergenceError
 from ..scene.parameters import SceneError, quoted, unflatten
@@ -26,11 +27,11 @@ from ..scene.load import NODE_NAME, load_scene, shipped_scenes
 from ..viz.progress import Progress
 from .engines import Engine
 from .metrics import STATE_FIELDS, Cell, Metric, summarize
-from .table import PartialRows, table_path, write_table
+from .table import PartialRows, partial_path, table_path, write_table
 from .variants import Variant
 
-__all__ = ["SweepTask", "run_variant", "sweep", "check_metrics", "BagTask", "BagResult",
-           "check_bag", "find_bags", "regress", "progress_bar"]
+__all__ = ["SweepTask", "run_variant", "sweep", "check_metrics", "bag_names", "BagTask",
+           "BagResult", "check_bag", "find_bags", "regress", "progress_bar"]
 
 
 # ----------------------------------------------------------------------------- progress
@@ -74,10 +75,14 @@ def run_variant(task: SweepTask) -> dict[str, Cell]:
     return row
 
 
+def _bag_name(variant: Variant) -> str:
+    return f"variant-{variant.index:06d}"
+
+
 def _write_bag(variant: Variant, directory: Path) -> None:
     """The variant's parameters file and a bag of its scripted inputs and outputs, as
     ``replay --check`` reads them (``regress`` finds the file next to the bag)."""
-    name = f"variant-{variant.index:06d}"
+    name = _bag_name(variant)
     scene_file = directory / f"{name}.yaml"
     scene_file.write_text(yaml.safe_dump(
         {NODE_NAME: {"ros__parameters": unflatten(variant.parameters)}}, sort_keys=True))
@@ -97,41 +102,59 @@ def summary_columns(variant: Variant) -> set[str]:
                     for field in (*STATE_FIELDS, *extrema)}
 
 
+#: Columns of every row that hold text, not numbers: no metric reads them or takes their name.
+TEXT_COLUMNS = ("status", "message")
+
+
 def check_metrics(metrics: Sequence[Metric], variants: Sequence[Variant]) -> None:
-    """Raise :class:`SceneError` for a metric that reads a name the rows do not have, or
-    whose name is already a column."""
+    """Raise :class:`SceneError` for a metric that reads a name the rows do not have, whose
+    name is already a column (``status`` too), or whose name another metric has."""
     if not variants:
         return
     columns = summary_columns(variants[0])
+    named: dict[str, Metric] = {}
     for metric in metrics:
         metric.check(columns)
-        if metric.name in columns:
+        if metric.name in columns or metric.name in TEXT_COLUMNS:
             raise SceneError(f"--metric {metric.text}: '{metric.name}' is already a column; "
                              "name the metric: NAME=EXPRESSION")
+        if metric.name in named:
+            raise SceneError(f"--metric {metric.text}: '{metric.name}' is the name of "
+                             f"--metric {named[metric.name].text} too; give each its own")
+        named[metric.name] = metric
+
+
+def bag_names(variants: Sequence[Variant]) -> list[str]:
+    """What ``sweep --bags DIR`` writes into DIR: each variant's parameters file and bag."""
+    return [name for v in variants for name in (f"{_bag_name(v)}.yaml", _bag_name(v))]
 
 
 def sweep(variants: Sequence[Variant], engine: Engine, output: Path, *,
           metrics: Sequence[Metric] = (), bags: Optional[Path] = None,
           function: Callable[[SweepTask], dict[str, Cell]] = run_variant,
-          progress: bool = False) -> Path:
+          progress: bool = False, overwrite: bool = False) -> Path:
     """Run every variant on ``engine`` and write the table; returns its path.
 
     Finished rows go to the partial file as they come (kept if the sweep fails); the
-    table, sorted by variant, is written at the end. ``function`` runs one task.
+    table, sorted by variant, is written at the end. ``function`` runs one task. Neither
+    file, nor a bag, replaces one that exists unless ``overwrite``; an :class:`OSError`
+    of the writing becomes an :class:`~hecker_dynamics.files.OutputError`.
     """
     path = table_path(output)
-    partial = PartialRows(path.with_name(path.name + ".partial.csv"))
-    if bags is not None:
-        bags.mkdir(parents=True, exist_ok=True)
+    partial = PartialRows(partial_path(path), overwrite=overwrite)
     tasks = [SweepTask(v, tuple(metrics), bags) for v in variants]
     rows = []
     finished = False
     try:
+        if bags is not None:
+            bags.mkdir(parents=True, exist_ok=True)
         for _, row in progress_bar(engine.run(function, tasks), len(tasks), "sweep", progress):
             partial.add(row)
             rows.append(row)
-        write_table(path, rows)
+        write_table(path, rows, overwrite=overwrite)
         finished = True
+    except OSError as error:  # a worker's bag or the partial file; the table says itself
+        raise OutputError(f"cannot write the sweep's output: {error}") from None
     finally:
         partial.close(keep=not finished)
     return path

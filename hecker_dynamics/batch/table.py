@@ -9,6 +9,10 @@ shares (the scene fixes the bodies).
 While the variants run, finished rows go to a partial CSV file next to the table as they
 come (``<table>.partial.csv``, one row per line, flushed), so a sweep that stops keeps
 what it finished; the partial file is removed once the table is written.
+
+:func:`check_table` checks ``-o`` before any variant runs (:mod:`hecker_dynamics.files`:
+neither the table nor the partial file of an earlier sweep is replaced without
+``--overwrite``; Parquet needs pyarrow), and the table is written whole or not at all.
 """
 from __future__ import annotations
 
@@ -19,7 +23,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Optional, TextIO
 
-__all__ = ["table_format", "table_path", "write_table", "PartialRows"]
+from ..files import OutputError, check_file, file_path, replacing
+
+__all__ = ["table_format", "table_path", "partial_path", "check_table", "write_table",
+           "PartialRows"]
 
 FORMATS = {".parquet": "parquet", ".csv": "csv"}
 
@@ -30,15 +37,32 @@ def _has_pyarrow() -> bool:
 
 def table_format(path: Path) -> str:
     """``parquet`` or ``csv``: by the suffix, else Parquet when pyarrow is installed."""
-    if path.suffix in FORMATS:
-        return FORMATS[path.suffix]
+    if path.suffix.lower() in FORMATS:
+        return FORMATS[path.suffix.lower()]
     return "parquet" if _has_pyarrow() else "csv"
 
 
 def table_path(path: Path) -> Path:
     """``path``, with the suffix of its format added when it has neither."""
-    return path if path.suffix in FORMATS else path.with_name(
+    return path if path.suffix.lower() in FORMATS else path.with_name(
         path.name + "." + table_format(path))
+
+
+def partial_path(table: Path) -> Path:
+    """Where the rows of a running sweep go as they finish."""
+    return table.with_name(table.name + ".partial.csv")
+
+
+def check_table(text: str, *, overwrite: bool = False) -> Path:
+    """The table ``-o TEXT`` names (its suffix added), checked before any work; raises
+    :class:`~hecker_dynamics.files.OutputError`."""
+    path = table_path(file_path(text))
+    check_file(path, overwrite=overwrite,
+               also=[(partial_path(path), "the rows of a sweep that stopped")])
+    if table_format(path) == "parquet" and not _has_pyarrow():
+        raise OutputError(f"-o {path}: Parquet needs pyarrow (pip install pyarrow); or "
+                          "write a .csv")
+    return path
 
 
 def _cell(value: Any) -> str:
@@ -65,36 +89,39 @@ def _write_csv(stream: TextIO, columns: Sequence[str], rows: Sequence[Mapping[st
         writer.writerow([_cell(row.get(c)) for c in columns])
 
 
-def write_table(path: Path, rows: Sequence[Mapping[str, Any]]) -> Path:
+def write_table(path: Path, rows: Sequence[Mapping[str, Any]], *,
+                overwrite: bool = False) -> Path:
     """Write ``rows`` (each with a ``variant`` index) sorted by variant; returns the path."""
     path = table_path(path)
     ordered = sorted(rows, key=lambda row: row["variant"])
     columns = _columns(ordered)
-    if table_format(path) == "parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+    with replacing(path, overwrite=overwrite) as scratch:
+        if table_format(path) == "parquet":
+            import pyarrow as pa
+            import pyarrow.parquet as pq
 
-        table = pa.table({c: [row.get(c) for row in ordered] for c in columns})
-        pq.write_table(table, path)
-    else:
-        text = io.StringIO()
-        _write_csv(text, columns, ordered)
-        path.write_text(text.getvalue())
+            table = pa.table({c: [row.get(c) for row in ordered] for c in columns})
+            pq.write_table(table, scratch)
+        else:
+            text = io.StringIO()
+            _write_csv(text, columns, ordered)
+            scratch.write_text(text.getvalue())
     return path
 
 
 class PartialRows:
     """Finished rows appended to a CSV file as they come, in finishing order."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, overwrite: bool = False) -> None:
         self.path = path
+        self.overwrite = overwrite
         self._stream: Optional[TextIO] = None
         self._columns: list[str] = []
 
     def add(self, row: Mapping[str, Any]) -> None:
         if self._stream is None:
             self._columns = list(row)
-            self._stream = open(self.path, "w", newline="")
+            self._stream = open(self.path, "w" if self.overwrite else "x", newline="")
             _write_csv(self._stream, self._columns, [])
         _write_csv(self._stream, self._columns, [row], header=False)
         self._stream.flush()

@@ -15,6 +15,8 @@ independently from a ``numpy.random.Generator`` seeded with S (a list or a grid:
 its values, equally likely; an interval: uniform), so the same seed gives the same
 variants wherever they run. Every variant is built into a :class:`Scene` by the scene
 loader before any work starts, so a bad name or value fails like a bad scene file does.
+A sweep has at most :data:`MAX_VARIANTS` variants (a grid's size is known from its
+counts before any is made), and a parameter is set by one ``--set`` only.
 """
 from __future__ import annotations
 
@@ -32,7 +34,13 @@ import yaml
 from ..scene.parameters import SceneError, flatten
 from ..scene.load import Scene, scene_from_parameters, scene_parameters
 
-__all__ = ["Setting", "Variant", "parse_setting", "grid", "sample", "make_variants"]
+__all__ = ["Setting", "Variant", "parse_setting", "grid", "sample", "make_variants",
+           "MAX_VARIANTS"]
+
+#: The most variants of one sweep. Each is a scene built before any runs (about 10 kB and
+#: 10 ms here), so this is some 1 GB and a quarter of an hour of building: past it, a
+#: mistyped count would exhaust the memory before the first run.
+MAX_VARIANTS = 100_000
 
 Value = Union[float, int, bool, str]
 _NAME = re.compile(r"(?P<name>[A-Za-z][A-Za-z0-9_]*(?:\.[A-Za-z][A-Za-z0-9_]*)*)"
@@ -113,6 +121,9 @@ def parse_setting(text: str) -> Setting:
             if isinstance(count, bool) or not isinstance(count, int) or count < 1:
                 raise SceneError(f"--set {text}: the count '{parts[2]}' is not a positive "
                                  "whole number")
+            if count > MAX_VARIANTS:
+                raise SceneError(f"--set {text}: the count {count} is over the "
+                                 f"{MAX_VARIANTS} variants a sweep may have")
             return Setting(**base, values=tuple(np.linspace(start, stop, count).tolist()))
         raise SceneError(f"--set {text}: a range is start:stop:count or start:stop")
     items = [item.strip() for item in values.split(",")]
@@ -121,18 +132,39 @@ def parse_setting(text: str) -> Setting:
     return Setting(**base, values=tuple(_scalar(item, text) for item in items))
 
 
+def _check_distinct(settings: Sequence[Setting]) -> None:
+    """One ``--set`` per parameter: two would make two columns of one name."""
+    seen: dict[str, Setting] = {}
+    for setting in settings:
+        if setting.column in seen:
+            raise SceneError(f"--set {setting.text}: '{setting.column}' is set by --set "
+                             f"{seen[setting.column].text} too; give all its values in one")
+        seen[setting.column] = setting
+
+
 def grid(settings: Sequence[Setting]) -> list[tuple[Value, ...]]:
     """Every combination of the settings' values, the last setting varying fastest."""
+    _check_distinct(settings)
     for setting in settings:
         if setting.interval is not None:
             raise SceneError(f"--set {setting.text}: an interval start:stop needs --samples; "
                              "give start:stop:count for a grid")
+    size = math.prod(len(s.values) for s in settings)
+    if size > MAX_VARIANTS:
+        raise SceneError(f"--set: the grid of {' x '.join(str(len(s.values)) for s in settings)}"
+                         f" values is {size:.3g} variants, over the {MAX_VARIANTS} a sweep may "
+                         "have; narrow it or draw --samples")
     return list(itertools.product(*(s.values for s in settings)))
 
 
 def sample(settings: Sequence[Setting], count: int, seed: int) -> list[tuple[Value, ...]]:
     """``count`` draws of every setting from a generator seeded with ``seed``, in order:
     variant by variant, setting by setting."""
+    _check_distinct(settings)
+    if not 1 <= count <= MAX_VARIANTS:
+        raise SceneError(f"--samples {count}: must be from 1 to {MAX_VARIANTS}")
+    if not 0 <= seed < 2 ** 64:
+        raise SceneError(f"--seed {seed}: must be a whole number from 0 to 2**64 - 1")
     generator = np.random.default_rng(seed)
     draws = []
     for _ in range(count):

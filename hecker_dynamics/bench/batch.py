@@ -53,7 +53,9 @@ def bench_batch(rounds: int = 1, workers: int | None = None,
             started = time.perf_counter()
             engine = engines[name]()
             try:
-                path = sweep(variants, engine, Path(scratch) / "table.csv", progress=False)
+                # Each engine's table replaces the one before: they are compared as they come.
+                path = sweep(variants, engine, Path(scratch) / "table.csv", progress=False,
+                             overwrite=True)
             finally:
                 engine.close()
             times.setdefault((workload, name), []).append(time.perf_counter() - started)

@@ -49,7 +49,8 @@ from .pyramid import STEP, ball_box, pyramid
 from .report import MARKERS, agg_pyplot
 from .scene_peers import SCENE_PEERS, scene_engine
 
-__all__ = ["BLOCK", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET", "ContactResults",
+__all__ = ["BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET",
+           "ContactResults",
            "contact_bench", "contact_scene_names", "measure_pyramid", "pyramid_engines",
            "pyramid_figure", "pyramid_series", "scene_rows"]
 
@@ -239,6 +240,10 @@ def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> dic
 def _scene_line(rows: list[Row]) -> str:
     return ", ".join(f"{r.engine} {r.method} {r.cost * r.step * 1e6:.1f} us" for r in rows
                      if r.status == "ok")
+
+
+#: Every file :func:`contact_bench` may write into its folder.
+CONTACT_FILES = ("contacts.md", "contacts.csv", "contacts.png")
 
 
 def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: str,

@@ -39,7 +39,8 @@ from ..dynamics.simulation import Simulation
 from ..scene.load import Scene, load_scene, scene_from_parameters
 from ..scene.parameters import flatten
 
-__all__ = ["BLOCK", "LINKS", "chain", "joint_bench", "chain_engines", "pinned_engines"]
+__all__ = ["BLOCK", "LINKS", "JOINT_FILES", "chain", "joint_bench", "chain_engines",
+           "pinned_engines"]
 
 BLOCK = 25
 LINKS = 100
@@ -212,6 +213,10 @@ def interleaved(engines: dict[str, Engine], steps: int) -> dict[str, tuple[float
             costs[name].append((time.perf_counter() - begin) / BLOCK)
             worst[name] = max(worst[name], error())
     return {name: (statistics.median(costs[name]), worst[name]) for name in engines}
+
+
+#: The files :func:`joint_bench` writes into its folder.
+JOINT_FILES = ("joints.md", "joints.csv")
 
 
 def joint_bench(peers: list[str], out: Path, command: str,

@@ -211,6 +211,19 @@ def targets(results) -> list[tuple[str, str, str]]:
     return lines
 
 
+#: Every file :func:`write_report` may write into its folder.
+REPORT_FILES = ("report.md", "results.csv", "ring.csv", "bounce.csv", "work_precision.png")
+
+
+def new_report_folder() -> Path:
+    """Where a bench writes when it is not told: a new folder under the system's temporary
+    folder, never the repository's docs/bench (a bench run in a clone would rewrite the
+    tracked report)."""
+    import tempfile
+
+    return Path(tempfile.mkdtemp(prefix="hecker-dynamics-bench-"))
+
+
 def write_report(results, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     write_csv(results.rows, out / "results.csv")

@@ -359,15 +359,18 @@ def _trim_profile(text: str) -> str:
     return "\n".join(head + lines[start:start + 13])
 
 
-def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
+def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
                                         "bounce", "checks", "profiles"),
               bar: Optional[BarFactory] = None) -> Results:
+    """Run the benchmark's ``parts`` in ``mode_name`` and write the report into ``out``
+    (by default a new folder, :func:`~hecker_dynamics.bench.report.new_report_folder`)."""
     from ..scene.load import shipped_scenes
-    from .report import write_report
+    from .report import new_report_folder, write_report
 
+    out = new_report_folder() if out is None else out
     mode = MODES[mode_name]
     started = time.perf_counter()
     results = Results(mode_name, command=command)
@@ -408,6 +411,6 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
     results.seconds = time.perf_counter() - started
     results.environment["load average at end"] = "{:.2f}, {:.2f}, {:.2f}".format(
         *os.getloadavg())
-    write_report(results, Path(out))
+    write_report(results, out)
     log(f"wrote {out} in {results.seconds:.0f} s")
     return results

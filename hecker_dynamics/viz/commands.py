@@ -10,6 +10,7 @@ import math
 from pathlib import Path
 from collections.abc import Callable
 
+from ..files import check_file, file_path, replacing
 from ..scene import Scene, load_scene
 from .frames import VizError
 from .progress import Progress
@@ -48,6 +49,8 @@ def view_run(scene: Scene) -> None:
     from .frames import run_timeline
 
     render.require_display()  # before the run: fail fast
+    render.span_times(0, scene.duration_ns, VIEW_FPS)
+    render.check_run(scene, scene.duration_ns)
     timeline = run_timeline(scene, scene.duration_ns)
     frames = render.timeline_frames(timeline, 0, scene.duration_ns, VIEW_FPS)
     render.show_live(timeline, frames, draw.parse_size(DEFAULT_SIZE), VIEW_FPS)
@@ -59,8 +62,10 @@ def render_command(args: argparse.Namespace) -> int:
     from .frames import bag_timeline, run_timeline
 
     scene = load_scene(args.scene)
-    output = Path(args.output or f"{Path(scene.source).stem}.gif")
+    output = file_path(args.output if args.output is not None
+                       else f"{Path(scene.source).stem}.gif")
     render.check_output(output)
+    check_file(output, overwrite=args.overwrite)
     fps, size = _fps(args.fps), draw.parse_size(args.size)
     view = draw.parse_view(args.view) if args.view is not None else None
     trails = [draw.parse_trail(scene, text) for text in args.trail or []]
@@ -69,14 +74,18 @@ def render_command(args: argparse.Namespace) -> int:
         (timeline.start_ns if timeline is not None else 0)
     duration = args.duration if args.duration is not None else \
         ((timeline.end_ns - start) if timeline is not None else scene.duration_ns)
-    render.span_times(start, duration, fps)  # before the run: fail fast
+    if timeline is not None:
+        _check_in_session(timeline, start, duration)
+    render.check_span(output, size, start, duration, fps)  # before the run: fail fast
     if timeline is None:
+        render.check_run(scene, start + duration)
         timeline = run_timeline(scene, start + duration)
     progress = Progress("render", duration * 1e-9)  # drawn when stderr is a terminal
     try:
         count = render.render(timeline, output, fps=fps, size=size, start_ns=start,
                               duration_ns=duration, view=view, trails=trails,
-                              contacts=args.contacts, progress=progress)
+                              contacts=args.contacts, progress=progress,
+                              overwrite=args.overwrite)
     finally:
         progress.close()
     print(f"wrote {count} frame(s) of {args.bag or args.scene}, sim time "
@@ -84,14 +93,28 @@ def render_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_in_session(timeline, start_ns: int, duration_ns: int) -> None:
+    """A bag's span must lie in its session: past its end every frame would show the last
+    poses held, labelled with times the bag never reached."""
+    first, last = timeline.start_ns * 1e-9, timeline.end_ns * 1e-9
+    if not timeline.start_ns <= start_ns < timeline.end_ns:
+        raise VizError(f"--start {start_ns * 1e-9:g} s: outside the bag's session, "
+                       f"{first:g} s to {last:g} s")
+    if start_ns + duration_ns > timeline.end_ns:
+        raise VizError(f"--duration {duration_ns * 1e-9:g} s: from --start "
+                       f"{start_ns * 1e-9:g} s it ends after the bag's session, at {last:g} s")
+
+
 def plot_command(args: argparse.Namespace) -> int:
     """Plot the poses, twists (and, with a scene, energy) in one bag or two against time."""
     _, plot, _ = _viz()
-    output = Path(args.output)
+    output = file_path(args.output)
     if output.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise VizError(f"-o {output}: unknown plot type '{output.suffix}' (use .png, .svg, .pdf)")
+    check_file(output, overwrite=args.overwrite)
     scene = load_scene(args.scene) if args.scene else None
-    plot.plot_bags(output, args.bag, args.bag2, scene=scene)
+    with replacing(output, overwrite=args.overwrite) as scratch:
+        plot.plot_bags(scratch, args.bag, args.bag2, scene=scene)
     print(f"wrote {output}")
     return 0
 
@@ -113,7 +136,8 @@ def add_viz_commands(commands: argparse._SubParsersAction,
                                help="FILE.gif, .mp4 (needs imageio-ffmpeg), .png or .svg "
                                     "(default: <scene>.gif)")
     render_parser.add_argument("--bag", help="draw this bag's poses instead of a run")
-    render_parser.add_argument("--fps", default="20", help="frames per second (default 20)")
+    render_parser.add_argument("--fps", default="20",
+                               help="frames per second (default 20; a GIF at most 50)")
     render_parser.add_argument("--size", default=DEFAULT_SIZE,
                                help=f"WIDTHxHEIGHT in pixels (default {DEFAULT_SIZE})")
     render_parser.add_argument("--start", type=seconds, metavar="S",
@@ -128,6 +152,8 @@ def add_viz_commands(commands: argparse._SubParsersAction,
                                help="draw the path of a body's CM or named point (repeatable)")
     render_parser.add_argument("--contacts", action="store_true",
                                help="mark the contact points with walls and between bodies")
+    render_parser.add_argument("--overwrite", action="store_true",
+                               help="replace FILE if it exists")
     render_parser.set_defaults(handler=render_command)
 
     plot_parser = commands.add_parser(
@@ -141,4 +167,6 @@ def add_viz_commands(commands: argparse._SubParsersAction,
     plot_parser.add_argument("-o", "--output", default="plot.png", metavar="FILE.png",
                              help="picture to write (default plot.png)")
     plot_parser.add_argument("--scene", help="scene of the bag: adds the energy row")
+    plot_parser.add_argument("--overwrite", action="store_true",
+                             help="replace FILE.png if it exists")
     plot_parser.set_defaults(handler=plot_command)

@@ -36,7 +36,7 @@ from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 
 __all__ = ["View", "Trail", "Drawing", "BACKGROUND", "BODY_COLORS", "ARROW_COLOR",
-           "parse_view", "parse_size", "parse_trail", "fit_view"]
+           "DRAWING_COLORS", "parse_view", "parse_size", "parse_trail", "fit_view"]
 
 BACKGROUND = "#ffffff"
 WALL_COLOR = "#c8c8c8"
@@ -49,6 +49,9 @@ JOINT_COLOR = "#ffffff"
 #: One fill per body, in the scene's order (matplotlib's tab10 without the arrow's red).
 BODY_COLORS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
                 "#ff7f0e")
+#: Every colour a frame is drawn in (a GIF's palette holds each of them).
+DRAWING_COLORS = (BACKGROUND, WALL_COLOR, EDGE_COLOR, SPRING_COLOR, ARROW_COLOR, CONTACT_COLOR,
+                  TRAIL_COLOR, JOINT_COLOR, *BODY_COLORS)
 #: The longest force of a picture is drawn this fraction of the view's smaller side long.
 ARROW_FRACTION = 0.25
 #: Margin around the bodies' extent when the view is fitted, as a fraction of its size.

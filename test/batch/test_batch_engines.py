@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import sys
 from dataclasses import replace
 from functools import partial
@@ -169,3 +170,64 @@ def test_regress_command_exits_1_on_a_mismatch_and_2_on_bad_input(bag_suite, tmp
     empty.mkdir()
     assert main(["regress", str(empty)]) == 2
     assert "not a bag directory and holds none" in capsys.readouterr().err
+
+
+def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,
+                  log: Path) -> subprocess.Popen[bytes]:
+    """A ``dask scheduler`` or ``dask worker`` process on loopback; ``without_package``: one
+    to which hecker_dynamics cannot be imported (a machine where it is not installed). The
+    worker runs without a nanny, in this very process, where the import is blocked."""
+    options = {"scheduler": ["--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                             "--scheduler-file", str(scheduler_file)],
+               "worker": ["--scheduler-file", str(scheduler_file), "--nthreads", "1",
+                          "--no-nanny", "--host", "127.0.0.1", "--no-dashboard"]}[role]
+    code = ("import runpy, sys\n"
+            + ("sys.modules['hecker_dynamics'] = None\n" if without_package else "")
+            + f"sys.argv = ['dask-{role}', *{options!r}]\n"
+            + f"runpy.run_module('distributed.cli.dask_{role}', run_name='__main__')\n")
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL,
+                            stderr=log.open("wb"))
+
+
+def _wait_for(scheduler_file: Path, workers: int) -> str:
+    """The scheduler's address, once ``workers`` workers have joined (at most 120 s)."""
+    import json
+    import time
+
+    deadline = time.monotonic() + 120
+    while not scheduler_file.exists():
+        assert time.monotonic() < deadline, "the scheduler did not start"
+        time.sleep(0.2)
+    address = json.loads(scheduler_file.read_text())["address"]
+    if workers:
+        with distributed.Client(address, timeout="30s") as client:
+            client.wait_for_workers(workers, timeout=120)
+    return address
+
+
+@pytest.mark.parametrize("without", ["worker", "scheduler"])
+def test_a_cluster_that_cannot_import_the_package_is_one_line(tmp_path, capsys, without):
+    """Workers (or a scheduler, which unpickles the tasks) without hecker_dynamics: one
+    line naming what is missing where, before any variant is sent; nothing written."""
+    scheduler_file = tmp_path / "scheduler.json"
+    processes = [_dask_process("scheduler", scheduler_file, without_package=without ==
+                               "scheduler", log=tmp_path / "scheduler.log")]
+    try:
+        if without == "worker":
+            processes.append(_dask_process("worker", scheduler_file, without_package=True,
+                                           log=tmp_path / "worker.log"))
+        address = _wait_for(scheduler_file, 1 if without == "worker" else 0)
+        output = tmp_path / "t.csv"
+        code = main(["sweep", "sample", "--set", "bodies.left.mass=1,2", "--duration", "0.02",
+                     "-o", str(output), "--cluster", address, "--no-progress"])
+    finally:
+        for process in processes:
+            process.terminate()
+            process.wait(timeout=60)
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if "warning: " not in line]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, err
+    where = "1 of 1 Dask worker(s)" if without == "worker" else "the Dask scheduler"
+    assert lines[0].startswith(f"hecker-dynamics: error: {where}")
+    assert "cannot import hecker_dynamics.batch.run (ModuleNotFoundError" in lines[0]
+    assert not output.exists() and not list(tmp_path.glob("*.partial.csv"))

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 import hecker_dynamics
-from hecker_dynamics.batch.metrics import parse_metric, summarize
+from hecker_dynamics.batch.metrics import MAX_DEPTH, parse_metric, summarize
 from hecker_dynamics.batch.run import check_metrics
-from hecker_dynamics.batch.variants import grid, make_variants, parse_setting, sample
+from hecker_dynamics.batch.variants import (MAX_VARIANTS, grid, make_variants, parse_setting,
+                                            sample)
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import SceneError
 from scene_builders import write_scene
@@ -69,7 +70,7 @@ def test_malformed_settings_are_refused(text, problem):
 ])
 def test_bad_sweep_fails_before_any_work_with_one_line(tmp_path, capsys, setting, problem):
     output = tmp_path / "results.csv"
-    code = main(["sweep", "sample", "--set", "bodies.left.mass=1", "--set", setting,
+    code = main(["sweep", "sample", "--set", "bodies.right.mass=1", "--set", setting,
                  "-o", str(output), "--no-progress"])
     err = capsys.readouterr().err
     assert code == 2
@@ -104,6 +105,104 @@ def test_metric_names_are_checked_against_the_columns():
         check_metrics([parse_metric("d=abs + 1")], variants)
     with pytest.raises(SceneError, match="already a column"):
         check_metrics([parse_metric("energy=1")], variants)
+
+
+def test_metric_evaluation_stays_real_and_bounded():
+    """``**`` is math.pow: a negative number to a fractional power is undefined (an empty
+    cell), not the complex number Python's ** makes, which no column can hold."""
+    row = {"left.x": -8.0}
+    assert parse_metric("x=(-8)**(1/3)").evaluate(row) is None
+    assert parse_metric("x=left.x ** (1/3)").evaluate(row) is None
+    assert parse_metric("x=left.x ** 2").evaluate(row) == 64.0
+    assert parse_metric("x=(-8) ** 3").evaluate(row) == -512.0
+    assert parse_metric("x=0 ** -1").evaluate(row) is None
+    # Chains as deep as the bound allows evaluate exactly (the tree's levels: the
+    # expression, the operations, the number).
+    assert parse_metric("x=" + "+".join(["1"] * (MAX_DEPTH - 1))).evaluate(row) == \
+        MAX_DEPTH - 1
+    assert parse_metric("x=" + "-" * (MAX_DEPTH - 2) + "1").evaluate(row) == 1.0
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("x=" + "+".join(["1"] * 2000), "longer than 1000 characters"),
+    ("x=" + "+".join(["1"] * 400), "nested deeper than"),
+    ("x=" + "-" * 900 + "1", "nested deeper than"),
+    ("x=" + "(" * 250 + "1" + ")" * 250, "too many nested parentheses"),
+    ("x=min(left.x)", r"min\(\) takes 2 or more argument\(s\), not 1"),
+    ("x=max()", r"max\(\) takes 2 or more"),
+    ("x=atan2(1)", r"atan2\(\) takes 2 argument"),
+    ("x=sqrt(1, 2)", r"sqrt\(\) takes 1 argument"),
+    ("x=log(1, 2, 3)", r"log\(\) takes 1 to 2 argument"),
+    ("x=hypot()", r"hypot\(\) takes 1 or more"),
+])
+def test_metric_size_and_calls_are_checked_before_any_work(text, problem):
+    with pytest.raises(SceneError, match=problem) as caught:
+        parse_metric(text)
+    assert "\n" not in str(caught.value)
+
+
+def test_a_metric_cannot_take_a_columns_name_or_anothers():
+    """A metric named ``status`` would hide a divergence; two of one name would lose one."""
+    variants = make_variants("sample", [parse_setting("bodies.left.mass=1")])
+    for name in ("status", "message", "variant", "left.x", "bodies.left.mass", "energy"):
+        metric = parse_metric(f"{name}=0" if name.isidentifier() else name)
+        with pytest.raises(SceneError, match="already a column"):
+            check_metrics([metric], variants)
+    with pytest.raises(SceneError, match="'a' is the name of --metric a=1 too"):
+        check_metrics([parse_metric("a=1"), parse_metric("a=2")], variants)
+    with pytest.raises(SceneError, match="is the name of --metric left.x-right.x too"):
+        check_metrics([parse_metric("left.x-right.x"), parse_metric("left.x-right.x")],
+                      variants)
+
+
+def test_a_parameter_is_set_once():
+    with pytest.raises(SceneError, match="'bodies.left.mass' is set by --set "
+                                         "bodies.left.mass=1,2 too"):
+        make_variants("sample", [parse_setting("bodies.left.mass=1,2"),
+                                 parse_setting("bodies.left.mass=3")])
+    with pytest.raises(SceneError, match="set by --set"):
+        make_variants("sample", [parse_setting("bodies.left.mass=1:2"),
+                                 parse_setting("bodies.left.mass=1,2")], samples=2)
+    # One element of an array and another are two parameters.
+    variants = make_variants("sample", [parse_setting("bodies.left.position[0]=1"),
+                                        parse_setting("bodies.left.position[1]=2")])
+    assert variants[0].values == (("bodies.left.position[0]", 1), ("bodies.left.position[1]", 2))
+
+
+def test_grids_and_samples_are_bounded_before_any_variant_is_made():
+    settings = [parse_setting(f"bodies.left.mass=1:2:{MAX_VARIANTS}"),
+                parse_setting("bodies.right.mass=1,2")]
+    with pytest.raises(SceneError, match=f"{MAX_VARIANTS} x 2 values is 2e\\+05 variants"):
+        grid(settings)
+    huge = [parse_setting(f"bodies.{b}.mass=1:2:1000") for b in ("left", "right")] + \
+        [parse_setting("bodies.left.angle=0:1:1000")]
+    with pytest.raises(SceneError, match="1e\\+09 variants"):
+        grid(huge)
+    with pytest.raises(SceneError, match="count 1000000000000 is over"):
+        parse_setting("bodies.left.mass=1:2:1000000000000")
+    interval = [parse_setting("bodies.left.mass=1:2")]
+    with pytest.raises(SceneError, match="--samples"):
+        sample(interval, MAX_VARIANTS + 1, 0)
+    with pytest.raises(SceneError, match="--seed -1"):
+        sample(interval, 2, -1)
+    assert len(grid([parse_setting(f"bodies.left.mass=1:2:{MAX_VARIANTS}")])) == MAX_VARIANTS
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--samples", "0"), ("--samples", str(MAX_VARIANTS + 1)), ("--samples", "1e7"),
+    ("--seed", "-1"), ("--seed", str(2 ** 64)), ("--seed", "1.5"), ("--seed", "9" * 5000),
+    ("--workers", "0"), ("--workers", "100000")])
+def test_sweep_numbers_out_of_range_exit_2_with_usage(tmp_path, capsys, option, value):
+    argv = ["sweep", "sample", "--set", "bodies.left.mass=1:2", "-o", str(tmp_path / "t.csv"),
+            option, value]
+    if option == "--seed":
+        argv += ["--samples", "2"]
+    with pytest.raises(SystemExit) as caught:
+        main(argv)
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}:" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_summary_of_free_flight_is_exact(tmp_path):

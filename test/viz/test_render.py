@@ -246,3 +246,90 @@ def test_view_loop_shows_every_frame_in_turn_and_stops_when_closed():
     shown.clear()
     assert play(figure, iter(pixels), 5.0, pause=pause,
                 is_open=lambda: len(shown) < 3) == 3
+
+
+@pytest.mark.parametrize("name, start, duration", [("sample", "2.8", "0.4"),
+                                                   ("door", "0.3", "0.4"),
+                                                   ("car_flip", "0.8", "0.4")])
+def test_gif_keeps_every_colour_of_the_drawing(tmp_path, name, start, duration):
+    """A force that starts after the first frame (the sample's kick at 3 s, the door's push
+    at 0.5 s) is red in the GIF as in the exact pixels (and the PNG): every pixel drawn in
+    one of the drawing's colours has that colour in every frame of the GIF."""
+    from hecker_dynamics.viz.draw import DRAWING_COLORS
+
+    output = tmp_path / f"{name}.gif"
+    assert main(["render", name, "-o", str(output), "--start", start, "--duration", duration,
+                 "--fps", "10", "--size", "480x360", "--contacts"]) == 0
+    start_ns, duration_ns = round(float(start) * 1e9), round(float(duration) * 1e9)
+    timeline = run_timeline(load_scene(name), start_ns + duration_ns)
+    exact = list(frame_pixels(timeline, timeline_frames(timeline, start_ns, duration_ns, 10.0),
+                              (480, 360), contacts=True))
+    red = np.array([int(ARROW_COLOR[i:i + 2], 16) for i in (1, 3, 5)])
+    assert not (exact[0][:, :, :3] == red).all(axis=2).any()  # no force in the first frame
+    assert any((frame[:, :, :3] == red).all(axis=2).sum() > 20 for frame in exact)
+    with Image.open(output) as gif:
+        assert gif.n_frames == len(exact)
+        for k, want in enumerate(exact):
+            gif.seek(k)
+            got = np.asarray(gif.convert("RGB"))
+            for color in set(DRAWING_COLORS):
+                rgb = np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)])
+                drawn = (want[:, :, :3] == rgb).all(axis=2)
+                assert (got[drawn] == rgb).all(), (k, color)
+
+
+@pytest.mark.parametrize("fps", ["8", "30", "33.333", "50", "0.5"])
+def test_gif_plays_at_the_rate_asked(tmp_path, fps):
+    """GIF delays are whole centiseconds: frame k shows from round(100 k / fps) cs on, so the
+    delays (12 and 13 cs at 8 fps, 3 and 4 at 30) add up to the span."""
+    output = tmp_path / "ship.gif"
+    frames = 12
+    duration = f"{frames / float(fps):.9f}"
+    assert main(["render", "ship", "-o", str(output), "--duration", duration, "--fps", fps,
+                 "--size", "64x48"]) == 0
+    with Image.open(output) as gif:
+        delays = []
+        for k in range(gif.n_frames):
+            gif.seek(k)
+            delays.append(gif.info["duration"])
+    assert len(delays) == frames
+    assert sum(delays) == 10 * round(100 * frames / float(fps))
+    assert max(delays) - min(delays) <= 10
+
+
+@pytest.mark.parametrize("argv, problem", [
+    (["--fps", "1000"], "a GIF plays at most 50 frames a second"),
+    (["--fps", "51"], "a GIF plays at most 50"),
+    (["--fps", "0.001", "--duration", "2000"], "at most 655.35 s"),
+    (["--duration", "1e9"], "over the 10000 a picture may have"),
+    (["--duration", "1e9", "-o", "{tmp}/x.mp4"], "over the 10000 a picture may have"),
+    (["--start", "1e6", "--duration", "1"], "over the 100000 a picture keeps"),
+    (["--fps", "50", "--duration", "100", "--size", "480x360"], "MiB of frames a GIF"),
+    (["--duration", "100", "--size", "4096x4096", "-o", "{tmp}/x.mp4"], "pixels a picture"),
+])
+def test_render_spans_and_rates_are_bounded_before_the_run(tmp_path, capsys, monkeypatch,
+                                                          argv, problem):
+    from hecker_dynamics.viz import frames
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("ran the scene before checking the span")
+    monkeypatch.setattr(frames, "run_timeline", no_run)
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    output = [] if "-o" in argv else ["-o", str(tmp_path / "x.gif")]
+    assert problem in _one_line_error(capsys, ["render", "sample", *output, *argv])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bag_is_drawn_only_within_its_session(replayed, tmp_path, capsys):
+    """Past the end of a bag every frame would hold its last poses under later times."""
+    out = str(tmp_path / "x.gif")
+    bag = ["render", "sample", "--bag", str(replayed["sample"]), "-o", out]
+    assert "--start 100 s: outside the bag's session, 0 s to 2 s" in _one_line_error(
+        capsys, [*bag, "--start", "100"])
+    assert "--start 2 s: outside" in _one_line_error(capsys, [*bag, "--start", "2"])
+    assert "ends after the bag's session, at 2 s" in _one_line_error(
+        capsys, [*bag, "--start", "1", "--duration", "5"])
+    assert not Path(out).exists()
+    assert main([*bag, "--start", "1.5", "--fps", "10"]) == 0
+    with Image.open(out) as gif:
+        assert gif.n_frames == 5

@@ -1,0 +1,211 @@
+"""Every command that writes (``sweep``, ``render``, ``plot``, ``bench``) checks its output
+paths before any work, with one rule (:mod:`hecker_dynamics.files`): one line and exit 2
+for a path that cannot or may not be written, with nothing written or changed; an
+existing file replaced only with ``--overwrite``."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from hecker_dynamics.cli import main
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+SWEEP = ["sweep", "sample", "--set", "bodies.left.mass=1,2", "--duration", "0.02",
+         "--workers", "1", "--no-progress"]
+
+
+def _sweep(path: str) -> list[str]:
+    return [*SWEEP, "-o", path]
+
+
+def _sweep_bags(path: str) -> list[str]:
+    return [*SWEEP, "-o", "table.csv", "--bags", path]
+
+
+def _render(path: str) -> list[str]:
+    return ["render", "sample", "--duration", "0.1", "--fps", "10", "--size", "64x48",
+            "-o", path]
+
+
+def _plot(path: str) -> list[str]:
+    return ["plot", str(GOLDEN / "sample" / "output"), "-o", path]
+
+
+def _bench(path: str) -> list[str]:
+    return ["bench", "--joints", "--no-progress", "--out", path]
+
+
+FILE_COMMANDS = {"sweep": (_sweep, ".csv"), "render": (_render, ".gif"),
+                 "plot": (_plot, ".png")}
+
+
+@pytest.fixture
+def place(tmp_path, monkeypatch):
+    """The current folder, with an existing file of each kind and a folder named as one."""
+    for suffix in (".csv", ".gif", ".png"):
+        (tmp_path / f"old{suffix}").write_text("old")
+        (tmp_path / f"folder{suffix}").mkdir()
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def _listing(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() if p.is_file() else b"<dir>"
+            for p in sorted(folder.rglob("*"))}
+
+
+def _refused(capsys, argv: list[str], *fragments: str) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.count("\n") == 1 and err.startswith("hecker-dynamics: error: "), err
+    for fragment in fragments:
+        assert fragment in err, err
+    return err
+
+
+def _bad_paths(suffix: str) -> list[tuple[str, str]]:
+    """(path, what the error says) for every kind of path that must be refused."""
+    return [("", "give a file name"), (".", "names a folder"), ("folder/", "names a folder"),
+            (f"folder{suffix}", "is a folder"), ("/dev/null", "not a regular file"),
+            (f"/proc/x{suffix}", "cannot create a file in /proc"),
+            (f"missing/x{suffix}", "does not exist"), (f"old{suffix}/x{suffix}", "not a folder"),
+            (f"old{suffix}", "exists; give --overwrite"),
+            ("x" * 300 + suffix, "too long")]
+
+
+@pytest.mark.parametrize("command", sorted(FILE_COMMANDS))
+def test_a_bad_output_path_is_one_line_and_changes_nothing(place, capsys, command):
+    build, suffix = FILE_COMMANDS[command]
+    before = _listing(place)
+    for path, problem in _bad_paths(suffix):
+        _refused(capsys, build(path), problem)
+        assert _listing(place) == before, path
+
+
+@pytest.mark.parametrize("command", sorted(FILE_COMMANDS))
+def test_an_existing_file_is_replaced_only_with_overwrite(place, capsys, command):
+    build, suffix = FILE_COMMANDS[command]
+    _refused(capsys, build(f"old{suffix}"), "exists; give --overwrite")
+    assert (place / f"old{suffix}").read_text() == "old"
+    assert main(build(f"old{suffix}") + ["--overwrite"]) == 0
+    written = (place / f"old{suffix}").read_bytes()
+    assert written != b"old" and len(written) > 40
+    assert not [p for p in place.iterdir() if p.name.startswith(".hd-")]  # no scratch left
+
+
+def test_sweep_refuses_the_partial_rows_of_an_earlier_sweep(place, capsys):
+    (place / "t.csv.partial.csv").write_text("variant\n0\n")
+    _refused(capsys, _sweep("t.csv"), "t.csv.partial.csv (the rows of a sweep that stopped)")
+    assert (place / "t.csv.partial.csv").read_text() == "variant\n0\n"
+    assert not (place / "t.csv").exists()
+
+
+def test_sweep_adds_the_suffix_before_it_checks(place, capsys, monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # so -o t means t.csv
+    (place / "t.csv").write_text("old")
+    _refused(capsys, _sweep("t"), "-o t.csv: exists")
+    (place / "t").mkdir()
+    _refused(capsys, _sweep("t"), "-o t: is a folder")
+    assert (place / "t.csv").read_text() == "old"
+
+
+@pytest.mark.parametrize("path, problem", [
+    ("old.csv", "is not a folder"), ("", "give a folder name"),
+    ("/proc/bags", "cannot create a folder in /proc"),
+    ("old.csv/bags", "is inside old.csv, which is not a folder"),
+    ("table.csv", "is where -o writes the table")])
+def test_sweep_bags_folder_is_checked_before_any_work(place, capsys, path, problem):
+    before = _listing(place)
+    _refused(capsys, _sweep_bags(path), problem)
+    assert _listing(place) == before
+
+
+def test_sweep_bags_are_replaced_only_with_overwrite(place, capsys):
+    (place / "bags").mkdir()
+    (place / "bags" / "variant-000001.yaml").write_text("old")
+    _refused(capsys, _sweep_bags("bags"), "variant-000001.yaml exists; give --overwrite")
+    assert (place / "bags" / "variant-000001.yaml").read_text() == "old"
+    assert not (place / "table.csv").exists()
+
+
+def test_parquet_without_pyarrow_fails_before_any_variant_runs(place, capsys, monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # not importable
+    _refused(capsys, _sweep("t.parquet"), "Parquet needs pyarrow")
+    assert sorted(p.name for p in place.iterdir() if p.name.startswith("t.")) == []
+
+
+@pytest.mark.parametrize("path, problem", [
+    ("old.csv", "is not a folder"), ("/proc/bench", "cannot create a folder in /proc"),
+    ("", "give a folder name")])
+def test_bench_out_is_checked_before_any_work(place, capsys, path, problem):
+    before = _listing(place)
+    _refused(capsys, _bench(path), f"--out {path}" if path else "--out ''", problem)
+    assert _listing(place) == before
+
+
+def _fake_contact_bench(calls: list):
+    """contact_bench's interface and files, without measuring anything."""
+    from hecker_dynamics.bench.contacts import ContactResults
+
+    def contact_bench(rows, peers, out, command, scenes=None, bar=None):
+        calls.append(out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "contacts.md").write_text("new report\n")
+        return ContactResults(load=[(0.0, 0.0, 0.0)])
+    return contact_bench
+
+
+def test_bench_replaces_a_report_only_with_overwrite(place, capsys, monkeypatch):
+    from hecker_dynamics.bench import contacts
+
+    calls: list = []
+    monkeypatch.setattr(contacts, "contact_bench", _fake_contact_bench(calls))
+    monkeypatch.setattr(contacts, "targets", lambda results: [])
+    (place / "report").mkdir()
+    (place / "report" / "contacts.md").write_text("tracked report\n")
+    argv = ["bench", "--contacts", "2", "--no-progress", "--out", "report"]
+    _refused(capsys, argv, "contacts.md exists; give --overwrite")
+    assert calls == [] and (place / "report" / "contacts.md").read_text() == "tracked report\n"
+    assert main(argv + ["--overwrite"]) == 0
+    assert (place / "report" / "contacts.md").read_text() == "new report\n"
+
+
+def test_bench_writes_nowhere_in_the_current_folder_unless_told(place, capsys, monkeypatch,
+                                                               tmp_path_factory):
+    """A bench run in a clone: its tracked docs/bench stays as it is; the report goes to a
+    new folder under the temporary folder, named on stdout."""
+    import tempfile
+
+    from hecker_dynamics.bench import contacts
+
+    calls: list = []
+    monkeypatch.setattr(contacts, "contact_bench", _fake_contact_bench(calls))
+    monkeypatch.setattr(contacts, "targets", lambda results: [])
+    scratch = tmp_path_factory.mktemp("system-tmp")
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    (place / "docs" / "bench").mkdir(parents=True)
+    (place / "docs" / "bench" / "contacts.md").write_text("tracked report\n")
+    before = _listing(place)
+    assert main(["bench", "--contacts", "2", "--no-progress"]) == 0
+    assert _listing(place) == before
+    [out] = calls
+    assert out.parent == scratch and (out / "contacts.md").read_text() == "new report\n"
+    assert f"wrote {out}" in capsys.readouterr().out
+    from hecker_dynamics.cli import parser
+    assert parser().parse_args(["bench"]).out is None
+
+
+def test_render_and_plot_check_the_path_before_they_draw(place, capsys, monkeypatch):
+    from hecker_dynamics.viz import frames
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("ran the scene before checking -o")
+    monkeypatch.setattr(frames, "run_timeline", no_run)
+    _refused(capsys, _render("folder.gif"), "is a folder")
+    _refused(capsys, _render("old.gif"), "exists")
+    assert os.path.exists("old.gif")
