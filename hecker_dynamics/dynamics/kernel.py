@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, NamedTuple, Optional
 
 import numpy as np
 
+from ..contact.joints import MAX_SPLITS
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
@@ -137,8 +138,9 @@ KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
 _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
              "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
                                   "one step",
-             "JOINTS_DEPENDENT": "the joints' rows are dependent (a joint repeats what "
-                                 "others hold)"}
+             "JOINTS_UNSOLVED": f"the joints have no solution near the end of the step, "
+                                f"split {MAX_SPLITS} times: the bodies turn too fast for "
+                                "the step; take a shorter step"}
 
 
 class Advanced(NamedTuple):

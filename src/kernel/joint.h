@@ -10,12 +10,18 @@
 #ifndef HECKER_DYNAMICS_JOINT_H
 #define HECKER_DYNAMICS_JOINT_H
 
+#include "sparse.h"
+
 /* The constants of contact/joints.py; the binding exports them and joints.py checks them. */
 #define HD_JOINT_TOLERANCE 1e-12
+#define HD_JOINT_ROUNDING (16.0 * 2.220446049250313e-16)
 #define HD_NEWTON_ITERATIONS 50
 #define HD_DRIFT_ITERATIONS 8
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
+#define HD_MAX_TURN 0.1
+#define HD_MAX_SPLITS 10
+#define HD_MOST_PARTS 64L
 
 enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3, HD_ROPE = 4,
                      HD_GEAR = 5 };
@@ -48,11 +54,17 @@ typedef struct {
 } hd_joint_row;
 
 typedef struct hd_joint_model {
-    long joint_count, body_count, row_count, rigid_count, width;
+    long joint_count, body_count, row_count, rigid_count;
     long *bodies;          /* body_count model indices */
     double *inverse_mass;  /* 3 per local body */
-    hd_joint *joints;
+    hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
+    /* Where the factors of all rows' matrices, and of the rigid rows' alone, can be
+     * non-zero (sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
+    hd_pattern pattern, rigid_pattern;
+    /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
+    long *turning, turning_count;
+    double tolerance;      /* JointPass.tolerance */
     double *warm, *newton; /* row_count, rigid_count */
     /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
      * the velocities before the last velocity stage (3 per body). */
@@ -60,24 +72,27 @@ typedef struct hd_joint_model {
     int newton_valid;
     double last_h;
     /* working memory */
-    double *memory;
-    hd_joint_row *rows0, *rows, *subset, *dir0, *dir;
-    double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *lower, *upper, *x;
-    double *matrix, *band, *part, *low, *diag;
-    long *first, *free_index, *bounded;
-    int *free;
+    double *memory, *trig;
+    hd_joint_row *rows0, *rows, *dir0, *dir;
+    double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
+    double *diagonal, *lower, *upper, *low, *diag;
+    long *bounded;
+    int *flags, *free, *out, *active;
 } hd_joint_model;
 
-enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_DEPENDENT = -2 };
+enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_UNSOLVED = -2 };
 
-/* Allocate the working memory once the joints, bodies and masses are set; counts the rows
- * (row_count, rigid_count, rigid) and the bandwidth; HD_JOINTS_OUT_OF_MEMORY or OK. */
+/* Allocate the working memory once the joints, bodies, masses and patterns are set; counts
+ * the rows (row_count, rigid_count, rigid); HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
 /* joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
+/* joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
+long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
 /* joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
- * place; HD_JOINTS_DEPENDENT when a factorization meets a pivot that is not positive. */
+ * place; HD_JOINTS_UNSOLVED (nothing changed but the working memory) when the positions
+ * have no solution near the step's end (JointsUnsolved). */
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);
 
 #endif

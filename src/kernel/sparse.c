@@ -1,0 +1,181 @@
+/* The joint rows' factorizations: hecker_dynamics/contact/sparse.py, operation for
+ * operation (see sparse.h). */
+#include <math.h>
+#include <stdlib.h>
+
+#include "sparse.h"
+
+int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
+{
+    p->n = n, p->start = start, p->columns = columns;
+    const long slots = start[n];
+    p->above_start = calloc((size_t)n + 1, sizeof(long));
+    p->above_row = malloc(((size_t)slots + 1) * sizeof(long));
+    p->above_slot = malloc(((size_t)slots + 1) * sizeof(long));
+    if (p->above_start == NULL || p->above_row == NULL || p->above_slot == NULL)
+        return -1;
+    for (long s = 0; s < slots; ++s)
+        p->above_start[columns[s] + 1] += 1;
+    for (long i = 0; i < n; ++i)
+        p->above_start[i + 1] += p->above_start[i];
+    long *fill = malloc(((size_t)n + 1) * sizeof(long));
+    if (fill == NULL)
+        return -1;
+    for (long i = 0; i < n; ++i)
+        fill[i] = p->above_start[i];
+    for (long i = 0; i < n; ++i)  /* rows in ascending order: each column's list ascends */
+        for (long s = start[i]; s < start[i + 1]; ++s) {
+            const long at = fill[columns[s]]++;
+            p->above_row[at] = i, p->above_slot[at] = s;
+        }
+    free(fill);
+    return 0;
+}
+
+void hd_pattern_free(hd_pattern *p)
+{
+    free(p->start);
+    free(p->columns);
+    free(p->above_start);
+    free(p->above_row);
+    free(p->above_slot);
+}
+
+void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
+               const int *active, double *low, double *diag, int *out)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long s = 0; s < start[n]; ++s)
+        low[s] = 0.0;
+    for (long i = 0; i < n; ++i) {
+        out[i] = active != NULL && !active[i];
+        diag[i] = 0.0;
+    }
+    for (long i = 0; i < n; ++i) {
+        if (out[i])
+            continue;
+        const long first = start[i], end = start[i + 1];
+        for (long slot = first; slot < end; ++slot) {
+            const long j = columns[slot];
+            if (out[j])
+                continue;
+            double s = lower[slot];
+            long a = first, b = start[j];
+            const long end_j = start[j + 1];
+            while (a < slot && b < end_j) {  /* k < j in both rows' patterns */
+                const long ka = columns[a], kb = columns[b];
+                if (ka == kb) {
+                    s -= low[a] * diag[ka] * low[b];
+                    ++a, ++b;
+                } else if (ka < kb) {
+                    ++a;
+                } else {
+                    ++b;
+                }
+            }
+            low[slot] = s / diag[j];
+        }
+        double s = diagonal[i];
+        for (long slot = first; slot < end; ++slot)
+            s -= low[slot] * diag[columns[slot]] * low[slot];
+        if (s > HD_DEPENDENT * diagonal[i])
+            diag[i] = s;
+        else
+            out[i] = 1;
+    }
+}
+
+void hd_substitute(const hd_pattern *p, const double *low, const double *diag, const int *out,
+                   double *x)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long i = 0; i < n; ++i) {
+        if (out[i]) {
+            x[i] = 0.0;
+            continue;
+        }
+        double s = x[i];
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
+            s -= low[slot] * x[columns[slot]];
+        x[i] = s;
+    }
+    for (long i = 0; i < n; ++i)
+        if (!out[i])
+            x[i] = x[i] / diag[i];
+    for (long i = n - 1; i >= 0; --i) {
+        if (out[i])
+            continue;
+        double s = x[i];
+        for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k)
+            s -= low[p->above_slot[k]] * x[p->above_row[k]];
+        x[i] = s;
+    }
+}
+
+void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, double *upper,
+           double *low, double *diag, int *out)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long s = 0; s < start[n]; ++s)
+        low[s] = 0.0;
+    for (long i = 0; i < n; ++i) {
+        out[i] = 0;
+        diag[i] = 0.0;
+    }
+    for (long i = 0; i < n; ++i) {
+        const long first = start[i], end = start[i + 1];
+        for (long slot = first; slot < end; ++slot) {
+            const long j = columns[slot];
+            if (out[j]) {
+                upper[slot] = 0.0;
+                continue;
+            }
+            double s = lower[slot], t = upper[slot];
+            long a = first, b = start[j];
+            const long end_j = start[j + 1];
+            while (a < slot && b < end_j) {
+                const long ka = columns[a], kb = columns[b];
+                if (ka == kb) {
+                    s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
+                    t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
+                    ++a, ++b;
+                } else if (ka < kb) {
+                    ++a;
+                } else {
+                    ++b;
+                }
+            }
+            low[slot] = s / diag[j];
+            upper[slot] = t;
+        }
+        double s = diagonal[i];
+        for (long slot = first; slot < end; ++slot)
+            s -= low[slot] * upper[slot];
+        if (fabs(s) > HD_DEPENDENT * fabs(diagonal[i]))
+            diag[i] = s;
+        else
+            out[i] = 1;
+    }
+}
+
+void hd_lu_solve(const hd_pattern *p, const double *low, const double *upper,
+                 const double *diag, const int *out, double *x)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long i = 0; i < n; ++i) {
+        double s = x[i];
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
+            s -= low[slot] * x[columns[slot]];
+        x[i] = s;
+    }
+    for (long i = n - 1; i >= 0; --i) {
+        if (out[i]) {
+            x[i] = 0.0;
+            continue;
+        }
+        double s = x[i];
+        for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k)
+            s -= upper[p->above_slot[k]] * x[p->above_row[k]];
+        x[i] = s / diag[i];
+    }
+}
