@@ -78,7 +78,7 @@ from typing import TYPE_CHECKING, Any, Optional, Union
 import numpy as np
 
 from .coupled import JointUnit
-from .sparse import Pattern, factor, joint_order, lu, lu_solve, substitute
+from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
@@ -97,6 +97,9 @@ TOLERANCE = 1e-12
 #: stages ask no smaller error of them.
 ROUNDING = 16.0 * 2.220446049250313e-16
 NEWTON_ITERATIONS = 50
+#: A Newton step on an earlier iterate's matrix must cut the error by this much, or the
+#: next step takes its own iterate's matrix.
+CHORD = 0.125
 #: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
 #: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
 MAX_TURN = 0.1
@@ -705,11 +708,14 @@ class JointPass:
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
         symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
         multipliers scaled to this step's length (they grow as h^2); returns the rows at
-        the new ``q``. Raises :class:`JointsUnsolved`, changing nothing but ``q``, when
-        the iteration does not halve the largest error each time (SHAKE's equations have
-        no solution near the step's end: a body turned far, or a long chain's weakest
-        modes moved more than the directions at q0 can follow) or when the solution turns
-        a body by more than :data:`MAX_TURN`."""
+        the new ``q``. The matrix of one iterate serves the next ones while each cuts the
+        error by :data:`CHORD` at least (near the solution the matrix changes by less
+        than the error: a simplified Newton step costs a solve, not a factorization).
+        Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
+        iterate's own matrix does not halve the largest error (SHAKE's equations have no
+        solution near the step's end: a body turned far, or a long chain's weakest modes
+        moved more than the directions at q0 can follow) or when the solution turns a
+        body by more than :data:`MAX_TURN`."""
         if not self.rigid:
             return self.rows(q, h)
         rigid = [rows0[i] for i in self.rigid]
@@ -724,6 +730,8 @@ class JointPass:
         tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
         pattern = self.rigid_pattern
         previous = math.inf
+        factors: Optional[tuple[Factors, list[float]]] = None  # the last matrix's L U
+        fresh = False  # whether the last step's matrix was that iterate's own
         for _ in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
             error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
@@ -735,15 +743,18 @@ class JointPass:
                                          f"step of {h:g} s")
                 self.newton = nu
                 return rows
-            if not largest <= 0.5 * previous:
+            if fresh and not largest <= 0.5 * previous:
                 raise JointsUnsolved(f"Newton's method on the joints stalls at {largest:.3g} "
                                      f"in a step of {h:g} s")
+            fresh = factors is None or not largest <= CHORD * previous
+            if fresh:
+                upper = [0.0] * pattern.slots()
+                diagonal, lower = _matrix(pattern, [rows[i] for i in self.rigid], direction,
+                                          upper=upper)
+                factors = (lu(pattern, diagonal, lower, upper), upper)
+            assert factors is not None
             previous = largest
-            upper = [0.0] * pattern.slots()
-            diagonal, lower = _matrix(pattern, [rows[i] for i in self.rigid], direction,
-                                      upper=upper)
-            step = lu_solve(pattern, lu(pattern, diagonal, lower, upper), upper,
-                            [-e for e in error])
+            step = lu_solve(pattern, factors[0], factors[1], [-e for e in error])
             nu = [a + b for a, b in zip(nu, step)]
             _apply(q, direction, step)
         raise JointsUnsolved(f"Newton's method on the joints did not converge in "

@@ -199,8 +199,9 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
     """A = L U of the matrix A with the pattern's structure (symmetric), given by its
     ``diagonal``, its strict ``lower`` triangle and the transpose of its strict upper one
     (``upper[slot]`` = A[j, i] for the slot of (i, j)), without pivoting: the Newton
-    matrix is K changed by the step's motion. Returns (L by slots, U's diagonal, rows
-    dropped), U's strict upper triangle taking the place of ``upper``."""
+    matrix is K changed by the step's motion. Returns (L by slots, the reciprocals of U's
+    diagonal, rows dropped), U's strict upper triangle taking the place of ``upper``; the
+    reciprocals keep divisions, whose latency chains, out of the repeated solves."""
     start, columns = pattern.start, pattern.columns
     n = len(diagonal)
     low = [0.0] * len(lower)
@@ -226,13 +227,13 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
                     a += 1
                 else:
                     b += 1
-            low[slot] = s / diag[j]
+            low[slot] = s * diag[j]
             upper[slot] = t
         s = diagonal[i]
         for slot in range(first, end):
             s -= low[slot] * upper[slot]
         if abs(s) > DEPENDENT * abs(diagonal[i]):
-            diag[i] = s
+            diag[i] = 1.0 / s
         else:
             out[i] = True
     return low, diag, out
@@ -258,5 +259,5 @@ def lu_solve(pattern: Pattern, factors: Factors, upper: list[float],
         s = x[i]
         for j, slot in above[i]:
             s -= upper[slot] * x[j]
-        x[i] = s / diag[i]
+        x[i] = s * diag[i]
     return x

@@ -5,6 +5,9 @@
  * takes the sign of the divisor: the helpers below do the same, so that zeros' signs and
  * ties come out as in Python.
  */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE  /* glibc's sincos (turn_all) */
+#endif
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,7 +47,8 @@ static double wrap(double angle)
 typedef struct { double x, y, rx, ry, angle; } Place;
 
 /* `trig`: cos and sin of each body's angle in q (the same values _Frame.place takes). */
-static Place place(long body, const double *local, const double *q, const double *trig)
+static inline Place place(long body, const double *local, const double *q,
+                          const double *trig)
 {
     Place p;
     if (body < 0) {
@@ -69,8 +73,8 @@ static void add_entry(hd_joint_row *r, long body, double jx, double jy, double j
 static hd_joint_row *new_row(hd_joint_row *rows, long *n, int kind, double c)
 {
     hd_joint_row *r = rows + (*n)++;
-    memset(r, 0, sizeof *r);
-    r->kind = kind, r->c = c, r->bound = INFINITY;
+    r->kind = kind, r->count = 0, r->scaled = 0;
+    r->c = c, r->speed = 0.0, r->bound = INFINITY, r->stiffness = 0.0, r->damping = 0.0;
     return r;
 }
 
@@ -125,6 +129,41 @@ static void point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, Place pa
     }
 }
 
+/* One entry of a point row (joints.py: _fixed): on body b, u and perp(r) . u; on body a
+ * (sign -1) their negatives. */
+static inline void point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
+                               double rx, double ry)
+{
+    double *j = r->j[r->count];
+    r->body[r->count] = body;
+    if (sign > 0.0)
+        j[0] = ux, j[1] = uy, j[2] = ux * -ry + uy * rx;
+    else
+        j[0] = -ux, j[1] = -uy, j[2] = -(ux * -ry + uy * rx);
+    r->count += 1;
+}
+
+/* joints.py: _point_rows of a rigid pin, written out for the common case (the same
+ * operations as point_rows). */
+static inline void pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const Place *pa,
+                            const Place *pb, int values_only)
+{
+    const double dx = pb->x - pa->x, dy = pb->y - pa->y;
+    for (int axis = 0; axis < 2; ++axis) {
+        const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
+        hd_joint_row *r = rows + (*n)++;
+        r->kind = HD_RIGID, r->count = 0, r->scaled = 1;
+        r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
+        r->stiffness = 0.0, r->damping = 0.0;
+        if (values_only)
+            continue;
+        if (jt->b >= 0)
+            point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
+        if (jt->a >= 0)
+            point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
+    }
+}
+
 /* joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
 static void bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
                          const hd_joint_row *coordinate, double h)
@@ -159,18 +198,30 @@ static void axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
     *uy = s * jt->axis[0] + c * jt->axis[1];
 }
 
-/* cos and sin of every body's angle in q, into m->trig. */
+/* cos and sin of every body's angle in q into m->trig (2 per body), computed again only
+ * for the angles that changed (bit for bit) since the last time: m->angles keeps them. */
 static void turn_all(const hd_joint_model *m, const double *q)
 {
     for (long b = 0; b < m->body_count; ++b) {
-        m->trig[2 * b] = cos(q[3 * b + 2]);
-        m->trig[2 * b + 1] = sin(q[3 * b + 2]);
+        const double angle = q[3 * b + 2];
+        if (memcmp(&angle, m->angles + b, sizeof angle) == 0)
+            continue;
+        m->angles[b] = angle;
+#ifdef __GLIBC__
+        /* glibc's sincos runs its sin's and cos's code: the same bits as Python's math. */
+        sincos(angle, m->trig + 2 * b + 1, m->trig + 2 * b);
+#else
+        m->trig[2 * b] = cos(angle);
+        m->trig[2 * b + 1] = sin(angle);
+#endif
     }
 }
 
 /* joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
- * Leaves the cosines and sines of q's angles in m->trig. */
-static long build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows)
+ * Leaves the cosines and sines of q's angles in m->trig. `values_only`: the rows' values
+ * are wanted, not their Jacobians (which the plain pins then skip). */
+static long build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
+                       int values_only)
 {
     long n = 0;
     const double *trig = m->trig;
@@ -194,7 +245,10 @@ static long build_rows(const hd_joint_model *m, const double *q, double h, hd_jo
         }
         const Place pa = place(jt->a, jt->point_a, q, trig),
                     pb = place(jt->b, jt->point_b, q, trig);
-        if (jt->kind == HD_REVOLUTE) {
+        if (jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
+                                         jt->has_spring)) {
+            pin_rows(rows, &n, jt, &pa, &pb, values_only);  /* its angle is not wanted */
+        } else if (jt->kind == HD_REVOLUTE) {
             point_rows(rows, &n, jt, pa, pb, HD_RIGID, 0.0, 0.0);
             const double angle = joint_angle(jt, pa, pb);
             hd_joint_row coordinate = {0};
@@ -250,8 +304,9 @@ static void directions(const hd_joint_model *m, const hd_joint_row *rows, const 
 {
     for (long k = 0; k < n; ++k) {
         const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
-        out[k] = *row;
+        out[k].count = row->count;  /* _apply and _dot read no more of a direction */
         for (int e = 0; e < row->count; ++e) {
+            out[k].body[e] = row->body[e];
             const double *im = m->inverse_mass + 3 * row->body[e];
             for (int c = 0; c < 3; ++c)
                 out[k].j[e][c] = im[c] * row->j[e][c];
@@ -292,29 +347,115 @@ double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
     return dot(row, direction);
 }
 
-/* joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
- * `direction` (one per k); `upper` NULL: the symmetric K, its lower triangle only. */
-static void matrix(const hd_pattern *p, const hd_joint_row *rows, const long *index,
-                   const hd_joint_row *direction, const int *active, double *diagonal,
-                   double *lower, double *upper)
+/* joints.py: _dot, over the entries `meets` pairs (count of them). */
+static double dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
+                          const unsigned char *meets, long count)
 {
-    for (long s = 0; s < p->start[p->n]; ++s) {
-        lower[s] = 0.0;
-        if (upper != NULL)
-            upper[s] = 0.0;
+    double s = 0.0;
+    for (long k = 0; k < count; ++k) {
+        const double *a = row->j[meets[k] >> 2], *b = direction->j[meets[k] & 3];
+        s += a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     }
+    return s;
+}
+
+/* The pairs of entries of `row` and `direction` on a common body into `out` (NULL: count
+ * only); returns how many. */
+static long meeting(const hd_joint_row *row, const hd_joint_row *direction, unsigned char *out)
+{
+    long count = 0;
+    for (int e = 0; e < row->count; ++e)
+        for (int f = 0; f < direction->count; ++f)
+            if (row->body[e] == direction->body[f]) {
+                if (out != NULL)
+                    out[count] = (unsigned char)(e << 2 | f);
+                count += 1;
+            }
+    return count;
+}
+
+/* The meets of pattern p's row pairs, for the rows rows[index[k]] (index NULL: rows k);
+ * 0, or -1 out of memory. */
+static int make_meets(const hd_pattern *p, const hd_joint_row *rows, const long *index,
+                      hd_meets *m)
+{
+    const long n = p->n, slots = p->start[n];
+    m->diag = malloc(((size_t)n + 1) * sizeof(long));
+    m->lower = malloc(((size_t)slots + 1) * sizeof(long));
+    m->upper = malloc(((size_t)slots + 1) * sizeof(long));
+    if (m->diag == NULL || m->lower == NULL || m->upper == NULL)
+        return -1;
+    for (int pass = 0; pass < 2; ++pass) {
+        long count = 0;
+        for (long i = 0; i < n; ++i) {
+            const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
+            unsigned char *out = pass == 1 ? m->pair : NULL;
+            m->diag[i] = count;
+            count += meeting(row, row, out == NULL ? NULL : out + count);
+            for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+                const long j = p->columns[slot];
+                const hd_joint_row *other = rows + (index == NULL ? j : index[j]);
+                m->lower[slot] = count;
+                count += meeting(row, other, out == NULL ? NULL : out + count);
+                m->upper[slot] = count;
+                count += meeting(other, row, out == NULL ? NULL : out + count);
+            }
+        }
+        if (pass == 0 && (m->pair = malloc((size_t)count + 1)) == NULL)
+            return -1;
+        m->diag[n] = count;  /* the ends of the last lists */
+        if (slots > 0)
+            m->lower[slots] = m->upper[slots] = count;
+    }
+    return 0;
+}
+
+static void free_meets(hd_meets *m)
+{
+    free(m->diag);
+    free(m->lower);
+    free(m->upper);
+    free(m->pair);
+}
+
+/* joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
+ * `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the symmetric
+ * K, its lower triangle only. */
+static void matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
+                   const long *index, const hd_joint_row *direction, const int *active,
+                   double *diagonal, double *lower, double *upper)
+{
+    const unsigned char *pair = meets->pair;
     for (long i = 0; i < p->n; ++i) {
-        diagonal[i] = 0.0;
-        if (active != NULL && !active[i])
-            continue;
-        const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
-        diagonal[i] = dot(row, direction + i);
-        for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
-            const long j = p->columns[slot];
-            if (active == NULL || active[j]) {
-                lower[slot] = dot(row, direction + j);
+        const long first = p->start[i], end = p->start[i + 1];
+        if (active != NULL && !active[i]) {
+            diagonal[i] = 0.0;
+            for (long slot = first; slot < end; ++slot) {
+                lower[slot] = 0.0;
                 if (upper != NULL)
-                    upper[slot] = dot(rows + (index == NULL ? j : index[j]), direction + i);
+                    upper[slot] = 0.0;
+            }
+            continue;
+        }
+        const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
+        /* Row i's lists: its diagonal's, then per slot the lower's and the upper's. */
+        const long diag_end = first < end ? meets->lower[first] : meets->diag[i + 1];
+        diagonal[i] = dot_meeting(row, direction + i, pair + meets->diag[i],
+                                  diag_end - meets->diag[i]);
+        for (long slot = first; slot < end; ++slot) {
+            const long j = p->columns[slot];
+            if (active != NULL && !active[j]) {
+                lower[slot] = 0.0;
+                if (upper != NULL)
+                    upper[slot] = 0.0;
+                continue;
+            }
+            lower[slot] = dot_meeting(row, direction + j, pair + meets->lower[slot],
+                                      meets->upper[slot] - meets->lower[slot]);
+            if (upper != NULL) {
+                const long next = slot + 1 < end ? meets->lower[slot + 1] : meets->diag[i + 1];
+                upper[slot] = dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
+                                          pair + meets->upper[slot], next - meets->upper[slot]);
             }
         }
     }
@@ -406,16 +547,18 @@ static double largest_abs(const double *x, long n)
     return largest;
 }
 
-/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. */
-static int hold(hd_joint_model *m, double h)
+/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
+ * holds the directions of the rows at q0 already. */
+static int hold(hd_joint_model *m, double h, int again)
 {
     const long nr = m->rigid_count;
     if (nr == 0) {
-        build_rows(m, m->q, h, m->rows);
+        build_rows(m, m->q, h, m->rows, 0);
         return HD_JOINTS_OK;
     }
     const hd_pattern *p = &m->rigid_pattern;
-    directions(m, m->rows0, m->rigid, nr, m->dir0);
+    if (!again)
+        directions(m, m->rows0, m->rigid, nr, m->dir0);
     double scale = h / m->last_h;
     scale = scale * scale;
     for (long k = 0; k < nr; ++k) {
@@ -428,8 +571,10 @@ static int hold(hd_joint_model *m, double h)
     const double tolerance = py_max(m->tolerance,
                                     HD_JOINT_ROUNDING * (1.0 + largest_abs(m->q, n3)));
     double previous = INFINITY;
+    int factored = 0, fresh = 0;  /* the last matrix's L U is kept; it was that iterate's */
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
-        build_rows(m, m->q, h, m->rows);
+        /* An iterate that may take the last matrix needs its rows' values only (at first). */
+        build_rows(m, m->q, h, m->rows, factored);
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
         const double largest = largest_abs(m->step, nr);
@@ -441,15 +586,24 @@ static int hold(hd_joint_model *m, double h)
                 return HD_JOINTS_UNSOLVED;
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
+            if (factored)
+                build_rows(m, m->q, h, m->rows, 0);
             return HD_JOINTS_OK;
         }
-        if (!(largest <= 0.5 * previous))
+        if (fresh && !(largest <= 0.5 * previous))
             return HD_JOINTS_UNSOLVED;
+        fresh = !factored || !(largest <= HD_CHORD * previous);
+        if (fresh) {
+            if (factored)
+                build_rows(m, m->q, h, m->rows, 0);
+            matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
+                   m->upper);
+            hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
+            factored = 1;
+        }
         previous = largest;
         for (long k = 0; k < nr; ++k)
             m->step[k] = -m->step[k];
-        matrix(p, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower, m->upper);
-        hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
         hd_lu_solve(p, m->low, m->upper, m->diag, m->out, m->step);
         for (long k = 0; k < nr; ++k)
             m->nu[k] = m->nu[k] + m->step[k];
@@ -478,11 +632,11 @@ static void correct(hd_joint_model *m, double h)
             m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
         directions(m, m->rows, NULL, n, m->dir);
-        matrix(p, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
+        matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
         hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
         hd_substitute(p, m->low, m->diag, m->out, m->rhs);
         apply(m->q, m->dir, n, m->rhs);
-        build_rows(m, m->q, h, m->rows);
+        build_rows(m, m->q, h, m->rows, 0);
     }
 }
 
@@ -502,7 +656,8 @@ static void velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
     directions(m, m->rows, NULL, n, m->dir);
-    matrix(&m->pattern, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower, NULL);
+    matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
+           NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
         m->b[i] = -rate(row, m->v);
@@ -572,14 +727,30 @@ long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)
 {
     const long nb = m->body_count;
+    /* Where the last pass ended is where this step starts (no contact moved a body, no
+     * angle was wrapped), its rows all rigid and the step as long: its final rows and their
+     * directions are this pass's rows at q0 and their directions, bit for bit. */
+    int again = m->ended && m->rigid_count == m->row_count && h == m->last_h;
     for (long k = 0; k < nb; ++k)
         for (int c = 0; c < 3; ++c) {
-            m->start[3 * k + c] = q0[3 * m->bodies[k] + c];
+            const double start = q0[3 * m->bodies[k] + c];
+            again = again && memcmp(&start, m->q + 3 * k + c, sizeof start) == 0;
+            m->start[3 * k + c] = start;
+        }
+    for (long k = 0; k < nb; ++k)
+        for (int c = 0; c < 3; ++c) {
             m->q[3 * k + c] = m->moved[3 * k + c] = q1[3 * m->bodies[k] + c];
             m->v[3 * k + c] = v1[3 * m->bodies[k] + c];
         }
-    build_rows(m, m->start, h, m->rows0);
-    const int status = hold(m, h);
+    m->ended = 0;
+    if (again) {
+        hd_joint_row *swap = m->rows0;
+        m->rows0 = m->rows, m->rows = swap;
+        swap = m->dir0, m->dir0 = m->dir, m->dir = swap;
+    } else {
+        build_rows(m, m->start, h, m->rows0, 0);
+    }
+    const int status = hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
     for (long k = 0; k < 3 * nb; ++k)
@@ -601,6 +772,7 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
             q1[3 * m->bodies[k] + c] = m->q[3 * k + c];
             v1[3 * m->bodies[k] + c] = m->v[3 * k + c];
         }
+    m->ended = 1;
     return HD_JOINTS_OK;
 }
 
@@ -610,26 +782,37 @@ int hd_joints_prepare(hd_joint_model *m)
     const long nb = m->body_count, rows_most = 6 * m->joint_count + 1;
     hd_joint_row *probe = calloc((size_t)rows_most, sizeof(hd_joint_row));
     double *zero = calloc((size_t)(3 * nb + 1), sizeof(double));
-    m->trig = malloc((size_t)(2 * nb + 1) * sizeof(double));
+    m->trig = malloc((size_t)(3 * nb + 1) * sizeof(double));
     if (probe == NULL || zero == NULL || m->trig == NULL) {
         free(probe);
         free(zero);
         return HD_JOINTS_OUT_OF_MEMORY;
     }
-    const long n = build_rows(m, zero, 1.0, probe);
+    m->angles = m->trig + 2 * nb;
+    for (long b = 0; b < nb; ++b)
+        m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
+    const long n = build_rows(m, zero, 1.0, probe, 0);
     m->row_count = n;
     m->rigid = malloc((size_t)(n + 1) * sizeof(long));
     m->rigid_count = 0;
     for (long i = 0; m->rigid != NULL && i < n; ++i)
         if (probe[i].kind == HD_RIGID)
             m->rigid[m->rigid_count++] = i;
+    int status = m->rigid == NULL ? HD_JOINTS_OUT_OF_MEMORY : HD_JOINTS_OK;
+    if (status == HD_JOINTS_OK && (m->pattern.n != n || m->rigid_pattern.n != m->rigid_count))
+        status = HD_JOINTS_MISMATCH;
+    if (status == HD_JOINTS_OK && (make_meets(&m->pattern, probe, NULL, &m->meets) < 0 ||
+            make_meets(&m->rigid_pattern, probe, m->rigid, &m->rigid_meets) < 0))
+        status = HD_JOINTS_OUT_OF_MEMORY;
     free(probe);
     free(zero);
+    if (status != HD_JOINTS_OK)
+        return status;
     const size_t R = (size_t)n + 1, B = 3 * (size_t)nb + 1;
     const size_t S = (size_t)(m->pattern.start[m->pattern.n] > m->rigid_pattern.start[
                                   m->rigid_pattern.n] ? m->pattern.start[m->pattern.n]
                               : m->rigid_pattern.start[m->rigid_pattern.n]) + 1;
-    m->rows0 = calloc(4 * R, sizeof(hd_joint_row));
+    m->row_memory = calloc(4 * R, sizeof(hd_joint_row));
     m->memory = calloc(4 * B + 11 * R + 4 * S, sizeof(double));
     m->bounded = malloc(R * sizeof(long));
     m->flags = malloc(3 * R * sizeof(int));
@@ -637,11 +820,12 @@ int hd_joints_prepare(hd_joint_model *m)
     m->newton = calloc(R, sizeof(double));
     m->extra = calloc(R, sizeof(double));
     m->settled = calloc(B, sizeof(double));
-    if (m->rigid == NULL || m->rows0 == NULL || m->memory == NULL || m->bounded == NULL ||
+    if (m->rigid == NULL || m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
             m->flags == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
             m->settled == NULL)
         return HD_JOINTS_OUT_OF_MEMORY;
-    m->rows = m->rows0 + R, m->dir0 = m->rows + R, m->dir = m->dir0 + R;
+    m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;
+    m->dir = m->dir0 + R;
     m->free = m->flags, m->out = m->flags + R, m->active = m->flags + 2 * R;
     double *p = m->memory;
     m->start = p, m->q = p + B, m->moved = p + 2 * B, m->v = p + 3 * B;
@@ -672,10 +856,12 @@ void hd_joints_free(hd_joint_model *m)
     free(m->extra);
     free(m->settled);
     free(m->memory);
-    free(m->rows0);
+    free(m->row_memory);
     free(m->bounded);
     free(m->flags);
     hd_pattern_free(&m->pattern);
     hd_pattern_free(&m->rigid_pattern);
+    free_meets(&m->meets);
+    free_meets(&m->rigid_meets);
     free(m);
 }

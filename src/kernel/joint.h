@@ -16,6 +16,7 @@
 #define HD_JOINT_TOLERANCE 1e-12
 #define HD_JOINT_ROUNDING (16.0 * 2.220446049250313e-16)
 #define HD_NEWTON_ITERATIONS 50
+#define HD_CHORD 0.125
 #define HD_DRIFT_ITERATIONS 8
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
@@ -45,6 +46,16 @@ typedef struct {
     double reference_angle, reference_along, angle, raw, motor_speed;
 } hd_joint;
 
+/* Which entries of two rows meet on a body, per pair of rows a pattern couples (the bodies
+ * of the rows' entries are the same at any pose): `pair` holds e << 2 | f for entry e of
+ * the row and f of the direction, in joints.py _dot's order; the diagonal's for row i at
+ * diag[i] .. diag[i + 1], the strict lower triangle's (row i, direction j) and the upper's
+ * (row j, direction i) for each slot likewise. */
+typedef struct {
+    long *diag, *lower, *upper;
+    unsigned char *pair;
+} hd_meets;
+
 /* One scalar constraint (joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
 typedef struct {
     int kind, count, scaled;
@@ -62,6 +73,7 @@ typedef struct hd_joint_model {
     /* Where the factors of all rows' matrices, and of the rigid rows' alone, can be
      * non-zero (sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
     hd_pattern pattern, rigid_pattern;
+    hd_meets meets, rigid_meets;
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
     double tolerance;      /* JointPass.tolerance */
@@ -71,19 +83,24 @@ typedef struct hd_joint_model {
     double *extra, *settled;
     int newton_valid;
     double last_h;
+    /* Whether the last pass ended well: m->q, m->rows and m->dir are its final pose, rows
+     * and directions (hd_joints_resolve starts from them when it may). */
+    int ended;
     /* working memory */
-    double *memory, *trig;
-    hd_joint_row *rows0, *rows, *dir0, *dir;
+    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: turn_all) */
+    hd_joint_row *row_memory, *rows0, *rows, *dir0, *dir;  /* the last four in the first */
     double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
     double *diagonal, *lower, *upper, *low, *diag;
     long *bounded;
     int *flags, *free, *out, *active;
 } hd_joint_model;
 
-enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_UNSOLVED = -2 };
+enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_UNSOLVED = -2,
+                       HD_JOINTS_MISMATCH = -3 };
 
 /* Allocate the working memory once the joints, bodies, masses and patterns are set; counts
- * the rows (row_count, rigid_count, rigid); HD_JOINTS_OUT_OF_MEMORY or OK. */
+ * the rows (row_count, rigid_count, rigid); HD_JOINTS_MISMATCH if the patterns are not of
+ * that many rows, else HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
 /* joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */

@@ -926,12 +926,12 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
     if (read_pattern(patterns[0], &m->pattern) < 0 ||
             read_pattern(patterns[1], &m->rigid_pattern) < 0)
         goto fail;
-    if (hd_joints_prepare(m) != HD_JOINTS_OK) {
+    const int status = hd_joints_prepare(m);
+    if (status == HD_JOINTS_OUT_OF_MEMORY) {
         PyErr_NoMemory();
         goto fail;
     }
-    if (m->row_count != rows || m->pattern.n != rows ||
-            m->rigid_pattern.n != m->rigid_count) {
+    if (status == HD_JOINTS_MISMATCH || m->row_count != rows || m->pattern.n != rows) {
         PyErr_Format(PyExc_ValueError, "joints: %ld rows (%ld rigid) in the kernel, %ld in "
                      "Python", m->row_count, m->rigid_count, rows);
         goto fail;
@@ -990,6 +990,7 @@ static PyObject *py_joint_state(PyObject *self, PyObject *args)
                  newton = (size_t)m->rigid_count * sizeof(double);
     const long flags = 2 * m->row_count + m->rigid_count;
     if (load) {
+        m->ended = 0;  /* its state may differ: build the next pass's rows afresh */
         memcpy(m->warm, s, warm);
         memcpy(m->newton, s + m->row_count, newton);
         memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
@@ -1111,6 +1112,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
         {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
         {"JOINT_ROUNDING", HD_JOINT_ROUNDING}, {"JOINT_MAX_TURN", HD_MAX_TURN},
+        {"JOINT_CHORD", HD_CHORD},
         {"JOINT_DEPENDENT", HD_DEPENDENT},
         {"MAX_CONDITION", HD_MAX_CONDITION}, {"SLEEP_SPEED", HD_SLEEP_SPEED},
         {"TIME_TO_SLEEP", HD_TIME_TO_SLEEP},

@@ -29,6 +29,39 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
             p->above_row[at] = i, p->above_slot[at] = s;
         }
     free(fill);
+    /* The merges of sparse.py's factor and lu, once: count, then fill. */
+    p->update_start = calloc((size_t)slots + 1, sizeof(long));
+    if (p->update_start == NULL)
+        return -1;
+    for (int pass = 0; pass < 2; ++pass) {
+        long count = 0;
+        for (long i = 0; i < n; ++i)
+            for (long slot = start[i]; slot < start[i + 1]; ++slot) {
+                const long j = columns[slot];
+                long a = start[i], b = start[j];
+                if (pass == 1)
+                    p->update_start[slot] = count;
+                while (a < slot && b < start[j + 1]) {
+                    if (columns[a] == columns[b]) {
+                        if (pass == 1)
+                            p->update_a[count] = a, p->update_b[count] = b;
+                        ++count, ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
+            }
+        if (pass == 0) {
+            p->update_a = malloc(((size_t)count + 1) * sizeof(long));
+            p->update_b = malloc(((size_t)count + 1) * sizeof(long));
+            if (p->update_a == NULL || p->update_b == NULL)
+                return -1;
+        } else {
+            p->update_start[slots] = count;
+        }
+    }
     return 0;
 }
 
@@ -39,6 +72,9 @@ void hd_pattern_free(hd_pattern *p)
     free(p->above_start);
     free(p->above_row);
     free(p->above_slot);
+    free(p->update_start);
+    free(p->update_a);
+    free(p->update_b);
 }
 
 void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
@@ -60,18 +96,9 @@ void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
             if (out[j])
                 continue;
             double s = lower[slot];
-            long a = first, b = start[j];
-            const long end_j = start[j + 1];
-            while (a < slot && b < end_j) {  /* k < j in both rows' patterns */
-                const long ka = columns[a], kb = columns[b];
-                if (ka == kb) {
-                    s -= low[a] * diag[ka] * low[b];
-                    ++a, ++b;
-                } else if (ka < kb) {
-                    ++a;
-                } else {
-                    ++b;
-                }
+            for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                const long a = p->update_a[u], b = p->update_b[u];
+                s -= low[a] * diag[columns[a]] * low[b];
             }
             low[slot] = s / diag[j];
         }
@@ -131,28 +158,19 @@ void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, dou
                 continue;
             }
             double s = lower[slot], t = upper[slot];
-            long a = first, b = start[j];
-            const long end_j = start[j + 1];
-            while (a < slot && b < end_j) {
-                const long ka = columns[a], kb = columns[b];
-                if (ka == kb) {
-                    s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
-                    t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
-                    ++a, ++b;
-                } else if (ka < kb) {
-                    ++a;
-                } else {
-                    ++b;
-                }
+            for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                const long a = p->update_a[u], b = p->update_b[u];
+                s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
+                t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
             }
-            low[slot] = s / diag[j];
+            low[slot] = s * diag[j];
             upper[slot] = t;
         }
         double s = diagonal[i];
         for (long slot = first; slot < end; ++slot)
             s -= low[slot] * upper[slot];
         if (fabs(s) > HD_DEPENDENT * fabs(diagonal[i]))
-            diag[i] = s;
+            diag[i] = 1.0 / s;
         else
             out[i] = 1;
     }
@@ -176,6 +194,6 @@ void hd_lu_solve(const hd_pattern *p, const double *low, const double *upper,
         double s = x[i];
         for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k)
             s -= upper[p->above_slot[k]] * x[p->above_row[k]];
-        x[i] = s / diag[i];
+        x[i] = s * diag[i];
     }
 }

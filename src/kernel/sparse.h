@@ -14,6 +14,11 @@ typedef struct {
     long n;
     long *start, *columns;
     long *above_start, *above_row, *above_slot;
+    /* The updates of each entry, in the order the factorizations subtract them: slot s
+     * (row i, column j) takes (a, b) = update_a/update_b[update_start[s] ..
+     * update_start[s + 1]): the slots of (i, k) and (j, k), k ascending, k < j (the merge
+     * of the two rows' patterns, done once). */
+    long *update_start, *update_a, *update_b;
 } hd_pattern;
 
 /* Take `start` (n + 1) and `columns` (start[n]), which the pattern owns from now on, and
@@ -29,7 +34,7 @@ void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
 void hd_substitute(const hd_pattern *p, const double *low, const double *diag, const int *out,
                    double *x);
 /* sparse.py: lu; `upper` (the transpose of A's strict upper triangle, by slots) becomes
- * U's. */
+ * U's, `diag` the reciprocals of U's diagonal. */
 void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, double *upper,
            double *low, double *diag, int *out);
 /* sparse.py: lu_solve, x in place of the right-hand side. */
