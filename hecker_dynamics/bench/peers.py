@@ -46,7 +46,12 @@ PEER_METHODS = {
 
 
 def available(peer: str) -> bool:
-    """True if the peer's Python package imports."""
+    """True if the peer's Python package imports (Box2D v3's: in an interpreter
+    :mod:`.box2d_v3` finds)."""
+    if peer == "box2d_v3":
+        from . import box2d_v3
+
+        return box2d_v3.available()
     module = {"pymunk": "pymunk", "box2d": "Box2D", "mujoco": "mujoco"}[peer]
     try:
         __import__(module)
@@ -57,6 +62,10 @@ def available(peer: str) -> bool:
 
 def version(peer: str) -> str:
     try:
+        if peer == "box2d_v3":
+            from . import box2d_v3
+
+            return box2d_v3.version()
         if peer == "pymunk":
             import pymunk
             return pymunk.version

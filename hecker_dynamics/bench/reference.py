@@ -15,12 +15,15 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
 from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
                      Gravity, Scene, SpringSpec)
+from .force_law import make_wrenches
 
 
 @dataclass
@@ -103,6 +106,7 @@ class PlainModel:
                                  or any(c[2] for c in self.constant)
                                  or any(c[:2] != [0.0, 0.0] for c in self._nongravity()))
         self.y0 = self.initial(scene)
+        self._law: Optional[Callable] = None
 
     def _nongravity(self) -> list[list[float]]:
         rest = [list(c) for c in self.constant]
@@ -129,6 +133,7 @@ class PlainModel:
         other = object.__new__(PlainModel)
         other.__dict__.update(self.__dict__)
         other.constant = [list(c) for c in self.constant]
+        other._law = None
         if springs:
             other.springs = []
         if gravity:
@@ -157,59 +162,13 @@ class PlainModel:
     def wrenches(self, states: list[tuple[float, float, float, float, float, float]]
                  ) -> list[list[float]]:
         """Force (fx, fy) and torque about the CM on every body, from each body's CM state
-        (x, y, angle, vx, vy, omega) as plain floats: the scene's force law (a body
-        point's velocity by Eq. 9, the torque about the CM by Eq. 11), as a user of a peer
-        engine would write it in Python."""
-        total = [list(c) for c in self.constant]
-        cs = [(math.cos(state[2]), math.sin(state[2])) for state in states]
-
-        def point(i, local):
-            c, s = cs[i]
-            x, y, _, vx, vy, w = states[i]
-            rx, ry = c * local[0] - s * local[1], s * local[0] + c * local[1]
-            return rx, ry, x + rx, y + ry, vx - w * ry, vy + w * rx
-
-        def apply(i, rx, ry, fx, fy):
-            wrench = total[i]
-            wrench[0] += fx
-            wrench[1] += fy
-            wrench[2] += rx * fy - ry * fx
-
-        for a, la, b, lb, k, rest, damp in self.springs:
-            rax, ray, pax, pay, vax, vay = point(a, la)
-            if b < 0:
-                rbx = rby = vbx = vby = 0.0
-                pbx, pby = lb
-            else:
-                rbx, rby, pbx, pby, vbx, vby = point(b, lb)
-            dx, dy, dvx, dvy = pax - pbx, pay - pby, vax - vbx, vay - vby
-            if rest == 0.0:
-                fx, fy = -k * dx - damp * dvx, -k * dy - damp * dvy
-            else:
-                length = math.hypot(dx, dy)
-                ux, uy = dx / length, dy / length
-                mag = -(k * (length - rest) + damp * (dvx * ux + dvy * uy))
-                fx, fy = mag * ux, mag * uy
-            apply(a, rax, ray, fx, fy)
-            if b >= 0:
-                apply(b, rbx, rby, -fx, -fy)
-        for i, local, coef, quadratic in self.drags:
-            if local is None:
-                rx = ry = 0.0
-                vx, vy = states[i][3], states[i][4]
-            else:
-                rx, ry, _, _, vx, vy = point(i, local)
-            scale = coef * (math.hypot(vx, vy) if quadratic else 1.0)
-            apply(i, rx, ry, -scale * vx, -scale * vy)
-        for i, coef in self.angular:
-            total[i][2] -= coef * states[i][5]
-        for i, fx, fy, body_axes, local in self.forces:
-            c, s = cs[i]
-            if body_axes:
-                fx, fy = _rot(c, s, fx, fy)
-            rx, ry = (0.0, 0.0) if local is None else _rot(c, s, *local)
-            apply(i, rx, ry, fx, fy)
-        return total
+        (x, y, angle, vx, vy, omega) as plain floats: the scene's force law
+        (:func:`~.force_law.make_wrenches`), as a user of a peer engine would write it in
+        Python."""
+        if self._law is None:
+            self._law = make_wrenches(self.springs, self.drags, self.angular, self.forces,
+                                      self.constant)
+        return self._law(states)
 
     def derivative(self, y: np.ndarray) -> np.ndarray:
         return np.concatenate([y[3 * self.n:], self.accelerations(y)])

@@ -1,10 +1,11 @@
-"""Scenes with walls, collisions and scripts in pymunk and Box2D 2.3, for timing.
+"""Scenes with walls, collisions and scripts in pymunk and Box2D 2.3, for timing (and in
+Box2D v3 through :mod:`.box2d_v3`, which builds the same layout in its own interpreter).
 
 :func:`scene_engine` builds a scene (its bodies with their shapes, walls, collision groups,
-forces and scripted wrenches) in a peer and returns ``step(count)`` and ``poses()`` (x, y
-and angle of every CM). The contact solvers differ, so the runs are compared by cost, not
-by state. How each peer is set up, in what its users would call its best honest
-configuration:
+forces and scripted wrenches) in a peer and returns ``step(count)``, which returns the
+seconds its steps took, and ``poses()`` (x, y and angle of every CM). The contact solvers
+differ, so the runs are compared by cost, not by state. How each peer is set up, in what
+its users would call its best honest configuration:
 
 - Bodies at their CMs with the scene's mass and moment of inertia; each shape of a body
   (polygons, circles) as the peer's shape in the CM frame.
@@ -20,7 +21,7 @@ configuration:
   0.2 instead of 0).
 - Gravity in the peer; every other force of the scene (springs, drags, angular damping,
   constant forces) and the scripted wrenches, each over its stamp and duration, from plain
-  Python (:meth:`~.reference.PlainModel.wrenches`) set on the bodies before each step
+  Python (:func:`~.force_law.make_wrenches`) set on the bodies before each step
   (``springs="python"``), or, for pymunk with ``springs="native"``, the springs as
   Chipmunk ``DampedSpring`` constraints (Box2D 2.3 has no spring element with a given
   stiffness: its soft distance joint sets a frequency relative to the joint's effective
@@ -32,8 +33,9 @@ configuration:
   ``maxMotorTorque``); each gear joint as the peer's gear (pymunk ``GearJoint`` of the two
   bodies' angles, so only between two pins to the world; Box2D ``GearJoint`` of the two
   revolute joints, whose ``coordinate_a + ratio coordinate_b`` is the core's). Joined bodies
-  do not collide unless the joint says so. Other joint types (sliders, welds, rods, ropes)
-  and rotary springs are not built: such a scene is refused.
+  do not collide unless the joint says so. Welds are laid out for Box2D v3 only; other
+  joint types (sliders, rods, ropes) and rotary springs are not built: such a scene is
+  refused.
 - Iterations: pymunk 10 (its default), Box2D 8 velocity and 3 position (its manual's).
   Sleeping as the peers' users have it for scenes that come to rest: Box2D's default
   (on), and pymunk's ``sleep_time_threshold`` of 0.5 s (off by default); with ``sleep``
@@ -43,25 +45,28 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from ..contact.joints import GearJoint, RevoluteJoint
+from ..contact.joints import GearJoint, RevoluteJoint, WeldJoint
 from ..geometry.shapes import Circle
 from ..scene.load import Gravity, Scene
+from .force_law import line_of_action, scripted_wrench
 from .reference import PlainModel
 
 __all__ = ["SCENE_PEERS", "scene_engine"]
 
-SCENE_PEERS = ("pymunk", "box2d")
+SCENE_PEERS = ("pymunk", "box2d", "box2d_v3")
 #: Half the length of the segment that stands for a wall, m.
 WALL_HALF_LENGTH = 100.0
 #: pymunk's sleep threshold where sleeping is on (its users' usual half second).
 PYMUNK_SLEEP_S = 0.5
 
-Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(count), poses()
+#: step(count) -> the seconds it took, poses()
+Engine = tuple[Callable[[int], float], Callable[[], np.ndarray]]
 Material = Optional[tuple[float, float]]  # (restitution, friction)
 
 
@@ -89,6 +94,35 @@ class _Gear(NamedTuple):
     ratio: float
 
 
+class _Command(NamedTuple):
+    """A scripted command: it pushes ``body`` from ``start`` (ns) to ``end`` with ``force``
+    at ``point`` and ``torque``, in the axes of body ``frame`` (``point`` in its CM frame)
+    or, for ``frame`` -1, of the fixed frame."""
+
+    body: int
+    start: int
+    end: int
+    frame: int
+    point: tuple[float, float]
+    force: tuple[float, float]
+    torque: float
+
+
+class _Weld(NamedTuple):
+    """A weld joint: bodies ``a`` (-1: the world) and ``b`` hold their relative pose at the
+    start (anchors and reference angle as a pin's); a spring-damper of ``frequency`` (Hz,
+    0: rigid) and ``damping_ratio`` where the scene softens it."""
+
+    a: int
+    anchor_a: tuple[float, float]
+    b: int
+    anchor_b: tuple[float, float]
+    reference: float
+    frequency: float
+    damping_ratio: float
+    collide: bool
+
+
 class _Wall(NamedTuple):
     start: tuple[float, float]
     end: tuple[float, float]
@@ -110,9 +144,10 @@ class _Layout:
     body_bits: list[tuple[int, int]]   # (category, mask) per body
     walls: list[_Wall]
     materials: list[Material]          # per body: its group's, None outside every group
-    script: list[tuple[int, int, int, Callable[[list], tuple[float, float, float]]]]
+    script: list[_Command]
     pins: list[_Pin]
     gears: list[_Gear]
+    welds: list[_Weld]
 
 
 def _group_material(scene: Scene, name: str) -> Material:
@@ -166,74 +201,60 @@ def _layout(scene: Scene) -> _Layout:
                     if n in wall.bodies})
         walls.append(_Wall(*ends, bit, mask, wall.restitution, wall.friction,
                            next(iter(stopped), None)))
-    pins, gears = _joints(scene, plain)
+    pins, gears, welds = _joints(scene, plain)
     return _Layout(model, plain.without(springs=True, gravity=True), gravity, shapes,
-                   body_bits, walls, materials, _script(scene, plain), pins, gears)
+                   body_bits, walls, materials, _script(scene, plain), pins, gears, welds)
 
 
-def _joints(scene: Scene, plain: PlainModel) -> tuple[list[_Pin], list[_Gear]]:
-    """The scene's revolute and gear joints for the peers (others refused)."""
+def _joints(scene: Scene, plain: PlainModel) -> tuple[list[_Pin], list[_Gear], list[_Weld]]:
+    """The scene's revolute, gear and weld joints for the peers (others refused)."""
     index = {b.name: i for i, b in enumerate(scene.bodies)}
     angle = [b.angle for b in scene.bodies]
     order = {spec.name: k for k, spec in
              enumerate(s for s in scene.joints if isinstance(s, RevoluteJoint))}
-    pins, gears = [], []
+    pins, gears, welds = [], [], []
     for spec in scene.joints:
         if isinstance(spec, GearJoint):
             gears.append(_Gear(order[spec.joint_a], order[spec.joint_b], spec.ratio))
             continue
-        if not isinstance(spec, RevoluteJoint) or spec.spring is not None:
+        if not isinstance(spec, (RevoluteJoint, WeldJoint)) or \
+                (isinstance(spec, RevoluteJoint) and spec.spring is not None):
             raise ValueError(f"{scene.source}: joint '{spec.name}': the peers build revolute "
-                             "joints (without springs) and gears only")
+                             "joints (without springs), welds and gears only")
         b = index[spec.body_b]
         a = -1 if spec.body_a is None else index[spec.body_a]
         anchor_a = tuple(spec.point_a) if a < 0 else plain.local(a, spec.point_a)
+        anchor_b = plain.local(b, spec.point_b)
         reference = angle[b] - (0.0 if a < 0 else angle[a])
+        if isinstance(spec, WeldJoint):
+            welds.append(_Weld(a, anchor_a, b, anchor_b, reference, spec.frequency,
+                               spec.damping_ratio, spec.collide_connected))
+            continue
         limits = None
         if spec.lower is not None or spec.upper is not None:
             limits = (-2.0 * math.pi if spec.lower is None else spec.lower,
                       2.0 * math.pi if spec.upper is None else spec.upper)
         motor = None if spec.motor is None else (spec.motor.speed, spec.motor.max_effort)
-        pins.append(_Pin(a, anchor_a, b, plain.local(b, spec.point_b), reference, limits,
-                         motor, spec.collide_connected))
-    return pins, gears
+        pins.append(_Pin(a, anchor_a, b, anchor_b, reference, limits, motor,
+                         spec.collide_connected))
+    return pins, gears, welds
 
 
-def _script(scene: Scene, plain: PlainModel):
-    """Per scripted command: (body, first step's start ns, end ns, wrench(states))."""
+def _script(scene: Scene, plain: PlainModel) -> list[_Command]:
     index = {b.name: i for i, b in enumerate(scene.bodies)}
     points = {b.name: b.points for b in scene.bodies}
     out = []
     for command in scene.script:
-        i = index[command.body]
         frame, _, point_name = command.frame_id.partition("/")
         end = command.stamp_ns + (command.duration_ns or scene.input_timeout_ns)
+        j, point = -1, tuple(command.point)
         if frame in index:  # body axes, from the body's origin or one of its points
             j = index[frame]
             origin = points[frame][point_name] if point_name else (0.0, 0.0)
-            local = plain.local(j, (origin[0] + command.point[0], origin[1] + command.point[1]))
-            wrench = _body_wrench(i, j, local, command.force, command.torque)
-        else:  # the fixed frame
-            wrench = _world_wrench(i, command.point, command.force, command.torque)
-        out.append((i, command.stamp_ns, end, wrench))
+            point = plain.local(j, (origin[0] + command.point[0], origin[1] + command.point[1]))
+        out.append(_Command(index[command.body], command.stamp_ns, end, j, point,
+                            tuple(command.force), command.torque))
     return out
-
-
-def _body_wrench(i: int, j: int, local, force, torque):
-    def wrench(states):
-        x, y, a = states[j][:3]
-        c, s = math.cos(a), math.sin(a)
-        fx, fy = c * force[0] - s * force[1], s * force[0] + c * force[1]
-        px, py = x + c * local[0] - s * local[1], y + s * local[0] + c * local[1]
-        return fx, fy, (px - states[i][0]) * fy - (py - states[i][1]) * fx + torque
-    return wrench
-
-
-def _world_wrench(i: int, point, force, torque):
-    def wrench(states):
-        rx, ry = point[0] - states[i][0], point[1] - states[i][1]
-        return force[0], force[1], rx * force[1] - ry * force[0] + torque
-    return wrench
 
 
 def _over_root(value: float, own: float) -> float:
@@ -243,26 +264,17 @@ def _over_root(value: float, own: float) -> float:
     return value / math.sqrt(own) if own else 0.0
 
 
-def _line_of_action(state, fx: float, fy: float, tau: float):
-    """A world point where the force (fx, fy) alone has the torque ``tau`` about the CM of
-    the body in ``state`` (one call of the peer's API instead of a force and a torque),
-    or None for a zero force."""
-    square = fx * fx + fy * fy
-    if not square:
-        return None
-    scale = tau / square  # r = tau (fy, -fx) / |F|^2, so r x F = tau
-    return state[0] + scale * fy, state[1] - scale * fx
-
-
 def _forces(layout: _Layout, model: PlainModel, h_ns: int):
     """wrenches(step, states) -> (the Python forces with the script's active wrenches
     added, the bodies a scripted wrench pushes), or None for a step with neither."""
     python = bool(model.springs or model.drags or model.angular or model.forces
                   or any(any(c) for c in model.constant))
+    script = [(c, scripted_wrench(c.body, c.frame, c.point, c.force, c.torque))
+              for c in layout.script]
 
     def wrenches(step: int, read: Callable[[], list]):
         start = step * h_ns
-        active = [(i, wrench) for i, first, end, wrench in layout.script if first <= start < end]
+        active = [(c.body, wrench) for c, wrench in script if c.start <= start < c.end]
         if not python and not active:
             return None
         states = read()
@@ -279,10 +291,10 @@ def _forces(layout: _Layout, model: PlainModel, h_ns: int):
 
 def _stepper(layout: _Layout, model: PlainModel, h: float, bodies: list,
              read: Callable[[], list], push: Callable[..., None],
-             advance: Callable[[], None]) -> Callable[[int], None]:
-    """step(count): before each step, the Python forces and the scripted wrenches go on the
-    bodies (``push(body, force, point of application or None, torque, wake)``), then
-    ``advance`` takes the peer's step."""
+             advance: Callable[[], None]) -> Callable[[int], float]:
+    """step(count) -> the seconds it took: before each step, the Python forces and the
+    scripted wrenches go on the bodies (``push(body, force, point of application or None,
+    torque, wake)``), then ``advance`` takes the peer's step."""
     wrenches = _forces(layout, model, round(h * 1e9))
     done = [0]
     states: list = []
@@ -291,23 +303,31 @@ def _stepper(layout: _Layout, model: PlainModel, h: float, bodies: list,
         states[:] = read()
         return states
 
-    def step(count: int) -> None:
+    def step(count: int) -> float:
+        start = time.perf_counter()
         for _ in range(count):
             total = wrenches(done[0], grab)
             if total is not None:
                 wrench, pushed = total
                 for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, wrench)):
-                    push(body, (fx, fy), _line_of_action(state, fx, fy, tau), tau, i in pushed)
+                    push(body, (fx, fy), line_of_action(state, fx, fy, tau), tau, i in pushed)
             advance()
             done[0] += 1
+        return time.perf_counter() - start
 
     return step
+
+
+def _without_welds(layout: _Layout, peer: str) -> _Layout:
+    if layout.welds:
+        raise ValueError(f"{peer}: the bench builds no weld joints in this peer")
+    return layout
 
 
 def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
     import pymunk
 
-    layout = _layout(scene)
+    layout = _without_welds(_layout(scene), "pymunk")
     model = layout.springs if springs == "native" else layout.model
     space = pymunk.Space()
     space.iterations = 10
@@ -405,7 +425,7 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
 
     if springs != "python":
         raise ValueError("Box2D 2.3 has no spring element of a given stiffness")
-    layout = _layout(scene)
+    layout = _without_welds(_layout(scene), "Box2D 2.3")
     model = layout.model
     world = Box2D.b2World(gravity=layout.gravity, doSleep=sleep)
     q, v = model.start()
@@ -464,6 +484,13 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
 
 def scene_engine(peer: str, scene: Scene, h: float, springs: str = "python",
                  sleep: bool = True) -> Engine:
-    """``scene`` built in ``peer`` (``pymunk`` or ``box2d``) at the step ``h``."""
+    """``scene`` built in ``peer`` (``pymunk``, ``box2d`` or ``box2d_v3``, the last in its
+    own interpreter: :mod:`.box2d_v3`) at the step ``h``."""
+    if peer == "box2d_v3":
+        from . import box2d_v3
+
+        if springs != "python":
+            raise ValueError("Box2D v3 has no spring element of a given stiffness")
+        return box2d_v3.scene_engine(scene, h, sleep)
     builder = {"pymunk": _pymunk, "box2d": _box2d}[peer]
     return builder(scene, h, springs, sleep)
