@@ -330,9 +330,9 @@ _KINDS = (RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint)
 
 
 def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec, ...]:
-    """The joints in minimum-degree order on the joint graph (:func:`.sparse.joint_order`):
-    two joints are neighbours when their rows act on a common body (a gear's rows act on
-    the bodies of its two joints); ties go to the anchor (body_b's point at the start, a
+    """The joints in the order :func:`.sparse.joint_order` gives the joint graph: two
+    joints are neighbours when their rows act on a common body (a gear's rows act on the
+    bodies of its two joints); ties go to the anchor (body_b's point at the start, a
     gear's the mean of its joints') first in x, then y, then the kind, then the name."""
     bodies = {body.name: body for body in scene.bodies}
     named = {spec.name: spec for spec in specs}
@@ -359,7 +359,23 @@ def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec,
     neighbours = [{j for name in names for j in on_body[name]} - {i}
                   for i, names in enumerate(held)]
     keys = [(*anchor(spec), _KINDS.index(type(spec)), i) for i, spec in enumerate(specs)]
-    return tuple(specs[i] for i in joint_order(neighbours, keys))
+    # A joint between two bodies already joined closes a loop (union-find over the bodies;
+    # a gear joins its two joints' bodies).
+    root: dict[str, str] = {}
+
+    def find(name: str) -> str:
+        while root.setdefault(name, name) != name:
+            name = root[name]
+        return name
+
+    loops = False
+    for names in held:
+        first, *others = sorted(names)
+        for other in others:
+            a, b = find(first), find(other)
+            loops = loops or a == b
+            root[b] = a
+    return tuple(specs[i] for i in joint_order(neighbours, keys, loops))
 
 
 class JointPass:

@@ -53,6 +53,11 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
                     }
                 }
             }
+        if (pass == 0 && count > HD_MOST_UPDATES) {
+            free(p->update_start);  /* too many to keep: the factorizations merge */
+            p->update_start = NULL;
+            return 0;
+        }
         if (pass == 0) {
             p->update_a = malloc(((size_t)count + 1) * sizeof(long));
             p->update_b = malloc(((size_t)count + 1) * sizeof(long));
@@ -96,9 +101,23 @@ void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
             if (out[j])
                 continue;
             double s = lower[slot];
-            for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
-                const long a = p->update_a[u], b = p->update_b[u];
-                s -= low[a] * diag[columns[a]] * low[b];
+            if (p->update_start != NULL) {
+                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                    const long a = p->update_a[u], b = p->update_b[u];
+                    s -= low[a] * diag[columns[a]] * low[b];
+                }
+            } else {
+                long a = first, b = start[j];
+                while (a < slot && b < start[j + 1]) {  /* k < j in both rows' patterns */
+                    if (columns[a] == columns[b]) {
+                        s -= low[a] * diag[columns[a]] * low[b];
+                        ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
             }
             low[slot] = s / diag[j];
         }
@@ -158,10 +177,25 @@ void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, dou
                 continue;
             }
             double s = lower[slot], t = upper[slot];
-            for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
-                const long a = p->update_a[u], b = p->update_b[u];
-                s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
-                t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
+            if (p->update_start != NULL) {
+                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                    const long a = p->update_a[u], b = p->update_b[u];
+                    s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
+                    t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
+                }
+            } else {
+                long a = first, b = start[j];
+                while (a < slot && b < start[j + 1]) {
+                    if (columns[a] == columns[b]) {
+                        s -= low[a] * upper[b];
+                        t -= low[b] * upper[a];
+                        ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
             }
             low[slot] = s * diag[j];
             upper[slot] = t;

@@ -6,6 +6,9 @@
 
 /* sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row. */
 #define HD_DEPENDENT 1e-10
+/* The most updates a pattern keeps listed (16 bytes each); beyond, the factorizations
+ * merge the rows' patterns as they go, in the same order. */
+#define HD_MOST_UPDATES 4000000L
 
 /* sparse.py: Pattern. Row i's columns (ascending) are columns[start[i] .. start[i + 1]),
  * each a slot of the factors' arrays; column i's slots, by ascending row, are
@@ -17,7 +20,7 @@ typedef struct {
     /* The updates of each entry, in the order the factorizations subtract them: slot s
      * (row i, column j) takes (a, b) = update_a/update_b[update_start[s] ..
      * update_start[s + 1]): the slots of (i, k) and (j, k), k ascending, k < j (the merge
-     * of the two rows' patterns, done once). */
+     * of the two rows' patterns, done once; update_start NULL: too many to keep). */
     long *update_start, *update_a, *update_b;
 } hd_pattern;
 
