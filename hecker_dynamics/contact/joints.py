@@ -39,7 +39,7 @@ than the directions at q0 can follow). So the simulation takes a step in equal p
 some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
 (:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
 its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
-(:class:`JointsUnsolved`), at most :data:`MAX_SPLITS` times deep, then stops with a clear
+(:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
 error. A step that needs none of this is RATTLE's, unchanged.
 
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
@@ -87,7 +87,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
     "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass", "JointsUnsolved",
-    "MAX_TURN", "MAX_SPLITS",
+    "MAX_TURN", "MOST_SUBSTEPS",
 ]
 
 Vec2 = tuple[float, float]
@@ -103,10 +103,8 @@ CHORD = 0.125
 #: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
 #: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
 MAX_TURN = 0.1
-#: How many times a step is split (into parts or halves) before the joints give up.
-MAX_SPLITS = 10
-#: The most parts :meth:`JointPass.parts` splits a step into at once.
-MOST_PARTS = 64
+#: The most parts a step is taken in, in all (ten halvings), before the joints give up.
+MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
 #: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
 MAX_ITERATIONS = 200
@@ -425,6 +423,8 @@ class JointPass:
         self._rods = [self.frames[s.name] for s in self.specs if isinstance(s, DistanceJoint)]
         #: The constraint error (m or rad) the position stages count as met.
         self.tolerance = TOLERANCE
+        #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
+        self.max_turn = MAX_TURN
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
@@ -534,12 +534,14 @@ class JointPass:
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
-        counted joint angles, the warm-start impulses, the efforts and motor speeds."""
+        counted joint angles, the warm-start impulses and Newton multipliers with the step
+        they were taken over, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
                 "angle": dict(self.angle) if self._initial is not None else {},
                 "raw": dict(self.raw) if self._initial is not None else {},
                 "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
                 "newton": None if self.newton is None else list(self.newton),
+                "step_h": self.step_h,
                 "extra": [[list(key), value] for key, value in zip(self.keys, self.extra)],
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
@@ -557,6 +559,7 @@ class JointPass:
         self.extra = [extra.get(key, 0.0) for key in self.keys]
         self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
+        self.step_h = float(state.get("step_h", self.step_h))
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
@@ -671,7 +674,7 @@ class JointPass:
     def parts(self, q0: np.ndarray, q1: np.ndarray) -> int:
         """How many equal parts a step from ``q0`` to ``q1`` (all bodies, before this pass)
         is to be taken in so that no joint's arm or axis, nor a rod's or rope's direction,
-        turns by more than :data:`MAX_TURN` in a part (at most :data:`MOST_PARTS`): 1 when
+        turns by more than :data:`MAX_TURN` in a part (at most :data:`MOST_SUBSTEPS`): 1 when
         none turns further. The joints' correction is second order in that turn: RATTLE's
         error, and the reach of its Newton iteration, follow from it."""
         turn = 0.0
@@ -685,9 +688,10 @@ class JointPass:
                 (ua, va, *_), (ub, vb, *_) = a.place(end), b.place(end)
                 dx, dy, ex, ey = xb - xa, yb - ya, ub - ua, vb - va
                 turn = max(turn, math.atan2(abs(dx * ey - dy * ex), dx * ex + dy * ey))
-        if not turn > MAX_TURN:  # within, or not finite: the divergence check reports it
+        if not turn > self.max_turn:  # within, or not finite: the divergence check reports it
             return 1
-        return min(max(math.ceil(turn / MAX_TURN), 2), MOST_PARTS)
+        parts = turn / self.max_turn
+        return MOST_SUBSTEPS if parts >= MOST_SUBSTEPS else max(math.ceil(parts), 2)
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """Constrain the step from ``q0`` to (``q1``, ``v1``) of length ``h``; updates
@@ -754,7 +758,7 @@ class JointPass:
             largest = max(map(abs, error))
             if largest <= tolerance:
                 turned = max(abs(q[k] - moved[k]) for k in range(2, len(q), 3))
-                if turned > MAX_TURN:
+                if turned > self.max_turn:
                     raise JointsUnsolved(f"the joints turn a body by {turned:.3g} rad in a "
                                          f"step of {h:g} s")
                 self.newton = nu

@@ -85,7 +85,8 @@ class CompiledJoints:
             np.array(ints, dtype=np.int64).reshape(-1),
             np.array(reals, dtype=np.float64).reshape(-1), len(joint_pass.keys),
             arrays(joint_pass.pattern), arrays(joint_pass.rigid_pattern),
-            np.ascontiguousarray(joint_pass.turning, dtype=np.int64), joint_pass.tolerance)
+            np.ascontiguousarray(joint_pass.turning, dtype=np.int64), joint_pass.tolerance,
+            joint_pass.max_turn)
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
-from ..contact.joints import MAX_SPLITS
+from ..contact.joints import MOST_SUBSTEPS
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
@@ -143,8 +143,8 @@ _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
              "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
                                   "one step",
              "JOINTS_UNSOLVED": f"the joints have no solution near the end of the step, "
-                                f"split {MAX_SPLITS} times: the bodies turn too fast for "
-                                "the step; take a shorter step"}
+                                f"taken in {MOST_SUBSTEPS} parts: the bodies turn too fast "
+                                "for the step; take a shorter step"}
 
 
 class Advanced(NamedTuple):

@@ -582,7 +582,7 @@ static int hold(hd_joint_model *m, double h, int again)
             double turned = 0.0;
             for (long k = 2; k < n3; k += 3)
                 turned = py_max(turned, fabs(m->q[k] - m->moved[k]));
-            if (turned > HD_MAX_TURN)
+            if (turned > m->max_turn)
                 return HD_JOINTS_UNSOLVED;
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
@@ -718,10 +718,12 @@ long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1
         const double ex = ends[1][1][0] - ends[1][0][0], ey = ends[1][1][1] - ends[1][0][1];
         turn = py_max(turn, atan2(fabs(dx * ey - dy * ex), dx * ex + dy * ey));
     }
-    if (!(turn > HD_MAX_TURN))  /* within, or not finite: the divergence check reports it */
+    if (!(turn > m->max_turn))  /* within, or not finite: the divergence check reports it */
         return 1;
-    const double parts = ceil(turn / HD_MAX_TURN);
-    return parts < 2.0 ? 2 : (parts > HD_MOST_PARTS ? HD_MOST_PARTS : (long)parts);
+    const double parts = turn / m->max_turn;
+    if (parts >= (double)HD_MOST_SUBSTEPS)
+        return HD_MOST_SUBSTEPS;
+    return ceil(parts) < 2.0 ? 2 : (long)ceil(parts);
 }
 
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)

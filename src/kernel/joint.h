@@ -21,8 +21,8 @@
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
-#define HD_MAX_SPLITS 10
-#define HD_MOST_PARTS 64L
+#define HD_MOST_SUBSTEPS 1024L
+#define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
 
 enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3, HD_ROPE = 4,
                      HD_GEAR = 5 };
@@ -76,7 +76,7 @@ typedef struct hd_joint_model {
     hd_meets meets, rigid_meets;
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
-    double tolerance;      /* JointPass.tolerance */
+    double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
     double *warm, *newton; /* row_count, rigid_count */
     /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
      * the velocities before the last velocity stage (3 per body). */

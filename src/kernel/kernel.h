@@ -134,7 +134,7 @@ typedef struct {
  * pass of contact.h after each step, in sub-steps as the simulation takes them; `joints`
  * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts,
  * in parts or halves where it needs them (HD_UNSOLVED_JOINTS: still no solution near the
- * end of a part split HD_MAX_SPLITS times). */
+ * end of a part of a step taken in HD_MOST_SUBSTEPS parts). */
 struct hd_contact_model;
 struct hd_joint_model;
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,

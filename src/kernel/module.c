@@ -853,13 +853,14 @@ static void joints_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(joints_doc,
 "joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
-"       tolerance) -> Joints\n\n"
+"       tolerance, max_turn) -> Joints\n\n"
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
 "checks against its own; the patterns of all rows and of the rigid rows (sparse.py:\n"
 "Pattern), each as (start, columns); the model indices of the bodies whose turning\n"
-"JointPass.parts watches; the position stages' tolerance.");
+"JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
+"step (JointPass.max_turn).");
 
 /* A sparse.py Pattern from (start, columns); -1 with an exception set. */
 static int read_pattern(PyObject *pair, hd_pattern *p)
@@ -900,9 +901,9 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
 {
     PyObject *o[4], *patterns[2], *turning_object;
     long rows;
-    double tolerance;
-    if (!PyArg_ParseTuple(args, "OOOOlOOOd:joints", o, o + 1, o + 2, o + 3, &rows,
-                          patterns, patterns + 1, &turning_object, &tolerance))
+    double tolerance, max_turn;
+    if (!PyArg_ParseTuple(args, "OOOOlOOOdd:joints", o, o + 1, o + 2, o + 3, &rows,
+                          patterns, patterns + 1, &turning_object, &tolerance, &max_turn))
         return NULL;
     hd_joint_model *m = calloc(1, sizeof(hd_joint_model));
     if (m == NULL)
@@ -919,7 +920,7 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
         goto fail;
     m->body_count = (long)bodies;
     m->turning_count = (long)turning;
-    m->tolerance = tolerance;
+    m->tolerance = tolerance, m->max_turn = max_turn;
     m->joint_count = (long)(ints_count / HD_JOINT_INTS);
     if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,
                                                           sizeof(hd_joint))) == NULL) {
@@ -1127,7 +1128,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"WIDE_UNITS", HD_WIDE_UNITS}, {"COLOURS", HD_COLOURS},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
         {"JOINTS_UNSOLVED", HD_UNSOLVED_JOINTS}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
-        {"JOINT_MAX_SPLITS", HD_MAX_SPLITS}, {"JOINT_MOST_PARTS", HD_MOST_PARTS},
+        {"JOINT_MOST_SUBSTEPS", HD_MOST_SUBSTEPS},
         {"JOINT_DRIFT_ITERATIONS", HD_DRIFT_ITERATIONS},
         {"JOINT_MAX_ITERATIONS", HD_JOINT_MAX_ITERATIONS}, {"JOINT_INTS", HD_JOINT_INTS},
         {"JOINT_REALS", HD_JOINT_REALS}, {"JOINT_STATE", HD_JOINT_STATE},
