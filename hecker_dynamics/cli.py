@@ -552,9 +552,11 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
     bench.add_argument("--joints", action="store_true",
-                       help="only the joint section: a chain of 100 links against pymunk "
-                            "and Box2D, and the seesaw and door on joints against springs "
-                            "(writes joints.md and joints.csv)")
+                       help="only the joint section, with its targets: chains of 2 to 200 "
+                            "links, the bridge, the ragdoll and Box2D's joint grid against "
+                            "pymunk, Box2D 2.3 and Box2D v3, a chain of 1000 pins renamed, "
+                            "and the seesaw and door on joints against springs (writes "
+                            "joints.md and joints.csv)")
     bench.add_argument("--contacts", nargs="*", type=_rows, metavar="ROWS",
                        help="instead: the contact section against pymunk and Box2D, with "
                             "its targets: pyramids of these rows of boxes (default "

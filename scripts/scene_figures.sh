@@ -10,3 +10,6 @@ render door --trail door/handle --contacts
 render gears --trail bar --contacts
 render car_flip --trail car --contacts
 render ship --trail ship
+render chain --trail link49
+render bridge --trail crate_b --contacts
+render ragdoll --trail head --contacts

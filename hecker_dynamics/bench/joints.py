@@ -1,247 +1,394 @@
-"""The joint section of ``hecker-dynamics bench``: a chain of 100 links against the peers,
-and the shipped scenes pinned by revolute joints against the same scenes pinned by springs.
+"""The joint section of ``hecker-dynamics bench --joints``: chains, a bridge, a ragdoll and
+Box2D's joint grid against pymunk, Box2D 2.3 and Box2D v3, with three targets.
 
-Chain: ``LINKS`` rods of 0.1 m x 0.02 m and 0.1 kg laid out horizontally, the first pinned
-to the world at its left end, each pinned to the next at their shared end, let go under
-gravity, h = 1 ms, 2 s; no collisions. The engines, in their usual configurations:
+Cases:
 
-- ``hecker_dynamics``: revolute joints named ``j000`` to ``j099`` (so that the joint rows
-  come in chain order and the band stays narrow), ``velocity_verlet``, the compiled kernel
-  when built;
-- ``pymunk``: ``PivotJoint`` per pin, 10 iterations (its default);
-- ``box2d``: Box2D 2.3 (pybox2d), revolute joints, 8 velocity and 3 position iterations
-  (its manual's recommendation).
+- ``chain``: N links (0.5 x 0.1 m boxes of 1 kg) pinned end to end, the first pinned to
+  the world at its left end, released level under gravity, no contact between the links,
+  10 s, for N = 2, 10, 50 and 200 at h = 1/240 s and 1/60 s (:func:`chain`);
+- ``bridge`` and ``ragdoll``: the shipped scenes (joints and contacts in one solve;
+  branching joints with limits), their whole scripted runs at their own steps;
+- ``joint_grid``: Box2D's ``joint_grid`` benchmark at its published size (:func:`grid`:
+  100 x 100 circles of radius 0.4 m, density 1, at unit spacing, each pinned to its right
+  and lower neighbours at the midpoints, the middle 7 of the top row fixed), at h = 1/60 s
+  over :data:`GRID_DURATION`; its 39,600 pin rows hold its 30,000 coordinates with some
+  9,600 rows to spare (the loops of the grid), which the exact factorization drops as
+  dependent;
+- the pinned scenes (``seesaw``, ``door``) on their revolute joints against the same
+  scenes pinned by stiff springs (:func:`.scenes.pinned_by_springs`), over their first 2 s.
 
-Pinned scenes: the shipped ``seesaw`` and ``door`` (revolute joints to the world) and the
-same scenes with each such joint a stiff zero-length spring
-(:func:`.scenes.pinned_by_springs`, the pins they had before joints; the seesaw's stop
-goes with its joint), each at its own step and method, with its script, over its first
-2 s.
+The peers are built from the same scenes by :mod:`.scene_peers` and :mod:`.box2d_v3`, each
+in its best honest configuration (pymunk's 10 iterations; Box2D 2.3's 8 velocity and 3
+position iterations; Box2D v3's 4 sub-steps; sleeping off, so that every engine does the
+same work each step); the core runs its scene as shipped (``velocity_verlet`` for the
+chains and the grid, the compiled kernel when built).
 
-Every engine steps in blocks of ``BLOCK``; the blocks of all engines of a comparison are
-interleaved (one block each in turn), so that the machine's load falls on all alike, and
-each cost per step is the median over the blocks. The error is the largest distance
-between two points a pin holds together, over the block ends.
+Cost is whole-run cost: the wall time of all the steps of a whole run over their number
+(the peers' step loops timed where they run), a fresh build each run, the median over
+:data:`ROUNDS` runs of each engine, interleaved (every engine of a case once per round).
+The pins' error is the largest distance between two points a revolute joint holds
+together, at :data:`SAMPLES` instants through each run (the runs pause there, untimed).
+
+Targets (each reported met or missed, or not measured where a peer is missing):
+
+1. no chain of 2 to 200 links at h = 1/60 s or 1/240 s diverges, and none lets a pin open
+   by more than 1e-9 m;
+2. the core's cost per step on each chain at h = 1/240 s (the step the chains were first
+   measured at) is at most Box2D v3's;
+3. a chain of 1000 pins costs the same, within 10 %, whatever its joints' names (padded,
+   unpadded, shuffled), and gives the same bits.
 """
 from __future__ import annotations
 
 import math
+import random
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
+from .scene_peers import SCENE_PEERS, scene_engine
 from .scenes import SPRING_PINS, pinned_by_springs
 from ..contact.joints import RevoluteJoint
-from ..dynamics.simulation import Simulation
+from ..dynamics.model import Model
+from ..dynamics.simulation import DivergenceError, Simulation
 from ..scene.load import Scene, load_scene, scene_from_parameters
 from ..scene.parameters import flatten
 
-__all__ = ["BLOCK", "LINKS", "JOINT_FILES", "chain", "joint_bench", "chain_engines",
-           "pinned_engines"]
+__all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "ROUNDS", "Run", "chain",
+           "grid", "joint_bench", "measure", "pin_gap", "renaming", "targets"]
 
-BLOCK = 25
-LINKS = 100
-LENGTH, WIDTH, MASS = 0.1, 0.02, 0.1
-STEP = 0.001
-DURATION = 2.0
+#: The chains' lengths, links.
+CHAIN_LINKS = (2, 10, 50, 200)
+#: The chains' steps, s: the step of target 2 first.
+CHAIN_STEPS = (1.0 / 240.0, 1.0 / 60.0)
+COST_STEP = CHAIN_STEPS[0]
+CHAIN_DURATION = 10.0
+LINK = (0.5, 0.1)
+LINK_MASS = 1.0
 GRAVITY = 9.81
+#: Box2D's joint_grid: its published size, its step and how long the core runs it.
+GRID_SIZE = 100
+GRID_STEP = 1.0 / 60.0
+GRID_DURATION = 10 * GRID_STEP
+#: Target 3's chain and how long it runs.
+RENAMED_LINKS = 1000
+RENAMED_DURATION = 0.5
+ROUNDS = 3
+SAMPLES = 10
+#: Target 1's largest pin gap, m, and target 3's largest change of cost.
+DRIFT = 1e-9
+RENAMING = 0.10
+PEERS = SCENE_PEERS  # pymunk, box2d (2.3), box2d_v3
 
-#: step(n), error(): the largest gap between points a pin holds together (m).
-Engine = tuple[Callable[[int], None], Callable[[], float]]
 
-
-def chain(links: int = LINKS) -> Scene:
-    """The chain as a scene (velocity_verlet at h = 1 ms, 2 s)."""
+def chain(links: int, step: float = COST_STEP, duration: float = CHAIN_DURATION,
+          names: Optional[Callable[[int], str]] = None) -> Scene:
+    """The chain of ``links`` links (see the module) at ``step`` with ``velocity_verlet``;
+    ``names(i)`` names the i-th joint (default ``pin0000`` on: zero-padded, so that their
+    order is the chain's)."""
+    name = names or (lambda i: f"pin{i:04d}")
+    length, width = LINK
     bodies, joints = {}, {}
     for i in range(links):
-        bodies[f"l{i:03d}"] = {"shape": "box", "size": [LENGTH, WIDTH], "mass": MASS,
-                               "position": [LENGTH * (0.5 + i), 0.0]}
-        joints[f"j{i:03d}"] = {"type": "revolute", "body_b": f"l{i:03d}",
-                               "point_b": [-0.5 * LENGTH, 0.0]}
+        link = f"link{i:04d}"
+        bodies[link] = {"shape": "box", "size": [length, width], "mass": LINK_MASS,
+                        "position": [length * (0.5 + i), 0.0]}
+        joint = {"type": "revolute", "body_b": link, "point_b": [-0.5 * length, 0.0]}
         if i:
-            joints[f"j{i:03d}"].update(body_a=f"l{i - 1:03d}", point_a=[0.5 * LENGTH, 0.0])
+            joint.update(body_a=f"link{i - 1:04d}", point_a=[0.5 * length, 0.0])
+        joints[name(i)] = joint
     return scene_from_parameters(flatten({
-        "step": STEP, "integrator": "velocity_verlet", "duration": DURATION,
-        "publish_rate": 1.0 / DURATION, "bodies": bodies,
+        "step": step, "integrator": "velocity_verlet", "duration": duration,
+        "publish_rate": 1.0 / duration, "bodies": bodies,
         "forces": {"gravity": {"type": "gravity", "acceleration": [0.0, -GRAVITY]}},
-        "joints": joints}),
-        "bench:chain")
+        "joints": joints}), f"bench:chain of {links}")
 
 
-def _gaps(ends: list[tuple[np.ndarray, np.ndarray]]) -> float:
-    """The largest distance between the points of each pair."""
-    return max(float(math.hypot(*(a - b))) for a, b in ends)
+def grid(size: int = GRID_SIZE, step: float = GRID_STEP,
+         duration: float = GRID_DURATION) -> Scene:
+    """Box2D's ``joint_grid`` (see the module); the fixed bodies of its top row become
+    pins to the world at the same points."""
+    fixed = {(k, 0) for k in range(size // 2 - 3, size // 2 + 4)}
+    bodies, joints = {}, {}
+    for k in range(size):
+        for i in range(size):
+            if (k, i) not in fixed:
+                bodies[f"b{k:03d}_{i:03d}"] = {"shape": "circle", "radius": 0.4, "density": 1.0,
+                                               "position": [float(k), float(-i)]}
+
+    def pin(name: str, a: tuple[int, int], b: tuple[int, int], point_a: list[float],
+            point_b: list[float]) -> None:
+        if b in fixed:
+            return
+        joint = {"type": "revolute", "body_b": f"b{b[0]:03d}_{b[1]:03d}", "point_b": point_b}
+        if a not in fixed:
+            joint.update(body_a=f"b{a[0]:03d}_{a[1]:03d}", point_a=point_a)
+        joints[name] = joint
+
+    for k in range(size):
+        for i in range(size):
+            if i > 0:
+                pin(f"v{k:03d}_{i:03d}", (k, i - 1), (k, i), [0.0, -0.5], [0.0, 0.5])
+            if k > 0:
+                pin(f"h{k:03d}_{i:03d}", (k - 1, i), (k, i), [0.5, 0.0], [-0.5, 0.0])
+    return scene_from_parameters(flatten({
+        "step": step, "integrator": "velocity_verlet", "duration": duration,
+        "publish_rate": 1.0 / duration, "bodies": bodies,
+        "forces": {"gravity": {"type": "gravity", "acceleration": [0.0, -10.0]}},
+        "joints": joints}), f"bench:joint_grid {size} x {size}")
 
 
-def _link_ends(x: np.ndarray, y: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The left and right ends of links with CMs (x, y) at ``angle``: (2, n) arrays."""
-    dx, dy = 0.5 * LENGTH * np.cos(angle), 0.5 * LENGTH * np.sin(angle)
-    return np.array([x - dx, y - dy]), np.array([x + dx, y + dy])
+def pin_gap(scene: Scene, model: Model, cm_poses: np.ndarray) -> float:
+    """The largest distance between the two points of a revolute joint of ``scene``, the
+    bodies at ``cm_poses`` (x, y and angle of each CM, in the scene's body order)."""
+    index = model.index
+    worst = 0.0
+    for joint in scene.joints:
+        if not isinstance(joint, RevoluteJoint):
+            continue
+        ends = []
+        for body, point in ((joint.body_a, joint.point_a), (joint.body_b, joint.point_b)):
+            if body is None:
+                ends.append(np.asarray(point, dtype=float))
+                continue
+            i = index[body]
+            x, y, angle = cm_poses[i]
+            arm = np.asarray(point, dtype=float) - model.cm_local[i]
+            c, s = math.cos(angle), math.sin(angle)
+            ends.append(np.array([x + c * arm[0] - s * arm[1], y + s * arm[0] + c * arm[1]]))
+        worst = max(worst, float(np.hypot(*(ends[0] - ends[1]))))
+    return worst
 
 
-def _chain_error(x: np.ndarray, y: np.ndarray, angle: np.ndarray) -> float:
-    left, right = _link_ends(x, y, angle)
-    pins = [(left[:, 0], np.zeros(2))] + [(left[:, i + 1], right[:, i])
-                                          for i in range(left.shape[1] - 1)]
-    return _gaps(pins)
+@dataclass
+class Run:
+    """One engine's whole run of a case: seconds per step (None: not measured), the
+    largest pin gap seen (m), and why it stopped early (None: it did not)."""
+
+    cost: Optional[float]
+    gap: float
+    failure: Optional[str] = None
 
 
-def _simulation_engine(sim: Simulation, error: Callable[[Simulation], float]) -> Engine:
-    """Steps of ``sim``, pushing its scene's script as sim time reaches each command."""
-    script = sorted(sim.scene.script, key=lambda c: c.stamp_ns)
+Engine = tuple[Callable[[int], float], Callable[[], np.ndarray]]  # step(n) -> s, poses()
 
-    def step(count: int) -> None:
+
+def _core(scene: Scene) -> Engine:
+    """``scene`` in the core: step(n) pushes the script as sim time reaches each command
+    and returns the seconds its steps took; poses() are the CMs' (x, y, angle)."""
+    sim = Simulation(scene)
+    joints = sim.model.joints
+    if joints is not None:  # the order, patterns and kernel pass are built, not timed
+        joints.reset(sim.q)
+        if joints.compiled:
+            joints.kernel_pass()
+    script = sorted(scene.script, key=lambda c: c.stamp_ns)
+
+    def step(count: int) -> float:
         end = sim.time_ns + count * sim.step_ns
+        begin = time.perf_counter()
         while script and script[0].stamp_ns < end:
             sim.advance_to(max(sim.time_ns, script[0].stamp_ns), keep=False)
             sim.push(script.pop(0))
         sim.advance_to(end, keep=False)
+        return time.perf_counter() - begin
 
-    return step, lambda: error(sim)
-
-
-def _ours(links: int) -> Engine:
-    def error(sim: Simulation) -> float:
-        return _chain_error(sim.q[:, 0], sim.q[:, 1], sim.q[:, 2])  # CM = body origin
-    return _simulation_engine(Simulation(chain(links)), error)
+    return step, lambda: sim.q.copy()
 
 
-def _pymunk(links: int) -> Engine:
-    import pymunk
-
-    space = pymunk.Space()
-    space.iterations = 10
-    space.gravity = (0.0, -GRAVITY)
-    bodies, previous = [], space.static_body
-    for i in range(links):
-        body = pymunk.Body(MASS, MASS * (LENGTH ** 2 + WIDTH ** 2) / 12.0)
-        body.position = (LENGTH * (0.5 + i), 0.0)
-        space.add(body, pymunk.PivotJoint(previous, body, (LENGTH * i, 0.0)))
-        bodies.append(body)
-        previous = body
-
-    def step(count: int) -> None:
-        for _ in range(count):
-            space.step(STEP)
-
-    def error() -> float:
-        return _chain_error(np.array([b.position.x for b in bodies]),
-                            np.array([b.position.y for b in bodies]),
-                            np.array([b.angle for b in bodies]))
-
-    return step, error
+def _engine(name: str, scene: Scene) -> Engine:
+    if name == "hecker_dynamics":
+        return _core(scene)
+    return scene_engine(name, scene, scene.step_ns * 1e-9, sleep=False)
 
 
-def _box2d(links: int) -> Engine:
-    import Box2D
-
-    world = Box2D.b2World(gravity=(0.0, -GRAVITY), doSleep=False)
-    previous = world.CreateStaticBody()
-    bodies = []
-    for i in range(links):
-        body = world.CreateDynamicBody(position=(LENGTH * (0.5 + i), 0.0), allowSleep=False)
-        body.CreatePolygonFixture(box=(0.5 * LENGTH, 0.5 * WIDTH),
-                                  density=MASS / (LENGTH * WIDTH), groupIndex=-1)
-        world.CreateRevoluteJoint(bodyA=previous, bodyB=body, anchor=(LENGTH * i, 0.0))
-        bodies.append(body)
-        previous = body
-
-    def step(count: int) -> None:
-        for _ in range(count):
-            world.Step(STEP, 8, 3)
-
-    def error() -> float:
-        return _chain_error(np.array([b.position[0] for b in bodies]),
-                            np.array([b.position[1] for b in bodies]),
-                            np.array([b.angle for b in bodies]))
-
-    return step, error
+def measure(engine: str, scene: Scene, model: Model, duration: Optional[float] = None,
+            pins: Optional[Scene] = None) -> Run:
+    """A whole run of ``scene`` (``model`` its model) in ``engine`` (``hecker_dynamics`` or
+    a peer of :data:`PEERS`) over ``duration`` s (default the scene's), in :data:`SAMPLES`
+    timed parts, the pin gap measured on the revolute joints of ``pins`` (default
+    ``scene``); ImportError if the peer is not installed."""
+    steps = round((scene.duration_ns if duration is None else round(duration * 1e9))
+                  / scene.step_ns)
+    step, poses = _engine(engine, scene)
+    spent, gap, done = 0.0, 0.0, 0
+    try:
+        for part in range(SAMPLES):
+            count = steps * (part + 1) // SAMPLES - done
+            spent += step(count)
+            done += count
+            gap = max(gap, pin_gap(scene if pins is None else pins, model, poses()))
+    except DivergenceError as error:
+        return Run(None, gap, str(error))
+    return Run(spent / steps, gap)
 
 
-PEERS = {"pymunk": _pymunk, "box2d": _box2d}
+@dataclass
+class Case:
+    """A comparison: its scene (built lazily), how long to run it, the engines, the scene
+    whose revolute joints the pin gap is measured on (default the case's own), and the
+    engines' runs."""
+
+    name: str
+    build: Callable[[], Scene]
+    duration: Optional[float] = None
+    engines: tuple[str, ...] = ("hecker_dynamics", *PEERS)
+    pins: Optional[Callable[[], Scene]] = None
+    runs: dict[str, list[Run]] = field(default_factory=dict)
+
+    def median(self, engine: str) -> Run:
+        """The median cost over the rounds, the largest gap, the first failure."""
+        runs = self.runs.get(engine, [])
+        costs = [r.cost for r in runs if r.cost is not None]
+        failure = next((r.failure for r in runs if r.failure is not None), None)
+        return Run(statistics.median(costs) if costs and failure is None else None,
+                   max((r.gap for r in runs), default=math.nan), failure)
 
 
-def chain_engines(links: int, peers: list[str]) -> dict[str, Engine]:
-    """hecker_dynamics and each installed peer of ``peers`` on the chain."""
-    engines = {"hecker_dynamics": _ours(links)}
-    for name in peers:
-        try:
-            engines[name] = PEERS[name](links)
-        except ImportError:
-            continue
-    return engines
+def _chain_cases() -> list[Case]:
+    return [Case(f"chain of {links}, h = 1/{round(1 / step)} s",
+                 lambda links=links, step=step: chain(links, step))
+            for step in CHAIN_STEPS for links in CHAIN_LINKS]
 
 
-def _pin_error(scene: Scene) -> Callable[[Simulation], float]:
-    """The largest distance of a world pin's body point from its anchor (the pins of
-    ``scene``, a scene on joints)."""
-    pins = [j for j in scene.joints if isinstance(j, RevoluteJoint) and j.body_a is None]
-
-    def error(sim: Simulation) -> float:
-        bodies = sim.snapshot().bodies
-        ends = []
-        for pin in pins:
-            body = bodies[sim.model.index[pin.body_b]]
-            c, s = math.cos(body.angle), math.sin(body.angle)
-            px, py = pin.point_b
-            at = np.array([body.position[0] + c * px - s * py, body.position[1] + s * px + c * py])
-            ends.append((at, np.array(pin.point_a)))
-        return _gaps(ends)
-
-    return error
+def _cases() -> list[Case]:
+    cases = _chain_cases()
+    cases += [Case(name, lambda name=name: load_scene(name)) for name in ("bridge", "ragdoll")]
+    cases.append(Case(f"joint_grid {GRID_SIZE} x {GRID_SIZE}, h = 1/60 s", grid,
+                      GRID_DURATION))
+    for name in SPRING_PINS:  # pinned by joints and by springs: the core only
+        cases.append(Case(f"{name} on joints", lambda name=name: load_scene(name), 2.0,
+                          ("hecker_dynamics",)))
+        cases.append(Case(f"{name} on springs", lambda name=name: pinned_by_springs(name),
+                          2.0, ("hecker_dynamics",), lambda name=name: load_scene(name)))
+    return cases
 
 
-def pinned_engines(name: str) -> dict[str, Engine]:
-    """The shipped scene ``name`` on its revolute joints and pinned by springs."""
-    joints, springs = load_scene(name), pinned_by_springs(name)
-    return {"joints": _simulation_engine(Simulation(joints), _pin_error(joints)),
-            "springs": _simulation_engine(Simulation(springs), _pin_error(joints))}
-
-
-def interleaved(engines: dict[str, Engine], steps: int) -> dict[str, tuple[float, float]]:
-    """Per engine: (median cost per step in s, largest error at the block ends), over
-    ``steps`` steps in interleaved blocks of :data:`BLOCK`."""
-    costs: dict[str, list[float]] = {name: [] for name in engines}
-    worst = {name: 0.0 for name in engines}
-    for _ in range(max(1, steps // BLOCK)):
-        for name, (step, error) in engines.items():
+def renaming(links: int = RENAMED_LINKS, duration: float = RENAMED_DURATION,
+             rounds: int = ROUNDS) -> dict[str, tuple[float, np.ndarray]]:
+    """Target 3: the chain of ``links`` pins with its joints named zero-padded
+    (``pin0001``: in chain order), unpadded (``pin1``, ``pin10``, ``pin100``, ...: the
+    order of a sort of names), and shuffled (a seeded permutation of the padded names):
+    per naming, the median cost per step over ``rounds`` interleaved whole runs, and the
+    final state (q and v side by side)."""
+    shuffled = list(range(links))
+    random.Random(33).shuffle(shuffled)
+    namings = {"padded": lambda i: f"pin{i:04d}", "unpadded": lambda i: f"pin{i}",
+               "shuffled": lambda i: f"pin{shuffled[i]:04d}"}
+    costs: dict[str, list[float]] = {name: [] for name in namings}
+    states: dict[str, np.ndarray] = {}
+    order = list(namings)
+    for round_ in range(rounds):
+        for name in order[round_ % len(order):] + order[:round_ % len(order)]:
+            sim = Simulation(chain(links, COST_STEP, duration, namings[name]))
+            assert sim.model.joints is not None
+            sim.model.joints.reset(sim.q)  # the order and patterns: built, not timed
             begin = time.perf_counter()
-            step(BLOCK)
-            costs[name].append((time.perf_counter() - begin) / BLOCK)
-            worst[name] = max(worst[name], error())
-    return {name: (statistics.median(costs[name]), worst[name]) for name in engines}
+            sim.advance_to(round(duration * 1e9), keep=False)
+            costs[name].append((time.perf_counter() - begin) / sim.steps)
+            states[name] = np.hstack([sim.q, sim.v])
+    return {name: (statistics.median(costs[name]), states[name]) for name in namings}
 
 
-#: The files :func:`joint_bench` writes into its folder.
-JOINT_FILES = ("joints.md", "joints.csv")
+def targets(cases: list[Case], renamed: dict[str, tuple[float, np.ndarray]]
+            ) -> list[tuple[str, str, str]]:
+    """(target, what was measured, met / missed / not measured) for the three targets."""
+    chains = [c for c in cases if c.name.startswith("chain of ")]
+    ours = [(c.name, c.median("hecker_dynamics")) for c in chains]
+    bad = [f"{name}: {run.failure or f'pin gap {run.gap:.2g} m'}" for name, run in ours
+           if run.failure is not None or not run.gap <= DRIFT]
+    worst = max((run.gap for _, run in ours), default=math.nan)
+    out = [("1: chains of 2-200 links at h = 1/60 and 1/240 s run, pins within 1e-9 m",
+            "; ".join(bad) or f"all ran; largest pin gap {worst:.2g} m",
+            "missed" if bad else "met")]
+    ratios = []
+    for case in chains:
+        if not case.name.endswith(f"1/{round(1 / COST_STEP)} s"):
+            continue
+        core, peer = case.median("hecker_dynamics"), case.median("box2d_v3")
+        if core.cost is None or peer.cost is None:
+            ratios.append((case.name, None))
+        else:
+            ratios.append((case.name, core.cost / peer.cost))
+    text = ", ".join(f"{name.split(',')[0][9:]} links {'-' if r is None else f'{r:.2f}'}"
+                     for name, r in ratios)
+    if not ratios or any(r is None for _, r in ratios):
+        verdict = "not measured"
+    else:
+        verdict = "met" if all(r <= 1.0 for _, r in ratios) else "missed"
+    out.append((f"2: cost per step at most Box2D v3's on each chain at h = "
+                f"1/{round(1 / COST_STEP)} s", f"core / Box2D v3: {text}", verdict))
+    base = renamed["padded"]
+    spread = max(abs(cost / base[0] - 1.0) for cost, _ in renamed.values())
+    same = all(np.array_equal(state, base[1]) for _, state in renamed.values())
+    out.append((f"3: a chain of {RENAMED_LINKS} pins costs the same (within 10 %) however "
+                "its joints are named",
+                ", ".join(f"{name} {cost * 1e6:.0f} us" for name, (cost, _) in
+                          renamed.items()) + f"; largest change {100 * spread:.1f} %; "
+                f"{'the same' if same else 'different'} bits",
+                "met" if spread < RENAMING and same else "missed"))
+    return out
 
 
 def joint_bench(peers: list[str], out: Path, command: str,
-                log: Callable[[str], None] = print) -> dict[str, dict[str, tuple[float, float]]]:
-    """Measure the chain and the pinned scenes; write ``joints.md`` and ``joints.csv`` to
-    ``out``; returns {comparison: {engine: (cost per step s, error m)}}."""
-    results = {f"chain of {LINKS}": interleaved(chain_engines(LINKS, peers),
-                                                round(DURATION / STEP))}
-    for name in SPRING_PINS:
-        scene = load_scene(name)
-        steps = round(min(DURATION * 1e9, scene.duration_ns) / scene.step_ns)
-        results[f"{name} ({scene.integrator}, h = {scene.step_ns * 1e-9:g} s)"] = \
-            interleaved(pinned_engines(name), steps)
+                log: Callable[[str], None] = print,
+                cases: Optional[list[Case]] = None, rounds: int = ROUNDS,
+                renamed: Optional[dict[str, tuple[float, np.ndarray]]] = None
+                ) -> list[tuple[str, str, str]]:
+    """Measure every case (default :func:`_cases`) in the core and the installed ``peers``,
+    and target 3 (``renamed``: its results, else measured); write ``joints.md`` and
+    ``joints.csv`` to ``out``; return the targets' verdicts."""
+    cases = _cases() if cases is None else cases
+    for case in cases:
+        scene = case.build()
+        model, pins = Model(scene), None if case.pins is None else case.pins()
+        engines = [e for e in case.engines if e == "hecker_dynamics" or e in peers]
+        for round_ in range(rounds):
+            for engine in engines[round_ % len(engines):] + engines[:round_ % len(engines)]:
+                try:
+                    run = measure(engine, scene, model, case.duration, pins)
+                except ImportError:
+                    continue
+                except ValueError as error:  # a peer that cannot build the scene
+                    run = Run(None, math.nan, f"not built: {error}")
+                case.runs.setdefault(engine, []).append(run)
+        for engine in engines:
+            run = case.median(engine)
+            if engine in case.runs:
+                log(f"{case.name}: {engine} " + (f"{run.cost * 1e6:.1f} us/step"
+                                                 if run.cost is not None else run.failure or
+                                                 "not measured") + f", pin gap {run.gap:.2g} m")
+    renamed = renaming(rounds=rounds) if renamed is None else renamed
+    verdicts = targets(cases, renamed)
     lines = [f"Command: `{command}`", "",
-             "| comparison | engine | us/step | largest pin error (m) | cost ratio |",
+             "| case | engine | us/step | largest pin gap (m) | cost / core's |",
              "|---|---|---|---|---|"]
-    csv = ["comparison,engine,us_per_step,pin_error_m"]
-    for comparison, engines in results.items():
-        first = next(iter(engines.values()))[0]
-        for engine, (cost, error) in engines.items():
-            lines.append(f"| {comparison} | {engine} | {cost * 1e6:.1f} | {error:.2g} | "
-                         f"{cost / first:.2f} |")
-            csv.append(f"{comparison},{engine},{cost * 1e6},{error}")
-            log(f"{comparison}: {engine} {cost * 1e6:.1f} us/step, pin error {error:.2g} m")
+    csv = ["case,engine,us_per_step,pin_gap_m,note"]
+    for case in cases:
+        core = case.median("hecker_dynamics").cost
+        for engine in case.engines:
+            if engine not in case.runs:
+                note = "not installed" if engine != "hecker_dynamics" else ""
+                lines.append(f"| {case.name} | {engine} | not measured | | |")
+                csv.append(f"{case.name},{engine},,,{note}")
+                continue
+            run = case.median(engine)
+            cost = "" if run.cost is None else f"{run.cost * 1e6:.1f}"
+            ratio = "" if run.cost is None or core is None else f"{run.cost / core:.2f}"
+            lines.append(f"| {case.name} | {engine} | {cost or run.failure} | {run.gap:.2g} | "
+                         f"{ratio} |")
+            csv.append(f"{case.name},{engine},{'' if run.cost is None else run.cost * 1e6},"
+                       f"{run.gap},{(run.failure or '').replace(',', ';')}")
+    lines += ["", "| target | measured | verdict |", "|---|---|---|"]
+    lines += [f"| {target} | {measured} | {verdict} |" for target, measured, verdict in verdicts]
+    for target, measured, verdict in verdicts:
+        log(f"target {target}: {measured}: {verdict}")
     out.mkdir(parents=True, exist_ok=True)
     (out / "joints.md").write_text("\n".join(lines) + "\n")
     (out / "joints.csv").write_text("\n".join(csv) + "\n")
-    return results
+    return verdicts

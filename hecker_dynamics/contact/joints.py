@@ -30,17 +30,28 @@ constrained velocity Verlet step (Andersen 1983; Leimkuhler and Skeel 1994):
    spring, a soft weld) follow the implicit spring-damper law of Box2D v3's soft step,
    lambda = -h (k C(q + h Cdot') + c Cdot').
 
+Where the step is too long for stage 1, it is taken in parts. SHAKE's equations (stage 1)
+lose their solution when the joints' arms turn far within a step, and on long chains even
+at small turns: the Newton matrix G(q) M^-1 G(q0)^T changes sign along the iteration and
+the iteration stalls (a 50-link chain folding at 0.5 rad a step; a 200-link chain at
+h = 1/60 s, turning 0.02 rad a step: its weakest modes, condition numbers 1e5, move further
+than the directions at q0 can follow). So the simulation takes a step in equal parts where
+some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
+(:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
+its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
+(:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
+error. A step that needs none of this is RATTLE's, unchanged.
+
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
 ropes) are solved around it by sequential impulses (projected Gauss-Seidel), warm-started
-from the previous step's impulses. The blocks are factored in their band, in plain floats
-(no LAPACK, whose order of operations C could not repeat): K = J M^-1 J^T of independent
-rigid rows is symmetric positive definite, so L D L^T without pivoting (:func:`_factor`);
-the Newton matrix G(q) M^-1 G(q0)^T is not symmetric, so L U without pivoting
-(:func:`_lu`). The bandwidth is how far apart two rows on the same body are in the rows'
-order (the joints' order by name), so a chain whose joint names sort along it costs
-O(n w^2) per factorization, not O(n^3). Only the bodies some joint names take part.
-Revolute angles are tracked across turns, so a gear keeps counting and a limit beyond pi
-works.
+from the previous step's impulses. The blocks are factored in plain floats (no LAPACK,
+whose order of operations C could not repeat), sparse, in an order the pass chooses from
+the joint graph, never from the joints' names (:mod:`.sparse`): K = J M^-1 J^T by
+L D L^T, the Newton matrix G(q) M^-1 G(q0)^T, not symmetric, by L U, both without
+pivoting; a chain or a tree of joints fills nothing in and costs O(rows) per
+factorization. A row that repeats what others hold (two pins at one point, the loops of a
+grid) is dropped from the solve. Only the bodies some joint names take part. Revolute
+angles are tracked across turns, so a gear keeps counting and a limit beyond pi works.
 
 Why a pass of its own first, rather than rows in the contact solver's sequential impulses
 alone: accuracy. A velocity-level solver is first order in the step, and the smooth-force
@@ -54,8 +65,9 @@ the velocity rows of this pass's last stage with the contacts (:mod:`.coupled`,
 reaction (a bar wedged between two pinned gears) comes out whole; what that leaves in the
 positions the next step's joint pass corrects, by positions only.
 
-The compiled kernel's ``src/kernel/joint.c`` repeats this module operation for operation
-(:mod:`.joints_kernel` packs it), so both give the same bits.
+The compiled kernel's ``src/kernel/joint.c`` (with ``src/kernel/sparse.c``) repeats this
+module operation for operation (:mod:`.joints_kernel` packs it), so both give the same
+bits.
 """
 from __future__ import annotations
 
@@ -66,6 +78,7 @@ from typing import TYPE_CHECKING, Any, Optional, Union
 import numpy as np
 
 from .coupled import JointUnit
+from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
@@ -73,13 +86,25 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-    "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass",
+    "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass", "JointsUnsolved",
+    "MAX_TURN", "MOST_SUBSTEPS",
 ]
 
 Vec2 = tuple[float, float]
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
+#: Below this times (1 + the largest coordinate) the rows' values are rounding: the position
+#: stages ask no smaller error of them.
+ROUNDING = 16.0 * 2.220446049250313e-16
 NEWTON_ITERATIONS = 50
+#: A Newton step on an earlier iterate's matrix must cut the error by this much, or the
+#: next step takes its own iterate's matrix.
+CHORD = 0.125
+#: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
+#: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
+MAX_TURN = 0.1
+#: The most parts a step is taken in, in all (ten halvings), before the joints give up.
+MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
 #: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
 MAX_ITERATIONS = 200
@@ -175,6 +200,11 @@ JointSpec = Union[RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJ
 
 # Row kinds.
 RIGID, LIMIT, MOTOR, SOFT = "rigid", "limit", "motor", "soft"
+
+
+class JointsUnsolved(ArithmeticError):
+    """The joints' positions have no solution near the end of a step this long (see
+    :meth:`JointPass._hold`): the step must be taken in shorter parts."""
 
 
 @dataclass(slots=True)
@@ -293,6 +323,59 @@ def _bounded_rows(name: str, value: float, entries: list, lower: Optional[float]
 EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
 
 
+#: Joint kinds in the order that breaks a tie between joints anchored at one point.
+_KINDS = (RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint)
+
+
+def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec, ...]:
+    """The joints in the order :func:`.sparse.joint_order` gives the joint graph: two
+    joints are neighbours when their rows act on a common body (a gear's rows act on the
+    bodies of its two joints); ties go to the anchor (body_b's point at the start, a
+    gear's the mean of its joints') first in x, then y, then the kind, then the name."""
+    bodies = {body.name: body for body in scene.bodies}
+    named = {spec.name: spec for spec in specs}
+
+    def ends(spec: JointSpec) -> set[str]:
+        if isinstance(spec, GearJoint):
+            return ends(named[spec.joint_a]) | ends(named[spec.joint_b])
+        return {n for n in (spec.body_a, spec.body_b) if n is not None}
+
+    def anchor(spec: JointSpec) -> tuple[float, float]:
+        if isinstance(spec, GearJoint):
+            (xa, ya), (xb, yb) = anchor(named[spec.joint_a]), anchor(named[spec.joint_b])
+            return 0.5 * (xa + xb), 0.5 * (ya + yb)
+        body = bodies[spec.body_b]
+        c, s = math.cos(body.angle), math.sin(body.angle)
+        px, py = spec.point_b
+        return body.position[0] + c * px - s * py, body.position[1] + s * px + c * py
+
+    held = [ends(spec) for spec in specs]
+    on_body: dict[str, list[int]] = {}
+    for i, names in enumerate(held):
+        for name in names:
+            on_body.setdefault(name, []).append(i)
+    neighbours = [{j for name in names for j in on_body[name]} - {i}
+                  for i, names in enumerate(held)]
+    keys = [(*anchor(spec), _KINDS.index(type(spec)), i) for i, spec in enumerate(specs)]
+    # A joint between two bodies already joined closes a loop (union-find over the bodies;
+    # a gear joins its two joints' bodies).
+    root: dict[str, str] = {}
+
+    def find(name: str) -> str:
+        while root.setdefault(name, name) != name:
+            name = root[name]
+        return name
+
+    loops = False
+    for names in held:
+        first, *others = sorted(names)
+        for other in others:
+            a, b = find(first), find(other)
+            loops = loops or a == b
+            root[b] = a
+    return tuple(specs[i] for i in joint_order(neighbours, keys, loops))
+
+
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
@@ -315,7 +398,8 @@ class JointPass:
         #: Indices (in the scene) of the bodies some joint holds; rows use their positions.
         self.bodies = np.array(involved, dtype=int)
         local_index = {body: i for i, body in enumerate(involved)}
-        self.specs = specs
+        #: The joints in the order their rows are solved in (:func:`_solve_order`).
+        self.specs = _solve_order(scene, specs)
         self._named = named
         self.frames: dict[str, tuple[_Frame, _Frame]] = {}
         for spec in specs:
@@ -328,6 +412,19 @@ class JointPass:
                                       _Frame(local_index[ib], local(ib, spec.point_b)))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
                        for spec in specs if isinstance(spec, GearJoint)}
+        # What :meth:`parts` watches: the bodies whose turning turns a joint's arm or axis
+        # (those a joint holds off their CM, a slider's body_a), and the rods and ropes,
+        # whose direction runs between their points.
+        turning = {f.body for name, ends in self.frames.items() for f in ends if f.body >= 0
+                   and (f.local != (0.0, 0.0) or
+                        (f is ends[0] and isinstance(named[name], PrismaticJoint)))}
+        #: The scene indices of the bodies whose turning :meth:`parts` watches.
+        self.turning = self.bodies[sorted(turning)]
+        self._rods = [self.frames[s.name] for s in self.specs if isinstance(s, DistanceJoint)]
+        #: The constraint error (m or rad) the position stages count as met.
+        self.tolerance = TOLERANCE
+        #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
+        self.max_turn = MAX_TURN
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
@@ -343,6 +440,10 @@ class JointPass:
         #: positions moved with.
         self._settled: list[float] = []
         self.rigid: list[int] = []
+        #: Where the factors of all rows' matrices, and of the rigid rows' alone, can be
+        #: non-zero (:class:`.sparse.Pattern`), once the start pose has fixed the rows.
+        self.pattern: Optional[Pattern] = None
+        self.rigid_pattern = Pattern((0,), (), ())
         #: Each row's (joint, part), in the order the rows come at any pose.
         self.keys: list[tuple[str, str]] = []
         #: Each row's kind (:data:`RIGID`, ...), in the same order.
@@ -414,6 +515,10 @@ class JointPass:
         # Every joint gives the same rows in the same order at any pose.
         template = self.rows(start, 1.0)
         self.rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
+        if self.pattern is None:  # where the factors can be non-zero: the same at any pose
+            self.pattern = Pattern.of([[e[0] for e in r.entries] for r in template])
+            self.rigid_pattern = Pattern.of([[e[0] for e in template[i].entries]
+                                             for i in self.rigid])
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
         self.warm = [0.0] * len(template)
@@ -429,12 +534,14 @@ class JointPass:
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
-        counted joint angles, the warm-start impulses, the efforts and motor speeds."""
+        counted joint angles, the warm-start impulses and Newton multipliers with the step
+        they were taken over, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
                 "angle": dict(self.angle) if self._initial is not None else {},
                 "raw": dict(self.raw) if self._initial is not None else {},
                 "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
                 "newton": None if self.newton is None else list(self.newton),
+                "step_h": self.step_h,
                 "extra": [[list(key), value] for key, value in zip(self.keys, self.extra)],
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
@@ -452,6 +559,7 @@ class JointPass:
         self.extra = [extra.get(key, 0.0) for key in self.keys]
         self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
+        self.step_h = float(state.get("step_h", self.step_h))
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
@@ -563,6 +671,28 @@ class JointPass:
 
     # ------------------------------------------------------------------ the pass
 
+    def parts(self, q0: np.ndarray, q1: np.ndarray) -> int:
+        """How many equal parts a step from ``q0`` to ``q1`` (all bodies, before this pass)
+        is to be taken in so that no joint's arm or axis, nor a rod's or rope's direction,
+        turns by more than :data:`MAX_TURN` in a part (at most :data:`MOST_SUBSTEPS`): 1 when
+        none turns further. The joints' correction is second order in that turn: RATTLE's
+        error, and the reach of its Newton iteration, follow from it."""
+        turn = 0.0
+        for k in self.turning.tolist():
+            turn = max(turn, abs(q1[k, 2] - q0[k, 2]))
+        if self._rods:
+            start = q0[self.bodies].reshape(-1).tolist()
+            end = q1[self.bodies].reshape(-1).tolist()
+            for a, b in self._rods:
+                (xa, ya, *_), (xb, yb, *_) = a.place(start), b.place(start)
+                (ua, va, *_), (ub, vb, *_) = a.place(end), b.place(end)
+                dx, dy, ex, ey = xb - xa, yb - ya, ub - ua, vb - va
+                turn = max(turn, math.atan2(abs(dx * ey - dy * ex), dx * ex + dy * ey))
+        if not turn > self.max_turn:  # within, or not finite: the divergence check reports it
+            return 1
+        parts = turn / self.max_turn
+        return MOST_SUBSTEPS if parts >= MOST_SUBSTEPS else max(math.ceil(parts), 2)
+
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """Constrain the step from ``q0`` to (``q1``, ``v1``) of length ``h``; updates
         ``q1`` and ``v1`` (all bodies) in place."""
@@ -596,41 +726,73 @@ class JointPass:
     def _hold(self, rows0: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
-        symmetric: factored by :func:`_lu`), warm-started from the last step's
-        multipliers; returns the rows at the new ``q``."""
+        symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
+        multipliers scaled to this step's length (they grow as h^2); returns the rows at
+        the new ``q``. The matrix of one iterate serves the next ones while each cuts the
+        error by :data:`CHORD` at least (near the solution the matrix changes by less
+        than the error: a simplified Newton step costs a solve, not a factorization).
+        Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
+        iterate's own matrix does not halve the largest error (SHAKE's equations have no
+        solution near the step's end: a body turned far, or a long chain's weakest modes
+        moved more than the directions at q0 can follow) or when the solution turns a
+        body by more than :data:`MAX_TURN`."""
         if not self.rigid:
             return self.rows(q, h)
         rigid = [rows0[i] for i in self.rigid]
         direction = _directions(rigid, self.inverse_mass)
-        width = _bandwidth(rigid)
         target = [row.c for row in rigid]
-        nu = [0.0] * len(rigid) if self.newton is None else list(self.newton)
+        scale = h / self.step_h
+        scale = scale * scale
+        nu = [0.0] * len(rigid) if self.newton is None else [x * scale for x in self.newton]
+        moved = list(q)
         _apply(q, direction, nu)
+        # The rows' values round at about eps |q|: no error can be asked below that.
+        tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
+        pattern = self.rigid_pattern
+        previous = math.inf
+        factors: Optional[tuple[Factors, list[float]]] = None  # the last matrix's L U
+        fresh = False  # whether the last step's matrix was that iterate's own
         for _ in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
             error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
-            if max(abs(e) for e in error) <= TOLERANCE:
-                break
-            matrix = _lu(_products([rows[i] for i in self.rigid], direction, width), width)
-            step = _lu_solve(matrix, width, [-e for e in error])
+            largest = max(map(abs, error))
+            if largest <= tolerance:
+                turned = max(abs(q[k] - moved[k]) for k in range(2, len(q), 3))
+                if turned > self.max_turn:
+                    raise JointsUnsolved(f"the joints turn a body by {turned:.3g} rad in a "
+                                         f"step of {h:g} s")
+                self.newton = nu
+                return rows
+            if fresh and not largest <= 0.5 * previous:
+                raise JointsUnsolved(f"Newton's method on the joints stalls at {largest:.3g} "
+                                     f"in a step of {h:g} s")
+            fresh = factors is None or not largest <= CHORD * previous
+            if fresh:
+                upper = [0.0] * pattern.slots()
+                diagonal, lower = _matrix(pattern, [rows[i] for i in self.rigid], direction,
+                                          upper=upper)
+                factors = (lu(pattern, diagonal, lower, upper), upper)
+            assert factors is not None
+            previous = largest
+            step = lu_solve(pattern, factors[0], factors[1], [-e for e in error])
             nu = [a + b for a, b in zip(nu, step)]
             _apply(q, direction, step)
-        else:
-            rows = self.rows(q, h)
-        self.newton = nu
-        return rows
+        raise JointsUnsolved(f"Newton's method on the joints did not converge in "
+                             f"{NEWTON_ITERATIONS} iterations in a step of {h:g} s")
 
     def _correct(self, rows: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 2: remove drift of the rigid rows and limits passed, positions only;
         returns the rows at the corrected ``q``."""
+        pattern = self.pattern
         for _ in range(DRIFT_ITERATIONS):
-            if not any((r.kind == RIGID and abs(r.c) > TOLERANCE)
-                       or (r.kind == LIMIT and r.c < -TOLERANCE) for r in rows):
+            if not any((r.kind == RIGID and abs(r.c) > self.tolerance)
+                       or (r.kind == LIMIT and r.c < -self.tolerance) for r in rows):
                 break
-            active = [r for r in rows if r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0)]
-            direction = _directions(active, self.inverse_mass)
-            shift = _substitute(_factor(_normal_matrix(active, direction)),
-                                [-r.c for r in active])
+            active = [r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0) for r in rows]
+            direction = _directions(rows, self.inverse_mass)
+            diagonal, lower = _matrix(pattern, rows, direction, active)
+            shift = substitute(pattern, factor(pattern, diagonal, lower, active),
+                               [-r.c if on else 0.0 for r, on in zip(rows, active)])
             _apply(q, direction, shift)
             rows = self.rows(q, h)
         return rows
@@ -639,27 +801,27 @@ class JointPass:
         """Stage 3: the impulses at the final positions; changes ``v`` in place and keeps
         each row's impulse for warm starting and the joints' efforts."""
         direction = _directions(rows, self.inverse_mass)
-        k = _normal_matrix(rows, direction)
+        diagonal, lower = _matrix(self.pattern, rows, direction)
         b = [-_rate(row, v) for row in rows]
-        lower = [-math.inf] * len(rows)
-        upper = [math.inf] * len(rows)
+        low_bound = [-math.inf] * len(rows)
+        high_bound = [math.inf] * len(rows)
         for i, row in enumerate(rows):
             if row.kind == LIMIT:
                 b[i] -= (0.0 if 0.0 > row.c else row.c) / h
-                lower[i] = 0.0
+                low_bound[i] = 0.0
             elif row.kind == MOTOR:
                 b[i] += row.speed
-                lower[i], upper[i] = -row.bound, row.bound
+                low_bound[i], high_bound[i] = -row.bound, row.bound
             elif row.kind == SOFT:
-                scale = 1.0 / k.band[i][0] if row.scaled else 1.0
+                scale = 1.0 / diagonal[i] if row.scaled else 1.0
                 stiffness, damping = row.stiffness * scale, row.damping * scale
                 compliance = stiffness * h + damping
                 if compliance == 0.0:  # a spring of zero stiffness and damping holds nothing
-                    lower[i] = upper[i] = 0.0
+                    low_bound[i] = high_bound[i] = 0.0
                     continue
-                k.band[i][0] += 1.0 / (h * compliance)
+                diagonal[i] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(k, b, lower, upper, self.warm)
+        impulse = _solve(self.pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
         _apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h
@@ -738,43 +900,15 @@ def _directions(rows: list[JointRow], inverse_mass: list[float]) -> Directions:
 
 
 def _apply(x: list[float], direction: Directions, impulse: list[float]) -> None:
-    """x += M^-1 J^T impulse, row by row (x: positions or velocities, 3 per body)."""
+    """x += M^-1 J^T impulse, row by row, skipping zero impulses (x: positions or
+    velocities, 3 per body)."""
     for entries, amount in zip(direction, impulse):
+        if amount == 0.0:
+            continue
         for b, dx, dy, dw in entries:
             x[3 * b] += dx * amount
             x[3 * b + 1] += dy * amount
             x[3 * b + 2] += dw * amount
-
-
-@dataclass(slots=True)
-class Band:
-    """A symmetric matrix by its lower band: ``band[i][d]`` = K[i, i - d] for d from 0 to
-    ``width`` (zero where i - d < 0 or outside the band)."""
-
-    width: int
-    band: list[list[float]]
-
-    def at(self, i: int, j: int) -> float:
-        """K[i, j] for |i - j| <= width."""
-        return self.band[i][i - j] if j <= i else self.band[j][j - i]
-
-    def part(self, index: list[int]) -> Band:
-        """The submatrix of the rows and columns ``index`` (ascending), same width."""
-        w = self.width
-        return Band(w, [[self.at(i, index[p - d]) if d <= p and i - index[p - d] <= w
-                         else 0.0 for d in range(w + 1)] for p, i in enumerate(index)])
-
-
-def _bandwidth(rows: list[JointRow]) -> int:
-    """How far apart in ``rows``' order two rows on the same body are at most: the
-    bandwidth of J M^-1 J^T (so a chain declared link by link has a narrow band, whatever
-    its length)."""
-    first: dict[int, int] = {}
-    width = 0
-    for i, row in enumerate(rows):
-        for entry in row.entries:
-            width = max(width, i - first.setdefault(entry[0], i))
-    return width
 
 
 def _dot(row: JointRow, entries: list[tuple[int, float, float, float]]) -> float:
@@ -787,141 +921,74 @@ def _dot(row: JointRow, entries: list[tuple[int, float, float, float]]) -> float
     return s
 
 
-def _products(rows: list[JointRow], direction: Directions, width: int) -> list[list[float]]:
-    """G M^-1 G0^T for the rows G and the directions M^-1 G0^T of the same rows at other
-    positions, by its band: ``[i][j - i + width]`` = entry (i, j)."""
+def _matrix(pattern: Pattern, rows: list[JointRow], direction: Directions,
+            active: Optional[list[bool]] = None,
+            upper: Optional[list[float]] = None) -> tuple[list[float], list[float]]:
+    """The entries of G M^-1 G0^T where the pattern has room, for rows G and the directions
+    M^-1 G0^T (of the same rows at other positions, or at the same: K): (diagonal, strict
+    lower triangle by slots); with ``upper`` given, the transpose of the strict upper
+    triangle by slots into it. Zero where a row is not ``active``."""
+    start, columns = pattern.start, pattern.columns
     n = len(rows)
-    return [[_dot(row, direction[j]) if 0 <= j < n else 0.0
-             for j in range(i - width, i + width + 1)] for i, row in enumerate(rows)]
-
-
-def _lu(a: list[list[float]], w: int) -> list[list[float]]:
-    """A = L U in A's band (:func:`_products`' layout), in place, without pivoting: the
-    Newton matrix is K of :func:`_normal_matrix` changed by the step's motion, so its
-    pivots stay near K's, which are positive."""
-    n = len(a)
-    for k in range(n):
-        pivot = a[k][w]
-        if not pivot != 0.0:
-            raise np.linalg.LinAlgError(f"the joints' rows are dependent (zero pivot at row "
-                                        f"{k}): a joint repeats what others hold")
-        for i in range(k + 1, min(n, k + w + 1)):
-            factor = a[i][k - i + w] / pivot
-            a[i][k - i + w] = factor
-            for j in range(k + 1, min(n, k + w + 1)):
-                a[i][j - i + w] -= factor * a[k][j - k + w]
-    return a
-
-
-def _lu_solve(a: list[list[float]], w: int, rhs: list[float]) -> list[float]:
-    """x with L U x = rhs for :func:`_lu`'s factors."""
-    n = len(rhs)
-    x = list(rhs)
-    for i in range(n):
-        s = x[i]
-        for k in range(i - w if i > w else 0, i):
-            s -= a[i][k - i + w] * x[k]
-        x[i] = s
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for j in range(i + 1, min(n, i + w + 1)):
-            s -= a[i][j - i + w] * x[j]
-        x[i] = s / a[i][w]
-    return x
-
-
-def _normal_matrix(rows: list[JointRow], direction: Directions) -> Band:
-    """K = J M^-1 J^T of ``rows``, by its lower band (:func:`_bandwidth`)."""
-    width = _bandwidth(rows)
-    band = []
+    diagonal, lower = [0.0] * n, [0.0] * pattern.slots()
     for i, row in enumerate(rows):
-        line = [0.0] * (width + 1)
-        for d in range(min(i, width) + 1):
-            line[d] = _dot(row, direction[i - d])
-        band.append(line)
-    return Band(width, band)
+        if active is not None and not active[i]:
+            continue
+        diagonal[i] = _dot(row, direction[i])
+        for slot in range(start[i], start[i + 1]):
+            j = columns[slot]
+            if active is None or active[j]:
+                lower[slot] = _dot(row, direction[j])
+                if upper is not None:
+                    upper[slot] = _dot(rows[j], direction[i])
+    return diagonal, lower
 
 
-Factors = tuple[int, list[list[float]], list[float]]
+def _row_sum(pattern: Pattern, diagonal: list[float], lower: list[float], i: int,
+             x: list[float], skip: Optional[list[bool]] = None) -> float:
+    """Row i of the symmetric matrix (its ``diagonal`` and strict ``lower`` triangle) times
+    x, in ascending column order, leaving out the columns ``skip`` marks."""
+    start, columns = pattern.start, pattern.columns
+    s = 0.0
+    for slot in range(start[i], start[i + 1]):
+        j = columns[slot]
+        if skip is None or not skip[j]:
+            s += lower[slot] * x[j]
+    if skip is None or not skip[i]:
+        s += diagonal[i] * x[i]
+    for j, slot in pattern.above[i]:
+        if skip is None or not skip[j]:
+            s += lower[slot] * x[j]
+    return s
 
 
-def _factor(k: Band) -> Factors:
-    """K = L D L^T in K's band, without pivoting (K of independent rigid rows, and of the
-    rows with the soft rows' compliance added, is symmetric positive definite): O(n w^2)
-    for n rows of bandwidth w. Returns (w, L by its lower band, D)."""
-    w, band = k.width, k.band
-    n = len(band)
-    low = [[0.0] * (w + 1) for _ in range(n)]
-    diag = [0.0] * n
-    for i in range(n):
-        start = i - w if i > w else 0
-        li = low[i]
-        for j in range(start, i):
-            s = band[i][i - j]
-            lj = low[j]
-            for m in range(start, j):
-                s -= li[i - m] * diag[m] * lj[j - m]
-            li[i - j] = s / diag[j]
-        s = band[i][0]
-        for m in range(start, i):
-            s -= li[i - m] * diag[m] * li[i - m]
-        if not s > 0.0:
-            raise np.linalg.LinAlgError(f"the joints' rows are dependent (pivot {s!r} at "
-                                        f"row {i}): a joint repeats what others hold")
-        diag[i] = s
-    return w, low, diag
-
-
-def _substitute(factors: Factors, rhs: list[float]) -> list[float]:
-    """x with L D L^T x = rhs."""
-    w, low, diag = factors
-    n = len(rhs)
-    x = list(rhs)
-    for i in range(n):
-        s = x[i]
-        for m in range(i - w if i > w else 0, i):
-            s -= low[i][i - m] * x[m]
-        x[i] = s / diag[i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for j in range(i + 1, min(n, i + w + 1)):
-            s -= low[j][j - i] * x[j]
-        x[i] = s
-    return x
-
-
-def _solve(k: Band, b: list[float], lower: list[float], upper: list[float],
-           warm: list[float]) -> list[float]:
+def _solve(pattern: Pattern, diagonal: list[float], lower: list[float], b: list[float],
+           bounds: tuple[list[float], list[float]], warm: list[float]) -> list[float]:
     """Impulses x with (K x - b)_i = 0 where lower_i < x_i < upper_i, >= 0 at lower_i and
-    <= 0 at upper_i: the unbounded rows as one block solved exactly (L D L^T), each bounded
-    row by a projected Gauss-Seidel update, alternated until no bounded impulse changes by
-    more than :data:`CONVERGED` relative to the largest."""
-    n, w = len(b), k.width
-    free = [lo == -math.inf and up == math.inf for lo, up in zip(lower, upper)]
+    <= 0 at upper_i (``bounds``), K by its ``diagonal`` and strict ``lower`` triangle:
+    the unbounded rows as one block solved exactly (L D L^T), each bounded row by a
+    projected Gauss-Seidel update, alternated until no bounded impulse changes by more
+    than :data:`CONVERGED` relative to the largest."""
+    low_bound, high_bound = bounds
+    n = len(b)
+    free = [lo == -math.inf and up == math.inf for lo, up in zip(low_bound, high_bound)]
     if all(free):
-        return _substitute(_factor(k), b)
+        return substitute(pattern, factor(pattern, diagonal, lower), b)
     x = [0.0 if f else min(max(x0, lo), up)
-         for f, x0, lo, up in zip(free, warm, lower, upper)]
-    free_index = [i for i in range(n) if free[i]]
+         for f, x0, lo, up in zip(free, warm, low_bound, high_bound)]
     bounded = [i for i in range(n) if not free[i]]
-    factors = _factor(k.part(free_index)) if free_index else None
+    factors = factor(pattern, diagonal, lower, free) if any(free) else None
     for _ in range(MAX_ITERATIONS):
         if factors is not None:
-            rhs = []
-            for i in free_index:
-                s = 0.0
-                for j in range(i - w if i > w else 0, min(n, i + w + 1)):
-                    if not free[j]:
-                        s += k.at(i, j) * x[j]
-                rhs.append(b[i] - s)
-            for i, xi in zip(free_index, _substitute(factors, rhs)):
-                x[i] = xi
+            rhs = [b[i] - _row_sum(pattern, diagonal, lower, i, x, free) if free[i] else 0.0
+                   for i in range(n)]
+            for i, xi in enumerate(substitute(pattern, factors, rhs)):
+                if free[i]:
+                    x[i] = xi
         largest = 0.0
         for i in bounded:
-            s = 0.0
-            for j in range(i - w if i > w else 0, min(n, i + w + 1)):
-                s += k.at(i, j) * x[j]
-            new = min(max(x[i] + (b[i] - s) / k.band[i][0], lower[i]), upper[i])
+            s = _row_sum(pattern, diagonal, lower, i, x)
+            new = min(max(x[i] + (b[i] - s) / diagonal[i], low_bound[i]), high_bound[i])
             change = abs(new - x[i])
             largest = change if change > largest else largest
             x[i] = new

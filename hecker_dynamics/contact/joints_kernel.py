@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .joints import (DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoint, WeldJoint,
-                     weld_law)
+from .joints import (DistanceJoint, GearJoint, JointsUnsolved, PrismaticJoint, RevoluteJoint,
+                     WeldJoint, weld_law)
 
 try:
     from .. import _kernel
@@ -22,6 +22,7 @@ except ImportError:  # not built: no compiler or headers when installed
 
 if TYPE_CHECKING:
     from .joints import JointPass
+    from .sparse import Pattern
 
 __all__ = ["CompiledJoints"]
 
@@ -72,11 +73,20 @@ class CompiledJoints:
 
     def __init__(self, joint_pass: JointPass) -> None:
         ints, reals = _columns(joint_pass)
+        assert joint_pass.pattern is not None  # the start pose has fixed the rows
+
+        def arrays(pattern: Pattern) -> tuple[np.ndarray, np.ndarray]:
+            return (np.array(pattern.start, dtype=np.int64),
+                    np.array(pattern.columns, dtype=np.int64))
+
         self.kernel: Any = _kernel.joints(
             np.ascontiguousarray(joint_pass.bodies, dtype=np.int64),
             np.array(joint_pass.inverse_mass, dtype=np.float64),
             np.array(ints, dtype=np.int64).reshape(-1),
-            np.array(reals, dtype=np.float64).reshape(-1), len(joint_pass.keys))
+            np.array(reals, dtype=np.float64).reshape(-1), len(joint_pass.keys),
+            arrays(joint_pass.pattern), arrays(joint_pass.rigid_pattern),
+            np.ascontiguousarray(joint_pass.turning, dtype=np.int64), joint_pass.tolerance,
+            joint_pass.max_turn)
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)
@@ -116,7 +126,9 @@ class CompiledJoints:
         p.restore(values[at: at + rows], newton if values[-2] != 0.0 else None, values[-1])
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
-        """``JointPass.resolve`` in the kernel."""
+        """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does."""
         self.load()
-        _kernel.joints_resolve(self.kernel, len(q0), q0, q1, v1, h)
+        if not _kernel.joints_resolve(self.kernel, len(q0), q0, q1, v1, h):
+            raise JointsUnsolved(f"the joints have no solution near the end of a step of "
+                                 f"{h:g} s")
         self.save()

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
+from ..contact.joints import MOST_SUBSTEPS
 from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
                      ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
@@ -141,8 +142,9 @@ KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
 _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
              "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
                                   "one step",
-             "JOINTS_DEPENDENT": "the joints' rows are dependent (a joint repeats what "
-                                 "others hold)"}
+             "JOINTS_UNSOLVED": f"the joints have no solution near the end of the step, "
+                                f"taken in {MOST_SUBSTEPS} parts: the bodies turn too fast "
+                                "for the step; take a shorter step"}
 
 
 class Advanced(NamedTuple):

@@ -28,6 +28,7 @@ from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTh
                                    VelocityVerlet, choose_method, make_integrator)
 from .kernel import Advanced, compiled_steps
 from ..contact.events import Impact, WallEvents
+from ..contact.joints import MOST_SUBSTEPS, JointsUnsolved
 from .forces import WrenchRow
 from .model import FrameRow, Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
@@ -481,9 +482,7 @@ class Simulation:
             return q.copy(), v.copy()
         f = self.model.accelerations
         start = self._time_ns * 1e-9
-        q1, v1 = self._free_step(f, q, v, h, start)
-        if joints is not None:
-            joints.resolve(q, q1, v1, h)
+        q1, v1 = self._constrained_step(f, q, v, h, start)
         if contacts is None:
             return q1, v1
         parts = contacts.substeps(q, q1)
@@ -491,11 +490,39 @@ class Simulation:
             contacts.resolve(q1, v1, q, v, h)
             return q1, v1
         for part in range(parts):
-            q1, v1 = self._free_step(f, q, v, h / parts, start + part * (h / parts))
-            if joints is not None:
-                joints.resolve(q, q1, v1, h / parts)
+            q1, v1 = self._constrained_step(f, q, v, h / parts, start + part * (h / parts))
             contacts.resolve(q1, v1, q, v, h / parts)
             q, v = q1, v1
+        return q, v
+
+    def _constrained_step(self, f: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                          q: np.ndarray, v: np.ndarray, h: float, start: float,
+                          room: int = MOST_SUBSTEPS) -> tuple[np.ndarray, np.ndarray]:
+        """One integrator step of ``h`` and the joint pass, taken in equal parts when a
+        joint's arm would turn further in it than the pass allows
+        (:meth:`~..contact.joints.JointPass.parts`), in halves when the pass finds no
+        solution near its end (:class:`~..contact.joints.JointsUnsolved`), each part the
+        same way; ``room``: how many parts this step may still be cut into, in all (a
+        step in :data:`~..contact.joints.MOST_SUBSTEPS` at most)."""
+        q1, v1 = self._free_step(f, q, v, h, start)
+        joints = self.model.joints
+        if joints is None:
+            return q1, v1
+        parts = min(joints.parts(q, q1), room)
+        if parts == 1:
+            try:
+                joints.resolve(q, q1, v1, h)
+                return q1, v1
+            except JointsUnsolved as error:
+                if room < 2:
+                    raise IntegrationError(f"the joints have no solution near the end of "
+                                           f"the step, taken in {MOST_SUBSTEPS} parts "
+                                           f"({error}): the bodies turn too fast for the "
+                                           "step; take a shorter step") from error
+            parts = 2
+        part = h / parts
+        for k in range(parts):
+            q, v = self._constrained_step(f, q, v, part, start + k * part, room // parts)
         return q, v
 
     def _free_step(self, f: Callable[[np.ndarray, np.ndarray], np.ndarray], q: np.ndarray,

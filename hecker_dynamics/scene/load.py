@@ -594,6 +594,7 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
     """Joints; a gear names two revolute joints of the same scene."""
     joints: list[JointSpec] = []
     gears = []
+    points = {b: spec.points for b, spec in bodies.items()}  # once: a grid has 20,000 joints
     for name, reader in root.named_children("joints"):
         kind = reader.string("type", REQUIRED, choices=JOINT_TYPES)
         if kind == "gear":
@@ -601,7 +602,7 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
                                             reader.string("joint_b", REQUIRED),
                                             reader.number("ratio", REQUIRED))))
             continue
-        joints.append(_read_joint(name, kind, reader, bodies, fixed))
+        joints.append(_read_joint(name, kind, reader, bodies, points, fixed))
     revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
     for reader, gear in gears:
         for key in ("joint_a", "joint_b"):
@@ -624,12 +625,11 @@ def _place(body: BodySpec, point: Vec2) -> Vec2:
 
 
 def _read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[str, BodySpec],
-                fixed: str) -> JointSpec:
+                points: Mapping[str, Mapping[str, Vec2]], fixed: str) -> JointSpec:
     """A joint between ``body_a`` (default: the fixed frame) and ``body_b``. ``point_b``
     (default the body frame's origin) is a point of body_b; ``point_a`` one of body_a, or
     fixed-frame coordinates, by default where point_b is at the start (a distance joint:
-    body_a's origin)."""
-    points = {b: spec.points for b, spec in bodies.items()}
+    body_a's origin); ``points``: each body's named points."""
     name_a = reader.string("body_a", fixed)
     if name_a != fixed and name_a not in bodies:
         reader.fail("body_a", f"names an unknown body '{name_a}' (nor the fixed frame '{fixed}')")

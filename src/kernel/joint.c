@@ -5,11 +5,15 @@
  * takes the sign of the divisor: the helpers below do the same, so that zeros' signs and
  * ties come out as in Python.
  */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE  /* glibc's sincos (turn_all) */
+#endif
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "joint.h"
+#include "sparse.h"
 
 static const double PI = 3.141592653589793;
 
@@ -29,13 +33,22 @@ static double py_mod(double x, double y)
     return r;
 }
 
-/* joints.py: _wrap, an angle in [-pi, pi). */
-static double wrap(double angle) { return py_mod(angle + PI, 2.0 * PI) - PI; }
+/* joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
+ * [0, 2 pi) unchanged, so that case skips it. */
+static double wrap(double angle)
+{
+    const double shifted = angle + PI;
+    if (shifted >= 0.0 && shifted < 2.0 * PI)
+        return shifted - PI;
+    return py_mod(shifted, 2.0 * PI) - PI;
+}
 
 /* joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
 typedef struct { double x, y, rx, ry, angle; } Place;
 
-static Place place(long body, const double *local, const double *q)
+/* `trig`: cos and sin of each body's angle in q (the same values _Frame.place takes). */
+static inline Place place(long body, const double *local, const double *q,
+                          const double *trig)
 {
     Place p;
     if (body < 0) {
@@ -43,7 +56,7 @@ static Place place(long body, const double *local, const double *q)
         return p;
     }
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
-    const double c = cos(angle), s = sin(angle);
+    const double c = trig[2 * body], s = trig[2 * body + 1];
     p.rx = c * local[0] - s * local[1];
     p.ry = s * local[0] + c * local[1];
     p.x = x + p.rx, p.y = y + p.ry, p.angle = angle;
@@ -60,8 +73,8 @@ static void add_entry(hd_joint_row *r, long body, double jx, double jy, double j
 static hd_joint_row *new_row(hd_joint_row *rows, long *n, int kind, double c)
 {
     hd_joint_row *r = rows + (*n)++;
-    memset(r, 0, sizeof *r);
-    r->kind = kind, r->c = c, r->bound = INFINITY;
+    r->kind = kind, r->count = 0, r->scaled = 0;
+    r->c = c, r->speed = 0.0, r->bound = INFINITY, r->stiffness = 0.0, r->damping = 0.0;
     return r;
 }
 
@@ -116,6 +129,41 @@ static void point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, Place pa
     }
 }
 
+/* One entry of a point row (joints.py: _fixed): on body b, u and perp(r) . u; on body a
+ * (sign -1) their negatives. */
+static inline void point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
+                               double rx, double ry)
+{
+    double *j = r->j[r->count];
+    r->body[r->count] = body;
+    if (sign > 0.0)
+        j[0] = ux, j[1] = uy, j[2] = ux * -ry + uy * rx;
+    else
+        j[0] = -ux, j[1] = -uy, j[2] = -(ux * -ry + uy * rx);
+    r->count += 1;
+}
+
+/* joints.py: _point_rows of a rigid pin, written out for the common case (the same
+ * operations as point_rows). */
+static inline void pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const Place *pa,
+                            const Place *pb, int values_only)
+{
+    const double dx = pb->x - pa->x, dy = pb->y - pa->y;
+    for (int axis = 0; axis < 2; ++axis) {
+        const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
+        hd_joint_row *r = rows + (*n)++;
+        r->kind = HD_RIGID, r->count = 0, r->scaled = 1;
+        r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
+        r->stiffness = 0.0, r->damping = 0.0;
+        if (values_only)
+            continue;
+        if (jt->b >= 0)
+            point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
+        if (jt->a >= 0)
+            point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
+    }
+}
+
 /* joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
 static void bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
                          const hd_joint_row *coordinate, double h)
@@ -150,10 +198,34 @@ static void axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
     *uy = s * jt->axis[0] + c * jt->axis[1];
 }
 
-/* joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count. */
-static long build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows)
+/* cos and sin of every body's angle in q into m->trig (2 per body), computed again only
+ * for the angles that changed (bit for bit) since the last time: m->angles keeps them. */
+static void turn_all(const hd_joint_model *m, const double *q)
+{
+    for (long b = 0; b < m->body_count; ++b) {
+        const double angle = q[3 * b + 2];
+        if (memcmp(&angle, m->angles + b, sizeof angle) == 0)
+            continue;
+        m->angles[b] = angle;
+#ifdef __GLIBC__
+        /* glibc's sincos runs its sin's and cos's code: the same bits as Python's math. */
+        sincos(angle, m->trig + 2 * b + 1, m->trig + 2 * b);
+#else
+        m->trig[2 * b] = cos(angle);
+        m->trig[2 * b + 1] = sin(angle);
+#endif
+    }
+}
+
+/* joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
+ * Leaves the cosines and sines of q's angles in m->trig. `values_only`: the rows' values
+ * are wanted, not their Jacobians (which the plain pins then skip). */
+static long build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
+                       int values_only)
 {
     long n = 0;
+    const double *trig = m->trig;
+    turn_all(m, q);
     for (long i = 0; i < m->joint_count; ++i) {
         const hd_joint *jt = m->joints + i;
         if (jt->kind == HD_GEAR) {
@@ -163,15 +235,20 @@ static long build_rows(const hd_joint_model *m, const double *q, double h, hd_jo
             double value = 0.0;
             for (int k = 0; k < 2; ++k) {
                 const hd_joint *g = m->joints + pair[k];
-                const Place pa = place(g->a, g->point_a, q), pb = place(g->b, g->point_b, q);
+                const Place pa = place(g->a, g->point_a, q, trig),
+                            pb = place(g->b, g->point_b, q, trig);
                 value += scales[k] * joint_angle(g, pa, pb);
                 angle_entries(r, g->a, g->b, scales[k]);
             }
             r->c = value;
             continue;
         }
-        const Place pa = place(jt->a, jt->point_a, q), pb = place(jt->b, jt->point_b, q);
-        if (jt->kind == HD_REVOLUTE) {
+        const Place pa = place(jt->a, jt->point_a, q, trig),
+                    pb = place(jt->b, jt->point_b, q, trig);
+        if (jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
+                                         jt->has_spring)) {
+            pin_rows(rows, &n, jt, &pa, &pb, values_only);  /* its angle is not wanted */
+        } else if (jt->kind == HD_REVOLUTE) {
             point_rows(rows, &n, jt, pa, pb, HD_RIGID, 0.0, 0.0);
             const double angle = joint_angle(jt, pa, pb);
             hd_joint_row coordinate = {0};
@@ -221,25 +298,29 @@ static long build_rows(const hd_joint_model *m, const double *q, double h, hd_jo
     return n;
 }
 
-/* joints.py: _directions: per row, M^-1 J^T. */
-static void directions(const hd_joint_model *m, const hd_joint_row *rows, long n,
-                       hd_joint_row *out)
+/* joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k). */
+static void directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
+                       long n, hd_joint_row *out)
 {
-    for (long i = 0; i < n; ++i) {
-        out[i] = rows[i];
-        for (int e = 0; e < rows[i].count; ++e) {
-            const double *im = m->inverse_mass + 3 * rows[i].body[e];
-            for (int k = 0; k < 3; ++k)
-                out[i].j[e][k] = im[k] * rows[i].j[e][k];
+    for (long k = 0; k < n; ++k) {
+        const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
+        out[k].count = row->count;  /* _apply and _dot read no more of a direction */
+        for (int e = 0; e < row->count; ++e) {
+            out[k].body[e] = row->body[e];
+            const double *im = m->inverse_mass + 3 * row->body[e];
+            for (int c = 0; c < 3; ++c)
+                out[k].j[e][c] = im[c] * row->j[e][c];
         }
     }
 }
 
-/* joints.py: _apply: x += M^-1 J^T impulse, row by row. */
+/* joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
 static void apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
 {
     for (long i = 0; i < n; ++i) {
         const double amount = impulse[i];
+        if (amount == 0.0)
+            continue;
         for (int e = 0; e < direction[i].count; ++e) {
             double *target = x + 3 * direction[i].body[e];
             target[0] += direction[i].j[e][0] * amount;
@@ -247,23 +328,6 @@ static void apply(double *x, const hd_joint_row *direction, long n, const double
             target[2] += direction[i].j[e][2] * amount;
         }
     }
-}
-
-/* joints.py: _bandwidth (first: one slot per local body). */
-static long bandwidth(const hd_joint_model *m, const hd_joint_row *rows, long n)
-{
-    long *first = m->first, width = 0;
-    for (long b = 0; b < m->body_count; ++b)
-        first[b] = -1;
-    for (long i = 0; i < n; ++i)
-        for (int e = 0; e < rows[i].count; ++e) {
-            const long b = rows[i].body[e];
-            if (first[b] < 0)
-                first[b] = i;
-            if (i - first[b] > width)
-                width = i - first[b];
-        }
-    return width;
 }
 
 /* joints.py: _dot. */
@@ -283,171 +347,184 @@ double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
     return dot(row, direction);
 }
 
-/* joints.py: _products, band (2 w + 1 per row). */
-static void products(const hd_joint_row *rows, const hd_joint_row *direction, long n, long w,
-                     double *a)
+/* joints.py: _dot, over the entries `meets` pairs (count of them). */
+static double dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
+                          const unsigned char *meets, long count)
 {
-    for (long i = 0; i < n; ++i)
-        for (long j = i - w; j <= i + w; ++j)
-            a[i * (2 * w + 1) + (j - i + w)] = 0 <= j && j < n ? dot(rows + i, direction + j)
-                                                              : 0.0;
+    double s = 0.0;
+    for (long k = 0; k < count; ++k) {
+        const double *a = row->j[meets[k] >> 2], *b = direction->j[meets[k] & 3];
+        s += a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    }
+    return s;
 }
 
-/* joints.py: _lu. */
-static int lu(double *a, long n, long w)
+/* The pairs of entries of `row` and `direction` on a common body into `out` (NULL: count
+ * only); returns how many. */
+static long meeting(const hd_joint_row *row, const hd_joint_row *direction, unsigned char *out)
 {
-    const long stride = 2 * w + 1;
-    for (long k = 0; k < n; ++k) {
-        const double pivot = a[k * stride + w];
-        if (!(pivot != 0.0))
-            return HD_JOINTS_DEPENDENT;
-        const long end = n < k + w + 1 ? n : k + w + 1;
-        for (long i = k + 1; i < end; ++i) {
-            const double factor = a[i * stride + (k - i + w)] / pivot;
-            a[i * stride + (k - i + w)] = factor;
-            for (long j = k + 1; j < end; ++j)
-                a[i * stride + (j - i + w)] -= factor * a[k * stride + (j - k + w)];
+    long count = 0;
+    for (int e = 0; e < row->count; ++e)
+        for (int f = 0; f < direction->count; ++f)
+            if (row->body[e] == direction->body[f]) {
+                if (out != NULL)
+                    out[count] = (unsigned char)(e << 2 | f);
+                count += 1;
+            }
+    return count;
+}
+
+/* The meets of pattern p's row pairs, for the rows rows[index[k]] (index NULL: rows k);
+ * 0, or -1 out of memory. */
+static int make_meets(const hd_pattern *p, const hd_joint_row *rows, const long *index,
+                      hd_meets *m)
+{
+    const long n = p->n, slots = p->start[n];
+    m->diag = malloc(((size_t)n + 1) * sizeof(long));
+    m->lower = malloc(((size_t)slots + 1) * sizeof(long));
+    m->upper = malloc(((size_t)slots + 1) * sizeof(long));
+    if (m->diag == NULL || m->lower == NULL || m->upper == NULL)
+        return -1;
+    for (int pass = 0; pass < 2; ++pass) {
+        long count = 0;
+        for (long i = 0; i < n; ++i) {
+            const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
+            unsigned char *out = pass == 1 ? m->pair : NULL;
+            m->diag[i] = count;
+            count += meeting(row, row, out == NULL ? NULL : out + count);
+            for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+                const long j = p->columns[slot];
+                const hd_joint_row *other = rows + (index == NULL ? j : index[j]);
+                m->lower[slot] = count;
+                count += meeting(row, other, out == NULL ? NULL : out + count);
+                m->upper[slot] = count;
+                count += meeting(other, row, out == NULL ? NULL : out + count);
+            }
+        }
+        if (pass == 0 && (m->pair = malloc((size_t)count + 1)) == NULL)
+            return -1;
+        m->diag[n] = count;  /* the ends of the last lists */
+        if (slots > 0)
+            m->lower[slots] = m->upper[slots] = count;
+    }
+    return 0;
+}
+
+static void free_meets(hd_meets *m)
+{
+    free(m->diag);
+    free(m->lower);
+    free(m->upper);
+    free(m->pair);
+}
+
+/* joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
+ * `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the symmetric
+ * K, its lower triangle only. */
+static void matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
+                   const long *index, const hd_joint_row *direction, const int *active,
+                   double *diagonal, double *lower, double *upper)
+{
+    const unsigned char *pair = meets->pair;
+    for (long i = 0; i < p->n; ++i) {
+        const long first = p->start[i], end = p->start[i + 1];
+        if (active != NULL && !active[i]) {
+            diagonal[i] = 0.0;
+            for (long slot = first; slot < end; ++slot) {
+                lower[slot] = 0.0;
+                if (upper != NULL)
+                    upper[slot] = 0.0;
+            }
+            continue;
+        }
+        const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
+        /* Row i's lists: its diagonal's, then per slot the lower's and the upper's. */
+        const long diag_end = first < end ? meets->lower[first] : meets->diag[i + 1];
+        diagonal[i] = dot_meeting(row, direction + i, pair + meets->diag[i],
+                                  diag_end - meets->diag[i]);
+        for (long slot = first; slot < end; ++slot) {
+            const long j = p->columns[slot];
+            if (active != NULL && !active[j]) {
+                lower[slot] = 0.0;
+                if (upper != NULL)
+                    upper[slot] = 0.0;
+                continue;
+            }
+            lower[slot] = dot_meeting(row, direction + j, pair + meets->lower[slot],
+                                      meets->upper[slot] - meets->lower[slot]);
+            if (upper != NULL) {
+                const long next = slot + 1 < end ? meets->lower[slot + 1] : meets->diag[i + 1];
+                upper[slot] = dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
+                                          pair + meets->upper[slot], next - meets->upper[slot]);
+            }
         }
     }
-    return HD_JOINTS_OK;
 }
 
-/* joints.py: _lu_solve, x in place of the right-hand side. */
-static void lu_solve(const double *a, long n, long w, double *x)
+/* joints.py: _row_sum. */
+static double row_sum(const hd_pattern *p, const double *diagonal, const double *lower, long i,
+                      const double *x, const int *skip)
 {
-    const long stride = 2 * w + 1;
-    for (long i = 0; i < n; ++i) {
-        double s = x[i];
-        for (long k = i > w ? i - w : 0; k < i; ++k)
-            s -= a[i * stride + (k - i + w)] * x[k];
-        x[i] = s;
+    double s = 0.0;
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+        const long j = p->columns[slot];
+        if (skip == NULL || !skip[j])
+            s += lower[slot] * x[j];
     }
-    for (long i = n - 1; i >= 0; --i) {
-        double s = x[i];
-        const long end = n < i + w + 1 ? n : i + w + 1;
-        for (long j = i + 1; j < end; ++j)
-            s -= a[i * stride + (j - i + w)] * x[j];
-        x[i] = s / a[i * stride + w];
+    if (skip == NULL || !skip[i])
+        s += diagonal[i] * x[i];
+    for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k) {
+        const long j = p->above_row[k];
+        if (skip == NULL || !skip[j])
+            s += lower[p->above_slot[k]] * x[j];
     }
+    return s;
 }
 
-/* joints.py: _normal_matrix: the lower band (w + 1 per row) of J M^-1 J^T. */
-static void normal_matrix(const hd_joint_row *rows, const hd_joint_row *direction, long n,
-                          long w, double *band)
+/* joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
+static void solve(hd_joint_model *m)
 {
-    for (long i = 0; i < n; ++i)
-        for (long d = 0; d <= w; ++d)
-            band[i * (w + 1) + d] = d <= i ? dot(rows + i, direction + i - d) : 0.0;
-}
-
-/* joints.py: Band.at. */
-static double band_at(const double *band, long w, long i, long j)
-{
-    return j <= i ? band[i * (w + 1) + (i - j)] : band[j * (w + 1) + (j - i)];
-}
-
-/* joints.py: _factor, into low (w + 1 per row) and diag. */
-static int factor(const double *band, long n, long w, double *low, double *diag)
-{
-    const long stride = w + 1;
-    for (long k = 0; k < n * stride; ++k)
-        low[k] = 0.0;
-    for (long i = 0; i < n; ++i) {
-        const long start = i > w ? i - w : 0;
-        double *li = low + i * stride;
-        for (long j = start; j < i; ++j) {
-            double s = band[i * stride + (i - j)];
-            const double *lj = low + j * stride;
-            for (long k = start; k < j; ++k)
-                s -= li[i - k] * diag[k] * lj[j - k];
-            li[i - j] = s / diag[j];
-        }
-        double s = band[i * stride];
-        for (long k = start; k < i; ++k)
-            s -= li[i - k] * diag[k] * li[i - k];
-        if (!(s > 0.0))
-            return HD_JOINTS_DEPENDENT;
-        diag[i] = s;
-    }
-    return HD_JOINTS_OK;
-}
-
-/* joints.py: _substitute, x in place of the right-hand side. */
-static void substitute(const double *low, const double *diag, long n, long w, double *x)
-{
-    const long stride = w + 1;
-    for (long i = 0; i < n; ++i) {
-        double s = x[i];
-        for (long k = i > w ? i - w : 0; k < i; ++k)
-            s -= low[i * stride + (i - k)] * x[k];
-        x[i] = s / diag[i];
-    }
-    for (long i = n - 1; i >= 0; --i) {
-        double s = x[i];
-        const long end = n < i + w + 1 ? n : i + w + 1;
-        for (long j = i + 1; j < end; ++j)
-            s -= low[j * stride + (j - i)] * x[j];
-        x[i] = s;
-    }
-}
-
-/* joints.py: _solve, the impulses into m->x. */
-static int solve(hd_joint_model *m, long n, long w)
-{
-    const double *k = m->band, *b = m->b, *lower = m->lower, *upper = m->upper;
+    const hd_pattern *p = &m->pattern;
+    const long n = m->row_count;
+    const double *diagonal = m->diagonal, *lower = m->lower, *b = m->b;
+    const double *low_bound = m->low_bound, *high_bound = m->high_bound;
     double *x = m->x;
-    int all_free = 1;
+    int all_free = 1, any_free = 0;
     for (long i = 0; i < n; ++i) {
-        m->free[i] = lower[i] == -INFINITY && upper[i] == INFINITY;
+        m->free[i] = low_bound[i] == -INFINITY && high_bound[i] == INFINITY;
         all_free = all_free && m->free[i];
+        any_free = any_free || m->free[i];
     }
     if (all_free) {
         memcpy(x, b, (size_t)n * sizeof(double));
-        if (factor(k, n, w, m->low, m->diag) != HD_JOINTS_OK)
-            return HD_JOINTS_DEPENDENT;
-        substitute(m->low, m->diag, n, w, x);
-        return HD_JOINTS_OK;
+        hd_factor(p, diagonal, lower, NULL, m->low, m->diag, m->out);
+        hd_substitute(p, m->low, m->diag, m->out, x);
+        return;
     }
-    long nf = 0, nb = 0;
+    long nb = 0;
     for (long i = 0; i < n; ++i) {
-        x[i] = m->free[i] ? 0.0 : py_min(py_max(m->warm[i], lower[i]), upper[i]);
-        if (m->free[i])
-            m->free_index[nf++] = i;
-        else
+        x[i] = m->free[i] ? 0.0 : py_min(py_max(m->warm[i], low_bound[i]), high_bound[i]);
+        if (!m->free[i])
             m->bounded[nb++] = i;
     }
-    if (nf > 0) {  /* Band.part */
-        for (long p = 0; p < nf; ++p) {
-            const long i = m->free_index[p];
-            for (long d = 0; d <= w; ++d)
-                m->part[p * (w + 1) + d] = d <= p && i - m->free_index[p - d] <= w
-                                           ? band_at(k, w, i, m->free_index[p - d]) : 0.0;
-        }
-        if (factor(m->part, nf, w, m->low, m->diag) != HD_JOINTS_OK)
-            return HD_JOINTS_DEPENDENT;
-    }
+    if (any_free)
+        hd_factor(p, diagonal, lower, m->free, m->low, m->diag, m->out);
     for (long iteration = 0; iteration < HD_JOINT_MAX_ITERATIONS; ++iteration) {
-        if (nf > 0) {
-            for (long p = 0; p < nf; ++p) {
-                const long i = m->free_index[p], end = n < i + w + 1 ? n : i + w + 1;
-                double s = 0.0;
-                for (long j = i > w ? i - w : 0; j < end; ++j)
-                    if (!m->free[j])
-                        s += band_at(k, w, i, j) * x[j];
-                m->rhs[p] = b[i] - s;
-            }
-            substitute(m->low, m->diag, nf, w, m->rhs);
-            for (long p = 0; p < nf; ++p)
-                x[m->free_index[p]] = m->rhs[p];
+        if (any_free) {
+            for (long i = 0; i < n; ++i)
+                m->rhs[i] = m->free[i] ? b[i] - row_sum(p, diagonal, lower, i, x, m->free)
+                                       : 0.0;
+            hd_substitute(p, m->low, m->diag, m->out, m->rhs);
+            for (long i = 0; i < n; ++i)
+                if (m->free[i])
+                    x[i] = m->rhs[i];
         }
         double largest = 0.0;
-        for (long q = 0; q < nb; ++q) {
-            const long i = m->bounded[q], end = n < i + w + 1 ? n : i + w + 1;
-            double s = 0.0;
-            for (long j = i > w ? i - w : 0; j < end; ++j)
-                s += band_at(k, w, i, j) * x[j];
-            const double updated = py_min(py_max(x[i] + (b[i] - s) / k[i * (w + 1)], lower[i]),
-                                          upper[i]);
+        for (long k = 0; k < nb; ++k) {
+            const long i = m->bounded[k];
+            const double s = row_sum(p, diagonal, lower, i, x, NULL);
+            const double updated = py_min(py_max(x[i] + (b[i] - s) / diagonal[i], low_bound[i]),
+                                          high_bound[i]);
             const double change = fabs(updated - x[i]);
             largest = change > largest ? change : largest;
             x[i] = updated;
@@ -459,95 +536,108 @@ static int solve(hd_joint_model *m, long n, long w)
         if (largest <= HD_JOINT_CONVERGED * (1.0 + biggest))
             break;
     }
-    return HD_JOINTS_OK;
 }
 
-static double largest_error(const double *error, long n)
+static double largest_abs(const double *x, long n)
 {
-    double largest = fabs(error[0]);
+    double largest = fabs(x[0]);
     for (long i = 1; i < n; ++i)
-        if (fabs(error[i]) > largest)
-            largest = fabs(error[i]);
+        if (fabs(x[i]) > largest)
+            largest = fabs(x[i]);
     return largest;
 }
 
-/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. */
-static int hold(hd_joint_model *m, double h)
+/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
+ * holds the directions of the rows at q0 already. */
+static int hold(hd_joint_model *m, double h, int again)
 {
     const long nr = m->rigid_count;
     if (nr == 0) {
-        build_rows(m, m->q, h, m->rows);
+        build_rows(m, m->q, h, m->rows, 0);
         return HD_JOINTS_OK;
     }
-    for (long k = 0; k < nr; ++k)
-        m->subset[k] = m->rows0[m->rigid[k]];
-    directions(m, m->subset, nr, m->dir0);
-    const long w = bandwidth(m, m->subset, nr);
+    const hd_pattern *p = &m->rigid_pattern;
+    if (!again)
+        directions(m, m->rows0, m->rigid, nr, m->dir0);
+    double scale = h / m->last_h;
+    scale = scale * scale;
     for (long k = 0; k < nr; ++k) {
-        m->target[k] = m->subset[k].c;
-        m->nu[k] = m->newton_valid ? m->newton[k] : 0.0;
+        m->target[k] = m->rows0[m->rigid[k]].c;
+        m->nu[k] = m->newton_valid ? m->newton[k] * scale : 0.0;
     }
+    const long n3 = 3 * m->body_count;
     apply(m->q, m->dir0, nr, m->nu);
-    int converged = 0;
+    /* The rows' values round at about eps |q|: no error can be asked below that. */
+    const double tolerance = py_max(m->tolerance,
+                                    HD_JOINT_ROUNDING * (1.0 + largest_abs(m->q, n3)));
+    double previous = INFINITY;
+    int factored = 0, fresh = 0;  /* the last matrix's L U is kept; it was that iterate's */
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
-        build_rows(m, m->q, h, m->rows);
+        /* An iterate that may take the last matrix needs its rows' values only (at first). */
+        build_rows(m, m->q, h, m->rows, factored);
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
-        if (largest_error(m->step, nr) <= HD_JOINT_TOLERANCE) {
-            converged = 1;
-            break;
+        const double largest = largest_abs(m->step, nr);
+        if (largest <= tolerance) {
+            double turned = 0.0;
+            for (long k = 2; k < n3; k += 3)
+                turned = py_max(turned, fabs(m->q[k] - m->moved[k]));
+            if (turned > m->max_turn)
+                return HD_JOINTS_UNSOLVED;
+            memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
+            m->newton_valid = 1;
+            if (factored)
+                build_rows(m, m->q, h, m->rows, 0);
+            return HD_JOINTS_OK;
         }
-        for (long k = 0; k < nr; ++k) {
-            m->subset[k] = m->rows[m->rigid[k]];
+        if (fresh && !(largest <= 0.5 * previous))
+            return HD_JOINTS_UNSOLVED;
+        fresh = !factored || !(largest <= HD_CHORD * previous);
+        if (fresh) {
+            if (factored)
+                build_rows(m, m->q, h, m->rows, 0);
+            matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
+                   m->upper);
+            hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
+            factored = 1;
+        }
+        previous = largest;
+        for (long k = 0; k < nr; ++k)
             m->step[k] = -m->step[k];
-        }
-        products(m->subset, m->dir0, nr, w, m->matrix);
-        if (lu(m->matrix, nr, w) != HD_JOINTS_OK)
-            return HD_JOINTS_DEPENDENT;
-        lu_solve(m->matrix, nr, w, m->step);
+        hd_lu_solve(p, m->low, m->upper, m->diag, m->out, m->step);
         for (long k = 0; k < nr; ++k)
             m->nu[k] = m->nu[k] + m->step[k];
         apply(m->q, m->dir0, nr, m->step);
     }
-    if (!converged)
-        build_rows(m, m->q, h, m->rows);
-    memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
-    m->newton_valid = 1;
-    return HD_JOINTS_OK;
+    return HD_JOINTS_UNSOLVED;
 }
 
 /* joints.py: JointPass._correct, on m->q and m->rows. */
-static int correct(hd_joint_model *m, double h)
+static void correct(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
+    const hd_pattern *p = &m->pattern;
     for (long iteration = 0; iteration < HD_DRIFT_ITERATIONS; ++iteration) {
         int off = 0;
         for (long i = 0; i < n && !off; ++i) {
             const hd_joint_row *r = m->rows + i;
-            off = (r->kind == HD_RIGID && fabs(r->c) > HD_JOINT_TOLERANCE) ||
-                  (r->kind == HD_LIMIT && r->c < -HD_JOINT_TOLERANCE);
+            off = (r->kind == HD_RIGID && fabs(r->c) > m->tolerance) ||
+                  (r->kind == HD_LIMIT && r->c < -m->tolerance);
         }
         if (!off)
             break;
-        long count = 0;
         for (long i = 0; i < n; ++i) {
             const hd_joint_row *r = m->rows + i;
-            if (r->kind == HD_RIGID || (r->kind == HD_LIMIT && r->c < 0.0)) {
-                m->subset[count] = *r;
-                m->rhs[count] = -r->c;
-                count += 1;
-            }
+            m->active[i] = r->kind == HD_RIGID || (r->kind == HD_LIMIT && r->c < 0.0);
+            m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
-        directions(m, m->subset, count, m->dir);
-        const long w = bandwidth(m, m->subset, count);
-        normal_matrix(m->subset, m->dir, count, w, m->band);
-        if (factor(m->band, count, w, m->low, m->diag) != HD_JOINTS_OK)
-            return HD_JOINTS_DEPENDENT;
-        substitute(m->low, m->diag, count, w, m->rhs);
-        apply(m->q, m->dir, count, m->rhs);
-        build_rows(m, m->q, h, m->rows);
+        directions(m, m->rows, NULL, n, m->dir);
+        matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
+        hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
+        hd_substitute(p, m->low, m->diag, m->out, m->rhs);
+        apply(m->q, m->dir, n, m->rhs);
+        build_rows(m, m->q, h, m->rows, 0);
     }
-    return HD_JOINTS_OK;
 }
 
 /* joints.py: _rate. */
@@ -562,68 +652,120 @@ static double rate(const hd_joint_row *row, const double *v)
 }
 
 /* joints.py: JointPass._velocities, on m->v at the rows m->rows. */
-static int velocities(hd_joint_model *m, double h)
+static void velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
-    directions(m, m->rows, n, m->dir);
-    const long w = bandwidth(m, m->rows, n);
-    normal_matrix(m->rows, m->dir, n, w, m->band);
+    directions(m, m->rows, NULL, n, m->dir);
+    matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
+           NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
         m->b[i] = -rate(row, m->v);
-        m->lower[i] = -INFINITY, m->upper[i] = INFINITY;
+        m->low_bound[i] = -INFINITY, m->high_bound[i] = INFINITY;
         if (row->kind == HD_LIMIT) {
             m->b[i] -= (0.0 > row->c ? 0.0 : row->c) / h;
-            m->lower[i] = 0.0;
+            m->low_bound[i] = 0.0;
         } else if (row->kind == HD_MOTOR) {
             m->b[i] += row->speed;
-            m->lower[i] = -row->bound, m->upper[i] = row->bound;
+            m->low_bound[i] = -row->bound, m->high_bound[i] = row->bound;
         } else if (row->kind == HD_SOFT) {
-            double *diagonal = m->band + i * (w + 1);
+            double *diagonal = m->diagonal + i;
             const double scale = row->scaled ? 1.0 / *diagonal : 1.0;
             const double stiffness = row->stiffness * scale, damping = row->damping * scale;
             const double compliance = stiffness * h + damping;
             if (compliance == 0.0) {
-                m->lower[i] = m->upper[i] = 0.0;
+                m->low_bound[i] = m->high_bound[i] = 0.0;
                 continue;
             }
             *diagonal += 1.0 / (h * compliance);
             m->b[i] -= stiffness * row->c / compliance;
         }
     }
-    if (solve(m, n, w) != HD_JOINTS_OK)
-        return HD_JOINTS_DEPENDENT;
+    solve(m);
     apply(m->v, m->dir, n, m->x);
     memcpy(m->warm, m->x, (size_t)n * sizeof(double));
     m->last_h = h;
-    return HD_JOINTS_OK;
+}
+
+long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1)
+{
+    double turn = 0.0;
+    for (long k = 0; k < m->turning_count; ++k) {
+        const long b = m->turning[k];
+        turn = py_max(turn, fabs(q1[3 * b + 2] - q0[3 * b + 2]));
+    }
+    for (long i = 0; i < m->joint_count; ++i) {  /* the rods and ropes */
+        const hd_joint *jt = m->joints + i;
+        if (jt->kind != HD_ROD && jt->kind != HD_ROPE)
+            continue;
+        double ends[2][2][2];  /* [start or end][a or b][x or y] */
+        const double *poses[2] = {q0, q1};
+        for (int t = 0; t < 2; ++t) {
+            const long bodies[2] = {jt->a, jt->b};
+            const double *points[2] = {jt->point_a, jt->point_b};
+            for (int e = 0; e < 2; ++e) {  /* _Frame.place, on the model's indices */
+                if (bodies[e] < 0) {
+                    ends[t][e][0] = points[e][0], ends[t][e][1] = points[e][1];
+                    continue;
+                }
+                const double *pose = poses[t] + 3 * m->bodies[bodies[e]];
+                const double c = cos(pose[2]), s = sin(pose[2]);
+                ends[t][e][0] = pose[0] + (c * points[e][0] - s * points[e][1]);
+                ends[t][e][1] = pose[1] + (s * points[e][0] + c * points[e][1]);
+            }
+        }
+        const double dx = ends[0][1][0] - ends[0][0][0], dy = ends[0][1][1] - ends[0][0][1];
+        const double ex = ends[1][1][0] - ends[1][0][0], ey = ends[1][1][1] - ends[1][0][1];
+        turn = py_max(turn, atan2(fabs(dx * ey - dy * ex), dx * ex + dy * ey));
+    }
+    if (!(turn > m->max_turn))  /* within, or not finite: the divergence check reports it */
+        return 1;
+    const double parts = turn / m->max_turn;
+    if (parts >= (double)HD_MOST_SUBSTEPS)
+        return HD_MOST_SUBSTEPS;
+    return ceil(parts) < 2.0 ? 2 : (long)ceil(parts);
 }
 
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)
 {
     const long nb = m->body_count;
+    /* Where the last pass ended is where this step starts (no contact moved a body, no
+     * angle was wrapped), its rows all rigid and the step as long: its final rows and their
+     * directions are this pass's rows at q0 and their directions, bit for bit. */
+    int again = m->ended && m->rigid_count == m->row_count && h == m->last_h;
     for (long k = 0; k < nb; ++k)
         for (int c = 0; c < 3; ++c) {
-            m->start[3 * k + c] = q0[3 * m->bodies[k] + c];
+            const double start = q0[3 * m->bodies[k] + c];
+            again = again && memcmp(&start, m->q + 3 * k + c, sizeof start) == 0;
+            m->start[3 * k + c] = start;
+        }
+    for (long k = 0; k < nb; ++k)
+        for (int c = 0; c < 3; ++c) {
             m->q[3 * k + c] = m->moved[3 * k + c] = q1[3 * m->bodies[k] + c];
             m->v[3 * k + c] = v1[3 * m->bodies[k] + c];
         }
-    build_rows(m, m->start, h, m->rows0);
-    int status = hold(m, h);
+    m->ended = 0;
+    if (again) {
+        hd_joint_row *swap = m->rows0;
+        m->rows0 = m->rows, m->rows = swap;
+        swap = m->dir0, m->dir0 = m->dir, m->dir = swap;
+    } else {
+        build_rows(m, m->start, h, m->rows0, 0);
+    }
+    const int status = hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
     for (long k = 0; k < 3 * nb; ++k)
         m->v[k] += (m->q[k] - m->moved[k]) / h;
-    if ((status = correct(m, h)) != HD_JOINTS_OK)
-        return status;
+    correct(m, h);
     memcpy(m->settled, m->v, (size_t)(3 * nb) * sizeof(double));
-    if ((status = velocities(m, h)) != HD_JOINTS_OK)
-        return status;
-    for (long i = 0; i < m->joint_count; ++i) {  /* JointPass._count_turns */
+    velocities(m, h);
+    for (long i = 0; i < m->joint_count; ++i) {  /* JointPass._count_turns, at m->trig's q */
         hd_joint *jt = m->joints + i;
         if (jt->kind == HD_GEAR)
             continue;
-        const Place pa = place(jt->a, jt->point_a, m->q), pb = place(jt->b, jt->point_b, m->q);
+        const Place pa = place(jt->a, jt->point_a, m->q, m->trig),
+                    pb = place(jt->b, jt->point_b, m->q, m->trig);
         jt->angle = joint_angle(jt, pa, pb);
         jt->raw = pb.angle - pa.angle;
     }
@@ -632,6 +774,7 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
             q1[3 * m->bodies[k] + c] = m->q[3 * k + c];
             v1[3 * m->bodies[k] + c] = m->v[3 * k + c];
         }
+    m->ended = 1;
     return HD_JOINTS_OK;
 }
 
@@ -641,50 +784,62 @@ int hd_joints_prepare(hd_joint_model *m)
     const long nb = m->body_count, rows_most = 6 * m->joint_count + 1;
     hd_joint_row *probe = calloc((size_t)rows_most, sizeof(hd_joint_row));
     double *zero = calloc((size_t)(3 * nb + 1), sizeof(double));
-    m->first = malloc((size_t)(nb + 1) * sizeof(long));
-    if (probe == NULL || zero == NULL || m->first == NULL) {
+    m->trig = malloc((size_t)(3 * nb + 1) * sizeof(double));
+    if (probe == NULL || zero == NULL || m->trig == NULL) {
         free(probe);
         free(zero);
         return HD_JOINTS_OUT_OF_MEMORY;
     }
-    const long n = build_rows(m, zero, 1.0, probe);
+    m->angles = m->trig + 2 * nb;
+    for (long b = 0; b < nb; ++b)
+        m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
+    const long n = build_rows(m, zero, 1.0, probe, 0);
     m->row_count = n;
-    m->width = bandwidth(m, probe, n);
     m->rigid = malloc((size_t)(n + 1) * sizeof(long));
     m->rigid_count = 0;
     for (long i = 0; m->rigid != NULL && i < n; ++i)
         if (probe[i].kind == HD_RIGID)
             m->rigid[m->rigid_count++] = i;
+    int status = m->rigid == NULL ? HD_JOINTS_OUT_OF_MEMORY : HD_JOINTS_OK;
+    if (status == HD_JOINTS_OK && (m->pattern.n != n || m->rigid_pattern.n != m->rigid_count))
+        status = HD_JOINTS_MISMATCH;
+    if (status == HD_JOINTS_OK && (make_meets(&m->pattern, probe, NULL, &m->meets) < 0 ||
+            make_meets(&m->rigid_pattern, probe, m->rigid, &m->rigid_meets) < 0))
+        status = HD_JOINTS_OUT_OF_MEMORY;
     free(probe);
     free(zero);
-    const size_t R = (size_t)n + 1, W = (size_t)m->width, B = 3 * (size_t)nb + 1;
-    m->rows0 = calloc(5 * R, sizeof(hd_joint_row));
-    m->memory = calloc(4 * B + 10 * R + R * (2 * W + 1) + 3 * R * (W + 1), sizeof(double));
-    m->free_index = malloc(2 * R * sizeof(long));
-    m->free = malloc(R * sizeof(int));
+    if (status != HD_JOINTS_OK)
+        return status;
+    const size_t R = (size_t)n + 1, B = 3 * (size_t)nb + 1;
+    const size_t S = (size_t)(m->pattern.start[m->pattern.n] > m->rigid_pattern.start[
+                                  m->rigid_pattern.n] ? m->pattern.start[m->pattern.n]
+                              : m->rigid_pattern.start[m->rigid_pattern.n]) + 1;
+    m->row_memory = calloc(4 * R, sizeof(hd_joint_row));
+    m->memory = calloc(4 * B + 11 * R + 4 * S, sizeof(double));
+    m->bounded = malloc(R * sizeof(long));
+    m->flags = malloc(3 * R * sizeof(int));
     m->warm = calloc(R, sizeof(double));
     m->newton = calloc(R, sizeof(double));
     m->extra = calloc(R, sizeof(double));
     m->settled = calloc(B, sizeof(double));
-    if (m->rigid == NULL || m->rows0 == NULL || m->memory == NULL || m->free_index == NULL ||
-            m->free == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
+    if (m->rigid == NULL || m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
+            m->flags == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
             m->settled == NULL)
         return HD_JOINTS_OUT_OF_MEMORY;
-    m->rows = m->rows0 + R, m->subset = m->rows + R, m->dir0 = m->subset + R;
+    m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;
     m->dir = m->dir0 + R;
+    m->free = m->flags, m->out = m->flags + R, m->active = m->flags + 2 * R;
     double *p = m->memory;
     m->start = p, m->q = p + B, m->moved = p + 2 * B, m->v = p + 3 * B;
     p += 4 * B;
-    double **vectors[] = {&m->target, &m->nu, &m->step, &m->rhs, &m->b, &m->lower, &m->upper,
-                          &m->x, &m->diag};
+    double **vectors[] = {&m->target, &m->nu, &m->step, &m->rhs, &m->b, &m->low_bound,
+                          &m->high_bound, &m->x, &m->diag, &m->diagonal};
     for (size_t k = 0; k < sizeof vectors / sizeof vectors[0]; ++k, p += R)
         *vectors[k] = p;
     p += R;
-    m->matrix = p, p += R * (2 * W + 1);
-    m->band = p, p += R * (W + 1);
-    m->part = p, p += R * (W + 1);
+    m->lower = p, p += S;
+    m->upper = p, p += S;
     m->low = p;
-    m->bounded = m->free_index + R;
     return HD_JOINTS_OK;
 }
 
@@ -696,14 +851,19 @@ void hd_joints_free(hd_joint_model *m)
     free(m->inverse_mass);
     free(m->joints);
     free(m->rigid);
+    free(m->turning);
+    free(m->trig);
     free(m->warm);
     free(m->newton);
     free(m->extra);
     free(m->settled);
     free(m->memory);
-    free(m->rows0);
-    free(m->first);
-    free(m->free_index);
-    free(m->free);
+    free(m->row_memory);
+    free(m->bounded);
+    free(m->flags);
+    hd_pattern_free(&m->pattern);
+    hd_pattern_free(&m->rigid_pattern);
+    free_meets(&m->meets);
+    free_meets(&m->rigid_meets);
     free(m);
 }

@@ -10,12 +10,19 @@
 #ifndef HECKER_DYNAMICS_JOINT_H
 #define HECKER_DYNAMICS_JOINT_H
 
+#include "sparse.h"
+
 /* The constants of contact/joints.py; the binding exports them and joints.py checks them. */
 #define HD_JOINT_TOLERANCE 1e-12
+#define HD_JOINT_ROUNDING (16.0 * 2.220446049250313e-16)
 #define HD_NEWTON_ITERATIONS 50
+#define HD_CHORD 0.125
 #define HD_DRIFT_ITERATIONS 8
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
+#define HD_MAX_TURN 0.1
+#define HD_MOST_SUBSTEPS 1024L
+#define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
 
 enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3, HD_ROPE = 4,
                      HD_GEAR = 5 };
@@ -39,6 +46,16 @@ typedef struct {
     double reference_angle, reference_along, angle, raw, motor_speed;
 } hd_joint;
 
+/* Which entries of two rows meet on a body, per pair of rows a pattern couples (the bodies
+ * of the rows' entries are the same at any pose): `pair` holds e << 2 | f for entry e of
+ * the row and f of the direction, in joints.py _dot's order; the diagonal's for row i at
+ * diag[i] .. diag[i + 1], the strict lower triangle's (row i, direction j) and the upper's
+ * (row j, direction i) for each slot likewise. */
+typedef struct {
+    long *diag, *lower, *upper;
+    unsigned char *pair;
+} hd_meets;
+
 /* One scalar constraint (joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
 typedef struct {
     int kind, count, scaled;
@@ -48,36 +65,51 @@ typedef struct {
 } hd_joint_row;
 
 typedef struct hd_joint_model {
-    long joint_count, body_count, row_count, rigid_count, width;
+    long joint_count, body_count, row_count, rigid_count;
     long *bodies;          /* body_count model indices */
     double *inverse_mass;  /* 3 per local body */
-    hd_joint *joints;
+    hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
+    /* Where the factors of all rows' matrices, and of the rigid rows' alone, can be
+     * non-zero (sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
+    hd_pattern pattern, rigid_pattern;
+    hd_meets meets, rigid_meets;
+    /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
+    long *turning, turning_count;
+    double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
     double *warm, *newton; /* row_count, rigid_count */
     /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
      * the velocities before the last velocity stage (3 per body). */
     double *extra, *settled;
     int newton_valid;
     double last_h;
+    /* Whether the last pass ended well: m->q, m->rows and m->dir are its final pose, rows
+     * and directions (hd_joints_resolve starts from them when it may). */
+    int ended;
     /* working memory */
-    double *memory;
-    hd_joint_row *rows0, *rows, *subset, *dir0, *dir;
-    double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *lower, *upper, *x;
-    double *matrix, *band, *part, *low, *diag;
-    long *first, *free_index, *bounded;
-    int *free;
+    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: turn_all) */
+    hd_joint_row *row_memory, *rows0, *rows, *dir0, *dir;  /* the last four in the first */
+    double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
+    double *diagonal, *lower, *upper, *low, *diag;
+    long *bounded;
+    int *flags, *free, *out, *active;
 } hd_joint_model;
 
-enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_DEPENDENT = -2 };
+enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_UNSOLVED = -2,
+                       HD_JOINTS_MISMATCH = -3 };
 
-/* Allocate the working memory once the joints, bodies and masses are set; counts the rows
- * (row_count, rigid_count, rigid) and the bandwidth; HD_JOINTS_OUT_OF_MEMORY or OK. */
+/* Allocate the working memory once the joints, bodies, masses and patterns are set; counts
+ * the rows (row_count, rigid_count, rigid); HD_JOINTS_MISMATCH if the patterns are not of
+ * that many rows, else HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
 /* joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
+/* joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
+long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
 /* joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
- * place; HD_JOINTS_DEPENDENT when a factorization meets a pivot that is not positive. */
+ * place; HD_JOINTS_UNSOLVED (nothing changed but the working memory) when the positions
+ * have no solution near the step's end (JointsUnsolved). */
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);
 
 #endif

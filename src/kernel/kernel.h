@@ -120,7 +120,7 @@ enum hd_method { HD_EXPLICIT_EULER = 0, HD_SEMI_IMPLICIT_EULER = 1, HD_VELOCITY_
 
 enum hd_status { HD_ADVANCED = 0, HD_NOT_FINITE = 1, HD_SUBSTEP_UNDERFLOW = 2,
                  HD_TOO_MANY_SUBSTEPS = 3, HD_OUT_OF_MEMORY = 4,
-                 HD_DEPENDENT_JOINTS = 5 };
+                 HD_UNSOLVED_JOINTS = 5 };
 
 typedef struct {
     long evaluations, substeps, rejected;
@@ -132,8 +132,9 @@ typedef struct {
  * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
  * step to step. `*taken` counts the steps completed. `contacts` (NULL: none): the contact
  * pass of contact.h after each step, in sub-steps as the simulation takes them; `joints`
- * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts
- * (HD_DEPENDENT_JOINTS: a factorization of its rows failed). */
+ * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts,
+ * in parts or halves where it needs them (HD_UNSOLVED_JOINTS: still no solution near the
+ * end of a part of a step taken in HD_MOST_SUBSTEPS parts). */
 struct hd_contact_model;
 struct hd_joint_model;
 int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,

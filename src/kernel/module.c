@@ -432,7 +432,7 @@ PyDoc_STRVAR(advance_doc,
 "(EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or EMBEDDED: the ``pair`` at\n"
 "``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
 "``status``: ADVANCED, NOT_FINITE (a new state was not finite; it is left in q_new,\n"
-"v_new), SUBSTEP_UNDERFLOW, TOO_MANY_SUBSTEPS or JOINTS_DEPENDENT. ``contacts`` (default\n"
+"v_new), SUBSTEP_UNDERFLOW, TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. ``contacts`` (default\n"
 "None: none): the contact pass after each step; ``joints`` (default None: none) the joint\n"
 "pass, before it. The GIL is released meanwhile.");
 
@@ -852,30 +852,75 @@ static void joints_destructor(PyObject *capsule)
 }
 
 PyDoc_STRVAR(joints_doc,
-"joints(bodies, inverse_mass, ints, reals, rows) -> Joints\n\n"
+"joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
+"       tolerance, max_turn) -> Joints\n\n"
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
-"1/m, 1/I; per joint HD_JOINT_INTS ints and HD_JOINT_REALS reals; ``rows``: the number of\n"
-"rows JointPass counts, which the kernel checks against its own.");
+"1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
+"HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
+"checks against its own; the patterns of all rows and of the rigid rows (sparse.py:\n"
+"Pattern), each as (start, columns); the model indices of the bodies whose turning\n"
+"JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
+"step (JointPass.max_turn).");
+
+/* A sparse.py Pattern from (start, columns); -1 with an exception set. */
+static int read_pattern(PyObject *pair, hd_pattern *p)
+{
+    PyObject *start_object, *columns_object;
+    if (!PyArg_ParseTuple(pair, "OO:pattern", &start_object, &columns_object))
+        return -1;
+    Py_ssize_t count, length;
+    long *start = read_array(start_object, "start", 'q', -1, &length);
+    long *columns = start == NULL ? NULL
+                    : read_array(columns_object, "columns", 'q', -1, &count);
+    if (columns == NULL) {
+        free(start);
+        return -1;
+    }
+    const long rows = (long)length - 1;
+    int ok = rows >= 0 && start[0] == 0 && start[rows] == (long)count;
+    for (long i = 0; ok && i < rows; ++i) {
+        ok = start[i] <= start[i + 1];
+        for (long k = start[i]; ok && k < start[i + 1]; ++k)
+            ok = 0 <= columns[k] && columns[k] < i
+                 && (k == start[i] || columns[k - 1] < columns[k]);
+    }
+    if (!ok) {
+        free(start);
+        free(columns);
+        PyErr_SetString(PyExc_ValueError, "pattern: not a sparse.py Pattern");
+        return -1;
+    }
+    if (hd_pattern_init(p, rows, start, columns) < 0) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    return 0;
+}
 
 static PyObject *py_joints(PyObject *self, PyObject *args)
 {
-    PyObject *o[4];
+    PyObject *o[4], *patterns[2], *turning_object;
     long rows;
-    if (!PyArg_ParseTuple(args, "OOOOl:joints", o, o + 1, o + 2, o + 3, &rows))
+    double tolerance, max_turn;
+    if (!PyArg_ParseTuple(args, "OOOOlOOOdd:joints", o, o + 1, o + 2, o + 3, &rows,
+                          patterns, patterns + 1, &turning_object, &tolerance, &max_turn))
         return NULL;
     hd_joint_model *m = calloc(1, sizeof(hd_joint_model));
     if (m == NULL)
         return PyErr_NoMemory();
-    Py_ssize_t bodies, ints_count;
+    Py_ssize_t bodies, ints_count, turning;
     long *ints = NULL;
     double *reals = NULL;
     if ((m->bodies = read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
         (m->inverse_mass = read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
         (ints = read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
         (reals = read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
-                            NULL)) == NULL)
+                            NULL)) == NULL ||
+        (m->turning = read_array(turning_object, "turning", 'q', -1, &turning)) == NULL)
         goto fail;
     m->body_count = (long)bodies;
+    m->turning_count = (long)turning;
+    m->tolerance = tolerance, m->max_turn = max_turn;
     m->joint_count = (long)(ints_count / HD_JOINT_INTS);
     if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,
                                                           sizeof(hd_joint))) == NULL) {
@@ -912,13 +957,22 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "joints: a negative body index");
             goto fail;
         }
-    if (hd_joints_prepare(m) != HD_JOINTS_OK) {
+    for (Py_ssize_t k = 0; k < turning; ++k)
+        if (m->turning[k] < 0) {
+            PyErr_SetString(PyExc_ValueError, "joints: a negative turning body");
+            goto fail;
+        }
+    if (read_pattern(patterns[0], &m->pattern) < 0 ||
+            read_pattern(patterns[1], &m->rigid_pattern) < 0)
+        goto fail;
+    const int status = hd_joints_prepare(m);
+    if (status == HD_JOINTS_OUT_OF_MEMORY) {
         PyErr_NoMemory();
         goto fail;
     }
-    if (m->row_count != rows) {
-        PyErr_Format(PyExc_ValueError, "joints: %ld rows in the kernel, %ld in Python",
-                     m->row_count, rows);
+    if (status == HD_JOINTS_MISMATCH || m->row_count != rows || m->pattern.n != rows) {
+        PyErr_Format(PyExc_ValueError, "joints: %ld rows (%ld rigid) in the kernel, %ld in "
+                     "Python", m->row_count, m->rigid_count, rows);
         goto fail;
     }
     free(ints);
@@ -975,6 +1029,7 @@ static PyObject *py_joint_state(PyObject *self, PyObject *args)
                  newton = (size_t)m->rigid_count * sizeof(double);
     const long flags = 2 * m->row_count + m->rigid_count;
     if (load) {
+        m->ended = 0;  /* its state may differ: build the next pass's rows afresh */
         memcpy(m->warm, s, warm);
         memcpy(m->newton, s + m->row_count, newton);
         memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
@@ -994,8 +1049,8 @@ static PyObject *py_joint_state(PyObject *self, PyObject *args)
 PyDoc_STRVAR(joints_resolve_doc,
 "joints_resolve(joints, bodies, q0, q1, v1, h)\n\n"
 "The joint pass after a step of ``h`` from q0 to (q1, v1) of ``bodies`` bodies: updates\n"
-"q1 and v1 in place (JointPass.resolve). Raises ArithmeticError if the joints' rows are\n"
-"dependent.");
+"q1 and v1 in place (JointPass.resolve). Returns False, changing nothing, when the\n"
+"positions have no solution near the step's end (JointsUnsolved), else True.");
 
 static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
 {
@@ -1030,12 +1085,7 @@ static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
         PyBuffer_Release(views + k);
     if (status == HD_JOINTS_OUT_OF_MEMORY)
         return PyErr_NoMemory();
-    if (status == HD_JOINTS_DEPENDENT) {
-        PyErr_SetString(PyExc_ArithmeticError, "the joints' rows are dependent: a joint "
-                        "repeats what others hold");
-        return NULL;
-    }
-    Py_RETURN_NONE;
+    return PyBool_FromLong(status == HD_JOINTS_OK);
 }
 
 static PyMethodDef methods[] = {
@@ -1077,7 +1127,8 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"MIN_ITERATIONS", HD_MIN_ITERATIONS}, {"WORK", HD_WORK},
         {"WIDE_UNITS", HD_WIDE_UNITS}, {"COLOURS", HD_COLOURS},
         {"POSITION_ITERATIONS", HD_POSITION_ITERATIONS}, {"MAX_CONTACT_SUBSTEPS", HD_MAX_SUBSTEPS},
-        {"JOINTS_DEPENDENT", HD_DEPENDENT_JOINTS}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
+        {"JOINTS_UNSOLVED", HD_UNSOLVED_JOINTS}, {"JOINT_NEWTON_ITERATIONS", HD_NEWTON_ITERATIONS},
+        {"JOINT_MOST_SUBSTEPS", HD_MOST_SUBSTEPS},
         {"JOINT_DRIFT_ITERATIONS", HD_DRIFT_ITERATIONS},
         {"JOINT_MAX_ITERATIONS", HD_JOINT_MAX_ITERATIONS}, {"JOINT_INTS", HD_JOINT_INTS},
         {"JOINT_REALS", HD_JOINT_REALS}, {"JOINT_STATE", HD_JOINT_STATE},
@@ -1098,6 +1149,9 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
         {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
+        {"JOINT_ROUNDING", HD_JOINT_ROUNDING}, {"JOINT_MAX_TURN", HD_MAX_TURN},
+        {"JOINT_CHORD", HD_CHORD},
+        {"JOINT_DEPENDENT", HD_DEPENDENT},
         {"MAX_CONDITION", HD_MAX_CONDITION}, {"SLEEP_SPEED", HD_SLEEP_SPEED},
         {"TIME_TO_SLEEP", HD_TIME_TO_SLEEP},
     };

@@ -252,6 +252,7 @@ typedef struct {
     int method;
     const hd_pair *pair;
     double tolerance, *size, *buffer;
+    double *levels;  /* constrained_step's parts: two states per level of splitting */
 } Stepper;
 
 /* One step of the method from (q, v) to (q1, v1). */
@@ -269,18 +270,44 @@ static int one_step(Stepper *s, const double *q, const double *v, double *q1, do
 }
 
 /* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
- * simulation.py: Simulation._integrate takes them: the joints first, then the contacts. */
+ * simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's arm
+ * would turn too far (hd_joints_parts), in halves when the joints have no solution near the
+ * step's end, each part the same way; `room`: how many parts this step may still be cut
+ * into (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds
+ * two states per level for the parts' ends. */
 static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
-                            const double *v, double *q1, double *v1, double h)
+                            const double *v, double *q1, double *v1, double h, long room,
+                            int level)
 {
     int status = one_step(s, q, v, q1, v1, h);
     if (status != HD_ADVANCED || joints == NULL)
         return status;
-    switch (hd_joints_resolve(joints, q, q1, v1, h)) {
-    case HD_JOINTS_OK: return HD_ADVANCED;
-    case HD_JOINTS_DEPENDENT: return HD_DEPENDENT_JOINTS;
-    default: return HD_OUT_OF_MEMORY;
+    long parts = hd_joints_parts(joints, q, q1);
+    parts = parts < room ? parts : room;
+    if (parts == 1) {
+        switch (hd_joints_resolve(joints, q, q1, v1, h)) {
+        case HD_JOINTS_OK: return HD_ADVANCED;
+        case HD_JOINTS_UNSOLVED:
+            if (room < 2)
+                return HD_UNSOLVED_JOINTS;
+            parts = 2;
+            break;
+        default: return HD_OUT_OF_MEMORY;
+        }
     }
+    const long n3 = s->f->n3;
+    double *q_part = s->levels + 2 * n3 * level, *v_part = q_part + n3;
+    const double part = h / (double)parts;
+    const double *from_q = q, *from_v = v;
+    for (long k = 0; k < parts; ++k) {
+        if ((status = constrained_step(s, joints, from_q, from_v, q1, v1, part, room / parts,
+                                       level + 1)) != HD_ADVANCED)
+            return status;
+        memcpy(q_part, q1, (size_t)n3 * sizeof(double));
+        memcpy(v_part, v1, (size_t)n3 * sizeof(double));
+        from_q = q_part, from_v = v_part;
+    }
+    return HD_ADVANCED;
 }
 
 /* How many sub-steps keep every colliding body's travel under half the thinnest colliding
@@ -310,7 +337,7 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
                               double h, double *spare)
 {
     const long n3 = s->f->n3;
-    int status = constrained_step(s, joints, q, v, q1, v1, h);
+    int status = constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 0);
     if (status != HD_ADVANCED)
         return status;
     const long parts = substeps(m, q, q1);
@@ -322,7 +349,8 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
     memcpy(v_part, v, (size_t)n3 * sizeof(double));
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
-        if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part))
+        if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part,
+                                       HD_MOST_SUBSTEPS, 0))
                 != HD_ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, q_part, v_part, part) < 0)
@@ -356,16 +384,19 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
 {
     const long n = program->bodies, n3 = 3 * n;
     /* cos, sin (N each) and the wrench (3 N) of an evaluation, then the method's states */
-    /* (and 4 states more for the sub-steps of a contact scene) */
-    double *memory = malloc((size_t)(5 * n + n3 * (buffer_states(method, pair) + 4) + 1)
-                            * sizeof(double));
+    /* (and 4 states more for the sub-steps of a contact scene, and two per level of a */
+    /* joint pass's splitting) */
+    const long levels = joints == NULL ? 0 : 2 * (HD_MAX_SPLITS + 1);
+    double *memory = malloc((size_t)(5 * n + n3 * (buffer_states(method, pair) + 4 + levels)
+                                     + 1) * sizeof(double));
     if (memory == NULL)
         return HD_OUT_OF_MEMORY;
     Forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
     double *buffer = memory + 5 * n;
     int status = HD_ADVANCED;
     *taken = 0;
-    Stepper stepper = {&f, method, pair, tolerance, size, buffer};
+    Stepper stepper = {&f, method, pair, tolerance, size, buffer,
+                       buffer + n3 * (buffer_states(method, pair) + 4)};
     if (contacts != NULL)
         contacts->joints = joints;  /* for these steps: coupled.h */
     for (long t = 0; t < steps; ++t) {
@@ -374,7 +405,7 @@ int hd_advance(const hd_program *program, const hd_program *inputs, int oriented
             continue;
         }
         status = contacts == NULL
-                 ? constrained_step(&stepper, joints, q, v, q_new, v_new, h)
+                 ? constrained_step(&stepper, joints, q, v, q_new, v_new, h, HD_MOST_SUBSTEPS, 0)
                  : step_with_contacts(&stepper, contacts, joints, q, v, q_new, v_new, h,
                                       buffer + n3 * buffer_states(method, pair));
         if (status != HD_ADVANCED)

@@ -1,0 +1,233 @@
+/* The joint rows' factorizations: hecker_dynamics/contact/sparse.py, operation for
+ * operation (see sparse.h). */
+#include <math.h>
+#include <stdlib.h>
+
+#include "sparse.h"
+
+int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
+{
+    p->n = n, p->start = start, p->columns = columns;
+    const long slots = start[n];
+    p->above_start = calloc((size_t)n + 1, sizeof(long));
+    p->above_row = malloc(((size_t)slots + 1) * sizeof(long));
+    p->above_slot = malloc(((size_t)slots + 1) * sizeof(long));
+    if (p->above_start == NULL || p->above_row == NULL || p->above_slot == NULL)
+        return -1;
+    for (long s = 0; s < slots; ++s)
+        p->above_start[columns[s] + 1] += 1;
+    for (long i = 0; i < n; ++i)
+        p->above_start[i + 1] += p->above_start[i];
+    long *fill = malloc(((size_t)n + 1) * sizeof(long));
+    if (fill == NULL)
+        return -1;
+    for (long i = 0; i < n; ++i)
+        fill[i] = p->above_start[i];
+    for (long i = 0; i < n; ++i)  /* rows in ascending order: each column's list ascends */
+        for (long s = start[i]; s < start[i + 1]; ++s) {
+            const long at = fill[columns[s]]++;
+            p->above_row[at] = i, p->above_slot[at] = s;
+        }
+    free(fill);
+    /* The merges of sparse.py's factor and lu, once: count, then fill. */
+    p->update_start = calloc((size_t)slots + 1, sizeof(long));
+    if (p->update_start == NULL)
+        return -1;
+    for (int pass = 0; pass < 2; ++pass) {
+        long count = 0;
+        for (long i = 0; i < n; ++i)
+            for (long slot = start[i]; slot < start[i + 1]; ++slot) {
+                const long j = columns[slot];
+                long a = start[i], b = start[j];
+                if (pass == 1)
+                    p->update_start[slot] = count;
+                while (a < slot && b < start[j + 1]) {
+                    if (columns[a] == columns[b]) {
+                        if (pass == 1)
+                            p->update_a[count] = a, p->update_b[count] = b;
+                        ++count, ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
+            }
+        if (pass == 0 && count > HD_MOST_UPDATES) {
+            free(p->update_start);  /* too many to keep: the factorizations merge */
+            p->update_start = NULL;
+            return 0;
+        }
+        if (pass == 0) {
+            p->update_a = malloc(((size_t)count + 1) * sizeof(long));
+            p->update_b = malloc(((size_t)count + 1) * sizeof(long));
+            if (p->update_a == NULL || p->update_b == NULL)
+                return -1;
+        } else {
+            p->update_start[slots] = count;
+        }
+    }
+    return 0;
+}
+
+void hd_pattern_free(hd_pattern *p)
+{
+    free(p->start);
+    free(p->columns);
+    free(p->above_start);
+    free(p->above_row);
+    free(p->above_slot);
+    free(p->update_start);
+    free(p->update_a);
+    free(p->update_b);
+}
+
+void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
+               const int *active, double *low, double *diag, int *out)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long s = 0; s < start[n]; ++s)
+        low[s] = 0.0;
+    for (long i = 0; i < n; ++i) {
+        out[i] = active != NULL && !active[i];
+        diag[i] = 0.0;
+    }
+    for (long i = 0; i < n; ++i) {
+        if (out[i])
+            continue;
+        const long first = start[i], end = start[i + 1];
+        for (long slot = first; slot < end; ++slot) {
+            const long j = columns[slot];
+            if (out[j])
+                continue;
+            double s = lower[slot];
+            if (p->update_start != NULL) {
+                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                    const long a = p->update_a[u], b = p->update_b[u];
+                    s -= low[a] * diag[columns[a]] * low[b];
+                }
+            } else {
+                long a = first, b = start[j];
+                while (a < slot && b < start[j + 1]) {  /* k < j in both rows' patterns */
+                    if (columns[a] == columns[b]) {
+                        s -= low[a] * diag[columns[a]] * low[b];
+                        ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
+            }
+            low[slot] = s / diag[j];
+        }
+        double s = diagonal[i];
+        for (long slot = first; slot < end; ++slot)
+            s -= low[slot] * diag[columns[slot]] * low[slot];
+        if (s > HD_DEPENDENT * diagonal[i])
+            diag[i] = s;
+        else
+            out[i] = 1;
+    }
+}
+
+void hd_substitute(const hd_pattern *p, const double *low, const double *diag, const int *out,
+                   double *x)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long i = 0; i < n; ++i) {
+        if (out[i]) {
+            x[i] = 0.0;
+            continue;
+        }
+        double s = x[i];
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
+            s -= low[slot] * x[columns[slot]];
+        x[i] = s;
+    }
+    for (long i = 0; i < n; ++i)
+        if (!out[i])
+            x[i] = x[i] / diag[i];
+    for (long i = n - 1; i >= 0; --i) {
+        if (out[i])
+            continue;
+        double s = x[i];
+        for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k)
+            s -= low[p->above_slot[k]] * x[p->above_row[k]];
+        x[i] = s;
+    }
+}
+
+void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, double *upper,
+           double *low, double *diag, int *out)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long s = 0; s < start[n]; ++s)
+        low[s] = 0.0;
+    for (long i = 0; i < n; ++i) {
+        out[i] = 0;
+        diag[i] = 0.0;
+    }
+    for (long i = 0; i < n; ++i) {
+        const long first = start[i], end = start[i + 1];
+        for (long slot = first; slot < end; ++slot) {
+            const long j = columns[slot];
+            if (out[j]) {
+                upper[slot] = 0.0;
+                continue;
+            }
+            double s = lower[slot], t = upper[slot];
+            if (p->update_start != NULL) {
+                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+                    const long a = p->update_a[u], b = p->update_b[u];
+                    s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
+                    t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
+                }
+            } else {
+                long a = first, b = start[j];
+                while (a < slot && b < start[j + 1]) {
+                    if (columns[a] == columns[b]) {
+                        s -= low[a] * upper[b];
+                        t -= low[b] * upper[a];
+                        ++a, ++b;
+                    } else if (columns[a] < columns[b]) {
+                        ++a;
+                    } else {
+                        ++b;
+                    }
+                }
+            }
+            low[slot] = s * diag[j];
+            upper[slot] = t;
+        }
+        double s = diagonal[i];
+        for (long slot = first; slot < end; ++slot)
+            s -= low[slot] * upper[slot];
+        if (fabs(s) > HD_DEPENDENT * fabs(diagonal[i]))
+            diag[i] = 1.0 / s;
+        else
+            out[i] = 1;
+    }
+}
+
+void hd_lu_solve(const hd_pattern *p, const double *low, const double *upper,
+                 const double *diag, const int *out, double *x)
+{
+    const long n = p->n, *start = p->start, *columns = p->columns;
+    for (long i = 0; i < n; ++i) {
+        double s = x[i];
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
+            s -= low[slot] * x[columns[slot]];
+        x[i] = s;
+    }
+    for (long i = n - 1; i >= 0; --i) {
+        if (out[i]) {
+            x[i] = 0.0;
+            continue;
+        }
+        double s = x[i];
+        for (long k = p->above_start[i]; k < p->above_start[i + 1]; ++k)
+            s -= upper[p->above_slot[k]] * x[p->above_row[k]];
+        x[i] = s * diag[i];
+    }
+}
