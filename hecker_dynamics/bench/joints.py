@@ -10,7 +10,9 @@ gravity, h = 1 ms, 2 s; no collisions. The engines, in their usual configuration
   when built;
 - ``pymunk``: ``PivotJoint`` per pin, 10 iterations (its default);
 - ``box2d``: Box2D 2.3 (pybox2d), revolute joints, 8 velocity and 3 position iterations
-  (its manual's recommendation).
+  (its manual's recommendation);
+- ``box2d_v3``: Box2D v3 in its own interpreter (:mod:`.box2d_v3`), the chain scene's
+  revolute joints, 4 sub-steps, sleeping off.
 
 Pinned scenes: the shipped ``seesaw`` and ``door`` (revolute joints to the world) and the
 same scenes with each such joint a stiff zero-length spring
@@ -18,21 +20,21 @@ same scenes with each such joint a stiff zero-length spring
 goes with its joint), each at its own step and method, with its script, over its first
 2 s.
 
-Every engine steps in blocks of ``BLOCK``; the blocks of all engines of a comparison are
-interleaved (one block each in turn), so that the machine's load falls on all alike, and
-each cost per step is the median over the blocks. The error is the largest distance
-between two points a pin holds together, over the block ends.
+Every engine runs the whole span ``ROUNDS`` times, built afresh each time, the runs of all
+engines of a comparison interleaved (one each in turn), so that the machine's load falls
+on all alike; each cost per step is the median over the whole runs. The error is the
+largest distance between two points a pin holds together, over the ends of blocks of
+``BLOCK`` steps in one more, untimed run.
 """
 from __future__ import annotations
 
 import math
-import statistics
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from .measure import interleaved_runs, timed_steps, whole_cost
 from .scenes import SPRING_PINS, pinned_by_springs
 from ..contact.joints import RevoluteJoint
 from ..dynamics.simulation import Simulation
@@ -42,6 +44,8 @@ from ..scene.parameters import flatten
 __all__ = ["BLOCK", "LINKS", "chain", "joint_bench", "chain_engines", "pinned_engines"]
 
 BLOCK = 25
+#: Whole runs of each comparison.
+ROUNDS = 5
 LINKS = 100
 LENGTH, WIDTH, MASS = 0.1, 0.02, 0.1
 STEP = 0.001
@@ -160,7 +164,19 @@ def _box2d(links: int) -> Engine:
     return step, error
 
 
-PEERS = {"pymunk": _pymunk, "box2d": _box2d}
+def _box2d_v3(links: int) -> Engine:
+    from .box2d_v3 import scene_engine
+
+    step, poses = scene_engine(chain(links), STEP, sleep=False)
+
+    def error() -> float:
+        q = poses()
+        return _chain_error(q[:, 0], q[:, 1], q[:, 2])
+
+    return step, error
+
+
+PEERS = {"pymunk": _pymunk, "box2d": _box2d, "box2d_v3": _box2d_v3}
 
 
 def chain_engines(links: int, peers: list[str]) -> dict[str, Engine]:
@@ -169,7 +185,7 @@ def chain_engines(links: int, peers: list[str]) -> dict[str, Engine]:
     for name in peers:
         try:
             engines[name] = PEERS[name](links)
-        except ImportError:
+        except ImportError:  # not installed
             continue
     return engines
 
@@ -200,31 +216,38 @@ def pinned_engines(name: str) -> dict[str, Engine]:
             "springs": _simulation_engine(Simulation(springs), _pin_error(joints))}
 
 
-def interleaved(engines: dict[str, Engine], steps: int) -> dict[str, tuple[float, float]]:
-    """Per engine: (median cost per step in s, largest error at the block ends), over
-    ``steps`` steps in interleaved blocks of :data:`BLOCK`."""
-    costs: dict[str, list[float]] = {name: [] for name in engines}
-    worst = {name: 0.0 for name in engines}
+def interleaved(build: Callable[[], dict[str, Engine]], steps: int,
+                rounds: int = ROUNDS) -> dict[str, tuple[float, float]]:
+    """Per engine of ``build()``: (median whole-run cost per step in s over ``rounds``
+    interleaved whole runs of ``steps`` steps, each engine built afresh for each
+    (:func:`.measure.interleaved_runs`); largest error at the ends of the blocks of
+    :data:`BLOCK` steps of one more, untimed run)."""
+    names = list(build())
+
+    def whole(name: str) -> Callable[[], float]:
+        return lambda: timed_steps(build()[name][0], steps) / steps
+
+    costs = interleaved_runs({name: whole(name) for name in names}, rounds)
+    worst = {name: 0.0 for name in names}
+    engines = build()
     for _ in range(max(1, steps // BLOCK)):
         for name, (step, error) in engines.items():
-            begin = time.perf_counter()
             step(BLOCK)
-            costs[name].append((time.perf_counter() - begin) / BLOCK)
             worst[name] = max(worst[name], error())
-    return {name: (statistics.median(costs[name]), worst[name]) for name in engines}
+    return {name: (whole_cost(costs[name]).per_step, worst[name]) for name in names}
 
 
 def joint_bench(peers: list[str], out: Path, command: str,
                 log: Callable[[str], None] = print) -> dict[str, dict[str, tuple[float, float]]]:
     """Measure the chain and the pinned scenes; write ``joints.md`` and ``joints.csv`` to
     ``out``; returns {comparison: {engine: (cost per step s, error m)}}."""
-    results = {f"chain of {LINKS}": interleaved(chain_engines(LINKS, peers),
+    results = {f"chain of {LINKS}": interleaved(lambda: chain_engines(LINKS, peers),
                                                 round(DURATION / STEP))}
     for name in SPRING_PINS:
         scene = load_scene(name)
         steps = round(min(DURATION * 1e9, scene.duration_ns) / scene.step_ns)
         results[f"{name} ({scene.integrator}, h = {scene.step_ns * 1e-9:g} s)"] = \
-            interleaved(pinned_engines(name), steps)
+            interleaved(lambda name=name: pinned_engines(name), steps)
     lines = [f"Command: `{command}`", "",
              "| comparison | engine | us/step | largest pin error (m) | cost ratio |",
              "|---|---|---|---|---|"]

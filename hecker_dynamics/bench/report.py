@@ -83,7 +83,7 @@ def _ratio_text(x: float, skipped: bool = False) -> str:
 
 
 #: Each engine's marker in the bench's figures.
-MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
+MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "box2d_v3": "v", "mujoco": "D"}
 
 
 def agg_pyplot():
@@ -170,7 +170,8 @@ def targets(results) -> list[tuple[str, str, str]]:
                   "met" if met1 else "missed"))
     sample = results.sample
     if "hecker_dynamics" in sample:
-        for peer in ("pymunk (python forces)", "pymunk (DampedSpring)", "box2d (python forces)"):
+        for peer in ("pymunk (python forces)", "pymunk (DampedSpring)", "box2d (python forces)",
+                     "box2d_v3 (python forces)"):
             if peer in sample:
                 ratio = sample["hecker_dynamics"] / sample[peer]
                 lines.append((f"2. default-scene step over {results.sample_duration:g} s "

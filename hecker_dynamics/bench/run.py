@@ -33,6 +33,7 @@ from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
+from .scene_peers import SCENE_PEERS
 from .scenes import (BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants,
                      ring)
 
@@ -266,16 +267,15 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log,
 
 
 def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
-    """The default scene's cost per step against pymunk and Box2D (target 2), over the
-    scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
+    """The default scene's cost per step against the scene peers ``peers`` (target 2),
+    over the scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
     from ..scene.load import load_scene
     from .contacts import scene_rows
 
     scene = load_scene("sample")
     if mode.sample_duration is not None:
         scene = dataclasses.replace(scene, duration_ns=round(mode.sample_duration * 1e9))
-    rows = scene_rows("sample", scene, [p for p in ("pymunk", "box2d") if p in peers],
-                      python_path=True, rounds=mode.budget.repeats)
+    rows = scene_rows("sample", scene, peers, python_path=True, rounds=mode.budget.repeats)
     results.sample = {(row.engine if row.engine.startswith("hecker_dynamics")
                        else f"{row.engine} ({row.method})"): row.cost * row.step
                       for row in rows if row.status == "ok"}
@@ -286,11 +286,9 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
 
 def bounce_part(results: Results, mode: Mode, peers: list[str], log) -> None:
     """The ball drop against its closed form, with and without event location, and the
-    scene peers (pymunk, Box2D 2.3) with their own restitution."""
-    from .scene_peers import SCENE_PEERS
-
-    results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps,
-                                  [p for p in peers if p in SCENE_PEERS], mode.budget, log)
+    scene peers ``peers`` with their own restitution."""
+    results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps, peers,
+                                  mode.budget, log)
 
 
 def declared_part(results: Results, mode: Mode, log) -> None:
@@ -373,6 +371,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
     results = Results(mode_name, command=command)
     chosen = scenes or [*BENCH_SCENES, *shipped_scenes(), STIFF_SEESAW]
     peer_names = [p for p in peer_mod.PEERS if peers and peer_mod.available(p)]
+    # The peers of the scenes with contacts (pymunk, Box2D 2.3, Box2D v3).
+    scene_peer_names = [p for p in SCENE_PEERS if peers and peer_mod.available(p)]
     results.environment = {
         "python": sys.version.split()[0], "numpy": np.__version__,
         "machine": f"{platform.machine()}, {platform.system()} {platform.release()}",
@@ -381,7 +381,7 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         "load average at start": "{:.2f}, {:.2f}, {:.2f}".format(*os.getloadavg()),
         "kernel": ("compiled" if kernel.enabled() else
                    f"python ({'switched off' if kernel.built() else 'not built'})"),
-        **{p: peer_mod.version(p) for p in peer_mod.PEERS},
+        **{p: peer_mod.version(p) for p in (*peer_mod.PEERS, "box2d_v3")},
     }
     log(f"bench {mode_name}: scenes {', '.join(chosen)}; peers {', '.join(peer_names) or 'none'}")
     work: list[tuple[str, Callable[[], None]]] = []
@@ -394,11 +394,11 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
         work += [(name, lambda name=name: shipped(results, mode, [name], log))
                  for name in chosen if name not in BENCH_SCENES]
     if "sample" in parts:
-        work.append(("sample", lambda: sample_step(results, mode, peer_names, log)))
+        work.append(("sample", lambda: sample_step(results, mode, scene_peer_names, log)))
     if "declared" in parts:
         work.append(("declared", lambda: declared_part(results, mode, log)))
     if "bounce" in parts:
-        work.append(("ball_drop", lambda: bounce_part(results, mode, peer_names, log)))
+        work.append(("ball_drop", lambda: bounce_part(results, mode, scene_peer_names, log)))
     if "ring" in parts:
         work += [(f"ring{n}", lambda n=n: ring_part(results, mode, peer_names, log, [n]))
                  for n in mode.ring_sizes]

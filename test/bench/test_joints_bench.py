@@ -4,6 +4,7 @@ from __future__ import annotations
 import pytest
 
 from hecker_dynamics.bench.joints import chain_engines, interleaved, joint_bench, pinned_engines
+from hecker_dynamics.bench.peers import available
 from hecker_dynamics.bench.scenes import bench_scene, pinned_by_springs
 from hecker_dynamics.contact.joints import RevoluteJoint
 from hecker_dynamics.scene.load import load_scene
@@ -13,19 +14,11 @@ def test_our_chain_holds_its_joints_where_the_peers_let_them_stretch():
     """20 links for 0.2 s: our pins hold to 1e-9 m; each installed peer's error is what
     its iterations leave, larger than ours (it can fail: the peers are measured, not
     assumed)."""
-    peers = [name for name in ("pymunk", "box2d") if _installed(name)]
-    result = interleaved(chain_engines(20, peers), 200)
+    peers = [name for name in ("pymunk", "box2d", "box2d_v3") if available(name)]
+    result = interleaved(lambda: chain_engines(20, peers), 200, rounds=2)
     assert result["hecker_dynamics"][1] < 1e-9
     for name in peers:
         assert result[name][1] > result["hecker_dynamics"][1]
-
-
-def _installed(peer: str) -> bool:
-    try:
-        __import__({"pymunk": "pymunk", "box2d": "Box2D"}[peer])
-    except ImportError:
-        return False
-    return True
 
 
 @pytest.mark.parametrize("name", ["seesaw", "door"])
@@ -38,7 +31,7 @@ def test_springs_replace_the_world_pins(name):
 
 
 def test_the_door_on_its_joint_holds_the_pin_better_than_on_a_spring():
-    result = interleaved(pinned_engines("door"), 1000)
+    result = interleaved(lambda: pinned_engines("door"), 1000, rounds=1)
     assert result["joints"][1] < 1e-5 < result["springs"][1]
 
 
