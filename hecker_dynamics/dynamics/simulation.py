@@ -26,7 +26,7 @@ from .inputs import InputBuffer
 from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTheta,
                                    IntegrationError, RungeKutta4, SemiImplicitEuler,
                                    VelocityVerlet, choose_method, make_integrator)
-from .kernel import Advanced, compiled_steps
+from .kernel import compiled_steps
 from ..contact.events import Impact, WallEvents
 from .forces import WrenchRow
 from .model import FrameRow, Model, wrench_term
@@ -71,12 +71,17 @@ class Snapshot:
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
                  v: np.ndarray, *, copy: bool = True) -> None:
         """``copy`` false: (q, v) are the snapshot's own, never changed in place."""
-        self.time_ns, self.steps = time_ns, steps
+        self.time_ns = time_ns
+        self.steps = steps
         #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
         #: joint pass counts turns and keeps its efforts from step to step.
         self.joints: dict[str, tuple[float, float, float]] = (
             {} if model.joints is None else model.joints.joint_state(q, v))
-        self._model, self._q, self._v = model, q.copy() if copy else q, v.copy() if copy else v
+        if copy:
+            q, v = q.copy(), v.copy()
+        self._model = model
+        self._q = q
+        self._v = v
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
 
@@ -141,6 +146,8 @@ class Simulation:
         # the kernel locates no events, so a scene that asks for them steps in Python.
         self._compiled = None if self._events is not None else compiled_steps(
             self.model.compiled, self.integrator, contacts, self.model.joints)
+        self._embedded = (self.integrator if isinstance(self.integrator, EmbeddedRungeKutta)
+                          else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -399,30 +406,28 @@ class Simulation:
         if change is not None:  # the first step that starts at or after it sees the change
             limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
         q, v = self.q.copy(), self.v.copy()
-        integrator = self.integrator
-        embedded = integrator if isinstance(integrator, EmbeddedRungeKutta) else None
-        done = self._compiled.advance(q, v, self.step_seconds, limit, self.model.oriented,
-                                      0.0 if embedded is None else embedded.substep_size)
+        embedded = self._embedded
+        status, taken, evaluations, substeps, rejected, size = self._compiled.advance(
+            q, v, self.step_seconds, limit, self.model.oriented,
+            0.0 if embedded is None else embedded.substep_size)
         self.q, self.v = q, v
-        self._account(done, embedded)
-        self._steps += done.taken
-        self._time_ns += done.taken * self.step_ns
-        if done.error is not None:
-            error = IntegrationError(done.error)
-            raise self._failed(error) from error
-        if done.diverged is not None:
-            raise self._diverged(*done.diverged)
-        return done.taken
-
-    def _account(self, done: Advanced, embedded: Optional[EmbeddedRungeKutta]) -> None:
-        """Add the work of steps taken in the kernel to the integrator's counters, and
-        carry an embedded pair's sub-step size over, as its steps in Python would."""
+        # The work of the steps taken in the kernel joins the integrator's counters, and an
+        # embedded pair's sub-step size carries over, as its steps in Python would.
         counters = self.integrator.counters
-        counters.evaluations += done.evaluations
+        counters.evaluations += evaluations
         if embedded is not None:
-            counters.substeps += done.substeps
-            counters.rejected += done.rejected
-            embedded.substep_size = done.substep_size
+            counters.substeps += substeps
+            counters.rejected += rejected
+            embedded.substep_size = size
+        self._steps += taken
+        self._time_ns += taken * self.step_ns
+        if status != self._compiled.advanced:
+            failed, diverged = self._compiled.failure(status)
+            if diverged is not None:
+                raise self._diverged(*diverged)
+            error = IntegrationError(failed)
+            raise self._failed(error) from error
+        return taken
 
     def _step(self) -> None:
         """One step in Python, the inputs already updated."""
@@ -519,19 +524,18 @@ class Simulation:
         """
         snapshots = []
         taken = 0
-        period = self.scene.publish_period_ns
+        period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
         with np.errstate(all="ignore"):
-            while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
-                limit = min((t_ns - self._time_ns) // self.step_ns, self._steps_to_publish())
+            while self._time_ns + step <= t_ns and (max_steps is None or taken < max_steps):
+                limit = min((t_ns - self._time_ns) // step, self._steps_to_publish())
                 if max_steps is not None:
                     limit = min(limit, max_steps - taken)
                 taken += self._advance(limit)
-                if (self._time_ns - self.start_ns) % period == 0:
+                if (self._time_ns - start) % period == 0:
                     self._check_energy()
-                    if keep:  # the state just checked: its copies are kept unchanged
-                        q, v = self._checked[:2]
-                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model, q, v,
-                                                  copy=False))
+                    if keep:  # the state just checked, never changed in place
+                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model,
+                                                  self.q, self.v, copy=False))
         return snapshots
 
     def _check_energy(self) -> None:
@@ -547,7 +551,9 @@ class Simulation:
             self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
                             f"kept the state at t = {time_ns * 1e-9:.6f} s")
             raise DivergenceError(self._halted)
-        self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
+        # The state is never changed in place (each step, move or import makes new arrays),
+        # so the check keeps it, and the publish snapshots share it, without copies.
+        self._checked = (self.q, self.v, self._time_ns, self._steps)
 
     def _steps_to_publish(self) -> int:
         """Steps from now to the next publish instant (1 if the period is not a whole
