@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
+from types import MappingProxyType
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
@@ -39,6 +40,8 @@ PROGRESS_UPDATES = 200
 #: The methods whose step depends on the state alone (no sub-step size, no Newton guess
 #: carried over), which is what lets a step of a scene fully asleep be skipped.
 FIXED_STEP = (ExplicitEuler, SemiImplicitEuler, VelocityVerlet, RungeKutta4)
+#: The joint states of a snapshot of a scene without joints (read-only, so shared).
+NO_JOINTS: Mapping[str, tuple[float, float, float]] = MappingProxyType({})
 
 
 class DivergenceError(RuntimeError):
@@ -69,14 +72,17 @@ class Snapshot:
     __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
-                 v: np.ndarray, *, copy: bool = True) -> None:
-        """``copy`` false: (q, v) are the snapshot's own, never changed in place."""
+                 v: np.ndarray, copy: bool = True) -> None:
+        """``copy`` false: (q, v) are the snapshot's own, never changed in place (passed
+        by position where snapshots are taken often: a keyword costs a third of a
+        snapshot)."""
         self.time_ns = time_ns
         self.steps = steps
+        joints = model.joints
         #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
         #: joint pass counts turns and keeps its efforts from step to step.
-        self.joints: dict[str, tuple[float, float, float]] = (
-            {} if model.joints is None else model.joints.joint_state(q, v))
+        self.joints: Mapping[str, tuple[float, float, float]] = (
+            NO_JOINTS if joints is None else joints.joint_state(q, v))
         if copy:
             q, v = q.copy(), v.copy()
         self._model = model
@@ -525,9 +531,14 @@ class Simulation:
         snapshots = []
         taken = 0
         period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
+        # Steps from one publish instant to the next; 0 where the period is not a whole
+        # number of steps, and the run stops after every step to look.
+        per_publish = 0 if period % step else period // step
         with np.errstate(all="ignore"):
             while self._time_ns + step <= t_ns and (max_steps is None or taken < max_steps):
-                limit = min((t_ns - self._time_ns) // step, self._steps_to_publish())
+                limit = (t_ns - self._time_ns) // step
+                limit = min(limit, per_publish - (self._time_ns - start) // step % per_publish
+                            if per_publish else 1)
                 if max_steps is not None:
                     limit = min(limit, max_steps - taken)
                 taken += self._advance(limit)
@@ -535,7 +546,7 @@ class Simulation:
                     self._check_energy()
                     if keep:  # the state just checked, never changed in place
                         snapshots.append(Snapshot(self._time_ns, self._steps, self.model,
-                                                  self.q, self.v, copy=False))
+                                                  self.q, self.v, False))
         return snapshots
 
     def _check_energy(self) -> None:
@@ -554,15 +565,6 @@ class Simulation:
         # The state is never changed in place (each step, move or import makes new arrays),
         # so the check keeps it, and the publish snapshots share it, without copies.
         self._checked = (self.q, self.v, self._time_ns, self._steps)
-
-    def _steps_to_publish(self) -> int:
-        """Steps from now to the next publish instant (1 if the period is not a whole
-        number of steps)."""
-        period, step = self.scene.publish_period_ns, self.step_ns
-        if period % step:
-            return 1
-        per_publish = period // step
-        return per_publish - (self._time_ns - self.start_ns) // step % per_publish
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
              keep: bool = True,
