@@ -99,7 +99,7 @@ def make_wrenches(springs: Sequence, drags: Sequence, angular: Sequence, forces:
 
 class BodyCalls(NamedTuple):
     """A peer body's calls, bound once: ``point(local)`` the world point of a point of the
-    CM frame, ``point_velocity(world)`` the velocity of a world point of the body (Eq. 9),
+    CM frame, ``point_velocity(world)`` the body point's velocity at a world point (Eq. 9),
     ``push(force, world)`` a force at a world point (the peer adds its torque about the CM,
     Eq. 11), ``state()`` (x, y, angle, vx, vy, omega) of the CM, ``push_torque(tau)``."""
 

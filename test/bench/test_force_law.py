@@ -29,7 +29,7 @@ class _Body:
         def point(local):
             return x + c * local[0] - s * local[1], y + s * local[0] + c * local[1]
 
-        def point_velocity(world):  # Eq. 9
+        def point_velocity(world):  # a body point's velocity, Eq. 9
             return vx - w * (world[1] - y), vy + w * (world[0] - x)
 
         def push(force, world):  # the torque about the CM, Eq. 11
