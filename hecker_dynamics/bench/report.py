@@ -227,6 +227,9 @@ def write_report(results, out: Path) -> None:
           "Environment: " + "; ".join(f"{k} {v}" for k, v in results.environment.items()), ""]
     md += ["## Targets", "", "| target | measured | verdict |", "|---|---|---|"]
     md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
+    if results.guard:
+        md += ["", "## Regression guard: ratios against the reference", "",
+               *[f"- {line}" for line in results.guard]]
     md += ["", "## Headline: cheapest configuration reaching each final position error", "",
            "Cost of the cheapest configuration (method, step h, tolerance) per engine; "
            "ratio = hecker_dynamics / peer (target <= 0.5).", "",

@@ -65,7 +65,7 @@ MODES = {
         "quick",
         steps={s: [0.1, 0.02, 0.005, 0.001] for s in BENCH_SCENES} | {
             "stiff": [0.1, 0.01, 0.001, 0.0001]},
-        tolerances=[1e-4, 1e-8], adaptive_steps=[0.1], budget=Budget(0.25, 2, 0.5, 10),
+        tolerances=[1e-4, 1e-8], adaptive_steps=[0.1], budget=Budget(0.25, 3, 1.0, 10),
         ring_sizes=[1, 10, 100, 1000], ring_wall=0.05, shipped_duration=0.5,
         shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=300,
         sample_duration=2.0),
@@ -89,6 +89,7 @@ class Results:
     checks: list = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
+    sample_rows: list[Row] = field(default_factory=list)  # the rows behind ``sample``
     sample_duration: float = 0.0  # s of sim time it was measured over
     declared: dict[str, float] = field(default_factory=dict)  # variant -> s per step
     profiles: dict[str, str] = field(default_factory=dict)
@@ -96,6 +97,7 @@ class Results:
     lean: dict[str, tuple[float, float]] = field(default_factory=dict)
     cross_check: dict[str, float] = field(default_factory=dict)
     environment: dict[str, str] = field(default_factory=dict)
+    guard: list[str] = field(default_factory=list)  # the regression guard's lines
     seconds: float = 0.0
     command: str = ""
 
@@ -276,7 +278,9 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
     if mode.sample_duration is not None:
         scene = dataclasses.replace(scene, duration_ns=round(mode.sample_duration * 1e9))
     rows = scene_rows("sample", scene, peers, python_path=True, rounds=mode.budget.repeats)
+    results.sample_rows = rows
     results.sample = {(row.engine if row.engine.startswith("hecker_dynamics")
+                       and not row.method.endswith(", sleeping")
                        else f"{row.engine} ({row.method})"): row.cost * row.step
                       for row in rows if row.status == "ok"}
     results.sample_duration = scene.duration_ns * 1e-9
@@ -357,12 +361,33 @@ def _trim_profile(text: str) -> str:
     return "\n".join(head + lines[start:start + 13])
 
 
+def guard(results: Results, reference: Path, save: bool, log: Callable[[str], None]) -> None:
+    """Compare the run's ratios with the reference's (:mod:`.regression`), or, with
+    ``save``, make them the reference."""
+    from .regression import compare, quick_ratios, read_reference, verdict_lines, write_reference
+
+    ratios = quick_ratios(results)
+    if save:
+        write_reference(reference, ratios, {"command": results.command, **results.environment})
+        results.guard = [f"wrote {len(ratios)} ratios to {reference} as the reference"]
+    elif not reference.exists():
+        results.guard = [f"no reference at {reference}: nothing compared"]
+    else:
+        results.guard = verdict_lines(compare(ratios, read_reference(reference)))
+    for line in results.guard:
+        log(f"guard: {line}")
+
+
 def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
                                         "bounce", "checks", "profiles"),
-              bar: Optional[BarFactory] = None) -> Results:
+              bar: Optional[BarFactory] = None, reference: Optional[Path] = None,
+              save_reference: bool = False) -> Results:
+    """The run of ``mode_name`` (see the module); with ``reference`` (a file of
+    :mod:`.regression`), its ratios against the reference's (``save_reference``: written
+    there instead)."""
     from ..scene.load import shipped_scenes
     from .report import write_report
 
@@ -408,6 +433,8 @@ def run_bench(mode_name: str = "quick", out: Path = Path("docs/bench"),
     results.seconds = time.perf_counter() - started
     results.environment["load average at end"] = "{:.2f}, {:.2f}, {:.2f}".format(
         *os.getloadavg())
+    if reference is not None:
+        guard(results, Path(reference), save_reference, log)
     write_report(results, Path(out))
     log(f"wrote {out} in {results.seconds:.0f} s")
     return results
