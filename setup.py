@@ -14,7 +14,8 @@ from setuptools.command.build_ext import build_ext
 
 KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/forces.c", "src/kernel/steppers.c",
                   "src/kernel/manifold.c", "src/kernel/contact.c", "src/kernel/solver.c",
-                  "src/kernel/joint.c", "src/kernel/coupled.c", "src/kernel/wide.c"]
+                  "src/kernel/joint.c", "src/kernel/coupled.c", "src/kernel/wide.c",
+                  "src/kernel/bound.c"]
 KERNEL_HEADERS = ["src/kernel/kernel.h", "src/kernel/contact.h", "src/kernel/joint.h",
                   "src/kernel/coupled.h", "src/kernel/rows.h", "src/kernel/wide.h"]
 

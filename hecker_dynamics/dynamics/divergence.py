@@ -1,207 +1,532 @@
-"""A bound on the energy a scene can reach, to tell a blown-up state from motion.
+"""Bounds on the energy each part of a scene can reach, to tell a blown-up state from motion.
 
-The energy of motion and of the springs, B = K + U_springs, changes only by the work of
-the forces (K's rates follow from the force by F = M a, Eq. 5, and from the torque by
-tau = I alpha, Eq. 14). Springs exchange energy with K and
-their dampers, drag, angular damping, walls and collisions (restitution at most 1) take
-it away; only gravity, constant forces and torques and inputs put work in. A force F on
-body i acting at a point r from its CM, with a torque tau, does work at the rate
-F . v_i + (r x F + tau) omega_i <= (|F| sqrt(2 / m_i) + (|r| |F| + |tau|) sqrt(2 / I_i))
-sqrt(B), since K_i = m_i |v_i|^2 / 2 + I_i omega_i^2 / 2 <= B. With c the sum of those
-coefficients, dB/dt <= c sqrt(B), so sqrt(B(t)) <= sqrt(B(0)) + int c dt / 2: from rest
-under a constant force, with equality.
+**Units.** Bodies pass energy to each other only through what joins them: a spring
+between two bodies, a joint (a gear joins the bodies of its two pins), and contacts
+between the bodies of a collision group. The scene's bodies fall into *units*, the
+connected groups of that graph (walls and joints to the fixed frame join nothing); a
+body alone is a unit of its own. No energy crosses from one unit to another, so each is
+bounded by itself, and a heavy body in one unit cannot hide a light body's blow-up in
+another.
 
-:class:`EnergyBound` keeps that budget as the simulation runs (c from the state at each
-check, the largest input set since the last one) and refuses a state whose B exceeds
-:data:`GROWTH` times the bound's square, and the floor of every body moving at 1 m/s and
-turning at 1 rad/s (ROS units are SI, REP 103): integration error of the explicit
-methods grows energy, by far less than that on any scene they are stable on.
+**The bound of a unit.** Its energy of motion and of its springs, B = K + U_springs,
+changes only by the work of the forces (K's rates follow from the force by F = M a,
+Eq. 5, and from the torque by tau = I alpha, Eq. 14). Springs, joints' springs and soft
+welds exchange energy with K, and dampers, drag, angular damping, limits, walls and
+collisions (restitution at most 1) take it away; rigid joints do no work. Work comes in
+from two kinds of source:
+
+- gravity, constant forces and torques and inputs: a force F on body i acting at a point
+  r from its CM, with a torque tau, works at the rate
+  F . v_i + (r x F + tau) omega_i <= (|F| sqrt(2 / m_i) + (|r| |F| + |tau|) sqrt(2 / I_i))
+  sqrt(B), since K_i = m_i |v_i|^2 / 2 + I_i omega_i^2 / 2 <= B. With c the sum of those
+  coefficients over the unit's bodies, dB/dt <= c sqrt(B);
+- joint motors: a motor holds its joint's speed at its target s with at most its
+  largest torque or force tau_max, which pushes toward s: its power tau omega_joint is
+  at most tau_max |s| (it is negative whenever the joint turns the other way or faster
+  than s). With P the sum over the unit's motors, dB/dt <= c sqrt(B) + P.
+
+So sqrt(B(t)) <= R(t) + sqrt(W(t)), with R(t) = sqrt(B(0)) + int c dt / 2 and
+W(t) = int P dt: the right side squared, G, grows by dG/dt >= c sqrt(G) + P. From rest
+under a constant force, R is met with equality. The potential energy of joints' springs
+and soft welds is not in B (it is never negative, so leaving it out only lowers B); what
+they hold at the start, a wound rotary spring's, joins B(0).
+
+:class:`EnergyBound` keeps R and W per unit as the simulation runs (c from the state at
+each check, the largest input set since the last one; P from the motors' target speeds
+at the last check and now) and at each check refuses a unit whose B exceeds :data:`GROWTH`
+times G, leaving out of B each body's kinetic energy up to its *floor*, that of moving at
+1 m/s and turning at 1 rad/s (ROS units are SI, REP 103): slow motion is never a
+blow-up, and a floor per body lets no heavy body's floor cover a light one. Integration
+error of the explicit methods grows energy, by far less than that factor on any run
+they are stable on.
+
+The checks are plain float arithmetic, O(bodies + springs), in the compiled kernel
+(``src/kernel/bound.c``) where it is on and in :meth:`EnergyBound._check_python`
+otherwise, with the same operations in the same order: the same bits, so the same
+verdict either way.
 """
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Optional
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
 from . import kernel
+from ..contact.joints import SOFT, GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
 from .forces import (AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm,
-                     ScalarKinematics)
+                     ScalarKinematics, spring_energy_scalar)
+from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE
+from ..scene.load import SpringSpec
 
 if TYPE_CHECKING:
     from .model import Model
+    from ..scene.load import Scene
 
-__all__ = ["GROWTH", "STEP_GROWTH", "EnergyBound"]
+__all__ = ["GROWTH", "STEP_GROWTH", "FLOOR_SPEED", "energy_units", "EnergyBound"]
 
-#: How many times the bound's energy a state may reach before it counts as blown up.
+#: How many times its bound's energy a unit may reach before it counts as blown up.
 GROWTH = 1000.0
 #: How many times the bound's energy one implicit step may reach (:meth:`step_ok`): a
 #: resolved implicit midpoint step keeps it (1.7 at most over test_stability's stiffest
 #: run, omega h = 100); Newton iterations that land on a wrong root give 4 to 60.
 STEP_GROWTH = 2.0
+#: The floor's speed (m/s) and turning rate (rad/s): kinetic energy below that of a body
+#: moving this fast is left out of the check.
+FLOOR_SPEED = 1.0
+
+# The rows of the budget array, one column per unit (``src/kernel/bound.c`` reads the same).
+ROOT, WORK, RATE, INPUT_RATE, POWER, ENERGY, EXCESS, LIMIT = range(8)
+BUDGET_ROWS = 8
+
+
+def energy_units(scene: Scene) -> list[int]:
+    """The unit of each body of ``scene`` (see the module): bodies joined by a spring
+    between them, a joint or a collision group share one. Units are numbered in the
+    order of their first body."""
+    index = {body.name: i for i, body in enumerate(scene.bodies)}
+    parent = list(range(len(index)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def join(names: Iterable[Optional[str]]) -> None:
+        members = [root(index[name]) for name in names if name is not None]
+        for other in members[1:]:
+            a, b = sorted((members[0], other))
+            parent[b] = a
+            members[0] = a
+
+    pins = {spec.name: (spec.body_a, spec.body_b) for spec in scene.joints
+            if isinstance(spec, JointEnds)}
+    for spec in scene.joints:
+        if isinstance(spec, GearJoint):  # the bodies of both its pins
+            join((*pins[spec.joint_a], *pins[spec.joint_b]))
+        else:
+            join(pins[spec.name])
+    for force in scene.forces:
+        if isinstance(force, SpringSpec) and force.body_b is not None:
+            join((force.body_a, force.body_b))
+    for group in scene.collisions:
+        join(group.bodies)
+    numbers: dict[int, int] = {}
+    return [numbers.setdefault(root(i), len(numbers)) for i in range(len(index))]
 
 
 class EnergyBound:
-    """The running bound of B = K + U_springs for one simulation (see the module)."""
+    """The running bound of each unit's B = K + U_springs for one simulation (see the
+    module)."""
 
     def __init__(self, model: Model, q: np.ndarray, v: np.ndarray) -> None:
         self.model = model
-        self._root_inverse_mass = np.sqrt(2.0 / model.mass)
-        self._root_inverse_inertia = np.sqrt(2.0 / model.inertia)
-        self.floor = 0.5 * float(np.sum(model.mass) + np.sum(model.inertia))
-        self._springs = [term for term in model.terms
-                         if isinstance(term, (AnchorSpringTerm, BodySpringTerm))]
-        self._wrenches = [term for term in model.terms if isinstance(term, ConstantWrenchTerm)]
-        with np.errstate(all="ignore"):  # gravity's rate does not depend on the state
-            self._gravity_rate = sum(
-                float(np.sum(np.hypot(term.weights[:, 0], term.weights[:, 1])
-                             * self._root_inverse_mass[term.bodies]))
-                for term in model.terms if isinstance(term, GravityTerm))
-        # Up to Model.lean's size the checks run in plain floats, as the forces do: numpy's
-        # per-call cost would be most of a small scene's work at each publish instant.
-        self._lean = model.lean
+        #: The unit of each body, and the bodies of each unit.
+        self.units = energy_units(model.scene)
+        self.members: list[list[int]] = [[] for _ in range(max(self.units, default=-1) + 1)]
+        for body, unit in enumerate(self.units):
+            self.members[unit].append(body)
+        count = len(self.members)
         self._mass, self._inertia = model.mass.tolist(), model.inertia.tolist()
+        floor = [0.5 * (m + i) * FLOOR_SPEED * FLOOR_SPEED
+                 for m, i in zip(self._mass, self._inertia)]
+        self._floor = floor
+        self._roots = [(math.sqrt(2.0 / m), math.sqrt(2.0 / i))
+                       for m, i in zip(self._mass, self._inertia)]
+        springs = [term for term in model.terms
+                   if isinstance(term, (AnchorSpringTerm, BodySpringTerm))]
+        self._springs = _spring_rows(springs)
+        # Python sums in plain floats up to Model.lean's size, as the forces do.
+        self._lean = model.lean
+        if not self._lean:  # the same as arrays, for numpy
+            self._arrays = (model.mass, model.inertia, np.array(floor))
+            a, la, b, lb, k, rest = zip(*self._springs) if springs else ((),) * 6
+            self._spring_columns = (np.array(a, dtype=int), np.array(la).reshape(-1, 2),
+                                    np.array(b, dtype=int), np.array(lb).reshape(-1, 2),
+                                    np.array(k), np.array(rest))
+            self._spring_units = np.array([self.units[i] for i in a], dtype=int)
         self._compiled = kernel.enabled()
-        self._roots = list(zip(self._root_inverse_mass.tolist(),
-                               self._root_inverse_inertia.tolist()))
-        self._root = math.sqrt(max(self.energy(q, v), 0.0))
-        self._rate = self.rate(q, model.inputs)
-        self._input_rate = 0.0
-        #: The largest B / limit seen, for tests and reports.
-        self.worst_ratio = 0.0
-
-    def energy(self, q: np.ndarray, v: np.ndarray) -> float:
-        """B: kinetic energy plus the springs' potential energy (inf where it overflows)."""
-        if self._compiled and not self._lean:
-            # The kernel's sum body by body costs a fraction of numpy's per publish
-            # instant; above the lean size Python's numpy sum agrees with it to rounding,
-            # as the forces do. Without springs nothing here needs numpy's error state,
-            # whose setting cost most of a small scene's check.
-            if not self._springs:
-                return self._kinetic(v)
-            with np.errstate(all="ignore"):
-                return self._kinetic(v) + sum(term.potential(q) for term in self._springs)
-        if self._lean:
-            half = self._kinetic(v)
-            if not self._springs:
-                return half
-            compiled = self.model.compiled
-            if self._compiled and compiled is not None:
-                # The same sum in the kernel: at each publish instant, a ring of 10 springs
-                # spent 50 us of the running node's tick in the plain-float loop.
-                return half + kernel.spring_potential(compiled, np.ascontiguousarray(q))
-            state = ScalarKinematics.of(q.tolist(), [], True)
-            return half + sum(term.potential_scalar(state) for term in self._springs)
-        model = self.model
-        with np.errstate(all="ignore"):
-            kinetic = 0.5 * float(np.sum(model.mass * (v[:, 0] ** 2 + v[:, 1] ** 2))
-                                  + np.sum(model.inertia * v[:, 2] ** 2))
-            return kinetic + sum(term.potential(q) for term in self._springs)
-
-    def _kinetic(self, v: np.ndarray) -> float:
-        """K in plain floats, body by body (the kernel's loop where it is on: the same
-        operations in the same order, so the same bits at a fraction of the cost per
-        publish instant)."""
         if self._compiled:
-            return kernel.kinetic(np.ascontiguousarray(v), self.model.mass, self.model.inertia)
-        kinetic = 0.0
-        for (vx, vy, omega), m, i in zip(v.tolist(), self._mass, self._inertia):
-            kinetic += m * (vx * vx + vy * vy) + i * (omega * omega)
-        return 0.5 * kinetic
+            self._statics = np.ascontiguousarray([self._mass, self._inertia, floor], dtype=float)
+            self._unit_array = np.array(self.units, dtype=np.int64)
+            self._program = (kernel.CompiledForces(model.inverse_mass, springs).program
+                             if springs else None)
+        # The budget: rows ROOT ... LIMIT of a value per unit (see the module), an array
+        # for the kernel, else lists, whose floats Python reads cheaply.
+        self._budget: Any = (np.zeros((BUDGET_ROWS, count)) if self._compiled
+                             else [[0.0] * count for _ in range(BUDGET_ROWS)])
+        self._wrenches = [term for term in model.terms if isinstance(term, ConstantWrenchTerm)]
+        self._steady = [0.0] * count  # the rate of gravity, which does not depend on the state
+        for term in model.terms:
+            if isinstance(term, GravityTerm):
+                for body, (wx, wy) in zip(term.bodies.tolist(), term.weights.tolist()):
+                    self._steady[self.units[body]] += math.hypot(wx, wy) * self._roots[body][0]
+        joints = model.joints
+        self._joints = joints
+        #: (unit, largest effort, joint name) of each motor.
+        self._motors: list[tuple[int, float, str]] = []
+        if joints is not None:
+            index = model.index
+            for spec in model.scene.joints:
+                if isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor is not None:
+                    self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
+                                         spec.name))
+        self._speeds: dict[str, float] = {}
+        self._inputs_set = self._motors_moved = self._stale = False
+        #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
+        self.worst_ratio = 0.0
+        #: The bodies of the unit a failed check refused.
+        self.over: tuple[int, ...] = ()
+        energy = self._energies(q, v)
+        joint = self._joint_potentials(q)
+        self._set(ROOT, [math.sqrt(max(e + j, 0.0)) for e, j in zip(energy, joint)])
+        self._refresh(q)
 
-    def _wrench_rate(self, term: ConstantWrenchTerm, q: np.ndarray) -> float:
-        if self._lean:
-            return self._wrench_rate_scalar(term, q.tolist())
-        force = np.hypot(term.force[:, 0], term.force[:, 1])
-        target = q[term.body, :2]
-        owner = np.where(term.point_body >= 0, term.point_body, 0)
-        # The point is relative to its owner's CM, or fixed-frame coordinates (owner -1).
-        origin = np.where((term.point_body >= 0)[:, None], q[owner, :2], 0.0)
-        lever = np.where(term.at_point, np.hypot(*(origin - target).T) +
-                         np.hypot(term.point[:, 0], term.point[:, 1]), 0.0)
-        return float(np.sum(force * self._root_inverse_mass[term.body]
-                            + (lever * force + np.abs(term.torque))
-                            * self._root_inverse_inertia[term.body]))
+    # ------------------------------------------------------------------ sums
 
-    def rate(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
-        """c: the coefficient of sqrt(B) in the rate of work of gravity, the constant
-        wrenches and ``inputs`` at positions ``q``."""
-        if self._lean or (not self._wrenches and inputs is None):
-            return self._rate_of(q, inputs)
+    def _energies(self, q: np.ndarray, v: np.ndarray) -> list[float]:
+        """B of each unit at (q, v) (inf where it overflows), with each unit's excess over
+        the bodies' floors, into the budget's ENERGY and EXCESS rows."""
+        if self._compiled:
+            kernel.unit_energy(self._program, np.ascontiguousarray(q),
+                               np.ascontiguousarray(v), self._statics, self._unit_array,
+                               self._budget)
+        else:
+            energy, excess = self._sums(q, v)
+            self._set(ENERGY, energy)
+            self._set(EXCESS, excess)
+        return self.row(ENERGY)
+
+    def _sums(self, q: np.ndarray, v: np.ndarray) -> tuple[list[float], list[float]]:
+        """Each unit's B and excess in Python, body by body and then spring by spring, as
+        ``hd_unit_energy`` adds them: in plain floats up to Model.lean's size, above it
+        with numpy's elementwise operations and in-order ``np.add.at`` (the same
+        operations in the same order, so the same bits)."""
+        if not self._lean:
+            return self._sums_arrays(q, v)
+        count = len(self.members)
+        energy, excess = [0.0] * count, [0.0] * count
+        for unit, (vx, vy, omega), m, i, floor in zip(self.units, v.tolist(), self._mass,
+                                                      self._inertia, self._floor):
+            kinetic = 0.5 * (m * (vx * vx + vy * vy) + i * (omega * omega))
+            energy[unit] += kinetic
+            excess[unit] += kinetic - floor if not kinetic <= floor else 0.0
+        if self._springs:
+            rows = q.tolist()
+            state = ScalarKinematics.of(rows, [], True)
+            for a, (lax, lay), b, (lbx, lby), k, rest in self._springs:
+                rax, ray = state.offset(a, lax, lay)
+                if b < 0:  # an anchor: (lbx, lby) in the fixed frame
+                    dx, dy = rows[a][0] + rax - lbx, rows[a][1] + ray - lby
+                else:
+                    rbx, rby = state.offset(b, lbx, lby)
+                    dx = rows[a][0] + rax - rows[b][0] - rbx
+                    dy = rows[a][1] + ray - rows[b][1] - rby
+                spring = spring_energy_scalar(dx, dy, k, rest)
+                energy[self.units[a]] += spring
+                excess[self.units[a]] += spring
+        return energy, excess
+
+    def _sums_arrays(self, q: np.ndarray, v: np.ndarray) -> tuple[list[float], list[float]]:
+        """:meth:`_sums` with numpy, for many bodies."""
+        count = len(self.members)
+        energy, excess = np.zeros(count), np.zeros(count)
+        mass, inertia, floor = self._arrays
         with np.errstate(all="ignore"):
-            return self._rate_of(q, inputs)
+            vx, vy, omega = v[:, 0], v[:, 1], v[:, 2]
+            kinetic = 0.5 * (mass * (vx * vx + vy * vy) + inertia * (omega * omega))
+            np.add.at(energy, self.units, kinetic)
+            np.add.at(excess, self.units, np.where(kinetic <= floor, 0.0, kinetic - floor))
+            if self._springs:
+                a, la, b, lb, k, rest = self._spring_columns
+                cos, sin = np.cos(q[:, 2]), np.sin(q[:, 2])
+                anchored, other = b < 0, np.maximum(b, 0)
+                rax, ray = _turned(cos[a], sin[a], la)
+                rbx, rby = _turned(cos[other], sin[other], lb)
+                dx = np.where(anchored, q[a, 0] + rax - lb[:, 0],
+                              q[a, 0] + rax - q[other, 0] - rbx)
+                dy = np.where(anchored, q[a, 1] + ray - lb[:, 1],
+                              q[a, 1] + ray - q[other, 1] - rby)
+                square = dx * dx + dy * dy
+                length = np.where((square >= SMALLEST_SQUARE) & (square <= LARGEST_SQUARE),
+                                  np.sqrt(square), np.hypot(dx, dy))
+                stretch = length - rest
+                spring = 0.5 * k * (stretch * stretch)
+                np.add.at(energy, self._spring_units, spring)
+                np.add.at(excess, self._spring_units, spring)
+        return energy.tolist(), excess.tolist()
 
-    def _wrench_rate_scalar(self, term: ConstantWrenchTerm, q: list[list[float]]) -> float:
-        """:meth:`_wrench_rate` in plain floats, row by row."""
-        total = 0.0
-        for body, (fx, fy), torque, _, owner, (px, py), at_point in term.rows:
-            force = math.hypot(fx, fy)
-            root_mass, root_inertia = self._roots[body]
-            lever = 0.0
-            if at_point:
-                ox, oy = (q[owner][0], q[owner][1]) if owner >= 0 else (0.0, 0.0)
-                lever = math.hypot(ox - q[body][0], oy - q[body][1]) + math.hypot(px, py)
-            total += force * root_mass + (lever * force + abs(torque)) * root_inertia
-        return total
+    def _joint_potentials(self, q: np.ndarray) -> list[float]:
+        """The potential energy of each unit's joint springs and soft welds at ``q``:
+        k c^2 / 2 per soft row, k per unit effective mass for a weld's rows."""
+        potentials = [0.0] * len(self.members)
+        joints = self._joints
+        if joints is None or SOFT not in joints.kinds:
+            return potentials
+        inverse = joints.inverse_mass
+        bodies = joints.bodies.tolist()
+        for row in joints.rows(q[joints.bodies].reshape(-1).tolist(), 1.0):
+            if row.kind != SOFT:
+                continue
+            stiffness = row.stiffness
+            if row.scaled:
+                mobility = sum((jx * jx + jy * jy) * inverse[3 * b] + jw * jw * inverse[3 * b + 2]
+                               for b, jx, jy, jw in row.entries)
+                stiffness = stiffness / mobility if mobility > 0.0 else 0.0
+            potentials[self.units[bodies[row.entries[0][0]]]] += 0.5 * stiffness * row.c * row.c
+        return potentials
 
-    def _rate_of(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> float:
-        total = self._gravity_rate
-        for term in self._wrenches:
-            total += self._wrench_rate(term, q)
-        return total + (self._wrench_rate(inputs, q) if inputs is not None else 0.0)
+    # ------------------------------------------------------------------ rates
+
+    def _unit_rates(self, q: np.ndarray, terms: Sequence[ConstantWrenchTerm]) -> list[float]:
+        """c of each unit: the coefficient of sqrt(B) in the rate of work of ``terms`` at
+        positions ``q`` (see the module)."""
+        rates = [0.0] * len(self.members)
+        rows = q.tolist()
+        for term in terms:
+            for body, (fx, fy), torque, _, owner, (px, py), at_point in term.rows:
+                force = math.hypot(fx, fy)
+                root_mass, root_inertia = self._roots[body]
+                lever = 0.0
+                if at_point:
+                    # The point is relative to its owner's CM, or in fixed-frame
+                    # coordinates (owner -1); r is at most the sum of the two distances.
+                    ox, oy = (rows[owner][0], rows[owner][1]) if owner >= 0 else (0.0, 0.0)
+                    lever = math.hypot(ox - rows[body][0], oy - rows[body][1]) + math.hypot(px, py)
+                rates[self.units[body]] += (force * root_mass
+                                            + (lever * force + abs(torque)) * root_inertia)
+        return rates
+
+    def _refresh(self, q: np.ndarray) -> None:
+        """Take the rates of work from the state ``q`` and the inputs and motors now."""
+        terms = self._wrenches if self.model.inputs is None else [*self._wrenches,
+                                                                  self.model.inputs]
+        with np.errstate(all="ignore"):
+            rates = self._unit_rates(q, terms) if terms else [0.0] * len(self.members)
+        self._set(RATE, [steady + rate for steady, rate in zip(self._steady, rates)])
+        self._set(INPUT_RATE, [0.0] * len(rates))
+        self._inputs_set = self._motors_moved = False
+        self._stale = bool(terms)  # to take again, if only to drop inputs that ended
+        if self._motors:
+            self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
+            self._set(POWER, self._powers(self._speeds))
+
+    def _powers(self, speeds: dict[str, float]) -> list[float]:
+        """P of each unit: the motors' largest power, effort times target speed."""
+        powers = [0.0] * len(self.members)
+        for unit, effort, name in self._motors:
+            powers[unit] += effort * abs(speeds[name])
+        return powers
 
     def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:
         """Count the rate of a new input set until the next check."""
         if inputs is not None:
             with np.errstate(all="ignore"):
-                self._input_rate = max(self._input_rate, self._wrench_rate(inputs, q))
+                rates = self._unit_rates(q, (inputs,))
+            self._set(INPUT_RATE, list(map(max, self.row(INPUT_RATE), rates)))
+            self._inputs_set = True
+
+    def _motors_changed(self) -> None:
+        """A motor's target speed changed since the last check: the interval counts the
+        larger power of the two."""
+        speeds = self._joints.motor_speed  # type: ignore[union-attr]
+        if speeds != self._speeds:
+            self._set(POWER, list(map(max, self.row(POWER), self._powers(speeds))))
+            self._speeds = dict(speeds)
+            self._motors_moved = True
+
+    # ------------------------------------------------------------------ checks
+
+    def _check(self, q: np.ndarray, v: np.ndarray, seconds: float) -> float:
+        """Advance every unit's budget by ``seconds``, take its B and excess at (q, v) and
+        its limit; the largest ratio of excess to limit (inf for a state that is not
+        finite)."""
+        if self._motors:
+            self._motors_changed()
+        if self._compiled:
+            return kernel.bound_check(self._program, np.ascontiguousarray(q),
+                                      np.ascontiguousarray(v), self._statics,
+                                      self._unit_array, self._budget, seconds, GROWTH)
+        return self._check_python(q, v, seconds)
+
+    def _check_python(self, q: np.ndarray, v: np.ndarray, seconds: float) -> float:
+        """:meth:`_check` in Python: ``hd_bound_check``'s operations in its order."""
+        budget = self._budget
+        budget[ENERGY], budget[EXCESS] = energy, excess = self._sums(q, v)
+        root, work, limits = budget[ROOT], budget[WORK], budget[LIMIT]
+        worst = 0.0
+        for u, (rate, input_rate, power) in enumerate(zip(budget[RATE], budget[INPUT_RATE],
+                                                          budget[POWER])):
+            root[u] += 0.5 * seconds * (rate + input_rate)
+            work[u] += seconds * power
+            reach = root[u] + math.sqrt(work[u])
+            limits[u] = GROWTH * (reach * reach)
+            ratio = _over(energy[u], excess[u], limits[u])
+            worst = ratio if ratio > worst else worst
+        return worst
+
+    def check(self, q: np.ndarray, v: np.ndarray, seconds: float) -> Optional[str]:
+        """Advance the budgets by ``seconds`` and check the state (q, v): None if every
+        unit is within its bound, else why not (and :attr:`over` names the unit)."""
+        worst = self._check(q, v, seconds)
+        self.worst_ratio = max(self.worst_ratio, worst)
+        if not worst <= 1.0:
+            return self._problem()
+        # The rates follow the state where constant wrenches or inputs act.
+        if self._stale or self.model.inputs is not None or self._inputs_set or \
+                self._motors_moved:
+            self._refresh(q)
+        return None
+
+    def _problem(self) -> str:
+        """Why the last check failed, naming the first unit over its bound."""
+        energy, excess, limit = (self.row(row) for row in (ENERGY, EXCESS, LIMIT))
+        for unit, members in enumerate(self.members):
+            if _over(energy[unit], excess[unit], limit[unit]) <= 1.0:
+                continue
+            self.over = tuple(members)
+            joined = (f" (with {len(members) - 1} bodies joined to it)" if len(members) > 1
+                      else "")
+            return (f"the energy of motion and springs of {self.model.names[members[0]]}"
+                    f"{joined} grew to {energy[unit]:.3g} J, over {limit[unit]:.3g} J "
+                    f"({GROWTH:g} times what its initial energy and the work of gravity, "
+                    "constant forces, inputs and motors allow)")
+        raise AssertionError("a failed check names a unit")  # pragma: no cover
 
     def step_ok(self, q0: np.ndarray, v0: np.ndarray, q1: np.ndarray, v1: np.ndarray,
                 h: float) -> bool:
-        """Whether one integrator step from (q0, v0) to (q1, v1) keeps B within
-        :data:`STEP_GROWTH` times the bound over the step (an implicit method's check
-        of its root)."""
+        """Whether one integrator step from (q0, v0) to (q1, v1) keeps every unit's B
+        within :data:`STEP_GROWTH` times its bound over the step (an implicit method's
+        check of its root)."""
+        saved = self.row(ENERGY), self.row(EXCESS)  # a check's results, for its message
         with np.errstate(all="ignore"):
-            root = math.sqrt(max(self.energy(q0, v0), 0.0)) + \
-                0.5 * h * self.rate(q0, self.model.inputs)
-            return bool(self.energy(q1, v1) <= STEP_GROWTH * root * root + 1e-12 * self.floor)
+            before = self._energies(q0, v0)
+            inputs = () if self.model.inputs is None else (self.model.inputs,)
+            rates = self._unit_rates(q0, [*self._wrenches, *inputs])
+            after = self._energies(q1, v1)
+        self._set(ENERGY, saved[0])
+        self._set(EXCESS, saved[1])
+        for unit, members in enumerate(self.members):
+            root = math.sqrt(max(before[unit], 0.0)) + 0.5 * h * (self._steady[unit] + rates[unit])
+            floor = sum(self._floor[body] for body in members)
+            if not after[unit] <= STEP_GROWTH * root * root + 1e-12 * floor:
+                return False
+        return True
 
-    def moved(self, q: np.ndarray, v: np.ndarray, seconds: float) -> None:
-        """A body was set to a new state (q, v) from outside, ``seconds`` after the last
-        check: the budget is advanced as a check would, and the new energy joins it, so
-        only growth beyond it counts."""
-        self._root += 0.5 * seconds * (self._rate + self._input_rate)
+    def moved(self, q: np.ndarray, v: np.ndarray, seconds: float,
+              bodies: Optional[Iterable[int]] = None) -> None:
+        """Bodies (``bodies``, default all) were set to a new state (q, v) from outside,
+        ``seconds`` after the last check: the budgets are advanced as a check would, and
+        the new energy of their units joins them, so only growth beyond it counts."""
         with np.errstate(all="ignore"):
-            self._root = max(self._root, math.sqrt(max(self.energy(q, v), 0.0)))
-        self._rate = self.rate(q, self.model.inputs)
-        self._input_rate = 0.0
+            self._check(q, v, seconds)
+            energy = self.row(ENERGY)
+            joint = self._joint_potentials(q)
+        units = (range(len(self.members)) if bodies is None
+                 else sorted({self.units[body] for body in bodies}))
+        root = self.row(ROOT)
+        for unit in units:
+            root[unit] = max(root[unit], math.sqrt(max(energy[unit] + joint[unit], 0.0)))
+        self._set(ROOT, root)
+        self._refresh(q)
 
-    def export_state(self) -> dict[str, float]:
-        """The running budget, as plain floats (exact), for :meth:`import_state`."""
-        return {"root": self._root, "rate": self._rate, "input_rate": self._input_rate,
-                "worst_ratio": self.worst_ratio}
+    def limits(self) -> list[float]:
+        """The largest B, less the floors, that each unit may have now."""
+        return [GROWTH * (reach * reach)
+                for reach in (root + math.sqrt(work)
+                              for root, work in zip(self.row(ROOT), self.row(WORK)))]
 
-    def import_state(self, state: dict[str, float]) -> None:
-        """Continue from :meth:`export_state`'s budget (of a bound of the same scene)."""
-        self._root, self._rate = float(state["root"]), float(state["rate"])
-        self._input_rate = float(state["input_rate"])
+    def row(self, row: int) -> list[float]:
+        """Row ``row`` of the budget (ROOT ... LIMIT), a value per unit."""
+        return self._budget[row].tolist() if self._compiled else list(self._budget[row])
+
+    def _set(self, row: int, values: list[float]) -> None:
+        """Make row ``row`` of the budget ``values`` (a list the caller gives up)."""
+        self._budget[row] = values
+
+    # ------------------------------------------------------------------ state
+
+    def export_state(self) -> dict[str, Any]:
+        """The running budgets, as plain floats (exact), for :meth:`import_state`, with
+        the unit of each body (for :meth:`carried`)."""
+        return {"units": list(self.units), "root": self.row(ROOT), "work": self.row(WORK),
+                "rate": self.row(RATE), "input_rate": self.row(INPUT_RATE),
+                "power": self.row(POWER),
+                "speeds": dict(self._speeds), "worst_ratio": self.worst_ratio}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`export_state`'s budgets. A budget of other units (another
+        world's, or one kept as one number for the whole scene) is pooled: every unit
+        gets the whole of it, which no unit's energy can exceed."""
+        count = len(self.members)
+        pooled = state.get("units") != self.units
+        for row, key in ((ROOT, "root"), (WORK, "work"), (RATE, "rate"),
+                         (INPUT_RATE, "input_rate"), (POWER, "power")):
+            saved = state.get(key, 0.0)
+            values = [float(x) for x in saved] if isinstance(saved, list) else [float(saved)]
+            if pooled:
+                whole = (math.sqrt(math.fsum(x * x for x in values)) if row == ROOT
+                         else math.fsum(values))
+                values = [whole] * count
+            self._set(row, values)
+        self._speeds = {str(k): float(x) for k, x in state.get("speeds", {}).items()}
+        if self._motors and not self._speeds:
+            self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
+            self._set(POWER, self._powers(self._speeds))
+        self._inputs_set = any(self.row(INPUT_RATE))
+        self._stale = True
         self.worst_ratio = float(state["worst_ratio"])
 
-    def limit(self) -> float:
-        """The largest B allowed now."""
-        return max(GROWTH * self._root ** 2, self.floor)
+    def carried(self, state: dict[str, Any], sources: Sequence[Optional[int]]) -> dict[str, Any]:
+        """:meth:`export_state`'s budgets of another world's bound, ``state``, carried onto
+        this bound's units: ``sources`` gives, for each of this world's bodies, its index
+        in the other world (None for a new body). A unit's budget is the sum of the
+        budgets of the units its bodies came from (sqrt of the sum of squares for R): what
+        they could hold together; a unit of new bodies only keeps its own."""
+        carried = self.export_state()
+        old_units = state["units"]
+        for unit, members in enumerate(self.members):
+            came = sorted({old_units[i] for i in (sources[body] for body in members)
+                           if i is not None})
+            if came:
+                carried["root"][unit] = math.sqrt(sum(state["root"][u] ** 2 for u in came))
+                for key in ("work", "input_rate"):
+                    carried[key][unit] = math.fsum(state[key][u] for u in came)
+        carried["worst_ratio"] = state["worst_ratio"]
+        return carried
 
-    def check(self, q: np.ndarray, v: np.ndarray, seconds: float) -> Optional[str]:
-        """Advance the budget by ``seconds`` and check the state (q, v): None if it is
-        within the bound, else why not."""
-        self._root += 0.5 * seconds * (self._rate + self._input_rate)
-        energy = self.energy(q, v)
-        limit = self.limit()
-        self.worst_ratio = max(self.worst_ratio, energy / limit)
-        if not (energy <= limit and math.isfinite(energy)):
-            return (f"the energy of motion and springs grew to {energy:.3g} J, over "
-                    f"{limit:.3g} J ({GROWTH:g} times what the initial energy and the work "
-                    "of gravity, constant forces and inputs allow)")
-        self._rate = self.rate(q, self.model.inputs)
-        self._input_rate = 0.0
-        return None
+
+def _over(energy: float, excess: float, limit: float) -> float:
+    """How far a unit is over its limit: excess / limit, 0 without excess, inf for an
+    energy that is not finite or an excess over a limit of zero (``over`` in bound.c)."""
+    if not math.isfinite(energy):
+        return math.inf
+    if excess <= 0.0:
+        return 0.0
+    ratio = excess / limit if limit > 0.0 else math.inf
+    return math.inf if math.isnan(ratio) else ratio
+
+
+def _turned(cos: np.ndarray, sin: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, ...]:
+    """World offsets R(angle) l of the points ``local`` (ScalarKinematics.offset's
+    operations)."""
+    return cos * local[:, 0] - sin * local[:, 1], sin * local[:, 0] + cos * local[:, 1]
+
+
+def _spring_rows(springs: Sequence[AnchorSpringTerm | BodySpringTerm]) -> list[tuple]:
+    """Each spring as (body a, its point, body b or -1, its point or the anchor,
+    stiffness, rest length), in the terms' order and in each term's order."""
+    rows: list[tuple] = []
+    for term in springs:
+        stiffness, rest = term.law.stiffness.tolist(), term.law.rest_length.tolist()
+        if isinstance(term, AnchorSpringTerm):
+            ends = zip(term.body.tolist(), term.local.tolist(), [-1] * len(stiffness),
+                       term.anchor.tolist())
+        else:
+            ends = zip(term.body_a.tolist(), term.local_a.tolist(), term.body_b.tolist(),
+                       term.local_b.tolist())
+        rows += [(a, tuple(pa), b, tuple(pb), k, r)
+                 for (a, pa, b, pb), k, r in zip(ends, stiffness, rest)]
+    return rows

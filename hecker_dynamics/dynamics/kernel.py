@@ -2,8 +2,8 @@
 
 ``hecker_dynamics._kernel`` (sources in ``src/kernel/``) is built by pip when a C compiler
 and Python's headers are present, and always by colcon. It evaluates the same force terms
-as :mod:`.forces` (and the energy bound's sums of :mod:`.divergence`: kinetic energy and
-the springs' potential) and steps the explicit methods of :mod:`.integrators` (with the
+as :mod:`.forces` (and the energy bound's checks of :mod:`.divergence`, unit by unit of
+bodies) and steps the explicit methods of :mod:`.integrators` (with the
 joint pass of :mod:`..contact.joints_kernel` and the contact pass of
 :mod:`..contact.compiled` after each step in scenes with joints and contacts), repeating
 the plain-float path operation for operation: the accelerations and the fixed-step methods
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, NamedTuple, Optional
+from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
@@ -54,17 +54,21 @@ def enabled() -> bool:
     return built() and os.environ.get(SWITCH, "1") != "0"
 
 
-def kinetic(v: np.ndarray, mass: np.ndarray, inertia: np.ndarray) -> float:
-    """The kinetic energy of the velocities ``v`` (C-contiguous (N, 3)) in the kernel,
-    body by body as :class:`~.divergence.EnergyBound`'s plain-float loop sums it."""
-    return float(_kernel.kinetic(v, mass, inertia))
+def unit_energy(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
+                unit: np.ndarray, budget: np.ndarray) -> None:
+    """Each unit's energy and excess over the floors into rows ENERGY and EXCESS of the
+    energy bound's ``budget``, in the kernel, as :class:`~.divergence.EnergyBound`'s
+    plain-float loop sums them (``springs``: :attr:`CompiledForces.program` of the
+    springs, or None)."""
+    _kernel.bound(springs, q, v, statics, unit, budget)
 
 
-def spring_potential(forces: CompiledForces, q: np.ndarray) -> float:
-    """The springs' potential energy at ``q`` (C-contiguous (N, 3)) in the kernel, term by
-    term and spring by spring as :class:`~.divergence.EnergyBound`'s plain-float sum of
-    ``potential_scalar`` adds it."""
-    return float(_kernel.potential(forces.program, q))
+def bound_check(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
+                unit: np.ndarray, budget: np.ndarray, seconds: float, growth: float) -> float:
+    """One check of the energy bound in the kernel, as
+    :meth:`~.divergence.EnergyBound._check_python` does it: the largest ratio of a unit's
+    excess to its limit."""
+    return float(_kernel.bound(springs, q, v, statics, unit, budget, seconds, growth))
 
 
 Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h

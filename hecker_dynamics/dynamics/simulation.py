@@ -275,7 +275,7 @@ class Simulation:
         if self.model.joints is not None:  # the next step moves it back onto its joints
             self.model.joints.forget()
         # The new state is where a refused check returns to, its energy within the budget.
-        self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9)
+        self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9, (index,))
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
     def with_world(self, scene: Scene) -> Simulation:
@@ -327,7 +327,9 @@ class Simulation:
         # The new state is where a refused check returns to, as after a moved body.
         divergence = state["divergence"]
         divergence.update(checked_q=q, checked_v=v, checked_time_ns=self._time_ns,
-                          checked_steps=self._steps)
+                          checked_steps=self._steps,
+                          bound=sim._bound.carried(divergence["bound"],
+                                                   [old.get(name) for name in sim.model.names]))
         sim.import_state(state)
         sim._bound.moved(sim.q, sim.v, (self._time_ns - self._checked[2]) * 1e-9)
         return sim
@@ -557,8 +559,8 @@ class Simulation:
         if problem is not None:
             now = self._time_ns
             self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
-            names = ", ".join(self.model.names[:5]) + (", ..." if len(self.model.names) > 5
-                                                       else "")
+            over = [self.model.names[body] for body in self._bound.over]
+            names = ", ".join(over[:5]) + (", ..." if len(over) > 5 else "")
             self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
                             f"kept the state at t = {time_ns * 1e-9:.6f} s")
             raise DivergenceError(self._halted)

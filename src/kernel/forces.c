@@ -225,34 +225,34 @@ static double spring_energy(double dx, double dy, double k, double rest)
     return 0.5 * k * (stretch * stretch);
 }
 
-double hd_spring_potential(const hd_program *program, const double *q, hd_scratch *scratch)
+void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
+                              double *energy, double *excess, hd_scratch *scratch)
 {
     angles(q, program->bodies, scratch);
-    double springs = 0.0;
     for (long t = 0; t < program->term_count; ++t) {
         const hd_term *term = program->terms + t;
         if (term->kind != HD_ANCHOR_SPRING && term->kind != HD_BODY_SPRING)
             continue;
         const int ni = hd_int_columns(term->kind), nr = hd_real_columns(term->kind);
-        double total = 0.0;
         for (long e = 0; e < term->count; ++e) {
             const long *i = term->ints + ni * e;
             const double *r = term->reals + nr * e;
+            double spring;
             if (term->kind == HD_ANCHOR_SPRING) {
                 double rx, ry;
                 offset(scratch, i[0], r[0], r[1], &rx, &ry);
-                total += spring_energy(q[3 * i[0]] + rx - r[2], q[3 * i[0] + 1] + ry - r[3],
+                spring = spring_energy(q[3 * i[0]] + rx - r[2], q[3 * i[0] + 1] + ry - r[3],
                                        r[4], r[5]);
             } else {
                 const long a = i[0], b = i[1];
                 double rax, ray, rbx, rby;
                 offset(scratch, a, r[0], r[1], &rax, &ray);
                 offset(scratch, b, r[2], r[3], &rbx, &rby);
-                total += spring_energy(q[3 * a] + rax - q[3 * b] - rbx,
+                spring = spring_energy(q[3 * a] + rax - q[3 * b] - rbx,
                                        q[3 * a + 1] + ray - q[3 * b + 1] - rby, r[4], r[5]);
             }
+            energy[unit[i[0]]] += spring;
+            excess[unit[i[0]]] += spring;
         }
-        springs += total;
     }
-    return springs;
 }

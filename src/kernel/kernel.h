@@ -76,10 +76,34 @@ void hd_wrench(const hd_program *program, const hd_program *inputs, int oriented
 void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
                       const double *q, const double *v, double *out, hd_scratch *scratch);
 
-/* The springs' potential energy at q, sum k (|d| - L0)^2 / 2, term by term in the
- * program's order and spring by spring within each, as divergence.py's plain-float sum
- * of forces.py's `potential_scalar` adds it, so that the two give the same bits. */
-double hd_spring_potential(const hd_program *program, const double *q, hd_scratch *scratch);
+/* Each spring's potential energy at q, k (|d| - L0)^2 / 2, added to `energy` and `excess`
+ * at the unit of its first body (`unit`: one per body), term by term in the program's
+ * order and spring by spring within each, as divergence.py's plain-float loop adds them,
+ * so that the two give the same bits. */
+void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
+                              double *energy, double *excess, hd_scratch *scratch);
+
+/* The rows of the energy bound's budget (dynamics/divergence.py: ROOT ... LIMIT), each
+ * one value per unit. */
+enum hd_budget_row { HD_BUDGET_ROOT, HD_BUDGET_WORK, HD_BUDGET_RATE, HD_BUDGET_INPUT_RATE,
+                     HD_BUDGET_POWER, HD_BUDGET_ENERGY, HD_BUDGET_EXCESS, HD_BUDGET_LIMIT,
+                     HD_BUDGET_ROWS };
+
+/* Each unit's B = K + U_springs at (q, v) into the budget's ENERGY row, and B less each
+ * body's kinetic energy up to its floor into its EXCESS row. `statics`: the bodies'
+ * masses, then their moments of inertia, then their floors; `unit`: one per body, in
+ * [0, units); `springs` (NULL: none) the springs' program. */
+void hd_unit_energy(const hd_program *springs, const double *q, const double *v, long bodies,
+                    const double *statics, const long *unit, long units, double *budget,
+                    hd_scratch *scratch);
+
+/* One check of the energy bound (divergence.py: EnergyBound._check): each unit's budget
+ * advanced by `seconds` (ROOT by half the rates, WORK by the power), its energy, excess
+ * and limit, `growth` times (ROOT + sqrt(WORK))^2; returns the largest ratio of excess to
+ * limit (0 for none, inf for an energy that is not finite). */
+double hd_bound_check(const hd_program *springs, const double *q, const double *v,
+                      long bodies, const double *statics, const long *unit, long units,
+                      double *budget, double seconds, double growth, hd_scratch *scratch);
 
 /* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
  * `error` is error_rows x S. `needs_new_state`: the error estimate reads k_S, the slope

@@ -322,69 +322,107 @@ static PyObject *py_accelerations(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
-PyDoc_STRVAR(kinetic_doc,
-"kinetic(v, mass, inertia)\n\n"
-"The kinetic energy 1/2 sum m (vx^2 + vy^2) + I omega^2 of the velocities ``v`` (3 float64\n"
-"values per body), summed body by body in the order of divergence.py's plain-float loop,\n"
-"so that the two give the same bits; ``mass`` and ``inertia``: float64, one per body.");
+/* The arguments of bound: the springs' program (or None), q, v,
+ * the statics (masses, moments of inertia, floors), the unit of each body and the budget
+ * (writable), checked against each other. */
+typedef struct {
+    hd_program *springs;
+    Py_buffer views[5];  /* q, v, statics, unit, budget */
+    long bodies, units;
+} bound_args;
 
-static PyObject *py_kinetic(PyObject *self, PyObject *args)
+static void release_bound(bound_args *a, int count)
 {
-    PyObject *vo, *mo, *io;
-    if (!PyArg_ParseTuple(args, "OOO:kinetic", &vo, &mo, &io))
-        return NULL;
-    Py_buffer mv, iv, vv;
-    if (get_buffer(mo, &mv, "mass", 'd', -1, 0) < 0)
-        return NULL;
-    const Py_ssize_t n = mv.len / 8;
-    if (get_buffer(io, &iv, "inertia", 'd', n, 0) < 0) {
-        PyBuffer_Release(&mv);
-        return NULL;
-    }
-    if (get_buffer(vo, &vv, "v", 'd', 3 * n, 0) < 0) {
-        PyBuffer_Release(&mv);
-        PyBuffer_Release(&iv);
-        return NULL;
-    }
-    const double *m = mv.buf, *inertia = iv.buf, *v = vv.buf;
-    double kinetic = 0.0;
-    for (Py_ssize_t b = 0; b < n; ++b) {
-        const double vx = v[3 * b], vy = v[3 * b + 1], omega = v[3 * b + 2];
-        kinetic += m[b] * (vx * vx + vy * vy) + inertia[b] * (omega * omega);
-    }
-    PyBuffer_Release(&mv);
-    PyBuffer_Release(&iv);
-    PyBuffer_Release(&vv);
-    return PyFloat_FromDouble(0.5 * kinetic);
+    for (int k = 0; k < count; ++k)
+        PyBuffer_Release(a->views + k);
 }
 
-PyDoc_STRVAR(potential_doc,
-"potential(program, q)\n\n"
-"The potential energy of the springs of ``program`` at ``q`` (3 float64 values per body),\n"
-"summed in the order of divergence.py's plain-float sum, so that the two give the same\n"
-"bits.");
-
-static PyObject *py_potential(PyObject *self, PyObject *args)
+static int get_bound_args(bound_args *a, PyObject *springs, PyObject *const objects[5])
 {
-    PyObject *program, *qo;
-    hd_program *p, *in;
-    if (!PyArg_ParseTuple(args, "OO:potential", &program, &qo) ||
-        get_programs(program, Py_None, &p, &in) < 0)
-        return NULL;
-    Py_buffer qv;
-    if (get_buffer(qo, &qv, "q", 'd', 3 * p->bodies, 0) < 0)
-        return NULL;
-    double *memory = malloc((size_t)(2 * p->bodies + 1) * sizeof(double));
-    double springs = 0.0;
-    if (memory != NULL) {
-        hd_scratch scratch = {memory, memory + p->bodies, NULL};
-        springs = hd_spring_potential(p, qv.buf, &scratch);
-        free(memory);
+    a->springs = NULL;
+    if (springs != Py_None && (a->springs = PyCapsule_GetPointer(springs, PROGRAM)) == NULL)
+        return -1;
+    static const char *names[5] = {"q", "v", "statics", "unit", "budget"};
+    int k = 0;
+    for (; k < 5; ++k)
+        if (get_buffer(objects[k], a->views + k, names[k], k == 3 ? 'q' : 'd', -1, k == 4) < 0)
+            break;
+    if (k < 5) {
+        release_bound(a, k);
+        return -1;
     }
-    PyBuffer_Release(&qv);
-    if (memory == NULL)
-        return PyErr_NoMemory();
-    return PyFloat_FromDouble(springs);
+    a->bodies = (long)(a->views[3].len / 8);
+    a->units = (long)(a->views[4].len / 8 / HD_BUDGET_ROWS);
+    const char *wrong = NULL;
+    if (a->views[0].len != 24 * a->bodies || a->views[1].len != 24 * a->bodies)
+        wrong = "q and v need 3 values per body";
+    else if (a->views[2].len != 24 * a->bodies)
+        wrong = "statics: 3 values per body are needed";
+    else if (a->views[4].len != 8 * HD_BUDGET_ROWS * a->units)
+        wrong = "budget: a whole number of columns of the budget's rows is needed";
+    else if (a->springs != NULL && a->springs->bodies != a->bodies)
+        wrong = "springs: a program for other bodies";
+    const long *unit = a->views[3].buf;
+    for (long b = 0; wrong == NULL && b < a->bodies; ++b)
+        if (unit[b] < 0 || unit[b] >= a->units)
+            wrong = "unit: a unit index is out of range";
+    if (wrong != NULL) {
+        PyErr_SetString(PyExc_ValueError, wrong);
+        release_bound(a, 5);
+        return -1;
+    }
+    return 0;
+}
+
+/* Run the check (check != 0) or only the energies; -1 with an exception set. */
+static int run_bound(bound_args *a, int check, double seconds, double growth, double *worst)
+{
+    double *memory = malloc((size_t)(2 * a->bodies + 1) * sizeof(double));
+    if (memory == NULL) {
+        release_bound(a, 5);
+        PyErr_NoMemory();
+        return -1;
+    }
+    hd_scratch scratch = {memory, memory + a->bodies, NULL};
+    const double *q = a->views[0].buf, *v = a->views[1].buf, *statics = a->views[2].buf;
+    const long *unit = a->views[3].buf;
+    double *budget = a->views[4].buf;
+    if (check)
+        *worst = hd_bound_check(a->springs, q, v, a->bodies, statics, unit, a->units, budget,
+                                seconds, growth, &scratch);
+    else
+        hd_unit_energy(a->springs, q, v, a->bodies, statics, unit, a->units, budget, &scratch);
+    free(memory);
+    release_bound(a, 5);
+    return 0;
+}
+
+PyDoc_STRVAR(bound_doc,
+"bound(springs, q, v, statics, unit, budget[, seconds, growth]) -> float or None\n\n"
+"The energy bound (divergence.py, with the same bits). Without ``seconds``: each unit's\n"
+"energy of motion and springs at (q, v) into row ENERGY of ``budget`` and its excess over\n"
+"the bodies' floors into row EXCESS (`_sums`). With them: one check (`_check_python`),\n"
+"the budget advanced by ``seconds`` and the limits ``growth`` times its square; returns\n"
+"the largest ratio of a unit's excess to its limit. ``springs``: a program of the\n"
+"springs, or None; ``statics``: masses, moments of inertia and floors, one per body\n"
+"each; ``unit``: int64, one per body; ``budget``: float64, writable, 8 rows of one value\n"
+"per unit.");
+
+static PyObject *py_bound(PyObject *self, PyObject *args)
+{
+    PyObject *springs, *objects[5], *seconds = NULL;
+    double growth = 0.0, worst = 0.0;
+    bound_args a;
+    if (!PyArg_ParseTuple(args, "OOOOOO|Od:bound", &springs, objects, objects + 1,
+                          objects + 2, objects + 3, objects + 4, &seconds, &growth))
+        return NULL;
+    const double interval = seconds == NULL ? 0.0 : PyFloat_AsDouble(seconds);
+    if ((seconds != NULL && PyErr_Occurred()) || get_bound_args(&a, springs, objects) < 0 ||
+        run_bound(&a, seconds != NULL, interval, growth, &worst) < 0)
+        return NULL;
+    if (seconds == NULL)
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble(worst);
 }
 
 /* The writable buffers of a state (q, v) of `n3` values each, or -1 with an exception set
@@ -1112,8 +1150,7 @@ static PyMethodDef methods[] = {
     {"stepper", py_stepper, METH_VARARGS, stepper_doc},
     {"step", (PyCFunction)(void (*)(void))py_step, METH_FASTCALL, step_doc},
     {"failed_state", py_failed_state, METH_VARARGS, failed_state_doc},
-    {"kinetic", py_kinetic, METH_VARARGS, kinetic_doc},
-    {"potential", py_potential, METH_VARARGS, potential_doc},
+    {"bound", py_bound, METH_VARARGS, bound_doc},
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},
     {"warm", py_warm, METH_VARARGS, warm_doc},

@@ -22,6 +22,7 @@ from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_met
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.geometry.planar import (HALF_ANGLE_FROM, cos_sin, wrap_angle,
                                              wrap_angles_in_place)
+from hecker_dynamics.dynamics.divergence import GROWTH
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 
 EPS = np.finfo(float).eps
@@ -181,6 +182,67 @@ def test_explicit_methods_blow_up_on_a_stiff_spring(method, wh):
     energies = stiff_run(method, wh)
     assert energies[-1] > 1e20 * energies[0]
     assert energies[-1] / energies[-2] == pytest.approx(dominant_growth(method, wh), rel=1e-6)
+
+
+#: Each explicit method just past the end of its stability on an undamped spring: explicit
+#: Euler grows at any omega h, semi-implicit Euler and velocity Verlet from 2 on, RK4 from
+#: 2 sqrt(2) on.
+JUST_OVER = {"explicit_euler": 2.05, "semi_implicit_euler": 2.05, "velocity_verlet": 2.05,
+             "rk4": 2.9}
+
+
+def beside(method: str, spring_mass: float, other_mass: float) -> Simulation:
+    """A 5 cm disc of ``spring_mass`` moving at 0.1 m/s on a spring to a fixed anchor,
+    stiff for the method (omega h = JUST_OVER[method], h = 1 ms), and 3 m away a disc of
+    ``other_mass`` at rest; nothing joins them; published at 50 Hz."""
+    wh, h = JUST_OVER[method], 0.001
+    return Simulation(make_scene({
+        "integrator": method, "step": h, "publish_rate": 50.0,
+        "bodies": {"spring": {"shape": "circle", "radius": 0.05, "mass": spring_mass,
+                              "velocity": [0.1, 0.0]},
+                   "other": {"shape": "circle", "radius": 0.5, "mass": other_mass,
+                             "position": [3.0, 0.0]}},
+        "forces": {"hold": {"type": "spring", "body_a": "spring", "anchor": [0.0, 0.0],
+                            "stiffness": spring_mass * (wh / h) ** 2}}}))
+
+
+@pytest.mark.parametrize("ratio", [1e-12, 1e-6, 1.0, 1e6, 1e12])
+@pytest.mark.parametrize("spring_mass", [1e-6, 1e6])
+@pytest.mark.parametrize("method", EXPLICIT)
+def test_a_blow_up_beside_a_body_of_any_mass_is_refused(method, spring_mass, ratio):
+    """Issue 32 row 4: each explicit method just past its limit blows the spring disc up
+    (by the dominant mode's growth a step: 5.2 for explicit Euler, 2.4 for the
+    symplectic pair, 1.4 for RK4), whatever the other disc's mass (1e-12 to 1e12 times
+    its own). The run stops with a DivergenceError naming the spring disc by the publish
+    instant after its energy would have grown a million times, keeping a state within
+    GROWTH times its start (and its floor). A floor counted over the whole scene let a
+    heavy disc's mass hide the light one's blow-up: exit 0 with the energy up 1e8 times."""
+    growth = dominant_growth(method, JUST_OVER[method])
+    steps = math.ceil(6.0 * math.log(10.0) / math.log(growth))
+    period = 20  # steps between publish instants
+    until = (steps // period + 2) * period
+    sim = beside(method, spring_mass, spring_mass * ratio)
+    start = sim.snapshot().energy
+    floor = 0.5 * (spring_mass + sim.model.inertia[sim.model.index["spring"]])
+    with pytest.raises(DivergenceError, match="energy of motion and springs of spring"):
+        sim.advance_to(until * sim.step_ns)
+    assert sim.steps <= until - period
+    assert sim.snapshot().energy <= GROWTH * start + floor
+
+
+def test_a_slow_explicit_euler_drift_is_refused_when_it_passes_the_growth_factor():
+    """Explicit Euler at omega h = 0.1 multiplies the oscillator's energy by exactly 1.01
+    a step: slightly growing runs pass, until the first publish instant (every 20 steps)
+    past GROWTH times the start: 1.01^680 = 869 passes, 1.01^700 = 1060 is refused at
+    t = 0.70 s, keeping the state of 0.68 s."""
+    scene = oscillator(1e4, position=(1.0, 0.0), integrator="explicit_euler",
+                       publish_rate=50.0)
+    sim = Simulation(scene)
+    start = sim.snapshot().energy
+    with pytest.raises(DivergenceError, match="by t = 0.700000 s"):
+        sim.advance_to(1_000_000_000)
+    assert sim.steps == 680
+    assert sim.snapshot().energy == pytest.approx(start * 1.01 ** 680, rel=1e-9)
 
 
 def test_simulation_raises_on_divergence_and_keeps_its_last_finite_state():
