@@ -493,10 +493,16 @@ def bench_command(args: argparse.Namespace) -> int:
     for name in args.scenes or []:
         if name not in known:
             raise SceneError(f"unknown benchmark scene '{name}' (known: {', '.join(known)})")
+    if args.full and args.save_reference:
+        raise SceneError("--save-reference: the guard's reference is a quick run's ratios")
+    from .bench.regression import REFERENCE
+
     out = _bench_out(args, REPORT_FILES)
     with _bench_writing(out):
         run_bench("full" if args.full else "quick", out, args.scenes, args.peers,
-                  command=command, bar=bar)
+                  command=command, bar=bar,
+                  reference=None if args.full else Path(args.reference or REFERENCE),
+                  save_reference=args.save_reference)
     return 0
 
 
@@ -551,6 +557,12 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
                        help="replace the report files in --out DIR if they exist")
     bench.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark or shipped scenes to run (default: all)")
+    bench.add_argument("--reference", metavar="FILE",
+                       help="with --quick: compare the run's cost ratios with this file's "
+                            "and say which moved by more than their noise (default "
+                            "docs/bench/reference_ratios.json)")
+    bench.add_argument("--save-reference", action="store_true",
+                       help="with --quick: write the run's ratios to --reference instead")
     bench.add_argument("--joints", action="store_true",
                        help="only the joint section, with its targets: chains of 2 to 200 "
                             "links, the bridge, the ragdoll and Box2D's joint grid against "

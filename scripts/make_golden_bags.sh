@@ -18,13 +18,19 @@ export GOLDEN_DURATION="${GOLDEN_DURATION:-4}"
 export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 cli=("$python" -m hecker_dynamics.cli)
 
-# "<scene> <seconds>" per shipped scene: the golden length, capped by the scene's duration.
+# "<scene> <seconds>" per shipped scene: the golden length, capped by the scene's duration
+# and, for scenes of many bodies, by GOLDEN_MESSAGES output messages (a pose and a twist per
+# body and publish instant, counted; the few other topics are not), which keeps each output
+# bag under 200 kB.
 plan=$("$python" - <<'PY'
 import os
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 cap_ns = round(float(os.environ["GOLDEN_DURATION"]) * 1e9)
+budget = int(os.environ.get("GOLDEN_MESSAGES", "2000"))
 for name in shipped_scenes():
-    ns = min(load_scene(name).duration_ns, cap_ns)
+    scene = load_scene(name)
+    instants = max(1, budget // (2 * len(scene.bodies)))
+    ns = min(scene.duration_ns, cap_ns, instants * scene.publish_period_ns)
     print(name, f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}")
 PY
 )

@@ -217,15 +217,13 @@ def _core_case(row: BounceRow, scene: Scene):
 
 
 def _peer_case(row: BounceRow, scene: Scene):
-    from .measure import Case, Outcome
+    from .measure import Case, Outcome, timed_steps
     from .scene_peers import scene_engine
 
     def run(duration: float) -> Outcome:
         step, poses = scene_engine(row.engine, scene, row.step)
         steps = round(duration / row.step)
-        start = time.perf_counter()
-        step(steps)
-        wall = time.perf_counter() - start
+        wall = timed_steps(step, steps)
         q = poses()
         return Outcome(wall, q, q * 0.0, steps)
 

@@ -136,6 +136,31 @@ def _weld(world, ends, spec: dict) -> None:
     lib.b2CreateWeldJoint(world, _joined(joint, ends, spec))
 
 
+def _calls(body):
+    """A Box2D v3 body's calls for the force loop (force_law.BodyCalls); a force does not
+    wake a sleeping body (a scripted push does, through the stepper's ``wake``)."""
+    get_point, get_velocity = lib.b2Body_GetWorldPoint, lib.b2Body_GetWorldPointVelocity
+    apply_force, apply_torque = lib.b2Body_ApplyForce, lib.b2Body_ApplyTorque
+    position, rotation = lib.b2Body_GetPosition, lib.b2Body_GetRotation
+    velocity, spin = lib.b2Body_GetLinearVelocity, lib.b2Body_GetAngularVelocity
+
+    def point(local):
+        p = get_point(body, local)
+        return p.x, p.y
+
+    def point_velocity(world):
+        v = get_velocity(body, world)
+        return v.x, v.y
+
+    def state():
+        p, q, v = position(body), rotation(body), velocity(body)
+        return p.x, p.y, math.atan2(q.s, q.c), v.x, v.y, spin(body)
+
+    return LAW.BodyCalls(point, point_velocity,
+                         lambda force, at: apply_force(body, force, at, False), state,
+                         lambda tau: apply_torque(body, tau, False))
+
+
 #: Joint builders by the description's ``kind``: builder(world, (body A, body B), spec).
 JOINTS = {"revolute": _revolute, "weld": _weld}
 
@@ -170,74 +195,23 @@ class World:
             JOINTS[spec["kind"]](self.id, (a, self.bodies[spec["b"]]), spec)
         self.index = {body.index1: i for i, body in enumerate(self.bodies)}
         self.angles = [spec["angle"] for spec in scene["bodies"]]
-        self.done = 0
-        self.advance = self._forces(scene)
-
-    def _forces(self, scene: dict):
-        """advance(): the Python forces and the scripted wrenches active this step onto the
-        bodies, then Box2D v3's step."""
-        world, h, substeps, step = self.id, self.h, self.substeps, lib.b2World_Step
+        calls = [_calls(body) for body in self.bodies]
         forces = scene["forces"]
-        python = bool(forces["springs"] or forces["drags"] or forces["angular"]
-                      or forces["forces"] or any(any(c) for c in forces["constant"]))
-        script = [(body, first, end, LAW.scripted_wrench(body, frame, point, force, torque))
-                  for body, first, end, frame, point, force, torque in scene["script"]]
-        if not python and not script:
-            return lambda: step(world, h, substeps)
-        wrenches = LAW.make_wrenches(forces["springs"], forces["drags"], forces["angular"],
-                                     forces["forces"], forces["constant"])
-        bodies, h_ns, line_of_action = self.bodies, round(h * 1e9), LAW.line_of_action
-        position, rotation = lib.b2Body_GetPosition, lib.b2Body_GetRotation
-        velocity, spin = lib.b2Body_GetLinearVelocity, lib.b2Body_GetAngularVelocity
-        force, torque_of = lib.b2Body_ApplyForce, lib.b2Body_ApplyTorque
-        atan2 = math.atan2
+        program = LAW.make_program(forces["springs"], forces["drags"], forces["angular"],
+                                   forces["forces"], forces["constant"], calls)
+        world, h, substeps, step = self.id, self.h, self.substeps, lib.b2World_Step
+        self.step = LAW.make_stepper(program, scene["script"], calls,
+                                     lambda i: lib.b2Body_SetAwake(self.bodies[i], True),
+                                     lambda: step(world, h, substeps), round(self.h * 1e9))
 
-        def read() -> list:
-            states = []
-            for body in bodies:
-                p, q, v = position(body), rotation(body), velocity(body)
-                states.append((p.x, p.y, atan2(q.s, q.c), v.x, v.y, spin(body)))
-            return states
-
-        def advance() -> None:
-            start = self.done * h_ns
-            active = [(i, wrench) for i, first, end, wrench in script if first <= start < end]
-            if python or active:
-                states = read()
-                total = wrenches(states) if python else [[0.0, 0.0, 0.0] for _ in states]
-                for i, wrench in active:
-                    fx, fy, tau = wrench(states)
-                    total[i][0] += fx
-                    total[i][1] += fy
-                    total[i][2] += tau
-                pushed = {i for i, _ in active}
-                for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, total)):
-                    point = line_of_action(state, fx, fy, tau)
-                    if point is not None:  # only a push wakes a sleeping body
-                        force(body, (fx, fy), point, i in pushed)
-                    elif tau:
-                        torque_of(body, tau, i in pushed)
-            step(world, h, substeps)
-            self.done += 1
-
-        return advance
-
-    def step(self, count: int, block: int) -> dict:
-        advance, clock = self.advance, time.perf_counter
+    def run(self, count: int, block: int) -> dict:
+        """``count`` steps, timed whole, and, where ``block`` > 0, block by block within
+        the same loop."""
         if block <= 0:
-            start = clock()
-            for _ in range(count):
-                advance()
-            return {"wall": clock() - start}
-        blocks = []
-        start = mark = clock()
-        for k in range(count):
-            advance()
-            if (k + 1) % block == 0:
-                now = clock()
-                blocks.append((now - mark) / block)
-                mark = now
-        return {"wall": clock() - start, "blocks": blocks}
+            return {"wall": self.step(count)}
+        blocks = [self.step(block) / block for _ in range(count // block)]
+        wall = sum(blocks) * block + (self.step(count % block) if count % block else 0.0)
+        return {"wall": wall, "blocks": blocks}
 
     def poses(self) -> list:
         out = []
@@ -288,7 +262,7 @@ def serve(lines, write) -> None:
                 worlds[handle] = World(request)
                 reply: dict = {"world": handle, "version": version()}
             elif op == "step":
-                reply = worlds[request["world"]].step(request["count"], request.get("block", 0))
+                reply = worlds[request["world"]].run(request["count"], request.get("block", 0))
             elif op == "poses":
                 reply = {"poses": worlds[request["world"]].poses()}
             elif op == "rays":

@@ -1,28 +1,32 @@
 """The contact section of ``hecker-dynamics bench``: the contact scenes against the peers,
 and the contact targets.
 
-Three measurements, each engine in the same run, interleaved:
+Three measurements, each engine in the same run, interleaved; every cost is a whole
+run's (the wall time of all its steps over their number, as a user pays it), the median
+over rounds of whole runs (:func:`.measure.interleaved_runs`: every engine built afresh,
+untimed, for each run, the runs of all engines one after another in alternating order):
 
-- **Pyramids** of :mod:`.pyramid` (rows 3 to 30): 2 s in blocks of 25 steps, the blocks
-  of all engines interleaved (one block each in turn), cost per step the median over the
-  blocks; each engine with sleeping off, so each does the same work every step, and again
-  with sleeping on (``contacts.sleep``; the peers' own sleeping, as in whole scenes),
-  labelled "(sleeping)"; "moved" is how far the farthest box got from its start.
+- **Pyramids** of :mod:`.pyramid` (rows 3 to 30 for target 1, 50 and 100 beside them):
+  2 s in one call, :data:`ROUNDS` rounds (:data:`LARGE_ROUNDS` above
+  :data:`TARGET_ROWS` rows); each engine with sleeping off, so each does the same work
+  every step, and again with sleeping on (``contacts.sleep``; the peers' own sleeping, as
+  in whole scenes), labelled "(sleeping)"; "moved" is how far the farthest box got from
+  its start. Beside them, labelled as explanation only, the median of the
+  :data:`BLOCK`-step blocks of one more run per engine stepped block by block.
 - **Whole scenes over their full durations**, resting phases included: the box of 100
   balls (:func:`~.pyramid.ball_box`, 5 s) and every shipped scene with walls or
-  collisions, with their scripts. Each run builds its engine afresh (not timed) and steps
-  the whole duration; 3 rounds over all engines, alternating direction; cost per step the
-  median over the rounds. The peers as :mod:`.scene_peers` sets them up: forces from
-  Python, and pymunk also with its own ``DampedSpring`` where the scene has springs;
-  sleeping as their users have it. hecker_dynamics runs each scene as it is and with
-  sleeping on (configuration "..., sleeping").
+  collisions, with their scripts, over :data:`ROUNDS` rounds. The peers as
+  :mod:`.scene_peers` sets them up: forces from Python, and pymunk also with its own
+  ``DampedSpring`` where the scene has springs; sleeping as their users have it.
+  hecker_dynamics runs each scene as it is and with sleeping on (configuration "...,
+  sleeping").
 - **The node's cost** (:mod:`.node`) on its ring of 10 bodies dropped onto a floor.
 
 The contact targets, each reported as met or missed with its ratio: (1) every pyramid per
 step at most 0.5 of pymunk's cost; (2) the default scene (``sample``) over its full 10 s,
 a step at most 0.5 of pymunk's with the same forces in Python; (3) the node at 10 bodies
-with a floor at most 1 ms of CPU per 20 ms tick. (Target 1 also asks for at most Box2D
-v3's cost where its bindings are installed; they are not installable here.)
+with a floor at most 1 ms of CPU per 20 ms tick. Target 1 also asks for at most Box2D
+v3's cost where it runs (:mod:`.box2d_v3`, in its own interpreter).
 """
 from __future__ import annotations
 
@@ -30,7 +34,6 @@ import dataclasses
 import math
 import os
 import statistics
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,7 +45,8 @@ from ..dynamics import kernel
 from ..dynamics.simulation import Simulation
 from ..scene.load import Scene, SpringSpec, load_scene, shipped_scenes
 from ..viz.progress import BarFactory, run_parts
-from .measure import Budget, Case, Outcome, Row, measure
+from .measure import (Budget, Case, Outcome, Row, WholeCost, interleaved_runs, measure,
+                      ratio_noise, timed_steps, whole_cost)
 from .node import PUBLISH_PERIOD_NS, TARGET_SHARE, NodeCost, node_cost, node_table
 from .peers import available
 from .pyramid import STEP, ball_box, pyramid
@@ -50,17 +54,23 @@ from .report import MARKERS, agg_pyplot
 from .scene_peers import SCENE_PEERS, scene_engine
 
 __all__ = ["BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET",
-           "ContactResults",
-           "contact_bench", "contact_scene_names", "measure_pyramid", "pyramid_engines",
-           "pyramid_figure", "pyramid_series", "scene_rows"]
+           "TARGET_ROWS",
+           "ContactResults", "PyramidCost", "contact_bench", "contact_scene_names",
+           "measure_pyramid", "pyramid_builders", "pyramid_figure", "pyramid_series",
+           "scene_rows"]
 
+#: Steps of a block, for the block statistics that explain a cost.
 BLOCK = 25
 PYRAMID_DURATION = 2.0
-PYRAMID_ROWS = (3, 6, 10, 14, 20, 30)
+PYRAMID_ROWS = (3, 6, 10, 14, 20, 30, 50, 100)
+#: Target 1 covers the pyramids up to this many rows (the larger ones meet Box2D v3).
+TARGET_ROWS = 30
 #: Targets 1 and 2: at most this fraction of pymunk's cost.
 TARGET = 0.5
-#: Rounds of the pyramids' and the whole scenes' runs.
-ROUNDS = 3
+#: Rounds of whole runs: the pyramids up to TARGET_ROWS rows and the whole scenes, and
+#: the larger pyramids.
+ROUNDS = 5
+LARGE_ROUNDS = 3
 
 Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(n), poses()
 
@@ -90,45 +100,67 @@ def _ours(scene: Scene) -> Engine:
 SLEEPING = " (sleeping)"
 
 
-def pyramid_engines(rows: int, peers: list[str]) -> dict[str, Engine]:
-    """hecker_dynamics and each installed peer of ``peers`` on the pyramid of ``rows``,
-    with sleeping off, then each again with sleeping on (named with :data:`SLEEPING`)."""
-    engines: dict[str, Engine] = {}
+def pyramid_builders(rows: int, peers: list[str]) -> dict[str, Callable[[], Engine]]:
+    """Builders of hecker_dynamics and each installed peer of ``peers`` on the pyramid of
+    ``rows``, with sleeping off, then each again with sleeping on (named with
+    :data:`SLEEPING`)."""
+    builders: dict[str, Callable[[], Engine]] = {}
     for sleep, suffix in ((False, ""), (True, SLEEPING)):
         scene = pyramid(rows, sleep=sleep)
-        engines["hecker_dynamics" + suffix] = _ours(scene)
+        builders["hecker_dynamics" + suffix] = lambda scene=scene: _ours(scene)
         for name in peers:
-            try:
-                engines[name + suffix] = scene_engine(name, scene, STEP, sleep=sleep)
-            except ImportError:
-                continue
-    return engines
+            if available(name):
+                builders[name + suffix] = (lambda name=name, scene=scene, sleep=sleep:
+                                           scene_engine(name, scene, STEP, sleep=sleep))
+    return builders
+
+
+@dataclass
+class PyramidCost:
+    """An engine on a pyramid: its whole-run cost, how far the farthest box got from its
+    start over the run (m), and, to explain the cost only, the median of the blocks of
+    :data:`BLOCK` steps of one more run stepped block by block (s per step)."""
+
+    cost: WholeCost
+    moved: float
+    block: float
+
+
+def _whole_run(build: Callable[[], Engine], steps: int) -> Callable[[], tuple[float, float]]:
+    def run() -> tuple[float, float]:
+        step, poses = build()
+        start = poses()[:, :2]
+        wall = timed_steps(step, steps)
+        return wall / steps, float(np.abs(poses()[:, :2] - start).max())
+    return run
+
+
+def _block_run(build: Callable[[], Engine], steps: int) -> Callable[[], float]:
+    def run() -> float:
+        step, _ = build()
+        return statistics.median(timed_steps(step, BLOCK) / BLOCK
+                                 for _ in range(steps // BLOCK))
+    return run
+
+
+def pyramid_rounds(rows: int) -> int:
+    return ROUNDS if rows <= TARGET_ROWS else LARGE_ROUNDS
 
 
 def measure_pyramid(rows: int, peers: list[str],
-                    rounds: int = ROUNDS) -> dict[str, tuple[float, float]]:
-    """Per engine: (cost per step in s, largest displacement of a box in m after the 2 s).
-
-    Each of ``rounds`` rounds builds every engine afresh and steps them all, block by block
-    interleaved; an engine's cost is the median over the rounds of its median block in
-    each, so that a round this shared machine slowed as a whole does not decide it."""
-    medians: dict[str, list[float]] = {}
-    for _ in range(rounds):
-        engines = pyramid_engines(rows, peers)
-        start = {name: poses()[:, :2] for name, (_, poses) in engines.items()}
-        costs: dict[str, list[float]] = {name: [] for name in engines}
-        for _ in range(round(PYRAMID_DURATION / STEP) // BLOCK):
-            for name, (step, _) in engines.items():
-                begin = time.perf_counter()
-                step(BLOCK)
-                costs[name].append((time.perf_counter() - begin) / BLOCK)
-        for name in engines:
-            medians.setdefault(name, []).append(statistics.median(costs[name]))
-    # Every round steps the same engines from the same start, so the last round's boxes
-    # moved as each round's did.
-    return {name: (statistics.median(medians[name]),
-                   float(np.abs(poses()[:, :2] - start[name]).max()))
-            for name, (_, poses) in engines.items()}
+                    rounds: Optional[int] = None) -> dict[str, PyramidCost]:
+    """Per engine of :func:`pyramid_builders`: ``rounds`` whole runs of the 2 s, every
+    engine built afresh for each and the runs interleaved (:func:`.measure.interleaved_runs`),
+    then one more round stepped in blocks for the block statistics."""
+    builders = pyramid_builders(rows, peers)
+    steps = round(PYRAMID_DURATION / STEP)
+    runs = interleaved_runs({name: _whole_run(build, steps) for name, build in builders.items()},
+                            pyramid_rounds(rows) if rounds is None else rounds)
+    blocks = interleaved_runs({name: _block_run(build, steps)
+                               for name, build in builders.items()}, 1)
+    return {name: PyramidCost(whole_cost([cost for cost, _ in runs[name]]),
+                              max(moved for _, moved in runs[name]), blocks[name][0])
+            for name in builders}
 
 
 # ----------------------------------------------------------------------------- whole scenes
@@ -138,7 +170,7 @@ def _peer_run(peer: str, scene: Scene, springs: str, duration: float) -> Outcome
     h = scene.step_ns * 1e-9
     step, poses = scene_engine(peer, scene, h, springs)
     count = max(1, round(duration / h))
-    wall = step(count)
+    wall = timed_steps(step, count)
     q = poses()
     return Outcome(wall, q, np.zeros_like(q), steps=count)
 
@@ -188,16 +220,27 @@ class ContactResults:
         return math.nan
 
 
+def _pyramid_target(results: ContactResults, peer: str, bound: float,
+                    label: str) -> Optional[tuple[str, str, str]]:
+    ratios = [(p["rows"], p[f"ratio_{peer}"]) for p in results.pyramids
+              if f"ratio_{peer}" in p and p["rows"] <= TARGET_ROWS]
+    if not ratios:
+        return None
+    met = [rows for rows, ratio in ratios if ratio <= bound]
+    return (label, ", ".join(f"{rows} rows: {ratio:.2f}" for rows, ratio in ratios)
+            + f"; met at {len(met)} of {len(ratios)} sizes",
+            "met" if len(met) == len(ratios) else "missed")
+
+
 def targets(results: ContactResults) -> list[tuple[str, str, str]]:
-    """(target, measured, verdict) for the contact targets 1 to 3."""
-    lines = []
-    ratios = [(p["rows"], p["ratio_pymunk"]) for p in results.pyramids if "ratio_pymunk" in p]
-    if ratios:
-        met = [rows for rows, ratio in ratios if ratio <= TARGET]
-        lines.append(("1. pyramid, per step <= 0.5 x pymunk (rows 3 to 30)",
-                      ", ".join(f"{rows} rows: {ratio:.2f}" for rows, ratio in ratios)
-                      + f"; met at {len(met)} of {len(ratios)} sizes; Box2D v3 not installed",
-                      "met" if len(met) == len(ratios) else "missed"))
+    """(target, measured, verdict) for the contact targets 1 to 3, on whole-run costs;
+    target 1 also against Box2D v3 (at most its cost) where it ran."""
+    lines = [line for line in (
+        _pyramid_target(results, "pymunk", TARGET,
+                        "1. pyramid, per step <= 0.5 x pymunk (rows 3 to 30)"),
+        _pyramid_target(results, "box2d_v3", 1.0,
+                        "1. pyramid, per step <= Box2D v3's (rows 3 to 30)"))
+        if line is not None]
     ours = results.per_step("sample", "hecker_dynamics")
     pymunk = results.per_step("sample", "pymunk", "python forces")
     if not math.isnan(ours) and not math.isnan(pymunk):
@@ -219,21 +262,27 @@ def targets(results: ContactResults) -> list[tuple[str, str, str]]:
 
 
 def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> dict:
+    """The pyramid's line of the tables: per engine its whole-run cost (``_us``), the
+    repeats' spread, the block median (``_block_us``, explanation) and how far a box got;
+    per peer our cost over its (``ratio_``) and that ratio's spread over the rounds."""
     result = measure_pyramid(rows, peers)
-    ours = result["hecker_dynamics"][0]
     row: dict = {"rows": rows, "boxes": rows * (rows + 1) // 2}
-    for name, (cost, drift) in result.items():
-        row[f"{name}_us"] = cost * 1e6
-        row[f"{name}_drift_m"] = drift
-    for name in peers:
-        if name in result:
-            row[f"ratio_{name}"] = ours / result[name][0]
-        if name + SLEEPING in result:
-            row[f"ratio_{name}{SLEEPING}"] = (result["hecker_dynamics" + SLEEPING][0]
-                                              / result[name + SLEEPING][0])
+    for name, cost in result.items():
+        row[f"{name}_us"] = cost.cost.per_step * 1e6
+        row[f"{name}_spread"] = cost.cost.spread
+        row[f"{name}_block_us"] = cost.block * 1e6
+        row[f"{name}_drift_m"] = cost.moved
+    for suffix in ("", SLEEPING):
+        ours = result["hecker_dynamics" + suffix]
+        for name in peers:
+            if name + suffix in result:
+                theirs = result[name + suffix]
+                row[f"ratio_{name}{suffix}"] = ours.cost.per_step / theirs.cost.per_step
+                row[f"ratio_{name}{suffix}_noise"] = ratio_noise(ours.cost.repeats,
+                                                                 theirs.cost.repeats)
     log(f"pyramid {rows} rows: " + ", ".join(
-        f"{name} {cost * 1e6:.1f} us (moved {drift:.2g} m)"
-        for name, (cost, drift) in result.items()))
+        f"{name} {cost.cost.per_step * 1e6:.1f} us (moved {cost.moved:.2g} m)"
+        for name, cost in result.items()))
     return row
 
 
@@ -318,6 +367,48 @@ def pyramid_figure(results: ContactResults, peers: list[str], path: Path) -> boo
     return True
 
 
+def _pyramid_tables(pyramids: list[dict], peers: list[str], suffix: str,
+                    title: str) -> list[str]:
+    """The pyramids' whole-run costs with sleeping off or on (``suffix``), and beside them,
+    labelled, the block statistics that explain them."""
+    names = [n + suffix for n in ["hecker_dynamics", *peers]
+             if any(f"{n}{suffix}_us" in row for row in pyramids)]
+    if not pyramids or not names:
+        return []
+
+    def cell(row: dict, key: str, text: str) -> str:
+        return text.format(**{k: row[k] for k in key.split(",")}) if all(
+            k in row for k in key.split(",")) else "-"
+
+    head = "|---" * (2 * len(names)) + "|"
+    md = ["", f"## Pyramids (h = 4 ms, 2 s, {title})", "",
+          f"Whole runs: the median over the rounds ({ROUNDS} up to {TARGET_ROWS} rows, "
+          f"{LARGE_ROUNDS} above) of each run's seconds over its 500 steps, with the spread "
+          "of the rounds (max - min over the median) and how far the farthest box got; our "
+          "cost over each peer's, with the spread of the rounds' ratios.", "",
+          "| rows (boxes) | " + " | ".join(f"{n} us/step (spread, moved m)" for n in names)
+          + "".join(f" | ours / {n} (spread)" for n in names[1:]) + " |", head]
+    for row in pyramids:
+        cells = [cell(row, f"{n}_us,{n}_spread,{n}_drift_m",
+                      f"{{{n}_us:.1f}} ({{{n}_spread:.0%}}, {{{n}_drift_m:.1g}})")
+                 for n in names]
+        cells += [cell(row, f"ratio_{n},ratio_{n}_noise",
+                       f"{{ratio_{n}:.2f}} ({{ratio_{n}_noise:.0%}})") for n in names[1:]]
+        md.append(f"| {row['rows']} ({row['boxes']}) | " + " | ".join(cells) + " |")
+    md += ["", f"Block statistics ({title}; explanation only, not the figure of merit): "
+           f"the median of the {BLOCK}-step blocks of one more run per engine, stepped block "
+           "by block, and our median block over each peer's.", "",
+           "| rows (boxes) | " + " | ".join(f"{n} us/step" for n in names)
+           + "".join(f" | ours / {n}" for n in names[1:]) + " |", head]
+    ours = names[0]
+    for row in pyramids:
+        cells = [cell(row, f"{n}_block_us", f"{{{n}_block_us:.1f}}") for n in names]
+        cells += [f"{row[f'{ours}_block_us'] / row[f'{n}_block_us']:.2f}"
+                  if f"{n}_block_us" in row else "-" for n in names[1:]]
+        md.append(f"| {row['rows']} ({row['boxes']}) | " + " | ".join(cells) + " |")
+    return md
+
+
 def write_contacts(results: ContactResults, peers: list[str], out: Path, command: str) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (before, after) = results.load[0], results.load[-1]
@@ -329,22 +420,12 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
     if results.pyramids and pyramid_figure(results, peers, out / "contacts.png"):
         md += ["", "![pyramids: cost per step, and our cost over the peers'](contacts.png)"]
     for suffix, title in (("", "sleeping off"), (SLEEPING, "sleeping on in every engine")):
-        if not results.pyramids:
-            break
-        names = [n + suffix for n in ["hecker_dynamics", *peers]
-                 if f"{n}{suffix}_us" in results.pyramids[0]]
-        md += ["", f"## Pyramids (h = 4 ms, 2 s, {title})", "",
-               "| rows (boxes) | " + " | ".join(f"{n} us/step (moved m)" for n in names)
-               + "".join(f" | ratio to {n}" for n in names[1:]) + " |",
-               "|---" * (1 + 2 * len(names) - 1) + "|"]
-        for row in results.pyramids:
-            cells = [f"{row[f'{n}_us']:.1f} ({row[f'{n}_drift_m']:.1g})" for n in names]
-            cells += [f"{row[f'ratio_{n}']:.2f}" for n in names[1:]]
-            md.append(f"| {row['rows']} ({row['boxes']}) | " + " | ".join(cells) + " |")
+        md += _pyramid_tables(results.pyramids, peers, suffix, title)
     if results.scenes:
-        md += ["", "## Whole scenes over their full durations (median of 3 rounds)", "",
-               "| scene | duration s | step ms | engine | configuration | us/step | "
-               "ours / this | ours sleeping / this |", "|---|---|---|---|---|---|---|---|"]
+        md += ["", f"## Whole scenes over their full durations (median of {ROUNDS} whole "
+               "runs)", "",
+               "| scene | duration s | step ms | engine | configuration | us/step | spread | "
+               "ours / this | ours sleeping / this |", "|---|---|---|---|---|---|---|---|---|"]
         for row in results.scenes:
             ours = results.per_step(row.scene, "hecker_dynamics")
             asleep = min((r.cost * r.step for r in results.scenes if r.scene == row.scene
@@ -352,21 +433,23 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
                           and r.status == "ok"), default=math.nan)
             mine = row.cost * row.step
             md.append(f"| {row.scene} | {row.duration:g} | {row.step * 1e3:g} | {row.engine} | "
-                      f"{row.method} | {mine * 1e6:.1f} | {ours / mine:.2f} | "
-                      f"{asleep / mine:.2f} |")
+                      f"{row.method} | {mine * 1e6:.1f} | {100 * row.cost_spread:.0f} % | "
+                      f"{ours / mine:.2f} | {asleep / mine:.2f} |")
     if results.node is not None:
         md += ["", "## The node's cost, 10 bodies on a floor (1 kHz steps, 50 Hz outputs)",
                "", node_table([results.node])]
     (out / "contacts.md").write_text("\n".join(md) + "\n")
-    lines = ["section,scene,engine,configuration,step_s,duration_s,us_per_step,moved_m"]
+    lines = ["section,scene,engine,configuration,step_s,duration_s,us_per_step,spread,moved_m,"
+             "block_us_per_step"]
     for row in results.pyramids:
         for name in [n + suffix for suffix in ("", SLEEPING)
                      for n in ["hecker_dynamics", *peers]]:
             if f"{name}_us" in row:
                 lines.append(f"pyramid,pyramid{row['rows']},{name},,{STEP!r},"
                              f"{PYRAMID_DURATION!r},{row[f'{name}_us']!r},"
-                             f"{row[f'{name}_drift_m']!r}")
+                             f"{row[f'{name}_spread']!r},{row[f'{name}_drift_m']!r},"
+                             f"{row[f'{name}_block_us']!r}")
     for row in results.scenes:
         lines.append(f"scene,{row.scene},{row.engine},{row.method},{row.step!r},"
-                     f"{row.duration!r},{row.cost * row.step * 1e6!r},")
+                     f"{row.duration!r},{row.cost * row.step * 1e6!r},{row.cost_spread!r},,")
     (out / "contacts.csv").write_text("\n".join(lines) + "\n")

@@ -59,8 +59,8 @@ from ..dynamics.simulation import DivergenceError, Simulation
 from ..scene.load import Scene, load_scene, scene_from_parameters
 from ..scene.parameters import flatten
 
-__all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "ROUNDS", "Run", "chain",
-           "grid", "joint_bench", "measure", "pin_gap", "renaming", "targets"]
+__all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "JOINT_FILES", "ROUNDS", "Run",
+           "chain", "grid", "joint_bench", "measure", "pin_gap", "renaming", "targets"]
 
 #: The chains' lengths, links.
 CHAIN_LINKS = (2, 10, 50, 200)
@@ -84,6 +84,8 @@ SAMPLES = 10
 DRIFT = 1e-9
 RENAMING = 0.10
 PEERS = SCENE_PEERS  # pymunk, box2d (2.3), box2d_v3
+#: The files :func:`joint_bench` writes into its folder.
+JOINT_FILES = ("joints.md", "joints.csv")
 
 
 def chain(links: int, step: float = COST_STEP, duration: float = CHAIN_DURATION,
@@ -389,6 +391,6 @@ def joint_bench(peers: list[str], out: Path, command: str,
     for target, measured, verdict in verdicts:
         log(f"target {target}: {measured}: {verdict}")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "joints.md").write_text("\n".join(lines) + "\n")
-    (out / "joints.csv").write_text("\n".join(csv) + "\n")
+    (out / JOINT_FILES[0]).write_text("\n".join(lines) + "\n")
+    (out / JOINT_FILES[1]).write_text("\n".join(csv) + "\n")
     return verdicts

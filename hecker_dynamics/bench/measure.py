@@ -7,6 +7,11 @@ case briefly (a pilot of a few steps) to predict its cost and skips those over t
 then runs the rest in rounds, each round over all cases in turn (alternating direction),
 so that machine drift and other load hit every case alike. The cost reported is the median
 wall time per simulated second.
+
+Every cost of the bench is a whole run's (the wall time of all its steps, as a user pays
+it), the median over interleaved repeats of whole runs: :func:`measure` for the sweeps,
+and :func:`interleaved_runs`, :func:`whole_cost` and :func:`ratio_noise` for the contact
+and joint sections. Block statistics, where shown, only explain a cost.
 """
 from __future__ import annotations
 
@@ -15,7 +20,7 @@ import statistics
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Optional, TypeVar
 
 import numpy as np
 
@@ -179,3 +184,58 @@ def timed(call: Callable[[], object]) -> float:
     start = time.perf_counter()
     call()
     return time.perf_counter() - start
+
+
+# ----------------------------------------------------------------------------- whole runs
+
+def timed_steps(step: Callable[[int], Optional[float]], count: int) -> float:
+    """Seconds of ``step(count)``: those it returns where it times itself (an engine in
+    another process times its own loop, so no pipe round trip is counted), else this
+    process's clock around the call."""
+    start = time.perf_counter()
+    own = step(count)
+    wall = time.perf_counter() - start
+    return wall if own is None else float(own)
+
+
+T = TypeVar("T")
+
+
+def interleaved_runs(runs: dict[str, Callable[[], T]], repeats: int) -> dict[str, list[T]]:
+    """Whole runs: ``repeats`` rounds over ``runs``, each of which builds its engine afresh
+    (untimed) and returns what its timed whole run gives, one after another in each round
+    and in alternating direction (A B C, C B A, A B C, ...), so that the machine's drift
+    and other load fall on every engine alike. Per name, its results in round order."""
+    results: dict[str, list[T]] = {name: [] for name in runs}
+    names = list(runs)
+    for r in range(max(1, repeats)):
+        for name in names if r % 2 == 0 else names[::-1]:
+            results[name].append(runs[name]())
+    return results
+
+
+@dataclass
+class WholeCost:
+    """A cost per step from whole-run repeats: the median of each run's seconds over its
+    steps (the figure of merit: what a user pays), the repeats' spread (max - min) over
+    that median, and each repeat's seconds per step."""
+
+    per_step: float
+    spread: float
+    repeats: list[float]
+
+
+def whole_cost(per_step: list[float]) -> WholeCost:
+    median = statistics.median(per_step)
+    return WholeCost(median, (max(per_step) - min(per_step)) / median if median else 0.0,
+                     list(per_step))
+
+
+def ratio_noise(ours: list[float], theirs: list[float]) -> float:
+    """The spread of a cost ratio: (max - min) / median of the ratios of the runs made
+    side by side in each round (:func:`interleaved_runs`)."""
+    ratios = [a / b for a, b in zip(ours, theirs) if b]
+    if not ratios:
+        return math.nan
+    median = statistics.median(ratios)
+    return (max(ratios) - min(ratios)) / median if median else math.nan

@@ -5,14 +5,15 @@ their CMs with the scene's mass and moment of inertia, no collision shapes) and 
 :class:`~.measure.Case` objects. Each claims a scheme, checked by :func:`check_peer`
 against a plain Python loop of that scheme on the same forces (:class:`~.reference.PlainModel`):
 
-- ``pymunk`` ``python``: every force computed in Python inside each body's
-  ``velocity_func``, which Chipmunk calls after it has moved the positions. The scheme is
+- ``pymunk`` ``python``: every force computed in Python (:func:`.force_law.make_program`,
+  the peers' lean loop) in the first body's ``velocity_func`` of each step, which
+  Chipmunk calls after it has moved the positions. The scheme is
   position-first symplectic Euler (q += h v; v += h a(q_new, v)). Forces set before
   ``step()`` instead would be evaluated at the old positions: explicit Euler (a trap the
   check shows). ``native``: springs as Chipmunk ``DampedSpring`` constraints and gravity
   as the space's, the rest in ``velocity_func``. The same scheme for undamped springs;
   Chipmunk integrates a spring's damping exactly (exponential decay), another law.
-- ``box2d``: forces from Python before ``Step()`` (ApplyForceToCenter/ApplyTorque);
+- ``box2d``: forces from Python before ``Step()`` (the same loop, ``ApplyForce`` at points);
   Box2D is semi-implicit Euler in float32, no body may sleep (``allowSleep=False``), and it
   clamps a step's motion to 2 m and 0.5 pi rad (compile-time constants).
 - ``mujoco``: slide x, slide y, hinge z joints per body with the CM on the hinge axis;
@@ -34,7 +35,9 @@ import numpy as np
 
 from ..scene.load import Scene
 from .measure import Case, Outcome
+from .force_law import make_program
 from .reference import PlainModel
+from .scene_peers import box2d_calls, pymunk_calls
 
 PEERS = ("pymunk", "box2d", "mujoco")
 #: The method names of each peer in the sweep, with the scheme each claims.
@@ -90,8 +93,6 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
     model = PlainModel(_no_contacts(scene))
     native = method == "native"
     python_model = model.without(springs=native, gravity=native) if native else model
-    has_python_forces = bool(python_model.springs or python_model.drags or python_model.angular
-                             or python_model.forces or any(any(c) for c in python_model.constant))
     space = pymunk.Space()
     if native and model.gravity:
         space.gravity = model.gravity[0][1:]
@@ -112,31 +113,26 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
                 space.add(pymunk.DampedSpring(bodies[a], static, la, lb, rest, k, damp))
             else:
                 space.add(pymunk.DampedSpring(bodies[a], bodies[b], la, lb, rest, k, damp))
-    cache: dict = {"step": -1, "wrenches": None}
+    program = make_program(python_model.springs, python_model.drags, python_model.angular,
+                           python_model.forces, python_model.constant,
+                           [pymunk_calls(b) for b in bodies])
+    applied = [-1]
     counter = [0]
 
-    def all_wrenches() -> list[list[float]]:
-        return python_model.wrenches([(*b.position, b.angle, *b.velocity, b.angular_velocity)
-                                      for b in bodies])
-
-    index = {id(b): i for i, b in enumerate(bodies)}
-
     def velocity_func(body, gravity, damping, dt):
-        if cache["step"] != counter[0]:
-            cache["step"], cache["wrenches"] = counter[0], all_wrenches()
-        fx, fy, tau = cache["wrenches"][index[id(body)]]
-        body.force, body.torque = (fx, fy), tau
+        if applied[0] != counter[0]:  # the first body of this step: every body's forces
+            applied[0] = counter[0]
+            program()
         pymunk.Body.update_velocity(body, gravity, damping, dt)
 
-    if has_python_forces and not forces_before_step:
+    if program is not None and not forces_before_step:
         for body in bodies:
             body.velocity_func = velocity_func
 
     def step(count: int) -> None:
         for _ in range(count):
-            if forces_before_step and has_python_forces:
-                for body, (fx, fy, tau) in zip(bodies, all_wrenches()):
-                    body.force, body.torque = (fx, fy), tau
+            if forces_before_step and program is not None:
+                program()
             counter[0] += 1
             space.step(h)
 
@@ -167,17 +163,13 @@ def _box2d_build(scene: Scene, method: str, h: float):
         mass.mass, mass.center, mass.I = model.mass[i], (0.0, 0.0), model.inertia[i]
         body.massData = mass
         bodies.append(body)
-    active = bool(forces.springs or forces.drags or forces.angular or forces.forces
-                  or any(any(c) for c in forces.constant))
+    program = make_program(forces.springs, forces.drags, forces.angular, forces.forces,
+                           forces.constant, [box2d_calls(b) for b in bodies])
 
     def step(count: int) -> None:
         for _ in range(count):
-            if active:
-                wrenches = forces.wrenches([(*b.position, b.angle, *b.linearVelocity,
-                                             b.angularVelocity) for b in bodies])
-                for body, (fx, fy, tau) in zip(bodies, wrenches):
-                    body.ApplyForceToCenter((fx, fy), True)
-                    body.ApplyTorque(tau, True)
+            if program is not None:
+                program()
             world.Step(h, 8, 3)
 
     def state() -> tuple[np.ndarray, np.ndarray]:

@@ -83,7 +83,7 @@ def _ratio_text(x: float, skipped: bool = False) -> str:
 
 
 #: Each engine's marker in the bench's figures.
-MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "mujoco": "D"}
+MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "box2d_v3": "v", "mujoco": "D"}
 
 
 def agg_pyplot():
@@ -170,7 +170,8 @@ def targets(results) -> list[tuple[str, str, str]]:
                   "met" if met1 else "missed"))
     sample = results.sample
     if "hecker_dynamics" in sample:
-        for peer in ("pymunk (python forces)", "pymunk (DampedSpring)", "box2d (python forces)"):
+        for peer in ("pymunk (python forces)", "pymunk (DampedSpring)", "box2d (python forces)",
+                     "box2d_v3 (python forces)"):
             if peer in sample:
                 ratio = sample["hecker_dynamics"] / sample[peer]
                 lines.append((f"2. default-scene step over {results.sample_duration:g} s "
@@ -239,6 +240,9 @@ def write_report(results, out: Path) -> None:
           "Environment: " + "; ".join(f"{k} {v}" for k, v in results.environment.items()), ""]
     md += ["## Targets", "", "| target | measured | verdict |", "|---|---|---|"]
     md += [f"| {a} | {b} | {c} |" for a, b, c in targets(results)]
+    if results.guard:
+        md += ["", "## Regression guard: ratios against the reference", "",
+               *[f"- {line}" for line in results.guard]]
     md += ["", "## Headline: cheapest configuration reaching each final position error", "",
            "Cost of the cheapest configuration (method, step h, tolerance) per engine; "
            "ratio = hecker_dynamics / peer (target <= 0.5).", "",

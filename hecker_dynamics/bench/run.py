@@ -33,6 +33,7 @@ from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
+from .scene_peers import SCENE_PEERS
 from .scenes import (BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants,
                      ring)
 
@@ -64,7 +65,7 @@ MODES = {
         "quick",
         steps={s: [0.1, 0.02, 0.005, 0.001] for s in BENCH_SCENES} | {
             "stiff": [0.1, 0.01, 0.001, 0.0001]},
-        tolerances=[1e-4, 1e-8], adaptive_steps=[0.1], budget=Budget(0.25, 2, 0.5, 10),
+        tolerances=[1e-4, 1e-8], adaptive_steps=[0.1], budget=Budget(0.25, 3, 1.0, 10),
         ring_sizes=[1, 10, 100, 1000], ring_wall=0.05, shipped_duration=0.5,
         shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=300,
         sample_duration=2.0),
@@ -88,6 +89,7 @@ class Results:
     checks: list = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
+    sample_rows: list[Row] = field(default_factory=list)  # the rows behind ``sample``
     sample_duration: float = 0.0  # s of sim time it was measured over
     declared: dict[str, float] = field(default_factory=dict)  # variant -> s per step
     profiles: dict[str, str] = field(default_factory=dict)
@@ -95,6 +97,7 @@ class Results:
     lean: dict[str, tuple[float, float]] = field(default_factory=dict)
     cross_check: dict[str, float] = field(default_factory=dict)
     environment: dict[str, str] = field(default_factory=dict)
+    guard: list[str] = field(default_factory=list)  # the regression guard's lines
     seconds: float = 0.0
     command: str = ""
 
@@ -266,17 +269,18 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log,
 
 
 def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
-    """The default scene's cost per step against pymunk and Box2D (target 2), over the
-    scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
+    """The default scene's cost per step against the scene peers ``peers`` (target 2),
+    over the scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
     from ..scene.load import load_scene
     from .contacts import scene_rows
 
     scene = load_scene("sample")
     if mode.sample_duration is not None:
         scene = dataclasses.replace(scene, duration_ns=round(mode.sample_duration * 1e9))
-    rows = scene_rows("sample", scene, [p for p in ("pymunk", "box2d") if p in peers],
-                      python_path=True, rounds=mode.budget.repeats)
+    rows = scene_rows("sample", scene, peers, python_path=True, rounds=mode.budget.repeats)
+    results.sample_rows = rows
     results.sample = {(row.engine if row.engine.startswith("hecker_dynamics")
+                       and not row.method.endswith(", sleeping")
                        else f"{row.engine} ({row.method})"): row.cost * row.step
                       for row in rows if row.status == "ok"}
     results.sample_duration = scene.duration_ns * 1e-9
@@ -286,11 +290,9 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
 
 def bounce_part(results: Results, mode: Mode, peers: list[str], log) -> None:
     """The ball drop against its closed form, with and without event location, and the
-    scene peers (pymunk, Box2D 2.3) with their own restitution."""
-    from .scene_peers import SCENE_PEERS
-
-    results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps,
-                                  [p for p in peers if p in SCENE_PEERS], mode.budget, log)
+    scene peers ``peers`` with their own restitution."""
+    results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps, peers,
+                                  mode.budget, log)
 
 
 def declared_part(results: Results, mode: Mode, log) -> None:
@@ -359,14 +361,34 @@ def _trim_profile(text: str) -> str:
     return "\n".join(head + lines[start:start + 13])
 
 
+def guard(results: Results, reference: Path, save: bool, log: Callable[[str], None]) -> None:
+    """Compare the run's ratios with the reference's (:mod:`.regression`), or, with
+    ``save``, make them the reference."""
+    from .regression import compare, quick_ratios, read_reference, verdict_lines, write_reference
+
+    ratios = quick_ratios(results)
+    if save:
+        write_reference(reference, ratios, {"command": results.command, **results.environment})
+        results.guard = [f"wrote {len(ratios)} ratios to {reference} as the reference"]
+    elif not reference.exists():
+        results.guard = [f"no reference at {reference}: nothing compared"]
+    else:
+        results.guard = verdict_lines(compare(ratios, read_reference(reference)))
+    for line in results.guard:
+        log(f"guard: {line}")
+
+
 def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
               scenes: Optional[list[str]] = None, peers: Optional[bool] = True,
               log: Callable[[str], None] = print, command: str = "",
               parts: tuple[str, ...] = ("scenes", "shipped", "ring", "sample", "declared",
                                         "bounce", "checks", "profiles"),
-              bar: Optional[BarFactory] = None) -> Results:
+              bar: Optional[BarFactory] = None, reference: Optional[Path] = None,
+              save_reference: bool = False) -> Results:
     """Run the benchmark's ``parts`` in ``mode_name`` and write the report into ``out``
-    (by default a new folder, :func:`~hecker_dynamics.bench.report.new_report_folder`)."""
+    (by default a new folder, :func:`~hecker_dynamics.bench.report.new_report_folder`);
+    with ``reference`` (a file of :mod:`.regression`), compare its ratios with the
+    reference's (``save_reference``: write them there instead)."""
     from ..scene.load import shipped_scenes
     from .report import new_report_folder, write_report
 
@@ -376,6 +398,8 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
     results = Results(mode_name, command=command)
     chosen = scenes or [*BENCH_SCENES, *shipped_scenes(), STIFF_SEESAW]
     peer_names = [p for p in peer_mod.PEERS if peers and peer_mod.available(p)]
+    # The peers of the scenes with contacts (pymunk, Box2D 2.3, Box2D v3).
+    scene_peer_names = [p for p in SCENE_PEERS if peers and peer_mod.available(p)]
     results.environment = {
         "python": sys.version.split()[0], "numpy": np.__version__,
         "machine": f"{platform.machine()}, {platform.system()} {platform.release()}",
@@ -384,7 +408,7 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
         "load average at start": "{:.2f}, {:.2f}, {:.2f}".format(*os.getloadavg()),
         "kernel": ("compiled" if kernel.enabled() else
                    f"python ({'switched off' if kernel.built() else 'not built'})"),
-        **{p: peer_mod.version(p) for p in peer_mod.PEERS},
+        **{p: peer_mod.version(p) for p in (*peer_mod.PEERS, "box2d_v3")},
     }
     log(f"bench {mode_name}: scenes {', '.join(chosen)}; peers {', '.join(peer_names) or 'none'}")
     work: list[tuple[str, Callable[[], None]]] = []
@@ -397,11 +421,11 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
         work += [(name, lambda name=name: shipped(results, mode, [name], log))
                  for name in chosen if name not in BENCH_SCENES]
     if "sample" in parts:
-        work.append(("sample", lambda: sample_step(results, mode, peer_names, log)))
+        work.append(("sample", lambda: sample_step(results, mode, scene_peer_names, log)))
     if "declared" in parts:
         work.append(("declared", lambda: declared_part(results, mode, log)))
     if "bounce" in parts:
-        work.append(("ball_drop", lambda: bounce_part(results, mode, peer_names, log)))
+        work.append(("ball_drop", lambda: bounce_part(results, mode, scene_peer_names, log)))
     if "ring" in parts:
         work += [(f"ring{n}", lambda n=n: ring_part(results, mode, peer_names, log, [n]))
                  for n in mode.ring_sizes]
@@ -411,6 +435,8 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
     results.seconds = time.perf_counter() - started
     results.environment["load average at end"] = "{:.2f}, {:.2f}, {:.2f}".format(
         *os.getloadavg())
+    if reference is not None:
+        guard(results, Path(reference), save_reference, log)
     write_report(results, out)
     log(f"wrote {out} in {results.seconds:.0f} s")
     return results

@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Callable
 from typing import Any, NamedTuple, Optional
 
@@ -54,10 +53,10 @@ import numpy as np
 from ..contact.joints import GearJoint, RevoluteJoint, WeldJoint
 from ..geometry.shapes import Circle
 from ..scene.load import Gravity, Scene
-from .force_law import line_of_action, scripted_wrench
+from .force_law import BodyCalls, make_program, make_stepper
 from .reference import PlainModel
 
-__all__ = ["SCENE_PEERS", "scene_engine"]
+__all__ = ["SCENE_PEERS", "box2d_calls", "pymunk_calls", "scene_engine"]
 
 SCENE_PEERS = ("pymunk", "box2d", "box2d_v3")
 #: Half the length of the segment that stands for a wall, m.
@@ -264,58 +263,37 @@ def _over_root(value: float, own: float) -> float:
     return value / math.sqrt(own) if own else 0.0
 
 
-def _forces(layout: _Layout, model: PlainModel, h_ns: int):
-    """wrenches(step, states) -> (the Python forces with the script's active wrenches
-    added, the bodies a scripted wrench pushes), or None for a step with neither."""
-    python = bool(model.springs or model.drags or model.angular or model.forces
-                  or any(any(c) for c in model.constant))
-    script = [(c, scripted_wrench(c.body, c.frame, c.point, c.force, c.torque))
-              for c in layout.script]
-
-    def wrenches(step: int, read: Callable[[], list]):
-        start = step * h_ns
-        active = [(c.body, wrench) for c, wrench in script if c.start <= start < c.end]
-        if not python and not active:
-            return None
-        states = read()
-        total = model.wrenches(states) if python else [[0.0, 0.0, 0.0] for _ in states]
-        for i, wrench in active:
-            fx, fy, tau = wrench(states)
-            total[i][0] += fx
-            total[i][1] += fy
-            total[i][2] += tau
-        return total, {i for i, _ in active}
-
-    return wrenches
+def _stepper(layout: _Layout, model: PlainModel, h: float, calls: list[BodyCalls],
+             wake: Callable[[int], object], advance: Callable[[], object]
+             ) -> Callable[[int], float]:
+    """step(count) -> the seconds it took: before each step, the Python forces of ``model``
+    and the scripted wrenches go on the bodies through their ``calls`` (a pushed body
+    woken by ``wake(index)``), then ``advance`` takes the peer's step."""
+    program = make_program(model.springs, model.drags, model.angular, model.forces,
+                           model.constant, calls)
+    return make_stepper(program, layout.script, calls, wake, advance, round(h * 1e9))
 
 
-def _stepper(layout: _Layout, model: PlainModel, h: float, bodies: list,
-             read: Callable[[], list], push: Callable[..., None],
-             advance: Callable[[], None]) -> Callable[[int], float]:
-    """step(count) -> the seconds it took: before each step, the Python forces and the
-    scripted wrenches go on the bodies (``push(body, force, point of application or None,
-    torque, wake)``), then ``advance`` takes the peer's step."""
-    wrenches = _forces(layout, model, round(h * 1e9))
-    done = [0]
-    states: list = []
+def pymunk_calls(body: Any) -> BodyCalls:
+    """A pymunk body's calls for the force loop (:class:`.force_law.BodyCalls`)."""
+    def add_torque(tau: float) -> None:
+        body.torque += tau
 
-    def grab() -> list:
-        states[:] = read()
-        return states
+    return BodyCalls(body.local_to_world, body.velocity_at_world_point,
+                     body.apply_force_at_world_point,
+                     lambda: (*body.position, body.angle, *body.velocity,
+                              body.angular_velocity), add_torque)
 
-    def step(count: int) -> float:
-        start = time.perf_counter()
-        for _ in range(count):
-            total = wrenches(done[0], grab)
-            if total is not None:
-                wrench, pushed = total
-                for i, (body, state, (fx, fy, tau)) in enumerate(zip(bodies, states, wrench)):
-                    push(body, (fx, fy), line_of_action(state, fx, fy, tau), tau, i in pushed)
-            advance()
-            done[0] += 1
-        return time.perf_counter() - start
 
-    return step
+def box2d_calls(body: Any) -> BodyCalls:
+    """A Box2D 2.3 body's calls for the force loop; a force does not wake a sleeping body
+    (only a scripted push does, through the stepper's ``wake``)."""
+    apply_force, apply_torque = body.ApplyForce, body.ApplyTorque
+    return BodyCalls(body.GetWorldPoint, body.GetLinearVelocityFromWorldPoint,
+                     lambda force, point: apply_force(force, point, False),
+                     lambda: (*body.position, body.angle, *body.linearVelocity,
+                              body.angularVelocity),
+                     lambda tau: apply_torque(tau, False))
 
 
 def _without_welds(layout: _Layout, peer: str) -> _Layout:
@@ -362,18 +340,9 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
             other = space.static_body if b < 0 else bodies[b]
             space.add(pymunk.DampedSpring(bodies[a], other, la, lb, rest, k, damp))
     _pymunk_joints(pymunk, space, layout, bodies)
-    def read() -> list:
-        return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in bodies]
-
-    def push(body, force, point, torque: float, wake: bool) -> None:
-        if point is not None:
-            body.apply_force_at_world_point(force, point)
-        elif torque:
-            body.torque = torque
-        if wake:  # a push wakes a sleeping body, as in the core
-            body.activate()
-
-    step = _stepper(layout, model, h, bodies, read, push, lambda: space.step(h))
+    # A push wakes a sleeping body, as in the core.
+    step = _stepper(layout, model, h, [pymunk_calls(b) for b in bodies],
+                    lambda i: bodies[i].activate(), lambda: space.step(h))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
@@ -469,16 +438,11 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         first, second = pins[gear.first], pins[gear.second]
         world.CreateGearJoint(bodyA=first.bodyB, bodyB=second.bodyB, joint1=first,
                               joint2=second, ratio=gear.ratio)
-    def read() -> list:
-        return [(*b.position, b.angle, *b.linearVelocity, b.angularVelocity) for b in bodies]
+    def wake(i: int) -> None:
+        bodies[i].awake = True
 
-    def push(body, force, point, torque: float, wake: bool) -> None:
-        if point is not None:  # only a push wakes a sleeping body
-            body.ApplyForce(force, point, wake)
-        elif torque:
-            body.ApplyTorque(torque, wake)
-
-    step = _stepper(layout, model, h, bodies, read, push, lambda: world.Step(h, 8, 3))
+    step = _stepper(layout, model, h, [box2d_calls(b) for b in bodies], wake,
+                    lambda: world.Step(h, 8, 3))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 

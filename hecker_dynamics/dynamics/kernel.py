@@ -148,18 +148,18 @@ _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
 
 
 class Advanced(NamedTuple):
-    """What :meth:`CompiledSteps.advance` did: steps completed, the work done (force
-    evaluations; accepted and rejected sub-steps and the sub-step size to carry on with, for
-    an embedded pair), and why it stopped early (``error``: the integrator failed;
-    ``diverged``: the failed, non-finite new state)."""
+    """What :meth:`CompiledSteps.advance` did: whether it went through (``status``: the
+    kernel's ADVANCED, else why it stopped early, which :meth:`CompiledSteps.failure`
+    explains), steps completed, and the work done (force evaluations; accepted and rejected
+    sub-steps and the sub-step size to carry on with, for an embedded pair). A plain tuple
+    in this order is what the kernel returns; this names its fields."""
 
+    status: int
     taken: int
     evaluations: int
     substeps: int
     rejected: int
     substep_size: float
-    error: Optional[str] = None
-    diverged: Optional[tuple[np.ndarray, np.ndarray]] = None
 
 
 class CompiledSteps:
@@ -182,29 +182,39 @@ class CompiledSteps:
             self.pair = _kernel.pair(pair.slopes, np.ascontiguousarray(pair.a),
                                      np.ascontiguousarray(pair.error), pair.error_order)
             self.tolerance = integrator.tolerance
-        # Where the kernel writes each new state before it is checked: kept from call to call.
-        self._q_new, self._v_new = np.empty((forces.bodies, 3)), np.empty((forces.bodies, 3))
+        # The kernel's stepper: the method bound to the program and the contact pass, with
+        # the memory its steps need, kept from call to call.
+        self.stepper = _kernel.stepper(forces.program, self.method, self.pair, self.tolerance,
+                                       None if contacts is None else contacts.kernel_pass())
+        #: The status of a call that took all its steps.
+        self.advanced = _kernel.ADVANCED
 
     def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int, oriented: bool,
                 substep_size: float = 0.0) -> Advanced:
         """Advance (q, v), C-contiguous (N, 3) arrays, in place by up to ``steps`` steps of
         ``h`` seconds, wrapping angles after each; stop at the first failing step, leaving
         the last good state in (q, v). ``oriented``: some active force needs the angles;
-        ``substep_size``: an embedded pair's sub-step size to start from."""
-        forces = self.forces
-        status, taken, evaluations, substeps, rejected, size = _kernel.advance(
-            forces.program, forces.inputs, oriented, self.method, self.pair, self.tolerance,
-            substep_size if self.pair is not None else 0.0, q, v, self._q_new, self._v_new, h,
-            steps, None if self.contacts is None else self.contacts.kernel_pass(),
-            None if self.joints is None else self.joints.kernel_pass())
-        if self.joints is not None:
-            self.joints.kernel_done()
-        done = Advanced(taken, evaluations, substeps, rejected, size)
-        if status == _kernel.NOT_FINITE:
-            return done._replace(diverged=(self._q_new.copy(), self._v_new.copy()))
-        if status != _kernel.ADVANCED:
-            return done._replace(error=f"{self.name}: {self._failures[status]}")
+        ``substep_size``: an embedded pair's sub-step size to start from. The kernel's
+        tuple, as :class:`Advanced` names it (plain, at each publish instant's cost)."""
+        joints = self.joints
+        if joints is None:
+            return _kernel.step(self.stepper, self.forces.inputs, oriented, q, v, h, steps,
+                                substep_size, None)
+        done = _kernel.step(self.stepper, self.forces.inputs, oriented, q, v, h, steps,
+                            substep_size, joints.kernel_pass())
+        joints.kernel_done()
         return done
+
+    def failure(self, status: int) -> tuple[Optional[str], Optional[tuple[np.ndarray,
+                                                                          np.ndarray]]]:
+        """Why a call of :meth:`advance` with ``status`` stopped early: the integrator's
+        failure, or the new state that was not finite (N, 3 each)."""
+        if status == _kernel.NOT_FINITE:
+            bodies = self.forces.bodies
+            q_new, v_new = np.empty((bodies, 3)), np.empty((bodies, 3))
+            _kernel.failed_state(self.stepper, q_new, v_new)
+            return None, (q_new, v_new)
+        return f"{self.name}: {self._failures[status]}", None
 
 
 def compiled_steps(forces: Optional[CompiledForces], integrator: Integrator,

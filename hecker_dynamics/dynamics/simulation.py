@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
+from types import MappingProxyType
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
@@ -26,7 +27,7 @@ from .inputs import InputBuffer
 from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTheta,
                                    IntegrationError, RungeKutta4, SemiImplicitEuler,
                                    VelocityVerlet, choose_method, make_integrator)
-from .kernel import Advanced, compiled_steps
+from .kernel import compiled_steps
 from ..contact.events import Impact, WallEvents
 from ..contact.joints import MOST_SUBSTEPS, JointsUnsolved
 from .forces import WrenchRow
@@ -40,6 +41,8 @@ PROGRESS_UPDATES = 200
 #: The methods whose step depends on the state alone (no sub-step size, no Newton guess
 #: carried over), which is what lets a step of a scene fully asleep be skipped.
 FIXED_STEP = (ExplicitEuler, SemiImplicitEuler, VelocityVerlet, RungeKutta4)
+#: The joint states of a snapshot of a scene without joints (read-only, so shared).
+NO_JOINTS: Mapping[str, tuple[float, float, float]] = MappingProxyType({})
 
 
 class DivergenceError(RuntimeError):
@@ -70,14 +73,22 @@ class Snapshot:
     __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
-                 v: np.ndarray, *, copy: bool = True) -> None:
-        """``copy`` false: (q, v) are the snapshot's own, never changed in place."""
-        self.time_ns, self.steps = time_ns, steps
+                 v: np.ndarray, copy: bool = True) -> None:
+        """``copy`` false: (q, v) are the snapshot's own, never changed in place (passed
+        by position where snapshots are taken often: a keyword costs a third of a
+        snapshot)."""
+        self.time_ns = time_ns
+        self.steps = steps
+        joints = model.joints
         #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
         #: joint pass counts turns and keeps its efforts from step to step.
-        self.joints: dict[str, tuple[float, float, float]] = (
-            {} if model.joints is None else model.joints.joint_state(q, v))
-        self._model, self._q, self._v = model, q.copy() if copy else q, v.copy() if copy else v
+        self.joints: Mapping[str, tuple[float, float, float]] = (
+            NO_JOINTS if joints is None else joints.joint_state(q, v))
+        if copy:
+            q, v = q.copy(), v.copy()
+        self._model = model
+        self._q = q
+        self._v = v
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
 
@@ -142,6 +153,8 @@ class Simulation:
         # the kernel locates no events, so a scene that asks for them steps in Python.
         self._compiled = None if self._events is not None else compiled_steps(
             self.model.compiled, self.integrator, contacts, self.model.joints)
+        self._embedded = (self.integrator if isinstance(self.integrator, EmbeddedRungeKutta)
+                          else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
         self.reset(start_ns)
 
@@ -402,30 +415,28 @@ class Simulation:
         if change is not None:  # the first step that starts at or after it sees the change
             limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
         q, v = self.q.copy(), self.v.copy()
-        integrator = self.integrator
-        embedded = integrator if isinstance(integrator, EmbeddedRungeKutta) else None
-        done = self._compiled.advance(q, v, self.step_seconds, limit, self.model.oriented,
-                                      0.0 if embedded is None else embedded.substep_size)
+        embedded = self._embedded
+        status, taken, evaluations, substeps, rejected, size = self._compiled.advance(
+            q, v, self.step_seconds, limit, self.model.oriented,
+            0.0 if embedded is None else embedded.substep_size)
         self.q, self.v = q, v
-        self._account(done, embedded)
-        self._steps += done.taken
-        self._time_ns += done.taken * self.step_ns
-        if done.error is not None:
-            error = IntegrationError(done.error)
-            raise self._failed(error) from error
-        if done.diverged is not None:
-            raise self._diverged(*done.diverged)
-        return done.taken
-
-    def _account(self, done: Advanced, embedded: Optional[EmbeddedRungeKutta]) -> None:
-        """Add the work of steps taken in the kernel to the integrator's counters, and
-        carry an embedded pair's sub-step size over, as its steps in Python would."""
+        # The work of the steps taken in the kernel joins the integrator's counters, and an
+        # embedded pair's sub-step size carries over, as its steps in Python would.
         counters = self.integrator.counters
-        counters.evaluations += done.evaluations
+        counters.evaluations += evaluations
         if embedded is not None:
-            counters.substeps += done.substeps
-            counters.rejected += done.rejected
-            embedded.substep_size = done.substep_size
+            counters.substeps += substeps
+            counters.rejected += rejected
+            embedded.substep_size = size
+        self._steps += taken
+        self._time_ns += taken * self.step_ns
+        if status != self._compiled.advanced:
+            failed, diverged = self._compiled.failure(status)
+            if diverged is not None:
+                raise self._diverged(*diverged)
+            error = IntegrationError(failed)
+            raise self._failed(error) from error
+        return taken
 
     def _step(self) -> None:
         """One step in Python, the inputs already updated."""
@@ -548,19 +559,23 @@ class Simulation:
         """
         snapshots = []
         taken = 0
-        period = self.scene.publish_period_ns
+        period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
+        # Steps from one publish instant to the next; 0 where the period is not a whole
+        # number of steps, and the run stops after every step to look.
+        per_publish = 0 if period % step else period // step
         with np.errstate(all="ignore"):
-            while self._time_ns + self.step_ns <= t_ns and (max_steps is None or taken < max_steps):
-                limit = min((t_ns - self._time_ns) // self.step_ns, self._steps_to_publish())
+            while self._time_ns + step <= t_ns and (max_steps is None or taken < max_steps):
+                limit = (t_ns - self._time_ns) // step
+                limit = min(limit, per_publish - (self._time_ns - start) // step % per_publish
+                            if per_publish else 1)
                 if max_steps is not None:
                     limit = min(limit, max_steps - taken)
                 taken += self._advance(limit)
-                if (self._time_ns - self.start_ns) % period == 0:
+                if (self._time_ns - start) % period == 0:
                     self._check_energy()
-                    if keep:  # the state just checked: its copies are kept unchanged
-                        q, v = self._checked[:2]
-                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model, q, v,
-                                                  copy=False))
+                    if keep:  # the state just checked, never changed in place
+                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model,
+                                                  self.q, self.v, False))
         return snapshots
 
     def _check_energy(self) -> None:
@@ -576,16 +591,9 @@ class Simulation:
             self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
                             f"kept the state at t = {time_ns * 1e-9:.6f} s")
             raise DivergenceError(self._halted)
-        self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
-
-    def _steps_to_publish(self) -> int:
-        """Steps from now to the next publish instant (1 if the period is not a whole
-        number of steps)."""
-        period, step = self.scene.publish_period_ns, self.step_ns
-        if period % step:
-            return 1
-        per_publish = period // step
-        return per_publish - (self._time_ns - self.start_ns) // step % per_publish
+        # The state is never changed in place (each step, move or import makes new arrays),
+        # so the check keeps it, and the publish snapshots share it, without copies.
+        self._checked = (self.q, self.v, self._time_ns, self._steps)
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
              keep: bool = True,

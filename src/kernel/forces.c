@@ -92,25 +92,30 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
 {
     const int ni = hd_int_columns(t->kind), nr = hd_real_columns(t->kind);
     double *w = s->wrench;
-    for (long e = 0; e < t->count; ++e) {
-        const long *i = t->ints + ni * e;
-        const double *r = t->reals + nr * e;
-        double rx, ry, vx, vy, fx, fy;
-        switch (t->kind) {
-        case HD_GRAVITY:
+    /* One loop per kind (not a switch per instance), so each loop keeps its columns in
+     * registers: the springs of a large ring are most of a step. */
+    const long *i = t->ints;
+    const double *r = t->reals;
+    double rx, ry, vx, vy, fx, fy;
+    switch (t->kind) {
+    case HD_GRAVITY:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             w[3 * i[0]] += r[0];
             w[3 * i[0] + 1] += r[1];
-            break;
-        case HD_ANCHOR_SPRING: {
+        }
+        break;
+    case HD_ANCHOR_SPRING:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
             offset(s, b, r[0], r[1], &rx, &ry);
             point_velocity(v, b, rx, ry, &vx, &vy);
             spring(q[3 * b] + rx - r[2], q[3 * b + 1] + ry - r[3], vx, vy, r[4], r[5], r[6],
                    &fx, &fy);
             apply(w + 3 * b, rx, ry, fx, fy);
-            break;
         }
-        case HD_BODY_SPRING: {
+        break;
+    case HD_BODY_SPRING:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long a = i[0], b = i[1];
             double rax, ray, rbx, rby, vax, vay, vbx, vby;
             offset(s, a, r[0], r[1], &rax, &ray);
@@ -121,27 +126,31 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
                    vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
             apply(w + 3 * a, rax, ray, fx, fy);
             apply(w + 3 * b, rbx, rby, -fx, -fy);
-            break;
         }
-        case HD_CENTER_DRAG: {
+        break;
+    case HD_CENTER_DRAG:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
             drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
             w[3 * b] += fx;
             w[3 * b + 1] += fy;
-            break;
         }
-        case HD_POINT_DRAG: {
+        break;
+    case HD_POINT_DRAG:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
             offset(s, b, r[0], r[1], &rx, &ry);
             point_velocity(v, b, rx, ry, &vx, &vy);
             drag(vx, vy, r[2], i[1], &fx, &fy);
             apply(w + 3 * b, rx, ry, fx, fy);
-            break;
         }
-        case HD_ANGULAR_DAMPING:
+        break;
+    case HD_ANGULAR_DAMPING:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr)
             w[3 * i[0] + 2] -= r[0] * v[3 * i[0] + 2];
-            break;
-        case HD_WRENCH: {
+        break;
+    case HD_WRENCH:
+        for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0], axes = i[1], owner = i[2];
             double px = r[3], py = r[4];
             fx = r[0];
@@ -154,7 +163,7 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             if (!i[3]) {  /* at the CM */
                 w[3 * b] += fx;
                 w[3 * b + 1] += fy;
-                break;
+                continue;
             }
             if (owner >= 0) {
                 double ox, oy;
@@ -163,10 +172,36 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
                 py = q[3 * owner + 1] + oy;
             }
             apply(w + 3 * b, px - q[3 * b], py - q[3 * b + 1], fx, fy);
-            break;
         }
-        }
+        break;
     }
+}
+
+/* cos and sin of every body's angle (glibc takes both at once: sincos, the same bits as
+ * cos and sin apart). */
+static void angles(const double *q, long n, hd_scratch *scratch)
+{
+    double *c = scratch->cos, *sn = scratch->sin;
+    for (long b = 0; b < n; ++b) {
+        const double theta = q[3 * b + 2];
+        c[b] = cos(theta);
+        sn[b] = sin(theta);
+    }
+}
+
+void hd_wrench(const hd_program *program, const hd_program *inputs, int oriented,
+               const double *q, const double *v, hd_scratch *scratch)
+{
+    const long n = program->bodies;
+    if (oriented)
+        angles(q, n, scratch);
+    for (long k = 0; k < 3 * n; ++k)
+        scratch->wrench[k] = 0.0;
+    for (long t = 0; t < program->term_count; ++t)
+        add_term(program->terms + t, scratch, q, v);
+    if (inputs != NULL)
+        for (long t = 0; t < inputs->term_count; ++t)
+            add_term(inputs->terms + t, scratch, q, v);
 }
 
 void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
@@ -178,19 +213,7 @@ void hd_accelerations(const hd_program *program, const hd_program *inputs, int o
             out[k] = 0.0;
         return;
     }
-    if (oriented) {
-        for (long b = 0; b < n; ++b) {
-            scratch->cos[b] = cos(q[3 * b + 2]);
-            scratch->sin[b] = sin(q[3 * b + 2]);
-        }
-    }
-    for (long k = 0; k < 3 * n; ++k)
-        scratch->wrench[k] = 0.0;
-    for (long t = 0; t < program->term_count; ++t)
-        add_term(program->terms + t, scratch, q, v);
-    if (inputs != NULL)
-        for (long t = 0; t < inputs->term_count; ++t)
-            add_term(inputs->terms + t, scratch, q, v);
+    hd_wrench(program, inputs, oriented, q, v, scratch);
     for (long k = 0; k < 3 * n; ++k)
         out[k] = scratch->wrench[k] * program->inverse_mass[k];
 }
@@ -205,10 +228,7 @@ static double spring_energy(double dx, double dy, double k, double rest)
 void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
                               double *energy, double *excess, hd_scratch *scratch)
 {
-    for (long b = 0; b < program->bodies; ++b) {
-        scratch->cos[b] = cos(q[3 * b + 2]);
-        scratch->sin[b] = sin(q[3 * b + 2]);
-    }
+    angles(q, program->bodies, scratch);
     for (long t = 0; t < program->term_count; ++t) {
         const hd_term *term = program->terms + t;
         if (term->kind != HD_ANCHOR_SPRING && term->kind != HD_BODY_SPRING)

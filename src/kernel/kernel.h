@@ -64,6 +64,12 @@ typedef struct {
     double *cos, *sin, *wrench;
 } hd_scratch;
 
+/* The summed force and torque per body into scratch->wrench (3 N), and, with `oriented`,
+ * each body's cos and sin into scratch->cos and scratch->sin: the terms of `program`, then
+ * those of `inputs` (may be NULL). */
+void hd_wrench(const hd_program *program, const hd_program *inputs, int oriented,
+               const double *q, const double *v, hd_scratch *scratch);
+
 /* (ax, ay, alpha) per body into `out` (3 N): the terms of `program`, then those of
  * `inputs` (may be NULL), summed per body and divided by mass and inertia (F = M a, Eq. 5;
  * tau = I alpha, Eq. 14). `oriented`: some term needs the bodies' angles. */
@@ -126,20 +132,38 @@ typedef struct {
     long evaluations, substeps, rejected;
 } hd_work;
 
-/* Advance (q, v) by up to `steps` steps of `h`, wrapping angles into [-pi, pi) after each
- * step as the simulation does. Stops early at a step whose new state is not finite
- * (HD_NOT_FINITE: (q, v) keep the last finite state, (q_new, v_new) the failed one) or whose
- * adaptive sub-steps fail. `*size` is the adaptive method's sub-step size, carried from
- * step to step. `*taken` counts the steps completed. `contacts` (NULL: none): the contact
- * pass of contact.h after each step, in sub-steps as the simulation takes them; `joints`
- * (NULL: none) the joint pass of joint.h after each step and sub-step, before the contacts,
- * in parts or halves where it needs them (HD_UNSOLVED_JOINTS: still no solution near the
- * end of a part of a step taken in HD_MOST_SUBSTEPS parts). */
+/* Whole steps of one method on one program, with the working memory they need kept from
+ * call to call (hd_stepper_init allocates it, hd_stepper_free releases it). `contacts`
+ * (NULL: none): the contact pass of contact.h after each step, in sub-steps as the
+ * simulation takes them. */
 struct hd_contact_model;
 struct hd_joint_model;
-int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
-               const hd_pair *pair, double tolerance, double *size,
-               struct hd_contact_model *contacts, struct hd_joint_model *joints, double *q, double *v, double *q_new,
-               double *v_new, double h, long steps, long *taken, hd_work *work);
+typedef struct {
+    const hd_program *program;
+    int method;
+    const hd_pair *pair;
+    double tolerance;
+    struct hd_contact_model *contacts;
+    double *memory;
+    double *levels;  /* a joint pass's parts, allocated by the first step that needs them */
+    double *q_new, *v_new;  /* after HD_NOT_FINITE: the failed state */
+} hd_stepper;
+
+int hd_stepper_init(hd_stepper *s, const hd_program *program, int method,
+                    const hd_pair *pair, double tolerance, struct hd_contact_model *contacts);
+void hd_stepper_free(hd_stepper *s);
+
+/* Advance (q, v) by up to `steps` steps of `h`, wrapping angles into [-pi, pi) after each
+ * step as the simulation does. Stops early at a step whose new state is not finite
+ * (HD_NOT_FINITE: (q, v) keep the last finite state, the stepper's (q_new, v_new) the failed
+ * one) or whose adaptive sub-steps fail. `inputs` (NULL: none): the active inputs' program;
+ * `*size` is the adaptive method's sub-step size, carried from step to step. `*taken`
+ * counts the steps completed. `joints` (NULL: none): the joint pass of joint.h after each
+ * step and sub-step, before the contacts, in parts or halves where it needs them
+ * (HD_UNSOLVED_JOINTS: still no solution near the end of a part of a step taken in
+ * HD_MOST_SUBSTEPS parts). */
+int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
+                       struct hd_joint_model *joints, double *size, double *q, double *v,
+                       double h, long steps, long *taken, hd_work *work);
 
 #endif

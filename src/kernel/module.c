@@ -20,6 +20,7 @@ static const char *PROGRAM = "hecker_dynamics._kernel.Program";
 static const char *PAIR = "hecker_dynamics._kernel.Pair";
 static const char *CONTACTS = "hecker_dynamics._kernel.Contacts";
 static const char *JOINTS = "hecker_dynamics._kernel.Joints";
+static const char *STEPPER = "hecker_dynamics._kernel.Stepper";
 
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
@@ -424,33 +425,55 @@ static PyObject *py_bound(PyObject *self, PyObject *args)
     return PyFloat_FromDouble(worst);
 }
 
-PyDoc_STRVAR(advance_doc,
-"advance(program, inputs, oriented, method, pair, tolerance, size, q, v, q_new, v_new, h,\n"
-"        steps[, contacts[, joints]]) -> (status, taken, evaluations, substeps, rejected,\n"
-"        size)\n\n"
-"Advance (q, v) in place by up to ``steps`` steps of ``h`` seconds with ``method``\n"
-"(EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or EMBEDDED: the ``pair`` at\n"
-"``tolerance``, starting from sub-step ``size``), wrapping the angles after each step.\n"
-"``status``: ADVANCED, NOT_FINITE (a new state was not finite; it is left in q_new,\n"
-"v_new), SUBSTEP_UNDERFLOW, TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. ``contacts`` (default\n"
-"None: none): the contact pass after each step; ``joints`` (default None: none) the joint\n"
-"pass, before it. The GIL is released meanwhile.");
-
-static PyObject *py_advance(PyObject *self, PyObject *args)
+/* The writable buffers of a state (q, v) of `n3` values each, or -1 with an exception set
+ * and neither held. */
+static int get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_buffer *vv)
 {
-    PyObject *program, *inputs, *pair_object, *qo, *vo, *qno, *vno;
-    int oriented, method;
-    double tolerance, size, h;
-    long steps;
-    hd_program *p, *in;
+    if (get_buffer(q, qv, "q", 'd', n3, 1) < 0)
+        return -1;
+    if (get_buffer(v, vv, "v", 'd', n3, 1) < 0) {
+        PyBuffer_Release(qv);
+        return -1;
+    }
+    return 0;
+}
+
+/* A stepper capsule's contents: the kernel's stepper and the objects whose data it points
+ * into, held for its lifetime. */
+typedef struct {
+    hd_stepper stepper;
+    PyObject *program, *pair, *contacts;
+} stepper_capsule;
+
+static void stepper_destructor(PyObject *capsule)
+{
+    stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
+    if (c == NULL)
+        return;
+    hd_stepper_free(&c->stepper);
+    Py_XDECREF(c->program);
+    Py_XDECREF(c->pair);
+    Py_XDECREF(c->contacts);
+    free(c);
+}
+
+PyDoc_STRVAR(stepper_doc,
+"stepper(program, method, pair, tolerance, contacts) -> Stepper\n\n"
+"Whole steps of ``method`` (EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or\n"
+"EMBEDDED with the Pair ``pair`` and ``tolerance``) on ``program``, with the contact pass\n"
+"``contacts`` (None: none) after each step, and the memory they need, for ``step``.");
+
+static PyObject *py_stepper(PyObject *self, PyObject *args)
+{
+    PyObject *program, *pair_object, *contacts_object;
+    int method;
+    double tolerance;
+    hd_program *p, *unused;
     hd_pair *pair = NULL;
-    PyObject *contacts_object = Py_None, *joints_object = Py_None;
     hd_contact_model *contacts = NULL;
-    hd_joint_model *joints = NULL;
-    if (!PyArg_ParseTuple(args, "OOpiOddOOOOdl|OO:advance", &program, &inputs, &oriented,
-                          &method, &pair_object, &tolerance, &size, &qo, &vo, &qno, &vno, &h,
-                          &steps, &contacts_object, &joints_object) ||
-        get_programs(program, inputs, &p, &in) < 0)
+    if (!PyArg_ParseTuple(args, "OiOdO:stepper", &program, &method, &pair_object, &tolerance,
+                          &contacts_object) ||
+        get_programs(program, Py_None, &p, &unused) < 0)
         return NULL;
     if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
         PyErr_Format(PyExc_ValueError, "unknown method %d", method);
@@ -466,40 +489,122 @@ static PyObject *py_advance(PyObject *self, PyObject *args)
             return NULL;
         }
     }
-    if (joints_object != Py_None) {
-        if ((joints = PyCapsule_GetPointer(joints_object, JOINTS)) == NULL)
+    stepper_capsule *c = calloc(1, sizeof(stepper_capsule));
+    if (c == NULL)
+        return PyErr_NoMemory();
+    if (hd_stepper_init(&c->stepper, p, method, pair, tolerance, contacts) != HD_ADVANCED) {
+        free(c);
+        return PyErr_NoMemory();
+    }
+    PyObject *capsule = PyCapsule_New(c, STEPPER, stepper_destructor);
+    if (capsule == NULL) {
+        hd_stepper_free(&c->stepper);
+        free(c);
+        return NULL;
+    }
+    c->program = Py_NewRef(program);
+    c->pair = Py_NewRef(pair_object);
+    c->contacts = Py_NewRef(contacts_object);
+    return capsule;
+}
+
+/* Body-steps of work below which a call keeps the GIL: releasing and taking it back costs
+ * more than such a call's steps. */
+#define GIL_WORK 4096L
+
+PyDoc_STRVAR(step_doc,
+"step(stepper, inputs, oriented, q, v, h, steps, size, joints)\n"
+"    -> (status, taken, evaluations, substeps, rejected, size)\n\n"
+"Advance (q, v), C-contiguous float64 arrays of 3 values per body, in place by up to\n"
+"``steps`` steps of ``h`` with the Stepper's method and passes, the inputs' program\n"
+"``inputs`` (None: none) added to its forces (an embedded pair starting from sub-step\n"
+"``size``), wrapping the angles after each step. ``oriented``: some active force needs the\n"
+"angles; ``joints`` (None: none): the joint pass before the contacts. ``status``: ADVANCED,\n"
+"NOT_FINITE (a new state was not finite; ``failed_state`` gives it), SUBSTEP_UNDERFLOW,\n"
+"TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. The GIL is released meanwhile, unless the call is\n"
+"short.");
+
+static PyObject *py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 9) {
+        PyErr_Format(PyExc_TypeError, "step() takes 9 arguments (%zd given)", nargs);
+        return NULL;
+    }
+    stepper_capsule *c = PyCapsule_GetPointer(args[0], STEPPER);
+    if (c == NULL)
+        return NULL;
+    hd_stepper *s = &c->stepper;
+    hd_program *in = NULL;
+    if (args[1] != Py_None) {
+        if ((in = PyCapsule_GetPointer(args[1], PROGRAM)) == NULL)
+            return NULL;
+        if (in->bodies != s->program->bodies) {
+            PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
+            return NULL;
+        }
+    }
+    const int oriented = PyObject_IsTrue(args[2]);
+    const double h = PyFloat_AsDouble(args[5]);
+    const long steps = PyLong_AsLong(args[6]);
+    double size = PyFloat_AsDouble(args[7]);
+    if (oriented < 0 || PyErr_Occurred())
+        return NULL;
+    hd_joint_model *joints = NULL;
+    if (args[8] != Py_None) {
+        if ((joints = PyCapsule_GetPointer(args[8], JOINTS)) == NULL)
             return NULL;
         for (long k = 0; k < joints->body_count; ++k)
-            if (joints->bodies[k] >= p->bodies) {
+            if (joints->bodies[k] >= s->program->bodies) {
                 PyErr_SetString(PyExc_ValueError, "joints: a joint pass for other bodies");
                 return NULL;
             }
     }
-    const Py_ssize_t n3 = 3 * p->bodies;
-    Py_buffer views[4];
-    PyObject *objects[4] = {qo, vo, qno, vno};
-    const char *names[4] = {"q", "v", "q_new", "v_new"};
-    for (int k = 0; k < 4; ++k) {
-        if (get_buffer(objects[k], views + k, names[k], 'd', n3, 1) < 0) {
-            while (k-- > 0)
-                PyBuffer_Release(views + k);
-            return NULL;
-        }
-    }
+    if (s->method != HD_EMBEDDED)
+        size = 0.0;
+    Py_buffer qv, vv;
+    if (get_state(args[3], args[4], 3 * s->program->bodies, &qv, &vv) < 0)
+        return NULL;
     long taken = 0;
     hd_work work = {0, 0, 0};
     int status;
-    Py_BEGIN_ALLOW_THREADS
-    status = hd_advance(p, in, oriented, method, pair, tolerance, &size, contacts, joints,
-                        views[0].buf,
-                     views[1].buf, views[2].buf, views[3].buf, h, steps, &taken, &work);
-    Py_END_ALLOW_THREADS
-    for (int k = 0; k < 4; ++k)
-        PyBuffer_Release(views + k);
+    if (steps * s->program->bodies < GIL_WORK && s->contacts == NULL && joints == NULL) {
+        status = hd_stepper_advance(s, in, oriented, joints, &size, qv.buf, vv.buf, h, steps,
+                                    &taken, &work);
+    } else {
+        Py_BEGIN_ALLOW_THREADS
+        status = hd_stepper_advance(s, in, oriented, joints, &size, qv.buf, vv.buf, h, steps,
+                                    &taken, &work);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&qv);
+    PyBuffer_Release(&vv);
     if (status == HD_OUT_OF_MEMORY)
         return PyErr_NoMemory();
     return Py_BuildValue("illlld", status, taken, work.evaluations, work.substeps,
                          work.rejected, size);
+}
+
+PyDoc_STRVAR(failed_state_doc,
+"failed_state(stepper, q, v)\n\n"
+"Copy the state that ended the last ``step`` with NOT_FINITE into (q, v).");
+
+static PyObject *py_failed_state(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *qo, *vo;
+    if (!PyArg_ParseTuple(args, "OOO:failed_state", &capsule, &qo, &vo))
+        return NULL;
+    stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
+    if (c == NULL)
+        return NULL;
+    const Py_ssize_t n3 = 3 * c->stepper.program->bodies;
+    Py_buffer qv, vv;
+    if (get_state(qo, vo, n3, &qv, &vv) < 0)
+        return NULL;
+    memcpy(qv.buf, c->stepper.q_new, (size_t)n3 * sizeof(double));
+    memcpy(vv.buf, c->stepper.v_new, (size_t)n3 * sizeof(double));
+    PyBuffer_Release(&qv);
+    PyBuffer_Release(&vv);
+    Py_RETURN_NONE;
 }
 
 
@@ -1092,7 +1197,9 @@ static PyMethodDef methods[] = {
     {"program", py_program, METH_VARARGS, program_doc},
     {"pair", py_pair, METH_VARARGS, pair_doc},
     {"accelerations", py_accelerations, METH_VARARGS, accelerations_doc},
-    {"advance", py_advance, METH_VARARGS, advance_doc},
+    {"stepper", py_stepper, METH_VARARGS, stepper_doc},
+    {"step", (PyCFunction)(void (*)(void))py_step, METH_FASTCALL, step_doc},
+    {"failed_state", py_failed_state, METH_VARARGS, failed_state_doc},
     {"bound", py_bound, METH_VARARGS, bound_doc},
     {"contacts", py_contacts, METH_VARARGS, contacts_doc},
     {"resolve", py_resolve, METH_VARARGS, resolve_doc},

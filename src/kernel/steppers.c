@@ -35,7 +35,27 @@ static void evaluate(Forces *f, const double *q, const double *v, double *a)
 static void euler(Forces *f, const double *q, const double *v, double *q1, double *v1,
                   double h, double *a, int symplectic)
 {
-    evaluate(f, q, v, a);
+    const hd_program *p = f->program;
+    if (p->term_count == 0 && (f->inputs == NULL || f->inputs->term_count == 0))
+        evaluate(f, q, v, a);
+    else {  /* the accelerations w / m taken in the same pass as the update: one pass less */
+        f->work->evaluations += 1;
+        hd_wrench(p, f->inputs, f->oriented, q, v, &f->scratch);
+        const double *w = f->scratch.wrench, *inverse_mass = p->inverse_mass;
+        if (symplectic)
+            for (long k = 0; k < f->n3; ++k) {
+                const double acceleration = w[k] * inverse_mass[k];
+                v1[k] = v[k] + h * acceleration;
+                q1[k] = q[k] + h * v1[k];
+            }
+        else
+            for (long k = 0; k < f->n3; ++k) {
+                const double acceleration = w[k] * inverse_mass[k];
+                v1[k] = v[k] + h * acceleration;
+                q1[k] = q[k] + h * v[k];
+            }
+        return;
+    }
     for (long k = 0; k < f->n3; ++k) {
         v1[k] = v[k] + h * a[k];
         q1[k] = q[k] + h * (symplectic ? v1[k] : v[k]);
@@ -209,10 +229,18 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
     return HD_TOO_MANY_SUBSTEPS;
 }
 
-/* Wrap angles into [-pi, pi), touching only those outside (planar.py: wrap_angle, with
- * numpy's remainder: fmod moved to the sign of the divisor). */
-static void wrap_angles(double *q, long n)
+/* Whether the new state (q, v) of N bodies is finite; if so, its angles are wrapped into
+ * [-pi, pi), touching only those outside (planar.py: wrap_angle, with numpy's remainder:
+ * fmod moved to the sign of the divisor). One pass over the state: x - x is 0 for a
+ * finite x and NaN otherwise. */
+static int settle(double *q, const double *v, long n)
 {
+    for (long b = 0; b < n; ++b) {
+        const double *x = q + 3 * b, *u = v + 3 * b;
+        if (!((x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (u[0] - u[0]) + (u[1] - u[1])
+              + (u[2] - u[2]) == 0.0))
+            return 0;
+    }
     for (long b = 0; b < n; ++b) {
         double theta = q[3 * b + 2];
         if (theta >= -PI && theta < PI)
@@ -227,13 +255,6 @@ static void wrap_angles(double *q, long n)
         double wrapped = r - PI;
         q[3 * b + 2] = wrapped >= PI ? -PI : wrapped;
     }
-}
-
-static int all_finite(const double *x, long count)
-{
-    for (long k = 0; k < count; ++k)
-        if (!isfinite(x[k]))
-            return 0;
     return 1;
 }
 
@@ -377,50 +398,105 @@ static int everything_asleep(const hd_contact_model *m, const hd_joint_model *jo
     return 1;
 }
 
-int hd_advance(const hd_program *program, const hd_program *inputs, int oriented, int method,
-               const hd_pair *pair, double tolerance, double *size, hd_contact_model *contacts,
-               hd_joint_model *joints, double *q, double *v, double *q_new, double *v_new, double h, long steps,
-               long *taken, hd_work *work)
+int hd_stepper_init(hd_stepper *s, const hd_program *program, int method,
+                    const hd_pair *pair, double tolerance, hd_contact_model *contacts)
 {
-    const long n = program->bodies, n3 = 3 * n;
-    /* cos, sin (N each) and the wrench (3 N) of an evaluation, then the method's states */
-    /* (and 4 states more for the sub-steps of a contact scene, and two per level of a */
-    /* joint pass's splitting) */
-    const long levels = joints == NULL ? 0 : 2 * (HD_MAX_SPLITS + 1);
-    double *memory = malloc((size_t)(5 * n + n3 * (buffer_states(method, pair) + 4 + levels)
-                                     + 1) * sizeof(double));
-    if (memory == NULL)
+    const long n = program->bodies, n3 = 3 * n, states = buffer_states(method, pair);
+    /* cos, sin (N each) and the wrench (3 N) of an evaluation, the method's states, 4 states
+     * for the sub-steps of a contact scene, the new state (q, v) and a pair to swap in */
+    s->memory = malloc((size_t)(5 * n + n3 * (states + 4 + 4) + 1) * sizeof(double));
+    if (s->memory == NULL)
         return HD_OUT_OF_MEMORY;
+    s->program = program;
+    s->method = method;
+    s->pair = pair;
+    s->tolerance = tolerance;
+    s->contacts = contacts;
+    s->levels = NULL;
+    s->q_new = s->memory + 5 * n + n3 * (states + 4);
+    s->v_new = s->q_new + n3;
+    return HD_ADVANCED;
+}
+
+void hd_stepper_free(hd_stepper *s)
+{
+    free(s->memory);
+    free(s->levels);
+    s->memory = NULL;
+    s->levels = NULL;
+}
+
+/* Leave the last good state in (q, v) and the failed one in the stepper's (q_new, v_new)
+ * when the steps ended on the other pair of buffers than the one they began on. */
+static void settle_buffers(const hd_stepper *s, long n3, double *q, double *v,
+                           const double *good_q, const double *good_v, int failed)
+{
+    const size_t bytes = (size_t)n3 * sizeof(double);
+    if (good_q == q)
+        return;
+    if (failed) {  /* the failed state is in (q, v): swap it with the good one */
+        double *spare_q = s->v_new + n3, *spare_v = spare_q + n3;
+        memcpy(spare_q, q, bytes);
+        memcpy(spare_v, v, bytes);
+        memcpy(q, good_q, bytes);
+        memcpy(v, good_v, bytes);
+        memcpy(s->q_new, spare_q, bytes);
+        memcpy(s->v_new, spare_v, bytes);
+        return;
+    }
+    memcpy(q, good_q, bytes);
+    memcpy(v, good_v, bytes);
+}
+
+int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
+                       hd_joint_model *joints, double *size, double *q, double *v, double h,
+                       long steps, long *taken, hd_work *work)
+{
+    const hd_program *program = s->program;
+    hd_contact_model *contacts = s->contacts;
+    const long n = program->bodies, n3 = 3 * n;
+    double *memory = s->memory, *buffer = memory + 5 * n;
     Forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
-    double *buffer = memory + 5 * n;
+    double *spare = buffer + n3 * buffer_states(s->method, s->pair);
+    /* The state steps from (cur) into (next), and the two pairs of buffers swap roles:
+     * no copy per step. */
+    double *cur_q = q, *cur_v = v, *next_q = s->q_new, *next_v = s->v_new;
     int status = HD_ADVANCED;
     *taken = 0;
-    Stepper stepper = {&f, method, pair, tolerance, size, buffer,
-                       buffer + n3 * (buffer_states(method, pair) + 4)};
+    if (joints != NULL && s->levels == NULL) {
+        /* two states per level of a joint pass's splitting (constrained_step) */
+        s->levels = malloc((size_t)(2 * (HD_MAX_SPLITS + 1) * n3 + 1) * sizeof(double));
+        if (s->levels == NULL)
+            return HD_OUT_OF_MEMORY;
+    }
+    Stepper stepper = {&f, s->method, s->pair, s->tolerance, size, buffer, s->levels};
     if (contacts != NULL)
         contacts->joints = joints;  /* for these steps: coupled.h */
     for (long t = 0; t < steps; ++t) {
-        if (everything_asleep(contacts, joints, method, n)) {
+        if (everything_asleep(contacts, joints, s->method, n)) {
             *taken += 1;
             continue;
         }
         status = contacts == NULL
-                 ? constrained_step(&stepper, joints, q, v, q_new, v_new, h, HD_MOST_SUBSTEPS, 0)
-                 : step_with_contacts(&stepper, contacts, joints, q, v, q_new, v_new, h,
-                                      buffer + n3 * buffer_states(method, pair));
+                 ? constrained_step(&stepper, joints, cur_q, cur_v, next_q, next_v, h,
+                                    HD_MOST_SUBSTEPS, 0)
+                 : step_with_contacts(&stepper, contacts, joints, cur_q, cur_v, next_q, next_v,
+                                      h, spare);
         if (status != HD_ADVANCED)
             break;
-        if (!all_finite(q_new, n3) || !all_finite(v_new, n3)) {
+        if (!settle(next_q, next_v, n)) {
             status = HD_NOT_FINITE;
             break;
         }
-        wrap_angles(q_new, n);
-        memcpy(q, q_new, (size_t)n3 * sizeof(double));
-        memcpy(v, v_new, (size_t)n3 * sizeof(double));
+        double *swap_q = cur_q, *swap_v = cur_v;
+        cur_q = next_q;
+        cur_v = next_v;
+        next_q = swap_q;
+        next_v = swap_v;
         *taken += 1;
     }
     if (contacts != NULL)
         contacts->joints = NULL;
-    free(memory);
+    settle_buffers(s, n3, q, v, cur_q, cur_v, status == HD_NOT_FINITE);
     return status;
 }
