@@ -1,6 +1,7 @@
-"""The World API against closed forms (Eq. 5, 11, 13, 14), against the scene loader (a
-World built in Python and the same scene file step bit for bit alike), its state round
-trip, and its one-line errors."""
+"""The World API against closed forms (force: Eq. 5, torque: Eq. 11, moment of inertia:
+Eq. 13, angular acceleration: Eq. 14), against the scene loader (a World built in Python
+and the same scene file step bit for bit alike), its state round trip, and its one-line
+errors."""
 from __future__ import annotations
 
 import dataclasses
@@ -59,7 +60,8 @@ def test_constant_force_at_the_cm_is_uniform_acceleration() -> None:
 
 def test_torque_at_a_point_turns_as_tau_over_i() -> None:
     """A thruster fixed to the body (frame="body") off the CM: tau = perp(r) . F (Eq. 11)
-    is constant, alpha = tau / I (Eq. 14), omega = tau t / I, theta = tau t^2 / (2 I)."""
+    is constant, angular acceleration tau / I (Eq. 14): omega = tau t / I,
+    theta = tau t^2 / (2 I)."""
     world = free_world()
     body = world.add_body("plate", hd.Box(1.0, 0.5), mass=4.0)
     body.apply_force((0.0, 2.0), point=(0.5, 0.0), frame="body")
@@ -70,8 +72,9 @@ def test_torque_at_a_point_turns_as_tau_over_i() -> None:
 
 
 def test_torque_free_spin_keeps_the_cm_and_omega() -> None:
-    """No force: omega stays (Eq. 14 with tau = 0), the CM moves uniformly, and the body
-    frame's origin, off the CM, circles it; velocity_at(CM) is the CM's (Eq. 9)."""
+    """No force: no angular acceleration (Eq. 14), so omega stays; the CM moves uniformly,
+    the body frame's origin, off the CM, circles it, and velocity_at(CM) is the CM's (a body
+    point's velocity, Eq. 9)."""
     world = free_world()
     body = world.add_body("arm", hd.Box(1.0, 0.2, center=(0.3, 0.0)), mass=1.0,
                           velocity=(1.0, -2.0), angular_velocity=3.0)
