@@ -22,8 +22,9 @@ class Body:
     ``world["name"]``.
 
     The pose is that of the body frame (the frame its shape is given in) in the world
-    frame; ``velocity`` is the velocity of the body frame's origin in world axes (by
-    Eq. 9 it differs from the CM's when the CM is off the origin and the body turns).
+    frame; ``velocity`` is the velocity of the body frame's origin in world axes (a body
+    point's velocity, Eq. 9: it differs from the CM's when the CM is off the origin and
+    the body turns).
     Setting ``position``, ``angle``, ``velocity`` or ``angular_velocity`` moves the body now.
     """
 
@@ -45,7 +46,7 @@ class Body:
 
     @property
     def mass(self) -> float:
-        """Total mass (kg), from the shape's area and density (Eq. 3)."""
+        """Total mass (kg), from the shape's area and density."""
         return self._properties.mass
 
     @property
@@ -55,7 +56,7 @@ class Body:
 
     @property
     def center_of_mass(self) -> Vec2:
-        """The CM in the body frame (m), Eq. 3."""
+        """The center of mass in the body frame (m), Eq. 3."""
         return self._properties.center_of_mass
 
     @property
@@ -145,8 +146,8 @@ class Body:
         ``frame="world"``: force and point in world coordinates, the point fixed in space;
         ``frame="body"``: both in the body frame, turning and moving with the body (a
         thruster); a named point of the body is a body point. ``point=None``: the CM where
-        it is at the push. The force acts at the CM as F = M a (Eq. 5) and turns the body
-        by tau = perp(r) . F (Eq. 11) about the CM, alpha = tau / I (Eq. 14).
+        it is at the push. The force acts at the CM as F = M a (Eq. 5); its torque about
+        the CM, tau = perp(r) . F (Eq. 11), gives the angular acceleration tau / I (Eq. 14).
 
         It acts from the first step that starts at or after ``start`` (s, default now) for
         ``duration`` seconds, or (``None``) until :meth:`clear_forces` or a force of the
@@ -156,7 +157,8 @@ class Body:
 
     def apply_torque(self, torque: float, *, duration: Optional[float] = None,
                      start: Optional[float] = None, name: Optional[str] = None) -> None:
-        """A pure torque (N m) about the CM, alpha = tau / I (Eq. 14); as :meth:`apply_force`."""
+        """A pure torque (N m) about the CM: angular acceleration tau / I (Eq. 14); held,
+        timed and scheduled as :meth:`apply_force`."""
         self._world._apply(self, (0.0, 0.0), None, "world", duration, start, torque, name)
 
     def clear_forces(self) -> None:

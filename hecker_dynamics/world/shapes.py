@@ -2,8 +2,9 @@
 
 Each shape turns into the parameters a scene file holds under ``bodies.<name>`` (a single
 shape) or ``bodies.<name>.parts.<part>`` (a compound body), so a body built in Python goes
-through the same reading, and gets the same mass properties (Eq. 3 and Eq. 13, integrated
-over the area by :mod:`hecker_dynamics.geometry.shapes`), as one read from a file.
+through the same reading, and gets the same mass, center of mass and moment of inertia
+(Eq. 3 and Eq. 13, integrated over the area by :mod:`hecker_dynamics.geometry.shapes`), as
+one read from a file.
 """
 from __future__ import annotations
 

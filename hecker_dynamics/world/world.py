@@ -8,8 +8,9 @@ it is the project's :class:`Simulation`: the article's loop (steps 3 to 8) with 
 kept in integer nanoseconds, and the compiled kernel where it is built.
 
 Each step sums the forces at the CM, F = M a (Eq. 5), their torques about the CM,
-tau = perp(r) . F (Eq. 11), and turns them into alpha = tau / I (Eq. 14), with M, the CM
-and I integrated over each body's shape (Eq. 3 and Eq. 13).
+tau = perp(r) . F (Eq. 11), and turns those into the angular acceleration tau / I
+(Eq. 14), with the mass, the center of mass and the moment of inertia integrated over each
+body's shape (Eq. 3 and Eq. 13).
 """
 from __future__ import annotations
 
@@ -198,9 +199,10 @@ class World:
                  velocity: VectorLike = (0.0, 0.0), angular_velocity: float = 0.0,
                  points: Optional[Mapping[str, VectorLike]] = None) -> Body:
         """Add a rigid body of ``shape`` (one shape or a list: a compound body) with its
-        ``mass`` (kg) or ``density`` (kg/m^2); the CM and I follow from the shape
-        (Eq. 3 and Eq. 13). ``position`` and ``angle`` place the body frame; ``velocity``
-        is that of its origin; ``points`` names body points (body frame)."""
+        ``mass`` (kg) or ``density`` (kg/m^2); the center of mass and the moment of
+        inertia follow from the shape (Eq. 3 and Eq. 13). ``position`` and ``angle`` place
+        the body frame; ``velocity`` is that of its origin; ``points`` names body points
+        (body frame)."""
         if (mass is None) == (density is None):
             raise ValueError("mass: give the body's mass or its density, one of the two")
         if name == (self._params or {}).get("frame_id"):
@@ -254,8 +256,8 @@ class World:
                    rest_length: float = 0.0, damping: float = 0.0) -> None:
         """A damped spring from ``point_a`` of ``body_a`` to ``point_b`` of ``body_b`` or to
         a fixed ``anchor`` (world frame); points in body frames or named. Its force acts at
-        both points, so it turns the bodies (Eq. 11); damping acts on the points' relative
-        velocity (Eq. 9)."""
+        both points, so it has a torque about each CM (Eq. 11); damping acts on the relative
+        velocity of the points, each a body point's velocity (Eq. 9)."""
         values = self._section("forces", name, "force")
         values.update(type="spring", body_a=self._body_name(body_a, "body_a"),
                       point_a=self._point(point_a, "point_a"),
@@ -275,7 +277,8 @@ class World:
     def add_drag(self, name: str, coefficient: float, bodies: Optional[Sequence[BodyLike]] = None,
                  *, quadratic: bool = False, point: Optional[PointLike] = None) -> None:
         """Drag -c v_P (``quadratic``: -c |v_P| v_P) at the CM of each of ``bodies`` (default
-        all), or at a ``point`` of a single body, where it also turns it (Eq. 9, 11)."""
+        all), or at a ``point`` of a single body: drag of that body point's velocity
+        (Eq. 9), with a torque (Eq. 11)."""
         values = self._section("forces", name, "force")
         values.update(type="quadratic_drag" if quadratic else "linear_drag",
                       coefficient=number(coefficient, "coefficient", minimum=0.0))
