@@ -15,6 +15,8 @@ import hecker_dynamics as hd
 from hecker_dynamics.geometry.shapes import Circle as Disc
 from hecker_dynamics.geometry.shapes import box as box_polygon
 from hecker_dynamics.geometry.shapes import mass_properties
+from scene_builders import EVERY_FORCE, make_scene
+from test_docs import EVERY_FEATURE
 
 # Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
 # a few ulps of the largest term per step, over a few thousand steps.
@@ -263,3 +265,48 @@ def test_a_bad_body_is_refused_by_the_scene_reader_at_once() -> None:
     with pytest.raises(hd.SceneError, match=r"^World: body 'bow': the polygon's edges cross"):
         world.add_body("bow", hd.Polygon([(0, 0), (1, 1), (1, 0), (0, 1)]), mass=1.0)
     assert "bow" not in world and world.add_body("bow", hd.Circle(1.0), mass=1.0)
+
+
+def test_every_joint_kind_and_force_is_the_scene_files() -> None:
+    """Bodies of every shape, springs, drag and every joint kind built in Python are the
+    Scene the same parameters give through the loader."""
+    params = {
+        "step": 0.001, "publish_rate": 50.0, "bodies": EVERY_FORCE["bodies"],
+        "forces": {"gravity": {"type": "gravity", "acceleration": [0.3, -9.81]},
+                   **{key: EVERY_FORCE["forces"][key]
+                      for key in ("anchored", "link", "tie", "air", "wake", "fin", "spin")}},
+        "joints": EVERY_FEATURE["joints"],
+        "walls": EVERY_FEATURE["walls"], "collisions": EVERY_FEATURE["collisions"],
+    }
+    world = hd.World(gravity=(0.3, -9.81), step=0.001)
+    a = world.add_body("a", hd.Box(1.0, 0.4, center=(0.2, 0.1)), mass=2.0,
+                       points={"tip": (0.5, 0.2)})
+    b = world.add_body("b", hd.Circle(0.3), mass=1.5, position=(2.0, 1.0))
+    # The file's parts in the order of their names, ball before hull.
+    c = world.add_body("c", [hd.Circle(0.2, center=(0.0, -0.8)),
+                             hd.Polygon([(-1.0, -0.5), (1.0, -0.5), (0.0, 1.0)])],
+                       density=3.0, position=(-2.0, 0.5))
+    world.add_spring("anchored", a, "tip", anchor=(0.0, 3.0), stiffness=40.0,
+                     rest_length=0.5, damping=0.7)
+    world.add_spring("link", a, (-0.3, 0.1), b, (0.1, -0.2), stiffness=25.0, rest_length=1.0,
+                     damping=0.3)
+    world.add_spring("tie", b, body_b=c, stiffness=10.0)
+    world.add_drag("air", 0.4)
+    world.add_drag("wake", 0.2, [c], quadratic=True, point=(0.5, 0.5))
+    world.add_drag("fin", 0.9, [a], point="tip")
+    world.add_angular_damping("spin", 0.05, [a, b])
+    world.add_revolute_joint("pin", a, c, point_a=(0.0, 0.0), point_b=(2.0, -0.5), lower=-1.0,
+                             upper=1.0, motor_speed=1.0, max_torque=2.0, spring_stiffness=1.0,
+                             spring_damping=0.1, rest_angle=0.0, collide_connected=True)
+    world.add_prismatic_joint("rail", None, b, axis=(1.0, 0.0), lower=-1.0, upper=1.0,
+                              motor_speed=0.0, max_force=1.0)
+    world.add_weld_joint("glue", b, c, frequency=2.0, damping_ratio=0.5)
+    world.add_distance_joint("rod", a, b, length=1.0)
+    world.add_distance_joint("rope", a, c, max_length=9.0)
+    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
+    world.add_revolute_joint("hinge", None, b)
+    world.add_wall("floor", point=(0.0, -3.0), normal=(0.0, 1.0), restitution=0.5,
+                   friction=0.2, bodies=["a", b])
+    world.add_collision_group("all", [a, "b"], restitution=0.1, friction=0.4)
+    loaded = make_scene(params)
+    assert world.scene == dataclasses.replace(loaded, source="World", input_timeout_ns=0)
