@@ -15,13 +15,15 @@ body's shape (Eq. 3 and Eq. 13).
 from __future__ import annotations
 
 import copy
-import dataclasses
 import functools
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
 
 from ..dynamics.commands import WrenchCommand
+# The input buffer's own form of a command as plain data, so a World's state and a
+# Simulation's hold scheduled and held commands alike.
+from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
 from ..scene.load import (INTEGRATORS, BodySpec, Scene, load_scene, read_body,
                           scene_from_parameters)
@@ -71,17 +73,6 @@ def _optional(values: dict[str, Any], key: str, value: Optional[float], *,
               minimum: Optional[float] = None) -> None:
     if value is not None:
         values[key] = number(value, key, minimum=minimum)
-
-
-def _command_data(command: WrenchCommand) -> dict[str, Any]:
-    data = dataclasses.asdict(command)
-    data["point"], data["force"] = list(command.point), list(command.force)
-    return data
-
-
-def _command(data: Mapping[str, Any]) -> WrenchCommand:
-    return WrenchCommand(**{**data, "point": tuple(data["point"]),
-                            "force": tuple(data["force"])})
 
 
 class World:
@@ -571,7 +562,7 @@ class World:
                                                              "applied", "count"}:
             raise ValueError("state: expected what World.state() returns")
         self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
-        self._schedule = [(int(stamp), int(order), _command(data))
+        self._schedule = [(int(stamp), int(order), _command_from_data(data))
                           for stamp, order, data in state["schedule"]]
         self._applied = copy.deepcopy(dict(state["applied"]))
         self._count = int(state["count"])

@@ -314,3 +314,14 @@ def test_every_joint_kind_and_force_is_the_scene_files() -> None:
     world.add_collision_group("all", [a, "b"], restitution=0.1, friction=0.4)
     loaded = make_scene(params)
     assert world.scene == dataclasses.replace(loaded, source="World", input_timeout_ns=0)
+
+
+def test_from_scene_takes_a_name_a_path_or_a_scene() -> None:
+    by_name = hd.World.from_scene("door")
+    path = hd.World.from_scene(by_name.scene.source)
+    scene = hd.World.from_scene(hd.load_scene("door"), script=False)
+    assert by_name.scene == path.scene == scene.scene
+    assert [body.name for body in by_name] == ["block", "door"]
+    for world in (by_name, scene):
+        world.advance(1.0)
+    assert by_name["door"].angle != scene["door"].angle  # the push at 0.5 s, or not
