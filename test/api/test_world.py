@@ -325,3 +325,16 @@ def test_from_scene_takes_a_name_a_path_or_a_scene() -> None:
     for world in (by_name, scene):
         world.advance(1.0)
     assert by_name["door"].angle != scene["door"].angle  # the push at 0.5 s, or not
+
+
+@pytest.mark.parametrize("from_file", [True, False])
+def test_a_held_force_of_a_scene_file_stops_after_its_input_timeout(from_file) -> None:
+    """As the node's commands do (sample: input_timeout 0.5 s), a held force of a world
+    read from a file acts as one timed at 0.5 s; a World built in Python has no timeout."""
+    ends = []
+    for duration in (None, 0.5):
+        world = hd.World.from_scene("sample") if from_file else sample_in_python()
+        world["right"].apply_force((0.0, 20.0), duration=duration)
+        world.advance(2.0)
+        ends.append(world["right"].position)
+    assert (ends[0] == ends[1]) is from_file
