@@ -419,8 +419,8 @@ class World:
 
     @property
     def bodies(self) -> tuple[Body, ...]:
-        """The bodies in the scene's order (by name)."""
-        return tuple(self._bodies[name] for name in self.simulation.model.names)
+        """The bodies in the scene's order: by name, as the loader reads them."""
+        return tuple(self._bodies[name] for name in sorted(self._bodies))
 
     @property
     def time(self) -> float:
