@@ -42,6 +42,11 @@ EVERY_FEATURE = dict(
                       "range_max": 5.0, "rate": 10.0, "noise": 0.01, "seed": 3},
              "gyro": {"type": "imu", "body": "b", "orientation_noise": 0.1,
                       "angular_velocity_noise": 0.1, "linear_acceleration_noise": 0.1}},
+    drives={"base": {"type": "diff_drive", "body": "a", "center": [0.0, 0.0],
+                     "separation": 0.4, "max_force": 5.0, "traction": 4.0,
+                     "lateral_damping": 10.0, "linear_kp": 1.0, "linear_ki": 1.0,
+                     "angular_kp": 1.0, "angular_ki": 1.0, "rate": 100.0,
+                     "cmd_vel_timeout": 0.5}},
     script={"kick": {"time": 0.5, "body": "a", "id": "k", "frame_id": "a", "point": [0.1, 0.0],
                      "force": [1.0, 0.0], "torque": 0.1, "duration": 0.2}},
 )
@@ -60,7 +65,7 @@ def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
     # Names of this scene's own bodies, forces, ... are not parameters.
     own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick",
            *EVERY_FORCE["forces"], "pin", "rail", "glue", "rod", "rope", "mesh", "hinge",
-           "scan", "gyro"}
+           "scan", "gyro", "base"}
     undocumented = sorted(key for key in read - own
                           if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
     assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"

@@ -14,7 +14,8 @@ from typing import Union
 
 from .parameters import REQUIRED, ParameterReader
 
-__all__ = ["LaserSpec", "ImuSpec", "SensorSpec", "SENSOR_TYPES", "MAX_RAYS", "read_sensor"]
+__all__ = ["LaserSpec", "ImuSpec", "SensorSpec", "SENSOR_TYPES", "MAX_RAYS",
+           "sample_period_ns", "read_sensor"]
 
 SENSOR_TYPES = ("laser", "imu")
 #: Most rays of one scan: a scan costs rays x edges in memory.
@@ -77,7 +78,7 @@ class ImuSpec:
 SensorSpec = Union[LaserSpec, ImuSpec]
 
 
-def _period_ns(reader: ParameterReader, step_ns: int, default_rate: float) -> int:
+def sample_period_ns(reader: ParameterReader, step_ns: int, default_rate: float) -> int:
     """The sample period for ``rate`` (Hz): a whole number of physics steps."""
     rate = reader.number("rate", default_rate, positive=True)
     steps = 1e9 / rate / step_ns
@@ -108,7 +109,7 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     position = reader.vector("position", [0.0, 0.0])
     angle = reader.number("angle", 0.0)
     if kind == "imu":
-        return ImuSpec(name, body, position, angle, _period_ns(reader, step_ns, 100.0),
+        return ImuSpec(name, body, position, angle, sample_period_ns(reader, step_ns, 100.0),
                        orientation_noise=reader.number("orientation_noise", 0.0, minimum=0.0),
                        angular_velocity_noise=reader.number("angular_velocity_noise", 0.0,
                                                             minimum=0.0),
@@ -127,5 +128,5 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     if range_max <= range_min:
         reader.fail("range_max", f"must exceed range_min ({range_min}), not {range_max}")
     return LaserSpec(name, body, position, angle, angle_min, angle_max, int(count),
-                     range_min, range_max, _period_ns(reader, step_ns, 10.0),
+                     range_min, range_max, sample_period_ns(reader, step_ns, 10.0),
                      noise=reader.number("noise", 0.0, minimum=0.0), seed=_seed(reader))
