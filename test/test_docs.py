@@ -46,7 +46,7 @@ EVERY_FEATURE = dict(
                      "separation": 0.4, "max_force": 5.0, "traction": 4.0,
                      "lateral_damping": 10.0, "linear_kp": 1.0, "linear_ki": 1.0,
                      "angular_kp": 1.0, "angular_ki": 1.0, "rate": 100.0,
-                     "cmd_vel_timeout": 0.5}},
+                     "cmd_vel_timeout": 0.5, "script": [0.0, 1.0, 0.0]}},
     script={"kick": {"time": 0.5, "body": "a", "id": "k", "frame_id": "a", "point": [0.1, 0.0],
                      "force": [1.0, 0.0], "torque": 0.1, "duration": 0.2}},
 )

@@ -29,7 +29,9 @@ class DiffDriveSpec:
     errors of the forward speed at ``center`` and of the angular velocity; the wheels share
     them, each capped at ``max_force``. A wheel also grips sideways (``lateral_damping``
     times its sideways slip speed), and its whole force is capped at ``traction`` (the
-    friction circle). A command older than ``cmd_vel_timeout`` stops the push."""
+    friction circle). A command older than ``cmd_vel_timeout`` stops the push. ``script``
+    holds (time from the start in ns, linear x, angular z) commands, each repeated at every
+    control instant until the next one (when the scripted inputs play)."""
 
     name: str
     body: str
@@ -44,6 +46,7 @@ class DiffDriveSpec:
     angular_ki: float
     period_ns: int
     cmd_vel_timeout_ns: int
+    script: tuple[tuple[int, float, float], ...] = ()
 
 
 def read_drive(name: str, reader: ParameterReader, points: Mapping[str, Mapping[str, Vec2]],
@@ -54,6 +57,12 @@ def read_drive(name: str, reader: ParameterReader, points: Mapping[str, Mapping[
     if body not in points:
         reader.fail("body", f"names an unknown body '{body}'")
     timeout = reader.number("cmd_vel_timeout", 0.5, minimum=0.0, maximum=1e9)
+    flat = reader.numbers("script", [], multiple_of=3)
+    script = tuple((round(t * 1e9), x, z) for t, x, z in zip(flat[0::3], flat[1::3], flat[2::3]))
+    times = [t for t, _, _ in script]
+    if any(t < 0 for t in times) or times != sorted(times):
+        reader.fail("script", "times (every third number from the first) must be at least "
+                              "0 and in order")
     return DiffDriveSpec(
         name, body, center=reader.vector("center", [0.0, 0.0]),
         separation=reader.number("separation", REQUIRED, positive=True),
@@ -66,4 +75,4 @@ def read_drive(name: str, reader: ParameterReader, points: Mapping[str, Mapping[
         angular_kp=reader.number("angular_kp", REQUIRED, minimum=0.0),
         angular_ki=reader.number("angular_ki", 0.0, minimum=0.0),
         period_ns=sample_period_ns(reader, step_ns, 100.0),
-        cmd_vel_timeout_ns=round(timeout * 1e9))
+        cmd_vel_timeout_ns=round(timeout * 1e9), script=script)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from hecker_dynamics.drives.control import advance_with_drives, drives_of
+from hecker_dynamics.drives.control import DriveSet, advance_with_drives
 from hecker_dynamics.drives.diff_drive import VelocityCommand
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.parameters import SceneError
@@ -41,8 +41,8 @@ def body_speeds(sim: Simulation) -> tuple[float, float, float]:
 
 def test_a_straight_command_reaches_its_speed_against_drag():
     sim = robot_sim(drag=5.0)
-    drives = drives_of(sim)
-    drives[0].receive(VelocityCommand(0, 0.8, 0.0))
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 0.8, 0.0))
     advance_with_drives(sim, drives, 10_000_000_000)
     forward, sideways, omega = body_speeds(sim)
     # The integral term holds the 4 N against the drag with no error left (PI).
@@ -53,8 +53,8 @@ def test_a_straight_command_reaches_its_speed_against_drag():
 
 def test_a_turn_command_reaches_its_rate_about_the_axle():
     sim = robot_sim(drag=5.0, lateral_damping=200.0)
-    drives = drives_of(sim)
-    drives[0].receive(VelocityCommand(0, 0.5, 1.0))
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 0.5, 1.0))
     advance_with_drives(sim, drives, 15_000_000_000)
     forward, _, omega = body_speeds(sim)
     assert omega == pytest.approx(1.0, abs=1e-5)
@@ -65,17 +65,17 @@ def test_a_turn_command_reaches_its_rate_about_the_axle():
 def test_capped_motors_accelerate_at_exactly_twice_the_cap_over_the_mass():
     cap = 2.0
     sim = robot_sim(max_force=cap, integrator="semi_implicit_euler")
-    drives = drives_of(sim)
-    drives[0].receive(VelocityCommand(0, 5.0, 0.0))
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 5.0, 0.0))
     pushes = []
-    original = drives[0].wrenches
+    original = drives.drives[0].wrenches
 
     def spy(q, v, time_ns):
         commands = original(q, v, time_ns)
         pushes.extend(c.force[0] for c in commands)
         return commands
 
-    drives[0].wrenches = spy
+    drives.drives[0].wrenches = spy
     advance_with_drives(sim, drives, 1_000_000_000)
     assert len(pushes) == 200 and max(pushes) == cap
     forward, _, _ = body_speeds(sim)
@@ -84,7 +84,7 @@ def test_capped_motors_accelerate_at_exactly_twice_the_cap_over_the_mass():
 
 def test_traction_caps_each_wheel_on_its_friction_circle():
     sim = robot_sim(traction=3.0, lateral_damping=1e3)
-    drive = drives_of(sim)[0]
+    drive = DriveSet(sim).drives[0]
     drive.receive(VelocityCommand(0, 5.0, 0.0))
     sim.v[0, :2] = (-2.0, 1.0)  # sliding sideways as well as backwards
     for command in drive.wrenches(sim.q, sim.v, 0):
@@ -94,28 +94,28 @@ def test_traction_caps_each_wheel_on_its_friction_circle():
 
 def test_a_stale_cmd_vel_stops_the_push_and_the_body_coasts():
     sim = robot_sim(cmd_vel_timeout=0.5)
-    drives = drives_of(sim)
-    drives[0].receive(VelocityCommand(0, 1.0, 0.0))
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 1.0, 0.0))
     advance_with_drives(sim, drives, 500_000_000)
-    assert not drives[0].active(sim.time_ns)
-    assert [c.force for c in drives[0].wrenches(sim.q, sim.v, sim.time_ns)] == \
+    assert not drives.drives[0].active(sim.time_ns)
+    assert [c.force for c in drives.drives[0].wrenches(sim.q, sim.v, sim.time_ns)] == \
         [(0.0, 0.0), (0.0, 0.0)]
     advance_with_drives(sim, drives, 510_000_000)  # the last push has ended by now
     coasting = sim.v.copy()
     advance_with_drives(sim, drives, 2_000_000_000)
     assert np.array_equal(sim.v, coasting) and coasting[0, 0] > 0.1
     for _ in range(24):  # new commands, 4 a second for 6 s, brake it
-        drives[0].receive(VelocityCommand(sim.time_ns, 0.0, 0.0))
+        drives.drives[0].receive(VelocityCommand(sim.time_ns, 0.0, 0.0))
         advance_with_drives(sim, drives, sim.time_ns + 250_000_000)
     assert np.max(np.abs(sim.v)) < 1e-4 * coasting[0, 0]
 
 
 def test_the_controller_state_round_trips():
     sim = robot_sim()
-    drive = drives_of(sim)[0]
+    drive = DriveSet(sim).drives[0]
     drive.receive(VelocityCommand(7, 0.5, -0.25))
     drive.wrenches(sim.q, sim.v, 10_000_000)
-    copy = drives_of(sim)[0]
+    copy = DriveSet(sim).drives[0]
     copy.import_state(drive.export_state())
     assert copy.export_state() == drive.export_state()
     assert copy.wrenches(sim.q, sim.v, 20_000_000) == drive.wrenches(sim.q, sim.v, 20_000_000)
@@ -130,3 +130,26 @@ def test_the_controller_state_round_trips():
 def test_bad_drive_parameters_are_refused_by_name(drive, problem):
     with pytest.raises(SceneError, match=problem):
         robot_sim(**drive)
+
+
+def test_a_scripted_command_holds_from_its_time_until_the_next_one():
+    script = [0.25, 0.5, 0.0, 0.5, 0.0, 1.0]
+    for play in (True, False):
+        sim = robot_sim(script=script, cmd_vel_timeout=0.05)
+        drives = DriveSet(sim)
+        seen = []
+        for t_ns in range(0, 800_000_000, 10_000_000):
+            advance_with_drives(sim, drives, t_ns + sim.step_ns, play)  # through t_ns
+            command = drives.drives[0].command
+            seen.append(None if command is None else (command.linear_x, command.angular_z))
+        if not play:
+            assert set(seen) == {None}
+            continue
+        # Repeated at every control instant, so the 0.05 s timeout never stops it.
+        assert seen[:25] == [None] * 25 and set(seen[25:50]) == {(0.5, 0.0)}
+        assert set(seen[50:]) == {(0.0, 1.0)} and drives.drives[0].active(sim.time_ns)
+
+
+def test_a_script_out_of_order_is_refused():
+    with pytest.raises(SceneError, match="in order"):
+        robot_sim(script=[1.0, 0.5, 0.0, 0.5, 0.0, 0.0])
