@@ -97,7 +97,9 @@ class Laser:
         names = [b.name for b in scene.bodies]
         self.body = names.index(spec.body)
         self.mount = np.asarray(spec.position, dtype=float) - cm_local[self.body]
-        self.angles = spec.angle_min + np.arange(spec.count) * spec.angle_increment
+        # At the angles a LaserScan describes: its angle fields are float32 on the wire.
+        self.angles = float(np.float32(spec.angle_min)) + \
+            np.arange(spec.count) * float(np.float32(spec.angle_increment))
         self.walls = (np.array([w.point for w in scene.walls], dtype=float).reshape(-1, 2),
                       np.array([w.normal for w in scene.walls], dtype=float).reshape(-1, 2))
         circle_body, centers, radii, edge_body, starts, ends = [], [], [], [], [], []

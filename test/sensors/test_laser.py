@@ -72,7 +72,8 @@ def test_a_circle_at_the_near_root_and_missed_beyond_its_tangents():
     assert hit.sum() == 33  # |angle| < asin(r / D) = 0.167
     assert np.all(np.isinf(ranges[~hit]))
     np.testing.assert_allclose(ranges[hit], expected, rtol=0, atol=1e-12)
-    assert ranges[30] == pytest.approx(distance - radius, abs=1e-15)
+    # The middle ray, at float32 angles a few 1e-8 rad off zero, meets the near pole.
+    assert ranges[30] == pytest.approx(distance - radius, abs=1e-12)
 
 
 def test_a_turned_box_at_its_slab_entry():
