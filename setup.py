@@ -68,7 +68,8 @@ setup(
     packages=["hecker_dynamics", "hecker_dynamics.bags", "hecker_dynamics.batch",
               "hecker_dynamics.bench", "hecker_dynamics.contact", "hecker_dynamics.dynamics",
               "hecker_dynamics.geometry", "hecker_dynamics.integrators", "hecker_dynamics.ros",
-              "hecker_dynamics.scene", "hecker_dynamics.viz",
+              "hecker_dynamics.scene", "hecker_dynamics.viz", "hecker_dynamics.sensors",
+              "hecker_dynamics.drives",
               "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;

@@ -7,10 +7,13 @@ from __future__ import annotations
 import bisect
 from typing import Any
 
+from dataclasses import replace
+
+from ..dynamics.commands import WrenchCommand
 from ..dynamics.simulation import Simulation, Snapshot
 from .diff_drive import DiffDrive, VelocityCommand
 
-__all__ = ["DriveSet", "advance_with_drives"]
+__all__ = ["DriveSet", "advance_with_drives", "play_with_drives"]
 
 
 class DriveSet:
@@ -72,3 +75,20 @@ def advance_with_drives(sim: Simulation, drives: DriveSet, t_ns: int,
         following = drives.next_stop()
         snapshots += sim.advance_to(t_ns if following is None else min(t_ns, following))
     return snapshots
+
+
+def play_with_drives(sim: Simulation, commands: tuple[WrenchCommand, ...],
+                     until_ns: int) -> list[Snapshot]:
+    """:meth:`Simulation.play` with the scene's drives (and their scripts) running: push
+    ``commands`` (stamps relative to the start) as sim time reaches each stamp and advance
+    to ``until_ns`` after the start; the snapshots at the publish instants."""
+    drives = DriveSet(sim)
+    snapshots = []
+    end_ns = sim.start_ns + until_ns
+    for command in sorted(commands, key=lambda c: c.stamp_ns):
+        if command.stamp_ns >= until_ns:
+            break
+        stamp = sim.start_ns + command.stamp_ns
+        snapshots += advance_with_drives(sim, drives, stamp)
+        sim.push(replace(command, stamp_ns=stamp))
+    return snapshots + advance_with_drives(sim, drives, end_ns)
