@@ -7,8 +7,6 @@ from __future__ import annotations
 import bisect
 from typing import Any
 
-from dataclasses import replace
-
 from ..dynamics.commands import WrenchCommand
 from ..dynamics.simulation import Simulation, Snapshot
 from .diff_drive import DiffDrive, VelocityCommand
@@ -83,12 +81,5 @@ def play_with_drives(sim: Simulation, commands: tuple[WrenchCommand, ...],
     ``commands`` (stamps relative to the start) as sim time reaches each stamp and advance
     to ``until_ns`` after the start; the snapshots at the publish instants."""
     drives = DriveSet(sim)
-    snapshots = []
-    end_ns = sim.start_ns + until_ns
-    for command in sorted(commands, key=lambda c: c.stamp_ns):
-        if command.stamp_ns >= until_ns:
-            break
-        stamp = sim.start_ns + command.stamp_ns
-        snapshots += advance_with_drives(sim, drives, stamp)
-        sim.push(replace(command, stamp_ns=stamp))
-    return snapshots + advance_with_drives(sim, drives, end_ns)
+    return sim.play(commands, until_ns,
+                    advance=lambda t_ns: advance_with_drives(sim, drives, t_ns))
