@@ -69,6 +69,7 @@ setup(
               "hecker_dynamics.bench", "hecker_dynamics.contact", "hecker_dynamics.dynamics",
               "hecker_dynamics.geometry", "hecker_dynamics.integrators", "hecker_dynamics.ros",
               "hecker_dynamics.scene", "hecker_dynamics.viz", "hecker_dynamics.world",
+              "hecker_dynamics.sensors", "hecker_dynamics.drives",
               "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;

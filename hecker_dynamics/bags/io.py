@@ -33,7 +33,8 @@ from ..ros.diagnostics import DiagnosticFields
 from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
-from ..ros.session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
+from ..ros.session import (APPLIED_WRENCH_EVENT, CMD_VEL_EVENT, MOTOR_SPEED_EVENT,
+                           WRENCH_STAMPED_EVENT,
                            InputEventFields, KeyframeFields, SessionFields, WorldChange,
                            WorldEventFields)
 from ..ros.tf import TransformFields
@@ -359,14 +360,14 @@ def keyframe_fields(msg: Any) -> KeyframeFields:
 
 #: The message type an input event of each kind holds.
 _EVENT_TYPES = {APPLIED_WRENCH_EVENT: APPLIED_WRENCH, WRENCH_STAMPED_EVENT: WRENCH_STAMPED,
-                MOTOR_SPEED_EVENT: FLOAT64}
+                MOTOR_SPEED_EVENT: FLOAT64, CMD_VEL_EVENT: TWIST}
 
 
 def input_event_message(fields: InputEventFields) -> Any:
     """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
-    rosbags ``AppliedWrench``, ``WrenchStamped`` or ``Float64``)."""
+    rosbags ``AppliedWrench``, ``WrenchStamped``, ``Float64`` or ``Twist``)."""
     slots = {APPLIED_WRENCH: "applied_wrench", WRENCH_STAMPED: "wrench_stamped",
-             FLOAT64: "motor_speed"}
+             FLOAT64: "motor_speed", TWIST: "cmd_vel"}
     held = _EVENT_TYPES[fields.kind]
     messages = {slot: fields.message if msgtype == held else default_message(msgtype)
                 for msgtype, slot in slots.items()}
@@ -385,7 +386,8 @@ def input_event_fields(msg: Any) -> InputEventFields:
         stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence), msg.topic,
         ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
         msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else
-        msg.motor_speed if kind == MOTOR_SPEED_EVENT else msg.applied_wrench,
+        msg.motor_speed if kind == MOTOR_SPEED_EVENT else
+        msg.cmd_vel if kind == CMD_VEL_EVENT else msg.applied_wrench,
         bool(msg.accepted), msg.reason)
 
 

@@ -55,12 +55,14 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 from ..dynamics.simulation import Snapshot
+from ..ros.cmd_vel import CmdVelTopic
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
 from ..ros.names import CLOCK_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
 from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import InputSource, Runner
-from ..ros.session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, MOTOR_SPEED_EVENT,
+from ..ros.session import (APPLIED_WRENCH_EVENT, CMD_VEL_EVENT, INPUT_EVENTS_DEPTH,
+                           MOTOR_SPEED_EVENT,
                            WORLD_EVENTS_DEPTH, WRENCH_STAMPED_EVENT, InputEventFields,
                            KeyframeFields, WorldChange, WorldEventFields,
                            decode_state, encode_state)
@@ -309,7 +311,8 @@ MAX_PRELUDE_NS = 60_000_000_000
 def _event_kind(source: Optional[InputSource]) -> int:
     if source is None:
         return APPLIED_WRENCH_EVENT
-    return MOTOR_SPEED_EVENT if isinstance(source, MotorTopic) else WRENCH_STAMPED_EVENT
+    return (MOTOR_SPEED_EVENT if isinstance(source, MotorTopic) else CMD_VEL_EVENT
+            if isinstance(source, CmdVelTopic) else WRENCH_STAMPED_EVENT)
 
 
 def _world_shape(event: WorldEventFields) -> Optional[str]:

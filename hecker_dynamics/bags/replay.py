@@ -38,6 +38,7 @@ from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, head
 from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME
 from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, SnapshotOutputs,
                            output_topics)
+from ..ros.cmd_vel import CmdVelTopic, cmd_vel_topics
 from ..ros.joint_states import MotorTopic, motor_topics
 from ..ros.runner import InputSource, Runner
 from ..scene.load import Scene
@@ -88,13 +89,16 @@ class ReplayResult:
 
 def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[InputSource]]]:
     """Input topics of the node for ``scene``: topic -> (message type, source), the source
-    None for ``applied_wrench``, else the scene's WrenchTopic or a motor's MotorTopic."""
+    None for ``applied_wrench``, else the scene's WrenchTopic, a motor's MotorTopic or a
+    driven body's CmdVelTopic."""
     topics: dict[str, tuple[str, Optional[InputSource]]] = {
         APPLIED_WRENCH_TOPIC: (APPLIED_WRENCH, None)}
     for wrench_topic in scene.wrench_topics:
         topics[resolve_topic(wrench_topic.topic)] = (WRENCH_STAMPED, wrench_topic)
     for motor in motor_topics(scene):
         topics[resolve_topic(motor.topic)] = (bags.FLOAT64, motor)
+    for driven in cmd_vel_topics(scene):
+        topics[resolve_topic(driven.topic)] = (bags.TWIST, driven)
     return topics
 
 
@@ -256,7 +260,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         msg = message.decode()
         result.inputs += 1
         inputs.append(_Input(message.log_ns, message.topic, msg, wrench_topic))
-        if skip_rejected or isinstance(wrench_topic, MotorTopic):  # a motor of the scene
+        if skip_rejected or isinstance(wrench_topic, (MotorTopic, CmdVelTopic)):  # not a wrench
             continue
         try:
             if wrench_topic is None:

@@ -597,22 +597,26 @@ class Simulation:
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
              keep: bool = True,
-             progress: Optional[Callable[[float], None]] = None) -> list[Snapshot]:
+             progress: Optional[Callable[[float], None]] = None,
+             advance: Optional[Callable[[int], list[Snapshot]]] = None) -> list[Snapshot]:
         """Push ``commands`` (stamps relative to the start time) as sim time reaches each
         stamp, and advance to ``until_ns`` after the start; returns the snapshots passed
         (none with ``keep`` false). Commands stamped at or after ``until_ns`` are not
         pushed. ``progress`` is called with the fraction of ``until_ns`` done, about
         ``PROGRESS_UPDATES`` times, always at publish instants, so a run that reports its
-        progress takes the same steps as one that does not."""
+        progress takes the same steps as one that does not. ``advance``, if given, takes the
+        simulation to a sim time instead (a loop that acts on the way, such as drives)."""
         snapshots = []
         end_ns = self.start_ns + until_ns
         for command in sorted(commands, key=lambda c: c.stamp_ns):
             if command.stamp_ns >= until_ns:
                 break
             stamp = self.start_ns + command.stamp_ns
-            snapshots += self._advance_reporting(stamp, end_ns, keep, progress)
+            snapshots += (self._advance_reporting(stamp, end_ns, keep, progress)
+                          if advance is None else advance(stamp))
             self.push(replace(command, stamp_ns=stamp))
-        return snapshots + self._advance_reporting(end_ns, end_ns, keep, progress)
+        return snapshots + (self._advance_reporting(end_ns, end_ns, keep, progress)
+                            if advance is None else advance(end_ns))
 
     def _advance_reporting(self, t_ns: int, end_ns: int, keep: bool,
                            progress: Optional[Callable[[float], None]]) -> list[Snapshot]:

@@ -15,7 +15,7 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
            "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
-           "JOINT_STATES_TOPIC", "motor_topic",
+           "JOINT_STATES_TOPIC", "motor_topic", "cmd_vel_topic", "scan_topic", "imu_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "SPAWN_BODY_SERVICE", "DELETE_BODY_SERVICE",
@@ -113,6 +113,21 @@ def odometry_topic(body: str) -> str:
 def motor_topic(joint: str) -> str:
     """A motor's command topic (``std_msgs/Float64``: its target speed, rad/s or m/s)."""
     return f"{joint}/motor_speed"
+
+
+def cmd_vel_topic(body: str) -> str:
+    """A driven body's velocity command topic (``geometry_msgs/Twist``, body frame)."""
+    return f"{body}/cmd_vel"
+
+
+def scan_topic(body: str, sensor: str) -> str:
+    """A laser's topic (``sensor_msgs/LaserScan``)."""
+    return f"{body}/{sensor}/scan"
+
+
+def imu_topic(body: str, sensor: str) -> str:
+    """An IMU's topic (``sensor_msgs/Imu``)."""
+    return f"{body}/{sensor}/imu"
 
 
 def output_qos(topic: str) -> QosSpec:

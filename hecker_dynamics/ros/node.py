@@ -44,6 +44,7 @@ from ..dynamics.simulation import Snapshot
 from .cdr import SnapshotSerializer, serialize_output
 from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .diagnostics import DiagnosticFields
+from .cmd_vel import CmdVelTopic, cmd_vel_topics
 from .joint_states import MotorTopic, motor_topics
 from .lifecycle import HANDLED_SIGNALS, Shutdown, serve, tick_every
 from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
@@ -56,7 +57,8 @@ from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, nod
                      plan_tick, refused_change)
 from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
                     SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
-from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
+from .session import (APPLIED_WRENCH_EVENT, CMD_VEL_EVENT, MOTOR_SPEED_EVENT, InputEventFields,
+                      KeyframeFields,
                       SessionFields, WorldEventFields)
 from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
 from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
@@ -126,6 +128,8 @@ def _input_event(fields: InputEventFields) -> InputEvent:
         msg.applied_wrench = fields.message
     elif fields.kind == MOTOR_SPEED_EVENT:
         msg.motor_speed = fields.message
+    elif fields.kind == CMD_VEL_EVENT:
+        msg.cmd_vel = fields.message
     else:
         msg.wrench_stamped = fields.message
     return msg
@@ -215,6 +219,10 @@ class DynamicsNode(Node):
             subscription = self._command_subscription(
                 Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor))
             self._wrench_topic_names[motor.topic] = subscription.topic_name
+        for driven in cmd_vel_topics(self.scene):
+            subscription = self._command_subscription(
+                Twist, driven.topic, lambda msg, driven=driven: self._on_cmd_vel(msg, driven))
+            self._wrench_topic_names[driven.topic] = subscription.topic_name
         self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)
         self.create_service(Trigger, RESUME_SERVICE, self._on_resume)
@@ -278,6 +286,11 @@ class DynamicsNode(Node):
     def _on_motor_speed(self, msg: Float64, motor: MotorTopic) -> None:
         self._log(self.runner.accept(self._wrench_topic_names[motor.topic], msg,
                                      self._now_ns(), motor))
+        self._publish_records()
+
+    def _on_cmd_vel(self, msg: Twist, driven: CmdVelTopic) -> None:
+        self._log(self.runner.accept(self._wrench_topic_names[driven.topic], msg,
+                                     self._now_ns(), driven))
         self._publish_records()
 
     # ----------------------------------------------------------------- stepping

@@ -27,6 +27,8 @@ from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, Motor, Prisma
 from ..ros.names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
+from .drives import DiffDriveSpec, read_drive
+from .sensors import SensorSpec, read_sensor
 
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
@@ -199,6 +201,8 @@ class Scene:
     joints: tuple[JointSpec, ...] = ()
     sleep: bool = False  # resting islands of the contact pass sleep
     events: bool = False  # wall impacts located inside the step (contact/events.py)
+    sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
+    drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -375,6 +379,10 @@ def _read_scene(root: ParameterReader) -> Scene:
         joints=joints,
         sleep=contacts.boolean("sleep", False),
         events=contacts.boolean("events", False),
+        sensors=tuple(read_sensor(name, r, points, step_ns)
+                      for name, r in root.named_children("sensors")),
+        drives=tuple(read_drive(name, r, points, step_ns)
+                     for name, r in root.named_children("drives")),
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene

@@ -149,6 +149,8 @@ def _ties(scene: Scene, name: str) -> list[str]:
              if t.body == name or t.frame_id.partition("/")[0] == name]
     ties += [f"scripted input '{c.source}'" for c in scene.script
              if c.body == name or c.frame_id.partition("/")[0] == name]
+    ties += [f"sensor '{s.name}'" for s in scene.sensors if s.body == name]
+    ties += [f"drive '{d.name}'" for d in scene.drives if d.body == name]
     return ties
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
 from ..bags.replay import input_topics, output_types, session_times
+from ..drives.control import play_with_drives
 from ..ros.joint_states import MotorTopic
 from ..dynamics import InputError, Model, Simulation, WrenchCommand
 from ..dynamics.inputs import InputBuffer
@@ -146,7 +147,8 @@ def run_timeline(scene: Scene, end_ns: int) -> Timeline:
     instants, as the node publishes them (the replay of the scene's script bag has the same).
     """
     sim = Simulation(scene)
-    snapshots = sim.play(scene.script, end_ns)
+    snapshots = (play_with_drives(sim, scene.script, end_ns) if scene.drives
+                 else sim.play(scene.script, end_ns))
     commands = [replace(c, stamp_ns=sim.start_ns + c.stamp_ns)
                 for c in sorted(scene.script, key=lambda c: c.stamp_ns) if c.stamp_ns < end_ns]
     stamps = [snapshot.time_ns for snapshot in snapshots]

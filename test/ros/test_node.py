@@ -430,3 +430,28 @@ def test_the_published_bytes_are_what_rclpy_serializes():
             assert serialize_message(message) == raw, (name, topic)
             kinds.add(kind_of[topic])
     assert len(kinds) == len(MESSAGE_TYPES) - 1  # all but the diagnostics
+
+
+def test_cmd_vel_drives_the_robot_and_is_recorded(ros):
+    """The robot without its script: a ``geometry_msgs/Twist`` on
+    ``robot/cmd_vel`` reaches its drive and is recorded as an input event of kind CMD_VEL,
+    and the drive's wheel forces move the robot forward."""
+    from geometry_msgs.msg import Twist, Vector3
+    from hecker_dynamics.msg import InputEvent
+    from hecker_dynamics.ros.session import CMD_VEL_EVENT
+
+    events = collect(ros, InputEvent, "dynamics_node/input_events")
+    node = ros.start({"scene": "robot", "play_script": False})
+    command = ros.helper.create_publisher(Twist, "robot/cmd_vel", 10)
+
+    def commanded() -> bool:
+        command.publish(Twist(linear=Vector3(x=0.5)))
+        drive = node.runner.drives.drives[0]
+        return drive.command is not None and drive.command.linear_x == 0.5
+    spin_until(ros, commanded, "the cmd_vel to arrive")
+    spin_until(ros, lambda: any(e.kind == CMD_VEL_EVENT for e in events),
+               "the cmd_vel's input event")
+    event = next(e for e in events if e.kind == CMD_VEL_EVENT)
+    assert event.accepted and event.cmd_vel.linear.x == 0.5 and event.topic == "/robot/cmd_vel"
+    spin_until(ros, lambda: node.runner.sim.v[node.runner.sim.model.index["robot"], 0] > 0.1,
+               "the robot to move forward")
