@@ -7,9 +7,8 @@ motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). Nothing here imports rclpy; the 
 ``hecker_dynamics.ros.node`` is thin glue over
 :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
-__version__ = "0.1.0"
-
-from .dynamics.commands import InputError, WrenchCommand
+from ._version import __version__
+from .scene.commands import InputError, WrenchCommand
 from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
 from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
 

@@ -32,7 +32,7 @@ from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .batch.variants import MAX_VARIANTS
 from .files import OutputError, check_folder
-from .dynamics.commands import InputError
+from .scene.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
 from .viz.commands import add_viz_commands, view_run

@@ -25,7 +25,7 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
-from ..dynamics.commands import WrenchCommand
+from ..scene.commands import WrenchCommand
 from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
                           TwistFields, applied_wrench_fields, header, ns_from_stamp,
                           stamp_from_ns)

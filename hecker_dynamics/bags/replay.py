@@ -32,7 +32,7 @@ from typing import Any, Optional
 from . import io as bags
 from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
                    BagWriter, resolve_topic)
-from ..dynamics.commands import InputError
+from ..scene.commands import InputError
 from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
                           wrench_stamped_to_command)
 from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME

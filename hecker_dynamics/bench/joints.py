@@ -53,7 +53,7 @@ import numpy as np
 
 from .scene_peers import SCENE_PEERS, scene_engine
 from .scenes import SPRING_PINS, pinned_by_springs
-from ..contact.joints import RevoluteJoint
+from ..scene.joints import RevoluteJoint
 from ..dynamics.model import Model
 from ..dynamics.simulation import DivergenceError, Simulation
 from ..scene.load import Scene, load_scene, scene_from_parameters

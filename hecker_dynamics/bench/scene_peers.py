@@ -50,7 +50,7 @@ from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from ..contact.joints import GearJoint, RevoluteJoint, WeldJoint
+from ..scene.joints import GearJoint, RevoluteJoint, WeldJoint
 from ..geometry.shapes import Circle
 from ..scene.load import Gravity, Scene
 from .force_law import BodyCalls, make_program, make_stepper

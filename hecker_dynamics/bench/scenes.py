@@ -29,7 +29,7 @@ import math
 from typing import Any
 
 from ..scene.parameters import flatten
-from ..contact.joints import RevoluteJoint
+from ..scene.joints import RevoluteJoint
 from ..scene.load import Scene, SpringSpec, load_scene, scene_from_parameters, shipped_scenes
 
 #: The benchmark scenes with closed-form or reference solutions, in the order

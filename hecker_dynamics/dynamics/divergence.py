@@ -54,10 +54,11 @@ from typing import TYPE_CHECKING, Any, Optional
 import numpy as np
 
 from . import kernel
-from ..contact.joints import SOFT, GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
+from ..contact.joints import SOFT
 from .forces import (AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm,
                      ScalarKinematics, spring_energy_scalar)
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE
+from ..scene.joints import GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
 from ..scene.load import SpringSpec
 
 if TYPE_CHECKING:

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any, Optional
 
-from .commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
 
 

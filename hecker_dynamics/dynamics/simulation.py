@@ -21,7 +21,7 @@ from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from .commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from .divergence import EnergyBound
 from .inputs import InputBuffer
 from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTheta,

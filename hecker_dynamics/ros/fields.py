@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
-from ..dynamics.commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import WrenchTopic
 
 NS_PER_S = 1_000_000_000

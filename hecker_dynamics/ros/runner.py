@@ -16,8 +16,8 @@ from typing import Any, NamedTuple, Optional
 from pathlib import Path
 from typing import Union
 
-from .. import __version__
-from ..dynamics.commands import InputError, WrenchCommand
+from .._version import __version__
+from ..scene.commands import InputError, WrenchCommand
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,

@@ -18,13 +18,13 @@ from typing import Any, Optional, Union, overload
 
 import numpy as np
 
-from ..dynamics.commands import WrenchCommand
+from .commands import WrenchCommand
+from .joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint, RevoluteJoint,
+                     RotarySpring, WeldJoint)
+from .names import NODE_NAME
 from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
                                is_convex, mass_properties)
 from ..integrators.methods import METHODS
-from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint,
-                              RevoluteJoint, RotarySpring, WeldJoint)
-from ..ros.names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
 

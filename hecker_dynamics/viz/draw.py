@@ -30,8 +30,8 @@ from matplotlib.patches import FancyArrow, Polygon as PolygonPatch
 from ..geometry import Circle, Polygon
 from ..dynamics import Model
 from ..scene import Scene
-from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, PrismaticJoint,
-                              RevoluteJoint, WeldJoint)
+from ..scene.joints import (DistanceJoint, GearJoint, JointSpec, PrismaticJoint,
+                            RevoluteJoint, WeldJoint)
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 

@@ -20,10 +20,10 @@ import numpy as np
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
 from ..bags.replay import input_topics, output_types, session_times
 from ..ros.joint_states import MotorTopic
-from ..dynamics import InputError, Model, Simulation, WrenchCommand
+from ..dynamics import Model, Simulation
 from ..dynamics.inputs import InputBuffer
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
-from ..scene import Scene
+from ..scene import InputError, Scene, WrenchCommand
 
 __all__ = ["VizError", "BodyPose", "Arrow", "Frame", "Timeline", "pose_from_fields",
            "run_timeline", "bag_timeline", "frame_times", "world_point"]

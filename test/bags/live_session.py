@@ -27,7 +27,8 @@ from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
 from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
                                          WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
                                          SessionFields, WorldEventFields)
-from hecker_dynamics.dynamics import Snapshot, WrenchCommand
+from hecker_dynamics.dynamics import Snapshot
+from hecker_dynamics.scene import WrenchCommand
 from hecker_dynamics.scene import Scene
 
 S = 1_000_000_000

@@ -20,7 +20,7 @@ from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.contact import solver
 from hecker_dynamics.dynamics import kernel
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.scene.load import SceneError
 
 H = 0.004

@@ -23,7 +23,8 @@ from scene_builders import make_scene, write_scene
 
 from hecker_dynamics.bench.scenes import bench_scene, configure
 from hecker_dynamics.cli import main
-from hecker_dynamics.dynamics import DivergenceError, Simulation, WrenchCommand
+from hecker_dynamics.dynamics import DivergenceError, Simulation
+from hecker_dynamics.scene import WrenchCommand
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.divergence import (ENERGY, EXCESS, GROWTH, LIMIT, RATE, ROOT,
                                                  EnergyBound, energy_units)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.dynamics.forces import BodySum
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model
 from hecker_dynamics.geometry.planar import HALF_ANGLE_FROM

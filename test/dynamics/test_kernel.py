@@ -49,7 +49,7 @@ from scene_builders import make_scene
 
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.dynamics.divergence import GROWTH
 from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term

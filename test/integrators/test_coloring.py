@@ -15,7 +15,7 @@ import pytest
 
 from hecker_dynamics.bench.scenes import ring
 from hecker_dynamics.integrators.coloring import color
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.integrators.methods import ImplicitTheta
 from hecker_dynamics.dynamics.model import Model, wrench_term
 from hecker_dynamics.dynamics.simulation import Simulation

@@ -5,7 +5,8 @@ import math
 
 import pytest
 
-from hecker_dynamics.dynamics import InputError, Simulation
+from hecker_dynamics.dynamics import Simulation
+from hecker_dynamics.scene import InputError
 from hecker_dynamics.ros.joint_states import joint_state_fields, set_motor_speed
 from scene_builders import make_scene
 

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hecker_dynamics.dynamics.commands import InputError, WrenchCommand
+from hecker_dynamics.scene.commands import InputError, WrenchCommand
 from hecker_dynamics.geometry.shapes import Circle, Polygon, box
 from hecker_dynamics.ros.diagnostics import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
                                              diagnostic_fields, diagnostics_due,

@@ -64,5 +64,5 @@ def test_the_node_takes_every_name_and_profile_from_names():
     assert len(profiles) == 1
     assert NODE.read_text().count("NODE_NAME") >= 2   # the node's name and its logger's
     # The scene reader takes the node's name (the parameters file's top key) from names.
-    assert "from ..ros.names import NODE_NAME" in \
+    assert "from .names import NODE_NAME" in \
         (ROOT / "hecker_dynamics" / "scene" / "load.py").read_text()

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_COLORS, MARKER_DELETE, color_slot
 from hecker_dynamics.ros.names import MARKERS_TOPIC
 from hecker_dynamics.ros.outputs import OutputKind, SnapshotOutputs
