@@ -43,6 +43,9 @@ if TYPE_CHECKING:
     from .bags.check import RecordingCheck
     from .bags.io import BagContents
 
+__all__ = ["configure", "run_command", "scenes_command", "script_command", "replay_command",
+           "compare_command", "bench_command", "sweep_command", "regress_command", "parser", "main"]
+
 
 def _time_ns(text: str) -> int:
     """Seconds (exactly, however many digits: stamps of live bags are ~1.7e9 s) to ns."""

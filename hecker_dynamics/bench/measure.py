@@ -26,6 +26,9 @@ import numpy as np
 
 from .reference import PlainModel, Reference, free_spin_energy
 
+__all__ = ["Outcome", "Case", "Row", "Budget", "wrapped", "errors", "measure", "timed",
+           "timed_steps", "interleaved_runs", "WholeCost", "whole_cost", "ratio_noise"]
+
 
 #: A final position error (m) above which a run counts as diverged though still finite.
 BLOWN_UP = 1e6

@@ -39,6 +39,9 @@ from .force_law import make_program
 from .reference import PlainModel
 from .scene_peers import box2d_calls, pymunk_calls
 
+__all__ = ["available", "version", "mujoco_xml", "peer_run", "peer_case", "plain_loop", "Check",
+           "check_peer"]
+
 PEERS = ("pymunk", "box2d", "mujoco")
 #: The method names of each peer in the sweep, with the scheme each claims.
 PEER_METHODS = {

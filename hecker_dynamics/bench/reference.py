@@ -25,6 +25,9 @@ from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueS
                      Gravity, Scene, SpringSpec)
 from .force_law import make_wrenches
 
+__all__ = ["Reference", "PlainModel", "gbs_step", "gbs_integrate", "gbs_reference", "exact",
+           "free_spin_energy", "reference", "core_reference"]
+
 
 @dataclass
 class Reference:

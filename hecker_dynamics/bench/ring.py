@@ -22,6 +22,8 @@ import numpy as np
 from .measure import Outcome
 from .scenes import RING_SIZE, RING_SPRING, ring_initial
 
+__all__ = ["compiler", "compiler_version", "load_c_loop", "c_loop_flags", "c_run"]
+
 C_SOURCE = r"""
 #include <math.h>
 /* Ring of n boxes (mass m, inertia I about the CM), spring s joins the front end (+half, 0)

@@ -37,6 +37,10 @@ from .scene_peers import SCENE_PEERS
 from .scenes import (BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants,
                      ring)
 
+__all__ = ["Mode", "Results", "PYTHON_PATH", "core_run", "core_case", "core_cases", "bench_scenes",
+           "shipped", "ring_part", "sample_step", "bounce_part", "declared_part", "peer_checks",
+           "profiles", "guard", "run_bench"]
+
 
 @dataclass
 class Mode:

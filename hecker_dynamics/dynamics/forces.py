@@ -27,6 +27,12 @@ import numpy as np
 
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE, cos_sin, cos_sin_of, magnitude
 
+__all__ = ["Kinematics", "ScalarKinematics", "ForceTerm", "BodySum", "GravityTerm", "SpringLaw",
+           "spring_force", "spring_force_scalar", "spring_energy", "spring_energy_scalar",
+           "AnchorSpringTerm", "BodySpringTerm", "drag_force", "drag_force_scalar",
+           "CenterDragTerm", "PointDragTerm", "AngularDampingTerm", "WrenchRow",
+           "ConstantWrenchTerm"]
+
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
 

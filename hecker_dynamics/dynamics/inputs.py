@@ -19,6 +19,8 @@ from typing import Any, Optional
 from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
 
+__all__ = ["Held", "InputBuffer"]
+
 
 @dataclass(frozen=True)
 class Held:

@@ -41,6 +41,9 @@ try:
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
+__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "CompiledForces", "Advanced",
+           "CompiledSteps", "compiled_steps"]
+
 #: The environment variable that switches the kernel off when set to "0".
 SWITCH = "HECKER_DYNAMICS_KERNEL"
 

@@ -27,6 +27,8 @@ from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueS
 from ..contact.solver import ContactPass
 from ..contact.joints import JointPass
 
+__all__ = ["LEAN_BODIES", "FrameRow", "Model", "wrench_term"]
+
 
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
 #: above it with numpy (``add``): the crossing point measured by ``hecker-dynamics bench``.

@@ -35,6 +35,8 @@ from .model import FrameRow, Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
 from ..scene.load import Scene
 
+__all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
+
 #: How many times :meth:`Simulation.play` reports its progress over a run, at most: often
 #: enough for a smooth bar, seldom enough that chunking costs nothing measurable.
 PROGRESS_UPDATES = 200

@@ -63,6 +63,8 @@ from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .ratelimit import RateLimiter
 from ..scene.load import SceneError, WrenchTopic
 
+__all__ = ["MESSAGE_TYPES", "qos_profile", "DynamicsNode", "run_callbacks", "main"]
+
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,

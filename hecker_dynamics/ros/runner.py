@@ -31,6 +31,10 @@ from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EV
                       KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
                       encode_state)
 
+__all__ = ["InputSource", "NodeOptions", "node_options", "scene_for_node", "due_script",
+           "catch_up_cap", "TickAction", "plan_tick", "lag_ns", "plain_parameters", "node_setup",
+           "refused_change", "LogLine", "Tick", "Runner"]
+
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
 CLOCK_JUMP_NS = NS_PER_S

@@ -14,6 +14,9 @@ import re
 from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
+__all__ = ["NAME_PATTERN", "quoted", "SceneError", "unflatten", "flatten", "ParameterReader",
+           "REQUIRED"]
+
 NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")  # used with fullmatch
 #: Most characters of a bad value quoted in an error message (a hostile file may hold
 #: megabytes in one value).
