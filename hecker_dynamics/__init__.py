@@ -8,9 +8,9 @@ motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). Nothing here imports rclpy; the 
 :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
 from ._version import __version__
+from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
 from .scene.commands import InputError, WrenchCommand
 from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
-from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
 
 __all__ = ["__version__", "InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",
            "scene_from_parameters", "BodyState", "DivergenceError", "Simulation", "Snapshot"]

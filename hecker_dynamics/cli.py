@@ -22,8 +22,8 @@ import dataclasses
 import decimal
 import sys
 import time
-from pathlib import Path
 from collections.abc import Iterator, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 import numpy as np
@@ -31,10 +31,10 @@ import numpy as np
 from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .batch.variants import MAX_VARIANTS
+from .dynamics.simulation import DivergenceError, Simulation
 from .files import OutputError, check_folder
 from .scene.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
-from .dynamics.simulation import DivergenceError, Simulation
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -183,12 +183,18 @@ def script_command(args: argparse.Namespace) -> int:
 
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
-    from .bags.io import read_bag
     from .bags.check import RecordingCheck, check_outputs
+    from .bags.io import read_bag
     from .bags.live import is_live_recording
-    from .bags.replay import (check_distinct, input_topics, outputs_as_bag,
-                              recorded_output_topics, replay_outputs, replay_to_bag,
-                              session_times)
+    from .bags.replay import (
+        check_distinct,
+        input_topics,
+        outputs_as_bag,
+        recorded_output_topics,
+        replay_outputs,
+        replay_to_bag,
+        session_times,
+    )
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
@@ -464,7 +470,8 @@ def bench_command(args: argparse.Namespace) -> int:
     command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
         else "hecker-dynamics bench"
     if args.joints:
-        from .bench.joints import JOINT_FILES, PEERS as JOINT_PEERS, joint_bench
+        from .bench.joints import JOINT_FILES, joint_bench
+        from .bench.joints import PEERS as JOINT_PEERS
 
         out = _bench_out(args, JOINT_FILES)
         with _bench_writing(out):
@@ -472,8 +479,13 @@ def bench_command(args: argparse.Namespace) -> int:
         print(f"wrote {out}")
         return 0
     if args.contacts is not None:
-        from .bench.contacts import (CONTACT_FILES, PYRAMID_ROWS, contact_bench,
-                                     contact_scene_names, targets)
+        from .bench.contacts import (
+            CONTACT_FILES,
+            PYRAMID_ROWS,
+            contact_bench,
+            contact_scene_names,
+            targets,
+        )
         from .bench.scene_peers import SCENE_PEERS
 
         known = contact_scene_names()

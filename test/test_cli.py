@@ -12,7 +12,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from scene_builders import write_scene
 
 from hecker_dynamics import Simulation, load_scene

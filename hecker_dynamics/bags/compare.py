@@ -33,8 +33,19 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
-from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TF_MESSAGE, TWIST,
-                 BagContents, BagError, BagMessage, read_bag, stamp_ns_of)
+from .io import (
+    DIAGNOSTIC_ARRAY,
+    MARKER_ARRAY,
+    ODOMETRY,
+    POSE_STAMPED,
+    TF_MESSAGE,
+    TWIST,
+    BagContents,
+    BagError,
+    BagMessage,
+    read_bag,
+    stamp_ns_of,
+)
 
 __all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents",
            "compare_pairs"]

@@ -14,29 +14,46 @@ node uses too); this module only copies those fields into rosbags message object
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import sqlite3
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache, cache
+from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any, Optional, Union
 
 import numpy as np
 
-from ..scene.commands import WrenchCommand
-from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
-                          TwistFields, applied_wrench_fields, header, ns_from_stamp,
-                          stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
+from ..ros.fields import (
+    AppliedWrenchFields,
+    Header,
+    OdometryFields,
+    Pose,
+    PoseStampedFields,
+    TwistFields,
+    applied_wrench_fields,
+    header,
+    ns_from_stamp,
+    stamp_from_ns,
+)
 from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
-from ..ros.session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
-                           InputEventFields, KeyframeFields, SessionFields, WorldChange,
-                           WorldEventFields)
+from ..ros.session import (
+    APPLIED_WRENCH_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+)
 from ..ros.tf import TransformFields
+from ..scene.commands import WrenchCommand
 from ..scene.parameters import quoted
 
 __all__ = [
@@ -118,8 +135,14 @@ def typestore() -> Any:
 @cache
 def rosbag_qos(spec: QosSpec) -> list[Any]:
     """A publisher's QoS (:mod:`hecker_dynamics.ros.names`) as rosbag2 metadata records it."""
-    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
-                                    QosReliability, QosTime)
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
 
     default = QosTime(0, 0)  # rmw's "default" durations: deadline, lifespan, lease unset
     reliability = {Reliability.RELIABLE: QosReliability.RELIABLE,
@@ -722,10 +745,8 @@ class BagWriter:
 
     def abort(self) -> None:
         if self._writer is not None:
-            try:
+            with contextlib.suppress(Exception):
                 self._writer.abort()
-            except Exception:
-                pass
         shutil.rmtree(self._tmp, ignore_errors=True)
 
 

@@ -29,19 +29,36 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional
 
-from . import io as bags
-from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
-                   BagWriter, resolve_topic)
-from ..scene.commands import InputError
-from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
-                          wrench_stamped_to_command)
-from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME
-from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, SnapshotOutputs,
-                           output_topics)
-from ..ros.joint_states import MotorTopic, motor_topics
-from ..ros.runner import InputSource, Runner
-from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
+from ..ros.fields import (
+    applied_wrench_fields,
+    applied_wrench_to_command,
+    header,
+    wrench_stamped_to_command,
+)
+from ..ros.joint_states import MotorTopic, motor_topics
+from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME
+from ..ros.names import NODE_NAME
+from ..ros.outputs import (
+    DIAGNOSTICS_TOPIC,
+    OutputFields,
+    OutputKind,
+    SnapshotOutputs,
+    output_topics,
+)
+from ..ros.runner import InputSource, Runner
+from ..scene.commands import InputError
+from ..scene.load import Scene
+from . import io as bags
+from .io import (
+    APPLIED_WRENCH,
+    POSE_STAMPED,
+    WRENCH_STAMPED,
+    BagContents,
+    BagError,
+    BagWriter,
+    resolve_topic,
+)
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
            "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",

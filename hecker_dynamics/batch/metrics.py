@@ -25,10 +25,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Optional, Union
 
-from ..ros.runner import Runner
-from ..scene.parameters import SceneError
-from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
+from ..ros.runner import Runner
+from ..scene.load import Scene
+from ..scene.parameters import SceneError
 
 __all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS", "MAX_LENGTH", "MAX_DEPTH"]
 

@@ -31,8 +31,8 @@ from typing import Any, Optional, Union
 import numpy as np
 import yaml
 
-from ..scene.parameters import SceneError, flatten
 from ..scene.load import Scene, scene_from_parameters, scene_parameters
+from ..scene.parameters import SceneError, flatten
 
 __all__ = ["Setting", "Variant", "parse_setting", "grid", "sample", "make_variants",
            "MAX_VARIANTS"]

@@ -28,9 +28,9 @@ import dataclasses
 import math
 from typing import Any
 
-from ..scene.parameters import flatten
 from ..scene.joints import RevoluteJoint
 from ..scene.load import Scene, SpringSpec, load_scene, scene_from_parameters, shipped_scenes
+from ..scene.parameters import flatten
 
 __all__ = ["BENCH_SCENES", "RING_SIZE", "RING_SPRING", "free_spin", "harmonic", "stiff",
            "spring_pendulum", "two_bodies", "ring_initial", "ring", "SPRING_PINS",

@@ -77,8 +77,15 @@ from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
 
-from ..scene.joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint,
-                           RevoluteJoint, WeldJoint)
+from ..scene.joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    Motor,
+    PrismaticJoint,
+    RevoluteJoint,
+    WeldJoint,
+)
 from .coupled import JointUnit
 from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
@@ -718,7 +725,7 @@ class JointPass:
         high_bound = [math.inf] * len(rows)
         for i, row in enumerate(rows):
             if row.kind == LIMIT:
-                b[i] -= (0.0 if 0.0 > row.c else row.c) / h
+                b[i] -= (0.0 if row.c < 0.0 else row.c) / h
                 low_bound[i] = 0.0
             elif row.kind == MOTOR:
                 b[i] += row.speed
@@ -754,7 +761,7 @@ class JointPass:
                 continue
             target, lower, upper = 0.0, -math.inf, math.inf
             if row.kind == LIMIT:
-                target, lower = -(0.0 if 0.0 > row.c else row.c) / h, -x
+                target, lower = -(0.0 if row.c < 0.0 else row.c) / h, -x
             elif row.kind == MOTOR:
                 target, lower, upper = row.speed, -row.bound - x, row.bound - x
             units.append(JointUnit(slot, [(index[b], jx, jy, jw) for b, jx, jy, jw in row.entries],

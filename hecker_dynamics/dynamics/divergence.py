@@ -53,17 +53,23 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
-from . import kernel
 from ..contact.joints import SOFT
-from .forces import (AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm,
-                     ScalarKinematics, spring_energy_scalar)
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE
 from ..scene.joints import GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
 from ..scene.load import SpringSpec
+from . import kernel
+from .forces import (
+    AnchorSpringTerm,
+    BodySpringTerm,
+    ConstantWrenchTerm,
+    GravityTerm,
+    ScalarKinematics,
+    spring_energy_scalar,
+)
 
 if TYPE_CHECKING:
-    from .model import Model
     from ..scene.load import Scene
+    from .model import Model
 
 __all__ = ["GROWTH", "STEP_GROWTH", "FLOOR_SPEED", "energy_units", "EnergyBound"]
 

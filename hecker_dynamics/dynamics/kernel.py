@@ -28,9 +28,17 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 import numpy as np
 
 from ..contact.joints import MOST_SUBSTEPS
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
+from .forces import (
+    AnchorSpringTerm,
+    AngularDampingTerm,
+    BodySpringTerm,
+    CenterDragTerm,
+    ConstantWrenchTerm,
+    ForceTerm,
+    GravityTerm,
+    PointDragTerm,
+)
 
 if TYPE_CHECKING:
     from ..contact.joints import JointPass

@@ -16,16 +16,33 @@ from typing import Optional
 
 import numpy as np
 
-from . import kernel
-from ..integrators.coloring import Coloring, color
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, Kinematics, PointDragTerm,
-                     ScalarKinematics, WrenchRow)
-from ..geometry.planar import cos_sin_of, perp, rotate
-from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
-                    Gravity, Scene, SpringSpec)
-from ..contact.solver import ContactPass
 from ..contact.joints import JointPass
+from ..contact.solver import ContactPass
+from ..geometry.planar import cos_sin_of, perp, rotate
+from ..integrators.coloring import Coloring, color
+from ..scene.load import (
+    AngularDampingSpec,
+    ConstantForceSpec,
+    ConstantTorqueSpec,
+    DragSpec,
+    Gravity,
+    Scene,
+    SpringSpec,
+)
+from . import kernel
+from .forces import (
+    AnchorSpringTerm,
+    AngularDampingTerm,
+    BodySpringTerm,
+    CenterDragTerm,
+    ConstantWrenchTerm,
+    ForceTerm,
+    GravityTerm,
+    Kinematics,
+    PointDragTerm,
+    ScalarKinematics,
+    WrenchRow,
+)
 
 __all__ = ["LEAN_BODIES", "FrameRow", "Model", "wrench_term"]
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Optional
 
-from ..scene.commands import InputError
 from ..dynamics.simulation import Simulation, Snapshot
-from ..scene.load import Scene
+from ..scene.commands import InputError
 from ..scene.joints import PrismaticJoint, RevoluteJoint
+from ..scene.load import Scene
 from .fields import Header, header
 from .names import motor_topic
 

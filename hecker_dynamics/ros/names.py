@@ -12,9 +12,16 @@ from __future__ import annotations
 import enum
 from typing import NamedTuple
 
-from ..scene.names import (DELETE_BODY_SERVICE, NODE_NAME, PAUSE_SERVICE, RESET_SERVICE,
-                           RESUME_SERVICE, SET_BODY_STATE_SERVICE, SPAWN_BODY_SERVICE,
-                           STEP_SERVICE)
+from ..scene.names import (
+    DELETE_BODY_SERVICE,
+    NODE_NAME,
+    PAUSE_SERVICE,
+    RESET_SERVICE,
+    RESUME_SERVICE,
+    SET_BODY_STATE_SERVICE,
+    SPAWN_BODY_SERVICE,
+    STEP_SERVICE,
+)
 
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",

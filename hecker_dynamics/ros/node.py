@@ -22,46 +22,84 @@ import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import (ConditionReachedException, ExternalShutdownException,
-                              ShutdownException, SingleThreadedExecutor)
+from rclpy.executors import (
+    ConditionReachedException,
+    ExternalShutdownException,
+    ShutdownException,
+    SingleThreadedExecutor,
+)
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
-from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock as ClockMessage
-from std_msgs.msg import Float64
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from ..dynamics.simulation import Snapshot
+from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
+from ..scene.load import SceneError, WrenchTopic
+from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .cdr import SnapshotSerializer, serialize_output
-from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .diagnostics import DiagnosticFields
+from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .joint_states import MotorTopic, motor_topics
 from .lifecycle import HANDLED_SIGNALS, Shutdown, serve, tick_every
-from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
-                    NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
-                    SET_BODY_STATE_SERVICE, STEP_SERVICE, Durability, QosSpec, Reliability,
-                    output_qos)
-from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
+from .names import (
+    APPLIED_WRENCH_TOPIC,
+    CLOCK_QOS,
+    CLOCK_TOPIC,
+    COMMAND_QOS,
+    DELETE_BODY_SERVICE,
+    DIAGNOSTICS_TOPIC,
+    INPUT_EVENTS_QOS,
+    INPUT_EVENTS_TOPIC,
+    KEYFRAME_QOS,
+    KEYFRAME_TOPIC,
+    NODE_NAME,
+    PAUSE_SERVICE,
+    RESET_SERVICE,
+    RESUME_SERVICE,
+    SESSION_QOS,
+    SESSION_TOPIC,
+    SET_BODY_STATE_SERVICE,
+    SPAWN_BODY_SERVICE,
+    STEP_SERVICE,
+    WORLD_EVENTS_QOS,
+    WORLD_EVENTS_TOPIC,
+    Durability,
+    QosSpec,
+    Reliability,
+    output_qos,
+)
 from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
-from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
-                     plan_tick, refused_change)
-from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
-                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
-from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
-                      SessionFields, WorldEventFields)
-from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
-from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .ratelimit import RateLimiter
-from ..scene.load import SceneError, WrenchTopic
+from .runner import (
+    LogLine,
+    NodeOptions,
+    Runner,
+    TickAction,
+    catch_up_cap,
+    node_setup,
+    plan_tick,
+    refused_change,
+)
+from .session import (
+    APPLIED_WRENCH_EVENT,
+    MOTOR_SPEED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldEventFields,
+)
 
 __all__ = ["MESSAGE_TYPES", "qos_profile", "DynamicsNode", "run_callbacks", "main"]
 

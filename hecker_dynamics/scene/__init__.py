@@ -7,10 +7,27 @@ refuses a bad file with a :class:`SceneError` that names the file and the parame
 joints' specs, ``names`` the node's and its services' names that a scene shares.
 """
 from .commands import InputError, WrenchCommand
-from .joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint, RevoluteJoint,
-                     RotarySpring, WeldJoint)
-from .load import (DEFAULT_SCENE, INTEGRATORS, BodySpec, Scene, WrenchTopic, load_scene,
-                   scene_from_parameters, scene_path, shipped_scenes)
+from .joints import (
+                     DistanceJoint,
+                     GearJoint,
+                     JointSpec,
+                     Motor,
+                     PrismaticJoint,
+                     RevoluteJoint,
+                     RotarySpring,
+                     WeldJoint,
+)
+from .load import (
+                     DEFAULT_SCENE,
+                     INTEGRATORS,
+                     BodySpec,
+                     Scene,
+                     WrenchTopic,
+                     load_scene,
+                     scene_from_parameters,
+                     scene_path,
+                     shipped_scenes,
+)
 from .parameters import SceneError
 
 __all__ = ["DEFAULT_SCENE", "INTEGRATORS", "BodySpec", "InputError", "WrenchCommand", "Scene",

@@ -18,13 +18,29 @@ from typing import Any, Optional, Union, overload
 
 import numpy as np
 
-from .commands import WrenchCommand
-from .joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint, RevoluteJoint,
-                     RotarySpring, WeldJoint)
-from .names import NODE_NAME
-from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
-                               is_convex, mass_properties)
+from ..geometry.shapes import (
+    Circle,
+    GeometryError,
+    MassProperties,
+    Polygon,
+    Shape,
+    box,
+    is_convex,
+    mass_properties,
+)
 from ..integrators.methods import METHODS
+from .commands import WrenchCommand
+from .joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    Motor,
+    PrismaticJoint,
+    RevoluteJoint,
+    RotarySpring,
+    WeldJoint,
+)
+from .names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
 
@@ -446,11 +462,11 @@ def read_body(name: str, reader: ParameterReader) -> BodySpec:
 
 def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
     group = reader.child("points")
-    for pname in group.keys():
+    for pname in group.names():
         if not NAME_PATTERN.fullmatch(pname):
             group.fail(pname, "is not a valid point name (letters, digits and underscores, "
                               "starting with a letter)")
-    return [(pname, group.vector(pname)) for pname in group.keys()]
+    return [(pname, group.vector(pname)) for pname in group.names()]
 
 
 def _body_list(reader: ParameterReader, key: str, known: Mapping[str, Any]) -> tuple[str, ...]:

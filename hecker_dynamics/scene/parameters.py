@@ -103,7 +103,7 @@ class ParameterReader:
     def has(self, key: str) -> bool:
         return key in self._values
 
-    def keys(self) -> list[str]:
+    def names(self) -> list[str]:
         """The names under this reader, sorted."""
         return sorted(self._values)
 
@@ -213,7 +213,7 @@ class ParameterReader:
     def named_children(self, key: str) -> Iterator[tuple[str, ParameterReader]]:
         """(name, reader) for each entry under ``key``, sorted by name for determinism."""
         group = self.child(key)
-        for name in group.keys():
+        for name in group.names():
             if not NAME_PATTERN.fullmatch(name):
                 group.fail(name, "is not a valid name (letters, digits and underscores, "
                                  "starting with a letter)")

@@ -38,8 +38,8 @@ MAX_BYTES = 16 << 20
 #: bodies, a body, parts, a part).
 MAX_DEPTH = 32
 
-_TRUE = frozenset("Y y yes Yes YES true True TRUE on On ON".split())
-_FALSE = frozenset("N n no No NO false False FALSE off Off OFF".split())
+_TRUE = frozenset(["Y", "y", "yes", "Yes", "YES", "true", "True", "TRUE", "on", "On", "ON"])
+_FALSE = frozenset(["N", "n", "no", "No", "NO", "false", "False", "FALSE", "off", "Off", "OFF"])
 _STR_TAG = "tag:yaml.org,2002:str"
 # What strtoll(value, &end, 0) reads whole, and strtod: decimal, hex, inf and nan forms.
 _INTEGER = re.compile(r"[+-]?(0[xX][0-9a-fA-F]+|0[0-7]*|[1-9][0-9]*)")

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 from collections.abc import Callable
+from pathlib import Path
 
 from ..files import check_file, file_path, replacing
 from ..scene import Scene, load_scene

@@ -17,21 +17,28 @@ works without a display and the pixels depend on nothing but the frame and the o
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Optional
-from collections.abc import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
-from matplotlib.patches import FancyArrow, Polygon as PolygonPatch
+from matplotlib.patches import FancyArrow
+from matplotlib.patches import Polygon as PolygonPatch
 
-from ..geometry import Circle, Polygon
 from ..dynamics import Model
+from ..geometry import Circle, Polygon
 from ..scene import Scene
-from ..scene.joints import (DistanceJoint, GearJoint, JointSpec, PrismaticJoint,
-                            RevoluteJoint, WeldJoint)
+from ..scene.joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    PrismaticJoint,
+    RevoluteJoint,
+    WeldJoint,
+)
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 

@@ -11,18 +11,18 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import NamedTuple, Optional
-from collections.abc import Iterator, Sequence
 
 import numpy as np
 
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
 from ..bags.replay import input_topics, output_types, session_times
-from ..ros.joint_states import MotorTopic
 from ..dynamics import Model, Simulation
 from ..dynamics.inputs import InputBuffer
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
+from ..ros.joint_states import MotorTopic
 from ..scene import InputError, Scene, WrenchCommand
 
 __all__ = ["VizError", "BodyPose", "Arrow", "Frame", "Timeline", "pose_from_fields",

@@ -13,9 +13,9 @@ its name and moved into place (:func:`hecker_dynamics.files.replacing`).
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Optional
-from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 

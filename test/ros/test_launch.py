@@ -130,9 +130,10 @@ def test_with_ros_rviz_true_without_rviz2_gives_the_node_and_a_log_line(monkeypa
     pytest.importorskip("launch_ros", reason="launch_ros is not installed: ROS 2 Jazzy "
                                              "(source /opt/ros/jazzy/setup.bash)")
     from ament_index_python import packages
-    from launch import LaunchContext
     from launch.actions import LogInfo
     from launch_ros.actions import Node
+
+    from launch import LaunchContext
 
     def no_rviz2(name: str) -> str:
         raise packages.PackageNotFoundError(name)

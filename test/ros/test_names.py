@@ -5,9 +5,19 @@ import ast
 from pathlib import Path
 
 from hecker_dynamics.ros import names
-from hecker_dynamics.ros.names import (COMMAND_QOS, INPUT_EVENTS_QOS, KEYFRAME_QOS,
-                                       SESSION_QOS, STATE_QOS, TF_QOS, TF_STATIC_QOS,
-                                       WORLD_EVENTS_QOS, Durability, Reliability, output_qos)
+from hecker_dynamics.ros.names import (
+    COMMAND_QOS,
+    INPUT_EVENTS_QOS,
+    KEYFRAME_QOS,
+    SESSION_QOS,
+    STATE_QOS,
+    TF_QOS,
+    TF_STATIC_QOS,
+    WORLD_EVENTS_QOS,
+    Durability,
+    Reliability,
+    output_qos,
+)
 from hecker_dynamics.ros.outputs import output_topics
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 
