@@ -41,7 +41,9 @@ from .viz.progress import Progress, stderr_is_terminal
 
 if TYPE_CHECKING:
     from .bags.check import RecordingCheck
+    from .bags.compare import Tolerances
     from .bags.io import BagContents
+    from .batch.engines import Engine
 
 __all__ = ["configure", "run_command", "scenes_command", "script_command", "replay_command",
            "compare_command", "bench_command", "sweep_command", "regress_command", "parser", "main"]
@@ -156,7 +158,7 @@ def _want_progress(args: argparse.Namespace) -> bool:
     return args.progress if args.progress is not None else stderr_is_terminal()
 
 
-def _tolerances(args: argparse.Namespace):
+def _tolerances(args: argparse.Namespace) -> Tolerances:
     from .bags.compare import Tolerances
 
     atol = args.atol
@@ -359,7 +361,7 @@ def _add_progress_options(parser: argparse.ArgumentParser) -> None:
                                 help="never show a progress bar")
 
 
-def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
+def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     script_parser = commands.add_parser(
         "script", help="write a scene's scripted inputs into an input bag",
         description="Turn a scene's scripted inputs into a rosbag2 bag: one "
@@ -552,7 +554,7 @@ def _rows(text: str) -> int:
     return rows
 
 
-def _add_bench_command(commands: argparse._SubParsersAction) -> None:
+def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     bench = commands.add_parser(
         "bench", help="measure error against cost for every integrator (work-precision)",
         description="Run every integrator over a sweep of steps (and tolerances of the "
@@ -609,7 +611,7 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
 
 # ----------------------------------------------------------------------------- batch
 
-def _engine(args: argparse.Namespace):
+def _engine(args: argparse.Namespace) -> Engine:
     from .batch.engines import make_engine
 
     engine = make_engine(args.workers, args.cluster)
@@ -716,7 +718,7 @@ def _add_engine_options(parser: argparse.ArgumentParser) -> None:
     _add_progress_options(parser)
 
 
-def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
+def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     sweep_parser = commands.add_parser(
         "sweep", help="run a scene over a grid or a random sample of its parameters",
         description="Run the variants of a scene that --set makes (a grid of every "

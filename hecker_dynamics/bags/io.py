@@ -22,7 +22,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from pathlib import Path
-from typing import Any, Optional, Union
+from typing import Any, Literal, Optional, Union
 
 import numpy as np
 
@@ -85,7 +85,7 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
-BAG_VERSION = 9
+BAG_VERSION: Literal[9] = 9
 #: Storage formats: name -> rosbags plugin name.
 STORAGES = ("mcap", "sqlite3")
 #: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
@@ -93,7 +93,7 @@ MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 #: Prefix of the keys this package stores in a bag's ``custom_data``.
 CUSTOM_PREFIX = "hecker_dynamics."
 
-PathLike = Union[str, os.PathLike]
+PathLike = Union[str, os.PathLike[str]]
 
 
 class BagError(Exception):
@@ -178,7 +178,7 @@ _NUMPY_TYPES = {
 }
 
 
-def _default_value(store: Any, desc: tuple) -> Any:
+def _default_value(store: Any, desc: tuple[Any, ...]) -> Any:
     from rosbags.interfaces import Nodetype
 
     kind, spec = desc
@@ -512,8 +512,8 @@ class BagContents:
 
 
 def _describe(error: BaseException) -> str:
-    text = str(error).strip().splitlines()
-    text = text[0] if text else ""
+    lines = str(error).strip().splitlines()
+    text = lines[0] if lines else ""
     return f"{type(error).__name__}: {text}" if text else type(error).__name__
 
 
@@ -548,7 +548,7 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                 raise BagError(f"{path}: the metadata lists no storage files "
                                "(relative_file_paths is empty)")
             selected = [c for c in connections if wanted is None or c.topic in wanted]
-            messages = []
+            messages: list[tuple[int, int, str, str, bytes]] = []
             read: dict[int, int] = {c.id: 0 for c in selected}
             if selected:
                 for conn, log_ns, raw in reader.messages(connections=selected):
@@ -601,7 +601,8 @@ def _check_counts(path: Path, total: Any, connections: Sequence[Any], read: dict
                        f"message_count {stated}; is the bag truncated or corrupt?")
 
 
-def _check_times(path: Path, start: Any, end: Any, messages: list[tuple]) -> None:
+def _check_times(path: Path, start: Any, end: Any,
+                 messages: list[tuple[int, int, str, str, bytes]]) -> None:
     """Refuse messages logged outside the span the metadata states (a corrupt log time)."""
     if not messages:
         return

@@ -52,7 +52,7 @@ import bisect
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Optional
 
 from ..dynamics.simulation import Snapshot
 from ..ros.joint_states import MotorTopic
@@ -740,7 +740,7 @@ def _session_end(scene: Scene, session: RecordedSession,
 Pair = tuple[BagMessage, BagMessage, int, int]
 
 
-class _Bytes(dict):
+class _Bytes(dict[Any, Any]):
     """Serialized replayed outputs, by ``id`` of the output, made on first use."""
 
     def of(self, output: Output) -> bytes:

@@ -178,7 +178,8 @@ def _check_types(bag: BagContents, topics: dict[str, str]) -> None:
 def _recorded_poses(scene: Scene, bag: BagContents) -> list[int]:
     """Header stamps of the recorded ``/<body>/pose`` messages of the scene's bodies."""
     topics = {f"/{body.name}/pose" for body in scene.bodies}
-    return [bags.stamp_ns_of(m.decode()) for m in bag.messages if m.topic in topics]
+    return [stamp for m in bag.messages if m.topic in topics
+            if (stamp := bags.stamp_ns_of(m.decode())) is not None]  # always: PoseStamped
 
 
 def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None,

@@ -110,8 +110,8 @@ class Metric:
 
 def _evaluate(node: ast.expr, row: Mapping[str, Cell]) -> Any:
     # In floats only: an integer power such as 10 ** 10 ** 10 would take forever.
-    if isinstance(node, ast.Constant):
-        return float(node.value)
+    if isinstance(node, ast.Constant):  # a number or a boolean: _allowed admits no other
+        return float(node.value)  # type: ignore[arg-type]
     name = _dotted(node)
     if name is not None:
         value = row[name]

@@ -96,6 +96,8 @@ if TYPE_CHECKING:
 __all__ = ["JointRow", "JointPass", "JointsUnsolved", "MAX_TURN", "MOST_SUBSTEPS"]
 
 Vec2 = tuple[float, float]
+#: A point as the rows take it: a Vec2, or a body-frame offset as a tuple.
+Point = tuple[float, ...]
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
 #: Below this times (1 + the largest coordinate) the rows' values are rounding: the position
@@ -182,7 +184,7 @@ class _Frame:
         return x + rx, y + ry, rx, ry, angle
 
 
-def _line(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+def _line(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
     """Jacobian entries of u . (P_B - P_A) for a direction u fixed in body A: on B
     (u, perp(r_B) . u), on A (-u, -perp(P_B - x_A) . u), since u turns with A."""
     entries = []
@@ -194,7 +196,7 @@ def _line(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> l
     return entries
 
 
-def _fixed(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+def _fixed(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
     """Jacobian entries of u . (P_B - P_A) for a direction u fixed in the world (or
     following both ends): on B (u, perp(r_B) . u), on A (-u, -perp(r_A) . u)."""
     entries = []
@@ -205,7 +207,7 @@ def _fixed(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> 
     return entries
 
 
-def _point_rows(name: str, a: _Frame, b: _Frame, pa: tuple, pb: tuple, kind: str,
+def _point_rows(name: str, a: _Frame, b: _Frame, pa: Point, pb: Point, kind: str,
                 stiffness: float = 0.0, damping: float = 0.0) -> list[JointRow]:
     """The two rows of P_B - P_A = 0 (x and y); a soft row's ``stiffness`` and
     ``damping`` are per unit effective mass."""
@@ -215,14 +217,14 @@ def _point_rows(name: str, a: _Frame, b: _Frame, pa: tuple, pb: tuple, kind: str
             for axis, (ux, uy) in (("x", (1.0, 0.0)), ("y", (0.0, 1.0)))]
 
 
-def _angle_entries(a: int, b: int, scale: float = 1.0) -> list:
+def _angle_entries(a: int, b: int, scale: float = 1.0) -> list[Any]:
     entries = [(b, 0.0, 0.0, scale)]
     if a >= 0:
         entries.append((a, 0.0, 0.0, -scale))
     return entries
 
 
-def _bounded_rows(name: str, value: float, entries: list, lower: Optional[float],
+def _bounded_rows(name: str, value: float, entries: list[Any], lower: Optional[float],
                   upper: Optional[float], motor: Optional[Motor], h: float) -> list[JointRow]:
     """Limit rows (value - lower >= 0, upper - value >= 0) and a motor row on a joint
     coordinate ``value`` whose Jacobian is ``entries``."""
@@ -325,7 +327,7 @@ class JointPass:
                 continue
             ia = -1 if spec.body_a is None else index[spec.body_a]
             ib = index[spec.body_b]
-            point_a = tuple(spec.point_a) if ia < 0 else local(ia, spec.point_a)
+            point_a = (spec.point_a[0], spec.point_a[1]) if ia < 0 else local(ia, spec.point_a)
             self.frames[spec.name] = (_Frame(-1 if ia < 0 else local_index[ia], point_a),
                                       _Frame(local_index[ib], local(ib, spec.point_b)))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
@@ -444,10 +446,10 @@ class JointPass:
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
-        self.warm: list[float] = [0.0] * len(self.keys)
+        self.warm = [0.0] * len(self.keys)
         #: The extra impulses the last contact solve added (:meth:`take_extra`).
-        self.extra: list[float] = [0.0] * len(self.keys)
-        self.newton: Optional[list[float]] = None
+        self.extra = [0.0] * len(self.keys)
+        self.newton = None
         self.step_h = 1.0
 
     def export_state(self) -> dict[str, Any]:
@@ -485,7 +487,7 @@ class JointPass:
         c, s = math.cos(angle_a), math.sin(angle_a)
         return c * spec.axis[0] - s * spec.axis[1], s * spec.axis[0] + c * spec.axis[1]
 
-    def _joint_angle(self, name: str, pa: tuple, pb: tuple) -> float:
+    def _joint_angle(self, name: str, pa: Point, pb: Point) -> float:
         """body_b's angle relative to body_a's since the start, counting whole turns."""
         raw = pb[4] - pa[4]
         return self.angle[name] + _wrap(raw - self.raw[name])
@@ -702,6 +704,7 @@ class JointPass:
         """Stage 2: remove drift of the rigid rows and limits passed, positions only;
         returns the rows at the corrected ``q``."""
         pattern = self.pattern
+        assert pattern is not None  # the start pose has fixed the rows
         for _ in range(DRIFT_ITERATIONS):
             if not any((r.kind == RIGID and abs(r.c) > self.tolerance)
                        or (r.kind == LIMIT and r.c < -self.tolerance) for r in rows):
@@ -718,8 +721,10 @@ class JointPass:
     def _velocities(self, rows: list[JointRow], v: list[float], h: float) -> None:
         """Stage 3: the impulses at the final positions; changes ``v`` in place and keeps
         each row's impulse for warm starting and the joints' efforts."""
+        pattern = self.pattern
+        assert pattern is not None  # the start pose has fixed the rows
         direction = _directions(rows, self.inverse_mass)
-        diagonal, lower = _matrix(self.pattern, rows, direction)
+        diagonal, lower = _matrix(pattern, rows, direction)
         b = [-_rate(row, v) for row in rows]
         low_bound = [-math.inf] * len(rows)
         high_bound = [math.inf] * len(rows)
@@ -739,7 +744,7 @@ class JointPass:
                     continue
                 diagonal[i] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(self.pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
+        impulse = _solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
         _apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h

@@ -16,7 +16,7 @@ from ..scene.joints import DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoi
 from .joints import JointsUnsolved, weld_law
 
 try:
-    from .. import _kernel
+    from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 

@@ -522,10 +522,10 @@ def _turned(cos: np.ndarray, sin: np.ndarray, local: np.ndarray) -> tuple[np.nda
     return cos * local[:, 0] - sin * local[:, 1], sin * local[:, 0] + cos * local[:, 1]
 
 
-def _spring_rows(springs: Sequence[AnchorSpringTerm | BodySpringTerm]) -> list[tuple]:
+def _spring_rows(springs: Sequence[AnchorSpringTerm | BodySpringTerm]) -> list[tuple[Any, ...]]:
     """Each spring as (body a, its point, body b or -1, its point or the anchor,
     stiffness, rest length), in the terms' order and in each term's order."""
-    rows: list[tuple] = []
+    rows: list[tuple[Any, ...]] = []
     for term in springs:
         stiffness, rest = term.law.stiffness.tolist(), term.law.rest_length.tolist()
         if isinstance(term, AnchorSpringTerm):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Optional, Protocol
+from typing import Any, NamedTuple, Optional, Protocol
 
 import numpy as np
 
@@ -535,7 +535,7 @@ class ConstantWrenchTerm:
                               point_body.tolist(), point.tolist(), at_point.tolist()))
 
     @property
-    def rows(self) -> list[tuple]:
+    def rows(self) -> list[tuple[Any, ...]]:
         """Each wrench as (body, force, torque, axes_body, point_body, point, at_point) in
         plain Python values."""
         return self._rows

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Sequence
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
@@ -298,7 +298,7 @@ def _restless(model: Model, scene: Scene) -> set[int]:
 
 def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
     """One vectorised term per kind of force the scene declares, and none for the others."""
-    by_kind: dict[type, list] = defaultdict(list)
+    by_kind: dict[type, list[Any]] = defaultdict(list)
     for spec in scene.forces:
         by_kind[type(spec)].append(spec)
     idx = model.index

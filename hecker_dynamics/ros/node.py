@@ -10,6 +10,7 @@ only moves data between them and rclpy.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import signal
 import sys
 import threading
@@ -242,18 +243,18 @@ class DynamicsNode(Node):
         self._publishers_by_topic: dict[str, Any] = {}
         #: Per output topic, its publisher's publish of serialized bytes (_add_output).
         self._publish_bytes: dict[str, Callable[[bytes], None]] = {}
-        for topic, kind in output_topics(self.scene).items():
-            self._add_output(kind, topic)
+        for topic, output in output_topics(self.scene).items():
+            self._add_output(output, topic)
         self._applied_wrench = self._command_subscription(
             AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench)
-        for topic in self.scene.wrench_topics:
+        for wrench_topic in self.scene.wrench_topics:
             subscription = self._command_subscription(
-                WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic))
-            self._wrench_topic_names[topic.name] = subscription.topic_name
+                WrenchStamped, wrench_topic.topic,
+                functools.partial(self._on_wrench_stamped, topic=wrench_topic))
+            self._wrench_topic_names[wrench_topic.name] = subscription.topic_name
         for motor in motor_topics(self.scene):
             subscription = self._command_subscription(
-                Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor))
+                Float64, motor.topic, functools.partial(self._on_motor_speed, motor=motor))
             self._wrench_topic_names[motor.topic] = subscription.topic_name
         self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)

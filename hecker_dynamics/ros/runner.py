@@ -79,7 +79,7 @@ class NodeOptions:
 
 def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
     """Read and type-check the node's own parameters; missing ones keep their defaults."""
-    values = {}
+    values: dict[str, Any] = {}
     for option in dataclasses.fields(NodeOptions):
         value = params.get(option.name, option.default)
         kind = type(option.default)

@@ -242,7 +242,7 @@ def shipped_scenes() -> list[str]:
     return sorted(names)
 
 
-def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
+def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     """Resolve a shipped scene name (``sample``) or a path to a parameters file."""
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
@@ -259,7 +259,7 @@ def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
                      f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
 
 
-def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
+def load_scene(name_or_path: Union[str, os.PathLike[str], None] = None) -> Scene:
     """Load a scene from a ROS 2 parameters file, or a shipped scene by name.
 
     A file whose only scene parameter is ``scene`` runs the scene that names, as the node
@@ -280,7 +280,8 @@ def _load_file(path: Path, *, redirected: bool) -> Scene:
     return _read_scene(ParameterReader(params, source))
 
 
-def scene_parameters(name_or_path: Union[str, os.PathLike, None] = None) -> tuple[str, Mapping]:
+def scene_parameters(name_or_path: Union[str, os.PathLike[str], None] = None
+                     ) -> tuple[str, Mapping[str, Any]]:
     """The source and the nested ``ros__parameters`` of a scene file, not yet checked.
 
     The file is read as ROS 2 reads it (:mod:`.rosyaml`), and the node's parameters are

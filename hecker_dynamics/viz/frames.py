@@ -101,7 +101,8 @@ class Timeline:
         for time_ns in times:
             while next_command < len(pending) and \
                     self.commands[pending[next_command]].stamp_ns <= time_ns:
-                buffer.add(self.commands[pending[next_command]], ())
+                # The frames draw the command only, never its force row.
+                buffer.add(self.commands[pending[next_command]], ())  # type: ignore[arg-type]
                 next_command += 1
             buffer.update(time_ns)
             poses = self.pose_at(time_ns)
@@ -132,7 +133,7 @@ class Timeline:
             return []
         q = np.array([[*world_point(pose, model.cm_local[i]), pose.angle]
                       for i, pose in enumerate(poses)])
-        return [tuple(contact[2]) for contact in model.contacts.detect(q)]
+        return [(contact[2][0], contact[2][1]) for contact in model.contacts.detect(q)]
 
 
 def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:

@@ -140,6 +140,7 @@ def _gif_palette(first: np.ndarray) -> np.ndarray:
     fixed = list(dict.fromkeys(named + halfway))
     rest = Image.fromarray(first).quantize(colors=GIF_COLORS - len(fixed),
                                            method=Image.Quantize.MEDIANCUT).getpalette()
+    assert rest is not None  # a quantized image has a palette
     colors = fixed + [tuple(rest[3 * i:3 * i + 3]) for i in range(GIF_COLORS - len(fixed))]
     return np.array(colors, dtype=np.int64)
 
