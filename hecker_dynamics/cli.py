@@ -34,7 +34,7 @@ from .batch.variants import MAX_VARIANTS
 from .dynamics.simulation import DivergenceError, Simulation
 from .files import OutputError, check_folder
 from .scene.commands import InputError
-from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
+from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, scene_summary, shipped_scenes
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -136,9 +136,11 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def scenes_command(args: argparse.Namespace) -> int:
-    """List the shipped scenes."""
-    for name in shipped_scenes():
-        print(name)
+    """List the shipped scenes, each with its file's one-line summary."""
+    names = shipped_scenes()
+    width = max((len(name) for name in names), default=0)
+    for name in names:
+        print(f"{name:<{width}}  {scene_summary(name)}".rstrip())
     return 0
 
 
@@ -800,7 +802,7 @@ def parser() -> argparse.ArgumentParser:
     run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
-                                      description="List the shipped scenes.")
+                                      description="List the shipped scenes, one line each.")
     list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)

@@ -48,7 +48,7 @@ __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
-    "shipped_scenes", "check_scene_request", "read_body", "check_collidable",
+    "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
 
@@ -257,6 +257,14 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
             return candidate
     raise SceneError(f"no shipped scene called '{name_or_path}' "
                      f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
+
+
+def scene_summary(name_or_path: Union[str, os.PathLike[str], None]) -> str:
+    """The first line of a scene file's header comment, which says in one line what the
+    scene shows ("" for a file that starts otherwise)."""
+    with scene_path(name_or_path).open(encoding="utf-8") as stream:
+        first = stream.readline().rstrip("\n")
+    return first[2:].strip() if first.startswith("# ") else ""
 
 
 def load_scene(name_or_path: Union[str, os.PathLike[str], None] = None) -> Scene:
