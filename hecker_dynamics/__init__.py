@@ -7,11 +7,10 @@ motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). :class:`World` is the Python API
 (``docs/api.md``). Nothing here imports rclpy; the ROS node in ``hecker_dynamics.ros.node``
 is thin glue over :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
 """
-__version__ = "0.1.0"
-
-from .dynamics.commands import InputError, WrenchCommand
-from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
+from ._version import __version__
 from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot
+from .scene.commands import InputError, WrenchCommand
+from .scene.load import Scene, SceneError, load_scene, scene_from_parameters
 from .world import Body, Box, Circle, Polygon, World
 
 __all__ = ["__version__", "InputError", "WrenchCommand", "Scene", "SceneError", "load_scene",

@@ -7,11 +7,11 @@ import shlex
 from pathlib import Path
 
 import pytest
-
-from hecker_dynamics.scene import parameters
-from hecker_dynamics.cli import parser
-from hecker_dynamics.scene.load import shipped_scenes
 from scene_builders import EVERY_FORCE, make_scene
+
+from hecker_dynamics.cli import parser
+from hecker_dynamics.scene import parameters
+from hecker_dynamics.scene.load import shipped_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES_DOC = (ROOT / "docs" / "scenes.md").read_text()

@@ -19,15 +19,22 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
-from ..ros.session import (APPLIED_WRENCH_EVENT, CMD_VEL_EVENT, MOTOR_SPEED_EVENT,
-                           WRENCH_STAMPED_EVENT,
-                           InputEventFields, KeyframeFields, SessionFields, WorldChange,
-                           WorldEventFields, decode_state)
+from ..ros.session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+    decode_state,
+)
 from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .coverage import Coverage, seconds
-from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
-                 BagMessage)
+from .io import INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError, BagMessage
 from .replay import ReplayError
 
 #: What a session's event sequence holds.

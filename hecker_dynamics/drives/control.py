@@ -7,8 +7,8 @@ from __future__ import annotations
 import bisect
 from typing import Any
 
-from ..dynamics.commands import WrenchCommand
 from ..dynamics.simulation import Simulation, Snapshot
+from ..scene.commands import WrenchCommand
 from .diff_drive import DiffDrive, VelocityCommand
 
 __all__ = ["DriveSet", "advance_with_drives", "play_with_drives"]

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics.commands import WrenchCommand
+from ..scene.commands import WrenchCommand
 from ..scene.drives import DiffDriveSpec
 
 __all__ = ["DiffDrive", "VelocityCommand"]

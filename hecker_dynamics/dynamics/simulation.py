@@ -14,26 +14,36 @@ joint and contact passes included, with the results of Python's plain-float path
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from .commands import InputError, WrenchCommand
-from .divergence import EnergyBound
-from .inputs import InputBuffer
-from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTheta,
-                                   IntegrationError, RungeKutta4, SemiImplicitEuler,
-                                   VelocityVerlet, choose_method, make_integrator)
-from .kernel import compiled_steps
 from ..contact.events import Impact, WallEvents
 from ..contact.joints import MOST_SUBSTEPS, JointsUnsolved
-from .forces import WrenchRow
-from .model import FrameRow, Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
+from ..integrators.methods import (
+    EmbeddedRungeKutta,
+    ExplicitEuler,
+    ImplicitTheta,
+    IntegrationError,
+    RungeKutta4,
+    SemiImplicitEuler,
+    VelocityVerlet,
+    choose_method,
+    make_integrator,
+)
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import Scene
+from .divergence import EnergyBound
+from .forces import WrenchRow
+from .inputs import InputBuffer
+from .kernel import compiled_steps
+from .model import FrameRow, Model, wrench_term
+
+__all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
 
 #: How many times :meth:`Simulation.play` reports its progress over a run, at most: often
 #: enough for a smooth bar, seldom enough that chunking costs nothing measurable.

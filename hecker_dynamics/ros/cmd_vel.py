@@ -7,7 +7,7 @@ from typing import Any, NamedTuple
 
 from ..drives.control import DriveSet
 from ..drives.diff_drive import VelocityCommand
-from ..dynamics.commands import InputError
+from ..scene.commands import InputError
 from ..scene.load import Scene
 from .names import cmd_vel_topic
 

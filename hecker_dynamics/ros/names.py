@@ -1,15 +1,27 @@
 """The node's name, its topic and service names, and the QoS of each, as plain data.
 
-Everything the node offers on the ROS graph is named here once; the rclpy node turns the
+Everything the node offers on the ROS graph is listed here; the rclpy node turns the
 :class:`QosSpec` values into ``rclpy.qos.QoSProfile`` in one place, and the bag writer
 records the same profiles in a bag's metadata. Relative names resolve in the node's
 namespace, ``~/`` names in the node's own (``/dynamics_node/session``), absolute names are
-global (``/tf``, ``/clock``). No ROS import.
+global (``/tf``, ``/clock``). The node's own name and its services' names, which scenes
+and their records need too, are defined in :mod:`hecker_dynamics.scene.names`. No ROS import.
 """
 from __future__ import annotations
 
 import enum
 from typing import NamedTuple
+
+from ..scene.names import (
+    DELETE_BODY_SERVICE,
+    NODE_NAME,
+    PAUSE_SERVICE,
+    RESET_SERVICE,
+    RESUME_SERVICE,
+    SET_BODY_STATE_SERVICE,
+    SPAWN_BODY_SERVICE,
+    STEP_SERVICE,
+)
 
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
@@ -20,9 +32,6 @@ __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "SPAWN_BODY_SERVICE", "DELETE_BODY_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
-
-#: The node's name: also the top key of a scene's parameters file.
-NODE_NAME = "dynamics_node"
 
 
 class Reliability(enum.Enum):
@@ -86,13 +95,6 @@ SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"
 WORLD_EVENTS_TOPIC = "~/world_events"
-RESET_SERVICE = "reset"
-PAUSE_SERVICE = "pause"
-RESUME_SERVICE = "resume"
-STEP_SERVICE = "step"
-SET_BODY_STATE_SERVICE = "set_body_state"
-SPAWN_BODY_SERVICE = "spawn_body"
-DELETE_BODY_SERVICE = "delete_body"
 
 
 def pose_topic(body: str) -> str:

@@ -11,27 +11,45 @@ import dataclasses
 import enum
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NamedTuple, Optional
-
 from pathlib import Path
-from typing import Union
+from typing import Any, NamedTuple, Optional, Union
 
-from .. import __version__
+from .._version import __version__
 from ..drives.control import DriveSet
-from ..dynamics.commands import InputError, WrenchCommand
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.fingerprint import scene_fingerprint
-from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,
-                          check_scene_request, load_scene, scene_from_parameters)
+from ..scene.load import (
+    NODE_PARAMETERS,
+    Scene,
+    SceneError,
+    WrenchTopic,
+    check_scene_request,
+    load_scene,
+    scene_from_parameters,
+)
 from ..scene.world import EditKind, WorldEdit, apply_edits
+from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
-from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .joint_states import MotorTopic, set_motor_speed
-from .session import (APPLIED_WRENCH_EVENT, CMD_VEL_EVENT, MOTOR_SPEED_EVENT,
-                      WRENCH_STAMPED_EVENT, InputEventFields,
-                      KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
-                      encode_state)
+from .session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+    decode_state,
+    encode_state,
+)
+
+__all__ = ["InputSource", "NodeOptions", "node_options", "scene_for_node", "due_script",
+           "catch_up_cap", "TickAction", "plan_tick", "lag_ns", "plain_parameters", "node_setup",
+           "refused_change", "LogLine", "Tick", "Runner"]
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
@@ -64,7 +82,7 @@ class NodeOptions:
 
 def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
     """Read and type-check the node's own parameters; missing ones keep their defaults."""
-    values = {}
+    values: dict[str, Any] = {}
     for option in dataclasses.fields(NodeOptions):
         value = params.get(option.name, option.default)
         kind = type(option.default)

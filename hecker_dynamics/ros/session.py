@@ -31,8 +31,16 @@ import json
 from typing import Any, NamedTuple
 
 # The record topics (relative to the node: ``~`` is its own namespace) and their QoS.
-from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
-                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
+from .names import (
+    INPUT_EVENTS_QOS,
+    INPUT_EVENTS_TOPIC,
+    KEYFRAME_QOS,
+    KEYFRAME_TOPIC,
+    SESSION_QOS,
+    SESSION_TOPIC,
+    WORLD_EVENTS_QOS,
+    WORLD_EVENTS_TOPIC,
+)
 
 __all__ = ["APPLIED_WRENCH_EVENT", "WRENCH_STAMPED_EVENT", "MOTOR_SPEED_EVENT", "CMD_VEL_EVENT",
            "SessionFields",

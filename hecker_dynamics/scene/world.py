@@ -29,9 +29,20 @@ import enum
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
-from ..ros.names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
-from .load import (AngularDampingSpec, CollisionGroup, ConstantForceSpec, ConstantTorqueSpec,
-                   DragSpec, ForceSpec, Gravity, Scene, SpringSpec, check_collidable, read_body)
+from .load import (
+    AngularDampingSpec,
+    CollisionGroup,
+    ConstantForceSpec,
+    ConstantTorqueSpec,
+    DragSpec,
+    ForceSpec,
+    Gravity,
+    Scene,
+    SpringSpec,
+    check_collidable,
+    read_body,
+)
+from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
 from .parameters import ParameterReader, SceneError, quoted
 from .rosyaml import read_parameters_text
 

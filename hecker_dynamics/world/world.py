@@ -20,13 +20,12 @@ import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
 
-from ..dynamics.commands import WrenchCommand
 # The input buffer's own form of a command as plain data, so a World's state and a
 # Simulation's hold scheduled and held commands alike.
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
-from ..scene.load import (INTEGRATORS, BodySpec, Scene, load_scene, read_body,
-                          scene_from_parameters)
+from ..scene.commands import WrenchCommand
+from ..scene.load import INTEGRATORS, BodySpec, Scene, load_scene, read_body, scene_from_parameters
 from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters

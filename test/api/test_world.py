@@ -10,13 +10,13 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import EVERY_FORCE, make_scene
+from test_docs import EVERY_FEATURE
 
 import hecker_dynamics as hd
 from hecker_dynamics.geometry.shapes import Circle as Disc
 from hecker_dynamics.geometry.shapes import box as box_polygon
 from hecker_dynamics.geometry.shapes import mass_properties
-from scene_builders import EVERY_FORCE, make_scene
-from test_docs import EVERY_FEATURE
 
 # Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
 # a few ulps of the largest term per step, over a few thousand steps.

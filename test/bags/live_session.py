@@ -18,18 +18,25 @@ from typing import Any, Optional
 import numpy as np
 
 from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
 from hecker_dynamics.bags.io import resolve_topic
-from hecker_dynamics.ros.fields import applied_wrench_fields
+from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
+from hecker_dynamics.dynamics import Snapshot
 from hecker_dynamics.ros.cmd_vel import cmd_vel_topics
+from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.joint_states import motor_topics
 from hecker_dynamics.ros.outputs import SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
-from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
-                                         WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
-                                         SessionFields, WorldEventFields)
-from hecker_dynamics.dynamics import Snapshot, WrenchCommand
-from hecker_dynamics.scene import Scene
+from hecker_dynamics.ros.session import (
+    INPUT_EVENTS_DEPTH,
+    KEYFRAME_DEPTH,
+    SESSION_DEPTH,
+    WORLD_EVENTS_DEPTH,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldEventFields,
+)
+from hecker_dynamics.scene import Scene, WrenchCommand
 
 S = 1_000_000_000
 NODE = "/dynamics_node"

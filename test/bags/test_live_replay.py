@@ -14,20 +14,25 @@ import os
 from pathlib import Path
 
 import pytest
-
-from hecker_dynamics.bags import read_bag
-from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.compare import Tolerances, compare_contents
-from hecker_dynamics.bags.live import check_live, is_live_recording
-from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outputs_as_bag,
-                                         output_types, replay_outputs)
-from hecker_dynamics.cli import main
-from hecker_dynamics.scene import load_scene
-from hecker_dynamics.scene.load import scene_parameters
-from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
-from hecker_dynamics.ros.session import CMD_VEL_EVENT, MOTOR_SPEED_EVENT
 from live_session import S, record, run_live
 from scene_builders import make_scene
+
+from hecker_dynamics.bags import io as bags
+from hecker_dynamics.bags import read_bag
+from hecker_dynamics.bags.compare import Tolerances, compare_contents
+from hecker_dynamics.bags.live import check_live, is_live_recording
+from hecker_dynamics.bags.replay import (
+    APPLIED_WRENCH_TOPIC,
+    ReplayError,
+    output_types,
+    outputs_as_bag,
+    replay_outputs,
+)
+from hecker_dynamics.cli import main
+from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
+from hecker_dynamics.ros.session import CMD_VEL_EVENT, MOTOR_SPEED_EVENT
+from hecker_dynamics.scene import load_scene
+from hecker_dynamics.scene.load import scene_parameters
 
 EXACT = Tolerances(0.0, 0.0, 0.0)
 #: (scene, seed, options of the live run, how late the recorder starts): every case pushes
@@ -209,7 +214,7 @@ def test_a_session_recorded_without_records_keeps_the_old_rules(tmp_path):
     path = record(run_live(scene, 28, record=False), tmp_path / "live", 28)
     bag = read_bag(path)
     assert not is_live_recording(bag)
-    assert not any(bags.SESSION_INFO == t for t in bag.topics.values())
+    assert not any(t == bags.SESSION_INFO for t in bag.topics.values())
 
 
 BALL = "{shape: circle, radius: 0.15, mass: 1.0, position: [0.5, 4.0], velocity: [0.3, 0.0]}"

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
 from hecker_dynamics.drives.control import DriveSet, advance_with_drives
 from hecker_dynamics.drives.diff_drive import VelocityCommand
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.parameters import SceneError
-from scene_builders import make_scene
 
 MASS = 10.0
 

@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.sensors.imu import Imu
-from scene_builders import make_scene
 
 
 def setup(body: dict, forces: dict | None = None, step: float = 1e-4,

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.scene.world import deleted
 from hecker_dynamics.sensors.laser import Laser
-from scene_builders import make_scene
 
 ROOM = (6.0, 4.0)  # walls at x = 0, x = 6, y = 0, y = 4
 WALLS = {"left": {"point": [0.0, 0.0], "normal": [1.0, 0.0]},
