@@ -18,7 +18,7 @@ KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/forces.c", "src/kernel/step
                   "src/kernel/wide.c", "src/kernel/bound.c"]
 KERNEL_HEADERS = ["src/kernel/kernel.h", "src/kernel/contact.h", "src/kernel/joint.h",
                   "src/kernel/sparse.h", "src/kernel/coupled.h", "src/kernel/rows.h",
-                  "src/kernel/wide.h"]
+                  "src/kernel/wide.h", "src/kernel/floats.h", "src/kernel/simd.h"]
 
 #: GCC and Clang (compiler type "unix" on Linux and macOS, "mingw32" and "cygwin" on
 #: Windows). No contraction of a * b + c into a fused multiply-add and no fast-math, so the

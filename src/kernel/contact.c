@@ -111,7 +111,7 @@ void hd_contact_free(hd_contact_model *m)
 }
 
 /* The body's parts placed at its pose (solver.py: _world_parts and _bounds). */
-static void place_parts(hd_contact_model *m, const double *q, long body)
+static void hd_place_parts(hd_contact_model *m, const double *q, long body)
 {
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
@@ -157,13 +157,13 @@ static void place_parts(hd_contact_model *m, const double *q, long body)
 
 /* place_parts once per detection; inlined, so that the pairs of a body placed already
  * (most of them) make no call. */
-static inline void place(hd_contact_model *m, const double *q, long body)
+static inline void hd_place(hd_contact_model *m, const double *q, long body)
 {
     if (!m->placed_flag[body])
-        place_parts(m, q, body);
+        hd_place_parts(m, q, body);
 }
 
-static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *found, int count,
+static int hd_add_contacts(hd_contact_model *m, long a, long b, const hd_found *found, int count,
                         double e, double mu, long k0, long k1, long k2, long k3)
 {
     if (m->contact_count + count > m->contact_capacity) {
@@ -184,7 +184,7 @@ static int add_contacts(hd_contact_model *m, long a, long b, const hd_found *fou
 }
 
 /* solver.py: _collide, normal from A to B. */
-static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
+static int hd_collide(const hd_part *pa, const hd_part *pb, hd_found *out)
 {
     const double *a = pa->placed, *b = pb->placed;
     if (pa->kind != HD_CIRCLE && pb->kind != HD_CIRCLE)
@@ -205,7 +205,7 @@ static int collide(const hd_part *pa, const hd_part *pb, hd_found *out)
 }
 
 /* Whether pair (i, j), i < j, is among the sorted pairs that do not collide. */
-static int is_apart(const hd_contact_model *m, long i, long j)
+static int hd_is_apart(const hd_contact_model *m, long i, long j)
 {
     long low = 0, high = m->apart_count;
     while (low < high) {
@@ -221,19 +221,19 @@ static int is_apart(const hd_contact_model *m, long i, long j)
 
 /* The material of pair (i, j), i < j, or NULL if it does not collide
  * (materials.py: PairMaterials.get). */
-static const double *material_of(const hd_contact_model *m, long i, long j)
+static const double *hd_material_of(const hd_contact_model *m, long i, long j)
 {
     const long c = m->body_class[i], d = m->body_class[j];
     if (c < 0 || d < 0)
         return NULL;
     const long group = m->class_group[c * m->class_count + d];
-    if (group < 0 || (m->apart_count > 0 && is_apart(m, i, j)))
+    if (group < 0 || (m->apart_count > 0 && hd_is_apart(m, i, j)))
         return NULL;
     return m->material + 2 * group;
 }
 
 /* solver.py: _pair_contacts. */
-static int pair_contacts(hd_contact_model *m, long a, long b, const double *material)
+static int hd_pair_contacts(hd_contact_model *m, long a, long b, const double *material)
 {
     for (long pa = m->part_first[a]; pa < m->part_first[a + 1]; ++pa) {
         const double *ba = m->parts[pa].bounds;
@@ -242,8 +242,8 @@ static int pair_contacts(hd_contact_model *m, long a, long b, const double *mate
             if (bb[0] > ba[1] + HD_MARGIN || bb[1] < ba[0] - HD_MARGIN ||
                     bb[2] > ba[3] + HD_MARGIN || bb[3] < ba[2] - HD_MARGIN)
                 continue;
-            const int count = collide(m->parts + pa, m->parts + pb, m->found);
-            if (add_contacts(m, a, b, m->found, count, material[0], material[1], a, b,
+            const int count = hd_collide(m->parts + pa, m->parts + pb, m->found);
+            if (hd_add_contacts(m, a, b, m->found, count, material[0], material[1], a, b,
                              pa - m->part_first[a], pb - m->part_first[b]) < 0)
                 return -1;
         }
@@ -253,7 +253,7 @@ static int pair_contacts(hd_contact_model *m, long a, long b, const double *mate
 
 /* Python sorts the tuples (x0, body, ...): by x0, then by body. Whether box (x0, body)
  * comes after box (y0, other). */
-static int after(double x0, long body, double y0, long other)
+static int hd_after(double x0, long body, double y0, long other)
 {
     return x0 > y0 || (!(x0 < y0) && body > other);
 }
@@ -262,17 +262,17 @@ static int after(double x0, long body, double y0, long other)
  * left edge, then body. They are sorted as in the last step and bodies move little in a
  * step, so insertion sort does about one comparison per box; the order is total (bodies
  * differ), so it is the one any sort gives. */
-static void sort_boxes(double *edge, long *body, long count)
+static void hd_sort_boxes(double *edge, long *body, long count)
 {
     for (long k = 1; k < count; ++k) {
-        if (!after(edge[k - 1], body[k - 1], edge[k], body[k]))
+        if (!hd_after(edge[k - 1], body[k - 1], edge[k], body[k]))
             continue;
         double box[4];
         for (int e = 0; e < 4; ++e)
             box[e] = edge[e * count + k];
         const long b = body[k];
         long l = k;
-        for (; l > 0 && after(edge[l - 1], body[l - 1], box[0], b); --l) {
+        for (; l > 0 && hd_after(edge[l - 1], body[l - 1], box[0], b); --l) {
             for (int e = 0; e < 4; ++e)
                 edge[e * count + l] = edge[e * count + l - 1];
             body[l] = body[l - 1];
@@ -315,7 +315,7 @@ typedef struct {
 } hd_bands;
 
 /* The band of y: (y - base) * scale rounded down, at most the last. */
-static inline long band_of(const hd_bands *bands, double y)
+static inline long hd_band_of(const hd_bands *bands, double y)
 {
     const double t = (y - bands->base) * bands->scale;
     return t < (double)bands->last ? (long)t : bands->last;
@@ -327,7 +327,7 @@ typedef struct {
     int wild;                        /* an edge not finite, or low > top */
 } hd_extent;
 
-static inline void extend(hd_extent *extent, double left, double right, double bottom,
+static inline void hd_extend(hd_extent *extent, double left, double right, double bottom,
                           double top)
 {
     const double low = bottom - HD_MARGIN, high = top + HD_MARGIN;
@@ -340,7 +340,7 @@ static inline void extend(hd_extent *extent, double left, double right, double b
 
 /* Bands as tall as the tallest box with margins, so that a box is in two or three of them,
  * or taller to make one per box at most; or one band. */
-static hd_bands plan_bands(const hd_extent *extent, long count)
+static hd_bands hd_plan_bands(const hd_extent *extent, long count)
 {
     const hd_bands one = {0, 0, 0, 0};
     if (count < HD_BAND_BOXES || extent->wild)
@@ -361,7 +361,7 @@ static hd_bands plan_bands(const hd_extent *extent, long count)
  * columns of m->band_capacity) and m->band_body, and note where box k's pairs may be: from
  * m->band_from[k], just after k in the band of low_k, to m->band_to[k]; -1 out of
  * memory. */
-static int list_bands(hd_contact_model *m, long count, const hd_bands *bands)
+static int hd_list_bands(hd_contact_model *m, long count, const hd_bands *bands)
 {
     const double *left = m->sweep, *bottom = left + 2 * count, *top = bottom + count;
     long *end = m->band_end, *next = m->band_next;
@@ -369,8 +369,8 @@ static int list_bands(hd_contact_model *m, long count, const hd_bands *bands)
      * running sum counts the boxes of each band. */
     memset(end, 0, (size_t)(bands->last + 2) * sizeof(long));
     for (long k = 0; k < count; ++k) {
-        end[band_of(bands, bottom[k] - HD_MARGIN - bands->below)] += 1;
-        end[band_of(bands, top[k]) + 1] -= 1;
+        end[hd_band_of(bands, bottom[k] - HD_MARGIN - bands->below)] += 1;
+        end[hd_band_of(bands, top[k]) + 1] -= 1;
     }
     long total = 0, boxes = 0;
     for (long j = 0; j <= bands->last; ++j) {
@@ -399,7 +399,7 @@ static int list_bands(hd_contact_model *m, long count, const hd_bands *bands)
      * is at next[j] once it is in band j. */
     for (long k = count - 1; k >= 0; --k) {
         const double low = bottom[k] - HD_MARGIN;
-        for (long j = band_of(bands, low - bands->below), j1 = band_of(bands, top[k]);
+        for (long j = hd_band_of(bands, low - bands->below), j1 = hd_band_of(bands, top[k]);
                 j <= j1; ++j) {
             const long p = --next[j];
             edge[p] = left[k];
@@ -407,7 +407,7 @@ static int list_bands(hd_contact_model *m, long count, const hd_bands *bands)
             edge[2 * capacity + p] = top[k];
             m->band_body[p] = m->sweep_body[k];
         }
-        const long own = band_of(bands, low);
+        const long own = hd_band_of(bands, low);
         m->band_from[k] = next[own] + 1;
         m->band_to[k] = end[own];
     }
@@ -427,7 +427,7 @@ int hd_detect(hd_contact_model *m, const double *q)
                 continue;
             if (nx * q[3 * b] + ny * q[3 * b + 1] - offset > m->reach[b] + HD_MARGIN)
                 continue;
-            place(m, q, b);
+            hd_place(m, q, b);
             for (long p = m->part_first[b]; p < m->part_first[b + 1]; ++p) {
                 const hd_part *part = m->parts + p;
                 const int count = part->kind == HD_CIRCLE
@@ -435,7 +435,7 @@ int hd_detect(hd_contact_model *m, const double *q)
                                            part->placed[2], HD_MARGIN, m->found)
                     : hd_half_plane_polygon(nx, ny, offset, part->placed, part->count,
                                             HD_MARGIN, m->found);
-                if (add_contacts(m, -1, b, m->found, count, wall[3], wall[4], -1 - w, b, 0,
+                if (hd_add_contacts(m, -1, b, m->found, count, wall[3], wall[4], -1 - w, b, 0,
                                  p - m->part_first[b]) < 0)
                     return -1;
             }
@@ -458,14 +458,14 @@ int hd_detect(hd_contact_model *m, const double *q)
         bottom[k] = y - r;
         top[k] = y + r;
         m->sweep_body[k] = b;
-        extend(&extent, left[k], right[k], bottom[k], top[k]);
+        hd_extend(&extent, left[k], right[k], bottom[k], top[k]);
     }
-    sort_boxes(m->sweep, m->sweep_body, count);
+    hd_sort_boxes(m->sweep, m->sweep_body, count);
     m->sweep_order = 1;
-    const hd_bands bands = plan_bands(&extent, count);
+    const hd_bands bands = hd_plan_bands(&extent, count);
     /* One band: the sweep's own columns, each box's pairs from the next box on. */
     const int banded = bands.last > 0;
-    if (banded && list_bands(m, count, &bands) < 0)
+    if (banded && hd_list_bands(m, count, &bands) < 0)
         return -1;
     const double *band_left = banded ? m->band_edge : left,
                  *band_bottom = banded ? band_left + m->band_capacity : bottom,
@@ -484,13 +484,13 @@ int hd_detect(hd_contact_model *m, const double *q)
             const long sleeping = m->island[i] > m->island[j] ? m->island[i] : m->island[j];
             if (sleeping >= 0 && m->island[i] >= 0 && m->island[j] >= 0)
                 continue;
-            const double *material = material_of(m, i, j);
+            const double *material = hd_material_of(m, i, j);
             if (material == NULL)
                 continue;
-            place(m, q, i);
-            place(m, q, j);
+            hd_place(m, q, i);
+            hd_place(m, q, j);
             const long found = m->contact_count;
-            if (pair_contacts(m, i, j, material) < 0)
+            if (hd_pair_contacts(m, i, j, material) < 0)
                 return -1;
             if (sleeping >= 0 && m->contact_count > found) {
                 m->wake[sleeping] = 1;

@@ -8,6 +8,8 @@
 #ifndef HECKER_DYNAMICS_CONTACT_H
 #define HECKER_DYNAMICS_CONTACT_H
 
+#include "floats.h"
+
 /* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
 #define HD_WORK 600
 #define HD_MIN_ITERATIONS 6
@@ -24,13 +26,6 @@
 #define HD_SLEEP_SPEED 0.05
 #define HD_TIME_TO_SLEEP 0.5
 
-/* The small functions of the solver's inner loop, always inlined (GCC left them as
- * calls); inlining changes no floating-point operation. */
-#if defined(__GNUC__)
-#define HD_HOT inline __attribute__((always_inline))
-#else
-#define HD_HOT __forceinline
-#endif
 
 /* A point of a manifold: halfway between the surfaces, unit normal from the first shape
  * to the second, penetration depth (negative for a gap within the margin). */
@@ -129,7 +124,7 @@ typedef struct hd_contact_model {
     double *sweep;
     long *sweep_body;
     int sweep_order;
-    /* The sweep's bands in y (contact.c: list_bands): per band (colliding_count at most)
+    /* The sweep's bands in y (contact.c: hd_list_bands): per band (colliding_count at most)
      * where its boxes end and a cursor; the boxes band by band, their left, bottom and top
      * edges as columns (band_capacity each) and their bodies; per box where its pairs may
      * be (from, to). */

@@ -36,7 +36,7 @@ int hd_couple(hd_contact_model *m);
 /* The velocities the step's positions moved with: m->arrived, but for the jointed bodies
  * their velocity before the joint pass's velocity stage (ContactPass.resolve: moved). */
 const double *hd_coupled_reference(hd_contact_model *m);
-/* Islands (solver.c: islands): before the contacts' union-find, the rows' bodies as sets
+/* Islands (solver.c: hd_islands): before the contacts' union-find, the rows' bodies as sets
  * of their own; after it, the rows' joins; after the numbering of `count` islands, each
  * row's island. */
 void hd_coupled_reset(hd_contact_model *m, long *parent, long *island);

@@ -87,7 +87,7 @@ typedef struct hd_joint_model {
      * and directions (hd_joints_resolve starts from them when it may). */
     int ended;
     /* working memory */
-    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: turn_all) */
+    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: hd_turn_all) */
     hd_joint_row *row_memory, *rows0, *rows, *dir0, *dir;  /* the last four in the first */
     double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
     double *diagonal, *lower, *upper, *low, *diag;

@@ -24,7 +24,7 @@ static const char *STEPPER = "hecker_dynamics._kernel.Stepper";
 
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
-static int get_buffer(PyObject *object, Py_buffer *view, const char *what, char format,
+static int hd_get_buffer(PyObject *object, Py_buffer *view, const char *what, char format,
                       Py_ssize_t count, int writable)
 {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
@@ -50,7 +50,7 @@ static int get_buffer(PyObject *object, Py_buffer *view, const char *what, char 
     return 0;
 }
 
-static void free_program(hd_program *p)
+static void hd_free_program(hd_program *p)
 {
     if (p == NULL)
         return;
@@ -63,12 +63,12 @@ static void free_program(hd_program *p)
     free(p);
 }
 
-static void program_destructor(PyObject *capsule)
+static void hd_program_destructor(PyObject *capsule)
 {
-    free_program(PyCapsule_GetPointer(capsule, PROGRAM));
+    hd_free_program(PyCapsule_GetPointer(capsule, PROGRAM));
 }
 
-static void *copy_of(const Py_buffer *view)
+static void *hd_copy_of(const Py_buffer *view)
 {
     void *copy = malloc(view->len > 0 ? (size_t)view->len : 1);
     if (copy != NULL && view->len > 0)
@@ -77,7 +77,7 @@ static void *copy_of(const Py_buffer *view)
 }
 
 /* Check the body indices of a term: targets in [0, N), axes and point owners in [-1, N). */
-static int check_bodies(const hd_term *t, long bodies)
+static int hd_check_bodies(const hd_term *t, long bodies)
 {
     const int ni = hd_int_columns(t->kind);
     for (long e = 0; e < t->count; ++e) {
@@ -96,7 +96,7 @@ static int check_bodies(const hd_term *t, long bodies)
     return 0;
 }
 
-static int read_term(PyObject *item, hd_term *term, long bodies)
+static int hd_read_term(PyObject *item, hd_term *term, long bodies)
 {
     PyObject *ints, *reals;
     if (!PyTuple_Check(item)) {  /* PyArg_ParseTuple would raise SystemError */
@@ -113,26 +113,26 @@ static int read_term(PyObject *item, hd_term *term, long bodies)
         return -1;
     }
     Py_buffer iv, rv;
-    if (get_buffer(ints, &iv, "term ints", 'q', -1, 0) < 0)
+    if (hd_get_buffer(ints, &iv, "term ints", 'q', -1, 0) < 0)
         return -1;
     term->count = (long)(iv.len / 8 / ni);
     if (iv.len != (Py_ssize_t)term->count * ni * 8 ||
-        get_buffer(reals, &rv, "term reals", 'd', (Py_ssize_t)term->count * nr, 0) < 0) {
+        hd_get_buffer(reals, &rv, "term reals", 'd', (Py_ssize_t)term->count * nr, 0) < 0) {
         if (!PyErr_Occurred())
             PyErr_Format(PyExc_ValueError, "term of kind %d: %zd ints is not a whole number "
                          "of rows of %d", term->kind, iv.len / 8, ni);
         PyBuffer_Release(&iv);
         return -1;
     }
-    term->ints = copy_of(&iv);
-    term->reals = copy_of(&rv);
+    term->ints = hd_copy_of(&iv);
+    term->reals = hd_copy_of(&rv);
     PyBuffer_Release(&iv);
     PyBuffer_Release(&rv);
     if (term->ints == NULL || term->reals == NULL) {
         PyErr_NoMemory();
         return -1;
     }
-    return check_bodies(term, bodies);
+    return hd_check_bodies(term, bodies);
 }
 
 PyDoc_STRVAR(program_doc,
@@ -141,7 +141,7 @@ PyDoc_STRVAR(program_doc,
 "(None for a program of inputs), ``terms`` is a sequence of (kind, ints, reals) with the\n"
 "columns of kernel.h per instance, in the order they are summed.");
 
-static PyObject *py_program(PyObject *self, PyObject *args)
+static PyObject *hd_py_program(PyObject *self, PyObject *args)
 {
     long bodies;
     PyObject *inverse_mass, *terms;
@@ -172,9 +172,9 @@ static PyObject *py_program(PyObject *self, PyObject *args)
     p->bodies = bodies;
     if (inverse_mass != Py_None) {
         Py_buffer view;
-        if (get_buffer(inverse_mass, &view, "inverse_mass", 'd', 3 * bodies, 0) < 0)
+        if (hd_get_buffer(inverse_mass, &view, "inverse_mass", 'd', 3 * bodies, 0) < 0)
             goto fail;
-        p->inverse_mass = copy_of(&view);
+        p->inverse_mass = hd_copy_of(&view);
         PyBuffer_Release(&view);
         if (p->inverse_mass == NULL) {
             PyErr_NoMemory();
@@ -183,21 +183,21 @@ static PyObject *py_program(PyObject *self, PyObject *args)
     }
     for (Py_ssize_t t = 0; t < count; ++t) {
         p->term_count = (long)t + 1;  /* so that a failure frees what this term copied */
-        if (read_term(PyTuple_GET_ITEM(sequence, t), p->terms + t, bodies) < 0)
+        if (hd_read_term(PyTuple_GET_ITEM(sequence, t), p->terms + t, bodies) < 0)
             goto fail;
     }
     Py_DECREF(sequence);
-    PyObject *capsule = PyCapsule_New(p, PROGRAM, program_destructor);
+    PyObject *capsule = PyCapsule_New(p, PROGRAM, hd_program_destructor);
     if (capsule == NULL)
-        free_program(p);
+        hd_free_program(p);
     return capsule;
 fail:
     Py_DECREF(sequence);
-    free_program(p);
+    hd_free_program(p);
     return NULL;
 }
 
-static void free_pair(hd_pair *pair)
+static void hd_free_pair(hd_pair *pair)
 {
     if (pair != NULL) {
         free(pair->a);
@@ -206,9 +206,9 @@ static void free_pair(hd_pair *pair)
     }
 }
 
-static void pair_destructor(PyObject *capsule)
+static void hd_pair_destructor(PyObject *capsule)
 {
-    free_pair(PyCapsule_GetPointer(capsule, PAIR));
+    hd_free_pair(PyCapsule_GetPointer(capsule, PAIR));
 }
 
 PyDoc_STRVAR(pair_doc,
@@ -216,7 +216,7 @@ PyDoc_STRVAR(pair_doc,
 "An embedded Runge-Kutta pair: ``a`` is slopes x (slopes - 1) coefficients (stages, then\n"
 "the weights of the new state), ``error`` rows of ``slopes`` coefficients each.");
 
-static PyObject *py_pair(PyObject *self, PyObject *args)
+static PyObject *hd_py_pair(PyObject *self, PyObject *args)
 {
     long slopes;
     int error_order;
@@ -228,9 +228,9 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
         return NULL;
     }
     Py_buffer av, ev;
-    if (get_buffer(a, &av, "a", 'd', slopes * (slopes - 1), 0) < 0)
+    if (hd_get_buffer(a, &av, "a", 'd', slopes * (slopes - 1), 0) < 0)
         return NULL;
-    if (get_buffer(error, &ev, "error", 'd', -1, 0) < 0) {
+    if (hd_get_buffer(error, &ev, "error", 'd', -1, 0) < 0) {
         PyBuffer_Release(&av);
         return NULL;
     }
@@ -242,25 +242,25 @@ static PyObject *py_pair(PyObject *self, PyObject *args)
         pair->slopes = slopes;
         pair->error_rows = rows;
         pair->error_order = error_order;
-        pair->a = copy_of(&av);
-        pair->error = copy_of(&ev);
+        pair->a = hd_copy_of(&av);
+        pair->error = hd_copy_of(&ev);
         for (long r = 0; pair->error != NULL && r < rows; ++r)
             pair->needs_new_state |= pair->error[r * slopes + slopes - 1] != 0.0;
     }
     PyBuffer_Release(&av);
     PyBuffer_Release(&ev);
     if (PyErr_Occurred() || pair == NULL || pair->a == NULL || pair->error == NULL) {
-        free_pair(pair);
+        hd_free_pair(pair);
         return PyErr_Occurred() ? NULL : PyErr_NoMemory();
     }
-    PyObject *capsule = PyCapsule_New(pair, PAIR, pair_destructor);
+    PyObject *capsule = PyCapsule_New(pair, PAIR, hd_pair_destructor);
     if (capsule == NULL)
-        free_pair(pair);
+        hd_free_pair(pair);
     return capsule;
 }
 
 /* The program, and the inputs' program (NULL for None), both for the same bodies. */
-static int get_programs(PyObject *program, PyObject *inputs, hd_program **p, hd_program **in)
+static int hd_get_programs(PyObject *program, PyObject *inputs, hd_program **p, hd_program **in)
 {
     *p = PyCapsule_GetPointer(program, PROGRAM);
     if (*p == NULL || (*p)->inverse_mass == NULL) {
@@ -286,24 +286,24 @@ PyDoc_STRVAR(accelerations_doc,
 "Write (ax, ay, alpha) per body into ``out`` from the state (q, v): each a C-contiguous\n"
 "float64 array of 3 values per body.");
 
-static PyObject *py_accelerations(PyObject *self, PyObject *args)
+static PyObject *hd_py_accelerations(PyObject *self, PyObject *args)
 {
     PyObject *program, *inputs, *qo, *vo, *outo;
     int oriented;
     hd_program *p, *in;
     if (!PyArg_ParseTuple(args, "OOpOOO:accelerations", &program, &inputs, &oriented, &qo,
                           &vo, &outo) ||
-        get_programs(program, inputs, &p, &in) < 0)
+        hd_get_programs(program, inputs, &p, &in) < 0)
         return NULL;
     const Py_ssize_t n3 = 3 * p->bodies;
     Py_buffer qv, vv, ov;
-    if (get_buffer(qo, &qv, "q", 'd', n3, 0) < 0)
+    if (hd_get_buffer(qo, &qv, "q", 'd', n3, 0) < 0)
         return NULL;
-    if (get_buffer(vo, &vv, "v", 'd', n3, 0) < 0) {
+    if (hd_get_buffer(vo, &vv, "v", 'd', n3, 0) < 0) {
         PyBuffer_Release(&qv);
         return NULL;
     }
-    if (get_buffer(outo, &ov, "out", 'd', n3, 1) < 0) {
+    if (hd_get_buffer(outo, &ov, "out", 'd', n3, 1) < 0) {
         PyBuffer_Release(&qv);
         PyBuffer_Release(&vv);
         return NULL;
@@ -329,15 +329,15 @@ typedef struct {
     hd_program *springs;
     Py_buffer views[5];  /* q, v, statics, unit, budget */
     long bodies, units;
-} bound_args;
+} hd_bound_args;
 
-static void release_bound(bound_args *a, int count)
+static void hd_release_bound(hd_bound_args *a, int count)
 {
     for (int k = 0; k < count; ++k)
         PyBuffer_Release(a->views + k);
 }
 
-static int get_bound_args(bound_args *a, PyObject *springs, PyObject *const objects[5])
+static int hd_get_bound_args(hd_bound_args *a, PyObject *springs, PyObject *const objects[5])
 {
     a->springs = NULL;
     if (springs != Py_None && (a->springs = PyCapsule_GetPointer(springs, PROGRAM)) == NULL)
@@ -345,10 +345,10 @@ static int get_bound_args(bound_args *a, PyObject *springs, PyObject *const obje
     static const char *names[5] = {"q", "v", "statics", "unit", "budget"};
     int k = 0;
     for (; k < 5; ++k)
-        if (get_buffer(objects[k], a->views + k, names[k], k == 3 ? 'q' : 'd', -1, k == 4) < 0)
+        if (hd_get_buffer(objects[k], a->views + k, names[k], k == 3 ? 'q' : 'd', -1, k == 4) < 0)
             break;
     if (k < 5) {
-        release_bound(a, k);
+        hd_release_bound(a, k);
         return -1;
     }
     a->bodies = (long)(a->views[3].len / 8);
@@ -368,18 +368,18 @@ static int get_bound_args(bound_args *a, PyObject *springs, PyObject *const obje
             wrong = "unit: a unit index is out of range";
     if (wrong != NULL) {
         PyErr_SetString(PyExc_ValueError, wrong);
-        release_bound(a, 5);
+        hd_release_bound(a, 5);
         return -1;
     }
     return 0;
 }
 
 /* Run the check (check != 0) or only the energies; -1 with an exception set. */
-static int run_bound(bound_args *a, int check, double seconds, double growth, double *worst)
+static int hd_run_bound(hd_bound_args *a, int check, double seconds, double growth, double *worst)
 {
     double *memory = malloc((size_t)(2 * a->bodies + 1) * sizeof(double));
     if (memory == NULL) {
-        release_bound(a, 5);
+        hd_release_bound(a, 5);
         PyErr_NoMemory();
         return -1;
     }
@@ -393,7 +393,7 @@ static int run_bound(bound_args *a, int check, double seconds, double growth, do
     else
         hd_unit_energy(a->springs, q, v, a->bodies, statics, unit, a->units, budget, &scratch);
     free(memory);
-    release_bound(a, 5);
+    hd_release_bound(a, 5);
     return 0;
 }
 
@@ -408,17 +408,17 @@ PyDoc_STRVAR(bound_doc,
 "each; ``unit``: int64, one per body; ``budget``: float64, writable, 8 rows of one value\n"
 "per unit.");
 
-static PyObject *py_bound(PyObject *self, PyObject *args)
+static PyObject *hd_py_bound(PyObject *self, PyObject *args)
 {
     PyObject *springs, *objects[5], *seconds = NULL;
     double growth = 0.0, worst = 0.0;
-    bound_args a;
+    hd_bound_args a;
     if (!PyArg_ParseTuple(args, "OOOOOO|Od:bound", &springs, objects, objects + 1,
                           objects + 2, objects + 3, objects + 4, &seconds, &growth))
         return NULL;
     const double interval = seconds == NULL ? 0.0 : PyFloat_AsDouble(seconds);
-    if ((seconds != NULL && PyErr_Occurred()) || get_bound_args(&a, springs, objects) < 0 ||
-        run_bound(&a, seconds != NULL, interval, growth, &worst) < 0)
+    if ((seconds != NULL && PyErr_Occurred()) || hd_get_bound_args(&a, springs, objects) < 0 ||
+        hd_run_bound(&a, seconds != NULL, interval, growth, &worst) < 0)
         return NULL;
     if (seconds == NULL)
         Py_RETURN_NONE;
@@ -427,11 +427,11 @@ static PyObject *py_bound(PyObject *self, PyObject *args)
 
 /* The writable buffers of a state (q, v) of `n3` values each, or -1 with an exception set
  * and neither held. */
-static int get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_buffer *vv)
+static int hd_get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_buffer *vv)
 {
-    if (get_buffer(q, qv, "q", 'd', n3, 1) < 0)
+    if (hd_get_buffer(q, qv, "q", 'd', n3, 1) < 0)
         return -1;
-    if (get_buffer(v, vv, "v", 'd', n3, 1) < 0) {
+    if (hd_get_buffer(v, vv, "v", 'd', n3, 1) < 0) {
         PyBuffer_Release(qv);
         return -1;
     }
@@ -443,11 +443,11 @@ static int get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_
 typedef struct {
     hd_stepper stepper;
     PyObject *program, *pair, *contacts;
-} stepper_capsule;
+} hd_stepper_capsule;
 
-static void stepper_destructor(PyObject *capsule)
+static void hd_stepper_destructor(PyObject *capsule)
 {
-    stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
+    hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
     if (c == NULL)
         return;
     hd_stepper_free(&c->stepper);
@@ -463,7 +463,7 @@ PyDoc_STRVAR(stepper_doc,
 "EMBEDDED with the Pair ``pair`` and ``tolerance``) on ``program``, with the contact pass\n"
 "``contacts`` (None: none) after each step, and the memory they need, for ``step``.");
 
-static PyObject *py_stepper(PyObject *self, PyObject *args)
+static PyObject *hd_py_stepper(PyObject *self, PyObject *args)
 {
     PyObject *program, *pair_object, *contacts_object;
     int method;
@@ -473,7 +473,7 @@ static PyObject *py_stepper(PyObject *self, PyObject *args)
     hd_contact_model *contacts = NULL;
     if (!PyArg_ParseTuple(args, "OiOdO:stepper", &program, &method, &pair_object, &tolerance,
                           &contacts_object) ||
-        get_programs(program, Py_None, &p, &unused) < 0)
+        hd_get_programs(program, Py_None, &p, &unused) < 0)
         return NULL;
     if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
         PyErr_Format(PyExc_ValueError, "unknown method %d", method);
@@ -489,14 +489,14 @@ static PyObject *py_stepper(PyObject *self, PyObject *args)
             return NULL;
         }
     }
-    stepper_capsule *c = calloc(1, sizeof(stepper_capsule));
+    hd_stepper_capsule *c = calloc(1, sizeof(hd_stepper_capsule));
     if (c == NULL)
         return PyErr_NoMemory();
     if (hd_stepper_init(&c->stepper, p, method, pair, tolerance, contacts) != HD_ADVANCED) {
         free(c);
         return PyErr_NoMemory();
     }
-    PyObject *capsule = PyCapsule_New(c, STEPPER, stepper_destructor);
+    PyObject *capsule = PyCapsule_New(c, STEPPER, hd_stepper_destructor);
     if (capsule == NULL) {
         hd_stepper_free(&c->stepper);
         free(c);
@@ -524,13 +524,13 @@ PyDoc_STRVAR(step_doc,
 "TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. The GIL is released meanwhile, unless the call is\n"
 "short.");
 
-static PyObject *py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 9) {
         PyErr_Format(PyExc_TypeError, "step() takes 9 arguments (%zd given)", nargs);
         return NULL;
     }
-    stepper_capsule *c = PyCapsule_GetPointer(args[0], STEPPER);
+    hd_stepper_capsule *c = PyCapsule_GetPointer(args[0], STEPPER);
     if (c == NULL)
         return NULL;
     hd_stepper *s = &c->stepper;
@@ -562,7 +562,7 @@ static PyObject *py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     if (s->method != HD_EMBEDDED)
         size = 0.0;
     Py_buffer qv, vv;
-    if (get_state(args[3], args[4], 3 * s->program->bodies, &qv, &vv) < 0)
+    if (hd_get_state(args[3], args[4], 3 * s->program->bodies, &qv, &vv) < 0)
         return NULL;
     long taken = 0;
     hd_work work = {0, 0, 0};
@@ -588,17 +588,17 @@ PyDoc_STRVAR(failed_state_doc,
 "failed_state(stepper, q, v)\n\n"
 "Copy the state that ended the last ``step`` with NOT_FINITE into (q, v).");
 
-static PyObject *py_failed_state(PyObject *self, PyObject *args)
+static PyObject *hd_py_failed_state(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *qo, *vo;
     if (!PyArg_ParseTuple(args, "OOO:failed_state", &capsule, &qo, &vo))
         return NULL;
-    stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
+    hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, STEPPER);
     if (c == NULL)
         return NULL;
     const Py_ssize_t n3 = 3 * c->stepper.program->bodies;
     Py_buffer qv, vv;
-    if (get_state(qo, vo, n3, &qv, &vv) < 0)
+    if (hd_get_state(qo, vo, n3, &qv, &vv) < 0)
         return NULL;
     memcpy(qv.buf, c->stepper.q_new, (size_t)n3 * sizeof(double));
     memcpy(vv.buf, c->stepper.v_new, (size_t)n3 * sizeof(double));
@@ -610,7 +610,7 @@ static PyObject *py_failed_state(PyObject *self, PyObject *args)
 
 /* ------------------------------------------------------------------ the contact pass */
 
-static void contacts_destructor(PyObject *capsule)
+static void hd_contacts_destructor(PyObject *capsule)
 {
     hd_contact_model *m = PyCapsule_GetPointer(capsule, CONTACTS);
     if (m != NULL)
@@ -620,13 +620,13 @@ static void contacts_destructor(PyObject *capsule)
 
 /* A copy of a buffer of `count` values (any count if < 0; `*got` the count read), or NULL
  * with an exception set. */
-static void *read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
+static void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
                         Py_ssize_t *got)
 {
     Py_buffer view;
-    if (get_buffer(object, &view, what, format, count, 0) < 0)
+    if (hd_get_buffer(object, &view, what, format, count, 0) < 0)
         return NULL;
-    void *copy = copy_of(&view);
+    void *copy = hd_copy_of(&view);
     if (got != NULL)
         *got = view.len / 8;
     PyBuffer_Release(&view);
@@ -636,7 +636,7 @@ static void *read_array(PyObject *object, const char *what, char format, Py_ssiz
 }
 
 /* Check the layout contact.py packed; -1 with an exception set if it is not one. */
-static int check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals,
+static int hd_check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals,
                           long groups)
 {
     Py_ssize_t used = 0;
@@ -685,7 +685,7 @@ bad:
 }
 
 /* The parts from the packed rows: `local` copied, `placed` allocated. */
-static int build_parts(hd_contact_model *m, const long *part_ints, const double *reals)
+static int hd_build_parts(hd_contact_model *m, const long *part_ints, const double *reals)
 {
     m->parts = calloc((size_t)m->part_count + 1, sizeof(hd_part));
     m->part_first = calloc((size_t)m->bodies + 1, sizeof(long));
@@ -723,7 +723,7 @@ PyDoc_STRVAR(contacts_doc,
 "body its class, per pair of classes their group, per group (restitution, friction), and\n"
 "the pairs (i, j), sorted, that do not collide (materials.py: PairMaterials).");
 
-static PyObject *py_contacts(PyObject *self, PyObject *args)
+static PyObject *hd_py_contacts(PyObject *self, PyObject *args)
 {
     PyObject *o[13];
     double threshold, thickness;
@@ -739,19 +739,19 @@ static PyObject *py_contacts(PyObject *self, PyObject *args)
     double *part_reals = NULL;
     m->threshold = threshold;
     m->thickness = thickness;
-    if ((m->inverse_mass = read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
-        (m->inverse_inertia = read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
-        (m->reach = read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||
-        (part_ints = read_array(o[3], "part_ints", 'q', -1, &parts)) == NULL ||
-        (part_reals = read_array(o[4], "part_reals", 'd', -1, &reals)) == NULL ||
-        (m->wall = read_array(o[5], "walls", 'd', -1, &walls)) == NULL ||
-        (m->wall_first = read_array(o[6], "wall_first", 'q', walls / 5 + 1, NULL)) == NULL ||
-        (m->wall_body = read_array(o[7], "wall_body", 'q', -1, &wall_bodies)) == NULL ||
-        (m->colliding = read_array(o[8], "colliding", 'q', -1, &colliding)) == NULL ||
-        (m->body_class = read_array(o[9], "classes", 'q', bodies, NULL)) == NULL ||
-        (m->class_group = read_array(o[10], "class_groups", 'q', -1, &cells)) == NULL ||
-        (m->material = read_array(o[11], "materials", 'd', -1, &materials)) == NULL ||
-        (m->apart = read_array(o[12], "apart", 'q', -1, &apart)) == NULL)
+    if ((m->inverse_mass = hd_read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
+        (m->inverse_inertia = hd_read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
+        (m->reach = hd_read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||
+        (part_ints = hd_read_array(o[3], "part_ints", 'q', -1, &parts)) == NULL ||
+        (part_reals = hd_read_array(o[4], "part_reals", 'd', -1, &reals)) == NULL ||
+        (m->wall = hd_read_array(o[5], "walls", 'd', -1, &walls)) == NULL ||
+        (m->wall_first = hd_read_array(o[6], "wall_first", 'q', walls / 5 + 1, NULL)) == NULL ||
+        (m->wall_body = hd_read_array(o[7], "wall_body", 'q', -1, &wall_bodies)) == NULL ||
+        (m->colliding = hd_read_array(o[8], "colliding", 'q', -1, &colliding)) == NULL ||
+        (m->body_class = hd_read_array(o[9], "classes", 'q', bodies, NULL)) == NULL ||
+        (m->class_group = hd_read_array(o[10], "class_groups", 'q', -1, &cells)) == NULL ||
+        (m->material = hd_read_array(o[11], "materials", 'd', -1, &materials)) == NULL ||
+        (m->apart = hd_read_array(o[12], "apart", 'q', -1, &apart)) == NULL)
         goto fail;
     m->bodies = (long)bodies;
     m->part_count = (long)(parts / 3);
@@ -766,15 +766,15 @@ static PyObject *py_contacts(PyObject *self, PyObject *args)
         PyErr_SetString(PyExc_ValueError, "contacts: arrays not of the layout of contact.h");
         goto fail;
     }
-    if (check_contacts(m, part_ints, reals, (long)(materials / 2)) < 0)
+    if (hd_check_contacts(m, part_ints, reals, (long)(materials / 2)) < 0)
         goto fail;
-    if (build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
+    if (hd_build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
         PyErr_NoMemory();
         goto fail;
     }
     free(part_ints);
     free(part_reals);
-    PyObject *capsule = PyCapsule_New(m, CONTACTS, contacts_destructor);
+    PyObject *capsule = PyCapsule_New(m, CONTACTS, hd_contacts_destructor);
     if (capsule == NULL)
         hd_contact_free(m);
     return capsule;
@@ -791,7 +791,7 @@ PyDoc_STRVAR(resolve_doc,
 "place, sleeping bodies back at (q0, v0) (ContactPass.resolve); with the joint pass\n"
 "``joints`` (not None), its last velocity rows solved with the contacts.");
 
-static PyObject *py_resolve(PyObject *self, PyObject *args)
+static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *objects[4], *joints_object = Py_None;
     double h;
@@ -814,7 +814,7 @@ static PyObject *py_resolve(PyObject *self, PyObject *args)
     Py_buffer views[4];
     const char *names[4] = {"q1", "v1", "q0", "v0"};
     for (int k = 0; k < 4; ++k) {
-        if (get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
+        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
             while (k-- > 0)
                 PyBuffer_Release(views + k);
             return NULL;
@@ -839,7 +839,7 @@ PyDoc_STRVAR(sleep_doc,
 "sleeping island (-1: awake); with the arguments, first turn sleeping on or off and set\n"
 "per body whether it may sleep (calm), its rest time and its island.");
 
-static PyObject *py_sleep(PyObject *self, PyObject *args)
+static PyObject *hd_py_sleep(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *objects[3] = {NULL, NULL, NULL};
     int enabled = 0;
@@ -858,7 +858,7 @@ static PyObject *py_sleep(PyObject *self, PyObject *args)
         const char *names[3] = {"calm", "rested", "island"};
         const char kinds[3] = {'q', 'd', 'q'};
         for (int k = 0; k < 3; ++k) {
-            if (get_buffer(objects[k], views + k, names[k], kinds[k], m->bodies, 0) < 0) {
+            if (hd_get_buffer(objects[k], views + k, names[k], kinds[k], m->bodies, 0) < 0) {
                 while (k-- > 0)
                     PyBuffer_Release(views + k);
                 return NULL;
@@ -901,7 +901,7 @@ PyDoc_STRVAR(warm_doc,
 "those of one pair of parts (k0..k3) together and in the order the solver met them; with\n"
 "``impulses``, replace them first.");
 
-static PyObject *py_warm(PyObject *self, PyObject *args)
+static PyObject *hd_py_warm(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *impulses = NULL;
     if (!PyArg_ParseTuple(args, "O|O:warm", &capsule, &impulses))
@@ -951,7 +951,7 @@ static PyObject *py_warm(PyObject *self, PyObject *args)
 
 /* ------------------------------------------------------------------ the joint pass */
 
-static void joints_destructor(PyObject *capsule)
+static void hd_joints_destructor(PyObject *capsule)
 {
     hd_joints_free(PyCapsule_GetPointer(capsule, JOINTS));
 }
@@ -968,15 +968,15 @@ PyDoc_STRVAR(joints_doc,
 "step (JointPass.max_turn).");
 
 /* A sparse.py Pattern from (start, columns); -1 with an exception set. */
-static int read_pattern(PyObject *pair, hd_pattern *p)
+static int hd_read_pattern(PyObject *pair, hd_pattern *p)
 {
     PyObject *start_object, *columns_object;
     if (!PyArg_ParseTuple(pair, "OO:pattern", &start_object, &columns_object))
         return -1;
     Py_ssize_t count, length;
-    long *start = read_array(start_object, "start", 'q', -1, &length);
+    long *start = hd_read_array(start_object, "start", 'q', -1, &length);
     long *columns = start == NULL ? NULL
-                    : read_array(columns_object, "columns", 'q', -1, &count);
+                    : hd_read_array(columns_object, "columns", 'q', -1, &count);
     if (columns == NULL) {
         free(start);
         return -1;
@@ -1002,7 +1002,7 @@ static int read_pattern(PyObject *pair, hd_pattern *p)
     return 0;
 }
 
-static PyObject *py_joints(PyObject *self, PyObject *args)
+static PyObject *hd_py_joints(PyObject *self, PyObject *args)
 {
     PyObject *o[4], *patterns[2], *turning_object;
     long rows;
@@ -1016,12 +1016,12 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
     Py_ssize_t bodies, ints_count, turning;
     long *ints = NULL;
     double *reals = NULL;
-    if ((m->bodies = read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
-        (m->inverse_mass = read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
-        (ints = read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
-        (reals = read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
+    if ((m->bodies = hd_read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
+        (m->inverse_mass = hd_read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
+        (ints = hd_read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
+        (reals = hd_read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
                             NULL)) == NULL ||
-        (m->turning = read_array(turning_object, "turning", 'q', -1, &turning)) == NULL)
+        (m->turning = hd_read_array(turning_object, "turning", 'q', -1, &turning)) == NULL)
         goto fail;
     m->body_count = (long)bodies;
     m->turning_count = (long)turning;
@@ -1067,8 +1067,8 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "joints: a negative turning body");
             goto fail;
         }
-    if (read_pattern(patterns[0], &m->pattern) < 0 ||
-            read_pattern(patterns[1], &m->rigid_pattern) < 0)
+    if (hd_read_pattern(patterns[0], &m->pattern) < 0 ||
+            hd_read_pattern(patterns[1], &m->rigid_pattern) < 0)
         goto fail;
     const int status = hd_joints_prepare(m);
     if (status == HD_JOINTS_OUT_OF_MEMORY) {
@@ -1082,7 +1082,7 @@ static PyObject *py_joints(PyObject *self, PyObject *args)
     }
     free(ints);
     free(reals);
-    PyObject *capsule = PyCapsule_New(m, JOINTS, joints_destructor);
+    PyObject *capsule = PyCapsule_New(m, JOINTS, hd_joints_destructor);
     if (capsule == NULL)
         hd_joints_free(m);
     return capsule;
@@ -1096,7 +1096,7 @@ fail:
 /* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
  * the contact solve's extra impulses, whether the multipliers are set, and the last
  * step's length. */
-static Py_ssize_t joint_state_length(const hd_joint_model *m)
+static Py_ssize_t hd_joint_state_length(const hd_joint_model *m)
 {
     return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 2;
 }
@@ -1108,7 +1108,7 @@ PyDoc_STRVAR(joint_state_doc,
 "set, the last step's length) from ``state``\n"
 "into the kernel (``load``) or from the kernel into ``state``.");
 
-static PyObject *py_joint_state(PyObject *self, PyObject *args)
+static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *object;
     int load;
@@ -1116,7 +1116,7 @@ static PyObject *py_joint_state(PyObject *self, PyObject *args)
         return NULL;
     hd_joint_model *m = PyCapsule_GetPointer(capsule, JOINTS);
     Py_buffer view;
-    if (m == NULL || get_buffer(object, &view, "state", 'd', joint_state_length(m), !load) < 0)
+    if (m == NULL || hd_get_buffer(object, &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
         return NULL;
     double *s = view.buf;
     for (long i = 0; i < m->joint_count; ++i, s += HD_JOINT_STATE) {
@@ -1157,7 +1157,7 @@ PyDoc_STRVAR(joints_resolve_doc,
 "q1 and v1 in place (JointPass.resolve). Returns False, changing nothing, when the\n"
 "positions have no solution near the step's end (JointsUnsolved), else True.");
 
-static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
+static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *args)
 {
     PyObject *capsule, *objects[3];
     long bodies;
@@ -1176,7 +1176,7 @@ static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
     Py_buffer views[3];
     const char *names[3] = {"q0", "q1", "v1"};
     for (int k = 0; k < 3; ++k) {
-        if (get_buffer(objects[k], views + k, names[k], 'd', 3 * bodies, k > 0) < 0) {
+        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * bodies, k > 0) < 0) {
             while (k-- > 0)
                 PyBuffer_Release(views + k);
             return NULL;
@@ -1194,20 +1194,20 @@ static PyObject *py_joints_resolve(PyObject *self, PyObject *args)
 }
 
 static PyMethodDef methods[] = {
-    {"program", py_program, METH_VARARGS, program_doc},
-    {"pair", py_pair, METH_VARARGS, pair_doc},
-    {"accelerations", py_accelerations, METH_VARARGS, accelerations_doc},
-    {"stepper", py_stepper, METH_VARARGS, stepper_doc},
-    {"step", (PyCFunction)(void (*)(void))py_step, METH_FASTCALL, step_doc},
-    {"failed_state", py_failed_state, METH_VARARGS, failed_state_doc},
-    {"bound", py_bound, METH_VARARGS, bound_doc},
-    {"contacts", py_contacts, METH_VARARGS, contacts_doc},
-    {"resolve", py_resolve, METH_VARARGS, resolve_doc},
-    {"warm", py_warm, METH_VARARGS, warm_doc},
-    {"sleep", py_sleep, METH_VARARGS, sleep_doc},
-    {"joints", py_joints, METH_VARARGS, joints_doc},
-    {"joint_state", py_joint_state, METH_VARARGS, joint_state_doc},
-    {"joints_resolve", py_joints_resolve, METH_VARARGS, joints_resolve_doc},
+    {"program", hd_py_program, METH_VARARGS, program_doc},
+    {"pair", hd_py_pair, METH_VARARGS, pair_doc},
+    {"accelerations", hd_py_accelerations, METH_VARARGS, accelerations_doc},
+    {"stepper", hd_py_stepper, METH_VARARGS, stepper_doc},
+    {"step", (PyCFunction)(void (*)(void))hd_py_step, METH_FASTCALL, step_doc},
+    {"failed_state", hd_py_failed_state, METH_VARARGS, failed_state_doc},
+    {"bound", hd_py_bound, METH_VARARGS, bound_doc},
+    {"contacts", hd_py_contacts, METH_VARARGS, contacts_doc},
+    {"resolve", hd_py_resolve, METH_VARARGS, resolve_doc},
+    {"warm", hd_py_warm, METH_VARARGS, warm_doc},
+    {"sleep", hd_py_sleep, METH_VARARGS, sleep_doc},
+    {"joints", hd_py_joints, METH_VARARGS, joints_doc},
+    {"joint_state", hd_py_joint_state, METH_VARARGS, joint_state_doc},
+    {"joints_resolve", hd_py_joints_resolve, METH_VARARGS, joints_resolve_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -20,12 +20,12 @@
 #include "rows.h"
 #include "wide.h"
 
-static int same_key(const long *k, const long *l)
+static int hd_same_key(const long *k, const long *l)
 {
     return k[0] == l[0] && k[1] == l[1] && k[2] == l[2] && k[3] == l[3];
 }
 
-static int key_order(const long *k, const long *l)
+static int hd_key_order(const long *k, const long *l)
 {
     for (int i = 0; i < 4; ++i)
         if (k[i] != l[i])
@@ -34,14 +34,14 @@ static int key_order(const long *k, const long *l)
 }
 
 /* By key, then by position in the list (qsort is not stable: `used` holds it meanwhile). */
-static int by_key(const void *p, const void *q)
+static int hd_by_key(const void *p, const void *q)
 {
     const hd_warm *u = p, *w = q;
-    const int order = key_order(u->key, w->key);
+    const int order = hd_key_order(u->key, w->key);
     return order ? order : (u->used > w->used) - (u->used < w->used);
 }
 
-static unsigned long hash_key(const long *k)
+static unsigned long hd_hash_key(const long *k)
 {
     unsigned long h = 1469598103934665603UL;
     for (int i = 0; i < 4; ++i)
@@ -51,7 +51,7 @@ static unsigned long hash_key(const long *k)
 
 /* The table from each key to its first warm-start impulse: the impulses of one key are
  * contiguous (one pair of parts is detected at once); -1 out of memory. */
-static int index_warm(hd_contact_model *m)
+static int hd_index_warm(hd_contact_model *m)
 {
     long size = 16;
     while (size < 2 * m->warm_count)
@@ -67,9 +67,9 @@ static int index_warm(hd_contact_model *m)
     for (long i = 0; i < size; ++i)
         m->warm_table[i] = -1;
     for (long k = 0; k < m->warm_count; ++k) {
-        if (k > 0 && same_key(m->warm[k - 1].key, m->warm[k].key))
+        if (k > 0 && hd_same_key(m->warm[k - 1].key, m->warm[k].key))
             continue;
-        unsigned long slot = hash_key(m->warm[k].key) & (unsigned long)(size - 1);
+        unsigned long slot = hd_hash_key(m->warm[k].key) & (unsigned long)(size - 1);
         while (m->warm_table[slot] >= 0)
             slot = (slot + 1) & (unsigned long)(size - 1);
         m->warm_table[slot] = k;
@@ -82,26 +82,26 @@ void hd_set_warm(hd_contact_model *m)
 {
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = (int)i;
-    qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), by_key);
+    qsort(m->warm, (size_t)m->warm_count, sizeof(hd_warm), hd_by_key);
     for (long i = 0; i < m->warm_count; ++i)
         m->warm[i].used = 0;
     m->warm_indexed = m->warm_awake = 0;
 }
 
-/* How far find_warm looks from where the last key's impulses ended before it asks the
+/* How far hd_find_warm looks from where the last key's impulses ended before it asks the
  * table. */
 #define HD_NEAR 64
 
 /* The first impulse of `key` within HD_NEAR of warm[next], a run's first, nearest first;
  * -1 if none. */
-static long near_warm(const hd_contact_model *m, const long *key, long next)
+static long hd_near_warm(const hd_contact_model *m, const long *key, long next)
 {
     for (long d = 0; d <= HD_NEAR; ++d) {
-        if (next + d < m->warm_count && same_key(m->warm[next + d].key, key))
+        if (next + d < m->warm_count && hd_same_key(m->warm[next + d].key, key))
             return next + d;  /* a run's first: warm[next + d - 1] was not the key's */
         long i = next - 1 - d;
-        if (i >= 0 && same_key(m->warm[i].key, key)) {
-            while (i > 0 && same_key(m->warm[i - 1].key, key))  /* from the run's last */
+        if (i >= 0 && hd_same_key(m->warm[i].key, key)) {
+            while (i > 0 && hd_same_key(m->warm[i - 1].key, key))  /* from the run's last */
                 i -= 1;
             return i;
         }
@@ -119,19 +119,19 @@ static long near_warm(const hd_contact_model *m, const long *key, long next)
  * kept in the order of its contacts, after the sleeping islands', so most often the run
  * starts at `next`, or a few runs off where bodies swapped places in the sweep's order:
  * then neither the table nor a hash is needed. */
-static int find_warm(hd_contact_model *m, const long *key, long next, long *low, long *end)
+static int hd_find_warm(hd_contact_model *m, const long *key, long next, long *low, long *end)
 {
     *low = *end = -1;
     if (m->warm_count == 0)
         return 0;
-    *low = near_warm(m, key, next);
+    *low = hd_near_warm(m, key, next);
     if (*low < 0) {
-        if (!m->warm_indexed && index_warm(m) < 0)
+        if (!m->warm_indexed && hd_index_warm(m) < 0)
             return -1;
         const unsigned long mask = (unsigned long)(m->warm_table_size - 1);
-        for (unsigned long slot = hash_key(key) & mask; m->warm_table[slot] >= 0;
+        for (unsigned long slot = hd_hash_key(key) & mask; m->warm_table[slot] >= 0;
              slot = (slot + 1) & mask) {
-            if (same_key(m->warm[m->warm_table[slot]].key, key)) {
+            if (hd_same_key(m->warm[m->warm_table[slot]].key, key)) {
                 *low = m->warm_table[slot];
                 break;
             }
@@ -140,7 +140,7 @@ static int find_warm(hd_contact_model *m, const long *key, long next, long *low,
             return 0;
     }
     *end = *low + 1;
-    while (*end < m->warm_count && same_key(m->warm[*end].key, key))
+    while (*end < m->warm_count && hd_same_key(m->warm[*end].key, key))
         *end += 1;
     return 0;
 }
@@ -148,7 +148,7 @@ static int find_warm(hd_contact_model *m, const long *key, long next, long *low,
 /* Last step's impulses of the contact nearest this point among warm[low] to
  * warm[end - 1], its key's, if within HD_MATCH, each used once (solver.py: _recall; `<=`:
  * the last of equally near ones); (c, s) the cosine and sine of body b's angle. */
-static void recall(hd_contact_model *m, long low, long end, double rx, double ry, double c,
+static void hd_recall(hd_contact_model *m, long low, long end, double rx, double ry, double c,
                    double s, double *jn, double *jt)
 {
     *jn = 0.0;
@@ -176,7 +176,7 @@ static void recall(hd_contact_model *m, long low, long end, double rx, double ry
 
 /* The solver row of contact c (solver.py: _prepare); `reference`: the velocities the
  * step's positions moved with; warm[low] to warm[end - 1]: its key's impulses. */
-static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h,
+static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double h,
                     const double *reference, long low, long end)
 {
     const long wall = m->bodies;
@@ -199,23 +199,23 @@ static void prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, double 
     const double rta = -r->rax * nx - r->ray * ny, rtb = -r->rbx * nx - r->rby * ny;
     r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
     r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
-    r->approach = normal_velocity(reference + 3 * a, reference + 3 * b, r);
-    double target = py_min(r->approach + c->depth / h, 0.0);
+    r->approach = hd_normal_velocity(reference + 3 * a, reference + 3 * b, r);
+    double target = hd_min(r->approach + c->depth / h, 0.0);
     if (c->depth > 0.0 && r->approach < -m->threshold) {
-        const double impact = normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
-        target = py_max(target, -c->e * py_min(impact, 0.0));
+        const double impact = hd_normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
+        target = hd_max(target, -c->e * hd_min(impact, 0.0));
     }
     r->target = target;
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
     r->points = c->points;
-    recall(m, low, end, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
+    hd_recall(m, low, end, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
            &r->jt);
 }
 
 /* The block of rows one and two, or 0 where K is too ill-conditioned (solver.py: _block). */
-static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
+static int hd_make_block(const hd_row *one, const hd_row *two, hd_unit *u)
 {
     const double nx = one->nx, ny = one->ny;
     const double rna1 = one->rax * ny - one->ray * nx, rnb1 = one->rbx * ny - one->rby * nx;
@@ -240,14 +240,14 @@ static int make_block(const hd_row *one, const hd_row *two, hd_unit *u)
 /* The solver's units in row order: a block for each manifold of exactly two points (with
  * one normal), else single rows (solver.py: _schedule, whose runs of one key are the
  * rows' `points`); returns their count. */
-static long schedule(hd_contact_model *m, long count)
+static long hd_schedule(hd_contact_model *m, long count)
 {
     long units = 0;
     for (long k = 0; k < count;) {
         const hd_row *r = m->rows + k;
         const long end = k + r->points;
         hd_unit *u = m->units + units;
-        if (r->points == 2 && r->nx == r[1].nx && r->ny == r[1].ny && make_block(r, r + 1, u)) {
+        if (r->points == 2 && r->nx == r[1].nx && r->ny == r[1].ny && hd_make_block(r, r + 1, u)) {
             u->first = k;
             u->pair = 1;
             units += 1;
@@ -263,7 +263,7 @@ static long schedule(hd_contact_model *m, long count)
     return units;
 }
 
-static long root_of(long *parent, long body)
+static long hd_root_of(long *parent, long body)
 {
     while (parent[body] != body) {
         parent[body] = parent[parent[body]];
@@ -272,12 +272,12 @@ static long root_of(long *parent, long body)
     return body;
 }
 
-long hd_root(long *parent, long body) { return root_of(parent, body); }
+long hd_root(long *parent, long body) { return hd_root_of(parent, body); }
 
 /* Group the units by island (solver.py: _islands): m->order holds the units' indices,
  * each island's together and in their order, island i from m->island_start[i] to
  * [i + 1]; returns the number of islands. */
-static long islands(hd_contact_model *m, long units)
+static long hd_islands(hd_contact_model *m, long units)
 {
     const long wall = m->bodies;
     long *parent = m->parent, *island = m->island_of;
@@ -292,14 +292,14 @@ static long islands(hd_contact_model *m, long units)
         const hd_row *r = m->rows + m->units[k].first;
         if (r->a == wall)
             continue;
-        const long ra = root_of(parent, r->a), rb = root_of(parent, r->b);
+        const long ra = hd_root_of(parent, r->a), rb = hd_root_of(parent, r->b);
         if (ra != rb)
             parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
     }
     hd_coupled_join(m, parent);
     long count = 0;
     for (long k = 0; k < units; ++k) {  /* islands numbered by first unit; their sizes */
-        const long root = root_of(parent, m->rows[m->units[k].first].b);
+        const long root = hd_root_of(parent, m->rows[m->units[k].first].b);
         if (island[root] < 0) {
             island[root] = count;
             m->island_start[++count] = 0;
@@ -321,7 +321,7 @@ static long islands(hd_contact_model *m, long units)
  * their islands and the big islands' colours, functions of those alone, are still in
  * m->order and wide.h's memory; keeps them as the units seen. Never with joint rows,
  * which join islands too. -1 out of memory. */
-static int same_units(hd_contact_model *m, long units)
+static int hd_same_units(hd_contact_model *m, long units)
 {
     int same = m->islands_known && units == m->seen_count;
     m->islands_known = 0;
@@ -354,14 +354,14 @@ static int same_units(hd_contact_model *m, long units)
  * (solver.py: _solve_velocities); then each island's position correction into m->shift,
  * in the order its units were swept (solver.py: _correct_positions), with `base` for
  * the rows' depths. */
-static int solve_velocities(hd_contact_model *m, long count, double h, double *base)
+static int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
 {
-    const long units = schedule(m, count);
-    const int same = same_units(m, units);
+    const long units = hd_schedule(m, count);
+    const int same = hd_same_units(m, units);
     if (same < 0)
         return -1;
     if (!same)
-        m->island_count = islands(m, units);
+        m->island_count = hd_islands(m, units);
     const long count_islands = m->island_count;
     if (count_islands < 0)
         return -1;
@@ -374,7 +374,7 @@ static int solve_velocities(hd_contact_model *m, long count, double h, double *b
         for (long k = 0; k < size; ++k) {
             const hd_row *r = m->rows + m->units[members[k]].first;
             for (int c = 0; c < 3; ++c) {
-                fastest = py_max(py_max(fastest, fabs(m->velocity[3 * r->a + c])),
+                fastest = hd_max(hd_max(fastest, fabs(m->velocity[3 * r->a + c])),
                                  fabs(m->velocity[3 * r->b + c]));
             }
         }
@@ -391,16 +391,16 @@ static int solve_velocities(hd_contact_model *m, long count, double h, double *b
         for (long iteration = 0; iteration < passes; ++iteration) {
             double largest = 0.0;
             for (long k = 0; k < size; ++k)
-                largest = py_max(largest, solve_unit(m->units + members[k], m->rows, m->velocity));
+                largest = hd_max(largest, hd_solve_unit(m->units + members[k], m->rows, m->velocity));
             largest = hd_coupled_sweep(m, i, largest);
             if (largest <= HD_CONVERGED * scale)
                 break;
         }
-        if (!depths_after(m, members, size, h, base))
+        if (!hd_depths_after(m, members, size, h, base))
             continue;
         for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
             for (long k = 0; k < size; ++k)
-                correct_unit(m->units + members[k], m->rows, base, m->shift);
+                hd_correct_unit(m->units + members[k], m->rows, base, m->shift);
         }
     }
     m->islands_known = m->joints == NULL;
@@ -409,7 +409,7 @@ static int solve_velocities(hd_contact_model *m, long count, double h, double *b
 
 /* Keep only the warm-start impulses of the sleeping islands' contacts, in their order
  * (solver.py: _sleeping_warm); returns how many. */
-static long keep_sleeping_warm(hd_contact_model *m)
+static long hd_keep_sleeping_warm(hd_contact_model *m)
 {
     long kept = 0;
     for (long k = 0; m->sleep && k < m->warm_count; ++k) {
@@ -428,9 +428,9 @@ static long keep_sleeping_warm(hd_contact_model *m)
 
 /* Keep each contact's impulses with its point in body b's axes, after those of the
  * sleeping islands (solver.py: _remember). */
-static int remember(hd_contact_model *m, long count)
+static int hd_remember(hd_contact_model *m, long count)
 {
-    const long kept = keep_sleeping_warm(m);
+    const long kept = hd_keep_sleeping_warm(m);
     if (kept + count > m->warm_capacity) {
         hd_warm *grown = realloc(m->warm, (size_t)(kept + count) * sizeof(hd_warm));
         if (grown == NULL)
@@ -455,7 +455,7 @@ static int remember(hd_contact_model *m, long count)
 }
 
 /* Put the sleeping bodies back at (q0, v0) (solver.py: _awake_contacts). */
-static void hold(const hd_contact_model *m, double *q1, double *v1, const double *q0,
+static void hd_hold(const hd_contact_model *m, double *q1, double *v1, const double *q0,
                  const double *v0)
 {
     for (long b = 0; b < m->bodies; ++b) {
@@ -467,7 +467,7 @@ static void hold(const hd_contact_model *m, double *q1, double *v1, const double
 }
 
 /* Wake the islands detection marked (solver.py: _wake). */
-static void wake_marked(hd_contact_model *m)
+static void hd_wake_marked(hd_contact_model *m)
 {
     for (long b = 0; b < m->bodies; ++b) {
         if (m->island[b] >= 0 && m->wake[m->island[b]]) {
@@ -482,7 +482,7 @@ static void wake_marked(hd_contact_model *m)
 /* The rest times of the awake bodies after a step of h, and sleep, with zero velocity, for
  * each island of awake bodies (joined by the `count` rows) whose every body has rested
  * HD_TIME_TO_SLEEP (solver.py: _doze). */
-static void doze(hd_contact_model *m, double *v1, long count, double h)
+static void hd_doze(hd_contact_model *m, double *v1, long count, double h)
 {
     if (!m->sleep)
         return;
@@ -497,7 +497,7 @@ static void doze(hd_contact_model *m, double *v1, long count, double h)
         const hd_row *r = m->rows + k;
         if (r->a == wall)
             continue;
-        const long ra = root_of(parent, r->a), rb = root_of(parent, r->b);
+        const long ra = hd_root_of(parent, r->a), rb = hd_root_of(parent, r->b);
         if (ra != rb)
             parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
     }
@@ -508,13 +508,13 @@ static void doze(hd_contact_model *m, double *v1, long count, double h)
         const int resting = m->calm[b] && sqrt(v[0] * v[0] + v[1] * v[1])
                                             + m->reach[b] * fabs(v[2]) <= HD_SLEEP_SPEED;
         m->rested[b] = resting ? m->rested[b] + h : 0.0;
-        const long r = root_of(parent, b);
-        shortest[r] = py_min(shortest[r], m->rested[b]);
+        const long r = hd_root_of(parent, b);
+        shortest[r] = hd_min(shortest[r], m->rested[b]);
     }
     for (long b = 0; b < n; ++b) {
         if (m->island[b] >= 0)
             continue;
-        const long r = root_of(parent, b);
+        const long r = hd_root_of(parent, b);
         if (shortest[r] >= HD_TIME_TO_SLEEP) {
             m->island[b] = r;
             v1[3 * b] = v1[3 * b + 1] = v1[3 * b + 2] = 0.0;
@@ -523,7 +523,7 @@ static void doze(hd_contact_model *m, double *v1, long count, double h)
 }
 
 /* Move the bodies by the position correction's shifts (solver.py: _correct_positions). */
-static void apply_shifts(const hd_contact_model *m, double *q1)
+static void hd_apply_shifts(const hd_contact_model *m, double *q1)
 {
     for (long b = 0; b < m->bodies; ++b) {
         const double *s = m->shift + 3 * b;
@@ -539,19 +539,19 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
                const double *v0, double h)
 {
     if (m->sleep)
-        hold(m, q1, v1, q0, v0);
+        hd_hold(m, q1, v1, q0, v0);
     for (;;) {
         if (hd_detect(m, q1) < 0)
             return -1;
         if (!m->woken)
             break;
-        wake_marked(m);
+        hd_wake_marked(m);
     }
     const long count = m->contact_count, n = m->bodies;
     if (count == 0) {
         hd_coupled_store(m, 0);
-        keep_sleeping_warm(m);
-        doze(m, v1, 0, h);
+        hd_keep_sleeping_warm(m);
+        hd_doze(m, v1, 0, h);
         return 0;
     }
     /* The rows, then `count` doubles for the position correction's depths. */
@@ -601,23 +601,23 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
     for (long k = 0; k < count; ++k) {
         const hd_contact *c = m->contacts + k;
         if (k == run) {
-            if (find_warm(m, c->key, next, &low, &end) < 0)
+            if (hd_find_warm(m, c->key, next, &low, &end) < 0)
                 return -1;
             next = end < 0 ? next : end;
             run = k + c->points;
         }
-        prepare(m, c, m->rows + k, h, reference, low, end);
+        hd_prepare(m, c, m->rows + k, h, reference, low, end);
     }
     for (long k = 0; k < count; ++k) {  /* warm start, once every target is set */
         const hd_row *r = m->rows + k;
-        push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,
+        hd_push(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r,
              r->jn * r->nx - r->jt * r->ny, r->jn * r->ny + r->jt * r->nx);
     }
     memset(m->shift, 0, (size_t)(3 * (n + 1)) * sizeof(double));
-    if (solve_velocities(m, count, h, (double *)(m->rows + count)) < 0)
+    if (hd_solve_velocities(m, count, h, (double *)(m->rows + count)) < 0)
         return -1;
     hd_coupled_store(m, 1);
-    if (remember(m, count) < 0)
+    if (hd_remember(m, count) < 0)
         return -1;
     for (long b = 0; b < n; ++b) {
         if (!m->touched[b])
@@ -630,7 +630,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
             v1[3 * b + i] = now[i];
         }
     }
-    apply_shifts(m, q1);
-    doze(m, v1, count, h);
+    hd_apply_shifts(m, q1);
+    hd_doze(m, v1, count, h);
     return 0;
 }
