@@ -21,6 +21,7 @@ except ImportError:  # not built: no compiler or headers when installed
 from .collision import CirclePart
 
 if TYPE_CHECKING:
+    from .sleep import Sleep
     from .solver import ContactPass
 
 __all__ = ["CompiledContacts", "WarmImpulse"]
@@ -67,7 +68,7 @@ class CompiledContacts:
         _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(q0),
                         np.ascontiguousarray(v0), h, joints)
 
-    def set_sleep(self, contacts: ContactPass) -> None:
+    def set_sleep(self, contacts: Sleep) -> None:
         """Take sleeping on or off and each body's calm flag, rest time and sleeping island
         from ``contacts``."""
         _kernel.sleep(self.kernel, int(contacts.sleep), _integers(contacts.calm),

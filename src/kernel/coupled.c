@@ -6,6 +6,7 @@
 
 #include "floats.h"
 #include "coupled.h"
+#include "solver.h"
 
 
 /* The working memory for the joint pass's rows and the model's bodies; -1 out of memory. */
@@ -135,7 +136,7 @@ long hd_coupled_size(const hd_contact_model *m, long i)
     return m->joints == NULL ? 0 : m->coupled->start[i + 1] - m->coupled->start[i];
 }
 
-/* v += M^-1 J^T impulse (coupled.py: JointUnit._push). */
+/* v += M^-1 J^T impulse (contact/coupled.py: JointUnit._push). */
 static void hd_push(const hd_coupled_row *u, double *velocity, double impulse)
 {
     for (int e = 0; e < u->count; ++e) {
@@ -175,7 +176,7 @@ double hd_coupled_sweep(hd_contact_model *m, long i, double largest)
         return largest;
     for (long k = m->coupled->start[i]; k < m->coupled->start[i + 1]; ++k) {
         hd_coupled_row *u = m->coupled->rows + m->coupled->order[k];
-        double rate = 0.0;  /* coupled.py: JointUnit.solve */
+        double rate = 0.0;  /* contact/coupled.py: JointUnit.solve */
         for (int e = 0; e < u->count; ++e) {
             const double *v = m->velocity + 3 * u->body[e];
             rate += u->j[e][0] * v[0] + u->j[e][1] * v[1] + u->j[e][2] * v[2];

@@ -13,7 +13,7 @@
 #include "contact.h"
 #include "joint.h"
 
-/* coupled.py: JointUnit, on the contact model's body indices. */
+/* contact/coupled.py: JointUnit, on the contact model's body indices. */
 typedef struct {
     long slot;  /* the joint pass's row */
     int count;
@@ -44,7 +44,7 @@ void hd_coupled_join(hd_contact_model *m, long *parent);
 int hd_coupled_islands(hd_contact_model *m, long *parent, const long *island, long count);
 /* Island i: its rows' count; their warm start; the fastest velocity component of their
  * bodies with `fastest`; one sweep of its rows, returning the largest change with
- * `largest` (solver.py: _solve_velocities). */
+ * `largest` (contact/solve.py: solve_velocities). */
 long hd_coupled_size(const hd_contact_model *m, long i);
 void hd_coupled_warm_start(hd_contact_model *m, long i);
 double hd_coupled_fastest(const hd_contact_model *m, long i, double fastest);
@@ -52,8 +52,5 @@ double hd_coupled_sweep(hd_contact_model *m, long i, double largest);
 /* JointPass.take_extra: the extras into the joint pass's impulses (none: `solved` 0). */
 void hd_coupled_store(hd_contact_model *m, int solved);
 void hd_coupled_free(hd_coupled *c);
-
-/* The union-find root of solver.c's islands (solver.py: _root). */
-long hd_root(long *parent, long body);
 
 #endif

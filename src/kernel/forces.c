@@ -42,7 +42,7 @@ static void hd_offset(const hd_scratch *s, long body, double lx, double ly, doub
 
 /* v_P = v_CM + omega perp(r) (Eq. 9). */
 static void hd_point_velocity(const double *v, long body, double rx, double ry,
-                           double *vx, double *vy)
+                              double *vx, double *vy)
 {
     const double *b = v + 3 * body;
     *vx = b[0] - b[2] * ry;
@@ -58,10 +58,10 @@ static void hd_apply(double *wrench, double rx, double ry, double fx, double fy)
     wrench[2] += rx * fy - ry * fx;
 }
 
-/* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (forces.py:
+/* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (dynamics/forces.py:
  * `spring_force_scalar`). */
 static void hd_spring(double dx, double dy, double dvx, double dvy, double k, double rest,
-                   double c, double *fx, double *fy)
+                      double c, double *fx, double *fy)
 {
     if (rest == 0.0) {
         *fx = -k * dx - c * dvx;
@@ -110,7 +110,7 @@ static void hd_add_term(const hd_term *t, const hd_scratch *s, const double *q, 
             hd_offset(s, b, r[0], r[1], &rx, &ry);
             hd_point_velocity(v, b, rx, ry, &vx, &vy);
             hd_spring(q[3 * b] + rx - r[2], q[3 * b + 1] + ry - r[3], vx, vy, r[4], r[5], r[6],
-                   &fx, &fy);
+                      &fx, &fy);
             hd_apply(w + 3 * b, rx, ry, fx, fy);
         }
         break;
@@ -123,7 +123,7 @@ static void hd_add_term(const hd_term *t, const hd_scratch *s, const double *q, 
             hd_point_velocity(v, a, rax, ray, &vax, &vay);
             hd_point_velocity(v, b, rbx, rby, &vbx, &vby);
             hd_spring(q[3 * a] + rax - q[3 * b] - rbx, q[3 * a + 1] + ray - q[3 * b + 1] - rby,
-                   vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
+                      vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
             hd_apply(w + 3 * a, rax, ray, fx, fy);
             hd_apply(w + 3 * b, rbx, rby, -fx, -fy);
         }
@@ -218,7 +218,7 @@ void hd_accelerations(const hd_program *program, const hd_program *inputs, int o
         out[k] = scratch->wrench[k] * program->inverse_mass[k];
 }
 
-/* k (|d| - L0)^2 / 2 of one spring (forces.py: `spring_energy_scalar`). */
+/* k (|d| - L0)^2 / 2 of one spring (dynamics/forces.py: `spring_energy_scalar`). */
 static double hd_spring_energy(double dx, double dy, double k, double rest)
 {
     const double stretch = hd_length(dx, dy) - rest;
@@ -242,14 +242,14 @@ void hd_unit_spring_potential(const hd_program *program, const double *q, const 
                 double rx, ry;
                 hd_offset(scratch, i[0], r[0], r[1], &rx, &ry);
                 hd_spring = hd_spring_energy(q[3 * i[0]] + rx - r[2], q[3 * i[0] + 1] + ry - r[3],
-                                       r[4], r[5]);
+                                             r[4], r[5]);
             } else {
                 const long a = i[0], b = i[1];
                 double rax, ray, rbx, rby;
                 hd_offset(scratch, a, r[0], r[1], &rax, &ray);
                 hd_offset(scratch, b, r[2], r[3], &rbx, &rby);
                 hd_spring = hd_spring_energy(q[3 * a] + rax - q[3 * b] - rbx,
-                                       q[3 * a + 1] + ray - q[3 * b + 1] - rby, r[4], r[5]);
+                                             q[3 * a + 1] + ray - q[3 * b + 1] - rby, r[4], r[5]);
             }
             energy[unit[i[0]]] += hd_spring;
             excess[unit[i[0]]] += hd_spring;

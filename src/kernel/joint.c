@@ -30,7 +30,7 @@ static double hd_py_mod(double x, double y)
     return r;
 }
 
-/* joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
+/* contact/joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
  * [0, 2 pi) unchanged, so that case skips it. */
 static double hd_wrap(double angle)
 {
@@ -40,7 +40,7 @@ static double hd_wrap(double angle)
     return hd_py_mod(shifted, 2.0 * HD_PI) - HD_PI;
 }
 
-/* joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
+/* contact/joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
 typedef struct { double x, y, rx, ry, angle; } hd_anchor;
 
 /* `trig`: cos and sin of each body's angle in q (the same values _Frame.place takes). */
@@ -75,8 +75,9 @@ static hd_joint_row *hd_new_row(hd_joint_row *rows, long *n, int kind, double c)
     return r;
 }
 
-/* joints.py: _fixed (a direction fixed in the world) and _line (fixed in body a). */
-static void hd_fixed(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux, double uy)
+/* contact/joints.py: _fixed (a direction fixed in the world) and _line (fixed in body a). */
+static void hd_fixed(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux,
+                     double uy)
 {
     if (jt->b >= 0)
         hd_add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
@@ -84,7 +85,8 @@ static void hd_fixed(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_ancho
         hd_add_entry(r, jt->a, -ux, -uy, -(ux * -pa.ry + uy * pa.rx));
 }
 
-static void hd_line(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux, double uy)
+static void hd_line(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux,
+                    double uy)
 {
     if (jt->b >= 0)
         hd_add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
@@ -108,15 +110,15 @@ static void hd_negate(hd_joint_row *r)
             r->j[e][k] = -r->j[e][k];
 }
 
-/* joints.py: JointPass._joint_angle. */
+/* contact/joints.py: JointPass._joint_angle. */
 static double hd_joint_angle(const hd_joint *jt, hd_anchor pa, hd_anchor pb)
 {
     return jt->angle + hd_wrap(pb.angle - pa.angle - jt->raw);
 }
 
-/* joints.py: _point_rows. */
-static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_anchor pa, hd_anchor pb,
-                       int kind, double stiffness, double damping)
+/* contact/joints.py: _point_rows. */
+static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_anchor pa,
+                          hd_anchor pb, int kind, double stiffness, double damping)
 {
     for (int axis = 0; axis < 2; ++axis) {
         const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
@@ -126,10 +128,10 @@ static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_an
     }
 }
 
-/* One entry of a point row (joints.py: _fixed): on body b, u and perp(r) . u; on body a
+/* One entry of a point row (contact/joints.py: _fixed): on body b, u and perp(r) . u; on body a
  * (sign -1) their negatives. */
 static inline void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
-                               double rx, double ry)
+                                  double rx, double ry)
 {
     double *j = r->j[r->count];
     r->body[r->count] = body;
@@ -140,10 +142,10 @@ static inline void hd_point_entry(hd_joint_row *r, long body, double sign, doubl
     r->count += 1;
 }
 
-/* joints.py: _point_rows of a rigid pin, written out for the common case (the same
+/* contact/joints.py: _point_rows of a rigid pin, written out for the common case (the same
  * operations as point_rows). */
 static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const hd_anchor *pa,
-                            const hd_anchor *pb, int values_only)
+                               const hd_anchor *pb, int values_only)
 {
     const double dx = pb->x - pa->x, dy = pb->y - pa->y;
     for (int axis = 0; axis < 2; ++axis) {
@@ -161,9 +163,9 @@ static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, 
     }
 }
 
-/* joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
+/* contact/joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
 static void hd_bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
-                         const hd_joint_row *coordinate, double h)
+                            const hd_joint_row *coordinate, double h)
 {
     if (jt->has_lower) {
         hd_joint_row *r = hd_new_row(rows, n, HD_LIMIT, value - jt->lower);
@@ -187,7 +189,7 @@ static void hd_bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, dou
     }
 }
 
-/* joints.py: JointPass._axis. */
+/* contact/joints.py: JointPass._axis. */
 static void hd_axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
 {
     const double c = cos(angle_a), s = sin(angle_a);
@@ -214,11 +216,11 @@ static void hd_turn_all(const hd_joint_model *m, const double *q)
     }
 }
 
-/* joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
+/* contact/joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
  * Leaves the cosines and sines of q's angles in m->trig. `values_only`: the rows' values
  * are wanted, not their Jacobians (which the plain pins then skip). */
 static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
-                       int values_only)
+                          int values_only)
 {
     long n = 0;
     const double *trig = m->trig;
@@ -260,14 +262,14 @@ static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd
             const int kind = jt->has_spring ? HD_SOFT : HD_RIGID;
             hd_point_rows(rows, &n, jt, pa, pb, kind, jt->stiffness, jt->damping);
             hd_joint_row *r = hd_new_row(rows, &n, kind,
-                                      hd_wrap(pb.angle - pa.angle - jt->reference_angle));
+                                         hd_wrap(pb.angle - pa.angle - jt->reference_angle));
             hd_angle_entries(r, jt->a, jt->b, 1.0);
             r->stiffness = jt->stiffness, r->damping = jt->damping, r->scaled = 1;
         } else if (jt->kind == HD_PRISMATIC) {
             double ux, uy;
             hd_axis_of(jt, pa.angle, &ux, &uy);
             hd_joint_row *r = hd_new_row(rows, &n, HD_RIGID,
-                                      -uy * (pb.x - pa.x) + ux * (pb.y - pa.y));
+                                         -uy * (pb.x - pa.x) + ux * (pb.y - pa.y));
             hd_line(r, jt, pa, pb, -uy, ux);
             r = hd_new_row(rows, &n, HD_RIGID, hd_wrap(pb.angle - pa.angle - jt->reference_angle));
             hd_angle_entries(r, jt->a, jt->b, 1.0);
@@ -295,9 +297,10 @@ static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd
     return n;
 }
 
-/* joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k). */
+/* contact/joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k).
+ */
 static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
-                       long n, hd_joint_row *out)
+                          long n, hd_joint_row *out)
 {
     for (long k = 0; k < n; ++k) {
         const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
@@ -311,7 +314,7 @@ static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, con
     }
 }
 
-/* joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
+/* contact/joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
 static void hd_apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
 {
     for (long i = 0; i < n; ++i) {
@@ -327,7 +330,7 @@ static void hd_apply(double *x, const hd_joint_row *direction, long n, const dou
     }
 }
 
-/* joints.py: _dot. */
+/* contact/joints.py: _dot. */
 static double hd_dot(const hd_joint_row *row, const hd_joint_row *direction)
 {
     double s = 0.0;
@@ -344,9 +347,9 @@ double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
     return hd_dot(row, direction);
 }
 
-/* joints.py: _dot, over the entries `meets` pairs (count of them). */
+/* contact/joints.py: _dot, over the entries `meets` pairs (count of them). */
 static double hd_dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
-                          const unsigned char *meets, long count)
+                             const unsigned char *meets, long count)
 {
     double s = 0.0;
     for (long k = 0; k < count; ++k) {
@@ -374,7 +377,7 @@ static long hd_meeting(const hd_joint_row *row, const hd_joint_row *direction, u
 /* The meets of pattern p's row pairs, for the rows rows[index[k]] (index NULL: rows k);
  * 0, or -1 out of memory. */
 static int hd_make_meets(const hd_pattern *p, const hd_joint_row *rows, const long *index,
-                      hd_meets *m)
+                         hd_meets *m)
 {
     const long n = p->n, slots = p->start[n];
     m->diag = malloc(((size_t)n + 1) * sizeof(long));
@@ -415,12 +418,12 @@ static void hd_free_meets(hd_meets *m)
     free(m->pair);
 }
 
-/* joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
+/* contact/joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
  * `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the symmetric
  * K, its lower triangle only. */
 static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
-                   const long *index, const hd_joint_row *direction, const int *active,
-                   double *diagonal, double *lower, double *upper)
+                      const long *index, const hd_joint_row *direction, const int *active,
+                      double *diagonal, double *lower, double *upper)
 {
     const unsigned char *pair = meets->pair;
     for (long i = 0; i < p->n; ++i) {
@@ -438,7 +441,7 @@ static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint
         /* Row i's lists: its diagonal's, then per slot the lower's and the upper's. */
         const long diag_end = first < end ? meets->lower[first] : meets->diag[i + 1];
         diagonal[i] = hd_dot_meeting(row, direction + i, pair + meets->diag[i],
-                                  diag_end - meets->diag[i]);
+                                     diag_end - meets->diag[i]);
         for (long slot = first; slot < end; ++slot) {
             const long j = p->columns[slot];
             if (active != NULL && !active[j]) {
@@ -448,19 +451,19 @@ static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint
                 continue;
             }
             lower[slot] = hd_dot_meeting(row, direction + j, pair + meets->lower[slot],
-                                      meets->upper[slot] - meets->lower[slot]);
+                                         meets->upper[slot] - meets->lower[slot]);
             if (upper != NULL) {
                 const long next = slot + 1 < end ? meets->lower[slot + 1] : meets->diag[i + 1];
                 upper[slot] = hd_dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
-                                          pair + meets->upper[slot], next - meets->upper[slot]);
+                                             pair + meets->upper[slot], next - meets->upper[slot]);
             }
         }
     }
 }
 
-/* joints.py: _row_sum. */
+/* contact/joints.py: _row_sum. */
 static double hd_row_sum(const hd_pattern *p, const double *diagonal, const double *lower, long i,
-                      const double *x, const int *skip)
+                         const double *x, const int *skip)
 {
     double s = 0.0;
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
@@ -478,7 +481,7 @@ static double hd_row_sum(const hd_pattern *p, const double *diagonal, const doub
     return s;
 }
 
-/* joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
+/* contact/joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
 static void hd_solve(hd_joint_model *m)
 {
     const hd_pattern *p = &m->pattern;
@@ -544,7 +547,7 @@ static double hd_largest_abs(const double *x, long n)
     return largest;
 }
 
-/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
+/* contact/joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
  * holds the directions of the rows at q0 already. */
 static int hd_hold(hd_joint_model *m, double h, int again)
 {
@@ -594,7 +597,7 @@ static int hd_hold(hd_joint_model *m, double h, int again)
             if (factored)
                 hd_build_rows(m, m->q, h, m->rows, 0);
             hd_matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
-                   m->upper);
+                      m->upper);
             hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
             factored = 1;
         }
@@ -609,7 +612,7 @@ static int hd_hold(hd_joint_model *m, double h, int again)
     return HD_JOINTS_UNSOLVED;
 }
 
-/* joints.py: JointPass._correct, on m->q and m->rows. */
+/* contact/joints.py: JointPass._correct, on m->q and m->rows. */
 static void hd_correct(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
@@ -637,7 +640,7 @@ static void hd_correct(hd_joint_model *m, double h)
     }
 }
 
-/* joints.py: _rate. */
+/* contact/joints.py: _rate. */
 static double hd_rate(const hd_joint_row *row, const double *v)
 {
     double s = 0.0;
@@ -648,13 +651,13 @@ static double hd_rate(const hd_joint_row *row, const double *v)
     return s;
 }
 
-/* joints.py: JointPass._velocities, on m->v at the rows m->rows. */
+/* contact/joints.py: JointPass._velocities, on m->v at the rows m->rows. */
 static void hd_velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
     hd_directions(m, m->rows, NULL, n, m->dir);
     hd_matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
-           NULL);
+              NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
         m->b[i] = -hd_rate(row, m->v);

@@ -11,25 +11,27 @@
 #include "simd.h"
 
 /* The edge of polygon 1 along whose normal polygon 2 is farthest out, and that distance
- * (collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
+ * (contact/collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
  * the first edge farther out than `margin`: the polygons are apart, whichever edge is.
  * Each edge's distance is the same fold of the same products as one edge at a time; they
  * are found two edges at a time (an odd count's last edge twice), and a second edge found
  * past the stop changes nothing. */
 static long hd_max_separation(const double *v1, const double *n1, long k1, const double *v2,
-                           long k2, double margin, double *separation)
+                              long k2, double margin, double *separation)
 {
     long best_edge = 0;
     double best = -INFINITY;
     for (long i = 0; i < k1; i += 2) {
         const long e = i + 1 < k1 ? i + 1 : i;
-        const hd_v2 nx = hd_v2_pair(n1[2 * i], n1[2 * e]), ny = hd_v2_pair(n1[2 * i + 1], n1[2 * e + 1]);
-        const hd_v2 vx = hd_v2_pair(v1[2 * i], v1[2 * e]), vy = hd_v2_pair(v1[2 * i + 1], v1[2 * e + 1]);
+        const hd_v2 nx = hd_v2_pair(n1[2 * i], n1[2 * e]),
+                    ny = hd_v2_pair(n1[2 * i + 1], n1[2 * e + 1]);
+        const hd_v2 vx = hd_v2_pair(v1[2 * i], v1[2 * e]),
+                    vy = hd_v2_pair(v1[2 * i + 1], v1[2 * e + 1]);
         hd_v2 s = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[0]), vx)),
-                         hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[1]), vy)));
+                            hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[1]), vy)));
         for (long j = 1; j < k2; ++j) {
             const hd_v2 t = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[2 * j]), vx)),
-                                   hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[2 * j + 1]), vy)));
+                                      hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[2 * j + 1]), vy)));
             s = hd_v2_min(t, s);
         }
         double edge[2];
@@ -49,9 +51,10 @@ static long hd_max_separation(const double *v1, const double *n1, long k1, const
     return best_edge;
 }
 
-/* The part of segment p0-p1 with n . p <= offset (collision.py: _clip); returns the count. */
+/* The part of segment p0-p1 with n . p <= offset (contact/collision.py: _clip); returns the count.
+ */
 static int hd_clip(const double *p0, const double *p1, double nx, double ny, double offset,
-                double *out)
+                   double *out)
 {
     const double d0 = nx * p0[0] + ny * p0[1] - offset;
     const double d1 = nx * p1[0] + ny * p1[1] - offset;

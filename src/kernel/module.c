@@ -1,8 +1,10 @@
 /* hecker_dynamics._kernel: the Python binding of the compiled kernel.
  *
  * Arrays cross by the buffer protocol only (C-contiguous doubles and 64-bit integers), so
- * the module does not depend on numpy's C API or its version. hecker_dynamics/kernel.py
- * is the only caller; it packs the model's terms in the layout of kernel.h.
+ * the module does not depend on numpy's C API or its version. Its callers:
+ * hecker_dynamics/dynamics/kernel.py (the force terms in the layout of kernel.h, the
+ * steppers, the energy bound), contact/compiled.py (the contact pass of contact.h) and
+ * contact/joints_kernel.py (the joint pass of joint.h).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -25,7 +27,7 @@ static const char *STEPPER = "hecker_dynamics._kernel.Stepper";
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
 static int hd_get_buffer(PyObject *object, Py_buffer *view, const char *what, char format,
-                      Py_ssize_t count, int writable)
+                         Py_ssize_t count, int writable)
 {
     int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
     if (PyObject_GetBuffer(object, view, flags) < 0)
@@ -399,7 +401,7 @@ static int hd_run_bound(hd_bound_args *a, int check, double seconds, double grow
 
 PyDoc_STRVAR(bound_doc,
 "bound(springs, q, v, statics, unit, budget[, seconds, growth]) -> float or None\n\n"
-"The energy bound (divergence.py, with the same bits). Without ``seconds``: each unit's\n"
+"The energy bound (dynamics/divergence.py, with the same bits). Without ``seconds``: each unit's\n"
 "energy of motion and springs at (q, v) into row ENERGY of ``budget`` and its excess over\n"
 "the bodies' floors into row EXCESS (`_sums`). With them: one check (`_check_python`),\n"
 "the budget advanced by ``seconds`` and the limits ``growth`` times its square; returns\n"
@@ -621,7 +623,7 @@ static void hd_contacts_destructor(PyObject *capsule)
 /* A copy of a buffer of `count` values (any count if < 0; `*got` the count read), or NULL
  * with an exception set. */
 static void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
-                        Py_ssize_t *got)
+                           Py_ssize_t *got)
 {
     Py_buffer view;
     if (hd_get_buffer(object, &view, what, format, count, 0) < 0)
@@ -635,9 +637,9 @@ static void *hd_read_array(PyObject *object, const char *what, char format, Py_s
     return copy;
 }
 
-/* Check the layout contact.py packed; -1 with an exception set if it is not one. */
+/* Check the layout contact/compiled.py packed; -1 with an exception set if it is not one. */
 static int hd_check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals,
-                          long groups)
+                             long groups)
 {
     Py_ssize_t used = 0;
     long last = -1;
@@ -721,7 +723,7 @@ PyDoc_STRVAR(contacts_doc,
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
 "wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
 "body its class, per pair of classes their group, per group (restitution, friction), and\n"
-"the pairs (i, j), sorted, that do not collide (materials.py: PairMaterials).");
+"the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials).");
 
 static PyObject *hd_py_contacts(PyObject *self, PyObject *args)
 {
@@ -962,12 +964,12 @@ PyDoc_STRVAR(joints_doc,
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
-"checks against its own; the patterns of all rows and of the rigid rows (sparse.py:\n"
+"checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
 "Pattern), each as (start, columns); the model indices of the bodies whose turning\n"
 "JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
 "step (JointPass.max_turn).");
 
-/* A sparse.py Pattern from (start, columns); -1 with an exception set. */
+/* A contact/sparse.py Pattern from (start, columns); -1 with an exception set. */
 static int hd_read_pattern(PyObject *pair, hd_pattern *p)
 {
     PyObject *start_object, *columns_object;
@@ -992,7 +994,7 @@ static int hd_read_pattern(PyObject *pair, hd_pattern *p)
     if (!ok) {
         free(start);
         free(columns);
-        PyErr_SetString(PyExc_ValueError, "pattern: not a sparse.py Pattern");
+        PyErr_SetString(PyExc_ValueError, "pattern: not a contact/sparse.py Pattern");
         return -1;
     }
     if (hd_pattern_init(p, rows, start, columns) < 0) {
@@ -1020,7 +1022,7 @@ static PyObject *hd_py_joints(PyObject *self, PyObject *args)
         (m->inverse_mass = hd_read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
         (ints = hd_read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
         (reals = hd_read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
-                            NULL)) == NULL ||
+                               NULL)) == NULL ||
         (m->turning = hd_read_array(turning_object, "turning", 'q', -1, &turning)) == NULL)
         goto fail;
     m->body_count = (long)bodies;
@@ -1116,7 +1118,8 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
         return NULL;
     hd_joint_model *m = PyCapsule_GetPointer(capsule, JOINTS);
     Py_buffer view;
-    if (m == NULL || hd_get_buffer(object, &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
+    if (m == NULL
+        || hd_get_buffer(object, &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
         return NULL;
     double *s = view.buf;
     for (long i = 0; i < m->joint_count; ++i, s += HD_JOINT_STATE) {
@@ -1251,7 +1254,8 @@ PyMODINIT_FUNC PyInit__kernel(void)
             return NULL;
         }
     }
-    /* The contact pass's tolerances, which contact/solver.py checks against its own. */
+    /* The contact pass's tolerances, which test/contact/test_compiled.py checks against
+     * the Python modules'. */
     static const struct { const char *name; double value; } reals[] = {
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},

@@ -1,4 +1,4 @@
-/* The arithmetic of the solver's rows (solver.py: ContactRow, Block and the _solve_
+/* The arithmetic of the solver's rows (contact/rows.py: ContactRow, Block and the _solve_
  * functions), operation for operation, for solver.c's sequential passes and wide.c's
  * scalar remainder; always inlined, so each caller keeps its velocities in registers.
  */
@@ -10,7 +10,7 @@
 #include "contact.h"
 
 
-/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
+/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (contact/rows.py: normal_velocity). */
 static HD_HOT double hd_normal_velocity(const double *va, const double *vb, const hd_row *r)
 {
     return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
@@ -29,7 +29,7 @@ static HD_HOT void hd_push(double *va, double *vb, const hd_row *r, double px, d
 }
 
 /* One contact's normal impulse, clamped at zero; returns the change of its normal
- * velocity (solver.py: _solve_normal). */
+ * velocity (contact/rows.py: solve_normal). */
 static HD_HOT double hd_solve_normal(hd_row *r, double *va, double *vb)
 {
     const double jn = r->jn;
@@ -40,7 +40,7 @@ static HD_HOT double hd_solve_normal(hd_row *r, double *va, double *vb)
 }
 
 /* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
- * velocity (solver.py: _solve_friction). */
+ * velocity (contact/rows.py: solve_friction). */
 static HD_HOT double hd_solve_friction(hd_row *r, double *va, double *vb)
 {
     if (!(r->mu > 0.0))
@@ -56,12 +56,15 @@ static HD_HOT double hd_solve_friction(hd_row *r, double *va, double *vb)
 }
 
 /* The two normal impulses of a two-point manifold at once, as the 2 x 2 linear
- * complementarity problem, then each point's friction (solver.py: Block.solve). */
-static inline double hd_solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va, double *vb)
+ * complementarity problem, then each point's friction (contact/rows.py: Block.solve). */
+static inline double hd_solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va,
+                                    double *vb)
 {
     const double old1 = one->jn, old2 = two->jn;
-    const double b1 = hd_normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
-    const double b2 = hd_normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
+    const double b1 =
+        hd_normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
+    const double b2 =
+        hd_normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
     double x1 = -(u->inv11 * b1 + u->inv12 * b2);
     double x2 = -(u->inv12 * b1 + u->inv22 * b2);
     if (!(x1 >= 0.0 && x2 >= 0.0)) {
@@ -90,7 +93,7 @@ static inline double hd_solve_block(const hd_unit *u, hd_row *one, hd_row *two, 
 }
 
 /* One unit's impulses: its block, or its point's normal then tangent impulse; returns
- * the largest velocity change (solver.py: _solve_velocities). */
+ * the largest velocity change (contact/solve.py: solve_velocities). */
 static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *velocity)
 {
     hd_row *r = rows + u->first;
@@ -104,9 +107,9 @@ static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *veloc
 /* The depths of the rows of the units `members` (size of them) after the velocity
  * change, depth - h (v_n' - v_n), into base[row]; whether the deepest is beyond HD_SLOP,
  * the deepest found as Python's max() finds it, in the units' order
- * (solver.py: _correct_positions). */
+ * (contact/solve.py: correct_positions). */
 static inline int hd_depths_after(const hd_contact_model *m, const long *members, long size,
-                               double h, double *base)
+                                  double h, double *base)
 {
     double deepest = 0.0;
     for (long k = 0; k < size; ++k) {
@@ -114,7 +117,7 @@ static inline int hd_depths_after(const hd_contact_model *m, const long *members
         for (long i = u->first; i <= u->first + u->pair; ++i) {
             const hd_row *r = m->rows + i;
             base[i] = r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a,
-                                                      m->velocity + 3 * r->b, r) - r->approach);
+                                                         m->velocity + 3 * r->b, r) - r->approach);
             deepest = k == 0 && i == u->first ? base[i] : hd_max(deepest, base[i]);
         }
     }
@@ -123,9 +126,9 @@ static inline int hd_depths_after(const hd_contact_model *m, const long *members
 
 /* One pass of the position correction over a unit's rows: each moves its bodies' shifts
  * apart along the normal by a fraction of the excess of its depth `base` beyond HD_SLOP
- * (solver.py: _correct_positions). */
+ * (contact/solve.py: correct_positions). */
 static HD_HOT void hd_correct_unit(const hd_unit *u, const hd_row *rows, const double *base,
-                                double *shift)
+                                   double *shift)
 {
     for (long i = u->first; i <= u->first + u->pair; ++i) {
         const hd_row *r = rows + i;

@@ -29,10 +29,10 @@ static void hd_evaluate(hd_forces *f, const double *q, const double *v, double *
 }
 
 /* The article's explicit Euler, x += h v and v += h a from the start of the step
- * (integrators.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
+ * (integrators/methods.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
  * then x += h v with the new velocity (SemiImplicitEuler). */
 static void hd_euler(hd_forces *f, const double *q, const double *v, double *q1, double *v1,
-                  double h, double *a, int symplectic)
+                     double h, double *a, int symplectic)
 {
     const hd_program *p = f->program;
     if (p->term_count == 0 && (f->inputs == NULL || f->inputs->term_count == 0))
@@ -63,7 +63,7 @@ static void hd_euler(hd_forces *f, const double *q, const double *v, double *q1,
 
 /* x1 = x + h v + h^2/2 a0; v1 = v + h/2 (a0 + a(x1, v + h a0)) (VelocityVerlet). */
 static void hd_velocity_verlet(hd_forces *f, const double *q, const double *v, double *q1,
-                            double *v1, double h, double *a0)
+                               double *v1, double h, double *a0)
 {
     double *a1 = a0 + f->n3, *predicted = a1 + f->n3;
     const double half_h2 = 0.5 * h * h, half_h = 0.5 * h;
@@ -80,7 +80,7 @@ static void hd_velocity_verlet(hd_forces *f, const double *q, const double *v, d
 /* A later stage of RK4 from the last slopes (kq, kv), c = h/2 or h: the slope of q is
  * v + c kv, that of v the acceleration at (q + c kq, v + c kv). */
 static void hd_rk4_stage(hd_forces *f, const double *q, const double *v, const double *kq,
-                      const double *kv, double c, double *at, double *next_q, double *next_v)
+                         const double *kv, double c, double *at, double *next_q, double *next_v)
 {
     for (long k = 0; k < f->n3; ++k) {
         next_q[k] = v[k] + c * kv[k];
@@ -91,7 +91,7 @@ static void hd_rk4_stage(hd_forces *f, const double *q, const double *v, const d
 
 /* Classical fourth-order Runge-Kutta on (q' = v, v' = a) (RungeKutta4). */
 static void hd_rk4(hd_forces *f, const double *q, const double *v, double *q1, double *v1,
-                double h, double *buffer)
+                   double h, double *buffer)
 {
     const long n3 = f->n3;
     double *k1v = buffer, *k2q = k1v + n3, *k2v = k2q + n3, *k3q = k2v + n3,
@@ -117,7 +117,7 @@ static void hd_rhs(hd_forces *f, const double *y, double *slope)
 /* out = sum over j < count of (scale c_j) k_j, slope by slope (each element summed in the
  * order of j, as a matrix product would), skipping zero coefficients. */
 static void hd_combine(const double *c, long count, double scale, const double *slopes, long m,
-                    double *out)
+                       double *out)
 {
     int first = 1;
     for (long j = 0; j < count; ++j) {
@@ -139,7 +139,7 @@ static void hd_combine(const double *c, long count, double scale, const double *
 }
 
 /* One number from the scaled error estimates: at most 1 accepts the sub-step
- * (tableaux.py: EmbeddedPair.error_norm). */
+ * (integrators/tableaux.py: EmbeddedPair.error_norm). */
 static double hd_error_norm(const hd_pair *pair, const double *scaled, long m)
 {
     if (pair->error_rows == 1) {
@@ -160,12 +160,12 @@ static double hd_error_norm(const hd_pair *pair, const double *scaled, long m)
     return e5 / sqrt((double)m * (e5 + 0.01 * e3));
 }
 
-/* One step of an embedded pair, sub-stepped to meet the tolerance (integrators.py:
+/* One step of an embedded pair, sub-stepped to meet the tolerance (integrators/methods.py:
  * EmbeddedRungeKutta.step, the same controller). `buffer` holds S + 3 + error_rows flat
  * states (q and v together). */
 static int hd_embedded(hd_forces *f, const hd_pair *pair, double tolerance, double *size,
-                    const double *q, const double *v, double *q1, double *v1, double h,
-                    double *buffer)
+                       const double *q, const double *v, double *q1, double *v1, double h,
+                       double *buffer)
 {
     const long n3 = f->n3, m = 2 * n3, S = pair->slopes, E = pair->error_rows;
     double *slopes = buffer, *y = slopes + S * m, *y_new = y + m, *stage = y_new + m,
@@ -229,7 +229,7 @@ static int hd_embedded(hd_forces *f, const hd_pair *pair, double tolerance, doub
 }
 
 /* Whether the new state (q, v) of N bodies is finite; if so, its angles are wrapped into
- * [-pi, pi), touching only those outside (planar.py: wrap_angle, with numpy's remainder:
+ * [-pi, pi), touching only those outside (geometry/planar.py: wrap_angle, with numpy's remainder:
  * fmod moved to the sign of the divisor). One pass over the state: x - x is 0 for a
  * finite x and NaN otherwise. */
 static int hd_settle(double *q, const double *v, long n)
@@ -277,12 +277,14 @@ typedef struct {
 
 /* One step of the method from (q, v) to (q1, v1). */
 static int hd_one_step(hd_run *s, const double *q, const double *v, double *q1, double *v1,
-                    double h)
+                       double h)
 {
     switch (s->method) {
     case HD_EXPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 0); return HD_ADVANCED;
     case HD_SEMI_IMPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 1); return HD_ADVANCED;
-    case HD_VELOCITY_VERLET: hd_velocity_verlet(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
+    case HD_VELOCITY_VERLET:
+        hd_velocity_verlet(s->f, q, v, q1, v1, h, s->buffer);
+        return HD_ADVANCED;
     case HD_RK4: hd_rk4(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
     default:
         return hd_embedded(s->f, s->pair, s->tolerance, s->size, q, v, q1, v1, h, s->buffer);
@@ -290,14 +292,14 @@ static int hd_one_step(hd_run *s, const double *q, const double *v, double *q1, 
 }
 
 /* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
- * simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's arm
- * would turn too far (hd_joints_parts), in halves when the joints have no solution near the
- * step's end, each part the same way; `room`: how many parts this step may still be cut
- * into (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds
- * two states per level for the parts' ends. */
+ * dynamics/simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's
+ * arm would turn too far (hd_joints_parts), in halves when the joints have no solution near the
+ * step's end, each part the same way; `room`: how many parts this step may still be cut into
+ * (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds two states per
+ * level for the parts' ends. */
 static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *q,
-                            const double *v, double *q1, double *v1, double h, long room,
-                            int level)
+                               const double *v, double *q1, double *v1, double h, long room,
+                               int level)
 {
     int status = hd_one_step(s, q, v, q1, v1, h);
     if (status != HD_ADVANCED || joints == NULL)
@@ -321,7 +323,7 @@ static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *
     const double *from_q = q, *from_v = v;
     for (long k = 0; k < parts; ++k) {
         if ((status = hd_constrained_step(s, joints, from_q, from_v, q1, v1, part, room / parts,
-                                       level + 1)) != HD_ADVANCED)
+                                          level + 1)) != HD_ADVANCED)
             return status;
         memcpy(q_part, q1, (size_t)n3 * sizeof(double));
         memcpy(v_part, v1, (size_t)n3 * sizeof(double));
@@ -331,7 +333,7 @@ static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *
 }
 
 /* How many sub-steps keep every colliding body's travel under half the thinnest colliding
- * part (solver.py: ContactPass.substeps, its plain-float path). */
+ * part (contact/detect.py: Detection.substeps, its plain-float path). */
 static long hd_substeps(const hd_contact_model *m, const double *q0, const double *q1)
 {
     if (m->colliding_count == 0)
@@ -350,11 +352,11 @@ static long hd_substeps(const hd_contact_model *m, const double *q0, const doubl
     return parts < 1.0 ? 1 : (parts > HD_MAX_SUBSTEPS ? HD_MAX_SUBSTEPS : (long)parts);
 }
 
-/* A step and the contact pass, in sub-steps when a colliding body would move more than half
- * the thinnest colliding part (simulation.py: Simulation._integrate). `spare`: 4 states. */
+/* A step and the contact pass, in sub-steps when a colliding body would move more than half the
+ * thinnest colliding part (dynamics/simulation.py: Simulation._integrate). `spare`: 4 states. */
 static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model *joints,
-                              const double *q, const double *v, double *q1, double *v1,
-                              double h, double *spare)
+                                 const double *q, const double *v, double *q1, double *v1,
+                                 double h, double *spare)
 {
     const long n3 = s->f->n3;
     int status = hd_constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 0);
@@ -370,7 +372,7 @@ static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model 
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
         if ((status = hd_constrained_step(s, joints, q_part, v_part, q_next, v_next, part,
-                                       HD_MOST_SUBSTEPS, 0))
+                                          HD_MOST_SUBSTEPS, 0))
                 != HD_ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, q_part, v_part, part) < 0)
@@ -385,9 +387,9 @@ static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model 
 
 /* Whether every body sleeps, with no joint pass and a fixed-step method (which carries
  * nothing from step to step): the step would put each body back where it started (solver.c:
- * hold) and find no contact, so it is skipped (simulation.py: Simulation._integrate). */
+ * hold) and find no contact, so it is skipped (dynamics/simulation.py: Simulation._integrate). */
 static int hd_everything_asleep(const hd_contact_model *m, const hd_joint_model *joints,
-                             int method, long n)
+                                int method, long n)
 {
     if (m == NULL || joints != NULL || !m->sleep || method == HD_EMBEDDED)
         return 0;
@@ -428,7 +430,7 @@ void hd_stepper_free(hd_stepper *s)
 /* Leave the last good state in (q, v) and the failed one in the stepper's (q_new, v_new)
  * when the steps ended on the other pair of buffers than the one they began on. */
 static void hd_settle_buffers(const hd_stepper *s, long n3, double *q, double *v,
-                           const double *good_q, const double *good_v, int failed)
+                              const double *good_q, const double *good_v, int failed)
 {
     const size_t bytes = (size_t)n3 * sizeof(double);
     if (good_q == q)
@@ -478,9 +480,9 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
         }
         status = contacts == NULL
                  ? hd_constrained_step(&stepper, joints, cur_q, cur_v, next_q, next_v, h,
-                                    HD_MOST_SUBSTEPS, 0)
+                                       HD_MOST_SUBSTEPS, 0)
                  : hd_step_with_contacts(&stepper, contacts, joints, cur_q, cur_v, next_q, next_v,
-                                      h, spare);
+                                         h, spare);
         if (status != HD_ADVANCED)
             break;
         if (!hd_settle(next_q, next_v, n)) {

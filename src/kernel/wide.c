@@ -1,5 +1,5 @@
 /* The coloured solve of a big island: wide.h. The colours are greedy, first fit in island
- * order (solver.py: _coloured); within each colour its two-point blocks go four at a time
+ * order (contact/islands.py: coloured); within each colour its two-point blocks go four at a time
  * through lanes of GCC's vector extensions (AVX where the CPU has it, else two SSE2
  * halves: the same IEEE operations, so the same bits), a colour's last four padded with
  * empty lanes, and every other unit of the colour (one-point contacts, and all the units
@@ -120,7 +120,7 @@ static int hd_lowest_free(uint64_t taken)
  * none), or HD_COLOURS when none is left; then the units sorted by colour into `sorted`,
  * where the colours start into `colour_start`. */
 static void hd_colour_units(hd_contact_model *m, const long *members, long size, long *sorted,
-                         long *colour_start)
+                            long *colour_start)
 {
     struct hd_wide *w = m->wide;
     const long wall = m->bodies;
@@ -268,7 +268,7 @@ static HD_HOT void hd_scatter(double *velocity, const long *body, hd_twist4 v)
 
 /* rows.h's hd_normal_velocity, lane by lane. */
 static HD_HOT hd_v4 hd_normal_velocity4(hd_twist4 va, hd_twist4 vb, hd_v4 rax, hd_v4 ray,
-                                     hd_v4 rbx, hd_v4 rby, hd_v4 nx, hd_v4 ny)
+                                        hd_v4 rbx, hd_v4 rby, hd_v4 nx, hd_v4 ny)
 {
     return (vb.x - vb.w * rby - va.x + va.w * ray) * nx
            + (vb.y + vb.w * rbx - va.y - va.w * rax) * ny;
@@ -276,7 +276,7 @@ static HD_HOT hd_v4 hd_normal_velocity4(hd_twist4 va, hd_twist4 vb, hd_v4 rax, h
 
 /* rows.h's push, lane by lane. */
 static HD_HOT void hd_push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
-                         hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 px, hd_v4 py)
+                            hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 px, hd_v4 py)
 {
     va->x = va->x - px * x->im_a;
     va->y = va->y - py * x->im_a;
@@ -289,15 +289,16 @@ static HD_HOT void hd_push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_
 /* rows.h's solve_friction, lane by lane: a lane without friction keeps its velocities and
  * impulse (pushing a zero impulse could turn a -0 velocity into +0). */
 static HD_HOT hd_v4 hd_friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
-                              hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 mass_t, hd_v4 mu,
-                              hd_v4 jn, hd_v4 *jt)
+                                 hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 mass_t, hd_v4 mu,
+                                 hd_v4 jn, hd_v4 *jt)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
     const hd_m4 on = mu > zero;
     const hd_v4 dvx = vb->x - vb->w * rby - va->x + va->w * ray;
     const hd_v4 dvy = vb->y + vb->w * rbx - va->y - va->w * rax;
     const hd_v4 old = *jt, bound = mu * jn;
-    const hd_v4 new_t = hd_min_v(hd_max_v(old - (-dvx * x->ny + dvy * x->nx) * mass_t, -bound), bound);
+    const hd_v4 new_t = hd_min_v(hd_max_v(old - (-dvx * x->ny + dvy * x->nx) * mass_t, -bound),
+                                 bound);
     hd_twist4 a = *va, b = *vb;
     hd_push4(&a, &b, x, rax, ray, rbx, rby, -(new_t - old) * x->ny, (new_t - old) * x->nx);
     va->x = hd_pick(on, a.x, va->x);
@@ -336,16 +337,16 @@ static HD_HOT hd_v4 hd_block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
     x1 = hd_pick(both, both1, x1);
     x2 = hd_pick(both, both2, x2);
     hd_push4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1, (x1 - old1) * x->nx,
-          (x1 - old1) * x->ny);
+             (x1 - old1) * x->ny);
     hd_push4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2, (x2 - old2) * x->nx,
-          (x2 - old2) * x->ny);
+             (x2 - old2) * x->ny);
     x->jn1 = x1;
     x->jn2 = x2;
     hd_v4 change = hd_max_v(hd_abs_v(x1 - old1) / x->mass_n1, hd_abs_v(x2 - old2) / x->mass_n2);
     change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1,
-                                     x->mass_t1, x->mu1, x1, &x->jt1));
+                                           x->mass_t1, x->mu1, x1, &x->jt1));
     change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
-                                     x->mass_t2, x->mu2, x2, &x->jt2));
+                                           x->mass_t2, x->mu2, x2, &x->jt2));
     *pa = va;
     *pb = vb;
     return change;
@@ -354,14 +355,15 @@ static HD_HOT hd_v4 hd_block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
 /* rows.h's hd_correct_unit for one row in four lanes: a lane whose excess is not positive
  * keeps its shifts. */
 static HD_HOT void hd_correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_v4 rax,
-                            hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
+                               hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
     const hd_v4 slop = {HD_SLOP, HD_SLOP, HD_SLOP, HD_SLOP};
     const hd_v4 fraction = {HD_CORRECTION, HD_CORRECTION, HD_CORRECTION, HD_CORRECTION};
     const hd_v4 most = {HD_MAX_CORRECTION, HD_MAX_CORRECTION, HD_MAX_CORRECTION,
                         HD_MAX_CORRECTION};
-    const hd_v4 excess = base - slop - hd_normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
+    const hd_v4 excess =
+        base - slop - hd_normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
     const hd_m4 on = ~(excess <= zero);
     const hd_v4 amount = hd_min_v(fraction * excess, most) * mass_n;
     hd_twist4 a = *sa, b = *sb;
@@ -433,7 +435,7 @@ static HD_HOT void hd_correct_sets(const hd_lanes *x, int n, double *shift)
 
 /* One pass over `count` lanes of one colour. */
 HD_PER_CPU static double hd_pass_lanes(hd_lanes *lanes, long count, double *velocity,
-                                    double largest)
+                                       double largest)
 {
     hd_v4 most = {largest, largest, largest, largest};
     long k = 0;
@@ -512,10 +514,10 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
             if (colour_start[c + 1] == colour_start[c])
                 continue;  /* a colour none of the island's units has */
             largest = hd_pass_lanes(w->lanes + w->lane_start[c],
-                                 w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
+                                    w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
                 largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
-                                                     m->velocity));
+                                                        m->velocity));
         }
         if (largest <= HD_CONVERGED * scale)
             break;
@@ -526,7 +528,7 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
         for (int c = 0; c <= HD_COLOURS; ++c) {
             hd_correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
-                          m->shift);
+                             m->shift);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
                 hd_correct_unit(m->units + w->single[s], m->rows, base, m->shift);
         }
