@@ -7,15 +7,17 @@
  * (contact/collision.py), contact.c the model, detect.c the broad phase and detection
  * (contact/detect.py), and the response (contact/solver.py: ContactPass.resolve) in
  * solver.c with warm.c, islands.c, solve.c, sleep.c and rows.h (contact/warm.py,
- * islands.py, solve.py, sleep.py, rows.py; solver.h joins them).
+ * contact/islands.py, contact/solve.py, contact/sleep.py, contact/rows.py; solver.h joins
+ * them).
  */
 #ifndef HECKER_DYNAMICS_CONTACT_H
 #define HECKER_DYNAMICS_CONTACT_H
 
 #include "floats.h"
 
-/* The constants of contact/solve.py, detect.py, warm.py, islands.py and sleep.py; the
- * binding exports them and test/contact/test_compiled.py checks them. */
+/* The constants of contact/solve.py, contact/detect.py, contact/warm.py,
+ * contact/islands.py and contact/sleep.py; the binding exports them and
+ * test/contact/test_compiled.py checks them. */
 #define HD_WORK 600
 #define HD_MIN_ITERATIONS 6
 #define HD_MAX_ITERATIONS 40
