@@ -51,13 +51,16 @@ class CompiledContacts:
                  zip(contacts.wall_normal, contacts.wall_offset, contacts.wall_material)]
         pairs = contacts.pairs
         self.kernel = _kernel.contacts(
-            _doubles(contacts.inverse_mass), _doubles(contacts.inverse_inertia),
-            _doubles(contacts.reach), _integers(part_ints), _doubles(part_reals),
-            _doubles(walls), _integers(wall_first),
-            _integers([b for bodies in contacts.wall_bodies for b in bodies]),
-            _integers(contacts.colliding), _integers(pairs.classes), _integers(pairs.table),
-            _doubles(pairs.materials), _integers(pairs.apart), contacts.threshold,
-            contacts.thickness)
+            inverse_mass=_doubles(contacts.inverse_mass),
+            inverse_inertia=_doubles(contacts.inverse_inertia),
+            reach=_doubles(contacts.reach), part_ints=_integers(part_ints),
+            part_reals=_doubles(part_reals), walls=_doubles(walls),
+            wall_first=_integers(wall_first),
+            wall_body=_integers([b for bodies in contacts.wall_bodies for b in bodies]),
+            colliding=_integers(contacts.colliding), classes=_integers(pairs.classes),
+            class_groups=_integers(pairs.table), materials=_doubles(pairs.materials),
+            apart=_integers(pairs.apart), threshold=contacts.threshold,
+            thickness=contacts.thickness)
         if contacts.sleep:
             self.set_sleep(contacts)
 
