@@ -238,6 +238,12 @@ typedef struct {
     hd_v4 x, y, w;
 } hd_twist4;
 
+/* x where `on`, else y, lane by lane. */
+static HD_HOT hd_twist4 hd_pick_twist(hd_m4 on, hd_twist4 x, hd_twist4 y)
+{
+    return (hd_twist4){hd_pick(on, x.x, y.x), hd_pick(on, x.y, y.y), hd_pick(on, x.w, y.w)};
+}
+
 static HD_HOT hd_twist4 hd_gather(const double *velocity, const long *body)
 {
     const double *p0 = velocity + 3 * body[0], *p1 = velocity + 3 * body[1],
@@ -301,12 +307,8 @@ static HD_HOT hd_v4 hd_friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x
                                  bound);
     hd_twist4 a = *va, b = *vb;
     hd_push4(&a, &b, x, rax, ray, rbx, rby, -(new_t - old) * x->ny, (new_t - old) * x->nx);
-    va->x = hd_pick(on, a.x, va->x);
-    va->y = hd_pick(on, a.y, va->y);
-    va->w = hd_pick(on, a.w, va->w);
-    vb->x = hd_pick(on, b.x, vb->x);
-    vb->y = hd_pick(on, b.y, vb->y);
-    vb->w = hd_pick(on, b.w, vb->w);
+    *va = hd_pick_twist(on, a, *va);
+    *vb = hd_pick_twist(on, b, *vb);
     *jt = hd_pick(on, new_t, old);
     return hd_pick(on, hd_abs_v(new_t - old) / mass_t, zero);
 }
@@ -368,12 +370,8 @@ static HD_HOT void hd_correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, 
     const hd_v4 amount = hd_min_v(fraction * excess, most) * mass_n;
     hd_twist4 a = *sa, b = *sb;
     hd_push4(&a, &b, x, rax, ray, rbx, rby, amount * x->nx, amount * x->ny);
-    sa->x = hd_pick(on, a.x, sa->x);
-    sa->y = hd_pick(on, a.y, sa->y);
-    sa->w = hd_pick(on, a.w, sa->w);
-    sb->x = hd_pick(on, b.x, sb->x);
-    sb->y = hd_pick(on, b.y, sb->y);
-    sb->w = hd_pick(on, b.w, sb->w);
+    *sa = hd_pick_twist(on, a, *sa);
+    *sb = hd_pick_twist(on, b, *sb);
 }
 
 /* The lanes' per-CPU passes: AVX where the CPU has it. */
