@@ -21,6 +21,7 @@ except ImportError:  # not built: no compiler or headers when installed
 from .collision import CirclePart
 
 if TYPE_CHECKING:
+    from .sleep import Sleep
     from .solver import ContactPass
 
 __all__ = ["CompiledContacts", "WarmImpulse"]
@@ -51,13 +52,16 @@ class CompiledContacts:
                  zip(contacts.wall_normal, contacts.wall_offset, contacts.wall_material)]
         pairs = contacts.pairs
         self.kernel = _kernel.contacts(
-            _doubles(contacts.inverse_mass), _doubles(contacts.inverse_inertia),
-            _doubles(contacts.reach), _integers(part_ints), _doubles(part_reals),
-            _doubles(walls), _integers(wall_first),
-            _integers([b for bodies in contacts.wall_bodies for b in bodies]),
-            _integers(contacts.colliding), _integers(pairs.classes), _integers(pairs.table),
-            _doubles(pairs.materials), _integers(pairs.apart), contacts.threshold,
-            contacts.thickness)
+            inverse_mass=_doubles(contacts.inverse_mass),
+            inverse_inertia=_doubles(contacts.inverse_inertia),
+            reach=_doubles(contacts.reach), part_ints=_integers(part_ints),
+            part_reals=_doubles(part_reals), walls=_doubles(walls),
+            wall_first=_integers(wall_first),
+            wall_body=_integers([b for bodies in contacts.wall_bodies for b in bodies]),
+            colliding=_integers(contacts.colliding), classes=_integers(pairs.classes),
+            class_groups=_integers(pairs.table), materials=_doubles(pairs.materials),
+            apart=_integers(pairs.apart), threshold=contacts.threshold,
+            thickness=contacts.thickness)
         if contacts.sleep:
             self.set_sleep(contacts)
 
@@ -68,7 +72,7 @@ class CompiledContacts:
         _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(q0),
                         np.ascontiguousarray(v0), h, joints)
 
-    def set_sleep(self, contacts: ContactPass) -> None:
+    def set_sleep(self, contacts: Sleep) -> None:
         """Take sleeping on or off and each body's calm flag, rest time and sleeping island
         from ``contacts``."""
         _kernel.sleep(self.kernel, int(contacts.sleep), _integers(contacts.calm),

@@ -47,7 +47,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .collision import CirclePart, half_plane_circle, half_plane_polygon
-from .solver import Contact, ContactPass
+from .detect import Contact
+from .solver import ContactPass
 
 __all__ = ["IMPACT_LOG", "Impact", "MAX_EVENTS", "MAX_ITERATIONS", "WallEvents"]
 

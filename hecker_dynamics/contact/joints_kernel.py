@@ -80,13 +80,13 @@ class CompiledJoints:
                     np.array(pattern.columns, dtype=np.int64))
 
         self.kernel: Any = _kernel.joints(
-            np.ascontiguousarray(joint_pass.bodies, dtype=np.int64),
-            np.array(joint_pass.inverse_mass, dtype=np.float64),
-            np.array(ints, dtype=np.int64).reshape(-1),
-            np.array(reals, dtype=np.float64).reshape(-1), len(joint_pass.keys),
-            arrays(joint_pass.pattern), arrays(joint_pass.rigid_pattern),
-            np.ascontiguousarray(joint_pass.turning, dtype=np.int64), joint_pass.tolerance,
-            joint_pass.max_turn)
+            bodies=np.ascontiguousarray(joint_pass.bodies, dtype=np.int64),
+            inverse_mass=np.array(joint_pass.inverse_mass, dtype=np.float64),
+            ints=np.array(ints, dtype=np.int64).reshape(-1),
+            reals=np.array(reals, dtype=np.float64).reshape(-1), rows=len(joint_pass.keys),
+            pattern=arrays(joint_pass.pattern), rigid_pattern=arrays(joint_pass.rigid_pattern),
+            turning=np.ascontiguousarray(joint_pass.turning, dtype=np.int64),
+            tolerance=joint_pass.tolerance, max_turn=joint_pass.max_turn)
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)

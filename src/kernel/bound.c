@@ -31,7 +31,7 @@ void hd_unit_energy(const hd_program *springs, const double *q, const double *v,
 
 /* How far a unit is over its limit: excess / limit, 0 without excess, inf for an energy
  * that is not finite or an excess over a limit of zero. */
-static double over(double energy, double excess, double limit)
+static double hd_over(double energy, double excess, double limit)
 {
     if (!isfinite(energy))
         return INFINITY;
@@ -59,7 +59,7 @@ double hd_bound_check(const hd_program *springs, const double *q, const double *
         work[u] += seconds * power[u];
         const double reach = root[u] + sqrt(work[u]);
         limit[u] = growth * (reach * reach);
-        const double ratio = over(energy[u], excess[u], limit[u]);
+        const double ratio = hd_over(energy[u], excess[u], limit[u]);
         if (ratio > worst)
             worst = ratio;
     }

@@ -1,14 +1,23 @@
-/* The contact pass in C: hecker_dynamics/contact/solver.py and collision.py, repeated
- * operation for operation (and so bit for bit, but for math.hypot, which CPython computes
- * itself and C's hypot may round differently in the last bit: only circles use it).
+/* The contact pass in C: hecker_dynamics/contact/solver.py, its parts and
+ * contact/collision.py, repeated operation for operation (and so bit for bit, but for
+ * math.hypot, which CPython computes itself and C's hypot may round differently in the
+ * last bit: only circles use it).
  *
- * manifold.c is the narrow phase (collision.py), contact.c the model, broad phase and
- * detection (ContactPass.detect), solver.c the response (ContactPass.resolve).
+ * Each C file has the name of the Python module it mirrors: manifold.c the narrow phase
+ * (contact/collision.py), contact.c the model, detect.c the broad phase and detection
+ * (contact/detect.py), and the response (contact/solver.py: ContactPass.resolve) in
+ * solver.c with warm.c, islands.c, solve.c, sleep.c and rows.h (contact/warm.py,
+ * contact/islands.py, contact/solve.py, contact/sleep.py, contact/rows.py; solver.h joins
+ * them).
  */
 #ifndef HECKER_DYNAMICS_CONTACT_H
 #define HECKER_DYNAMICS_CONTACT_H
 
-/* The constants of contact/solver.py; the binding exports them and solver.py checks them. */
+#include "floats.h"
+
+/* The constants of contact/solve.py, contact/detect.py, contact/warm.py,
+ * contact/islands.py and contact/sleep.py; the binding exports them and
+ * test/contact/test_compiled.py checks them. */
 #define HD_WORK 600
 #define HD_MIN_ITERATIONS 6
 #define HD_MAX_ITERATIONS 40
@@ -24,13 +33,6 @@
 #define HD_SLEEP_SPEED 0.05
 #define HD_TIME_TO_SLEEP 0.5
 
-/* The small functions of the solver's inner loop, always inlined (GCC left them as
- * calls); inlining changes no floating-point operation. */
-#if defined(__GNUC__)
-#define HD_HOT inline __attribute__((always_inline))
-#else
-#define HD_HOT __forceinline
-#endif
 
 /* A point of a manifold: halfway between the surfaces, unit normal from the first shape
  * to the second, penetration depth (negative for a gap within the margin). */
@@ -61,10 +63,10 @@ int hd_half_plane_polygon(double nx, double ny, double offset, const double *v, 
 int hd_half_plane_circle(double nx, double ny, double offset, double cx, double cy,
                          double radius, double margin, hd_found *out);
 
-/* A contact found by detection: bodies a (-1: a wall) and b, point, normal a -> b, depth,
- * material, and the names of its two parts (key, as in solver.py); `points`: how many
- * contacts its pair of parts has, all found together, one after the other (and a key is
- * found once a detection, so they are the run of its key that solver.py groups). */
+/* A contact found by detection: bodies a (-1: a wall) and b, point, normal a -> b, depth, material,
+ * and the names of its two parts (key, as in contact/detect.py: Contact); `points`: how many
+ * contacts its pair of parts has, all found together, one after the other (and a key is found once
+ * a detection, so they are the run of its key that contact/islands.py: schedule groups). */
 typedef struct {
     long a, b;
     double px, py, nx, ny, depth, e, mu;
@@ -72,7 +74,7 @@ typedef struct {
     int points;
 } hd_contact;
 
-/* One row of the impulse solver (solver.py: ContactRow); `points` as its contact's. */
+/* One row of the impulse solver (contact/rows.py: ContactRow); `points` as its contact's. */
 typedef struct {
     long a, b;  /* body indices into the velocity table; a wall is the last slot */
     double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
@@ -83,7 +85,7 @@ typedef struct {
 
 /* A unit of the velocity solver: the single row `first`, or (pair) the two-point
  * manifold of rows first and first + 1 solved as one block, with its effective-mass
- * matrix K = [k11 k12; k12 k22] and K's inverse (solver.py: Block). */
+ * matrix K = [k11 k12; k12 k22] and K's inverse (contact/rows.py: Block). */
 typedef struct {
     long first;
     int pair;
@@ -109,7 +111,7 @@ typedef struct hd_contact_model {
     long *wall_body;
     long colliding_count;
     long *colliding;    /* sorted */
-    /* Which pairs collide (materials.py: PairMaterials): per body its class (-1: in no
+    /* Which pairs collide (contact/materials.py: PairMaterials): per body its class (-1: in no
      * group), per pair of classes the group of their material (-1: none), per group its
      * restitution and friction, and the pairs (i, j), i < j, sorted, that a group names
      * but do not collide. */
@@ -129,7 +131,7 @@ typedef struct hd_contact_model {
     double *sweep;
     long *sweep_body;
     int sweep_order;
-    /* The sweep's bands in y (contact.c: list_bands): per band (colliding_count at most)
+    /* The sweep's bands in y (contact.c: hd_list_bands): per band (colliding_count at most)
      * where its boxes end and a cursor; the boxes band by band, their left, bottom and top
      * edges as columns (band_capacity each) and their bodies; per box where its pairs may
      * be (from, to). */
@@ -160,7 +162,7 @@ typedef struct hd_contact_model {
     long warm_table_size;
     int warm_indexed;   /* 1 while warm_table indexes `warm`: built only when needed */
     long warm_awake;    /* the first impulse after the sleeping islands' */
-    /* Sleeping (solver.py: ContactPass._doze): on or off; per body whether it may sleep
+    /* Sleeping (contact/sleep.py: Sleep._doze): on or off; per body whether it may sleep
      * (calm), its rest time (s) and its sleeping island (the island's lowest body; -1
      * awake); per island, whether an awake body touched it in this detection (wake), and
      * whether any did (woken). */
@@ -181,7 +183,7 @@ void hd_contact_free(hd_contact_model *m);
 /* The contacts at q (m->contacts, m->contact_count) of the awake bodies, marking in
  * m->wake the sleeping islands an awake body touches; -1 out of memory. */
 int hd_detect(hd_contact_model *m, const double *q);
-/* solver.py: ContactPass.resolve after a step from (q0, v0); q1 and v1 change in place,
+/* contact/solver.py: ContactPass.resolve after a step from (q0, v0); q1 and v1 change in place,
  * sleeping bodies back at (q0, v0); -1 out of memory. */
 int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
                const double *v0, double h);

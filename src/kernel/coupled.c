@@ -4,14 +4,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "floats.h"
 #include "coupled.h"
+#include "solver.h"
 
-/* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
-static double py_min(double x, double y) { return y < x ? y : x; }
-static double py_max(double x, double y) { return y > x ? y : x; }
 
 /* The working memory for the joint pass's rows and the model's bodies; -1 out of memory. */
-static int reserve(hd_contact_model *m, long rows)
+static int hd_reserve(hd_contact_model *m, long rows)
 {
     hd_coupled *c = m->coupled;
     if (c != NULL && c->capacity >= rows)
@@ -36,7 +35,7 @@ static int reserve(hd_contact_model *m, long rows)
 int hd_couple(hd_contact_model *m)
 {
     const hd_joint_model *j = m->joints;
-    if (reserve(m, j->row_count) < 0)
+    if (hd_reserve(m, j->row_count) < 0)
         return -1;
     hd_coupled *c = m->coupled;
     const double h = j->last_h;
@@ -67,7 +66,7 @@ int hd_couple(hd_contact_model *m)
             u->upper = row->bound - x;
         }
         u->mass = 1.0 / hd_joint_dot(row, towards);
-        u->extra = py_min(py_max(j->extra[i], u->lower), u->upper);
+        u->extra = hd_min(hd_max(j->extra[i], u->lower), u->upper);
     }
     return 0;
 }
@@ -137,8 +136,8 @@ long hd_coupled_size(const hd_contact_model *m, long i)
     return m->joints == NULL ? 0 : m->coupled->start[i + 1] - m->coupled->start[i];
 }
 
-/* v += M^-1 J^T impulse (coupled.py: JointUnit._push). */
-static void push(const hd_coupled_row *u, double *velocity, double impulse)
+/* v += M^-1 J^T impulse (contact/coupled.py: JointUnit._push). */
+static void hd_push(const hd_coupled_row *u, double *velocity, double impulse)
 {
     for (int e = 0; e < u->count; ++e) {
         double *v = velocity + 3 * u->body[e];
@@ -154,7 +153,7 @@ void hd_coupled_warm_start(hd_contact_model *m, long i)
         return;
     for (long k = m->coupled->start[i]; k < m->coupled->start[i + 1]; ++k) {
         const hd_coupled_row *u = m->coupled->rows + m->coupled->order[k];
-        push(u, m->velocity, u->extra);
+        hd_push(u, m->velocity, u->extra);
     }
 }
 
@@ -166,7 +165,7 @@ double hd_coupled_fastest(const hd_contact_model *m, long i, double fastest)
         const hd_coupled_row *u = m->coupled->rows + m->coupled->order[k];
         for (int e = 0; e < u->count; ++e)
             for (int c = 0; c < 3; ++c)
-                fastest = py_max(fastest, fabs(m->velocity[3 * u->body[e] + c]));
+                fastest = hd_max(fastest, fabs(m->velocity[3 * u->body[e] + c]));
     }
     return fastest;
 }
@@ -177,18 +176,18 @@ double hd_coupled_sweep(hd_contact_model *m, long i, double largest)
         return largest;
     for (long k = m->coupled->start[i]; k < m->coupled->start[i + 1]; ++k) {
         hd_coupled_row *u = m->coupled->rows + m->coupled->order[k];
-        double rate = 0.0;  /* coupled.py: JointUnit.solve */
+        double rate = 0.0;  /* contact/coupled.py: JointUnit.solve */
         for (int e = 0; e < u->count; ++e) {
             const double *v = m->velocity + 3 * u->body[e];
             rate += u->j[e][0] * v[0] + u->j[e][1] * v[1] + u->j[e][2] * v[2];
         }
         const double extra = u->extra;
-        const double updated = py_min(py_max(extra + (u->target - rate) * u->mass, u->lower),
+        const double updated = hd_min(hd_max(extra + (u->target - rate) * u->mass, u->lower),
                                       u->upper);
         const double change = updated - extra;
-        push(u, m->velocity, change);
+        hd_push(u, m->velocity, change);
         u->extra = updated;
-        largest = py_max(largest, fabs(change) / u->mass);
+        largest = hd_max(largest, fabs(change) / u->mass);
     }
     return largest;
 }

@@ -13,7 +13,7 @@
 #include "contact.h"
 #include "joint.h"
 
-/* coupled.py: JointUnit, on the contact model's body indices. */
+/* contact/coupled.py: JointUnit, on the contact model's body indices. */
 typedef struct {
     long slot;  /* the joint pass's row */
     int count;
@@ -36,7 +36,7 @@ int hd_couple(hd_contact_model *m);
 /* The velocities the step's positions moved with: m->arrived, but for the jointed bodies
  * their velocity before the joint pass's velocity stage (ContactPass.resolve: moved). */
 const double *hd_coupled_reference(hd_contact_model *m);
-/* Islands (solver.c: islands): before the contacts' union-find, the rows' bodies as sets
+/* Islands (solver.c: hd_islands): before the contacts' union-find, the rows' bodies as sets
  * of their own; after it, the rows' joins; after the numbering of `count` islands, each
  * row's island. */
 void hd_coupled_reset(hd_contact_model *m, long *parent, long *island);
@@ -44,7 +44,7 @@ void hd_coupled_join(hd_contact_model *m, long *parent);
 int hd_coupled_islands(hd_contact_model *m, long *parent, const long *island, long count);
 /* Island i: its rows' count; their warm start; the fastest velocity component of their
  * bodies with `fastest`; one sweep of its rows, returning the largest change with
- * `largest` (solver.py: _solve_velocities). */
+ * `largest` (contact/solve.py: solve_velocities). */
 long hd_coupled_size(const hd_contact_model *m, long i);
 void hd_coupled_warm_start(hd_contact_model *m, long i);
 double hd_coupled_fastest(const hd_contact_model *m, long i, double fastest);
@@ -52,8 +52,5 @@ double hd_coupled_sweep(hd_contact_model *m, long i, double largest);
 /* JointPass.take_extra: the extras into the joint pass's impulses (none: `solved` 0). */
 void hd_coupled_store(hd_contact_model *m, int solved);
 void hd_coupled_free(hd_coupled *c);
-
-/* The union-find root of solver.c's islands (solver.py: _root). */
-long hd_root(long *parent, long body);
 
 #endif

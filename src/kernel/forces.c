@@ -33,7 +33,7 @@ int hd_real_columns(int kind)
 }
 
 /* World offset r = R(angle) l of a point l given relative to a body's CM. */
-static void offset(const hd_scratch *s, long body, double lx, double ly, double *rx, double *ry)
+static void hd_offset(const hd_scratch *s, long body, double lx, double ly, double *rx, double *ry)
 {
     double c = s->cos[body], sn = s->sin[body];
     *rx = c * lx - sn * ly;
@@ -41,8 +41,8 @@ static void offset(const hd_scratch *s, long body, double lx, double ly, double 
 }
 
 /* v_P = v_CM + omega perp(r) (Eq. 9). */
-static void point_velocity(const double *v, long body, double rx, double ry,
-                           double *vx, double *vy)
+static void hd_point_velocity(const double *v, long body, double rx, double ry,
+                              double *vx, double *vy)
 {
     const double *b = v + 3 * body;
     *vx = b[0] - b[2] * ry;
@@ -51,17 +51,17 @@ static void point_velocity(const double *v, long body, double rx, double ry,
 
 /* Force (fx, fy) at offset (rx, ry) from the CM: the force and its perp-dot torque
  * (Eq. 11). */
-static void apply(double *wrench, double rx, double ry, double fx, double fy)
+static void hd_apply(double *wrench, double rx, double ry, double fx, double fy)
 {
     wrench[0] += fx;
     wrench[1] += fy;
     wrench[2] += rx * fy - ry * fx;
 }
 
-/* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (forces.py:
+/* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (dynamics/forces.py:
  * `spring_force_scalar`). */
-static void spring(double dx, double dy, double dvx, double dvy, double k, double rest,
-                   double c, double *fx, double *fy)
+static void hd_spring(double dx, double dy, double dvx, double dvy, double k, double rest,
+                      double c, double *fx, double *fy)
 {
     if (rest == 0.0) {
         *fx = -k * dx - c * dvx;
@@ -81,14 +81,14 @@ static void spring(double dx, double dy, double dvx, double dvy, double k, doubl
 }
 
 /* -c v (linear) or -c |v| v (quadratic). */
-static void drag(double vx, double vy, double c, long quadratic, double *fx, double *fy)
+static void hd_drag(double vx, double vy, double c, long quadratic, double *fx, double *fy)
 {
     double scale = quadratic ? c * hd_length(vx, vy) : c;
     *fx = -scale * vx;
     *fy = -scale * vy;
 }
 
-static void add_term(const hd_term *t, const hd_scratch *s, const double *q, const double *v)
+static void hd_add_term(const hd_term *t, const hd_scratch *s, const double *q, const double *v)
 {
     const int ni = hd_int_columns(t->kind), nr = hd_real_columns(t->kind);
     double *w = s->wrench;
@@ -107,31 +107,31 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
     case HD_ANCHOR_SPRING:
         for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
-            offset(s, b, r[0], r[1], &rx, &ry);
-            point_velocity(v, b, rx, ry, &vx, &vy);
-            spring(q[3 * b] + rx - r[2], q[3 * b + 1] + ry - r[3], vx, vy, r[4], r[5], r[6],
-                   &fx, &fy);
-            apply(w + 3 * b, rx, ry, fx, fy);
+            hd_offset(s, b, r[0], r[1], &rx, &ry);
+            hd_point_velocity(v, b, rx, ry, &vx, &vy);
+            hd_spring(q[3 * b] + rx - r[2], q[3 * b + 1] + ry - r[3], vx, vy, r[4], r[5], r[6],
+                      &fx, &fy);
+            hd_apply(w + 3 * b, rx, ry, fx, fy);
         }
         break;
     case HD_BODY_SPRING:
         for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long a = i[0], b = i[1];
             double rax, ray, rbx, rby, vax, vay, vbx, vby;
-            offset(s, a, r[0], r[1], &rax, &ray);
-            offset(s, b, r[2], r[3], &rbx, &rby);
-            point_velocity(v, a, rax, ray, &vax, &vay);
-            point_velocity(v, b, rbx, rby, &vbx, &vby);
-            spring(q[3 * a] + rax - q[3 * b] - rbx, q[3 * a + 1] + ray - q[3 * b + 1] - rby,
-                   vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
-            apply(w + 3 * a, rax, ray, fx, fy);
-            apply(w + 3 * b, rbx, rby, -fx, -fy);
+            hd_offset(s, a, r[0], r[1], &rax, &ray);
+            hd_offset(s, b, r[2], r[3], &rbx, &rby);
+            hd_point_velocity(v, a, rax, ray, &vax, &vay);
+            hd_point_velocity(v, b, rbx, rby, &vbx, &vby);
+            hd_spring(q[3 * a] + rax - q[3 * b] - rbx, q[3 * a + 1] + ray - q[3 * b + 1] - rby,
+                      vax - vbx, vay - vby, r[4], r[5], r[6], &fx, &fy);
+            hd_apply(w + 3 * a, rax, ray, fx, fy);
+            hd_apply(w + 3 * b, rbx, rby, -fx, -fy);
         }
         break;
     case HD_CENTER_DRAG:
         for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
-            drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
+            hd_drag(v[3 * b], v[3 * b + 1], r[0], i[1], &fx, &fy);
             w[3 * b] += fx;
             w[3 * b + 1] += fy;
         }
@@ -139,10 +139,10 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
     case HD_POINT_DRAG:
         for (long e = 0; e < t->count; ++e, i += ni, r += nr) {
             long b = i[0];
-            offset(s, b, r[0], r[1], &rx, &ry);
-            point_velocity(v, b, rx, ry, &vx, &vy);
-            drag(vx, vy, r[2], i[1], &fx, &fy);
-            apply(w + 3 * b, rx, ry, fx, fy);
+            hd_offset(s, b, r[0], r[1], &rx, &ry);
+            hd_point_velocity(v, b, rx, ry, &vx, &vy);
+            hd_drag(vx, vy, r[2], i[1], &fx, &fy);
+            hd_apply(w + 3 * b, rx, ry, fx, fy);
         }
         break;
     case HD_ANGULAR_DAMPING:
@@ -157,7 +157,7 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             fy = r[1];
             if (axes >= 0) {
                 double bx = fx, by = fy;
-                offset(s, axes, bx, by, &fx, &fy);
+                hd_offset(s, axes, bx, by, &fx, &fy);
             }
             w[3 * b + 2] += r[2];
             if (!i[3]) {  /* at the CM */
@@ -167,11 +167,11 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
             }
             if (owner >= 0) {
                 double ox, oy;
-                offset(s, owner, px, py, &ox, &oy);
+                hd_offset(s, owner, px, py, &ox, &oy);
                 px = q[3 * owner] + ox;
                 py = q[3 * owner + 1] + oy;
             }
-            apply(w + 3 * b, px - q[3 * b], py - q[3 * b + 1], fx, fy);
+            hd_apply(w + 3 * b, px - q[3 * b], py - q[3 * b + 1], fx, fy);
         }
         break;
     }
@@ -179,7 +179,7 @@ static void add_term(const hd_term *t, const hd_scratch *s, const double *q, con
 
 /* cos and sin of every body's angle (glibc takes both at once: sincos, the same bits as
  * cos and sin apart). */
-static void angles(const double *q, long n, hd_scratch *scratch)
+static void hd_angles(const double *q, long n, hd_scratch *scratch)
 {
     double *c = scratch->cos, *sn = scratch->sin;
     for (long b = 0; b < n; ++b) {
@@ -194,14 +194,14 @@ void hd_wrench(const hd_program *program, const hd_program *inputs, int oriented
 {
     const long n = program->bodies;
     if (oriented)
-        angles(q, n, scratch);
+        hd_angles(q, n, scratch);
     for (long k = 0; k < 3 * n; ++k)
         scratch->wrench[k] = 0.0;
     for (long t = 0; t < program->term_count; ++t)
-        add_term(program->terms + t, scratch, q, v);
+        hd_add_term(program->terms + t, scratch, q, v);
     if (inputs != NULL)
         for (long t = 0; t < inputs->term_count; ++t)
-            add_term(inputs->terms + t, scratch, q, v);
+            hd_add_term(inputs->terms + t, scratch, q, v);
 }
 
 void hd_accelerations(const hd_program *program, const hd_program *inputs, int oriented,
@@ -218,8 +218,8 @@ void hd_accelerations(const hd_program *program, const hd_program *inputs, int o
         out[k] = scratch->wrench[k] * program->inverse_mass[k];
 }
 
-/* k (|d| - L0)^2 / 2 of one spring (forces.py: `spring_energy_scalar`). */
-static double spring_energy(double dx, double dy, double k, double rest)
+/* k (|d| - L0)^2 / 2 of one spring (dynamics/forces.py: `spring_energy_scalar`). */
+static double hd_spring_energy(double dx, double dy, double k, double rest)
 {
     const double stretch = hd_length(dx, dy) - rest;
     return 0.5 * k * (stretch * stretch);
@@ -228,7 +228,7 @@ static double spring_energy(double dx, double dy, double k, double rest)
 void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
                               double *energy, double *excess, hd_scratch *scratch)
 {
-    angles(q, program->bodies, scratch);
+    hd_angles(q, program->bodies, scratch);
     for (long t = 0; t < program->term_count; ++t) {
         const hd_term *term = program->terms + t;
         if (term->kind != HD_ANCHOR_SPRING && term->kind != HD_BODY_SPRING)
@@ -237,22 +237,22 @@ void hd_unit_spring_potential(const hd_program *program, const double *q, const 
         for (long e = 0; e < term->count; ++e) {
             const long *i = term->ints + ni * e;
             const double *r = term->reals + nr * e;
-            double spring;
+            double hd_spring;
             if (term->kind == HD_ANCHOR_SPRING) {
                 double rx, ry;
-                offset(scratch, i[0], r[0], r[1], &rx, &ry);
-                spring = spring_energy(q[3 * i[0]] + rx - r[2], q[3 * i[0] + 1] + ry - r[3],
-                                       r[4], r[5]);
+                hd_offset(scratch, i[0], r[0], r[1], &rx, &ry);
+                hd_spring = hd_spring_energy(q[3 * i[0]] + rx - r[2], q[3 * i[0] + 1] + ry - r[3],
+                                             r[4], r[5]);
             } else {
                 const long a = i[0], b = i[1];
                 double rax, ray, rbx, rby;
-                offset(scratch, a, r[0], r[1], &rax, &ray);
-                offset(scratch, b, r[2], r[3], &rbx, &rby);
-                spring = spring_energy(q[3 * a] + rax - q[3 * b] - rbx,
-                                       q[3 * a + 1] + ray - q[3 * b + 1] - rby, r[4], r[5]);
+                hd_offset(scratch, a, r[0], r[1], &rax, &ray);
+                hd_offset(scratch, b, r[2], r[3], &rbx, &rby);
+                hd_spring = hd_spring_energy(q[3 * a] + rax - q[3 * b] - rbx,
+                                             q[3 * a + 1] + ray - q[3 * b + 1] - rby, r[4], r[5]);
             }
-            energy[unit[i[0]]] += spring;
-            excess[unit[i[0]]] += spring;
+            energy[unit[i[0]]] += hd_spring;
+            excess[unit[i[0]]] += hd_spring;
         }
     }
 }

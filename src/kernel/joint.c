@@ -6,22 +6,19 @@
  * ties come out as in Python.
  */
 #ifndef _GNU_SOURCE
-#define _GNU_SOURCE  /* glibc's sincos (turn_all) */
+#define _GNU_SOURCE  /* glibc's sincos (hd_turn_all) */
 #endif
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "floats.h"
 #include "joint.h"
 #include "sparse.h"
 
-static const double PI = 3.141592653589793;
-
-static double py_max(double a, double b) { return b > a ? b : a; }
-static double py_min(double a, double b) { return b < a ? b : a; }
 
 /* CPython's float %: fmod, moved to the sign of the divisor. */
-static double py_mod(double x, double y)
+static double hd_py_mod(double x, double y)
 {
     double r = fmod(x, y);
     if (r != 0.0) {
@@ -33,24 +30,24 @@ static double py_mod(double x, double y)
     return r;
 }
 
-/* joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
+/* contact/joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
  * [0, 2 pi) unchanged, so that case skips it. */
-static double wrap(double angle)
+static double hd_wrap(double angle)
 {
-    const double shifted = angle + PI;
-    if (shifted >= 0.0 && shifted < 2.0 * PI)
-        return shifted - PI;
-    return py_mod(shifted, 2.0 * PI) - PI;
+    const double shifted = angle + HD_PI;
+    if (shifted >= 0.0 && shifted < 2.0 * HD_PI)
+        return shifted - HD_PI;
+    return hd_py_mod(shifted, 2.0 * HD_PI) - HD_PI;
 }
 
-/* joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
-typedef struct { double x, y, rx, ry, angle; } Place;
+/* contact/joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
+typedef struct { double x, y, rx, ry, angle; } hd_anchor;
 
 /* `trig`: cos and sin of each body's angle in q (the same values _Frame.place takes). */
-static inline Place place(long body, const double *local, const double *q,
+static inline hd_anchor hd_place(long body, const double *local, const double *q,
                           const double *trig)
 {
-    Place p;
+    hd_anchor p;
     if (body < 0) {
         p.x = local[0], p.y = local[1], p.rx = 0.0, p.ry = 0.0, p.angle = 0.0;
         return p;
@@ -63,14 +60,14 @@ static inline Place place(long body, const double *local, const double *q,
     return p;
 }
 
-static void add_entry(hd_joint_row *r, long body, double jx, double jy, double jw)
+static void hd_add_entry(hd_joint_row *r, long body, double jx, double jy, double jw)
 {
     r->body[r->count] = body;
     r->j[r->count][0] = jx, r->j[r->count][1] = jy, r->j[r->count][2] = jw;
     r->count += 1;
 }
 
-static hd_joint_row *new_row(hd_joint_row *rows, long *n, int kind, double c)
+static hd_joint_row *hd_new_row(hd_joint_row *rows, long *n, int kind, double c)
 {
     hd_joint_row *r = rows + (*n)++;
     r->kind = kind, r->count = 0, r->scaled = 0;
@@ -78,61 +75,63 @@ static hd_joint_row *new_row(hd_joint_row *rows, long *n, int kind, double c)
     return r;
 }
 
-/* joints.py: _fixed (a direction fixed in the world) and _line (fixed in body a). */
-static void fixed(hd_joint_row *r, const hd_joint *jt, Place pa, Place pb, double ux, double uy)
+/* contact/joints.py: _fixed (a direction fixed in the world) and _line (fixed in body a). */
+static void hd_fixed(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux,
+                     double uy)
 {
     if (jt->b >= 0)
-        add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
+        hd_add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
     if (jt->a >= 0)
-        add_entry(r, jt->a, -ux, -uy, -(ux * -pa.ry + uy * pa.rx));
+        hd_add_entry(r, jt->a, -ux, -uy, -(ux * -pa.ry + uy * pa.rx));
 }
 
-static void line(hd_joint_row *r, const hd_joint *jt, Place pa, Place pb, double ux, double uy)
+static void hd_line(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux,
+                    double uy)
 {
     if (jt->b >= 0)
-        add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
+        hd_add_entry(r, jt->b, ux, uy, ux * -pb.ry + uy * pb.rx);
     if (jt->a >= 0) {
         const double dx = pa.rx + pb.x - pa.x, dy = pa.ry + pb.y - pa.y;
-        add_entry(r, jt->a, -ux, -uy, -(ux * -dy + uy * dx));
+        hd_add_entry(r, jt->a, -ux, -uy, -(ux * -dy + uy * dx));
     }
 }
 
-static void angle_entries(hd_joint_row *r, long a, long b, double scale)
+static void hd_angle_entries(hd_joint_row *r, long a, long b, double scale)
 {
-    add_entry(r, b, 0.0, 0.0, scale);
+    hd_add_entry(r, b, 0.0, 0.0, scale);
     if (a >= 0)
-        add_entry(r, a, 0.0, 0.0, -scale);
+        hd_add_entry(r, a, 0.0, 0.0, -scale);
 }
 
-static void negate(hd_joint_row *r)
+static void hd_negate(hd_joint_row *r)
 {
     for (int e = 0; e < r->count; ++e)
         for (int k = 0; k < 3; ++k)
             r->j[e][k] = -r->j[e][k];
 }
 
-/* joints.py: JointPass._joint_angle. */
-static double joint_angle(const hd_joint *jt, Place pa, Place pb)
+/* contact/joints.py: JointPass._joint_angle. */
+static double hd_joint_angle(const hd_joint *jt, hd_anchor pa, hd_anchor pb)
 {
-    return jt->angle + wrap(pb.angle - pa.angle - jt->raw);
+    return jt->angle + hd_wrap(pb.angle - pa.angle - jt->raw);
 }
 
-/* joints.py: _point_rows. */
-static void point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, Place pa, Place pb,
-                       int kind, double stiffness, double damping)
+/* contact/joints.py: _point_rows. */
+static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_anchor pa,
+                          hd_anchor pb, int kind, double stiffness, double damping)
 {
     for (int axis = 0; axis < 2; ++axis) {
         const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
-        hd_joint_row *r = new_row(rows, n, kind, ux * (pb.x - pa.x) + uy * (pb.y - pa.y));
-        fixed(r, jt, pa, pb, ux, uy);
+        hd_joint_row *r = hd_new_row(rows, n, kind, ux * (pb.x - pa.x) + uy * (pb.y - pa.y));
+        hd_fixed(r, jt, pa, pb, ux, uy);
         r->stiffness = stiffness, r->damping = damping, r->scaled = 1;
     }
 }
 
-/* One entry of a point row (joints.py: _fixed): on body b, u and perp(r) . u; on body a
+/* One entry of a point row (contact/joints.py: _fixed): on body b, u and perp(r) . u; on body a
  * (sign -1) their negatives. */
-static inline void point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
-                               double rx, double ry)
+static inline void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
+                                  double rx, double ry)
 {
     double *j = r->j[r->count];
     r->body[r->count] = body;
@@ -143,10 +142,10 @@ static inline void point_entry(hd_joint_row *r, long body, double sign, double u
     r->count += 1;
 }
 
-/* joints.py: _point_rows of a rigid pin, written out for the common case (the same
+/* contact/joints.py: _point_rows of a rigid pin, written out for the common case (the same
  * operations as point_rows). */
-static inline void pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const Place *pa,
-                            const Place *pb, int values_only)
+static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const hd_anchor *pa,
+                               const hd_anchor *pb, int values_only)
 {
     const double dx = pb->x - pa->x, dy = pb->y - pa->y;
     for (int axis = 0; axis < 2; ++axis) {
@@ -158,31 +157,31 @@ static inline void pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, con
         if (values_only)
             continue;
         if (jt->b >= 0)
-            point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
+            hd_point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
         if (jt->a >= 0)
-            point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
+            hd_point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
     }
 }
 
-/* joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
-static void bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
-                         const hd_joint_row *coordinate, double h)
+/* contact/joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
+static void hd_bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
+                            const hd_joint_row *coordinate, double h)
 {
     if (jt->has_lower) {
-        hd_joint_row *r = new_row(rows, n, HD_LIMIT, value - jt->lower);
+        hd_joint_row *r = hd_new_row(rows, n, HD_LIMIT, value - jt->lower);
         memcpy(r->body, coordinate->body, sizeof r->body);
         memcpy(r->j, coordinate->j, sizeof r->j);
         r->count = coordinate->count;
     }
     if (jt->has_upper) {
-        hd_joint_row *r = new_row(rows, n, HD_LIMIT, jt->upper - value);
+        hd_joint_row *r = hd_new_row(rows, n, HD_LIMIT, jt->upper - value);
         memcpy(r->body, coordinate->body, sizeof r->body);
         memcpy(r->j, coordinate->j, sizeof r->j);
         r->count = coordinate->count;
-        negate(r);
+        hd_negate(r);
     }
     if (jt->has_motor) {
-        hd_joint_row *r = new_row(rows, n, HD_MOTOR, value);
+        hd_joint_row *r = hd_new_row(rows, n, HD_MOTOR, value);
         memcpy(r->body, coordinate->body, sizeof r->body);
         memcpy(r->j, coordinate->j, sizeof r->j);
         r->count = coordinate->count;
@@ -190,8 +189,8 @@ static void bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double
     }
 }
 
-/* joints.py: JointPass._axis. */
-static void axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
+/* contact/joints.py: JointPass._axis. */
+static void hd_axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
 {
     const double c = cos(angle_a), s = sin(angle_a);
     *ux = c * jt->axis[0] - s * jt->axis[1];
@@ -200,7 +199,7 @@ static void axis_of(const hd_joint *jt, double angle_a, double *ux, double *uy)
 
 /* cos and sin of every body's angle in q into m->trig (2 per body), computed again only
  * for the angles that changed (bit for bit) since the last time: m->angles keeps them. */
-static void turn_all(const hd_joint_model *m, const double *q)
+static void hd_turn_all(const hd_joint_model *m, const double *q)
 {
     for (long b = 0; b < m->body_count; ++b) {
         const double angle = q[3 * b + 2];
@@ -217,90 +216,91 @@ static void turn_all(const hd_joint_model *m, const double *q)
     }
 }
 
-/* joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
+/* contact/joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
  * Leaves the cosines and sines of q's angles in m->trig. `values_only`: the rows' values
  * are wanted, not their Jacobians (which the plain pins then skip). */
-static long build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
-                       int values_only)
+static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
+                          int values_only)
 {
     long n = 0;
     const double *trig = m->trig;
-    turn_all(m, q);
+    hd_turn_all(m, q);
     for (long i = 0; i < m->joint_count; ++i) {
         const hd_joint *jt = m->joints + i;
         if (jt->kind == HD_GEAR) {
-            hd_joint_row *r = new_row(rows, &n, HD_RIGID, 0.0);
+            hd_joint_row *r = hd_new_row(rows, &n, HD_RIGID, 0.0);
             const long pair[2] = {jt->gear_a, jt->gear_b};
             const double scales[2] = {1.0, jt->ratio};
             double value = 0.0;
             for (int k = 0; k < 2; ++k) {
                 const hd_joint *g = m->joints + pair[k];
-                const Place pa = place(g->a, g->point_a, q, trig),
-                            pb = place(g->b, g->point_b, q, trig);
-                value += scales[k] * joint_angle(g, pa, pb);
-                angle_entries(r, g->a, g->b, scales[k]);
+                const hd_anchor pa = hd_place(g->a, g->point_a, q, trig),
+                            pb = hd_place(g->b, g->point_b, q, trig);
+                value += scales[k] * hd_joint_angle(g, pa, pb);
+                hd_angle_entries(r, g->a, g->b, scales[k]);
             }
             r->c = value;
             continue;
         }
-        const Place pa = place(jt->a, jt->point_a, q, trig),
-                    pb = place(jt->b, jt->point_b, q, trig);
+        const hd_anchor pa = hd_place(jt->a, jt->point_a, q, trig),
+                    pb = hd_place(jt->b, jt->point_b, q, trig);
         if (jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
                                          jt->has_spring)) {
-            pin_rows(rows, &n, jt, &pa, &pb, values_only);  /* its angle is not wanted */
+            hd_pin_rows(rows, &n, jt, &pa, &pb, values_only);  /* its angle is not wanted */
         } else if (jt->kind == HD_REVOLUTE) {
-            point_rows(rows, &n, jt, pa, pb, HD_RIGID, 0.0, 0.0);
-            const double angle = joint_angle(jt, pa, pb);
+            hd_point_rows(rows, &n, jt, pa, pb, HD_RIGID, 0.0, 0.0);
+            const double angle = hd_joint_angle(jt, pa, pb);
             hd_joint_row coordinate = {0};
-            angle_entries(&coordinate, jt->a, jt->b, 1.0);
-            bounded_rows(rows, &n, jt, angle, &coordinate, h);
+            hd_angle_entries(&coordinate, jt->a, jt->b, 1.0);
+            hd_bounded_rows(rows, &n, jt, angle, &coordinate, h);
             if (jt->has_spring) {
-                hd_joint_row *r = new_row(rows, &n, HD_SOFT, angle - jt->rest);
-                angle_entries(r, jt->a, jt->b, 1.0);
+                hd_joint_row *r = hd_new_row(rows, &n, HD_SOFT, angle - jt->rest);
+                hd_angle_entries(r, jt->a, jt->b, 1.0);
                 r->stiffness = jt->stiffness, r->damping = jt->damping;
             }
         } else if (jt->kind == HD_WELD) {
             const int kind = jt->has_spring ? HD_SOFT : HD_RIGID;
-            point_rows(rows, &n, jt, pa, pb, kind, jt->stiffness, jt->damping);
-            hd_joint_row *r = new_row(rows, &n, kind,
-                                      wrap(pb.angle - pa.angle - jt->reference_angle));
-            angle_entries(r, jt->a, jt->b, 1.0);
+            hd_point_rows(rows, &n, jt, pa, pb, kind, jt->stiffness, jt->damping);
+            hd_joint_row *r = hd_new_row(rows, &n, kind,
+                                         hd_wrap(pb.angle - pa.angle - jt->reference_angle));
+            hd_angle_entries(r, jt->a, jt->b, 1.0);
             r->stiffness = jt->stiffness, r->damping = jt->damping, r->scaled = 1;
         } else if (jt->kind == HD_PRISMATIC) {
             double ux, uy;
-            axis_of(jt, pa.angle, &ux, &uy);
-            hd_joint_row *r = new_row(rows, &n, HD_RIGID,
-                                      -uy * (pb.x - pa.x) + ux * (pb.y - pa.y));
-            line(r, jt, pa, pb, -uy, ux);
-            r = new_row(rows, &n, HD_RIGID, wrap(pb.angle - pa.angle - jt->reference_angle));
-            angle_entries(r, jt->a, jt->b, 1.0);
+            hd_axis_of(jt, pa.angle, &ux, &uy);
+            hd_joint_row *r = hd_new_row(rows, &n, HD_RIGID,
+                                         -uy * (pb.x - pa.x) + ux * (pb.y - pa.y));
+            hd_line(r, jt, pa, pb, -uy, ux);
+            r = hd_new_row(rows, &n, HD_RIGID, hd_wrap(pb.angle - pa.angle - jt->reference_angle));
+            hd_angle_entries(r, jt->a, jt->b, 1.0);
             /* JointPass._coordinate: the translation along the axis. */
-            axis_of(jt, pa.angle, &ux, &uy);
+            hd_axis_of(jt, pa.angle, &ux, &uy);
             const double along = ux * (pb.x - pa.x) + uy * (pb.y - pa.y) - jt->reference_along;
             hd_joint_row coordinate = {0};
-            line(&coordinate, jt, pa, pb, ux, uy);
-            bounded_rows(rows, &n, jt, along, &coordinate, h);
+            hd_line(&coordinate, jt, pa, pb, ux, uy);
+            hd_bounded_rows(rows, &n, jt, along, &coordinate, h);
         } else {  /* a rod or a rope */
             const double dx = pb.x - pa.x, dy = pb.y - pa.y;
             const double length = sqrt(dx * dx + dy * dy);
             const double ux = length > 0.0 ? dx / length : 1.0,
                          uy = length > 0.0 ? dy / length : 0.0;
             if (jt->kind == HD_ROPE) {
-                hd_joint_row *r = new_row(rows, &n, HD_LIMIT, jt->length - length);
-                fixed(r, jt, pa, pb, ux, uy);
-                negate(r);
+                hd_joint_row *r = hd_new_row(rows, &n, HD_LIMIT, jt->length - length);
+                hd_fixed(r, jt, pa, pb, ux, uy);
+                hd_negate(r);
             } else {
-                hd_joint_row *r = new_row(rows, &n, HD_RIGID, length - jt->length);
-                fixed(r, jt, pa, pb, ux, uy);
+                hd_joint_row *r = hd_new_row(rows, &n, HD_RIGID, length - jt->length);
+                hd_fixed(r, jt, pa, pb, ux, uy);
             }
         }
     }
     return n;
 }
 
-/* joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k). */
-static void directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
-                       long n, hd_joint_row *out)
+/* contact/joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k).
+ */
+static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
+                          long n, hd_joint_row *out)
 {
     for (long k = 0; k < n; ++k) {
         const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
@@ -314,8 +314,8 @@ static void directions(const hd_joint_model *m, const hd_joint_row *rows, const 
     }
 }
 
-/* joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
-static void apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
+/* contact/joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
+static void hd_apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
 {
     for (long i = 0; i < n; ++i) {
         const double amount = impulse[i];
@@ -330,8 +330,8 @@ static void apply(double *x, const hd_joint_row *direction, long n, const double
     }
 }
 
-/* joints.py: _dot. */
-static double dot(const hd_joint_row *row, const hd_joint_row *direction)
+/* contact/joints.py: _dot. */
+static double hd_dot(const hd_joint_row *row, const hd_joint_row *direction)
 {
     double s = 0.0;
     for (int e = 0; e < row->count; ++e)
@@ -344,12 +344,12 @@ static double dot(const hd_joint_row *row, const hd_joint_row *direction)
 
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
 {
-    return dot(row, direction);
+    return hd_dot(row, direction);
 }
 
-/* joints.py: _dot, over the entries `meets` pairs (count of them). */
-static double dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
-                          const unsigned char *meets, long count)
+/* contact/joints.py: _dot, over the entries `meets` pairs (count of them). */
+static double hd_dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
+                             const unsigned char *meets, long count)
 {
     double s = 0.0;
     for (long k = 0; k < count; ++k) {
@@ -361,7 +361,7 @@ static double dot_meeting(const hd_joint_row *row, const hd_joint_row *direction
 
 /* The pairs of entries of `row` and `direction` on a common body into `out` (NULL: count
  * only); returns how many. */
-static long meeting(const hd_joint_row *row, const hd_joint_row *direction, unsigned char *out)
+static long hd_meeting(const hd_joint_row *row, const hd_joint_row *direction, unsigned char *out)
 {
     long count = 0;
     for (int e = 0; e < row->count; ++e)
@@ -376,8 +376,8 @@ static long meeting(const hd_joint_row *row, const hd_joint_row *direction, unsi
 
 /* The meets of pattern p's row pairs, for the rows rows[index[k]] (index NULL: rows k);
  * 0, or -1 out of memory. */
-static int make_meets(const hd_pattern *p, const hd_joint_row *rows, const long *index,
-                      hd_meets *m)
+static int hd_make_meets(const hd_pattern *p, const hd_joint_row *rows, const long *index,
+                         hd_meets *m)
 {
     const long n = p->n, slots = p->start[n];
     m->diag = malloc(((size_t)n + 1) * sizeof(long));
@@ -391,14 +391,14 @@ static int make_meets(const hd_pattern *p, const hd_joint_row *rows, const long 
             const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
             unsigned char *out = pass == 1 ? m->pair : NULL;
             m->diag[i] = count;
-            count += meeting(row, row, out == NULL ? NULL : out + count);
+            count += hd_meeting(row, row, out == NULL ? NULL : out + count);
             for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
                 const long j = p->columns[slot];
                 const hd_joint_row *other = rows + (index == NULL ? j : index[j]);
                 m->lower[slot] = count;
-                count += meeting(row, other, out == NULL ? NULL : out + count);
+                count += hd_meeting(row, other, out == NULL ? NULL : out + count);
                 m->upper[slot] = count;
-                count += meeting(other, row, out == NULL ? NULL : out + count);
+                count += hd_meeting(other, row, out == NULL ? NULL : out + count);
             }
         }
         if (pass == 0 && (m->pair = malloc((size_t)count + 1)) == NULL)
@@ -410,7 +410,7 @@ static int make_meets(const hd_pattern *p, const hd_joint_row *rows, const long 
     return 0;
 }
 
-static void free_meets(hd_meets *m)
+static void hd_free_meets(hd_meets *m)
 {
     free(m->diag);
     free(m->lower);
@@ -418,12 +418,12 @@ static void free_meets(hd_meets *m)
     free(m->pair);
 }
 
-/* joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
+/* contact/joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
  * `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the symmetric
  * K, its lower triangle only. */
-static void matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
-                   const long *index, const hd_joint_row *direction, const int *active,
-                   double *diagonal, double *lower, double *upper)
+static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
+                      const long *index, const hd_joint_row *direction, const int *active,
+                      double *diagonal, double *lower, double *upper)
 {
     const unsigned char *pair = meets->pair;
     for (long i = 0; i < p->n; ++i) {
@@ -440,8 +440,8 @@ static void matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_ro
         const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
         /* Row i's lists: its diagonal's, then per slot the lower's and the upper's. */
         const long diag_end = first < end ? meets->lower[first] : meets->diag[i + 1];
-        diagonal[i] = dot_meeting(row, direction + i, pair + meets->diag[i],
-                                  diag_end - meets->diag[i]);
+        diagonal[i] = hd_dot_meeting(row, direction + i, pair + meets->diag[i],
+                                     diag_end - meets->diag[i]);
         for (long slot = first; slot < end; ++slot) {
             const long j = p->columns[slot];
             if (active != NULL && !active[j]) {
@@ -450,20 +450,20 @@ static void matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_ro
                     upper[slot] = 0.0;
                 continue;
             }
-            lower[slot] = dot_meeting(row, direction + j, pair + meets->lower[slot],
-                                      meets->upper[slot] - meets->lower[slot]);
+            lower[slot] = hd_dot_meeting(row, direction + j, pair + meets->lower[slot],
+                                         meets->upper[slot] - meets->lower[slot]);
             if (upper != NULL) {
                 const long next = slot + 1 < end ? meets->lower[slot + 1] : meets->diag[i + 1];
-                upper[slot] = dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
-                                          pair + meets->upper[slot], next - meets->upper[slot]);
+                upper[slot] = hd_dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
+                                             pair + meets->upper[slot], next - meets->upper[slot]);
             }
         }
     }
 }
 
-/* joints.py: _row_sum. */
-static double row_sum(const hd_pattern *p, const double *diagonal, const double *lower, long i,
-                      const double *x, const int *skip)
+/* contact/joints.py: _row_sum. */
+static double hd_row_sum(const hd_pattern *p, const double *diagonal, const double *lower, long i,
+                         const double *x, const int *skip)
 {
     double s = 0.0;
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
@@ -481,8 +481,8 @@ static double row_sum(const hd_pattern *p, const double *diagonal, const double 
     return s;
 }
 
-/* joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
-static void solve(hd_joint_model *m)
+/* contact/joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
+static void hd_solve(hd_joint_model *m)
 {
     const hd_pattern *p = &m->pattern;
     const long n = m->row_count;
@@ -503,7 +503,7 @@ static void solve(hd_joint_model *m)
     }
     long nb = 0;
     for (long i = 0; i < n; ++i) {
-        x[i] = m->free[i] ? 0.0 : py_min(py_max(m->warm[i], low_bound[i]), high_bound[i]);
+        x[i] = m->free[i] ? 0.0 : hd_min(hd_max(m->warm[i], low_bound[i]), high_bound[i]);
         if (!m->free[i])
             m->bounded[nb++] = i;
     }
@@ -512,7 +512,7 @@ static void solve(hd_joint_model *m)
     for (long iteration = 0; iteration < HD_JOINT_MAX_ITERATIONS; ++iteration) {
         if (any_free) {
             for (long i = 0; i < n; ++i)
-                m->rhs[i] = m->free[i] ? b[i] - row_sum(p, diagonal, lower, i, x, m->free)
+                m->rhs[i] = m->free[i] ? b[i] - hd_row_sum(p, diagonal, lower, i, x, m->free)
                                        : 0.0;
             hd_substitute(p, m->low, m->diag, m->out, m->rhs);
             for (long i = 0; i < n; ++i)
@@ -522,8 +522,8 @@ static void solve(hd_joint_model *m)
         double largest = 0.0;
         for (long k = 0; k < nb; ++k) {
             const long i = m->bounded[k];
-            const double s = row_sum(p, diagonal, lower, i, x, NULL);
-            const double updated = py_min(py_max(x[i] + (b[i] - s) / diagonal[i], low_bound[i]),
+            const double s = hd_row_sum(p, diagonal, lower, i, x, NULL);
+            const double updated = hd_min(hd_max(x[i] + (b[i] - s) / diagonal[i], low_bound[i]),
                                           high_bound[i]);
             const double change = fabs(updated - x[i]);
             largest = change > largest ? change : largest;
@@ -538,7 +538,7 @@ static void solve(hd_joint_model *m)
     }
 }
 
-static double largest_abs(const double *x, long n)
+static double hd_largest_abs(const double *x, long n)
 {
     double largest = fabs(x[0]);
     for (long i = 1; i < n; ++i)
@@ -547,18 +547,18 @@ static double largest_abs(const double *x, long n)
     return largest;
 }
 
-/* joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
+/* contact/joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
  * holds the directions of the rows at q0 already. */
-static int hold(hd_joint_model *m, double h, int again)
+static int hd_hold(hd_joint_model *m, double h, int again)
 {
     const long nr = m->rigid_count;
     if (nr == 0) {
-        build_rows(m, m->q, h, m->rows, 0);
+        hd_build_rows(m, m->q, h, m->rows, 0);
         return HD_JOINTS_OK;
     }
     const hd_pattern *p = &m->rigid_pattern;
     if (!again)
-        directions(m, m->rows0, m->rigid, nr, m->dir0);
+        hd_directions(m, m->rows0, m->rigid, nr, m->dir0);
     double scale = h / m->last_h;
     scale = scale * scale;
     for (long k = 0; k < nr; ++k) {
@@ -566,28 +566,28 @@ static int hold(hd_joint_model *m, double h, int again)
         m->nu[k] = m->newton_valid ? m->newton[k] * scale : 0.0;
     }
     const long n3 = 3 * m->body_count;
-    apply(m->q, m->dir0, nr, m->nu);
+    hd_apply(m->q, m->dir0, nr, m->nu);
     /* The rows' values round at about eps |q|: no error can be asked below that. */
-    const double tolerance = py_max(m->tolerance,
-                                    HD_JOINT_ROUNDING * (1.0 + largest_abs(m->q, n3)));
+    const double tolerance = hd_max(m->tolerance,
+                                    HD_JOINT_ROUNDING * (1.0 + hd_largest_abs(m->q, n3)));
     double previous = INFINITY;
     int factored = 0, fresh = 0;  /* the last matrix's L U is kept; it was that iterate's */
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
         /* An iterate that may take the last matrix needs its rows' values only (at first). */
-        build_rows(m, m->q, h, m->rows, factored);
+        hd_build_rows(m, m->q, h, m->rows, factored);
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
-        const double largest = largest_abs(m->step, nr);
+        const double largest = hd_largest_abs(m->step, nr);
         if (largest <= tolerance) {
             double turned = 0.0;
             for (long k = 2; k < n3; k += 3)
-                turned = py_max(turned, fabs(m->q[k] - m->moved[k]));
+                turned = hd_max(turned, fabs(m->q[k] - m->moved[k]));
             if (turned > m->max_turn)
                 return HD_JOINTS_UNSOLVED;
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
             if (factored)
-                build_rows(m, m->q, h, m->rows, 0);
+                hd_build_rows(m, m->q, h, m->rows, 0);
             return HD_JOINTS_OK;
         }
         if (fresh && !(largest <= 0.5 * previous))
@@ -595,9 +595,9 @@ static int hold(hd_joint_model *m, double h, int again)
         fresh = !factored || !(largest <= HD_CHORD * previous);
         if (fresh) {
             if (factored)
-                build_rows(m, m->q, h, m->rows, 0);
-            matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
-                   m->upper);
+                hd_build_rows(m, m->q, h, m->rows, 0);
+            hd_matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
+                      m->upper);
             hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
             factored = 1;
         }
@@ -607,13 +607,13 @@ static int hold(hd_joint_model *m, double h, int again)
         hd_lu_solve(p, m->low, m->upper, m->diag, m->out, m->step);
         for (long k = 0; k < nr; ++k)
             m->nu[k] = m->nu[k] + m->step[k];
-        apply(m->q, m->dir0, nr, m->step);
+        hd_apply(m->q, m->dir0, nr, m->step);
     }
     return HD_JOINTS_UNSOLVED;
 }
 
-/* joints.py: JointPass._correct, on m->q and m->rows. */
-static void correct(hd_joint_model *m, double h)
+/* contact/joints.py: JointPass._correct, on m->q and m->rows. */
+static void hd_correct(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
     const hd_pattern *p = &m->pattern;
@@ -631,17 +631,17 @@ static void correct(hd_joint_model *m, double h)
             m->active[i] = r->kind == HD_RIGID || (r->kind == HD_LIMIT && r->c < 0.0);
             m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
-        directions(m, m->rows, NULL, n, m->dir);
-        matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
+        hd_directions(m, m->rows, NULL, n, m->dir);
+        hd_matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
         hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
         hd_substitute(p, m->low, m->diag, m->out, m->rhs);
-        apply(m->q, m->dir, n, m->rhs);
-        build_rows(m, m->q, h, m->rows, 0);
+        hd_apply(m->q, m->dir, n, m->rhs);
+        hd_build_rows(m, m->q, h, m->rows, 0);
     }
 }
 
-/* joints.py: _rate. */
-static double rate(const hd_joint_row *row, const double *v)
+/* contact/joints.py: _rate. */
+static double hd_rate(const hd_joint_row *row, const double *v)
 {
     double s = 0.0;
     for (int e = 0; e < row->count; ++e) {
@@ -651,16 +651,16 @@ static double rate(const hd_joint_row *row, const double *v)
     return s;
 }
 
-/* joints.py: JointPass._velocities, on m->v at the rows m->rows. */
-static void velocities(hd_joint_model *m, double h)
+/* contact/joints.py: JointPass._velocities, on m->v at the rows m->rows. */
+static void hd_velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
-    directions(m, m->rows, NULL, n, m->dir);
-    matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
-           NULL);
+    hd_directions(m, m->rows, NULL, n, m->dir);
+    hd_matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
+              NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
-        m->b[i] = -rate(row, m->v);
+        m->b[i] = -hd_rate(row, m->v);
         m->low_bound[i] = -INFINITY, m->high_bound[i] = INFINITY;
         if (row->kind == HD_LIMIT) {
             m->b[i] -= (0.0 > row->c ? 0.0 : row->c) / h;
@@ -681,8 +681,8 @@ static void velocities(hd_joint_model *m, double h)
             m->b[i] -= stiffness * row->c / compliance;
         }
     }
-    solve(m);
-    apply(m->v, m->dir, n, m->x);
+    hd_solve(m);
+    hd_apply(m->v, m->dir, n, m->x);
     memcpy(m->warm, m->x, (size_t)n * sizeof(double));
     m->last_h = h;
 }
@@ -692,7 +692,7 @@ long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1
     double turn = 0.0;
     for (long k = 0; k < m->turning_count; ++k) {
         const long b = m->turning[k];
-        turn = py_max(turn, fabs(q1[3 * b + 2] - q0[3 * b + 2]));
+        turn = hd_max(turn, fabs(q1[3 * b + 2] - q0[3 * b + 2]));
     }
     for (long i = 0; i < m->joint_count; ++i) {  /* the rods and ropes */
         const hd_joint *jt = m->joints + i;
@@ -716,7 +716,7 @@ long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1
         }
         const double dx = ends[0][1][0] - ends[0][0][0], dy = ends[0][1][1] - ends[0][0][1];
         const double ex = ends[1][1][0] - ends[1][0][0], ey = ends[1][1][1] - ends[1][0][1];
-        turn = py_max(turn, atan2(fabs(dx * ey - dy * ex), dx * ex + dy * ey));
+        turn = hd_max(turn, atan2(fabs(dx * ey - dy * ex), dx * ex + dy * ey));
     }
     if (!(turn > m->max_turn))  /* within, or not finite: the divergence check reports it */
         return 1;
@@ -750,23 +750,23 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
         m->rows0 = m->rows, m->rows = swap;
         swap = m->dir0, m->dir0 = m->dir, m->dir = swap;
     } else {
-        build_rows(m, m->start, h, m->rows0, 0);
+        hd_build_rows(m, m->start, h, m->rows0, 0);
     }
-    const int status = hold(m, h, again);
+    const int status = hd_hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
     for (long k = 0; k < 3 * nb; ++k)
         m->v[k] += (m->q[k] - m->moved[k]) / h;
-    correct(m, h);
+    hd_correct(m, h);
     memcpy(m->settled, m->v, (size_t)(3 * nb) * sizeof(double));
-    velocities(m, h);
+    hd_velocities(m, h);
     for (long i = 0; i < m->joint_count; ++i) {  /* JointPass._count_turns, at m->trig's q */
         hd_joint *jt = m->joints + i;
         if (jt->kind == HD_GEAR)
             continue;
-        const Place pa = place(jt->a, jt->point_a, m->q, m->trig),
-                    pb = place(jt->b, jt->point_b, m->q, m->trig);
-        jt->angle = joint_angle(jt, pa, pb);
+        const hd_anchor pa = hd_place(jt->a, jt->point_a, m->q, m->trig),
+                    pb = hd_place(jt->b, jt->point_b, m->q, m->trig);
+        jt->angle = hd_joint_angle(jt, pa, pb);
         jt->raw = pb.angle - pa.angle;
     }
     for (long k = 0; k < nb; ++k)
@@ -793,7 +793,7 @@ int hd_joints_prepare(hd_joint_model *m)
     m->angles = m->trig + 2 * nb;
     for (long b = 0; b < nb; ++b)
         m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
-    const long n = build_rows(m, zero, 1.0, probe, 0);
+    const long n = hd_build_rows(m, zero, 1.0, probe, 0);
     m->row_count = n;
     m->rigid = malloc((size_t)(n + 1) * sizeof(long));
     m->rigid_count = 0;
@@ -803,8 +803,8 @@ int hd_joints_prepare(hd_joint_model *m)
     int status = m->rigid == NULL ? HD_JOINTS_OUT_OF_MEMORY : HD_JOINTS_OK;
     if (status == HD_JOINTS_OK && (m->pattern.n != n || m->rigid_pattern.n != m->rigid_count))
         status = HD_JOINTS_MISMATCH;
-    if (status == HD_JOINTS_OK && (make_meets(&m->pattern, probe, NULL, &m->meets) < 0 ||
-            make_meets(&m->rigid_pattern, probe, m->rigid, &m->rigid_meets) < 0))
+    if (status == HD_JOINTS_OK && (hd_make_meets(&m->pattern, probe, NULL, &m->meets) < 0 ||
+            hd_make_meets(&m->rigid_pattern, probe, m->rigid, &m->rigid_meets) < 0))
         status = HD_JOINTS_OUT_OF_MEMORY;
     free(probe);
     free(zero);
@@ -863,7 +863,7 @@ void hd_joints_free(hd_joint_model *m)
     free(m->flags);
     hd_pattern_free(&m->pattern);
     hd_pattern_free(&m->rigid_pattern);
-    free_meets(&m->meets);
-    free_meets(&m->rigid_meets);
+    hd_free_meets(&m->meets);
+    hd_free_meets(&m->rigid_meets);
     free(m);
 }

@@ -12,7 +12,8 @@
 
 #include "sparse.h"
 
-/* The constants of contact/joints.py; the binding exports them and joints.py checks them. */
+/* The constants of contact/joints.py; the binding exports them and contact/joints.py checks them.
+ */
 #define HD_JOINT_TOLERANCE 1e-12
 #define HD_JOINT_ROUNDING (16.0 * 2.220446049250313e-16)
 #define HD_NEWTON_ITERATIONS 50
@@ -28,7 +29,7 @@ enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3,
                      HD_GEAR = 5 };
 enum hd_row_kind { HD_RIGID = 0, HD_LIMIT = 1, HD_MOTOR = 2, HD_SOFT = 3 };
 
-/* Packed columns per joint (joints.py: JointPass.kernel_pass writes them). */
+/* Packed columns per joint (contact/joints.py: JointPass.kernel_pass writes them). */
 #define HD_JOINT_INTS 9   /* kind, a, b, lower?, upper?, motor?, spring (or soft weld)?, gear a, b */
 #define HD_JOINT_REALS 14 /* point_a (2), point_b (2), axis (2), lower, upper, max_effort,
                              stiffness, damping, rest_angle, length, ratio */
@@ -48,7 +49,7 @@ typedef struct {
 
 /* Which entries of two rows meet on a body, per pair of rows a pattern couples (the bodies
  * of the rows' entries are the same at any pose): `pair` holds e << 2 | f for entry e of
- * the row and f of the direction, in joints.py _dot's order; the diagonal's for row i at
+ * the row and f of the direction, in contact/joints.py _dot's order; the diagonal's for row i at
  * diag[i] .. diag[i + 1], the strict lower triangle's (row i, direction j) and the upper's
  * (row j, direction i) for each slot likewise. */
 typedef struct {
@@ -56,7 +57,7 @@ typedef struct {
     unsigned char *pair;
 } hd_meets;
 
-/* One scalar constraint (joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
+/* One scalar constraint (contact/joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
 typedef struct {
     int kind, count, scaled;
     long body[4];
@@ -71,7 +72,7 @@ typedef struct hd_joint_model {
     hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
     /* Where the factors of all rows' matrices, and of the rigid rows' alone, can be
-     * non-zero (sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
+     * non-zero (contact/sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
     hd_pattern pattern, rigid_pattern;
     hd_meets meets, rigid_meets;
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
@@ -87,7 +88,7 @@ typedef struct hd_joint_model {
      * and directions (hd_joints_resolve starts from them when it may). */
     int ended;
     /* working memory */
-    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: turn_all) */
+    double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: hd_turn_all) */
     hd_joint_row *row_memory, *rows0, *rows, *dir0, *dir;  /* the last four in the first */
     double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
     double *diagonal, *lower, *upper, *low, *diag;
@@ -103,11 +104,11 @@ enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS
  * that many rows, else HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
-/* joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
+/* contact/joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
-/* joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
+/* contact/joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
 long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
-/* joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
+/* contact/joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
  * place; HD_JOINTS_UNSOLVED (nothing changed but the working memory) when the positions
  * have no solution near the step's end (JointsUnsolved). */
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);

@@ -31,7 +31,7 @@ static inline double hd_length(double x, double y)
 /* Exported names carry the prefix hd_: a plain `advance` would be bound to glibc's. */
 
 /* The kinds of force term, each with its integer and real columns per instance (the
- * Python packing in hecker_dynamics/kernel.py writes the same layout). */
+ * Python packing in hecker_dynamics/dynamics/kernel.py writes the same layout). */
 enum hd_term_kind {
     HD_GRAVITY = 1,         /* ints: body;                 reals: wx, wy (m g)            */
     HD_ANCHOR_SPRING = 2,   /* ints: body;                 reals: lx, ly, ax, ay, k, L0, c */
@@ -78,7 +78,7 @@ void hd_accelerations(const hd_program *program, const hd_program *inputs, int o
 
 /* Each spring's potential energy at q, k (|d| - L0)^2 / 2, added to `energy` and `excess`
  * at the unit of its first body (`unit`: one per body), term by term in the program's
- * order and spring by spring within each, as divergence.py's plain-float loop adds them,
+ * order and spring by spring within each, as dynamics/divergence.py's plain-float loop adds them,
  * so that the two give the same bits. */
 void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
                               double *energy, double *excess, hd_scratch *scratch);
@@ -97,7 +97,7 @@ void hd_unit_energy(const hd_program *springs, const double *q, const double *v,
                     const double *statics, const long *unit, long units, double *budget,
                     hd_scratch *scratch);
 
-/* One check of the energy bound (divergence.py: EnergyBound._check): each unit's budget
+/* One check of the energy bound (dynamics/divergence.py: EnergyBound._check): each unit's budget
  * advanced by `seconds` (ROOT by half the rates, WORK by the power), its energy, excess
  * and limit, `growth` times (ROOT + sqrt(WORK))^2; returns the largest ratio of excess to
  * limit (0 for none, inf for an energy that is not finite). */
@@ -105,7 +105,7 @@ double hd_bound_check(const hd_program *springs, const double *q, const double *
                       long bodies, const double *statics, const long *unit, long units,
                       double *budget, double seconds, double growth, hd_scratch *scratch);
 
-/* An embedded Runge-Kutta pair (see hecker_dynamics/tableaux.py): `a` is S x (S - 1),
+/* An embedded Runge-Kutta pair (see hecker_dynamics/integrators/tableaux.py): `a` is S x (S - 1),
  * `error` is error_rows x S. `needs_new_state`: the error estimate reads k_S, the slope
  * at the new state (else k_S is evaluated only for an accepted sub-step); set once, when
  * the pair is made. */
@@ -121,7 +121,7 @@ typedef struct {
 enum hd_method { HD_EXPLICIT_EULER = 0, HD_SEMI_IMPLICIT_EULER = 1, HD_VELOCITY_VERLET = 2,
                  HD_RK4 = 3, HD_EMBEDDED = 4 };
 
-/* Most sub-steps of an embedded pair in one step (integrators.py: MAX_SUBSTEPS). */
+/* Most sub-steps of an embedded pair in one step (integrators/methods.py: MAX_SUBSTEPS). */
 #define HD_MAX_PAIR_SUBSTEPS 100000L
 
 enum hd_status { HD_ADVANCED = 0, HD_NOT_FINITE = 1, HD_SUBSTEP_UNDERFLOW = 2,

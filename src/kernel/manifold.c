@@ -8,72 +8,34 @@
 
 #include "contact.h"
 #include "kernel.h"
-
-/* Two doubles side by side, for two edges at once: SSE2's, which every x86-64 has, else
- * a pair of scalars. Either way each lane gets the same IEEE operations as one double. */
-#if defined(__SSE2__) || defined(_M_X64)
-#include <emmintrin.h>
-typedef __m128d hd_v2;
-static inline hd_v2 v2_pair(double first, double second) { return _mm_set_pd(second, first); }
-static inline hd_v2 v2_all(double x) { return _mm_set1_pd(x); }
-static inline hd_v2 v2_sub(hd_v2 x, hd_v2 y) { return _mm_sub_pd(x, y); }
-static inline hd_v2 v2_mul(hd_v2 x, hd_v2 y) { return _mm_mul_pd(x, y); }
-static inline hd_v2 v2_add(hd_v2 x, hd_v2 y) { return _mm_add_pd(x, y); }
-/* t < s ? t : s, lane by lane: MINPD's own rule, for NaNs and zeros too. */
-static inline hd_v2 v2_min(hd_v2 t, hd_v2 s) { return _mm_min_pd(t, s); }
-static inline void v2_store(double *out, hd_v2 x) { _mm_storeu_pd(out, x); }
-#else
-typedef struct { double lane[2]; } hd_v2;
-static inline hd_v2 v2_pair(double first, double second) { return (hd_v2){{first, second}}; }
-static inline hd_v2 v2_all(double x) { return (hd_v2){{x, x}}; }
-static inline hd_v2 v2_sub(hd_v2 x, hd_v2 y)
-{
-    return (hd_v2){{x.lane[0] - y.lane[0], x.lane[1] - y.lane[1]}};
-}
-static inline hd_v2 v2_mul(hd_v2 x, hd_v2 y)
-{
-    return (hd_v2){{x.lane[0] * y.lane[0], x.lane[1] * y.lane[1]}};
-}
-static inline hd_v2 v2_add(hd_v2 x, hd_v2 y)
-{
-    return (hd_v2){{x.lane[0] + y.lane[0], x.lane[1] + y.lane[1]}};
-}
-static inline hd_v2 v2_min(hd_v2 t, hd_v2 s)
-{
-    return (hd_v2){{t.lane[0] < s.lane[0] ? t.lane[0] : s.lane[0],
-                    t.lane[1] < s.lane[1] ? t.lane[1] : s.lane[1]}};
-}
-static inline void v2_store(double *out, hd_v2 x)
-{
-    out[0] = x.lane[0];
-    out[1] = x.lane[1];
-}
-#endif
+#include "simd.h"
 
 /* The edge of polygon 1 along whose normal polygon 2 is farthest out, and that distance
- * (collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
+ * (contact/collision.py: _max_separation; Python's min keeps the first of equal values). Stops at
  * the first edge farther out than `margin`: the polygons are apart, whichever edge is.
  * Each edge's distance is the same fold of the same products as one edge at a time; they
  * are found two edges at a time (an odd count's last edge twice), and a second edge found
  * past the stop changes nothing. */
-static long max_separation(const double *v1, const double *n1, long k1, const double *v2,
-                           long k2, double margin, double *separation)
+static long hd_max_separation(const double *v1, const double *n1, long k1, const double *v2,
+                              long k2, double margin, double *separation)
 {
     long best_edge = 0;
     double best = -INFINITY;
     for (long i = 0; i < k1; i += 2) {
         const long e = i + 1 < k1 ? i + 1 : i;
-        const hd_v2 nx = v2_pair(n1[2 * i], n1[2 * e]), ny = v2_pair(n1[2 * i + 1], n1[2 * e + 1]);
-        const hd_v2 vx = v2_pair(v1[2 * i], v1[2 * e]), vy = v2_pair(v1[2 * i + 1], v1[2 * e + 1]);
-        hd_v2 s = v2_add(v2_mul(nx, v2_sub(v2_all(v2[0]), vx)),
-                         v2_mul(ny, v2_sub(v2_all(v2[1]), vy)));
+        const hd_v2 nx = hd_v2_pair(n1[2 * i], n1[2 * e]),
+                    ny = hd_v2_pair(n1[2 * i + 1], n1[2 * e + 1]);
+        const hd_v2 vx = hd_v2_pair(v1[2 * i], v1[2 * e]),
+                    vy = hd_v2_pair(v1[2 * i + 1], v1[2 * e + 1]);
+        hd_v2 s = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[0]), vx)),
+                            hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[1]), vy)));
         for (long j = 1; j < k2; ++j) {
-            const hd_v2 t = v2_add(v2_mul(nx, v2_sub(v2_all(v2[2 * j]), vx)),
-                                   v2_mul(ny, v2_sub(v2_all(v2[2 * j + 1]), vy)));
-            s = v2_min(t, s);
+            const hd_v2 t = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[2 * j]), vx)),
+                                      hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[2 * j + 1]), vy)));
+            s = hd_v2_min(t, s);
         }
         double edge[2];
-        v2_store(edge, s);
+        hd_v2_store(edge, s);
         for (long l = i; l <= e; ++l) {
             if (edge[l - i] > best) {
                 best_edge = l;
@@ -89,9 +51,10 @@ static long max_separation(const double *v1, const double *n1, long k1, const do
     return best_edge;
 }
 
-/* The part of segment p0-p1 with n . p <= offset (collision.py: _clip); returns the count. */
-static int clip(const double *p0, const double *p1, double nx, double ny, double offset,
-                double *out)
+/* The part of segment p0-p1 with n . p <= offset (contact/collision.py: _clip); returns the count.
+ */
+static int hd_clip(const double *p0, const double *p1, double nx, double ny, double offset,
+                   double *out)
 {
     const double d0 = nx * p0[0] + ny * p0[1] - offset;
     const double d1 = nx * p1[0] + ny * p1[1] - offset;
@@ -119,10 +82,10 @@ int hd_polygon_polygon(const double *va, const double *na, long ka, const double
                        const double *nb, long kb, double margin, hd_found *out)
 {
     double sep_a, sep_b;
-    const long edge_a = max_separation(va, na, ka, vb, kb, margin, &sep_a);
+    const long edge_a = hd_max_separation(va, na, ka, vb, kb, margin, &sep_a);
     if (sep_a > margin)
         return 0;
-    const long edge_b = max_separation(vb, nb, kb, va, ka, margin, &sep_b);
+    const long edge_b = hd_max_separation(vb, nb, kb, va, ka, margin, &sep_b);
     if (sep_b > margin)
         return 0;
     const int flip = sep_b > sep_a + 0.1 * margin;
@@ -143,9 +106,9 @@ int hd_polygon_polygon(const double *va, const double *na, long ka, const double
     const double *v1 = ref_v + 2 * edge, *v2 = ref_v + 2 * ((edge + 1) % k_ref);
     const double tx = -ny, ty = nx;
     double first[6], second[6];
-    if (clip(c0, c1, -tx, -ty, -(tx * v1[0] + ty * v1[1]), first) < 2)
+    if (hd_clip(c0, c1, -tx, -ty, -(tx * v1[0] + ty * v1[1]), first) < 2)
         return 0;
-    const int kept = clip(first, first + 2, tx, ty, tx * v2[0] + ty * v2[1], second);
+    const int kept = hd_clip(first, first + 2, tx, ty, tx * v2[0] + ty * v2[1], second);
     const double front = nx * v1[0] + ny * v1[1];
     const double normal_x = flip ? -nx : nx, normal_y = flip ? -ny : ny;
     int count = 0;

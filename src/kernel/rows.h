@@ -1,4 +1,4 @@
-/* The arithmetic of the solver's rows (solver.py: ContactRow, Block and the _solve_
+/* The arithmetic of the solver's rows (contact/rows.py: ContactRow, Block and the _solve_
  * functions), operation for operation, for solver.c's sequential passes and wide.c's
  * scalar remainder; always inlined, so each caller keeps its velocities in registers.
  */
@@ -9,19 +9,16 @@
 
 #include "contact.h"
 
-/* Python's min(x, y) and max(x, y): the first unless the second is strictly beyond it. */
-static HD_HOT double py_min(double x, double y) { return y < x ? y : x; }
-static HD_HOT double py_max(double x, double y) { return y > x ? y : x; }
 
-/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (solver.py: _normal_velocity). */
-static HD_HOT double normal_velocity(const double *va, const double *vb, const hd_row *r)
+/* (v_B + omega_B perp(r_B) - v_A - omega_A perp(r_A)) . n (contact/rows.py: normal_velocity). */
+static HD_HOT double hd_normal_velocity(const double *va, const double *vb, const hd_row *r)
 {
     return (vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray) * r->nx
            + (vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax) * r->ny;
 }
 
 /* Impulse (px, py) at the contact: +P to body b, -P to body a (ContactRow.push). */
-static HD_HOT void push(double *va, double *vb, const hd_row *r, double px, double py)
+static HD_HOT void hd_push(double *va, double *vb, const hd_row *r, double px, double py)
 {
     va[0] -= px * r->im_a;
     va[1] -= py * r->im_a;
@@ -32,39 +29,42 @@ static HD_HOT void push(double *va, double *vb, const hd_row *r, double px, doub
 }
 
 /* One contact's normal impulse, clamped at zero; returns the change of its normal
- * velocity (solver.py: _solve_normal). */
-static HD_HOT double solve_normal(hd_row *r, double *va, double *vb)
+ * velocity (contact/rows.py: solve_normal). */
+static HD_HOT double hd_solve_normal(hd_row *r, double *va, double *vb)
 {
     const double jn = r->jn;
-    const double new_n = py_max(jn + (r->target - normal_velocity(va, vb, r)) * r->mass_n, 0.0);
-    push(va, vb, r, (new_n - jn) * r->nx, (new_n - jn) * r->ny);
+    const double new_n = hd_max(jn + (r->target - hd_normal_velocity(va, vb, r)) * r->mass_n, 0.0);
+    hd_push(va, vb, r, (new_n - jn) * r->nx, (new_n - jn) * r->ny);
     r->jn = new_n;
     return fabs(new_n - jn) / r->mass_n;
 }
 
 /* One contact's tangent impulse within |jt| <= mu jn; returns the change of its tangent
- * velocity (solver.py: _solve_friction). */
-static HD_HOT double solve_friction(hd_row *r, double *va, double *vb)
+ * velocity (contact/rows.py: solve_friction). */
+static HD_HOT double hd_solve_friction(hd_row *r, double *va, double *vb)
 {
     if (!(r->mu > 0.0))
         return 0.0;
     const double dvx = vb[0] - vb[2] * r->rby - va[0] + va[2] * r->ray;
     const double dvy = vb[1] + vb[2] * r->rbx - va[1] - va[2] * r->rax;
     const double jt = r->jt, bound = r->mu * r->jn;
-    const double new_t = py_min(py_max(jt - (-dvx * r->ny + dvy * r->nx) * r->mass_t, -bound),
+    const double new_t = hd_min(hd_max(jt - (-dvx * r->ny + dvy * r->nx) * r->mass_t, -bound),
                                 bound);
-    push(va, vb, r, -(new_t - jt) * r->ny, (new_t - jt) * r->nx);
+    hd_push(va, vb, r, -(new_t - jt) * r->ny, (new_t - jt) * r->nx);
     r->jt = new_t;
     return fabs(new_t - jt) / r->mass_t;
 }
 
 /* The two normal impulses of a two-point manifold at once, as the 2 x 2 linear
- * complementarity problem, then each point's friction (solver.py: Block.solve). */
-static inline double solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va, double *vb)
+ * complementarity problem, then each point's friction (contact/rows.py: Block.solve). */
+static inline double hd_solve_block(const hd_unit *u, hd_row *one, hd_row *two, double *va,
+                                    double *vb)
 {
     const double old1 = one->jn, old2 = two->jn;
-    const double b1 = normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
-    const double b2 = normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
+    const double b1 =
+        hd_normal_velocity(va, vb, one) - one->target - (u->k11 * old1 + u->k12 * old2);
+    const double b2 =
+        hd_normal_velocity(va, vb, two) - two->target - (u->k12 * old1 + u->k22 * old2);
     double x1 = -(u->inv11 * b1 + u->inv12 * b2);
     double x2 = -(u->inv12 * b1 + u->inv22 * b2);
     if (!(x1 >= 0.0 && x2 >= 0.0)) {
@@ -83,42 +83,42 @@ static inline double solve_block(const hd_unit *u, hd_row *one, hd_row *two, dou
             }
         }
     }
-    push(va, vb, one, (x1 - old1) * one->nx, (x1 - old1) * one->ny);
-    push(va, vb, two, (x2 - old2) * two->nx, (x2 - old2) * two->ny);
+    hd_push(va, vb, one, (x1 - old1) * one->nx, (x1 - old1) * one->ny);
+    hd_push(va, vb, two, (x2 - old2) * two->nx, (x2 - old2) * two->ny);
     one->jn = x1;
     two->jn = x2;
-    double change = py_max(fabs(x1 - old1) / one->mass_n, fabs(x2 - old2) / two->mass_n);
-    change = py_max(change, solve_friction(one, va, vb));
-    return py_max(change, solve_friction(two, va, vb));
+    double change = hd_max(fabs(x1 - old1) / one->mass_n, fabs(x2 - old2) / two->mass_n);
+    change = hd_max(change, hd_solve_friction(one, va, vb));
+    return hd_max(change, hd_solve_friction(two, va, vb));
 }
 
 /* One unit's impulses: its block, or its point's normal then tangent impulse; returns
- * the largest velocity change (solver.py: _solve_velocities). */
-static HD_HOT double solve_unit(const hd_unit *u, hd_row *rows, double *velocity)
+ * the largest velocity change (contact/solve.py: solve_velocities). */
+static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *velocity)
 {
     hd_row *r = rows + u->first;
     double *va = velocity + 3 * r->a, *vb = velocity + 3 * r->b;
     if (u->pair)
-        return solve_block(u, r, r + 1, va, vb);
-    const double change = solve_normal(r, va, vb);
-    return py_max(change, solve_friction(r, va, vb));
+        return hd_solve_block(u, r, r + 1, va, vb);
+    const double change = hd_solve_normal(r, va, vb);
+    return hd_max(change, hd_solve_friction(r, va, vb));
 }
 
 /* The depths of the rows of the units `members` (size of them) after the velocity
  * change, depth - h (v_n' - v_n), into base[row]; whether the deepest is beyond HD_SLOP,
  * the deepest found as Python's max() finds it, in the units' order
- * (solver.py: _correct_positions). */
-static inline int depths_after(const hd_contact_model *m, const long *members, long size,
-                               double h, double *base)
+ * (contact/solve.py: correct_positions). */
+static inline int hd_depths_after(const hd_contact_model *m, const long *members, long size,
+                                  double h, double *base)
 {
     double deepest = 0.0;
     for (long k = 0; k < size; ++k) {
         const hd_unit *u = m->units + members[k];
         for (long i = u->first; i <= u->first + u->pair; ++i) {
             const hd_row *r = m->rows + i;
-            base[i] = r->depth - h * (normal_velocity(m->velocity + 3 * r->a,
-                                                      m->velocity + 3 * r->b, r) - r->approach);
-            deepest = k == 0 && i == u->first ? base[i] : py_max(deepest, base[i]);
+            base[i] = r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a,
+                                                         m->velocity + 3 * r->b, r) - r->approach);
+            deepest = k == 0 && i == u->first ? base[i] : hd_max(deepest, base[i]);
         }
     }
     return !(deepest <= HD_SLOP);
@@ -126,18 +126,18 @@ static inline int depths_after(const hd_contact_model *m, const long *members, l
 
 /* One pass of the position correction over a unit's rows: each moves its bodies' shifts
  * apart along the normal by a fraction of the excess of its depth `base` beyond HD_SLOP
- * (solver.py: _correct_positions). */
-static HD_HOT void correct_unit(const hd_unit *u, const hd_row *rows, const double *base,
-                                double *shift)
+ * (contact/solve.py: correct_positions). */
+static HD_HOT void hd_correct_unit(const hd_unit *u, const hd_row *rows, const double *base,
+                                   double *shift)
 {
     for (long i = u->first; i <= u->first + u->pair; ++i) {
         const hd_row *r = rows + i;
         double *sa = shift + 3 * r->a, *sb = shift + 3 * r->b;
-        const double excess = base[i] - HD_SLOP - normal_velocity(sa, sb, r);
+        const double excess = base[i] - HD_SLOP - hd_normal_velocity(sa, sb, r);
         if (excess <= 0.0)
             continue;
-        const double amount = py_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;
-        push(sa, sb, r, amount * r->nx, amount * r->ny);
+        const double amount = hd_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;
+        hd_push(sa, sb, r, amount * r->nx, amount * r->ny);
     }
 }
 

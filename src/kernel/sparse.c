@@ -29,7 +29,7 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
             p->above_row[at] = i, p->above_slot[at] = s;
         }
     free(fill);
-    /* The merges of sparse.py's factor and lu, once: count, then fill. */
+    /* The merges of contact/sparse.py's factor and lu, once: count, then fill. */
     p->update_start = calloc((size_t)slots + 1, sizeof(long));
     if (p->update_start == NULL)
         return -1;

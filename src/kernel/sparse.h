@@ -4,13 +4,13 @@
 #ifndef HECKER_DYNAMICS_SPARSE_H
 #define HECKER_DYNAMICS_SPARSE_H
 
-/* sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row. */
+/* contact/sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row. */
 #define HD_DEPENDENT 1e-10
 /* The most updates a pattern keeps listed (16 bytes each); beyond, the factorizations
  * merge the rows' patterns as they go, in the same order. */
 #define HD_MOST_UPDATES 4000000L
 
-/* sparse.py: Pattern. Row i's columns (ascending) are columns[start[i] .. start[i + 1]),
+/* contact/sparse.py: Pattern. Row i's columns (ascending) are columns[start[i] .. start[i + 1]),
  * each a slot of the factors' arrays; column i's slots, by ascending row, are
  * above_row/above_slot[above_start[i] .. above_start[i + 1]). */
 typedef struct {
@@ -29,18 +29,18 @@ typedef struct {
 int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns);
 void hd_pattern_free(hd_pattern *p);
 
-/* sparse.py: factor, K = L D L^T for the rows `active` marks (NULL: all); `out` marks the
+/* contact/sparse.py: factor, K = L D L^T for the rows `active` marks (NULL: all); `out` marks the
  * rows left out or dropped. */
 void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
                const int *active, double *low, double *diag, int *out);
-/* sparse.py: substitute, x in place of the right-hand side. */
+/* contact/sparse.py: substitute, x in place of the right-hand side. */
 void hd_substitute(const hd_pattern *p, const double *low, const double *diag, const int *out,
                    double *x);
-/* sparse.py: lu; `upper` (the transpose of A's strict upper triangle, by slots) becomes
+/* contact/sparse.py: lu; `upper` (the transpose of A's strict upper triangle, by slots) becomes
  * U's, `diag` the reciprocals of U's diagonal. */
 void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, double *upper,
            double *low, double *diag, int *out);
-/* sparse.py: lu_solve, x in place of the right-hand side. */
+/* contact/sparse.py: lu_solve, x in place of the right-hand side. */
 void hd_lu_solve(const hd_pattern *p, const double *low, const double *upper,
                  const double *diag, const int *out, double *x);
 

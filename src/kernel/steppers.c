@@ -8,36 +8,35 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "floats.h"
 #include "contact.h"
 #include "joint.h"
 #include "kernel.h"
 
 /* math.pi, the same double (strict C has no M_PI). */
-static const double PI = 3.141592653589793;
-
 typedef struct {
     const hd_program *program, *inputs;
     int oriented;
     long n3;  /* 3 N: the length of q, of v and of the accelerations */
     hd_scratch scratch;
     hd_work *work;
-} Forces;
+} hd_forces;
 
-static void evaluate(Forces *f, const double *q, const double *v, double *a)
+static void hd_evaluate(hd_forces *f, const double *q, const double *v, double *a)
 {
     f->work->evaluations += 1;
     hd_accelerations(f->program, f->inputs, f->oriented, q, v, a, &f->scratch);
 }
 
 /* The article's explicit Euler, x += h v and v += h a from the start of the step
- * (integrators.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
+ * (integrators/methods.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
  * then x += h v with the new velocity (SemiImplicitEuler). */
-static void euler(Forces *f, const double *q, const double *v, double *q1, double *v1,
-                  double h, double *a, int symplectic)
+static void hd_euler(hd_forces *f, const double *q, const double *v, double *q1, double *v1,
+                     double h, double *a, int symplectic)
 {
     const hd_program *p = f->program;
     if (p->term_count == 0 && (f->inputs == NULL || f->inputs->term_count == 0))
-        evaluate(f, q, v, a);
+        hd_evaluate(f, q, v, a);
     else {  /* the accelerations w / m taken in the same pass as the update: one pass less */
         f->work->evaluations += 1;
         hd_wrench(p, f->inputs, f->oriented, q, v, &f->scratch);
@@ -63,45 +62,45 @@ static void euler(Forces *f, const double *q, const double *v, double *q1, doubl
 }
 
 /* x1 = x + h v + h^2/2 a0; v1 = v + h/2 (a0 + a(x1, v + h a0)) (VelocityVerlet). */
-static void velocity_verlet(Forces *f, const double *q, const double *v, double *q1,
-                            double *v1, double h, double *a0)
+static void hd_velocity_verlet(hd_forces *f, const double *q, const double *v, double *q1,
+                               double *v1, double h, double *a0)
 {
     double *a1 = a0 + f->n3, *predicted = a1 + f->n3;
     const double half_h2 = 0.5 * h * h, half_h = 0.5 * h;
-    evaluate(f, q, v, a0);
+    hd_evaluate(f, q, v, a0);
     for (long k = 0; k < f->n3; ++k) {
         q1[k] = q[k] + h * v[k] + half_h2 * a0[k];
         predicted[k] = v[k] + h * a0[k];
     }
-    evaluate(f, q1, predicted, a1);
+    hd_evaluate(f, q1, predicted, a1);
     for (long k = 0; k < f->n3; ++k)
         v1[k] = v[k] + half_h * (a0[k] + a1[k]);
 }
 
 /* A later stage of RK4 from the last slopes (kq, kv), c = h/2 or h: the slope of q is
  * v + c kv, that of v the acceleration at (q + c kq, v + c kv). */
-static void rk4_stage(Forces *f, const double *q, const double *v, const double *kq,
-                      const double *kv, double c, double *at, double *next_q, double *next_v)
+static void hd_rk4_stage(hd_forces *f, const double *q, const double *v, const double *kq,
+                         const double *kv, double c, double *at, double *next_q, double *next_v)
 {
     for (long k = 0; k < f->n3; ++k) {
         next_q[k] = v[k] + c * kv[k];
         at[k] = q[k] + c * kq[k];
     }
-    evaluate(f, at, next_q, next_v);
+    hd_evaluate(f, at, next_q, next_v);
 }
 
 /* Classical fourth-order Runge-Kutta on (q' = v, v' = a) (RungeKutta4). */
-static void rk4(Forces *f, const double *q, const double *v, double *q1, double *v1,
-                double h, double *buffer)
+static void hd_rk4(hd_forces *f, const double *q, const double *v, double *q1, double *v1,
+                   double h, double *buffer)
 {
     const long n3 = f->n3;
     double *k1v = buffer, *k2q = k1v + n3, *k2v = k2q + n3, *k3q = k2v + n3,
            *k3v = k3q + n3, *k4q = k3v + n3, *k4v = k4q + n3, *at = k4v + n3;
     const double half_h = 0.5 * h, sixth_h = h / 6.0;
-    evaluate(f, q, v, k1v);  /* k1 = (v, a(q, v)) */
-    rk4_stage(f, q, v, v, k1v, half_h, at, k2q, k2v);
-    rk4_stage(f, q, v, k2q, k2v, half_h, at, k3q, k3v);
-    rk4_stage(f, q, v, k3q, k3v, h, at, k4q, k4v);
+    hd_evaluate(f, q, v, k1v);  /* k1 = (v, a(q, v)) */
+    hd_rk4_stage(f, q, v, v, k1v, half_h, at, k2q, k2v);
+    hd_rk4_stage(f, q, v, k2q, k2v, half_h, at, k3q, k3v);
+    hd_rk4_stage(f, q, v, k3q, k3v, h, at, k4q, k4v);
     for (long k = 0; k < n3; ++k) {
         q1[k] = q[k] + sixth_h * (v[k] + 2.0 * k2q[k] + 2.0 * k3q[k] + k4q[k]);
         v1[k] = v[k] + sixth_h * (k1v[k] + 2.0 * k2v[k] + 2.0 * k3v[k] + k4v[k]);
@@ -109,16 +108,16 @@ static void rk4(Forces *f, const double *q, const double *v, double *q1, double 
 }
 
 /* (q', v') = (v, a(q, v)) of the flat state y = (q, v) into `slope`. */
-static void rhs(Forces *f, const double *y, double *slope)
+static void hd_rhs(hd_forces *f, const double *y, double *slope)
 {
     memcpy(slope, y + f->n3, (size_t)f->n3 * sizeof(double));
-    evaluate(f, y, y + f->n3, slope + f->n3);
+    hd_evaluate(f, y, y + f->n3, slope + f->n3);
 }
 
 /* out = sum over j < count of (scale c_j) k_j, slope by slope (each element summed in the
  * order of j, as a matrix product would), skipping zero coefficients. */
-static void combine(const double *c, long count, double scale, const double *slopes, long m,
-                    double *out)
+static void hd_combine(const double *c, long count, double scale, const double *slopes, long m,
+                       double *out)
 {
     int first = 1;
     for (long j = 0; j < count; ++j) {
@@ -140,8 +139,8 @@ static void combine(const double *c, long count, double scale, const double *slo
 }
 
 /* One number from the scaled error estimates: at most 1 accepts the sub-step
- * (tableaux.py: EmbeddedPair.error_norm). */
-static double error_norm(const hd_pair *pair, const double *scaled, long m)
+ * (integrators/tableaux.py: EmbeddedPair.error_norm). */
+static double hd_error_norm(const hd_pair *pair, const double *scaled, long m)
 {
     if (pair->error_rows == 1) {
         double sum = 0.0;
@@ -161,12 +160,12 @@ static double error_norm(const hd_pair *pair, const double *scaled, long m)
     return e5 / sqrt((double)m * (e5 + 0.01 * e3));
 }
 
-/* One step of an embedded pair, sub-stepped to meet the tolerance (integrators.py:
+/* One step of an embedded pair, sub-stepped to meet the tolerance (integrators/methods.py:
  * EmbeddedRungeKutta.step, the same controller). `buffer` holds S + 3 + error_rows flat
  * states (q and v together). */
-static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *size,
-                    const double *q, const double *v, double *q1, double *v1, double h,
-                    double *buffer)
+static int hd_embedded(hd_forces *f, const hd_pair *pair, double tolerance, double *size,
+                       const double *q, const double *v, double *q1, double *v1, double h,
+                       double *buffer)
 {
     const long n3 = f->n3, m = 2 * n3, S = pair->slopes, E = pair->error_rows;
     double *slopes = buffer, *y = slopes + S * m, *y_new = y + m, *stage = y_new + m,
@@ -176,7 +175,7 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
     const double exponent = -1.0 / (pair->error_order + 1);
     memcpy(y, q, (size_t)n3 * sizeof(double));
     memcpy(y + n3, v, (size_t)n3 * sizeof(double));
-    rhs(f, y, slopes);
+    hd_rhs(f, y, slopes);
     double step = fmin(*size, h), done = 0.0;
     for (long count = 0; count < HD_MAX_PAIR_SUBSTEPS; ++count) {
         const double remaining = h - done;
@@ -184,30 +183,30 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
         const double trial = last ? remaining : step;
         for (long s = 1; s < S; ++s) {  /* stages 2..S-1, then the new state (row S-1) */
             double *target = s < S - 1 ? stage : y_new;
-            combine(pair->a + s * (S - 1), s, trial, slopes, m, target);
+            hd_combine(pair->a + s * (S - 1), s, trial, slopes, m, target);
             for (long k = 0; k < m; ++k)
                 target[k] = y[k] + target[k];
             if (s < S - 1)
-                rhs(f, stage, slopes + s * m);
+                hd_rhs(f, stage, slopes + s * m);
         }
         if (needs_new_state)
-            rhs(f, y_new, slopes + (S - 1) * m);
+            hd_rhs(f, y_new, slopes + (S - 1) * m);
         double *scale = stage;  /* free until the next trial */
         for (long k = 0; k < m; ++k)
             scale[k] = tolerance * (1.0 + fmax(fabs(y[k]), fabs(y_new[k])));
         for (long r = 0; r < E; ++r) {
             double *estimate = scaled + r * m;
-            combine(pair->error + r * S, error_slopes, 1.0, slopes, m, estimate);
+            hd_combine(pair->error + r * S, error_slopes, 1.0, slopes, m, estimate);
             for (long k = 0; k < m; ++k)
                 estimate[k] = trial * estimate[k] / scale[k];
         }
-        double norm = error_norm(pair, scaled, m);
+        double norm = hd_error_norm(pair, scaled, m);
         if (!isfinite(norm))
             norm = INFINITY;  /* an overshooting trial: refuse it, shrink the sub-step */
         const double factor = norm == 0.0 ? 5.0 : fmin(5.0, fmax(0.2, 0.9 * pow(norm, exponent)));
         if (norm <= 1.0) {
             if (!needs_new_state)
-                rhs(f, y_new, slopes + (S - 1) * m);
+                hd_rhs(f, y_new, slopes + (S - 1) * m);
             f->work->substeps += 1;
             memcpy(y, y_new, (size_t)m * sizeof(double));
             done += trial;
@@ -230,10 +229,10 @@ static int embedded(Forces *f, const hd_pair *pair, double tolerance, double *si
 }
 
 /* Whether the new state (q, v) of N bodies is finite; if so, its angles are wrapped into
- * [-pi, pi), touching only those outside (planar.py: wrap_angle, with numpy's remainder:
+ * [-pi, pi), touching only those outside (geometry/planar.py: wrap_angle, with numpy's remainder:
  * fmod moved to the sign of the divisor). One pass over the state: x - x is 0 for a
  * finite x and NaN otherwise. */
-static int settle(double *q, const double *v, long n)
+static int hd_settle(double *q, const double *v, long n)
 {
     for (long b = 0; b < n; ++b) {
         const double *x = q + 3 * b, *u = v + 3 * b;
@@ -243,22 +242,22 @@ static int settle(double *q, const double *v, long n)
     }
     for (long b = 0; b < n; ++b) {
         double theta = q[3 * b + 2];
-        if (theta >= -PI && theta < PI)
+        if (theta >= -HD_PI && theta < HD_PI)
             continue;
-        double r = fmod(theta + PI, (2.0 * PI));
+        double r = fmod(theta + HD_PI, (2.0 * HD_PI));
         if (r != 0.0) {
             if (r < 0.0)
-                r += (2.0 * PI);
+                r += (2.0 * HD_PI);
         } else {
             r = 0.0;
         }
-        double wrapped = r - PI;
-        q[3 * b + 2] = wrapped >= PI ? -PI : wrapped;
+        double wrapped = r - HD_PI;
+        q[3 * b + 2] = wrapped >= HD_PI ? -HD_PI : wrapped;
     }
     return 1;
 }
 
-static long buffer_states(int method, const hd_pair *pair)
+static long hd_buffer_states(int method, const hd_pair *pair)
 {
     switch (method) {
     case HD_VELOCITY_VERLET: return 3;
@@ -269,38 +268,40 @@ static long buffer_states(int method, const hd_pair *pair)
 }
 
 typedef struct {
-    Forces *f;
+    hd_forces *f;
     int method;
     const hd_pair *pair;
     double tolerance, *size, *buffer;
     double *levels;  /* constrained_step's parts: two states per level of splitting */
-} Stepper;
+} hd_run;
 
 /* One step of the method from (q, v) to (q1, v1). */
-static int one_step(Stepper *s, const double *q, const double *v, double *q1, double *v1,
-                    double h)
+static int hd_one_step(hd_run *s, const double *q, const double *v, double *q1, double *v1,
+                       double h)
 {
     switch (s->method) {
-    case HD_EXPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 0); return HD_ADVANCED;
-    case HD_SEMI_IMPLICIT_EULER: euler(s->f, q, v, q1, v1, h, s->buffer, 1); return HD_ADVANCED;
-    case HD_VELOCITY_VERLET: velocity_verlet(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
-    case HD_RK4: rk4(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
+    case HD_EXPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 0); return HD_ADVANCED;
+    case HD_SEMI_IMPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 1); return HD_ADVANCED;
+    case HD_VELOCITY_VERLET:
+        hd_velocity_verlet(s->f, q, v, q1, v1, h, s->buffer);
+        return HD_ADVANCED;
+    case HD_RK4: hd_rk4(s->f, q, v, q1, v1, h, s->buffer); return HD_ADVANCED;
     default:
-        return embedded(s->f, s->pair, s->tolerance, s->size, q, v, q1, v1, h, s->buffer);
+        return hd_embedded(s->f, s->pair, s->tolerance, s->size, q, v, q1, v1, h, s->buffer);
     }
 }
 
 /* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
- * simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's arm
- * would turn too far (hd_joints_parts), in halves when the joints have no solution near the
- * step's end, each part the same way; `room`: how many parts this step may still be cut
- * into (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds
- * two states per level for the parts' ends. */
-static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
-                            const double *v, double *q1, double *v1, double h, long room,
-                            int level)
+ * dynamics/simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's
+ * arm would turn too far (hd_joints_parts), in halves when the joints have no solution near the
+ * step's end, each part the same way; `room`: how many parts this step may still be cut into
+ * (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds two states per
+ * level for the parts' ends. */
+static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *q,
+                               const double *v, double *q1, double *v1, double h, long room,
+                               int level)
 {
-    int status = one_step(s, q, v, q1, v1, h);
+    int status = hd_one_step(s, q, v, q1, v1, h);
     if (status != HD_ADVANCED || joints == NULL)
         return status;
     long parts = hd_joints_parts(joints, q, q1);
@@ -321,8 +322,8 @@ static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
     const double part = h / (double)parts;
     const double *from_q = q, *from_v = v;
     for (long k = 0; k < parts; ++k) {
-        if ((status = constrained_step(s, joints, from_q, from_v, q1, v1, part, room / parts,
-                                       level + 1)) != HD_ADVANCED)
+        if ((status = hd_constrained_step(s, joints, from_q, from_v, q1, v1, part, room / parts,
+                                          level + 1)) != HD_ADVANCED)
             return status;
         memcpy(q_part, q1, (size_t)n3 * sizeof(double));
         memcpy(v_part, v1, (size_t)n3 * sizeof(double));
@@ -332,8 +333,8 @@ static int constrained_step(Stepper *s, hd_joint_model *joints, const double *q,
 }
 
 /* How many sub-steps keep every colliding body's travel under half the thinnest colliding
- * part (solver.py: ContactPass.substeps, its plain-float path). */
-static long substeps(const hd_contact_model *m, const double *q0, const double *q1)
+ * part (contact/detect.py: Detection.substeps, its plain-float path). */
+static long hd_substeps(const hd_contact_model *m, const double *q0, const double *q1)
 {
     if (m->colliding_count == 0)
         return 1;
@@ -351,17 +352,17 @@ static long substeps(const hd_contact_model *m, const double *q0, const double *
     return parts < 1.0 ? 1 : (parts > HD_MAX_SUBSTEPS ? HD_MAX_SUBSTEPS : (long)parts);
 }
 
-/* A step and the contact pass, in sub-steps when a colliding body would move more than half
- * the thinnest colliding part (simulation.py: Simulation._integrate). `spare`: 4 states. */
-static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *joints,
-                              const double *q, const double *v, double *q1, double *v1,
-                              double h, double *spare)
+/* A step and the contact pass, in sub-steps when a colliding body would move more than half the
+ * thinnest colliding part (dynamics/simulation.py: Simulation._integrate). `spare`: 4 states. */
+static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model *joints,
+                                 const double *q, const double *v, double *q1, double *v1,
+                                 double h, double *spare)
 {
     const long n3 = s->f->n3;
-    int status = constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 0);
+    int status = hd_constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 0);
     if (status != HD_ADVANCED)
         return status;
-    const long parts = substeps(m, q, q1);
+    const long parts = hd_substeps(m, q, q1);
     if (parts == 1)
         return hd_resolve(m, q1, v1, q, v, h) < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
     double *q_part = spare, *v_part = spare + n3, *q_next = spare + 2 * n3,
@@ -370,8 +371,8 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
     memcpy(v_part, v, (size_t)n3 * sizeof(double));
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
-        if ((status = constrained_step(s, joints, q_part, v_part, q_next, v_next, part,
-                                       HD_MOST_SUBSTEPS, 0))
+        if ((status = hd_constrained_step(s, joints, q_part, v_part, q_next, v_next, part,
+                                          HD_MOST_SUBSTEPS, 0))
                 != HD_ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, q_part, v_part, part) < 0)
@@ -386,9 +387,9 @@ static int step_with_contacts(Stepper *s, hd_contact_model *m, hd_joint_model *j
 
 /* Whether every body sleeps, with no joint pass and a fixed-step method (which carries
  * nothing from step to step): the step would put each body back where it started (solver.c:
- * hold) and find no contact, so it is skipped (simulation.py: Simulation._integrate). */
-static int everything_asleep(const hd_contact_model *m, const hd_joint_model *joints,
-                             int method, long n)
+ * hold) and find no contact, so it is skipped (dynamics/simulation.py: Simulation._integrate). */
+static int hd_everything_asleep(const hd_contact_model *m, const hd_joint_model *joints,
+                                int method, long n)
 {
     if (m == NULL || joints != NULL || !m->sleep || method == HD_EMBEDDED)
         return 0;
@@ -401,7 +402,7 @@ static int everything_asleep(const hd_contact_model *m, const hd_joint_model *jo
 int hd_stepper_init(hd_stepper *s, const hd_program *program, int method,
                     const hd_pair *pair, double tolerance, hd_contact_model *contacts)
 {
-    const long n = program->bodies, n3 = 3 * n, states = buffer_states(method, pair);
+    const long n = program->bodies, n3 = 3 * n, states = hd_buffer_states(method, pair);
     /* cos, sin (N each) and the wrench (3 N) of an evaluation, the method's states, 4 states
      * for the sub-steps of a contact scene, the new state (q, v) and a pair to swap in */
     s->memory = malloc((size_t)(5 * n + n3 * (states + 4 + 4) + 1) * sizeof(double));
@@ -428,8 +429,8 @@ void hd_stepper_free(hd_stepper *s)
 
 /* Leave the last good state in (q, v) and the failed one in the stepper's (q_new, v_new)
  * when the steps ended on the other pair of buffers than the one they began on. */
-static void settle_buffers(const hd_stepper *s, long n3, double *q, double *v,
-                           const double *good_q, const double *good_v, int failed)
+static void hd_settle_buffers(const hd_stepper *s, long n3, double *q, double *v,
+                              const double *good_q, const double *good_v, int failed)
 {
     const size_t bytes = (size_t)n3 * sizeof(double);
     if (good_q == q)
@@ -456,8 +457,8 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
     hd_contact_model *contacts = s->contacts;
     const long n = program->bodies, n3 = 3 * n;
     double *memory = s->memory, *buffer = memory + 5 * n;
-    Forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
-    double *spare = buffer + n3 * buffer_states(s->method, s->pair);
+    hd_forces f = {program, inputs, oriented, n3, {memory, memory + n, memory + 2 * n}, work};
+    double *spare = buffer + n3 * hd_buffer_states(s->method, s->pair);
     /* The state steps from (cur) into (next), and the two pairs of buffers swap roles:
      * no copy per step. */
     double *cur_q = q, *cur_v = v, *next_q = s->q_new, *next_v = s->v_new;
@@ -469,22 +470,22 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
         if (s->levels == NULL)
             return HD_OUT_OF_MEMORY;
     }
-    Stepper stepper = {&f, s->method, s->pair, s->tolerance, size, buffer, s->levels};
+    hd_run stepper = {&f, s->method, s->pair, s->tolerance, size, buffer, s->levels};
     if (contacts != NULL)
         contacts->joints = joints;  /* for these steps: coupled.h */
     for (long t = 0; t < steps; ++t) {
-        if (everything_asleep(contacts, joints, s->method, n)) {
+        if (hd_everything_asleep(contacts, joints, s->method, n)) {
             *taken += 1;
             continue;
         }
         status = contacts == NULL
-                 ? constrained_step(&stepper, joints, cur_q, cur_v, next_q, next_v, h,
-                                    HD_MOST_SUBSTEPS, 0)
-                 : step_with_contacts(&stepper, contacts, joints, cur_q, cur_v, next_q, next_v,
-                                      h, spare);
+                 ? hd_constrained_step(&stepper, joints, cur_q, cur_v, next_q, next_v, h,
+                                       HD_MOST_SUBSTEPS, 0)
+                 : hd_step_with_contacts(&stepper, contacts, joints, cur_q, cur_v, next_q, next_v,
+                                         h, spare);
         if (status != HD_ADVANCED)
             break;
-        if (!settle(next_q, next_v, n)) {
+        if (!hd_settle(next_q, next_v, n)) {
             status = HD_NOT_FINITE;
             break;
         }
@@ -497,6 +498,6 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
     }
     if (contacts != NULL)
         contacts->joints = NULL;
-    settle_buffers(s, n3, q, v, cur_q, cur_v, status == HD_NOT_FINITE);
+    hd_settle_buffers(s, n3, q, v, cur_q, cur_v, status == HD_NOT_FINITE);
     return status;
 }

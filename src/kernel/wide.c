@@ -1,31 +1,17 @@
 /* The coloured solve of a big island: wide.h. The colours are greedy, first fit in island
- * order (solver.py: _coloured); within each colour its two-point blocks go four at a time
+ * order (contact/islands.py: coloured); within each colour its two-point blocks go four at a time
  * through lanes of GCC's vector extensions (AVX where the CPU has it, else two SSE2
  * halves: the same IEEE operations, so the same bits), a colour's last four padded with
  * empty lanes, and every other unit of the colour (one-point contacts, and all the units
  * that fit no colour) through rows.h one by one.
  */
-#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "contact.h"
 #include "rows.h"
+#include "simd.h"
 #include "wide.h"
-
-#define HD_LANES 4
-
-#if defined(__GNUC__)
-#define HD_VECTORS 1
-/* The vector helpers are always inlined, so no vector crosses a call and the ABI of
- * passing one (which AVX changes) never applies. */
-#pragma GCC diagnostic ignored "-Wpsabi"
-typedef double hd_v4 __attribute__((vector_size(32), aligned(32)));
-typedef int64_t hd_m4 __attribute__((vector_size(32), aligned(32)));
-#else
-#define HD_VECTORS 0
-typedef struct { double lane[HD_LANES]; } hd_v4;
-#endif
 
 /* Four blocks of one colour, lane by lane: rows one and two of each, the body pair, the
  * block's K and K^-1, the rows' impulses while the passes run, then their depths for the
@@ -38,7 +24,7 @@ typedef struct {
 } hd_lanes;
 
 /* The colours of each island solved here are kept from step to step, for as long as
- * its units are the same (solver.c: same_units). */
+ * its units are the same (solver.c: hd_same_units). */
 struct hd_wide {
     long capacity;          /* units of an island */
     long sorted_capacity;   /* units of all islands */
@@ -68,7 +54,7 @@ void hd_wide_free(struct hd_wide *w)
 
 /* Room for island `wide` of `size` units, and for its colours, and the other islands',
  * kept. */
-static int reserve(hd_contact_model *m, long wide, long size)
+static int hd_reserve(hd_contact_model *m, long wide, long size)
 {
     if (m->wide == NULL) {
         m->wide = calloc(1, sizeof(struct hd_wide));
@@ -120,7 +106,7 @@ static int reserve(hd_contact_model *m, long wide, long size)
     return 0;
 }
 
-static int lowest_free(uint64_t taken)
+static int hd_lowest_free(uint64_t taken)
 {
     if (taken == UINT64_MAX)
         return HD_COLOURS;
@@ -133,8 +119,8 @@ static int lowest_free(uint64_t taken)
 /* Each unit's colour: the lowest that neither of its bodies has yet (the walls' slot takes
  * none), or HD_COLOURS when none is left; then the units sorted by colour into `sorted`,
  * where the colours start into `colour_start`. */
-static void colour_units(hd_contact_model *m, const long *members, long size, long *sorted,
-                         long *colour_start)
+static void hd_colour_units(hd_contact_model *m, const long *members, long size, long *sorted,
+                            long *colour_start)
 {
     struct hd_wide *w = m->wide;
     const long wall = m->bodies;
@@ -142,7 +128,7 @@ static void colour_units(hd_contact_model *m, const long *members, long size, lo
     for (long k = 0; k < size; ++k) {
         const hd_row *r = m->rows + m->units[members[k]].first;
         const uint64_t taken = (r->a == wall ? 0 : w->used[r->a]) | w->used[r->b];
-        const int colour = lowest_free(taken);
+        const int colour = hd_lowest_free(taken);
         if (colour < HD_COLOURS) {
             if (r->a != wall)
                 w->used[r->a] |= (uint64_t)1 << colour;
@@ -162,19 +148,19 @@ static void colour_units(hd_contact_model *m, const long *members, long size, lo
         sorted[count[w->colour[k]]++] = members[k];
 }
 
-static double *lane(hd_v4 *v, int l) { return (double *)v + l; }
+static double *hd_lane(hd_v4 *v, int l) { return (double *)v + l; }
 
 /* The blocks of the `filled` units `pair` into lanes, the lanes beyond them empty: the
  * walls' slot on both sides, no arms, normal or inverse masses, so they push it by zeros
  * only, which keep it +0, and change nothing (unit effective masses, no friction). */
-static void load_lanes(const hd_contact_model *m, const long *pair, int filled, hd_lanes *x)
+static void hd_load_lanes(const hd_contact_model *m, const long *pair, int filled, hd_lanes *x)
 {
     memset(x, 0, sizeof *x);
     for (int l = filled; l < HD_LANES; ++l) {
         x->a[l] = x->b[l] = m->bodies;
         x->first[l] = -1;
-        *lane(&x->mass_n1, l) = *lane(&x->mass_n2, l) = 1.0;
-        *lane(&x->mass_t1, l) = *lane(&x->mass_t2, l) = 1.0;
+        *hd_lane(&x->mass_n1, l) = *hd_lane(&x->mass_n2, l) = 1.0;
+        *hd_lane(&x->mass_t1, l) = *hd_lane(&x->mass_t2, l) = 1.0;
     }
     for (int l = 0; l < filled; ++l) {
         const hd_unit *u = m->units + pair[l];
@@ -182,66 +168,66 @@ static void load_lanes(const hd_contact_model *m, const long *pair, int filled, 
         x->a[l] = one->a;
         x->b[l] = one->b;
         x->first[l] = u->first;
-        *lane(&x->rax1, l) = one->rax;
-        *lane(&x->ray1, l) = one->ray;
-        *lane(&x->rbx1, l) = one->rbx;
-        *lane(&x->rby1, l) = one->rby;
-        *lane(&x->rax2, l) = two->rax;
-        *lane(&x->ray2, l) = two->ray;
-        *lane(&x->rbx2, l) = two->rbx;
-        *lane(&x->rby2, l) = two->rby;
-        *lane(&x->nx, l) = one->nx;
-        *lane(&x->ny, l) = one->ny;
-        *lane(&x->im_a, l) = one->im_a;
-        *lane(&x->ii_a, l) = one->ii_a;
-        *lane(&x->im_b, l) = one->im_b;
-        *lane(&x->ii_b, l) = one->ii_b;
-        *lane(&x->target1, l) = one->target;
-        *lane(&x->target2, l) = two->target;
-        *lane(&x->mass_n1, l) = one->mass_n;
-        *lane(&x->mass_n2, l) = two->mass_n;
-        *lane(&x->mass_t1, l) = one->mass_t;
-        *lane(&x->mass_t2, l) = two->mass_t;
-        *lane(&x->mu1, l) = one->mu;
-        *lane(&x->mu2, l) = two->mu;
-        *lane(&x->k11, l) = u->k11;
-        *lane(&x->k12, l) = u->k12;
-        *lane(&x->k22, l) = u->k22;
-        *lane(&x->inv11, l) = u->inv11;
-        *lane(&x->inv12, l) = u->inv12;
-        *lane(&x->inv22, l) = u->inv22;
-        *lane(&x->jn1, l) = one->jn;
-        *lane(&x->jn2, l) = two->jn;
-        *lane(&x->jt1, l) = one->jt;
-        *lane(&x->jt2, l) = two->jt;
+        *hd_lane(&x->rax1, l) = one->rax;
+        *hd_lane(&x->ray1, l) = one->ray;
+        *hd_lane(&x->rbx1, l) = one->rbx;
+        *hd_lane(&x->rby1, l) = one->rby;
+        *hd_lane(&x->rax2, l) = two->rax;
+        *hd_lane(&x->ray2, l) = two->ray;
+        *hd_lane(&x->rbx2, l) = two->rbx;
+        *hd_lane(&x->rby2, l) = two->rby;
+        *hd_lane(&x->nx, l) = one->nx;
+        *hd_lane(&x->ny, l) = one->ny;
+        *hd_lane(&x->im_a, l) = one->im_a;
+        *hd_lane(&x->ii_a, l) = one->ii_a;
+        *hd_lane(&x->im_b, l) = one->im_b;
+        *hd_lane(&x->ii_b, l) = one->ii_b;
+        *hd_lane(&x->target1, l) = one->target;
+        *hd_lane(&x->target2, l) = two->target;
+        *hd_lane(&x->mass_n1, l) = one->mass_n;
+        *hd_lane(&x->mass_n2, l) = two->mass_n;
+        *hd_lane(&x->mass_t1, l) = one->mass_t;
+        *hd_lane(&x->mass_t2, l) = two->mass_t;
+        *hd_lane(&x->mu1, l) = one->mu;
+        *hd_lane(&x->mu2, l) = two->mu;
+        *hd_lane(&x->k11, l) = u->k11;
+        *hd_lane(&x->k12, l) = u->k12;
+        *hd_lane(&x->k22, l) = u->k22;
+        *hd_lane(&x->inv11, l) = u->inv11;
+        *hd_lane(&x->inv12, l) = u->inv12;
+        *hd_lane(&x->inv22, l) = u->inv22;
+        *hd_lane(&x->jn1, l) = one->jn;
+        *hd_lane(&x->jn2, l) = two->jn;
+        *hd_lane(&x->jt1, l) = one->jt;
+        *hd_lane(&x->jt2, l) = two->jt;
     }
 }
 
 /* The lanes' impulses back into their rows, and the rows' depths `base` into the lanes. */
-static void store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
+static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
 {
     for (int l = 0; l < HD_LANES && x->first[l] >= 0; ++l) {
         hd_row *one = m->rows + x->first[l], *two = one + 1;
-        one->jn = *lane(&x->jn1, l);
-        two->jn = *lane(&x->jn2, l);
-        one->jt = *lane(&x->jt1, l);
-        two->jt = *lane(&x->jt2, l);
-        *lane(&x->base1, l) = base[x->first[l]];
-        *lane(&x->base2, l) = base[x->first[l] + 1];
+        one->jn = *hd_lane(&x->jn1, l);
+        two->jn = *hd_lane(&x->jn2, l);
+        one->jt = *hd_lane(&x->jt1, l);
+        two->jt = *hd_lane(&x->jt2, l);
+        *hd_lane(&x->base1, l) = base[x->first[l]];
+        *hd_lane(&x->base2, l) = base[x->first[l] + 1];
     }
 }
 
 #if HD_VECTORS
 /* m ? x : y, lane by lane (m: all ones or all zeros). */
-static HD_HOT hd_v4 pick(hd_m4 m, hd_v4 x, hd_v4 y)
+static HD_HOT hd_v4 hd_pick(hd_m4 m, hd_v4 x, hd_v4 y)
 {
     return (hd_v4)(((hd_m4)x & m) | ((hd_m4)y & ~m));
 }
 
-static HD_HOT hd_v4 max_v(hd_v4 x, hd_v4 y) { return pick(y > x, y, x); }  /* py_max */
-static HD_HOT hd_v4 min_v(hd_v4 x, hd_v4 y) { return pick(y < x, y, x); }  /* py_min */
+static HD_HOT hd_v4 hd_max_v(hd_v4 x, hd_v4 y) { return hd_pick(y > x, y, x); }  /* hd_max */
+static HD_HOT hd_v4 hd_min_v(hd_v4 x, hd_v4 y) { return hd_pick(y < x, y, x); }  /* hd_min */
 
-static HD_HOT hd_v4 abs_v(hd_v4 x)
+static HD_HOT hd_v4 hd_abs_v(hd_v4 x)
 {
     const hd_m4 magnitude = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
     return (hd_v4)((hd_m4)x & magnitude);
@@ -252,7 +238,13 @@ typedef struct {
     hd_v4 x, y, w;
 } hd_twist4;
 
-static HD_HOT hd_twist4 gather(const double *velocity, const long *body)
+/* x where `on`, else y, lane by lane. */
+static HD_HOT hd_twist4 hd_pick_twist(hd_m4 on, hd_twist4 x, hd_twist4 y)
+{
+    return (hd_twist4){hd_pick(on, x.x, y.x), hd_pick(on, x.y, y.y), hd_pick(on, x.w, y.w)};
+}
+
+static HD_HOT hd_twist4 hd_gather(const double *velocity, const long *body)
 {
     const double *p0 = velocity + 3 * body[0], *p1 = velocity + 3 * body[1],
                  *p2 = velocity + 3 * body[2], *p3 = velocity + 3 * body[3];
@@ -262,7 +254,7 @@ static HD_HOT hd_twist4 gather(const double *velocity, const long *body)
 
 /* gather's inverse, lane by lane in lane order; spelled out, not looped, as GCC then
  * stores straight from the vector registers (a loop sent each vector through the stack). */
-static HD_HOT void scatter(double *velocity, const long *body, hd_twist4 v)
+static HD_HOT void hd_scatter(double *velocity, const long *body, hd_twist4 v)
 {
     double *p0 = velocity + 3 * body[0], *p1 = velocity + 3 * body[1],
            *p2 = velocity + 3 * body[2], *p3 = velocity + 3 * body[3];
@@ -280,17 +272,17 @@ static HD_HOT void scatter(double *velocity, const long *body, hd_twist4 v)
     p3[2] = v.w[3];
 }
 
-/* rows.h's normal_velocity, lane by lane. */
-static HD_HOT hd_v4 normal_velocity4(hd_twist4 va, hd_twist4 vb, hd_v4 rax, hd_v4 ray,
-                                     hd_v4 rbx, hd_v4 rby, hd_v4 nx, hd_v4 ny)
+/* rows.h's hd_normal_velocity, lane by lane. */
+static HD_HOT hd_v4 hd_normal_velocity4(hd_twist4 va, hd_twist4 vb, hd_v4 rax, hd_v4 ray,
+                                        hd_v4 rbx, hd_v4 rby, hd_v4 nx, hd_v4 ny)
 {
     return (vb.x - vb.w * rby - va.x + va.w * ray) * nx
            + (vb.y + vb.w * rbx - va.y - va.w * rax) * ny;
 }
 
 /* rows.h's push, lane by lane. */
-static HD_HOT void push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
-                         hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 px, hd_v4 py)
+static HD_HOT void hd_push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
+                            hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 px, hd_v4 py)
 {
     va->x = va->x - px * x->im_a;
     va->y = va->y - py * x->im_a;
@@ -302,90 +294,84 @@ static HD_HOT void push4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 
 
 /* rows.h's solve_friction, lane by lane: a lane without friction keeps its velocities and
  * impulse (pushing a zero impulse could turn a -0 velocity into +0). */
-static HD_HOT hd_v4 friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
-                              hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 mass_t, hd_v4 mu,
-                              hd_v4 jn, hd_v4 *jt)
+static HD_HOT hd_v4 hd_friction4(hd_twist4 *va, hd_twist4 *vb, const hd_lanes *x, hd_v4 rax,
+                                 hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 mass_t, hd_v4 mu,
+                                 hd_v4 jn, hd_v4 *jt)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
     const hd_m4 on = mu > zero;
     const hd_v4 dvx = vb->x - vb->w * rby - va->x + va->w * ray;
     const hd_v4 dvy = vb->y + vb->w * rbx - va->y - va->w * rax;
     const hd_v4 old = *jt, bound = mu * jn;
-    const hd_v4 new_t = min_v(max_v(old - (-dvx * x->ny + dvy * x->nx) * mass_t, -bound), bound);
+    const hd_v4 new_t = hd_min_v(hd_max_v(old - (-dvx * x->ny + dvy * x->nx) * mass_t, -bound),
+                                 bound);
     hd_twist4 a = *va, b = *vb;
-    push4(&a, &b, x, rax, ray, rbx, rby, -(new_t - old) * x->ny, (new_t - old) * x->nx);
-    va->x = pick(on, a.x, va->x);
-    va->y = pick(on, a.y, va->y);
-    va->w = pick(on, a.w, va->w);
-    vb->x = pick(on, b.x, vb->x);
-    vb->y = pick(on, b.y, vb->y);
-    vb->w = pick(on, b.w, vb->w);
-    *jt = pick(on, new_t, old);
-    return pick(on, abs_v(new_t - old) / mass_t, zero);
+    hd_push4(&a, &b, x, rax, ray, rbx, rby, -(new_t - old) * x->ny, (new_t - old) * x->nx);
+    *va = hd_pick_twist(on, a, *va);
+    *vb = hd_pick_twist(on, b, *vb);
+    *jt = hd_pick(on, new_t, old);
+    return hd_pick(on, hd_abs_v(new_t - old) / mass_t, zero);
 }
 
-/* rows.h's solve_block in four lanes, on their bodies' velocities *pa and *pb; returns
+/* rows.h's hd_solve_block in four lanes, on their bodies' velocities *pa and *pb; returns
  * each lane's largest change. */
-static HD_HOT hd_v4 block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
+static HD_HOT hd_v4 hd_block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
     hd_twist4 va = *pa, vb = *pb;
     const hd_v4 old1 = x->jn1, old2 = x->jn2;
-    const hd_v4 b1 = normal_velocity4(va, vb, x->rax1, x->ray1, x->rbx1, x->rby1, x->nx, x->ny)
+    const hd_v4 b1 = hd_normal_velocity4(va, vb, x->rax1, x->ray1, x->rbx1, x->rby1, x->nx, x->ny)
                      - x->target1 - (x->k11 * old1 + x->k12 * old2);
-    const hd_v4 b2 = normal_velocity4(va, vb, x->rax2, x->ray2, x->rbx2, x->rby2, x->nx, x->ny)
+    const hd_v4 b2 = hd_normal_velocity4(va, vb, x->rax2, x->ray2, x->rbx2, x->rby2, x->nx, x->ny)
                      - x->target2 - (x->k12 * old1 + x->k22 * old2);
-    /* The cascade of solve_block, innermost case first. */
+    /* The cascade of hd_solve_block, innermost case first. */
     const hd_v4 both1 = -(x->inv11 * b1 + x->inv12 * b2), both2 = -(x->inv12 * b1 + x->inv22 * b2);
     const hd_v4 first1 = -x->mass_n1 * b1, second2 = -x->mass_n2 * b2;
     const hd_m4 both = (both1 >= zero) & (both2 >= zero);
     const hd_m4 first = (first1 >= zero) & (x->k12 * first1 + b2 >= zero);
     const hd_m4 second = (second2 >= zero) & (x->k12 * second2 + b1 >= zero);
     const hd_m4 apart = (b1 >= zero) & (b2 >= zero);
-    hd_v4 x1 = pick(apart, zero, old1), x2 = pick(apart, zero, old2);
-    x1 = pick(second, zero, x1);
-    x2 = pick(second, second2, x2);
-    x1 = pick(first, first1, x1);
-    x2 = pick(first, zero, x2);
-    x1 = pick(both, both1, x1);
-    x2 = pick(both, both2, x2);
-    push4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1, (x1 - old1) * x->nx,
-          (x1 - old1) * x->ny);
-    push4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2, (x2 - old2) * x->nx,
-          (x2 - old2) * x->ny);
+    hd_v4 x1 = hd_pick(apart, zero, old1), x2 = hd_pick(apart, zero, old2);
+    x1 = hd_pick(second, zero, x1);
+    x2 = hd_pick(second, second2, x2);
+    x1 = hd_pick(first, first1, x1);
+    x2 = hd_pick(first, zero, x2);
+    x1 = hd_pick(both, both1, x1);
+    x2 = hd_pick(both, both2, x2);
+    hd_push4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1, (x1 - old1) * x->nx,
+             (x1 - old1) * x->ny);
+    hd_push4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2, (x2 - old2) * x->nx,
+             (x2 - old2) * x->ny);
     x->jn1 = x1;
     x->jn2 = x2;
-    hd_v4 change = max_v(abs_v(x1 - old1) / x->mass_n1, abs_v(x2 - old2) / x->mass_n2);
-    change = max_v(change, friction4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1,
-                                     x->mass_t1, x->mu1, x1, &x->jt1));
-    change = max_v(change, friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
-                                     x->mass_t2, x->mu2, x2, &x->jt2));
+    hd_v4 change = hd_max_v(hd_abs_v(x1 - old1) / x->mass_n1, hd_abs_v(x2 - old2) / x->mass_n2);
+    change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1,
+                                           x->mass_t1, x->mu1, x1, &x->jt1));
+    change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
+                                           x->mass_t2, x->mu2, x2, &x->jt2));
     *pa = va;
     *pb = vb;
     return change;
 }
 
-/* rows.h's correct_unit for one row in four lanes: a lane whose excess is not positive
+/* rows.h's hd_correct_unit for one row in four lanes: a lane whose excess is not positive
  * keeps its shifts. */
-static HD_HOT void correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_v4 rax,
-                            hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
+static HD_HOT void hd_correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_v4 rax,
+                               hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
     const hd_v4 slop = {HD_SLOP, HD_SLOP, HD_SLOP, HD_SLOP};
     const hd_v4 fraction = {HD_CORRECTION, HD_CORRECTION, HD_CORRECTION, HD_CORRECTION};
     const hd_v4 most = {HD_MAX_CORRECTION, HD_MAX_CORRECTION, HD_MAX_CORRECTION,
                         HD_MAX_CORRECTION};
-    const hd_v4 excess = base - slop - normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
+    const hd_v4 excess =
+        base - slop - hd_normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
     const hd_m4 on = ~(excess <= zero);
-    const hd_v4 amount = min_v(fraction * excess, most) * mass_n;
+    const hd_v4 amount = hd_min_v(fraction * excess, most) * mass_n;
     hd_twist4 a = *sa, b = *sb;
-    push4(&a, &b, x, rax, ray, rbx, rby, amount * x->nx, amount * x->ny);
-    sa->x = pick(on, a.x, sa->x);
-    sa->y = pick(on, a.y, sa->y);
-    sa->w = pick(on, a.w, sa->w);
-    sb->x = pick(on, b.x, sb->x);
-    sb->y = pick(on, b.y, sb->y);
-    sb->w = pick(on, b.w, sb->w);
+    hd_push4(&a, &b, x, rax, ray, rbx, rby, amount * x->nx, amount * x->ny);
+    *sa = hd_pick_twist(on, a, *sa);
+    *sb = hd_pick_twist(on, b, *sb);
 }
 
 /* The lanes' per-CPU passes: AVX where the CPU has it. */
@@ -403,74 +389,74 @@ static HD_HOT void correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, hd_
 
 /* block4 over the `n` sets of lanes from x; their changes fold in order into `most`, as
  * one set at a time would fold them. */
-static HD_HOT void solve_sets(hd_lanes *x, int n, double *velocity, hd_v4 *most)
+static HD_HOT void hd_solve_sets(hd_lanes *x, int n, double *velocity, hd_v4 *most)
 {
     hd_twist4 a[HD_GROUP], b[HD_GROUP];
     hd_v4 change[HD_GROUP];
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g) {
-        a[g] = gather(velocity, x[g].a);
-        b[g] = gather(velocity, x[g].b);
+        a[g] = hd_gather(velocity, x[g].a);
+        b[g] = hd_gather(velocity, x[g].b);
     }
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g)
-        change[g] = block4(x + g, a + g, b + g);
+        change[g] = hd_block4(x + g, a + g, b + g);
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g) {
-        scatter(velocity, x[g].a, a[g]);
-        scatter(velocity, x[g].b, b[g]);
-        *most = max_v(*most, change[g]);
+        hd_scatter(velocity, x[g].a, a[g]);
+        hd_scatter(velocity, x[g].b, b[g]);
+        *most = hd_max_v(*most, change[g]);
     }
 }
 
 /* correct4 over both rows of the `n` sets of lanes from x. */
-static HD_HOT void correct_sets(const hd_lanes *x, int n, double *shift)
+static HD_HOT void hd_correct_sets(const hd_lanes *x, int n, double *shift)
 {
     hd_twist4 a[HD_GROUP], b[HD_GROUP];
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g) {
-        a[g] = gather(shift, x[g].a);
-        b[g] = gather(shift, x[g].b);
+        a[g] = hd_gather(shift, x[g].a);
+        b[g] = hd_gather(shift, x[g].b);
     }
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g) {
         const hd_lanes *y = x + g;
-        correct4(a + g, b + g, y, y->rax1, y->ray1, y->rbx1, y->rby1, y->base1, y->mass_n1);
-        correct4(a + g, b + g, y, y->rax2, y->ray2, y->rbx2, y->rby2, y->base2, y->mass_n2);
+        hd_correct4(a + g, b + g, y, y->rax1, y->ray1, y->rbx1, y->rby1, y->base1, y->mass_n1);
+        hd_correct4(a + g, b + g, y, y->rax2, y->ray2, y->rbx2, y->rby2, y->base2, y->mass_n2);
     }
 #pragma GCC unroll 4
     for (int g = 0; g < n; ++g) {
-        scatter(shift, x[g].a, a[g]);
-        scatter(shift, x[g].b, b[g]);
+        hd_scatter(shift, x[g].a, a[g]);
+        hd_scatter(shift, x[g].b, b[g]);
     }
 }
 
 /* One pass over `count` lanes of one colour. */
-HD_PER_CPU static double pass_lanes(hd_lanes *lanes, long count, double *velocity,
-                                    double largest)
+HD_PER_CPU static double hd_pass_lanes(hd_lanes *lanes, long count, double *velocity,
+                                       double largest)
 {
     hd_v4 most = {largest, largest, largest, largest};
     long k = 0;
     for (; k + HD_GROUP <= count; k += HD_GROUP)
-        solve_sets(lanes + k, HD_GROUP, velocity, &most);
+        hd_solve_sets(lanes + k, HD_GROUP, velocity, &most);
     for (; k < count; ++k)
-        solve_sets(lanes + k, 1, velocity, &most);
+        hd_solve_sets(lanes + k, 1, velocity, &most);
     for (int l = 0; l < HD_LANES; ++l)
-        largest = py_max(largest, most[l]);
+        largest = hd_max(largest, most[l]);
     return largest;
 }
 
 /* One pass of the position correction over `count` lanes of one colour. */
-HD_PER_CPU static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
+HD_PER_CPU static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 {
     long k = 0;
     for (; k + HD_GROUP <= count; k += HD_GROUP)
-        correct_sets(lanes + k, HD_GROUP, shift);
+        hd_correct_sets(lanes + k, HD_GROUP, shift);
     for (; k < count; ++k)
-        correct_sets(lanes + k, 1, shift);
+        hd_correct_sets(lanes + k, 1, shift);
 }
 #else
-static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
+static double hd_pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
 {
     (void)lanes;
     (void)count;
@@ -478,7 +464,7 @@ static double pass_lanes(hd_lanes *lanes, long count, double *velocity, double l
     return largest;
 }
 
-static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
+static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 {
     (void)lanes;
     (void)count;
@@ -489,12 +475,12 @@ static void correct_lanes(const hd_lanes *lanes, long count, double *shift)
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
                   long passes, double scale, double h, double *base)
 {
-    if (reserve(m, wide, size) < 0)
+    if (hd_reserve(m, wide, size) < 0)
         return -1;
     struct hd_wide *w = m->wide;
     long *sorted = w->sorted + (members - m->order), *colour_start = w->colour_start[wide];
     if (!known)
-        colour_units(m, members, size, sorted, colour_start);
+        hd_colour_units(m, members, size, sorted, colour_start);
     /* Each colour's blocks four to a set of lanes, the rest of it one by one (the units
      * that fit no colour one by one in their order). */
     long lanes = 0, singles = 0;
@@ -508,7 +494,7 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
             if (HD_VECTORS && c < HD_COLOURS && m->units[u].pair) {
                 pair[filled++] = u;
                 if (filled == HD_LANES) {
-                    load_lanes(m, pair, filled, w->lanes + lanes++);
+                    hd_load_lanes(m, pair, filled, w->lanes + lanes++);
                     filled = 0;
                 }
             } else {
@@ -516,7 +502,7 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
             }
         }
         if (filled > 0)
-            load_lanes(m, pair, filled, w->lanes + lanes++);
+            hd_load_lanes(m, pair, filled, w->lanes + lanes++);
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
@@ -525,24 +511,24 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
         for (int c = 0; c <= HD_COLOURS; ++c) {
             if (colour_start[c + 1] == colour_start[c])
                 continue;  /* a colour none of the island's units has */
-            largest = pass_lanes(w->lanes + w->lane_start[c],
-                                 w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
+            largest = hd_pass_lanes(w->lanes + w->lane_start[c],
+                                    w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                largest = py_max(largest, solve_unit(m->units + w->single[s], m->rows,
-                                                     m->velocity));
+                largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
+                                                        m->velocity));
         }
         if (largest <= HD_CONVERGED * scale)
             break;
     }
-    const int deep = depths_after(m, sorted, size, h, base);
+    const int deep = hd_depths_after(m, sorted, size, h, base);
     for (long k = 0; k < lanes; ++k)
-        store_lanes(m, w->lanes + k, base);
+        hd_store_lanes(m, w->lanes + k, base);
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
         for (int c = 0; c <= HD_COLOURS; ++c) {
-            correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
-                          m->shift);
+            hd_correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
+                             m->shift);
             for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                correct_unit(m->units + w->single[s], m->rows, base, m->shift);
+                hd_correct_unit(m->units + w->single[s], m->rows, base, m->shift);
         }
     }
     return 0;

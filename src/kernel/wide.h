@@ -1,4 +1,4 @@
-/* The coloured solve of a big island (solver.py: _coloured): its units in colour order,
+/* The coloured solve of a big island (contact/islands.py: coloured): its units in colour order,
  * four two-point blocks of one colour at a time in SIMD lanes.
  *
  * A colour's units share no body but the walls' slot, whose velocity stays +0 (it is
@@ -11,7 +11,7 @@
 
 #include "contact.h"
 
-/* The constants of contact/solver.py: islands of at least HD_WIDE_UNITS units (and no
+/* The constants of contact/islands.py: islands of at least HD_WIDE_UNITS units (and no
  * joint rows) are solved in colour order; HD_COLOURS colours at most, the units that fit
  * none last, one by one in their order. */
 #define HD_WIDE_UNITS 64

@@ -30,7 +30,7 @@ from hecker_dynamics.contact.collision import (
     polygon_circle,
     polygon_polygon,
 )
-from hecker_dynamics.contact.solver import MARGIN, _collide
+from hecker_dynamics.contact.detect import MARGIN, collide
 
 TOL = 1e-12
 SQ2 = math.sqrt(2.0)
@@ -267,7 +267,7 @@ def test_circle_on_a_face():
     One point halfway (0.3, 0.475), depth 0.05, normal +y."""
     forward = polygon_circle(*A, (0.3, 0.65), 0.2, MARGIN)
     check(forward, [[0.3, 0.475]], (0.0, 1.0), [0.05])
-    backward = _collide(CirclePart((0.3, 0.65), 0.2), PolygonPart(*A))
+    backward = collide(CirclePart((0.3, 0.65), 0.2), PolygonPart(*A))
     swapped_agrees(forward, backward)
 
 
@@ -279,7 +279,7 @@ def test_circle_in_a_vertex_region_uses_the_vertex():
     depth = 0.2 - 0.1 * SQ2
     forward = polygon_circle(*A, (1.1, 0.6), 0.2, MARGIN)
     check(forward, [np.array([1.0, 0.5]) - n * depth / 2], n, [depth])
-    swapped_agrees(forward, _collide(CirclePart((1.1, 0.6), 0.2), PolygonPart(*A)))
+    swapped_agrees(forward, collide(CirclePart((1.1, 0.6), 0.2), PolygonPart(*A)))
 
 
 @pytest.mark.parametrize("corner, direction", [((1.0, 0.5), (0.6, 0.8)),

@@ -1,9 +1,10 @@
 """The contact pass in the compiled kernel against the Python pass, and its saved state.
 
-The kernel repeats solver.py and collision.py operation for operation, so the two give
-the same bits: positions, velocities and the warm-start impulses, compared exactly. The
-state a ContactPass carries from step to step is its warm-start impulses; a simulation
-given the positions, velocities and that state continues bit for bit.
+The kernel repeats solver.py (and its parts detect, warm, islands, solve, sleep) and
+collision.py operation for operation, so the two give the same bits: positions, velocities
+and the warm-start impulses, compared exactly. The state a ContactPass carries from step
+to step is its warm-start impulses; a simulation given the positions, velocities and that
+state continues bit for bit.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from scene_builders import make_scene
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import BOX, ball_box, pyramid
-from hecker_dynamics.contact import solver
+from hecker_dynamics.contact import detect, islands, sleep, solve, warm
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.scene.load import load_scene
 
@@ -32,14 +33,14 @@ def test_kernel_has_the_solver_constants():
     k = kernel._kernel
     assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.POSITION_ITERATIONS,
             k.MAX_CONTACT_SUBSTEPS) == \
-        (solver.MAX_ITERATIONS, solver.MIN_ITERATIONS, solver.WORK, solver.POSITION_ITERATIONS,
-         solver.MAX_SUBSTEPS)
+        (solve.MAX_ITERATIONS, solve.MIN_ITERATIONS, solve.WORK, solve.POSITION_ITERATIONS,
+         detect.MAX_SUBSTEPS)
     assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION,
             k.MAX_CONDITION) == \
-        (solver.CONVERGED, solver.MARGIN, solver.MATCH, solver.SLOP, solver.CORRECTION,
-         solver.MAX_CORRECTION, solver.MAX_CONDITION)
-    assert (k.SLEEP_SPEED, k.TIME_TO_SLEEP) == (solver.SLEEP_SPEED, solver.TIME_TO_SLEEP)
-    assert (k.WIDE_UNITS, k.COLOURS) == (solver.WIDE_UNITS, solver.COLOURS)
+        (solve.CONVERGED, detect.MARGIN, warm.MATCH, solve.SLOP, solve.CORRECTION,
+         solve.MAX_CORRECTION, islands.MAX_CONDITION)
+    assert (k.SLEEP_SPEED, k.TIME_TO_SLEEP) == (sleep.SLEEP_SPEED, sleep.TIME_TO_SLEEP)
+    assert (k.WIDE_UNITS, k.COLOURS) == (islands.WIDE_UNITS, islands.COLOURS)
 
 
 @needs_kernel
@@ -76,7 +77,7 @@ def test_kernel_solves_a_large_pyramid_with_the_bits_of_python():
     state = fast.model.contacts.export_state()
     assert state == slow.model.contacts.export_state()
     contacts = sum(len(remembered) for _, remembered in state)
-    assert solver.passes(contacts // 2) == solver.MIN_ITERATIONS  # at most 2 per manifold
+    assert solve.passes(contacts // 2) == solve.MIN_ITERATIONS  # at most 2 per manifold
 
 
 @needs_kernel
@@ -88,7 +89,7 @@ def test_kernel_sweeps_a_tall_pyramid_in_bands_with_the_bits_of_python():
     find the same pairs in the same order."""
     scene = pyramid(22)
     fast, slow = Simulation(scene), Simulation(scene)
-    reach, margin = BOX / 2 ** 0.5, solver.MARGIN  # a box's reach: half its diagonal
+    reach, margin = BOX / 2 ** 0.5, detect.MARGIN  # a box's reach: half its diagonal
     extent = 2 * reach + 2 * margin  # a band: a box's extent in y with both margins
     heights = fast.q[:, 1]
     room = (heights.max() - heights.min() + 2 * reach + margin + extent) / extent
@@ -242,7 +243,7 @@ def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
     spokes = [SimpleNamespace(a=0, b=k) for k in range(1, 71)]
     ring = [SimpleNamespace(a=-1 if k % 3 == 0 else k, b=k + 1) for k in range(71, 140)]
     island = [unit for pair in zip(spokes, ring) for unit in pair] + spokes[len(ring):]
-    order = solver._coloured(island)
+    order = islands.coloured(island)
     assert sorted(map(id, order)) == sorted(map(id, island))
     assert order[-6:] == spokes[-6:]
     groups, used = [[]], set()
@@ -253,5 +254,5 @@ def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
             used = set()
         groups[-1].append(unit)
         used |= bodies
-    assert len(groups) == solver.COLOURS
+    assert len(groups) == islands.COLOURS
     assert all(sum(unit.a == 0 for unit in group) == 1 for group in groups)

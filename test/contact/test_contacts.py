@@ -26,7 +26,8 @@ from scene_builders import box_body, box_inertia, make_scene, rotation
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
-from hecker_dynamics.contact.solver import SLOP, ContactPass
+from hecker_dynamics.contact.solve import SLOP
+from hecker_dynamics.contact.solver import ContactPass
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.geometry.planar import wrap_angle
 from hecker_dynamics.integrators.methods import METHODS
@@ -307,7 +308,7 @@ def test_pyramid_of_twenty_rows_stands_for_ten_seconds():
     4 ms) stands for 10 s: no box's CM ends more than 1 cm from its start, none turns by
     more than 0.01 rad, and after the settling of the first 5 s the boxes are still
     (1e-3 m/s: a collapsing pyramid moves at ~1 m/s). Large scenes get the solver's
-    minimum of passes per step (solver.MIN_ITERATIONS), so this checks that minimum."""
+    minimum of passes per step (solve.MIN_ITERATIONS), so this checks that minimum."""
     scene = pyramid(20, duration=10.0)
     sim = Simulation(scene)
     assert len(sim.q) == 210

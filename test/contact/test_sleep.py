@@ -17,7 +17,7 @@ from scene_builders import make_scene
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
-from hecker_dynamics.contact import solver
+from hecker_dynamics.contact.sleep import SLEEP_SPEED, TIME_TO_SLEEP
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.scene.load import SceneError
@@ -81,8 +81,8 @@ def test_resting_stack_sleeps_after_the_time_to_sleep_and_then_holds_its_bits(co
         sim.step()
         assert sim.time_ns * 1e-9 < 2.0, "the stack never fell asleep"
     asleep_at = sim.time_ns * 1e-9
-    assert solver.TIME_TO_SLEEP <= asleep_at <= solver.TIME_TO_SLEEP + 2 * H
-    assert min(before) < solver.TIME_TO_SLEEP  # one step earlier it was still resting
+    assert TIME_TO_SLEEP <= asleep_at <= TIME_TO_SLEEP + 2 * H
+    assert min(before) < TIME_TO_SLEEP  # one step earlier it was still resting
     assert contacts.sleeping() == [0, 1, 2]
     assert not sim.v.any()
     q, v = sim.q.copy(), sim.v.copy()
@@ -126,7 +126,7 @@ def test_an_input_wakes_a_body_and_keeps_it_awake(compiled):
         assert 2 not in sim.model.contacts.sleeping()
     assert abs(sim.v[2]).max() == 0.0 or np.hypot(*sim.v[2][:2]) < 1e-3  # it stopped
     assert sim.q[2][0] > slept[0] + 0.01  # 7 N against 0.6 x 9.81 N of friction: slides
-    assert _until_asleep(sim, [0, 1, 2]) >= start * 1e-9 + 0.6 + solver.TIME_TO_SLEEP
+    assert _until_asleep(sim, [0, 1, 2]) >= start * 1e-9 + 0.6 + TIME_TO_SLEEP
 
 
 @paths
@@ -149,7 +149,7 @@ def test_a_body_with_another_force_never_sleeps(compiled):
                                              "coefficient": 0.1}}), compiled)
     sim.advance_to(2_000_000_000)
     assert sim.model.contacts.sleeping() == []
-    assert np.abs(sim.v).max() < solver.SLEEP_SPEED
+    assert np.abs(sim.v).max() < SLEEP_SPEED
 
 
 @paths
@@ -229,7 +229,7 @@ def test_a_spawn_or_delete_wakes_every_body(compiled):
         moved.model.use_python()
     assert moved.model.contacts.sleeping() == [] and np.array_equal(moved.q, sim.q)
     start = moved.time_ns * 1e-9
-    assert _until_asleep(moved, [0, 1, 2]) >= start + solver.TIME_TO_SLEEP
+    assert _until_asleep(moved, [0, 1, 2]) >= start + TIME_TO_SLEEP
 
 
 @paths

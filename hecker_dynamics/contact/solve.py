@@ -1,0 +1,104 @@
+"""The velocity solve and the position correction (C twin: ``src/kernel/solve.c``):
+sequential impulses island by island over the units of :mod:`.islands` with the rows'
+arithmetic of :mod:`.rows`, then the overlap beyond :data:`SLOP` pushed apart by moving
+positions only.
+"""
+from __future__ import annotations
+
+from .coupled import JointUnit
+from .islands import WIDE_UNITS, coloured, islands, schedule, unit_bodies
+from .rows import Block, ContactRow, States, Velocities, solve_point
+
+__all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_ITERATIONS",
+           "POSITION_ITERATIONS", "SLOP", "WORK", "correct_positions", "passes",
+           "solve_velocities"]
+
+#: The velocity solver's passes over the contacts per step: as many as fit in
+#: :data:`WORK` solves of a contact or two-point manifold, but at least
+#: :data:`MIN_ITERATIONS` and at most :data:`MAX_ITERATIONS`, and fewer when converged
+#: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
+#: body). So a scene's cost per step is bounded by its number of contacts alone: small
+#: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
+WORK = 600
+MIN_ITERATIONS = 6
+MAX_ITERATIONS = 40
+CONVERGED = 1e-13
+#: Overlap left alone (m) by the position correction.
+SLOP = 1e-4
+#: Fraction of the remaining overlap removed per step, and the most removed per step (m).
+CORRECTION = 0.2
+MAX_CORRECTION = 0.05
+POSITION_ITERATIONS = 4
+
+
+def passes(units: int) -> int:
+    """The most passes of the velocity solver over ``units`` contacts and blocks."""
+    return min(max(WORK // units, MIN_ITERATIONS), MAX_ITERATIONS)
+
+
+def solve_velocities(rows: list[ContactRow], velocity: Velocities,
+                      joint_units: list[JointUnit]) -> list[list[ContactRow | Block]]:
+    """Gauss-Seidel passes over the rows, each two-point manifold as one block
+    (:class:`~.rows.Block`), every other contact point by point, then the velocity rows of the
+    joints in the island (:mod:`.coupled`), island by island (bodies that touch,
+    through contacts or joints, share no body with another island; a joint's rows are
+    swept only in an island that has a contact): each until no impulse changes a
+    velocity by more than :data:`CONVERGED` relative to its fastest body, or
+    :func:`passes` passes for its own number of units. Islands are independent, so
+    each gets the bits it would get alone; a big island without joint rows is swept in
+    colour order (:func:`~.islands.coloured`). Returns each island's units in the order swept."""
+    swept = []
+    for island, coupled in islands(schedule(rows), joint_units):
+        if len(island) >= WIDE_UNITS and not coupled:
+            island = coloured(island)
+        swept.append(island)
+        for joint in coupled:
+            joint.warm_start(velocity)
+        fastest = max(abs(x) for unit in island for body in unit_bodies(unit)
+                      for x in velocity[body])
+        for joint in coupled:
+            fastest = max(fastest, max(abs(x) for body in joint.bodies()
+                                       for x in velocity[body]))
+        scale = 1.0 + fastest
+        for _ in range(passes(len(island) + len(coupled))):
+            largest = 0.0
+            for unit in island:
+                change = (unit.solve(velocity) if isinstance(unit, Block)
+                          else solve_point(unit, velocity))
+                largest = max(largest, change)
+            for joint in coupled:
+                largest = max(largest, joint.solve(velocity))
+            if largest <= CONVERGED * scale:
+                break
+    return swept
+
+
+def correct_positions(islands: list[list[ContactRow | Block]], velocity: Velocities,
+                       q1: States, h: float) -> None:
+    """Remove overlap beyond :data:`SLOP` by moving positions only, island by island,
+    each in the order its velocities were swept; an island with no contact that deep
+    moves nothing (islands share no body, so each gets the bits it would get alone).
+
+    A contact's depth after the velocity change is depth - h (v_n' - v_n), linear in the
+    arms; each pass moves the two bodies apart along the normal by a fraction of the
+    excess, weighted by their inverse masses and inertias.
+    """
+    shift = {b: [0.0, 0.0, 0.0] for b in velocity}
+    for island in islands:
+        rows = [row for unit in island
+                for row in ((unit.first, unit.second) if isinstance(unit, Block)
+                            else (unit,))]
+        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach)
+                for row in rows]
+        if max(base) <= SLOP:
+            continue
+        for _ in range(POSITION_ITERATIONS):
+            for row, depth in zip(rows, base):
+                excess = depth - SLOP - row.normal_velocity(shift)
+                if excess <= 0.0:
+                    continue
+                push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n
+                row.push(shift, push * row.nx, push * row.ny)
+    for b, s in shift.items():
+        if b >= 0 and any(s):
+            q1[b] += s

@@ -1,0 +1,43 @@
+/* What the binding files of hecker_dynamics._kernel share: the names of its capsules,
+ * the buffer helpers, and each file's table of functions, which module.c registers.
+ */
+#ifndef HECKER_DYNAMICS_BIND_H
+#define HECKER_DYNAMICS_BIND_H
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include "kernel.h"
+
+#define HD_PROGRAM_CAPSULE "hecker_dynamics._kernel.Program"
+#define HD_PAIR_CAPSULE "hecker_dynamics._kernel.Pair"
+#define HD_CONTACTS_CAPSULE "hecker_dynamics._kernel.Contacts"
+#define HD_JOINTS_CAPSULE "hecker_dynamics._kernel.Joints"
+#define HD_STEPPER_CAPSULE "hecker_dynamics._kernel.Stepper"
+
+/* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
+ * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
+int hd_get_buffer(PyObject *object, Py_buffer *view, const char *what, char format,
+                  Py_ssize_t count, int writable);
+
+/* A copy of the buffer's bytes (malloc'd), or NULL out of memory. */
+void *hd_copy_of(const Py_buffer *view);
+
+/* The program, and the inputs' program (NULL for None), both for the same bodies. */
+int hd_get_programs(PyObject *program, PyObject *inputs, hd_program **p, hd_program **in);
+
+/* The writable buffers of a state (q, v) of `n3` values each, or -1 with an exception set
+ * and neither held. */
+int hd_get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_buffer *vv);
+
+/* A copy of a buffer of `count` values (any count if < 0; `*got` the count read), or NULL
+ * with an exception set. */
+void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
+                    Py_ssize_t *got);
+
+/* Each binding file's functions: bind_forces.c (dynamics/kernel.py's terms, pairs and
+ * bound), bind_stepper.c (its whole steps), bind_contacts.c (contact/compiled.py),
+ * bind_joints.c (contact/joints_kernel.py). */
+extern PyMethodDef hd_bind_forces[], hd_bind_stepper[], hd_bind_contacts[], hd_bind_joints[];
+
+#endif

@@ -1,0 +1,349 @@
+/* The binding of the contact pass (contact.h) for hecker_dynamics/contact/compiled.py:
+ * contacts (keyword arguments), resolve, warm, sleep.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "bind.h"
+#include "contact.h"
+#include "coupled.h"
+#include "joint.h"
+#include "wide.h"
+
+static void hd_contacts_destructor(PyObject *capsule)
+{
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    if (m != NULL)
+        hd_coupled_free(m->coupled);
+    hd_contact_free(m);
+}
+
+/* Check the layout contact/compiled.py packed; -1 with an exception set if it is not one. */
+static int hd_check_contacts(const hd_contact_model *m, const long *part_ints, Py_ssize_t reals,
+                             long groups)
+{
+    Py_ssize_t used = 0;
+    long last = -1;
+    for (long p = 0; p < m->part_count; ++p) {
+        const long body = part_ints[3 * p], kind = part_ints[3 * p + 1],
+                   count = part_ints[3 * p + 2];
+        if (body < last || body >= m->bodies || kind < HD_CIRCLE || kind > HD_OUTLINE ||
+                (kind != HD_CIRCLE && count < 3)) {
+            PyErr_SetString(PyExc_ValueError, "parts: not the layout of contact.h");
+            return -1;
+        }
+        last = body;
+        used += kind == HD_CIRCLE ? 3 : (kind == HD_POLYGON ? 4 : 2) * count;
+    }
+    if (used != reals) {
+        PyErr_SetString(PyExc_ValueError, "part_reals: not the parts' values");
+        return -1;
+    }
+    for (long w = 0; w < m->walls; ++w)
+        if (m->wall_first[w] > m->wall_first[w + 1])
+            goto bad;
+    for (long k = 0; k < m->wall_first[m->walls]; ++k)
+        if (m->wall_body[k] < 0 || m->wall_body[k] >= m->bodies)
+            goto bad;
+    for (long k = 0; k < m->colliding_count; ++k)
+        if (m->colliding[k] < 0 || m->colliding[k] >= m->bodies)
+            goto bad;
+    for (long k = 0; k < m->apart_count; ++k) {
+        const long *p = m->apart + 2 * k;
+        if (p[0] < 0 || p[0] >= p[1] || p[1] >= m->bodies ||
+                (k > 0 && (p[-2] > p[0] || (p[-2] == p[0] && p[-1] >= p[1]))))
+            goto bad;
+    }
+    for (long b = 0; b < m->bodies; ++b)
+        if (m->body_class[b] < -1 || m->body_class[b] >= m->class_count)
+            goto bad;
+    for (long k = 0; k < m->class_count * m->class_count; ++k)
+        if (m->class_group[k] < -1 || m->class_group[k] >= groups)
+            goto bad;
+    return 0;
+bad:
+    PyErr_SetString(PyExc_ValueError, "walls, colliding, classes or apart: a body, class or "
+                    "group out of range or apart not sorted");
+    return -1;
+}
+
+/* The parts from the packed rows: `local` copied, `placed` allocated. */
+static int hd_build_parts(hd_contact_model *m, const long *part_ints, const double *reals)
+{
+    m->parts = calloc((size_t)m->part_count + 1, sizeof(hd_part));
+    m->part_first = calloc((size_t)m->bodies + 1, sizeof(long));
+    if (m->parts == NULL || m->part_first == NULL)
+        return -1;
+    m->max_vertices = 1;
+    for (long p = 0; p < m->part_count; ++p) {
+        hd_part *part = m->parts + p;
+        part->kind = (int)part_ints[3 * p + 1];
+        part->count = part_ints[3 * p + 2];
+        const size_t values = part->kind == HD_CIRCLE ? 3
+                              : (size_t)((part->kind == HD_POLYGON ? 4 : 2) * part->count);
+        part->local = malloc(values * sizeof(double));
+        part->placed = malloc(values * sizeof(double));
+        if (part->local == NULL || part->placed == NULL)
+            return -1;
+        memcpy(part->local, reals, values * sizeof(double));
+        reals += values;
+        if (part->count > m->max_vertices)
+            m->max_vertices = part->count;
+        m->part_first[part_ints[3 * p] + 1] += 1;
+    }
+    for (long b = 0; b < m->bodies; ++b)
+        m->part_first[b + 1] += m->part_first[b];
+    return 0;
+}
+
+PyDoc_STRVAR(contacts_doc,
+"contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
+"         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
+"         thickness) -> Contacts\n\n"
+"A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
+"per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
+"wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
+"body its class, per pair of classes their group, per group (restitution, friction), and\n"
+"the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials).");
+
+static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"inverse_mass", "inverse_inertia", "reach", "part_ints",
+                            "part_reals", "walls", "wall_first", "wall_body", "colliding",
+                            "classes", "class_groups", "materials", "apart", "threshold",
+                            "thickness", NULL};
+    PyObject *o[13];
+    double threshold, thickness;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOdd:contacts", names, o, o + 1,
+                                     o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8, o + 9,
+                                     o + 10, o + 11, o + 12, &threshold, &thickness))
+        return NULL;
+    hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
+    if (m == NULL)
+        return PyErr_NoMemory();
+    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, cells, materials, apart;
+    long *part_ints = NULL;
+    double *part_reals = NULL;
+    m->threshold = threshold;
+    m->thickness = thickness;
+    if ((m->inverse_mass = hd_read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
+        (m->inverse_inertia = hd_read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
+        (m->reach = hd_read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||
+        (part_ints = hd_read_array(o[3], "part_ints", 'q', -1, &parts)) == NULL ||
+        (part_reals = hd_read_array(o[4], "part_reals", 'd', -1, &reals)) == NULL ||
+        (m->wall = hd_read_array(o[5], "walls", 'd', -1, &walls)) == NULL ||
+        (m->wall_first = hd_read_array(o[6], "wall_first", 'q', walls / 5 + 1, NULL)) == NULL ||
+        (m->wall_body = hd_read_array(o[7], "wall_body", 'q', -1, &wall_bodies)) == NULL ||
+        (m->colliding = hd_read_array(o[8], "colliding", 'q', -1, &colliding)) == NULL ||
+        (m->body_class = hd_read_array(o[9], "classes", 'q', bodies, NULL)) == NULL ||
+        (m->class_group = hd_read_array(o[10], "class_groups", 'q', -1, &cells)) == NULL ||
+        (m->material = hd_read_array(o[11], "materials", 'd', -1, &materials)) == NULL ||
+        (m->apart = hd_read_array(o[12], "apart", 'q', -1, &apart)) == NULL)
+        goto fail;
+    m->bodies = (long)bodies;
+    m->part_count = (long)(parts / 3);
+    m->walls = (long)(walls / 5);
+    m->colliding_count = (long)colliding;
+    m->apart_count = (long)(apart / 2);
+    while (m->class_count * m->class_count < cells)
+        m->class_count += 1;
+    if (parts % 3 || walls % 5 || apart % 2 || materials % 2 ||
+            m->class_count * m->class_count != cells || m->wall_first[0] != 0 ||
+            m->wall_first[m->walls] != wall_bodies) {
+        PyErr_SetString(PyExc_ValueError, "contacts: arrays not of the layout of contact.h");
+        goto fail;
+    }
+    if (hd_check_contacts(m, part_ints, reals, (long)(materials / 2)) < 0)
+        goto fail;
+    if (hd_build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    free(part_ints);
+    free(part_reals);
+    PyObject *capsule = PyCapsule_New(m, HD_CONTACTS_CAPSULE, hd_contacts_destructor);
+    if (capsule == NULL)
+        hd_contact_free(m);
+    return capsule;
+fail:
+    free(part_ints);
+    free(part_reals);
+    hd_contact_free(m);
+    return NULL;
+}
+
+PyDoc_STRVAR(resolve_doc,
+"resolve(contacts, q1, v1, q0, v0, h[, joints])\n\n"
+"The contact pass after a step of ``h`` from (q0, v0) to (q1, v1): updates q1 and v1 in\n"
+"place, sleeping bodies back at (q0, v0) (ContactPass.resolve); with the joint pass\n"
+"``joints`` (not None), its last velocity rows solved with the contacts.");
+
+static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[4], *joints_object = Py_None;
+    double h;
+    if (!PyArg_ParseTuple(args, "OOOOOd|O:resolve", &capsule, objects, objects + 1, objects + 2,
+                          objects + 3, &h, &joints_object))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    if (m == NULL)
+        return NULL;
+    hd_joint_model *joints = NULL;
+    if (joints_object != Py_None) {
+        if ((joints = PyCapsule_GetPointer(joints_object, HD_JOINTS_CAPSULE)) == NULL)
+            return NULL;
+        for (long k = 0; k < joints->body_count; ++k)
+            if (joints->bodies[k] >= m->bodies) {
+                PyErr_SetString(PyExc_ValueError, "resolve: a joint pass for other bodies");
+                return NULL;
+            }
+    }
+    Py_buffer views[4];
+    const char *names[4] = {"q1", "v1", "q0", "v0"};
+    for (int k = 0; k < 4; ++k) {
+        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
+            while (k-- > 0)
+                PyBuffer_Release(views + k);
+            return NULL;
+        }
+    }
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    m->joints = joints;
+    status = hd_resolve(m, views[0].buf, views[1].buf, views[2].buf, views[3].buf, h);
+    m->joints = NULL;
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < 4; ++k)
+        PyBuffer_Release(views + k);
+    if (status < 0)
+        return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(sleep_doc,
+"sleep(contacts[, enabled, calm, rested, island]) -> (rested, island)\n\n"
+"Sleeping of resting islands (ContactPass._doze): per body its rest time (s) and\n"
+"sleeping island (-1: awake); with the arguments, first turn sleeping on or off and set\n"
+"per body whether it may sleep (calm), its rest time and its island.");
+
+static PyObject *hd_py_sleep(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[3] = {NULL, NULL, NULL};
+    int enabled = 0;
+    if (!PyArg_ParseTuple(args, "O|iOOO:sleep", &capsule, &enabled, objects, objects + 1,
+                          objects + 2))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    if (m == NULL)
+        return NULL;
+    if (objects[0] != NULL) {
+        if (objects[2] == NULL) {
+            PyErr_SetString(PyExc_TypeError, "sleep: give enabled, calm, rested and island");
+            return NULL;
+        }
+        Py_buffer views[3];
+        const char *names[3] = {"calm", "rested", "island"};
+        const char kinds[3] = {'q', 'd', 'q'};
+        for (int k = 0; k < 3; ++k) {
+            if (hd_get_buffer(objects[k], views + k, names[k], kinds[k], m->bodies, 0) < 0) {
+                while (k-- > 0)
+                    PyBuffer_Release(views + k);
+                return NULL;
+            }
+        }
+        const long long *calm = views[0].buf, *island = views[2].buf;
+        const double *rested = views[1].buf;
+        m->sleep = enabled != 0;
+        for (long b = 0; b < m->bodies; ++b) {
+            m->calm[b] = calm[b] != 0;
+            m->rested[b] = rested[b];
+            m->island[b] = (long)island[b];
+        }
+        for (int k = 0; k < 3; ++k)
+            PyBuffer_Release(views + k);
+    }
+    PyObject *rested = PyList_New(m->bodies), *island = PyList_New(m->bodies);
+    for (long b = 0; rested != NULL && island != NULL && b < m->bodies; ++b) {
+        PyObject *t = PyFloat_FromDouble(m->rested[b]), *i = PyLong_FromLong(m->island[b]);
+        if (t == NULL || i == NULL) {
+            Py_XDECREF(t);
+            Py_XDECREF(i);
+            Py_CLEAR(rested);
+            break;
+        }
+        PyList_SET_ITEM(rested, b, t);
+        PyList_SET_ITEM(island, b, i);
+    }
+    if (rested == NULL || island == NULL) {
+        Py_XDECREF(rested);
+        Py_XDECREF(island);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", rested, island);
+}
+
+PyDoc_STRVAR(warm_doc,
+"warm(contacts[, impulses]) -> list\n\n"
+"The impulses kept for warm starting, as (k0, k1, k2, k3, lx, ly, jn, jt) per contact,\n"
+"those of one pair of parts (k0..k3) together and in the order the solver met them; with\n"
+"``impulses``, replace them first.");
+
+static PyObject *hd_py_warm(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *impulses = NULL;
+    if (!PyArg_ParseTuple(args, "O|O:warm", &capsule, &impulses))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    if (m == NULL)
+        return NULL;
+    if (impulses != NULL) {
+        PyObject *items = PySequence_Fast(impulses, "impulses: a sequence of tuples");
+        if (items == NULL)
+            return NULL;
+        const Py_ssize_t count = PySequence_Fast_GET_SIZE(items);
+        hd_warm *warm = malloc(((size_t)count + 1) * sizeof(hd_warm));
+        if (warm == NULL) {
+            Py_DECREF(items);
+            return PyErr_NoMemory();
+        }
+        for (Py_ssize_t i = 0; i < count; ++i) {
+            hd_warm *w = warm + i;
+            w->used = 0;
+            if (!PyArg_ParseTuple(PySequence_Fast_GET_ITEM(items, i), "lllldddd", w->key,
+                                  w->key + 1, w->key + 2, w->key + 3, &w->lx, &w->ly, &w->jn,
+                                  &w->jt)) {
+                free(warm);
+                Py_DECREF(items);
+                return NULL;
+            }
+        }
+        Py_DECREF(items);
+        free(m->warm);
+        m->warm = warm;
+        m->warm_count = m->warm_capacity = (long)count;
+        hd_set_warm(m);
+    }
+    PyObject *list = PyList_New(m->warm_count);
+    for (long i = 0; list != NULL && i < m->warm_count; ++i) {
+        const hd_warm *w = m->warm + i;
+        PyObject *item = Py_BuildValue("(lllldddd)", w->key[0], w->key[1], w->key[2],
+                                       w->key[3], w->lx, w->ly, w->jn, w->jt);
+        if (item == NULL)
+            Py_CLEAR(list);
+        else
+            PyList_SET_ITEM(list, i, item);
+    }
+    return list;
+}
+
+PyMethodDef hd_bind_contacts[] = {
+    {"contacts", (PyCFunction)(void (*)(void))hd_py_contacts, METH_VARARGS | METH_KEYWORDS,
+     contacts_doc},
+    {"resolve", hd_py_resolve, METH_VARARGS, resolve_doc},
+    {"warm", hd_py_warm, METH_VARARGS, warm_doc},
+    {"sleep", hd_py_sleep, METH_VARARGS, sleep_doc},
+    {NULL, NULL, 0, NULL},
+};

@@ -1,0 +1,266 @@
+/* The binding of the joint pass (joint.h) for hecker_dynamics/contact/joints_kernel.py:
+ * joints (keyword arguments), joint_state, joints_resolve.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "bind.h"
+#include "joint.h"
+#include "sparse.h"
+
+static void hd_joints_destructor(PyObject *capsule)
+{
+    hd_joints_free(PyCapsule_GetPointer(capsule, HD_JOINTS_CAPSULE));
+}
+
+PyDoc_STRVAR(joints_doc,
+"joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
+"       tolerance, max_turn) -> Joints\n\n"
+"A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
+"1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
+"HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
+"checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
+"Pattern), each as (start, columns); the model indices of the bodies whose turning\n"
+"JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
+"step (JointPass.max_turn).");
+
+/* A contact/sparse.py Pattern from (start, columns); -1 with an exception set. */
+static int hd_read_pattern(PyObject *pair, hd_pattern *p)
+{
+    PyObject *start_object, *columns_object;
+    if (!PyArg_ParseTuple(pair, "OO:pattern", &start_object, &columns_object))
+        return -1;
+    Py_ssize_t count, length;
+    long *start = hd_read_array(start_object, "start", 'q', -1, &length);
+    long *columns = start == NULL ? NULL
+                    : hd_read_array(columns_object, "columns", 'q', -1, &count);
+    if (columns == NULL) {
+        free(start);
+        return -1;
+    }
+    const long rows = (long)length - 1;
+    int ok = rows >= 0 && start[0] == 0 && start[rows] == (long)count;
+    for (long i = 0; ok && i < rows; ++i) {
+        ok = start[i] <= start[i + 1];
+        for (long k = start[i]; ok && k < start[i + 1]; ++k)
+            ok = 0 <= columns[k] && columns[k] < i
+                 && (k == start[i] || columns[k - 1] < columns[k]);
+    }
+    if (!ok) {
+        free(start);
+        free(columns);
+        PyErr_SetString(PyExc_ValueError, "pattern: not a contact/sparse.py Pattern");
+        return -1;
+    }
+    if (hd_pattern_init(p, rows, start, columns) < 0) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"bodies", "inverse_mass", "ints", "reals", "rows", "pattern",
+                            "rigid_pattern", "turning", "tolerance", "max_turn", NULL};
+    PyObject *o[4], *patterns[2], *turning_object;
+    long rows;
+    double tolerance, max_turn;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOdd:joints", names, o, o + 1, o + 2,
+                                     o + 3, &rows, patterns, patterns + 1, &turning_object,
+                                     &tolerance, &max_turn))
+        return NULL;
+    hd_joint_model *m = calloc(1, sizeof(hd_joint_model));
+    if (m == NULL)
+        return PyErr_NoMemory();
+    Py_ssize_t bodies, ints_count, turning;
+    long *ints = NULL;
+    double *reals = NULL;
+    if ((m->bodies = hd_read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
+        (m->inverse_mass = hd_read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
+        (ints = hd_read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
+        (reals = hd_read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
+                               NULL)) == NULL ||
+        (m->turning = hd_read_array(turning_object, "turning", 'q', -1, &turning)) == NULL)
+        goto fail;
+    m->body_count = (long)bodies;
+    m->turning_count = (long)turning;
+    m->tolerance = tolerance, m->max_turn = max_turn;
+    m->joint_count = (long)(ints_count / HD_JOINT_INTS);
+    if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,
+                                                          sizeof(hd_joint))) == NULL) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "joints: ints not of the layout of joint.h");
+        goto fail;
+    }
+    for (long i = 0; i < m->joint_count; ++i) {
+        const long *n = ints + HD_JOINT_INTS * i;
+        const double *r = reals + HD_JOINT_REALS * i;
+        hd_joint *jt = m->joints + i;
+        jt->kind = (int)n[0], jt->a = n[1], jt->b = n[2];
+        jt->has_lower = n[3] != 0, jt->has_upper = n[4] != 0, jt->has_motor = n[5] != 0;
+        jt->has_spring = n[6] != 0, jt->gear_a = n[7], jt->gear_b = n[8];
+        int ok = jt->kind >= HD_REVOLUTE && jt->kind <= HD_GEAR;
+        if (jt->kind == HD_GEAR)
+            ok = ok && 0 <= n[7] && n[7] < m->joint_count && 0 <= n[8] && n[8] < m->joint_count
+                 && ints[HD_JOINT_INTS * n[7]] == HD_REVOLUTE
+                 && ints[HD_JOINT_INTS * n[8]] == HD_REVOLUTE;
+        else
+            ok = ok && -1 <= jt->a && jt->a < m->body_count && 0 <= jt->b && jt->b < m->body_count;
+        if (!ok) {
+            PyErr_Format(PyExc_ValueError, "joint %ld: not the layout of joint.h", i);
+            goto fail;
+        }
+        memcpy(jt->point_a, r, 2 * sizeof(double));
+        memcpy(jt->point_b, r + 2, 2 * sizeof(double));
+        memcpy(jt->axis, r + 4, 2 * sizeof(double));
+        jt->lower = r[6], jt->upper = r[7], jt->max_effort = r[8], jt->stiffness = r[9];
+        jt->damping = r[10], jt->rest = r[11], jt->length = r[12], jt->ratio = r[13];
+    }
+    for (Py_ssize_t k = 0; k < bodies; ++k)
+        if (m->bodies[k] < 0) {
+            PyErr_SetString(PyExc_ValueError, "joints: a negative body index");
+            goto fail;
+        }
+    for (Py_ssize_t k = 0; k < turning; ++k)
+        if (m->turning[k] < 0) {
+            PyErr_SetString(PyExc_ValueError, "joints: a negative turning body");
+            goto fail;
+        }
+    if (hd_read_pattern(patterns[0], &m->pattern) < 0 ||
+            hd_read_pattern(patterns[1], &m->rigid_pattern) < 0)
+        goto fail;
+    const int status = hd_joints_prepare(m);
+    if (status == HD_JOINTS_OUT_OF_MEMORY) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    if (status == HD_JOINTS_MISMATCH || m->row_count != rows || m->pattern.n != rows) {
+        PyErr_Format(PyExc_ValueError, "joints: %ld rows (%ld rigid) in the kernel, %ld in "
+                     "Python", m->row_count, m->rigid_count, rows);
+        goto fail;
+    }
+    free(ints);
+    free(reals);
+    PyObject *capsule = PyCapsule_New(m, HD_JOINTS_CAPSULE, hd_joints_destructor);
+    if (capsule == NULL)
+        hd_joints_free(m);
+    return capsule;
+fail:
+    free(ints);
+    free(reals);
+    hd_joints_free(m);
+    return NULL;
+}
+
+/* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
+ * the contact solve's extra impulses, whether the multipliers are set, and the last
+ * step's length. */
+static Py_ssize_t hd_joint_state_length(const hd_joint_model *m)
+{
+    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 2;
+}
+
+PyDoc_STRVAR(joint_state_doc,
+"joint_state(joints, state, load)\n\n"
+"Copy the joint pass's state (joint.h: HD_JOINT_STATE per joint, the warm-start impulses,\n"
+"the Newton multipliers, the contact solve's extra impulses, 1.0 if the multipliers are\n"
+"set, the last step's length) from ``state``\n"
+"into the kernel (``load``) or from the kernel into ``state``.");
+
+static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *object;
+    int load;
+    if (!PyArg_ParseTuple(args, "OOp:joint_state", &capsule, &object, &load))
+        return NULL;
+    hd_joint_model *m = PyCapsule_GetPointer(capsule, HD_JOINTS_CAPSULE);
+    Py_buffer view;
+    if (m == NULL
+        || hd_get_buffer(object, &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
+        return NULL;
+    double *s = view.buf;
+    for (long i = 0; i < m->joint_count; ++i, s += HD_JOINT_STATE) {
+        hd_joint *jt = m->joints + i;
+        double *fields[HD_JOINT_STATE] = {&jt->reference_angle, &jt->reference_along,
+                                          &jt->angle, &jt->raw, &jt->motor_speed};
+        for (int k = 0; k < HD_JOINT_STATE; ++k) {
+            if (load)
+                *fields[k] = s[k];
+            else
+                s[k] = *fields[k];
+        }
+    }
+    const size_t warm = (size_t)m->row_count * sizeof(double),
+                 newton = (size_t)m->rigid_count * sizeof(double);
+    const long flags = 2 * m->row_count + m->rigid_count;
+    if (load) {
+        m->ended = 0;  /* its state may differ: build the next pass's rows afresh */
+        memcpy(m->warm, s, warm);
+        memcpy(m->newton, s + m->row_count, newton);
+        memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
+        m->newton_valid = s[flags] != 0.0;
+        m->last_h = s[flags + 1];
+    } else {
+        memcpy(s, m->warm, warm);
+        memcpy(s + m->row_count, m->newton, newton);
+        memcpy(s + m->row_count + m->rigid_count, m->extra, warm);
+        s[flags] = m->newton_valid ? 1.0 : 0.0;
+        s[flags + 1] = m->last_h;
+    }
+    PyBuffer_Release(&view);
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(joints_resolve_doc,
+"joints_resolve(joints, bodies, q0, q1, v1, h)\n\n"
+"The joint pass after a step of ``h`` from q0 to (q1, v1) of ``bodies`` bodies: updates\n"
+"q1 and v1 in place (JointPass.resolve). Returns False, changing nothing, when the\n"
+"positions have no solution near the step's end (JointsUnsolved), else True.");
+
+static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *args)
+{
+    PyObject *capsule, *objects[3];
+    long bodies;
+    double h;
+    if (!PyArg_ParseTuple(args, "OlOOOd:joints_resolve", &capsule, &bodies, objects,
+                          objects + 1, objects + 2, &h))
+        return NULL;
+    hd_joint_model *m = PyCapsule_GetPointer(capsule, HD_JOINTS_CAPSULE);
+    if (m == NULL)
+        return NULL;
+    for (long k = 0; k < m->body_count; ++k)
+        if (m->bodies[k] >= bodies) {
+            PyErr_SetString(PyExc_ValueError, "joints_resolve: a joint's body out of range");
+            return NULL;
+        }
+    Py_buffer views[3];
+    const char *names[3] = {"q0", "q1", "v1"};
+    for (int k = 0; k < 3; ++k) {
+        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * bodies, k > 0) < 0) {
+            while (k-- > 0)
+                PyBuffer_Release(views + k);
+            return NULL;
+        }
+    }
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = hd_joints_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < 3; ++k)
+        PyBuffer_Release(views + k);
+    if (status == HD_JOINTS_OUT_OF_MEMORY)
+        return PyErr_NoMemory();
+    return PyBool_FromLong(status == HD_JOINTS_OK);
+}
+
+PyMethodDef hd_bind_joints[] = {
+    {"joints", (PyCFunction)(void (*)(void))hd_py_joints, METH_VARARGS | METH_KEYWORDS,
+     joints_doc},
+    {"joint_state", hd_py_joint_state, METH_VARARGS, joint_state_doc},
+    {"joints_resolve", hd_py_joints_resolve, METH_VARARGS, joints_resolve_doc},
+    {NULL, NULL, 0, NULL},
+};

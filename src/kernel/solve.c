@@ -1,0 +1,71 @@
+/* The velocity solve and the position correction (hecker_dynamics/contact/solve.py):
+ * Gauss-Seidel passes island by island over the units of islands.c, the big islands'
+ * through wide.c's lanes, with the arithmetic of rows.h.
+ */
+#include <stddef.h>
+
+#include "contact.h"
+#include "coupled.h"
+#include "rows.h"
+#include "solver.h"
+#include "wide.h"
+
+/* Gauss-Seidel passes over the units island by island, each until no impulse changes a
+ * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
+ * units) passes, but at least HD_MIN_ITERATIONS and at most HD_MAX_ITERATIONS
+ * (contact/solve.py: solve_velocities); then each island's position correction into m->shift,
+ * in the order its units were swept (contact/solve.py: correct_positions), with `base` for
+ * the rows' depths. */
+int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
+{
+    const long units = hd_schedule(m, count);
+    const int same = hd_same_units(m, units);
+    if (same < 0)
+        return -1;
+    if (!same)
+        m->island_count = hd_islands(m, units);
+    const long count_islands = m->island_count;
+    if (count_islands < 0)
+        return -1;
+    long wide = 0;  /* the islands solved in colour order so far */
+    for (long i = 0; i < count_islands; ++i) {
+        const long *members = m->order + m->island_start[i];
+        const long size = m->island_start[i + 1] - m->island_start[i];
+        hd_coupled_warm_start(m, i);
+        double fastest = 0.0;
+        for (long k = 0; k < size; ++k) {
+            const hd_row *r = m->rows + m->units[members[k]].first;
+            for (int c = 0; c < 3; ++c) {
+                fastest = hd_max(hd_max(fastest, fabs(m->velocity[3 * r->a + c])),
+                                 fabs(m->velocity[3 * r->b + c]));
+            }
+        }
+        const double scale = 1.0 + hd_coupled_fastest(m, i, fastest);
+        const long coupled = hd_coupled_size(m, i);
+        long passes = HD_WORK / (size + coupled);
+        passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
+        passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+        if (size >= HD_WIDE_UNITS && coupled == 0) {
+            if (hd_wide_solve(m, wide++, same, members, size, passes, scale, h, base) < 0)
+                return -1;
+            continue;
+        }
+        for (long iteration = 0; iteration < passes; ++iteration) {
+            double largest = 0.0;
+            for (long k = 0; k < size; ++k)
+                largest = hd_max(largest,
+                                 hd_solve_unit(m->units + members[k], m->rows, m->velocity));
+            largest = hd_coupled_sweep(m, i, largest);
+            if (largest <= HD_CONVERGED * scale)
+                break;
+        }
+        if (!hd_depths_after(m, members, size, h, base))
+            continue;
+        for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
+            for (long k = 0; k < size; ++k)
+                hd_correct_unit(m->units + members[k], m->rows, base, m->shift);
+        }
+    }
+    m->islands_known = m->joints == NULL;
+    return 0;
+}
