@@ -68,13 +68,15 @@ setup(
     packages=["hecker_dynamics", "hecker_dynamics.bags", "hecker_dynamics.batch",
               "hecker_dynamics.bench", "hecker_dynamics.contact", "hecker_dynamics.dynamics",
               "hecker_dynamics.geometry", "hecker_dynamics.integrators", "hecker_dynamics.ros",
-              "hecker_dynamics.scene", "hecker_dynamics.viz",
+              "hecker_dynamics.scene", "hecker_dynamics.viz", "hecker_dynamics.world",
+              "hecker_dynamics.sensors", "hecker_dynamics.drives",
               "hecker_dynamics.config",
               "hecker_dynamics.interfaces"],
     # Scenes and message definitions live at the package root, as ROS packages keep them;
     # a pip install carries them inside the Python package.
     package_dir={"hecker_dynamics.config": "config", "hecker_dynamics.interfaces": "msg"},
-    package_data={"hecker_dynamics.config": ["*.yaml"], "hecker_dynamics.interfaces": ["*.msg"]},
+    package_data={"hecker_dynamics": ["py.typed"], "hecker_dynamics.config": ["*.yaml"],
+                  "hecker_dynamics.interfaces": ["*.msg"]},
     # optional=True: a failed compile or link only warns (see the module docstring).
     ext_modules=[Extension("hecker_dynamics._kernel", sources=KERNEL_SOURCES,
                            depends=KERNEL_HEADERS, include_dirs=["src/kernel"],

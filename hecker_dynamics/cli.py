@@ -22,8 +22,8 @@ import dataclasses
 import decimal
 import sys
 import time
-from pathlib import Path
 from collections.abc import Iterator, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 import numpy as np
@@ -31,17 +31,22 @@ import numpy as np
 from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .batch.variants import MAX_VARIANTS
-from .files import OutputError, check_folder
-from .dynamics.commands import InputError
-from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, shipped_scenes
 from .dynamics.simulation import DivergenceError, Simulation
+from .files import OutputError, check_folder
+from .scene.commands import InputError
+from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, scene_summary, shipped_scenes
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
 
 if TYPE_CHECKING:
     from .bags.check import RecordingCheck
+    from .bags.compare import Tolerances
     from .bags.io import BagContents
+    from .batch.engines import Engine
+
+__all__ = ["configure", "run_command", "scenes_command", "script_command", "replay_command",
+           "compare_command", "bench_command", "sweep_command", "regress_command", "parser", "main"]
 
 
 def _time_ns(text: str) -> int:
@@ -131,9 +136,11 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def scenes_command(args: argparse.Namespace) -> int:
-    """List the shipped scenes."""
-    for name in shipped_scenes():
-        print(name)
+    """List the shipped scenes, each with its file's one-line summary."""
+    names = shipped_scenes()
+    width = max((len(name) for name in names), default=0)
+    for name in names:
+        print(f"{name:<{width}}  {scene_summary(name)}".rstrip())
     return 0
 
 
@@ -153,7 +160,7 @@ def _want_progress(args: argparse.Namespace) -> bool:
     return args.progress if args.progress is not None else stderr_is_terminal()
 
 
-def _tolerances(args: argparse.Namespace):
+def _tolerances(args: argparse.Namespace) -> Tolerances:
     from .bags.compare import Tolerances
 
     atol = args.atol
@@ -180,12 +187,18 @@ def script_command(args: argparse.Namespace) -> int:
 
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
-    from .bags.io import read_bag
     from .bags.check import RecordingCheck, check_outputs
+    from .bags.io import read_bag
     from .bags.live import is_live_recording
-    from .bags.replay import (check_distinct, input_topics, outputs_as_bag,
-                              recorded_output_topics, replay_outputs, replay_to_bag,
-                              session_times)
+    from .bags.replay import (
+        check_distinct,
+        input_topics,
+        outputs_as_bag,
+        recorded_output_topics,
+        replay_outputs,
+        replay_to_bag,
+        session_times,
+    )
 
     if args.output is None and not args.check:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
@@ -350,7 +363,7 @@ def _add_progress_options(parser: argparse.ArgumentParser) -> None:
                                 help="never show a progress bar")
 
 
-def _add_bag_commands(commands: argparse._SubParsersAction) -> None:
+def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     script_parser = commands.add_parser(
         "script", help="write a scene's scripted inputs into an input bag",
         description="Turn a scene's scripted inputs into a rosbag2 bag: one "
@@ -461,7 +474,8 @@ def bench_command(args: argparse.Namespace) -> int:
     command = "hecker-dynamics " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["bench"] \
         else "hecker-dynamics bench"
     if args.joints:
-        from .bench.joints import JOINT_FILES, PEERS as JOINT_PEERS, joint_bench
+        from .bench.joints import JOINT_FILES, joint_bench
+        from .bench.joints import PEERS as JOINT_PEERS
 
         out = _bench_out(args, JOINT_FILES)
         with _bench_writing(out):
@@ -469,8 +483,13 @@ def bench_command(args: argparse.Namespace) -> int:
         print(f"wrote {out}")
         return 0
     if args.contacts is not None:
-        from .bench.contacts import (CONTACT_FILES, PYRAMID_ROWS, contact_bench,
-                                     contact_scene_names, targets)
+        from .bench.contacts import (
+            CONTACT_FILES,
+            PYRAMID_ROWS,
+            contact_bench,
+            contact_scene_names,
+            targets,
+        )
         from .bench.scene_peers import SCENE_PEERS
 
         known = contact_scene_names()
@@ -537,7 +556,7 @@ def _rows(text: str) -> int:
     return rows
 
 
-def _add_bench_command(commands: argparse._SubParsersAction) -> None:
+def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     bench = commands.add_parser(
         "bench", help="measure error against cost for every integrator (work-precision)",
         description="Run every integrator over a sweep of steps (and tolerances of the "
@@ -594,7 +613,7 @@ def _add_bench_command(commands: argparse._SubParsersAction) -> None:
 
 # ----------------------------------------------------------------------------- batch
 
-def _engine(args: argparse.Namespace):
+def _engine(args: argparse.Namespace) -> Engine:
     from .batch.engines import make_engine
 
     engine = make_engine(args.workers, args.cluster)
@@ -701,7 +720,7 @@ def _add_engine_options(parser: argparse.ArgumentParser) -> None:
     _add_progress_options(parser)
 
 
-def _add_batch_commands(commands: argparse._SubParsersAction) -> None:
+def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     sweep_parser = commands.add_parser(
         "sweep", help="run a scene over a grid or a random sample of its parameters",
         description="Run the variants of a scene that --set makes (a grid of every "
@@ -783,7 +802,7 @@ def parser() -> argparse.ArgumentParser:
     run_parser.set_defaults(handler=run_command)
 
     list_parser = commands.add_parser("scenes", help="list the shipped scenes",
-                                      description="List the shipped scenes.")
+                                      description="List the shipped scenes, one line each.")
     list_parser.set_defaults(handler=scenes_command)
     _add_bag_commands(commands)
     _add_bench_command(commands)

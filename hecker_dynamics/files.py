@@ -14,6 +14,7 @@ a simulation starts, and the same rules hold everywhere:
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import secrets
@@ -220,7 +221,5 @@ def replacing(path: Path, *, option: str = "-o", overwrite: bool = False) -> Ite
     except OSError as error:
         raise OutputError(f"{option} {path}: cannot write: {_reason(error)}") from None
     finally:
-        try:  # left after a failure or a hard link
+        with contextlib.suppress(FileNotFoundError):  # left after a failure or a hard link
             os.unlink(scratch)
-        except FileNotFoundError:
-            pass

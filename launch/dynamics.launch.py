@@ -48,6 +48,7 @@ def _rviz_missing():
 
 def _dynamics_node(context):
     from ament_index_python.packages import get_package_share_directory
+
     from hecker_dynamics.scene.load import load_scene, scene_path
 
     params_file = str(scene_path(LaunchConfiguration('scene').perform(context)).resolve())

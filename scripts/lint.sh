@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# ruff on the tree and mypy on the core, as pyproject.toml configures them, in a venv of
-# their own (.venv-lint: the package with its `lint` extra), apart from the test venvs.
+# ruff on the tree and mypy (--strict) on the whole package, as pyproject.toml configures
+# them, in a venv of their own (.venv-lint: the package with its `lint` extra), apart from
+# the test venvs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=".venv-lint"

@@ -19,17 +19,17 @@ export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 cli=("$python" -m hecker_dynamics.cli)
 
 # "<scene> <seconds>" per shipped scene: the golden length, capped by the scene's duration
-# and, for scenes of many bodies, by GOLDEN_MESSAGES output messages (a pose and a twist per
-# body and publish instant, counted; the few other topics are not), which keeps each output
-# bag under 200 kB.
+# and, for scenes of many bodies, by GOLDEN_ENTRIES entries of the outputs (per publish
+# instant a pose, a twist and a /tf transform per body and a joint state per joint), which
+# keeps the bags small (each topic adds a fixed part: its metadata, schema and index).
 plan=$("$python" - <<'PY'
 import os
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 cap_ns = round(float(os.environ["GOLDEN_DURATION"]) * 1e9)
-budget = int(os.environ.get("GOLDEN_MESSAGES", "2000"))
+budget = int(os.environ.get("GOLDEN_ENTRIES", "3000"))
 for name in shipped_scenes():
     scene = load_scene(name)
-    instants = max(1, budget // (2 * len(scene.bodies)))
+    instants = max(1, budget // (3 * len(scene.bodies) + len(scene.joints)))
     ns = min(scene.duration_ns, cap_ns, instants * scene.publish_period_ns)
     print(name, f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}")
 PY

@@ -7,9 +7,8 @@ Where rosbags is not installed, the tests that import it skip with the reason
 (:mod:`optional_modules`)."""
 from __future__ import annotations
 
-import pytest
-
 import optional_modules
+import pytest
 
 optional_modules.install()
 

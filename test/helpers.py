@@ -11,10 +11,10 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-
-from hecker_dynamics.integrators.methods import make_integrator
-from hecker_dynamics.dynamics.model import Model
 import scene_builders
+
+from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.integrators.methods import make_integrator
 from hecker_dynamics.scene.load import Scene
 
 # pi to 50 digits, for exact references of wrapped angles.

@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from hecker_dynamics.scene.parameters import flatten
 from hecker_dynamics.scene.load import Scene, scene_from_parameters
+from hecker_dynamics.scene.parameters import flatten
 
 
 def make_scene(params: dict[str, Any], source: str = "test-scene") -> Scene:

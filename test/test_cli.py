@@ -12,11 +12,11 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from scene_builders import write_scene
 
 from hecker_dynamics import Simulation, load_scene
 from hecker_dynamics.cli import main, parser
+from hecker_dynamics.scene.load import scene_path, scene_summary, shipped_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -147,6 +147,29 @@ def test_run_and_scenes_subcommands_exist():
 def test_scenes_lists_the_default_scene(capsys):
     assert main(["scenes"]) == 0
     assert "sample" in capsys.readouterr().out.split()
+
+
+def test_scenes_gives_each_scene_its_files_first_line(capsys):
+    """One line per shipped scene: its name, then the first line of its file's header."""
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = shipped_scenes()
+    assert [line.split()[0] for line in lines] == names
+    for name, line in zip(names, lines):
+        first = scene_path(name).read_text().splitlines()[0]
+        assert first.startswith("# ") and len(first) <= 100, f"{name}: {first!r}"
+        summary = first[2:].strip()
+        assert summary and line.split(None, 1)[1] == summary
+    # The summaries start at one column, after the longest name.
+    assert len({len(line) - len(line.split(None, 1)[1]) for line in lines}) == 1
+
+
+def test_a_scene_file_without_a_header_has_no_summary(tmp_path):
+    path = tmp_path / "bare.yaml"
+    path.write_text("dynamics_node:\n  ros__parameters: {}\n")
+    assert scene_summary(path) == ""
+    path.write_text("# Two boxes.\n#\n# More.\ndynamics_node:\n  ros__parameters: {}\n")
+    assert scene_summary(path) == "Two boxes."
 
 
 def test_as_a_process_exit_codes_and_no_traceback(tmp_path):

@@ -7,11 +7,11 @@ import shlex
 from pathlib import Path
 
 import pytest
-
-from hecker_dynamics.scene import parameters
-from hecker_dynamics.cli import parser
-from hecker_dynamics.scene.load import shipped_scenes
 from scene_builders import EVERY_FORCE, make_scene
+
+from hecker_dynamics.cli import parser
+from hecker_dynamics.scene import parameters
+from hecker_dynamics.scene.load import shipped_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES_DOC = (ROOT / "docs" / "scenes.md").read_text()
@@ -37,6 +37,16 @@ EVERY_FEATURE = dict(
             "rope": {"type": "distance", "body_a": "a", "body_b": "c", "max_length": 9.0},
             "mesh": {"type": "gear", "joint_a": "pin", "joint_b": "hinge", "ratio": 2.0},
             "hinge": {"type": "revolute", "body_b": "b"}},
+    sensors={"scan": {"type": "laser", "body": "a", "position": [0.1, 0.0], "angle": 0.0,
+                      "angle_min": -1.0, "angle_max": 1.0, "count": 11, "range_min": 0.1,
+                      "range_max": 5.0, "rate": 10.0, "noise": 0.01, "seed": 3},
+             "gyro": {"type": "imu", "body": "b", "orientation_noise": 0.1,
+                      "angular_velocity_noise": 0.1, "linear_acceleration_noise": 0.1}},
+    drives={"base": {"type": "diff_drive", "body": "a", "center": [0.0, 0.0],
+                     "separation": 0.4, "max_force": 5.0, "traction": 4.0,
+                     "lateral_damping": 10.0, "linear_kp": 1.0, "linear_ki": 1.0,
+                     "angular_kp": 1.0, "angular_ki": 1.0, "rate": 100.0,
+                     "cmd_vel_timeout": 0.5, "script": [0.0, 1.0, 0.0]}},
     script={"kick": {"time": 0.5, "body": "a", "id": "k", "frame_id": "a", "point": [0.1, 0.0],
                      "force": [1.0, 0.0], "torque": 0.1, "duration": 0.2}},
 )
@@ -54,7 +64,8 @@ def test_every_parameter_the_loader_reads_is_documented(monkeypatch):
     make_scene(EVERY_FEATURE)
     # Names of this scene's own bodies, forces, ... are not parameters.
     own = {"a", "b", "c", "tip", "hull", "ball", "floor", "all", "jet", "kick",
-           *EVERY_FORCE["forces"], "pin", "rail", "glue", "rod", "rope", "mesh", "hinge"}
+           *EVERY_FORCE["forces"], "pin", "rail", "glue", "rod", "rope", "mesh", "hinge",
+           "scan", "gyro", "base"}
     undocumented = sorted(key for key in read - own
                           if not re.search(rf"`([a-z_]+\.)?{re.escape(key)}[`.]", SCENES_DOC))
     assert not undocumented, f"parameters missing from docs/scenes.md: {undocumented}"

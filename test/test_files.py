@@ -123,20 +123,18 @@ def test_replacing_writes_whole_files_with_the_usual_permissions(place):
 
 
 def test_a_failed_write_leaves_the_old_file_and_no_scratch(place):
-    with pytest.raises(RuntimeError):
-        with replacing(Path("old.csv"), overwrite=True) as scratch:
-            scratch.write_text("half")
-            raise RuntimeError("the writer failed")
+    with pytest.raises(RuntimeError), replacing(Path("old.csv"), overwrite=True) as scratch:
+        scratch.write_text("half")
+        raise RuntimeError("the writer failed")
     assert (place / "old.csv").read_text() == "old"
     assert sorted(p.name for p in place.iterdir()) == ["old.csv", "sub"]
 
 
 def test_a_file_that_appears_while_writing_is_not_replaced(place):
     target = check_file("new.csv")
-    with pytest.raises(OutputError, match="made while this ran"):
-        with replacing(target) as scratch:
-            scratch.write_text("ours")
-            target.write_text("someone else's")
+    with pytest.raises(OutputError, match="made while this ran"), replacing(target) as scratch:
+        scratch.write_text("ours")
+        target.write_text("someone else's")
     assert target.read_text() == "someone else's"
     with replacing(target, overwrite=True) as scratch:
         scratch.write_text("ours")
@@ -145,7 +143,7 @@ def test_a_file_that_appears_while_writing_is_not_replaced(place):
 
 
 def test_an_os_error_while_writing_is_an_output_error(place):
-    with pytest.raises(OutputError, match="-o new.csv: cannot write"):
-        with replacing(Path("new.csv")) as scratch:
-            raise OSError(28, "No space left on device", str(scratch))
+    with pytest.raises(OutputError, match="-o new.csv: cannot write"), \
+            replacing(Path("new.csv")) as scratch:
+        raise OSError(28, "No space left on device", str(scratch))
     assert sorted(p.name for p in place.iterdir()) == ["old.csv", "sub"]

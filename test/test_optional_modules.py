@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from optional_modules import SkipWithoutModule
 
 ROOT = Path(__file__).resolve().parents[1]

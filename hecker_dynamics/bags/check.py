@@ -20,8 +20,14 @@ from .compare import CompareReport, Tolerances, compare_contents
 from .coverage import Coverage, span
 from .io import BagContents
 from .live import check_live, is_live_recording
-from .replay import (ReplayError, input_topics, output_types, outputs_as_bag,
-                     recorded_output_topics, replay_outputs)
+from .replay import (
+    ReplayError,
+    input_topics,
+    output_types,
+    outputs_as_bag,
+    recorded_output_topics,
+    replay_outputs,
+)
 
 __all__ = ["RecordingCheck", "check_recording", "check_outputs"]
 

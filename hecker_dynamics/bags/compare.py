@@ -33,8 +33,19 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
-from .io import (DIAGNOSTIC_ARRAY, MARKER_ARRAY, ODOMETRY, POSE_STAMPED, TF_MESSAGE, TWIST,
-                 BagContents, BagError, BagMessage, read_bag, stamp_ns_of)
+from .io import (
+    DIAGNOSTIC_ARRAY,
+    MARKER_ARRAY,
+    ODOMETRY,
+    POSE_STAMPED,
+    TF_MESSAGE,
+    TWIST,
+    BagContents,
+    BagError,
+    BagMessage,
+    read_bag,
+    stamp_ns_of,
+)
 
 __all__ = ["Tolerances", "TopicReport", "CompareReport", "compare_bags", "compare_contents",
            "compare_pairs"]
@@ -425,7 +436,8 @@ def _compare_topic(topic: str, msgtype: str, expected: BagContents,
         pose_topic = topic[: -len("/twist")] + "/pose"
         if bag.topics.get(pose_topic) != POSE_STAMPED:
             return None
-        return [stamp_ns_of(m.decode()) for m in bag.on(pose_topic)]
+        return [stamp for m in bag.on(pose_topic)
+                if (stamp := stamp_ns_of(m.decode())) is not None]  # always: PoseStamped
 
     if structured:
         ka = _keys(ea, da, sibling(expected))
@@ -475,8 +487,8 @@ def compare_contents(expected: BagContents, actual: BagContents, *,
     return report, report.ok
 
 
-def compare_bags(expected: Union[str, os.PathLike, BagContents],
-                 actual: Union[str, os.PathLike, BagContents], *, atol: Optional[float] = None,
+def compare_bags(expected: Union[str, os.PathLike[str], BagContents],
+                 actual: Union[str, os.PathLike[str], BagContents], *, atol: Optional[float] = None,
                  tolerances: Optional[Tolerances] = None,
                  topics: Optional[Iterable[str]] = None) -> tuple[CompareReport, bool]:
     """Compare the ``expected`` bag with the ``actual`` one (paths or read bags).

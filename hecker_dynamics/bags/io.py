@@ -14,29 +14,47 @@ node uses too); this module only copies those fields into rosbags message object
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import sqlite3
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache, cache
+from functools import cache, lru_cache
 from pathlib import Path
-from typing import Any, Optional, Union
+from typing import Any, Literal, Optional, Union
 
 import numpy as np
 
-from ..dynamics.commands import WrenchCommand
-from ..ros.fields import (AppliedWrenchFields, Header, OdometryFields, Pose, PoseStampedFields,
-                          TwistFields, applied_wrench_fields, header, ns_from_stamp,
-                          stamp_from_ns)
 from ..ros.diagnostics import DiagnosticFields
+from ..ros.fields import (
+    AppliedWrenchFields,
+    Header,
+    OdometryFields,
+    Pose,
+    PoseStampedFields,
+    TwistFields,
+    applied_wrench_fields,
+    header,
+    ns_from_stamp,
+    stamp_from_ns,
+)
 from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
-from ..ros.session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
-                           InputEventFields, KeyframeFields, SessionFields, WorldChange,
-                           WorldEventFields)
+from ..ros.session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+)
 from ..ros.tf import TransformFields
+from ..scene.commands import WrenchCommand
 from ..scene.parameters import quoted
 
 __all__ = [
@@ -68,7 +86,7 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
-BAG_VERSION = 9
+BAG_VERSION: Literal[9] = 9
 #: Storage formats: name -> rosbags plugin name.
 STORAGES = ("mcap", "sqlite3")
 #: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
@@ -76,7 +94,7 @@ MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 #: Prefix of the keys this package stores in a bag's ``custom_data``.
 CUSTOM_PREFIX = "hecker_dynamics."
 
-PathLike = Union[str, os.PathLike]
+PathLike = Union[str, os.PathLike[str]]
 
 
 class BagError(Exception):
@@ -118,8 +136,14 @@ def typestore() -> Any:
 @cache
 def rosbag_qos(spec: QosSpec) -> list[Any]:
     """A publisher's QoS (:mod:`hecker_dynamics.ros.names`) as rosbag2 metadata records it."""
-    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
-                                    QosReliability, QosTime)
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
 
     default = QosTime(0, 0)  # rmw's "default" durations: deadline, lifespan, lease unset
     reliability = {Reliability.RELIABLE: QosReliability.RELIABLE,
@@ -155,7 +179,7 @@ _NUMPY_TYPES = {
 }
 
 
-def _default_value(store: Any, desc: tuple) -> Any:
+def _default_value(store: Any, desc: tuple[Any, ...]) -> Any:
     from rosbags.interfaces import Nodetype
 
     kind, spec = desc
@@ -359,14 +383,14 @@ def keyframe_fields(msg: Any) -> KeyframeFields:
 
 #: The message type an input event of each kind holds.
 _EVENT_TYPES = {APPLIED_WRENCH_EVENT: APPLIED_WRENCH, WRENCH_STAMPED_EVENT: WRENCH_STAMPED,
-                MOTOR_SPEED_EVENT: FLOAT64}
+                MOTOR_SPEED_EVENT: FLOAT64, CMD_VEL_EVENT: TWIST}
 
 
 def input_event_message(fields: InputEventFields) -> Any:
     """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
-    rosbags ``AppliedWrench``, ``WrenchStamped`` or ``Float64``)."""
+    rosbags ``AppliedWrench``, ``WrenchStamped``, ``Float64`` or ``Twist``)."""
     slots = {APPLIED_WRENCH: "applied_wrench", WRENCH_STAMPED: "wrench_stamped",
-             FLOAT64: "motor_speed"}
+             FLOAT64: "motor_speed", TWIST: "cmd_vel"}
     held = _EVENT_TYPES[fields.kind]
     messages = {slot: fields.message if msgtype == held else default_message(msgtype)
                 for msgtype, slot in slots.items()}
@@ -385,7 +409,8 @@ def input_event_fields(msg: Any) -> InputEventFields:
         stamp_ns_of(msg) or 0, int(msg.session), int(msg.sequence), msg.topic,
         ns_from_stamp(msg.arrival.sec, msg.arrival.nanosec), kind,
         msg.wrench_stamped if kind == WRENCH_STAMPED_EVENT else
-        msg.motor_speed if kind == MOTOR_SPEED_EVENT else msg.applied_wrench,
+        msg.motor_speed if kind == MOTOR_SPEED_EVENT else
+        msg.cmd_vel if kind == CMD_VEL_EVENT else msg.applied_wrench,
         bool(msg.accepted), msg.reason)
 
 
@@ -489,8 +514,8 @@ class BagContents:
 
 
 def _describe(error: BaseException) -> str:
-    text = str(error).strip().splitlines()
-    text = text[0] if text else ""
+    lines = str(error).strip().splitlines()
+    text = lines[0] if lines else ""
     return f"{type(error).__name__}: {text}" if text else type(error).__name__
 
 
@@ -525,7 +550,7 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                 raise BagError(f"{path}: the metadata lists no storage files "
                                "(relative_file_paths is empty)")
             selected = [c for c in connections if wanted is None or c.topic in wanted]
-            messages = []
+            messages: list[tuple[int, int, str, str, bytes]] = []
             read: dict[int, int] = {c.id: 0 for c in selected}
             if selected:
                 for conn, log_ns, raw in reader.messages(connections=selected):
@@ -578,7 +603,8 @@ def _check_counts(path: Path, total: Any, connections: Sequence[Any], read: dict
                        f"message_count {stated}; is the bag truncated or corrupt?")
 
 
-def _check_times(path: Path, start: Any, end: Any, messages: list[tuple]) -> None:
+def _check_times(path: Path, start: Any, end: Any,
+                 messages: list[tuple[int, int, str, str, bytes]]) -> None:
     """Refuse messages logged outside the span the metadata states (a corrupt log time)."""
     if not messages:
         return
@@ -722,10 +748,8 @@ class BagWriter:
 
     def abort(self) -> None:
         if self._writer is not None:
-            try:
+            with contextlib.suppress(Exception):
                 self._writer.abort()
-            except Exception:
-                pass
         shutil.rmtree(self._tmp, ignore_errors=True)
 
 

@@ -52,29 +52,66 @@ import bisect
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Optional
 
 from ..dynamics.simulation import Snapshot
+from ..ros.cmd_vel import CmdVelTopic
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
 from ..ros.names import CLOCK_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
 from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
 from ..ros.runner import InputSource, Runner
-from ..ros.session import (APPLIED_WRENCH_EVENT, INPUT_EVENTS_DEPTH, MOTOR_SPEED_EVENT,
-                           WORLD_EVENTS_DEPTH, WRENCH_STAMPED_EVENT, InputEventFields,
-                           KeyframeFields, WorldChange, WorldEventFields,
-                           decode_state, encode_state)
+from ..ros.session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    INPUT_EVENTS_DEPTH,
+    MOTOR_SPEED_EVENT,
+    WORLD_EVENTS_DEPTH,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    WorldChange,
+    WorldEventFields,
+    decode_state,
+    encode_state,
+)
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_pairs
-from .coverage import (DISCOVERY_NS, INPUT_LAG_NS, LOST_RUN, LOST_SHARE, STOP_NS, Coverage,
-                       Stretch, runs, seconds, span)
-from .io import (INPUT_EVENT, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
-                 BagMessage, resolve_topic)
-from .records import (RECORD_TYPES, Event, RecordedSession, gaps, input_bytes,
-                      is_live_recording, ranges_text, record_name, recorded_sessions,
-                      spawned_bodies)
+from .coverage import (
+    DISCOVERY_NS,
+    INPUT_LAG_NS,
+    LOST_RUN,
+    LOST_SHARE,
+    STOP_NS,
+    Coverage,
+    Stretch,
+    runs,
+    seconds,
+    span,
+)
+from .io import (
+    INPUT_EVENT,
+    SESSION_INFO,
+    WORLD_EVENT,
+    BagContents,
+    BagError,
+    BagMessage,
+    resolve_topic,
+)
+from .records import (
+    RECORD_TYPES,
+    Event,
+    RecordedSession,
+    gaps,
+    input_bytes,
+    is_live_recording,
+    ranges_text,
+    record_name,
+    recorded_sessions,
+    spawned_bodies,
+)
 from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
 
 #: Most twists in a row a recorder may have lost where the check still finds the next one:
@@ -309,7 +346,8 @@ MAX_PRELUDE_NS = 60_000_000_000
 def _event_kind(source: Optional[InputSource]) -> int:
     if source is None:
         return APPLIED_WRENCH_EVENT
-    return MOTOR_SPEED_EVENT if isinstance(source, MotorTopic) else WRENCH_STAMPED_EVENT
+    return (MOTOR_SPEED_EVENT if isinstance(source, MotorTopic) else CMD_VEL_EVENT
+            if isinstance(source, CmdVelTopic) else WRENCH_STAMPED_EVENT)
 
 
 def _world_shape(event: WorldEventFields) -> Optional[str]:
@@ -705,7 +743,7 @@ def _session_end(scene: Scene, session: RecordedSession,
 Pair = tuple[BagMessage, BagMessage, int, int]
 
 
-class _Bytes(dict):
+class _Bytes(dict[Any, Any]):
     """Serialized replayed outputs, by ``id`` of the output, made on first use."""
 
     def of(self, output: Output) -> bytes:

@@ -19,14 +19,22 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Optional, Union
 
-from ..ros.session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
-                           InputEventFields, KeyframeFields, SessionFields, WorldChange,
-                           WorldEventFields, decode_state)
+from ..ros.session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+    decode_state,
+)
 from ..scene.world import EditKind, WorldEdit
 from . import io as bags
 from .coverage import Coverage, seconds
-from .io import (INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError,
-                 BagMessage)
+from .io import INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT, BagContents, BagError, BagMessage
 from .replay import ReplayError
 
 #: What a session's event sequence holds.
@@ -216,7 +224,8 @@ def _same_event(a: Event, b: Event) -> bool:
 
 def input_bytes(event: InputEventFields) -> bytes:
     kind = {APPLIED_WRENCH_EVENT: bags.APPLIED_WRENCH, WRENCH_STAMPED_EVENT: bags.WRENCH_STAMPED,
-            MOTOR_SPEED_EVENT: bags.FLOAT64}.get(event.kind, bags.APPLIED_WRENCH)
+            MOTOR_SPEED_EVENT: bags.FLOAT64, CMD_VEL_EVENT: bags.TWIST}.get(event.kind,
+                                                                           bags.APPLIED_WRENCH)
     try:
         return bytes(bags.typestore().serialize_cdr(event.message, kind))
     except Exception:  # a message the kind does not fit: compared as unequal to any other

@@ -29,19 +29,37 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional
 
-from . import io as bags
-from .io import (APPLIED_WRENCH, POSE_STAMPED, WRENCH_STAMPED, BagContents, BagError,
-                   BagWriter, resolve_topic)
-from ..dynamics.commands import InputError
-from ..ros.fields import (applied_wrench_fields, applied_wrench_to_command, header,
-                          wrench_stamped_to_command)
-from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME, NODE_NAME
-from ..ros.outputs import (DIAGNOSTICS_TOPIC, OutputFields, OutputKind, SnapshotOutputs,
-                           output_topics)
-from ..ros.joint_states import MotorTopic, motor_topics
-from ..ros.runner import InputSource, Runner
-from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
+from ..ros.cmd_vel import CmdVelTopic, cmd_vel_topics
+from ..ros.fields import (
+    applied_wrench_fields,
+    applied_wrench_to_command,
+    header,
+    wrench_stamped_to_command,
+)
+from ..ros.joint_states import MotorTopic, motor_topics
+from ..ros.names import APPLIED_WRENCH_TOPIC as APPLIED_WRENCH_NAME
+from ..ros.names import NODE_NAME
+from ..ros.outputs import (
+    DIAGNOSTICS_TOPIC,
+    OutputFields,
+    OutputKind,
+    SnapshotOutputs,
+    output_topics,
+)
+from ..ros.runner import InputSource, Runner
+from ..scene.commands import InputError
+from ..scene.load import Scene
+from . import io as bags
+from .io import (
+    APPLIED_WRENCH,
+    POSE_STAMPED,
+    WRENCH_STAMPED,
+    BagContents,
+    BagError,
+    BagWriter,
+    resolve_topic,
+)
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
            "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
@@ -88,13 +106,16 @@ class ReplayResult:
 
 def input_topics(scene: Scene) -> dict[str, tuple[str, Optional[InputSource]]]:
     """Input topics of the node for ``scene``: topic -> (message type, source), the source
-    None for ``applied_wrench``, else the scene's WrenchTopic or a motor's MotorTopic."""
+    None for ``applied_wrench``, else the scene's WrenchTopic, a motor's MotorTopic or a
+    driven body's CmdVelTopic."""
     topics: dict[str, tuple[str, Optional[InputSource]]] = {
         APPLIED_WRENCH_TOPIC: (APPLIED_WRENCH, None)}
     for wrench_topic in scene.wrench_topics:
         topics[resolve_topic(wrench_topic.topic)] = (WRENCH_STAMPED, wrench_topic)
     for motor in motor_topics(scene):
         topics[resolve_topic(motor.topic)] = (bags.FLOAT64, motor)
+    for driven in cmd_vel_topics(scene):
+        topics[resolve_topic(driven.topic)] = (bags.TWIST, driven)
     return topics
 
 
@@ -161,7 +182,8 @@ def _check_types(bag: BagContents, topics: dict[str, str]) -> None:
 def _recorded_poses(scene: Scene, bag: BagContents) -> list[int]:
     """Header stamps of the recorded ``/<body>/pose`` messages of the scene's bodies."""
     topics = {f"/{body.name}/pose" for body in scene.bodies}
-    return [bags.stamp_ns_of(m.decode()) for m in bag.messages if m.topic in topics]
+    return [stamp for m in bag.messages if m.topic in topics
+            if (stamp := bags.stamp_ns_of(m.decode())) is not None]  # always: PoseStamped
 
 
 def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None,
@@ -256,7 +278,7 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
         msg = message.decode()
         result.inputs += 1
         inputs.append(_Input(message.log_ns, message.topic, msg, wrench_topic))
-        if skip_rejected or isinstance(wrench_topic, MotorTopic):  # a motor of the scene
+        if skip_rejected or isinstance(wrench_topic, (MotorTopic, CmdVelTopic)):  # not a wrench
             continue
         try:
             if wrench_topic is None:

@@ -118,7 +118,7 @@ class DaskCluster:
             raise EngineError("--cluster needs Dask distributed: pip install "
                               "'hecker_dynamics[cluster]'") from None
         self.retries = retries
-        self.notes = []
+        self.notes: list[str] = []
         self._cluster = None
         try:
             with warnings.catch_warnings(record=True) as caught:
@@ -194,9 +194,9 @@ class DaskCluster:
         failed = sorted((worker, answer) for worker, answer in answers.items()
                         if isinstance(answer, BaseException))
         if failed:
-            worker, error = failed[0]
+            worker, failure = failed[0]
             raise refuse(f"{len(failed)} of {len(answers)} Dask worker(s) (e.g. {worker})",
-                         error)
+                         failure)
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:

@@ -25,10 +25,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Optional, Union
 
-from ..ros.runner import Runner
-from ..scene.parameters import SceneError
-from ..scene.load import Scene
 from ..dynamics.simulation import Snapshot
+from ..ros.runner import Runner
+from ..scene.load import Scene
+from ..scene.parameters import SceneError
 
 __all__ = ["Metric", "parse_metric", "summarize", "STATE_FIELDS", "MAX_LENGTH", "MAX_DEPTH"]
 
@@ -110,8 +110,8 @@ class Metric:
 
 def _evaluate(node: ast.expr, row: Mapping[str, Cell]) -> Any:
     # In floats only: an integer power such as 10 ** 10 ** 10 would take forever.
-    if isinstance(node, ast.Constant):
-        return float(node.value)
+    if isinstance(node, ast.Constant):  # a number or a boolean: _allowed admits no other
+        return float(node.value)  # type: ignore[arg-type]
     name = _dotted(node)
     if name is not None:
         value = row[name]

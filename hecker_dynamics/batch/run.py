@@ -16,14 +16,15 @@ from typing import Any, Optional
 import yaml
 
 from ..bags.check import check_recording
-from ..bags.io import BagError, read_bag
 from ..bags.compare import Tolerances
-from ..files import OutputError
-from ..dynamics.commands import InputError
-from ..dynamics.simulation import DivergenceError
-from ..scene.parameters import SceneError, quoted, unflatten
+from ..bags.io import BagError, read_bag
 from ..bags.replay import replay_to_bag, script_to_bag
-from ..scene.load import NODE_NAME, load_scene, shipped_scenes
+from ..dynamics.simulation import DivergenceError
+from ..files import OutputError
+from ..scene.commands import InputError
+from ..scene.load import load_scene, shipped_scenes
+from ..scene.names import NODE_NAME
+from ..scene.parameters import SceneError, quoted, unflatten
 from ..viz.progress import Progress
 from .engines import Engine
 from .metrics import STATE_FIELDS, Cell, Metric, summarize

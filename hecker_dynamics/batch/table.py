@@ -121,7 +121,9 @@ class PartialRows:
     def add(self, row: Mapping[str, Any]) -> None:
         if self._stream is None:
             self._columns = list(row)
-            self._stream = open(self.path, "w" if self.overwrite else "x", newline="")
+            # Open across add() calls, so rows reach the disk as they come; close() shuts it.
+            self._stream = open(self.path, "w" if self.overwrite else "x",  # noqa: SIM115
+                                newline="")
             _write_csv(self._stream, self._columns, [])
         _write_csv(self._stream, self._columns, [row], header=False)
         self._stream.flush()

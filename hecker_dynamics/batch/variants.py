@@ -31,8 +31,8 @@ from typing import Any, Optional, Union
 import numpy as np
 import yaml
 
-from ..scene.parameters import SceneError, flatten
 from ..scene.load import Scene, scene_from_parameters, scene_parameters
+from ..scene.parameters import SceneError, flatten
 
 __all__ = ["Setting", "Variant", "parse_setting", "grid", "sample", "make_variants",
            "MAX_VARIANTS"]
@@ -88,9 +88,9 @@ def _scalar(text: str, setting: str) -> Value:
             break
         return value
     else:
-        value = yaml.safe_load(text) if text else None
-        if isinstance(value, (bool, str)):
-            return value
+        loaded = yaml.safe_load(text) if text else None
+        if isinstance(loaded, (bool, str)):
+            return loaded
     raise SceneError(f"--set {setting}: '{text}' is not a finite number, a boolean or a name")
 
 
@@ -109,7 +109,7 @@ def parse_setting(text: str) -> Setting:
         raise SceneError(f"--set {text}: expected NAME=VALUES with a dotted parameter name, "
                          "e.g. bodies.left.mass=1,2,3")
     index = None if match["index"] is None else int(match["index"])
-    base = dict(text=text, name=match["name"], index=index)
+    base: dict[str, Any] = dict(text=text, name=match["name"], index=index)
     if ":" in values:
         parts = values.split(":")
         if len(parts) == 2:

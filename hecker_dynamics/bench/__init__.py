@@ -19,3 +19,7 @@ explains the method. Modules:
 
 Nothing here is imported by the core, and the peers and matplotlib are optional.
 """
+
+__all__ = ["batch", "bounce", "box2d_v3", "contacts", "force_law", "joints",
+           "measure", "node", "peers", "pyramid", "reference", "regression", "report", "ring",
+           "run", "scene_peers", "scenes"]

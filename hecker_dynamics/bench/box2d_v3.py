@@ -117,7 +117,7 @@ class _Worker:
         self.process = subprocess.Popen([python, "-I", str(WORKER)], stdin=subprocess.PIPE,
                                         stdout=subprocess.PIPE, text=True, bufsize=1)
 
-    def ask(self, **request: Any) -> dict:
+    def ask(self, **request: Any) -> dict[str, Any]:
         stdin: IO[str] = self.process.stdin  # type: ignore[assignment]
         stdout: IO[str] = self.process.stdout  # type: ignore[assignment]
         stdin.write(json.dumps(request) + "\n")
@@ -156,11 +156,11 @@ def version() -> str:
 
 # ----------------------------------------------------------------------------- the scene
 
-def _pairs(points) -> list[list[float]]:
+def _pairs(points: Any) -> list[list[float]]:
     return [[float(x), float(y)] for x, y in points]
 
 
-def describe(scene: Scene) -> dict:
+def describe(scene: Scene) -> dict[str, Any]:
     """The scene as the worker builds it (plain JSON): gravity; per body its CM pose and
     velocity, mass, moment of inertia, shapes in the CM frame (``circles`` as (x, y, r),
     ``polygons`` as vertex lists), filter bits and (restitution, friction); the walls as
@@ -190,7 +190,7 @@ def describe(scene: Scene) -> dict:
               "material": [w.restitution,
                            _over_root(w.friction, (w.stops or (0.0, 1.0))[1]) ** 2]}
              for w in layout.walls]
-    joints: list[dict] = []
+    joints: list[dict[str, Any]] = []
     for pin in layout.pins:
         limits = None if pin.limits is None else [max(pin.limits[0], -math.pi),
                                                   min(pin.limits[1], math.pi)]
@@ -245,7 +245,7 @@ def scene_engine(scene: Scene, h: float, sleep: bool = True, threads: int = 1,
 
 
 def cast_rays(scene: Scene, rays: list[tuple[float, float, float, float]], repeats: int = 1,
-              steps: int = 0, h: Optional[float] = None) -> tuple[float, list[tuple]]:
+              steps: int = 0, h: Optional[float] = None) -> tuple[float, list[tuple[Any, ...]]]:
     """Closest hits of ``rays`` ((x, y, dx, dy): from (x, y) along (dx, dy)) against
     ``scene``'s shapes after ``steps`` steps of ``h`` (default the scene's): the seconds per
     ray (over ``repeats`` passes, timed in the worker) and, per ray, (body index, -1 for a

@@ -38,6 +38,8 @@ import time
 
 from box2d._box2d import ffi, lib
 
+__all__ = ["version", "World", "serve"]
+
 #: The most vertices of a polygon in Box2D v3 (B2_MAX_POLYGON_VERTICES).
 MOST_VERTICES = 8
 #: Every category and mask bit of a filter.

@@ -45,8 +45,18 @@ from ..dynamics import kernel
 from ..dynamics.simulation import Simulation
 from ..scene.load import Scene, SpringSpec, load_scene, shipped_scenes
 from ..viz.progress import BarFactory, run_parts
-from .measure import (Budget, Case, Outcome, Row, WholeCost, interleaved_runs, measure,
-                      ratio_noise, timed_steps, whole_cost)
+from .measure import (
+    Budget,
+    Case,
+    Outcome,
+    Row,
+    WholeCost,
+    interleaved_runs,
+    measure,
+    ratio_noise,
+    timed_steps,
+    whole_cost,
+)
 from .node import PUBLISH_PERIOD_NS, TARGET_SHARE, NodeCost, node_cost, node_table
 from .peers import available
 from .pyramid import STEP, ball_box, pyramid

@@ -51,13 +51,13 @@ from typing import Optional
 
 import numpy as np
 
-from .scene_peers import SCENE_PEERS, scene_engine
-from .scenes import SPRING_PINS, pinned_by_springs
-from ..contact.joints import RevoluteJoint
 from ..dynamics.model import Model
 from ..dynamics.simulation import DivergenceError, Simulation
+from ..scene.joints import RevoluteJoint
 from ..scene.load import Scene, load_scene, scene_from_parameters
 from ..scene.parameters import flatten
+from .scene_peers import SCENE_PEERS, scene_engine
+from .scenes import SPRING_PINS, pinned_by_springs
 
 __all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "JOINT_FILES", "ROUNDS", "Run",
            "chain", "grid", "joint_bench", "measure", "pin_gap", "renaming", "targets"]

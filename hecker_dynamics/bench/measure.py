@@ -20,11 +20,14 @@ import statistics
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Optional, TypeVar
+from typing import Any, Optional, TypeVar
 
 import numpy as np
 
 from .reference import PlainModel, Reference, free_spin_energy
+
+__all__ = ["Outcome", "Case", "Row", "Budget", "wrapped", "errors", "measure", "timed",
+           "timed_steps", "interleaved_runs", "WholeCost", "whole_cost", "ratio_noise"]
 
 
 #: A final position error (m) above which a run counts as diverged though still finite.
@@ -82,7 +85,7 @@ class Row:
               "cost_spread", "repeats", "steps", "evaluations", "position_error",
               "angle_error", "energy_drift", "omega_dt", "note")
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in self.FIELDS}
 
 
@@ -109,7 +112,9 @@ def errors(q: np.ndarray, v: np.ndarray, ref: Reference,
     drift = math.nan
     if plain is not None and ref.energy0 is not None:
         if plain.conservative:
-            energy = plain.energy(np.concatenate([q.ravel(), v.ravel()]))
+            conserved = plain.energy(np.concatenate([q.ravel(), v.ravel()]))
+            assert conserved is not None  # a conservative model has an energy
+            energy = conserved
         else:  # free spin: unwrap the angle next to the exact one, then E = T - F.x - tau.a
             unwrapped = q.copy()
             unwrapped[:, 2] = ref.q[:, 2] + np.remainder(q[:, 2] - ref.q[:, 2] + math.pi,

@@ -26,6 +26,7 @@ against a plain Python loop of that scheme on the same forces (:class:`~.referen
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
@@ -34,10 +35,13 @@ from typing import Optional
 import numpy as np
 
 from ..scene.load import Scene
-from .measure import Case, Outcome
 from .force_law import make_program
+from .measure import Case, Outcome
 from .reference import PlainModel
 from .scene_peers import box2d_calls, pymunk_calls
+
+__all__ = ["available", "version", "mujoco_xml", "peer_run", "peer_case", "plain_loop", "Check",
+           "check_peer"]
 
 PEERS = ("pymunk", "box2d", "mujoco")
 #: The method names of each peer in the sweep, with the scheme each claims.
@@ -236,10 +240,10 @@ def mujoco_xml(scene: Scene, method: str, h: float) -> str:
 def _mujoco_build(scene: Scene, method: str, h: float):
     import mujoco
 
-    try:  # diverging runs are expected in the sweep: no MUJOCO_LOG.TXT, no console spam
+    # Diverging runs are expected in the sweep: no MUJOCO_LOG.TXT, no console spam (older
+    # bindings have no such hook).
+    with contextlib.suppress(AttributeError):
         mujoco.set_mju_user_warning(lambda message: None)
-    except AttributeError:  # pragma: no cover - older bindings
-        pass
     model = PlainModel(_no_contacts(scene))
     m = mujoco.MjModel.from_xml_string(mujoco_xml(scene, method, h))
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)

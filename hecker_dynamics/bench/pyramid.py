@@ -55,7 +55,7 @@ def pyramid(rows: int, duration: float = 2.0, integrator: str = "semi_implicit_e
 BALLS = {"grid": 10, "radius": 0.1, "mass": 0.5, "step": 0.002, "duration": 5.0}
 
 
-def ball_box(sleep: bool = False, grid: int = BALLS["grid"]) -> Scene:
+def ball_box(sleep: bool = False, grid: int = int(BALLS["grid"])) -> Scene:
     """The box of 100 balls with friction (see the module's docstring); ``sleep``: resting
     islands sleep; ``grid``: balls per side of the starting grid."""
     radius = BALLS["radius"]

@@ -21,9 +21,19 @@ from typing import Optional
 
 import numpy as np
 
-from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
-                     Gravity, Scene, SpringSpec)
+from ..scene.load import (
+    AngularDampingSpec,
+    ConstantForceSpec,
+    ConstantTorqueSpec,
+    DragSpec,
+    Gravity,
+    Scene,
+    SpringSpec,
+)
 from .force_law import make_wrenches
+
+__all__ = ["Reference", "PlainModel", "gbs_step", "gbs_integrate", "gbs_reference", "exact",
+           "free_spin_energy", "reference", "core_reference"]
 
 
 @dataclass

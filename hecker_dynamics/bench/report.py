@@ -11,6 +11,9 @@ from .bounce import bounce_table, write_bounce_csv
 from .measure import Row
 from .scenes import STIFF_SEESAW
 
+__all__ = ["THRESHOLDS", "write_csv", "cheapest", "headline", "MARKERS", "agg_pyplot", "figure",
+           "ring_table", "targets", "REPORT_FILES", "new_report_folder", "write_report"]
+
 THRESHOLDS = (1e-3, 1e-6, 1e-9)
 ENGINES = ("hecker_dynamics", "pymunk", "box2d", "mujoco")
 

@@ -22,6 +22,8 @@ import numpy as np
 from .measure import Outcome
 from .scenes import RING_SIZE, RING_SPRING, ring_initial
 
+__all__ = ["compiler", "compiler_version", "load_c_loop", "c_loop_flags", "c_run"]
+
 C_SOURCE = r"""
 #include <math.h>
 /* Ring of n boxes (mass m, inertia I about the CM), spring s joins the front end (+half, 0)
@@ -144,5 +146,5 @@ def c_run(n: int, h: float, duration: float) -> Outcome:
                  RING_SPRING["rest_length"], RING_SPRING["damping"], ax, ay,
                  state.ctypes.data_as(p), work.ctypes.data_as(p))
     wall = time.perf_counter() - start
-    state = state.reshape(n, 6)
+    state = state.reshape(n, 6)  # type: ignore[assignment]  # the same buffer, by body
     return Outcome(wall, state[:, :3].copy(), state[:, 3:].copy(), steps=steps)

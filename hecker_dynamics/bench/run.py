@@ -15,27 +15,30 @@ import platform
 import pstats
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
-from collections.abc import Callable
 
 import numpy as np
 
 from ..dynamics import kernel
-from ..integrators.methods import ADAPTIVE, METHODS, make_integrator
 from ..dynamics.model import Model
-from ..scene.load import Scene
 from ..dynamics.simulation import DivergenceError, Simulation
+from ..integrators.methods import ADAPTIVE, METHODS, make_integrator
+from ..scene.load import Scene
+from ..viz.progress import BarFactory, run_parts
 from . import peers as peer_mod
 from .bounce import BounceRow, bounce_bench
-from ..viz.progress import BarFactory, run_parts
 from .measure import Budget, Case, Outcome, Row, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
 from .scene_peers import SCENE_PEERS
-from .scenes import (BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants,
-                     ring)
+from .scenes import BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared_variants, ring
+
+__all__ = ["Mode", "Results", "PYTHON_PATH", "core_run", "core_case", "core_cases", "bench_scenes",
+           "shipped", "ring_part", "sample_step", "bounce_part", "declared_part", "peer_checks",
+           "profiles", "guard", "run_bench"]
 
 
 @dataclass

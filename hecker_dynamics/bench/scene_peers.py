@@ -50,8 +50,8 @@ from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from ..contact.joints import GearJoint, RevoluteJoint, WeldJoint
 from ..geometry.shapes import Circle
+from ..scene.joints import GearJoint, RevoluteJoint, WeldJoint
 from ..scene.load import Gravity, Scene
 from .force_law import BodyCalls, make_program, make_stepper
 from .reference import PlainModel

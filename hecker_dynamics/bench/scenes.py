@@ -28,9 +28,14 @@ import dataclasses
 import math
 from typing import Any
 
-from ..scene.parameters import flatten
-from ..contact.joints import RevoluteJoint
+from ..scene.joints import RevoluteJoint
 from ..scene.load import Scene, SpringSpec, load_scene, scene_from_parameters, shipped_scenes
+from ..scene.parameters import flatten
+
+__all__ = ["BENCH_SCENES", "RING_SIZE", "RING_SPRING", "free_spin", "harmonic", "stiff",
+           "spring_pendulum", "two_bodies", "ring_initial", "ring", "SPRING_PINS",
+           "pinned_by_springs", "bench_scene", "STIFF_SEESAW", "all_scene_names", "configure",
+           "declared_variants"]
 
 #: The benchmark scenes with closed-form or reference solutions, in the order
 #: docs/benchmark.md numbers them.

@@ -24,8 +24,11 @@ from typing import NamedTuple, Union
 
 import numpy as np
 
-from ..geometry.shapes import is_convex
 from ..geometry.planar import magnitude, perp_dot
+from ..geometry.shapes import is_convex
+
+__all__ = ["CirclePart", "PolygonPart", "Part", "ConvexPolygon", "polygon_polygon",
+           "polygon_circle", "circle_circle", "half_plane_polygon", "half_plane_circle"]
 
 Point = tuple[float, float]
 ContactPoint = tuple[Point, Point, float]

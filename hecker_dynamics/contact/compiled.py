@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 try:
-    from .. import _kernel
+    from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
@@ -34,7 +34,8 @@ class CompiledContacts:
     """A scene's contact pass as a kernel object."""
 
     def __init__(self, contacts: ContactPass) -> None:
-        part_ints, part_reals = [], []
+        part_ints: list[tuple[int, int, int]] = []
+        part_reals: list[float] = []
         for body, parts in enumerate(contacts.parts):
             for part in parts:
                 if isinstance(part, CirclePart):
@@ -88,9 +89,9 @@ class CompiledContacts:
         _kernel.warm(self.kernel, impulses)
 
 
-def _doubles(values) -> np.ndarray:
+def _doubles(values: Any) -> np.ndarray:
     return np.ascontiguousarray(np.array(values, dtype=np.float64).reshape(-1))
 
 
-def _integers(values) -> np.ndarray:
+def _integers(values: Any) -> np.ndarray:
     return np.ascontiguousarray(np.array(values, dtype=np.int64).reshape(-1))

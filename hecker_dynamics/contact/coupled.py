@@ -28,6 +28,7 @@ this module operation for operation.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 __all__ = ["JointUnit"]
 
@@ -54,12 +55,12 @@ class JointUnit:
         """The bodies the row acts on."""
         return [entry[0] for entry in self.entries]
 
-    def warm_start(self, velocity: dict) -> None:
+    def warm_start(self, velocity: dict[Any, Any]) -> None:
         """Apply the extra impulse the unit starts from (last step's, within this step's
         bounds)."""
         self._push(velocity, self.extra)
 
-    def _push(self, velocity: dict, impulse: float) -> None:
+    def _push(self, velocity: dict[Any, Any], impulse: float) -> None:
         """v += M^-1 J^T impulse."""
         for b, dx, dy, dw in self.direction:
             vb = velocity[b]
@@ -67,7 +68,7 @@ class JointUnit:
             vb[1] += dy * impulse
             vb[2] += dw * impulse
 
-    def solve(self, velocity: dict) -> float:
+    def solve(self, velocity: dict[Any, Any]) -> float:
         """The accumulated extra impulse that brings J v to the target within the bounds.
         Returns the change of J v."""
         rate = 0.0

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -128,7 +128,7 @@ class WallEvents:
             out.append(normal < -contacts.threshold)
         return out
 
-    def step(self, step: Step, f: Callable, q: np.ndarray, v: np.ndarray, h: float,
+    def step(self, step: Step, f: Callable[..., Any], q: np.ndarray, v: np.ndarray, h: float,
              start: float) -> tuple[np.ndarray, np.ndarray]:
         """``step(f, q, v, h)`` (an integrator's step) from time ``start`` (s), with the
         wall impacts inside it located and answered (see the module). The log of impacts
@@ -176,7 +176,7 @@ class WallEvents:
             q1, v1 = (step(f, q, v, h) if h > 0.0 else (q.copy(), v.copy()))
         return q1, v1
 
-    def _locate(self, step: Step, f: Callable, q: np.ndarray, v: np.ndarray, h: float,
+    def _locate(self, step: Step, f: Callable[..., Any], q: np.ndarray, v: np.ndarray, h: float,
                 pairs: list[tuple[int, int]], g0: float, q1: np.ndarray, v1: np.ndarray,
                 delta: float) -> tuple[float, np.ndarray, np.ndarray]:
         """The first time in (0, h] at which the smallest gap of ``pairs`` (``g0`` > 0 at
@@ -213,7 +213,8 @@ class WallEvents:
         poses = q.tolist()
         found = []
         for w, b in pairs:
-            normal, offset = contacts.wall_normal[w], contacts.wall_offset[w]
+            nx, ny = contacts.wall_normal[w]
+            normal, offset = (nx, ny), contacts.wall_offset[w]
             e, mu = contacts.wall_material[w]
             for p, part in enumerate(contacts._world_parts(poses[b], b)):
                 points = (half_plane_circle(normal, offset, *part, margin)

@@ -77,6 +77,15 @@ from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
 
+from ..scene.joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    Motor,
+    PrismaticJoint,
+    RevoluteJoint,
+    WeldJoint,
+)
 from .coupled import JointUnit
 from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
@@ -84,13 +93,11 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = [
-    "Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-    "DistanceJoint", "GearJoint", "JointSpec", "JointRow", "JointPass", "JointsUnsolved",
-    "MAX_TURN", "MOST_SUBSTEPS",
-]
+__all__ = ["JointRow", "JointPass", "JointsUnsolved", "MAX_TURN", "MOST_SUBSTEPS"]
 
 Vec2 = tuple[float, float]
+#: A point as the rows take it: a Vec2, or a body-frame offset as a tuple.
+Point = tuple[float, ...]
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
 #: Below this times (1 + the largest coordinate) the rows' values are rounding: the position
@@ -110,93 +117,6 @@ DRIFT_ITERATIONS = 8
 MAX_ITERATIONS = 200
 CONVERGED = 1e-13
 
-
-@dataclass(frozen=True)
-class Motor:
-    """Drives a joint's coordinate at ``speed`` (rad/s or m/s) with at most ``max_effort``
-    (N m or N)."""
-
-    speed: float
-    max_effort: float
-
-
-@dataclass(frozen=True)
-class RotarySpring:
-    """A torque -k (angle - rest_angle) - c (angular velocity) about a revolute joint."""
-
-    stiffness: float
-    damping: float
-    rest_angle: float
-
-
-@dataclass(frozen=True, kw_only=True)
-class JointEnds:
-    """What every joint but a gear has: ``body_a`` (None: the fixed frame) and ``body_b``,
-    a point of each (fixed-frame coordinates for the fixed frame), and whether the two
-    bodies still collide."""
-
-    name: str
-    body_a: Optional[str]
-    body_b: str
-    point_a: Vec2
-    point_b: Vec2
-    collide_connected: bool = False
-
-
-@dataclass(frozen=True, kw_only=True)
-class RevoluteJoint(JointEnds):
-    """A pin: point ``point_a`` of ``body_a`` (fixed-frame coordinates when ``body_a`` is
-    None, the world) and ``point_b`` of ``body_b`` (body frame) stay together. The joint
-    angle is body_b's angle relative to body_a's, zero at the start; ``lower`` and
-    ``upper`` bound it."""
-
-    lower: Optional[float] = None
-    upper: Optional[float] = None
-    motor: Optional[Motor] = None
-    spring: Optional[RotarySpring] = None
-
-
-@dataclass(frozen=True, kw_only=True)
-class PrismaticJoint(JointEnds):
-    """A slider: ``point_b`` moves along the line through ``point_a`` with direction
-    ``axis`` (unit, in body_a's frame or the fixed frame), and the bodies keep their
-    relative angle. The translation along the axis is zero at the start."""
-
-    axis: Vec2
-    lower: Optional[float] = None
-    upper: Optional[float] = None
-    motor: Optional[Motor] = None
-
-
-@dataclass(frozen=True, kw_only=True)
-class WeldJoint(JointEnds):
-    """The two bodies hold their relative pose at the start; with ``frequency`` > 0 (Hz)
-    a spring-damper of that frequency and ``damping_ratio`` holds it instead."""
-
-    frequency: float = 0.0
-    damping_ratio: float = 1.0
-
-
-@dataclass(frozen=True, kw_only=True)
-class DistanceJoint(JointEnds):
-    """A rod keeps the points ``length`` apart; a rope (``rope``) at most ``length``."""
-
-    length: float
-    rope: bool = False
-
-
-@dataclass(frozen=True)
-class GearJoint:
-    """Two revolute joints' angles tied: angle_a + ratio angle_b stays zero (meshing gears
-    of radii r_a and r_b turn opposite ways: ratio = r_b / r_a)."""
-
-    name: str
-    joint_a: str
-    joint_b: str
-    ratio: float
-
-
-JointSpec = Union[RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint]
 
 # Row kinds.
 RIGID, LIMIT, MOTOR, SOFT = "rigid", "limit", "motor", "soft"
@@ -264,7 +184,7 @@ class _Frame:
         return x + rx, y + ry, rx, ry, angle
 
 
-def _line(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+def _line(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
     """Jacobian entries of u . (P_B - P_A) for a direction u fixed in body A: on B
     (u, perp(r_B) . u), on A (-u, -perp(P_B - x_A) . u), since u turns with A."""
     entries = []
@@ -276,7 +196,7 @@ def _line(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> l
     return entries
 
 
-def _fixed(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> list:
+def _fixed(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
     """Jacobian entries of u . (P_B - P_A) for a direction u fixed in the world (or
     following both ends): on B (u, perp(r_B) . u), on A (-u, -perp(r_A) . u)."""
     entries = []
@@ -287,7 +207,7 @@ def _fixed(a: _Frame, b: _Frame, pa: tuple, pb: tuple, ux: float, uy: float) -> 
     return entries
 
 
-def _point_rows(name: str, a: _Frame, b: _Frame, pa: tuple, pb: tuple, kind: str,
+def _point_rows(name: str, a: _Frame, b: _Frame, pa: Point, pb: Point, kind: str,
                 stiffness: float = 0.0, damping: float = 0.0) -> list[JointRow]:
     """The two rows of P_B - P_A = 0 (x and y); a soft row's ``stiffness`` and
     ``damping`` are per unit effective mass."""
@@ -297,14 +217,14 @@ def _point_rows(name: str, a: _Frame, b: _Frame, pa: tuple, pb: tuple, kind: str
             for axis, (ux, uy) in (("x", (1.0, 0.0)), ("y", (0.0, 1.0)))]
 
 
-def _angle_entries(a: int, b: int, scale: float = 1.0) -> list:
+def _angle_entries(a: int, b: int, scale: float = 1.0) -> list[Any]:
     entries = [(b, 0.0, 0.0, scale)]
     if a >= 0:
         entries.append((a, 0.0, 0.0, -scale))
     return entries
 
 
-def _bounded_rows(name: str, value: float, entries: list, lower: Optional[float],
+def _bounded_rows(name: str, value: float, entries: list[Any], lower: Optional[float],
                   upper: Optional[float], motor: Optional[Motor], h: float) -> list[JointRow]:
     """Limit rows (value - lower >= 0, upper - value >= 0) and a motor row on a joint
     coordinate ``value`` whose Jacobian is ``entries``."""
@@ -407,7 +327,7 @@ class JointPass:
                 continue
             ia = -1 if spec.body_a is None else index[spec.body_a]
             ib = index[spec.body_b]
-            point_a = tuple(spec.point_a) if ia < 0 else local(ia, spec.point_a)
+            point_a = (spec.point_a[0], spec.point_a[1]) if ia < 0 else local(ia, spec.point_a)
             self.frames[spec.name] = (_Frame(-1 if ia < 0 else local_index[ia], point_a),
                                       _Frame(local_index[ib], local(ib, spec.point_b)))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
@@ -526,10 +446,10 @@ class JointPass:
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
-        self.warm: list[float] = [0.0] * len(self.keys)
+        self.warm = [0.0] * len(self.keys)
         #: The extra impulses the last contact solve added (:meth:`take_extra`).
-        self.extra: list[float] = [0.0] * len(self.keys)
-        self.newton: Optional[list[float]] = None
+        self.extra = [0.0] * len(self.keys)
+        self.newton = None
         self.step_h = 1.0
 
     def export_state(self) -> dict[str, Any]:
@@ -567,7 +487,7 @@ class JointPass:
         c, s = math.cos(angle_a), math.sin(angle_a)
         return c * spec.axis[0] - s * spec.axis[1], s * spec.axis[0] + c * spec.axis[1]
 
-    def _joint_angle(self, name: str, pa: tuple, pb: tuple) -> float:
+    def _joint_angle(self, name: str, pa: Point, pb: Point) -> float:
         """body_b's angle relative to body_a's since the start, counting whole turns."""
         raw = pb[4] - pa[4]
         return self.angle[name] + _wrap(raw - self.raw[name])
@@ -784,6 +704,7 @@ class JointPass:
         """Stage 2: remove drift of the rigid rows and limits passed, positions only;
         returns the rows at the corrected ``q``."""
         pattern = self.pattern
+        assert pattern is not None  # the start pose has fixed the rows
         for _ in range(DRIFT_ITERATIONS):
             if not any((r.kind == RIGID and abs(r.c) > self.tolerance)
                        or (r.kind == LIMIT and r.c < -self.tolerance) for r in rows):
@@ -800,14 +721,16 @@ class JointPass:
     def _velocities(self, rows: list[JointRow], v: list[float], h: float) -> None:
         """Stage 3: the impulses at the final positions; changes ``v`` in place and keeps
         each row's impulse for warm starting and the joints' efforts."""
+        pattern = self.pattern
+        assert pattern is not None  # the start pose has fixed the rows
         direction = _directions(rows, self.inverse_mass)
-        diagonal, lower = _matrix(self.pattern, rows, direction)
+        diagonal, lower = _matrix(pattern, rows, direction)
         b = [-_rate(row, v) for row in rows]
         low_bound = [-math.inf] * len(rows)
         high_bound = [math.inf] * len(rows)
         for i, row in enumerate(rows):
             if row.kind == LIMIT:
-                b[i] -= (0.0 if 0.0 > row.c else row.c) / h
+                b[i] -= (0.0 if row.c < 0.0 else row.c) / h
                 low_bound[i] = 0.0
             elif row.kind == MOTOR:
                 b[i] += row.speed
@@ -821,7 +744,7 @@ class JointPass:
                     continue
                 diagonal[i] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(self.pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
+        impulse = _solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
         _apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h
@@ -843,7 +766,7 @@ class JointPass:
                 continue
             target, lower, upper = 0.0, -math.inf, math.inf
             if row.kind == LIMIT:
-                target, lower = -(0.0 if 0.0 > row.c else row.c) / h, -x
+                target, lower = -(0.0 if row.c < 0.0 else row.c) / h, -x
             elif row.kind == MOTOR:
                 target, lower, upper = row.speed, -row.bound - x, row.bound - x
             units.append(JointUnit(slot, [(index[b], jx, jy, jw) for b, jx, jy, jw in row.entries],

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .joints import (DistanceJoint, GearJoint, JointsUnsolved, PrismaticJoint, RevoluteJoint,
-                     WeldJoint, weld_law)
+from ..scene.joints import DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoint, WeldJoint
+from .joints import JointsUnsolved, weld_law
 
 try:
-    from .. import _kernel
+    from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Optional
+from typing import Any, Optional
 
 __all__ = ["DEPENDENT", "DISSECT_ABOVE", "Pattern", "Factors", "joint_order",
            "minimum_degree", "factor", "substitute", "lu", "lu_solve"]
@@ -49,7 +49,7 @@ DEPENDENT = 1e-10
 DISSECT_ABOVE = 64
 
 
-def joint_order(neighbours: Sequence[set[int]], keys: Sequence[tuple],
+def joint_order(neighbours: Sequence[set[int]], keys: Sequence[tuple[Any, ...]],
                 loops: bool = False) -> list[int]:
     """An elimination order of a graph of ``len(neighbours)`` nodes (joints) whose
     ``keys`` (a total order) begin with each node's position (x, y): by minimum degree
@@ -65,7 +65,7 @@ def joint_order(neighbours: Sequence[set[int]], keys: Sequence[tuple],
                                                                            nodes)
 
 
-def _dissect(neighbours: Sequence[set[int]], keys: Sequence[tuple],
+def _dissect(neighbours: Sequence[set[int]], keys: Sequence[tuple[Any, ...]],
              nodes: list[int]) -> list[int]:
     if len(nodes) <= DISSECT_ABOVE:
         return minimum_degree(neighbours, keys, nodes)
@@ -82,7 +82,7 @@ def _dissect(neighbours: Sequence[set[int]], keys: Sequence[tuple],
             + minimum_degree(neighbours, keys, separator))
 
 
-def minimum_degree(neighbours: Sequence[set[int]], keys: Sequence[tuple],
+def minimum_degree(neighbours: Sequence[set[int]], keys: Sequence[tuple[Any, ...]],
                    nodes: Sequence[int]) -> list[int]:
     """Minimum-degree elimination order of the graph's ``nodes`` (the subgraph they
     induce): at each step the node with the fewest neighbours left, edges added by the

@@ -53,16 +53,23 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
-from . import kernel
-from ..contact.joints import SOFT, GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
-from .forces import (AnchorSpringTerm, BodySpringTerm, ConstantWrenchTerm, GravityTerm,
-                     ScalarKinematics, spring_energy_scalar)
+from ..contact.joints import SOFT
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE
+from ..scene.joints import GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
 from ..scene.load import SpringSpec
+from . import kernel
+from .forces import (
+    AnchorSpringTerm,
+    BodySpringTerm,
+    ConstantWrenchTerm,
+    GravityTerm,
+    ScalarKinematics,
+    spring_energy_scalar,
+)
 
 if TYPE_CHECKING:
-    from .model import Model
     from ..scene.load import Scene
+    from .model import Model
 
 __all__ = ["GROWTH", "STEP_GROWTH", "FLOOR_SPEED", "energy_units", "EnergyBound"]
 
@@ -515,10 +522,10 @@ def _turned(cos: np.ndarray, sin: np.ndarray, local: np.ndarray) -> tuple[np.nda
     return cos * local[:, 0] - sin * local[:, 1], sin * local[:, 0] + cos * local[:, 1]
 
 
-def _spring_rows(springs: Sequence[AnchorSpringTerm | BodySpringTerm]) -> list[tuple]:
+def _spring_rows(springs: Sequence[AnchorSpringTerm | BodySpringTerm]) -> list[tuple[Any, ...]]:
     """Each spring as (body a, its point, body b or -1, its point or the anchor,
     stiffness, rest length), in the terms' order and in each term's order."""
-    rows: list[tuple] = []
+    rows: list[tuple[Any, ...]] = []
     for term in springs:
         stiffness, rest = term.law.stiffness.tolist(), term.law.rest_length.tolist()
         if isinstance(term, AnchorSpringTerm):

@@ -21,11 +21,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Optional, Protocol
+from typing import Any, NamedTuple, Optional, Protocol
 
 import numpy as np
 
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE, cos_sin, cos_sin_of, magnitude
+
+__all__ = ["Kinematics", "ScalarKinematics", "ForceTerm", "BodySum", "GravityTerm", "SpringLaw",
+           "spring_force", "spring_force_scalar", "spring_energy", "spring_energy_scalar",
+           "AnchorSpringTerm", "BodySpringTerm", "drag_force", "drag_force_scalar",
+           "CenterDragTerm", "PointDragTerm", "AngularDampingTerm", "WrenchRow",
+           "ConstantWrenchTerm"]
 
 
 Wrench = list[float]  # [Fx, Fy, torque] of one body, accumulated in place
@@ -529,7 +535,7 @@ class ConstantWrenchTerm:
                               point_body.tolist(), point.tolist(), at_point.tolist()))
 
     @property
-    def rows(self) -> list[tuple]:
+    def rows(self) -> list[tuple[Any, ...]]:
         """Each wrench as (body, force, torque, axes_body, point_body, point, at_point) in
         plain Python values."""
         return self._rows

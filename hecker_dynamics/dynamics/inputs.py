@@ -16,8 +16,10 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any, Optional
 
-from .commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
+
+__all__ = ["Held", "InputBuffer"]
 
 
 @dataclass(frozen=True)

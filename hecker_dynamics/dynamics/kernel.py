@@ -28,9 +28,17 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 import numpy as np
 
 from ..contact.joints import MOST_SUBSTEPS
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, PointDragTerm)
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
+from .forces import (
+    AnchorSpringTerm,
+    AngularDampingTerm,
+    BodySpringTerm,
+    CenterDragTerm,
+    ConstantWrenchTerm,
+    ForceTerm,
+    GravityTerm,
+    PointDragTerm,
+)
 
 if TYPE_CHECKING:
     from ..contact.joints import JointPass
@@ -40,6 +48,9 @@ try:
     from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
+
+__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "CompiledForces", "Advanced",
+           "CompiledSteps", "compiled_steps"]
 
 #: The environment variable that switches the kernel off when set to "0".
 SWITCH = "HECKER_DYNAMICS_KERNEL"

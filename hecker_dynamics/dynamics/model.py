@@ -12,20 +12,39 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Sequence
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
-from . import kernel
-from ..integrators.coloring import Coloring, color
-from .forces import (AnchorSpringTerm, AngularDampingTerm, BodySpringTerm, CenterDragTerm,
-                     ConstantWrenchTerm, ForceTerm, GravityTerm, Kinematics, PointDragTerm,
-                     ScalarKinematics, WrenchRow)
-from ..geometry.planar import cos_sin_of, perp, rotate
-from ..scene.load import (AngularDampingSpec, ConstantForceSpec, ConstantTorqueSpec, DragSpec,
-                    Gravity, Scene, SpringSpec)
-from ..contact.solver import ContactPass
 from ..contact.joints import JointPass
+from ..contact.solver import ContactPass
+from ..geometry.planar import cos_sin_of, perp, rotate
+from ..integrators.coloring import Coloring, color
+from ..scene.load import (
+    AngularDampingSpec,
+    ConstantForceSpec,
+    ConstantTorqueSpec,
+    DragSpec,
+    Gravity,
+    Scene,
+    SpringSpec,
+)
+from . import kernel
+from .forces import (
+    AnchorSpringTerm,
+    AngularDampingTerm,
+    BodySpringTerm,
+    CenterDragTerm,
+    ConstantWrenchTerm,
+    ForceTerm,
+    GravityTerm,
+    Kinematics,
+    PointDragTerm,
+    ScalarKinematics,
+    WrenchRow,
+)
+
+__all__ = ["LEAN_BODIES", "FrameRow", "Model", "wrench_term"]
 
 
 #: Up to this many bodies the forces are summed in plain Python floats (``add_scalar``),
@@ -279,7 +298,7 @@ def _restless(model: Model, scene: Scene) -> set[int]:
 
 def _build_terms(model: Model, scene: Scene) -> list[ForceTerm]:
     """One vectorised term per kind of force the scene declares, and none for the others."""
-    by_kind: dict[type, list] = defaultdict(list)
+    by_kind: dict[type, list[Any]] = defaultdict(list)
     for spec in scene.forces:
         by_kind[type(spec)].append(spec)
     idx = model.index

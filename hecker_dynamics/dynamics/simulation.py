@@ -14,26 +14,36 @@ joint and contact passes included, with the results of Python's plain-float path
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import replace
 from types import MappingProxyType
 from typing import Any, NamedTuple, Optional
 
 import numpy as np
 
-from .commands import InputError, WrenchCommand
-from .divergence import EnergyBound
-from .inputs import InputBuffer
-from ..integrators.methods import (EmbeddedRungeKutta, ExplicitEuler, ImplicitTheta,
-                                   IntegrationError, RungeKutta4, SemiImplicitEuler,
-                                   VelocityVerlet, choose_method, make_integrator)
-from .kernel import compiled_steps
 from ..contact.events import Impact, WallEvents
 from ..contact.joints import MOST_SUBSTEPS, JointsUnsolved
-from .forces import WrenchRow
-from .model import FrameRow, Model, wrench_term
 from ..geometry.planar import wrap_angles_in_place
+from ..integrators.methods import (
+    EmbeddedRungeKutta,
+    ExplicitEuler,
+    ImplicitTheta,
+    IntegrationError,
+    RungeKutta4,
+    SemiImplicitEuler,
+    VelocityVerlet,
+    choose_method,
+    make_integrator,
+)
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import Scene
+from .divergence import EnergyBound
+from .forces import WrenchRow
+from .inputs import InputBuffer
+from .kernel import compiled_steps
+from .model import FrameRow, Model, wrench_term
+
+__all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
 
 #: How many times :meth:`Simulation.play` reports its progress over a run, at most: often
 #: enough for a smooth bar, seldom enough that chunking costs nothing measurable.
@@ -597,22 +607,26 @@ class Simulation:
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
              keep: bool = True,
-             progress: Optional[Callable[[float], None]] = None) -> list[Snapshot]:
+             progress: Optional[Callable[[float], None]] = None,
+             advance: Optional[Callable[[int], list[Snapshot]]] = None) -> list[Snapshot]:
         """Push ``commands`` (stamps relative to the start time) as sim time reaches each
         stamp, and advance to ``until_ns`` after the start; returns the snapshots passed
         (none with ``keep`` false). Commands stamped at or after ``until_ns`` are not
         pushed. ``progress`` is called with the fraction of ``until_ns`` done, about
         ``PROGRESS_UPDATES`` times, always at publish instants, so a run that reports its
-        progress takes the same steps as one that does not."""
+        progress takes the same steps as one that does not. ``advance``, if given, takes the
+        simulation to a sim time instead (a loop that acts on the way, such as drives)."""
         snapshots = []
         end_ns = self.start_ns + until_ns
         for command in sorted(commands, key=lambda c: c.stamp_ns):
             if command.stamp_ns >= until_ns:
                 break
             stamp = self.start_ns + command.stamp_ns
-            snapshots += self._advance_reporting(stamp, end_ns, keep, progress)
+            snapshots += (self._advance_reporting(stamp, end_ns, keep, progress)
+                          if advance is None else advance(stamp))
             self.push(replace(command, stamp_ns=stamp))
-        return snapshots + self._advance_reporting(end_ns, end_ns, keep, progress)
+        return snapshots + (self._advance_reporting(end_ns, end_ns, keep, progress)
+                            if advance is None else advance(end_ns))
 
     def _advance_reporting(self, t_ns: int, end_ns: int, keep: bool,
                            progress: Optional[Callable[[float], None]]) -> list[Snapshot]:

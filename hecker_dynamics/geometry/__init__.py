@@ -5,8 +5,15 @@ circles, boxes and their unions over the area for the center of mass (Eq. 3) and
 of inertia (Eq. 13).
 """
 from .planar import perp, perp_dot, rotate, wrap_angle
-from .shapes import (Circle, GeometryError, MassProperties, Polygon, area_properties, box,
-                     mass_properties)
+from .shapes import (
+                     Circle,
+                     GeometryError,
+                     MassProperties,
+                     Polygon,
+                     area_properties,
+                     box,
+                     mass_properties,
+)
 
 __all__ = ["perp", "perp_dot", "rotate", "wrap_angle", "Circle", "GeometryError",
            "MassProperties", "Polygon", "area_properties", "box", "mass_properties"]

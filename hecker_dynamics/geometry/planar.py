@@ -13,6 +13,9 @@ import math
 
 import numpy as np
 
+__all__ = ["perp", "perp_dot", "rotate", "cos_sin_of", "HALF_ANGLE_FROM", "cos_sin", "wrap_angle",
+           "wrap_angles_in_place", "SMALLEST_SQUARE", "LARGEST_SQUARE", "magnitude"]
+
 TWO_PI = 2.0 * math.pi
 
 

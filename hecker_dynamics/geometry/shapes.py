@@ -20,6 +20,9 @@ import numpy as np
 
 from .planar import perp_dot
 
+__all__ = ["GeometryError", "Polygon", "Circle", "Shape", "box", "AreaProperties", "MassProperties",
+           "is_simple", "is_convex", "area_properties", "mass_properties"]
+
 
 class GeometryError(ValueError):
     """A shape that has no well-defined area or mass."""

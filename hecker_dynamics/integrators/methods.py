@@ -32,6 +32,10 @@ import numpy as np
 from .coloring import Coloring
 from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
+__all__ = ["IntegrationError", "Counters", "Integrator", "ExplicitEuler", "SemiImplicitEuler",
+           "VelocityVerlet", "RungeKutta4", "EmbeddedRungeKutta", "ImplicitTheta", "METHODS",
+           "ADAPTIVE", "AUTO_IMPLICIT_BODIES", "make_integrator", "choose_method"]
+
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
 #: (q0, v0, q1, v1, h) -> whether the step from (q0, v0) to (q1, v1) is physically possible.
 StepCheck = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float], bool]

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["EmbeddedPair", "DOPRI5", "DOP853"]
+
 
 @dataclass(frozen=True, eq=False)
 class EmbeddedPair:

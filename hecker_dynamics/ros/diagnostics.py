@@ -7,6 +7,9 @@ from typing import Any, NamedTuple, Optional
 from ..dynamics.simulation import Simulation
 from .fields import NS_PER_S
 
+__all__ = ["DIAGNOSTIC_OK", "DIAGNOSTIC_WARN", "DIAGNOSTIC_ERROR", "DiagnosticFields",
+           "diagnostic_fields", "diagnostics_due", "simulation_diagnostics"]
+
 # diagnostic_msgs/msg/DiagnosticStatus levels (a ``byte`` field: rclpy wants
 # ``bytes([level])``, rosbags an int).
 DIAGNOSTIC_OK = 0

@@ -15,8 +15,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
-from ..dynamics.commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import WrenchTopic
+
+__all__ = ["NS_PER_S", "Vec3", "Quaternion", "ns_from_stamp", "stamp_from_ns",
+           "applied_wrench_to_command", "wrench_stamped_to_command", "Header", "Pose",
+           "PoseStampedFields", "TwistFields", "OdometryFields", "header", "quaternion_from_yaw",
+           "body_pose", "pose_fields", "twist_fields", "odometry_twist", "odometry_fields",
+           "AppliedWrenchFields", "applied_wrench_fields"]
 
 NS_PER_S = 1_000_000_000
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Optional
 
-from ..dynamics.commands import InputError
 from ..dynamics.simulation import Simulation, Snapshot
+from ..scene.commands import InputError
+from ..scene.joints import PrismaticJoint, RevoluteJoint
 from ..scene.load import Scene
-from ..contact.joints import PrismaticJoint, RevoluteJoint
 from .fields import Header, header
 from .names import motor_topic
 

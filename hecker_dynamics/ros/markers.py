@@ -9,6 +9,10 @@ from ..geometry.shapes import Circle, Polygon
 from ..scene.load import BodySpec, Scene
 from .fields import Header, Pose, Vec3, _rotate, body_pose, header
 
+__all__ = ["MARKER_CYLINDER", "MARKER_LINE_STRIP", "MARKER_ADD", "MARKER_DELETE", "MARKER_COLORS",
+           "MarkerFields", "MarkerTemplate", "MarkerKey", "marker_keys", "color_slot",
+           "marker_templates", "marker_pose", "place_markers", "marker_fields", "delete_markers"]
+
 # visualization_msgs/msg/Marker constants.
 MARKER_CYLINDER = 3
 MARKER_LINE_STRIP = 4

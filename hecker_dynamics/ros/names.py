@@ -1,28 +1,37 @@
 """The node's name, its topic and service names, and the QoS of each, as plain data.
 
-Everything the node offers on the ROS graph is named here once; the rclpy node turns the
+Everything the node offers on the ROS graph is listed here; the rclpy node turns the
 :class:`QosSpec` values into ``rclpy.qos.QoSProfile`` in one place, and the bag writer
 records the same profiles in a bag's metadata. Relative names resolve in the node's
 namespace, ``~/`` names in the node's own (``/dynamics_node/session``), absolute names are
-global (``/tf``, ``/clock``). No ROS import.
+global (``/tf``, ``/clock``). The node's own name and its services' names, which scenes
+and their records need too, are defined in :mod:`hecker_dynamics.scene.names`. No ROS import.
 """
 from __future__ import annotations
 
 import enum
 from typing import NamedTuple
 
+from ..scene.names import (
+    DELETE_BODY_SERVICE,
+    NODE_NAME,
+    PAUSE_SERVICE,
+    RESET_SERVICE,
+    RESUME_SERVICE,
+    SET_BODY_STATE_SERVICE,
+    SPAWN_BODY_SERVICE,
+    STEP_SERVICE,
+)
+
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
            "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
-           "JOINT_STATES_TOPIC", "motor_topic",
+           "JOINT_STATES_TOPIC", "motor_topic", "cmd_vel_topic", "scan_topic", "imu_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
            "PAUSE_SERVICE", "RESUME_SERVICE", "STEP_SERVICE", "SET_BODY_STATE_SERVICE",
            "SPAWN_BODY_SERVICE", "DELETE_BODY_SERVICE",
            "pose_topic", "twist_topic", "odometry_topic", "output_qos"]
-
-#: The node's name: also the top key of a scene's parameters file.
-NODE_NAME = "dynamics_node"
 
 
 class Reliability(enum.Enum):
@@ -86,13 +95,6 @@ SESSION_TOPIC = "~/session"
 KEYFRAME_TOPIC = "~/keyframe"
 INPUT_EVENTS_TOPIC = "~/input_events"
 WORLD_EVENTS_TOPIC = "~/world_events"
-RESET_SERVICE = "reset"
-PAUSE_SERVICE = "pause"
-RESUME_SERVICE = "resume"
-STEP_SERVICE = "step"
-SET_BODY_STATE_SERVICE = "set_body_state"
-SPAWN_BODY_SERVICE = "spawn_body"
-DELETE_BODY_SERVICE = "delete_body"
 
 
 def pose_topic(body: str) -> str:
@@ -113,6 +115,21 @@ def odometry_topic(body: str) -> str:
 def motor_topic(joint: str) -> str:
     """A motor's command topic (``std_msgs/Float64``: its target speed, rad/s or m/s)."""
     return f"{joint}/motor_speed"
+
+
+def cmd_vel_topic(body: str) -> str:
+    """A driven body's velocity command topic (``geometry_msgs/Twist``, body frame)."""
+    return f"{body}/cmd_vel"
+
+
+def scan_topic(body: str, sensor: str) -> str:
+    """A laser's topic (``sensor_msgs/LaserScan``)."""
+    return f"{body}/{sensor}/scan"
+
+
+def imu_topic(body: str, sensor: str) -> str:
+    """An IMU's topic (``sensor_msgs/Imu``)."""
+    return f"{body}/{sensor}/imu"
 
 
 def output_qos(topic: str) -> QosSpec:

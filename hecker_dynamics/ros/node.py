@@ -10,6 +10,7 @@ only moves data between them and rclpy.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import signal
 import sys
 import threading
@@ -22,46 +23,88 @@ import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import (ConditionReachedException, ExternalShutdownException,
-                              ShutdownException, SingleThreadedExecutor)
+from rclpy.executors import (
+    ConditionReachedException,
+    ExternalShutdownException,
+    ShutdownException,
+    SingleThreadedExecutor,
+)
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
-from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock as ClockMessage
-from std_msgs.msg import Float64
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from ..dynamics.simulation import Snapshot
+from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
+from ..scene.load import SceneError, WrenchTopic
+from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .cdr import SnapshotSerializer, serialize_output
-from .fields import NS_PER_S, Header, header, stamp_from_ns
+from .cmd_vel import CmdVelTopic, cmd_vel_topics
 from .diagnostics import DiagnosticFields
+from .fields import NS_PER_S, Header, header, stamp_from_ns
 from .joint_states import MotorTopic, motor_topics
 from .lifecycle import HANDLED_SIGNALS, Shutdown, serve, tick_every
-from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, DIAGNOSTICS_TOPIC,
-                    NODE_NAME, PAUSE_SERVICE, RESET_SERVICE, RESUME_SERVICE,
-                    SET_BODY_STATE_SERVICE, STEP_SERVICE, Durability, QosSpec, Reliability,
-                    output_qos)
-from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
+from .names import (
+    APPLIED_WRENCH_TOPIC,
+    CLOCK_QOS,
+    CLOCK_TOPIC,
+    COMMAND_QOS,
+    DELETE_BODY_SERVICE,
+    DIAGNOSTICS_TOPIC,
+    INPUT_EVENTS_QOS,
+    INPUT_EVENTS_TOPIC,
+    KEYFRAME_QOS,
+    KEYFRAME_TOPIC,
+    NODE_NAME,
+    PAUSE_SERVICE,
+    RESET_SERVICE,
+    RESUME_SERVICE,
+    SESSION_QOS,
+    SESSION_TOPIC,
+    SET_BODY_STATE_SERVICE,
+    SPAWN_BODY_SERVICE,
+    STEP_SERVICE,
+    WORLD_EVENTS_QOS,
+    WORLD_EVENTS_TOPIC,
+    Durability,
+    QosSpec,
+    Reliability,
+    output_qos,
+)
 from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
-from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
-                     plan_tick, refused_change)
-from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
-                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
-from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, InputEventFields, KeyframeFields,
-                      SessionFields, WorldEventFields)
-from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
-from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .ratelimit import RateLimiter
-from ..scene.load import SceneError, WrenchTopic
+from .runner import (
+    LogLine,
+    NodeOptions,
+    Runner,
+    TickAction,
+    catch_up_cap,
+    node_setup,
+    plan_tick,
+    refused_change,
+)
+from .session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldEventFields,
+)
+
+__all__ = ["MESSAGE_TYPES", "qos_profile", "DynamicsNode", "run_callbacks", "main"]
 
 MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
@@ -126,6 +169,8 @@ def _input_event(fields: InputEventFields) -> InputEvent:
         msg.applied_wrench = fields.message
     elif fields.kind == MOTOR_SPEED_EVENT:
         msg.motor_speed = fields.message
+    elif fields.kind == CMD_VEL_EVENT:
+        msg.cmd_vel = fields.message
     else:
         msg.wrench_stamped = fields.message
     return msg
@@ -202,19 +247,23 @@ class DynamicsNode(Node):
         self._publishers_by_topic: dict[str, Any] = {}
         #: Per output topic, its publisher's publish of serialized bytes (_add_output).
         self._publish_bytes: dict[str, Callable[[bytes], None]] = {}
-        for topic, kind in output_topics(self.scene).items():
-            self._add_output(kind, topic)
+        for topic, output in output_topics(self.scene).items():
+            self._add_output(output, topic)
         self._applied_wrench = self._command_subscription(
             AppliedWrench, APPLIED_WRENCH_TOPIC, self._on_applied_wrench)
-        for topic in self.scene.wrench_topics:
+        for wrench_topic in self.scene.wrench_topics:
             subscription = self._command_subscription(
-                WrenchStamped, topic.topic,
-                lambda msg, topic=topic: self._on_wrench_stamped(msg, topic))
-            self._wrench_topic_names[topic.name] = subscription.topic_name
+                WrenchStamped, wrench_topic.topic,
+                functools.partial(self._on_wrench_stamped, topic=wrench_topic))
+            self._wrench_topic_names[wrench_topic.name] = subscription.topic_name
         for motor in motor_topics(self.scene):
             subscription = self._command_subscription(
-                Float64, motor.topic, lambda msg, motor=motor: self._on_motor_speed(msg, motor))
+                Float64, motor.topic, functools.partial(self._on_motor_speed, motor=motor))
             self._wrench_topic_names[motor.topic] = subscription.topic_name
+        for driven in cmd_vel_topics(self.scene):
+            subscription = self._command_subscription(
+                Twist, driven.topic, functools.partial(self._on_cmd_vel, driven=driven))
+            self._wrench_topic_names[driven.topic] = subscription.topic_name
         self.create_service(Trigger, RESET_SERVICE, self._on_reset)
         self.create_service(Trigger, PAUSE_SERVICE, self._on_pause)
         self.create_service(Trigger, RESUME_SERVICE, self._on_resume)
@@ -278,6 +327,11 @@ class DynamicsNode(Node):
     def _on_motor_speed(self, msg: Float64, motor: MotorTopic) -> None:
         self._log(self.runner.accept(self._wrench_topic_names[motor.topic], msg,
                                      self._now_ns(), motor))
+        self._publish_records()
+
+    def _on_cmd_vel(self, msg: Twist, driven: CmdVelTopic) -> None:
+        self._log(self.runner.accept(self._wrench_topic_names[driven.topic], msg,
+                                     self._now_ns(), driven))
         self._publish_records()
 
     # ----------------------------------------------------------------- stepping

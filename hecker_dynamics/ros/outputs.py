@@ -6,13 +6,34 @@ from typing import Any, NamedTuple, Optional
 
 from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
-from .fields import (OdometryFields, PoseStampedFields, body_pose, header, odometry_twist,
-                     twist_fields)
+from .fields import (
+    OdometryFields,
+    PoseStampedFields,
+    body_pose,
+    header,
+    odometry_twist,
+    twist_fields,
+)
 from .joint_states import has_joint_states, snapshot_joint_states
-from .markers import (MarkerFields, MarkerKey, color_slot, delete_markers, marker_keys,
-                      marker_templates, place_markers)
-from .names import (DIAGNOSTICS_TOPIC, JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC,
-                    TF_TOPIC, odometry_topic, pose_topic, twist_topic)
+from .markers import (
+    MarkerFields,
+    MarkerKey,
+    color_slot,
+    delete_markers,
+    marker_keys,
+    marker_templates,
+    place_markers,
+)
+from .names import (
+    DIAGNOSTICS_TOPIC,
+    JOINT_STATES_TOPIC,
+    MARKERS_TOPIC,
+    TF_STATIC_TOPIC,
+    TF_TOPIC,
+    odometry_topic,
+    pose_topic,
+    twist_topic,
+)
 from .tf import body_transforms, point_transforms
 
 __all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",

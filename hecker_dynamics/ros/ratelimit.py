@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Optional
 
+__all__ = ["RateLimiter"]
+
 DEFAULT_PERIOD_NS = 5_000_000_000
 
 

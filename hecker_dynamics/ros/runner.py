@@ -11,25 +11,45 @@ import dataclasses
 import enum
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NamedTuple, Optional
-
 from pathlib import Path
-from typing import Union
+from typing import Any, NamedTuple, Optional, Union
 
-from .. import __version__
-from ..dynamics.commands import InputError, WrenchCommand
+from .._version import __version__
+from ..drives.control import DriveSet
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.fingerprint import scene_fingerprint
-from ..scene.load import (NODE_PARAMETERS, Scene, SceneError, WrenchTopic,
-                          check_scene_request, load_scene, scene_from_parameters)
+from ..scene.load import (
+    NODE_PARAMETERS,
+    Scene,
+    SceneError,
+    WrenchTopic,
+    check_scene_request,
+    load_scene,
+    scene_from_parameters,
+)
 from ..scene.world import EditKind, WorldEdit, apply_edits
+from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .joint_states import MotorTopic, set_motor_speed
-from .session import (APPLIED_WRENCH_EVENT, MOTOR_SPEED_EVENT, WRENCH_STAMPED_EVENT,
-                      InputEventFields,
-                      KeyframeFields, SessionFields, WorldChange, WorldEventFields, decode_state,
-                      encode_state)
+from .session import (
+    APPLIED_WRENCH_EVENT,
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    WRENCH_STAMPED_EVENT,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldChange,
+    WorldEventFields,
+    decode_state,
+    encode_state,
+)
+
+__all__ = ["InputSource", "NodeOptions", "node_options", "scene_for_node", "due_script",
+           "catch_up_cap", "TickAction", "plan_tick", "lag_ns", "plain_parameters", "node_setup",
+           "refused_change", "LogLine", "Tick", "Runner"]
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
@@ -44,7 +64,7 @@ FAR_FUTURE_NS = 2 ** 63 - 1
 #: What the runner records for the node to publish.
 Record = Union[SessionFields, InputEventFields, WorldEventFields, KeyframeFields]
 #: Where an input message other than an ``AppliedWrench`` came from.
-InputSource = Union[WrenchTopic, MotorTopic]
+InputSource = Union[WrenchTopic, MotorTopic, CmdVelTopic]
 
 # ----------------------------------------------------------------------------- node setup
 
@@ -62,7 +82,7 @@ class NodeOptions:
 
 def node_options(params: Mapping[str, Any], source: str) -> NodeOptions:
     """Read and type-check the node's own parameters; missing ones keep their defaults."""
-    values = {}
+    values: dict[str, Any] = {}
     for option in dataclasses.fields(NodeOptions):
         value = params.get(option.name, option.default)
         kind = type(option.default)
@@ -248,6 +268,7 @@ class Runner:
         self.base_scene = self.scene = scene
         self.edits: list[WorldEdit] = []
         self.sim = Simulation(scene, start_ns=start_ns)
+        self.drives = DriveSet(self.sim)
         self.play_script = play_script
         self.max_steps = max_steps
         self.started = False
@@ -281,6 +302,7 @@ class Runner:
             self.sim = Simulation(self.scene, start_ns=start_ns)
         else:
             self.sim.reset(start_ns)
+        self.drives = DriveSet(self.sim)
         self._script_index = 0
         self.halted = None
         self.paused = False
@@ -312,8 +334,10 @@ class Runner:
         """Map one input message that arrived at ROS time ``arrival_ns`` and push it.
 
         ``msg`` is an ``AppliedWrench`` (``wrench_topic`` None), a ``WrenchStamped`` from
-        the scene's input topic ``wrench_topic``, or a ``Float64`` from a motor's topic (a
-        :class:`MotorTopic`: the motor holds that speed from the next step on). Bad input
+        the scene's input topic ``wrench_topic``, a ``Float64`` from a motor's topic (a
+        :class:`MotorTopic`: the motor holds that speed from the next step on) or a
+        ``Twist`` from a driven body's (a :class:`CmdVelTopic`: its drives follow it from
+        their next control instant on). Bad input
         is counted in ``rejected`` and reported in the returned lines, never raised;
         warnings about an accepted message are returned too. With ``record``, an input
         event records the message, the sim time it was pushed at and the outcome.
@@ -322,7 +346,8 @@ class Runner:
         if self.record:
             rejected = next((line.message for line in lines if line.dropped), "")
             kind = (APPLIED_WRENCH_EVENT if wrench_topic is None else MOTOR_SPEED_EVENT
-                    if isinstance(wrench_topic, MotorTopic) else WRENCH_STAMPED_EVENT)
+                    if isinstance(wrench_topic, MotorTopic) else CMD_VEL_EVENT
+                    if isinstance(wrench_topic, CmdVelTopic) else WRENCH_STAMPED_EVENT)
             self.records.append(InputEventFields(
                 self.sim.time_ns, self.session, self.sequence, topic, arrival_ns, kind, msg,
                 not rejected, rejected))
@@ -343,6 +368,14 @@ class Runner:
                 return [LogLine(f"{topic}:message", f"input on '{topic}' rejected: {error}")]
             self.accepted += 1
             return []
+        if isinstance(wrench_topic, CmdVelTopic):
+            try:
+                warnings = take_cmd_vel(self.drives, wrench_topic, msg, self.sim.time_ns)
+            except InputError as error:
+                self.rejected += 1
+                return [LogLine(f"{topic}:message", f"input on '{topic}' rejected: {error}")]
+            self.accepted += 1
+            return [LogLine(f"{topic}:ignored", warning, dropped=False) for warning in warnings]
         try:
             if wrench_topic is None:
                 command, warnings = applied_wrench_to_command(msg, arrival_ns)
@@ -445,6 +478,8 @@ class Runner:
         self.sim = self.sim.with_world(scene)
         self.scene = scene
         self.edits.append(edit)
+        drives, self.drives = self.drives, DriveSet(self.sim)  # the bodies' rows moved
+        self.drives.import_state(drives.export_state())
 
     def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
                 values: tuple[float, ...] = (), time_ns: int = 0, spec: str = "",
@@ -517,6 +552,10 @@ class Runner:
                     sim.push(command)
                 except InputError as error:
                     tick.script_errors.append(f"scripted input rejected: {error}")
+        try:
+            self.drives.arrive(sim, self.play_script)
+        except InputError as error:
+            tick.script_errors.append(f"drive force rejected: {error}")
         if self.keyframe_steps and sim.steps >= self._next_keyframe_step and not self._stepping:
             if self.record:
                 self.records.append(self.keyframe())
@@ -532,7 +571,8 @@ class Runner:
             stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
         if self.keyframe_steps and not self._stepping:
             stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
-        return stop
+        control = self.drives.next_stop()
+        return stop if control is None else min(stop, control)
 
     # ----------------------------------------------------------------- keyframes
 
@@ -544,6 +584,8 @@ class Runner:
         state["runner"] = {"script_index": self._script_index, "accepted": self.accepted,
                            "rejected": self.rejected, "paused": self.paused,
                            "last_diagnostics_ns": self._last_diagnostics_ns}
+        if self.drives:  # a keyframe of a scene without drives holds what it always held
+            state["runner"]["drives"] = self.drives.export_state()
         if self.edits:  # a keyframe of the scene given holds what it always held
             state["world"] = [edit.as_data() for edit in self.edits]
         return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
@@ -568,6 +610,8 @@ class Runner:
         state["q"] = [list(keyframe.q[3 * i:3 * i + 3]) for i in range(size)]
         state["v"] = [list(keyframe.v[3 * i:3 * i + 3]) for i in range(size)]
         self.sim.import_state(state)
+        self.drives = DriveSet(self.sim)
+        self.drives.import_state(runner.get("drives", []))
         self._script_index = int(runner["script_index"])
         self.accepted, self.rejected = int(runner["accepted"]), int(runner["rejected"])
         self._last_diagnostics_ns = runner["last_diagnostics_ns"]

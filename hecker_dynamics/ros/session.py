@@ -31,10 +31,19 @@ import json
 from typing import Any, NamedTuple
 
 # The record topics (relative to the node: ``~`` is its own namespace) and their QoS.
-from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
-                    SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
+from .names import (
+    INPUT_EVENTS_QOS,
+    INPUT_EVENTS_TOPIC,
+    KEYFRAME_QOS,
+    KEYFRAME_TOPIC,
+    SESSION_QOS,
+    SESSION_TOPIC,
+    WORLD_EVENTS_QOS,
+    WORLD_EVENTS_TOPIC,
+)
 
-__all__ = ["APPLIED_WRENCH_EVENT", "WRENCH_STAMPED_EVENT", "MOTOR_SPEED_EVENT", "SessionFields",
+__all__ = ["APPLIED_WRENCH_EVENT", "WRENCH_STAMPED_EVENT", "MOTOR_SPEED_EVENT", "CMD_VEL_EVENT",
+           "SessionFields",
            "InputEventFields",
            "KeyframeFields", "encode_state", "decode_state", "SESSION_TOPIC", "KEYFRAME_TOPIC",
            "INPUT_EVENTS_TOPIC", "SESSION_DEPTH", "KEYFRAME_DEPTH", "INPUT_EVENTS_DEPTH",
@@ -50,6 +59,7 @@ WORLD_EVENTS_DEPTH = WORLD_EVENTS_QOS.depth
 APPLIED_WRENCH_EVENT = 0
 WRENCH_STAMPED_EVENT = 1
 MOTOR_SPEED_EVENT = 2
+CMD_VEL_EVENT = 3
 
 
 class SessionFields(NamedTuple):
@@ -81,7 +91,8 @@ class SessionFields(NamedTuple):
 
 class InputEventFields(NamedTuple):
     """``hecker_dynamics/InputEvent``; ``message`` is the input message as received (an
-    rclpy or rosbags ``AppliedWrench``, ``WrenchStamped`` or, for a motor, ``Float64``)."""
+    rclpy or rosbags ``AppliedWrench``, ``WrenchStamped``, for a motor ``Float64`` or for a
+    drive ``Twist``)."""
 
     stamp_ns: int
     session: int

@@ -18,21 +18,39 @@ from typing import Any, Optional, Union, overload
 
 import numpy as np
 
-from ..dynamics.commands import WrenchCommand
-from ..geometry.shapes import (Circle, GeometryError, MassProperties, Polygon, Shape, box,
-                               is_convex, mass_properties)
+from ..geometry.shapes import (
+    Circle,
+    GeometryError,
+    MassProperties,
+    Polygon,
+    Shape,
+    box,
+    is_convex,
+    mass_properties,
+)
 from ..integrators.methods import METHODS
-from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, Motor, PrismaticJoint,
-                              RevoluteJoint, RotarySpring, WeldJoint)
-from ..ros.names import NODE_NAME
+from .commands import WrenchCommand
+from .drives import DiffDriveSpec, read_drive
+from .joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    Motor,
+    PrismaticJoint,
+    RevoluteJoint,
+    RotarySpring,
+    WeldJoint,
+)
+from .names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
+from .sensors import SensorSpec, read_sensor
 
 __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
-    "shipped_scenes", "check_scene_request", "read_body", "check_collidable",
+    "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
 ]
 
@@ -199,6 +217,8 @@ class Scene:
     joints: tuple[JointSpec, ...] = ()
     sleep: bool = False  # resting islands of the contact pass sleep
     events: bool = False  # wall impacts located inside the step (contact/events.py)
+    sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
+    drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -226,7 +246,7 @@ def shipped_scenes() -> list[str]:
     return sorted(names)
 
 
-def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
+def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     """Resolve a shipped scene name (``sample``) or a path to a parameters file."""
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
@@ -243,7 +263,15 @@ def scene_path(name_or_path: Union[str, os.PathLike, None]) -> Path:
                      f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
 
 
-def load_scene(name_or_path: Union[str, os.PathLike, None] = None) -> Scene:
+def scene_summary(name_or_path: Union[str, os.PathLike[str], None]) -> str:
+    """The first line of a scene file's header comment, which says in one line what the
+    scene shows ("" for a file that starts otherwise)."""
+    with scene_path(name_or_path).open(encoding="utf-8") as stream:
+        first = stream.readline().rstrip("\n")
+    return first[2:].strip() if first.startswith("# ") else ""
+
+
+def load_scene(name_or_path: Union[str, os.PathLike[str], None] = None) -> Scene:
     """Load a scene from a ROS 2 parameters file, or a shipped scene by name.
 
     A file whose only scene parameter is ``scene`` runs the scene that names, as the node
@@ -264,7 +292,8 @@ def _load_file(path: Path, *, redirected: bool) -> Scene:
     return _read_scene(ParameterReader(params, source))
 
 
-def scene_parameters(name_or_path: Union[str, os.PathLike, None] = None) -> tuple[str, Mapping]:
+def scene_parameters(name_or_path: Union[str, os.PathLike[str], None] = None
+                     ) -> tuple[str, Mapping[str, Any]]:
     """The source and the nested ``ros__parameters`` of a scene file, not yet checked.
 
     The file is read as ROS 2 reads it (:mod:`.rosyaml`), and the node's parameters are
@@ -375,6 +404,10 @@ def _read_scene(root: ParameterReader) -> Scene:
         joints=joints,
         sleep=contacts.boolean("sleep", False),
         events=contacts.boolean("events", False),
+        sensors=tuple(read_sensor(name, r, points, step_ns)
+                      for name, r in root.named_children("sensors")),
+        drives=tuple(read_drive(name, r, points, step_ns)
+                     for name, r in root.named_children("drives")),
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
@@ -446,11 +479,11 @@ def read_body(name: str, reader: ParameterReader) -> BodySpec:
 
 def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
     group = reader.child("points")
-    for pname in group.keys():
+    for pname in group.names():
         if not NAME_PATTERN.fullmatch(pname):
             group.fail(pname, "is not a valid point name (letters, digits and underscores, "
                               "starting with a letter)")
-    return [(pname, group.vector(pname)) for pname in group.keys()]
+    return [(pname, group.vector(pname)) for pname in group.names()]
 
 
 def _body_list(reader: ParameterReader, key: str, known: Mapping[str, Any]) -> tuple[str, ...]:

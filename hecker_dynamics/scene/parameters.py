@@ -14,6 +14,9 @@ import re
 from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
+__all__ = ["NAME_PATTERN", "quoted", "SceneError", "unflatten", "flatten", "ParameterReader",
+           "REQUIRED"]
+
 NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")  # used with fullmatch
 #: Most characters of a bad value quoted in an error message (a hostile file may hold
 #: megabytes in one value).
@@ -100,7 +103,7 @@ class ParameterReader:
     def has(self, key: str) -> bool:
         return key in self._values
 
-    def keys(self) -> list[str]:
+    def names(self) -> list[str]:
         """The names under this reader, sorted."""
         return sorted(self._values)
 
@@ -210,7 +213,7 @@ class ParameterReader:
     def named_children(self, key: str) -> Iterator[tuple[str, ParameterReader]]:
         """(name, reader) for each entry under ``key``, sorted by name for determinism."""
         group = self.child(key)
-        for name in group.keys():
+        for name in group.names():
             if not NAME_PATTERN.fullmatch(name):
                 group.fail(name, "is not a valid name (letters, digits and underscores, "
                                  "starting with a letter)")

@@ -38,8 +38,8 @@ MAX_BYTES = 16 << 20
 #: bodies, a body, parts, a part).
 MAX_DEPTH = 32
 
-_TRUE = frozenset("Y y yes Yes YES true True TRUE on On ON".split())
-_FALSE = frozenset("N n no No NO false False FALSE off Off OFF".split())
+_TRUE = frozenset(["Y", "y", "yes", "Yes", "YES", "true", "True", "TRUE", "on", "On", "ON"])
+_FALSE = frozenset(["N", "n", "no", "No", "NO", "false", "False", "FALSE", "off", "Off", "OFF"])
 _STR_TAG = "tag:yaml.org,2002:str"
 # What strtoll(value, &end, 0) reads whole, and strtod: decimal, hex, inf and nan forms.
 _INTEGER = re.compile(r"[+-]?(0[xX][0-9a-fA-F]+|0[0-7]*|[1-9][0-9]*)")
@@ -154,13 +154,13 @@ class _Builder:
                 self.merge(mapping, key, child, key_event)
         raise self.fail(event, f"unexpected {type(event).__name__}")
 
-    def merge(self, mapping: dict, key: Any, value: Any, event: yaml.Event) -> None:
+    def merge(self, mapping: dict[Any, Any], key: Any, value: Any, event: yaml.Event) -> None:
         try:
             merge_parameters(mapping, {key: value})
         except SceneError as error:
             raise self.fail(event, str(error)) from None
 
-    def stream(self, events: Iterator[yaml.Event], top: str) -> dict:
+    def stream(self, events: Iterator[yaml.Event], top: str) -> dict[str, Any]:
         """The merged mappings of every document; ``top`` says what a document holds."""
         merged: dict[Any, Any] = {}
         for event in events:
@@ -175,7 +175,7 @@ class _Builder:
         return merged
 
 
-def merge_parameters(mapping: dict, values: dict) -> None:
+def merge_parameters(mapping: dict[Any, Any], values: dict[Any, Any]) -> None:
     """Add ``values`` to ``mapping`` as rcl does, keeping one value per parameter name: a
     mapping under a name already holding one adds to it, a value replaces the old one."""
     for key, value in values.items():
@@ -201,7 +201,7 @@ def _yaml_error(source: str, error: yaml.YAMLError, what: str) -> SceneError:
     return SceneError(f"{source}: cannot read {what}: {where}{problem}")
 
 
-def read_parameters_file(path: Path) -> dict:
+def read_parameters_file(path: Path) -> dict[str, Any]:
     """The merged node sections of a parameters file, as nested mappings (see above)."""
     source = str(path)
     try:
@@ -216,7 +216,7 @@ def read_parameters_file(path: Path) -> dict:
                   "the file")
 
 
-def read_parameters_text(text: str, source: str, top: str) -> dict:
+def read_parameters_text(text: str, source: str, top: str) -> dict[str, Any]:
     """Parameters given as YAML text (a service request's), read as a file is: the merged
     mappings of its documents, ``top`` saying what they hold in an error."""
     data = text.encode()
@@ -226,7 +226,7 @@ def read_parameters_text(text: str, source: str, top: str) -> dict:
     return _parse(data, source, top, "the text")
 
 
-def _parse(data: bytes, source: str, top: str, what: str) -> dict:
+def _parse(data: bytes, source: str, top: str, what: str) -> dict[str, Any]:
     try:
         return _Builder(source).stream(iter(yaml.parse(data, Loader=_LOADER)), top)
     except yaml.YAMLError as error:

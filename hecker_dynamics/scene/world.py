@@ -29,9 +29,20 @@ import enum
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
-from ..ros.names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
-from .load import (AngularDampingSpec, CollisionGroup, ConstantForceSpec, ConstantTorqueSpec,
-                   DragSpec, ForceSpec, Gravity, Scene, SpringSpec, check_collidable, read_body)
+from .load import (
+    AngularDampingSpec,
+    CollisionGroup,
+    ConstantForceSpec,
+    ConstantTorqueSpec,
+    DragSpec,
+    ForceSpec,
+    Gravity,
+    Scene,
+    SpringSpec,
+    check_collidable,
+    read_body,
+)
+from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
 from .parameters import ParameterReader, SceneError, quoted
 from .rosyaml import read_parameters_text
 
@@ -149,6 +160,8 @@ def _ties(scene: Scene, name: str) -> list[str]:
              if t.body == name or t.frame_id.partition("/")[0] == name]
     ties += [f"scripted input '{c.source}'" for c in scene.script
              if c.body == name or c.frame_id.partition("/")[0] == name]
+    ties += [f"sensor '{s.name}'" for s in scene.sensors if s.body == name]
+    ties += [f"drive '{d.name}'" for d in scene.drives if d.body == name]
     return ties
 
 

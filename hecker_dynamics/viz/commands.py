@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 
 from ..files import check_file, file_path, replacing
 from ..scene import Scene, load_scene
-from .frames import VizError
+from .frames import Timeline, VizError
 from .progress import Progress
 
 __all__ = ["add_viz_commands", "view_run", "render_command", "plot_command"]
@@ -22,7 +23,7 @@ DEFAULT_SIZE = "480x360"
 VIEW_FPS = 20.0
 
 
-def _viz():
+def _viz() -> tuple[ModuleType, ModuleType, ModuleType]:
     """The drawing modules; a one-line error where matplotlib or Pillow is missing."""
     try:
         from . import draw, plot, render
@@ -93,7 +94,7 @@ def render_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_in_session(timeline, start_ns: int, duration_ns: int) -> None:
+def _check_in_session(timeline: Timeline, start_ns: int, duration_ns: int) -> None:
     """A bag's span must lie in its session: past its end every frame would show the last
     poses held, labelled with times the bag never reached."""
     first, last = timeline.start_ns * 1e-9, timeline.end_ns * 1e-9
@@ -119,7 +120,7 @@ def plot_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_viz_commands(commands: argparse._SubParsersAction,
+def add_viz_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser],
                      seconds: Callable[[str], int]) -> None:
     """Register ``render`` and ``plot``; ``seconds`` reads a time option into ns."""
     render_parser = commands.add_parser(

@@ -17,21 +17,29 @@ works without a display and the pixels depend on nothing but the frame and the o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Optional
 from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Optional
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Circle as CirclePatch
-from matplotlib.patches import FancyArrow, Polygon as PolygonPatch
+from matplotlib.patches import FancyArrow, Patch
+from matplotlib.patches import Polygon as PolygonPatch
 
-from ..geometry import Circle, Polygon
 from ..dynamics import Model
+from ..geometry import Circle, Polygon
 from ..scene import Scene
-from ..contact.joints import (DistanceJoint, GearJoint, JointSpec, PrismaticJoint,
-                              RevoluteJoint, WeldJoint)
+from ..scene.joints import (
+    DistanceJoint,
+    GearJoint,
+    JointSpec,
+    PrismaticJoint,
+    RevoluteJoint,
+    WeldJoint,
+)
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 
@@ -208,7 +216,7 @@ class Drawing:
         largest = max((math.hypot(*c.force) for c in timeline.commands), default=0.0)
         self.force_scale = force_scale if force_scale is not None else \
             (ARROW_FRACTION * side / largest if largest > 0 else 0.0)
-        self._artists: list = []
+        self._artists: list[Any] = []
         self._index = {body.name: i for i, body in enumerate(self.scene.bodies)}
         self._named = {j.name: j for j in self.scene.joints}
         self._draw_walls()
@@ -293,7 +301,7 @@ class Drawing:
                       ha="left", va="top", fontsize=9, color=EDGE_COLOR))
 
     @staticmethod
-    def _patch(shape: Polygon | Circle, pose: BodyPose, color: str):
+    def _patch(shape: Polygon | Circle, pose: BodyPose, color: str) -> Patch:
         if isinstance(shape, Circle):
             return CirclePatch(world_point(pose, shape.center), shape.radius, facecolor=color,
                                edgecolor=EDGE_COLOR, linewidth=1.0)
@@ -301,7 +309,7 @@ class Drawing:
                             closed=True, facecolor=color, edgecolor=EDGE_COLOR,
                             linewidth=1.0)
 
-    def _spring(self, spring: SpringSpec, poses: tuple[BodyPose, ...]):
+    def _spring(self, spring: SpringSpec, poses: tuple[BodyPose, ...]) -> Line2D:
         index = {body.name: i for i, body in enumerate(self.scene.bodies)}
         a = world_point(poses[index[spring.body_a]], spring.point_a)
         b = spring.point_b if spring.body_b is None else \
@@ -319,11 +327,11 @@ class Drawing:
             world_point(poses[index[joint.body_a]], joint.point_a)
         return a, world_point(poses[index[joint.body_b]], joint.point_b)
 
-    def _joint(self, joint: JointSpec, poses: tuple[BodyPose, ...]) -> list:
+    def _joint(self, joint: JointSpec, poses: tuple[BodyPose, ...]) -> list[Any]:
         axes, side = self.axes, min(self.view.xmax - self.view.xmin,
                                     self.view.ymax - self.view.ymin)
-        mark = dict(color=JOINT_COLOR, markeredgecolor=EDGE_COLOR, markersize=6,
-                    linestyle="none")
+        mark: dict[str, Any] = dict(color=JOINT_COLOR, markeredgecolor=EDGE_COLOR, markersize=6,
+                                    linestyle="none")
         if isinstance(joint, GearJoint):
             pins = [self._ends(self._named[name], poses)[1]
                     for name in (joint.joint_a, joint.joint_b)]

@@ -11,19 +11,21 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import NamedTuple, Optional
-from collections.abc import Iterator, Sequence
 
 import numpy as np
 
 from ..bags.io import POSE_STAMPED, BagContents, BagError, read_bag, stamp_ns_of
 from ..bags.replay import input_topics, output_types, session_times
-from ..ros.joint_states import MotorTopic
-from ..dynamics import InputError, Model, Simulation, WrenchCommand
+from ..drives.control import play_with_drives
+from ..dynamics import Model, Simulation
 from ..dynamics.inputs import InputBuffer
+from ..ros.cmd_vel import CmdVelTopic
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
-from ..scene import Scene
+from ..ros.joint_states import MotorTopic
+from ..scene import InputError, Scene, WrenchCommand
 
 __all__ = ["VizError", "BodyPose", "Arrow", "Frame", "Timeline", "pose_from_fields",
            "run_timeline", "bag_timeline", "frame_times", "world_point"]
@@ -101,7 +103,8 @@ class Timeline:
         for time_ns in times:
             while next_command < len(pending) and \
                     self.commands[pending[next_command]].stamp_ns <= time_ns:
-                buffer.add(self.commands[pending[next_command]], ())
+                # The frames draw the command only, never its force row.
+                buffer.add(self.commands[pending[next_command]], ())  # type: ignore[arg-type]
                 next_command += 1
             buffer.update(time_ns)
             poses = self.pose_at(time_ns)
@@ -132,7 +135,7 @@ class Timeline:
             return []
         q = np.array([[*world_point(pose, model.cm_local[i]), pose.angle]
                       for i, pose in enumerate(poses)])
-        return [tuple(contact[2]) for contact in model.contacts.detect(q)]
+        return [(contact[2][0], contact[2][1]) for contact in model.contacts.detect(q)]
 
 
 def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:
@@ -146,7 +149,8 @@ def run_timeline(scene: Scene, end_ns: int) -> Timeline:
     instants, as the node publishes them (the replay of the scene's script bag has the same).
     """
     sim = Simulation(scene)
-    snapshots = sim.play(scene.script, end_ns)
+    snapshots = (play_with_drives(sim, scene.script, end_ns) if scene.drives
+                 else sim.play(scene.script, end_ns))
     commands = [replace(c, stamp_ns=sim.start_ns + c.stamp_ns)
                 for c in sorted(scene.script, key=lambda c: c.stamp_ns) if c.stamp_ns < end_ns]
     stamps = [snapshot.time_ns for snapshot in snapshots]
@@ -168,8 +172,8 @@ def _bag_commands(scene: Scene, bag: BagContents) -> list[WrenchCommand]:
         if message.topic not in topics:
             continue
         _, wrench_topic = topics[message.topic]
-        if isinstance(wrench_topic, MotorTopic):
-            continue  # a motor's speed: no force to draw
+        if isinstance(wrench_topic, (MotorTopic, CmdVelTopic)):
+            continue  # a motor's speed or a drive's command: no force of its own to draw
         try:
             if wrench_topic is None:
                 command, _ = applied_wrench_to_command(message.decode(), message.log_ns)

@@ -69,7 +69,9 @@ def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
             if scene is not None and scene.twist_frame == "body":  # to fixed-frame axes
                 c, s = math.cos(angle), math.sin(angle)
                 vx, vy = c * vx - s * vy, s * vx + c * vy
-            times.append(stamp_ns_of(msg) * 1e-9)
+            stamp = stamp_ns_of(msg)
+            assert stamp is not None  # a PoseStamped has a header
+            times.append(stamp * 1e-9)
             rows.append((x, y, angle, vx, vy, twist.angular.z))
         if rows:
             series[name] = Series(name, np.array(times), np.array(rows))
@@ -134,6 +136,7 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
     grid = figure.subplots(rows, 2 if second else 1, sharex=True, squeeze=False)
     styles = ("-", "--")
     names = sorted(set().union(*bags))
+    paths = [first] if second is None else [first, second]
     for k, bag in enumerate(bags):
         for b, name in enumerate(names):
             if name not in bag:
@@ -142,7 +145,7 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
             for r in range(len(QUANTITIES)):
                 grid[r][0].plot(s.time, s.values[:, r], styles[k],
                                 color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0,
-                                label=f"{name} ({Path(first if k == 0 else second).name})")
+                                label=f"{name} ({Path(paths[k]).name})")
         if scene is not None:
             t, e = energy(scene, bag)
             grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)

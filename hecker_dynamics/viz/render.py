@@ -13,9 +13,9 @@ its name and moved into place (:func:`hecker_dynamics.files.replacing`).
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Optional
-from collections.abc import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -140,6 +140,7 @@ def _gif_palette(first: np.ndarray) -> np.ndarray:
     fixed = list(dict.fromkeys(named + halfway))
     rest = Image.fromarray(first).quantize(colors=GIF_COLORS - len(fixed),
                                            method=Image.Quantize.MEDIANCUT).getpalette()
+    assert rest is not None  # a quantized image has a palette
     colors = fixed + [tuple(rest[3 * i:3 * i + 3]) for i in range(GIF_COLORS - len(fixed))]
     return np.array(colors, dtype=np.int64)
 

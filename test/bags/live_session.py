@@ -18,17 +18,25 @@ from typing import Any, Optional
 import numpy as np
 
 from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
 from hecker_dynamics.bags.io import resolve_topic
+from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
+from hecker_dynamics.dynamics import Snapshot
+from hecker_dynamics.ros.cmd_vel import cmd_vel_topics
 from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.joint_states import motor_topics
 from hecker_dynamics.ros.outputs import SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
-from hecker_dynamics.ros.session import (INPUT_EVENTS_DEPTH, KEYFRAME_DEPTH, SESSION_DEPTH,
-                                         WORLD_EVENTS_DEPTH, InputEventFields, KeyframeFields,
-                                         SessionFields, WorldEventFields)
-from hecker_dynamics.dynamics import Snapshot, WrenchCommand
-from hecker_dynamics.scene import Scene
+from hecker_dynamics.ros.session import (
+    INPUT_EVENTS_DEPTH,
+    KEYFRAME_DEPTH,
+    SESSION_DEPTH,
+    WORLD_EVENTS_DEPTH,
+    InputEventFields,
+    KeyframeFields,
+    SessionFields,
+    WorldEventFields,
+)
+from hecker_dynamics.scene import Scene, WrenchCommand
 
 S = 1_000_000_000
 NODE = "/dynamics_node"
@@ -112,13 +120,15 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
              play_script: bool = True, keyframe_period_ns: int = S,
              max_steps: Optional[int] = None, reset_at: Optional[int] = None,
              record: bool = True, lockstep: bool = False, world: int = 0,
-             bodies: Sequence[tuple[int, BodyCall]] = (), motors: int = 0) -> LiveSession:
+             bodies: Sequence[tuple[int, BodyCall]] = (), motors: int = 0,
+             cmd_vels: int = 0) -> LiveSession:
     """Run the node's loop for ``duration_ns`` of ROS time with a jittered timer and
     ``inputs`` messages at random arrival times; ``reset_at`` (ns after the start) calls the
     reset service once; ``world`` times the world services are called (pause, a few steps,
     a body moved, resume; and a call refused now and then); ``bodies`` spawns and deletes
     bodies, each call at its time (ns after the start); ``motors`` speed commands go to
-    the scene's motor topics (one in ten not finite, which the node refuses). In
+    the scene's motor topics (one in ten not finite, which the node refuses), and
+    ``cmd_vels`` twists to its driven bodies' cmd_vel topics (likewise). In
     ``lockstep`` the simulation starts at sim time 0, each tick steps one publish period,
     and a message arrives at the sim time it finds."""
     rng = np.random.default_rng(seed)
@@ -137,6 +147,8 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                          for _ in range(world)]
                       + [(int(t0 + rng.uniform(0, duration_ns)), 0, "motor")
                          for _ in range(motors)]
+                      + [(int(t0 + rng.uniform(0, duration_ns)), 0, "cmd_vel")
+                         for _ in range(cmd_vels)]
                       + [(t0 + at, 0, f"body:{n}") for n, (at, _) in enumerate(bodies)])
     runner = Runner(scene, play_script=play_script, max_steps=max_steps, started=lockstep,
                     record=record, keyframe_period_ns=keyframe_period_ns, lockstep=lockstep,
@@ -182,6 +194,17 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
             session.published.append(Published(topic, bags.FLOAT64,
                                                at_ns - int(rng.integers(S // 1000)), msg))
             runner.accept(topic, msg, now_ns, motor)
+        elif what == "cmd_vel":
+            driven = cmd_vel_topics(scene)[int(rng.integers(len(cmd_vel_topics(scene))))]
+            turn = float(rng.uniform(-1.0, 1.0)) if rng.random() > 0.1 else math.inf
+            vector = "geometry_msgs/msg/Vector3"
+            msg = bags.default_message(
+                bags.TWIST, linear=bags.default_message(vector, x=float(rng.uniform(-0.5, 1.0))),
+                angular=bags.default_message(vector, z=turn))
+            topic = resolve_topic(driven.topic)
+            session.published.append(Published(topic, bags.TWIST,
+                                               at_ns - int(rng.integers(S // 1000)), msg))
+            runner.accept(topic, msg, now_ns, driven)
         elif what == "reset":
             if runner.started:
                 runner.restart(now_ns, "reset")

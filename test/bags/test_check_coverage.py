@@ -15,12 +15,12 @@ from pathlib import Path
 
 import pytest
 import yaml
+from live_session import S, record, run_live
 
 from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags.io import BagWriter, read_bag
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene
-from live_session import S, record, run_live
 
 BALL = "{shape: circle, radius: 0.15, mass: 1.0, position: [0.5, 4.0], velocity: [0.3, 0.0]}"
 

@@ -14,20 +14,25 @@ import os
 from pathlib import Path
 
 import pytest
-
-from hecker_dynamics.bags import read_bag
-from hecker_dynamics.bags import io as bags
-from hecker_dynamics.bags.compare import Tolerances, compare_contents
-from hecker_dynamics.bags.live import check_live, is_live_recording
-from hecker_dynamics.bags.replay import (APPLIED_WRENCH_TOPIC, ReplayError, outputs_as_bag,
-                                         output_types, replay_outputs)
-from hecker_dynamics.cli import main
-from hecker_dynamics.scene import load_scene
-from hecker_dynamics.scene.load import scene_parameters
-from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
-from hecker_dynamics.ros.session import MOTOR_SPEED_EVENT
 from live_session import S, record, run_live
 from scene_builders import make_scene
+
+from hecker_dynamics.bags import io as bags
+from hecker_dynamics.bags import read_bag
+from hecker_dynamics.bags.compare import Tolerances, compare_contents
+from hecker_dynamics.bags.live import check_live, is_live_recording
+from hecker_dynamics.bags.replay import (
+    APPLIED_WRENCH_TOPIC,
+    ReplayError,
+    output_types,
+    outputs_as_bag,
+    replay_outputs,
+)
+from hecker_dynamics.cli import main
+from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
+from hecker_dynamics.ros.session import CMD_VEL_EVENT, MOTOR_SPEED_EVENT
+from hecker_dynamics.scene import load_scene
+from hecker_dynamics.scene.load import scene_parameters
 
 EXACT = Tolerances(0.0, 0.0, 0.0)
 #: (scene, seed, options of the live run, how late the recorder starts): every case pushes
@@ -209,7 +214,7 @@ def test_a_session_recorded_without_records_keeps_the_old_rules(tmp_path):
     path = record(run_live(scene, 28, record=False), tmp_path / "live", 28)
     bag = read_bag(path)
     assert not is_live_recording(bag)
-    assert not any(bags.SESSION_INFO == t for t in bag.topics.values())
+    assert not any(t == bags.SESSION_INFO for t in bag.topics.values())
 
 
 BALL = "{shape: circle, radius: 0.15, mass: 1.0, position: [0.5, 4.0], velocity: [0.3, 0.0]}"
@@ -336,4 +341,28 @@ def test_motor_commands_are_recorded_and_a_replay_without_them_differs(tmp_path,
     assert len(speeds) > 3  # the motor followed several commanded speeds
     assert _check(scene, path).ok
     monkeypatch.setattr("hecker_dynamics.ros.runner.set_motor_speed", lambda *args: None)
+    assert not _check(scene, path).ok
+
+
+def test_cmd_vel_commands_are_recorded_and_a_replay_without_them_differs(tmp_path, monkeypatch):
+    """The robot's velocity commands (geometry_msgs/Twist on ``robot/cmd_vel``) are input
+    events, accepted or (not finite) rejected as the node decided; the drive's wheel forces
+    follow them, so the live recording replays bit for bit (from the session's start and
+    from a keyframe, with the drive's integrals in it) and a replay that ignores them
+    fails the check."""
+    scene = load_scene("robot")
+    for seed, late, options in ((30, 0, {}), (31, 1_700_000_000, {"world": 1}),
+                                (32, 0, {"lockstep": True, "max_steps": 25})):
+        session = run_live(scene, seed, cmd_vels=10, inputs=3, **options)
+        path = record(session, tmp_path / f"live{seed}", seed, late_ns=late)
+        events = [bags.input_event_fields(m.decode()) for m in read_bag(path).on(
+            "/dynamics_node/input_events")]
+        mine = [e for e in events if e.topic == "/robot/cmd_vel"]
+        assert mine and {e.kind for e in mine} == {CMD_VEL_EVENT}
+        assert all(e.accepted == math.isfinite(e.message.angular.z) for e in mine)
+        report = _check(scene, path)
+        assert report.ok, report
+    speeds = {round(float(m.decode().linear.x), 3) for m in read_bag(path).on("/robot/twist")}
+    assert len(speeds) > 10  # the robot followed the commands
+    monkeypatch.setattr("hecker_dynamics.ros.runner.take_cmd_vel", lambda *args: [])
     assert not _check(scene, path).ok

@@ -14,13 +14,13 @@ from pathlib import Path
 import pytest
 
 from hecker_dynamics.bags import read_bag
-from hecker_dynamics.batch.engines import DaskCluster, ProcessPool
-from hecker_dynamics.batch.run import SweepTask, find_bags, regress, run_variant, sweep
-from hecker_dynamics.batch.variants import make_variants, parse_setting
-from hecker_dynamics.batch.metrics import parse_metric
-from hecker_dynamics.cli import main
 from hecker_dynamics.bags.compare import Tolerances
 from hecker_dynamics.bags.replay import replay_to_bag, script_to_bag
+from hecker_dynamics.batch.engines import DaskCluster, ProcessPool
+from hecker_dynamics.batch.metrics import parse_metric
+from hecker_dynamics.batch.run import SweepTask, find_bags, regress, run_variant, sweep
+from hecker_dynamics.batch.variants import make_variants, parse_setting
+from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene
 
 distributed = pytest.importorskip("distributed", reason="the cluster extra is not installed")

@@ -9,15 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scene_builders import write_scene
 
 import hecker_dynamics
 from hecker_dynamics.batch.metrics import MAX_DEPTH, parse_metric, summarize
 from hecker_dynamics.batch.run import check_metrics
-from hecker_dynamics.batch.variants import (MAX_VARIANTS, grid, make_variants, parse_setting,
-                                            sample)
+from hecker_dynamics.batch.variants import MAX_VARIANTS, grid, make_variants, parse_setting, sample
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import SceneError
-from scene_builders import write_scene
 
 
 def test_grid_is_every_combination_last_fastest():

@@ -10,7 +10,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
 from hecker_dynamics.bench import box2d_v3

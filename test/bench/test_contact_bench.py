@@ -7,14 +7,13 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
 from hecker_dynamics.bench import contacts, peers
+from hecker_dynamics.bench.force_law import line_of_action
 from hecker_dynamics.bench.measure import Row
 from hecker_dynamics.bench.node import NodeCost
 from hecker_dynamics.bench.pyramid import BALLS, ball_box
-from hecker_dynamics.bench.force_law import line_of_action
 from hecker_dynamics.bench.scene_peers import SCENE_PEERS, scene_engine
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene import load_scene

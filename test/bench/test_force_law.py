@@ -7,7 +7,6 @@ import math
 import random
 
 import pytest
-
 from scene_builders import EVERY_FORCE, make_scene
 
 from hecker_dynamics.bench.force_law import BodyCalls, make_program, make_stepper

@@ -4,11 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hecker_dynamics.bench.joints import (Case, Run, chain, joint_bench, measure, renaming,
-                                          targets)
+from hecker_dynamics.bench.joints import Case, Run, chain, joint_bench, measure, renaming, targets
 from hecker_dynamics.bench.scenes import bench_scene, pinned_by_springs
-from hecker_dynamics.contact.joints import RevoluteJoint
 from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.scene.joints import RevoluteJoint
 from hecker_dynamics.scene.load import load_scene
 
 

@@ -8,8 +8,15 @@ import math
 import pytest
 
 from hecker_dynamics.bench.measure import Row
-from hecker_dynamics.bench.regression import (FLOOR, Ratio, compare, quick_ratios,
-                                              read_reference, verdict_lines, write_reference)
+from hecker_dynamics.bench.regression import (
+    FLOOR,
+    Ratio,
+    compare,
+    quick_ratios,
+    read_reference,
+    verdict_lines,
+    write_reference,
+)
 from hecker_dynamics.bench.run import Results
 
 

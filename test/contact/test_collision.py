@@ -17,13 +17,19 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import box_body, make_scene, rotation
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.contact.collision import (
-    CirclePart, ConvexPolygon, PolygonPart, circle_circle, half_plane_circle, half_plane_polygon,
-    polygon_circle, polygon_polygon)
+    CirclePart,
+    ConvexPolygon,
+    PolygonPart,
+    circle_circle,
+    half_plane_circle,
+    half_plane_polygon,
+    polygon_circle,
+    polygon_polygon,
+)
 from hecker_dynamics.contact.solver import MARGIN, _collide
 
 TOL = 1e-12

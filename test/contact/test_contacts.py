@@ -22,15 +22,14 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import box_body, box_inertia, make_scene, rotation
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.contact.solver import SLOP, ContactPass
 from hecker_dynamics.dynamics import kernel
-from hecker_dynamics.integrators.methods import METHODS
 from hecker_dynamics.geometry.planar import wrap_angle
+from hecker_dynamics.integrators.methods import METHODS
 from hecker_dynamics.scene.load import SceneError, load_scene
 
 G = 9.81

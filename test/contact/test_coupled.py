@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.scene import load_scene
-from scene_builders import make_scene
 
 G = 9.81
 #: The seesaw's lever (2 m x 0.1 m, pinned at its center to the world at (0, 1)) and the

@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
 from hecker_dynamics import Simulation

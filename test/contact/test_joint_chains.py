@@ -16,13 +16,13 @@ import random
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
 from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
-from scene_builders import make_scene
 
 needs_kernel = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
                                   "built or HECKER_DYNAMICS_KERNEL=0")

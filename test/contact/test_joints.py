@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 import pytest
+from scene_builders import box_inertia, make_scene, write_scene
 
 from hecker_dynamics.dynamics import Simulation
 from hecker_dynamics.scene import SceneError, load_scene
-from scene_builders import box_inertia, make_scene, write_scene
 
 G = 9.81
 ROD = dict(mass=2.0, width=0.05, length=1.0)  # pinned at one end: d = 0.5 m

@@ -12,12 +12,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
+from test_joints import chain_scene, gear_scene, pendulum_scene, slider_scene, weld_scenes
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.contact import joints, sparse
 from hecker_dynamics.dynamics import kernel
-from scene_builders import make_scene
-from test_joints import chain_scene, gear_scene, pendulum_scene, slider_scene, weld_scenes
 
 pytestmark = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
                                 "built or HECKER_DYNAMICS_KERNEL=0")

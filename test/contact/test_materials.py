@@ -11,7 +11,6 @@ import random
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
 from hecker_dynamics import Simulation

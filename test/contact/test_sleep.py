@@ -13,14 +13,13 @@ import json
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.contact import solver
 from hecker_dynamics.dynamics import kernel
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.scene.commands import WrenchCommand
 from hecker_dynamics.scene.load import SceneError
 
 H = 0.004
@@ -165,7 +164,7 @@ def test_sleeping_changes_no_bit_before_anything_sleeps(compiled):
     state = on.model.contacts.export_state()
     assert state["warm"] == off.model.contacts.export_state()
     assert isinstance(off.model.contacts.export_state(), list)
-    assert on.model.contacts.sleeping() == [] and 0.0 < min(state["rested"])
+    assert on.model.contacts.sleeping() == [] and min(state["rested"]) > 0.0
 
 
 @paths

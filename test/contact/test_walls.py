@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import box_body, box_inertia, make_scene, rotation
 
 from hecker_dynamics import Simulation

@@ -18,19 +18,26 @@ import math
 import numpy as np
 import pytest
 import yaml
-
 from scene_builders import make_scene, write_scene
 
 from hecker_dynamics.bench.scenes import bench_scene, configure
 from hecker_dynamics.cli import main
-from hecker_dynamics.dynamics import DivergenceError, Simulation, WrenchCommand
-from hecker_dynamics.dynamics import kernel
-from hecker_dynamics.dynamics.divergence import (ENERGY, EXCESS, GROWTH, LIMIT, RATE, ROOT,
-                                                 EnergyBound, energy_units)
+from hecker_dynamics.dynamics import DivergenceError, Simulation, kernel
+from hecker_dynamics.dynamics.divergence import (
+    ENERGY,
+    EXCESS,
+    GROWTH,
+    LIMIT,
+    RATE,
+    ROOT,
+    EnergyBound,
+    energy_units,
+)
 from hecker_dynamics.dynamics.forces import ConstantWrenchTerm
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.ros.joint_states import set_motor_speed
 from hecker_dynamics.ros.session import decode_state, encode_state
+from hecker_dynamics.scene import WrenchCommand
 from hecker_dynamics.scene.load import load_scene, scene_path, shipped_scenes
 
 SEC = 1_000_000_000

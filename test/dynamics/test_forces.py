@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scene_builders import EVERY_FORCE, make_scene
 
-from hecker_dynamics.dynamics.commands import WrenchCommand
 from hecker_dynamics.dynamics.forces import BodySum
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model
-from hecker_dynamics.geometry.planar import HALF_ANGLE_FROM
 from hecker_dynamics.dynamics.simulation import Simulation
-from scene_builders import EVERY_FORCE, make_scene
+from hecker_dynamics.geometry.planar import HALF_ANGLE_FROM
+from hecker_dynamics.scene.commands import WrenchCommand
 
 COMMANDS = [
     WrenchCommand(0, "a", "world", "world", (0.5, 0.5), (1.0, -2.0), 0.3),

@@ -11,7 +11,6 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene, rotation
 
 from hecker_dynamics import InputError, Simulation, WrenchCommand

@@ -44,16 +44,15 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
-from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
-from hecker_dynamics.dynamics.commands import WrenchCommand
+from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.divergence import GROWTH
-from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
+from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
+from hecker_dynamics.scene.commands import WrenchCommand
 
 MS = 1_000_000
 EPS = float(np.finfo(float).eps)

@@ -11,11 +11,11 @@ import math
 
 import numpy as np
 import pytest
-
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
-from hecker_dynamics.integrators.methods import METHODS, make_integrator
+
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.integrators.methods import METHODS, make_integrator
 
 EPS = np.finfo(float).eps
 

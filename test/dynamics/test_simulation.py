@@ -13,14 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene
 
-from hecker_dynamics import (DivergenceError, Simulation, WrenchCommand,
-                             load_scene)
+from hecker_dynamics import DivergenceError, Simulation, WrenchCommand, load_scene
 from hecker_dynamics.dynamics.model import Model
-from hecker_dynamics.scene.load import shipped_scenes
 from hecker_dynamics.integrators.methods import METHODS
+from hecker_dynamics.scene.load import shipped_scenes
 
 MS = 1_000_000
 ROOT = Path(__file__).resolve().parents[2]

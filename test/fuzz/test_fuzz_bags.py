@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 import yaml
-
 from harness import judge, run_cli
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"

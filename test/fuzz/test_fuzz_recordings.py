@@ -273,7 +273,7 @@ def _changed_fields(original: Message, raw: bytes) -> Optional[set[str]]:
         original.raw, original.msgtype))}
     after = {path: _value(h, k) for path, h, k in _leaves(mutated)}
     return {str(path[0]) for path in set(before) | set(after)
-            if before.get(path, None) != after.get(path, None)
+            if before.get(path) != after.get(path)
             and not _same_float(before.get(path), after.get(path))}
 
 

@@ -10,8 +10,8 @@ import math
 import random
 import time
 
-
 from harness import judge, run_cli
+
 from hecker_dynamics.scene.load import scene_path, shipped_scenes
 
 HOSTILE = ["1e-9", "1.0e9", "1:30", "-1", "0", "1e308", "-1e308", ".nan", ".inf", "-.inf",

@@ -11,12 +11,17 @@ import math
 
 import numpy as np
 import pytest
-
 from scene_builders import make_scene, rotation, write_scene
 
 from hecker_dynamics import Simulation
-from hecker_dynamics.geometry.shapes import (Circle, GeometryError, Polygon, area_properties,
-                                      box, mass_properties)
+from hecker_dynamics.geometry.shapes import (
+    Circle,
+    GeometryError,
+    Polygon,
+    area_properties,
+    box,
+    mass_properties,
+)
 from hecker_dynamics.scene.load import SceneError, load_scene
 
 REL = 1e-12

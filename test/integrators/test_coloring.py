@@ -12,15 +12,15 @@ import dataclasses
 
 import numpy as np
 import pytest
-
-from hecker_dynamics.bench.scenes import ring
-from hecker_dynamics.integrators.coloring import color
-from hecker_dynamics.dynamics.commands import WrenchCommand
-from hecker_dynamics.integrators.methods import ImplicitTheta
-from hecker_dynamics.dynamics.model import Model, wrench_term
-from hecker_dynamics.dynamics.simulation import Simulation
 from helpers import make_scene
 from scene_builders import box_body
+
+from hecker_dynamics.bench.scenes import ring
+from hecker_dynamics.dynamics.model import Model, wrench_term
+from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.integrators.coloring import color
+from hecker_dynamics.integrators.methods import ImplicitTheta
+from hecker_dynamics.scene.commands import WrenchCommand
 
 #: b0-b1-b2-b3 a chain of springs (offsets, rest lengths, damping), b4 and b5 on springs
 #: to fixed anchors, b6 free under gravity; b3 pushed along its own axes.

@@ -21,10 +21,10 @@ from functools import cache
 
 import numpy as np
 import pytest
-
 from helpers import integrate, make_scene, observed_order, oscillator
-from hecker_dynamics.integrators.methods import ADAPTIVE, Counters, make_integrator
+
 from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.integrators.methods import ADAPTIVE, Counters, make_integrator
 from hecker_dynamics.integrators.tableaux import DOP853, DOPRI5
 
 DURATION = 0.6  # s: about one period of the 10 rad/s oscillator

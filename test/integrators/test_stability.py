@@ -15,15 +15,19 @@ import math
 
 import numpy as np
 import pytest
-
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
+
 from hecker_dynamics.bench.scenes import pinned_by_springs
-from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
-from hecker_dynamics.dynamics.model import Model
-from hecker_dynamics.geometry.planar import (HALF_ANGLE_FROM, cos_sin, wrap_angle,
-                                             wrap_angles_in_place)
 from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
+from hecker_dynamics.geometry.planar import (
+    HALF_ANGLE_FROM,
+    cos_sin,
+    wrap_angle,
+    wrap_angles_in_place,
+)
+from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
 
 EPS = np.finfo(float).eps
 

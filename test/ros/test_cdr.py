@@ -16,12 +16,11 @@ import pytest
 from hecker_dynamics.bags.io import typestore
 from hecker_dynamics.bags.replay import _MESSAGE_BUILDERS
 from hecker_dynamics.dynamics.simulation import Simulation
-from hecker_dynamics.ros.cdr import (ENCAPSULATION, SERIALIZERS, SnapshotSerializer,
-                                     serialize_output)
+from hecker_dynamics.ros.cdr import ENCAPSULATION, SERIALIZERS, SnapshotSerializer, serialize_output
 from hecker_dynamics.ros.fields import Header, Pose
 from hecker_dynamics.ros.joint_states import JointStateFields
-from hecker_dynamics.ros.names import twist_topic
 from hecker_dynamics.ros.markers import MARKER_LINE_STRIP, MarkerFields, delete_markers
+from hecker_dynamics.ros.names import twist_topic
 from hecker_dynamics.ros.outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
 from hecker_dynamics.ros.tf import TransformFields
 from hecker_dynamics.scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes

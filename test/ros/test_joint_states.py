@@ -4,10 +4,11 @@ from __future__ import annotations
 import math
 
 import pytest
-
-from hecker_dynamics.dynamics import InputError, Simulation
-from hecker_dynamics.ros.joint_states import joint_state_fields, set_motor_speed
 from scene_builders import make_scene
+
+from hecker_dynamics.dynamics import Simulation
+from hecker_dynamics.ros.joint_states import joint_state_fields, set_motor_speed
+from hecker_dynamics.scene import InputError
 
 SCENE = {
     "step": 0.001, "integrator": "velocity_verlet", "publish_rate": 10.0,

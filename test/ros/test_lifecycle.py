@@ -11,8 +11,14 @@ import threading
 
 import pytest
 
-from hecker_dynamics.ros.lifecycle import (HANDLED_SIGNALS, Outcome, Shutdown, StopReason, serve,
-                                           tick_every)
+from hecker_dynamics.ros.lifecycle import (
+    HANDLED_SIGNALS,
+    Outcome,
+    Shutdown,
+    StopReason,
+    serve,
+    tick_every,
+)
 
 
 def test_the_first_signal_is_the_reason_and_later_ones_change_nothing():

@@ -14,24 +14,50 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hecker_dynamics.dynamics.commands import InputError, WrenchCommand
-from hecker_dynamics.geometry.shapes import Circle, Polygon, box
-from hecker_dynamics.ros.diagnostics import (DIAGNOSTIC_ERROR, DIAGNOSTIC_OK, DIAGNOSTIC_WARN,
-                                             diagnostic_fields, diagnostics_due,
-                                             simulation_diagnostics)
-from hecker_dynamics.ros.fields import (applied_wrench_fields, applied_wrench_to_command,
-                                        ns_from_stamp, odometry_fields, pose_fields,
-                                        quaternion_from_yaw, stamp_from_ns, twist_fields,
-                                        wrench_stamped_to_command)
-from hecker_dynamics.ros.markers import (MARKER_ADD, MARKER_CYLINDER, MARKER_LINE_STRIP,
-                                         marker_fields)
-from hecker_dynamics.ros.outputs import OutputKind, output_topics, snapshot_outputs
-from hecker_dynamics.ros.runner import (NodeOptions, Runner, TickAction, catch_up_cap, due_script,
-                                        lag_ns, node_options, node_setup, plain_parameters,
-                                        plan_tick, scene_for_node)
-from hecker_dynamics.ros.ratelimit import RateLimiter
-from hecker_dynamics.scene.load import SceneError, WrenchTopic, load_scene
 from hecker_dynamics.dynamics.simulation import BodyState, Simulation
+from hecker_dynamics.geometry.shapes import Circle, Polygon, box
+from hecker_dynamics.ros.diagnostics import (
+    DIAGNOSTIC_ERROR,
+    DIAGNOSTIC_OK,
+    DIAGNOSTIC_WARN,
+    diagnostic_fields,
+    diagnostics_due,
+    simulation_diagnostics,
+)
+from hecker_dynamics.ros.fields import (
+    applied_wrench_fields,
+    applied_wrench_to_command,
+    ns_from_stamp,
+    odometry_fields,
+    pose_fields,
+    quaternion_from_yaw,
+    stamp_from_ns,
+    twist_fields,
+    wrench_stamped_to_command,
+)
+from hecker_dynamics.ros.markers import (
+    MARKER_ADD,
+    MARKER_CYLINDER,
+    MARKER_LINE_STRIP,
+    marker_fields,
+)
+from hecker_dynamics.ros.outputs import OutputKind, output_topics, snapshot_outputs
+from hecker_dynamics.ros.ratelimit import RateLimiter
+from hecker_dynamics.ros.runner import (
+    NodeOptions,
+    Runner,
+    TickAction,
+    catch_up_cap,
+    due_script,
+    lag_ns,
+    node_options,
+    node_setup,
+    plain_parameters,
+    plan_tick,
+    scene_for_node,
+)
+from hecker_dynamics.scene.commands import InputError, WrenchCommand
+from hecker_dynamics.scene.load import SceneError, WrenchTopic, load_scene
 
 MSG_FILE = Path(__file__).resolve().parents[2] / "msg" / "AppliedWrench.msg"
 SQRT_HALF = math.sqrt(0.5)

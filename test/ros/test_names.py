@@ -5,9 +5,19 @@ import ast
 from pathlib import Path
 
 from hecker_dynamics.ros import names
-from hecker_dynamics.ros.names import (COMMAND_QOS, INPUT_EVENTS_QOS, KEYFRAME_QOS,
-                                       SESSION_QOS, STATE_QOS, TF_QOS, TF_STATIC_QOS,
-                                       WORLD_EVENTS_QOS, Durability, Reliability, output_qos)
+from hecker_dynamics.ros.names import (
+    COMMAND_QOS,
+    INPUT_EVENTS_QOS,
+    KEYFRAME_QOS,
+    SESSION_QOS,
+    STATE_QOS,
+    TF_QOS,
+    TF_STATIC_QOS,
+    WORLD_EVENTS_QOS,
+    Durability,
+    Reliability,
+    output_qos,
+)
 from hecker_dynamics.ros.outputs import output_topics
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 
@@ -64,5 +74,5 @@ def test_the_node_takes_every_name_and_profile_from_names():
     assert len(profiles) == 1
     assert NODE.read_text().count("NODE_NAME") >= 2   # the node's name and its logger's
     # The scene reader takes the node's name (the parameters file's top key) from names.
-    assert "from ..ros.names import NODE_NAME" in \
+    assert "from .names import NODE_NAME" in \
         (ROOT / "hecker_dynamics" / "scene" / "load.py").read_text()

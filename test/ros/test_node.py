@@ -16,14 +16,14 @@ from collections.abc import Callable
 from types import SimpleNamespace
 
 import pytest
-
 from jazzy import require_jazzy
 
 rclpy = require_jazzy()
 
-from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus  # noqa: E402
+from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped  # noqa: E402
+from hecker_dynamics.msg import AppliedWrench  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
@@ -32,17 +32,20 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from visualization_msgs.msg import MarkerArray  # noqa: E402
 
-from hecker_dynamics.ros.fields import (applied_wrench_to_command, ns_from_stamp,  # noqa: E402
-                                        pose_fields, stamp_from_ns, twist_fields,
-                                        wrench_stamped_to_command)
-from hecker_dynamics.msg import AppliedWrench  # noqa: E402
+from hecker_dynamics.dynamics.simulation import Simulation  # noqa: E402
 from hecker_dynamics.ros.cdr import SnapshotSerializer, serialize_output  # noqa: E402
+from hecker_dynamics.ros.fields import (  # noqa: E402
+    applied_wrench_to_command,
+    ns_from_stamp,
+    pose_fields,
+    stamp_from_ns,
+    twist_fields,
+    wrench_stamped_to_command,
+)
 from hecker_dynamics.ros.node import MESSAGE_TYPES, DynamicsNode  # noqa: E402
 from hecker_dynamics.ros.outputs import SnapshotOutputs, output_topics  # noqa: E402
 from hecker_dynamics.ros.runner import refused_change  # noqa: E402
-from hecker_dynamics.scene.load import (load_scene, scene_from_parameters,  # noqa: E402
-                                        shipped_scenes)
-from hecker_dynamics.dynamics.simulation import Simulation  # noqa: E402
+from hecker_dynamics.scene.load import load_scene, scene_from_parameters, shipped_scenes  # noqa: E402
 
 S = 1_000_000_000
 T0 = 1000 * S  # the test's sim-time origin, a multiple of every publish period used here
@@ -331,8 +334,9 @@ def test_spawn_body_and_delete_body_change_the_world_and_its_publishers(ros):
     """On the default scene with the test's /clock: a ball spawned gets its pose and twist
     publishers and moves as the run loop moves it; deleted, its publishers go. Bad calls
     answer with one line and change nothing."""
-    from hecker_dynamics.ros.runner import Runner
     from hecker_dynamics.srv import DeleteBody, SpawnBody
+
+    from hecker_dynamics.ros.runner import Runner
 
     node = ros.start({"use_sim_time": True, "play_script": False})
     clock = ros.helper.create_publisher(Clock, "/clock", 10)
@@ -377,9 +381,10 @@ def test_joint_states_and_motor_commands_on_the_gears(ros):
     each publish instant until the first motor command, and a ``std_msgs/Float64`` on
     ``small_axle/motor_speed`` sets the motor's speed and is recorded as an input event of
     kind MOTOR_SPEED."""
+    from hecker_dynamics.msg import InputEvent
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
-    from hecker_dynamics.msg import InputEvent
+
     from hecker_dynamics.ros.session import MOTOR_SPEED_EVENT
 
     states = collect(ros, JointState, "joint_states")
@@ -430,3 +435,29 @@ def test_the_published_bytes_are_what_rclpy_serializes():
             assert serialize_message(message) == raw, (name, topic)
             kinds.add(kind_of[topic])
     assert len(kinds) == len(MESSAGE_TYPES) - 1  # all but the diagnostics
+
+
+def test_cmd_vel_drives_the_robot_and_is_recorded(ros):
+    """The robot without its script: a ``geometry_msgs/Twist`` on
+    ``robot/cmd_vel`` reaches its drive and is recorded as an input event of kind CMD_VEL,
+    and the drive's wheel forces move the robot forward."""
+    from geometry_msgs.msg import Twist, Vector3
+    from hecker_dynamics.msg import InputEvent
+
+    from hecker_dynamics.ros.session import CMD_VEL_EVENT
+
+    events = collect(ros, InputEvent, "dynamics_node/input_events")
+    node = ros.start({"scene": "robot", "play_script": False})
+    command = ros.helper.create_publisher(Twist, "robot/cmd_vel", 10)
+
+    def commanded() -> bool:
+        command.publish(Twist(linear=Vector3(x=0.5)))
+        drive = node.runner.drives.drives[0]
+        return drive.command is not None and drive.command.linear_x == 0.5
+    spin_until(ros, commanded, "the cmd_vel to arrive")
+    spin_until(ros, lambda: any(e.kind == CMD_VEL_EVENT for e in events),
+               "the cmd_vel's input event")
+    event = next(e for e in events if e.kind == CMD_VEL_EVENT)
+    assert event.accepted and event.cmd_vel.linear.x == 0.5 and event.topic == "/robot/cmd_vel"
+    spin_until(ros, lambda: node.runner.sim.v[node.runner.sim.model.index["robot"], 0] > 0.1,
+               "the robot to move forward")

@@ -21,17 +21,16 @@ import time
 import tracemalloc
 
 import pytest
-
 from jazzy import require_jazzy
 
 rclpy = require_jazzy()
 
+from hecker_dynamics.msg import AppliedWrench  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
-from hecker_dynamics.msg import AppliedWrench  # noqa: E402
 from hecker_dynamics.ros.lifecycle import POLL_S  # noqa: E402
 from hecker_dynamics.ros.node import DynamicsNode  # noqa: E402
 from hecker_dynamics.scene.load import DEFAULT_SCENE, scene_path  # noqa: E402

@@ -279,9 +279,9 @@ def _rviz_config() -> dict:
 def test_rviz_config_shows_the_nodes_tf_and_markers():
     from scene_builders import box_body, make_scene
 
+    from hecker_dynamics.bags.io import resolve_topic
     from hecker_dynamics.ros.names import MARKERS_TOPIC
     from hecker_dynamics.ros.outputs import OutputKind, output_topics
-    from hecker_dynamics.bags.io import resolve_topic
 
     manager = _rviz_config()["Visualization Manager"]
     # The scene's default fixed frame (a scene that does not set frame_id).

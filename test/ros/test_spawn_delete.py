@@ -14,18 +14,17 @@ from typing import Any
 
 import numpy as np
 import pytest
+from scene_builders import make_scene
 
-from hecker_dynamics.dynamics.commands import WrenchCommand
 from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_COLORS, MARKER_DELETE, color_slot
 from hecker_dynamics.ros.names import MARKERS_TOPIC
 from hecker_dynamics.ros.outputs import OutputKind, SnapshotOutputs
 from hecker_dynamics.ros.runner import Runner
 from hecker_dynamics.ros.session import KeyframeFields, WorldChange
 from hecker_dynamics.scene import load_scene
-from hecker_dynamics.scene.load import (ConstantTorqueSpec, Gravity, SceneError,
-                                        scene_parameters)
+from hecker_dynamics.scene.commands import WrenchCommand
+from hecker_dynamics.scene.load import ConstantTorqueSpec, Gravity, SceneError, scene_parameters
 from hecker_dynamics.scene.world import EditKind, WorldEdit, deleted, spawned
-from scene_builders import make_scene
 
 S = 1_000_000_000
 BALL = "{shape: circle, radius: 0.2, mass: 2.0, position: [0.3, 4.0], velocity: [0.5, 0.0]}"

@@ -6,7 +6,6 @@ import math
 
 import pytest
 import yaml
-
 from scene_builders import box_body, make_scene
 
 from hecker_dynamics.dynamics.simulation import Simulation
@@ -126,8 +125,7 @@ rosbags = pytest.importorskip("rosbags", reason="rosbags is not installed")
 
 from hecker_dynamics.bags.compare import compare_contents  # noqa: E402
 from hecker_dynamics.bags.io import TF_MESSAGE, read_bag, stamp_ns_of  # noqa: E402
-from hecker_dynamics.bags.replay import (outputs_as_bag, replay_outputs,  # noqa: E402
-                                         replay_to_bag, script_to_bag)
+from hecker_dynamics.bags.replay import outputs_as_bag, replay_outputs, replay_to_bag, script_to_bag  # noqa: E402
 
 
 def test_replay_writes_tf_only_when_asked(tmp_path):

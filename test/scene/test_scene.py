@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-
 from scene_builders import flatten, make_scene, write_scene
 
 import hecker_dynamics.dynamics.forces as forces
@@ -24,8 +23,14 @@ import hecker_dynamics.dynamics.model as model_module
 from hecker_dynamics import Simulation
 from hecker_dynamics.geometry.shapes import box
 from hecker_dynamics.integrators.methods import METHODS
-from hecker_dynamics.scene.load import (DEFAULT_SCENE, SceneError, load_scene,
-                                   scene_from_parameters, scene_path, shipped_scenes)
+from hecker_dynamics.scene.load import (
+    DEFAULT_SCENE,
+    SceneError,
+    load_scene,
+    scene_from_parameters,
+    scene_path,
+    shipped_scenes,
+)
 
 SAMPLE = Path(__file__).resolve().parents[2] / "config" / "sample.yaml"
 

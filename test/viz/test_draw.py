@@ -16,9 +16,8 @@ pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz e
 pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
 from scene_builders import box_body, make_scene  # noqa: E402
 
-from hecker_dynamics.dynamics import WrenchCommand  # noqa: E402
-from hecker_dynamics.viz.draw import (ARROW_COLOR, BACKGROUND, BODY_COLORS,  # noqa: E402
-                                      Drawing, View)
+from hecker_dynamics.scene import WrenchCommand  # noqa: E402
+from hecker_dynamics.viz.draw import ARROW_COLOR, BACKGROUND, BODY_COLORS, Drawing, View  # noqa: E402
 from hecker_dynamics.viz.frames import BodyPose, Timeline  # noqa: E402
 
 VIEW = View(-2.0, -1.5, 2.0, 1.5)

@@ -8,8 +8,9 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz extra)")
 pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
-from hecker_dynamics.scene import load_scene, shipped_scenes  # noqa: E402
 from PIL import Image  # noqa: E402
+
+from hecker_dynamics.scene import load_scene, shipped_scenes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text()

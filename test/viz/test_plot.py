@@ -11,11 +11,12 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz extra)")
 pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
+from PIL import Image  # noqa: E402
+
 from hecker_dynamics.cli import main  # noqa: E402
 from hecker_dynamics.dynamics import Simulation  # noqa: E402
 from hecker_dynamics.scene import load_scene  # noqa: E402
 from hecker_dynamics.viz.plot import differences, energy, read_series  # noqa: E402
-from PIL import Image  # noqa: E402
 
 
 @pytest.fixture(scope="module")

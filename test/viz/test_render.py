@@ -9,12 +9,13 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="matplotlib is not installed (the viz extra)")
 pytest.importorskip("PIL", reason="Pillow is not installed (the viz extra)")
+from PIL import Image  # noqa: E402
+
 from hecker_dynamics.cli import main  # noqa: E402
 from hecker_dynamics.scene import load_scene  # noqa: E402
 from hecker_dynamics.viz.draw import ARROW_COLOR, parse_trail  # noqa: E402
 from hecker_dynamics.viz.frames import bag_timeline, run_timeline  # noqa: E402
 from hecker_dynamics.viz.render import frame_pixels, timeline_frames  # noqa: E402
-from PIL import Image  # noqa: E402
 
 SPAN_NS = 2_000_000_000
 
@@ -222,6 +223,7 @@ def test_view_loop_shows_every_frame_in_turn_and_stops_when_closed():
     the next frame's pixels, filling the window; closing the window ends the loop."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
     from hecker_dynamics.viz.render import play
 
     timeline = run_timeline(load_scene("sample"), SPAN_NS)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+__all__ = ["InputError", "WrenchCommand"]
+
 
 class InputError(ValueError):
     """A command the simulation refuses; the message says which and why."""

@@ -1,0 +1,119 @@
+"""A differential drive: two wheels pushing at their contact points, under PI control.
+
+Every control period the drive measures the body's velocity at its wheel axle's centre C,
+v_C = v_CM + omega perp(r_C) (a body point's velocity, Eq. 9), takes its forward
+component u along the body's x axis and the angular velocity omega, and asks for a forward
+force F = kp_v e_v + ki_v integral(e_v) and a torque T = kp_w e_w + ki_w integral(e_w)
+from the errors against the commanded twist. Two wheels s apart on the axle share them:
+F_right = F / 2 + T / s and F_left = F / 2 - T / s give the force F and, as their torque
+about C, (F_right - F_left) s / 2 = T; each is capped at the motor's ``max_force``, and the
+integrals stop growing while a wheel is capped (no wind-up). A wheel grips sideways with
+``lateral_damping`` times its sideways slip speed, and its whole force is capped at
+``traction``. The wheel forces are wrench commands in the body frame at the contact points,
+held for one control period: like every input, each adds its force to the CM's
+acceleration (Eq. 5) and its torque, the perp-dot of its offset and force (Eq. 11), to the
+angular acceleration (Eq. 14).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..scene.commands import WrenchCommand
+from ..scene.drives import DiffDriveSpec
+
+__all__ = ["DiffDrive", "VelocityCommand"]
+
+
+@dataclass(frozen=True)
+class VelocityCommand:
+    """A body-frame twist command: forward speed (m/s) and angular velocity (rad/s),
+    received at sim time ``stamp_ns``."""
+
+    stamp_ns: int
+    linear_x: float
+    angular_z: float
+
+
+class DiffDrive:
+    """The controller of one ``diff_drive``: its last command and its integrals."""
+
+    def __init__(self, spec: DiffDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
+        """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
+        body frame."""
+        self.spec = spec
+        self.body = body_index
+        cx, cy = spec.center
+        half = spec.separation / 2.0
+        #: Contact points (body frame) of the left and right wheels.
+        self.wheels = ((cx, cy + half), (cx, cy - half))
+        self._offsets = [np.asarray(w, dtype=float) - cm_local for w in self.wheels]
+        self._axle = np.asarray(spec.center, dtype=float) - cm_local
+        self.command: VelocityCommand | None = None
+        self.integrals = [0.0, 0.0]  # of the forward-speed and angular-velocity errors
+
+    def receive(self, command: VelocityCommand) -> None:
+        """Take a new twist command; it replaces the previous one."""
+        if not (math.isfinite(command.linear_x) and math.isfinite(command.angular_z)):
+            raise ValueError(f"drive '{self.spec.name}': a cmd_vel with a non-finite value "
+                             f"({command.linear_x}, {command.angular_z})")
+        self.command = command
+
+    def export_state(self) -> dict[str, Any]:
+        """The controller's state, for keyframes."""
+        c = self.command
+        return {"integrals": list(self.integrals),
+                "command": None if c is None else [c.stamp_ns, c.linear_x, c.angular_z]}
+
+    def import_state(self, state: dict[str, Any]) -> None:
+        self.integrals = [float(x) for x in state["integrals"]]
+        c = state["command"]
+        self.command = None if c is None else VelocityCommand(int(c[0]), float(c[1]),
+                                                              float(c[2]))
+
+    def active(self, time_ns: int) -> bool:
+        """Whether a command younger than the cmd_vel timeout holds at ``time_ns``."""
+        c, timeout = self.command, self.spec.cmd_vel_timeout_ns
+        return c is not None and (timeout == 0 or time_ns - c.stamp_ns < timeout)
+
+    def wrenches(self, q: np.ndarray, v: np.ndarray, time_ns: int) -> list[WrenchCommand]:
+        """The wheel forces for the control period starting at ``time_ns``, from the CM
+        state (q, v) (N, 3), updating the integrals."""
+        spec = self.spec
+        theta, omega = q[self.body, 2], v[self.body, 2]
+        c, s = math.cos(theta), math.sin(theta)
+        vx, vy = v[self.body, 0], v[self.body, 1]
+        period = spec.period_ns * 1e-9
+        if self.active(time_ns):
+            assert self.command is not None
+            # The axle centre's velocity, a body point's velocity (Eq. 9), in body axes:
+            # v_C = v_CM + omega perp(r_C), turned back by -theta.
+            u = c * vx + s * vy - omega * self._axle[1]
+            errors = (self.command.linear_x - u, self.command.angular_z - omega)
+            force = spec.linear_kp * errors[0] + spec.linear_ki * (
+                self.integrals[0] + errors[0] * period)
+            torque = spec.angular_kp * errors[1] + spec.angular_ki * (
+                self.integrals[1] + errors[1] * period)
+            wanted = (force / 2.0 - torque / spec.separation,
+                      force / 2.0 + torque / spec.separation)
+            pushes = [min(max(f, -spec.max_force), spec.max_force) for f in wanted]
+            if pushes == list(wanted):  # conditional integration: no wind-up while capped
+                self.integrals = [i + e * period for i, e in zip(self.integrals, errors)]
+        else:
+            pushes = [0.0, 0.0]
+            self.integrals = [0.0, 0.0]
+        commands = []
+        for side, wheel, offset, push in zip(("left", "right"), self.wheels, self._offsets,
+                                             pushes):
+            # The sideways slip: the body-y component of the wheel's point's velocity (Eq. 9).
+            slip = -s * vx + c * vy + omega * offset[0]
+            grip = -spec.lateral_damping * slip
+            scale = min(1.0, spec.traction / math.hypot(push, grip)) if (push or grip) else 1.0
+            commands.append(WrenchCommand(
+                stamp_ns=time_ns, body=spec.body, source=f"drive/{spec.name}/{side}",
+                frame_id=spec.body, point=wheel, force=(push * scale, grip * scale),
+                duration_ns=spec.period_ns))
+        return commands

@@ -1,0 +1,102 @@
+"""Joints as a scene declares them: pins, sliders, welds, rods, ropes and gears, with their
+limits, motors and springs (``joints.<name>`` in a parameters file, docs/scenes.md).
+
+These are the specs only; :mod:`hecker_dynamics.contact.joints` solves them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Union
+
+__all__ = ["Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
+           "DistanceJoint", "GearJoint", "JointSpec"]
+
+Vec2 = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Motor:
+    """Drives a joint's coordinate at ``speed`` (rad/s or m/s) with at most ``max_effort``
+    (N m or N)."""
+
+    speed: float
+    max_effort: float
+
+
+@dataclass(frozen=True)
+class RotarySpring:
+    """A torque -k (angle - rest_angle) - c (angular velocity) about a revolute joint."""
+
+    stiffness: float
+    damping: float
+    rest_angle: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class JointEnds:
+    """What every joint but a gear has: ``body_a`` (None: the fixed frame) and ``body_b``,
+    a point of each (fixed-frame coordinates for the fixed frame), and whether the two
+    bodies still collide."""
+
+    name: str
+    body_a: Optional[str]
+    body_b: str
+    point_a: Vec2
+    point_b: Vec2
+    collide_connected: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class RevoluteJoint(JointEnds):
+    """A pin: point ``point_a`` of ``body_a`` (fixed-frame coordinates when ``body_a`` is
+    None, the world) and ``point_b`` of ``body_b`` (body frame) stay together. The joint
+    angle is body_b's angle relative to body_a's, zero at the start; ``lower`` and
+    ``upper`` bound it."""
+
+    lower: Optional[float] = None
+    upper: Optional[float] = None
+    motor: Optional[Motor] = None
+    spring: Optional[RotarySpring] = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class PrismaticJoint(JointEnds):
+    """A slider: ``point_b`` moves along the line through ``point_a`` with direction
+    ``axis`` (unit, in body_a's frame or the fixed frame), and the bodies keep their
+    relative angle. The translation along the axis is zero at the start."""
+
+    axis: Vec2
+    lower: Optional[float] = None
+    upper: Optional[float] = None
+    motor: Optional[Motor] = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class WeldJoint(JointEnds):
+    """The two bodies hold their relative pose at the start; with ``frequency`` > 0 (Hz)
+    a spring-damper of that frequency and ``damping_ratio`` holds it instead."""
+
+    frequency: float = 0.0
+    damping_ratio: float = 1.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class DistanceJoint(JointEnds):
+    """A rod keeps the points ``length`` apart; a rope (``rope``) at most ``length``."""
+
+    length: float
+    rope: bool = False
+
+
+@dataclass(frozen=True)
+class GearJoint:
+    """Two revolute joints' angles tied: angle_a + ratio angle_b stays zero (meshing gears
+    of radii r_a and r_b turn opposite ways: ratio = r_b / r_a)."""
+
+    name: str
+    joint_a: str
+    joint_b: str
+    ratio: float
+
+
+JointSpec = Union[RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint]

@@ -1,0 +1,82 @@
+"""Inertial measurement units read from the dynamics themselves.
+
+A body point P at offset r from the CM moves at v_P = v_CM + omega perp(r), a body point's
+velocity (Eq. 9). Differentiating, with dr/dt = omega perp(r) and perp(perp(r)) = -r:
+
+    a_P = a_CM + alpha perp(r) - omega^2 r
+
+the CM's acceleration (the summed forces over the mass, Eq. 5) plus the tangential term
+(the angular acceleration, the summed torques over inertia, Eq. 14) and the centripetal
+term. An accelerometer reads the specific force a_P - g (at rest under gravity it reads
+-g; in free fall zero), turned into the sensor's axes; the gyro reads omega and the
+orientation is the body's angle plus the mount's. The accelerations are the force terms'
+at the sampled state (Model.accelerations, inputs included); contact impulses and joint
+constraint forces act inside the step and are not part of them.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scene.load import Gravity, Scene
+from ..scene.sensors import ImuSpec
+from .laser import noise_generator
+
+__all__ = ["Imu", "ImuReading"]
+
+
+@dataclass(frozen=True)
+class ImuReading:
+    """One IMU sample: the sensor frame's heading in the fixed frame (rad), its angular
+    velocity about z (rad/s) and the specific force at the sensor in its own x, y axes
+    (m/s^2), noise included."""
+
+    stamp_ns: int
+    yaw: float
+    angular_velocity: float
+    linear_acceleration: tuple[float, float]
+
+    @property
+    def orientation(self) -> tuple[float, float, float, float]:
+        """The heading as a unit quaternion (x, y, z, w) about z."""
+        return (0.0, 0.0, math.sin(self.yaw / 2.0), math.cos(self.yaw / 2.0))
+
+
+class Imu:
+    """An IMU of a scene: its body, its offset from that body's CM (body axes) and the
+    gravity acting on that body."""
+
+    def __init__(self, spec: ImuSpec, scene: Scene, cm_local: np.ndarray) -> None:
+        """``cm_local`` (N, 2): each body's CM in its body frame (Model.cm_local)."""
+        self.spec = spec
+        self.body = [b.name for b in scene.bodies].index(spec.body)
+        self.mount = np.asarray(spec.position, dtype=float) - cm_local[self.body]
+        gravity = [f.acceleration for f in scene.forces
+                   if isinstance(f, Gravity) and spec.body in f.bodies]
+        self.gravity = np.sum(np.array(gravity, dtype=float).reshape(-1, 2), axis=0)
+
+    def read(self, q: np.ndarray, v: np.ndarray, accelerations: np.ndarray,
+             stamp_ns: int) -> ImuReading:
+        """The sample at CM state (q, v) whose accelerations (Model.accelerations) are
+        ``accelerations``, all (N, 3), stamped ``stamp_ns``."""
+        spec = self.spec
+        theta, omega = q[self.body, 2], v[self.body, 2]
+        ax, ay, alpha = accelerations[self.body]
+        c, s = math.cos(theta), math.sin(theta)
+        rx = c * self.mount[0] - s * self.mount[1]
+        ry = s * self.mount[0] + c * self.mount[1]
+        # a_P = a_CM + alpha perp(r) - omega^2 r, less gravity: the specific force.
+        fx = ax - alpha * ry - omega * omega * rx - self.gravity[0]
+        fy = ay + alpha * rx - omega * omega * ry - self.gravity[1]
+        yaw = theta + spec.angle
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        sensed = np.array([yaw, omega, cy * fx + sy * fy, -sy * fx + cy * fy])
+        noise = np.array([spec.orientation_noise, spec.angular_velocity_noise,
+                          spec.linear_acceleration_noise, spec.linear_acceleration_noise])
+        if np.any(noise > 0.0):
+            sensed = sensed + noise * noise_generator(
+                spec.seed, spec.frame_id, stamp_ns).standard_normal(4)
+        return ImuReading(stamp_ns, float(sensed[0]), float(sensed[1]),
+                          (float(sensed[2]), float(sensed[3])))

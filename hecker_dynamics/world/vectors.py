@@ -1,0 +1,40 @@
+"""Checked conversion of what a user passes (tuples, lists, numpy arrays, ints) to the
+plain floats a scene holds, with one-line errors that name the argument."""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Union
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Vec2", "VectorLike", "number", "vector"]
+
+Vec2 = tuple[float, float]
+VectorLike = Union[Sequence[float], npt.NDArray[np.floating]]
+
+
+def number(value: object, argument: str, *, positive: bool = False,
+           minimum: Union[float, None] = None) -> float:
+    """``value`` as a finite float; TypeError or ValueError naming ``argument``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        raise TypeError(f"{argument}: expected a number, not {type(value).__name__}")
+    result = float(value)
+    if not math.isfinite(result):
+        raise ValueError(f"{argument}: must be finite, not {result}")
+    if positive and result <= 0.0:
+        raise ValueError(f"{argument}: must be positive, not {result}")
+    if minimum is not None and result < minimum:
+        raise ValueError(f"{argument}: must be at least {minimum}, not {result}")
+    return result
+
+
+def vector(value: object, argument: str) -> Vec2:
+    """``value`` (a tuple, list or numpy array of two numbers) as two floats."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise TypeError(f"{argument}: expected two numbers (x, y), not {type(value).__name__}")
+    items = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
+    if len(items) != 2:
+        raise ValueError(f"{argument}: expected two numbers (x, y), not {len(items)}")
+    return (number(items[0], argument), number(items[1], argument))

@@ -1,0 +1,568 @@
+"""The World: bodies, walls, springs and joints built in Python, stepped in seconds.
+
+A World writes what it is given as the parameters a scene file holds and reads them with
+the scene loader (:func:`~hecker_dynamics.scene.load.scene_from_parameters`), so a World
+built in Python and the same scene in a YAML file are the same :class:`Scene` and step
+bit for bit alike; :meth:`World.from_scene` wraps what :func:`load_scene` returns. Under
+it is the project's :class:`Simulation`: the article's loop (steps 3 to 8) with fixed steps
+kept in integer nanoseconds, and the compiled kernel where it is built.
+
+Each step sums the forces at the CM, F = M a (Eq. 5), their torques about the CM,
+tau = perp(r) . F (Eq. 11), and turns those into the angular acceleration tau / I
+(Eq. 14), with the mass, the center of mass and the moment of inertia integrated over each
+body's shape (Eq. 3 and Eq. 13).
+"""
+from __future__ import annotations
+
+import copy
+import functools
+import os
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, Optional, ParamSpec, TypeVar, Union
+
+# The input buffer's own form of a command as plain data, so a World's state and a
+# Simulation's hold scheduled and held commands alike.
+from ..dynamics.inputs import _command_data, _command_from_data
+from ..dynamics.simulation import BodyState, Simulation
+from ..scene.commands import WrenchCommand
+from ..scene.load import INTEGRATORS, BodySpec, Scene, load_scene, read_body, scene_from_parameters
+from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
+from .body import Body, PointLike
+from .shapes import ShapeLike, shape_parameters
+from .vectors import VectorLike, number, vector
+
+__all__ = ["World"]
+
+#: The name errors from the scene reader give as the source of a World built in Python.
+SOURCE = "World"
+#: How often the energy bound checks the state (:mod:`hecker_dynamics.dynamics.divergence`):
+#: every whole number of steps nearest this (ns), as a scene's publish rate sets it.
+CHECK_PERIOD_NS = 20_000_000
+BodyLike = Union[Body, str]
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def _adding(method: Callable[P, R]) -> Callable[P, R]:
+    """An ``add_*`` method of :class:`World` that leaves nothing behind when it refuses."""
+    @functools.wraps(method)
+    def add(*args: P.args, **kwargs: P.kwargs) -> R:
+        world = args[0]
+        assert isinstance(world, World)
+        try:
+            return method(*args, **kwargs)
+        except BaseException:
+            if world._added is not None and world._params is not None:
+                section, key = world._added
+                del world._params[section][key]
+            raise
+        finally:
+            world._added = None
+    return add
+
+
+def _name(value: object, argument: str) -> str:
+    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
+        raise ValueError(f"{argument}: {value!r} is not a valid name (letters, digits and "
+                         "underscores, starting with a letter)")
+    return value
+
+
+def _optional(values: dict[str, Any], key: str, value: Optional[float], *,
+              minimum: Optional[float] = None) -> None:
+    if value is not None:
+        values[key] = number(value, key, minimum=minimum)
+
+
+class World:
+    """A 2D world of rigid bodies (SI units, seconds, radians counter-clockwise).
+
+    ``gravity`` (m/s^2) acts at every body's CM, so it makes no torque; ``step`` (s) is
+    the fixed step, kept in whole nanoseconds as the node's clock keeps it; ``integrator``
+    is one of :data:`~hecker_dynamics.scene.load.INTEGRATORS` (``auto`` picks from the
+    stiffness); ``sleep`` lets resting islands of the contact pass sleep, ``events``
+    locates wall impacts inside the step; ``frame`` names the fixed frame.
+
+    The world's structure (bodies, walls, forces, joints) is fixed once it has stepped,
+    had a force applied or a body moved; :meth:`state` and :meth:`set_state` carry the
+    rest, bit for bit.
+    """
+
+    def __init__(self, *, gravity: Optional[VectorLike] = None, step: float = 0.001,
+                 integrator: str = "auto", tolerance: float = 1e-6, frame: str = "world",
+                 restitution_threshold: Optional[float] = None, sleep: bool = False,
+                 events: bool = False) -> None:
+        step_ns = round(number(step, "step", positive=True) * 1e9)
+        if step_ns < 1:
+            raise ValueError(f"step: must be at least one nanosecond, not {step}")
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"integrator: must be one of {', '.join(INTEGRATORS)}; "
+                             f"not {integrator!r}")
+        per_check = max(1, round(CHECK_PERIOD_NS / step_ns))
+        params: dict[str, Any] = {
+            "frame_id": _name(frame, "frame"), "step": step_ns * 1e-9,
+            "integrator": integrator, "tolerance": number(tolerance, "tolerance", positive=True),
+            "publish_rate": 1e9 / (per_check * step_ns),
+            "input_timeout": 0.0,  # a held force holds until cleared
+            "contacts": {"sleep": bool(sleep), "events": bool(events)},
+        }
+        _optional(params, "restitution_threshold", restitution_threshold, minimum=0.0)
+        if gravity is not None:
+            params["forces"] = {"gravity": {"type": "gravity",
+                                            "acceleration": list(vector(gravity, "gravity"))}}
+        self._setup(params, None)
+
+    def _setup(self, params: Optional[dict[str, Any]], scene: Optional[Scene]) -> None:
+        self._params = params  # None: a world read from a scene file, whose shape is fixed
+        self._scene = scene
+        self._sim: Optional[Simulation] = None
+        self._frames: Optional[tuple[BodyState, ...]] = None
+        self._started = False
+        self._bodies: dict[str, Body] = {}
+        self._schedule: list[tuple[int, int, WrenchCommand]] = []  # (stamp, order, command)
+        self._applied: dict[str, dict[str, Optional[int]]] = {}  # body: source: end (ns)
+        self._count = 0
+        self._added: Optional[tuple[str, str]] = None  # the entry an add_* call is making
+        if scene is not None:
+            self._bodies = {b.name: Body(self, b.name) for b in scene.bodies}
+
+    @classmethod
+    def from_scene(cls, scene: Union[str, os.PathLike[str], Scene, None] = None, *,
+                   script: bool = True) -> World:
+        """The world of a scene file (a path or a shipped scene's name, default ``sample``)
+        or of a :class:`Scene`; ``script``: its scripted inputs act at their times, as
+        ``hecker-dynamics run`` plays them. A held force stops after the scene's
+        ``input_timeout``, as the node's commands do."""
+        world = cls.__new__(cls)
+        loaded = scene if isinstance(scene, Scene) else load_scene(scene)
+        world._setup(None, loaded)
+        if script:
+            world._schedule = [(c.stamp_ns, i, c) for i, c in enumerate(loaded.script)]
+        return world
+
+    # ----------------------------------------------------------------- building
+
+    def _edit(self, what: str) -> dict[str, Any]:
+        """The parameters to change, after checking that the world may still change."""
+        if self._params is None:
+            raise ValueError(f"cannot {what}: a world read from a scene file keeps its "
+                             "scene; add it to the file, or build the world in Python")
+        if self._started:
+            raise ValueError(f"cannot {what} after the world has started (stepped, pushed "
+                             "or moved); build the whole world first")
+        self._scene, self._sim, self._frames = None, None, None
+        return self._params
+
+    def _section(self, section: str, name: object, what: str) -> dict[str, Any]:
+        key = _name(name, "name")
+        entries = self._edit(f"add {what} '{key}'").setdefault(section, {})
+        if key in entries:
+            raise ValueError(f"name: the world already has a {what} called '{key}'")
+        values: dict[str, Any] = {}
+        entries[key] = values
+        self._added = (section, key)
+        return values
+
+    def _body_name(self, body: BodyLike, argument: str) -> str:
+        name = body.name if isinstance(body, Body) else body
+        if not isinstance(name, str):
+            raise TypeError(f"{argument}: expected a Body or a body's name, "
+                            f"not {type(body).__name__}")
+        if name not in self._bodies:
+            raise ValueError(f"{argument}: no body called {name!r} (bodies: "
+                             f"{', '.join(self._bodies) or 'none'})")
+        return name
+
+    def _body_names(self, bodies: Optional[Sequence[BodyLike]], argument: str) -> list[str]:
+        if bodies is None:
+            return list(self._bodies)
+        return [self._body_name(body, f"{argument}[{i}]") for i, body in enumerate(bodies)]
+
+    @staticmethod
+    def _point(point: PointLike, argument: str) -> Union[list[float], str]:
+        return point if isinstance(point, str) else list(vector(point, argument))
+
+    @_adding
+    def add_body(self, name: str, shape: Union[ShapeLike, Sequence[ShapeLike]], *,
+                 mass: Optional[float] = None, density: Optional[float] = None,
+                 position: VectorLike = (0.0, 0.0), angle: float = 0.0,
+                 velocity: VectorLike = (0.0, 0.0), angular_velocity: float = 0.0,
+                 points: Optional[Mapping[str, VectorLike]] = None) -> Body:
+        """Add a rigid body of ``shape`` (one shape or a list: a compound body) with its
+        ``mass`` (kg) or ``density`` (kg/m^2); the center of mass and the moment of
+        inertia follow from the shape (Eq. 3 and Eq. 13). ``position`` and ``angle`` place
+        the body frame; ``velocity`` is that of its origin; ``points`` names body points
+        (body frame)."""
+        if (mass is None) == (density is None):
+            raise ValueError("mass: give the body's mass or its density, one of the two")
+        if name == (self._params or {}).get("frame_id"):
+            raise ValueError(f"name: '{name}' is the fixed frame's name")
+        values = self._section("bodies", name, "body")
+        values.update(shape_parameters(shape))
+        for key, argument in (("mass", mass), ("density", density)):
+            if argument is not None:
+                values[key] = number(argument, key, positive=True)
+        values.update(position=list(vector(position, "position")),
+                      angle=number(angle, "angle"),
+                      velocity=list(vector(velocity, "velocity")),
+                      angular_velocity=number(angular_velocity, "angular_velocity"))
+        if points:
+            values["points"] = {_name(key, "points"): list(vector(p, f"points[{key!r}]"))
+                                for key, p in points.items()}
+        # Read now, as the loader reads a file's body: a bad shape fails here.
+        read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
+        body = Body(self, name)
+        self._bodies[name] = body
+        return body
+
+    @_adding
+    def add_wall(self, name: str, *, point: VectorLike, normal: VectorLike,
+                 restitution: float = 0.5, friction: float = 0.0,
+                 bodies: Optional[Sequence[BodyLike]] = None) -> None:
+        """A fixed half-plane ``normal . (x - point) >= 0`` that ``bodies`` (default all,
+        those added later too) stay inside, answering with impulses."""
+        values = self._section("walls", name, "wall")
+        values.update(point=list(vector(point, "point")), normal=list(vector(normal, "normal")),
+                      restitution=number(restitution, "restitution", minimum=0.0),
+                      friction=number(friction, "friction", minimum=0.0))
+        if bodies is not None:
+            values["bodies"] = self._body_names(bodies, "bodies")
+
+    @_adding
+    def add_collision_group(self, name: str, bodies: Optional[Sequence[BodyLike]] = None, *,
+                            restitution: float = 0.2, friction: float = 0.5) -> None:
+        """Contacts on between every pair of ``bodies`` (default all); bodies in no common
+        group pass through each other. Colliding polygons must be convex."""
+        values = self._section("collisions", name, "collision group")
+        values.update(restitution=number(restitution, "restitution", minimum=0.0),
+                      friction=number(friction, "friction", minimum=0.0))
+        if bodies is not None:
+            values["bodies"] = self._body_names(bodies, "bodies")
+
+    @_adding
+    def add_spring(self, name: str, body_a: BodyLike, point_a: PointLike = (0.0, 0.0),
+                   body_b: Optional[BodyLike] = None, point_b: PointLike = (0.0, 0.0), *,
+                   anchor: Optional[VectorLike] = None, stiffness: float,
+                   rest_length: float = 0.0, damping: float = 0.0) -> None:
+        """A damped spring from ``point_a`` of ``body_a`` to ``point_b`` of ``body_b`` or to
+        a fixed ``anchor`` (world frame); points in body frames or named. Its force acts at
+        both points, so it has a torque about each CM (Eq. 11); damping acts on the relative
+        velocity of the points, each a body point's velocity (Eq. 9)."""
+        values = self._section("forces", name, "force")
+        values.update(type="spring", body_a=self._body_name(body_a, "body_a"),
+                      point_a=self._point(point_a, "point_a"),
+                      stiffness=number(stiffness, "stiffness", minimum=0.0),
+                      rest_length=number(rest_length, "rest_length", minimum=0.0),
+                      damping=number(damping, "damping", minimum=0.0))
+        if (anchor is None) == (body_b is None):
+            raise ValueError("anchor: a spring needs exactly one of body_b or anchor")
+        if anchor is not None:
+            values["anchor"] = list(vector(anchor, "anchor"))
+        else:
+            assert body_b is not None
+            values.update(body_b=self._body_name(body_b, "body_b"),
+                          point_b=self._point(point_b, "point_b"))
+
+    @_adding
+    def add_drag(self, name: str, coefficient: float, bodies: Optional[Sequence[BodyLike]] = None,
+                 *, quadratic: bool = False, point: Optional[PointLike] = None) -> None:
+        """Drag -c v_P (``quadratic``: -c |v_P| v_P) at the CM of each of ``bodies`` (default
+        all), or at a ``point`` of a single body: drag of that body point's velocity
+        (Eq. 9), with a torque (Eq. 11)."""
+        values = self._section("forces", name, "force")
+        values.update(type="quadratic_drag" if quadratic else "linear_drag",
+                      coefficient=number(coefficient, "coefficient", minimum=0.0))
+        if bodies is not None:
+            values["bodies"] = self._body_names(bodies, "bodies")
+        if point is not None:
+            values["point"] = self._point(point, "point")
+
+    @_adding
+    def add_angular_damping(self, name: str, coefficient: float,
+                            bodies: Optional[Sequence[BodyLike]] = None) -> None:
+        """A torque -c omega on each of ``bodies`` (default all)."""
+        values = self._section("forces", name, "force")
+        values.update(type="angular_damping",
+                      coefficient=number(coefficient, "coefficient", minimum=0.0))
+        if bodies is not None:
+            values["bodies"] = self._body_names(bodies, "bodies")
+
+    # ----------------------------------------------------------------- joints
+
+    def _joint(self, name: str, kind: str, body_a: Optional[BodyLike], body_b: BodyLike,
+               point_a: Optional[PointLike], point_b: PointLike,
+               collide_connected: bool) -> dict[str, Any]:
+        values = self._section("joints", name, "joint")
+        values.update(type=kind, body_b=self._body_name(body_b, "body_b"),
+                      point_b=self._point(point_b, "point_b"),
+                      collide_connected=bool(collide_connected))
+        if body_a is not None:
+            values["body_a"] = self._body_name(body_a, "body_a")
+        if point_a is not None:
+            values["point_a"] = self._point(point_a, "point_a")
+        return values
+
+    @_adding
+    def add_revolute_joint(self, name: str, body_a: Optional[BodyLike], body_b: BodyLike, *,
+                           point_a: Optional[PointLike] = None,
+                           point_b: PointLike = (0.0, 0.0), lower: Optional[float] = None,
+                           upper: Optional[float] = None, motor_speed: float = 0.0,
+                           max_torque: Optional[float] = None,
+                           spring_stiffness: Optional[float] = None,
+                           spring_damping: float = 0.0, rest_angle: float = 0.0,
+                           collide_connected: bool = False) -> None:
+        """A pin: ``point_b`` of ``body_b`` (body frame) held on ``point_a`` of ``body_a``
+        (``None``: the fixed frame, ``point_a`` in world coordinates), by default where
+        ``point_b`` starts. Optional angle limits (rad, relative to the start), a motor
+        (``max_torque`` given) and a rotary spring (``spring_stiffness`` given)."""
+        values = self._joint(name, "revolute", body_a, body_b, point_a, point_b,
+                             collide_connected)
+        _optional(values, "lower", lower)
+        _optional(values, "upper", upper)
+        if max_torque is not None:
+            values["motor"] = {"speed": number(motor_speed, "motor_speed"),
+                               "max_torque": number(max_torque, "max_torque", minimum=0.0)}
+        if spring_stiffness is not None:
+            values["spring"] = {
+                "stiffness": number(spring_stiffness, "spring_stiffness", minimum=0.0),
+                "damping": number(spring_damping, "spring_damping", minimum=0.0),
+                "rest_angle": number(rest_angle, "rest_angle")}
+
+    @_adding
+    def add_prismatic_joint(self, name: str, body_a: Optional[BodyLike], body_b: BodyLike, *,
+                            axis: VectorLike, point_a: Optional[PointLike] = None,
+                            point_b: PointLike = (0.0, 0.0), lower: Optional[float] = None,
+                            upper: Optional[float] = None, motor_speed: float = 0.0,
+                            max_force: Optional[float] = None,
+                            collide_connected: bool = False) -> None:
+        """A slider: ``point_b`` of ``body_b`` moves along ``axis`` (body_a's frame, or the
+        world's) through ``point_a``, the bodies turning together; optional travel limits
+        (m, from the start) and a motor (``max_force`` given)."""
+        values = self._joint(name, "prismatic", body_a, body_b, point_a, point_b,
+                             collide_connected)
+        values["axis"] = list(vector(axis, "axis"))
+        _optional(values, "lower", lower)
+        _optional(values, "upper", upper)
+        if max_force is not None:
+            values["motor"] = {"speed": number(motor_speed, "motor_speed"),
+                               "max_force": number(max_force, "max_force", minimum=0.0)}
+
+    @_adding
+    def add_distance_joint(self, name: str, body_a: Optional[BodyLike], body_b: BodyLike, *,
+                           point_a: Optional[PointLike] = None,
+                           point_b: PointLike = (0.0, 0.0), length: Optional[float] = None,
+                           max_length: Optional[float] = None,
+                           collide_connected: bool = False) -> None:
+        """A rod (``length``, default the points' distance at the start) or a rope
+        (``max_length``) between ``point_a`` (default body_a's origin) and ``point_b``."""
+        values = self._joint(name, "distance", body_a, body_b, point_a, point_b,
+                             collide_connected)
+        _optional(values, "length", length)
+        _optional(values, "max_length", max_length)
+
+    @_adding
+    def add_weld_joint(self, name: str, body_a: Optional[BodyLike], body_b: BodyLike, *,
+                       point_a: Optional[PointLike] = None, point_b: PointLike = (0.0, 0.0),
+                       frequency: float = 0.0, damping_ratio: float = 1.0,
+                       collide_connected: bool = False) -> None:
+        """The bodies held together at one point, not turning relative to each other
+        (``frequency`` > 0: a soft weld of that natural frequency, Hz)."""
+        values = self._joint(name, "weld", body_a, body_b, point_a, point_b, collide_connected)
+        values.update(frequency=number(frequency, "frequency", minimum=0.0),
+                      damping_ratio=number(damping_ratio, "damping_ratio", minimum=0.0))
+
+    @_adding
+    def add_gear_joint(self, name: str, joint_a: str, joint_b: str, ratio: float) -> None:
+        """Two revolute joints of this world geared at ``ratio``."""
+        values = self._section("joints", name, "joint")
+        values.update(type="gear", joint_a=_name(joint_a, "joint_a"),
+                      joint_b=_name(joint_b, "joint_b"), ratio=number(ratio, "ratio"))
+
+    # ----------------------------------------------------------------- the scene
+
+    @property
+    def scene(self) -> Scene:
+        """The :class:`Scene` this world is: the loader's reading of its parameters."""
+        if self._scene is None:
+            assert self._params is not None
+            self._scene = scene_from_parameters(flatten(self._params), SOURCE)
+        return self._scene
+
+    @property
+    def simulation(self) -> Simulation:
+        """The :class:`Simulation` under this world (for the node's and bags' tools)."""
+        if self._sim is None:
+            self._sim = Simulation(self.scene)
+        return self._sim
+
+    def _spec(self, name: str) -> BodySpec:
+        return self.scene.bodies[self.simulation.model.index[name]]
+
+    def _body_state(self, name: str) -> BodyState:
+        if self._frames is None:
+            self._frames = self.simulation.snapshot().bodies
+        return self._frames[self.simulation.model.index[name]]
+
+    def __getitem__(self, name: str) -> Body:
+        """The body called ``name``."""
+        return self._bodies[self._body_name(name, "name")]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._bodies
+
+    def __iter__(self) -> Iterator[Body]:
+        return iter(self.bodies)
+
+    def __len__(self) -> int:
+        return len(self._bodies)
+
+    @property
+    def bodies(self) -> tuple[Body, ...]:
+        """The bodies in the scene's order: by name, as the loader reads them."""
+        return tuple(self._bodies[name] for name in sorted(self._bodies))
+
+    @property
+    def time(self) -> float:
+        """Sim time (s)."""
+        return self.simulation.time_ns * 1e-9
+
+    @property
+    def time_step(self) -> float:
+        """The fixed step (s), a whole number of nanoseconds."""
+        return self.simulation.step_ns * 1e-9
+
+    @property
+    def energy(self) -> float:
+        """Kinetic energy plus the potential energy of gravity and springs (J)."""
+        return self.simulation.snapshot().energy
+
+    def joint_state(self, name: str) -> tuple[float, float, float]:
+        """(position, velocity, effort) of a revolute or prismatic joint (rad or m,
+        per second, N m or N)."""
+        joints = self.simulation.snapshot().joints
+        if name not in joints:
+            raise ValueError(f"name: no revolute or prismatic joint called {name!r} "
+                             f"(joints: {', '.join(joints) or 'none'})")
+        return joints[name]
+
+    # ----------------------------------------------------------------- stepping
+
+    def step(self, dt: Optional[float] = None) -> None:
+        """Advance by ``dt`` seconds, a whole number of steps (default one step)."""
+        steps = 1
+        if dt is not None:
+            span = number(dt, "dt", positive=True) * 1e9
+            step_ns = self.simulation.step_ns
+            steps = round(span / step_ns)
+            # Each step was rounded to whole nanoseconds, by half a nanosecond at most.
+            if steps < 1 or abs(span - steps * step_ns) > 0.5 * steps + 0.5:
+                raise ValueError(f"dt: {dt} s is not a whole number of steps of "
+                                 f"{step_ns * 1e-9} s")
+        self._run_to(self.simulation.time_ns + steps * self.simulation.step_ns)
+
+    def advance(self, t: float) -> None:
+        """Step to the step instant nearest ``t`` (s), which must not be behind the world."""
+        sim = self.simulation
+        steps = round((number(t, "t") * 1e9 - sim.time_ns) / sim.step_ns)
+        if steps < 0:
+            raise ValueError(f"t: {t} s is behind the world's time ({self.time} s)")
+        self._run_to(sim.time_ns + steps * sim.step_ns)
+
+    def _run_to(self, end_ns: int) -> None:
+        """Advance to ``end_ns``, pushing each scheduled force as sim time reaches its
+        start, as :meth:`Simulation.play` pushes a script."""
+        sim = self.simulation
+        self._started, self._frames = True, None
+        while self._schedule and self._schedule[0][0] < end_ns:
+            stamp, _, command = self._schedule.pop(0)
+            sim.advance_to(stamp, keep=False)
+            sim.push(command)
+        sim.advance_to(end_ns, keep=False)
+
+    # ----------------------------------------------------------------- forces
+
+    def _apply(self, body: Body, force: VectorLike, point: Optional[PointLike], frame: str,
+               duration: Optional[float], start: Optional[float], torque: float,
+               name: Optional[str]) -> None:
+        sim = self.simulation
+        fixed = sim.scene.frame_id
+        if frame not in ("world", "body", fixed):
+            raise ValueError(f"frame: must be 'world' or 'body', not {frame!r}")
+        in_body = frame == "body"
+        if point is None:
+            at: tuple[float, float] = (body.center_of_mass if in_body
+                                       else body.world_point(body.center_of_mass))
+        elif isinstance(point, str) and not in_body:
+            raise ValueError(f"point: a named point ({point!r}) needs frame='body'")
+        else:
+            at = body._local(point, "point")
+        duration_ns = 0
+        if duration is not None:
+            duration_ns = round(number(duration, "duration", positive=True) * 1e9)
+        now = sim.time_ns
+        stamp = now if start is None else round(number(start, "start") * 1e9)
+        if stamp < now:
+            raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
+        if name is None:
+            self._count += 1
+            source = f"force{self._count}"
+        else:
+            source = name
+        command = WrenchCommand(stamp, body.name, source, body.name if in_body else fixed,
+                                at, vector(force, "force"), number(torque, "torque"),
+                                duration_ns)
+        command.check_finite()
+        self._started = True
+        if stamp == now:
+            sim.push(command)
+        else:
+            order = max((entry[1] for entry in self._schedule), default=-1) + 1
+            self._schedule.append((stamp, order, command))
+            self._schedule.sort(key=lambda entry: entry[:2])
+        self._applied.setdefault(body.name, {})[source] = (
+            stamp + duration_ns if duration_ns else None)
+
+    def _clear(self, name: str) -> None:
+        """Replace what acts on body ``name`` by a zero force for one step (the input
+        buffer's way to end a held command) and drop what is scheduled for it."""
+        sim = self.simulation
+        self._schedule = [entry for entry in self._schedule if entry[2].body != name]
+        for source, end in self._applied.pop(name, {}).items():
+            if end is None or end > sim.time_ns:
+                sim.push(WrenchCommand(sim.time_ns, name, source, sim.scene.frame_id,
+                                       (0.0, 0.0), (0.0, 0.0), 0.0, sim.step_ns))
+
+    def _move(self, name: str, *, position: Optional[tuple[float, float]] = None,
+              angle: Optional[float] = None, velocity: Optional[tuple[float, float]] = None,
+              angular_velocity: Optional[float] = None) -> None:
+        now = self._body_state(name)
+        self.simulation.set_body_state(
+            name, now.position if position is None else position,
+            now.angle if angle is None else number(angle, "angle"),
+            now.linear_velocity if velocity is None else velocity,
+            now.angular_velocity if angular_velocity is None
+            else number(angular_velocity, "angular_velocity"))
+        self._started, self._frames = True, None
+
+    # ----------------------------------------------------------------- state
+
+    def state(self) -> dict[str, Any]:
+        """Everything the world's future depends on, as plain data (JSON-able; floats
+        exact): :meth:`Simulation.export_state` and the forces scheduled and applied."""
+        return {"simulation": self.simulation.export_state(),
+                "schedule": [[stamp, order, _command_data(command)]
+                             for stamp, order, command in self._schedule],
+                "applied": copy.deepcopy(self._applied), "count": self._count}
+
+    def set_state(self, state: Mapping[str, Any]) -> None:
+        """Go on from :meth:`state`'s data, of this world or one of the same scene: the
+        steps that follow are bit for bit those that followed the state taken."""
+        if not isinstance(state, Mapping) or set(state) != {"simulation", "schedule",
+                                                             "applied", "count"}:
+            raise ValueError("state: expected what World.state() returns")
+        self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
+        self._schedule = [(int(stamp), int(order), _command_from_data(data))
+                          for stamp, order, data in state["schedule"]]
+        self._applied = copy.deepcopy(dict(state["applied"]))
+        self._count = int(state["count"])
+        self._started, self._frames = True, None

@@ -1,0 +1,340 @@
+"""The World API against closed forms (force: Eq. 5, torque: Eq. 11, moment of inertia:
+Eq. 13, angular acceleration: Eq. 14), against the scene loader (a World built in Python
+and the same scene file step bit for bit alike), its state round trip, and its one-line
+errors."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from scene_builders import EVERY_FORCE, make_scene
+from test_docs import EVERY_FEATURE
+
+import hecker_dynamics as hd
+from hecker_dynamics.geometry.shapes import Circle as Disc
+from hecker_dynamics.geometry.shapes import box as box_polygon
+from hecker_dynamics.geometry.shapes import mass_properties
+
+# Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
+# a few ulps of the largest term per step, over a few thousand steps.
+ROUND_OFF = 1e-11
+
+
+def free_world(**options: object) -> hd.World:
+    return hd.World(step=1 / 256, integrator="velocity_verlet", **options)  # type: ignore[arg-type]
+
+
+def test_mass_properties_are_the_integrated_ones() -> None:
+    world = free_world()
+    plank = world.add_body("plank", hd.Box(2.0, 0.5), mass=3.0)
+    disc = world.add_body("disc", hd.Circle(0.4), density=10.0)
+    assert plank.mass == mass_properties([box_polygon(2.0, 0.5)], [3.0]).mass == 3.0
+    assert plank.moment_of_inertia == pytest.approx(3.0 * (4.0 + 0.25) / 12, rel=1e-15)
+    assert disc.mass == pytest.approx(10.0 * math.pi * 0.16, rel=1e-15)
+    assert disc.moment_of_inertia == pytest.approx(disc.mass * 0.16 / 2, rel=1e-15)
+    compound = world.add_body("hammer", [hd.Box(1.0, 0.1, center=(0.5, 0.0)),
+                                         hd.Circle(0.2, center=(1.0, 0.0), density=5.0)],
+                              density=1.0)
+    parts = mass_properties([box_polygon(1.0, 0.1, (0.5, 0.0)), Disc((1.0, 0.0), 0.2)],
+                            [1.0, 5.0])
+    assert (compound.mass, compound.center_of_mass, compound.moment_of_inertia) == \
+        (parts.mass, parts.center_of_mass, parts.moment_of_inertia)
+
+
+def test_constant_force_at_the_cm_is_uniform_acceleration() -> None:
+    """x = x0 + v0 t + F t^2 / (2 m) (Eq. 5); a force through the CM along its path makes
+    no torque (Eq. 11), so the body does not turn at all."""
+    world = free_world()
+    body = world.add_body("puck", hd.Circle(0.5), mass=2.0, position=[1, 2],
+                          velocity=np.array([0.5, 0.0]))
+    body.apply_force((3.0, 0.0))
+    world.advance(4.0)
+    t = world.time
+    assert t == 4.0
+    assert body.position[0] == pytest.approx(1.0 + 0.5 * t + 3.0 * t * t / 4.0, rel=ROUND_OFF)
+    assert body.position[1] == 2.0
+    assert body.velocity[0] == pytest.approx(0.5 + 1.5 * t, rel=ROUND_OFF)
+    assert body.angle == 0.0 and body.angular_velocity == 0.0
+
+
+def test_torque_at_a_point_turns_as_tau_over_i() -> None:
+    """A thruster fixed to the body (frame="body") off the CM: tau = perp(r) . F (Eq. 11)
+    is constant, angular acceleration tau / I (Eq. 14): omega = tau t / I,
+    theta = tau t^2 / (2 I)."""
+    world = free_world()
+    body = world.add_body("plate", hd.Box(1.0, 0.5), mass=4.0)
+    body.apply_force((0.0, 2.0), point=(0.5, 0.0), frame="body")
+    world.advance(1.0)
+    tau, inertia = 0.5 * 2.0, 4.0 * (1.0 + 0.25) / 12
+    assert body.angular_velocity == pytest.approx(tau / inertia, rel=ROUND_OFF)
+    assert body.angle == pytest.approx(tau / (2 * inertia), rel=ROUND_OFF)
+
+
+def test_torque_free_spin_keeps_the_cm_and_omega() -> None:
+    """No force: no angular acceleration (Eq. 14), so omega stays; the CM moves uniformly,
+    the body frame's origin, off the CM, circles it, and velocity_at(CM) is the CM's (a body
+    point's velocity, Eq. 9)."""
+    world = free_world()
+    body = world.add_body("arm", hd.Box(1.0, 0.2, center=(0.3, 0.0)), mass=1.0,
+                          velocity=(1.0, -2.0), angular_velocity=3.0)
+    cm0 = body.world_point(body.center_of_mass)
+    cm_velocity = body.velocity_at(body.center_of_mass)
+    assert cm_velocity == pytest.approx((1.0, -2.0 + 3.0 * 0.3), rel=1e-15)
+    world.advance(2.0)
+    assert body.angular_velocity == 3.0
+    cm = body.world_point(body.center_of_mass)
+    for axis in (0, 1):
+        assert cm[axis] == pytest.approx(cm0[axis] + cm_velocity[axis] * 2.0, abs=ROUND_OFF)
+    theta = math.remainder(6.0, 2 * math.pi)
+    assert body.angle == pytest.approx(theta, abs=ROUND_OFF)
+
+
+def test_timed_held_cleared_and_scheduled_forces() -> None:
+    world = free_world()
+    a = world.add_body("a", hd.Circle(0.1), mass=2.0)
+    b = world.add_body("b", hd.Circle(0.1), mass=2.0, position=(5.0, 0.0))
+    a.apply_force((4.0, 0.0), duration=0.25)  # an impulse of 1 N s
+    b.apply_force((4.0, 0.0), start=0.5)  # held from t = 0.5 s
+    world.advance(1.0)
+    assert a.velocity == (0.5, 0.0)
+    assert b.velocity[0] == pytest.approx(2.0 * 0.5, rel=ROUND_OFF)
+    b.clear_forces()
+    speed = b.velocity[0]
+    world.step(0.5)
+    assert b.velocity[0] == speed
+
+
+def sample_in_python() -> hd.World:
+    """config/sample.yaml, written with the API."""
+    world = hd.World(gravity=(0.0, -9.81), step=0.001, integrator="semi_implicit_euler")
+    for name, point, normal in (("floor", (0, 0), (0, 1)), ("ceiling", (0, 5), (0, -1)),
+                                ("left_wall", (-3, 0), (1, 0)), ("right_wall", (3, 0), (-1, 0))):
+        world.add_wall(name, point=point, normal=normal, restitution=0.8, friction=0.2)
+    left = world.add_body("left", hd.Box(0.8, 0.4), mass=1.0, position=(-1.0, 2.5), angle=0.3,
+                          velocity=(1.5, 0.0), angular_velocity=2.0, points={"hook": (0.4, 0)})
+    right = world.add_body("right", hd.Box(0.6, 0.6), mass=1.5, position=(1.0, 3.0),
+                           angle=-0.2, velocity=(-0.5, 1.0), points={"hook": (-0.3, 0.3)})
+    world.add_spring("link", left, "hook", right, "hook", stiffness=50, rest_length=1,
+                     damping=0.2)
+    left.apply_force((0.0, 60.0), point=(0.4, 0.2), frame="body", duration=0.1, start=3.0)
+    return world
+
+
+def door_in_python() -> hd.World:
+    """config/door.yaml (a revolute joint, a wall, a collision group, drag, damping and
+    forces at a named point), written with the API."""
+    world = hd.World(step=0.001, integrator="semi_implicit_euler")
+    door = world.add_body("door", hd.Box(1.0, 0.06), mass=20.0, position=(0.0, 0.5),
+                          angle=1.5708, points={"hinge": (-0.5, 0.0), "handle": (0.45, 0.0)})
+    block = world.add_body("block", hd.Box(0.4, 0.4), mass=300.0, position=(0.75, -0.26))
+    world.add_angular_damping("hinge_friction", 2.0, [door])
+    world.add_drag("floor_friction", 3000.0, [block])
+    world.add_revolute_joint("hinge", None, door, point_b="hinge")
+    world.add_wall("room_wall", point=(0.0, -0.46), normal=(0.0, 1.0), restitution=0.0,
+                   friction=0.6, bodies=[block])
+    world.add_collision_group("door_and_block", [door, block], restitution=0.2, friction=0.5)
+    door.apply_force((0.0, -40.0), point="handle", frame="body", duration=1.5, start=0.5)
+    door.apply_force((0.0, -200.0), point="handle", frame="body", duration=2.0, start=3.0)
+    return world
+
+
+@pytest.mark.parametrize("name, build", [("sample", sample_in_python),
+                                         ("door", door_in_python)])
+def test_python_and_yaml_are_one_scene_and_one_trajectory(name, build) -> None:
+    world = build()
+    loaded = hd.load_scene(name)
+    same = dataclasses.replace(world.scene, source=loaded.source, script=loaded.script,
+                               input_timeout_ns=loaded.input_timeout_ns,
+                               duration_ns=loaded.duration_ns)
+    assert same == loaded
+    end = loaded.duration_ns
+    reference = hd.Simulation(loaded)
+    reference.play(loaded.script, end, keep=False)
+    from_file = hd.World.from_scene(name)
+    for built in (world, from_file):
+        built.advance(end * 1e-9)
+        assert built.simulation.time_ns == reference.time_ns
+        assert built.simulation.q.tobytes() == reference.q.tobytes()
+        assert built.simulation.v.tobytes() == reference.v.tobytes()
+
+
+def test_state_round_trip_is_bit_exact() -> None:
+    world = sample_in_python()
+    world.advance(2.9)  # the kick is still scheduled
+    state = json.loads(json.dumps(world.state()))
+    other = sample_in_python()
+    other.set_state(state)
+    assert other.state() == state
+    for w in (world, other):
+        w.advance(4.0)
+    assert world.simulation.q.tobytes() == other.simulation.q.tobytes()
+    assert world.simulation.v.tobytes() == other.simulation.v.tobytes()
+    assert world["left"].position == other["left"].position
+    later = world.state()
+    world.set_state(state)  # back to before the kick, which acts again
+    world.advance(4.0)
+    assert world.state() == later
+
+
+def test_moving_a_body_and_names() -> None:
+    world = free_world(gravity=(0, -9.81))
+    ball = world.add_body("ball", hd.Circle(0.5), mass=1.0)
+    assert world["ball"] is ball and "ball" in world and len(world) == 1
+    assert list(world) == [ball]
+    ball.position, ball.velocity, ball.angle = (1.0, 2.0), (0.0, 3.0), 0.25
+    assert (ball.position, ball.velocity, ball.angle) == ((1.0, 2.0), (0.0, 3.0), 0.25)
+    world.step(0.5)
+    assert ball.velocity[1] == pytest.approx(3.0 - 9.81 * 0.5, rel=ROUND_OFF)
+
+
+def test_step_sizes() -> None:
+    world = hd.World(step=1 / 240)
+    world.add_body("b", hd.Circle(1.0), mass=1.0)
+    world.step(1 / 60)
+    assert world.simulation.steps == 4
+    world.step()
+    world.advance(1.0)
+    assert world.simulation.steps == 240
+    with pytest.raises(ValueError, match=r"^dt: 0\.005 s is not a whole number of steps"):
+        world.step(0.005)
+
+
+def built() -> hd.World:
+    world = free_world()
+    world.add_body("box", hd.Box(1.0, 0.5), mass=1.0)
+    return world
+
+
+ERRORS = [
+    (lambda w: w["crate"], ValueError, r"^name: no body called 'crate' \(bodies: box\)$"),
+    (lambda w: w.add_body("b", hd.Circle(1.0), mass=-2.0), ValueError,
+     r"^mass: must be positive, not -2\.0$"),
+    (lambda w: w.add_body("b", hd.Circle(1.0)), ValueError, r"^mass: give the body's mass"),
+    (lambda w: w.add_body("b", hd.Circle(1.0), mass=1.0, position=(1, 2, 3)), ValueError,
+     r"^position: expected two numbers \(x, y\), not 3$"),
+    (lambda w: w.add_body("b", hd.Circle(1.0), mass=1.0, position="up"), TypeError,
+     r"^position: expected two numbers"),
+    (lambda w: w.add_body("box", hd.Circle(1.0), mass=1.0), ValueError,
+     r"^name: the world already has a body called 'box'$"),
+    (lambda w: w.add_body("my box", hd.Circle(1.0), mass=1.0), ValueError,
+     r"^name: 'my box' is not a valid name"),
+    (lambda w: w.add_body("b", "circle", mass=1.0), TypeError, r"^shape\[0\]: expected hd\.Box"),
+    (lambda w: hd.Box(-1.0, 1.0), ValueError, r"^width: must be positive, not -1\.0$"),
+    (lambda w: w["box"].apply_force((1, 0), frame="local"), ValueError,
+     r"^frame: must be 'world' or 'body', not 'local'$"),
+    (lambda w: w["box"].apply_force((1, 0), duration=0.0), ValueError,
+     r"^duration: must be positive, not 0\.0$"),
+    (lambda w: w["box"].apply_force((1, 0), point="tip", frame="body"), ValueError,
+     r"^point: body 'box' has no point 'tip' \(points: none\)$"),
+    (lambda w: w["box"].apply_force((float("nan"), 0)), ValueError, r"^force: must be finite"),
+    (lambda w: w.step(0.0), ValueError, r"^dt: must be positive, not 0\.0$"),
+    (lambda w: w.step(-1.0), ValueError, r"^dt: must be positive, not -1\.0$"),
+    (lambda w: w.add_spring("s", "box", stiffness=1.0), ValueError,
+     r"^anchor: a spring needs exactly one of body_b or anchor$"),
+    (lambda w: w.add_wall("w", point=(0, 0), normal=(0, 1), bodies=["ghost"]), ValueError,
+     r"^bodies\[0\]: no body called 'ghost'"),
+    (lambda w: hd.World(integrator="leapfrog"), ValueError, r"^integrator: must be one of"),
+    (lambda w: hd.World(step=0.0), ValueError, r"^step: must be positive"),
+    (lambda w: w.set_state({}), ValueError, r"^state: expected what World\.state\(\) returns$"),
+    (lambda w: w.joint_state("hinge"), ValueError, r"^name: no revolute or prismatic joint"),
+]
+
+
+@pytest.mark.parametrize("call, kind, message", ERRORS)
+def test_errors_name_the_argument(call, kind, message) -> None:
+    world = built()
+    before = world.scene
+    with pytest.raises(kind, match=message) as caught:
+        call(world)
+    assert "\n" not in str(caught.value)
+    assert world.scene == before  # a refused call changes nothing
+
+
+def test_edits_after_start_and_of_a_scene_file_are_refused() -> None:
+    world = built()
+    world.advance(3.0)
+    with pytest.raises(ValueError, match=r"^cannot add body 'b' after the world has started"):
+        world.add_body("b", hd.Circle(1.0), mass=1.0)
+    with pytest.raises(ValueError, match=r"^t: 1\.0 s is behind the world's time"):
+        world.advance(1.0)
+    with pytest.raises(ValueError, match=r"^cannot add wall 'floor': a world read from a scene"):
+        hd.World.from_scene("sample").add_wall("floor", point=(0, 0), normal=(0, 1))
+
+
+def test_a_bad_body_is_refused_by_the_scene_reader_at_once() -> None:
+    world = built()
+    with pytest.raises(hd.SceneError, match=r"^World: body 'bow': the polygon's edges cross"):
+        world.add_body("bow", hd.Polygon([(0, 0), (1, 1), (1, 0), (0, 1)]), mass=1.0)
+    assert "bow" not in world and world.add_body("bow", hd.Circle(1.0), mass=1.0)
+
+
+def test_every_joint_kind_and_force_is_the_scene_files() -> None:
+    """Bodies of every shape, springs, drag and every joint kind built in Python are the
+    Scene the same parameters give through the loader."""
+    params = {
+        "step": 0.001, "publish_rate": 50.0, "bodies": EVERY_FORCE["bodies"],
+        "forces": {"gravity": {"type": "gravity", "acceleration": [0.3, -9.81]},
+                   **{key: EVERY_FORCE["forces"][key]
+                      for key in ("anchored", "link", "tie", "air", "wake", "fin", "spin")}},
+        "joints": EVERY_FEATURE["joints"],
+        "walls": EVERY_FEATURE["walls"], "collisions": EVERY_FEATURE["collisions"],
+    }
+    world = hd.World(gravity=(0.3, -9.81), step=0.001)
+    a = world.add_body("a", hd.Box(1.0, 0.4, center=(0.2, 0.1)), mass=2.0,
+                       points={"tip": (0.5, 0.2)})
+    b = world.add_body("b", hd.Circle(0.3), mass=1.5, position=(2.0, 1.0))
+    # The file's parts in the order of their names, ball before hull.
+    c = world.add_body("c", [hd.Circle(0.2, center=(0.0, -0.8)),
+                             hd.Polygon([(-1.0, -0.5), (1.0, -0.5), (0.0, 1.0)])],
+                       density=3.0, position=(-2.0, 0.5))
+    world.add_spring("anchored", a, "tip", anchor=(0.0, 3.0), stiffness=40.0,
+                     rest_length=0.5, damping=0.7)
+    world.add_spring("link", a, (-0.3, 0.1), b, (0.1, -0.2), stiffness=25.0, rest_length=1.0,
+                     damping=0.3)
+    world.add_spring("tie", b, body_b=c, stiffness=10.0)
+    world.add_drag("air", 0.4)
+    world.add_drag("wake", 0.2, [c], quadratic=True, point=(0.5, 0.5))
+    world.add_drag("fin", 0.9, [a], point="tip")
+    world.add_angular_damping("spin", 0.05, [a, b])
+    world.add_revolute_joint("pin", a, c, point_a=(0.0, 0.0), point_b=(2.0, -0.5), lower=-1.0,
+                             upper=1.0, motor_speed=1.0, max_torque=2.0, spring_stiffness=1.0,
+                             spring_damping=0.1, rest_angle=0.0, collide_connected=True)
+    world.add_prismatic_joint("rail", None, b, axis=(1.0, 0.0), lower=-1.0, upper=1.0,
+                              motor_speed=0.0, max_force=1.0)
+    world.add_weld_joint("glue", b, c, frequency=2.0, damping_ratio=0.5)
+    world.add_distance_joint("rod", a, b, length=1.0)
+    world.add_distance_joint("rope", a, c, max_length=9.0)
+    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
+    world.add_revolute_joint("hinge", None, b)
+    world.add_wall("floor", point=(0.0, -3.0), normal=(0.0, 1.0), restitution=0.5,
+                   friction=0.2, bodies=["a", b])
+    world.add_collision_group("all", [a, "b"], restitution=0.1, friction=0.4)
+    loaded = make_scene(params)
+    assert world.scene == dataclasses.replace(loaded, source="World", input_timeout_ns=0)
+
+
+def test_from_scene_takes_a_name_a_path_or_a_scene() -> None:
+    by_name = hd.World.from_scene("door")
+    path = hd.World.from_scene(by_name.scene.source)
+    scene = hd.World.from_scene(hd.load_scene("door"), script=False)
+    assert by_name.scene == path.scene == scene.scene
+    assert [body.name for body in by_name] == ["block", "door"]
+    for world in (by_name, scene):
+        world.advance(1.0)
+    assert by_name["door"].angle != scene["door"].angle  # the push at 0.5 s, or not
+
+
+@pytest.mark.parametrize("from_file", [True, False])
+def test_a_held_force_of_a_scene_file_stops_after_its_input_timeout(from_file) -> None:
+    """As the node's commands do (sample: input_timeout 0.5 s), a held force of a world
+    read from a file acts as one timed at 0.5 s; a World built in Python has no timeout."""
+    ends = []
+    for duration in (None, 0.5):
+        world = hd.World.from_scene("sample") if from_file else sample_in_python()
+        world["right"].apply_force((0.0, 20.0), duration=duration)
+        world.advance(2.0)
+        ends.append(world["right"].position)
+    assert (ends[0] == ends[1]) is from_file

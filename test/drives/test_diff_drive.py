@@ -1,0 +1,169 @@
+"""A differential drive under PI control: it reaches the commanded speed and turn rate,
+its motors never push harder than their cap (and then accelerate the body at exactly
+2 max_force / m), the friction circle caps each wheel, and a stale cmd_vel stops the push."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scene_builders import make_scene
+
+from hecker_dynamics.drives.control import DriveSet, advance_with_drives
+from hecker_dynamics.drives.diff_drive import VelocityCommand
+from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.scene.parameters import SceneError
+
+MASS = 10.0
+
+
+def robot_sim(drag: float = 0.0, integrator: str = "rk4", **drive) -> Simulation:
+    forces = {"drag": {"type": "linear_drag", "coefficient": drag, "bodies": ["robot"]},
+              "spin": {"type": "angular_damping", "coefficient": drag, "bodies": ["robot"]}
+              } if drag else {}
+    spec = {"type": "diff_drive", "body": "robot", "separation": 0.4, "max_force": 50.0,
+            "linear_kp": 40.0, "linear_ki": 80.0, "angular_kp": 4.0, "angular_ki": 8.0,
+            "cmd_vel_timeout": 0.0, "center": [-0.1, 0.0], **drive}
+    return Simulation(make_scene({
+        "step": 0.001, "integrator": integrator, "duration": 100.0,
+        "bodies": {"robot": {"parts": {"hull": {"shape": "box", "size": [0.6, 0.4]}},
+                             "mass": MASS, "angle": 0.3}},
+        "forces": forces, "drives": {"base": spec}}))
+
+
+def body_speeds(sim: Simulation) -> tuple[float, float, float]:
+    """Forward and sideways speed of the CM in body axes, and omega."""
+    theta = sim.q[0, 2]
+    c, s = math.cos(theta), math.sin(theta)
+    vx, vy, omega = sim.v[0]
+    return c * vx + s * vy, -s * vx + c * vy, omega
+
+
+def test_a_straight_command_reaches_its_speed_against_drag():
+    sim = robot_sim(drag=5.0)
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 0.8, 0.0))
+    advance_with_drives(sim, drives, 10_000_000_000)
+    forward, sideways, omega = body_speeds(sim)
+    # The integral term holds the 4 N against the drag with no error left (PI).
+    assert forward == pytest.approx(0.8, abs=1e-6)
+    assert abs(sideways) < 1e-12 and abs(omega) < 1e-12
+    assert sim.q[0, 2] == pytest.approx(0.3, abs=1e-12)  # went straight along its heading
+
+
+def test_a_turn_command_reaches_its_rate_about_the_axle():
+    sim = robot_sim(drag=5.0, lateral_damping=200.0)
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 0.5, 1.0))
+    advance_with_drives(sim, drives, 15_000_000_000)
+    forward, _, omega = body_speeds(sim)
+    assert omega == pytest.approx(1.0, abs=1e-5)
+    # Forward speed of the axle centre, 0.1 m behind the CM: u_C = u_CM (no x offset term).
+    assert forward == pytest.approx(0.5, abs=1e-4)
+
+
+def test_capped_motors_accelerate_at_exactly_twice_the_cap_over_the_mass():
+    cap = 2.0
+    sim = robot_sim(max_force=cap, integrator="semi_implicit_euler")
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 5.0, 0.0))
+    pushes = []
+    original = drives.drives[0].wrenches
+
+    def spy(q, v, time_ns):
+        commands = original(q, v, time_ns)
+        pushes.extend(c.force[0] for c in commands)
+        return commands
+
+    drives.drives[0].wrenches = spy
+    advance_with_drives(sim, drives, 1_000_000_000)
+    assert len(pushes) == 200 and max(pushes) == cap
+    forward, _, _ = body_speeds(sim)
+    assert forward == pytest.approx(2 * cap / MASS * 1.0, rel=1e-12)
+
+
+def test_traction_caps_each_wheel_on_its_friction_circle():
+    sim = robot_sim(traction=3.0, lateral_damping=1e3)
+    drive = DriveSet(sim).drives[0]
+    drive.receive(VelocityCommand(0, 5.0, 0.0))
+    sim.v[0, :2] = (-2.0, 1.0)  # sliding sideways as well as backwards
+    for command in drive.wrenches(sim.q, sim.v, 0):
+        assert math.hypot(*command.force) == pytest.approx(3.0, rel=1e-15)
+        assert command.force[0] > 0.0  # still pushing forward, scaled with the grip
+
+
+def test_a_stale_cmd_vel_stops_the_push_and_the_body_coasts():
+    sim = robot_sim(cmd_vel_timeout=0.5)
+    drives = DriveSet(sim)
+    drives.drives[0].receive(VelocityCommand(0, 1.0, 0.0))
+    advance_with_drives(sim, drives, 500_000_000)
+    assert not drives.drives[0].active(sim.time_ns)
+    assert [c.force for c in drives.drives[0].wrenches(sim.q, sim.v, sim.time_ns)] == \
+        [(0.0, 0.0), (0.0, 0.0)]
+    advance_with_drives(sim, drives, 510_000_000)  # the last push has ended by now
+    coasting = sim.v.copy()
+    advance_with_drives(sim, drives, 2_000_000_000)
+    assert np.array_equal(sim.v, coasting) and coasting[0, 0] > 0.1
+    for _ in range(24):  # new commands, 4 a second for 6 s, brake it
+        drives.drives[0].receive(VelocityCommand(sim.time_ns, 0.0, 0.0))
+        advance_with_drives(sim, drives, sim.time_ns + 250_000_000)
+    assert np.max(np.abs(sim.v)) < 1e-4 * coasting[0, 0]
+
+
+def test_the_controller_state_round_trips():
+    sim = robot_sim()
+    drive = DriveSet(sim).drives[0]
+    drive.receive(VelocityCommand(7, 0.5, -0.25))
+    drive.wrenches(sim.q, sim.v, 10_000_000)
+    copy = DriveSet(sim).drives[0]
+    copy.import_state(drive.export_state())
+    assert copy.export_state() == drive.export_state()
+    assert copy.wrenches(sim.q, sim.v, 20_000_000) == drive.wrenches(sim.q, sim.v, 20_000_000)
+
+
+@pytest.mark.parametrize("drive, problem", [
+    ({"body": "nobody"}, "unknown body"),
+    ({"separation": 0.0}, "must be positive"),
+    ({"rate": 7.0}, "not a whole number of physics steps"),
+    ({"type": "tank"}, "must be one of diff_drive"),
+])
+def test_bad_drive_parameters_are_refused_by_name(drive, problem):
+    with pytest.raises(SceneError, match=problem):
+        robot_sim(**drive)
+
+
+def test_a_scripted_command_holds_from_its_time_until_the_next_one():
+    script = [0.25, 0.5, 0.0, 0.5, 0.0, 1.0]
+    for play in (True, False):
+        sim = robot_sim(script=script, cmd_vel_timeout=0.05)
+        drives = DriveSet(sim)
+        seen = []
+        for t_ns in range(0, 800_000_000, 10_000_000):
+            advance_with_drives(sim, drives, t_ns + sim.step_ns, play)  # through t_ns
+            command = drives.drives[0].command
+            seen.append(None if command is None else (command.linear_x, command.angular_z))
+        if not play:
+            assert set(seen) == {None}
+            continue
+        # Repeated at every control instant, so the 0.05 s timeout never stops it.
+        assert seen[:25] == [None] * 25 and set(seen[25:50]) == {(0.5, 0.0)}
+        assert set(seen[50:]) == {(0.0, 1.0)} and drives.drives[0].active(sim.time_ns)
+
+
+def test_a_script_out_of_order_is_refused():
+    with pytest.raises(SceneError, match="in order"):
+        robot_sim(script=[1.0, 0.5, 0.0, 0.5, 0.0, 0.0])
+
+
+def test_a_run_with_drives_publishes_what_the_node_loop_does():
+    """play_with_drives (render's run) and the node's run loop push the drive forces at the
+    same instants: the robot scene's published states agree bit for bit."""
+    from hecker_dynamics.drives.control import play_with_drives
+    from hecker_dynamics.ros.runner import Runner
+    from hecker_dynamics.scene.load import load_scene
+    scene = load_scene("robot")
+    runner = Runner(scene, wall_clock=lambda: 0)
+    looped = runner.advance(6_000_000_000).snapshots
+    played = play_with_drives(Simulation(scene), scene.script, 6_000_000_000)
+    assert len(played) == 300 and [s.bodies for s in played] == [s.bodies for s in looped]
+    assert played[-1].bodies[2].position[0] > 3.0  # the robot drove across the room

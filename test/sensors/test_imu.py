@@ -1,0 +1,115 @@
+"""IMU readings against the dynamics: the centripetal acceleration omega^2 r of a body
+spinning freely, the specific force F / m of a body pushed while it falls (zero in free
+fall), and a central difference of a body point's velocity (Eq. 9) along an RK4 run."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scene_builders import make_scene
+
+from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.scene.parameters import SceneError
+from hecker_dynamics.sensors.imu import Imu
+
+
+def setup(body: dict, forces: dict | None = None, step: float = 1e-4,
+          **imu) -> tuple[Imu, Simulation]:
+    scene = make_scene({"step": step, "integrator": "rk4", "bodies": {"robot": body},
+                        "forces": forces or {},
+                        "sensors": {"imu": {"type": "imu", "body": "robot", **imu}}})
+    sim = Simulation(scene)
+    return Imu(scene.sensors[0], scene, sim.model.cm_local), sim
+
+
+def read(imu: Imu, sim: Simulation):
+    return imu.read(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v), sim.time_ns)
+
+
+def test_a_freely_spinning_body_reads_omega_squared_r_towards_its_centre():
+    omega, r = 3.0, 0.4
+    # The CM is the circle's centre (0.1, 0); the sensor sits r beyond it on the x axis.
+    imu, sim = setup({"shape": "circle", "radius": 0.5, "center": [0.1, 0.0], "mass": 2.0,
+                      "angular_velocity": omega}, position=[0.1 + r, 0.0])
+    for _ in range(1234):
+        sim.step()
+    reading = read(imu, sim)
+    assert reading.linear_acceleration == pytest.approx((-omega ** 2 * r, 0.0), abs=1e-12)
+    assert reading.angular_velocity == omega
+    assert reading.yaw == sim.q[0, 2]
+    x, y, z, w = reading.orientation
+    assert (x, y) == (0.0, 0.0) and math.atan2(z, w) * 2 == pytest.approx(sim.q[0, 2], abs=1e-15)
+
+
+def test_specific_force_is_the_push_over_the_mass_and_zero_in_free_fall():
+    mass, push = 2.0, (3.0, -1.0)
+    body = {"shape": "box", "size": [0.4, 0.2], "mass": mass}
+    falling, sim = setup(body, {"g": {"type": "gravity"}}, angle=0.5)
+    for _ in range(100):
+        sim.step()
+    assert read(falling, sim).linear_acceleration == (0.0, 0.0)
+    pushed, sim = setup(body, {"g": {"type": "gravity"},
+                               "push": {"type": "constant_force", "body": "robot",
+                                        "force": list(push)}}, angle=0.5)
+    for _ in range(100):
+        sim.step()
+    # The push in the sensor's axes, turned by -0.5 rad (the body does not turn).
+    c, s = math.cos(0.5), math.sin(0.5)
+    expected = (c * push[0] / mass + s * push[1] / mass, -s * push[0] / mass + c * push[1] / mass)
+    assert read(pushed, sim).linear_acceleration == pytest.approx(expected, abs=1e-14)
+
+
+def mount_error(step: float) -> np.ndarray:
+    """IMU reading (back in world axes, gravity added back) less a central difference of
+    the mount's velocity, a body point's velocity (Eq. 9), over the neighbouring steps, at
+    t = 0.3 s. A force at a corner turns the body: both the tangential and the centripetal
+    terms count."""
+    mount = (0.3, -0.2)
+    imu, sim = setup({"shape": "box", "size": [1.0, 0.5], "mass": 1.5, "angular_velocity": 2.0},
+                     {"g": {"type": "gravity"},
+                      "push": {"type": "constant_force", "body": "robot", "force": [0.0, 4.0],
+                               "axes": "body", "point": [0.5, 0.25]}},
+                     step=step, position=list(mount), angle=0.7)
+
+    def point_velocity() -> np.ndarray:
+        theta, omega = sim.q[0, 2], sim.v[0, 2]
+        c, s = math.cos(theta), math.sin(theta)
+        r = np.array([c * mount[0] - s * mount[1], s * mount[0] + c * mount[1]])
+        return sim.v[0, :2] + omega * np.array([-r[1], r[0]])
+
+    for _ in range(round(0.3 / step) - 1):
+        sim.step()
+    before = point_velocity()
+    sim.step()
+    reading = read(imu, sim)
+    sim.step()
+    derivative = (point_velocity() - before) / (2 * sim.step_seconds)
+    c, s = math.cos(reading.yaw), math.sin(reading.yaw)
+    fx, fy = reading.linear_acceleration
+    assert abs(reading.angular_velocity) > 5.0  # the push did turn it
+    return np.array([c * fx - s * fy, s * fx + c * fy - 9.81]) - derivative
+
+
+def test_acceleration_at_the_mount_is_the_derivative_of_its_point_velocity():
+    # The central difference errs by h^2 / 6 times the jerk: the difference shrinks four
+    # times when the step halves (a missing term would leave an error that does not).
+    coarse, fine = mount_error(1e-4), mount_error(5e-5)
+    assert np.max(np.abs(coarse)) < 2e-6
+    np.testing.assert_allclose(coarse / fine, [4.0, 4.0], rtol=0.02)
+
+
+def test_noise_is_seeded_by_stamp():
+    imu, sim = setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, orientation_noise=0.01,
+                     angular_velocity_noise=0.02, linear_acceleration_noise=0.1, seed=4)
+    a = sim.model.accelerations(sim.q, sim.v)
+    readings = [imu.read(sim.q, sim.v, a, stamp) for stamp in range(2000)]
+    assert readings == [imu.read(sim.q, sim.v, a, stamp) for stamp in range(2000)]
+    spread = np.std([[r.yaw, r.angular_velocity, *r.linear_acceleration] for r in readings],
+                    axis=0)
+    np.testing.assert_allclose(spread, [0.01, 0.02, 0.1, 0.1], rtol=0.08)  # 5 sigma: 7.9 %
+
+
+def test_a_bad_imu_rate_is_refused_by_name():
+    with pytest.raises(SceneError, match="sensors.imu.rate"):
+        setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, rate=3000.0)
