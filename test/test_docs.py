@@ -77,8 +77,9 @@ def test_every_shipped_scene_is_described_in_the_readme(name):
     assert f"| `{name}`" in README
 
 
-def test_the_readme_command_lines_parse():
-    lines = [line.split("#")[0].strip() for line in README.splitlines()
+@pytest.mark.parametrize("page", ["README.md", "docs/cli.md"])
+def test_the_command_lines_of_the_guides_parse(page):
+    lines = [line.split("#")[0].strip() for line in (ROOT / page).read_text().splitlines()
              if line.startswith("hecker-dynamics ")]
     assert len(lines) >= 5
     for line in lines:
