@@ -359,7 +359,9 @@ class Runner:
         if not self.started:
             self.rejected += 1
             return [LogLine(f"{topic}:early", f"input on '{topic}' ignored: the simulation "
-                                              "starts with the ROS clock (waiting for /clock)")]
+                                              "has not started (it starts at the first tick of "
+                                              "the ROS clock; under use_sim_time, the first "
+                                              "/clock)")]
         if isinstance(wrench_topic, MotorTopic):
             try:
                 set_motor_speed(self.sim, wrench_topic.joint, float(msg.data))

@@ -109,7 +109,8 @@ def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_e
                                 ros_env))
         time.sleep(2.0)
     for kick in KICKS:
-        subprocess.run(["ros2", "topic", "pub", "-w", "1", "--once", "/applied_wrench",
+        # -w 2: the node's and the recorder's subscriptions, so the recorder logs each kick
+        subprocess.run(["ros2", "topic", "pub", "-w", "2", "--once", "/applied_wrench",
                         "hecker_dynamics/msg/AppliedWrench", kick], env=ros_env, check=True,
                        timeout=30, capture_output=True)
         time.sleep(1.0)

@@ -449,6 +449,7 @@ def test_cmd_vel_drives_the_robot_and_is_recorded(ros):
     events = collect(ros, InputEvent, "dynamics_node/input_events")
     node = ros.start({"scene": "robot", "play_script": False})
     command = ros.helper.create_publisher(Twist, "robot/cmd_vel", 10)
+    spin_until(ros, lambda: node.runner.started, "the simulation to start with the clock")
 
     def commanded() -> bool:
         command.publish(Twist(linear=Vector3(x=0.5)))
@@ -458,6 +459,7 @@ def test_cmd_vel_drives_the_robot_and_is_recorded(ros):
     spin_until(ros, lambda: any(e.kind == CMD_VEL_EVENT for e in events),
                "the cmd_vel's input event")
     event = next(e for e in events if e.kind == CMD_VEL_EVENT)
-    assert event.accepted and event.cmd_vel.linear.x == 0.5 and event.topic == "/robot/cmd_vel"
+    assert event.accepted and event.cmd_vel.linear.x == 0.5
+    assert event.topic == f"{NAMESPACE}/robot/cmd_vel"
     spin_until(ros, lambda: node.runner.sim.v[node.runner.sim.model.index["robot"], 0] > 0.1,
                "the robot to move forward")
