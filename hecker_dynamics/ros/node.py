@@ -53,7 +53,7 @@ from .names import (APPLIED_WRENCH_TOPIC, CLOCK_QOS, CLOCK_TOPIC, COMMAND_QOS, D
                     output_qos)
 from .names import DELETE_BODY_SERVICE, SPAWN_BODY_SERVICE
 from .outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
-from .runner import (LogLine, NodeOptions, Runner, TickAction, catch_up_cap, node_setup,
+from .runner import (LogLine, NodeOptions, Runner, Tick, TickAction, catch_up_cap, node_setup,
                      plan_tick, refused_change)
 from .names import (INPUT_EVENTS_QOS, INPUT_EVENTS_TOPIC, KEYFRAME_QOS, KEYFRAME_TOPIC,
                     SESSION_QOS, SESSION_TOPIC, WORLD_EVENTS_QOS, WORLD_EVENTS_TOPIC)
@@ -363,8 +363,7 @@ class DynamicsNode(Node):
         if tick.diverged is not None:
             self.get_logger().error(
                 f"{tick.diverged}; halted until the 'reset' service is called")
-        for snapshot in tick.snapshots:
-            self._publish_snapshot(snapshot)
+        self._publish_tick(tick)
         if tick.lag:
             self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
                                  f"clock (a tick takes at most {self.runner.max_steps} steps: "
@@ -440,10 +439,15 @@ class DynamicsNode(Node):
     def _publish(self, output: OutputFields) -> None:
         self._publish_bytes[output.topic](serialize_output(output))
 
-    def _publish_snapshot(self, snapshot: Snapshot) -> None:
+    def _publish_tick(self, tick: Tick) -> None:
+        """The snapshots and sensor readings the tick passed, in stamp order."""
         publish = self._publish_bytes
-        for topic, data in self._serialize(snapshot):
-            publish[topic](data)
+        for _, item in tick.in_order():
+            if isinstance(item, Snapshot):
+                for topic, data in self._serialize(item):
+                    publish[topic](data)
+            else:
+                self._publish(item)
 
     def _publish_static(self) -> None:
         """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;
@@ -501,8 +505,7 @@ class DynamicsNode(Node):
 
     def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
         record, tick = self.runner.step(int(request.steps))
-        for snapshot in tick.snapshots:
-            self._publish_snapshot(snapshot)
+        self._publish_tick(tick)
         return self._answer(record, response, f"stepped {request.steps} step(s) to "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 
