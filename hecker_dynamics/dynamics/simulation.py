@@ -444,7 +444,9 @@ class Simulation:
 
     def accelerations(self) -> np.ndarray:
         """(ax, ay, alpha) per body at the present state with the inputs the next step
-        takes (Model.accelerations; Eq. 5 and 14): what an IMU reads now."""
+        takes: the summed forces over the mass (Eq. 5) and the angular acceleration, the
+        summed torques over inertia (Eq. 14), as Model.accelerations gives them; what an
+        IMU reads now."""
         self._update_inputs()
         with np.errstate(all="ignore"):
             return self.model.accelerations(self.q, self.v)
