@@ -12,9 +12,11 @@ number of messages (a bag recorded from the node logs them at arrival, not at si
 else by log time. Several messages with one stamp match in order. Differences measured:
 
 - position: distance between positions (PoseStamped, Odometry, Marker poses and points,
-  TFMessage translations),
-- angle: rotation between orientations (radians, from the quaternions),
-- velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry).
+  TFMessage translations) and the largest difference of a LaserScan's ranges (equal
+  infinities differ by 0),
+- angle: rotation between orientations (radians, from the quaternions; Imu's too),
+- velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry;
+  an Imu's linear acceleration and angular velocity, measured with the velocity tolerance).
 
 Every other field (stamps, frames, names, marker types, counts, colours and scales, the
 parent and child frames of each transform, ...) must be equal: the message with the
@@ -33,8 +35,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Optional, Union
 
+import numpy as np
+
 from .io import (
     DIAGNOSTIC_ARRAY,
+    IMU,
+    LASER_SCAN,
     MARKER_ARRAY,
     ODOMETRY,
     POSE_STAMPED,
@@ -274,6 +280,18 @@ def _twist(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
     report.angular_velocity.update(_distance(a.angular, b.angular), stamp)
 
 
+def _ranges(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
+    if len(a.ranges) != len(b.ranges):
+        report.note(f"at {stamp * 1e-9:.6f} s: {len(a.ranges)} ranges != {len(b.ranges)}")
+        return
+    ra, rb = np.asarray(a.ranges, dtype=float), np.asarray(b.ranges, dtype=float)
+    with np.errstate(invalid="ignore"):
+        differences = np.where(ra == rb, 0.0, np.abs(ra - rb))
+    # NaN where a range is NaN, so that it fails; the largest difference otherwise.
+    report.position.update(float(np.max(differences, initial=0.0))
+                           if not np.isnan(differences).any() else math.nan, stamp)
+
+
 def _header(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
     if a.header.frame_id != b.header.frame_id:
         report.note(f"at {stamp * 1e-9:.6f} s: frame_id '{a.header.frame_id}' != "
@@ -291,7 +309,11 @@ _MEASURED: dict[str, tuple[tuple[str, ...], ...]] = {
                    ("markers", "*", "points", "*")),
     TF_MESSAGE: (("transforms", "*", "transform", "translation"),
                  ("transforms", "*", "transform", "rotation")),
+    IMU: (("orientation",), ("angular_velocity",), ("linear_acceleration",)),
+    LASER_SCAN: (),
 }
+#: Per structured type, its measured arrays (copied whole by :func:`_same_elsewhere`).
+_MEASURED_ARRAYS: dict[str, tuple[str, ...]] = {LASER_SCAN: ("ranges",)}
 
 
 def _items(msg: Any, path: tuple[str, ...]) -> list[Any]:
@@ -313,6 +335,8 @@ def _same_elsewhere(msgtype: str, a: Any, b: Any, raw_a: bytes) -> bool:
             for name in ("x", "y", "z", "w"):
                 if hasattr(source, name):
                     setattr(target, name, getattr(source, name))
+    for name in _MEASURED_ARRAYS.get(msgtype, ()):
+        setattr(b, name, getattr(a, name))
     try:
         return bytes(typestore().serialize_cdr(b, msgtype)) == raw_a
     except Exception:  # a field of b the serializer refuses: not equal
@@ -383,6 +407,15 @@ def _measure(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
                                              tb.transform.translation), stamp)
             report.angle.update(_rotation_angle(ta.transform.rotation, tb.transform.rotation),
                                 stamp)
+    elif msgtype == LASER_SCAN:
+        _header(report, a, b, stamp)
+        _ranges(report, a, b, stamp)
+    elif msgtype == IMU:
+        _header(report, a, b, stamp)
+        report.angle.update(_rotation_angle(a.orientation, b.orientation), stamp)
+        report.velocity.update(_distance(a.linear_acceleration, b.linear_acceleration), stamp)
+        report.angular_velocity.update(_distance(a.angular_velocity, b.angular_velocity),
+                                       stamp)
     elif msgtype == DIAGNOSTIC_ARRAY:
         sa = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in a.status]
         sb = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in b.status]
@@ -398,7 +431,8 @@ def _decode_all(messages: Sequence[BagMessage]) -> list[Any]:
 
 
 #: The types compared field by field (the rest byte for byte).
-_STRUCTURED = (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY, TF_MESSAGE)
+_STRUCTURED = (POSE_STAMPED, TWIST, ODOMETRY, MARKER_ARRAY, DIAGNOSTIC_ARRAY, TF_MESSAGE,
+               LASER_SCAN, IMU)
 
 
 def compare_pairs(topic: str, msgtype: str,

@@ -42,6 +42,7 @@ from ..ros.fields import (
 from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
+from ..ros.sensor_fields import ImuFields, LaserScanFields
 from ..ros.session import (
     APPLIED_WRENCH_EVENT,
     CMD_VEL_EVENT,
@@ -65,7 +66,8 @@ __all__ = [
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
     "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
-    "default_message", "stamp_ns_of", "MAX_STAMP_NS",
+    "default_message", "stamp_ns_of", "MAX_STAMP_NS", "LASER_SCAN", "IMU",
+    "laser_scan_message", "imu_message",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
@@ -83,6 +85,8 @@ MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 JOINT_STATE = "sensor_msgs/msg/JointState"
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+IMU = "sensor_msgs/msg/Imu"
 FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
@@ -235,6 +239,32 @@ def joint_state_message(fields: JointStateFields) -> Any:
 
 def _vector(msgtype: str, xyz: Sequence[float]) -> Any:
     return default_message(msgtype, x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2]))
+
+
+def laser_scan_message(fields: LaserScanFields) -> Any:
+    """``sensor_msgs/LaserScan`` from :func:`~hecker_dynamics.ros.sensor_fields.laser_scan_fields`
+    (ranges float32 as on the wire, no intensities)."""
+    return default_message(
+        LASER_SCAN, header=header_message(fields.header), angle_min=fields.angle_min,
+        angle_max=fields.angle_max, angle_increment=fields.angle_increment,
+        time_increment=fields.time_increment, scan_time=fields.scan_time,
+        range_min=fields.range_min, range_max=fields.range_max,
+        ranges=np.array(fields.ranges, dtype=np.float32))
+
+
+def imu_message(fields: ImuFields) -> Any:
+    """``sensor_msgs/Imu`` from :func:`~hecker_dynamics.ros.sensor_fields.imu_fields`."""
+    x, y, z, w = fields.orientation
+    return default_message(
+        IMU, header=header_message(fields.header),
+        orientation=default_message("geometry_msgs/msg/Quaternion", x=x, y=y, z=z, w=w),
+        orientation_covariance=np.array(fields.orientation_covariance, dtype=np.float64),
+        angular_velocity=_vector("geometry_msgs/msg/Vector3", fields.angular_velocity),
+        angular_velocity_covariance=np.array(fields.angular_velocity_covariance,
+                                             dtype=np.float64),
+        linear_acceleration=_vector("geometry_msgs/msg/Vector3", fields.linear_acceleration),
+        linear_acceleration_covariance=np.array(fields.linear_acceleration_covariance,
+                                                dtype=np.float64))
 
 
 def pose_message(fields: Pose) -> Any:

@@ -52,14 +52,14 @@ import bisect
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any, Optional, Union
 
 from ..dynamics.simulation import Snapshot
 from ..ros.cmd_vel import CmdVelTopic
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
 from ..ros.names import CLOCK_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
-from ..ros.outputs import DIAGNOSTICS_TOPIC, body_topics
+from ..ros.outputs import DIAGNOSTICS_TOPIC, OutputFields, body_topics, sensor_topic
 from ..ros.runner import InputSource, Runner
 from ..ros.session import (
     APPLIED_WRENCH_EVENT,
@@ -112,7 +112,14 @@ from .records import (
     recorded_sessions,
     spawned_bodies,
 )
-from .replay import Output, ReplayError, input_topics, output_types, snapshot_messages
+from .replay import (
+    Output,
+    ReplayError,
+    input_topics,
+    output_message,
+    output_types,
+    snapshot_messages,
+)
 
 #: Most twists in a row a recorder may have lost where the check still finds the next one:
 #: ten publish periods, 0.2 s at the default rate.
@@ -204,7 +211,8 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
         for row, j in enumerate(checked):
             if messages[j].raw != raw[id(replayed[offset + j])]:
                 return row
-        return count
+        # Twists past the replay's last are none it published: not all of them match.
+        return count if offset + count <= len(replayed) else len(checked)
 
     best, longest = guess, 0
     for distance in range(len(replayed) + count + 1):
@@ -407,16 +415,23 @@ class _SessionReplay:
             sim = runner.sim
             if keyframe.steps and (sim.time_ns - sim.start_ns) % self.scene.publish_period_ns == 0:
                 # The node published this instant on arriving there, before the keyframe.
-                self.publish([sim.snapshot()])
+                self.publish([(sim.time_ns, sim.snapshot())])
             self.taken[keyframe.stamp_ns] = keyframe
         runner.take_records()
         self.replayed.starts[self.session.number] = runner.sim.time_ns
         return runner.sim.time_ns
 
-    def publish(self, snapshots: Iterable[Snapshot]) -> None:
-        for snapshot in snapshots:
+    def publish(self, published: Iterable[tuple[int, Union[Snapshot, OutputFields]]]) -> None:
+        """Snapshots and sensor readings with their stamps, in the node's order
+        (:meth:`~hecker_dynamics.ros.runner.Tick.in_order`)."""
+        for stamp, item in published:
             self.replayed.add(self.session.number, snapshot_messages(
-                self.runner.scene, snapshot, tf=True, base=self.runner.base_scene))
+                self.runner.scene, item, tf=True, base=self.runner.base_scene)
+                if isinstance(item, Snapshot) else [output_message(item, stamp)])
+
+    def leave(self) -> None:
+        """Publish the sensors' readings of the instant the replay stands at."""
+        self.publish(self.runner.leave())
 
     def advance(self, target_ns: int) -> None:
         try:
@@ -424,7 +439,7 @@ class _SessionReplay:
         except (ArithmeticError, ValueError) as error:  # a state no run of the node reaches
             raise _Stuck(f"cannot be replayed on from {seconds(self.runner.sim.time_ns)} s: "
                          f"{type(error).__name__}: {error}") from None
-        self.publish(tick.snapshots)
+        self.publish(tick.in_order())
         if tick.diverged is not None and self.check.halted is None:
             self.check.halted = tick.diverged
         self.keep_keyframes()
@@ -510,7 +525,7 @@ class _SessionReplay:
         if event.kind is WorldChange.RESUME:
             return runner.resume_at(event.time_ns)
         record, tick = runner.step(int(event.values[0]))
-        self.publish(tick.snapshots)
+        self.publish(tick.in_order())
         if tick.diverged is not None and self.check.halted is None:
             self.check.halted = tick.diverged
         return record
@@ -642,6 +657,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
                               f"{', '.join(sorted(produced_topics - set(skipped)))}")
         skipped.update({t: "not named by --topic" for t in produced_topics - set(topics)})
     compared = produced_topics - set(skipped)
+    sensor_topics = [resolve_topic(sensor_topic(spec)) for spec in scene.sensors]
     for topic, why in skipped.items():
         if topic in bag.topics:
             coverage.not_compared[topic] = why
@@ -672,6 +688,10 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
         end_ns = _session_end(scene, session, by_session.get(session.number, {}), start_ns,
                               coverage)
         replay.run(events, end_ns, coverage)
+        recorded_here = by_session.get(session.number, {})
+        if any(stamp == end_ns for topic in sensor_topics for _, stamp in
+               recorded_here.get(topic, [])):
+            replay.leave()  # the node stepped on from the end: its readings there are out
         replayed.ends[session.number] = end_ns
         check.sessions += 1
         if progress is not None:

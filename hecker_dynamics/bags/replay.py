@@ -15,9 +15,12 @@ The rules are the node's (``hecker_dynamics.ros.node``, non-lockstep):
   belongs to another scene.
 
 Outputs are the node's: ``/<body>/pose`` (PoseStamped), ``/<body>/twist`` (Twist), and when
-the scene enables them ``/<body>/odom``, ``/markers`` and ``/diagnostics``; every message is
-logged at its sim time. ``/tf`` and ``/tf_static`` (TFMessage, when the scene publishes TF)
-are written only when asked for (``tf=True``, ``replay --tf``), so that bags replayed before
+the scene enables them ``/<body>/odom``, ``/markers`` and ``/diagnostics``, and each sensor's
+``/<body>/<sensor>/scan`` (LaserScan) or ``.../imu`` (Imu); every message is logged at its
+sim time. The sensors sample an instant as the simulation steps on from it, so the replay's
+last instant has readings only when the bag holds one stamped there (the node went on).
+``/tf`` and ``/tf_static`` (TFMessage, when the scene publishes TF) are written only when
+asked for (``tf=True``, ``replay --tf``), so that bags replayed before
 the node published TF, the golden bags among them, keep their bytes. Diagnostics carry a
 zero ``step_wall_time`` (wall time is not reproducible). Everything is deterministic: same
 scene and bag, same bytes.
@@ -46,6 +49,7 @@ from ..ros.outputs import (
     OutputKind,
     SnapshotOutputs,
     output_topics,
+    sensor_topic,
 )
 from ..ros.runner import InputSource, Runner
 from ..scene.commands import InputError
@@ -62,7 +66,8 @@ from .io import (
 )
 
 __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "input_topics",
-           "output_types", "replay", "replay_to_bag", "replay_outputs", "serialize_outputs",
+           "output_types", "output_message", "replay", "replay_to_bag", "replay_outputs",
+           "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
            "recorded_output_topics", "check_session", "check_distinct"]
 
@@ -306,10 +311,12 @@ _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.POSE: bags.pose_stamped_message, OutputKind.TWIST: bags.twist_message,
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
     OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
+    OutputKind.LASER_SCAN: bags.laser_scan_message, OutputKind.IMU: bags.imu_message,
 }
 
 
-def _output(fields: OutputFields, log_ns: int) -> Output:
+def output_message(fields: OutputFields, log_ns: int) -> Output:
+    """The bag message of one output, logged at ``log_ns``."""
     return Output(resolve_topic(fields.topic), fields.kind.value, log_ns,
                   _MESSAGE_BUILDERS[fields.kind](fields.fields))
 
@@ -319,10 +326,21 @@ def snapshot_messages(scene: Scene, snapshot: Snapshot, *, tf: bool = False,
     """The messages the node publishes for one snapshot, in its publishing order, in the
     world ``scene`` that started as ``base`` (default ``scene``)."""
     fields = SnapshotOutputs(scene, tf=tf and scene.publish_tf, base=base)(snapshot)
-    return [_output(output, snapshot.time_ns) for output in fields]
+    return [output_message(output, snapshot.time_ns) for output in fields]
 
 
 # ----------------------------------------------------------------------------- replay
+
+def _sampled_at(scene: Scene, bag: BagContents, stamp_ns: int) -> bool:
+    """Whether ``bag`` holds a sensor reading of ``scene`` stamped ``stamp_ns`` (the
+    sensors sample an instant as the simulation steps on from it)."""
+    for spec in scene.sensors:
+        recorded = bag.on(resolve_topic(sensor_topic(spec)))
+        if recorded and bags.stamp_ns_of(recorded[-1].decode()) == stamp_ns:
+            return True
+    return False
+
+
 
 def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
            start_ns: Optional[int] = None, duration_ns: Optional[int] = None,
@@ -344,15 +362,15 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
     outputs_of = SnapshotOutputs(scene, tf=tf and scene.publish_tf)
     # The node latches the named points' transforms once, before its first tick.
     for fields in outputs_of.static(start):
-        emit(_output(fields, start))
+        emit(output_message(fields, start))
         result.outputs += 1
 
     def run_tick(target_ns: int) -> None:
         tick = runner.advance(target_ns)
         result.rejected.extend(tick.script_errors)
-        for snapshot in tick.snapshots:
-            for fields in outputs_of(snapshot):
-                emit(_output(fields, snapshot.time_ns))
+        for stamp, item in tick.in_order():
+            for fields in outputs_of(item) if isinstance(item, Snapshot) else [item]:
+                emit(output_message(fields, stamp))
                 result.outputs += 1
         if tick.diagnostics is not None:
             emit(Output(resolve_topic(DIAGNOSTICS_TOPIC), OutputKind.DIAGNOSTICS.value,
@@ -382,6 +400,11 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         tick = target
         if progress is not None:
             progress((tick - start) / (end - start) if end > start else 1.0)
+    if result.halted is None and _sampled_at(scene, bag, sim.time_ns):
+        # The node stepped on from the end, which took the sensors' readings there.
+        for stamp, fields in runner.leave():
+            emit(output_message(fields, stamp))
+            result.outputs += 1
     result.accepted = runner.accepted
     result.steps = sim.steps
     result.reached_ns = sim.time_ns

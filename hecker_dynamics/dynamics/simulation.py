@@ -410,11 +410,7 @@ class Simulation:
         before they next change, else one in Python."""
         if self._halted is not None:  # refused again, as a non-finite step would be
             raise DivergenceError(self._halted)
-        if self._inputs.update(self._time_ns):
-            rows = [held.row for held in self._inputs.active()]
-            self.model.inputs = wrench_term(rows) if rows else None
-            self._bound.inputs_changed(self.q, self.model.inputs)
-            self._hold(rows)
+        self._update_inputs()
         contacts, joints = self.model.contacts, self.model.joints
         if self._compiled is None or self.model.compiled is None or \
                 (contacts is not None and not contacts.compiled) or \
@@ -447,6 +443,23 @@ class Simulation:
             error = IntegrationError(failed)
             raise self._failed(error) from error
         return taken
+
+    def _update_inputs(self) -> None:
+        """Make the inputs active now the model's (what the step from now sees)."""
+        if self._inputs.update(self._time_ns):
+            rows = [held.row for held in self._inputs.active()]
+            self.model.inputs = wrench_term(rows) if rows else None
+            self._bound.inputs_changed(self.q, self.model.inputs)
+            self._hold(rows)
+
+    def accelerations(self) -> np.ndarray:
+        """(ax, ay, alpha) per body at the present state with the inputs the next step
+        takes: the summed forces over the mass (Eq. 5) and the angular acceleration, the
+        summed torques over inertia (Eq. 14), as Model.accelerations gives them; what an
+        IMU reads now."""
+        self._update_inputs()
+        with np.errstate(all="ignore"):
+            return self.model.accelerations(self.q, self.v)
 
     def _step(self) -> None:
         """One step in Python, the inputs already updated."""

@@ -29,6 +29,7 @@ from .joint_states import JointStateFields, snapshot_joint_states
 from .markers import MarkerFields, marker_pose
 from .names import JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_TOPIC
 from .outputs import OutputFields, OutputKind, SnapshotOutputs
+from .sensor_fields import ImuFields, LaserScanFields
 from .tf import IDENTITY, TransformFields
 
 __all__ = ["ENCAPSULATION", "Part", "Slots", "layout", "serialize_output", "SERIALIZERS",
@@ -209,12 +210,35 @@ def _joint_state(fields: JointStateFields) -> bytes:
     return _pack(parts, values)
 
 
+def _laser_scan(fields: LaserScanFields) -> bytes:
+    """``sensor_msgs/LaserScan``: header, seven float32 (angles, times, range limits),
+    the ranges (float32) and no intensities."""
+    head, head_values = _header(fields.header)
+    ranges = fields.ranges
+    return _pack([head, ("f", 7), ("I", 1), ("f", len(ranges)), ("I", 1)],
+                 [*head_values, fields.angle_min, fields.angle_max, fields.angle_increment,
+                  fields.time_increment, fields.scan_time, fields.range_min, fields.range_max,
+                  len(ranges), *ranges, 0])
+
+
+def _imu(fields: ImuFields) -> bytes:
+    """``sensor_msgs/Imu``: header, then orientation (4) and angular velocity and linear
+    acceleration (3 each), each followed by its covariance (9), all float64."""
+    head, head_values = _header(fields.header)
+    return _pack([head, ("d", 37)],
+                 [*head_values, *fields.orientation, *fields.orientation_covariance,
+                  *fields.angular_velocity, *fields.angular_velocity_covariance,
+                  *fields.linear_acceleration, *fields.linear_acceleration_covariance])
+
+
 #: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`) that the
 #: node publishes apart from the snapshots' (:class:`SnapshotSerializer`): markers that
-#: delete, ``/tf_static``, and joint states, which a snapshot serializes this way too.
+#: delete, ``/tf_static``, the sensors' readings, and joint states, which a snapshot
+#: serializes this way too.
 SERIALIZERS: dict[OutputKind, Callable[[Any], bytes]] = {
     OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
-    OutputKind.JOINT_STATE: _joint_state,
+    OutputKind.JOINT_STATE: _joint_state, OutputKind.LASER_SCAN: _laser_scan,
+    OutputKind.IMU: _imu,
 }
 
 

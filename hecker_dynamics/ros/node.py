@@ -88,6 +88,7 @@ from .runner import (
     LogLine,
     NodeOptions,
     Runner,
+    Tick,
     TickAction,
     catch_up_cap,
     node_setup,
@@ -404,8 +405,7 @@ class DynamicsNode(Node):
         if tick.diverged is not None:
             self.get_logger().error(
                 f"{tick.diverged}; halted until the 'reset' service is called")
-        for snapshot in tick.snapshots:
-            self._publish_snapshot(snapshot)
+        self._publish_tick(tick)
         if tick.lag:
             self._warn("behind", f"the simulation is {tick.lag / NS_PER_S:.3f} s behind the "
                                  f"clock (a tick takes at most {self.runner.max_steps} steps: "
@@ -481,10 +481,15 @@ class DynamicsNode(Node):
     def _publish(self, output: OutputFields) -> None:
         self._publish_bytes[output.topic](serialize_output(output))
 
-    def _publish_snapshot(self, snapshot: Snapshot) -> None:
+    def _publish_tick(self, tick: Tick) -> None:
+        """The snapshots and sensor readings the tick passed, in stamp order."""
         publish = self._publish_bytes
-        for topic, data in self._serialize(snapshot):
-            publish[topic](data)
+        for _, item in tick.in_order():
+            if isinstance(item, Snapshot):
+                for topic, data in self._serialize(item):
+                    publish[topic](data)
+            else:
+                self._publish(item)
 
     def _publish_static(self) -> None:
         """``/tf_static`` at the start of the run, stamped with it as the replay stamps it;
@@ -542,8 +547,7 @@ class DynamicsNode(Node):
 
     def _on_step(self, request: Step.Request, response: Step.Response) -> Any:
         record, tick = self.runner.step(int(request.steps))
-        for snapshot in tick.snapshots:
-            self._publish_snapshot(snapshot)
+        self._publish_tick(tick)
         return self._answer(record, response, f"stepped {request.steps} step(s) to "
                                               f"{self.sim.time_ns / NS_PER_S:.9f} s")
 

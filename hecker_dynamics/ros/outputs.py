@@ -6,6 +6,10 @@ from typing import Any, NamedTuple, Optional
 
 from ..dynamics.simulation import Snapshot
 from ..scene.load import Scene
+from ..scene.sensors import LaserSpec, SensorSpec
+from ..sensors.imu import ImuReading
+from ..sensors.laser import LaserScan
+from ..sensors.schedule import Reading
 from .fields import (
     OdometryFields,
     PoseStampedFields,
@@ -30,14 +34,17 @@ from .names import (
     MARKERS_TOPIC,
     TF_STATIC_TOPIC,
     TF_TOPIC,
+    imu_topic,
     odometry_topic,
     pose_topic,
+    scan_topic,
     twist_topic,
 )
+from .sensor_fields import imu_fields, laser_scan_fields, sensor_transforms
 from .tf import body_transforms, point_transforms
 
 __all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",
-           "SnapshotOutputs", "snapshot_outputs"]
+           "SnapshotOutputs", "snapshot_outputs", "sensor_topic", "reading_output"]
 
 
 class OutputKind(enum.Enum):
@@ -50,6 +57,8 @@ class OutputKind(enum.Enum):
     DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
     TF = "tf2_msgs/msg/TFMessage"
     JOINT_STATE = "sensor_msgs/msg/JointState"
+    LASER_SCAN = "sensor_msgs/msg/LaserScan"
+    IMU = "sensor_msgs/msg/Imu"
 
 
 def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
@@ -68,7 +77,8 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     """The node's output topics for ``scene`` and their kinds, in publishing order: per
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
     ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``joint_states`` if the scene
-    has revolute or prismatic joints, and ``diagnostics`` if enabled.
+    has revolute or prismatic joints, each sensor's scan or IMU topic, and ``diagnostics``
+    if enabled.
 
     ``tf`` overrides the scene's ``publish.tf`` (the offline replay leaves TF out unless
     asked, so bags replayed before TF existed keep their bytes).
@@ -83,9 +93,18 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
         topics[TF_STATIC_TOPIC] = OutputKind.TF
     if has_joint_states(scene):
         topics[JOINT_STATES_TOPIC] = OutputKind.JOINT_STATE
+    for spec in scene.sensors:
+        topics[sensor_topic(spec)] = OutputKind.LASER_SCAN if isinstance(spec, LaserSpec) \
+            else OutputKind.IMU
     if scene.publish_diagnostics:
         topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
     return topics
+
+
+def sensor_topic(spec: SensorSpec) -> str:
+    """The topic a sensor's readings go out on: ``<body>/<name>/scan`` or ``.../imu``."""
+    topic = scan_topic if isinstance(spec, LaserSpec) else imu_topic
+    return topic(spec.body, spec.name)
 
 
 class OutputFields(NamedTuple):
@@ -167,8 +186,10 @@ class SnapshotOutputs:
         return [OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, delete_markers(gone, head))]
 
     def static(self, stamp_ns: int) -> list[OutputFields]:
-        """``/tf_static`` (published once, latched): empty without TF or named points."""
-        transforms = point_transforms(self.scene, stamp_ns) if self.tf else ()
+        """``/tf_static`` (published once, latched): each body frame to its named points'
+        frames and its sensors' frames; empty without TF or any of them."""
+        transforms = point_transforms(self.scene, stamp_ns) + \
+            sensor_transforms(self.scene, stamp_ns) if self.tf else ()
         return [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
 
 
@@ -177,3 +198,14 @@ def snapshot_outputs(scene: Scene, snapshot: Snapshot, *,
     """The messages the node publishes for one snapshot (see :class:`SnapshotOutputs`,
     which makes the per-scene constants once for many snapshots)."""
     return SnapshotOutputs(scene, tf=tf)(snapshot)
+
+
+def reading_output(reading: Reading) -> OutputFields:
+    """The message of one sensor reading (:class:`~..sensors.schedule.SensorSet`)."""
+    spec, sample = reading
+    if isinstance(sample, LaserScan):
+        assert isinstance(spec, LaserSpec)
+        return OutputFields(sensor_topic(spec), OutputKind.LASER_SCAN,
+                            laser_scan_fields(spec, sample))
+    assert isinstance(sample, ImuReading) and not isinstance(spec, LaserSpec)
+    return OutputFields(sensor_topic(spec), OutputKind.IMU, imu_fields(spec, sample))

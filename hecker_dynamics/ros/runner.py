@@ -29,10 +29,12 @@ from ..scene.load import (
     scene_from_parameters,
 )
 from ..scene.world import EditKind, WorldEdit, apply_edits
+from ..sensors.schedule import SensorSet
 from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .joint_states import MotorTopic, set_motor_speed
+from .outputs import OutputFields, reading_output
 from .session import (
     APPLIED_WRENCH_EVENT,
     CMD_VEL_EVENT,
@@ -234,6 +236,18 @@ class Tick:
     diagnostics: Optional[DiagnosticFields] = None     # to publish, when due and enabled
     diverged: Optional[str] = None                     # the divergence that halted the run
     script_errors: list[str] = dataclasses.field(default_factory=list)
+    #: The sensors' readings as messages, each with its stamp, in the order they were taken.
+    readings: list[tuple[int, OutputFields]] = dataclasses.field(default_factory=list)
+
+    def in_order(self) -> list[tuple[int, Union[Snapshot, OutputFields]]]:
+        """The snapshots and readings with their stamps in the order the node publishes
+        them: by stamp, a snapshot before the readings of its instant (they are taken on
+        leaving it)."""
+        merged: list[tuple[int, int, Union[Snapshot, OutputFields]]] = \
+            [(snapshot.time_ns, 0, snapshot) for snapshot in self.snapshots]
+        merged += [(stamp, 1, output) for stamp, output in self.readings]
+        merged.sort(key=lambda item: item[:2])  # stable: readings keep their order
+        return [(stamp, item) for stamp, _, item in merged]
 
 
 class Runner:
@@ -269,6 +283,7 @@ class Runner:
         self.edits: list[WorldEdit] = []
         self.sim = Simulation(scene, start_ns=start_ns)
         self.drives = DriveSet(self.sim)
+        self.sensors = SensorSet(scene, self.sim)
         self.play_script = play_script
         self.max_steps = max_steps
         self.started = False
@@ -303,6 +318,7 @@ class Runner:
         else:
             self.sim.reset(start_ns)
         self.drives = DriveSet(self.sim)
+        self.sensors = SensorSet(self.scene, self.sim)
         self._script_index = 0
         self.halted = None
         self.paused = False
@@ -456,6 +472,7 @@ class Runner:
                 self.paused, self._stepping, self.max_steps = True, False, cap
             tick.snapshots, tick.diverged = done.snapshots, done.diverged
             tick.script_errors = done.script_errors
+            tick.readings = done.readings
         return self._change(WorldChange.STEP, take, values=(float(steps),)), tick
 
     def spawn_body(self, name: str, spec: str,
@@ -482,6 +499,7 @@ class Runner:
         self.edits.append(edit)
         drives, self.drives = self.drives, DriveSet(self.sim)  # the bodies' rows moved
         self.drives.import_state(drives.export_state())
+        self.sensors = SensorSet(scene, self.sim, self.sensors.sampled_ns)
 
     def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
                 values: tuple[float, ...] = (), time_ns: int = 0, spec: str = "",
@@ -530,6 +548,7 @@ class Runner:
                 stop = min(target_ns, self._next_stop())
                 if sim.time_ns + sim.step_ns > stop:
                     break
+                tick.readings += self.leave()
                 tick.snapshots += sim.advance_to(
                     stop, max_steps=None if self.max_steps is None else self.max_steps - taken)
         except DivergenceError as error:
@@ -563,6 +582,14 @@ class Runner:
                 self.records.append(self.keyframe())
             self._next_keyframe_step = sim.steps + self.keyframe_steps
 
+    def leave(self) -> list[tuple[int, OutputFields]]:
+        """The readings of the sensors due at the present instant, with everything made at
+        it in place (:mod:`~..sensors.schedule`), each instant once: what :meth:`advance`
+        takes as it steps on from the instant, and a replay that ends at an instant the
+        node stepped on from takes there."""
+        return [(self.sim.time_ns, reading_output(reading))
+                for reading in self.sensors.sample(self.sim)]
+
     def _next_stop(self) -> int:
         """The next instant :meth:`_arrive` has work at: the push of the next scripted
         command or the next keyframe (far in the future when there is neither)."""
@@ -573,8 +600,10 @@ class Runner:
             stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
         if self.keyframe_steps and not self._stepping:
             stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
-        control = self.drives.next_stop()
-        return stop if control is None else min(stop, control)
+        for next_stop in (self.drives.next_stop(), self.sensors.next_stop(sim.time_ns)):
+            if next_stop is not None:
+                stop = min(stop, next_stop)
+        return stop
 
     # ----------------------------------------------------------------- keyframes
 
@@ -614,6 +643,7 @@ class Runner:
         self.sim.import_state(state)
         self.drives = DriveSet(self.sim)
         self.drives.import_state(runner.get("drives", []))
+        self.sensors = SensorSet(self.scene, self.sim)
         self._script_index = int(runner["script_index"])
         self.accepted, self.rejected = int(runner["accepted"]), int(runner["rejected"])
         self._last_diagnostics_ns = runner["last_diagnostics_ns"]

@@ -19,13 +19,13 @@ import numpy as np
 
 from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags.io import resolve_topic
-from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, snapshot_messages
+from hecker_dynamics.bags.replay import APPLIED_WRENCH_TOPIC, output_message, snapshot_messages
 from hecker_dynamics.dynamics import Snapshot
 from hecker_dynamics.ros.cmd_vel import cmd_vel_topics
 from hecker_dynamics.ros.fields import applied_wrench_fields
 from hecker_dynamics.ros.joint_states import motor_topics
 from hecker_dynamics.ros.outputs import SnapshotOutputs
-from hecker_dynamics.ros.runner import Runner, TickAction, plan_tick
+from hecker_dynamics.ros.runner import Runner, Tick, TickAction, plan_tick
 from hecker_dynamics.ros.session import (
     INPUT_EVENTS_DEPTH,
     KEYFRAME_DEPTH,
@@ -70,11 +70,14 @@ class LiveSession:
     start_ns: int = 0
     end_ns: int = 0
 
-    def publish(self, snapshots: list[Snapshot], at_ns: int, world: Scene) -> None:
-        """The node's outputs for ``snapshots`` of the world ``world`` (the scene with the
-        bodies spawned and deleted so far), published at ROS time ``at_ns``."""
-        for snapshot in snapshots:
-            for output in snapshot_messages(world, snapshot, tf=True, base=self.scene):
+    def publish(self, tick: Tick, at_ns: int, world: Scene) -> None:
+        """The node's outputs for the snapshots and sensor readings of ``tick`` in the
+        world ``world`` (the scene with the bodies spawned and deleted so far), published
+        at ROS time ``at_ns``."""
+        for stamp, item in tick.in_order():
+            outputs = snapshot_messages(world, item, tf=True, base=self.scene) \
+                if isinstance(item, Snapshot) else [output_message(item, stamp)]
+            for output in outputs:
                 self.published.append(Published(output.topic, output.msgtype, at_ns,
                                                 output.msg))
 
@@ -217,7 +220,7 @@ def run_live(scene: Scene, seed: int, *, duration_ns: int = 4 * S, inputs: int =
                 if action is TickAction.START:
                     runner.restart(at_ns, "start")
                 last_tick = target = at_ns
-            session.publish(runner.advance(target).snapshots, at_ns, runner.scene)
+            session.publish(runner.advance(target), at_ns, runner.scene)
         publish_records(at_ns)
     return session
 
@@ -232,7 +235,7 @@ def _change_world(runner: Runner, rng: np.random.Generator, now_ns: int,
     runner.pause()
     for _ in range(int(rng.integers(3))):
         _, tick = runner.step(int(rng.integers(1, 40)))
-        session.publish(tick.snapshots, at_ns, runner.scene)
+        session.publish(tick, at_ns, runner.scene)
     bodies = runner.scene.bodies
     body = bodies[int(rng.integers(len(bodies)))].name
     runner.set_body_state(body, tuple(float(x) for x in rng.uniform(-1, 1, 6)))

@@ -349,7 +349,7 @@ def test_cmd_vel_commands_are_recorded_and_a_replay_without_them_differs(tmp_pat
     events, accepted or (not finite) rejected as the node decided; the drive's wheel forces
     follow them, so the live recording replays bit for bit (from the session's start and
     from a keyframe, with the drive's integrals in it) and a replay that ignores them
-    fails the check."""
+    fails the check. Its laser scans and IMU readings replay bit for bit with it."""
     scene = load_scene("robot")
     for seed, late, options in ((30, 0, {}), (31, 1_700_000_000, {"world": 1}),
                                 (32, 0, {"lockstep": True, "max_steps": 25})):
@@ -362,6 +362,9 @@ def test_cmd_vel_commands_are_recorded_and_a_replay_without_them_differs(tmp_pat
         assert all(e.accepted == math.isfinite(e.message.angular.z) for e in mine)
         report = _check(scene, path)
         assert report.ok, report
+        # The laser's scans and the IMU's readings are compared bit for bit too.
+        matched = {t.topic: t.matched for t in report.report.topics}
+        assert matched["/robot/laser/scan"] >= 15 and matched["/robot/imu/imu"] >= 75
     speeds = {round(float(m.decode().linear.x), 3) for m in read_bag(path).on("/robot/twist")}
     assert len(speeds) > 10  # the robot followed the commands
     monkeypatch.setattr("hecker_dynamics.ros.runner.take_cmd_vel", lambda *args: [])

@@ -9,6 +9,7 @@ lengths move CDR's padding.
 from __future__ import annotations
 
 import dataclasses
+import math
 import struct
 
 import pytest
@@ -22,6 +23,8 @@ from hecker_dynamics.ros.joint_states import JointStateFields
 from hecker_dynamics.ros.markers import MARKER_LINE_STRIP, MarkerFields, delete_markers
 from hecker_dynamics.ros.names import twist_topic
 from hecker_dynamics.ros.outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
+from hecker_dynamics.ros.runner import Runner
+from hecker_dynamics.ros.sensor_fields import ImuFields, LaserScanFields
 from hecker_dynamics.ros.tf import TransformFields
 from hecker_dynamics.scene.load import Scene, load_scene, scene_from_parameters, shipped_scenes
 from hecker_dynamics.scene.parameters import flatten
@@ -124,7 +127,38 @@ def test_strings_of_every_length_modulo_eight_keep_the_padding_right(length):
         OutputFields("tf", OutputKind.TF, transforms),
         OutputFields("j", OutputKind.JOINT_STATE, JointStateFields(
             head, (name, "x" * length), (0.1, -0.2), (1.5, 2.5), (0.0, 3.0))),
+        OutputFields("s", OutputKind.LASER_SCAN, _scan(head, length)),
+        OutputFields("i", OutputKind.IMU, _imu(head)),
     ])
+
+
+def _scan(head: Header, count: int) -> LaserScanFields:
+    """A scan of ``count`` rays: REP 117's infinities and ranges that float32 rounds."""
+    ranges = (0.1, math.inf, -math.inf, 1 / 3, 7.25, 2.0 ** -20, 1e6, 0.0)
+    return LaserScanFields(head, -2.0, 2.0, 4.0 / 180, 0.0, 0.1, 0.05, 8.0,
+                           (ranges * 2)[:count])
+
+
+def _imu(head: Header) -> ImuFields:
+    diagonal = (0.5, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 1e-6)
+    return ImuFields(head, (0.0, 0.0, 0.6, 0.8), diagonal, (0.0, 0.0, -1.25), diagonal,
+                     (9.81, -0.5, 0.0), diagonal)
+
+
+def test_the_robot_scene_s_scans_and_imu_readings_are_what_rosbags_serializes():
+    # The readings of a second of the shipped robot (noise on): scans of 181 rays (every
+    # one hits the room's walls), IMU readings at 50 Hz, and the sensor frames on /tf_static.
+    # The sensors sample an instant as the run steps on from it: 1 s is not sampled yet.
+    scene = load_scene("robot")
+    readings = [output for _, output in Runner(scene).advance(S).readings]
+    kinds = [output.kind for output in readings]
+    assert kinds.count(OutputKind.LASER_SCAN) == 9 and kinds.count(OutputKind.IMU) == 49
+    ranges = [r for o in readings if o.kind is OutputKind.LASER_SCAN for r in o.fields.ranges]
+    assert len(ranges) == 9 * 181 and all(0.05 < r < 8.0 for r in ranges)
+    _assert_as_rosbags(readings)
+    static = SnapshotOutputs(scene, tf=True).static(S)
+    assert {t.child_frame_id for o in static for t in o.fields} >= {"robot/laser", "robot/imu"}
+    _assert_as_rosbags(static)
 
 
 def test_empty_sequences_have_their_length_and_no_padding():
@@ -138,6 +172,7 @@ def test_empty_sequences_have_their_length_and_no_padding():
         OutputFields("j", OutputKind.JOINT_STATE, JointStateFields(head, (), (), (), ())),
         OutputFields("j", OutputKind.JOINT_STATE, JointStateFields(
             head, ("hinge",), (0.5,), (1.0,), ())),
+        OutputFields("s", OutputKind.LASER_SCAN, _scan(head, 0)),
     ])
 
 

@@ -1,0 +1,54 @@
+"""When the run loop samples the sensors: each at start + k / rate (k >= 1), once, as the
+simulation steps on from the instant, so a reading holds every input pushed at its
+instant, however the loop's ticks fell around it."""
+from __future__ import annotations
+
+from hecker_dynamics.bags import io as bags
+from hecker_dynamics.ros.outputs import OutputKind
+from hecker_dynamics.ros.runner import Runner
+from hecker_dynamics.scene.load import load_scene
+
+MS = 1_000_000
+
+
+def _imu(runner: Runner, until_ns: int) -> dict[int, tuple[float, float, float]]:
+    return {stamp: output.fields.linear_acceleration
+            for stamp, output in runner.advance(until_ns).readings
+            if output.kind is OutputKind.IMU}
+
+
+def test_a_push_at_a_sample_instant_is_in_the_reading_of_that_instant():
+    # The robot stands still until its script drives it at 0.5 s. A wrench pushed at
+    # 0.1 s, an IMU instant the tick ended at, is what the step from 0.1 s takes, so the
+    # reading stamped 0.1 s holds its F / m (the noise is the stamp's, the same in both).
+    scene = load_scene("robot")
+    robot = next(body for body in scene.bodies if body.name == "robot")
+    plain, pushed = Runner(scene), Runner(scene)
+    before = _imu(plain, 100 * MS), _imu(pushed, 100 * MS)
+    assert before[0] == before[1] and 100 * MS not in before[0]
+    push = bags.applied_wrench_message(0, "", "robot", "test", (0.0, 0.0), (8.0, 0.0), 0.0,
+                                       10 * MS)
+    assert pushed.accept("/applied_wrench", push, 100 * MS) == []
+    quiet, moved = _imu(plain, 200 * MS), _imu(pushed, 200 * MS)
+    assert sorted(quiet) == sorted(moved) == [100 * MS, 120 * MS, 140 * MS, 160 * MS, 180 * MS]
+    ax, ay, _ = moved[100 * MS]
+    bx, by, _ = quiet[100 * MS]
+    assert abs((ax - bx) - 8.0 / robot.mass.mass) < 1e-12 and abs(ay - by) < 1e-12
+
+
+def test_every_sensor_samples_each_of_its_instants_once_whatever_the_ticks():
+    # Ticks of 7 ms, a tick that ends on every instant, and one long tick give the same
+    # readings, byte for byte.
+    scene = load_scene("robot")
+    runs = []
+    for tick_ns in (7 * MS, 20 * MS, 1000 * MS):
+        runner = Runner(scene)
+        readings = []
+        target = 0
+        while target < 1000 * MS:
+            target = min(target + tick_ns, 1000 * MS)
+            readings += runner.advance(target).readings
+        runs.append(readings)
+    assert runs[0] == runs[1] == runs[2]
+    stamps = [(stamp, output.kind) for stamp, output in runs[0]]
+    assert len(stamps) == len(set(stamps)) == 49 + 9
