@@ -81,6 +81,7 @@ setup(
     # a pip install carries them inside the Python package.
     package_dir={"hecker_dynamics.config": "config", "hecker_dynamics.interfaces": "msg"},
     package_data={"hecker_dynamics": ["py.typed"], "hecker_dynamics.config": ["*.yaml"],
+                  "hecker_dynamics.bench": ["reference_ratios.json"],
                   "hecker_dynamics.interfaces": ["*.msg"]},
     # optional=True: a failed compile or link only warns (see the module docstring).
     ext_modules=[Extension("hecker_dynamics._kernel", sources=KERNEL_SOURCES,

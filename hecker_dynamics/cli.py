@@ -578,8 +578,8 @@ def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentPar
                        help="benchmark or shipped scenes to run (default: all)")
     bench.add_argument("--reference", metavar="FILE",
                        help="with --quick: compare the run's cost ratios with this file's "
-                            "and say which moved by more than their noise (default "
-                            "docs/bench/reference_ratios.json)")
+                            "and say which moved by more than their noise (default: "
+                            "bench/reference_ratios.json in the installed package)")
     bench.add_argument("--save-reference", action="store_true",
                        help="with --quick: write the run's ratios to --reference instead")
     bench.add_argument("--joints", action="store_true",

@@ -2,12 +2,12 @@
 
 Times move with the machine; a ratio of two costs measured side by side in one run (our
 cost over a peer's or the C loop's, interleaved round by round) moves far less. So the
-guard keeps ratios, never times, in a committed reference (``docs/bench/
-reference_ratios.json``), each with its noise: the spread of the rounds' ratios
-(:func:`.measure.ratio_noise`), (max - min) over their median. A quick run's ratio has
-*moved* when it differs from the reference's by more than the noise of both added, and
-at least :data:`FLOOR`; the guard lists what moved, what held, and ratios only one of the
-two has.
+guard keeps ratios, never times, in a committed reference (``reference_ratios.json``
+beside this module, installed with the package), each with its noise: the spread of the
+rounds' ratios (:func:`.measure.ratio_noise`), (max - min) over their median. A quick
+run's ratio has *moved* when it differs from the reference's by more than the noise of both
+added, and at least :data:`FLOOR`; the guard lists what moved, what held, and ratios only
+one of the two has.
 
 The ratios (:func:`quick_ratios`), each our cost over another engine's:
 
@@ -34,7 +34,7 @@ __all__ = ["FLOOR", "REFERENCE", "Ratio", "Verdict", "compare", "quick_ratios",
            "read_reference", "verdict_lines", "write_reference"]
 
 #: Where the committed reference lives.
-REFERENCE = Path("docs/bench/reference_ratios.json")
+REFERENCE = Path(__file__).with_name("reference_ratios.json")
 #: The least relative change that counts as a move, whatever the noise (a quick run's
 #: rounds are few, so their spread can understate it).
 FLOOR = 0.15
