@@ -39,7 +39,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 from rosgraph_msgs.msg import Clock as ClockMessage
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState, LaserScan
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
@@ -111,6 +111,7 @@ MESSAGE_TYPES = {
     OutputKind.POSE: PoseStamped, OutputKind.TWIST: Twist, OutputKind.ODOMETRY: Odometry,
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
     OutputKind.TF: TFMessage, OutputKind.JOINT_STATE: JointState,
+    OutputKind.LASER_SCAN: LaserScan, OutputKind.IMU: Imu,
 }
 
 
