@@ -44,7 +44,7 @@ from hecker_dynamics.ros.fields import (  # noqa: E402
 )
 from hecker_dynamics.ros.node import MESSAGE_TYPES, DynamicsNode  # noqa: E402
 from hecker_dynamics.ros.outputs import SnapshotOutputs, output_topics  # noqa: E402
-from hecker_dynamics.ros.runner import refused_change  # noqa: E402
+from hecker_dynamics.ros.runner import Runner, refused_change  # noqa: E402
 from hecker_dynamics.scene.load import load_scene, scene_from_parameters, shipped_scenes  # noqa: E402
 
 S = 1_000_000_000
@@ -430,6 +430,10 @@ def test_the_published_bytes_are_what_rclpy_serializes():
         packed = SnapshotSerializer(outputs)(snapshot) + [
             (output.topic, serialize_output(output))
             for output in outputs.static(snapshot.time_ns)]
+        # The sensors' readings go out beside the snapshots, at their own rates.
+        readings = [output for _, output in Runner(scene).advance(S // 4).readings]
+        packed += [(output.topic, serialize_output(output)) for output in readings]
+        kind_of = {**kind_of, **{output.topic: output.kind for output in readings}}
         for topic, raw in packed:
             message = deserialize_message(raw, MESSAGE_TYPES[kind_of[topic]])
             assert serialize_message(message) == raw, (name, topic)
