@@ -8,6 +8,7 @@
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
     hecker-dynamics bench --node
     hecker-dynamics bench --joints
+    hecker-dynamics bench --sensors
     hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
                            [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
     hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
@@ -443,7 +444,8 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
 
 def bench_command(args: argparse.Namespace) -> int:
     """Run the work-precision benchmark and write its report (``--node``: the node's cost;
-    ``--contacts``: the contact section; ``--batch``: sweeps' speed-up)."""
+    ``--sensors``: the laser's and the robot node's; ``--contacts``: the contact section;
+    ``--batch``: sweeps' speed-up)."""
     enabled = _want_progress(args)
 
     def bar(label: str, parts: int) -> Progress:
@@ -462,6 +464,11 @@ def bench_command(args: argparse.Namespace) -> int:
             print(f"10 bodies: {100 * ten.total:.2f} % of a core "
                   f"({'within' if ten.total <= TARGET_SHARE else 'over'} the "
                   f"{100 * TARGET_SHARE:g} % target)")
+        return 0
+    if args.sensors:
+        from .bench.sensors import node_shares, scan_costs, sensor_report
+
+        print(sensor_report(scan_costs(peer=args.peers, bar=bar), node_shares(bar=bar)))
         return 0
     from .bench.run import run_bench
     from .bench.scenes import all_scene_names
@@ -607,6 +614,11 @@ def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentPar
                        help="instead: the node's own work per tick without rclpy (stepping "
                             "and output messages) on rings of 1, 10 and 100 bodies; prints a "
                             "table, writes nothing")
+    bench.add_argument("--sensors", action="store_true",
+                       help="instead: a 360-ray laser scan among 100 bodies against Box2D "
+                            "v3's ray casts and a plain numpy caster, and the robot scene's "
+                            "node cost at 1 kHz with its 10 Hz scan; prints tables, writes "
+                            "nothing")
     _add_progress_options(bench)
     bench.set_defaults(handler=bench_command)
 

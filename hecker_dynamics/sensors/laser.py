@@ -174,9 +174,12 @@ class Laser:
 
     def origin_and_heading(self, q: np.ndarray) -> tuple[np.ndarray, float]:
         """The sensor's origin (fixed frame) and the heading of its x axis, at CM state q."""
-        x, y, theta = q[self.body]
-        c, s = np.cos(theta), np.sin(theta)
-        return np.array([x, y]) + rotate(self.mount, c, s), float(theta + self.spec.angle)
+        x, y, theta = q[self.body].tolist()
+        # numpy's cos and sin, as every other angle here; the turn of the mount in plain
+        # floats (rotate's operations, without its arrays' overhead).
+        c, s = float(np.cos(theta)), float(np.sin(theta))
+        mx, my = self.mount.tolist()
+        return np.array([x + (c * mx - s * my), y + (s * mx + c * my)]), theta + self.spec.angle
 
     def distances(self, q: np.ndarray) -> np.ndarray:
         """Noise-free distance along each ray to its first hit within range_max (+inf for
@@ -214,6 +217,6 @@ class Laser:
         if spec.noise > 0.0:
             ranges = ranges + spec.noise * noise_generator(
                 spec.seed, spec.frame_id, stamp_ns).standard_normal(len(ranges))
-        ranges = np.where(ranges > spec.range_max, np.inf, ranges)
-        ranges = np.where(ranges < spec.range_min, -np.inf, ranges)
+        ranges[ranges > spec.range_max] = np.inf
+        ranges[ranges < spec.range_min] = -np.inf
         return LaserScan(stamp_ns, ranges)

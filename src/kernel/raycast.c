@@ -59,8 +59,8 @@ static int hd_nearer(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* One body's circles and edges turned into the fixed frame (laser.py: Laser.distances)
- * and taken relative to the origin as cast does. */
+/* One body's circles and edges turned into the fixed frame (sensors/laser.py:
+ * Laser.distances) and taken relative to the origin as cast does. */
 static void hd_place(hd_laser *l, long b, const double *q, double c, double s, double ox,
                      double oy)
 {

@@ -1,4 +1,4 @@
-/* Laser ray casts (raycast.c), the twin of hecker_dynamics/sensors/laser.py: cast.
+/* Laser ray casts (raycast.c), the twin of sensors/laser.py: cast.
  */
 #ifndef HECKER_DYNAMICS_RAYCAST_H
 #define HECKER_DYNAMICS_RAYCAST_H
@@ -13,7 +13,7 @@ typedef struct {
 typedef struct {
     long body_count;
     long *circle_first, *edge_first; /* body_count + 1 each: each body's shapes */
-    double *reach;                   /* bounding radius about the CM, plus laser.py's SLACK */
+    double *reach;                   /* bounding radius about the CM plus SLACK of the twin */
     double *circles;                 /* 3 per circle: CM-frame center x, y, radius */
     double *edges;                   /* 4 per edge: CM-frame start x, y, span x, y */
     long wall_count;
