@@ -116,9 +116,11 @@ def _play(runner: Runner, span_ns: int, progress: Progress) -> dict[str, int]:
     done = 0
     while done < span_ns:
         done = min(span_ns, done + chunk)
-        tick = runner.advance(runner.sim.start_ns + done)
+        tick = runner.advance(runner.sim.start_ns + done, keep=False)  # two states printed
         if tick.diverged is not None:
             raise DivergenceError(tick.diverged)
+        if tick.script_errors:
+            raise InputError(tick.script_errors[0])
         for _, reading in tick.readings:
             readings[reading.topic] = readings.get(reading.topic, 0) + 1
         progress(done / span_ns)
