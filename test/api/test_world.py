@@ -14,10 +14,10 @@ from scene_builders import EVERY_FORCE, make_scene
 from test_docs import EVERY_FEATURE
 
 import hecker_dynamics as hd
-from hecker_dynamics.scene.world import deleted, spawned
 from hecker_dynamics.geometry.shapes import Circle as Disc
 from hecker_dynamics.geometry.shapes import box as box_polygon
 from hecker_dynamics.geometry.shapes import mass_properties
+from hecker_dynamics.scene.world import deleted, spawned
 
 # Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
 # a few ulps of the largest term per step, over a few thousand steps.
@@ -408,7 +408,7 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
     sim = sim.with_world(deleted(sim.scene, "c"))
     assert "c" not in world and [b.name for b in world] == ["a", "b"]
     with pytest.raises(ValueError, match=r"^body 'c' was removed from the world$"):
-        c.position
+        _ = c.position
     world.advance(1.0)
     sim.advance_to(1_000_000_000, keep=False)
     assert poses(world) == [(b.name, b.position, b.angle, b.linear_velocity,
