@@ -616,9 +616,16 @@ class World:
         if not isinstance(state, Mapping) or set(state) != {"simulation", "schedule",
                                                              "applied", "count"}:
             raise ValueError("state: expected what World.state() returns")
-        self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
-        self._schedule = [(int(stamp), int(order), _command_from_data(data))
-                          for stamp, order, data in state["schedule"]]
-        self._applied = copy.deepcopy(dict(state["applied"]))
-        self._count = int(state["count"])
+        saved = self.simulation.export_state()
+        try:
+            self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
+            schedule = [(int(stamp), int(order), _command_from_data(data))
+                        for stamp, order, data in state["schedule"]]
+            applied = {str(body): dict(sources) for body, sources in state["applied"].items()}
+            count = int(state["count"])
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
+            self.simulation.import_state(saved)  # a refused state changes nothing
+            raise ValueError(f"state: not what World.state() returns "
+                             f"({type(error).__name__}: {error})") from None
+        self._schedule, self._applied, self._count = schedule, copy.deepcopy(applied), count
         self._started, self._frames = True, None

@@ -180,6 +180,26 @@ def test_state_round_trip_is_bit_exact() -> None:
     assert world.state() == later
 
 
+@pytest.mark.parametrize("damage", ["no q", "a body short", "a bad schedule", "q of text"])
+def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> None:
+    world = sample_in_python()
+    world.advance(2.9)
+    state = json.loads(json.dumps(world.state()))
+    before = json.dumps(world.state())
+    if damage == "no q":
+        del state["simulation"]["q"]
+    elif damage == "a body short":
+        state["simulation"]["v"] = state["simulation"]["v"][:-1]
+    elif damage == "a bad schedule":
+        state["schedule"] = [[0, 0, {"body": "left"}]]
+    else:
+        state["simulation"]["q"][0][0] = "far"
+    with pytest.raises(ValueError, match=r"^state: ") as caught:
+        world.set_state(state)
+    assert "\n" not in str(caught.value)
+    assert json.dumps(world.state()) == before
+
+
 def test_moving_a_body_and_names() -> None:
     world = free_world(gravity=(0, -9.81))
     ball = world.add_body("ball", hd.Circle(0.5), mass=1.0)
