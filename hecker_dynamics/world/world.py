@@ -25,7 +25,19 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
 from ..scene.commands import WrenchCommand
-from ..scene.load import INTEGRATORS, BodySpec, Scene, load_scene, read_body, scene_from_parameters
+from ..scene.load import (
+    INTEGRATORS,
+    BodySpec,
+    Scene,
+    load_scene,
+    read_body,
+    read_collisions,
+    read_force,
+    read_gear,
+    read_joint,
+    read_wall,
+    scene_from_parameters,
+)
 from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
 from ..scene.world import deleted, spawned
 from .body import Body, PointLike
@@ -51,7 +63,9 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
         world = args[0]
         assert isinstance(world, World)
         try:
-            return method(*args, **kwargs)
+            result = method(*args, **kwargs)
+            world._read_added()
+            return result
         except BaseException:
             if world._added is not None and world._params is not None:
                 section, key = world._added
@@ -126,6 +140,7 @@ class World:
         self._applied: dict[str, dict[str, Optional[int]]] = {}  # body: source: end (ns)
         self._count = 0
         self._added: Optional[tuple[str, str]] = None  # the entry an add_* call is making
+        self._specs: dict[str, BodySpec] = {}  # each body added, as the loader read it
         if scene is not None:
             self._bodies = {b.name: Body(self, b.name) for b in scene.bodies}
 
@@ -167,6 +182,29 @@ class World:
         entries[key] = values
         self._added = (section, key)
         return values
+
+    def _read_added(self) -> None:
+        """Read the wall, force, collision group or joint just added as the loader reads a
+        file's, so that what it breaks fails now, not at the first step (a body is read by
+        :meth:`add_body` itself)."""
+        if self._added is None or self._added[0] == "bodies" or self._params is None:
+            return
+        section, key = self._added
+        params, specs = self._params, self._specs
+        values = params[section][key]
+        reader = ParameterReader(values, SOURCE, f"{section}.{key}")
+        points = {name: spec.points for name, spec in specs.items()}
+        if section == "walls":
+            read_wall(key, reader, set(specs))
+        elif section == "forces":
+            read_force(key, reader, points)
+        elif section == "collisions":
+            read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
+        elif values["type"] == "gear":
+            read_gear(key, reader, [name for name, joint in params[section].items()
+                                    if joint["type"] == "revolute"])
+        else:
+            read_joint(key, values["type"], reader, specs, points, params["frame_id"])
 
     def _body_name(self, body: BodyLike, argument: str) -> str:
         name = body.name if isinstance(body, Body) else body
@@ -227,7 +265,7 @@ class World:
         if self._params is None or self._started:
             self._change_bodies(spawned, name, values, tuple(collisions), SOURCE)
         else:  # read now, as the loader reads a file's body: a bad shape fails here
-            read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
+            self._specs[name] = read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
             self._join(name, collisions)
         body = Body(self, name)
         self._bodies[name] = body

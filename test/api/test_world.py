@@ -285,6 +285,35 @@ def test_edits_after_start_and_of_a_scene_file_are_refused() -> None:
         hd.World.from_scene("sample").add_wall("floor", point=(0, 0), normal=(0, 1))
 
 
+ENTRY_ERRORS = [
+    (lambda w: w.add_wall("w", point=(0, 0), normal=(0, 0)),
+     r"^World: parameter 'walls\.w\.normal': must not be the zero vector$"),
+    (lambda w: w.add_spring("s", "box", body_b="box", stiffness=1.0),
+     r"^World: parameter 'forces\.s\.body_b': a spring cannot join a body to itself$"),
+    (lambda w: w.add_revolute_joint("j", "box", "box"),
+     r"^World: parameter 'joints\.j\.body_b': a joint cannot join a body to itself$"),
+    (lambda w: w.add_gear_joint("g", "pin", "nope", 2.0),
+     r"^World: parameter 'joints\.g\.joint_b': 'nope' is not a revolute joint"),
+    (lambda w: w.add_collision_group("all"),
+     r"^World: body 'bow': a polygon that collides must be convex"),
+]
+
+
+@pytest.mark.parametrize(("call", "message"), ENTRY_ERRORS)
+def test_an_entry_the_scene_reader_refuses_is_refused_when_added(call, message) -> None:
+    """What the loader refuses of a file's wall, spring, joint, gear or group is refused by
+    the add_* call, not at the first step, and the world goes on without it."""
+    world = built()
+    world.add_body("bow", hd.Polygon([(0, 0), (2, 0), (2, 2), (1, 0.5), (0, 2)]), mass=1.0,
+                   position=(3.0, 0.0))
+    world.add_revolute_joint("pin", None, "box")
+    before = world.scene
+    with pytest.raises(hd.SceneError, match=message):
+        call(world)
+    assert world.scene == before
+    world.step()
+
+
 def test_a_bad_body_is_refused_by_the_scene_reader_at_once() -> None:
     world = built()
     with pytest.raises(hd.SceneError, match=r"^World: body 'bow': the polygon's edges cross"):
@@ -328,8 +357,8 @@ def test_every_joint_kind_and_force_is_the_scene_files() -> None:
     world.add_weld_joint("glue", b, c, frequency=2.0, damping_ratio=0.5)
     world.add_distance_joint("rod", a, b, length=1.0)
     world.add_distance_joint("rope", a, c, max_length=9.0)
-    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
     world.add_revolute_joint("hinge", None, b)
+    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
     world.add_wall("floor", point=(0.0, -3.0), normal=(0.0, 1.0), restitution=0.5,
                    friction=0.2, bodies=["a", b])
     world.add_collision_group("all", [a, "b"], restitution=0.1, friction=0.4)
