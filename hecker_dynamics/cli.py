@@ -8,6 +8,7 @@
     hecker-dynamics bench [--quick|--full] [--out DIR] [--scenes ...] [--peers|--no-peers]
     hecker-dynamics bench --node
     hecker-dynamics bench --joints
+    hecker-dynamics bench --sensors
     hecker-dynamics render SCENE [-o FILE] [--bag BAG] [--fps F] [--size WxH] [--start S]
                            [--duration S] [--view X0,Y0,X1,Y1] [--trail BODY[/POINT]] [--contacts]
     hecker-dynamics plot BAG [BAG2] [-o FILE.png] [--scene SCENE]
@@ -31,7 +32,7 @@ import numpy as np
 from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .batch.variants import MAX_VARIANTS
-from .dynamics.simulation import DivergenceError, Simulation
+from .dynamics.simulation import PROGRESS_UPDATES, DivergenceError
 from .files import OutputError, check_folder
 from .scene.commands import InputError
 from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, scene_summary, shipped_scenes
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
     from .bags.compare import Tolerances
     from .bags.io import BagContents
     from .batch.engines import Engine
+    from .ros.runner import Runner
 
 __all__ = ["configure", "run_command", "scenes_command", "script_command", "replay_command",
            "compare_command", "bench_command", "sweep_command", "regress_command", "parser", "main"]
@@ -104,17 +106,42 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
     return dataclasses.replace(scene, **changes)
 
 
+def _play(runner: Runner, span_ns: int, progress: Progress) -> dict[str, int]:
+    """Advance ``runner`` ``span_ns`` past its start in whole publish periods, about
+    ``PROGRESS_UPDATES`` times, telling ``progress``; the count of each sensor topic's
+    readings."""
+    period = runner.scene.publish_period_ns
+    chunk = period * max(1, span_ns // (PROGRESS_UPDATES * period))
+    readings: dict[str, int] = {}
+    done = 0
+    while done < span_ns:
+        done = min(span_ns, done + chunk)
+        tick = runner.advance(runner.sim.start_ns + done, keep=False)  # two states printed
+        if tick.diverged is not None:
+            raise DivergenceError(tick.diverged)
+        if tick.script_errors:
+            raise InputError(tick.script_errors[0])
+        for _, reading in tick.readings:
+            readings[reading.topic] = readings.get(reading.topic, 0) + 1
+        progress(done / span_ns)
+    return readings
+
+
 def run_command(args: argparse.Namespace) -> int:
-    """Run a scene with its scripted inputs and print a summary."""
+    """Run a scene as the node runs it (its script, drives and sensors) and print a
+    summary."""
+    from .ros.runner import Runner
+
     scene = configure(load_scene(args.scene), args)
     if args.view:
         view_run(scene)
-    sim = Simulation(scene)
+    runner = Runner(scene)
+    sim = runner.sim
     first = sim.snapshot()
     progress = Progress("run", scene.duration_ns * 1e-9, enabled=_want_progress(args))
     started = time.perf_counter()
-    try:  # two states printed: keep none
-        sim.play(scene.script, scene.duration_ns, keep=False, progress=progress)
+    try:
+        readings = _play(runner, scene.duration_ns, progress)
     finally:
         progress.close()
     wall = time.perf_counter() - started
@@ -127,6 +154,8 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"sim time    {sim_seconds:g} s in {wall:.3f} s wall "
           f"({sim_seconds / wall if wall > 0 else float('inf'):.1f}x real time)")
     print(f"energy      {first.energy:.6g} J -> {last.energy:.6g} J")
+    if readings:
+        print("sensors     " + ", ".join(f"{topic} {count}" for topic, count in readings.items()))
     print(f"{'body':<12}{'x':>12}{'y':>12}{'angle':>12}{'vx':>12}{'vy':>12}{'omega':>12}")
     for body in last.bodies:
         print(f"{body.name:<12}{body.position[0]:>12.5f}{body.position[1]:>12.5f}"
@@ -443,7 +472,8 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
 
 def bench_command(args: argparse.Namespace) -> int:
     """Run the work-precision benchmark and write its report (``--node``: the node's cost;
-    ``--contacts``: the contact section; ``--batch``: sweeps' speed-up)."""
+    ``--sensors``: the laser's and the robot node's; ``--contacts``: the contact section;
+    ``--batch``: sweeps' speed-up)."""
     enabled = _want_progress(args)
 
     def bar(label: str, parts: int) -> Progress:
@@ -462,6 +492,11 @@ def bench_command(args: argparse.Namespace) -> int:
             print(f"10 bodies: {100 * ten.total:.2f} % of a core "
                   f"({'within' if ten.total <= TARGET_SHARE else 'over'} the "
                   f"{100 * TARGET_SHARE:g} % target)")
+        return 0
+    if args.sensors:
+        from .bench.sensors import node_shares, scan_costs, sensor_report
+
+        print(sensor_report(scan_costs(peer=args.peers, bar=bar), node_shares(bar=bar)))
         return 0
     from .bench.run import run_bench
     from .bench.scenes import all_scene_names
@@ -607,6 +642,11 @@ def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentPar
                        help="instead: the node's own work per tick without rclpy (stepping "
                             "and output messages) on rings of 1, 10 and 100 bodies; prints a "
                             "table, writes nothing")
+    bench.add_argument("--sensors", action="store_true",
+                       help="instead: a 360-ray laser scan among 100 bodies against Box2D "
+                            "v3's ray casts and a plain numpy caster, and the robot scene's "
+                            "node cost at 1 kHz with its 10 Hz scan; prints tables, writes "
+                            "nothing")
     _add_progress_options(bench)
     bench.set_defaults(handler=bench_command)
 

@@ -66,6 +66,26 @@ def test_run_with_overrides_matches_a_direct_run(capsys):
     _check_summary(out, scene, sim, first, last)
 
 
+def test_run_drives_and_senses_the_robot_as_render_and_replay_do(capsys):
+    """The robot's drive pushes it from x = 1 m into the crate (render's
+    play_with_drives reaches the same states, to the printed digits), and its IMU and
+    laser read at 50 and 10 Hz (an instant reads on leaving it: not the last one)."""
+    import dataclasses
+
+    from hecker_dynamics.drives.control import play_with_drives
+    assert main(["run", "robot", "--duration", "2"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    scene = dataclasses.replace(load_scene("robot"), duration_ns=2_000_000_000)
+    sim = Simulation(scene)
+    first = sim.snapshot()
+    play_with_drives(sim, scene.script, scene.duration_ns)
+    last = sim.snapshot()
+    assert lines[4] == f"energy      {first.energy:.6g} J -> {last.energy:.6g} J"
+    assert lines[5] == "sensors     robot/imu/imu 99, robot/laser/scan 19"
+    assert lines[7:] == [_body_line(b) for b in last.bodies]
+    assert next(b for b in last.bodies if b.name == "robot").position[0] > 1.5
+
+
 def _assert_clean_error(capsys, code, *fragments):
     captured = capsys.readouterr()
     assert code == 2

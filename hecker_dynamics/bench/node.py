@@ -3,10 +3,11 @@
 Each 50 Hz tick of the node runs :meth:`Runner.advance` (the scene's script, 20 physics
 steps at 1 kHz, the diagnostics when due), then serializes every output of the snapshot
 it passed (:class:`~hecker_dynamics.ros.cdr.SnapshotSerializer`: pose, twist and odometry
-per body, the markers and ``/tf``), the bytes it hands to rclpy's ``publish``. Both are
-timed here on rings of 1, 10 and 100 bodies (:func:`~hecker_dynamics.bench.scenes.ring`)
-with every output on; their sum per second of sim time is the share of one core the node
-needs to keep up with the clock, before rclpy publishes and its executor wakes.
+per body, the markers and ``/tf``) and the sensors' readings it took, the bytes it hands to
+rclpy's ``publish``. Both are timed here on rings of 1, 10 and 100 bodies
+(:func:`~hecker_dynamics.bench.scenes.ring`) with every output on; their sum per second
+of sim time is the share of one core the node needs to keep up with the clock, before
+rclpy publishes and its executor wakes.
 """
 from __future__ import annotations
 
@@ -16,14 +17,14 @@ import statistics
 import time
 from typing import NamedTuple, Optional
 
-from ..ros.cdr import SnapshotSerializer
+from ..ros.cdr import SnapshotSerializer, serialize_output
 from ..ros.outputs import SnapshotOutputs
 from ..ros.runner import Runner
 from ..scene.load import Scene
 from ..viz.progress import BarFactory, run_parts
 from .scenes import ring
 
-__all__ = ["NODE_BODIES", "NodeCost", "node_scene", "node_cost", "node_table"]
+__all__ = ["NODE_BODIES", "NodeCost", "node_scene", "node_run", "node_cost", "node_table"]
 
 NODE_BODIES = (1, 10, 100)
 #: The node's default timing: 1 kHz physics, 50 Hz publishing.
@@ -55,7 +56,10 @@ def node_scene(bodies: int, floor: bool = False) -> Scene:
                                publish_diagnostics=True, publish_tf=True)
 
 
-def _run(scene: Scene, seconds: float) -> tuple[float, float]:
+def node_run(scene: Scene, seconds: float) -> tuple[float, float]:
+    """CPU seconds per sim second of :meth:`Runner.advance` and of serializing what it
+    gave (the snapshots' messages and the sensors' readings), over ``seconds`` of
+    ``scene`` in the node's 50 Hz ticks."""
     runner = Runner(scene)
     serialize = SnapshotSerializer(SnapshotOutputs(scene))
     # CPU time of this process, not wall time: on a loaded machine the wall clock also
@@ -70,6 +74,8 @@ def _run(scene: Scene, seconds: float) -> tuple[float, float]:
         middle = clock()
         for snapshot in tick.snapshots:
             serialize(snapshot)
+        for _, reading in tick.readings:
+            serialize_output(reading)
         end = clock()
         advance += middle - start
         outputs += end - middle
@@ -85,7 +91,7 @@ def node_cost(bodies_list: tuple[int, ...] = NODE_BODIES, seconds: float = 2.0,
     scenes = {n: node_scene(n, floor) for n in bodies_list}
     samples: dict[int, list[tuple[float, float]]] = {n: [] for n in bodies_list}
     def sample(n: int, scene: Scene) -> None:
-        samples[n].append(_run(scene, seconds))
+        samples[n].append(node_run(scene, seconds))
 
     run_parts([(f"{n} bodies", functools.partial(sample, n, scene))
                for _ in range(repeats) for n, scene in scenes.items()], bar, "bench node")

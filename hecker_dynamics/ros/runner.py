@@ -526,10 +526,10 @@ class Runner:
 
     # ----------------------------------------------------------------- stepping
 
-    def advance(self, target_ns: int) -> Tick:
+    def advance(self, target_ns: int, keep: bool = True) -> Tick:
         """Step towards ``target_ns`` (at most ``max_steps``), pushing the scripted
         commands and taking the keyframes as their instants come; return the snapshots
-        passed, the lag and the diagnostics due.
+        passed (none without ``keep``), the lag and the diagnostics due.
 
         After a divergence the simulation stands still until :meth:`restart`.
         """
@@ -550,7 +550,8 @@ class Runner:
                     break
                 tick.readings += self.leave()
                 tick.snapshots += sim.advance_to(
-                    stop, max_steps=None if self.max_steps is None else self.max_steps - taken)
+                    stop, max_steps=None if self.max_steps is None else self.max_steps - taken,
+                    keep=keep)
         except DivergenceError as error:
             self.halted = tick.diverged = str(error)
             tick.diagnostics = self._diagnostics(0, 0, 0)

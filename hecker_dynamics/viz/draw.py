@@ -1,5 +1,6 @@
 """Draw one frame of a scene with matplotlib (Agg, no window): bodies, springs, joints,
-walls, forces at their points of application, contact points, trails and the sim time.
+walls, forces at their points of application (a drive's wheel forces among them), the
+lasers' rays to their hits (under the bodies), contact points, trails and the sim time.
 
 Joints are drawn over the bodies: a pin (revolute) as a ring at its point, a weld as a
 square, a slider (prismatic) as a ring on a short line along its axis, a rod as a solid
@@ -23,6 +24,7 @@ from typing import Any, Optional
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle as CirclePatch
@@ -43,7 +45,7 @@ from ..scene.joints import (
 from ..scene.load import SpringSpec
 from .frames import BodyPose, Frame, Timeline, VizError, world_point
 
-__all__ = ["View", "Trail", "Drawing", "BACKGROUND", "BODY_COLORS", "ARROW_COLOR",
+__all__ = ["View", "Trail", "Drawing", "BACKGROUND", "BODY_COLORS", "ARROW_COLOR", "RAY_COLOR",
            "DRAWING_COLORS", "parse_view", "parse_size", "parse_trail", "fit_view"]
 
 BACKGROUND = "#ffffff"
@@ -54,12 +56,13 @@ ARROW_COLOR = "#d62728"
 CONTACT_COLOR = "#ff7f0e"
 TRAIL_COLOR = "#7f7f7f"
 JOINT_COLOR = "#ffffff"
+RAY_COLOR = "#f7b6b6"
 #: One fill per body, in the scene's order (matplotlib's tab10 without the arrow's red).
 BODY_COLORS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf",
                 "#ff7f0e")
 #: Every colour a frame is drawn in (a GIF's palette holds each of them).
 DRAWING_COLORS = (BACKGROUND, WALL_COLOR, EDGE_COLOR, SPRING_COLOR, ARROW_COLOR, CONTACT_COLOR,
-                  TRAIL_COLOR, JOINT_COLOR, *BODY_COLORS)
+                  TRAIL_COLOR, JOINT_COLOR, RAY_COLOR, *BODY_COLORS)
 #: The longest force of a picture is drawn this fraction of the view's smaller side long.
 ARROW_FRACTION = 0.25
 #: Margin around the bodies' extent when the view is fitted, as a fraction of its size.
@@ -265,6 +268,9 @@ class Drawing:
         for trail in self.trails:
             xs, ys = zip(*trail.points)
             add(axes.plot(xs, ys, color=TRAIL_COLOR, linewidth=1.0)[0])
+        if frame.rays:  # under the walls' and bodies' patches (zorder 1)
+            add(axes.add_collection(LineCollection(frame.rays, colors=RAY_COLOR,
+                                                   linewidths=0.6, zorder=0.5)))
         for force in self.scene.forces:
             if isinstance(force, SpringSpec):
                 add(self._spring(force, frame.poses))

@@ -5,14 +5,17 @@ bag and the run that produced it draw the same picture. Both go through the publ
 (``geometry_msgs/PoseStamped`` fields: the body frame's origin and a yaw quaternion),
 read back the same way; the forces are the wrench commands active at each instant, found
 with the simulation's own input buffer rules (:class:`~hecker_dynamics.dynamics.inputs.InputBuffer`)
-from the scene's script for a run and from the input messages for a bag.
+from the commands the run pushed (its script and its drives' wheel forces) and from the
+input messages for a bag (which hold the drives' velocity commands, not their forces: a
+bag draws no wheel forces). Each laser's rays are cast at every frame's poses, noise off
+(:class:`~hecker_dynamics.sensors.laser.Laser`), each from the laser to its hit.
 """
 from __future__ import annotations
 
 import bisect
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import NamedTuple, Optional
 
 import numpy as np
@@ -26,8 +29,10 @@ from ..ros.cmd_vel import CmdVelTopic
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
 from ..ros.joint_states import MotorTopic
 from ..scene import InputError, Scene, WrenchCommand
+from ..scene.sensors import LaserSpec
+from ..sensors.laser import Laser
 
-__all__ = ["VizError", "BodyPose", "Arrow", "Frame", "Timeline", "pose_from_fields",
+__all__ = ["VizError", "BodyPose", "Arrow", "Ray", "Frame", "Timeline", "pose_from_fields",
            "run_timeline", "bag_timeline", "frame_times", "world_point"]
 
 NS_PER_S = 1_000_000_000
@@ -52,12 +57,18 @@ class Arrow(NamedTuple):
     force: tuple[float, float]
 
 
+#: A laser ray from the laser's origin to its hit, in the fixed frame.
+Ray = tuple[tuple[float, float], tuple[float, float]]
+
+
 class Frame(NamedTuple):
-    """One picture's worth of state: sim time, every body's pose, the acting forces."""
+    """One picture's worth of state: sim time, every body's pose, the acting forces, the
+    lasers' rays that hit."""
 
     time_ns: int
     poses: tuple[BodyPose, ...]  # in the scene's body order
     arrows: tuple[Arrow, ...]
+    rays: tuple[Ray, ...] = ()
 
 
 def pose_from_fields(position: Sequence[float], orientation: Sequence[float]) -> BodyPose:
@@ -100,6 +111,9 @@ class Timeline:
         pending = sorted(range(len(self.commands)), key=lambda i: self.commands[i].stamp_ns)
         next_command = 0
         index = {body.name: i for i, body in enumerate(self.scene.bodies)}
+        model = Model(self.scene)
+        lasers = [Laser(spec, self.scene, model.cm_local) for spec in self.scene.sensors
+                  if isinstance(spec, LaserSpec)]
         for time_ns in times:
             while next_command < len(pending) and \
                     self.commands[pending[next_command]].stamp_ns <= time_ns:
@@ -110,7 +124,8 @@ class Timeline:
             poses = self.pose_at(time_ns)
             arrows = tuple(self._arrow(held.command, poses, index) for held in buffer.active()
                            if held.command.force != (0.0, 0.0))
-            yield Frame(time_ns, poses, arrows)
+            rays = tuple(ray for laser in lasers for ray in _rays(laser, poses, model))
+            yield Frame(time_ns, poses, arrows, rays)
 
     def _arrow(self, command: WrenchCommand, poses: tuple[BodyPose, ...],
                index: dict[str, int]) -> Arrow:
@@ -138,6 +153,32 @@ class Timeline:
         return [(contact[2][0], contact[2][1]) for contact in model.contacts.detect(q)]
 
 
+def _rays(laser: Laser, poses: tuple[BodyPose, ...], model: Model) -> list[Ray]:
+    """The rays of ``laser`` that hit, cast at the CM state the poses imply."""
+    q = np.array([[*world_point(pose, model.cm_local[i]), pose.angle]
+                  for i, pose in enumerate(poses)])
+    ranges = laser.distances(q)
+    (ox, oy), heading = laser.origin_and_heading(q)
+    hit = np.isfinite(ranges)
+    angles = heading + laser.angles[hit]
+    ends = np.column_stack([ox + ranges[hit] * np.cos(angles),
+                            oy + ranges[hit] * np.sin(angles)]).tolist()
+    return [((ox, oy), (x, y)) for x, y in ends]
+
+
+class _Pushes(Simulation):
+    """A simulation that keeps every command pushed into it (a run's script and its
+    drives' wheel forces), to draw them."""
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.pushed: list[WrenchCommand] = []
+
+    def push(self, command: WrenchCommand) -> None:
+        super().push(command)
+        self.pushed.append(command)
+
+
 def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:
     """``round(duration x fps)`` instants from ``start_ns``, ``1/fps`` apart (whole ns)."""
     count = round(duration_ns * fps / NS_PER_S)
@@ -148,11 +189,10 @@ def run_timeline(scene: Scene, end_ns: int) -> Timeline:
     """Run ``scene`` from 0 with its script to ``end_ns``; the poses at the publish
     instants, as the node publishes them (the replay of the scene's script bag has the same).
     """
-    sim = Simulation(scene)
+    sim = _Pushes(scene)
     snapshots = (play_with_drives(sim, scene.script, end_ns) if scene.drives
                  else sim.play(scene.script, end_ns))
-    commands = [replace(c, stamp_ns=sim.start_ns + c.stamp_ns)
-                for c in sorted(scene.script, key=lambda c: c.stamp_ns) if c.stamp_ns < end_ns]
+    commands = sim.pushed
     stamps = [snapshot.time_ns for snapshot in snapshots]
     poses = [tuple(pose_from_fields(*body_pose(state)) for state in snapshot.bodies)
              for snapshot in snapshots]

@@ -14,6 +14,7 @@
 #define HD_CONTACTS_CAPSULE "hecker_dynamics._kernel.Contacts"
 #define HD_JOINTS_CAPSULE "hecker_dynamics._kernel.Joints"
 #define HD_STEPPER_CAPSULE "hecker_dynamics._kernel.Stepper"
+#define HD_LASER_CAPSULE "hecker_dynamics._kernel.Laser"
 
 /* A C-contiguous buffer of `count` items of `format` ("d" or an 8-byte integer), or -1 with
  * an exception set. `count` < 0: any length, returned in view->len / itemsize. */
@@ -37,7 +38,8 @@ void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t 
 
 /* Each binding file's functions: bind_forces.c (dynamics/kernel.py's terms, pairs and
  * bound), bind_stepper.c (its whole steps), bind_contacts.c (contact/compiled.py),
- * bind_joints.c (contact/joints_kernel.py). */
-extern PyMethodDef hd_bind_forces[], hd_bind_stepper[], hd_bind_contacts[], hd_bind_joints[];
+ * bind_joints.c (contact/joints_kernel.py), bind_raycast.c (sensors/laser.py). */
+extern PyMethodDef hd_bind_forces[], hd_bind_stepper[], hd_bind_contacts[], hd_bind_joints[],
+    hd_bind_raycast[];
 
 #endif

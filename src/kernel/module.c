@@ -4,10 +4,11 @@
  * the module does not depend on numpy's C API or its version. Its callers:
  * hecker_dynamics/dynamics/kernel.py (the force terms in the layout of kernel.h, the
  * steppers, the energy bound), contact/compiled.py (the contact pass of contact.h) and
- * contact/joints_kernel.py (the joint pass of joint.h).
+ * contact/joints_kernel.py (the joint pass of joint.h) and sensors/laser.py (the laser
+ * ray casts of raycast.h).
  *
  * One binding file per Python bridge (bind_forces.c, bind_stepper.c, bind_contacts.c,
- * bind_joints.c, sharing bind.c); this file makes the module and its constants.
+ * bind_joints.c, bind_raycast.c, sharing bind.c); this file makes the module and its constants.
  */
 #include "bind.h"
 #include "contact.h"
@@ -52,7 +53,8 @@ PyMODINIT_FUNC PyInit__kernel(void)
     if (PyModule_AddFunctions(m, hd_bind_forces) < 0
         || PyModule_AddFunctions(m, hd_bind_stepper) < 0
         || PyModule_AddFunctions(m, hd_bind_contacts) < 0
-        || PyModule_AddFunctions(m, hd_bind_joints) < 0) {
+        || PyModule_AddFunctions(m, hd_bind_joints) < 0
+        || PyModule_AddFunctions(m, hd_bind_raycast) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -1,6 +1,9 @@
 """Laser scans against closed forms: the distance from a point along a direction to the
 walls of a room (the inside slab), to a circle (the quadratic's near root) and to a turned
-box (the slab method in the box's frame), to 1e-12 m; the seeded noise replays."""
+box (the slab method in the box's frame), to 1e-12 m, cast in the kernel and in Python;
+the seeded noise replays; the kernel's casts have Python's bits, through rays that graze
+edges, corners and circles and bodies that straddle range_max and the seam of a full
+turn."""
 from __future__ import annotations
 
 import math
@@ -9,7 +12,9 @@ import numpy as np
 import pytest
 from scene_builders import make_scene
 
+from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.geometry.shapes import Circle
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.scene.world import deleted
 from hecker_dynamics.sensors.laser import Laser
@@ -21,11 +26,20 @@ WALLS = {"left": {"point": [0.0, 0.0], "normal": [1.0, 0.0]},
          "ceiling": {"point": [0.0, ROOM[1]], "normal": [0.0, -1.0]}}
 
 
+@pytest.fixture(autouse=True, params=["1", "0"], ids=["kernel", "python"])
+def switch(request, monkeypatch):
+    """Every test casts in the kernel (where built) and in Python."""
+    monkeypatch.setenv(kernel.SWITCH, request.param)
+    return request.param
+
+
 def laser_of(params: dict, **laser) -> tuple[Laser, Model]:
     spec = {"type": "laser", "body": "robot", "range_max": 100.0, **laser}
     scene = make_scene({**params, "sensors": {"front": spec}})
     model = Model(scene)
-    return Laser(scene.sensors[0], scene, model.cm_local), model
+    cast = Laser(scene.sensors[0], scene, model.cm_local)
+    assert cast.compiled == kernel.enabled()
+    return cast, model
 
 
 def robot(**state) -> dict:
@@ -153,3 +167,94 @@ def test_a_sensor_refuses_the_delete_of_its_body():
     with pytest.raises(SceneError, match="'robot' is named by sensor 'front'"):
         deleted(scene, "robot")
     assert [b.name for b in deleted(scene, "ball").bodies] == ["robot"]
+
+
+def test_a_hit_beyond_range_max_is_no_return_whatever_the_noise():
+    # Straight up from y = 2 to the ceiling at y = 4: 2 m, 1 mm beyond range_max. A noise
+    # of 1 cm added to that hit would bring nearly half the readings within range.
+    params = {"bodies": {"robot": robot(position=[3.0, 2.0])},
+              "walls": {"ceiling": WALLS["ceiling"]}}
+    ray = {"angle_min": math.pi / 2, "angle_max": math.pi / 2, "count": 1, "noise": 0.01,
+           "seed": 3}
+    beyond, model = laser_of(params, range_max=1.999, **ray)
+    within, _ = laser_of(params, range_max=2.001, **ray)
+    q, _ = model.initial_state()
+    assert within.distances(q)[0] == pytest.approx(2.0, abs=1e-12)
+    assert all(beyond.scan(q, stamp).ranges[0] == math.inf for stamp in range(200))
+    assert sum(math.isfinite(within.scan(q, stamp).ranges[0]) for stamp in range(200)) > 50
+
+
+def _shapes(rng: np.random.Generator) -> dict:
+    kind = rng.integers(3)
+    if kind == 0:
+        return {"shape": "box", "size": rng.uniform(0.1, 1.0, 2).tolist()}
+    if kind == 1:
+        return {"shape": "circle", "radius": float(rng.uniform(0.05, 0.5))}
+    corners = int(rng.integers(3, 9))
+    turns = np.sort(rng.uniform(0.0, 2 * math.pi, corners))
+    radii = rng.uniform(0.1, 0.6, corners)
+    return {"shape": "polygon",
+            "vertices": np.column_stack([radii * np.cos(turns), radii * np.sin(turns)]).ravel()
+            .tolist()}
+
+
+def test_kernel_casts_with_the_bits_of_python_through_grazing_rays(switch):
+    """Random boxes, circles and polygons, at random states, then each moved so that a
+    corner or a circle's tangent point lies on one of the rays (to the last bit of the
+    turned shape), or so that the scanner sits inside it: a full turn of rays short of
+    range_max (bodies straddle it and the seam at +-pi) and a fan whose first ray runs
+    exactly along x, along a box's edge and tangent to a circle."""
+    if switch == "0" or not kernel.built():
+        pytest.skip("compares the kernel with Python")
+    rng = np.random.default_rng(36)
+    bodies = {"robot": robot(position=[0.5, 0.25]),
+              # Along the fan's first ray y = 0.25: the box's lower edge, the circle's top.
+              "slab": {"shape": "box", "size": [1.0, 0.5], "mass": 1.0, "position": [3.5, 0.5]},
+              "drum": {"shape": "circle", "radius": 0.5, "mass": 1.0, "position": [6.0, -0.25]}}
+    for k in range(24):  # named b*: the scene keeps its bodies in the order of their names
+        bodies[f"b{k}"] = {**_shapes(rng), "mass": 1.0, "position": [float(k), -3.0]}  # unseen
+    scene = make_scene({"bodies": bodies, "walls": WALLS, "sensors": {
+        "turn": {"type": "laser", "body": "robot", "position": [0.1, 0.0], "count": 720,
+                 "range_max": 3.0},
+        "fan": {"type": "laser", "body": "robot", "angle_min": 0.0, "angle_max": 1.5,
+                "count": 100, "range_max": 100.0}}})
+    model = Model(scene)
+    turn, fan = ([Laser(spec, scene, model.cm_local, compiled=compiled) for compiled in (1, 0)]
+                 for name in ("turn", "fan") for spec in scene.sensors if spec.name == name)
+    q0, _ = model.initial_state()
+    ranges = fan[0].distances(q0)
+    # The fan's first ray meets the slab's corner (3, 0.25) and grazes the drum's top.
+    assert ranges[0] == 2.5 and ranges.tobytes() == fan[1].distances(q0).tobytes()
+    # Each random body's shape about its CM: polygon corners, or circle (center, radius).
+    local = []
+    random = [i for i, body in enumerate(scene.bodies) if body.name.startswith("b")]
+    for index in random:
+        shape = scene.bodies[index].shapes[0]
+        local.append((index, (np.asarray(shape.center) - model.cm_local[index], shape.radius)
+                      if isinstance(shape, Circle) else shape.vertices - model.cm_local[index]))
+    grazes = 0
+    for _ in range(60):
+        q = q0.copy()
+        q[random, :2] = rng.uniform(-1.0, 7.0, (len(random), 2))
+        q[:, 2] = rng.uniform(-math.pi, math.pi, len(q))
+        origin, heading = turn[0].origin_and_heading(q)
+        angles = heading + turn[0].angles
+        for index, shape in local:
+            aim = rng.integers(len(angles))
+            d = np.array([math.cos(angles[aim]), math.sin(angles[aim])])
+            if rng.random() < 0.1:  # the scanner inside the body
+                q[index, :2] = origin
+                continue
+            c, s = math.cos(q[index, 2]), math.sin(q[index, 2])
+            at = origin + rng.uniform(0.3, 3.5) * d
+            if isinstance(shape, tuple):  # the circle's tangent point on the ray
+                center, radius = shape
+                at = at + radius * np.array([-d[1], d[0]]) * rng.choice([-1.0, 1.0])
+                q[index, :2] = at - (c * center[0] - s * center[1], s * center[0] + c * center[1])
+            else:
+                x, y = shape[rng.integers(len(shape))]
+                q[index, :2] = at - (c * x - s * y, s * x + c * y)
+            grazes += 1
+        for compiled, python in (turn, fan):
+            assert compiled.distances(q).tobytes() == python.distances(q).tobytes()
+    assert grazes > 1000

@@ -124,3 +124,51 @@ def test_a_pin_is_drawn_at_its_point_as_the_body_turns():
         assert _pixel(image, -1.0, 0.5) == _rgb(JOINT_COLOR)
         assert _pixel(image, -1.0 + 0.3 * math.cos(angle), 0.5 + 0.3 * math.sin(angle)) == \
             _rgb(BODY_COLORS[0])
+
+
+def test_laser_rays_run_from_the_laser_to_their_hits_under_the_bodies():
+    """A laser at the origin, its three rays along +x, +y and -x: the wall at x = -1.5
+    (1.5 m), the box's face at x = 0.75 (0.25 m short of its centre at 1, half-length
+    0.25), nothing up. The ray's colour shows between the laser and its hits, not beyond
+    them."""
+    from hecker_dynamics.viz.draw import RAY_COLOR
+
+    scene = make_scene({"step": 0.01, "bodies": {
+        "robot": {"shape": "circle", "radius": 0.05, "mass": 1.0},
+        "box": box_body(size=(0.5, 0.5), position=[1.0, 0.0])},
+        "walls": {"west": {"point": [-1.5, 0.0], "normal": [1.0, 0.0]}},
+        "sensors": {"laser": {"type": "laser", "body": "robot", "angle_min": 0.0,
+                              "angle_max": math.pi, "count": 3, "range_max": 5.0}}})
+    poses = (BodyPose(1.0, 0.0, 0.0), BodyPose(0.0, 0.0, 0.0))  # box, robot (by name)
+    timeline = Timeline(scene, 0, 10**9, [0], [poses], [])
+    frame = next(timeline.frames([0]))
+    (east_start, east), (west_start, west) = frame.rays
+    assert west_start == east_start == (0.0, 0.0)
+    assert east == (0.75, 0.0)
+    assert west == pytest.approx((-1.5, 0.0), abs=1e-6)  # along float32(pi), not pi
+    drawing = Drawing(timeline, VIEW, SIZE)
+    drawing.draw(frame)
+    image = drawing.rgba()
+
+    def tinted(x: float, y: float) -> bool:
+        """The ray's colour over the background, anti-aliased: a thin line on a pixel
+        border covers two rows in part."""
+        red, green, blue = _pixel(image, x, y)
+        return red > 240 and green == blue and green < 250
+
+    assert tinted(-0.8, 0.0) and tinted(0.4, 0.0) and _rgb(RAY_COLOR)[1] < 200
+    assert not tinted(-1.6, 0.0) and not tinted(0.0, 0.6)  # past the wall; the ray up missed
+    assert _pixel(image, 0.85, 0.0) == _rgb(BODY_COLORS[0])  # the ray stopped at the face
+
+
+def test_a_run_draws_its_drive_s_wheel_forces_at_the_wheels():
+    """The robot's drive pushes from 0.5 s: at 0.6 s two forward arrows, one at each
+    wheel, the wheels' separation (0.34 m) apart."""
+    from hecker_dynamics.scene import load_scene
+    from hecker_dynamics.viz.frames import run_timeline
+
+    timeline = run_timeline(load_scene("robot"), 1_000_000_000)
+    assert {c.source for c in timeline.commands} == {"drive/base/left", "drive/base/right"}
+    left, right = next(timeline.frames([600_000_000])).arrows
+    assert math.dist(left.point, right.point) == pytest.approx(0.34, abs=1e-3)
+    assert left.force[0] > 1.0 and right.force[0] > 1.0
