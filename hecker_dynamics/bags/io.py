@@ -41,6 +41,7 @@ from ..ros.fields import (
 )
 from ..ros.joint_states import JointStateFields
 from ..ros.markers import MarkerFields
+from ..ros.map_fields import OccupancyGridFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
 from ..ros.sensor_fields import ImuFields, LaserScanFields
 from ..ros.session import (
@@ -67,7 +68,7 @@ __all__ = [
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
     "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of", "MAX_STAMP_NS", "LASER_SCAN", "IMU",
-    "laser_scan_message", "imu_message",
+    "laser_scan_message", "imu_message", "OCCUPANCY_GRID", "occupancy_grid_message",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
@@ -87,6 +88,7 @@ TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 JOINT_STATE = "sensor_msgs/msg/JointState"
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 IMU = "sensor_msgs/msg/Imu"
+OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
 FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
@@ -265,6 +267,21 @@ def imu_message(fields: ImuFields) -> Any:
         linear_acceleration=_vector("geometry_msgs/msg/Vector3", fields.linear_acceleration),
         linear_acceleration_covariance=np.array(fields.linear_acceleration_covariance,
                                                 dtype=np.float64))
+
+
+def occupancy_grid_message(fields: OccupancyGridFields) -> Any:
+    """``nav_msgs/OccupancyGrid`` from
+    :func:`~hecker_dynamics.ros.map_fields.occupancy_grid_fields`."""
+    sec, nanosec = fields.map_load_time
+    return default_message(
+        OCCUPANCY_GRID, header=header_message(fields.header),
+        info=default_message(
+            "nav_msgs/msg/MapMetaData",
+            map_load_time=default_message("builtin_interfaces/msg/Time", sec=sec,
+                                          nanosec=nanosec),
+            resolution=fields.resolution, width=fields.width, height=fields.height,
+            origin=pose_message(fields.origin)),
+        data=np.frombuffer(fields.data, dtype=np.int8))
 
 
 def pose_message(fields: Pose) -> Any:

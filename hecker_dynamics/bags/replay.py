@@ -312,6 +312,7 @@ _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
     OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
     OutputKind.LASER_SCAN: bags.laser_scan_message, OutputKind.IMU: bags.imu_message,
+    OutputKind.OCCUPANCY_GRID: bags.occupancy_grid_message,
 }
 
 

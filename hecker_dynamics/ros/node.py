@@ -22,7 +22,7 @@ import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -112,6 +112,7 @@ MESSAGE_TYPES = {
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
     OutputKind.TF: TFMessage, OutputKind.JOINT_STATE: JointState,
     OutputKind.LASER_SCAN: LaserScan, OutputKind.IMU: Imu,
+    OutputKind.OCCUPANCY_GRID: OccupancyGrid,
 }
 
 

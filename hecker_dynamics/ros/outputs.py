@@ -19,6 +19,7 @@ from .fields import (
     twist_fields,
 )
 from .joint_states import has_joint_states, snapshot_joint_states
+from .map_fields import occupancy_grid_fields
 from .markers import (
     MarkerFields,
     MarkerKey,
@@ -31,6 +32,7 @@ from .markers import (
 from .names import (
     DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
+    MAP_TOPIC,
     MARKERS_TOPIC,
     TF_STATIC_TOPIC,
     TF_TOPIC,
@@ -59,6 +61,7 @@ class OutputKind(enum.Enum):
     JOINT_STATE = "sensor_msgs/msg/JointState"
     LASER_SCAN = "sensor_msgs/msg/LaserScan"
     IMU = "sensor_msgs/msg/Imu"
+    OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
 
 
 def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
@@ -76,7 +79,8 @@ def body_topics(scene: Scene, body: str) -> dict[str, OutputKind]:
 def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, OutputKind]:
     """The node's output topics for ``scene`` and their kinds, in publishing order: per
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
-    ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``joint_states`` if the scene
+    ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``/map`` if the scene has a
+    map, ``joint_states`` if the scene
     has revolute or prismatic joints, each sensor's scan or IMU topic, and ``diagnostics``
     if enabled.
 
@@ -91,6 +95,8 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     if _with_tf(scene, tf):
         topics[TF_TOPIC] = OutputKind.TF
         topics[TF_STATIC_TOPIC] = OutputKind.TF
+    if scene.map is not None:
+        topics[MAP_TOPIC] = OutputKind.OCCUPANCY_GRID
     if has_joint_states(scene):
         topics[JOINT_STATES_TOPIC] = OutputKind.JOINT_STATE
     for spec in scene.sensors:
@@ -186,11 +192,16 @@ class SnapshotOutputs:
         return [OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, delete_markers(gone, head))]
 
     def static(self, stamp_ns: int) -> list[OutputFields]:
-        """``/tf_static`` (published once, latched): each body frame to its named points'
-        frames and its sensors' frames; empty without TF or any of them."""
+        """What is published once, latched: ``/tf_static`` (each body frame to its named
+        points' frames and its sensors' frames; none without TF or any of them) and
+        ``/map`` (if the scene has a map)."""
         transforms = point_transforms(self.scene, stamp_ns) + \
             sensor_transforms(self.scene, stamp_ns) if self.tf else ()
-        return [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
+        static = [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
+        grid = occupancy_grid_fields(self.scene, stamp_ns)
+        if grid is not None:
+            static.append(OutputFields(MAP_TOPIC, OutputKind.OCCUPANCY_GRID, grid))
+        return static
 
 
 def snapshot_outputs(scene: Scene, snapshot: Snapshot, *,

@@ -40,6 +40,8 @@ def _plain(value: Any) -> Any:
         return float(value).hex()
     if isinstance(value, str) or value is None:
         return value
+    if isinstance(value, bytes):  # a map's cells
+        return hashlib.sha256(value).hexdigest()
     if isinstance(value, np.ndarray):
         return [_plain(x) for x in value.tolist()]
     if isinstance(value, Mapping):

@@ -41,6 +41,7 @@ from .joints import (
     RotarySpring,
     WeldJoint,
 )
+from .maps import MapSpec, read_map
 from .names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
@@ -219,6 +220,7 @@ class Scene:
     events: bool = False  # wall impacts located inside the step (contact/events.py)
     sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
     drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
+    map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -408,6 +410,8 @@ def _read_scene(root: ParameterReader) -> Scene:
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
                      for name, r in root.named_children("drives")),
+        map=_read_map(root.child("map"), {b.name: b for b in bodies}) if root.has("map")
+        else None,
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
@@ -610,13 +614,33 @@ def _read_collisions(root: ParameterReader,
     return tuple(groups)
 
 
-def check_collidable(body: BodySpec, group: str, source: str) -> None:
-    """Refuse a body of collision group ``group`` with a concave polygon part."""
+def check_collidable(body: BodySpec, group: str, source: str,
+                     kind: str = "collision group") -> None:
+    """Refuse a body of collision group (or map) ``group`` with a concave polygon part."""
     for shape in body.shapes:
         if isinstance(shape, Polygon) and not is_convex(shape.vertices):
             raise SceneError(f"{source}: body '{body.name}': a polygon that collides must be "
-                             f"convex (collision group '{group}'); make it a compound body "
+                             f"convex ({kind} '{group}'); make it a compound body "
                              "of convex parts")
+
+
+def _read_map(reader: ParameterReader, bodies: Mapping[str, BodySpec]) -> MapSpec:
+    """The scene's map: a nav2 map file (relative to the scene file's directory) whose
+    occupied cells the listed bodies (default: all) collide with."""
+    file = reader.string("file", REQUIRED)
+    path = Path(file)
+    if not path.is_absolute() and Path(reader.source).is_file():
+        path = Path(reader.source).parent / path
+    try:
+        occupancy = read_map(path)
+    except SceneError as error:
+        reader.fail("file", str(error))
+    members = _body_list(reader, "bodies", bodies)
+    for name in members:
+        check_collidable(bodies[name], file, reader.source, kind="map")
+    return MapSpec(file, occupancy,
+                   restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
+                   friction=reader.number("friction", 0.0, minimum=0.0), bodies=members)
 
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")

@@ -1,4 +1,4 @@
-"""Laser scans: closest-hit ray casts against walls and the other bodies' shapes.
+"""Laser scans: closest-hit ray casts against walls, the other bodies' shapes and the map.
 
 Each ray leaves the sensor's origin along a unit direction d and travels a distance t to
 its first hit, found in closed form for every surface at once (numpy, rays x surfaces):
@@ -12,7 +12,8 @@ its first hit, found in closed form for every surface at once (numpy, rays x sur
 The shapes ride on their bodies: a shape's points are kept as offsets from the body's CM
 in body axes and turned by the body's angle at scan time, as every body point is. The body
 carrying the sensor is not seen (the scanner sits inside it). A per-scan broad phase drops
-the bodies whose bounding circle lies beyond ``range_max``.
+the bodies whose bounding circle lies beyond ``range_max``. The map's boxes are polygons
+fixed in the world.
 """
 from __future__ import annotations
 
@@ -128,6 +129,10 @@ class Laser:
         self._starts = np.array(starts, dtype=float).reshape(-1, 2)
         self._spans = np.array(ends, dtype=float).reshape(-1, 2) - self._starts
         self._reach = reach
+        # The map's boxes stay where they are: their edges in the fixed frame, seen always.
+        boxes = np.zeros((0, 4, 2)) if scene.map is None else scene.map.occupancy.box_vertices()
+        self._map_starts = boxes.reshape(-1, 2)
+        self._map_spans = (np.roll(boxes, -1, axis=1) - boxes).reshape(-1, 2)
 
     def origin_and_heading(self, q: np.ndarray) -> tuple[np.ndarray, float]:
         """The sensor's origin (fixed frame) and the heading of its x axis, at CM state q."""
@@ -154,7 +159,8 @@ class Laser:
         starts = cm[body] + rotate(self._starts[edges], c, s)
         spans = rotate(self._spans[edges], c, s)
         return cast(origin, directions, self.walls, (centers, self._radii[circles]),
-                    (starts, spans))
+                    (np.concatenate([starts, self._map_starts]),
+                     np.concatenate([spans, self._map_spans])))
 
     def scan(self, q: np.ndarray, stamp_ns: int) -> LaserScan:
         """The scan at CM state q stamped ``stamp_ns``: distances plus seeded noise, then
