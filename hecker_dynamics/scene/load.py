@@ -12,7 +12,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional, Union, overload
 
@@ -52,7 +52,7 @@ __all__ = [
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "check_collidable",
-    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -641,6 +641,17 @@ def _read_map(reader: ParameterReader, bodies: Mapping[str, BodySpec]) -> MapSpe
     return MapSpec(file, occupancy,
                    restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
                    friction=reader.number("friction", 0.0, minimum=0.0), bodies=members)
+
+
+def with_map(scene: Scene, file: str, source: str = "--map") -> Scene:
+    """``scene`` with its map read from ``file`` (relative to the working directory),
+    keeping the scene's map's material and bodies, or the defaults of ``map`` without one."""
+    values: dict[str, Any] = {"file": file}
+    if scene.map is not None:
+        values.update(restitution=scene.map.restitution, friction=scene.map.friction,
+                      bodies=list(scene.map.bodies))
+    reader = ParameterReader({"map": values}, source)
+    return replace(scene, map=_read_map(reader.child("map"), {b.name: b for b in scene.bodies}))
 
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")
