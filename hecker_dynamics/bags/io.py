@@ -26,6 +26,7 @@ from typing import Any, Literal, Optional, Union
 
 import numpy as np
 
+from ..ros.contact_fields import ContactEventFields
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.fields import (
     AppliedWrenchFields,
@@ -69,6 +70,7 @@ __all__ = [
     "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of", "MAX_STAMP_NS", "LASER_SCAN", "IMU",
     "laser_scan_message", "imu_message", "OCCUPANCY_GRID", "occupancy_grid_message",
+    "CONTACT_EVENT", "contact_event_message",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
@@ -77,7 +79,9 @@ KEYFRAME = "hecker_dynamics/msg/Keyframe"
 INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
 WORLD_EVENT = "hecker_dynamics/msg/WorldEvent"
 #: The package's own interfaces, each defined in ``msg/<Name>.msg``.
-PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
+CONTACT_EVENT = "hecker_dynamics/msg/ContactEvent"
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT,
+                    CONTACT_EVENT)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TWIST = "geometry_msgs/msg/Twist"
@@ -282,6 +286,15 @@ def occupancy_grid_message(fields: OccupancyGridFields) -> Any:
             resolution=fields.resolution, width=fields.width, height=fields.height,
             origin=pose_message(fields.origin)),
         data=np.frombuffer(fields.data, dtype=np.int8))
+
+
+def contact_event_message(fields: ContactEventFields) -> Any:
+    """``hecker_dynamics/msg/ContactEvent`` from
+    :func:`~hecker_dynamics.ros.contact_fields.contact_event_fields`."""
+    return default_message(CONTACT_EVENT, header=header_message(fields.header),
+                           event=fields.event, surface=fields.surface, body_a=fields.body_a,
+                           body_b=fields.body_b, normal_impulse=fields.normal_impulse,
+                           tangent_impulse=fields.tangent_impulse)
 
 
 def pose_message(fields: Pose) -> Any:

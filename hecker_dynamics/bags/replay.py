@@ -313,6 +313,7 @@ _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
     OutputKind.LASER_SCAN: bags.laser_scan_message, OutputKind.IMU: bags.imu_message,
     OutputKind.OCCUPANCY_GRID: bags.occupancy_grid_message,
+    OutputKind.CONTACT_EVENT: bags.contact_event_message,
 }
 
 

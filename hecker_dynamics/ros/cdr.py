@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterable
 from typing import Any, Optional
 
 from ..dynamics.simulation import Snapshot
+from .contact_fields import ContactEventFields
 from .fields import Header, body_pose, header, odometry_twist, twist_fields
 from .joint_states import JointStateFields, snapshot_joint_states
 from .map_fields import OccupancyGridFields
@@ -245,14 +246,29 @@ def _occupancy_grid(fields: OccupancyGridFields) -> bytes:
                   fields.data])
 
 
+def _contact_event(fields: ContactEventFields) -> bytes:
+    """``hecker_dynamics/msg/ContactEvent``: header, event (uint8), surface, body_a and
+    body_b, then the normal and tangent impulses (float64)."""
+    head, head_values = _header(fields.header)
+    parts: list[Part] = [head, ("B", 1)]
+    values: list[Any] = [*head_values, fields.event]
+    for text in (fields.surface, fields.body_a, fields.body_b):
+        string, string_values = _string(text)
+        parts.append(string)
+        values += string_values
+    parts.append(("d", 2))
+    return _pack(parts, [*values, fields.normal_impulse, fields.tangent_impulse])
+
+
 #: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`) that the
 #: node publishes apart from the snapshots' (:class:`SnapshotSerializer`): markers that
-#: delete, ``/tf_static``, ``/map``, the sensors' readings, and joint states, which a snapshot
+#: delete, ``/tf_static``, ``/map``, the sensors' readings, contact events, and joint states, which a snapshot
 #: serializes this way too.
 SERIALIZERS: dict[OutputKind, Callable[[Any], bytes]] = {
     OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
     OutputKind.JOINT_STATE: _joint_state, OutputKind.LASER_SCAN: _laser_scan,
     OutputKind.IMU: _imu, OutputKind.OCCUPANCY_GRID: _occupancy_grid,
+    OutputKind.CONTACT_EVENT: _contact_event,
 }
 
 

@@ -10,6 +10,8 @@ from ..scene.sensors import LaserSpec, SensorSpec
 from ..sensors.imu import ImuReading
 from ..sensors.laser import LaserScan
 from ..sensors.schedule import Reading
+from ..sensors.touch import TouchEvent
+from .contact_fields import contact_event_fields
 from .fields import (
     OdometryFields,
     PoseStampedFields,
@@ -30,6 +32,7 @@ from .markers import (
     place_markers,
 )
 from .names import (
+    CONTACT_EVENTS_TOPIC,
     DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
     MAP_TOPIC,
@@ -46,7 +49,8 @@ from .sensor_fields import imu_fields, laser_scan_fields, sensor_transforms
 from .tf import body_transforms, point_transforms
 
 __all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",
-           "SnapshotOutputs", "snapshot_outputs", "sensor_topic", "reading_output"]
+           "SnapshotOutputs", "snapshot_outputs", "sensor_topic", "reading_output",
+           "touch_output"]
 
 
 class OutputKind(enum.Enum):
@@ -62,6 +66,7 @@ class OutputKind(enum.Enum):
     LASER_SCAN = "sensor_msgs/msg/LaserScan"
     IMU = "sensor_msgs/msg/Imu"
     OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
+    CONTACT_EVENT = "hecker_dynamics/msg/ContactEvent"
 
 
 def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
@@ -81,8 +86,8 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
     ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``/map`` if the scene has a
     map, ``joint_states`` if the scene
-    has revolute or prismatic joints, each sensor's scan or IMU topic, and ``diagnostics``
-    if enabled.
+    has revolute or prismatic joints, each sensor's scan or IMU topic, ``contact_events``
+    and ``diagnostics`` if enabled.
 
     ``tf`` overrides the scene's ``publish.tf`` (the offline replay leaves TF out unless
     asked, so bags replayed before TF existed keep their bytes).
@@ -102,6 +107,8 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     for spec in scene.sensors:
         topics[sensor_topic(spec)] = OutputKind.LASER_SCAN if isinstance(spec, LaserSpec) \
             else OutputKind.IMU
+    if scene.publish_contacts:
+        topics[CONTACT_EVENTS_TOPIC] = OutputKind.CONTACT_EVENT
     if scene.publish_diagnostics:
         topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
     return topics
@@ -220,3 +227,9 @@ def reading_output(reading: Reading) -> OutputFields:
                             laser_scan_fields(spec, sample))
     assert isinstance(sample, ImuReading) and not isinstance(spec, LaserSpec)
     return OutputFields(sensor_topic(spec), OutputKind.IMU, imu_fields(spec, sample))
+
+
+def touch_output(frame_id: str, event: TouchEvent) -> OutputFields:
+    """The message of one contact event (:class:`~..sensors.touch.Touches`)."""
+    return OutputFields(CONTACT_EVENTS_TOPIC, OutputKind.CONTACT_EVENT,
+                        contact_event_fields(frame_id, event))

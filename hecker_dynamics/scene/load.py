@@ -221,6 +221,7 @@ class Scene:
     sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
     drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
     map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
+    publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -392,6 +393,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         publish_markers=publish.boolean("markers", False),
         publish_diagnostics=publish.boolean("diagnostics", False),
         publish_tf=publish.boolean("tf", True),
+        publish_contacts=publish.boolean("contacts", False),
         restitution_threshold=(root.number("restitution_threshold", minimum=0.0)
                                if root.has("restitution_threshold") else None),
         bodies=bodies,
