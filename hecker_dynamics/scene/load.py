@@ -30,7 +30,7 @@ from ..geometry.shapes import (
 )
 from ..integrators.methods import METHODS
 from .commands import WrenchCommand
-from .drives import DiffDriveSpec, read_drive
+from .drives import DriveSpec, read_drive
 from .joints import (
     DistanceJoint,
     GearJoint,
@@ -219,7 +219,7 @@ class Scene:
     sleep: bool = False  # resting islands of the contact pass sleep
     events: bool = False  # wall impacts located inside the step (contact/events.py)
     sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
-    drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
+    drives: tuple[DriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
     map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
     publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
 
