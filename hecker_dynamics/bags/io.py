@@ -41,8 +41,8 @@ from ..ros.fields import (
     stamp_from_ns,
 )
 from ..ros.joint_states import JointStateFields
-from ..ros.markers import MarkerFields
 from ..ros.map_fields import OccupancyGridFields
+from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
 from ..ros.sensor_fields import ImuFields, LaserScanFields
 from ..ros.session import (

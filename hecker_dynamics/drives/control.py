@@ -5,9 +5,7 @@ forces at the same steps; a velocity command takes effect at the next control in
 from __future__ import annotations
 
 import bisect
-from typing import Any
-
-from typing import Union
+from typing import Any, Union
 
 from ..dynamics.simulation import Simulation, Snapshot
 from ..scene.commands import WrenchCommand
@@ -26,8 +24,9 @@ class DriveSet:
     def __init__(self, sim: Simulation) -> None:
         model = sim.model
         self.drives: list[Union[DiffDrive, WrenchDrive]] = [
-            (DiffDrive if isinstance(spec, DiffDriveSpec) else WrenchDrive)(
-                spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
+            DiffDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
+            if isinstance(spec, DiffDriveSpec) else
+            WrenchDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
             for spec in sim.scene.drives]
         self._next_ns = [sim.time_ns] * len(self.drives)
 

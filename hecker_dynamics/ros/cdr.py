@@ -262,8 +262,8 @@ def _contact_event(fields: ContactEventFields) -> bytes:
 
 #: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`) that the
 #: node publishes apart from the snapshots' (:class:`SnapshotSerializer`): markers that
-#: delete, ``/tf_static``, ``/map``, the sensors' readings, contact events, and joint states, which a snapshot
-#: serializes this way too.
+#: delete, ``/tf_static``, ``/map``, the sensors' readings, contact events, and joint
+#: states, which a snapshot serializes this way too.
 SERIALIZERS: dict[OutputKind, Callable[[Any], bytes]] = {
     OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
     OutputKind.JOINT_STATE: _joint_state, OutputKind.LASER_SCAN: _laser_scan,

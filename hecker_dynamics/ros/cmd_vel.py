@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
-from ..drives.control import DriveSet
 from ..drives.command import VelocityCommand
+from ..drives.control import DriveSet
 from ..drives.wrench_drive import WrenchDrive
 from ..scene.commands import InputError
 from ..scene.load import Scene

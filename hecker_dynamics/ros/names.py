@@ -25,7 +25,9 @@ from ..scene.names import (
 
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
-           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "MAP_QOS", "MAP_TOPIC", "CONTACT_EVENTS_QOS", "CONTACT_EVENTS_TOPIC", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
+           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "MAP_QOS", "MAP_TOPIC",
+           "CONTACT_EVENTS_QOS", "CONTACT_EVENTS_TOPIC", "WORLD_EVENTS_TOPIC",
+           "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
            "JOINT_STATES_TOPIC", "motor_topic", "cmd_vel_topic", "scan_topic", "imu_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",

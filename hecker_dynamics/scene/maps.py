@@ -114,8 +114,8 @@ def read_map(path: Path) -> OccupancyMap:
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
-        raise _fail(source, f"cannot read the map file ({getattr(error, 'strerror', None) or error})"
-                    ) from None
+        reason = getattr(error, "strerror", None) or error
+        raise _fail(source, f"cannot read the map file ({reason})") from None
     try:
         document = yaml.safe_load(text)
     except yaml.YAMLError as error:
@@ -177,7 +177,7 @@ def cell_boxes(occupied: np.ndarray) -> tuple[tuple[int, int, int, int], ...]:
     ``occupied`` (rows, columns) exactly once: each row's runs, a run carried up while the
     row above has the same run; sorted by first row, then first column."""
     rows, columns = occupied.shape
-    boxes = []
+    boxes: list[tuple[int, int, int, int]] = []
     open_runs: dict[tuple[int, int], int] = {}  # run (first, past) -> its first row
     for row in range(rows + 1):
         runs: list[tuple[int, int]] = []
