@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from ..scene.drives import DriveSpec
+
 __all__ = ["VelocityCommand", "CommandedDrive"]
 
 
@@ -23,11 +25,13 @@ class VelocityCommand:
 
 
 class CommandedDrive:
-    """A drive's command and its controller's integrals (``axes`` of them)."""
+    """A drive's command and its controller's integrals (``axes`` of them); ``body_index``
+    is the driven body's row in the state."""
 
-    def __init__(self, name: str, timeout_ns: int, axes: int) -> None:
-        self.name = name
-        self.timeout_ns = timeout_ns
+    def __init__(self, spec: DriveSpec, body_index: int, axes: int) -> None:
+        self.name = spec.name
+        self.timeout_ns = spec.cmd_vel_timeout_ns
+        self.body = body_index
         self.command: VelocityCommand | None = None
         self.integrals = [0.0] * axes
 

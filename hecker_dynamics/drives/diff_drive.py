@@ -33,9 +33,8 @@ class DiffDrive(CommandedDrive):
     def __init__(self, spec: DiffDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
         """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
         body frame."""
-        super().__init__(spec.name, spec.cmd_vel_timeout_ns, 2)
+        super().__init__(spec, body_index, 2)
         self.spec = spec
-        self.body = body_index
         cx, cy = spec.center
         half = spec.separation / 2.0
         #: Contact points (body frame) of the left and right wheels.

@@ -63,9 +63,8 @@ class WrenchDrive(CommandedDrive):
     def __init__(self, spec: WrenchDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
         """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
         body frame."""
-        super().__init__(spec.name, spec.cmd_vel_timeout_ns, 3)
+        super().__init__(spec, body_index, 3)
         self.spec = spec
-        self.body = body_index
         cm = (float(cm_local[0]), float(cm_local[1]))
         self._actuation = actuation(spec.actuators, cm)
         self._inverse = np.linalg.pinv(self._actuation) if spec.kind == "omni" else None

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Union
+from typing import Any, Union
 
 import numpy as np
 
@@ -25,7 +25,24 @@ Vec2 = tuple[float, float]
 
 
 @dataclass(frozen=True)
-class DiffDriveSpec:
+class _ControlledSpec:
+    """What every drive has: its name and body, the motors' cap, the PI gains, the control
+    period and the cmd_vel timeout."""
+
+    name: str
+    body: str
+    center: Vec2
+    max_force: float
+    linear_kp: float
+    linear_ki: float
+    angular_kp: float
+    angular_ki: float
+    period_ns: int
+    cmd_vel_timeout_ns: int
+
+
+@dataclass(frozen=True)
+class DiffDriveSpec(_ControlledSpec):
     """Two wheels on the body's y axis through ``center`` (body frame), ``separation``
     apart, each pushing along the body's x axis at its contact point.
 
@@ -38,24 +55,14 @@ class DiffDriveSpec:
     holds (time from the start in ns, linear x, angular z) commands, each repeated at every
     control instant until the next one (when the scripted inputs play)."""
 
-    name: str
-    body: str
-    center: Vec2
     separation: float
-    max_force: float
     traction: float
     lateral_damping: float
-    linear_kp: float
-    linear_ki: float
-    angular_kp: float
-    angular_ki: float
-    period_ns: int
-    cmd_vel_timeout_ns: int
     script: tuple[tuple[int, float, float], ...] = ()
 
 
 @dataclass(frozen=True)
-class WrenchDriveSpec:
+class WrenchDriveSpec(_ControlledSpec):
     """An omnidirectional base (``omni``: wheels that push either way along their
     directions) or a set of thrusters (``thrusters``: each pushes forward only), each
     actuator a point (body frame) and the angle of its push direction in body axes.
@@ -68,18 +75,8 @@ class WrenchDriveSpec:
     start in ns, linear x, linear y, angular z) commands; the rest is as for
     :class:`DiffDriveSpec`."""
 
-    name: str
-    body: str
     kind: str
-    center: Vec2
     actuators: tuple[tuple[float, float, float], ...]  # x, y, push angle
-    max_force: float
-    linear_kp: float
-    linear_ki: float
-    angular_kp: float
-    angular_ki: float
-    period_ns: int
-    cmd_vel_timeout_ns: int
     script: tuple[tuple[int, float, float, float], ...] = ()
 
 
@@ -105,26 +102,33 @@ def read_drive(name: str, reader: ParameterReader, points: Mapping[str, Mapping[
     if body not in points:
         reader.fail("body", f"names an unknown body '{body}'")
     timeout = reader.number("cmd_vel_timeout", 0.5, minimum=0.0, maximum=1e9)
+    controller = _read_controller(name, body, reader, step_ns, timeout)
     if kind != "diff_drive":
-        return _read_wrench_drive(name, kind, body, reader, step_ns, timeout)
+        return _read_wrench_drive(kind, reader, controller)
     script = tuple((round(t * 1e9), x, z) for t, x, z in _script(reader, 3))
     return DiffDriveSpec(
-        name, body, center=reader.vector("center", [0.0, 0.0]),
-        separation=reader.number("separation", REQUIRED, positive=True),
-        max_force=reader.number("max_force", REQUIRED, positive=True),
+        **controller, separation=reader.number("separation", REQUIRED, positive=True),
         traction=(reader.number("traction", positive=True) if reader.has("traction")
                   else float("inf")),
-        lateral_damping=reader.number("lateral_damping", 0.0, minimum=0.0),
+        lateral_damping=reader.number("lateral_damping", 0.0, minimum=0.0), script=script)
+
+
+def _read_controller(name: str, body: str, reader: ParameterReader, step_ns: int,
+                     timeout: float) -> dict[str, Any]:
+    """The parameters every drive has (:class:`_ControlledSpec`)."""
+    return dict(
+        name=name, body=body, center=reader.vector("center", [0.0, 0.0]),
+        max_force=reader.number("max_force", REQUIRED, positive=True),
         linear_kp=reader.number("linear_kp", REQUIRED, minimum=0.0),
         linear_ki=reader.number("linear_ki", 0.0, minimum=0.0),
         angular_kp=reader.number("angular_kp", REQUIRED, minimum=0.0),
         angular_ki=reader.number("angular_ki", 0.0, minimum=0.0),
         period_ns=sample_period_ns(reader, step_ns, 100.0),
-        cmd_vel_timeout_ns=round(timeout * 1e9), script=script)
+        cmd_vel_timeout_ns=round(timeout * 1e9))
 
 
-def _read_wrench_drive(name: str, kind: str, body: str, reader: ParameterReader, step_ns: int,
-                       timeout: float) -> WrenchDriveSpec:
+def _read_wrench_drive(kind: str, reader: ParameterReader,
+                       controller: dict[str, Any]) -> WrenchDriveSpec:
     key = "wheels" if kind == "omni" else "thrusters"
     flat = reader.numbers(key, REQUIRED, multiple_of=3)
     actuators = tuple((x, y, angle) for x, y, angle in zip(flat[0::3], flat[1::3], flat[2::3]))
@@ -134,15 +138,7 @@ def _read_wrench_drive(name: str, kind: str, body: str, reader: ParameterReader,
         reader.fail(key, "cannot push every way and turn: an omnidirectional base needs "
                          "wheels whose pushes span forces in x and y and a torque")
     script = tuple((round(t * 1e9), x, y, z) for t, x, y, z in _script(reader, 4))
-    return WrenchDriveSpec(
-        name, body, kind, center=reader.vector("center", [0.0, 0.0]), actuators=actuators,
-        max_force=reader.number("max_force", REQUIRED, positive=True),
-        linear_kp=reader.number("linear_kp", REQUIRED, minimum=0.0),
-        linear_ki=reader.number("linear_ki", 0.0, minimum=0.0),
-        angular_kp=reader.number("angular_kp", REQUIRED, minimum=0.0),
-        angular_ki=reader.number("angular_ki", 0.0, minimum=0.0),
-        period_ns=sample_period_ns(reader, step_ns, 100.0),
-        cmd_vel_timeout_ns=round(timeout * 1e9), script=script)
+    return WrenchDriveSpec(**controller, kind=kind, actuators=actuators, script=script)
 
 
 def actuation(actuators: tuple[tuple[float, float, float], ...], about: Vec2) -> np.ndarray:

@@ -4,6 +4,7 @@ the boxes seen by a laser at the closed-form distance and stopping bodies, and o
 errors for bad map files."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import struct
 import zlib
@@ -18,7 +19,7 @@ from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.fingerprint import scene_fingerprint
-from hecker_dynamics.scene.load import load_scene, scene_path
+from hecker_dynamics.scene.load import load_scene, scene_path, with_map
 from hecker_dynamics.scene.maps import OCCUPIED, UNKNOWN, cell_boxes, read_map
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.sensors.laser import Laser
@@ -265,3 +266,12 @@ def test_a_laser_sees_a_map_cell_s_wall_at_the_closed_form_distance(tmp_path):
     directions = 0.1 - yaw + laser.angles  # the rays' angles in map axes
     expected = (1.5 - u_origin) / np.cos(directions)
     assert np.max(np.abs(ranges - expected)) < 1e-12
+
+
+def test_a_map_or_contact_events_change_the_fingerprint_and_their_absence_does_not_count():
+    scene = load_scene("robot")
+    assert scene.map is None and not scene.publish_contacts
+    contacts = dataclasses.replace(scene, publish_contacts=True)
+    assert scene_fingerprint(contacts) != scene_fingerprint(scene)
+    mapped = with_map(scene, str(scene_path("warehouse").parent / "maps" / "warehouse.yaml"))
+    assert scene_fingerprint(mapped) != scene_fingerprint(scene)
