@@ -22,6 +22,7 @@ from hecker_dynamics.scene.fingerprint import scene_fingerprint
 from hecker_dynamics.scene.load import load_scene, scene_path, with_map
 from hecker_dynamics.scene.maps import OCCUPIED, UNKNOWN, cell_boxes, read_map
 from hecker_dynamics.scene.parameters import SceneError
+from hecker_dynamics.scene.world import deleted, spawned
 from hecker_dynamics.sensors.laser import Laser
 
 
@@ -275,3 +276,15 @@ def test_a_map_or_contact_events_change_the_fingerprint_and_their_absence_does_n
     assert scene_fingerprint(contacts) != scene_fingerprint(scene)
     mapped = with_map(scene, str(scene_path("warehouse").parent / "maps" / "warehouse.yaml"))
     assert scene_fingerprint(mapped) != scene_fingerprint(scene)
+
+
+def test_a_spawned_body_joins_a_map_that_holds_every_body_and_a_deleted_one_leaves_it():
+    scene = load_scene("warehouse")
+    spec = "{shape: circle, radius: 0.1, mass: 1.0, position: [2.0, 2.0]}"
+    grown = spawned(scene, "ball", spec)
+    assert grown.map is not None and grown.map.bodies == ("ball", "crate", "robot")
+    assert deleted(grown, "ball").map == scene.map
+    assert Simulation(scene).with_world(grown).model.contacts.static_bodies == [0, 1, 2]
+    only_robot = dataclasses.replace(scene, map=dataclasses.replace(scene.map,
+                                                                    bodies=("robot",)))
+    assert spawned(only_robot, "ball", spec).map.bodies == ("robot",)
