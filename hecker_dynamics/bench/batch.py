@@ -10,6 +10,7 @@ table.
 """
 from __future__ import annotations
 
+import functools
 import statistics
 import tempfile
 import time
@@ -19,7 +20,7 @@ from typing import Optional
 
 from ..batch.engines import DaskCluster, Engine, ProcessPool, default_workers
 from ..batch.run import sweep
-from ..batch.variants import make_variants, parse_setting
+from ..batch.variants import Variant, make_variants, parse_setting
 from ..viz.progress import BarFactory, run_parts
 
 __all__ = ["WORKLOADS", "bench_batch"]
@@ -49,7 +50,7 @@ def bench_batch(rounds: int = 1, workers: int | None = None,
     times: dict[tuple[str, str], list[float]] = {}
     tables: dict[str, bytes] = {}
     with tempfile.TemporaryDirectory() as scratch:
-        def one(workload: str, variants: list, name: str) -> None:
+        def one(workload: str, variants: list[Variant], name: str) -> None:
             started = time.perf_counter()
             engine = engines[name]()
             try:
@@ -63,11 +64,11 @@ def bench_batch(rounds: int = 1, workers: int | None = None,
             if path.read_bytes() != table:
                 raise AssertionError(f"{name}: the {workload} table differs")
 
-        work = []
+        work: list[tuple[str, Callable[[], None]]] = []
         for workload, (count, duration_ns) in WORKLOADS.items():
             masses = f"bodies.left.mass=0.5:2:{count}"
             variants = make_variants("sample", [parse_setting(masses)], duration_ns=duration_ns)
-            work += [(name, lambda w=workload, v=variants, name=name: one(w, v, name))
+            work += [(name, functools.partial(one, workload, variants, name))
                      for _ in range(rounds) for name in engines]
         run_parts(work, bar, "bench batch")
     medians = {key: statistics.median(values) for key, values in times.items()}

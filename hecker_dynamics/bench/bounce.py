@@ -30,6 +30,7 @@ from typing import Any
 
 from ..scene.load import Scene, scene_from_parameters
 from ..scene.parameters import flatten
+from .measure import Case
 
 __all__ = ["BENCH_DROP", "BallDrop", "BounceRow", "ball_drop_scene", "bounce_bench",
            "bounce_table", "write_bounce_csv"]
@@ -199,9 +200,9 @@ def _core_trace(row: BounceRow, scene: Scene) -> None:
     _errors(row, times, heights, impacts)
 
 
-def _core_case(row: BounceRow, scene: Scene):
+def _core_case(row: BounceRow, scene: Scene) -> Case:
     from ..dynamics.simulation import Simulation
-    from .measure import Case, Outcome
+    from .measure import Outcome
 
     def run(duration: float) -> Outcome:
         sim = Simulation(scene)
@@ -216,8 +217,8 @@ def _core_case(row: BounceRow, scene: Scene):
     return Case("ball_drop", row.engine, row.method, row.step, row.tolerance, DURATION, run)
 
 
-def _peer_case(row: BounceRow, scene: Scene):
-    from .measure import Case, Outcome, timed_steps
+def _peer_case(row: BounceRow, scene: Scene) -> Case:
+    from .measure import Outcome, timed_steps
     from .scene_peers import scene_engine
 
     def run(duration: float) -> Outcome:
@@ -272,9 +273,9 @@ def bounce_bench(tolerances: list[float], steps: list[float], peers: list[str],
                                             duration=DURATION)))
     cases = []
     for row, scene in configs:
-        peer = row.engine in peers
-        (_peer_trace if peer else _core_trace)(row, scene)
-        cases.append((_peer_case if peer else _core_case)(row, scene))
+        is_peer = row.engine in peers
+        (_peer_trace if is_peer else _core_trace)(row, scene)
+        cases.append((_peer_case if is_peer else _core_case)(row, scene))
     log(f"ball_drop: {len(configs)} configurations traced")
     for (row, _), measured in zip(configs, measure(cases, budget, log=log)):
         row.cost, row.status = measured.cost, measured.status

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from typing import NamedTuple, Optional
+from typing import Any, NamedTuple, Optional
 
 __all__ = ["BodyCalls", "line_of_action", "make_program", "make_stepper", "make_wrenches",
            "scripted_wrench"]
@@ -28,10 +28,12 @@ __all__ = ["BodyCalls", "line_of_action", "make_program", "make_stepper", "make_
 State = Sequence[float]
 #: Force (fx, fy) and torque about the CM of every body.
 Wrenches = list[list[float]]
+#: One force term's fields, as :func:`make_wrenches` lists them per kind.
+Terms = Sequence[Sequence[Any]]
 
 
-def make_wrenches(springs: Sequence, drags: Sequence, angular: Sequence, forces: Sequence,
-                  constant: Sequence) -> Callable[[Sequence[State]], Wrenches]:
+def make_wrenches(springs: Terms, drags: Terms, angular: Terms, forces: Terms,
+                  constant: Sequence[Sequence[float]]) -> Callable[[Sequence[State]], Wrenches]:
     """wrenches(states): force and torque about the CM on every body from each body's CM
     state (a body point's velocity by Eq. 9, a force's torque about the CM by Eq. 11).
 
@@ -150,7 +152,7 @@ def _spring(calls: Sequence[BodyCalls], a: int, la: Sequence[float], b: int,
     return between
 
 
-def _body_terms(calls: BodyCalls, drags: Sequence, angular: Sequence, forces: Sequence,
+def _body_terms(calls: BodyCalls, drags: Terms, angular: Terms, forces: Terms,
                 constant: Sequence[float]) -> Callable[[], None]:
     """The terms that act on one body alone (drags, angular damping, constant forces and
     wrenches) as one force along its line of action and, without a force, a torque."""
@@ -169,15 +171,17 @@ def _body_terms(calls: BodyCalls, drags: Sequence, angular: Sequence, forces: Se
     return alone
 
 
-def make_program(springs: Sequence, drags: Sequence, angular: Sequence, forces: Sequence,
-                 constant: Sequence, calls: Sequence[BodyCalls]) -> Optional[Callable[[], None]]:
+def make_program(springs: Terms, drags: Terms, angular: Terms, forces: Terms,
+                 constant: Sequence[Sequence[float]],
+                 calls: Sequence[BodyCalls]) -> Optional[Callable[[], None]]:
     """apply(): the force terms (as :func:`make_wrenches` takes them) pushed onto the peer's
     bodies through their ``calls``, from their state now; None where there are none."""
     terms = [_spring(calls, *spring) for spring in springs]
     for i, body in enumerate(calls):
-        mine = [[t for t in kind if t[0] == i] for kind in (drags, angular, forces)]
-        if any(mine) or any(constant[i]):
-            terms.append(_body_terms(body, *mine, constant[i]))
+        mine_drags, mine_angular, mine_forces = (
+            [t for t in kind if t[0] == i] for kind in (drags, angular, forces))
+        if mine_drags or mine_angular or mine_forces or any(constant[i]):
+            terms.append(_body_terms(body, mine_drags, mine_angular, mine_forces, constant[i]))
     if not terms:
         return None
     if len(terms) == 1:
@@ -223,7 +227,7 @@ def line_of_action(state: State, fx: float, fy: float,
     return state[0] + scale * fy, state[1] - scale * fx
 
 
-def make_stepper(program: Optional[Callable[[], None]], script: Sequence[Sequence],
+def make_stepper(program: Optional[Callable[[], None]], script: Terms,
                  calls: Sequence[BodyCalls], wake: Callable[[int], object],
                  advance: Callable[[], object], h_ns: int) -> Callable[[int], float]:
     """step(count) -> the seconds its steps took: before each step the ``program``'s
@@ -235,7 +239,7 @@ def make_stepper(program: Optional[Callable[[], None]], script: Sequence[Sequenc
               scripted_wrench(body, frame, point, force, torque))
              for body, start, end, frame, point, force, torque in script]
     changes = sorted({n for first, last, *_ in spans for n in (first, last)})
-    active: list = []
+    active: list[tuple[Any, ...]] = []
     done = [0]
 
     def push_scripted() -> None:

@@ -11,6 +11,7 @@ needs to keep up with the clock, before rclpy publishes and its executor wakes.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import statistics
 import time
 from typing import NamedTuple, Optional
@@ -83,7 +84,10 @@ def node_cost(bodies_list: tuple[int, ...] = NODE_BODIES, seconds: float = 2.0,
     the machine's load falls on all of them alike)."""
     scenes = {n: node_scene(n, floor) for n in bodies_list}
     samples: dict[int, list[tuple[float, float]]] = {n: [] for n in bodies_list}
-    run_parts([(f"{n} bodies", lambda n=n, scene=scene: samples[n].append(_run(scene, seconds)))
+    def sample(n: int, scene: Scene) -> None:
+        samples[n].append(_run(scene, seconds))
+
+    run_parts([(f"{n} bodies", functools.partial(sample, n, scene))
                for _ in range(repeats) for n, scene in scenes.items()], bar, "bench node")
     return [NodeCost(n, statistics.median(a for a, _ in samples[n]),
                      statistics.median(o for _, o in samples[n]), repeats)

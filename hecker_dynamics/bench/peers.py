@@ -30,7 +30,8 @@ import contextlib
 import dataclasses
 import math
 import time
-from typing import Optional
+from collections.abc import Callable
+from typing import Any, Optional
 
 import numpy as np
 
@@ -85,13 +86,18 @@ def version(peer: str) -> str:
         return "not installed"
 
 
+#: A peer's run: step(count), and state() -> its CM positions and angles, and velocities.
+PeerRun = tuple[Callable[[int], None], Callable[[], tuple[np.ndarray, np.ndarray]]]
+
+
 def _no_contacts(scene: Scene) -> Scene:
     return dataclasses.replace(scene, walls=(), collisions=(), script=())
 
 
 # ----------------------------------------------------------------------------- pymunk
 
-def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool = False):
+def _pymunk_build(scene: Scene, method: str, h: float,
+                  forces_before_step: bool = False) -> PeerRun:
     import pymunk
 
     model = PlainModel(_no_contacts(scene))
@@ -123,13 +129,15 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
     applied = [-1]
     counter = [0]
 
-    def velocity_func(body, gravity, damping, dt):
-        if applied[0] != counter[0]:  # the first body of this step: every body's forces
-            applied[0] = counter[0]
-            program()
-        pymunk.Body.update_velocity(body, gravity, damping, dt)
-
     if program is not None and not forces_before_step:
+        apply_forces = program
+
+        def velocity_func(body: Any, gravity: Any, damping: float, dt: float) -> None:
+            if applied[0] != counter[0]:  # the first body of this step: every body's forces
+                applied[0] = counter[0]
+                apply_forces()
+            pymunk.Body.update_velocity(body, gravity, damping, dt)
+
         for body in bodies:
             body.velocity_func = velocity_func
 
@@ -150,7 +158,7 @@ def _pymunk_build(scene: Scene, method: str, h: float, forces_before_step: bool 
 
 # ----------------------------------------------------------------------------- Box2D
 
-def _box2d_build(scene: Scene, method: str, h: float):
+def _box2d_build(scene: Scene, method: str, h: float) -> PeerRun:
     import Box2D
 
     model = PlainModel(_no_contacts(scene))
@@ -199,7 +207,7 @@ def mujoco_xml(scene: Scene, method: str, h: float) -> str:
         raise ValueError("mujoco adapter: only linear drag at the CM is supported")
     joint_springs = {}  # body -> (k, anchor): zero-length undamped springs at the CM
     tendons = []
-    sites = {i: [] for i in range(model.n)}
+    sites: dict[int, list[tuple[str, tuple[float, float]]]] = {i: [] for i in range(model.n)}
     world_sites = []
     for s, (a, la, b, lb, k, rest, damp) in enumerate(model.springs):
         if b < 0 and rest == 0.0 and damp == 0.0 and la == (0.0, 0.0) and a not in joint_springs:
@@ -237,7 +245,7 @@ def mujoco_xml(scene: Scene, method: str, h: float) -> str:
     return "\n".join(lines)
 
 
-def _mujoco_build(scene: Scene, method: str, h: float):
+def _mujoco_build(scene: Scene, method: str, h: float) -> PeerRun:
     import mujoco
 
     # Diverging runs are expected in the sweep: no MUJOCO_LOG.TXT, no console spam (older
@@ -306,7 +314,7 @@ def plain_loop(model: PlainModel, scheme: str, h: float, steps: int,
     y = model.y0.copy()
     q, v = y[:3 * n].copy(), y[3 * n:].copy()
 
-    def acc(q, v):
+    def acc(q: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.array(model.accelerations(np.concatenate([q, v])))
 
     for _ in range(steps):

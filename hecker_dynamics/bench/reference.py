@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Optional
 
@@ -30,7 +30,7 @@ from ..scene.load import (
     Scene,
     SpringSpec,
 )
-from .force_law import make_wrenches
+from .force_law import State, Wrenches, make_wrenches
 
 __all__ = ["Reference", "PlainModel", "gbs_step", "gbs_integrate", "gbs_reference", "exact",
            "free_spin_energy", "reference", "core_reference"]
@@ -48,6 +48,10 @@ class Reference:
     kind: str
     error: float
     angle_error: float = 0.0
+
+
+#: y -> dy/dt of the plain model's flattened state (positions then velocities).
+Derivative = Callable[[np.ndarray], np.ndarray]
 
 
 def _rot(c: float, s: float, x: float, y: float) -> tuple[float, float]:
@@ -116,7 +120,7 @@ class PlainModel:
                                  or any(c[2] for c in self.constant)
                                  or any(c[:2] != [0.0, 0.0] for c in self._nongravity()))
         self.y0 = self.initial(scene)
-        self._law: Optional[Callable] = None
+        self._law: Optional[Callable[[Sequence[State]], Wrenches]] = None
 
     def _nongravity(self) -> list[list[float]]:
         rest = [list(c) for c in self.constant]
@@ -125,7 +129,7 @@ class PlainModel:
             rest[i][1] -= self.mass[i] * gy
         return [[round(c[0], 12), round(c[1], 12), c[2]] for c in rest]
 
-    def local(self, body: int, point) -> tuple[float, float]:
+    def local(self, body: int, point: Sequence[float]) -> tuple[float, float]:
         return point[0] - self.cm[body][0], point[1] - self.cm[body][1]
 
     def initial(self, scene: Scene) -> np.ndarray:
@@ -158,7 +162,7 @@ class PlainModel:
         n = self.n
         return self.y0[:3 * n].reshape(n, 3).copy(), self.y0[3 * n:].reshape(n, 3).copy()
 
-    def accelerations(self, y) -> list[float]:
+    def accelerations(self, y: np.ndarray) -> list[float]:
         """(ax, ay, alpha) of every body, flattened, at the state ``y``."""
         n = self.n
         states = [(float(y[3 * i]), float(y[3 * i + 1]), float(y[3 * i + 2]),
@@ -183,7 +187,7 @@ class PlainModel:
     def derivative(self, y: np.ndarray) -> np.ndarray:
         return np.concatenate([y[3 * self.n:], self.accelerations(y)])
 
-    def energy(self, y) -> float | None:
+    def energy(self, y: np.ndarray) -> float | None:
         """Kinetic + gravity + spring energy; None when forces other than these act."""
         if not self.conservative:
             return None
@@ -208,7 +212,7 @@ class PlainModel:
         return e
 
 
-def gbs_step(f, y: np.ndarray, big: float, levels: int = 8) -> np.ndarray:
+def gbs_step(f: Derivative, y: np.ndarray, big: float, levels: int = 8) -> np.ndarray:
     """One Gragg-Bulirsch-Stoer step of size ``big``: modified midpoint with 2, 4, ..., 2L
     sub-steps, extrapolated to zero step (Neville in h^2); order 2L."""
     sequence = [2 * (j + 1) for j in range(levels)]
@@ -227,7 +231,7 @@ def gbs_step(f, y: np.ndarray, big: float, levels: int = 8) -> np.ndarray:
     return table[-1]
 
 
-def gbs_integrate(f, y0: np.ndarray, duration: float, big: float,
+def gbs_integrate(f: Derivative, y0: np.ndarray, duration: float, big: float,
                   levels: int = 8) -> np.ndarray:
     steps = max(1, round(duration / big))
     h = duration / steps
@@ -275,7 +279,7 @@ def exact(scene: Scene, duration: float | None = None) -> Reference:
                 q[i, j] = q0[i, j] + v0[i, j] * t + 0.5 * a[j] * t * t
                 v[i, j] = v0[i, j] + a[j] * t
         elif name in ("harmonic", "stiff"):
-            (a, la, b, anchor, k, rest, damp), = model.springs
+            (_, la, b, anchor, k, rest, damp), = model.springs
             if rest or damp or la != (0.0, 0.0) or b >= 0:
                 raise ValueError("the exact oscillator needs one zero-length undamped spring "
                                  "at the CM to an anchor")

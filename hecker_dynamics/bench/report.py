@@ -4,21 +4,28 @@ from __future__ import annotations
 
 import csv
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Optional
 
 from ..integrators.methods import ADAPTIVE
 from .bounce import bounce_table, write_bounce_csv
 from .measure import Row
 from .scenes import STIFF_SEESAW
 
-__all__ = ["THRESHOLDS", "write_csv", "cheapest", "headline", "MARKERS", "agg_pyplot", "figure",
-           "ring_table", "targets", "REPORT_FILES", "new_report_folder", "write_report"]
+if TYPE_CHECKING:
+    from .run import Results
+
+__all__ = ["THRESHOLDS", "write_csv", "cheapest", "Headline", "headline", "MARKERS",
+           "agg_pyplot", "figure", "ring_table", "targets", "REPORT_FILES", "new_report_folder",
+           "write_report"]
 
 THRESHOLDS = (1e-3, 1e-6, 1e-9)
 ENGINES = ("hecker_dynamics", "pymunk", "box2d", "mujoco")
 
 
-def _g(x: float, digits: int = 3) -> str:
+def _g(x: Optional[float], digits: int = 3) -> str:
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return ""
     return f"{x:.{digits}g}"
@@ -33,7 +40,7 @@ def write_csv(rows: list[Row], path: Path) -> None:
                              for k, v in row.as_dict().items()})
 
 
-def cheapest(rows: list[Row], scene: str, engine: str, threshold: float):
+def cheapest(rows: list[Row], scene: str, engine: str, threshold: float) -> Optional[Row]:
     """The cheapest ok row of ``engine`` on ``scene`` with position error <= threshold."""
     fits = [r for r in rows if r.scene == scene and r.engine == engine and r.status == "ok"
             and r.position_error <= threshold and not math.isnan(r.cost)]
@@ -47,7 +54,21 @@ def _config(row: Row | None) -> str:
     return f"{row.method} h={row.step:g}{tol}: {row.cost:.3g}"
 
 
-def headline(rows: list[Row]) -> list[dict]:
+@dataclass
+class Headline:
+    """On ``scene`` at the final position error ``threshold``: each engine's cheapest
+    configuration reaching it (None: none does), hecker_dynamics' cost over each peer's
+    that ran (0: only ours reaches; inf: only the peer; nan: neither), and the engines
+    with configurations skipped for the run budget."""
+
+    scene: str
+    threshold: float
+    best: dict[str, Optional[Row]]
+    skipped: set[str]
+    ratios: dict[str, float] = field(default_factory=dict)
+
+
+def headline(rows: list[Row]) -> list[Headline]:
     """Per scene and threshold: the cheapest configuration of each engine, and ratios."""
     out = []
     for scene in dict.fromkeys(r.scene for r in rows):
@@ -55,19 +76,18 @@ def headline(rows: list[Row]) -> list[dict]:
         skipped = {r.engine for r in rows if r.scene == scene and r.status == "skipped"}
         for threshold in THRESHOLDS:
             best = {e: cheapest(rows, scene, e, threshold) for e in ENGINES}
-            entry = {"scene": scene, "threshold": threshold, "best": best, "ratios": {},
-                     "skipped": skipped}
+            entry = Headline(scene, threshold, best, skipped)
             ours = best["hecker_dynamics"]
             for peer in ENGINES[1:]:
                 if peer not in ran:
                     continue
                 other = best[peer]
                 if ours is None:
-                    entry["ratios"][peer] = math.inf if other is not None else math.nan
+                    entry.ratios[peer] = math.inf if other is not None else math.nan
                 elif other is None:
-                    entry["ratios"][peer] = 0.0
+                    entry.ratios[peer] = 0.0
                 else:
-                    entry["ratios"][peer] = ours.cost / other.cost
+                    entry.ratios[peer] = ours.cost / other.cost
             out.append(entry)
     return out
 
@@ -89,7 +109,7 @@ def _ratio_text(x: float, skipped: bool = False) -> str:
 MARKERS = {"hecker_dynamics": "o", "pymunk": "s", "box2d": "^", "box2d_v3": "v", "mujoco": "D"}
 
 
-def agg_pyplot():
+def agg_pyplot() -> Optional[ModuleType]:
     """matplotlib's pyplot drawing to files (the Agg backend), or None where matplotlib is
     not installed or does not load."""
     try:
@@ -111,7 +131,7 @@ def figure(rows: list[Row], path: Path) -> bool:
     fig, axes = plt.subplots(rows_n, cols, figsize=(5 * cols, 4 * rows_n), squeeze=False)
     for ax, scene in zip(axes.ravel(), scenes):
         ax.set_prop_cycle(color=plt.cm.tab20.colors)  # up to 20 series per panel, all distinct
-        groups: dict[tuple, list[Row]] = {}
+        groups: dict[tuple[str, str, Optional[float]], list[Row]] = {}
         for r in rows:
             if r.scene == scene and r.status == "ok" and r.position_error > 0 \
                     and not math.isnan(r.cost) and not math.isnan(r.position_error):
@@ -138,7 +158,8 @@ def figure(rows: list[Row], path: Path) -> bool:
     return True
 
 
-def ring_table(ring: list[Row]) -> tuple[list[str], list[int], dict]:
+def ring_table(ring: list[Row]) -> tuple[list[tuple[str, str]], list[int],
+                                         dict[tuple[str, str, int], float]]:
     sizes = sorted({int(r.omega_dt) for r in ring})
     keys = list(dict.fromkeys((r.engine, r.method) for r in ring))
     table = {}
@@ -148,16 +169,16 @@ def ring_table(ring: list[Row]) -> tuple[list[str], list[int], dict]:
     return keys, sizes, table
 
 
-def targets(results) -> list[tuple[str, str, str]]:
+def targets(results: Results) -> list[tuple[str, str, str]]:
     """(target, measured, verdict) lines for the benchmark's four targets (docs/benchmark.md)."""
     lines = []
     head = headline(results.rows)
-    worst = {}
+    worst: dict[tuple[str, float], list[tuple[str, float]]] = {}
     for entry in head:
-        if entry["scene"] in ("stiff",):
+        if entry.scene in ("stiff",):
             continue
-        for peer, ratio in entry["ratios"].items():
-            key = (entry["scene"], entry["threshold"])
+        for peer, ratio in entry.ratios.items():
+            key = (entry.scene, entry.threshold)
             worst.setdefault(key, []).append((peer, ratio))
     ratios = [r for v in worst.values() for _, r in v]
     met1 = all(not (math.isinf(r) or (not math.isnan(r) and r > 0.5)) for r in ratios) \
@@ -183,7 +204,8 @@ def targets(results) -> list[tuple[str, str, str]]:
                               f"{sample[peer] * 1e6:.1f} us: ratio {ratio:.2f}",
                               "met" if ratio <= 0.5 else "missed"))
     keys, sizes, table = ring_table(results.ring)
-    sie = {n: table.get(("hecker_dynamics", "semi_implicit_euler", n)) for n in sizes}
+    sie = {n: table[ours] for n in sizes
+           if (ours := ("hecker_dynamics", "semi_implicit_euler", n)) in table}
     if sizes:
         big = max(sizes)
         c = table.get(("c", "semi_implicit_euler", big))
@@ -193,12 +215,12 @@ def targets(results) -> list[tuple[str, str, str]]:
                           f"{sie[big] * 1e9:.0f} ns vs {c * 1e9:.0f} ns per body-step: "
                           f"ratio {ratio:.1f}", "met" if ratio <= 2.0 else "missed"))
         for peer, method in (("pymunk", "native"), ("mujoco", "euler")):
-            ratios = [(n, sie[n] / table[(peer, method, n)]) for n in sizes
-                      if sie.get(n) and (peer, method, n) in table]
-            if ratios:
-                bad = [f"N={n}: {r:.2f}" for n, r in ratios if r >= 1.0]
+            peer_ratios = [(n, sie[n] / table[(peer, method, n)]) for n in sizes
+                           if sie.get(n) and (peer, method, n) in table]
+            if peer_ratios:
+                bad = [f"N={n}: {r:.2f}" for n, r in peer_ratios if r >= 1.0]
                 lines.append((f"3b. ring, semi-implicit Euler cheaper than {peer} at every N",
-                              "ratios " + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios),
+                              "ratios " + ", ".join(f"N={n}: {r:.2f}" for n, r in peer_ratios),
                               "met" if not bad else "missed"))
     stiff = [r for r in results.rows if r.scene in ("stiff", STIFF_SEESAW)
              and r.method in ("implicit_midpoint", "backward_euler")]
@@ -228,7 +250,7 @@ def new_report_folder() -> Path:
     return Path(tempfile.mkdtemp(prefix="hecker-dynamics-bench-"))
 
 
-def write_report(results, out: Path) -> None:
+def write_report(results: Results, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     write_csv(results.rows, out / "results.csv")
     write_csv(results.ring, out / "ring.csv")
@@ -252,11 +274,11 @@ def write_report(results, out: Path) -> None:
            "| scene | error <= | hecker_dynamics | pymunk | box2d | mujoco | ratios |",
            "|---|---|---|---|---|---|---|"]
     for entry in headline(results.rows):
-        best = entry["best"]
-        ratios = "; ".join(f"{p}: {_ratio_text(r, p in entry['skipped'])}"
-                           for p, r in entry["ratios"].items())
-        md.append(f"| {entry['scene']} | {entry['threshold']:g} | "
-                  + " | ".join(_config(best[e]) if any(r.engine == e and r.scene == entry['scene']
+        ratios = "; ".join(f"{p}: {_ratio_text(r, p in entry.skipped)}"
+                           for p, r in entry.ratios.items())
+        md.append(f"| {entry.scene} | {entry.threshold:g} | "
+                  + " | ".join(_config(entry.best[e]) if any(r.engine == e
+                                                             and r.scene == entry.scene
                                                        for r in results.rows) else "-"
                                for e in ENGINES) + f" | {ratios} |")
     md += ["", "## References and their own error", "",

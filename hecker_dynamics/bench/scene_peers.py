@@ -222,7 +222,8 @@ def _joints(scene: Scene, plain: PlainModel) -> tuple[list[_Pin], list[_Gear], l
                              "joints (without springs), welds and gears only")
         b = index[spec.body_b]
         a = -1 if spec.body_a is None else index[spec.body_a]
-        anchor_a = tuple(spec.point_a) if a < 0 else plain.local(a, spec.point_a)
+        anchor_a = ((spec.point_a[0], spec.point_a[1]) if a < 0
+                    else plain.local(a, spec.point_a))
         anchor_b = plain.local(b, spec.point_b)
         reference = angle[b] - (0.0 if a < 0 else angle[a])
         if isinstance(spec, WeldJoint):
@@ -246,13 +247,13 @@ def _script(scene: Scene, plain: PlainModel) -> list[_Command]:
     for command in scene.script:
         frame, _, point_name = command.frame_id.partition("/")
         end = command.stamp_ns + (command.duration_ns or scene.input_timeout_ns)
-        j, point = -1, tuple(command.point)
+        j, point = -1, (command.point[0], command.point[1])
         if frame in index:  # body axes, from the body's origin or one of its points
             j = index[frame]
             origin = points[frame][point_name] if point_name else (0.0, 0.0)
             point = plain.local(j, (origin[0] + command.point[0], origin[1] + command.point[1]))
         out.append(_Command(index[command.body], command.stamp_ns, end, j, point,
-                            tuple(command.force), command.torque))
+                            (command.force[0], command.force[1]), command.torque))
     return out
 
 
@@ -346,7 +347,7 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
-def _pymunk_joints(pymunk: Any, space: Any, layout: _Layout, bodies: list) -> None:
+def _pymunk_joints(pymunk: Any, space: Any, layout: _Layout, bodies: list[Any]) -> None:
     """The pins, their limits and motors, and the gears (see the module docstring)."""
     for pin in layout.pins:
         a = space.static_body if pin.a < 0 else bodies[pin.a]
@@ -378,7 +379,7 @@ def _pymunk_joints(pymunk: Any, space: Any, layout: _Layout, bodies: list) -> No
 BOX2D_MOST_VERTICES = 15
 
 
-def _fan(vertices: list) -> list[list]:
+def _fan(vertices: list[Any]) -> list[list[Any]]:
     """A convex polygon as convex pieces of at most :data:`BOX2D_MOST_VERTICES` vertices
     (the gears' 24-sided rims): fans from its first vertex, each piece sharing its last
     vertex with the next. The mass is set apart, so only the outline matters."""

@@ -82,6 +82,17 @@ if TYPE_CHECKING:
 
 __all__ = ["ContactPass"]
 
+def _polygon_part(local: np.ndarray, colliding: bool) -> tuple[PolygonPart, float, float]:
+    """A polygon's part from its vertices ``local`` (relative to the CM, body axes), its
+    farthest vertex from the CM and, ``colliding``, its thickness; a colliding polygon is
+    checked convex and turned counter-clockwise, with its edges' normals."""
+    extent = float(np.max(np.hypot(local[:, 0], local[:, 1])))
+    if not colliding:
+        return PolygonPart([tuple(p) for p in local.tolist()], []), extent, math.inf
+    poly = ConvexPolygon.from_vertices(local)
+    return poly.part(), extent, 2.0 * poly.inradius
+
+
 class ContactPass(Sleep, WarmStarts):
     """Contact detection and response for one scene's walls and collision groups."""
 
@@ -119,6 +130,9 @@ class ContactPass(Sleep, WarmStarts):
         swept = sorted(set(colliding) | set(self.static_bodies))
         self.parts: list[list[Part]] = []
         reach, thickness = [], []
+        # A pile's bodies share a few outlines: each is checked and oriented once.
+        outlines: dict[tuple[bytes, bool], tuple[PolygonPart, float, float]] = {}
+        convex = set(swept)
         for i, body in enumerate(scene.bodies):
             parts: list[Part] = []
             extents, widths = [], []
@@ -130,13 +144,14 @@ class ContactPass(Sleep, WarmStarts):
                     widths.append(2.0 * shape.radius)
                     continue
                 local = shape.vertices - center_of_mass[i]
-                extents.append(float(np.max(np.hypot(local[:, 0], local[:, 1]))))
-                if i in swept:
-                    poly = ConvexPolygon.from_vertices(local)
-                    parts.append(poly.part())
-                    widths.append(2.0 * poly.inradius)
-                else:
-                    parts.append(PolygonPart([tuple(p) for p in local.tolist()], []))
+                key = (local.tobytes(), i in convex)
+                if key not in outlines:
+                    outlines[key] = _polygon_part(local, i in convex)
+                outline, extent, width = outlines[key]
+                parts.append(PolygonPart(list(outline.vertices), list(outline.normals)))
+                extents.append(extent)
+                if i in convex:
+                    widths.append(width)
             self.parts.append(parts)
             reach.append(max(extents))
             thickness.append(min(widths, default=math.inf))

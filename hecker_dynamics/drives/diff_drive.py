@@ -39,16 +39,17 @@ class DiffDrive(CommandedDrive):
         half = spec.separation / 2.0
         #: Contact points (body frame) of the left and right wheels.
         self.wheels = ((cx, cy + half), (cx, cy - half))
-        self._offsets = [np.asarray(w, dtype=float) - cm_local for w in self.wheels]
-        self._axle = np.asarray(spec.center, dtype=float) - cm_local
+        # Plain floats: the controller runs at every control instant, on a few numbers.
+        self._offsets = [(np.asarray(w, dtype=float) - cm_local).tolist() for w in self.wheels]
+        self._axle = (np.asarray(spec.center, dtype=float) - cm_local).tolist()
 
     def wrenches(self, q: np.ndarray, v: np.ndarray, time_ns: int) -> list[WrenchCommand]:
         """The wheel forces for the control period starting at ``time_ns``, from the CM
         state (q, v) (N, 3), updating the integrals."""
         spec = self.spec
-        theta, omega = q[self.body, 2], v[self.body, 2]
+        theta = float(q[self.body, 2])
+        vx, vy, omega = v[self.body].tolist()
         c, s = math.cos(theta), math.sin(theta)
-        vx, vy = v[self.body, 0], v[self.body, 1]
         period = spec.period_ns * 1e-9
         if self.active(time_ns):
             assert self.command is not None

@@ -165,6 +165,10 @@ class EnergyBound:
         self._budget: Any = (np.zeros((BUDGET_ROWS, count)) if self._compiled
                              else [[0.0] * count for _ in range(BUDGET_ROWS)])
         self._wrenches = [term for term in model.terms if isinstance(term, ConstantWrenchTerm)]
+        # Only a force at a point of another frame than its body's has a rate of work that
+        # follows the state (its lever arm); the inputs' are taken at every check.
+        self._moving = any(at_point and owner != body for term in self._wrenches
+                           for body, _, _, _, owner, _, at_point in term.rows)
         self._steady = [0.0] * count  # the rate of gravity, which does not depend on the state
         for term in model.terms:
             if isinstance(term, GravityTerm):
@@ -315,7 +319,8 @@ class EnergyBound:
         self._set(RATE, [steady + rate for steady, rate in zip(self._steady, rates)])
         self._set(INPUT_RATE, [0.0] * len(rates))
         self._inputs_set = self._motors_moved = False
-        self._stale = bool(terms)  # to take again, if only to drop inputs that ended
+        # To take again where a lever moves, or to drop inputs that ended.
+        self._stale = self._moving or self.model.inputs is not None
         if self._motors:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
             self._set(POWER, self._powers(self._speeds))

@@ -19,6 +19,7 @@ points are stored as offsets from the CM in body axes; :class:`Kinematics` and
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple, Optional, Protocol
@@ -96,11 +97,15 @@ class ForceTerm(Protocol):
 
     #: True if the term's forces depend on orientation and so need the bodies' angles.
     uses_orientation: bool
-    #: Bodies the term can turn (it applies torque to them).
-    turns: np.ndarray
-    #: (sources, targets): the force on ``targets[e]`` depends on the state of
-    #: ``sources[e]``, another body (every force depends on its own body's state).
-    couplings: tuple[np.ndarray, np.ndarray]
+
+    @property
+    def turns(self) -> np.ndarray:
+        """Bodies the term can turn (it applies torque to them)."""
+
+    @property
+    def couplings(self) -> tuple[np.ndarray, np.ndarray]:
+        """(sources, targets): the force on ``targets[e]`` depends on the state of
+        ``sources[e]``, another body (every force depends on its own body's state)."""
 
     def add(self, state: Kinematics, out: np.ndarray) -> None:
         """Add to ``out`` (3, N): rows Fx, Fy and torque (contiguous), vectorised."""
@@ -523,16 +528,30 @@ class ConstantWrenchTerm:
         self.body, self.force, self.torque = body, force, torque
         self.axes_body, self.point_body, self.point, self.at_point = (
             axes_body, point_body, point, at_point)
-        self.rotated = axes_body >= 0
-        self.moving_point = at_point & (point_body >= 0)
-        self._force, self._point = _columns(force), _columns(point)
-        self.uses_orientation = bool(self.rotated.any() or self.moving_point.any())
-        self.turns = np.unique(body[at_point | (torque != 0.0)])
-        self.couplings = (np.concatenate([axes_body[self.rotated], point_body[self.moving_point]]),
-                          np.concatenate([body[self.rotated], body[self.moving_point]]))
-        self._sum = BodySum(body)
         self._rows = list(zip(body.tolist(), force.tolist(), torque.tolist(), axes_body.tolist(),
                               point_body.tolist(), point.tolist(), at_point.tolist()))
+        self.uses_orientation = any(axes >= 0 or (at and owner >= 0)
+                                    for _, _, _, axes, owner, _, at in self._rows)
+
+    # The inputs make a new term whenever they change, and the kernel and the plain-float
+    # sums read its rows only: the columns of the numpy sums are made when first needed.
+
+    @functools.cached_property
+    def rotated(self) -> np.ndarray:
+        return self.axes_body >= 0
+
+    @functools.cached_property
+    def moving_point(self) -> np.ndarray:
+        return self.at_point & (self.point_body >= 0)
+
+    @functools.cached_property
+    def turns(self) -> np.ndarray:
+        return np.unique(self.body[self.at_point | (self.torque != 0.0)])
+
+    @functools.cached_property
+    def couplings(self) -> tuple[np.ndarray, np.ndarray]:
+        return (np.concatenate([self.axes_body[self.rotated], self.point_body[self.moving_point]]),
+                np.concatenate([self.body[self.rotated], self.body[self.moving_point]]))
 
     @property
     def rows(self) -> list[tuple[Any, ...]]:
@@ -541,14 +560,14 @@ class ConstantWrenchTerm:
         return self._rows
 
     def add(self, state: Kinematics, out: np.ndarray) -> None:
-        fx, fy = self._force
+        fx, fy = self._force_columns
         if self.rotated.any():
             axes = np.maximum(self.axes_body, 0)
             turned = state.offset(axes, fx, fy)
             fx, fy = np.where(self.rotated, turned[0], fx), np.where(self.rotated, turned[1], fy)
         torque = self.torque
         if self.at_point.any():
-            px, py = self._point
+            px, py = self._point_columns
             if self.moving_point.any():
                 owner = np.maximum(self.point_body, 0)
                 ox, oy = state.offset(owner, px, py)
@@ -557,7 +576,19 @@ class ConstantWrenchTerm:
             rx = np.where(self.at_point, px - state.x[self.body], 0.0)
             ry = np.where(self.at_point, py - state.y[self.body], 0.0)
             torque = torque + rx * fy - ry * fx
-        self._sum.add_wrench(out, fx, fy, torque)
+        self._sums.add_wrench(out, fx, fy, torque)
+
+    @functools.cached_property
+    def _sums(self) -> BodySum:
+        return BodySum(self.body)
+
+    @functools.cached_property
+    def _force_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        return _columns(self.force)
+
+    @functools.cached_property
+    def _point_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        return _columns(self.point)
 
     def add_scalar(self, state: ScalarKinematics, out: list[Wrench]) -> None:
         for body, (fx, fy), torque, axes, owner, (px, py), at_point in self._rows:

@@ -96,6 +96,16 @@ def _law(term: AnchorSpringTerm | BodySpringTerm) -> list[np.ndarray]:
     return [term.law.stiffness, term.law.rest_length, term.law.damping]
 
 
+def _packed_wrenches(term: ConstantWrenchTerm) -> Packed:
+    """The wrenches' columns (body, axes, point body, at point; force, torque, point) read
+    off their rows: the inputs pack a new term whenever they change."""
+    rows = term.rows
+    ints = [(body, axes, owner, at) for body, _, _, axes, owner, _, at in rows]
+    reals = [(f[0], f[1], torque, p[0], p[1]) for _, f, torque, _, _, p, _ in rows]
+    return (_kernel.WRENCH, np.array(ints, dtype=np.int64).reshape(-1, 4),
+            np.array(reals, dtype=np.float64).reshape(-1, 5))
+
+
 #: Per kind of term: its columns in the kernel's layout (kernel.h, enum TermKind; the kind
 #: codes are the module's constants).
 _PACKERS: dict[type, Callable[..., Packed]] = {
@@ -109,9 +119,7 @@ _PACKERS: dict[type, Callable[..., Packed]] = {
     PointDragTerm: lambda t: _packed(_kernel.POINT_DRAG, [t.body, t.quadratic],
                                      [t.local, t.coefficient]),
     AngularDampingTerm: lambda t: _packed(_kernel.ANGULAR_DAMPING, [t.body], [t.coefficient]),
-    ConstantWrenchTerm: lambda t: _packed(_kernel.WRENCH,
-                                          [t.body, t.axes_body, t.point_body, t.at_point],
-                                          [t.force, t.torque, t.point]),
+    ConstantWrenchTerm: _packed_wrenches,
 }
 
 

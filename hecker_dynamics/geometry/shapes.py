@@ -12,6 +12,7 @@ defined in), which need not have its origin at the CM.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Union
@@ -166,10 +167,20 @@ def area_properties(shape: Shape) -> AreaProperties:
             raise GeometryError("the circle is too large to integrate in double precision")
         area = math.pi * shape.radius ** 2
         return AreaProperties(area, np.array(shape.center), area * shape.radius ** 2 / 2.0)
-    if not is_simple(shape.vertices):
+    vertices = np.ascontiguousarray(shape.vertices, dtype=float)
+    known = _polygon_properties(vertices.tobytes(), len(vertices))
+    return AreaProperties(known.area, known.centroid.copy(), known.second_moment)
+
+
+@functools.lru_cache(maxsize=1024)
+def _polygon_properties(data: bytes, count: int) -> AreaProperties:
+    """:func:`area_properties` of the polygon of ``count`` vertices whose float64 (x, y)
+    pairs are ``data``: a pile or a chain of like bodies integrates its outline once."""
+    vertices = np.frombuffer(data).reshape(count, 2)
+    if not is_simple(vertices):
         raise GeometryError("the polygon's edges cross each other (it is not simple)")
-    fan = shape.vertices.mean(axis=0)
-    v = shape.vertices - fan
+    fan = vertices.mean(axis=0)
+    v = vertices - fan
     w = np.roll(v, -1, axis=0)
     cross = perp_dot(v, w)
     signed_area = cross.sum() / 2.0

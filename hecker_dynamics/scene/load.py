@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional, Union, overload
@@ -51,7 +51,8 @@ __all__ = [
     "SceneError", "Scene", "BodySpec", "Gravity", "SpringSpec", "DragSpec",
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
-    "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "check_collidable",
+    "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
+    "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map",
 ]
 
@@ -372,9 +373,9 @@ def _read_scene(root: ParameterReader) -> Scene:
     if frame_id in body_names:
         root.fail("frame_id", f"'{frame_id}' is also a body's name")
     points = {b.name: b.points for b in bodies}
-    forces = tuple(_read_force(name, r, points) for name, r in root.named_children("forces"))
-    walls = tuple(_read_wall(name, r, body_names) for name, r in root.named_children("walls"))
-    collisions = _read_collisions(root, {b.name: b for b in bodies})
+    forces = tuple(read_force(name, r, points) for name, r in root.named_children("forces"))
+    walls = tuple(read_wall(name, r, body_names) for name, r in root.named_children("walls"))
+    collisions = read_collisions(root, {b.name: b for b in bodies})
     joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
     publish = root.child("publish")
     contacts = root.child("contacts")
@@ -534,7 +535,7 @@ def _point(reader: ParameterReader, key: str, points: Mapping[str, Vec2],
     return (x, y)
 
 
-def _read_force(name: str, reader: ParameterReader,
+def read_force(name: str, reader: ParameterReader,
                 points: Mapping[str, Mapping[str, Vec2]]) -> ForceSpec:
     kind = reader.string("type", REQUIRED, choices=(
         "gravity", "spring", "linear_drag", "quadratic_drag", "angular_damping",
@@ -579,7 +580,7 @@ def _read_force(name: str, reader: ParameterReader,
         point=_point(reader, "point", points[body]))
 
 
-def _read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:
+def read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:
     nx, ny = reader.vector("normal", REQUIRED)
     length = math.hypot(nx, ny)
     if length == 0.0:
@@ -591,7 +592,7 @@ def _read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec
                     bodies=_body_list(reader, "bodies", known))
 
 
-def _read_collisions(root: ParameterReader,
+def read_collisions(root: ParameterReader,
                      bodies: Mapping[str, BodySpec]) -> tuple[CollisionGroup, ...]:
     """Collision groups; every pair of bodies may be in one group at most, and the bodies'
     polygon parts must be convex (split a concave shape into convex parts)."""
@@ -668,23 +669,27 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
     for name, reader in root.named_children("joints"):
         kind = reader.string("type", REQUIRED, choices=JOINT_TYPES)
         if kind == "gear":
-            gears.append((reader, GearJoint(name, reader.string("joint_a", REQUIRED),
-                                            reader.string("joint_b", REQUIRED),
-                                            reader.number("ratio", REQUIRED))))
+            gears.append((name, reader))
             continue
-        joints.append(_read_joint(name, kind, reader, bodies, points, fixed))
+        joints.append(read_joint(name, kind, reader, bodies, points, fixed))
     revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
-    for reader, gear in gears:
-        for key in ("joint_a", "joint_b"):
-            if getattr(gear, key) not in revolute:
-                reader.fail(key, f"'{getattr(gear, key)}' is not a revolute joint of this "
-                                 f"scene (revolute joints: {', '.join(revolute) or 'none'})")
-        if gear.joint_a == gear.joint_b:
-            reader.fail("joint_b", "a gear needs two different joints")
-        if gear.ratio == 0.0:
-            reader.fail("ratio", "must not be zero")
-        joints.append(gear)
+    joints += [read_gear(name, reader, revolute) for name, reader in gears]
     return tuple(sorted(joints, key=lambda j: j.name))
+
+
+def read_gear(name: str, reader: ParameterReader, revolute: Sequence[str]) -> GearJoint:
+    """A gear of two different joints among the scene's ``revolute`` joints."""
+    gear = GearJoint(name, reader.string("joint_a", REQUIRED), reader.string("joint_b", REQUIRED),
+                     reader.number("ratio", REQUIRED))
+    for key in ("joint_a", "joint_b"):
+        if getattr(gear, key) not in revolute:
+            reader.fail(key, f"'{getattr(gear, key)}' is not a revolute joint of this "
+                             f"scene (revolute joints: {', '.join(revolute) or 'none'})")
+    if gear.joint_a == gear.joint_b:
+        reader.fail("joint_b", "a gear needs two different joints")
+    if gear.ratio == 0.0:
+        reader.fail("ratio", "must not be zero")
+    return gear
 
 
 def _place(body: BodySpec, point: Vec2) -> Vec2:
@@ -694,7 +699,7 @@ def _place(body: BodySpec, point: Vec2) -> Vec2:
             body.position[1] + s * point[0] + c * point[1])
 
 
-def _read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[str, BodySpec],
                 points: Mapping[str, Mapping[str, Vec2]], fixed: str) -> JointSpec:
     """A joint between ``body_a`` (default: the fixed frame) and ``body_b``. ``point_b``
     (default the body frame's origin) is a point of body_b; ``point_a`` one of body_a, or

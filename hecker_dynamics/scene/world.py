@@ -26,7 +26,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import enum
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 from .load import (
@@ -97,10 +97,11 @@ def _joined(bodies: tuple[str, ...], before: tuple[str, ...], after: tuple[str, 
     return after if bodies == before else (*bodies, name)
 
 
-def spawned(scene: Scene, name: str, spec: str, collisions: Sequence[str] = (),
-            source: str = SPAWN_BODY_SERVICE) -> Scene:
-    """``scene`` with body ``name`` read from ``spec`` (YAML of ``bodies.<name>``) joining
-    ``collisions`` (names of its collision groups); see the module for the rules."""
+def spawned(scene: Scene, name: str, spec: str | Mapping[str, Any],
+            collisions: Sequence[str] = (), source: str = SPAWN_BODY_SERVICE) -> Scene:
+    """``scene`` with body ``name`` read from ``spec`` (YAML of ``bodies.<name>``, or
+    that YAML's mapping read already) joining ``collisions`` (names of its collision
+    groups); see the module for the rules."""
     root = ParameterReader({"name": name, "collisions": list(collisions)}, source)
     root.name("name")
     before = tuple(body.name for body in scene.bodies)
@@ -109,8 +110,9 @@ def spawned(scene: Scene, name: str, spec: str, collisions: Sequence[str] = (),
     if name == scene.frame_id:
         root.fail("name", f"'{name}' is the fixed frame")
     groups = root.strings("collisions")
-    values = read_parameters_text(spec, source, f"body '{name}' as a mapping of its "
-                                                "parameters ({shape: circle, ...})")
+    what = f"body '{name}' as a mapping of its parameters ({{shape: circle, ...}})"
+    values = dict(spec) if isinstance(spec, Mapping) else read_parameters_text(spec, source,
+                                                                               what)
     reader = ParameterReader({"bodies": {name: values}}, source)
     (_, body_reader), = reader.named_children("bodies")
     body = read_body(name, body_reader)

@@ -52,31 +52,33 @@ class Imu:
         """``cm_local`` (N, 2): each body's CM in its body frame (Model.cm_local)."""
         self.spec = spec
         self.body = [b.name for b in scene.bodies].index(spec.body)
-        self.mount = np.asarray(spec.position, dtype=float) - cm_local[self.body]
+        # Plain floats: a reading is a few numbers, taken at the IMU's rate.
+        self.mount = (np.asarray(spec.position, dtype=float) - cm_local[self.body]).tolist()
         gravity = [f.acceleration for f in scene.forces
                    if isinstance(f, Gravity) and spec.body in f.bodies]
-        self.gravity = np.sum(np.array(gravity, dtype=float).reshape(-1, 2), axis=0)
+        self.gravity = np.sum(np.array(gravity, dtype=float).reshape(-1, 2), axis=0).tolist()
+        self.noise = (spec.orientation_noise, spec.angular_velocity_noise,
+                      spec.linear_acceleration_noise, spec.linear_acceleration_noise)
 
     def read(self, q: np.ndarray, v: np.ndarray, accelerations: np.ndarray,
              stamp_ns: int) -> ImuReading:
         """The sample at CM state (q, v) whose accelerations (Model.accelerations) are
         ``accelerations``, all (N, 3), stamped ``stamp_ns``."""
         spec = self.spec
-        theta, omega = q[self.body, 2], v[self.body, 2]
-        ax, ay, alpha = accelerations[self.body]
+        theta, omega = float(q[self.body, 2]), float(v[self.body, 2])
+        ax, ay, alpha = accelerations[self.body].tolist()
+        (mx, my), (gx, gy) = self.mount, self.gravity
         c, s = math.cos(theta), math.sin(theta)
-        rx = c * self.mount[0] - s * self.mount[1]
-        ry = s * self.mount[0] + c * self.mount[1]
+        rx = c * mx - s * my
+        ry = s * mx + c * my
         # a_P = a_CM + alpha perp(r) - omega^2 r, less gravity: the specific force.
-        fx = ax - alpha * ry - omega * omega * rx - self.gravity[0]
-        fy = ay + alpha * rx - omega * omega * ry - self.gravity[1]
+        fx = ax - alpha * ry - omega * omega * rx - gx
+        fy = ay + alpha * rx - omega * omega * ry - gy
         yaw = theta + spec.angle
         cy, sy = math.cos(yaw), math.sin(yaw)
-        sensed = np.array([yaw, omega, cy * fx + sy * fy, -sy * fx + cy * fy])
-        noise = np.array([spec.orientation_noise, spec.angular_velocity_noise,
-                          spec.linear_acceleration_noise, spec.linear_acceleration_noise])
-        if np.any(noise > 0.0):
-            sensed = sensed + noise * noise_generator(
-                spec.seed, spec.frame_id, stamp_ns).standard_normal(4)
-        return ImuReading(stamp_ns, float(sensed[0]), float(sensed[1]),
-                          (float(sensed[2]), float(sensed[3])))
+        sensed = [yaw, omega, cy * fx + sy * fy, -sy * fx + cy * fy]
+        if any(noise > 0.0 for noise in self.noise):
+            draws = noise_generator(spec.seed, spec.frame_id, stamp_ns).standard_normal(4)
+            sensed = [x + noise * draw
+                      for x, noise, draw in zip(sensed, self.noise, draws.tolist())]
+        return ImuReading(stamp_ns, sensed[0], sensed[1], (sensed[2], sensed[3]))

@@ -25,8 +25,21 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
 from ..scene.commands import WrenchCommand
-from ..scene.load import INTEGRATORS, BodySpec, Scene, load_scene, read_body, scene_from_parameters
+from ..scene.load import (
+    INTEGRATORS,
+    BodySpec,
+    Scene,
+    load_scene,
+    read_body,
+    read_collisions,
+    read_force,
+    read_gear,
+    read_joint,
+    read_wall,
+    scene_from_parameters,
+)
 from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
+from ..scene.world import deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
 from .vectors import VectorLike, number, vector
@@ -50,7 +63,9 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
         world = args[0]
         assert isinstance(world, World)
         try:
-            return method(*args, **kwargs)
+            result = method(*args, **kwargs)
+            world._read_added()
+            return result
         except BaseException:
             if world._added is not None and world._params is not None:
                 section, key = world._added
@@ -83,9 +98,11 @@ class World:
     stiffness); ``sleep`` lets resting islands of the contact pass sleep, ``events``
     locates wall impacts inside the step; ``frame`` names the fixed frame.
 
-    The world's structure (bodies, walls, forces, joints) is fixed once it has stepped,
-    had a force applied or a body moved; :meth:`state` and :meth:`set_state` carry the
-    rest, bit for bit.
+    The world's structure (walls, forces, joints) is fixed once it has stepped, had a
+    force applied or a body moved, and in a world read from a scene file; bodies can still
+    be added and removed then, by the rules and with the carry-over of the node's
+    ``spawn_body`` and ``delete_body`` services (:mod:`hecker_dynamics.scene.world`).
+    :meth:`state` and :meth:`set_state` carry the rest, bit for bit.
     """
 
     def __init__(self, *, gravity: Optional[VectorLike] = None, step: float = 0.001,
@@ -123,6 +140,7 @@ class World:
         self._applied: dict[str, dict[str, Optional[int]]] = {}  # body: source: end (ns)
         self._count = 0
         self._added: Optional[tuple[str, str]] = None  # the entry an add_* call is making
+        self._specs: dict[str, BodySpec] = {}  # each body added, as the loader read it
         if scene is not None:
             self._bodies = {b.name: Body(self, b.name) for b in scene.bodies}
 
@@ -145,11 +163,13 @@ class World:
     def _edit(self, what: str) -> dict[str, Any]:
         """The parameters to change, after checking that the world may still change."""
         if self._params is None:
-            raise ValueError(f"cannot {what}: a world read from a scene file keeps its "
-                             "scene; add it to the file, or build the world in Python")
+            raise ValueError(f"cannot {what}: a world read from a scene file, or one that "
+                             "has spawned or removed a body, keeps its scene but for its "
+                             "bodies; add it to the file, or build the world in Python")
         if self._started:
             raise ValueError(f"cannot {what} after the world has started (stepped, pushed "
-                             "or moved); build the whole world first")
+                             "or moved): only bodies can be added and removed then; build "
+                             "the rest of the world first")
         self._scene, self._sim, self._frames = None, None, None
         return self._params
 
@@ -162,6 +182,29 @@ class World:
         entries[key] = values
         self._added = (section, key)
         return values
+
+    def _read_added(self) -> None:
+        """Read the wall, force, collision group or joint just added as the loader reads a
+        file's, so that what it breaks fails now, not at the first step (a body is read by
+        :meth:`add_body` itself)."""
+        if self._added is None or self._added[0] == "bodies" or self._params is None:
+            return
+        section, key = self._added
+        params, specs = self._params, self._specs
+        values = params[section][key]
+        reader = ParameterReader(values, SOURCE, f"{section}.{key}")
+        points = {name: spec.points for name, spec in specs.items()}
+        if section == "walls":
+            read_wall(key, reader, set(specs))
+        elif section == "forces":
+            read_force(key, reader, points)
+        elif section == "collisions":
+            read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
+        elif values["type"] == "gear":
+            read_gear(key, reader, [name for name, joint in params[section].items()
+                                    if joint["type"] == "revolute"])
+        else:
+            read_joint(key, values["type"], reader, specs, points, params["frame_id"])
 
     def _body_name(self, body: BodyLike, argument: str) -> str:
         name = body.name if isinstance(body, Body) else body
@@ -187,17 +230,27 @@ class World:
                  mass: Optional[float] = None, density: Optional[float] = None,
                  position: VectorLike = (0.0, 0.0), angle: float = 0.0,
                  velocity: VectorLike = (0.0, 0.0), angular_velocity: float = 0.0,
-                 points: Optional[Mapping[str, VectorLike]] = None) -> Body:
+                 points: Optional[Mapping[str, VectorLike]] = None,
+                 collisions: Sequence[str] = ()) -> Body:
         """Add a rigid body of ``shape`` (one shape or a list: a compound body) with its
         ``mass`` (kg) or ``density`` (kg/m^2); the center of mass and the moment of
         inertia follow from the shape (Eq. 3 and Eq. 13). ``position`` and ``angle`` place
         the body frame; ``velocity`` is that of its origin; ``points`` names body points
-        (body frame)."""
+        (body frame).
+
+        The body joins the collision groups named in ``collisions``, besides those added
+        after it that hold it. Once the world has started, or in a world read from a scene
+        file, it is spawned as the node's ``spawn_body`` spawns it: it joins the groups
+        named (and no other), gravity and walls that hold every body, and the other bodies
+        keep their state bit for bit."""
         if (mass is None) == (density is None):
             raise ValueError("mass: give the body's mass or its density, one of the two")
-        if name == (self._params or {}).get("frame_id"):
-            raise ValueError(f"name: '{name}' is the fixed frame's name")
-        values = self._section("bodies", name, "body")
+        if self._params is None or self._started:
+            values: dict[str, Any] = {}
+        else:
+            if name == self._params.get("frame_id"):
+                raise ValueError(f"name: '{name}' is the fixed frame's name")
+            values = self._section("bodies", name, "body")
         values.update(shape_parameters(shape))
         for key, argument in (("mass", mass), ("density", density)):
             if argument is not None:
@@ -209,11 +262,27 @@ class World:
         if points:
             values["points"] = {_name(key, "points"): list(vector(p, f"points[{key!r}]"))
                                 for key, p in points.items()}
-        # Read now, as the loader reads a file's body: a bad shape fails here.
-        read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
+        if self._params is None or self._started:
+            self._change_bodies(spawned, name, values, tuple(collisions), SOURCE)
+        else:  # read now, as the loader reads a file's body: a bad shape fails here
+            self._specs[name] = read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
+            self._join(name, collisions)
         body = Body(self, name)
         self._bodies[name] = body
         return body
+
+    def _join(self, name: str, collisions: Sequence[str]) -> None:
+        """Body ``name`` into the collision groups named (those added already)."""
+        assert self._params is not None
+        groups = self._params.get("collisions", {})
+        for group in collisions:
+            if group not in groups:
+                raise ValueError(f"collisions: no collision group {group!r} (groups: "
+                                 f"{', '.join(groups) or 'none'})")
+        for group in collisions:
+            members = groups[group].get("bodies")
+            if members is not None and name not in members:  # None: every body already
+                members.append(name)
 
     @_adding
     def add_wall(self, name: str, *, point: VectorLike, normal: VectorLike,
@@ -378,6 +447,25 @@ class World:
         values.update(type="gear", joint_a=_name(joint_a, "joint_a"),
                       joint_b=_name(joint_b, "joint_b"), ratio=number(ratio, "ratio"))
 
+    def remove_body(self, body: BodyLike) -> None:
+        """Remove ``body`` (a Body or its name), as the node's ``delete_body`` removes it:
+        refused while a spring, joint, sensor, drive or scripted force names it; what acted
+        on it alone goes with it, and the others keep their state bit for bit."""
+        name = self._body_name(body, "body")
+        self._change_bodies(deleted, name, SOURCE)
+        del self._bodies[name]
+        self._applied.pop(name, None)
+        # As the simulation drops its held commands: those on the body or in its axes.
+        self._schedule = [entry for entry in self._schedule if name not in (
+            entry[2].body, entry[2].frame_id.partition("/")[0])]
+
+    def _change_bodies(self, change: Callable[..., Scene], *args: Any) -> None:
+        """The world after ``change(scene, *args)`` (:func:`spawned` or :func:`deleted`),
+        going on from its state now (:meth:`Simulation.with_world`)."""
+        scene = change(self.scene, *args)  # SceneError, one line, if it is refused
+        self._sim = self.simulation.with_world(scene)
+        self._scene, self._params, self._frames = scene, None, None
+
     # ----------------------------------------------------------------- the scene
 
     @property
@@ -395,13 +483,19 @@ class World:
             self._sim = Simulation(self.scene)
         return self._sim
 
+    def _index(self, name: str) -> int:
+        index = self.simulation.model.index
+        if name not in index:
+            raise ValueError(f"body '{name}' was removed from the world")
+        return index[name]
+
     def _spec(self, name: str) -> BodySpec:
-        return self.scene.bodies[self.simulation.model.index[name]]
+        return self.scene.bodies[self._index(name)]
 
     def _body_state(self, name: str) -> BodyState:
         if self._frames is None:
             self._frames = self.simulation.snapshot().bodies
-        return self._frames[self.simulation.model.index[name]]
+        return self._frames[self._index(name)]
 
     def __getitem__(self, name: str) -> Body:
         """The body called ``name``."""
@@ -560,9 +654,16 @@ class World:
         if not isinstance(state, Mapping) or set(state) != {"simulation", "schedule",
                                                              "applied", "count"}:
             raise ValueError("state: expected what World.state() returns")
-        self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
-        self._schedule = [(int(stamp), int(order), _command_from_data(data))
-                          for stamp, order, data in state["schedule"]]
-        self._applied = copy.deepcopy(dict(state["applied"]))
-        self._count = int(state["count"])
+        saved = self.simulation.export_state()
+        try:
+            self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))
+            schedule = [(int(stamp), int(order), _command_from_data(data))
+                        for stamp, order, data in state["schedule"]]
+            applied = {str(body): dict(sources) for body, sources in state["applied"].items()}
+            count = int(state["count"])
+        except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
+            self.simulation.import_state(saved)  # a refused state changes nothing
+            raise ValueError(f"state: not what World.state() returns "
+                             f"({type(error).__name__}: {error})") from None
+        self._schedule, self._applied, self._count = schedule, copy.deepcopy(applied), count
         self._started, self._frames = True, None

@@ -17,6 +17,7 @@ import hecker_dynamics as hd
 from hecker_dynamics.geometry.shapes import Circle as Disc
 from hecker_dynamics.geometry.shapes import box as box_polygon
 from hecker_dynamics.geometry.shapes import mass_properties
+from hecker_dynamics.scene.world import deleted, spawned
 
 # Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
 # a few ulps of the largest term per step, over a few thousand steps.
@@ -179,6 +180,26 @@ def test_state_round_trip_is_bit_exact() -> None:
     assert world.state() == later
 
 
+@pytest.mark.parametrize("damage", ["no q", "a body short", "a bad schedule", "q of text"])
+def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> None:
+    world = sample_in_python()
+    world.advance(2.9)
+    state = json.loads(json.dumps(world.state()))
+    before = json.dumps(world.state())
+    if damage == "no q":
+        del state["simulation"]["q"]
+    elif damage == "a body short":
+        state["simulation"]["v"] = state["simulation"]["v"][:-1]
+    elif damage == "a bad schedule":
+        state["schedule"] = [[0, 0, {"body": "left"}]]
+    else:
+        state["simulation"]["q"][0][0] = "far"
+    with pytest.raises(ValueError, match=r"^state: ") as caught:
+        world.set_state(state)
+    assert "\n" not in str(caught.value)
+    assert json.dumps(world.state()) == before
+
+
 def test_moving_a_body_and_names() -> None:
     world = free_world(gravity=(0, -9.81))
     ball = world.add_body("ball", hd.Circle(0.5), mass=1.0)
@@ -256,12 +277,41 @@ def test_errors_name_the_argument(call, kind, message) -> None:
 def test_edits_after_start_and_of_a_scene_file_are_refused() -> None:
     world = built()
     world.advance(3.0)
-    with pytest.raises(ValueError, match=r"^cannot add body 'b' after the world has started"):
-        world.add_body("b", hd.Circle(1.0), mass=1.0)
+    with pytest.raises(ValueError, match=r"^cannot add wall 'w' after the world has started"):
+        world.add_wall("w", point=(0, 0), normal=(0, 1))
     with pytest.raises(ValueError, match=r"^t: 1\.0 s is behind the world's time"):
         world.advance(1.0)
     with pytest.raises(ValueError, match=r"^cannot add wall 'floor': a world read from a scene"):
         hd.World.from_scene("sample").add_wall("floor", point=(0, 0), normal=(0, 1))
+
+
+ENTRY_ERRORS = [
+    (lambda w: w.add_wall("w", point=(0, 0), normal=(0, 0)),
+     r"^World: parameter 'walls\.w\.normal': must not be the zero vector$"),
+    (lambda w: w.add_spring("s", "box", body_b="box", stiffness=1.0),
+     r"^World: parameter 'forces\.s\.body_b': a spring cannot join a body to itself$"),
+    (lambda w: w.add_revolute_joint("j", "box", "box"),
+     r"^World: parameter 'joints\.j\.body_b': a joint cannot join a body to itself$"),
+    (lambda w: w.add_gear_joint("g", "pin", "nope", 2.0),
+     r"^World: parameter 'joints\.g\.joint_b': 'nope' is not a revolute joint"),
+    (lambda w: w.add_collision_group("all"),
+     r"^World: body 'bow': a polygon that collides must be convex"),
+]
+
+
+@pytest.mark.parametrize(("call", "message"), ENTRY_ERRORS)
+def test_an_entry_the_scene_reader_refuses_is_refused_when_added(call, message) -> None:
+    """What the loader refuses of a file's wall, spring, joint, gear or group is refused by
+    the add_* call, not at the first step, and the world goes on without it."""
+    world = built()
+    world.add_body("bow", hd.Polygon([(0, 0), (2, 0), (2, 2), (1, 0.5), (0, 2)]), mass=1.0,
+                   position=(3.0, 0.0))
+    world.add_revolute_joint("pin", None, "box")
+    before = world.scene
+    with pytest.raises(hd.SceneError, match=message):
+        call(world)
+    assert world.scene == before
+    world.step()
 
 
 def test_a_bad_body_is_refused_by_the_scene_reader_at_once() -> None:
@@ -307,8 +357,8 @@ def test_every_joint_kind_and_force_is_the_scene_files() -> None:
     world.add_weld_joint("glue", b, c, frequency=2.0, damping_ratio=0.5)
     world.add_distance_joint("rod", a, b, length=1.0)
     world.add_distance_joint("rope", a, c, max_length=9.0)
-    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
     world.add_revolute_joint("hinge", None, b)
+    world.add_gear_joint("mesh", "pin", "hinge", 2.0)
     world.add_wall("floor", point=(0.0, -3.0), normal=(0.0, 1.0), restitution=0.5,
                    friction=0.2, bodies=["a", b])
     world.add_collision_group("all", [a, "b"], restitution=0.1, friction=0.4)
@@ -338,3 +388,79 @@ def test_a_held_force_of_a_scene_file_stops_after_its_input_timeout(from_file) -
         world.advance(2.0)
         ends.append(world["right"].position)
     assert (ends[0] == ends[1]) is from_file
+
+
+# ----------------------------------------------------------------- bodies added and removed
+
+def two_balls(extra: bool) -> hd.World:
+    """Two balls falling onto a floor in a collision group, with a third in the group (as
+    a Python world takes it before it starts) when ``extra``."""
+    world = hd.World(gravity=(0, -9.81), step=1 / 250, integrator="semi_implicit_euler")
+    world.add_body("a", hd.Circle(0.3), mass=1.0, position=(0.0, 1.0))
+    world.add_body("b", hd.Box(0.5, 0.5), mass=2.0, position=(0.2, 2.0), angle=0.4)
+    world.add_wall("floor", point=(0, 0), normal=(0, 1), friction=0.5)
+    world.add_collision_group("pile", ["a", "b"])
+    if extra:
+        world.add_body("c", hd.Circle(0.2), mass=0.5, position=(-0.1, 3.0), collisions=["pile"])
+    return world
+
+
+def poses(world: hd.World) -> list[tuple[object, ...]]:
+    return [(b.name, b.position, b.angle, b.velocity, b.angular_velocity) for b in world]
+
+
+def test_a_body_added_before_the_first_step_is_the_one_declared_with_the_rest() -> None:
+    """Spawned into a world that has not stepped (one read from its scene, so the node's
+    spawn path), the body makes the world it makes when declared with the others, bit for
+    bit, collision group and all."""
+    declared = two_balls(extra=True)
+    spawned = hd.World.from_scene(two_balls(extra=False).scene)
+    spawned.add_body("c", hd.Circle(0.2), mass=0.5, position=(-0.1, 3.0), collisions=["pile"])
+    assert spawned.scene == declared.scene
+    declared.advance(2.0)
+    spawned.advance(2.0)
+    assert poses(spawned) == poses(declared)
+    assert declared["c"].position[1] > 0.19  # it landed on the pile, not through it
+
+
+def test_a_body_added_while_running_is_the_node_services_spawn() -> None:
+    """Spawned at 0.5 s, the body goes through the same path as the node's spawn_body
+    (read from the same parameters as YAML): the same bits at 1.5 s; the bodies already
+    there keep their state through the spawn exactly."""
+    world = two_balls(extra=False)
+    sim = hd.Simulation(world.scene)
+    world.advance(0.5)
+    sim.advance_to(500_000_000, keep=False)
+    before = poses(world)
+    world.add_body("c", hd.Box(0.3, 0.2), mass=0.5, position=(-0.1, 3.0), angle=0.2,
+                   velocity=(0.5, 0.0), collisions=["pile"])
+    assert [p for p in poses(world) if p[0] != "c"] == before
+    yaml = ("{shape: box, size: [0.3, 0.2], mass: 0.5, position: [-0.1, 3.0], angle: 0.2, "
+            "velocity: [0.5, 0.0]}")
+    sim = sim.with_world(spawned(sim.scene, "c", yaml, ["pile"]))
+    world.advance(1.5)
+    sim.advance_to(1_500_000_000, keep=False)
+    assert poses(world) == [(b.name, b.position, b.angle, b.linear_velocity,
+                             b.angular_velocity) for b in sim.snapshot().bodies]
+
+
+def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
+    world = two_balls(extra=True)
+    world.add_spring("tether", "a", anchor=(0, 1), stiffness=10.0)
+    world.advance(0.5)
+    with pytest.raises(hd.SceneError, match=r"^World: body 'a' is named by spring 'tether'"):
+        world.remove_body("a")
+    c = world["c"]
+    sim = hd.Simulation(world.scene)
+    sim.advance_to(500_000_000, keep=False)
+    world.remove_body(c)
+    sim = sim.with_world(deleted(sim.scene, "c"))
+    assert "c" not in world and [b.name for b in world] == ["a", "b"]
+    with pytest.raises(ValueError, match=r"^body 'c' was removed from the world$"):
+        _ = c.position
+    world.advance(1.0)
+    sim.advance_to(1_000_000_000, keep=False)
+    assert poses(world) == [(b.name, b.position, b.angle, b.linear_velocity,
+                             b.angular_velocity) for b in sim.snapshot().bodies]
+    world.add_body("c", hd.Circle(0.1), mass=0.1, position=(3.0, 1.0))  # the name is free again
+    assert world["c"].mass == 0.1

@@ -185,14 +185,15 @@ def test_headline_takes_the_cheapest_reaching_configuration_and_says_why_a_peer_
             _row("mujoco", "rk4", 0.001, 4e-2, 1e-10),
             _row("pymunk", "native", 0.01, 1e-4, 1e-2),
             _row("pymunk", "native", 0.001, math.nan, math.nan, status="skipped")]
-    head = {e["threshold"]: e for e in report.headline(rows)}
-    assert head[1e-3]["best"]["hecker_dynamics"].method == "dop853"
-    assert head[1e-3]["ratios"]["mujoco"] == pytest.approx(0.25)
-    assert head[1e-6]["ratios"]["mujoco"] == pytest.approx(0.025)
-    assert head[1e-9]["ratios"]["mujoco"] == math.inf  # only the peer reaches 1e-9
-    assert head[1e-3]["ratios"]["pymunk"] == 0.0
-    assert "box2d" not in head[1e-3]["ratios"]  # not run on this scene
-    assert "pymunk" in head[1e-3]["skipped"] and "mujoco" not in head[1e-3]["skipped"]
+    head = {e.threshold: e for e in report.headline(rows)}
+    best = head[1e-3].best["hecker_dynamics"]
+    assert best is not None and best.method == "dop853"
+    assert head[1e-3].ratios["mujoco"] == pytest.approx(0.25)
+    assert head[1e-6].ratios["mujoco"] == pytest.approx(0.025)
+    assert head[1e-9].ratios["mujoco"] == math.inf  # only the peer reaches 1e-9
+    assert head[1e-3].ratios["pymunk"] == 0.0
+    assert "box2d" not in head[1e-3].ratios  # not run on this scene
+    assert "pymunk" in head[1e-3].skipped and "mujoco" not in head[1e-3].skipped
     assert "skipped" in report._ratio_text(0.0, skipped=True)
     assert report._ratio_text(0.0) == "peer never reaches"
     assert report._ratio_text(0.5) == "0.50 (met)" and report._ratio_text(0.51) == "0.51 (missed)"

@@ -690,3 +690,24 @@ def test_a_restored_simulation_carries_the_budgets_through_inputs_and_motors(nam
             set_motor_speed(sim, motor, -1.0)
         sim.advance_to(sim.time_ns + SEC // 3)
     assert copy_.export_state() == original.export_state()
+
+
+@pytest.mark.parametrize("axes", ["world", "body"])
+def test_a_constant_force_at_a_body_point_has_the_rate_of_its_fixed_lever(axes) -> None:
+    """A constant force F at a body point p and a torque tau: the rate of work the bound
+    grows by is |F| sqrt(2/m) + (|p| |F| + |tau|) sqrt(2/I) at every check, however far
+    the body goes and turns (its lever arm is fixed in the body)."""
+    params = {"integrator": "rk4", "step": 0.01, "publish_rate": 50.0, "duration": 3.0,
+              "bodies": {"box": {"shape": "box", "size": [2.0, 0.5], "mass": 10.0,
+                                 "angular_velocity": 3.0}},
+              "forces": {"push": {"type": "constant_force", "body": "box", "force": [3.0, -4.0],
+                                  "axes": axes, "point": [0.6, 0.2]},
+                         "twist": {"type": "constant_torque", "body": "box", "torque": 2.0}}}
+    sim = Simulation(make_scene(params))
+    mass, inertia = float(sim.model.mass[0]), float(sim.model.inertia[0])
+    lever = math.hypot(0.6 - sim.model.cm_local[0][0], 0.2 - sim.model.cm_local[0][1])
+    expected = 5.0 * math.sqrt(2.0 / mass) + (lever * 5.0 + 2.0) * math.sqrt(2.0 / inertia)
+    for t_ns in (1_000_000_000, 3_000_000_000):
+        sim.advance_to(t_ns, keep=False)
+        assert sim._bound.row(RATE)[0] == pytest.approx(expected, rel=1e-14)
+    assert math.hypot(*sim.q[0, :2]) > 0.3 and abs(sim.v[0, 2] - 3.0) > 0.5  # moved, turned
