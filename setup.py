@@ -81,7 +81,8 @@ setup(
     # Scenes and message definitions live at the package root, as ROS packages keep them;
     # a pip install carries them inside the Python package.
     package_dir={"hecker_dynamics.config": "config", "hecker_dynamics.interfaces": "msg"},
-    package_data={"hecker_dynamics": ["py.typed"], "hecker_dynamics.config": ["*.yaml"],
+    package_data={"hecker_dynamics": ["py.typed"],
+                  "hecker_dynamics.config": ["*.yaml", "maps/*.yaml", "maps/*.pgm"],
                   "hecker_dynamics.bench": ["reference_ratios.json"],
                   "hecker_dynamics.interfaces": ["*.msg"]},
     # optional=True: a failed compile or link only warns (see the module docstring).

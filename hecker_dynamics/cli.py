@@ -35,7 +35,15 @@ from .batch.variants import MAX_VARIANTS
 from .dynamics.simulation import PROGRESS_UPDATES, DivergenceError
 from .files import OutputError, check_folder
 from .scene.commands import InputError
-from .scene.load import INTEGRATORS, Scene, SceneError, load_scene, scene_summary, shipped_scenes
+from .scene.load import (
+    INTEGRATORS,
+    Scene,
+    SceneError,
+    load_scene,
+    scene_summary,
+    shipped_scenes,
+    with_map,
+)
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -88,7 +96,7 @@ def _positive(text: str) -> float:
 
 
 def configure(scene: Scene, args: argparse.Namespace) -> Scene:
-    """Apply the command line's overrides (integrator, step, tolerance) to a scene."""
+    """Apply the command line's overrides (integrator, step, tolerance, map) to a scene."""
     changes = {}
     if args.integrator:
         changes["integrator"] = args.integrator
@@ -103,6 +111,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration
+    if args.map is not None:
+        scene = with_map(scene, args.map)
     return dataclasses.replace(scene, **changes)
 
 
@@ -836,6 +846,9 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
+    run_parser.add_argument("--map", metavar="FILE",
+                            help="a Nav2 map YAML whose occupied cells the bodies collide with "
+                                 "(replaces the scene's map.file)")
     run_parser.add_argument("--view", action="store_true",
                             help="show the run in a window (needs a display and the viz extra)")
     _add_progress_options(run_parser)

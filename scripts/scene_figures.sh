@@ -13,3 +13,4 @@ render ship --trail ship
 render chain --trail link49
 render bridge --trail crate_b --contacts
 render ragdoll --trail head --contacts
+render warehouse --trail crate --contacts

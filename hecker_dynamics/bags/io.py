@@ -26,6 +26,7 @@ from typing import Any, Literal, Optional, Union
 
 import numpy as np
 
+from ..ros.contact_fields import ContactEventFields
 from ..ros.diagnostics import DiagnosticFields
 from ..ros.fields import (
     AppliedWrenchFields,
@@ -40,6 +41,7 @@ from ..ros.fields import (
     stamp_from_ns,
 )
 from ..ros.joint_states import JointStateFields
+from ..ros.map_fields import OccupancyGridFields
 from ..ros.markers import MarkerFields
 from ..ros.names import STATE_QOS, Durability, QosSpec, Reliability, output_qos
 from ..ros.sensor_fields import ImuFields, LaserScanFields
@@ -67,7 +69,8 @@ __all__ = [
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
     "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
     "default_message", "stamp_ns_of", "MAX_STAMP_NS", "LASER_SCAN", "IMU",
-    "laser_scan_message", "imu_message",
+    "laser_scan_message", "imu_message", "OCCUPANCY_GRID", "occupancy_grid_message",
+    "CONTACT_EVENT", "contact_event_message",
 ]
 
 APPLIED_WRENCH = "hecker_dynamics/msg/AppliedWrench"
@@ -76,7 +79,9 @@ KEYFRAME = "hecker_dynamics/msg/Keyframe"
 INPUT_EVENT = "hecker_dynamics/msg/InputEvent"
 WORLD_EVENT = "hecker_dynamics/msg/WorldEvent"
 #: The package's own interfaces, each defined in ``msg/<Name>.msg``.
-PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT)
+CONTACT_EVENT = "hecker_dynamics/msg/ContactEvent"
+PACKAGE_MESSAGES = (APPLIED_WRENCH, SESSION_INFO, KEYFRAME, INPUT_EVENT, WORLD_EVENT,
+                    CONTACT_EVENT)
 WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 TWIST = "geometry_msgs/msg/Twist"
@@ -87,6 +92,7 @@ TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 JOINT_STATE = "sensor_msgs/msg/JointState"
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 IMU = "sensor_msgs/msg/Imu"
+OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
 FLOAT64 = "std_msgs/msg/Float64"
 
 #: rosbag2 metadata version that ROS 2 Jazzy writes and reads.
@@ -265,6 +271,30 @@ def imu_message(fields: ImuFields) -> Any:
         linear_acceleration=_vector("geometry_msgs/msg/Vector3", fields.linear_acceleration),
         linear_acceleration_covariance=np.array(fields.linear_acceleration_covariance,
                                                 dtype=np.float64))
+
+
+def occupancy_grid_message(fields: OccupancyGridFields) -> Any:
+    """``nav_msgs/OccupancyGrid`` from
+    :func:`~hecker_dynamics.ros.map_fields.occupancy_grid_fields`."""
+    sec, nanosec = fields.map_load_time
+    return default_message(
+        OCCUPANCY_GRID, header=header_message(fields.header),
+        info=default_message(
+            "nav_msgs/msg/MapMetaData",
+            map_load_time=default_message("builtin_interfaces/msg/Time", sec=sec,
+                                          nanosec=nanosec),
+            resolution=fields.resolution, width=fields.width, height=fields.height,
+            origin=pose_message(fields.origin)),
+        data=np.frombuffer(fields.data, dtype=np.int8))
+
+
+def contact_event_message(fields: ContactEventFields) -> Any:
+    """``hecker_dynamics/msg/ContactEvent`` from
+    :func:`~hecker_dynamics.ros.contact_fields.contact_event_fields`."""
+    return default_message(CONTACT_EVENT, header=header_message(fields.header),
+                           event=fields.event, surface=fields.surface, body_a=fields.body_a,
+                           body_b=fields.body_b, normal_impulse=fields.normal_impulse,
+                           tangent_impulse=fields.tangent_impulse)
 
 
 def pose_message(fields: Pose) -> Any:

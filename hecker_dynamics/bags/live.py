@@ -40,7 +40,8 @@ before every recorded output of a later one, before every event record with a la
 time of its session and before every record of a later session.
 
 ``/diagnostics`` is not compared: it holds wall times and the node publishes it at timer
-ticks; nor is ``/tf_static``, published once at the node's start, which the scene fixes;
+ticks; nor are ``/tf_static`` and ``/map``, published once at the node's start, which the
+scene fixes (the map's cells are in the scene's fingerprint);
 nor ``/clock`` (lockstep ticks), nor a ``markers`` array of ``DELETE`` markers alone,
 which the node sends when bodies are gone
 (:meth:`~hecker_dynamics.ros.outputs.SnapshotOutputs.markers_gone`): it follows from the
@@ -59,7 +60,7 @@ from ..dynamics.simulation import Snapshot
 from ..ros.cmd_vel import CmdVelTopic
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
-from ..ros.names import CLOCK_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
+from ..ros.names import CLOCK_TOPIC, MAP_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
 from ..ros.outputs import DIAGNOSTICS_TOPIC, OutputFields, body_topics, sensor_topic
 from ..ros.runner import InputSource, Runner
 from ..ros.session import (
@@ -648,6 +649,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
                        | {resolve_topic(t) for name in spawned for t in body_topics(scene, name)})
     skipped = {resolve_topic(DIAGNOSTICS_TOPIC): "wall times, published at timer ticks",
                TF_STATIC_TOPIC: "published once, fixed by the scene",
+               MAP_TOPIC: "published once, fixed by the map, whose cells the fingerprint holds",
                CLOCK_TOPIC: "published at lockstep ticks"}
     if topics is not None:
         unknown = [t for t in topics if t not in produced_topics or t in skipped]

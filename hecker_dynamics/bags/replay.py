@@ -312,6 +312,8 @@ _MESSAGE_BUILDERS: dict[OutputKind, Callable[[Any], Any]] = {
     OutputKind.ODOMETRY: bags.odometry_message, OutputKind.MARKERS: bags.marker_array_message,
     OutputKind.TF: bags.tf_message, OutputKind.JOINT_STATE: bags.joint_state_message,
     OutputKind.LASER_SCAN: bags.laser_scan_message, OutputKind.IMU: bags.imu_message,
+    OutputKind.OCCUPANCY_GRID: bags.occupancy_grid_message,
+    OutputKind.CONTACT_EVENT: bags.contact_event_message,
 }
 
 

@@ -75,6 +75,11 @@ class ConvexPolygon:
         normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / length[:, None]
         return cls(v, normals)
 
+    def part(self) -> PolygonPart:
+        """The polygon as plain floats, for detection."""
+        return PolygonPart([(x, y) for x, y in self.vertices.tolist()],
+                           [(x, y) for x, y in self.normals.tolist()])
+
     @property
     def inradius(self) -> float:
         """Distance from the vertex centroid to the nearest edge: half a thickness."""

@@ -1,5 +1,6 @@
-"""Detection (C twin: ``src/kernel/detect.c``): shape points behind walls, and overlapping
-convex parts of bodies that the scene lets collide, found by a sort-and-sweep broad phase
+"""Detection (C twin: ``src/kernel/detect.c``, which has no map): shape points behind
+walls, bodies against the map's boxes, and overlapping convex parts of bodies that the
+scene lets collide, found by a sort-and-sweep broad phase
 on the x extent, then the narrow phase of :mod:`.collision` (``src/kernel/manifold.c``).
 """
 from __future__ import annotations
@@ -65,6 +66,11 @@ class Detection:
     reach: list[float]
     thickness: float
     _lean: bool
+    static_parts: list[PolygonPart]
+    static_bounds: NDArray[np.float64]
+    static_material: tuple[float, float]
+    static_bodies: list[int]
+    _swept: list[int]
     _colliding_index: NDArray[np.int_]
     _colliding_reach: NDArray[np.float64]
     _woken: set[int]
@@ -124,6 +130,8 @@ class Detection:
                              else half_plane_polygon(normal, offset, part.vertices, MARGIN))
                     for point, n, depth in found:
                         contacts.append(Contact(-1, b, point, n, depth, e, mu, (-1 - w, b, 0, p)))
+        if self.static_bodies:
+            contacts.extend(self._static_contacts(poses, island, world))
         if island is not None and all(island[b] >= 0 for b in self.colliding):
             return contacts  # with every colliding body asleep no pair needs looking at
         for a, b, material in self._candidate_pairs(poses) if self.colliding else ():
@@ -137,6 +145,31 @@ class Detection:
             if touching and sleeping >= 0:
                 self._woken.add(sleeping)
             contacts.extend(touching)
+        return contacts
+
+    def _static_contacts(self, poses: list[list[float]], island: Optional[list[int]],
+                         world: dict[int, list[Part]]) -> list[Contact]:
+        """Contacts of the map's boxes (body -1; box k's key -1 - (walls + k)) with the
+        awake bodies that collide with them, box by box in the map's order."""
+        contacts: list[Contact] = []
+        first = -1 - len(self.wall_bodies)
+        e, mu = self.static_material
+        x0, x1, y0, y1 = self.static_bounds.T
+        for b in self.static_bodies:
+            if island is not None and island[b] >= 0:
+                continue
+            x, y, _ = poses[b]
+            r = self.reach[b] + MARGIN
+            near = np.flatnonzero((x0 <= x + r) & (x1 >= x - r) & (y0 <= y + r) & (y1 >= y - r))
+            if not len(near):
+                continue
+            if b not in world:
+                world[b] = self._world_parts(poses[b], b)
+            for k in near.tolist():
+                for p, part in enumerate(world[b]):
+                    for point, n, depth in collide(self.static_parts[k], part):
+                        contacts.append(Contact(-1, b, point, n, depth, e, mu,
+                                                (first - k, b, 0, p)))
         return contacts
 
     def _candidate_pairs(self, poses: list[list[float]]) -> list[tuple[int, int, Material]]:
@@ -174,14 +207,14 @@ class Detection:
     def substeps(self, q0: States, q1: States) -> int:
         """How many sub-steps keep every colliding body's travel under half the thinnest
         colliding part (1 when the step is short enough)."""
-        if not self.colliding:
+        if not self._swept:
             return 1
         farthest: float
         if self._lean:  # a few bodies: plain floats beat numpy's cost per call
             before, after = q0.tolist(), q1.tolist()
             farthest = max(magnitude(after[i][0] - before[i][0], after[i][1] - before[i][1])
                            + abs(after[i][2] - before[i][2]) * self.reach[i]
-                           for i in self.colliding)
+                           for i in self._swept)
         else:
             index = self._colliding_index
             moved = q1[index] - q0[index]

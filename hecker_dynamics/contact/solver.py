@@ -90,9 +90,7 @@ def _polygon_part(local: np.ndarray, colliding: bool) -> tuple[PolygonPart, floa
     if not colliding:
         return PolygonPart([tuple(p) for p in local.tolist()], []), extent, math.inf
     poly = ConvexPolygon.from_vertices(local)
-    return (PolygonPart([tuple(p) for p in poly.vertices.tolist()],
-                        [tuple(n) for n in poly.normals.tolist()]),
-            extent, 2.0 * poly.inradius)
+    return poly.part(), extent, 2.0 * poly.inradius
 
 
 class ContactPass(Sleep, WarmStarts):
@@ -127,11 +125,14 @@ class ContactPass(Sleep, WarmStarts):
         # Per body, its parts relative to the CM in body axes, as plain floats; the scene
         # loader has checked that colliding bodies are convex.
         colliding = self.pairs.colliding()
+        self._read_map(scene, index)
+        # Bodies that meet other convex parts: the collision groups' and the map's.
+        swept = sorted(set(colliding) | set(self.static_bodies))
         self.parts: list[list[Part]] = []
         reach, thickness = [], []
         # A pile's bodies share a few outlines: each is checked and oriented once.
         outlines: dict[tuple[bytes, bool], tuple[PolygonPart, float, float]] = {}
-        convex = set(colliding)
+        convex = set(swept)
         for i, body in enumerate(scene.bodies):
             parts: list[Part] = []
             extents, widths = [], []
@@ -157,11 +158,14 @@ class ContactPass(Sleep, WarmStarts):
         self.colliding = colliding
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
-        self.thickness = min((thickness[i] for i in colliding), default=math.inf)
+        self.thickness = min((thickness[i] for i in swept), default=math.inf)
+        if scene.map is not None:  # a wall of the map may be one cell thin
+            self.thickness = min(self.thickness, scene.map.occupancy.resolution)
         self._lean = lean
-        self._colliding_index = np.array(colliding, dtype=int)
-        self._colliding_reach = np.array([reach[i] for i in colliding])
-        touching = {b for bodies in self.wall_bodies for b in bodies} | set(colliding)
+        self._swept = swept
+        self._colliding_index = np.array(swept, dtype=int)
+        self._colliding_reach = np.array([reach[i] for i in swept])
+        touching = {b for bodies in self.wall_bodies for b in bodies} | set(swept)
         self.bodies = np.array(sorted(touching), dtype=int)
         self._warm: WarmImpulses = {}
         self.sleep = sleep
@@ -177,6 +181,24 @@ class ContactPass(Sleep, WarmStarts):
         self._joints = joints
         self._kernel: Optional[_compiled.CompiledContacts] = (
             _compiled.CompiledContacts(self) if compiled else None)
+
+    def _read_map(self, scene: Scene, index: dict[str, int]) -> None:
+        """The map's boxes as convex parts fixed in the world, their bounds, material and
+        the bodies that collide with them (none without a map)."""
+        self.static_parts = []
+        self.static_bodies = []
+        self.static_material = (0.0, 0.0)
+        self.static_bounds = np.zeros((0, 4))
+        if scene.map is None:
+            return
+        boxes = scene.map.occupancy.box_vertices()
+        self.static_parts = [ConvexPolygon.from_vertices(corners).part() for corners in boxes]
+        self.static_bounds = np.column_stack([boxes[:, :, 0].min(axis=1),
+                                              boxes[:, :, 0].max(axis=1),
+                                              boxes[:, :, 1].min(axis=1),
+                                              boxes[:, :, 1].max(axis=1)])
+        self.static_material = (scene.map.restitution, scene.map.friction)
+        self.static_bodies = sorted(index[b] for b in scene.map.bodies)
 
     def reset(self) -> None:
         """Forget the impulses kept for warm starting, and wake every body (held by no

@@ -5,11 +5,14 @@ forces at the same steps; a velocity command takes effect at the next control in
 from __future__ import annotations
 
 import bisect
-from typing import Any
+from typing import Any, Union
 
 from ..dynamics.simulation import Simulation, Snapshot
 from ..scene.commands import WrenchCommand
-from .diff_drive import DiffDrive, VelocityCommand
+from ..scene.drives import DiffDriveSpec
+from .command import VelocityCommand
+from .diff_drive import DiffDrive
+from .wrench_drive import WrenchDrive
 
 __all__ = ["DriveSet", "advance_with_drives", "play_with_drives"]
 
@@ -20,9 +23,11 @@ class DriveSet:
 
     def __init__(self, sim: Simulation) -> None:
         model = sim.model
-        self.drives = [DiffDrive(spec, model.index[spec.body],
-                                 model.cm_local[model.index[spec.body]])
-                       for spec in sim.scene.drives]
+        self.drives: list[Union[DiffDrive, WrenchDrive]] = [
+            DiffDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
+            if isinstance(spec, DiffDriveSpec) else
+            WrenchDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
+            for spec in sim.scene.drives]
         self._next_ns = [sim.time_ns] * len(self.drives)
 
     def __bool__(self) -> bool:
@@ -40,10 +45,12 @@ class DriveSet:
         for index, drive in enumerate(self.drives):
             if sim.time_ns >= self._next_ns[index]:
                 script = drive.spec.script
-                due = bisect.bisect_right([t for t, _, _ in script], sim.time_ns - sim.start_ns)
-                if play_script and due:
-                    _, linear_x, angular_z = script[due - 1]
-                    drive.receive(VelocityCommand(sim.time_ns, linear_x, angular_z))
+                due = bisect.bisect_right([entry[0] for entry in script],
+                                          sim.time_ns - sim.start_ns)
+                if play_script and due:  # (t, x, z) of a diff drive, (t, x, y, z) else
+                    _, linear_x, *rest = script[due - 1]
+                    drive.receive(VelocityCommand(sim.time_ns, linear_x, rest[-1],
+                                                  rest[0] if len(rest) == 2 else 0.0))
                 for command in drive.wrenches(sim.q, sim.v, sim.time_ns):
                     sim.push(command)
                 self._next_ns[index] = sim.time_ns + drive.spec.period_ns

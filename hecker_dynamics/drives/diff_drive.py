@@ -17,35 +17,24 @@ angular acceleration (Eq. 14).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ..scene.commands import WrenchCommand
 from ..scene.drives import DiffDriveSpec
+from .command import CommandedDrive, VelocityCommand
 
 __all__ = ["DiffDrive", "VelocityCommand"]
 
 
-@dataclass(frozen=True)
-class VelocityCommand:
-    """A body-frame twist command: forward speed (m/s) and angular velocity (rad/s),
-    received at sim time ``stamp_ns``."""
-
-    stamp_ns: int
-    linear_x: float
-    angular_z: float
-
-
-class DiffDrive:
+class DiffDrive(CommandedDrive):
     """The controller of one ``diff_drive``: its last command and its integrals."""
 
     def __init__(self, spec: DiffDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
         """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
         body frame."""
+        super().__init__(spec, body_index, 2)
         self.spec = spec
-        self.body = body_index
         cx, cy = spec.center
         half = spec.separation / 2.0
         #: Contact points (body frame) of the left and right wheels.
@@ -53,32 +42,6 @@ class DiffDrive:
         # Plain floats: the controller runs at every control instant, on a few numbers.
         self._offsets = [(np.asarray(w, dtype=float) - cm_local).tolist() for w in self.wheels]
         self._axle = (np.asarray(spec.center, dtype=float) - cm_local).tolist()
-        self.command: VelocityCommand | None = None
-        self.integrals = [0.0, 0.0]  # of the forward-speed and angular-velocity errors
-
-    def receive(self, command: VelocityCommand) -> None:
-        """Take a new twist command; it replaces the previous one."""
-        if not (math.isfinite(command.linear_x) and math.isfinite(command.angular_z)):
-            raise ValueError(f"drive '{self.spec.name}': a cmd_vel with a non-finite value "
-                             f"({command.linear_x}, {command.angular_z})")
-        self.command = command
-
-    def export_state(self) -> dict[str, Any]:
-        """The controller's state, for keyframes."""
-        c = self.command
-        return {"integrals": list(self.integrals),
-                "command": None if c is None else [c.stamp_ns, c.linear_x, c.angular_z]}
-
-    def import_state(self, state: dict[str, Any]) -> None:
-        self.integrals = [float(x) for x in state["integrals"]]
-        c = state["command"]
-        self.command = None if c is None else VelocityCommand(int(c[0]), float(c[1]),
-                                                              float(c[2]))
-
-    def active(self, time_ns: int) -> bool:
-        """Whether a command younger than the cmd_vel timeout holds at ``time_ns``."""
-        c, timeout = self.command, self.spec.cmd_vel_timeout_ns
-        return c is not None and (timeout == 0 or time_ns - c.stamp_ns < timeout)
 
     def wrenches(self, q: np.ndarray, v: np.ndarray, time_ns: int) -> list[WrenchCommand]:
         """The wheel forces for the control period starting at ``time_ns``, from the CM

@@ -24,8 +24,10 @@ from collections.abc import Callable, Iterable
 from typing import Any, Optional
 
 from ..dynamics.simulation import Snapshot
+from .contact_fields import ContactEventFields
 from .fields import Header, body_pose, header, odometry_twist, twist_fields
 from .joint_states import JointStateFields, snapshot_joint_states
+from .map_fields import OccupancyGridFields
 from .markers import MarkerFields, marker_pose
 from .names import JOINT_STATES_TOPIC, MARKERS_TOPIC, TF_TOPIC
 from .outputs import OutputFields, OutputKind, SnapshotOutputs
@@ -231,14 +233,42 @@ def _imu(fields: ImuFields) -> bytes:
                   *fields.linear_acceleration, *fields.linear_acceleration_covariance])
 
 
+def _occupancy_grid(fields: OccupancyGridFields) -> bytes:
+    """``nav_msgs/OccupancyGrid``: header, the map's load time (int32 sec, uint32
+    nanosec), resolution (float32), width and height (uint32), origin (a Pose, 7 float64),
+    then the cells (int8, their count first)."""
+    head, head_values = _header(fields.header)
+    origin = fields.origin
+    return _pack([head, ("i", 1), ("I", 1), ("f", 1), ("I", 2), ("d", 7), ("I", 1),
+                  ("raw", len(fields.data))],
+                 [*head_values, *fields.map_load_time, fields.resolution, fields.width,
+                  fields.height, *origin.position, *origin.orientation, len(fields.data),
+                  fields.data])
+
+
+def _contact_event(fields: ContactEventFields) -> bytes:
+    """``hecker_dynamics/msg/ContactEvent``: header, event (uint8), surface, body_a and
+    body_b, then the normal and tangent impulses (float64)."""
+    head, head_values = _header(fields.header)
+    parts: list[Part] = [head, ("B", 1)]
+    values: list[Any] = [*head_values, fields.event]
+    for text in (fields.surface, fields.body_a, fields.body_b):
+        string, string_values = _string(text)
+        parts.append(string)
+        values += string_values
+    parts.append(("d", 2))
+    return _pack(parts, [*values, fields.normal_impulse, fields.tangent_impulse])
+
+
 #: The serializer of each output kind's fields (:class:`~.outputs.OutputFields`) that the
 #: node publishes apart from the snapshots' (:class:`SnapshotSerializer`): markers that
-#: delete, ``/tf_static``, the sensors' readings, and joint states, which a snapshot
-#: serializes this way too.
+#: delete, ``/tf_static``, ``/map``, the sensors' readings, contact events, and joint
+#: states, which a snapshot serializes this way too.
 SERIALIZERS: dict[OutputKind, Callable[[Any], bytes]] = {
     OutputKind.MARKERS: _marker_array, OutputKind.TF: _tf_message,
     OutputKind.JOINT_STATE: _joint_state, OutputKind.LASER_SCAN: _laser_scan,
-    OutputKind.IMU: _imu,
+    OutputKind.IMU: _imu, OutputKind.OCCUPANCY_GRID: _occupancy_grid,
+    OutputKind.CONTACT_EVENT: _contact_event,
 }
 
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
+from ..drives.command import VelocityCommand
 from ..drives.control import DriveSet
-from ..drives.diff_drive import VelocityCommand
+from ..drives.wrench_drive import WrenchDrive
 from ..scene.commands import InputError
 from ..scene.load import Scene
 from .names import cmd_vel_topic
@@ -16,7 +17,8 @@ __all__ = ["CmdVelTopic", "cmd_vel_topics", "take_cmd_vel"]
 
 class CmdVelTopic(NamedTuple):
     """A driven body's command topic: ``geometry_msgs/Twist`` messages (body frame) whose
-    ``linear.x`` and ``angular.z`` every drive of ``body`` follows."""
+    ``linear.x`` and ``angular.z`` every drive of ``body`` follows, and ``linear.y`` its
+    omnidirectional bases and thrusters."""
 
     body: str
     topic: str
@@ -36,8 +38,12 @@ def take_cmd_vel(drives: DriveSet, source: CmdVelTopic, msg: Any, time_ns: int) 
     values = (linear.x, linear.y, linear.z, angular.x, angular.y, angular.z)
     if not all(math.isfinite(float(x)) for x in values):
         raise InputError(f"a cmd_vel for '{source.body}' has a non-finite value {values}")
-    drives.receive(source.body, VelocityCommand(time_ns, float(linear.x), float(angular.z)))
+    drives.receive(source.body, VelocityCommand(time_ns, float(linear.x), float(angular.z),
+                                                float(linear.y)))
+    sideways = any(isinstance(drive, WrenchDrive) and drive.spec.body == source.body
+                   for drive in drives.drives)
     ignored = [name for name, x in zip(("linear.y", "linear.z", "angular.x", "angular.y"),
-                                       values[1:5]) if x != 0.0]
-    return ([f"cmd_vel for '{source.body}': a differential drive ignores "
-             f"{', '.join(ignored)}"] if ignored else [])
+                                       values[1:5]) if x != 0.0 and not (sideways and
+                                                                          name == "linear.y")]
+    drive = "its drives ignore" if sideways else "a differential drive ignores"
+    return ([f"cmd_vel for '{source.body}': {drive} {', '.join(ignored)}"] if ignored else [])

@@ -25,7 +25,9 @@ from ..scene.names import (
 
 __all__ = ["NODE_NAME", "Reliability", "Durability", "QosSpec", "COMMAND_QOS", "STATE_QOS",
            "CLOCK_QOS", "TF_QOS", "TF_STATIC_QOS", "SESSION_QOS", "KEYFRAME_QOS",
-           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "WORLD_EVENTS_TOPIC", "APPLIED_WRENCH_TOPIC",
+           "INPUT_EVENTS_QOS", "WORLD_EVENTS_QOS", "MAP_QOS", "MAP_TOPIC",
+           "CONTACT_EVENTS_QOS", "CONTACT_EVENTS_TOPIC", "WORLD_EVENTS_TOPIC",
+           "APPLIED_WRENCH_TOPIC",
            "CLOCK_TOPIC", "TF_TOPIC", "TF_STATIC_TOPIC", "MARKERS_TOPIC", "DIAGNOSTICS_TOPIC",
            "JOINT_STATES_TOPIC", "motor_topic", "cmd_vel_topic", "scan_topic", "imu_topic",
            "SESSION_TOPIC", "KEYFRAME_TOPIC", "INPUT_EVENTS_TOPIC", "RESET_SERVICE",
@@ -82,11 +84,21 @@ SESSION_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
 KEYFRAME_QOS = QosSpec(2, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
 INPUT_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
 WORLD_EVENTS_QOS = QosSpec(1000, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+# /map: nav2 map_server's profile (reliable, transient_local, keep-last 1): the map is
+# published once and every later subscriber (RViz, Nav2's costmaps) still receives it.
+MAP_QOS = QosSpec(1, Reliability.RELIABLE, Durability.TRANSIENT_LOCAL)
+# Contact events: every one matters (a missed END leaves a bumper pressed), and a tick may
+# hold many (a pile settling), so a deeper queue than the state's.
+CONTACT_EVENTS_QOS = QosSpec(100, Reliability.RELIABLE, Durability.VOLATILE)
 
 APPLIED_WRENCH_TOPIC = "applied_wrench"
 CLOCK_TOPIC = "/clock"
 TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
+#: ``nav_msgs/OccupancyGrid`` of the scene's map, where Nav2 expects it.
+MAP_TOPIC = "/map"
+#: ``hecker_dynamics/msg/ContactEvent``: touches beginning and ending.
+CONTACT_EVENTS_TOPIC = "contact_events"
 MARKERS_TOPIC = "markers"
 DIAGNOSTICS_TOPIC = "diagnostics"
 #: ``sensor_msgs/JointState`` of the scene's revolute and prismatic joints, as robots publish.
@@ -134,4 +146,5 @@ def imu_topic(body: str, sensor: str) -> str:
 
 def output_qos(topic: str) -> QosSpec:
     """The QoS of the node's publisher on ``topic`` (any of its outputs but ``/clock``)."""
-    return {TF_TOPIC: TF_QOS, TF_STATIC_TOPIC: TF_STATIC_QOS}.get(topic, STATE_QOS)
+    return {TF_TOPIC: TF_QOS, TF_STATIC_TOPIC: TF_STATIC_QOS, MAP_TOPIC: MAP_QOS,
+            CONTACT_EVENTS_TOPIC: CONTACT_EVENTS_QOS}.get(topic, STATE_QOS)

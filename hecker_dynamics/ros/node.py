@@ -22,7 +22,7 @@ import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, Twist, WrenchStamped
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -46,7 +46,7 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from ..dynamics.simulation import Snapshot
-from ..msg import AppliedWrench, InputEvent, Keyframe, SessionInfo, WorldEvent
+from ..msg import AppliedWrench, ContactEvent, InputEvent, Keyframe, SessionInfo, WorldEvent
 from ..scene.load import SceneError, WrenchTopic
 from ..srv import DeleteBody, SetBodyState, SpawnBody, Step
 from .cdr import SnapshotSerializer, serialize_output
@@ -112,6 +112,7 @@ MESSAGE_TYPES = {
     OutputKind.MARKERS: MarkerArray, OutputKind.DIAGNOSTICS: DiagnosticArray,
     OutputKind.TF: TFMessage, OutputKind.JOINT_STATE: JointState,
     OutputKind.LASER_SCAN: LaserScan, OutputKind.IMU: Imu,
+    OutputKind.OCCUPANCY_GRID: OccupancyGrid, OutputKind.CONTACT_EVENT: ContactEvent,
 }
 
 

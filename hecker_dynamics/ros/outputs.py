@@ -10,6 +10,8 @@ from ..scene.sensors import LaserSpec, SensorSpec
 from ..sensors.imu import ImuReading
 from ..sensors.laser import LaserScan
 from ..sensors.schedule import Reading
+from ..sensors.touch import TouchEvent
+from .contact_fields import contact_event_fields
 from .fields import (
     OdometryFields,
     PoseStampedFields,
@@ -19,6 +21,7 @@ from .fields import (
     twist_fields,
 )
 from .joint_states import has_joint_states, snapshot_joint_states
+from .map_fields import occupancy_grid_fields
 from .markers import (
     MarkerFields,
     MarkerKey,
@@ -29,8 +32,10 @@ from .markers import (
     place_markers,
 )
 from .names import (
+    CONTACT_EVENTS_TOPIC,
     DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
+    MAP_TOPIC,
     MARKERS_TOPIC,
     TF_STATIC_TOPIC,
     TF_TOPIC,
@@ -44,7 +49,8 @@ from .sensor_fields import imu_fields, laser_scan_fields, sensor_transforms
 from .tf import body_transforms, point_transforms
 
 __all__ = ["OutputKind", "DIAGNOSTICS_TOPIC", "output_topics", "body_topics", "OutputFields",
-           "SnapshotOutputs", "snapshot_outputs", "sensor_topic", "reading_output"]
+           "SnapshotOutputs", "snapshot_outputs", "sensor_topic", "reading_output",
+           "touch_output"]
 
 
 class OutputKind(enum.Enum):
@@ -59,6 +65,8 @@ class OutputKind(enum.Enum):
     JOINT_STATE = "sensor_msgs/msg/JointState"
     LASER_SCAN = "sensor_msgs/msg/LaserScan"
     IMU = "sensor_msgs/msg/Imu"
+    OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
+    CONTACT_EVENT = "hecker_dynamics/msg/ContactEvent"
 
 
 def _with_tf(scene: Scene, tf: Optional[bool]) -> bool:
@@ -76,9 +84,10 @@ def body_topics(scene: Scene, body: str) -> dict[str, OutputKind]:
 def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, OutputKind]:
     """The node's output topics for ``scene`` and their kinds, in publishing order: per
     body ``<body>/pose``, ``<body>/twist`` and (if enabled) ``<body>/odom``, then
-    ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``joint_states`` if the scene
-    has revolute or prismatic joints, each sensor's scan or IMU topic, and ``diagnostics``
-    if enabled.
+    ``markers``, ``/tf`` and ``/tf_static``, each if enabled, ``/map`` if the scene has a
+    map, ``joint_states`` if the scene
+    has revolute or prismatic joints, each sensor's scan or IMU topic, ``contact_events``
+    and ``diagnostics`` if enabled.
 
     ``tf`` overrides the scene's ``publish.tf`` (the offline replay leaves TF out unless
     asked, so bags replayed before TF existed keep their bytes).
@@ -91,11 +100,15 @@ def output_topics(scene: Scene, *, tf: Optional[bool] = None) -> dict[str, Outpu
     if _with_tf(scene, tf):
         topics[TF_TOPIC] = OutputKind.TF
         topics[TF_STATIC_TOPIC] = OutputKind.TF
+    if scene.map is not None:
+        topics[MAP_TOPIC] = OutputKind.OCCUPANCY_GRID
     if has_joint_states(scene):
         topics[JOINT_STATES_TOPIC] = OutputKind.JOINT_STATE
     for spec in scene.sensors:
         topics[sensor_topic(spec)] = OutputKind.LASER_SCAN if isinstance(spec, LaserSpec) \
             else OutputKind.IMU
+    if scene.publish_contacts:
+        topics[CONTACT_EVENTS_TOPIC] = OutputKind.CONTACT_EVENT
     if scene.publish_diagnostics:
         topics[DIAGNOSTICS_TOPIC] = OutputKind.DIAGNOSTICS
     return topics
@@ -186,11 +199,16 @@ class SnapshotOutputs:
         return [OutputFields(MARKERS_TOPIC, OutputKind.MARKERS, delete_markers(gone, head))]
 
     def static(self, stamp_ns: int) -> list[OutputFields]:
-        """``/tf_static`` (published once, latched): each body frame to its named points'
-        frames and its sensors' frames; empty without TF or any of them."""
+        """What is published once, latched: ``/tf_static`` (each body frame to its named
+        points' frames and its sensors' frames; none without TF or any of them) and
+        ``/map`` (if the scene has a map)."""
         transforms = point_transforms(self.scene, stamp_ns) + \
             sensor_transforms(self.scene, stamp_ns) if self.tf else ()
-        return [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
+        static = [OutputFields(TF_STATIC_TOPIC, OutputKind.TF, transforms)] if transforms else []
+        grid = occupancy_grid_fields(self.scene, stamp_ns)
+        if grid is not None:
+            static.append(OutputFields(MAP_TOPIC, OutputKind.OCCUPANCY_GRID, grid))
+        return static
 
 
 def snapshot_outputs(scene: Scene, snapshot: Snapshot, *,
@@ -209,3 +227,9 @@ def reading_output(reading: Reading) -> OutputFields:
                             laser_scan_fields(spec, sample))
     assert isinstance(sample, ImuReading) and not isinstance(spec, LaserSpec)
     return OutputFields(sensor_topic(spec), OutputKind.IMU, imu_fields(spec, sample))
+
+
+def touch_output(frame_id: str, event: TouchEvent) -> OutputFields:
+    """The message of one contact event (:class:`~..sensors.touch.Touches`)."""
+    return OutputFields(CONTACT_EVENTS_TOPIC, OutputKind.CONTACT_EVENT,
+                        contact_event_fields(frame_id, event))

@@ -30,11 +30,12 @@ from ..scene.load import (
 )
 from ..scene.world import EditKind, WorldEdit, apply_edits
 from ..sensors.schedule import SensorSet
+from ..sensors.touch import Touches
 from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
 from .joint_states import MotorTopic, set_motor_speed
-from .outputs import OutputFields, reading_output
+from .outputs import OutputFields, reading_output, touch_output
 from .session import (
     APPLIED_WRENCH_EVENT,
     CMD_VEL_EVENT,
@@ -284,6 +285,7 @@ class Runner:
         self.sim = Simulation(scene, start_ns=start_ns)
         self.drives = DriveSet(self.sim)
         self.sensors = SensorSet(scene, self.sim)
+        self.touches = Touches(scene)
         self.play_script = play_script
         self.max_steps = max_steps
         self.started = False
@@ -319,6 +321,7 @@ class Runner:
             self.sim.reset(start_ns)
         self.drives = DriveSet(self.sim)
         self.sensors = SensorSet(self.scene, self.sim)
+        self.touches = Touches(self.scene)
         self._script_index = 0
         self.halted = None
         self.paused = False
@@ -585,11 +588,13 @@ class Runner:
 
     def leave(self) -> list[tuple[int, OutputFields]]:
         """The readings of the sensors due at the present instant, with everything made at
-        it in place (:mod:`~..sensors.schedule`), each instant once: what :meth:`advance`
+        it in place (:mod:`~..sensors.schedule`), then the contact events of the step that
+        ended there (:mod:`~..sensors.touch`), each instant once: what :meth:`advance`
         takes as it steps on from the instant, and a replay that ends at an instant the
         node stepped on from takes there."""
-        return [(self.sim.time_ns, reading_output(reading))
-                for reading in self.sensors.sample(self.sim)]
+        now, frame_id = self.sim.time_ns, self.scene.frame_id
+        return [(now, reading_output(reading)) for reading in self.sensors.sample(self.sim)] + \
+            [(now, touch_output(frame_id, event)) for event in self.touches.sample(self.sim)]
 
     def _next_stop(self) -> int:
         """The next instant :meth:`_arrive` has work at: the push of the next scripted
@@ -601,7 +606,8 @@ class Runner:
             stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
         if self.keyframe_steps and not self._stepping:
             stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
-        for next_stop in (self.drives.next_stop(), self.sensors.next_stop(sim.time_ns)):
+        for next_stop in (self.drives.next_stop(), self.sensors.next_stop(sim.time_ns),
+                          self.touches.next_stop(sim)):
             if next_stop is not None:
                 stop = min(stop, next_stop)
         return stop
@@ -618,6 +624,8 @@ class Runner:
                            "last_diagnostics_ns": self._last_diagnostics_ns}
         if self.drives:  # a keyframe of a scene without drives holds what it always held
             state["runner"]["drives"] = self.drives.export_state()
+        if self.touches.enabled:  # likewise without contact events
+            state["runner"]["touches"] = self.touches.export_state()
         if self.edits:  # a keyframe of the scene given holds what it always held
             state["world"] = [edit.as_data() for edit in self.edits]
         return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
@@ -645,6 +653,8 @@ class Runner:
         self.drives = DriveSet(self.sim)
         self.drives.import_state(runner.get("drives", []))
         self.sensors = SensorSet(self.scene, self.sim)
+        self.touches = Touches(self.scene)
+        self.touches.import_state(runner.get("touches", []))
         self._script_index = int(runner["script_index"])
         self.accepted, self.rejected = int(runner["accepted"]), int(runner["rejected"])
         self._last_diagnostics_ns = runner["last_diagnostics_ns"]

@@ -23,6 +23,9 @@ __all__ = ["scene_fingerprint"]
 
 #: Hex digits kept: 64 bits, far beyond the scenes any project compares.
 FINGERPRINT_DIGITS = 16
+#: Scene fields added after sessions were recorded, with their defaults: left out while at
+#: them, so a scene that does not use them keeps the fingerprint its recordings hold.
+_ADDED_LATER = {"map": None, "publish_contacts": False}
 
 
 def _plain(value: Any) -> Any:
@@ -40,6 +43,8 @@ def _plain(value: Any) -> Any:
         return float(value).hex()
     if isinstance(value, str) or value is None:
         return value
+    if isinstance(value, bytes):  # a map's cells
+        return hashlib.sha256(value).hexdigest()
     if isinstance(value, np.ndarray):
         return [_plain(x) for x in value.tolist()]
     if isinstance(value, Mapping):
@@ -55,5 +60,8 @@ def _plain(value: Any) -> Any:
 def scene_fingerprint(scene: Scene) -> str:
     """The scene's fingerprint: hex digits of a SHA-256 over its checked specs."""
     described = _plain(dataclasses.replace(scene, source=""))
+    for name, default in _ADDED_LATER.items():
+        if getattr(scene, name) == default:
+            del described[name]
     text = json.dumps(described, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:FINGERPRINT_DIGITS]

@@ -12,7 +12,7 @@ import math
 import os
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional, Union, overload
 
@@ -30,7 +30,7 @@ from ..geometry.shapes import (
 )
 from ..integrators.methods import METHODS
 from .commands import WrenchCommand
-from .drives import DiffDriveSpec, read_drive
+from .drives import DriveSpec, read_drive
 from .joints import (
     DistanceJoint,
     GearJoint,
@@ -41,6 +41,7 @@ from .joints import (
     RotarySpring,
     WeldJoint,
 )
+from .maps import MapSpec, read_map
 from .names import NODE_NAME
 from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
 from .rosyaml import merge_parameters, read_parameters_file
@@ -52,7 +53,7 @@ __all__ = [
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
-    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -219,7 +220,9 @@ class Scene:
     sleep: bool = False  # resting islands of the contact pass sleep
     events: bool = False  # wall impacts located inside the step (contact/events.py)
     sensors: tuple[SensorSpec, ...] = ()  # lasers and IMUs (scene/sensors.py)
-    drives: tuple[DiffDriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
+    drives: tuple[DriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
+    map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
+    publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -391,6 +394,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         publish_markers=publish.boolean("markers", False),
         publish_diagnostics=publish.boolean("diagnostics", False),
         publish_tf=publish.boolean("tf", True),
+        publish_contacts=publish.boolean("contacts", False),
         restitution_threshold=(root.number("restitution_threshold", minimum=0.0)
                                if root.has("restitution_threshold") else None),
         bodies=bodies,
@@ -409,6 +413,8 @@ def _read_scene(root: ParameterReader) -> Scene:
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
                      for name, r in root.named_children("drives")),
+        map=_read_map(root.child("map"), {b.name: b for b in bodies}) if root.has("map")
+        else None,
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
@@ -611,13 +617,44 @@ def read_collisions(root: ParameterReader,
     return tuple(groups)
 
 
-def check_collidable(body: BodySpec, group: str, source: str) -> None:
-    """Refuse a body of collision group ``group`` with a concave polygon part."""
+def check_collidable(body: BodySpec, group: str, source: str,
+                     kind: str = "collision group") -> None:
+    """Refuse a body of collision group (or map) ``group`` with a concave polygon part."""
     for shape in body.shapes:
         if isinstance(shape, Polygon) and not is_convex(shape.vertices):
             raise SceneError(f"{source}: body '{body.name}': a polygon that collides must be "
-                             f"convex (collision group '{group}'); make it a compound body "
+                             f"convex ({kind} '{group}'); make it a compound body "
                              "of convex parts")
+
+
+def _read_map(reader: ParameterReader, bodies: Mapping[str, BodySpec]) -> MapSpec:
+    """The scene's map: a nav2 map file (relative to the scene file's directory) whose
+    occupied cells the listed bodies (default: all) collide with."""
+    file = reader.string("file", REQUIRED)
+    path = Path(file)
+    if not path.is_absolute() and Path(reader.source).is_file():
+        path = Path(reader.source).parent / path
+    try:
+        occupancy = read_map(path)
+    except SceneError as error:
+        reader.fail("file", str(error))
+    members = _body_list(reader, "bodies", bodies)
+    for name in members:
+        check_collidable(bodies[name], file, reader.source, kind="map")
+    return MapSpec(file, occupancy,
+                   restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
+                   friction=reader.number("friction", 0.0, minimum=0.0), bodies=members)
+
+
+def with_map(scene: Scene, file: str, source: str = "--map") -> Scene:
+    """``scene`` with its map read from ``file`` (relative to the working directory),
+    keeping the scene's map's material and bodies, or the defaults of ``map`` without one."""
+    values: dict[str, Any] = {"file": file}
+    if scene.map is not None:
+        values.update(restitution=scene.map.restitution, friction=scene.map.friction,
+                      bodies=list(scene.map.bodies))
+    reader = ParameterReader({"map": values}, source)
+    return replace(scene, map=_read_map(reader.child("map"), {b.name: b for b in scene.bodies}))
 
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")

@@ -6,9 +6,9 @@ errors naming the parameter). The scene it makes is the one the same file would 
 the body declared in it:
 
 - the body takes its place among the bodies in order of names, as a file's are read;
-- gravity, drag without a point, angular damping and walls whose ``bodies`` hold every
-  body of the world hold the new body too (``bodies`` left out of a file means all of
-  them); those that list some bodies only do not;
+- gravity, drag without a point, angular damping, walls and the map whose ``bodies`` hold
+  every body of the world hold the new body too (``bodies`` left out of a file means all
+  of them); those that list some bodies only do not;
 - it joins the collision groups the request names (each pair in one group at most, its
   polygons convex, as a file's), and no other;
 - springs, constant forces and torques, joints, gears, wrench topics and scripted inputs
@@ -142,8 +142,13 @@ def spawned(scene: Scene, name: str, spec: str | Mapping[str, Any],
             return dataclasses.replace(spec, bodies=_joined(spec.bodies, before, after, name))
         return spec
 
+    grid = scene.map
+    if grid is not None:
+        grid = dataclasses.replace(grid, bodies=_joined(grid.bodies, before, after, name))
+        if name in grid.bodies:
+            check_collidable(body, grid.file, source, kind="map")
     return dataclasses.replace(
-        scene, bodies=bodies, forces=tuple(force(f) for f in scene.forces),
+        scene, bodies=bodies, forces=tuple(force(f) for f in scene.forces), map=grid,
         walls=tuple(dataclasses.replace(w, bodies=_joined(w.bodies, before, after, name))
                     for w in scene.walls),
         collisions=tuple(dataclasses.replace(c, bodies=(*c.bodies, name)) if c.name in groups
@@ -195,7 +200,9 @@ def deleted(scene: Scene, name: str, source: str = DELETE_BODY_SERVICE) -> Scene
             forces.append(spec)
     groups: list[CollisionGroup] = [dataclasses.replace(c, bodies=without(c.bodies))
                                     for c in scene.collisions]
+    grid = scene.map and dataclasses.replace(scene.map, bodies=without(scene.map.bodies))
     return dataclasses.replace(
         scene, bodies=tuple(b for b in scene.bodies if b.name != name), forces=tuple(forces),
+        map=grid,
         walls=tuple(dataclasses.replace(w, bodies=without(w.bodies)) for w in scene.walls),
         collisions=tuple(c for c in groups if len(c.bodies) >= 2))

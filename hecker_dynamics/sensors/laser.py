@@ -1,4 +1,4 @@
-"""Laser scans: closest-hit ray casts against walls and the other bodies' shapes.
+"""Laser scans: closest-hit ray casts against walls, the other bodies' shapes and the map.
 
 Each ray leaves the sensor's origin o along a unit direction d and travels a distance t to
 its first hit within ``range_max``, found in closed form for every surface (rays x
@@ -23,7 +23,8 @@ surface's formula with the same operations in the same order; a hit counts where
 its members were found in. So the two give the same bits, and the kernel may skip what
 cannot be hit: bodies whose bounding circle (``reach`` plus :data:`SLACK`) lies beyond
 ``range_max`` or outside a ray's sweep, and bodies farther than a ray's nearest hit so
-far (Box2D v3's dynamic tree clips a ray the same way).
+far (Box2D v3's dynamic tree clips a ray the same way). The map's boxes are fixed bodies
+of their own, each at its centre and unturned, so they are culled the same way.
 """
 from __future__ import annotations
 
@@ -156,6 +157,20 @@ class Laser:
         self._edge_body = np.array(edge_body, dtype=np.int64)
         self._starts = np.array(starts, dtype=float).reshape(-1, 2)
         self._spans = np.array(ends, dtype=float).reshape(-1, 2) - self._starts
+        # The map's boxes are fixed bodies after the scene's: each at its centre, unturned,
+        # its corners as offsets from there (the rows :meth:`distances` appends to q).
+        boxes = np.zeros((0, 4, 2)) if scene.map is None else scene.map.occupancy.box_vertices()
+        centers = boxes.mean(axis=1)
+        self._map_rows = np.column_stack([centers, np.zeros(len(boxes))])
+        corners = boxes - centers[:, None, :]
+        first = len(names)
+        self._edge_body = np.concatenate([self._edge_body, np.repeat(
+            np.arange(first, first + len(boxes), dtype=np.int64), 4)])
+        self._starts = np.concatenate([self._starts, corners.reshape(-1, 2)])
+        self._spans = np.concatenate([self._spans, (np.roll(corners, -1, axis=1)
+                                                    - corners).reshape(-1, 2)])
+        reach = np.concatenate([reach, np.max(np.hypot(corners[..., 0], corners[..., 1]),
+                                              axis=1, initial=0.0)])
         self._reach = reach + SLACK
         self._compiled = None
         if kernel.enabled() if compiled is None else compiled:
@@ -187,6 +202,8 @@ class Laser:
         origin, heading = self.origin_and_heading(q)
         angles = heading + self.angles
         directions = np.column_stack([np.cos(angles), np.sin(angles)])
+        if len(self._map_rows):
+            q = np.concatenate([q, self._map_rows])
         theta = q[:, 2]
         c, s = np.cos(theta), np.sin(theta)
         if self._compiled is not None:

@@ -148,6 +148,8 @@ def fit_view(scene: Scene, frames: Sequence[Frame], size: tuple[int, int]) -> Vi
               for body, pose in zip(scene.bodies, frame.poses) for shape in body.shapes]
     points += [np.array([force.point_b]) for force in scene.forces
                if isinstance(force, SpringSpec) and force.body_b is None]
+    if scene.map is not None:  # the whole map: the world the bodies move in
+        points.append(scene.map.occupancy.box_vertices().reshape(-1, 2))
     every = np.concatenate(points)
     (xmin, ymin), (xmax, ymax) = every.min(axis=0), every.max(axis=0)
     span = max(xmax - xmin, ymax - ymin, 1e-3)
@@ -231,7 +233,8 @@ class Drawing:
         return float(np.max(np.hypot(*(shape.vertices - np.array(cm)).T)))
 
     def _draw_walls(self) -> None:
-        """Each wall as its line with the solid side shaded, out to well past the view."""
+        """Each wall as its line with the solid side shaded, out to well past the view, and
+        the map's boxes."""
         far = 10.0 * max(self.view.xmax - self.view.xmin, self.view.ymax - self.view.ymin)
         cx, cy = (self.view.xmin + self.view.xmax) / 2, (self.view.ymin + self.view.ymax) / 2
         for wall in self.scene.walls:
@@ -245,6 +248,10 @@ class Drawing:
                      (fx + far * tx - far * nx, fy + far * ty - far * ny)]
             self.axes.add_patch(PolygonPatch(solid, closed=True, facecolor=WALL_COLOR,
                                              edgecolor=EDGE_COLOR, linewidth=1.0))
+        boxes = () if self.scene.map is None else self.scene.map.occupancy.box_vertices()
+        for corners in boxes:  # the map's occupied cells, as the bodies collide with them
+            self.axes.add_patch(PolygonPatch(corners, closed=True, facecolor=WALL_COLOR,
+                                             edgecolor=WALL_COLOR, linewidth=0.5))
 
     def pixel(self, x: float, y: float) -> tuple[int, int]:
         """The (column, row) of the pixel that shows the fixed-frame point (x, y)."""

@@ -33,6 +33,7 @@ from hecker_dynamics.bags.replay import (
 from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.ros import fields
+from hecker_dynamics.ros.names import output_qos
 from hecker_dynamics.scene.load import load_scene, shipped_scenes
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"
@@ -107,7 +108,9 @@ def test_golden_bags_are_small_and_in_jazzy_format():
             assert meta["type_description_hash"].startswith("RIHS01_")
             qos = meta["offered_qos_profiles"]
             assert isinstance(qos, list) and qos[0]["history"] == "keep_last"
-            assert qos[0]["reliability"] == "reliable" and qos[0]["depth"] == 10
+            # keep-last 10, but 1 for the latched /map (names.MAP_QOS)
+            depth = output_qos(meta["name"]).depth
+            assert qos[0]["reliability"] == "reliable" and qos[0]["depth"] == depth
 
 
 def test_replay_of_a_script_bag_equals_simulation_play(tmp_path):

@@ -20,6 +20,7 @@ from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.ros.cdr import ENCAPSULATION, SERIALIZERS, SnapshotSerializer, serialize_output
 from hecker_dynamics.ros.fields import Header, Pose
 from hecker_dynamics.ros.joint_states import JointStateFields
+from hecker_dynamics.ros.map_fields import OccupancyGridFields
 from hecker_dynamics.ros.markers import MARKER_LINE_STRIP, MarkerFields, delete_markers
 from hecker_dynamics.ros.names import twist_topic
 from hecker_dynamics.ros.outputs import OutputFields, OutputKind, SnapshotOutputs, output_topics
@@ -176,3 +177,13 @@ def test_empty_sequences_have_their_length_and_no_padding():
     ])
 
 
+
+
+@pytest.mark.parametrize("cells", range(1, 9))
+def test_an_occupancy_grid_of_every_length_is_what_rosbags_serializes(cells):
+    # The cells (int8) end the message; 1 to 8 of them, after a frame name of as many
+    # bytes, leave every padding before and after them.
+    fields = OccupancyGridFields(Header(3, 7, "abcdefgh"[:cells]), (3, 7), 0.05, cells, 1,
+                                 Pose((-1.5, 2.0, 0.0), (0.0, 0.0, 0.6, 0.8)),
+                                 bytes([100, 0, 255, 37, 1, 100, 0, 255][:cells]))
+    _assert_as_rosbags([OutputFields("/map", OutputKind.OCCUPANCY_GRID, fields)])

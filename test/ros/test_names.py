@@ -46,7 +46,7 @@ def test_every_output_has_its_qos():
     for scene_name in shipped_scenes():
         for topic in output_topics(load_scene(scene_name)):
             spec = output_qos(topic)
-            latched = topic == names.TF_STATIC_TOPIC
+            latched = topic in (names.TF_STATIC_TOPIC, names.MAP_TOPIC)
             assert (spec.durability is Durability.TRANSIENT_LOCAL) == latched, topic
             assert spec.reliability is Reliability.RELIABLE
 

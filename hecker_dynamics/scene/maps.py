@@ -1,0 +1,308 @@
+"""Nav2 ``map_server`` maps (a YAML file and its image) read as nav2 reads them, and their
+occupied cells merged into boxes: the static geometry that bodies collide with and lasers
+see.
+
+The YAML keys and the image's cells follow nav2_map_server's ``map_io``:
+
+- ``image`` (a path relative to the YAML file's directory unless absolute), ``resolution``
+  (m per cell), ``origin`` [x, y, yaw] (the pose of the lower-left corner of the map's
+  cell (0, 0) in the fixed frame), ``occupied_thresh``, ``free_thresh`` and ``negate``
+  (0/1 or a boolean) are required; ``mode`` is ``trinary`` (the default), ``scale`` or
+  ``raw``;
+- a pixel's shade is the mean of its channels on a 0..1 scale (red, green and blue; in
+  trinary mode an alpha channel joins the mean as opacity); its occupancy is
+  ``1 - shade``, or ``shade`` when ``negate``;
+- trinary: 100 (occupied) when ``occupied_thresh < occupancy``, 0 (free) when
+  ``occupancy < free_thresh``, else -1 (unknown); scale: the same, but a pixel that is not
+  opaque is unknown and the cells between the thresholds get
+  ``rint((occupancy - free) / (occupied - free) * 100)``; raw: ``round(shade * 255)``
+  when it is 0..100, else unknown;
+- image row 0 is the map's top: ``OccupancyGrid`` row ``height - 1 - y`` holds image row
+  ``y``.
+
+Cells of value 100 are walls of the world. :func:`cell_boxes` merges them into rectangles:
+each grid row's runs of occupied cells, a run extended upwards while the next row has the
+same run. Every occupied cell lies in exactly one box, and the order is fixed by the grid
+alone (by bottom row, then left column).
+
+Images: PGM (P2 and P5, any maxval) and 8-bit non-interlaced PNG (grey, grey and alpha,
+RGB, RGBA, palette), the formats ``map_saver`` writes.
+"""
+from __future__ import annotations
+
+import math
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .parameters import SceneError
+
+__all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "OccupancyMap", "MapSpec",
+           "read_map", "occupancy", "cell_boxes"]
+
+MAP_MODES = ("trinary", "scale", "raw")
+OCCUPIED, FREE, UNKNOWN = 100, 0, -1
+
+
+@dataclass(frozen=True)
+class OccupancyMap:
+    """A map as ``nav_msgs/OccupancyGrid`` holds it, and its occupied cells as boxes.
+
+    ``data``: width x height cells, row-major from the bottom row (int8 values as bytes);
+    ``boxes``: rectangles of occupied cells (column, row of the first cell; column, row
+    past the last), see :func:`cell_boxes`."""
+
+    resolution: float
+    origin: tuple[float, float, float]
+    width: int
+    height: int
+    data: bytes
+    boxes: tuple[tuple[int, int, int, int], ...]
+
+    def cells(self) -> np.ndarray:
+        """The cell values (height, width), int8, row 0 the map's bottom."""
+        return np.frombuffer(self.data, dtype=np.int8).reshape(self.height, self.width)
+
+    def corner(self, column: float, row: float) -> tuple[float, float]:
+        """The fixed-frame point at (column, row) in cell units from the origin's corner."""
+        x, y, yaw = self.origin
+        u, v = column * self.resolution, row * self.resolution
+        c, s = math.cos(yaw), math.sin(yaw)
+        return x + c * u - s * v, y + s * u + c * v
+
+    def box_vertices(self) -> np.ndarray:
+        """Each box's corners (B, 4, 2) in the fixed frame, counter-clockwise."""
+        return np.array([[self.corner(i0, j0), self.corner(i1, j0), self.corner(i1, j1),
+                          self.corner(i0, j1)] for i0, j0, i1, j1 in self.boxes],
+                        dtype=float).reshape(-1, 4, 2)
+
+
+@dataclass(frozen=True)
+class MapSpec:
+    """A scene's map: its cells, and the bodies that collide with its boxes."""
+
+    file: str
+    occupancy: OccupancyMap
+    restitution: float
+    friction: float
+    bodies: tuple[str, ...]
+
+
+def _fail(source: str, problem: str) -> SceneError:
+    return SceneError(f"{source}: {problem}")
+
+
+def _number(document: dict[str, Any], key: str, source: str) -> float:
+    if key not in document:
+        raise _fail(source, f"missing '{key}'")
+    value = document[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            not math.isfinite(value):
+        raise _fail(source, f"'{key}' must be a finite number, not {value!r}")
+    return float(value)
+
+
+def read_map(path: Path) -> OccupancyMap:
+    """The map of a nav2 map YAML file; :class:`SceneError` (one line) if it is missing or
+    bad."""
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        reason = getattr(error, "strerror", None) or error
+        raise _fail(source, f"cannot read the map file ({reason})") from None
+    try:
+        document = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        raise _fail(source, f"not YAML ({' '.join(str(error).split())})") from None
+    if not isinstance(document, dict):
+        raise _fail(source, "expected a mapping of nav2 map keys (image, resolution, ...)")
+    image = document.get("image")
+    if not isinstance(image, str) or not image:
+        raise _fail(source, "'image' must name the map's image file")
+    resolution = _number(document, "resolution", source)
+    if resolution <= 0.0:
+        raise _fail(source, f"'resolution' must be positive, not {resolution}")
+    origin = document.get("origin")
+    if not isinstance(origin, list) or len(origin) != 3:
+        raise _fail(source, f"'origin' must be [x, y, yaw], not {origin!r}")
+    ox, oy, yaw = (_number({"origin": v}, "origin", source) for v in origin)
+    occupied = _number(document, "occupied_thresh", source)
+    free = _number(document, "free_thresh", source)
+    mode = document.get("mode", "trinary")
+    if mode not in MAP_MODES:
+        raise _fail(source, f"'mode' must be one of {', '.join(MAP_MODES)}, not {mode!r}")
+    if mode == "scale" and not free < occupied:
+        raise _fail(source, "'free_thresh' must be below 'occupied_thresh' in scale mode")
+    negate = document.get("negate")
+    if negate not in (0, 1) or isinstance(negate, float):
+        raise _fail(source, f"'negate' must be 0, 1, true or false, not {negate!r}")
+    image_path = path.parent / image
+    channels, opaque = read_image(image_path)
+    cells = occupancy(channels, opaque, mode=mode, negate=bool(negate),
+                      occupied_thresh=occupied, free_thresh=free)
+    grid = np.ascontiguousarray(cells[::-1])  # image row 0 is the map's top
+    return OccupancyMap(resolution, (ox, oy, yaw), grid.shape[1], grid.shape[0],
+                        grid.tobytes(), cell_boxes(grid == OCCUPIED))
+
+
+def occupancy(channels: np.ndarray, opaque: np.ndarray | None, *, mode: str, negate: bool,
+              occupied_thresh: float, free_thresh: float) -> np.ndarray:
+    """nav2's cell values (int8, image rows) of an image: ``channels`` (rows, columns, k)
+    colour channels on a 0..1 scale (k = 1 grey or 3 RGB), ``opaque`` the alpha channel on
+    that scale (None: no alpha)."""
+    if mode == "trinary" and opaque is not None:
+        channels = np.concatenate([channels, opaque[..., None]], axis=2)
+    shade = channels.mean(axis=2)
+    if mode == "raw":
+        value = np.round(shade * 255.0)
+        return np.where((value >= FREE) & (value <= OCCUPIED), value, UNKNOWN).astype(np.int8)
+    occupied = shade if negate else 1.0 - shade
+    between = UNKNOWN if mode == "trinary" else np.rint(
+        (occupied - free_thresh) / (occupied_thresh - free_thresh) * 100.0)
+    cells = np.where(occupied_thresh < occupied, OCCUPIED,
+                     np.where(occupied < free_thresh, FREE, between))
+    if mode == "scale" and opaque is not None:
+        cells = np.where(opaque < 1.0, UNKNOWN, cells)
+    return np.asarray(cells).astype(np.int8)
+
+
+def cell_boxes(occupied: np.ndarray) -> tuple[tuple[int, int, int, int], ...]:
+    """Rectangles (column, row, column past, row past) covering the True cells of
+    ``occupied`` (rows, columns) exactly once: each row's runs, a run carried up while the
+    row above has the same run; sorted by first row, then first column."""
+    rows, columns = occupied.shape
+    boxes: list[tuple[int, int, int, int]] = []
+    open_runs: dict[tuple[int, int], int] = {}  # run (first, past) -> its first row
+    for row in range(rows + 1):
+        runs: list[tuple[int, int]] = []
+        if row < rows:
+            edges = np.flatnonzero(np.diff(np.concatenate(
+                ([0], occupied[row].astype(np.int8), [0]))))
+            runs = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
+        carried = {run: open_runs.pop(run, row) for run in runs}
+        boxes.extend((first, start, past, row) for (first, past), start in open_runs.items())
+        open_runs = carried
+    return tuple(sorted(boxes, key=lambda box: (box[1], box[0])))
+
+
+# ----------------------------------------------------------------------------- images
+
+def read_image(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """An image's colour channels (rows, columns, k) and alpha (or None), on a 0..1
+    scale; :class:`SceneError` if it cannot be read."""
+    try:
+        raw = path.read_bytes()
+    except OSError as error:
+        raise _fail(str(path), f"cannot read the map image ({error.strerror})") from None
+    try:
+        if raw[:8] == b"\x89PNG\r\n\x1a\n":
+            return _read_png(raw)
+        if raw[:2] in (b"P2", b"P5"):
+            return _read_pgm(raw), None
+    except (ValueError, IndexError, zlib.error, struct.error) as error:
+        raise _fail(str(path), f"bad map image ({error})") from None
+    raise _fail(str(path), "the map image must be a PGM (P2, P5) or PNG file")
+
+
+def _read_pgm(raw: bytes) -> np.ndarray:
+    tokens: list[bytes] = []
+    at = 2
+    while len(tokens) < 3:  # width, height, maxval; '#' starts a comment to the line end
+        while raw[at:at + 1].isspace():
+            at += 1
+        if raw[at:at + 1] == b"#":
+            at = raw.index(b"\n", at) + 1
+            continue
+        end = at
+        while end < len(raw) and not raw[end:end + 1].isspace():
+            end += 1
+        tokens.append(raw[at:end])
+        at = end
+    width, height, maxval = (int(t) for t in tokens)
+    if not (width > 0 and height > 0 and 0 < maxval < 65536):
+        raise ValueError(f"PGM size {width} x {height}, maxval {maxval}")
+    count = width * height
+    if raw[:2] == b"P5":
+        dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
+        body = raw[at + 1:at + 1 + count * dtype.itemsize]
+        if len(body) < count * dtype.itemsize:
+            raise ValueError("PGM pixels cut short")
+        values = np.frombuffer(body, dtype=dtype).astype(float)
+    else:
+        values = np.array(raw[at:].split()[:count], dtype=float)
+        if len(values) < count:
+            raise ValueError("PGM pixels cut short")
+    return (values / maxval).reshape(height, width, 1)
+
+
+_PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}
+
+
+def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
+    at, header, palette, data = 8, b"", b"", []
+    while at < len(raw):
+        length, kind = struct.unpack(">I4s", raw[at:at + 8])
+        chunk = raw[at + 8:at + 8 + length]
+        at += 12 + length
+        if kind == b"IHDR":
+            header = chunk
+        elif kind == b"PLTE":
+            palette = chunk
+        elif kind == b"IDAT":
+            data.append(chunk)
+        elif kind == b"IEND":
+            break
+    width, height, depth, colour, _, _, interlace = struct.unpack(">IIBBBBB", header)
+    if depth != 8 or colour not in _PNG_CHANNELS or interlace:
+        raise ValueError(f"PNG of bit depth {depth}, colour type {colour}, interlace "
+                         f"{interlace}; only 8-bit non-interlaced images are read")
+    k = _PNG_CHANNELS[colour]
+    stride = width * k
+    packed = zlib.decompress(b"".join(data))
+    if len(packed) != height * (stride + 1):
+        raise ValueError("PNG pixel data of the wrong size")
+    pixels = np.zeros((height, stride), dtype=np.uint8)
+    previous = np.zeros(stride, dtype=np.int64)
+    for row in range(height):
+        line = packed[row * (stride + 1):(row + 1) * (stride + 1)]
+        current = _unfilter(line[0], np.frombuffer(line[1:], dtype=np.uint8), previous, k)
+        pixels[row] = current
+        previous = current.astype(np.int64)
+    image = pixels.reshape(height, width, k).astype(float)
+    if colour == 3:
+        table = np.frombuffer(palette, dtype=np.uint8).reshape(-1, 3).astype(float)
+        image = table[pixels.reshape(height, width)]
+    has_alpha = colour in (4, 6)
+    channels = image[..., :k - 1] if has_alpha else image
+    return channels / 255.0, (image[..., k - 1] / 255.0 if has_alpha else None)
+
+
+def _unfilter(kind: int, line: np.ndarray, above: np.ndarray, k: int) -> np.ndarray:
+    """One PNG scanline with its filter (0 none, 1 sub, 2 up, 3 average, 4 Paeth) undone."""
+    if kind == 0:
+        return line.copy()
+    if kind == 2:
+        return ((line.astype(np.int64) + above) & 0xFF).astype(np.uint8)
+    if kind not in (1, 3, 4):
+        raise ValueError(f"PNG filter type {kind}")
+    out = [0] * len(line)
+    up = above.tolist()
+    for i, value in enumerate(line.tolist()):
+        left = out[i - k] if i >= k else 0
+        if kind == 1:
+            predicted = left
+        elif kind == 3:
+            predicted = (left + up[i]) // 2
+        else:
+            corner = up[i - k] if i >= k else 0
+            p = left + up[i] - corner
+            pa, pb, pc = abs(p - left), abs(p - up[i]), abs(p - corner)
+            predicted = left if pa <= pb and pa <= pc else up[i] if pb <= pc else corner
+        out[i] = (value + predicted) & 0xFF
+    return np.array(out, dtype=np.uint8)

@@ -1,0 +1,311 @@
+"""Nav2 maps: cells as nav2's map_io reads them (modes, negate, thresholds, alpha, row 0 at
+the top, origin and yaw), occupied cells merged into boxes that cover them exactly once,
+the boxes seen by a laser at the closed-form distance and stopping bodies, and one-line
+errors for bad map files."""
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from scene_builders import make_scene, write_scene
+
+from hecker_dynamics.cli import main
+from hecker_dynamics.dynamics import kernel
+from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.scene.fingerprint import scene_fingerprint
+from hecker_dynamics.scene.load import load_scene, scene_path, with_map
+from hecker_dynamics.scene.maps import OCCUPIED, UNKNOWN, cell_boxes, read_map
+from hecker_dynamics.scene.parameters import SceneError
+from hecker_dynamics.scene.world import deleted, spawned
+from hecker_dynamics.sensors.laser import Laser
+
+
+def write_pgm(path: Path, rows: list[list[int]], maxval: int = 255) -> None:
+    """A binary PGM; ``rows[0]`` is the image's top row."""
+    data = np.array(rows, dtype=np.uint8 if maxval < 256 else ">u2")
+    header = f"P5\n# comment\n{data.shape[1]} {data.shape[0]}\n{maxval}\n".encode()
+    path.write_bytes(header + data.tobytes())
+
+
+def _paeth(left: int, up: int, corner: int) -> int:
+    p = left + up - corner
+    pa, pb, pc = abs(p - left), abs(p - up), abs(p - corner)
+    return left if pa <= pb and pa <= pc else up if pb <= pc else corner
+
+
+def write_png(path: Path, pixels: np.ndarray, colour: int) -> None:
+    """An 8-bit PNG of ``pixels`` (rows, columns, channels), row r filtered with filter
+    type r % 5 (none, sub, up, average, Paeth), so every filter is undone once."""
+    rows, columns, k = pixels.shape
+    packed = b""
+    previous = [0] * (columns * k)
+    for r in range(rows):
+        raw = pixels[r].reshape(-1).tolist()
+        kind = r % 5
+        out = []
+        for i, value in enumerate(raw):
+            left = raw[i - k] if i >= k else 0
+            corner = previous[i - k] if i >= k else 0
+            predicted = [0, left, previous[i], (left + previous[i]) // 2,
+                         _paeth(left, previous[i], corner)][kind]
+            out.append((value - predicted) & 0xFF)
+        packed += bytes([kind, *out])
+        previous = raw
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + \
+            struct.pack(">I", zlib.crc32(kind + data))
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n"
+                     + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(packed)) + chunk(b"IEND", b""))
+
+
+def write_map(directory: Path, image: str, name: str = "map.yaml", **keys) -> Path:
+    values = {"image": image, "resolution": 0.5, "origin": [0.0, 0.0, 0.0], "negate": 0,
+              "occupied_thresh": 0.75, "free_thresh": 0.25, **keys}
+    path = directory / name
+    path.write_text(yaml.safe_dump(values))
+    return path
+
+
+# ----------------------------------------------------------------------------- boxes
+
+@pytest.mark.parametrize("seed", range(6))
+def test_boxes_cover_every_occupied_cell_exactly_once(seed):
+    rng = np.random.default_rng(seed)
+    occupied = rng.random((23, 31)) < [0.2, 0.5, 0.8][seed % 3]
+    occupied[5:12, 3:20] = True  # a block, which must come out as few boxes
+    boxes = cell_boxes(occupied)
+    cover = np.zeros(occupied.shape, dtype=int)
+    for i0, j0, i1, j1 in boxes:
+        assert 0 <= i0 < i1 <= occupied.shape[1] and 0 <= j0 < j1 <= occupied.shape[0]
+        cover[j0:j1, i0:i1] += 1
+    assert np.array_equal(cover, occupied.astype(int))  # the union, and no overlap
+    assert cell_boxes(occupied.copy()) == boxes  # the same grid, the same boxes
+    assert len(boxes) < occupied.sum()
+
+
+def test_a_rectangle_is_one_box_and_an_l_two():
+    grid = np.zeros((6, 8), dtype=bool)
+    grid[1:4, 2:7] = True
+    assert cell_boxes(grid) == ((2, 1, 7, 4),)
+    grid[4:6, 2:4] = True  # the L's upright: a different run from row 4 up
+    assert cell_boxes(grid) == ((2, 1, 7, 4), (2, 4, 4, 6))
+    assert cell_boxes(np.zeros((3, 3), dtype=bool)) == ()
+
+
+# ----------------------------------------------------------------------------- nav2 rules
+
+def test_trinary_thresholds_are_strict_and_negate_flips(tmp_path):
+    # maxval 4: shades 0, 1/4, 1/2, 3/4, 1 exactly; occupancy 1 - shade
+    write_pgm(tmp_path / "m.pgm", [[0, 1, 2, 3, 4]], maxval=4)
+    cells = read_map(write_map(tmp_path, "m.pgm")).cells()
+    # occupancy 1 > 0.75: occupied; 0.75 is not above 0.75 and 0.25 not below 0.25: unknown
+    assert cells.tolist() == [[OCCUPIED, UNKNOWN, UNKNOWN, UNKNOWN, 0]]
+    negated = read_map(write_map(tmp_path, "m.pgm", negate=True)).cells()
+    assert negated.tolist() == [[0, UNKNOWN, UNKNOWN, UNKNOWN, OCCUPIED]]
+
+
+def test_scale_mode_interpolates_between_the_thresholds(tmp_path):
+    write_pgm(tmp_path / "m.pgm", [[0, 1, 2, 3, 4]], maxval=4)
+    cells = read_map(write_map(tmp_path, "m.pgm", mode="scale")).cells()
+    # occupancy 0.75 and 0.25 fall between: rint((occ - 0.25) / 0.5 * 100)
+    assert cells.tolist() == [[OCCUPIED, 100, 50, 0, 0]]
+
+
+def test_raw_mode_keeps_values_up_to_100(tmp_path):
+    write_pgm(tmp_path / "m.pgm", [[0, 37, 100, 101, 255]])
+    cells = read_map(write_map(tmp_path, "m.pgm", mode="raw")).cells()
+    assert cells.tolist() == [[0, 37, 100, UNKNOWN, UNKNOWN]]
+
+
+def test_the_image_s_top_row_is_the_map_s_top_and_the_origin_its_lower_left_corner(tmp_path):
+    write_pgm(tmp_path / "m.pgm", [[0, 255, 255], [255, 255, 255]])  # black: top left
+    grid = read_map(write_map(tmp_path, "m.pgm", origin=[1.0, -2.0, 0.0]))
+    assert (grid.width, grid.height) == (3, 2)
+    assert grid.cells().tolist() == [[0, 0, 0], [OCCUPIED, 0, 0]]
+    assert grid.boxes == ((0, 1, 1, 2),)
+    assert grid.box_vertices().tolist() == [[[1.0, -1.5], [1.5, -1.5], [1.5, -1.0],
+                                             [1.0, -1.0]]]
+
+
+def test_the_origin_s_yaw_turns_the_map_about_its_corner(tmp_path):
+    write_pgm(tmp_path / "m.pgm", [[255, 0]])
+    grid = read_map(write_map(tmp_path, "m.pgm", origin=[1.0, 2.0, math.pi / 2]))
+    c, s = math.cos(math.pi / 2), math.sin(math.pi / 2)
+    # cell (1, 0) spans u in [0.5, 1], v in [0, 0.5]; turned: (x - s v + c u, y + s u + c v)
+    expected = [[1.0 + c * u - s * v, 2.0 + s * u + c * v]
+                for u, v in [(0.5, 0.0), (1.0, 0.0), (1.0, 0.5), (0.5, 0.5)]]
+    assert grid.box_vertices()[0].tolist() == expected
+
+
+@pytest.mark.parametrize("colour", [0, 2, 4, 6])
+def test_png_pixels_are_read_through_every_filter(tmp_path, colour):
+    rng = np.random.default_rng(colour)
+    grey = rng.choice([0, 100, 128, 254], size=(7, 4))
+    k = {0: 1, 2: 3, 4: 2, 6: 4}[colour]
+    pixels = np.repeat(grey[..., None], k, axis=2)
+    if colour in (4, 6):
+        pixels[..., -1] = 255  # opaque: scale mode reads the colour alone
+    write_png(tmp_path / "m.png", pixels.astype(np.uint8), colour)
+    write_pgm(tmp_path / "m.pgm", grey.tolist())
+    png = read_map(write_map(tmp_path, "m.png", name="png.yaml", mode="scale")).cells()
+    pgm = read_map(write_map(tmp_path, "m.pgm", name="pgm.yaml", mode="scale")).cells()
+    assert np.array_equal(png, pgm) and len(set(pgm.ravel().tolist())) > 2
+
+
+def test_trinary_mode_averages_alpha_in(tmp_path):
+    # grey + alpha: black and opaque is a shade of (0 + 255) / 2 / 255: occupancy 0.5
+    pixels = np.array([[[0, 255], [0, 0], [255, 255]]], dtype=np.uint8)
+    write_png(tmp_path / "m.png", pixels, 4)
+    cells = read_map(write_map(tmp_path, "m.png")).cells()
+    assert cells.tolist() == [[UNKNOWN, OCCUPIED, 0]]
+
+
+def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
+    pixels = np.array([[[0, 255], [0, 0]]], dtype=np.uint8)  # grey + alpha
+    write_png(tmp_path / "m.png", pixels, 4)
+    cells = read_map(write_map(tmp_path, "m.png", mode="scale")).cells()
+    assert cells.tolist() == [[OCCUPIED, UNKNOWN]]
+
+
+@pytest.mark.parametrize("keys, problem", [
+    ({"resolution": None}, "'resolution' must be a finite number"),
+    ({"resolution": 0.0}, "'resolution' must be positive"),
+    ({"origin": [0.0, 0.0]}, "'origin' must be [x, y, yaw]"),
+    ({"mode": "fancy"}, "'mode' must be one of trinary, scale, raw"),
+    ({"negate": 2}, "'negate' must be 0, 1, true or false"),
+    ({"image": "missing.pgm"}, "cannot read the map image"),
+    ({"image": "map.yaml"}, "must be a PGM (P2, P5) or PNG file"),
+])
+def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
+    write_pgm(tmp_path / "m.pgm", [[0]])
+    path = write_map(tmp_path, **{"image": "m.pgm", **keys})
+    with pytest.raises(SceneError) as error:
+        read_map(path)
+    assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+# ----------------------------------------------------------------------------- scenes
+
+def map_scene(tmp_path: Path, rows: list[list[int]], body: dict, **extra) -> Path:
+    write_pgm(tmp_path / "m.pgm", rows)
+    write_map(tmp_path, "m.pgm", origin=[-1.0, -1.0, 0.0])
+    return write_scene(tmp_path, {"step": 0.001, "bodies": {"ball": body},
+                                  "map": {"file": "map.yaml", **extra}})
+
+
+def test_the_map_file_is_relative_to_the_scene_file_and_in_the_fingerprint(tmp_path):
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0}
+    path = map_scene(tmp_path, [[0, 255]], ball)
+    scene = load_scene(path)
+    assert scene.map is not None and scene.map.occupancy.boxes == ((0, 0, 1, 1),)
+    assert scene.map.bodies == ("ball",) and scene.map.file == "map.yaml"
+    write_pgm(tmp_path / "m.pgm", [[255, 0]])
+    assert scene_fingerprint(load_scene(path)) != scene_fingerprint(scene)
+    # a shipped scene by name or by path: one fingerprint
+    assert scene_fingerprint(load_scene("warehouse")) == \
+        scene_fingerprint(load_scene(scene_path("warehouse").resolve()))
+
+
+def test_a_missing_map_file_is_one_line_naming_the_parameter(tmp_path, capsys):
+    path = write_scene(tmp_path, {"bodies": {"ball": {"shape": "circle", "radius": 0.1,
+                                                      "mass": 1.0}},
+                                  "map": {"file": "nowhere.yaml"}})
+    assert main(["run", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "parameter 'map.file'" in err and "nowhere.yaml" in err
+    assert main(["run", "warehouse", "--map", str(tmp_path / "none.yaml")]) == 2
+    assert "--map: parameter 'map.file'" in capsys.readouterr().err
+
+
+def test_the_cli_map_replaces_the_scene_s(tmp_path, capsys):
+    write_pgm(tmp_path / "m.pgm", [[0]])
+    path = write_map(tmp_path, "m.pgm", origin=[-5.0, 0.0, 0.0])
+    assert main(["run", "warehouse", "--map", str(path), "--duration", "0.01",
+                 "--no-progress"]) == 0
+
+
+def test_a_ball_thrown_at_a_map_wall_bounces_with_its_restitution(tmp_path):
+    # A wall cell spanning x in [-1, -0.5] (and y in [-1, -0.5]); the ball at y = -0.75.
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0, "position": [0.0, -0.75],
+            "velocity": [-2.0, 0.0]}
+    scene = load_scene(map_scene(tmp_path, [[0, 255, 255]], ball, restitution=0.5))
+    sim = Simulation(scene)
+    sim.advance_to(400_000_000)
+    state = sim.snapshot().bodies[0]
+    # Contact normal through the CM, no friction and no other force: v = -e v0 exactly.
+    assert state.linear_velocity == pytest.approx((1.0, 0.0), abs=1e-12)
+    assert state.angular_velocity == 0.0
+    assert state.position[0] > -0.5 + 0.1 - 5e-3  # stopped at the wall's face
+
+
+def test_a_laser_sees_a_map_cell_s_wall_at_the_closed_form_distance(tmp_path):
+    # Occupied column 3 (x in [-1 + 1.5, -1 + 2.0]) across all rows; map turned by yaw.
+    rows = [[255, 255, 255, 0, 255]] * 5
+    write_pgm(tmp_path / "m.pgm", rows)
+    yaw = 0.3
+    write_map(tmp_path, "m.pgm", origin=[-1.0, -1.0, yaw])
+    scene = make_scene({"step": 0.001,
+                        "bodies": {"robot": {"shape": "circle", "radius": 0.05, "mass": 1.0}},
+                        "map": {"file": str(tmp_path / "map.yaml")},
+                        "sensors": {"front": {"type": "laser", "body": "robot",
+                                              "angle_min": -0.5, "angle_max": 0.5,
+                                              "count": 11, "range_max": 50.0}}})
+    laser = Laser(scene.sensors[0], scene, Model(scene).cm_local)
+    ranges = laser.distances(np.array([[0.2, 0.1, 0.1]]))
+    # The cell column's near face: u = 1.5 in map axes (the map's x turned by yaw).
+    c, s = math.cos(yaw), math.sin(yaw)
+    u_origin = c * (0.2 + 1.0) + s * (0.1 + 1.0)  # the sensor's u in map axes
+    directions = 0.1 - yaw + laser.angles  # the rays' angles in map axes
+    expected = (1.5 - u_origin) / np.cos(directions)
+    assert np.max(np.abs(ranges - expected)) < 1e-12
+
+
+@pytest.mark.skipif(not kernel.built(), reason="compares the kernel with Python")
+def test_the_kernel_casts_the_map_s_boxes_with_the_bits_of_python():
+    """The warehouse's map boxes are fixed bodies of the cast: the kernel culls them as it
+    culls bodies and gives the numpy twin's bits, at every pose of a turning robot."""
+    scene = load_scene("warehouse")
+    cm_local = Model(scene).cm_local
+    compiled = Laser(scene.sensors[0], scene, cm_local, compiled=True)
+    plain = Laser(scene.sensors[0], scene, cm_local, compiled=False)
+    rng = np.random.default_rng(3)
+    q = Model(scene).initial_state()[0]
+    robot = [b.name for b in scene.bodies].index(scene.sensors[0].body)
+    hits = 0
+    for _ in range(20):
+        q[robot] = [rng.uniform(-3.5, 3.5), rng.uniform(-2.5, 2.5), rng.uniform(-4, 4)]
+        ranges = compiled.distances(q)
+        assert ranges.tobytes() == plain.distances(q).tobytes()
+        hits += int(np.isfinite(ranges).sum())
+    assert hits > 0
+
+
+def test_a_map_or_contact_events_change_the_fingerprint_and_their_absence_does_not_count():
+    scene = load_scene("robot")
+    assert scene.map is None and not scene.publish_contacts
+    contacts = dataclasses.replace(scene, publish_contacts=True)
+    assert scene_fingerprint(contacts) != scene_fingerprint(scene)
+    mapped = with_map(scene, str(scene_path("warehouse").parent / "maps" / "warehouse.yaml"))
+    assert scene_fingerprint(mapped) != scene_fingerprint(scene)
+
+
+def test_a_spawned_body_joins_a_map_that_holds_every_body_and_a_deleted_one_leaves_it():
+    scene = load_scene("warehouse")
+    spec = "{shape: circle, radius: 0.1, mass: 1.0, position: [2.0, 2.0]}"
+    grown = spawned(scene, "ball", spec)
+    assert grown.map is not None and grown.map.bodies == ("ball", "crate", "robot")
+    assert deleted(grown, "ball").map == scene.map
+    assert Simulation(scene).with_world(grown).model.contacts.static_bodies == [0, 1, 2]
+    only_robot = dataclasses.replace(scene, map=dataclasses.replace(scene.map,
+                                                                    bodies=("robot",)))
+    assert spawned(only_robot, "ball", spec).map.bodies == ("robot",)
