@@ -79,8 +79,9 @@ GRID_STEP = 1.0 / 60.0
 GRID_DURATION = 10 * GRID_STEP
 #: The joint pass's position tolerance on the grid, m: target 1's pin gap. At the default
 #: (1e-12 m) Newton's error on the 100 x 100 grid stalls at 2-4e-12 m, the rounding its
-#: 9,600 dependent rows leave, and the pass halves every step into 1024 parts (four
-#: minutes a step): the exact pass's own limit on so large a frame, said in the results.
+#: 9,600 dependent rows leave: the pass halves the step again and again (to h / 64 and
+#: beyond) and its drift stage refactors up to 8 times a part (four minutes a step), the
+#: exact pass's own limit on so large a frame, said in the case's name.
 GRID_TOLERANCE = 1e-9
 #: Target 3's chain and how long it runs.
 RENAMED_LINKS = 1000
