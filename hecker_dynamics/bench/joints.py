@@ -13,7 +13,8 @@ Cases:
   and lower neighbours at the midpoints, the middle 7 of the top row fixed), at h = 1/60 s
   over :data:`GRID_DURATION`; its 39,600 pin rows hold its 30,000 coordinates with some
   9,600 rows to spare (the loops of the grid), which the exact factorization drops as
-  dependent;
+  dependent; the core holds its pins to :data:`GRID_TOLERANCE` (the rounding those rows
+  leave is above the default tolerance);
 - the pinned scenes (``seesaw``, ``door``) on their revolute joints against the same
   scenes pinned by stiff springs (:func:`.scenes.pinned_by_springs`), over their first 2 s.
 
@@ -59,8 +60,9 @@ from ..scene.parameters import flatten
 from .scene_peers import SCENE_PEERS, scene_engine
 from .scenes import SPRING_PINS, pinned_by_springs
 
-__all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "JOINT_FILES", "ROUNDS", "Run",
-           "chain", "grid", "joint_bench", "measure", "pin_gap", "renaming", "targets"]
+__all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "GRID_TOLERANCE", "JOINT_FILES",
+           "ROUNDS", "Run", "chain", "grid", "joint_bench", "measure", "pin_gap", "renaming",
+           "targets"]
 
 #: The chains' lengths, links.
 CHAIN_LINKS = (2, 10, 50, 200)
@@ -75,6 +77,12 @@ GRAVITY = 9.81
 GRID_SIZE = 100
 GRID_STEP = 1.0 / 60.0
 GRID_DURATION = 10 * GRID_STEP
+#: The joint pass's position tolerance on the grid, m: target 1's pin gap. At the default
+#: (1e-12 m) Newton's error on the 100 x 100 grid stalls at 2-4e-12 m, the rounding its
+#: 9,600 dependent rows leave: the pass halves the step again and again (to h / 64 and
+#: beyond) and its drift stage refactors up to 8 times a part (four minutes a step), the
+#: exact pass's own limit on so large a frame, said in the case's name.
+GRID_TOLERANCE = 1e-9
 #: Target 3's chain and how long it runs.
 RENAMED_LINKS = 1000
 RENAMED_DURATION = 0.5
@@ -180,13 +188,16 @@ class Run:
 Engine = tuple[Callable[[int], float], Callable[[], np.ndarray]]  # step(n) -> s, poses()
 
 
-def _core(scene: Scene) -> Engine:
-    """``scene`` in the core: step(n) pushes the script as sim time reaches each command
-    and returns the seconds its steps took; poses() are the CMs' (x, y, angle)."""
+def _core(scene: Scene, tolerance: Optional[float] = None) -> Engine:
+    """``scene`` in the core (its joints held to ``tolerance``, m, if given): step(n)
+    pushes the script as sim time reaches each command and returns the seconds its steps
+    took; poses() are the CMs' (x, y, angle)."""
     sim = Simulation(scene)
     joints = sim.model.joints
     if joints is not None:  # the order, patterns and kernel pass are built, not timed
         joints.reset(sim.q)
+        if tolerance is not None:
+            joints.tolerance = tolerance
         if joints.compiled:
             joints.kernel_pass()
     script = sorted(scene.script, key=lambda c: c.stamp_ns)
@@ -203,21 +214,22 @@ def _core(scene: Scene) -> Engine:
     return step, lambda: sim.q.copy()
 
 
-def _engine(name: str, scene: Scene) -> Engine:
+def _engine(name: str, scene: Scene, tolerance: Optional[float] = None) -> Engine:
     if name == "hecker_dynamics":
-        return _core(scene)
+        return _core(scene, tolerance)
     return scene_engine(name, scene, scene.step_ns * 1e-9, sleep=False)
 
 
 def measure(engine: str, scene: Scene, model: Model, duration: Optional[float] = None,
-            pins: Optional[Scene] = None) -> Run:
+            pins: Optional[Scene] = None, tolerance: Optional[float] = None) -> Run:
     """A whole run of ``scene`` (``model`` its model) in ``engine`` (``hecker_dynamics`` or
     a peer of :data:`PEERS`) over ``duration`` s (default the scene's), in :data:`SAMPLES`
     timed parts, the pin gap measured on the revolute joints of ``pins`` (default
-    ``scene``); ImportError if the peer is not installed."""
+    ``scene``), the core's joints held to ``tolerance`` (default the pass's);
+    ImportError if the peer is not installed."""
     steps = round((scene.duration_ns if duration is None else round(duration * 1e9))
                   / scene.step_ns)
-    step, poses = _engine(engine, scene)
+    step, poses = _engine(engine, scene, tolerance)
     spent, gap, done = 0.0, 0.0, 0
     try:
         for part in range(SAMPLES):
@@ -233,14 +245,15 @@ def measure(engine: str, scene: Scene, model: Model, duration: Optional[float] =
 @dataclass
 class Case:
     """A comparison: its scene (built lazily), how long to run it, the engines, the scene
-    whose revolute joints the pin gap is measured on (default the case's own), and the
-    engines' runs."""
+    whose revolute joints the pin gap is measured on (default the case's own), the core's
+    joint tolerance (default the pass's), and the engines' runs."""
 
     name: str
     build: Callable[[], Scene]
     duration: Optional[float] = None
     engines: tuple[str, ...] = ("hecker_dynamics", *PEERS)
     pins: Optional[Callable[[], Scene]] = None
+    tolerance: Optional[float] = None
     runs: dict[str, list[Run]] = field(default_factory=dict)
 
     def median(self, engine: str) -> Run:
@@ -261,8 +274,8 @@ def _chain_cases() -> list[Case]:
 def _cases() -> list[Case]:
     cases = _chain_cases()
     cases += [Case(name, lambda name=name: load_scene(name)) for name in ("bridge", "ragdoll")]
-    cases.append(Case(f"joint_grid {GRID_SIZE} x {GRID_SIZE}, h = 1/60 s", grid,
-                      GRID_DURATION))
+    cases.append(Case(f"joint_grid {GRID_SIZE} x {GRID_SIZE}, h = 1/60 s, joints to "
+                      f"{GRID_TOLERANCE:g} m", grid, GRID_DURATION, tolerance=GRID_TOLERANCE))
     for name in SPRING_PINS:  # pinned by joints and by springs: the core only
         cases.append(Case(f"{name} on joints", lambda name=name: load_scene(name), 2.0,
                           ("hecker_dynamics",)))
@@ -353,7 +366,7 @@ def joint_bench(peers: list[str], out: Path, command: str,
         for round_ in range(rounds):
             for engine in engines[round_ % len(engines):] + engines[:round_ % len(engines)]:
                 try:
-                    run = measure(engine, scene, model, case.duration, pins)
+                    run = measure(engine, scene, model, case.duration, pins, case.tolerance)
                 except ImportError:
                     continue
                 except ValueError as error:  # a peer that cannot build the scene

@@ -43,9 +43,11 @@ its error at every iteration or its solution turns a body by more than :data:`MA
 error. A step that needs none of this is RATTLE's, unchanged.
 
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
-ropes) are solved around it by sequential impulses (projected Gauss-Seidel), warm-started
-from the previous step's impulses. The blocks are factored in plain floats (no LAPACK,
-whose order of operations C could not repeat), sparse, in an order the pass chooses from
+ropes) join the block where they hold their equations and sit at their bounds elsewhere,
+the set found from the previous step's impulses in one or two factorizations (active
+sets; projected Gauss-Seidel only where the sets do not settle, :func:`_solve`). The
+blocks are factored in plain floats (no LAPACK, whose order of operations C could not
+repeat), sparse, in an order the pass chooses from
 the joint graph, never from the joints' names (:mod:`.sparse`): K = J M^-1 J^T by
 L D L^T, the Newton matrix G(q) M^-1 G(q0)^T, not symmetric, by L U, both without
 pivoting; a chain or a tree of joints fills nothing in and costs O(rows) per
@@ -113,6 +115,9 @@ MAX_TURN = 0.1
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
+#: The most active sets :func:`_solve` tries (each one factorization of K's rows that hold
+#: their equations) before it goes on by projected Gauss-Seidel.
+ACTIVE_SETS = 8
 #: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
 MAX_ITERATIONS = 200
 CONVERGED = 1e-13
@@ -888,18 +893,44 @@ def _row_sum(pattern: Pattern, diagonal: list[float], lower: list[float], i: int
 def _solve(pattern: Pattern, diagonal: list[float], lower: list[float], b: list[float],
            bounds: tuple[list[float], list[float]], warm: list[float]) -> list[float]:
     """Impulses x with (K x - b)_i = 0 where lower_i < x_i < upper_i, >= 0 at lower_i and
-    <= 0 at upper_i (``bounds``), K by its ``diagonal`` and strict ``lower`` triangle:
-    the unbounded rows as one block solved exactly (L D L^T), each bounded row by a
-    projected Gauss-Seidel update, alternated until no bounded impulse changes by more
-    than :data:`CONVERGED` relative to the largest."""
+    <= 0 at upper_i (``bounds``), K by its ``diagonal`` and strict ``lower`` triangle.
+
+    By active sets: each bounded row either holds its equation, solved with the unbounded
+    rows as one block (L D L^T of the rows that hold), or sits at a bound; a row whose
+    impulse leaves its bounds goes to the bound, a row at a bound whose equation wants
+    the impulse further inside holds its equation again, until neither happens (the
+    exact solution, one or two factorizations from the last step's impulses ``warm``).
+    After :data:`ACTIVE_SETS` sets without an end, projected Gauss-Seidel passes over
+    the bounded rows, alternated with the block, go on until no bounded impulse changes
+    by more than :data:`CONVERGED` relative to the largest."""
     low_bound, high_bound = bounds
     n = len(b)
     free = [lo == -math.inf and up == math.inf for lo, up in zip(low_bound, high_bound)]
     if all(free):
         return substitute(pattern, factor(pattern, diagonal, lower), b)
-    x = [0.0 if f else min(max(x0, lo), up)
-         for f, x0, lo, up in zip(free, warm, low_bound, high_bound)]
     bounded = [i for i in range(n) if not free[i]]
+    # -1 at the lower bound, 1 at the upper, 0 holding its equation
+    side = [0 if f else -1 if x0 <= lo or lo == up else 1 if x0 >= up else 0
+            for f, x0, lo, up in zip(free, warm, low_bound, high_bound)]
+    for _ in range(ACTIVE_SETS):
+        holds = [at == 0 for at in side]
+        x = [0.0 if at == 0 else low_bound[i] if at < 0 else high_bound[i]
+             for i, at in enumerate(side)]
+        rhs = [b[i] - _row_sum(pattern, diagonal, lower, i, x, holds) if holds[i] else 0.0
+               for i in range(n)]
+        for i, xi in enumerate(substitute(pattern, factor(pattern, diagonal, lower, holds), rhs)):
+            if holds[i]:
+                x[i] = xi
+        settled = True
+        for i in bounded:
+            if side[i] == 0:
+                side[i] = -1 if x[i] < low_bound[i] else 1 if x[i] > high_bound[i] else 0
+            elif low_bound[i] < high_bound[i]:
+                wanted = b[i] - _row_sum(pattern, diagonal, lower, i, x)
+                side[i] = 0 if wanted * side[i] < 0.0 else side[i]
+            settled = settled and (side[i] == 0) == holds[i]
+        if settled:
+            return x
     factors = factor(pattern, diagonal, lower, free) if any(free) else None
     for _ in range(MAX_ITERATIONS):
         if factors is not None:

@@ -502,10 +502,38 @@ static void hd_solve(hd_joint_model *m)
         return;
     }
     long nb = 0;
+    int *side = m->side, *holds = m->active;  /* -1 at the lower bound, 1 at the upper */
     for (long i = 0; i < n; ++i) {
-        x[i] = m->free[i] ? 0.0 : hd_min(hd_max(m->warm[i], low_bound[i]), high_bound[i]);
+        const double start = m->warm[i], low = low_bound[i], high = high_bound[i];
+        side[i] = m->free[i] ? 0 : start <= low || low == high ? -1 : start >= high ? 1 : 0;
         if (!m->free[i])
             m->bounded[nb++] = i;
+    }
+    for (long set = 0; set < HD_ACTIVE_SETS; ++set) {
+        for (long i = 0; i < n; ++i) {
+            holds[i] = side[i] == 0;
+            x[i] = side[i] == 0 ? 0.0 : side[i] < 0 ? low_bound[i] : high_bound[i];
+        }
+        for (long i = 0; i < n; ++i)
+            m->rhs[i] = holds[i] ? b[i] - hd_row_sum(p, diagonal, lower, i, x, holds) : 0.0;
+        hd_factor(p, diagonal, lower, holds, m->low, m->diag, m->out);
+        hd_substitute(p, m->low, m->diag, m->out, m->rhs);
+        for (long i = 0; i < n; ++i)
+            if (holds[i])
+                x[i] = m->rhs[i];
+        int settled = 1;
+        for (long k = 0; k < nb; ++k) {
+            const long i = m->bounded[k];
+            if (side[i] == 0) {
+                side[i] = x[i] < low_bound[i] ? -1 : x[i] > high_bound[i] ? 1 : 0;
+            } else if (low_bound[i] < high_bound[i]) {
+                const double wanted = b[i] - hd_row_sum(p, diagonal, lower, i, x, NULL);
+                side[i] = wanted * side[i] < 0.0 ? 0 : side[i];
+            }
+            settled = settled && (side[i] == 0) == holds[i];
+        }
+        if (settled)
+            return;
     }
     if (any_free)
         hd_factor(p, diagonal, lower, m->free, m->low, m->diag, m->out);
@@ -817,7 +845,7 @@ int hd_joints_prepare(hd_joint_model *m)
     m->row_memory = calloc(4 * R, sizeof(hd_joint_row));
     m->memory = calloc(4 * B + 11 * R + 4 * S, sizeof(double));
     m->bounded = malloc(R * sizeof(long));
-    m->flags = malloc(3 * R * sizeof(int));
+    m->flags = malloc(4 * R * sizeof(int));
     m->warm = calloc(R, sizeof(double));
     m->newton = calloc(R, sizeof(double));
     m->extra = calloc(R, sizeof(double));
@@ -829,6 +857,7 @@ int hd_joints_prepare(hd_joint_model *m)
     m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;
     m->dir = m->dir0 + R;
     m->free = m->flags, m->out = m->flags + R, m->active = m->flags + 2 * R;
+    m->side = m->flags + 3 * R;
     double *p = m->memory;
     m->start = p, m->q = p + B, m->moved = p + 2 * B, m->v = p + 3 * B;
     p += 4 * B;

@@ -19,6 +19,7 @@
 #define HD_NEWTON_ITERATIONS 50
 #define HD_CHORD 0.125
 #define HD_DRIFT_ITERATIONS 8
+#define HD_ACTIVE_SETS 8
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
@@ -93,7 +94,7 @@ typedef struct hd_joint_model {
     double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;
     double *diagonal, *lower, *upper, *low, *diag;
     long *bounded;
-    int *flags, *free, *out, *active;
+    int *flags, *free, *out, *active, *side;
 } hd_joint_model;
 
 enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS_UNSOLVED = -2,

@@ -29,6 +29,22 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
             p->above_row[at] = i, p->above_slot[at] = s;
         }
     free(fill);
+    /* The updates in all: per column k, a pair of its rows j < i (L[i, j] is then in the
+     * pattern too). Too many to keep: the factorizations scatter. */
+    long updates = 0;
+    for (long k = 0; k < n && updates <= HD_MOST_UPDATES; ++k) {
+        const long count = p->above_start[k + 1] - p->above_start[k];
+        updates += count * (count - 1) / 2;
+    }
+    if (updates > HD_MOST_UPDATES) {
+        p->position = malloc(((size_t)slots + 1) * sizeof(long));
+        p->work = malloc((2 * (size_t)n + 2 * (size_t)slots + 1) * sizeof(double));
+        if (p->position == NULL || p->work == NULL)
+            return -1;
+        for (long k = 0; k < slots; ++k)
+            p->position[p->above_slot[k]] = k;
+        return 0;
+    }
     /* The merges of contact/sparse.py's factor and lu, once: count, then fill. */
     p->update_start = calloc((size_t)slots + 1, sizeof(long));
     if (p->update_start == NULL)
@@ -53,11 +69,6 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
                     }
                 }
             }
-        if (pass == 0 && count > HD_MOST_UPDATES) {
-            free(p->update_start);  /* too many to keep: the factorizations merge */
-            p->update_start = NULL;
-            return 0;
-        }
         if (pass == 0) {
             p->update_a = malloc(((size_t)count + 1) * sizeof(long));
             p->update_b = malloc(((size_t)count + 1) * sizeof(long));
@@ -80,6 +91,51 @@ void hd_pattern_free(hd_pattern *p)
     free(p->update_start);
     free(p->update_a);
     free(p->update_b);
+    free(p->position);
+    free(p->work);
+}
+
+/* Row i of L D L^T (its slots of `low`), each entry's updates subtracted in ascending k:
+ * from the listed pairs of slots. */
+static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, double *low,
+                             const double *diag, const int *out)
+{
+    const long *columns = p->columns;
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+        const long j = columns[slot];
+        if (out[j])
+            continue;
+        double s = lower[slot];
+        for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+            const long a = p->update_a[u], b = p->update_b[u];
+            s -= low[a] * diag[columns[a]] * low[b];
+        }
+        low[slot] = s / diag[j];
+    }
+}
+
+/* The same without the lists: row i scattered into a dense vector; as each of its columns
+ * k (ascending) is finished, column k's entries L[r, k] above row i (kept by columns, in
+ * the work) update the entries (i, r) still to come. Every entry takes the same
+ * subtractions in the same order, at the cost of the updates alone. */
+static void hd_factor_scattered(const hd_pattern *p, const double *lower, long i, double *low,
+                                const double *diag, const int *out)
+{
+    const long *columns = p->columns, *above_start = p->above_start;
+    const long *above_row = p->above_row, *position = p->position;
+    double *x = p->work, *column = p->work + 2 * p->n;
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
+        x[columns[slot]] = lower[slot];
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+        const long k = columns[slot];
+        double l = 0.0;  /* a row left out or dropped: its entries stay zero */
+        if (!out[k])
+            low[slot] = l = x[k] / diag[k];
+        column[position[slot]] = l;
+        const double t = l * diag[k];
+        for (long e = above_start[k]; e < above_start[k + 1] && above_row[e] < i; ++e)
+            x[above_row[e]] -= t * column[e];
+    }
 }
 
 void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
@@ -95,34 +151,12 @@ void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
     for (long i = 0; i < n; ++i) {
         if (out[i])
             continue;
-        const long first = start[i], end = start[i + 1];
-        for (long slot = first; slot < end; ++slot) {
-            const long j = columns[slot];
-            if (out[j])
-                continue;
-            double s = lower[slot];
-            if (p->update_start != NULL) {
-                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
-                    const long a = p->update_a[u], b = p->update_b[u];
-                    s -= low[a] * diag[columns[a]] * low[b];
-                }
-            } else {
-                long a = first, b = start[j];
-                while (a < slot && b < start[j + 1]) {  /* k < j in both rows' patterns */
-                    if (columns[a] == columns[b]) {
-                        s -= low[a] * diag[columns[a]] * low[b];
-                        ++a, ++b;
-                    } else if (columns[a] < columns[b]) {
-                        ++a;
-                    } else {
-                        ++b;
-                    }
-                }
-            }
-            low[slot] = s / diag[j];
-        }
+        if (p->update_start != NULL)
+            hd_factor_listed(p, lower, i, low, diag, out);
+        else
+            hd_factor_scattered(p, lower, i, low, diag, out);
         double s = diagonal[i];
-        for (long slot = first; slot < end; ++slot)
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
             s -= low[slot] * diag[columns[slot]] * low[slot];
         if (s > HD_DEPENDENT * diagonal[i])
             diag[i] = s;
@@ -158,10 +192,55 @@ void hd_substitute(const hd_pattern *p, const double *low, const double *diag, c
     }
 }
 
+/* Row i of L and column i of U (hd_factor_listed, hd_factor_scattered). */
+static void hd_lu_listed(const hd_pattern *p, const double *lower, long i, double *upper,
+                         double *low, const double *diag, const int *out)
+{
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+        const long j = p->columns[slot];
+        if (out[j]) {
+            upper[slot] = 0.0;
+            continue;
+        }
+        double s = lower[slot], t = upper[slot];
+        for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
+            const long a = p->update_a[u], b = p->update_b[u];
+            s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
+            t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
+        }
+        low[slot] = s * diag[j];
+        upper[slot] = t;
+    }
+}
+
+static void hd_lu_scattered(const hd_pattern *p, const double *lower, long i, double *upper,
+                            double *low, const double *diag, const int *out)
+{
+    const long *columns = p->columns, *above_start = p->above_start;
+    const long *above_row = p->above_row, *position = p->position;
+    double *x = p->work, *y = p->work + p->n;  /* row i of L, column i of U */
+    double *column_l = p->work + 2 * p->n, *column_u = column_l + p->start[p->n];
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
+        x[columns[slot]] = lower[slot], y[columns[slot]] = upper[slot];
+    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+        const long k = columns[slot];
+        double l = 0.0, u = 0.0;  /* a row dropped: its entries stay zero */
+        if (!out[k])
+            low[slot] = l = x[k] * diag[k], u = y[k];
+        upper[slot] = u;
+        column_l[position[slot]] = l, column_u[position[slot]] = u;
+        for (long e = above_start[k]; e < above_start[k + 1] && above_row[e] < i; ++e) {
+            const long r = above_row[e];
+            x[r] -= l * column_u[e];  /* L[i, k] U[k, r] */
+            y[r] -= column_l[e] * u;  /* L[r, k] U[k, i] */
+        }
+    }
+}
+
 void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, double *upper,
            double *low, double *diag, int *out)
 {
-    const long n = p->n, *start = p->start, *columns = p->columns;
+    const long n = p->n, *start = p->start;
     for (long s = 0; s < start[n]; ++s)
         low[s] = 0.0;
     for (long i = 0; i < n; ++i) {
@@ -169,39 +248,12 @@ void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, dou
         diag[i] = 0.0;
     }
     for (long i = 0; i < n; ++i) {
-        const long first = start[i], end = start[i + 1];
-        for (long slot = first; slot < end; ++slot) {
-            const long j = columns[slot];
-            if (out[j]) {
-                upper[slot] = 0.0;
-                continue;
-            }
-            double s = lower[slot], t = upper[slot];
-            if (p->update_start != NULL) {
-                for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
-                    const long a = p->update_a[u], b = p->update_b[u];
-                    s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
-                    t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
-                }
-            } else {
-                long a = first, b = start[j];
-                while (a < slot && b < start[j + 1]) {
-                    if (columns[a] == columns[b]) {
-                        s -= low[a] * upper[b];
-                        t -= low[b] * upper[a];
-                        ++a, ++b;
-                    } else if (columns[a] < columns[b]) {
-                        ++a;
-                    } else {
-                        ++b;
-                    }
-                }
-            }
-            low[slot] = s * diag[j];
-            upper[slot] = t;
-        }
+        if (p->update_start != NULL)
+            hd_lu_listed(p, lower, i, upper, low, diag, out);
+        else
+            hd_lu_scattered(p, lower, i, upper, low, diag, out);
         double s = diagonal[i];
-        for (long slot = first; slot < end; ++slot)
+        for (long slot = start[i]; slot < start[i + 1]; ++slot)
             s -= low[slot] * upper[slot];
         if (fabs(s) > HD_DEPENDENT * fabs(diagonal[i]))
             diag[i] = 1.0 / s;

@@ -7,7 +7,7 @@
 /* contact/sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row. */
 #define HD_DEPENDENT 1e-10
 /* The most updates a pattern keeps listed (16 bytes each); beyond, the factorizations
- * merge the rows' patterns as they go, in the same order. */
+ * scatter each row into a dense vector and update it by columns, in the same order. */
 #define HD_MOST_UPDATES 4000000L
 
 /* contact/sparse.py: Pattern. Row i's columns (ascending) are columns[start[i] .. start[i + 1]),
@@ -22,6 +22,10 @@ typedef struct {
      * update_start[s + 1]): the slots of (i, k) and (j, k), k ascending, k < j (the merge
      * of the two rows' patterns, done once; update_start NULL: too many to keep). */
     long *update_start, *update_a, *update_b;
+    /* Without the lists: each slot's place in the column lists, and 2 n + 2 slots of work
+     * (the rows being factored, dense; the factors by columns). */
+    long *position;
+    double *work;
 } hd_pattern;
 
 /* Take `start` (n + 1) and `columns` (start[n]), which the pattern owns from now on, and

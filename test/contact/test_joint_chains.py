@@ -191,6 +191,28 @@ def test_a_grid_of_pins_drops_its_dependent_rows_and_holds():
     assert np.array_equal(ends[0].q, ends[1].q) and np.array_equal(ends[0].v, ends[1].v)
 
 
+@needs_kernel
+def test_a_grid_too_big_to_list_its_updates_has_the_bits_of_python():
+    """A 31 x 31 joint grid: its factors take 4.4M updates, more than the kernel lists
+    (HD_MOST_UPDATES, 4M), so the kernel's factorizations scatter each row and update it
+    by columns; each entry still takes Python's subtractions in Python's order: a step
+    gives the same bits."""
+    ends = []
+    for python in (False, True):
+        sim = Simulation(grid(31, 1.0 / 60.0, 1.0))
+        if python:
+            sim.model.use_python()
+        sim.advance_to(sim.step_ns, keep=False)
+        ends.append(sim)
+    pattern = ends[0].model.joints.pattern
+    above = [0] * pattern.size
+    for column in pattern.columns:
+        above[column] += 1
+    assert sum(k * (k - 1) // 2 for k in above) > 4_000_000
+    assert ends[0].steps == ends[1].steps == 1
+    assert np.array_equal(ends[0].q, ends[1].q) and np.array_equal(ends[0].v, ends[1].v)
+
+
 @pytest.mark.parametrize("python", [False, True])
 def test_a_spin_no_part_can_follow_ends_in_a_clear_error(python):
     """A rod pinned at its end spinning at 1e7 rad/s at h = 1 ms turns 10 rad in even the
