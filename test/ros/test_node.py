@@ -423,7 +423,8 @@ def test_the_published_bytes_are_what_rclpy_serializes():
     kinds = set()
     for name in shipped_scenes():
         scene = dataclasses.replace(load_scene(name), publish_markers=True,
-                                    publish_odometry=True, publish_tf=True)
+                                    publish_odometry=True, publish_tf=True,
+                                    publish_contacts=True)
         outputs = SnapshotOutputs(scene, tf=True)
         snapshot = Simulation(scene).advance_to(S // 4)[-1]
         kind_of = output_topics(scene, tf=True)
