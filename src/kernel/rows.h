@@ -106,20 +106,26 @@ static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *veloc
 
 /* The depths of the rows of the units `members` (size of them) after the velocity
  * change, depth - h (v_n' - v_n), into base[row]; whether the deepest is beyond HD_SLOP,
- * the deepest found as Python's max() finds it, in the units' order
- * (contact/solve.py: correct_positions). */
+ * the deepest found as Python's max() finds it in the order swept, whose first row is
+ * `first` (contact/solve.py: correct_positions). That max keeps its first value if it is
+ * NaN and else is the largest of the values that are not NaN (or one of two zeros, alike
+ * against HD_SLOP) in any order, so the members are taken in their order in memory. */
 static inline int hd_depths_after(const hd_contact_model *m, const long *members, long size,
-                                  double h, double *base)
+                                  long first, double h, double *base)
 {
-    double deepest = 0.0;
     for (long k = 0; k < size; ++k) {
         const hd_unit *u = m->units + members[k];
         for (long i = u->first; i <= u->first + u->pair; ++i) {
             const hd_row *r = m->rows + i;
             base[i] = r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a,
                                                          m->velocity + 3 * r->b, r) - r->approach);
-            deepest = k == 0 && i == u->first ? base[i] : hd_max(deepest, base[i]);
         }
+    }
+    double deepest = base[first];
+    for (long k = 0; k < size; ++k) {
+        const hd_unit *u = m->units + members[k];
+        for (long i = u->first; i <= u->first + u->pair; ++i)
+            deepest = hd_max(deepest, base[i]);
     }
     return !(deepest <= HD_SLOP);
 }

@@ -59,7 +59,7 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
             if (largest <= HD_CONVERGED * scale)
                 break;
         }
-        if (!hd_depths_after(m, members, size, h, base))
+        if (!hd_depths_after(m, members, size, m->units[members[0]].first, h, base))
             continue;
         for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
             for (long k = 0; k < size; ++k)

@@ -13,14 +13,19 @@
 #include "simd.h"
 #include "wide.h"
 
-/* Four blocks of one colour, lane by lane: rows one and two of each, the body pair, the
- * block's K and K^-1, the rows' impulses while the passes run, then their depths for the
- * position correction. */
+/* Four blocks of one colour, lane by lane: first what the position correction reads (rows
+ * one and two's arms, the normal, the inverse masses, the normal masses, the rows' depths
+ * once the passes ran, the body pair), together in as few cache lines as it can be; then
+ * what only the velocity passes read besides: the targets, the tangent masses, the friction
+ * coefficient (one, as a block's rows come from one pair of parts and so one material), the
+ * block's K and K^-1, the rows' impulses while the passes run. */
 typedef struct {
     hd_v4 rax1, ray1, rbx1, rby1, rax2, ray2, rbx2, rby2, nx, ny, im_a, ii_a, im_b, ii_b;
-    hd_v4 target1, target2, mass_n1, mass_n2, mass_t1, mass_t2, mu1, mu2;
-    hd_v4 k11, k12, k22, inv11, inv12, inv22, jn1, jn2, jt1, jt2, base1, base2;
-    long a[HD_LANES], b[HD_LANES], first[HD_LANES];
+    hd_v4 mass_n1, mass_n2, base1, base2;
+    long a[HD_LANES], b[HD_LANES];
+    hd_v4 target1, target2, mass_t1, mass_t2, mu;
+    hd_v4 k11, k12, k22, inv11, inv12, inv22, jn1, jn2, jt1, jt2;
+    long first[HD_LANES];
 } hd_lanes;
 
 /* The colours of each island solved here are kept from step to step, for as long as
@@ -148,6 +153,24 @@ static void hd_colour_units(hd_contact_model *m, const long *members, long size,
         sorted[count[w->colour[k]]++] = members[k];
 }
 
+/* The colour order visits the units and their rows all over memory: how many units ahead
+ * the packing of lanes asks for a unit's rows (and twice as far for the unit itself). */
+#define HD_AHEAD 8
+
+#if defined(__GNUC__)
+#define hd_prefetch(address, write) __builtin_prefetch((address), (write))
+#else
+#define hd_prefetch(address, write) ((void)(address), (void)(write))
+#endif
+
+/* Ask for the cache lines of rows `first` and `first` + 1 (a block's). */
+static void hd_prefetch_rows(const hd_contact_model *m, long first, int write)
+{
+    const char *start = (const char *)(m->rows + first);
+    for (size_t at = 0; at < 2 * sizeof(hd_row); at += 64)
+        hd_prefetch(start + at, write);
+}
+
 static double *hd_lane(hd_v4 *v, int l) { return (double *)v + l; }
 
 /* The blocks of the `filled` units `pair` into lanes, the lanes beyond them empty: the
@@ -188,8 +211,7 @@ static void hd_load_lanes(const hd_contact_model *m, const long *pair, int fille
         *hd_lane(&x->mass_n2, l) = two->mass_n;
         *hd_lane(&x->mass_t1, l) = one->mass_t;
         *hd_lane(&x->mass_t2, l) = two->mass_t;
-        *hd_lane(&x->mu1, l) = one->mu;
-        *hd_lane(&x->mu2, l) = two->mu;
+        *hd_lane(&x->mu, l) = one->mu;
         *hd_lane(&x->k11, l) = u->k11;
         *hd_lane(&x->k12, l) = u->k12;
         *hd_lane(&x->k22, l) = u->k22;
@@ -346,9 +368,9 @@ static HD_HOT hd_v4 hd_block4(hd_lanes *x, hd_twist4 *pa, hd_twist4 *pb)
     x->jn2 = x2;
     hd_v4 change = hd_max_v(hd_abs_v(x1 - old1) / x->mass_n1, hd_abs_v(x2 - old2) / x->mass_n2);
     change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax1, x->ray1, x->rbx1, x->rby1,
-                                           x->mass_t1, x->mu1, x1, &x->jt1));
+                                           x->mass_t1, x->mu, x1, &x->jt1));
     change = hd_max_v(change, hd_friction4(&va, &vb, x, x->rax2, x->ray2, x->rbx2, x->rby2,
-                                           x->mass_t2, x->mu2, x2, &x->jt2));
+                                           x->mass_t2, x->mu, x2, &x->jt2));
     *pa = va;
     *pb = vb;
     return change;
@@ -490,6 +512,10 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
         long pair[HD_LANES];
         int filled = 0;
         for (long k = colour_start[c]; k < colour_start[c + 1]; ++k) {
+            if (k + 2 * HD_AHEAD < size)
+                hd_prefetch(m->units + sorted[k + 2 * HD_AHEAD], 0);
+            if (k + HD_AHEAD < size)
+                hd_prefetch_rows(m, m->units[sorted[k + HD_AHEAD]].first, 0);
             const long u = sorted[k];
             if (HD_VECTORS && c < HD_COLOURS && m->units[u].pair) {
                 pair[filled++] = u;
@@ -520,9 +546,12 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
         if (largest <= HD_CONVERGED * scale)
             break;
     }
-    const int deep = hd_depths_after(m, sorted, size, h, base);
-    for (long k = 0; k < lanes; ++k)
+    const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
+    for (long k = 0; k < lanes; ++k) {
+        for (int l = 0; k + 1 < lanes && l < HD_LANES && w->lanes[k + 1].first[l] >= 0; ++l)
+            hd_prefetch_rows(m, w->lanes[k + 1].first[l], 1);
         hd_store_lanes(m, w->lanes + k, base);
+    }
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
         for (int c = 0; c <= HD_COLOURS; ++c) {
             hd_correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
