@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import cProfile
 import dataclasses
+import functools
 import io
 import math
 import os
@@ -39,6 +40,9 @@ from .scenes import BENCH_SCENES, STIFF_SEESAW, bench_scene, configure, declared
 __all__ = ["Mode", "Results", "PYTHON_PATH", "core_run", "core_case", "core_cases", "bench_scenes",
            "shipped", "ring_part", "sample_step", "bounce_part", "declared_part", "peer_checks",
            "profiles", "guard", "run_bench"]
+
+#: Where a part of the bench says what it is doing, a line at a time.
+Log = Callable[[str], None]
 
 
 @dataclass
@@ -89,7 +93,7 @@ class Results:
     mode: str
     rows: list[Row] = field(default_factory=list)
     references: dict[str, Reference] = field(default_factory=dict)
-    checks: list = field(default_factory=list)
+    checks: list[peer_mod.Check] = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
     sample_rows: list[Row] = field(default_factory=list)  # the rows behind ``sample``
@@ -202,7 +206,7 @@ def bench_scenes(results: Results, mode: Mode, names: list[str], peers: list[str
         log(f"{name}: {len(rows)} configurations in {time.perf_counter() - started:.1f} s")
 
 
-def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
+def shipped(results: Results, mode: Mode, names: list[str], log: Log) -> None:
     for name in names:
         started = time.perf_counter()
         scene = bench_scene(name)
@@ -231,7 +235,7 @@ def shipped(results: Results, mode: Mode, names: list[str], log) -> None:
         log(f"{name}: done in {time.perf_counter() - started:.1f} s")
 
 
-def ring_part(results: Results, mode: Mode, peers: list[str], log,
+def ring_part(results: Results, mode: Mode, peers: list[str], log: Log,
               sizes: Optional[list[int]] = None) -> None:
     h = 1e-3
     have_c = load_c_loop() is not None
@@ -248,7 +252,7 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log,
                                    python=True))
         if have_c:
             cases.append(Case(f"ring{n}", "c", "semi_implicit_euler", h, math.nan, 1.0,
-                              lambda d, n=n: c_run(n, h, d)))
+                              functools.partial(c_run, n, h)))
         for peer, method in (("pymunk", "native"), ("mujoco", "euler"), ("box2d", "python")):
             if peer in peers:
                 cases.append(peer_mod.peer_case(peer, f"ring{n}", scene, method, h, 1.0))
@@ -271,7 +275,7 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log,
         log(f"ring N = {n}: {time.perf_counter() - started:.1f} s")
 
 
-def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
+def sample_step(results: Results, mode: Mode, peers: list[str], log: Log) -> None:
     """The default scene's cost per step against the scene peers ``peers`` (target 2),
     over the scene's full duration in the full mode, from :func:`.contacts.scene_rows`."""
     from ..scene.load import load_scene
@@ -291,14 +295,14 @@ def sample_step(results: Results, mode: Mode, peers: list[str], log) -> None:
                                                    for k, v in results.sample.items()))
 
 
-def bounce_part(results: Results, mode: Mode, peers: list[str], log) -> None:
+def bounce_part(results: Results, mode: Mode, peers: list[str], log: Log) -> None:
     """The ball drop against its closed form, with and without event location, and the
     scene peers ``peers`` with their own restitution."""
     results.bounce = bounce_bench(mode.bounce_tolerances, mode.bounce_steps, peers,
                                   mode.budget, log)
 
 
-def declared_part(results: Results, mode: Mode, log) -> None:
+def declared_part(results: Results, mode: Mode, log: Log) -> None:
     """Cost per step of one scene with and without a (never used) contact pass declared."""
     variants = declared_variants()
     runs: dict[str, list[float]] = {k: [] for k in variants}
@@ -418,10 +422,10 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
     if "checks" in parts:
         work.append(("checks", lambda: peer_checks(results, peer_names)))
     if "scenes" in parts:
-        work += [(name, lambda name=name: bench_scenes(results, mode, [name], peer_names, log))
+        work += [(name, functools.partial(bench_scenes, results, mode, [name], peer_names, log))
                  for name in chosen if name in BENCH_SCENES]
     if "shipped" in parts:
-        work += [(name, lambda name=name: shipped(results, mode, [name], log))
+        work += [(name, functools.partial(shipped, results, mode, [name], log))
                  for name in chosen if name not in BENCH_SCENES]
     if "sample" in parts:
         work.append(("sample", lambda: sample_step(results, mode, scene_peer_names, log)))
@@ -430,7 +434,7 @@ def run_bench(mode_name: str = "quick", out: Optional[Path] = None,
     if "bounce" in parts:
         work.append(("ball_drop", lambda: bounce_part(results, mode, scene_peer_names, log)))
     if "ring" in parts:
-        work += [(f"ring{n}", lambda n=n: ring_part(results, mode, peer_names, log, [n]))
+        work += [(f"ring{n}", functools.partial(ring_part, results, mode, peer_names, log, [n]))
                  for n in mode.ring_sizes]
     if "profiles" in parts:
         work.append(("profiles", lambda: profiles(results, mode)))
