@@ -82,3 +82,24 @@ EVERY_FORCE = {
         "motor": {"type": "constant_torque", "body": "b", "torque": 1.5},
     },
 }
+
+
+def driven_robot(drive: dict[str, Any], body: dict[str, Any], *, drag: float = 0.0,
+                 integrator: str = "rk4") -> Scene:
+    """A lone ``robot`` body (its parameters ``body``) under the drive ``base`` (its
+    parameters ``drive``, for ``robot``), with linear drag and angular damping of
+    coefficient ``drag`` when it is not zero; 1 ms steps."""
+    forces = {"drag": {"type": "linear_drag", "coefficient": drag, "bodies": ["robot"]},
+              "spin": {"type": "angular_damping", "coefficient": drag, "bodies": ["robot"]}
+              } if drag else {}
+    return make_scene({"step": 0.001, "integrator": integrator, "duration": 100.0,
+                       "bodies": {"robot": body}, "forces": forces,
+                       "drives": {"base": {"body": "robot", **drive}}})
+
+
+def body_speeds(q: np.ndarray, v: np.ndarray) -> tuple[float, float, float]:
+    """Forward and sideways speed of the first body's CM in its own axes, and omega."""
+    theta = q[0, 2]
+    c, s = math.cos(theta), math.sin(theta)
+    vx, vy, omega = v[0]
+    return c * vx + s * vy, -s * vx + c * vy, omega

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from scene_builders import make_scene
+from scene_builders import body_speeds, driven_robot
 
 from hecker_dynamics.drives.control import DriveSet, advance_with_drives
 from hecker_dynamics.drives.diff_drive import VelocityCommand
@@ -18,25 +18,13 @@ MASS = 10.0
 
 
 def robot_sim(drag: float = 0.0, integrator: str = "rk4", **drive) -> Simulation:
-    forces = {"drag": {"type": "linear_drag", "coefficient": drag, "bodies": ["robot"]},
-              "spin": {"type": "angular_damping", "coefficient": drag, "bodies": ["robot"]}
-              } if drag else {}
-    spec = {"type": "diff_drive", "body": "robot", "separation": 0.4, "max_force": 50.0,
+    spec = {"type": "diff_drive", "separation": 0.4, "max_force": 50.0,
             "linear_kp": 40.0, "linear_ki": 80.0, "angular_kp": 4.0, "angular_ki": 8.0,
             "cmd_vel_timeout": 0.0, "center": [-0.1, 0.0], **drive}
-    return Simulation(make_scene({
-        "step": 0.001, "integrator": integrator, "duration": 100.0,
-        "bodies": {"robot": {"parts": {"hull": {"shape": "box", "size": [0.6, 0.4]}},
-                             "mass": MASS, "angle": 0.3}},
-        "forces": forces, "drives": {"base": spec}}))
-
-
-def body_speeds(sim: Simulation) -> tuple[float, float, float]:
-    """Forward and sideways speed of the CM in body axes, and omega."""
-    theta = sim.q[0, 2]
-    c, s = math.cos(theta), math.sin(theta)
-    vx, vy, omega = sim.v[0]
-    return c * vx + s * vy, -s * vx + c * vy, omega
+    return Simulation(driven_robot(spec, {"parts": {"hull": {"shape": "box",
+                                                              "size": [0.6, 0.4]}},
+                                          "mass": MASS, "angle": 0.3},
+                                   drag=drag, integrator=integrator))
 
 
 def test_a_straight_command_reaches_its_speed_against_drag():
@@ -44,7 +32,7 @@ def test_a_straight_command_reaches_its_speed_against_drag():
     drives = DriveSet(sim)
     drives.drives[0].receive(VelocityCommand(0, 0.8, 0.0))
     advance_with_drives(sim, drives, 10_000_000_000)
-    forward, sideways, omega = body_speeds(sim)
+    forward, sideways, omega = body_speeds(sim.q, sim.v)
     # The integral term holds the 4 N against the drag with no error left (PI).
     assert forward == pytest.approx(0.8, abs=1e-6)
     assert abs(sideways) < 1e-12 and abs(omega) < 1e-12
@@ -56,7 +44,7 @@ def test_a_turn_command_reaches_its_rate_about_the_axle():
     drives = DriveSet(sim)
     drives.drives[0].receive(VelocityCommand(0, 0.5, 1.0))
     advance_with_drives(sim, drives, 15_000_000_000)
-    forward, _, omega = body_speeds(sim)
+    forward, _, omega = body_speeds(sim.q, sim.v)
     assert omega == pytest.approx(1.0, abs=1e-5)
     # Forward speed of the axle centre, 0.1 m behind the CM: u_C = u_CM (no x offset term).
     assert forward == pytest.approx(0.5, abs=1e-4)
@@ -78,7 +66,7 @@ def test_capped_motors_accelerate_at_exactly_twice_the_cap_over_the_mass():
     drives.drives[0].wrenches = spy
     advance_with_drives(sim, drives, 1_000_000_000)
     assert len(pushes) == 200 and max(pushes) == cap
-    forward, _, _ = body_speeds(sim)
+    forward, _, _ = body_speeds(sim.q, sim.v)
     assert forward == pytest.approx(2 * cap / MASS * 1.0, rel=1e-12)
 
 

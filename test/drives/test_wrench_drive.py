@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from scene_builders import make_scene
+from scene_builders import body_speeds, driven_robot
 
 from hecker_dynamics.drives.command import VelocityCommand
 from hecker_dynamics.drives.control import DriveSet, advance_with_drives
@@ -30,25 +30,12 @@ SHIP = [-1.0, 0.5, 0.0, -1.0, -0.5, 0.0, 1.0, 0.0, math.pi / 2, 1.0, 0.0, -math.
 
 def drive_sim(kind: str, actuators: list[float], drag: float = 0.0,
               integrator: str = "rk4", **drive) -> Simulation:
-    forces = {"drag": {"type": "linear_drag", "coefficient": drag, "bodies": ["robot"]},
-              "spin": {"type": "angular_damping", "coefficient": drag, "bodies": ["robot"]}
-              } if drag else {}
     key = "wheels" if kind == "omni" else "thrusters"
-    spec = {"type": kind, "body": "robot", key: actuators, "max_force": 50.0,
+    spec = {"type": kind, key: actuators, "max_force": 50.0,
             "linear_kp": 40.0, "linear_ki": 80.0, "angular_kp": 4.0, "angular_ki": 8.0,
             "cmd_vel_timeout": 0.0, **drive}
-    return Simulation(make_scene({
-        "step": 0.001, "integrator": integrator, "duration": 100.0,
-        "bodies": {"robot": {"shape": "box", "size": [0.6, 0.4], "mass": MASS,
-                             "angle": 0.3}},
-        "forces": forces, "drives": {"base": spec}}))
-
-
-def body_speeds(sim: Simulation) -> tuple[float, float, float]:
-    theta = sim.q[0, 2]
-    c, s = math.cos(theta), math.sin(theta)
-    vx, vy, omega = sim.v[0]
-    return c * vx + s * vy, -s * vx + c * vy, omega
+    return Simulation(driven_robot(spec, {"shape": "box", "size": [0.6, 0.4], "mass": MASS,
+                                          "angle": 0.3}, drag=drag, integrator=integrator))
 
 
 def run(sim: Simulation, command: VelocityCommand, until_ns: int) -> DriveSet:
@@ -61,7 +48,7 @@ def run(sim: Simulation, command: VelocityCommand, until_ns: int) -> DriveSet:
 def test_an_omni_base_reaches_a_twist_with_a_sideways_part_against_drag():
     sim = drive_sim("omni", KIWI, drag=5.0)
     run(sim, VelocityCommand(0, 0.4, 0.5, -0.3), 15 * S)
-    forward, sideways, omega = body_speeds(sim)
+    forward, sideways, omega = body_speeds(sim.q, sim.v)
     assert (forward, sideways, omega) == pytest.approx((0.4, -0.3, 0.5), abs=1e-5)
 
 
@@ -70,7 +57,7 @@ def test_a_capped_kiwi_base_strafes_at_sqrt_three_max_force_over_the_mass():
     sim = drive_sim("omni", KIWI, max_force=cap, integrator="semi_implicit_euler")
     run(sim, VelocityCommand(0, 0.0, 0.0, 10.0), S)
     # Sideways only: the wheel at 90 degrees idles, the others push -+F / sqrt(3), capped.
-    forward, sideways, omega = body_speeds(sim)
+    forward, sideways, omega = body_speeds(sim.q, sim.v)
     assert sideways == pytest.approx(math.sqrt(3.0) * cap / MASS * 1.0, rel=1e-12)
     assert abs(forward) < 1e-12 and abs(omega) < 1e-12
 
@@ -95,7 +82,7 @@ def test_capped_stern_engines_accelerate_at_twice_the_cap_over_the_mass():
     assert len(pushes) == 100
     assert np.allclose([p[:2] for p in pushes], [[(cap, 0.0)] * 2] * 100, rtol=1e-14, atol=1e-14)
     assert np.max(np.abs([p[2:] for p in pushes])) < 1e-12 * cap
-    forward, sideways, omega = body_speeds(sim)
+    forward, sideways, omega = body_speeds(sim.q, sim.v)
     assert forward == pytest.approx(2 * cap / MASS, rel=1e-12)
     assert abs(sideways) < 1e-12 and abs(omega) < 1e-12
 
