@@ -245,10 +245,11 @@ class World:
         keep their state bit for bit."""
         if (mass is None) == (density is None):
             raise ValueError("mass: give the body's mass or its density, one of the two")
-        if self._params is None or self._started:
+        params = None if self._started else self._params  # None: the body is spawned
+        if params is None:
             values: dict[str, Any] = {}
         else:
-            if name == self._params.get("frame_id"):
+            if name == params.get("frame_id"):
                 raise ValueError(f"name: '{name}' is the fixed frame's name")
             values = self._section("bodies", name, "body")
         values.update(shape_parameters(shape))
@@ -262,7 +263,7 @@ class World:
         if points:
             values["points"] = {_name(key, "points"): list(vector(p, f"points[{key!r}]"))
                                 for key, p in points.items()}
-        if self._params is None or self._started:
+        if params is None:
             self._change_bodies(spawned, name, values, tuple(collisions), SOURCE)
         else:  # read now, as the loader reads a file's body: a bad shape fails here
             self._specs[name] = read_body(name, ParameterReader(values, SOURCE, f"bodies.{name}"))
@@ -665,5 +666,5 @@ class World:
             self.simulation.import_state(saved)  # a refused state changes nothing
             raise ValueError(f"state: not what World.state() returns "
                              f"({type(error).__name__}: {error})") from None
-        self._schedule, self._applied, self._count = schedule, copy.deepcopy(applied), count
+        self._schedule, self._applied, self._count = schedule, applied, count
         self._started, self._frames = True, None
