@@ -392,6 +392,22 @@ class EnergyBound:
             self._refresh(q)
         return None
 
+    def kernel_data(self) -> Optional[kernel.BoundData]:
+        """What the kernel needs to make checks in a row between its steps
+        (:meth:`.kernel.CompiledSteps.run`), while a check passed needs nothing more than
+        the state: no rate of work to take again after it (no inputs, none just ended, no
+        lever arm that moves, no motors); None otherwise, and without the kernel."""
+        if not self._compiled or self._motors or self._stale or self._inputs_set or \
+                self.model.inputs is not None:
+            return None
+        return (self._program, self._statics, self._unit_array, self._budget, GROWTH)
+
+    def kernel_checked(self, worst: float) -> Optional[str]:
+        """The kernel made checks on :meth:`kernel_data` whose largest ratio was
+        ``worst``, stopping after the first failing one: :meth:`check`'s verdict."""
+        self.worst_ratio = max(self.worst_ratio, worst)
+        return None if worst <= 1.0 else self._problem()
+
     def _problem(self) -> str:
         """Why the last check failed, naming the first unit over its bound."""
         energy, excess, limit = (self.row(row) for row in (ENERGY, EXCESS, LIMIT))

@@ -49,8 +49,8 @@ try:
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
-__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "CompiledForces", "Advanced",
-           "CompiledSteps", "compiled_steps"]
+__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "BoundData",
+           "CompiledForces", "Advanced", "CompiledSteps", "compiled_steps"]
 
 #: The environment variable that switches the kernel off when set to "0".
 SWITCH = "HECKER_DYNAMICS_KERNEL"
@@ -84,6 +84,9 @@ def bound_check(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,
 
 
 Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.h
+#: An energy bound's data for the kernel's checks: the springs' program (or None), the
+#: statics, the unit of each body, the budget (written in place) and the growth factor.
+BoundData = tuple[Any, np.ndarray, np.ndarray, np.ndarray, float]
 
 
 def _packed(kind: int, ints: list[np.ndarray], reals: list[np.ndarray]) -> Packed:
@@ -223,6 +226,22 @@ class CompiledSteps:
                             substep_size, joints.kernel_pass())
         joints.kernel_done()
         return done
+
+    def run(self, q: np.ndarray, v: np.ndarray, qs: np.ndarray, vs: np.ndarray, h: float,
+            first: int, per: int, steps: int, oriented: bool, substep_size: float,
+            bound: BoundData, first_seconds: float,
+            period_seconds: float) -> tuple[Advanced, int, float]:
+        """Take ``steps`` steps from (q, v), left as they are, as :meth:`advance` takes
+        them (no joint pass), and check the energy bound ``bound`` at each publish instant:
+        after ``first`` steps, over ``first_seconds``, and every ``per`` steps after it,
+        over ``period_seconds``, as :meth:`~.divergence.EnergyBound.check` does. The steps
+        from one instant to the next go into the next row of (qs, vs), (segments, N, 3)
+        arrays; the run stops at the first failing step or after the first check over 1.
+        Returns what :meth:`advance` does (a plain tuple too), the checks made and their
+        largest ratio."""
+        done = _kernel.run(self.stepper, self.forces.inputs, oriented, q, v, qs, vs, h, first,
+                           per, steps, substep_size, *bound, first_seconds, period_seconds)
+        return done[:6], done[6], done[7]
 
     def failure(self, status: int) -> tuple[Optional[str], Optional[tuple[np.ndarray,
                                                                           np.ndarray]]]:

@@ -9,15 +9,19 @@ same order gives bit-identical states.
 Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, the steps
 between one publish instant or input change and the next run in the kernel in one call,
 joint and contact passes included, with the results of Python's plain-float path (:mod:`.kernel` and
-:mod:`..contact.compiled` say how far they agree).
+:mod:`..contact.compiled` say how far they agree). Without a joint pass, and while the
+energy bound's check needs nothing but the state (:meth:`.EnergyBound.kernel_data`), one
+call goes on through the publish instants up to the next input change, making each
+instant's check between its steps: the same bits at one call's cost.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
+from itertools import repeat
 from types import MappingProxyType
-from typing import Any, NamedTuple, Optional
+from typing import Any, NamedTuple, NoReturn, Optional
 
 import numpy as np
 
@@ -40,7 +44,7 @@ from ..scene.load import Scene
 from .divergence import EnergyBound
 from .forces import WrenchRow
 from .inputs import InputBuffer
-from .kernel import compiled_steps
+from .kernel import Advanced, compiled_steps
 from .model import FrameRow, Model, wrench_term
 
 __all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
@@ -51,6 +55,9 @@ PROGRESS_UPDATES = 200
 #: The methods whose step depends on the state alone (no sub-step size, no Newton guess
 #: carried over), which is what lets a step of a scene fully asleep be skipped.
 FIXED_STEP = (ExplicitEuler, SemiImplicitEuler, VelocityVerlet, RungeKutta4)
+#: The most values (q and v of every body, at each publish instant) one kernel call of
+#: :meth:`Simulation.advance_to` writes: memory in step with its state, not its length.
+RUN_VALUES = 1 << 16
 #: The joint states of a snapshot of a scene without joints (read-only, so shared).
 NO_JOINTS: Mapping[str, tuple[float, float, float]] = MappingProxyType({})
 
@@ -411,37 +418,103 @@ class Simulation:
         if self._halted is not None:  # refused again, as a non-finite step would be
             raise DivergenceError(self._halted)
         self._update_inputs()
-        contacts, joints = self.model.contacts, self.model.joints
-        if self._compiled is None or self.model.compiled is None or \
-                (contacts is not None and not contacts.compiled) or \
-                (joints is not None and not joints.compiled):
+        if self._compiled is None or not self._in_kernel():
             self._step()
             return 1
-        change = self._inputs.next_change()
-        if change is not None:  # the first step that starts at or after it sees the change
-            limit = min(limit, -(-(change - self._time_ns) // self.step_ns))
+        limit = self._before_change(limit)
         q, v = self.q.copy(), self.v.copy()
-        embedded = self._embedded
-        status, taken, evaluations, substeps, rejected, size = self._compiled.advance(
-            q, v, self.step_seconds, limit, self.model.oriented,
-            0.0 if embedded is None else embedded.substep_size)
+        done = self._compiled.advance(q, v, self.step_seconds, limit, self.model.oriented,
+                                      self._substep_size())
         self.q, self.v = q, v
-        # The work of the steps taken in the kernel joins the integrator's counters, and an
-        # embedded pair's sub-step size carries over, as its steps in Python would.
+        self._account(done)
+        return done[1]
+
+    def _in_kernel(self) -> bool:
+        """Whether the next steps run in the compiled kernel: the forces, contact pass and
+        joint pass are all compiled."""
+        contacts, joints = self.model.contacts, self.model.joints
+        return self.model.compiled is not None and \
+            (contacts is None or contacts.compiled) and (joints is None or joints.compiled)
+
+    def _before_change(self, limit: int) -> int:
+        """``limit`` steps, or fewer so that the steps end where the inputs next change."""
+        change = self._inputs.next_change()
+        if change is None:
+            return limit
+        # The first step that starts at or after it sees the change.
+        return min(limit, -(-(change - self._time_ns) // self.step_ns))
+
+    def _substep_size(self) -> float:
+        embedded = self._embedded
+        return 0.0 if embedded is None else embedded.substep_size
+
+    def _account(self, done: Advanced) -> None:
+        """Count the steps the kernel took (the clock, the steps, the integrator's work,
+        with an embedded pair's sub-step size carried over, as its steps in Python would),
+        and raise where one failed; the state is the caller's to set first."""
+        status, taken, evaluations, substeps, rejected, size = done  # a plain tuple
         counters = self.integrator.counters
         counters.evaluations += evaluations
-        if embedded is not None:
+        if self._embedded is not None:
             counters.substeps += substeps
             counters.rejected += rejected
-            embedded.substep_size = size
+            self._embedded.substep_size = size
         self._steps += taken
         self._time_ns += taken * self.step_ns
-        if status != self._compiled.advanced:
-            failed, diverged = self._compiled.failure(status)
+        if status != self._compiled.advanced:  # type: ignore[union-attr]
+            failed, diverged = self._compiled.failure(status)  # type: ignore[union-attr]
             if diverged is not None:
                 raise self._diverged(*diverged)
             error = IntegrationError(failed)
             raise self._failed(error) from error
+
+    def _run_checked(self, limit: int, per: int,
+                     snapshots: Optional[list[Snapshot]]) -> int:
+        """Up to ``limit`` steps in one kernel call, with the energy bound's checks at the
+        publish instants passed (every ``per`` steps from the start) made in the kernel too
+        (:meth:`.kernel.CompiledSteps.run`), and a snapshot of each instant appended to
+        ``snapshots`` (None: none): what :meth:`advance_to` does one instant at a time,
+        with the same bits, at one call's cost. Returns the steps taken; 0 where the
+        kernel cannot take them so (a joint pass, whose joint states each snapshot takes
+        from its pass, or a check that takes the rates of work again after it passes):
+        then :meth:`advance_to` goes one instant at a time."""
+        compiled = self._compiled
+        if self._halted is not None or compiled is None or self.model.joints is not None or \
+                not self._in_kernel():
+            return 0
+        self._update_inputs()
+        bound = self._bound.kernel_data()
+        limit = self._before_change(limit)
+        if bound is None or limit < 1:
+            return 0
+        step = self.step_ns
+        first = per - (self._time_ns - self.start_ns) // step % per  # steps to the next instant
+        rows = max(1, RUN_VALUES // (6 * self.model.size))
+        limit = min(limit, first + (rows - 1) * per)
+        rows = 1 if limit <= first else 1 + -(-(limit - first) // per)
+        qs, vs = np.empty((rows, *self.q.shape)), np.empty((rows, *self.v.shape))
+        start_ns, start_steps = self._time_ns, self._steps
+        done, checked, worst = compiled.run(
+            self.q, self.v, qs, vs, self.step_seconds, first, per, limit, self.model.oriented,
+            self._substep_size(), bound, (start_ns + first * step - self._checked[2]) * 1e-9,
+            per * step * 1e-9)
+        taken = done[1]
+        row = min(rows - 1, 0 if taken < first else 1 + (taken - first) // per)
+        self.q, self.v = qs[row], vs[row]
+        problem = self._bound.kernel_checked(worst) if checked else None
+        passed = checked - (problem is not None)  # the instants whose check passed
+        if passed:
+            last = first + (passed - 1) * per
+            self._checked = (qs[passed - 1], vs[passed - 1], start_ns + last * step,
+                             start_steps + last)
+            if snapshots is not None:  # rows of their own, never changed in place
+                snapshots += map(Snapshot, range(start_ns + first * step, start_ns + last * step
+                                                 + 1, per * step),
+                                 range(start_steps + first, start_steps + last + 1, per),
+                                 repeat(self.model), qs[:passed], vs[:passed], repeat(False))
+        self._account(done)
+        if problem is not None:
+            self._refuse(problem)
         return taken
 
     def _update_inputs(self) -> None:
@@ -580,7 +653,7 @@ class Simulation:
         Returns the snapshots at the publish instants passed: every ``publish_period_ns``
         after the start time (none with ``keep`` false: a long run in bounded memory).
         """
-        snapshots = []
+        snapshots: list[Snapshot] = []
         taken = 0
         period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
         # Steps from one publish instant to the next; 0 where the period is not a whole
@@ -589,10 +662,15 @@ class Simulation:
         with np.errstate(all="ignore"):
             while self._time_ns + step <= t_ns and (max_steps is None or taken < max_steps):
                 limit = (t_ns - self._time_ns) // step
-                limit = min(limit, per_publish - (self._time_ns - start) // step % per_publish
-                            if per_publish else 1)
                 if max_steps is not None:
                     limit = min(limit, max_steps - taken)
+                ran = per_publish and self._run_checked(limit, per_publish,
+                                                        snapshots if keep else None)
+                if ran:
+                    taken += ran
+                    continue
+                limit = min(limit, per_publish - (self._time_ns - start) // step % per_publish
+                            if per_publish else 1)
                 taken += self._advance(limit)
                 if (self._time_ns - start) % period == 0:
                     self._check_energy()
@@ -604,19 +682,24 @@ class Simulation:
     def _check_energy(self) -> None:
         """At a publish instant: refuse a state past the energy bound, going back to the
         state of the last check that passed."""
-        q, v, time_ns, steps = self._checked
-        problem = self._bound.check(self.q, self.v, (self._time_ns - time_ns) * 1e-9)
+        problem = self._bound.check(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9)
         if problem is not None:
-            now = self._time_ns
-            self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
-            over = [self.model.names[body] for body in self._bound.over]
-            names = ", ".join(over[:5]) + (", ..." if len(over) > 5 else "")
-            self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
-                            f"kept the state at t = {time_ns * 1e-9:.6f} s")
-            raise DivergenceError(self._halted)
+            self._refuse(problem)
         # The state is never changed in place (each step, move or import makes new arrays),
         # so the check keeps it, and the publish snapshots share it, without copies.
         self._checked = (self.q, self.v, self._time_ns, self._steps)
+
+    def _refuse(self, problem: str) -> NoReturn:
+        """The state now failed the energy bound's check (``problem``): go back to the
+        state of the last check that passed, and stop the run."""
+        q, v, time_ns, steps = self._checked
+        now = self._time_ns
+        self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
+        over = [self.model.names[body] for body in self._bound.over]
+        names = ", ".join(over[:5]) + (", ..." if len(over) > 5 else "")
+        self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
+                        f"kept the state at t = {time_ns * 1e-9:.6f} s")
+        raise DivergenceError(self._halted)
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,
              keep: bool = True,

@@ -1,5 +1,6 @@
 /* The binding of whole steps (steppers.c) for hecker_dynamics/dynamics/kernel.py:
- * stepper, step, failed_state.
+ * stepper, step, run (steps with the energy bound's checks at the publish instants),
+ * failed_state.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -159,6 +160,212 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
                          work.rejected, size);
 }
 
+/* The arguments of run that hold the energy bound's data (dynamics/divergence.py): the
+ * springs' program (NULL: none), the statics (masses, moments of inertia, floors), the unit
+ * of each body and the budget (writable). */
+typedef struct {
+    hd_program *springs;
+    Py_buffer statics, unit, budget;
+    long units;
+} hd_run_bound;
+
+static int hd_get_run_bound(hd_run_bound *b, long bodies, PyObject *const objects[4])
+{
+    b->springs = NULL;
+    if (objects[0] != Py_None
+        && (b->springs = PyCapsule_GetPointer(objects[0], HD_PROGRAM_CAPSULE)) == NULL)
+        return -1;
+    if (b->springs != NULL && b->springs->bodies != bodies) {
+        PyErr_SetString(PyExc_ValueError, "springs: a program for other bodies");
+        return -1;
+    }
+    if (hd_get_buffer(objects[1], &b->statics, "statics", 'd', 3 * bodies, 0) < 0)
+        return -1;
+    if (hd_get_buffer(objects[2], &b->unit, "unit", 'q', bodies, 0) < 0) {
+        PyBuffer_Release(&b->statics);
+        return -1;
+    }
+    if (hd_get_buffer(objects[3], &b->budget, "budget", 'd', -1, 1) < 0) {
+        PyBuffer_Release(&b->statics);
+        PyBuffer_Release(&b->unit);
+        return -1;
+    }
+    b->units = (long)(b->budget.len / 8 / HD_BUDGET_ROWS);
+    const char *wrong = b->budget.len != 8 * HD_BUDGET_ROWS * b->units
+                        ? "budget: a whole number of columns of the budget's rows is needed" : NULL;
+    const long *unit = b->unit.buf;
+    for (long k = 0; wrong == NULL && k < bodies; ++k)
+        if (unit[k] < 0 || unit[k] >= b->units)
+            wrong = "unit: a unit index is out of range";
+    if (wrong != NULL) {
+        PyErr_SetString(PyExc_ValueError, wrong);
+        PyBuffer_Release(&b->statics);
+        PyBuffer_Release(&b->unit);
+        PyBuffer_Release(&b->budget);
+        return -1;
+    }
+    return 0;
+}
+
+/* The steps of run: the segments from the start to the first publish instant (`first` steps)
+ * and from each instant to the next (`per`), `steps` in all; segment k steps in slot k of
+ * (qs, vs), from a copy of the slot before (of (q0, v0) for the first). After each segment
+ * that ends on an instant, the energy bound's check over `first_seconds` (the first) or
+ * `period_seconds`; a check over 1 ends the run. */
+static int hd_run_segments(hd_stepper *s, const hd_program *in, int oriented, double *size,
+                           const double *q0, const double *v0, double *qs, double *vs,
+                           double h, long first, long per, long steps, hd_run_bound *b,
+                           double growth, double first_seconds, double period_seconds,
+                           double *scratch_memory, long *taken, hd_work *work, long *checked,
+                           double *worst)
+{
+    const long n = s->program->bodies, n3 = 3 * n;
+    const size_t bytes = (size_t)n3 * sizeof(double);
+    hd_scratch scratch = {scratch_memory, scratch_memory + n, NULL};
+    const double *from_q = q0, *from_v = v0;
+    long done = 0, end = first < steps ? first : steps;
+    *taken = 0;
+    *checked = 0;
+    *worst = 0.0;
+    for (long k = 0; done < steps; ++k) {
+        double *q = qs + k * n3, *v = vs + k * n3;
+        memcpy(q, from_q, bytes);
+        memcpy(v, from_v, bytes);
+        long segment = 0;
+        const int status = hd_stepper_advance(s, in, oriented, NULL, size, q, v, h, end - done,
+                                              &segment, work);
+        *taken += segment;
+        if (status != HD_ADVANCED)
+            return status;
+        done = end;
+        if (done == first + k * per) {  /* a publish instant */
+            const double ratio = hd_bound_check(
+                b->springs, q, v, n, b->statics.buf, b->unit.buf, b->units, b->budget.buf,
+                k == 0 ? first_seconds : period_seconds, growth, &scratch);
+            *checked += 1;
+            if (ratio > *worst)
+                *worst = ratio;
+            if (!(ratio <= 1.0))
+                return HD_ADVANCED;
+        }
+        end = done + per < steps ? done + per : steps;
+        from_q = q;
+        from_v = v;
+    }
+    return HD_ADVANCED;
+}
+
+PyDoc_STRVAR(run_doc,
+"run(stepper, inputs, oriented, q, v, qs, vs, h, first, per, steps, size,\n"
+"    springs, statics, unit, budget, growth, first_seconds, period_seconds)\n"
+"    -> (status, taken, evaluations, substeps, rejected, size, checked, worst)\n\n"
+"``steps`` steps of ``h`` from (q, v) (read only) as ``step`` takes them, without a joint\n"
+"pass, with the energy bound's check (``bound``'s, on ``springs``, ``statics``, ``unit``\n"
+"and ``budget``, limits ``growth`` times its square) at each publish instant: after\n"
+"``first`` steps (over ``first_seconds``) and every ``per`` steps after it (over\n"
+"``period_seconds``). Segment k between instants steps in row k of (qs, vs), float64\n"
+"arrays of 3 values per body per segment, from a copy of the row before. Stops at the\n"
+"first failing step (``status`` as ``step``'s; the last good state ends row\n"
+"(segments begun - 1)) or after the first check over 1. ``checked``: the checks made,\n"
+"``worst``: their largest ratio of excess to limit.");
+
+static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 19) {
+        PyErr_Format(PyExc_TypeError, "run() takes 19 arguments (%zd given)", nargs);
+        return NULL;
+    }
+    hd_stepper_capsule *c = PyCapsule_GetPointer(args[0], HD_STEPPER_CAPSULE);
+    if (c == NULL)
+        return NULL;
+    hd_stepper *s = &c->stepper;
+    const long n = s->program->bodies, n3 = 3 * n;
+    hd_program *in = NULL;
+    if (args[1] != Py_None) {
+        if ((in = PyCapsule_GetPointer(args[1], HD_PROGRAM_CAPSULE)) == NULL)
+            return NULL;
+        if (in->bodies != n) {
+            PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
+            return NULL;
+        }
+    }
+    const int oriented = PyObject_IsTrue(args[2]);
+    const double h = PyFloat_AsDouble(args[7]);
+    const long first = PyLong_AsLong(args[8]), per = PyLong_AsLong(args[9]);
+    const long steps = PyLong_AsLong(args[10]);
+    double size = PyFloat_AsDouble(args[11]);
+    const double growth = PyFloat_AsDouble(args[16]);
+    const double first_seconds = PyFloat_AsDouble(args[17]);
+    const double period_seconds = PyFloat_AsDouble(args[18]);
+    if (oriented < 0 || PyErr_Occurred())
+        return NULL;
+    if (first < 1 || per < 1 || steps < 0) {
+        PyErr_SetString(PyExc_ValueError, "run: first and per need at least 1 step");
+        return NULL;
+    }
+    if (s->method != HD_EMBEDDED)
+        size = 0.0;
+    const long segments = steps <= first ? 1 : 1 + (steps - first + per - 1) / per;
+    Py_buffer qv, vv, qsv, vsv;
+    if (hd_get_buffer(args[3], &qv, "q", 'd', n3, 0) < 0)
+        return NULL;
+    if (hd_get_buffer(args[4], &vv, "v", 'd', n3, 0) < 0) {
+        PyBuffer_Release(&qv);
+        return NULL;
+    }
+    if (hd_get_state(args[5], args[6], segments * n3, &qsv, &vsv) < 0) {
+        PyBuffer_Release(&qv);
+        PyBuffer_Release(&vv);
+        return NULL;
+    }
+    hd_run_bound b;
+    double *memory = NULL;
+    if (hd_get_run_bound(&b, n, args + 12) < 0)
+        goto released;
+    memory = malloc((size_t)(2 * n + 1) * sizeof(double));
+    if (memory == NULL) {
+        PyErr_NoMemory();
+        goto bound_released;
+    }
+    long taken = 0, checked = 0;
+    double worst = 0.0;
+    hd_work work = {0, 0, 0};
+    int status;
+    if (steps * n < HD_GIL_WORK && s->contacts == NULL) {
+        status = hd_run_segments(s, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf, h,
+                                 first, per, steps, &b, growth, first_seconds, period_seconds,
+                                 memory, &taken, &work, &checked, &worst);
+    } else {
+        Py_BEGIN_ALLOW_THREADS
+        status = hd_run_segments(s, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf, h,
+                                 first, per, steps, &b, growth, first_seconds, period_seconds,
+                                 memory, &taken, &work, &checked, &worst);
+        Py_END_ALLOW_THREADS
+    }
+    free(memory);
+    PyBuffer_Release(&b.statics);
+    PyBuffer_Release(&b.unit);
+    PyBuffer_Release(&b.budget);
+    PyBuffer_Release(&qv);
+    PyBuffer_Release(&vv);
+    PyBuffer_Release(&qsv);
+    PyBuffer_Release(&vsv);
+    if (status == HD_OUT_OF_MEMORY)
+        return PyErr_NoMemory();
+    return Py_BuildValue("illlldld", status, taken, work.evaluations, work.substeps,
+                         work.rejected, size, checked, worst);
+bound_released:
+    PyBuffer_Release(&b.statics);
+    PyBuffer_Release(&b.unit);
+    PyBuffer_Release(&b.budget);
+released:
+    PyBuffer_Release(&qv);
+    PyBuffer_Release(&vv);
+    PyBuffer_Release(&qsv);
+    PyBuffer_Release(&vsv);
+    return NULL;
+}
+
 PyDoc_STRVAR(failed_state_doc,
 "failed_state(stepper, q, v)\n\n"
 "Copy the state that ended the last ``step`` with NOT_FINITE into (q, v).");
@@ -186,6 +393,7 @@ static PyObject *hd_py_failed_state(PyObject *self, PyObject *args)
 PyMethodDef hd_bind_stepper[] = {
     {"stepper", hd_py_stepper, METH_VARARGS, stepper_doc},
     {"step", (PyCFunction)(void (*)(void))hd_py_step, METH_FASTCALL, step_doc},
+    {"run", (PyCFunction)(void (*)(void))hd_py_run, METH_FASTCALL, run_doc},
     {"failed_state", hd_py_failed_state, METH_VARARGS, failed_state_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -46,6 +46,7 @@ import numpy as np
 import pytest
 from scene_builders import make_scene
 
+from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.divergence import GROWTH
@@ -55,6 +56,7 @@ from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
 from hecker_dynamics.scene.commands import WrenchCommand
 
 MS = 1_000_000
+SEC = 1_000_000_000
 EPS = float(np.finfo(float).eps)
 FIXED = ("explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4")
 ADAPTIVE = ("dopri5", "dop853")
@@ -307,17 +309,32 @@ def assert_refused_alike(fast, slow, end):
     assert state_bytes(fast) == state_bytes(Simulation(fast.scene))
 
 
-def spy_on_chunks(sim) -> list[tuple[int, int]]:
-    """Record (steps asked, steps taken) of each call into the kernel's stepping."""
+def spy_on_chunks(sim, runs: list | None = None) -> list[tuple[int, int]]:
+    """Record (steps asked, steps taken) of each chunk of the kernel's stepping: of each
+    call of ``advance``, and of each run of steps from one publish instant to the next
+    inside a call of ``run`` (which ``runs``, if given, records as (first, per, steps))."""
     calls = []
-    advance = sim._compiled.advance
+    advance, run = sim._compiled.advance, sim._compiled.run
 
     def spy(q, v, h, steps, *settings):
         done = advance(q, v, h, steps, *settings)
         calls.append((steps, kernel.Advanced(*done).taken))
         return done
 
+    def spy_run(q, v, qs, vs, h, first, per, steps, *settings):
+        done = run(q, v, qs, vs, h, first, per, steps, *settings)
+        if runs is not None:
+            runs.append((first, per, steps))
+        left, end = done[0][1], 0
+        while end < steps:
+            asked = min(first if end == 0 else per, steps - end)
+            calls.append((asked, min(asked, left)))
+            left -= min(asked, left)
+            end += asked
+        return done
+
     sim._compiled.advance = spy
+    sim._compiled.run = spy_run
     return calls
 
 
@@ -514,6 +531,78 @@ def test_repeated_compiled_runs_are_bit_identical():
         snapshots = run_played(sim)
         runs.append((state_bytes(sim), snapshot_bytes(snapshots), sim.integrator.counters))
     assert runs[0] == runs[1]
+
+
+def one_instant_per_call(sim):
+    """The simulation without :meth:`Simulation._run_checked`: one kernel call per publish
+    instant, the energy bound checked from Python after each, as before runs of many
+    instants took one call."""
+    sim._run_checked = lambda limit, per, snapshots: 0
+    return sim
+
+
+def bound_bytes(sim) -> bytes:
+    return sim._bound._budget.tobytes() + np.float64(sim._bound.worst_ratio).tobytes()
+
+
+#: Scenes whose runs go through many publish instants in one kernel call: a pyramid of
+#: boxes on a floor (contacts), free_spin with RK4 publishing every 0.1 s step and with
+#: dopri5 every 0.5 s step, and the three bodies of every force but the constant ones
+#: (whose lever arms move, so the bound takes their rates at every check).
+RUN_SCENES = {
+    "pyramid": lambda: pyramid(3, 0.4),
+    "free_spin_rk4": lambda: configure(bench_scene("free_spin"), "rk4", 0.1),
+    "free_spin_dopri5": lambda: configure(bench_scene("free_spin"), "dopri5", 0.5, 1e-9),
+    "forces": lambda: scene_of([name for name in FORCES if not name.startswith(("force",
+                                                                                "torque"))]),
+}
+
+
+@pytest.mark.parametrize("name", RUN_SCENES)
+def test_runs_of_many_publish_instants_in_one_call_give_the_same_bits(name):
+    """A run whose energy checks take nothing from Python but the state goes through its
+    publish instants in one kernel call (``run``), the checks made between the steps, and
+    gives the bits of one call per instant with the checks from Python: snapshots, state,
+    clock, counters and the bound's budget and worst ratio."""
+    scene = RUN_SCENES[name]()
+    end = min(scene.duration_ns, 100 * scene.publish_period_ns)
+    fast, slow = Simulation(scene), one_instant_per_call(Simulation(scene))
+    runs: list = []
+    spy_on_chunks(fast, runs)
+    assert_identical(fast, slow, fast.advance_to(end), slow.advance_to(end))
+    assert bound_bytes(fast) == bound_bytes(slow)
+    assert fast._checked[2:] == slow._checked[2:] == (fast.time_ns, fast.steps)
+    period = scene.publish_period_ns // scene.step_ns
+    assert len(runs) == 1 and runs[0][1] == period and runs[0][2] >= 4 * period
+
+
+def test_a_blow_up_inside_a_run_stops_where_one_instant_at_a_time_does():
+    """A 1e-6 kg disc on a spring too stiff for the step (omega h = 2.05, its energy
+    growing about 3.4 times a step), in a collision group with a 1 kg disc 3 m away,
+    publishing every step: the energy passes some checks, then one refuses it inside a
+    run of many instants. The run stops there alike either way: the same message, state
+    (that of the last check passed, not the start's), clock, counters and budget."""
+    params = {"integrator": "semi_implicit_euler", "step": 0.001, "publish_rate": 1000.0,
+              "bodies": {"spring": {"shape": "circle", "radius": 0.05, "mass": 1e-6,
+                                    "velocity": [0.1, 0.0]},
+                         "other": {"shape": "circle", "radius": 0.5, "mass": 1.0,
+                                   "position": [3.0, 0.0]}},
+              "forces": {"hold": {"type": "spring", "body_a": "spring", "anchor": [0.0, 0.0],
+                                  "stiffness": 1e-6 * 2050.0 ** 2}},
+              "collisions": {"all": {"bodies": ["spring", "other"]}}}
+    scene = make_scene(params)
+    outcomes = []
+    runs: list = []
+    for sim in (Simulation(scene), one_instant_per_call(Simulation(scene))):
+        if not runs:
+            spy_on_chunks(sim, runs)
+        with pytest.raises(DivergenceError) as caught:
+            sim.advance_to(SEC)
+        outcomes.append((str(caught.value), state_bytes(sim), sim.time_ns, sim.steps,
+                         sim.integrator.counters, bound_bytes(sim)))
+    assert outcomes[0] == outcomes[1]
+    assert "spring" in outcomes[0][0] and outcomes[0][3] >= 3
+    assert len(runs) == 1 and runs[0][2] > outcomes[0][3] + 1  # refused inside the run
 
 
 # ----------------------------------------------------------------- 4. failures
