@@ -64,7 +64,10 @@ class Mode:
     bounce_steps: list[float] = field(default_factory=lambda: [0.004, 0.001])
 
 
-FULL_STEPS = [0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002]
+#: The fixed steps of the full sweep, for our fixed-step methods and every peer: from the
+#: longest step the adaptive methods take (their ``adaptive_steps``), so that a scene one
+#: coarse step integrates exactly (free_spin) compares every engine at it.
+FULL_STEPS = [0.5, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001, 0.0005, 0.0002]
 STIFF_STEPS = [0.1, 0.01, 0.002, 0.001, 0.0005, 0.0002, 0.0001, 0.00005, 0.00002, 0.00001]
 
 MODES = {
