@@ -492,7 +492,7 @@ class Simulation:
         rows = max(1, RUN_VALUES // (6 * self.model.size))
         limit = min(limit, first + (rows - 1) * per)
         rows = 1 if limit <= first else 1 + -(-(limit - first) // per)
-        qs, vs = np.empty((rows, *self.q.shape)), np.empty((rows, *self.v.shape))
+        qs, vs = np.empty((2, rows, *self.q.shape))
         start_ns, start_steps = self._time_ns, self._steps
         done, checked, worst = compiled.run(
             self.q, self.v, qs, vs, self.step_seconds, first, per, limit, self.model.oriented,
@@ -654,30 +654,43 @@ class Simulation:
         after the start time (none with ``keep`` false: a long run in bounded memory).
         """
         snapshots: list[Snapshot] = []
-        taken = 0
+        kept = snapshots if keep else None
         period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
         # Steps from one publish instant to the next; 0 where the period is not a whole
         # number of steps, and the run stops after every step to look.
         per_publish = 0 if period % step else period // step
+        taken = 0
+        left = self._steps_left(t_ns, max_steps, taken)
+        # The kernel's runs first: they need no floating-point error settings, which cost
+        # a smooth run more than its steps.
+        while per_publish and left:
+            ran = self._run_checked(left, per_publish, kept)
+            if not ran:
+                break
+            taken += ran
+            left = self._steps_left(t_ns, max_steps, taken)
+        if not left:
+            return snapshots
         with np.errstate(all="ignore"):
-            while self._time_ns + step <= t_ns and (max_steps is None or taken < max_steps):
-                limit = (t_ns - self._time_ns) // step
-                if max_steps is not None:
-                    limit = min(limit, max_steps - taken)
-                ran = per_publish and self._run_checked(limit, per_publish,
-                                                        snapshots if keep else None)
-                if ran:
-                    taken += ran
-                    continue
-                limit = min(limit, per_publish - (self._time_ns - start) // step % per_publish
-                            if per_publish else 1)
-                taken += self._advance(limit)
-                if (self._time_ns - start) % period == 0:
-                    self._check_energy()
-                    if keep:  # the state just checked, never changed in place
-                        snapshots.append(Snapshot(self._time_ns, self._steps, self.model,
-                                                  self.q, self.v, False))
+            while left:
+                ran = per_publish and self._run_checked(left, per_publish, kept)
+                if not ran:
+                    ran = self._advance(min(left, per_publish - (self._time_ns - start) // step
+                                            % per_publish if per_publish else 1))
+                    if (self._time_ns - start) % period == 0:
+                        self._check_energy()
+                        if keep:  # the state just checked, never changed in place
+                            snapshots.append(Snapshot(self._time_ns, self._steps, self.model,
+                                                      self.q, self.v, False))
+                taken += ran
+                left = self._steps_left(t_ns, max_steps, taken)
         return snapshots
+
+    def _steps_left(self, t_ns: int, max_steps: Optional[int], taken: int) -> int:
+        """How many whole steps still fit before ``t_ns``, ``taken`` of ``max_steps``
+        (None: no limit) taken."""
+        left = max((t_ns - self._time_ns) // self.step_ns, 0)
+        return left if max_steps is None else min(left, max_steps - taken)
 
     def _check_energy(self) -> None:
         """At a publish instant: refuse a state past the energy bound, going back to the
