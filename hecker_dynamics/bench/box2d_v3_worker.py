@@ -35,6 +35,9 @@ import math
 import os
 import sys
 import time
+from collections.abc import Callable, Iterable
+from types import ModuleType
+from typing import Any
 
 from box2d._box2d import ffi, lib
 
@@ -45,10 +48,19 @@ MOST_VERTICES = 8
 #: Every category and mask bit of a filter.
 ALL_BITS = (1 << 64) - 1
 
+#: A value of the binding's C types (cffi's CData: ids, definitions, vectors); untyped.
+CData = Any
+#: A part of a request or of the scene's description, as JSON gives it.
+Spec = dict[str, Any]
+#: A polygon's vertices, (x, y) each.
+Vertices = list[list[float]]
 
-def _load_force_law():
+
+def _load_force_law() -> ModuleType:
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "force_law.py")
     spec = importlib.util.spec_from_file_location("hecker_dynamics_force_law", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path}")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -62,7 +74,7 @@ def version() -> str:
     return f"{v.major}.{v.minor}.{v.revision}"
 
 
-def _fan(vertices: list) -> list:
+def _fan(vertices: Vertices) -> list[Vertices]:
     """A convex polygon as convex pieces of at most :data:`MOST_VERTICES` vertices (fans
     from its first vertex, each piece sharing its last vertex with the next)."""
     if len(vertices) <= MOST_VERTICES:
@@ -71,7 +83,7 @@ def _fan(vertices: list) -> list:
     return [[vertices[0], *vertices[k:k + step + 1]] for k in range(1, len(vertices) - 1, step)]
 
 
-def _shape_def(material: list, category: int, mask: int):
+def _shape_def(material: list[float], category: int, mask: int) -> CData:
     """A shape of the given (restitution, friction) and filter. Each shape updates its
     body's mass data, as v3's users have it: that is also where v3 finds the body's extent,
     which its sleep test multiplies the spin by (the mass is set afterwards)."""
@@ -81,7 +93,7 @@ def _shape_def(material: list, category: int, mask: int):
     return shape
 
 
-def _body(world, spec: dict, sleep: bool):
+def _body(world: CData, spec: Spec, sleep: bool) -> CData:
     body_def = lib.b2DefaultBodyDef()
     body_def.type = lib.b2_dynamicBody
     body_def.position.x, body_def.position.y = spec["position"]
@@ -109,7 +121,7 @@ def _body(world, spec: dict, sleep: bool):
     return body
 
 
-def _joined(joint, ends, spec: dict):
+def _joined(joint: CData, ends: tuple[CData, CData], spec: Spec) -> CData:
     """``joint`` (a joint definition) between ``ends`` at the description's anchors, with
     its reference angle and whether the two bodies collide."""
     joint.bodyIdA, joint.bodyIdB = ends
@@ -120,7 +132,7 @@ def _joined(joint, ends, spec: dict):
     return ffi.addressof(joint)
 
 
-def _revolute(world, ends, spec: dict) -> None:
+def _revolute(world: CData, ends: tuple[CData, CData], spec: Spec) -> None:
     joint = lib.b2DefaultRevoluteJointDef()
     if spec["limits"] is not None:
         joint.enableLimit = True
@@ -131,14 +143,14 @@ def _revolute(world, ends, spec: dict) -> None:
     lib.b2CreateRevoluteJoint(world, _joined(joint, ends, spec))
 
 
-def _weld(world, ends, spec: dict) -> None:
+def _weld(world: CData, ends: tuple[CData, CData], spec: Spec) -> None:
     joint = lib.b2DefaultWeldJointDef()
     joint.linearHertz = joint.angularHertz = spec["frequency"]
     joint.linearDampingRatio = joint.angularDampingRatio = spec["damping_ratio"]
     lib.b2CreateWeldJoint(world, _joined(joint, ends, spec))
 
 
-def _calls(body):
+def _calls(body: CData) -> Any:
     """A Box2D v3 body's calls for the force loop (force_law.BodyCalls); a force does not
     wake a sleeping body (a scripted push does, through the stepper's ``wake``)."""
     get_point, get_velocity = lib.b2Body_GetWorldPoint, lib.b2Body_GetWorldPointVelocity
@@ -146,15 +158,15 @@ def _calls(body):
     position, rotation = lib.b2Body_GetPosition, lib.b2Body_GetRotation
     velocity, spin = lib.b2Body_GetLinearVelocity, lib.b2Body_GetAngularVelocity
 
-    def point(local):
+    def point(local: tuple[float, float]) -> tuple[float, float]:
         p = get_point(body, local)
         return p.x, p.y
 
-    def point_velocity(world):
+    def point_velocity(world: tuple[float, float]) -> tuple[float, float]:
         v = get_velocity(body, world)
         return v.x, v.y
 
-    def state():
+    def state() -> tuple[float, float, float, float, float, float]:
         p, q, v = position(body), rotation(body), velocity(body)
         return p.x, p.y, math.atan2(q.s, q.c), v.x, v.y, spin(body)
 
@@ -164,13 +176,14 @@ def _calls(body):
 
 
 #: Joint builders by the description's ``kind``: builder(world, (body A, body B), spec).
-JOINTS = {"revolute": _revolute, "weld": _weld}
+JOINTS: dict[str, Callable[[CData, tuple[CData, CData], Spec], None]] = {
+    "revolute": _revolute, "weld": _weld}
 
 
 class World:
     """One scene built in Box2D v3, its bodies, and its Python forces."""
 
-    def __init__(self, request: dict) -> None:
+    def __init__(self, request: Spec) -> None:
         scene = request["scene"]
         self.h, self.substeps = request["step"], request.get("substeps", 4)
         sleep = request.get("sleep", True)
@@ -206,7 +219,7 @@ class World:
                                      lambda i: lib.b2Body_SetAwake(self.bodies[i], True),
                                      lambda: step(world, h, substeps), round(self.h * 1e9))
 
-    def run(self, count: int, block: int) -> dict:
+    def run(self, count: int, block: int) -> Spec:
         """``count`` steps, timed whole, and, where ``block`` > 0, block by block within
         the same loop."""
         if block <= 0:
@@ -215,7 +228,7 @@ class World:
         wall = sum(blocks) * block + (self.step(count % block) if count % block else 0.0)
         return {"wall": wall, "blocks": blocks}
 
-    def poses(self) -> list:
+    def poses(self) -> list[tuple[float, float, float]]:
         out = []
         for i, body in enumerate(self.bodies):
             p, q = lib.b2Body_GetPosition(body), lib.b2Body_GetRotation(body)
@@ -225,17 +238,17 @@ class World:
             out.append((p.x, p.y, angle))
         return out
 
-    def rays(self, rays: list, repeats: int) -> dict:
+    def rays(self, rays: list[list[float]], repeats: int) -> Spec:
         world, cast = self.id, lib.b2World_CastRayClosest
         query = lib.b2DefaultQueryFilter()
         query.categoryBits = query.maskBits = ALL_BITS  # rays see every shape
         pairs = [((x, y), (dx, dy)) for x, y, dx, dy in rays]
-        results: list = []
+        results: list[CData] = []
         start = time.perf_counter()
         for _ in range(repeats):
             results = [cast(world, origin, translation, query) for origin, translation in pairs]
         wall = time.perf_counter() - start
-        hits = []
+        hits: list[tuple[int | None, float, float, float]] = []
         for result in results:
             if not result.hit:
                 hits.append((None, 1.0, math.nan, math.nan))
@@ -251,7 +264,7 @@ class World:
             lib.cleanup_threadpool()
 
 
-def serve(lines, write) -> None:
+def serve(lines: Iterable[str], write: Callable[[str], object]) -> None:
     """Answer each request line of ``lines`` with ``write(reply line)``."""
     worlds: dict[int, World] = {}
     handles = iter(range(1, 1 << 62))
@@ -262,7 +275,7 @@ def serve(lines, write) -> None:
             if op == "build":
                 handle = next(handles)
                 worlds[handle] = World(request)
-                reply: dict = {"world": handle, "version": version()}
+                reply: Spec = {"world": handle, "version": version()}
             elif op == "step":
                 reply = worlds[request["world"]].run(request["count"], request.get("block", 0))
             elif op == "poses":

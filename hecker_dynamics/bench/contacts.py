@@ -31,6 +31,7 @@ v3's cost where it runs (:mod:`.box2d_v3`, in its own interpreter).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import statistics
@@ -65,7 +66,7 @@ from .scene_peers import SCENE_PEERS, scene_engine
 
 __all__ = ["BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET",
            "TARGET_ROWS",
-           "ContactResults", "PyramidCost", "contact_bench", "contact_scene_names",
+           "ContactResults", "PyramidCost", "PyramidRow", "contact_bench", "contact_scene_names",
            "measure_pyramid", "pyramid_builders", "pyramid_figure", "pyramid_series",
            "scene_rows"]
 
@@ -82,7 +83,8 @@ TARGET = 0.5
 ROUNDS = 5
 LARGE_ROUNDS = 3
 
-Engine = tuple[Callable[[int], None], Callable[[], np.ndarray]]  # step(n), poses()
+#: step(n) (returning the seconds it timed itself, or None), poses().
+Engine = tuple[Callable[[int], Optional[float]], Callable[[], np.ndarray]]
 
 
 def contact_scene_names() -> list[str]:
@@ -103,7 +105,10 @@ def _ours(scene: Scene) -> Engine:
     def step(count: int) -> None:
         sim.advance_to(sim.time_ns + count * sim.step_ns)
 
-    return step, lambda: sim.q.copy()
+    def poses() -> np.ndarray:
+        return sim.q.copy()
+
+    return step, poses
 
 
 #: The suffix of an engine's name with sleeping on.
@@ -117,11 +122,11 @@ def pyramid_builders(rows: int, peers: list[str]) -> dict[str, Callable[[], Engi
     builders: dict[str, Callable[[], Engine]] = {}
     for sleep, suffix in ((False, ""), (True, SLEEPING)):
         scene = pyramid(rows, sleep=sleep)
-        builders["hecker_dynamics" + suffix] = lambda scene=scene: _ours(scene)
+        builders["hecker_dynamics" + suffix] = functools.partial(_ours, scene)
         for name in peers:
             if available(name):
-                builders[name + suffix] = (lambda name=name, scene=scene, sleep=sleep:
-                                           scene_engine(name, scene, STEP, sleep=sleep))
+                builders[name + suffix] = functools.partial(scene_engine, name, scene, STEP,
+                                                            sleep=sleep)
     return builders
 
 
@@ -134,6 +139,22 @@ class PyramidCost:
     cost: WholeCost
     moved: float
     block: float
+
+
+@dataclass
+class PyramidRow:
+    """A pyramid's line of the tables: per engine of :func:`pyramid_builders` (by name,
+    :data:`SLEEPING` included) its cost, and per peer our cost over its, with sleeping
+    off and on alike (by the peer's name with its suffix), and that ratio's spread over
+    the rounds (:func:`.measure.ratio_noise`)."""
+
+    rows: int
+    costs: dict[str, PyramidCost] = field(default_factory=dict)
+    ratios: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def boxes(self) -> int:
+        return self.rows * (self.rows + 1) // 2
 
 
 def _whole_run(build: Callable[[], Engine], steps: int) -> Callable[[], tuple[float, float]]:
@@ -207,8 +228,7 @@ def scene_rows(name: str, scene: Scene, peers: list[str], python_path: bool = Fa
         for springs in ("python", "native") if peer == "pymunk" and has_springs else ("python",):
             method = "DampedSpring" if springs == "native" else "python forces"
             cases.append(Case(name, peer, method, h, math.nan, duration,
-                              lambda d, peer=peer, springs=springs:
-                              _peer_run(peer, scene, springs, d)))
+                              functools.partial(_peer_run, peer, scene, springs)))
     return measure(cases, Budget(per_run=math.inf, repeats=rounds, per_case=math.inf))
 
 
@@ -216,7 +236,7 @@ def scene_rows(name: str, scene: Scene, peers: list[str], python_path: bool = Fa
 
 @dataclass
 class ContactResults:
-    pyramids: list[dict] = field(default_factory=list)
+    pyramids: list[PyramidRow] = field(default_factory=list)
     scenes: list[Row] = field(default_factory=list)
     node: Optional[NodeCost] = None
     load: list[tuple[float, float, float]] = field(default_factory=list)  # before, after
@@ -232,8 +252,8 @@ class ContactResults:
 
 def _pyramid_target(results: ContactResults, peer: str, bound: float,
                     label: str) -> Optional[tuple[str, str, str]]:
-    ratios = [(p["rows"], p[f"ratio_{peer}"]) for p in results.pyramids
-              if f"ratio_{peer}" in p and p["rows"] <= TARGET_ROWS]
+    ratios = [(p.rows, p.ratios[peer][0]) for p in results.pyramids
+              if peer in p.ratios and p.rows <= TARGET_ROWS]
     if not ratios:
         return None
     met = [rows for rows, ratio in ratios if ratio <= bound]
@@ -271,25 +291,18 @@ def targets(results: ContactResults) -> list[tuple[str, str, str]]:
     return lines
 
 
-def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> dict:
-    """The pyramid's line of the tables: per engine its whole-run cost (``_us``), the
-    repeats' spread, the block median (``_block_us``, explanation) and how far a box got;
-    per peer our cost over its (``ratio_``) and that ratio's spread over the rounds."""
+def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> PyramidRow:
+    """The pyramid's line of the tables (:class:`PyramidRow`)."""
     result = measure_pyramid(rows, peers)
-    row: dict = {"rows": rows, "boxes": rows * (rows + 1) // 2}
-    for name, cost in result.items():
-        row[f"{name}_us"] = cost.cost.per_step * 1e6
-        row[f"{name}_spread"] = cost.cost.spread
-        row[f"{name}_block_us"] = cost.block * 1e6
-        row[f"{name}_drift_m"] = cost.moved
+    row = PyramidRow(rows, result)
     for suffix in ("", SLEEPING):
         ours = result["hecker_dynamics" + suffix]
         for name in peers:
             if name + suffix in result:
                 theirs = result[name + suffix]
-                row[f"ratio_{name}{suffix}"] = ours.cost.per_step / theirs.cost.per_step
-                row[f"ratio_{name}{suffix}_noise"] = ratio_noise(ours.cost.repeats,
-                                                                 theirs.cost.repeats)
+                row.ratios[name + suffix] = (ours.cost.per_step / theirs.cost.per_step,
+                                             ratio_noise(ours.cost.repeats,
+                                                         theirs.cost.repeats))
     log(f"pyramid {rows} rows: " + ", ".join(
         f"{name} {cost.cost.per_step * 1e6:.1f} us (moved {cost.moved:.2g} m)"
         for name, cost in result.items()))
@@ -325,9 +338,12 @@ def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: st
         results.node = node_cost((10,), floor=True)[0]
         log(f"node, 10 bodies on a floor: {results.node.total * 20:.2f} ms per 20 ms tick")
 
-    work = [(f"pyramid{rows}", lambda rows=rows: results.pyramids.append(
-        _pyramid_row(rows, peers, log))) for rows in rows_list]
-    work += [(name, lambda name=name: one_scene(name)) for name in names]
+    def one_pyramid(rows: int) -> None:
+        results.pyramids.append(_pyramid_row(rows, peers, log))
+
+    work: list[tuple[str, Callable[[], None]]] = [
+        (f"pyramid{rows}", functools.partial(one_pyramid, rows)) for rows in rows_list]
+    work += [(name, functools.partial(one_scene, name)) for name in names]
     work.append(("node", node))
     run_parts(work, bar, "bench contacts")
     results.load.append(os.getloadavg())
@@ -335,14 +351,18 @@ def contact_bench(rows_list: list[int], peers: list[str], out: Path, command: st
     return results
 
 
-def pyramid_series(results: ContactResults,
-                   peers: list[str]) -> tuple[dict[str, list[tuple]], dict[str, list[tuple]]]:
+#: A figure's series: per engine, its points (x, y).
+Series = dict[str, list[tuple[int, float]]]
+
+
+def pyramid_series(results: ContactResults, peers: list[str]) -> tuple[Series, Series]:
     """The pyramids' figure's data, sleeping off: per engine (ours first, then each peer
     run) its (boxes, us per step) by size; per peer its (rows, our cost over the peer's)."""
-    costs = {name: [(row["boxes"], row[f"{name}_us"]) for row in results.pyramids
-                    if f"{name}_us" in row] for name in ["hecker_dynamics", *peers]}
-    ratios = {name: [(row["rows"], row[f"ratio_{name}"]) for row in results.pyramids
-                     if f"ratio_{name}" in row] for name in peers}
+    costs = {name: [(row.boxes, row.costs[name].cost.per_step * 1e6)
+                    for row in results.pyramids if name in row.costs]
+             for name in ["hecker_dynamics", *peers]}
+    ratios = {name: [(row.rows, row.ratios[name][0]) for row in results.pyramids
+                     if name in row.ratios] for name in peers}
     return ({name: points for name, points in costs.items() if points},
             {name: points for name, points in ratios.items() if points})
 
@@ -377,18 +397,23 @@ def pyramid_figure(results: ContactResults, peers: list[str], path: Path) -> boo
     return True
 
 
-def _pyramid_tables(pyramids: list[dict], peers: list[str], suffix: str,
+def _pyramid_tables(pyramids: list[PyramidRow], peers: list[str], suffix: str,
                     title: str) -> list[str]:
     """The pyramids' whole-run costs with sleeping off or on (``suffix``), and beside them,
     labelled, the block statistics that explain them."""
     names = [n + suffix for n in ["hecker_dynamics", *peers]
-             if any(f"{n}{suffix}_us" in row for row in pyramids)]
+             if any(n + suffix in row.costs for row in pyramids)]
     if not pyramids or not names:
         return []
 
-    def cell(row: dict, key: str, text: str) -> str:
-        return text.format(**{k: row[k] for k in key.split(",")}) if all(
-            k in row for k in key.split(",")) else "-"
+    def cost_cell(row: PyramidRow, name: str) -> str:
+        cost = row.costs.get(name)
+        return "-" if cost is None else (f"{cost.cost.per_step * 1e6:.1f} "
+                                         f"({cost.cost.spread:.0%}, {cost.moved:.1g})")
+
+    def ratio_cell(row: PyramidRow, name: str) -> str:
+        ratio = row.ratios.get(name)
+        return "-" if ratio is None else f"{ratio[0]:.2f} ({ratio[1]:.0%})"
 
     head = "|---" * (2 * len(names)) + "|"
     md = ["", f"## Pyramids (h = 4 ms, 2 s, {title})", "",
@@ -399,12 +424,8 @@ def _pyramid_tables(pyramids: list[dict], peers: list[str], suffix: str,
           "| rows (boxes) | " + " | ".join(f"{n} us/step (spread, moved m)" for n in names)
           + "".join(f" | ours / {n} (spread)" for n in names[1:]) + " |", head]
     for row in pyramids:
-        cells = [cell(row, f"{n}_us,{n}_spread,{n}_drift_m",
-                      f"{{{n}_us:.1f}} ({{{n}_spread:.0%}}, {{{n}_drift_m:.1g}})")
-                 for n in names]
-        cells += [cell(row, f"ratio_{n},ratio_{n}_noise",
-                       f"{{ratio_{n}:.2f}} ({{ratio_{n}_noise:.0%}})") for n in names[1:]]
-        md.append(f"| {row['rows']} ({row['boxes']}) | " + " | ".join(cells) + " |")
+        cells = [cost_cell(row, n) for n in names] + [ratio_cell(row, n) for n in names[1:]]
+        md.append(f"| {row.rows} ({row.boxes}) | " + " | ".join(cells) + " |")
     md += ["", f"Block statistics ({title}; explanation only, not the figure of merit): "
            f"the median of the {BLOCK}-step blocks of one more run per engine, stepped block "
            "by block, and our median block over each peer's.", "",
@@ -412,10 +433,11 @@ def _pyramid_tables(pyramids: list[dict], peers: list[str], suffix: str,
            + "".join(f" | ours / {n}" for n in names[1:]) + " |", head]
     ours = names[0]
     for row in pyramids:
-        cells = [cell(row, f"{n}_block_us", f"{{{n}_block_us:.1f}}") for n in names]
-        cells += [f"{row[f'{ours}_block_us'] / row[f'{n}_block_us']:.2f}"
-                  if f"{n}_block_us" in row else "-" for n in names[1:]]
-        md.append(f"| {row['rows']} ({row['boxes']}) | " + " | ".join(cells) + " |")
+        blocks = {n: row.costs[n].block for n in names if n in row.costs}
+        cells = [f"{blocks[n] * 1e6:.1f}" if n in blocks else "-" for n in names]
+        cells += [f"{blocks[ours] / blocks[n]:.2f}" if n in blocks and ours in blocks else "-"
+                  for n in names[1:]]
+        md.append(f"| {row.rows} ({row.boxes}) | " + " | ".join(cells) + " |")
     return md
 
 
@@ -451,14 +473,14 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
     (out / "contacts.md").write_text("\n".join(md) + "\n")
     lines = ["section,scene,engine,configuration,step_s,duration_s,us_per_step,spread,moved_m,"
              "block_us_per_step"]
-    for row in results.pyramids:
+    for pyramid_row in results.pyramids:
         for name in [n + suffix for suffix in ("", SLEEPING)
                      for n in ["hecker_dynamics", *peers]]:
-            if f"{name}_us" in row:
-                lines.append(f"pyramid,pyramid{row['rows']},{name},,{STEP!r},"
-                             f"{PYRAMID_DURATION!r},{row[f'{name}_us']!r},"
-                             f"{row[f'{name}_spread']!r},{row[f'{name}_drift_m']!r},"
-                             f"{row[f'{name}_block_us']!r}")
+            if name in pyramid_row.costs:
+                cost = pyramid_row.costs[name]
+                lines.append(f"pyramid,pyramid{pyramid_row.rows},{name},,{STEP!r},"
+                             f"{PYRAMID_DURATION!r},{cost.cost.per_step * 1e6!r},"
+                             f"{cost.cost.spread!r},{cost.moved!r},{cost.block * 1e6!r}")
     for row in results.scenes:
         lines.append(f"scene,{row.scene},{row.engine},{row.method},{row.step!r},"
                      f"{row.duration!r},{row.cost * row.step * 1e6!r},{row.cost_spread!r},,")

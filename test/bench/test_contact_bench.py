@@ -11,7 +11,7 @@ from scene_builders import make_scene
 
 from hecker_dynamics.bench import contacts, peers
 from hecker_dynamics.bench.force_law import line_of_action
-from hecker_dynamics.bench.measure import Row
+from hecker_dynamics.bench.measure import Row, whole_cost
 from hecker_dynamics.bench.node import NodeCost
 from hecker_dynamics.bench.pyramid import BALLS, ball_box
 from hecker_dynamics.bench.scene_peers import SCENE_PEERS, scene_engine
@@ -136,9 +136,17 @@ def _row(engine, method, cost):
     return Row("sample", engine, method, 0.001, math.nan, 10.0, cost=cost)
 
 
+def _pyramid(rows: int, costs: dict[str, float], ratios: dict[str, float]) -> contacts.PyramidRow:
+    """A pyramid's row of whole-run costs (us per step, one round each) and ratios."""
+    return contacts.PyramidRow(
+        rows, {name: contacts.PyramidCost(whole_cost([us * 1e-6]), 0.0, us * 1e-6)
+               for name, us in costs.items()},
+        {name: (ratio, 0.0) for name, ratio in ratios.items()})
+
+
 def test_targets_report_each_verdict_with_its_ratio():
     results = contacts.ContactResults(
-        pyramids=[{"rows": 3, "ratio_pymunk": 0.4}, {"rows": 20, "ratio_pymunk": 0.6}],
+        pyramids=[_pyramid(3, {}, {"pymunk": 0.4}), _pyramid(20, {}, {"pymunk": 0.6})],
         scenes=[_row("hecker_dynamics", "semi_implicit_euler", 4e-3),
                 _row("pymunk", "python forces", 1e-2), _row("pymunk", "DampedSpring", 2e-3)],
         node=NodeCost(10, 0.04, 0.011, 5))
@@ -170,13 +178,14 @@ def test_pyramid_figure_draws_each_engine_and_each_ratio(tmp_path):
     """The figure's data are the tables' numbers: per engine its cost by boxes, per peer
     our cost over its by rows; drawn, it is one PNG of two panels (1000 x 400 pixels)."""
     results = contacts.ContactResults(pyramids=[
-        {"rows": 3, "boxes": 6, "hecker_dynamics_us": 3.0, "pymunk_us": 6.0,
-         "ratio_pymunk": 0.5},
-        {"rows": 20, "boxes": 210, "hecker_dynamics_us": 120.0, "pymunk_us": 300.0,
-         "ratio_pymunk": 0.4}])
+        _pyramid(3, {"hecker_dynamics": 3.0, "pymunk": 6.0}, {"pymunk": 0.5}),
+        _pyramid(20, {"hecker_dynamics": 120.0, "pymunk": 300.0}, {"pymunk": 0.4})])
     costs, ratios = contacts.pyramid_series(results, ["pymunk", "box2d"])
-    assert costs == {"hecker_dynamics": [(6, 3.0), (210, 120.0)],
-                     "pymunk": [(6, 6.0), (210, 300.0)]}
+    # us per step, through seconds and back: to the rounding of those two products
+    assert costs == {"hecker_dynamics": [(6, pytest.approx(3.0, rel=1e-15)),
+                                         (210, pytest.approx(120.0, rel=1e-15))],
+                     "pymunk": [(6, pytest.approx(6.0, rel=1e-15)),
+                                (210, pytest.approx(300.0, rel=1e-15))]}
     assert ratios == {"pymunk": [(3, 0.5), (20, 0.4)]}
     pytest.importorskip("matplotlib")
     image = pytest.importorskip("PIL.Image")
