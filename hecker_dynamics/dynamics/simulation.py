@@ -87,48 +87,58 @@ class Snapshot:
     thousands of bodies and with long steps.
     """
 
-    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_energy", "_bodies", "joints")
+    __slots__ = ("time_ns", "steps", "_model", "_q", "_v", "_row", "_energy", "_bodies",
+                 "joints")
 
     def __init__(self, time_ns: int, steps: int, model: Model, q: np.ndarray,
-                 v: np.ndarray, copy: bool = True) -> None:
+                 v: np.ndarray, copy: bool = True, row: int = -1) -> None:
         """``copy`` false: (q, v) are the snapshot's own, never changed in place (passed
         by position where snapshots are taken often: a keyword costs a third of a
-        snapshot)."""
+        snapshot). ``row`` >= 0: (q, v) are blocks of states, never changed in place, and
+        the snapshot's is their row ``row``, taken on first use (a run through many
+        instants makes no arrays per instant)."""
         self.time_ns = time_ns
         self.steps = steps
         joints = model.joints
         #: (position, velocity, effort) per revolute and prismatic joint, taken now: the
         #: joint pass counts turns and keeps its efforts from step to step.
         self.joints: Mapping[str, tuple[float, float, float]] = (
-            NO_JOINTS if joints is None else joints.joint_state(q, v))
+            NO_JOINTS if joints is None else
+            joints.joint_state(q, v) if row < 0 else joints.joint_state(q[row], v[row]))
         if copy:
             q, v = q.copy(), v.copy()
         self._model = model
         self._q = q
         self._v = v
+        self._row = row
         self._energy: Optional[float] = None
         self._bodies: Optional[tuple[BodyState, ...]] = None
+
+    def _state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) at this instant."""
+        row = self._row
+        return (self._q, self._v) if row < 0 else (self._q[row], self._v[row])
 
     @property
     def energy(self) -> float:
         """Kinetic energy plus the potential energy of gravity and springs (J)."""
         if self._energy is None:
             with np.errstate(all="ignore"):  # as in the step: a huge state gives inf, quietly
-                self._energy = self._model.energy(self._q, self._v)
+                self._energy = self._model.energy(*self._state())
         return self._energy
 
     @property
     def bodies(self) -> tuple[BodyState, ...]:
         if self._bodies is None:
             model = self._model
+            q, v = self._state()
             if model.lean:
-                frames: Iterable[FrameRow] = model.body_frame_rows(self._q.tolist(),
-                                                                   self._v.tolist())
+                frames: Iterable[FrameRow] = model.body_frame_rows(q.tolist(), v.tolist())
             else:
                 with np.errstate(all="ignore"):
-                    origin, velocity = model.body_frames(self._q, self._v)
-                frames = zip(map(tuple, origin.tolist()), self._q[:, 2].tolist(),
-                             map(tuple, velocity.tolist()), self._v[:, 2].tolist())
+                    origin, velocity = model.body_frames(q, v)
+                frames = zip(map(tuple, origin.tolist()), q[:, 2].tolist(),
+                             map(tuple, velocity.tolist()), v[:, 2].tolist())
             self._bodies = tuple(BodyState(name, *frame)
                                  for name, frame in zip(model.names, frames))
         return self._bodies
@@ -511,7 +521,8 @@ class Simulation:
                 snapshots += map(Snapshot, range(start_ns + first * step, start_ns + last * step
                                                  + 1, per * step),
                                  range(start_steps + first, start_steps + last + 1, per),
-                                 repeat(self.model), qs[:passed], vs[:passed], repeat(False))
+                                 repeat(self.model), repeat(qs), repeat(vs), repeat(False),
+                                 range(passed))
         self._account(done)
         if problem is not None:
             self._refuse(problem)
