@@ -100,30 +100,45 @@ PyDoc_STRVAR(step_doc,
 "TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. The GIL is released meanwhile, unless the call is\n"
 "short.");
 
-static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+/* The first arguments of step and run, (stepper, inputs, oriented), of a call of `name` that
+ * takes `expected` arguments: the stepper, the inputs' program (NULL for None) and
+ * `oriented`; -1 with an exception set. */
+static int hd_get_stepping(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t expected,
+                           const char *name, hd_stepper **s, hd_program **in, int *oriented)
 {
-    if (nargs != 9) {
-        PyErr_Format(PyExc_TypeError, "step() takes 9 arguments (%zd given)", nargs);
-        return NULL;
+    if (nargs != expected) {
+        PyErr_Format(PyExc_TypeError, "%s() takes %zd arguments (%zd given)", name, expected,
+                     nargs);
+        return -1;
     }
     hd_stepper_capsule *c = PyCapsule_GetPointer(args[0], HD_STEPPER_CAPSULE);
     if (c == NULL)
-        return NULL;
-    hd_stepper *s = &c->stepper;
-    hd_program *in = NULL;
+        return -1;
+    *s = &c->stepper;
+    *in = NULL;
     if (args[1] != Py_None) {
-        if ((in = PyCapsule_GetPointer(args[1], HD_PROGRAM_CAPSULE)) == NULL)
-            return NULL;
-        if (in->bodies != s->program->bodies) {
+        if ((*in = PyCapsule_GetPointer(args[1], HD_PROGRAM_CAPSULE)) == NULL)
+            return -1;
+        if ((*in)->bodies != (*s)->program->bodies) {
             PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
-            return NULL;
+            return -1;
         }
     }
-    const int oriented = PyObject_IsTrue(args[2]);
+    *oriented = PyObject_IsTrue(args[2]);
+    return *oriented < 0 ? -1 : 0;
+}
+
+static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    hd_stepper *s;
+    hd_program *in;
+    int oriented;
+    if (hd_get_stepping(args, nargs, 9, "step", &s, &in, &oriented) < 0)
+        return NULL;
     const double h = PyFloat_AsDouble(args[5]);
     const long steps = PyLong_AsLong(args[6]);
     double size = PyFloat_AsDouble(args[7]);
-    if (oriented < 0 || PyErr_Occurred())
+    if (PyErr_Occurred())
         return NULL;
     hd_joint_model *joints = NULL;
     if (args[8] != Py_None) {
@@ -271,25 +286,12 @@ PyDoc_STRVAR(run_doc,
 
 static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 19) {
-        PyErr_Format(PyExc_TypeError, "run() takes 19 arguments (%zd given)", nargs);
+    hd_stepper *s;
+    hd_program *in;
+    int oriented;
+    if (hd_get_stepping(args, nargs, 19, "run", &s, &in, &oriented) < 0)
         return NULL;
-    }
-    hd_stepper_capsule *c = PyCapsule_GetPointer(args[0], HD_STEPPER_CAPSULE);
-    if (c == NULL)
-        return NULL;
-    hd_stepper *s = &c->stepper;
     const long n = s->program->bodies, n3 = 3 * n;
-    hd_program *in = NULL;
-    if (args[1] != Py_None) {
-        if ((in = PyCapsule_GetPointer(args[1], HD_PROGRAM_CAPSULE)) == NULL)
-            return NULL;
-        if (in->bodies != n) {
-            PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
-            return NULL;
-        }
-    }
-    const int oriented = PyObject_IsTrue(args[2]);
     const double h = PyFloat_AsDouble(args[7]);
     const long first = PyLong_AsLong(args[8]), per = PyLong_AsLong(args[9]);
     const long steps = PyLong_AsLong(args[10]);
@@ -297,7 +299,7 @@ static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nar
     const double growth = PyFloat_AsDouble(args[16]);
     const double first_seconds = PyFloat_AsDouble(args[17]);
     const double period_seconds = PyFloat_AsDouble(args[18]);
-    if (oriented < 0 || PyErr_Occurred())
+    if (PyErr_Occurred())
         return NULL;
     if (first < 1 || per < 1 || steps < 0) {
         PyErr_SetString(PyExc_ValueError, "run: first and per need at least 1 step");

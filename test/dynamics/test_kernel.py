@@ -910,6 +910,45 @@ def test_the_binding_refuses_mismatched_programs_methods_and_pairs(ext, program)
             ext.pair(*args)
 
 
+def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
+    """``run`` takes (first + whole periods) in rows of its own: 10 steps from 1 to the
+    first instant, then every 4, are 4 rows (1, 4, 4, 1 steps); the rows' state, the
+    bound's statics, units and budget are checked against the bodies, and a segment of
+    no step is refused."""
+    stepper = ext.stepper(program, 0, None, 0.0, None)
+    statics, unit = np.ones(6), np.zeros(2, np.int64)
+
+    def run(rows=4, first=1, per=4, steps=10, statics=statics, unit=unit, budget=None,
+            inputs=None):
+        qs, vs = np.zeros((2, rows, 2, 3))
+        done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, 0.001,
+                       first, per, steps, 0.0, None, statics, unit,
+                       np.zeros(8) if budget is None else budget, 1000.0, 0.001, 0.004)
+        return done, qs
+
+    (status, taken, *_, checked, worst), qs = run()
+    assert (status, taken, checked) == (0, 10, 3) and worst == 0.0
+    # each row the state after 1, 5, 9 and 10 steps, as step() takes them
+    q, v = np.zeros(6), np.zeros(6)
+    for row, steps in enumerate((1, 4, 4, 1)):
+        ext.step(stepper, None, False, q, v, 0.001, steps, 0.0, None)
+        assert qs[row].tobytes() == q.tobytes()
+    assert q[1] < 0.0  # gravity moved the first body
+    for kwargs, error, message in (
+            ({"rows": 3}, ValueError, "q: expected 24 values, got 18"),
+            ({"first": 0}, ValueError, "first and per need at least 1 step"),
+            ({"per": 0}, ValueError, "first and per need at least 1 step"),
+            ({"statics": np.ones(5)}, ValueError, "statics: expected 6 values"),
+            ({"unit": np.zeros(2)}, TypeError, "unit: expected int64"),
+            ({"unit": np.ones(2, np.int64)}, ValueError, "unit index is out of range"),
+            ({"budget": np.zeros(7)}, ValueError, "whole number of columns"),
+            ({"inputs": ext.program(3, None, [])}, ValueError, "a program for other bodies")):
+        with pytest.raises(error, match=message):
+            run(**kwargs)
+    with pytest.raises(TypeError, match=r"run\(\) takes 19 arguments \(3 given\)"):
+        ext.run(stepper, None, False)
+
+
 # ----------------------------------------------------------------- 6. fallback
 
 def test_fallback_switched_off_runs_in_python(monkeypatch):
