@@ -25,6 +25,7 @@ from hecker_dynamics.bench.pyramid import (
 )
 from hecker_dynamics.bench.scene_peers import SCENE_PEERS, scene_engine
 from hecker_dynamics.cli import main
+from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene import load_scene
 
@@ -138,6 +139,8 @@ def _engine(peer: str, scene):
     if peer != "ours":
         _installed(peer)
         return scene_engine(peer, scene, STEP)
+    if not kernel.enabled():  # the Python path gives the kernel's bits (test_compiled.py)
+        pytest.skip("hundreds of bodies in the Python path: half a minute")
     sim = Simulation(scene)
     return (lambda n: sim.advance_to(sim.time_ns + n * scene.step_ns)), (lambda: sim.q.copy())
 
