@@ -634,11 +634,12 @@ def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentPar
                             "and the seesaw and door on joints against springs (writes "
                             "joints.md and joints.csv)")
     bench.add_argument("--contacts", nargs="*", type=_rows, metavar="ROWS",
-                       help="instead: the contact section against pymunk and Box2D, with "
-                            "its targets: pyramids of these rows of boxes (default "
-                            "3 6 10 14 20 30), the box of 100 balls and the shipped contact "
-                            "scenes over their full durations (--scenes narrows them), and "
-                            "the node's cost with a floor (writes contacts.md, contacts.csv)")
+                       help="instead: the contact section against pymunk, Box2D 2.3 and "
+                            "Box2D v3, with its targets: pyramids of these rows of boxes "
+                            "(default 3 6 10 14 20 30 50 100), the box of 100 balls, the "
+                            "many pyramids, the tumbler and the shipped contact scenes over "
+                            "their full durations (--scenes narrows them), and the node's "
+                            "cost with a floor (writes contacts.md, contacts.csv)")
     peers = bench.add_mutually_exclusive_group()
     peers.add_argument("--peers", dest="peers", action="store_true", default=True,
                        help="include installed peers (default)")

@@ -13,4 +13,6 @@ render ship --trail ship
 render chain --trail link49
 render bridge --trail crate_b --contacts
 render ragdoll --trail head --contacts
+render robot --trail robot --contacts
+render kiwi --trail kiwi --contacts
 render warehouse --trail crate --contacts

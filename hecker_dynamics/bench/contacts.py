@@ -14,10 +14,12 @@ untimed, for each run, the runs of all engines one after another in alternating 
   its start. Beside them, labelled as explanation only, the median of the
   :data:`BLOCK`-step blocks of one more run per engine stepped block by block.
 - **Whole scenes over their full durations**, resting phases included: the box of 100
-  balls (:func:`~.pyramid.ball_box`, 5 s) and every shipped scene with walls or
-  collisions, with their scripts, over :data:`ROUNDS` rounds. The peers as
-  :mod:`.scene_peers` sets them up: forces from Python, and pymunk also with its own
-  ``DampedSpring`` where the scene has springs; sleeping as their users have it.
+  balls (:func:`~.pyramid.ball_box`, 5 s), Box2D v3's many pyramids and tumbler scaled to
+  fit (:func:`~.pyramid.many_pyramids`, 440 boxes, 2 s; :func:`~.pyramid.tumbler`, 196
+  boxes in a turning drum, 4 s) and every shipped scene with walls or collisions, with
+  their scripts, over :data:`ROUNDS` rounds. The peers as :mod:`.scene_peers` sets them
+  up: forces from Python, and pymunk also with its own ``DampedSpring`` where the scene
+  has springs; sleeping as their users have it.
   hecker_dynamics runs each scene as it is and with sleeping on (configuration "...,
   sleeping").
 - **The node's cost** (:mod:`.node`) on its ring of 10 bodies dropped onto a floor.
@@ -60,12 +62,12 @@ from .measure import (
 )
 from .node import PUBLISH_PERIOD_NS, TARGET_SHARE, NodeCost, node_cost, node_table
 from .peers import available
-from .pyramid import STEP, ball_box, pyramid
+from .pyramid import STEP, ball_box, many_pyramids, pyramid, tumbler
 from .report import MARKERS, agg_pyplot
 from .scene_peers import SCENE_PEERS, scene_engine
 
-__all__ = ["BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS", "SLEEPING", "TARGET",
-           "TARGET_ROWS",
+__all__ = ["BENCH_SCENES", "BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS",
+           "SLEEPING", "TARGET", "TARGET_ROWS",
            "ContactResults", "PyramidCost", "PyramidRow", "contact_bench", "contact_scene_names",
            "measure_pyramid", "pyramid_builders", "pyramid_figure", "pyramid_series",
            "scene_rows"]
@@ -87,14 +89,20 @@ LARGE_ROUNDS = 3
 Engine = tuple[Callable[[int], Optional[float]], Callable[[], np.ndarray]]
 
 
+#: The benchmark's own whole scenes (:mod:`.pyramid`), by name.
+BENCH_SCENES: dict[str, Callable[[], Scene]] = {
+    "ball_box": ball_box, "many_pyramids": many_pyramids, "tumbler": tumbler}
+
+
 def contact_scene_names() -> list[str]:
-    """The box of balls, then every shipped scene that has walls or collisions."""
-    return ["ball_box"] + [name for name in shipped_scenes()
-                           if load_scene(name).walls or load_scene(name).collisions]
+    """The benchmark's own scenes (the box of balls, the many pyramids, the tumbler), then
+    every shipped scene that has walls or collisions."""
+    return list(BENCH_SCENES) + [name for name in shipped_scenes()
+                                 if load_scene(name).walls or load_scene(name).collisions]
 
 
 def _contact_scene(name: str) -> Scene:
-    return ball_box() if name == "ball_box" else load_scene(name)
+    return BENCH_SCENES[name]() if name in BENCH_SCENES else load_scene(name)
 
 
 # ----------------------------------------------------------------------------- pyramids

@@ -1,10 +1,11 @@
 """The contact pass in the compiled kernel (``src/kernel/contact.h``), when built.
 
-:class:`CompiledContacts` packs a :class:`~.solver.ContactPass`'s bodies, parts, walls and
-pairs' materials once into the kernel's layout; its :meth:`~CompiledContacts.resolve` is
-``ContactPass.resolve`` in C, operation for operation, so the two give the same bits
-(lengths by :func:`~hecker_dynamics.geometry.planar.magnitude`, as C's ``hd_length``, not
-by ``hypot``, which C and CPython may round apart). The warm-start impulses, and with
+:class:`CompiledContacts` packs a :class:`~.solver.ContactPass`'s bodies, parts, walls,
+pairs' materials and map boxes once into the kernel's layout; its
+:meth:`~CompiledContacts.resolve` is ``ContactPass.resolve`` in C, operation for operation,
+so the two give the same bits (lengths by
+:func:`~hecker_dynamics.geometry.planar.magnitude`, as C's ``hd_length``, not by ``hypot``,
+which C and CPython may round apart). The warm-start impulses, and with
 sleeping on the bodies' rest times and sleeping islands, live in the kernel between steps.
 """
 from __future__ import annotations
@@ -51,6 +52,9 @@ class CompiledContacts:
         walls = [(*n, offset, *material) for n, offset, material in
                  zip(contacts.wall_normal, contacts.wall_offset, contacts.wall_material)]
         pairs = contacts.pairs
+        static_ints = [(_kernel.POLYGON, len(part.vertices)) for part in contacts.static_parts]
+        static_reals = [x for part in contacts.static_parts
+                        for point in part.vertices + part.normals for x in point]
         self.kernel = _kernel.contacts(
             inverse_mass=_doubles(contacts.inverse_mass),
             inverse_inertia=_doubles(contacts.inverse_inertia),
@@ -61,7 +65,10 @@ class CompiledContacts:
             colliding=_integers(contacts.colliding), classes=_integers(pairs.classes),
             class_groups=_integers(pairs.table), materials=_doubles(pairs.materials),
             apart=_integers(pairs.apart), threshold=contacts.threshold,
-            thickness=contacts.thickness)
+            thickness=contacts.thickness, static_ints=_integers(static_ints),
+            static_reals=_doubles(static_reals), static_bounds=_doubles(contacts.static_bounds),
+            static_material=_doubles(contacts.static_material),
+            static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept))
         if contacts.sleep:
             self.set_sleep(contacts)
 

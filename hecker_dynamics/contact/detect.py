@@ -1,4 +1,4 @@
-"""Detection (C twin: ``src/kernel/detect.c``, which has no map): shape points behind
+"""Detection (C twin: ``src/kernel/detect.c``): shape points behind
 walls, bodies against the map's boxes, and overlapping convex parts of bodies that the
 scene lets collide, found by a sort-and-sweep broad phase
 on the x extent, then the narrow phase of :mod:`.collision` (``src/kernel/manifold.c``).
@@ -70,7 +70,8 @@ class Detection:
     static_bounds: NDArray[np.float64]
     static_material: tuple[float, float]
     static_bodies: list[int]
-    _swept: list[int]
+    #: The bodies whose travel sets the sub-steps: the colliding ones and the map's.
+    swept: list[int]
     _colliding_index: NDArray[np.int_]
     _colliding_reach: NDArray[np.float64]
     _woken: set[int]
@@ -207,14 +208,14 @@ class Detection:
     def substeps(self, q0: States, q1: States) -> int:
         """How many sub-steps keep every colliding body's travel under half the thinnest
         colliding part (1 when the step is short enough)."""
-        if not self._swept:
+        if not self.swept:
             return 1
         farthest: float
         if self._lean:  # a few bodies: plain floats beat numpy's cost per call
             before, after = q0.tolist(), q1.tolist()
             farthest = max(magnitude(after[i][0] - before[i][0], after[i][1] - before[i][1])
                            + abs(after[i][2] - before[i][2]) * self.reach[i]
-                           for i in self._swept)
+                           for i in self.swept)
         else:
             index = self._colliding_index
             moved = q1[index] - q0[index]

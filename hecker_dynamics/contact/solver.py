@@ -162,7 +162,7 @@ class ContactPass(Sleep, WarmStarts):
         if scene.map is not None:  # a wall of the map may be one cell thin
             self.thickness = min(self.thickness, scene.map.occupancy.resolution)
         self._lean = lean
-        self._swept = swept
+        self.swept = swept
         self._colliding_index = np.array(swept, dtype=int)
         self._colliding_reach = np.array([reach[i] for i in swept])
         touching = {b for bodies in self.wall_bodies for b in bodies} | set(swept)

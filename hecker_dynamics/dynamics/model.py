@@ -87,15 +87,14 @@ class Model:
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.joints: Optional[JointPass] = (
             JointPass(scene, self.inverse_mass, self.cm_local,
-                      compiled=self.compiled is not None and scene.map is None)
+                      compiled=self.compiled is not None)
             if scene.joints else None)
         self.contacts: Optional[ContactPass] = (
             ContactPass(scene, self.mass, self.inertia, self.cm_local,
                         _restitution_threshold(scene), lean=self.lean,
                         # joined bodies do not collide by default
                         apart=() if self.joints is None else self.joints.connected,
-                        # the kernel has no map boxes: a map's contacts resolve in Python
-                        compiled=self.compiled is not None and scene.map is None,
+                        compiled=self.compiled is not None,
                         sleep=scene.sleep, restless=_restless(self, scene), joints=self.joints)
             if scene.walls or scene.collisions or scene.map else None)
 

@@ -126,11 +126,13 @@ def add_viz_commands(commands: argparse._SubParsersAction[argparse.ArgumentParse
     render_parser = commands.add_parser(
         "render", help="draw a run of a scene or a bag's poses to GIF, MP4, PNG or SVG",
         description="Draw the bodies (filled, with their CM and a mark along their x axis), "
-                    "springs, walls, the applied forces as arrows from their points of "
-                    "application, optional contact points and trails, and the sim time; "
+                    "springs, walls, the map's boxes, the applied forces as arrows from their "
+                    "points of application, lasers' rays to their hits, optional contact "
+                    "points and trails, and the sim time; "
                     "from a run of the scene with its script, or from the /<body>/pose "
                     "messages (and the inputs, where present) of a recorded or replayed bag. "
-                    "A bag draws the same pixels as the run that produced it. PNG and SVG "
+                    "A bag draws the same pixels as the run that produced it, but for the "
+                    "drives' wheel forces, which a bag does not hold. PNG and SVG "
                     "show the last frame of the span with the whole span's trails.")
     render_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
     render_parser.add_argument("-o", "--output", metavar="FILE",

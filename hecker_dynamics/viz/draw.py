@@ -277,7 +277,8 @@ class Drawing:
             add(axes.plot(xs, ys, color=TRAIL_COLOR, linewidth=1.0)[0])
         if frame.rays:  # under the walls' and bodies' patches (zorder 1)
             add(axes.add_collection(LineCollection(frame.rays, colors=RAY_COLOR,
-                                                   linewidths=0.6, zorder=0.5)))
+                                                   linewidths=0.6, zorder=0.5,
+                                                   antialiaseds=False)))
         for force in self.scene.forces:
             if isinstance(force, SpringSpec):
                 add(self._spring(force, frame.poses))

@@ -99,34 +99,90 @@ static int hd_build_parts(hd_contact_model *m, const long *part_ints, const doub
     return 0;
 }
 
+/* The map's boxes from the packed rows (kind, count) and their values in the fixed frame;
+ * -1 with an exception set if they are not polygons of that many values or a body that
+ * collides with them or is swept is out of range. */
+static int hd_build_statics(hd_contact_model *m, const long *static_ints,
+                            Py_ssize_t static_ints_count, const double *reals,
+                            Py_ssize_t real_count)
+{
+    Py_ssize_t used = 0;
+    if (2 * m->static_count != static_ints_count)
+        goto bad;
+    for (long k = 0; k < m->static_count; ++k) {
+        if (static_ints[2 * k] != HD_POLYGON || static_ints[2 * k + 1] < 3)
+            goto bad;
+        used += 4 * static_ints[2 * k + 1];
+    }
+    for (long k = 0; k < m->static_body_count; ++k)
+        if (m->static_body[k] < 0 || m->static_body[k] >= m->bodies)
+            goto bad;
+    for (long k = 0; k < m->swept_count; ++k)
+        if (m->swept[k] < 0 || m->swept[k] >= m->bodies)
+            goto bad;
+    if (used != real_count)
+        goto bad;
+    m->statics = calloc((size_t)m->static_count + 1, sizeof(hd_part));
+    if (m->statics == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    for (long k = 0; k < m->static_count; ++k) {
+        hd_part *part = m->statics + k;
+        part->kind = HD_POLYGON;
+        part->count = static_ints[2 * k + 1];
+        part->placed = malloc(4 * (size_t)part->count * sizeof(double));
+        if (part->placed == NULL) {
+            PyErr_NoMemory();
+            return -1;
+        }
+        memcpy(part->placed, reals, 4 * (size_t)part->count * sizeof(double));
+        reals += 4 * part->count;
+        if (part->count > m->max_vertices)
+            m->max_vertices = part->count;
+    }
+    return 0;
+bad:
+    PyErr_SetString(PyExc_ValueError, "static_ints, static_reals, static_bodies or swept: not "
+                    "the layout of contact.h");
+    return -1;
+}
+
 PyDoc_STRVAR(contacts_doc,
 "contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
 "         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
-"         thickness) -> Contacts\n\n"
+"         thickness, static_ints, static_reals, static_bounds, static_material,\n"
+"         static_bodies, swept) -> Contacts\n\n"
 "A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
 "wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
 "body its class, per pair of classes their group, per group (restitution, friction), and\n"
-"the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials).");
+"the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials);\n"
+"per map box (kind, vertex count), its vertices and normals in the fixed frame and its\n"
+"bounds (x0, x1, y0, y1), the boxes' (restitution, friction) and the bodies that collide\n"
+"with them; the bodies whose travel sets the sub-steps.");
 
 static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"inverse_mass", "inverse_inertia", "reach", "part_ints",
                             "part_reals", "walls", "wall_first", "wall_body", "colliding",
                             "classes", "class_groups", "materials", "apart", "threshold",
-                            "thickness", NULL};
-    PyObject *o[13];
+                            "thickness", "static_ints", "static_reals", "static_bounds",
+                            "static_material", "static_bodies", "swept", NULL};
+    PyObject *o[19];
     double threshold, thickness;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOdd:contacts", names, o, o + 1,
-                                     o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8, o + 9,
-                                     o + 10, o + 11, o + 12, &threshold, &thickness))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOO:contacts", names, o,
+                                     o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8,
+                                     o + 9, o + 10, o + 11, o + 12, &threshold, &thickness,
+                                     o + 13, o + 14, o + 15, o + 16, o + 17, o + 18))
         return NULL;
     hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
     if (m == NULL)
         return PyErr_NoMemory();
-    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, cells, materials, apart;
-    long *part_ints = NULL;
-    double *part_reals = NULL;
+    Py_ssize_t bodies, parts, reals, walls, wall_bodies, colliding, cells, materials, apart,
+        statics, static_reals, static_bodies, swept;
+    long *part_ints = NULL, *static_ints = NULL;
+    double *part_reals = NULL, *static_values = NULL, *static_material = NULL;
     m->threshold = threshold;
     m->thickness = thickness;
     if ((m->inverse_mass = hd_read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
@@ -141,8 +197,20 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
         (m->body_class = hd_read_array(o[9], "classes", 'q', bodies, NULL)) == NULL ||
         (m->class_group = hd_read_array(o[10], "class_groups", 'q', -1, &cells)) == NULL ||
         (m->material = hd_read_array(o[11], "materials", 'd', -1, &materials)) == NULL ||
-        (m->apart = hd_read_array(o[12], "apart", 'q', -1, &apart)) == NULL)
+        (m->apart = hd_read_array(o[12], "apart", 'q', -1, &apart)) == NULL ||
+        (static_ints = hd_read_array(o[13], "static_ints", 'q', -1, &statics)) == NULL ||
+        (static_values = hd_read_array(o[14], "static_reals", 'd', -1, &static_reals)) == NULL ||
+        (m->static_bounds = hd_read_array(o[15], "static_bounds", 'd', 2 * statics,
+                                          NULL)) == NULL ||
+        (static_material = hd_read_array(o[16], "static_material", 'd', 2, NULL)) == NULL ||
+        (m->static_body = hd_read_array(o[17], "static_bodies", 'q', -1, &static_bodies)) == NULL ||
+        (m->swept = hd_read_array(o[18], "swept", 'q', -1, &swept)) == NULL)
         goto fail;
+    m->static_material[0] = static_material[0];
+    m->static_material[1] = static_material[1];
+    m->static_count = (long)(statics / 2);
+    m->static_body_count = (long)static_bodies;
+    m->swept_count = (long)swept;
     m->bodies = (long)bodies;
     m->part_count = (long)(parts / 3);
     m->walls = (long)(walls / 5);
@@ -158,12 +226,21 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
     }
     if (hd_check_contacts(m, part_ints, reals, (long)(materials / 2)) < 0)
         goto fail;
-    if (hd_build_parts(m, part_ints, part_reals) < 0 || hd_contact_prepare(m) < 0) {
+    if (hd_build_parts(m, part_ints, part_reals) < 0) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    if (hd_build_statics(m, static_ints, statics, static_values, static_reals) < 0)
+        goto fail;
+    if (hd_contact_prepare(m) < 0) {
         PyErr_NoMemory();
         goto fail;
     }
     free(part_ints);
     free(part_reals);
+    free(static_ints);
+    free(static_values);
+    free(static_material);
     PyObject *capsule = PyCapsule_New(m, HD_CONTACTS_CAPSULE, hd_contacts_destructor);
     if (capsule == NULL)
         hd_contact_free(m);
@@ -171,6 +248,9 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
 fail:
     free(part_ints);
     free(part_reals);
+    free(static_ints);
+    free(static_values);
+    free(static_material);
     hd_contact_free(m);
     return NULL;
 }

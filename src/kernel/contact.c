@@ -71,6 +71,12 @@ void hd_contact_free(hd_contact_model *m)
     }
     free(m->parts);
     free(m->part_first);
+    for (long k = 0; m->statics != NULL && k < m->static_count; ++k)
+        free(m->statics[k].placed);
+    free(m->statics);
+    free(m->static_bounds);
+    free(m->static_body);
+    free(m->swept);
     free(m->inverse_mass);
     free(m->inverse_inertia);
     free(m->reach);

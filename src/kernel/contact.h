@@ -123,6 +123,19 @@ typedef struct hd_contact_model {
     long *apart;
     double threshold;  /* restitution threshold (m/s) */
     double thickness;  /* of the thinnest colliding part */
+    /* The map's boxes (contact/detect.py: Detection._static_contacts): static_count convex
+     * parts fixed in the world (`placed` only), their bounds (x0, x1, y0, y1 each), their
+     * restitution and friction, and the bodies that collide with them, sorted. */
+    long static_count;
+    hd_part *statics;
+    double *static_bounds;
+    double static_material[2];
+    long static_body_count;
+    long *static_body;
+    /* The bodies whose travel sets the sub-steps (contact/solver.py: ContactPass._swept):
+     * the colliding bodies and the map's, sorted. */
+    long swept_count;
+    long *swept;
     /* Working memory, kept from call to call, and the warm-start impulses. */
     int *placed_flag, *touched;
     /* The broad phase's boxes, as columns so that the sweep reads each edge contiguously:

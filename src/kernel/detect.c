@@ -1,8 +1,8 @@
 /* Detection: hecker_dynamics/contact/detect.py's Detection.detect, operation for
- * operation: the walls against each body's bounding circle, then a sort-and-sweep broad
- * phase on the x extent of the colliding bodies' bounding boxes (CM +- reach; in bands in
- * y in a tall pile, for the same pairs), then the narrow phase (manifold.c) for the parts
- * of each candidate pair.
+ * operation: the walls against each body's bounding circle, the map's boxes against each
+ * body's bounding box, then a sort-and-sweep broad phase on the x extent of the colliding
+ * bodies' bounding boxes (CM +- reach; in bands in y in a tall pile, for the same pairs),
+ * then the narrow phase (manifold.c) for the parts of each candidate pair.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -314,6 +314,35 @@ static int hd_list_bands(hd_contact_model *m, long count, const hd_bands *bands)
     return 0;
 }
 
+/* contact/detect.py: Detection._static_contacts. The map's boxes (body -1; box k's key
+ * -1 - (walls + k)) against the awake bodies that collide with them, body by body, the
+ * boxes within the body's bounding box in the map's order. */
+static int hd_static_contacts(hd_contact_model *m, const double *q)
+{
+    const long first = -1 - m->walls;
+    const double *bounds = m->static_bounds;
+    for (long s = 0; s < m->static_body_count; ++s) {
+        const long b = m->static_body[s];
+        if (m->island[b] >= 0)
+            continue;
+        const double x = q[3 * b], y = q[3 * b + 1], r = m->reach[b] + HD_MARGIN;
+        for (long k = 0; k < m->static_count; ++k) {
+            const double *box = bounds + 4 * k;
+            if (!(box[0] <= x + r && box[1] >= x - r && box[2] <= y + r && box[3] >= y - r))
+                continue;
+            hd_place(m, q, b);
+            for (long p = m->part_first[b]; p < m->part_first[b + 1]; ++p) {
+                const int count = hd_collide(m->statics + k, m->parts + p, m->found);
+                if (hd_add_contacts(m, -1, b, m->found, count, m->static_material[0],
+                                    m->static_material[1], first - k, b, 0,
+                                    p - m->part_first[b]) < 0)
+                    return -1;
+            }
+        }
+    }
+    return 0;
+}
+
 int hd_detect(hd_contact_model *m, const double *q)
 {
     m->contact_count = 0;
@@ -341,6 +370,8 @@ int hd_detect(hd_contact_model *m, const double *q)
             }
         }
     }
+    if (hd_static_contacts(m, q) < 0)
+        return -1;
     const long count = m->colliding_count;
     long awake = 0;  /* with every colliding body asleep no pair needs looking at */
     while (awake < count && m->island[m->colliding[awake]] >= 0)

@@ -332,15 +332,16 @@ static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *
     return HD_ADVANCED;
 }
 
-/* How many sub-steps keep every colliding body's travel under half the thinnest colliding
- * part (contact/detect.py: Detection.substeps, its plain-float path). */
+/* How many sub-steps keep the travel of every body that meets convex parts (the colliding
+ * bodies and the map's) under half the thinnest of them (contact/detect.py:
+ * Detection.substeps, its plain-float path). */
 static long hd_substeps(const hd_contact_model *m, const double *q0, const double *q1)
 {
-    if (m->colliding_count == 0)
+    if (m->swept_count == 0)
         return 1;
     double farthest = 0.0;
-    for (long k = 0; k < m->colliding_count; ++k) {
-        const long i = m->colliding[k];
+    for (long k = 0; k < m->swept_count; ++k) {
+        const long i = m->swept[k];
         const double moved = hd_length(q1[3 * i] - q0[3 * i], q1[3 * i + 1] - q0[3 * i + 1])
                              + fabs(q1[3 * i + 2] - q0[3 * i + 2]) * m->reach[i];
         if (k == 0 || moved > farthest)

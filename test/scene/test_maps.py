@@ -290,6 +290,44 @@ def test_the_kernel_casts_the_map_s_boxes_with_the_bits_of_python():
     assert hits > 0
 
 
+@pytest.mark.skipif(not kernel.enabled(), reason="compares the kernel with Python")
+@pytest.mark.parametrize("sleep", [False, True])
+def test_the_kernel_resolves_map_contacts_with_the_bits_of_python(tmp_path, sleep):
+    """A ball and a box that collide with each other and a crate in no collision group fall
+    on a map's floor with a step in it and slide into the step (and the box and crate fall
+    asleep with ``sleep``): the kernel's contact pass gives Python's positions, velocities
+    and warm-start impulses exactly, every 0.1 s, and the map holds every body."""
+    rows = [[255] * 8, [255] * 8, [255] * 6 + [0, 0], [0] * 8]  # a floor, a step on the right
+    write_pgm(tmp_path / "m.pgm", rows)
+    write_map(tmp_path, "m.pgm", origin=[-1.0, -1.0, 0.0])
+    bodies = {"ball": {"shape": "circle", "radius": 0.1, "mass": 1.0, "position": [0.0, 0.2],
+                       "velocity": [2.0, 0.0]},
+              "box": {"shape": "box", "size": [0.3, 0.2], "mass": 2.0, "position": [0.5, 0.4],
+                      "angular_velocity": 3.0},
+              "crate": {"shape": "box", "size": [0.4, 0.4], "mass": 1.0,
+                        "position": [1.2, 0.6], "velocity": [1.0, 0.0]}}
+    scene = make_scene({"step": 0.002, "integrator": "velocity_verlet",
+                        "contacts": {"sleep": sleep}, "bodies": bodies,
+                        "forces": {"gravity": {"type": "gravity",
+                                               "acceleration": [0.0, -9.81]}},
+                        "collisions": {"pair": {"bodies": ["ball", "box"], "friction": 0.3}},
+                        "map": {"file": str(tmp_path / "map.yaml"), "friction": 0.5,
+                                "restitution": 0.2}})
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    assert fast.model.contacts.compiled and not slow.model.contacts.compiled
+    assert fast.model.contacts.colliding != fast.model.contacts.swept  # the crate is swept
+    for until in range(100_000_000, 3_000_000_001, 100_000_000):
+        fast.advance_to(until)
+        slow.advance_to(until)
+        assert fast.q.tobytes() == slow.q.tobytes() and fast.v.tobytes() == slow.v.tobytes()
+    state = fast.model.contacts.export_state()
+    assert state and state == slow.model.contacts.export_state()
+    lowest = [y - fast.model.contacts.reach[i] for i, y in enumerate(fast.q[:, 1].tolist())]
+    assert min(lowest) > -0.5 - 0.3  # no body fell through the floor's top at y = -0.5
+    assert fast.q[:, 0].max() < 2.0  # nor through the step's face at x = 2
+
+
 def test_a_map_or_contact_events_change_the_fingerprint_and_their_absence_does_not_count():
     scene = load_scene("robot")
     assert scene.map is None and not scene.publish_contacts
