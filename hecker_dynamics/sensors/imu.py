@@ -57,7 +57,7 @@ class Imu:
         gravity = [f.acceleration for f in scene.forces
                    if isinstance(f, Gravity) and spec.body in f.bodies]
         self.gravity = np.sum(np.array(gravity, dtype=float).reshape(-1, 2), axis=0).tolist()
-        self.noise = Noise(spec.seed, spec.frame_id)
+        self.noise = Noise(spec.seed, spec.frame_id, spec.period_ns)
         #: The noise's standard deviation on each of yaw, omega and the specific force's x
         #: and y.
         self.deviations = (spec.orientation_noise, spec.angular_velocity_noise,

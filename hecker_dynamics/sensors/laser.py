@@ -115,7 +115,7 @@ class Laser:
                  compiled: Optional[bool] = None) -> None:
         """``cm_local`` (N, 2): each body's CM in its body frame (Model.cm_local)."""
         self.spec = spec
-        self.noise = Noise(spec.seed, spec.frame_id)
+        self.noise = Noise(spec.seed, spec.frame_id, spec.period_ns)
         names = [b.name for b in scene.bodies]
         self.body = names.index(spec.body)
         self.mount = np.asarray(spec.position, dtype=float) - cm_local[self.body]
