@@ -6,9 +6,9 @@ from __future__ import annotations
 import dataclasses
 
 from hecker_dynamics.bags import io as bags
+from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.ros.outputs import OutputKind
 from hecker_dynamics.ros.runner import Runner
-from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.load import load_scene
 from hecker_dynamics.sensors.schedule import SensorSet
 
