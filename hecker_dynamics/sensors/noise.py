@@ -86,8 +86,8 @@ def _hashed(x: np.ndarray, constants: tuple[np.uint32, np.uint32]) -> np.ndarray
 
 def _mixed(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """SeedSequence's mix of a hashed word ``y`` into a pool word ``x``."""
-    x = _MIX_MULT_L * x - _MIX_MULT_R * y
-    return x ^ (x >> _SHIFT)
+    mixed: np.ndarray = _MIX_MULT_L * x - _MIX_MULT_R * y
+    return mixed ^ (mixed >> _SHIFT)
 
 
 def seed_words(entropy: list[np.ndarray]) -> list[np.ndarray]:
