@@ -56,10 +56,12 @@ def node_scene(bodies: int, floor: bool = False) -> Scene:
                                publish_diagnostics=True, publish_tf=True)
 
 
-def node_run(scene: Scene, seconds: float) -> tuple[float, float]:
+def node_run(scene: Scene, seconds: float, pause: float = 0.0) -> tuple[float, float]:
     """CPU seconds per sim second of :meth:`Runner.advance` and of serializing what it
     gave (the snapshots' messages and the sensors' readings), over ``seconds`` of
-    ``scene`` in the node's 50 Hz ticks."""
+    ``scene`` in the node's 50 Hz ticks. ``pause``: seconds slept after each tick, as the
+    node sleeps between its ticks (a core that ran other work meanwhile leaves the tick
+    colder caches; the sleep itself is not CPU time)."""
     runner = Runner(scene)
     serialize = SnapshotSerializer(SnapshotOutputs(scene))
     # CPU time of this process, not wall time: on a loaded machine the wall clock also
@@ -79,6 +81,8 @@ def node_run(scene: Scene, seconds: float) -> tuple[float, float]:
         end = clock()
         advance += middle - start
         outputs += end - middle
+        if pause:
+            time.sleep(pause)
     return advance / seconds, outputs / seconds
 
 

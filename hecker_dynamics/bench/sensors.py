@@ -18,7 +18,10 @@ Cases:
 - ``node``: the robot scene (``config/robot.yaml``) stepped at 1 kHz with its 10 Hz scan
   and 50 Hz IMU, its outputs serialized as the node publishes them
   (:func:`.node.node_run`), and the same without its laser: the share of one core the
-  node's Python work needs, and the scan's part of it.
+  node's Python work needs, and the scan's part of it; then the same work with the
+  node's 20 ms sleep after each tick (:data:`TICK_PAUSE`), which the running node pays
+  as colder caches (its live cost, taken on ROS 2 as docs/benchmark.md says, is above
+  all three).
 
 Cost is whole-run cost: the time of :data:`SCANS` scans over their number, a median over
 :data:`ROUNDS` rounds in which every caster runs once (interleaved, so the machine's load
@@ -49,8 +52,8 @@ from . import box2d_v3
 from .node import STEP_NS, node_run
 
 __all__ = ["CELL", "MAP_CELLS", "NODE_SECONDS", "PEER_AGREEMENT", "RANGE_MAX", "RAYS", "ROUNDS",
-           "SCANS", "SCAN_BODIES", "ScanCosts", "NodeShare", "scan_scene", "scan_costs",
-           "node_shares", "sensor_report"]
+           "SCANS", "SCAN_BODIES", "TICK_PAUSE", "ScanCosts", "NodeShare", "scan_scene",
+           "scan_costs", "node_shares", "sensor_report"]
 
 SCAN_BODIES = 100
 #: The room: a map's cells and their size (m).
@@ -62,6 +65,8 @@ RANGE_MAX = 20.0
 ROUNDS = 7
 SCANS = 50
 NODE_SECONDS = 2.0
+#: The sleep after each tick of the ``node`` case's last row: a 50 Hz tick's period.
+TICK_PAUSE = 0.02
 #: Largest difference (m) between Box2D v3's float32 hits and the kernel's that still
 #: counts as the same hit: float32's rounding of 10 m coordinates is 1e-6 m.
 PEER_AGREEMENT = 1e-4
@@ -206,15 +211,20 @@ def robot_at_1khz(laser: bool = True) -> Scene:
 
 def node_shares(rounds: int = ROUNDS, seconds: float = NODE_SECONDS,
                 bar: Optional[BarFactory] = None) -> list[NodeShare]:
-    """The ``node`` case, with and without the laser, interleaved over ``rounds``."""
-    scenes = {"robot, 10 Hz scan": robot_at_1khz(), "robot, no laser": robot_at_1khz(False)}
-    samples: dict[str, list[tuple[float, float]]] = {case: [] for case in scenes}
+    """The ``node`` case, with and without the laser, and with the laser and the node's
+    sleep between ticks, interleaved over ``rounds``."""
+    robot = robot_at_1khz()
+    cases = {"robot, 10 Hz scan": (robot, 0.0),
+             "robot, no laser": (robot_at_1khz(False), 0.0),
+             f"robot, 10 Hz scan, {1e3 * TICK_PAUSE:g} ms asleep after each tick":
+             (robot, TICK_PAUSE)}
+    samples: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
 
-    def run(case: str, scene: Scene) -> Callable[[], None]:
-        return lambda: samples[case].append(node_run(scene, seconds))
+    def run(case: str, scene: Scene, pause: float) -> Callable[[], None]:
+        return lambda: samples[case].append(node_run(scene, seconds, pause))
 
-    run_parts([(case, run(case, scene)) for case, scene in scenes.items()] * rounds, bar,
-              "bench node")
+    run_parts([(case, run(case, scene, pause)) for case, (scene, pause) in cases.items()]
+              * rounds, bar, "bench node")
     return [NodeShare(case, statistics.median(a for a, _ in runs),
                       statistics.median(o for _, o in runs), rounds)
             for case, runs in samples.items()]
@@ -250,4 +260,6 @@ def sensor_report(scan: ScanCosts, shares: list[NodeShare]) -> str:
     for share in shares:
         lines.append(f"| {share.case} | {100 * share.advance:.2f} % | "
                      f"{100 * share.outputs:.2f} % | {100 * share.total:.2f} % |")
+    lines += ["", "The running node costs more than these rows: rclpy's publishes and the tick "
+                  "thread's wake come on top (docs/benchmark.md, the robot node on Jazzy)."]
     return "\n".join(lines)

@@ -29,6 +29,12 @@ class DriveSet:
             WrenchDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
             for spec in sim.scene.drives]
         self._next_ns = [sim.time_ns] * len(self.drives)
+        #: Per drive, its script's times (from the start) and commands (linear x, angular
+        #: z, linear y): a diff drive's entries are (t, x, z), the others' (t, x, y, z).
+        self._script_times = [[entry[0] for entry in drive.spec.script] for drive in self.drives]
+        self._script_commands = [[(x, rest[-1], rest[0] if len(rest) == 2 else 0.0)
+                                  for _, x, *rest in drive.spec.script]
+                                 for drive in self.drives]
 
     def __bool__(self) -> bool:
         return bool(self.drives)
@@ -42,18 +48,16 @@ class DriveSet:
     def arrive(self, sim: Simulation, play_script: bool = True) -> None:
         """Push the wheel forces of the drives whose control instant is now, each after the
         scripted command that holds now (with ``play_script``)."""
+        now = sim.time_ns
         for index, drive in enumerate(self.drives):
-            if sim.time_ns >= self._next_ns[index]:
-                script = drive.spec.script
-                due = bisect.bisect_right([entry[0] for entry in script],
-                                          sim.time_ns - sim.start_ns)
-                if play_script and due:  # (t, x, z) of a diff drive, (t, x, y, z) else
-                    _, linear_x, *rest = script[due - 1]
-                    drive.receive(VelocityCommand(sim.time_ns, linear_x, rest[-1],
-                                                  rest[0] if len(rest) == 2 else 0.0))
-                for command in drive.wrenches(sim.q, sim.v, sim.time_ns):
+            if now >= self._next_ns[index]:
+                due = bisect.bisect_right(self._script_times[index], now - sim.start_ns) \
+                    if play_script else 0
+                if due:
+                    drive.receive(VelocityCommand(now, *self._script_commands[index][due - 1]))
+                for command in drive.wrenches(sim.q, sim.v, now):
                     sim.push(command)
-                self._next_ns[index] = sim.time_ns + drive.spec.period_ns
+                self._next_ns[index] = now + drive.spec.period_ns
 
     def next_stop(self) -> int | None:
         """The next control instant (None without drives)."""

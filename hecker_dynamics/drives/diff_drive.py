@@ -39,6 +39,7 @@ class DiffDrive(CommandedDrive):
         half = spec.separation / 2.0
         #: Contact points (body frame) of the left and right wheels.
         self.wheels = ((cx, cy + half), (cx, cy - half))
+        self._sources = (f"drive/{spec.name}/left", f"drive/{spec.name}/right")
         # Plain floats: the controller runs at every control instant, on a few numbers.
         self._offsets = [(np.asarray(w, dtype=float) - cm_local).tolist() for w in self.wheels]
         self._axle = (np.asarray(spec.center, dtype=float) - cm_local).tolist()
@@ -70,14 +71,14 @@ class DiffDrive(CommandedDrive):
             pushes = [0.0, 0.0]
             self.integrals = [0.0, 0.0]
         commands = []
-        for side, wheel, offset, push in zip(("left", "right"), self.wheels, self._offsets,
-                                             pushes):
+        for source, wheel, offset, push in zip(self._sources, self.wheels, self._offsets,
+                                               pushes):
             # The sideways slip: the body-y component of the wheel's point's velocity (Eq. 9).
             slip = -s * vx + c * vy + omega * offset[0]
             grip = -spec.lateral_damping * slip
             scale = min(1.0, spec.traction / math.hypot(push, grip)) if (push or grip) else 1.0
             commands.append(WrenchCommand(
-                stamp_ns=time_ns, body=spec.body, source=f"drive/{spec.name}/{side}",
+                stamp_ns=time_ns, body=spec.body, source=source,
                 frame_id=spec.body, point=wheel, force=(push * scale, grip * scale),
                 duration_ns=spec.period_ns))
         return commands

@@ -70,6 +70,7 @@ class WrenchDrive(CommandedDrive):
         self._inverse = np.linalg.pinv(self._actuation) if spec.kind == "omni" else None
         self._center = np.asarray(spec.center, dtype=float) - cm_local
         self._directions = [(math.cos(angle), math.sin(angle)) for _, _, angle in spec.actuators]
+        self._sources = [f"drive/{spec.name}/{index}" for index in range(len(spec.actuators))]
 
     def pushes(self, wrench: np.ndarray) -> np.ndarray:
         """The actuators' push magnitudes that make the body-frame ``wrench`` (Fx, Fy,
@@ -107,9 +108,8 @@ class WrenchDrive(CommandedDrive):
                 self.integrals = [i + e * period for i, e in zip(self.integrals, errors)]
         else:
             self.integrals = [0.0, 0.0, 0.0]
-        return [WrenchCommand(stamp_ns=time_ns, body=spec.body,
-                              source=f"drive/{spec.name}/{index}", frame_id=spec.body,
-                              point=(x, y), force=(push * dx, push * dy),
+        return [WrenchCommand(stamp_ns=time_ns, body=spec.body, source=source,
+                              frame_id=spec.body, point=(x, y), force=(push * dx, push * dy),
                               duration_ns=spec.period_ns)
-                for index, ((x, y, _), (dx, dy), push) in enumerate(
-                    zip(spec.actuators, self._directions, pushes.tolist()))]
+                for source, (x, y, _), (dx, dy), push in zip(
+                    self._sources, spec.actuators, self._directions, pushes.tolist())]

@@ -593,8 +593,11 @@ class Runner:
         takes as it steps on from the instant, and a replay that ends at an instant the
         node stepped on from takes there."""
         now, frame_id = self.sim.time_ns, self.scene.frame_id
-        return [(now, reading_output(reading)) for reading in self.sensors.sample(self.sim)] + \
-            [(now, touch_output(frame_id, event)) for event in self.touches.sample(self.sim)]
+        readings, events = self.sensors.sample(self.sim), self.touches.sample(self.sim)
+        if not readings and not events:  # most stops: nothing to build
+            return []
+        return [(now, reading_output(reading)) for reading in readings] + \
+            [(now, touch_output(frame_id, event)) for event in events]
 
     def _next_stop(self) -> int:
         """The next instant :meth:`_arrive` has work at: the push of the next scripted

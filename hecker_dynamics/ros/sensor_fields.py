@@ -4,6 +4,7 @@ from each body frame to its sensors' frames (``<body>/<sensor>``), for the node 
 on :func:`~.names.scan_topic`, :func:`~.names.imu_topic` and ``/tf_static``."""
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -61,17 +62,25 @@ def _diagonal(*variances: float) -> Covariance:
     return (variances[0], 0.0, 0.0, 0.0, variances[1], 0.0, 0.0, 0.0, variances[2])
 
 
+@functools.lru_cache(maxsize=64)
+def _imu_covariances(spec: ImuSpec) -> tuple[Covariance, Covariance, Covariance]:
+    """An IMU's covariances of orientation, angular velocity and linear acceleration: the
+    same in each of its readings."""
+    heading = spec.orientation_noise ** 2
+    spin = spec.angular_velocity_noise ** 2
+    push = spec.linear_acceleration_noise ** 2
+    return _diagonal(0.0, 0.0, heading), _diagonal(0.0, 0.0, spin), _diagonal(push, push, 0.0)
+
+
 def imu_fields(spec: ImuSpec, reading: ImuReading) -> ImuFields:
     """The reading in the IMU's frame; its orientation is the sensor frame's in the fixed
     frame (a rotation about z)."""
     ax, ay = reading.linear_acceleration
-    heading = spec.orientation_noise ** 2
-    spin = spec.angular_velocity_noise ** 2
-    push = spec.linear_acceleration_noise ** 2
+    orientation, angular_velocity, linear_acceleration = _imu_covariances(spec)
     return ImuFields(
         header(spec.frame_id, reading.stamp_ns), quaternion_from_yaw(reading.yaw),
-        _diagonal(0.0, 0.0, heading), (0.0, 0.0, reading.angular_velocity),
-        _diagonal(0.0, 0.0, spin), (ax, ay, 0.0), _diagonal(push, push, 0.0))
+        orientation, (0.0, 0.0, reading.angular_velocity), angular_velocity,
+        (ax, ay, 0.0), linear_acceleration)
 
 
 def sensor_transforms(scene: Scene, stamp_ns: int) -> tuple[TransformFields, ...]:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..scene.load import Gravity, Scene
 from ..scene.sensors import ImuSpec
-from .laser import noise_generator
+from .noise import Noise
 
 __all__ = ["Imu", "ImuReading"]
 
@@ -57,8 +57,11 @@ class Imu:
         gravity = [f.acceleration for f in scene.forces
                    if isinstance(f, Gravity) and spec.body in f.bodies]
         self.gravity = np.sum(np.array(gravity, dtype=float).reshape(-1, 2), axis=0).tolist()
-        self.noise = (spec.orientation_noise, spec.angular_velocity_noise,
-                      spec.linear_acceleration_noise, spec.linear_acceleration_noise)
+        self.noise = Noise(spec.seed, spec.frame_id, spec.period_ns)
+        #: The noise's standard deviation on each of yaw, omega and the specific force's x
+        #: and y.
+        self.deviations = (spec.orientation_noise, spec.angular_velocity_noise,
+                           spec.linear_acceleration_noise, spec.linear_acceleration_noise)
 
     def read(self, q: np.ndarray, v: np.ndarray, accelerations: np.ndarray,
              stamp_ns: int) -> ImuReading:
@@ -77,8 +80,8 @@ class Imu:
         yaw = theta + spec.angle
         cy, sy = math.cos(yaw), math.sin(yaw)
         sensed = [yaw, omega, cy * fx + sy * fy, -sy * fx + cy * fy]
-        if any(noise > 0.0 for noise in self.noise):
-            draws = noise_generator(spec.seed, spec.frame_id, stamp_ns).standard_normal(4)
-            sensed = [x + noise * draw
-                      for x, noise, draw in zip(sensed, self.noise, draws.tolist())]
+        if any(deviation > 0.0 for deviation in self.deviations):
+            draws = self.noise.normals(stamp_ns, 4).tolist()
+            sensed = [x + deviation * draw
+                      for x, deviation, draw in zip(sensed, self.deviations, draws)]
         return ImuReading(stamp_ns, sensed[0], sensed[1], (sensed[2], sensed[3]))

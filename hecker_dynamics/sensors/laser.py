@@ -28,7 +28,6 @@ of their own, each at its centre and unturned, so they are culled the same way.
 """
 from __future__ import annotations
 
-import zlib
 from dataclasses import dataclass
 from typing import Optional
 
@@ -39,13 +38,14 @@ from ..geometry.planar import rotate
 from ..geometry.shapes import Circle
 from ..scene.load import Scene
 from ..scene.sensors import LaserSpec
+from .noise import Noise
 
 try:
     from .. import _kernel  # type: ignore[attr-defined]
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
-__all__ = ["Laser", "LaserScan", "SLACK", "cast", "noise_generator"]
+__all__ = ["Laser", "LaserScan", "SLACK", "cast"]
 
 #: Slack added to each body's bounding radius (m) before anything is culled by it: far
 #: above the rounding of a turned shape point or a hit distance (1e-16 of the scene's
@@ -60,15 +60,6 @@ class LaserScan:
 
     stamp_ns: int
     ranges: np.ndarray
-
-
-def noise_generator(seed: int, name: str, stamp_ns: int) -> np.random.Generator:
-    """The generator of a sensor's noise at one instant: a function of the seed, the
-    sensor's name and the stamp only, so a replay that starts at a keyframe draws the
-    same numbers as the live run did (SeedSequence and PCG64 are stable across numpy
-    versions)."""
-    entropy = [seed, zlib.crc32(name.encode()), stamp_ns % (1 << 64)]
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(entropy)))
 
 
 def cast(origin: np.ndarray, directions: np.ndarray, range_max: float,
@@ -124,6 +115,7 @@ class Laser:
                  compiled: Optional[bool] = None) -> None:
         """``cm_local`` (N, 2): each body's CM in its body frame (Model.cm_local)."""
         self.spec = spec
+        self.noise = Noise(spec.seed, spec.frame_id, spec.period_ns)
         names = [b.name for b in scene.bodies]
         self.body = names.index(spec.body)
         self.mount = np.asarray(spec.position, dtype=float) - cm_local[self.body]
@@ -232,8 +224,7 @@ class Laser:
         spec = self.spec
         ranges = self.distances(q)
         if spec.noise > 0.0:
-            ranges = ranges + spec.noise * noise_generator(
-                spec.seed, spec.frame_id, stamp_ns).standard_normal(len(ranges))
+            ranges = ranges + spec.noise * self.noise.normals(stamp_ns, len(ranges))
         ranges[ranges > spec.range_max] = np.inf
         ranges[ranges < spec.range_min] = -np.inf
         return LaserScan(stamp_ns, ranges)

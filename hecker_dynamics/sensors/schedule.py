@@ -12,6 +12,7 @@ loop's ticks fell: a replay gives the same readings.
 """
 from __future__ import annotations
 
+import math
 from typing import Optional, Union
 
 from ..dynamics.simulation import Simulation
@@ -40,24 +41,35 @@ class SensorSet:
                         else Imu(spec, scene, cm_local) for spec in scene.sensors]
         self.start_ns = sim.start_ns
         self.sampled_ns = sampled_ns
+        self._periods = [sensor.spec.period_ns for sensor in self.sensors]
+        #: Every sample instant is a multiple of this after the start (the periods' gcd),
+        #: so the next one after any instant in a cell of this length is the same.
+        self._grid = math.gcd(*self._periods) or 1
+        #: The cell (``(now - start) // grid``) :attr:`_next_ns` was worked out for.
+        self._cell: Optional[int] = None
+        self._next_ns: Optional[int] = None
 
     def __bool__(self) -> bool:
         return bool(self.sensors)
 
     def next_stop(self, now_ns: int) -> Optional[int]:
         """The first instant after ``now_ns`` a sensor samples at (None without sensors)."""
-        return min((self.start_ns + max(1, (now_ns - self.start_ns) // period + 1) * period
-                    for period in (sensor.spec.period_ns for sensor in self.sensors)),
-                   default=None)
+        cell = (now_ns - self.start_ns) // self._grid
+        if cell != self._cell:
+            self._cell = cell
+            self._next_ns = min((self.start_ns + max(1, (now_ns - self.start_ns) // period + 1)
+                                 * period for period in self._periods), default=None)
+        return self._next_ns
 
     def sample(self, sim: Simulation) -> list[Reading]:
         """The readings of the sensors due at the simulation's present instant, in the
         scene's order of sensors (none when none is due or they sampled here already)."""
         now = sim.time_ns
-        if now == self.sampled_ns:
+        since = now - self.start_ns
+        if now == self.sampled_ns or since <= 0 or since % self._grid:
             return []
-        due = [sensor for sensor in self.sensors
-               if now > self.start_ns and (now - self.start_ns) % sensor.spec.period_ns == 0]
+        due = [sensor for sensor, period in zip(self.sensors, self._periods)
+               if since % period == 0]
         if not due:
             return []
         self.sampled_ns = now

@@ -77,6 +77,28 @@ def test_the_robot_node_serializes_every_reading(monkeypatch):
     assert kinds.count(OutputKind.LASER_SCAN) == 9 and kinds.count(OutputKind.IMU) == 49
 
 
+def test_the_node_run_sleeps_after_each_tick_as_asked(monkeypatch):
+    """With a pause, the run sleeps that long after each of its 50 Hz ticks (the node's
+    sleep between ticks) and serializes the same readings; the shares run it with the
+    pause as a case of its own, beside the run without."""
+    scene = sensors.robot_at_1khz()
+    sleeps, kinds = [], []
+    monkeypatch.setattr("hecker_dynamics.bench.node.time.sleep", sleeps.append)
+    monkeypatch.setattr("hecker_dynamics.bench.node.serialize_output",
+                        lambda output: kinds.append(output.kind))
+    node_run(scene, 0.5)
+    assert sleeps == [] and len(kinds) == 4 + 24
+    node_run(scene, 0.5, pause=sensors.TICK_PAUSE)
+    assert sleeps == [sensors.TICK_PAUSE] * 25 and len(kinds) == 2 * (4 + 24)
+    runs = []
+    monkeypatch.setattr(sensors, "node_run",
+                        lambda scene, seconds, pause: runs.append(pause) or (0.02, 0.001))
+    shares = sensors.node_shares(rounds=2, seconds=0.1)
+    assert [share.case for share in shares] == [
+        "robot, 10 Hz scan", "robot, no laser", "robot, 10 Hz scan, 20 ms asleep after each tick"]
+    assert runs == [0.0, 0.0, sensors.TICK_PAUSE] * 2
+
+
 @pytest.mark.parametrize("kernel_cost, verdict", [(1e-4, "met (0.100 x)"),
                                                   (2e-3, "missed (2.000 x)")])
 def test_the_report_states_the_target_as_measured(kernel_cost, verdict):

@@ -3,10 +3,14 @@ simulation steps on from the instant, so a reading holds every input pushed at i
 instant, however the loop's ticks fell around it."""
 from __future__ import annotations
 
+import dataclasses
+
 from hecker_dynamics.bags import io as bags
+from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.ros.outputs import OutputKind
 from hecker_dynamics.ros.runner import Runner
 from hecker_dynamics.scene.load import load_scene
+from hecker_dynamics.sensors.schedule import SensorSet
 
 MS = 1_000_000
 
@@ -52,3 +56,26 @@ def test_every_sensor_samples_each_of_its_instants_once_whatever_the_ticks():
     assert runs[0] == runs[1] == runs[2]
     stamps = [(stamp, output.kind) for stamp, output in runs[0]]
     assert len(stamps) == len(set(stamps)) == 49 + 9
+
+
+def test_next_sample_instant_for_periods_that_do_not_divide_each_other():
+    # Periods of 30 and 20 ms (grid 10 ms) from a start off zero: the next instant after
+    # every ns-scale offset around each grid line is the nearest multiple of either
+    # period ahead, the first ones a whole period after the start; the sensors due at an
+    # instant are those whose period divides its time since the start.
+    scene = load_scene("robot")
+    periods = {"laser": 30 * MS, "imu": 20 * MS}
+    scene = dataclasses.replace(scene, sensors=tuple(
+        dataclasses.replace(spec, period_ns=periods[spec.name]) for spec in scene.sensors))
+    start = 7 * MS + 3
+    sim = Simulation(scene, start_ns=start)
+    sensors = SensorSet(scene, sim)
+    for now in sorted({start + k * MS + d for k in range(-25, 130) for d in (-1, 0, 1)}):
+        expected = min(start + max(1, (now - start) // p + 1) * p for p in periods.values())
+        assert sensors.next_stop(now) == expected, now
+    for k in range(1, 13):
+        sim = Simulation(scene, start_ns=start)
+        sim.advance_to(start + k * 10 * MS)
+        due = [spec.name for spec, _ in SensorSet(scene, sim).sample(sim)]
+        assert due == [spec.name for spec in scene.sensors
+                       if k * 10 * MS % periods[spec.name] == 0], k
