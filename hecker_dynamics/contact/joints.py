@@ -45,10 +45,10 @@ error. A step that needs none of this is RATTLE's, unchanged.
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
 ropes) join the block where they hold their equations and sit at their bounds elsewhere,
 the set found from the previous step's impulses in one or two factorizations (active
-sets; projected Gauss-Seidel only where the sets do not settle, :func:`_solve`). The
+sets; projected Gauss-Seidel only where the sets do not settle: :mod:`.joint_solve`). The
 blocks are factored in plain floats (no LAPACK, whose order of operations C could not
-repeat), sparse, in an order the pass chooses from
-the joint graph, never from the joints' names (:mod:`.sparse`): K = J M^-1 J^T by
+repeat), sparse, in an order the pass chooses from the joint graph, never from the
+joints' names (:mod:`.sparse`): K = J M^-1 J^T by
 L D L^T, the Newton matrix G(q) M^-1 G(q0)^T, not symmetric, by L U, both without
 pivoting; a chain or a tree of joints fills nothing in and costs O(rows) per
 factorization. A row that repeats what others hold (two pins at one point, the loops of a
@@ -67,14 +67,14 @@ the velocity rows of this pass's last stage with the contacts (:mod:`.coupled`,
 reaction (a bar wedged between two pinned gears) comes out whole; what that leaves in the
 positions the next step's joint pass corrects, by positions only.
 
-The compiled kernel's ``src/kernel/joint.c`` (with ``src/kernel/sparse.c``) repeats this
-module operation for operation (:mod:`.joints_kernel` packs it), so both give the same
+The rows' Jacobians are built by :mod:`.joint_rows`. The compiled kernel's
+``src/kernel/joint.c`` (with ``src/kernel/sparse.c``) repeats this module and those two
+operation for operation (:mod:`.joints_kernel` packs it), so both give the same
 bits.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Optional, Union
 
 import numpy as np
@@ -89,17 +89,34 @@ from ..scene.joints import (
     WeldJoint,
 )
 from .coupled import JointUnit
+from .joint_rows import (
+    EFFORT_SIGNS,
+    LIMIT,
+    MOTOR,
+    RIGID,
+    SOFT,
+    Frame,
+    JointRow,
+    Point,
+    Vec2,
+    angle_entries,
+    bounded_rows,
+    fixed_entries,
+    line_entries,
+    negated,
+    point_rows,
+    weld_law,
+    wrap,
+)
+from .joint_solve import Directions, apply, directions, dot, matrix, rate, solve
 from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
 if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["JointRow", "JointPass", "JointsUnsolved", "MAX_TURN", "MOST_SUBSTEPS"]
+__all__ = ["JointPass", "JointsUnsolved", "MAX_TURN", "MOST_SUBSTEPS"]
 
-Vec2 = tuple[float, float]
-#: A point as the rows take it: a Vec2, or a body-frame offset as a tuple.
-Point = tuple[float, ...]
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
 #: Below this times (1 + the largest coordinate) the rows' values are rounding: the position
@@ -120,137 +137,11 @@ EXTRAPOLATED_TURN = 0.25
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
-#: The most active sets :func:`_solve` tries (each one factorization of K's rows that hold
-#: their equations) before it goes on by projected Gauss-Seidel.
-ACTIVE_SETS = 8
-#: Projected Gauss-Seidel passes over the bounded rows, and the impulse change that ends them.
-MAX_ITERATIONS = 200
-CONVERGED = 1e-13
-
-
-# Row kinds.
-RIGID, LIMIT, MOTOR, SOFT = "rigid", "limit", "motor", "soft"
 
 
 class JointsUnsolved(ArithmeticError):
     """The joints' positions have no solution near the end of a step this long (see
     :meth:`JointPass._hold`): the step must be taken in shorter parts."""
-
-
-@dataclass(slots=True)
-class JointRow:
-    """One scalar constraint at given positions: its ``key`` (joint, part), ``kind``,
-    value ``c``, Jacobian ``entries`` [(body, jx, jy, jw)] (local body indices), and for a
-    motor its ``speed`` and largest effort ``bound``, for a soft row its ``stiffness``
-    and ``damping`` (per unit effective mass when ``scaled``)."""
-
-    key: tuple[str, str]
-    kind: str
-    c: float
-    entries: list[tuple[int, float, float, float]]
-    speed: float = 0.0
-    bound: float = math.inf
-    stiffness: float = 0.0
-    damping: float = 0.0
-    scaled: bool = False
-
-
-def weld_law(weld: WeldJoint) -> tuple[float, float]:
-    """A soft weld's stiffness and damping per unit effective mass: omega^2 and
-    2 zeta omega of its frequency (zero for a rigid weld)."""
-    omega = 2.0 * math.pi * weld.frequency
-    return omega * omega, 2.0 * weld.damping_ratio * omega
-
-
-def _wrap(angle: float) -> float:
-    """``angle`` in [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-Entries = list[tuple[int, float, float, float]]
-
-
-def _negated(entries: Entries) -> Entries:
-    return [(b, -jx, -jy, -jw) for b, jx, jy, jw in entries]
-
-
-class _Frame:
-    """A joint end: a body's CM pose (or the world) and a point in it."""
-
-    __slots__ = ("body", "local")
-
-    def __init__(self, body: int, local: tuple[float, float]) -> None:
-        self.body, self.local = body, local  # body -1: the world; local then fixed-frame
-
-    def place(self, q: list[float]) -> tuple[float, float, float, float, float]:
-        """(x, y) of the point, its arm (r_x, r_y) from the CM, and the body angle, at
-        the poses ``q`` (3 values per body)."""
-        if self.body < 0:
-            return self.local[0], self.local[1], 0.0, 0.0, 0.0
-        x, y, angle = q[3 * self.body], q[3 * self.body + 1], q[3 * self.body + 2]
-        c, s = math.cos(angle), math.sin(angle)
-        rx = c * self.local[0] - s * self.local[1]
-        ry = s * self.local[0] + c * self.local[1]
-        return x + rx, y + ry, rx, ry, angle
-
-
-def _line(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
-    """Jacobian entries of u . (P_B - P_A) for a direction u fixed in body A: on B
-    (u, perp(r_B) . u), on A (-u, -perp(P_B - x_A) . u), since u turns with A."""
-    entries = []
-    if b.body >= 0:
-        entries.append((b.body, ux, uy, ux * -pb[3] + uy * pb[2]))
-    if a.body >= 0:
-        dx, dy = pa[2] + pb[0] - pa[0], pa[3] + pb[1] - pa[1]  # P_B - x_A
-        entries.append((a.body, -ux, -uy, -(ux * -dy + uy * dx)))
-    return entries
-
-
-def _fixed(a: _Frame, b: _Frame, pa: Point, pb: Point, ux: float, uy: float) -> list[Any]:
-    """Jacobian entries of u . (P_B - P_A) for a direction u fixed in the world (or
-    following both ends): on B (u, perp(r_B) . u), on A (-u, -perp(r_A) . u)."""
-    entries = []
-    if b.body >= 0:
-        entries.append((b.body, ux, uy, ux * -pb[3] + uy * pb[2]))
-    if a.body >= 0:
-        entries.append((a.body, -ux, -uy, -(ux * -pa[3] + uy * pa[2])))
-    return entries
-
-
-def _point_rows(name: str, a: _Frame, b: _Frame, pa: Point, pb: Point, kind: str,
-                stiffness: float = 0.0, damping: float = 0.0) -> list[JointRow]:
-    """The two rows of P_B - P_A = 0 (x and y); a soft row's ``stiffness`` and
-    ``damping`` are per unit effective mass."""
-    return [JointRow((name, axis), kind, ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]),
-                     _fixed(a, b, pa, pb, ux, uy), stiffness=stiffness, damping=damping,
-                     scaled=True)
-            for axis, (ux, uy) in (("x", (1.0, 0.0)), ("y", (0.0, 1.0)))]
-
-
-def _angle_entries(a: int, b: int, scale: float = 1.0) -> list[Any]:
-    entries = [(b, 0.0, 0.0, scale)]
-    if a >= 0:
-        entries.append((a, 0.0, 0.0, -scale))
-    return entries
-
-
-def _bounded_rows(name: str, value: float, entries: list[Any], lower: Optional[float],
-                  upper: Optional[float], motor: Optional[Motor], h: float) -> list[JointRow]:
-    """Limit rows (value - lower >= 0, upper - value >= 0) and a motor row on a joint
-    coordinate ``value`` whose Jacobian is ``entries``."""
-    rows = []
-    if lower is not None:
-        rows.append(JointRow((name, "lower"), LIMIT, value - lower, entries))
-    if upper is not None:
-        rows.append(JointRow((name, "upper"), LIMIT, upper - value, _negated(entries)))
-    if motor is not None:
-        rows.append(JointRow((name, "motor"), MOTOR, value, entries, speed=motor.speed,
-                             bound=motor.max_effort * h))
-    return rows
-
-
-#: Parts of a joint that act along its coordinate, with the sign of their effort.
-EFFORT_SIGNS = {"lower": 1.0, "upper": -1.0, "motor": 1.0, "spring": 1.0}
 
 
 #: Joint kinds in the order that breaks a tie between joints anchored at one point.
@@ -331,15 +222,15 @@ class JointPass:
         #: The joints in the order their rows are solved in (:func:`_solve_order`).
         self.specs = _solve_order(scene, specs)
         self._named = named
-        self.frames: dict[str, tuple[_Frame, _Frame]] = {}
+        self.frames: dict[str, tuple[Frame, Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):
                 continue
             ia = -1 if spec.body_a is None else index[spec.body_a]
             ib = index[spec.body_b]
             point_a = (spec.point_a[0], spec.point_a[1]) if ia < 0 else local(ia, spec.point_a)
-            self.frames[spec.name] = (_Frame(-1 if ia < 0 else local_index[ia], point_a),
-                                      _Frame(local_index[ib], local(ib, spec.point_b)))
+            self.frames[spec.name] = (Frame(-1 if ia < 0 else local_index[ia], point_a),
+                                      Frame(local_index[ib], local(ib, spec.point_b)))
         self._gears = {spec.name: (named[spec.joint_a], named[spec.joint_b])
                        for spec in specs if isinstance(spec, GearJoint)}
         # What :meth:`parts` watches: the bodies whose turning turns a joint's arm or axis
@@ -512,7 +403,7 @@ class JointPass:
     def _joint_angle(self, name: str, pa: Point, pb: Point) -> float:
         """body_b's angle relative to body_a's since the start, counting whole turns."""
         raw = pb[4] - pa[4]
-        return self.angle[name] + _wrap(raw - self.raw[name])
+        return self.angle[name] + wrap(raw - self.raw[name])
 
     def joint_state(self, q: np.ndarray, v: np.ndarray) -> dict[str, tuple[float, float, float]]:
         """(position, velocity, effort) of each revolute (rad, rad/s, N m) and prismatic
@@ -536,10 +427,10 @@ class JointPass:
         pa, pb = a.place(q), b.place(q)
         if isinstance(spec, RevoluteJoint):
             return JointRow((spec.name, "angle"), MOTOR, self._joint_angle(spec.name, pa, pb),
-                            _angle_entries(a.body, b.body))
+                            angle_entries(a.body, b.body))
         ux, uy = self._axis(spec, pa[4])
         along = ux * (pb[0] - pa[0]) + uy * (pb[1] - pa[1]) - self.reference[spec.name][1]
-        return JointRow((spec.name, "along"), MOTOR, along, _line(a, b, pa, pb, ux, uy))
+        return JointRow((spec.name, "along"), MOTOR, along, line_entries(a, b, pa, pb, ux, uy))
 
     # ------------------------------------------------------------------ rows
 
@@ -554,10 +445,10 @@ class JointPass:
             pa, pb = a.place(q), b.place(q)
             name = spec.name
             if isinstance(spec, RevoluteJoint):
-                rows += _point_rows(name, a, b, pa, pb, RIGID)
+                rows += point_rows(name, a, b, pa, pb, RIGID)
                 angle = self._joint_angle(name, pa, pb)
-                entries = _angle_entries(a.body, b.body)
-                rows += _bounded_rows(name, angle, entries, spec.lower, spec.upper,
+                entries = angle_entries(a.body, b.body)
+                rows += bounded_rows(name, angle, entries, spec.lower, spec.upper,
                                       self._motor(spec), h)
                 if spec.spring is not None:
                     rows.append(JointRow((name, "spring"), SOFT,
@@ -567,30 +458,30 @@ class JointPass:
             elif isinstance(spec, WeldJoint):
                 kind = SOFT if spec.frequency > 0.0 else RIGID
                 k, c = weld_law(spec)
-                rows += _point_rows(name, a, b, pa, pb, kind, k, c)
-                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
+                rows += point_rows(name, a, b, pa, pb, kind, k, c)
+                relative = wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), kind, relative,
-                                     _angle_entries(a.body, b.body), stiffness=k, damping=c,
+                                     angle_entries(a.body, b.body), stiffness=k, damping=c,
                                      scaled=True))
             elif isinstance(spec, PrismaticJoint):
                 ux, uy = self._axis(spec, pa[4])
                 across = -uy * (pb[0] - pa[0]) + ux * (pb[1] - pa[1])
                 rows.append(JointRow((name, "across"), RIGID, across,
-                                     _line(a, b, pa, pb, -uy, ux)))
-                relative = _wrap(pb[4] - pa[4] - self.reference[name][0])
+                                     line_entries(a, b, pa, pb, -uy, ux)))
+                relative = wrap(pb[4] - pa[4] - self.reference[name][0])
                 rows.append(JointRow((name, "angle"), RIGID, relative,
-                                     _angle_entries(a.body, b.body)))
+                                     angle_entries(a.body, b.body)))
                 along = self._coordinate(spec, q)
-                rows += _bounded_rows(name, along.c, along.entries, spec.lower, spec.upper,
+                rows += bounded_rows(name, along.c, along.entries, spec.lower, spec.upper,
                                       self._motor(spec), h)
             else:  # DistanceJoint
                 dx, dy = pb[0] - pa[0], pb[1] - pa[1]
                 length = math.sqrt(dx * dx + dy * dy)  # as C computes it
                 ux, uy = (dx / length, dy / length) if length > 0.0 else (1.0, 0.0)
-                entries = _fixed(a, b, pa, pb, ux, uy)  # d|d| = u . d(P_B - P_A)
+                entries = fixed_entries(a, b, pa, pb, ux, uy)  # d|d| = u . d(P_B - P_A)
                 if spec.rope:
                     rows.append(JointRow((name, "rope"), LIMIT, spec.length - length,
-                                         _negated(entries)))
+                                         negated(entries)))
                 else:
                     rows.append(JointRow((name, "rod"), RIGID, length - spec.length, entries))
         return rows
@@ -608,7 +499,7 @@ class JointPass:
                                                                spec.ratio)):
             a, b = self.frames[joint.name]
             value += scale * self._joint_angle(joint.name, a.place(q), b.place(q))
-            entries += _angle_entries(a.body, b.body, scale)
+            entries += angle_entries(a.body, b.body, scale)
         return JointRow((spec.name, "gear"), RIGID, value, entries)
 
     # ------------------------------------------------------------------ the pass
@@ -682,11 +573,11 @@ class JointPass:
         if not self.rigid:
             return self.rows(q, h)
         rigid = [rows0[i] for i in self.rigid]
-        direction = _directions(rigid, self.inverse_mass)
+        direction = directions(rigid, self.inverse_mass)
         target = [row.c for row in rigid]
         nu = self._guess(h, len(rigid))
         moved = list(q)
-        _apply(q, direction, nu)
+        apply(q, direction, nu)
         # The rows' values round at about eps |q|: no error can be asked below that.
         tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
         pattern = self.rigid_pattern
@@ -712,14 +603,14 @@ class JointPass:
             fresh = factors is None or not largest <= CHORD * previous
             if fresh:
                 upper = [0.0] * pattern.slots()
-                diagonal, lower = _matrix(pattern, [rows[i] for i in self.rigid], direction,
+                diagonal, lower = matrix(pattern, [rows[i] for i in self.rigid], direction,
                                           upper=upper)
                 factors = (lu(pattern, diagonal, lower, upper), upper)
             assert factors is not None
             previous = largest
             step = lu_solve(pattern, factors[0], factors[1], [-e for e in error])
             nu = [a + b for a, b in zip(nu, step)]
-            _apply(q, direction, step)
+            apply(q, direction, step)
         raise JointsUnsolved(f"Newton's method on the joints did not converge in "
                              f"{NEWTON_ITERATIONS} iterations in a step of {h:g} s")
 
@@ -758,11 +649,11 @@ class JointPass:
                        or (r.kind == LIMIT and r.c < -self.tolerance) for r in rows):
                 break
             active = [r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0) for r in rows]
-            direction = _directions(rows, self.inverse_mass)
-            diagonal, lower = _matrix(pattern, rows, direction, active)
+            direction = directions(rows, self.inverse_mass)
+            diagonal, lower = matrix(pattern, rows, direction, active)
             shift = substitute(pattern, factor(pattern, diagonal, lower, active),
                                [-r.c if on else 0.0 for r, on in zip(rows, active)])
-            _apply(q, direction, shift)
+            apply(q, direction, shift)
             rows = self.rows(q, h)
         return rows
 
@@ -771,9 +662,9 @@ class JointPass:
         each row's impulse for warm starting and the joints' efforts."""
         pattern = self.pattern
         assert pattern is not None  # the start pose has fixed the rows
-        direction = _directions(rows, self.inverse_mass)
-        diagonal, lower = _matrix(pattern, rows, direction)
-        b = [-_rate(row, v) for row in rows]
+        direction = directions(rows, self.inverse_mass)
+        diagonal, lower = matrix(pattern, rows, direction)
+        b = [-rate(row, v) for row in rows]
         low_bound = [-math.inf] * len(rows)
         high_bound = [math.inf] * len(rows)
         for i, row in enumerate(rows):
@@ -792,8 +683,8 @@ class JointPass:
                     continue
                 diagonal[i] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = _solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
-        _apply(v, direction, impulse)
+        impulse = solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
+        apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h
         self._last = (rows, direction)
@@ -819,7 +710,7 @@ class JointPass:
                 target, lower, upper = row.speed, -row.bound - x, row.bound - x
             units.append(JointUnit(slot, [(index[b], jx, jy, jw) for b, jx, jy, jw in row.entries],
                                    [(index[b], dx, dy, dw) for b, dx, dy, dw in towards],
-                                   1.0 / _dot(row, towards), target, lower, upper,
+                                   1.0 / dot(row, towards), target, lower, upper,
                                    min(max(self.extra[slot], lower), upper)))
         return units
 
@@ -850,145 +741,3 @@ class JointPass:
             sign = EFFORT_SIGNS.get(part)
             if sign is not None:
                 self.efforts[joint] = self.efforts.get(joint, 0.0) + sign * x / h
-
-
-def _rate(row: JointRow, v: list[float]) -> float:
-    """The row's velocity J v."""
-    rate = 0.0
-    for b, jx, jy, jw in row.entries:
-        rate += jx * v[3 * b] + jy * v[3 * b + 1] + jw * v[3 * b + 2]
-    return rate
-
-
-Directions = list[list[tuple[int, float, float, float]]]
-
-
-def _directions(rows: list[JointRow], inverse_mass: list[float]) -> Directions:
-    """Per row, M^-1 J^T: how an impulse along the row changes each body's velocity (the
-    force part by Eq. 5, the angular part by tau = I alpha, Eq. 14)."""
-    return [[(b, inverse_mass[3 * b] * jx, inverse_mass[3 * b + 1] * jy,
-              inverse_mass[3 * b + 2] * jw) for b, jx, jy, jw in row.entries] for row in rows]
-
-
-def _apply(x: list[float], direction: Directions, impulse: list[float]) -> None:
-    """x += M^-1 J^T impulse, row by row, skipping zero impulses (x: positions or
-    velocities, 3 per body)."""
-    for entries, amount in zip(direction, impulse):
-        if amount == 0.0:
-            continue
-        for b, dx, dy, dw in entries:
-            x[3 * b] += dx * amount
-            x[3 * b + 1] += dy * amount
-            x[3 * b + 2] += dw * amount
-
-
-def _dot(row: JointRow, entries: list[tuple[int, float, float, float]]) -> float:
-    """J_row . (M^-1 J^T)_column: the bodies the two share."""
-    s = 0.0
-    for b, jx, jy, jw in row.entries:
-        for c, dx, dy, dw in entries:
-            if b == c:
-                s += jx * dx + jy * dy + jw * dw
-    return s
-
-
-def _matrix(pattern: Pattern, rows: list[JointRow], direction: Directions,
-            active: Optional[list[bool]] = None,
-            upper: Optional[list[float]] = None) -> tuple[list[float], list[float]]:
-    """The entries of G M^-1 G0^T where the pattern has room, for rows G and the directions
-    M^-1 G0^T (of the same rows at other positions, or at the same: K): (diagonal, strict
-    lower triangle by slots); with ``upper`` given, the transpose of the strict upper
-    triangle by slots into it. Zero where a row is not ``active``."""
-    start, columns = pattern.start, pattern.columns
-    n = len(rows)
-    diagonal, lower = [0.0] * n, [0.0] * pattern.slots()
-    for i, row in enumerate(rows):
-        if active is not None and not active[i]:
-            continue
-        diagonal[i] = _dot(row, direction[i])
-        for slot in range(start[i], start[i + 1]):
-            j = columns[slot]
-            if active is None or active[j]:
-                lower[slot] = _dot(row, direction[j])
-                if upper is not None:
-                    upper[slot] = _dot(rows[j], direction[i])
-    return diagonal, lower
-
-
-def _row_sum(pattern: Pattern, diagonal: list[float], lower: list[float], i: int,
-             x: list[float], skip: Optional[list[bool]] = None) -> float:
-    """Row i of the symmetric matrix (its ``diagonal`` and strict ``lower`` triangle) times
-    x, in ascending column order, leaving out the columns ``skip`` marks."""
-    start, columns = pattern.start, pattern.columns
-    s = 0.0
-    for slot in range(start[i], start[i + 1]):
-        j = columns[slot]
-        if skip is None or not skip[j]:
-            s += lower[slot] * x[j]
-    if skip is None or not skip[i]:
-        s += diagonal[i] * x[i]
-    for j, slot in pattern.above[i]:
-        if skip is None or not skip[j]:
-            s += lower[slot] * x[j]
-    return s
-
-
-def _solve(pattern: Pattern, diagonal: list[float], lower: list[float], b: list[float],
-           bounds: tuple[list[float], list[float]], warm: list[float]) -> list[float]:
-    """Impulses x with (K x - b)_i = 0 where lower_i < x_i < upper_i, >= 0 at lower_i and
-    <= 0 at upper_i (``bounds``), K by its ``diagonal`` and strict ``lower`` triangle.
-
-    By active sets: each bounded row either holds its equation, solved with the unbounded
-    rows as one block (L D L^T of the rows that hold), or sits at a bound; a row whose
-    impulse leaves its bounds goes to the bound, a row at a bound whose equation wants
-    the impulse further inside holds its equation again, until neither happens (the
-    exact solution, one or two factorizations from the last step's impulses ``warm``).
-    After :data:`ACTIVE_SETS` sets without an end, projected Gauss-Seidel passes over
-    the bounded rows, alternated with the block, go on until no bounded impulse changes
-    by more than :data:`CONVERGED` relative to the largest."""
-    low_bound, high_bound = bounds
-    n = len(b)
-    free = [lo == -math.inf and up == math.inf for lo, up in zip(low_bound, high_bound)]
-    if all(free):
-        return substitute(pattern, factor(pattern, diagonal, lower), b)
-    bounded = [i for i in range(n) if not free[i]]
-    # -1 at the lower bound, 1 at the upper, 0 holding its equation
-    side = [0 if f else -1 if x0 <= lo or lo == up else 1 if x0 >= up else 0
-            for f, x0, lo, up in zip(free, warm, low_bound, high_bound)]
-    for _ in range(ACTIVE_SETS):
-        holds = [at == 0 for at in side]
-        x = [0.0 if at == 0 else low_bound[i] if at < 0 else high_bound[i]
-             for i, at in enumerate(side)]
-        rhs = [b[i] - _row_sum(pattern, diagonal, lower, i, x, holds) if holds[i] else 0.0
-               for i in range(n)]
-        for i, xi in enumerate(substitute(pattern, factor(pattern, diagonal, lower, holds), rhs)):
-            if holds[i]:
-                x[i] = xi
-        settled = True
-        for i in bounded:
-            if side[i] == 0:
-                side[i] = -1 if x[i] < low_bound[i] else 1 if x[i] > high_bound[i] else 0
-            elif low_bound[i] < high_bound[i]:
-                wanted = b[i] - _row_sum(pattern, diagonal, lower, i, x)
-                side[i] = 0 if wanted * side[i] < 0.0 else side[i]
-            settled = settled and (side[i] == 0) == holds[i]
-        if settled:
-            return x
-    factors = factor(pattern, diagonal, lower, free) if any(free) else None
-    for _ in range(MAX_ITERATIONS):
-        if factors is not None:
-            rhs = [b[i] - _row_sum(pattern, diagonal, lower, i, x, free) if free[i] else 0.0
-                   for i in range(n)]
-            for i, xi in enumerate(substitute(pattern, factors, rhs)):
-                if free[i]:
-                    x[i] = xi
-        largest = 0.0
-        for i in bounded:
-            s = _row_sum(pattern, diagonal, lower, i, x)
-            new = min(max(x[i] + (b[i] - s) / diagonal[i], low_bound[i]), high_bound[i])
-            change = abs(new - x[i])
-            largest = change if change > largest else largest
-            x[i] = new
-        if largest <= CONVERGED * (1.0 + max(abs(xi) for xi in x)):
-            break
-    return x

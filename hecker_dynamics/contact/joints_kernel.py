@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..scene.joints import DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoint, WeldJoint
-from .joints import JointsUnsolved, weld_law
+from .joint_rows import weld_law
+from .joints import JointsUnsolved
 
 try:
     from .. import _kernel  # type: ignore[attr-defined]

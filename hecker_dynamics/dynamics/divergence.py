@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
-from ..contact.joints import SOFT
+from ..contact.joint_rows import SOFT
 from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE
 from ..scene.joints import GearJoint, JointEnds, PrismaticJoint, RevoluteJoint
 from ..scene.load import SpringSpec

@@ -1,4 +1,5 @@
-/* The joint pass: hecker_dynamics/contact/joints.py, operation for operation (see joint.h).
+/* The joint pass: hecker_dynamics/contact/joints.py with its rows (contact/joint_rows.py) and
+ * their solve (contact/joint_solve.py), operation for operation (see joint.h).
  *
  * Each function names the Python function it repeats. Python's min and max keep their
  * first argument unless the second is strictly smaller or larger, and Python's float %
@@ -30,7 +31,7 @@ static double hd_py_mod(double x, double y)
     return r;
 }
 
-/* contact/joints.py: _wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
+/* contact/joint_rows.py: wrap, an angle in [-pi, pi); fmod is exact and leaves what is already in
  * [0, 2 pi) unchanged, so that case skips it. */
 static double hd_wrap(double angle)
 {
@@ -40,7 +41,7 @@ static double hd_wrap(double angle)
     return hd_py_mod(shifted, 2.0 * HD_PI) - HD_PI;
 }
 
-/* contact/joints.py: _Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
+/* contact/joint_rows.py: Frame.place: the point (x, y), its arm (rx, ry) from the CM, the angle. */
 typedef struct { double x, y, rx, ry, angle; } hd_anchor;
 
 /* `trig`: cos and sin of each body's angle in q (the same values _Frame.place takes). */
@@ -75,7 +76,8 @@ static hd_joint_row *hd_new_row(hd_joint_row *rows, long *n, int kind, double c)
     return r;
 }
 
-/* contact/joints.py: _fixed (a direction fixed in the world) and _line (fixed in body a). */
+/* contact/joint_rows.py: fixed_entries (a direction fixed in the world) and line_entries (fixed
+ * in body a). */
 static void hd_fixed(hd_joint_row *r, const hd_joint *jt, hd_anchor pa, hd_anchor pb, double ux,
                      double uy)
 {
@@ -116,7 +118,7 @@ static double hd_joint_angle(const hd_joint *jt, hd_anchor pa, hd_anchor pb)
     return jt->angle + hd_wrap(pb.angle - pa.angle - jt->raw);
 }
 
-/* contact/joints.py: _point_rows. */
+/* contact/joint_rows.py: point_rows. */
 static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_anchor pa,
                           hd_anchor pb, int kind, double stiffness, double damping)
 {
@@ -128,8 +130,8 @@ static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_an
     }
 }
 
-/* One entry of a point row (contact/joints.py: _fixed): on body b, u and perp(r) . u; on body a
- * (sign -1) their negatives. */
+/* One entry of a point row (contact/joint_rows.py: fixed_entries): on body b, u and
+ * perp(r) . u; on body a (sign -1) their negatives. */
 static inline void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
                                   double rx, double ry)
 {
@@ -142,7 +144,7 @@ static inline void hd_point_entry(hd_joint_row *r, long body, double sign, doubl
     r->count += 1;
 }
 
-/* contact/joints.py: _point_rows of a rigid pin, written out for the common case (the same
+/* contact/joint_rows.py: point_rows of a rigid pin, written out for the common case (the same
  * operations as point_rows). */
 static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const hd_anchor *pa,
                                const hd_anchor *pb, int values_only)
@@ -163,7 +165,7 @@ static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, 
     }
 }
 
-/* contact/joints.py: _bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
+/* contact/joint_rows.py: bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
 static void hd_bounded_rows(hd_joint_row *rows, long *n, const hd_joint *jt, double value,
                             const hd_joint_row *coordinate, double h)
 {
@@ -297,7 +299,8 @@ static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd
     return n;
 }
 
-/* contact/joints.py: _directions: per row, M^-1 J^T (rows[index[k]] for k < n; index NULL: rows k).
+/* contact/joint_solve.py: directions: per row, M^-1 J^T (rows[index[k]] for k < n; index
+ * NULL: rows k).
  */
 static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
                           long n, hd_joint_row *out)
@@ -314,7 +317,7 @@ static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, con
     }
 }
 
-/* contact/joints.py: _apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
+/* contact/joint_solve.py: apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
 static void hd_apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
 {
     for (long i = 0; i < n; ++i) {
@@ -330,7 +333,7 @@ static void hd_apply(double *x, const hd_joint_row *direction, long n, const dou
     }
 }
 
-/* contact/joints.py: _dot. */
+/* contact/joint_solve.py: dot. */
 static double hd_dot(const hd_joint_row *row, const hd_joint_row *direction)
 {
     double s = 0.0;
@@ -347,7 +350,7 @@ double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
     return hd_dot(row, direction);
 }
 
-/* contact/joints.py: _dot, over the entries `meets` pairs (count of them). */
+/* contact/joint_solve.py: dot, over the entries `meets` pairs (count of them). */
 static double hd_dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
                              const unsigned char *meets, long count)
 {
@@ -418,9 +421,9 @@ static void hd_free_meets(hd_meets *m)
     free(m->pair);
 }
 
-/* contact/joints.py: _matrix, on the rows rows[index[k]] (index NULL: rows k) and the directions
- * `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the symmetric
- * K, its lower triangle only. */
+/* contact/joint_solve.py: matrix, on the rows rows[index[k]] (index NULL: rows k) and the
+ * directions `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the
+ * symmetric K, its lower triangle only. */
 static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
                       const long *index, const hd_joint_row *direction, const int *active,
                       double *diagonal, double *lower, double *upper)
@@ -461,7 +464,7 @@ static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint
     }
 }
 
-/* contact/joints.py: _row_sum. */
+/* contact/joint_solve.py: row_sum. */
 static double hd_row_sum(const hd_pattern *p, const double *diagonal, const double *lower, long i,
                          const double *x, const int *skip)
 {
@@ -481,7 +484,7 @@ static double hd_row_sum(const hd_pattern *p, const double *diagonal, const doub
     return s;
 }
 
-/* contact/joints.py: _solve, the impulses into m->x (K in m->diagonal and m->lower). */
+/* contact/joint_solve.py: solve, the impulses into m->x (K in m->diagonal and m->lower). */
 static void hd_solve(hd_joint_model *m)
 {
     const hd_pattern *p = &m->pattern;
@@ -699,7 +702,7 @@ static void hd_correct(hd_joint_model *m, double h)
     }
 }
 
-/* contact/joints.py: _rate. */
+/* contact/joint_solve.py: rate. */
 static double hd_rate(const hd_joint_row *row, const double *v)
 {
     double s = 0.0;

@@ -12,7 +12,8 @@
 
 #include "sparse.h"
 
-/* The constants of contact/joints.py; the binding exports them and contact/joints.py checks them.
+/* The constants of contact/joints.py and contact/joint_solve.py; the binding exports them and
+ * test/contact/test_joints_compiled.py checks them.
  */
 #define HD_JOINT_TOLERANCE 1e-12
 #define HD_JOINT_ROUNDING (16.0 * 2.220446049250313e-16)
@@ -51,15 +52,16 @@ typedef struct {
 
 /* Which entries of two rows meet on a body, per pair of rows a pattern couples (the bodies
  * of the rows' entries are the same at any pose): `pair` holds e << 2 | f for entry e of
- * the row and f of the direction, in contact/joints.py _dot's order; the diagonal's for row i at
- * diag[i] .. diag[i + 1], the strict lower triangle's (row i, direction j) and the upper's
- * (row j, direction i) for each slot likewise. */
+ * the row and f of the direction, in contact/joint_solve.py dot's order; the diagonal's for
+ * row i at diag[i] .. diag[i + 1], the strict lower triangle's (row i, direction j) and the
+ * upper's (row j, direction i) for each slot likewise. */
 typedef struct {
     long *diag, *lower, *upper;
     unsigned char *pair;
 } hd_meets;
 
-/* One scalar constraint (contact/joints.py: JointRow): up to four (body, jx, jy, jw) entries. */
+/* One scalar constraint (contact/joint_rows.py: JointRow): up to four (body, jx, jy, jw)
+ * entries. */
 typedef struct {
     int kind, count, scaled;
     long body[4];
@@ -111,7 +113,7 @@ enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS
  * that many rows, else HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
-/* contact/joints.py: _dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
+/* contact/joint_solve.py: dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
 /* contact/joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
 long hd_joints_parts(hd_joint_model *m, const double *q0, const double *q1);

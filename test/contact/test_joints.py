@@ -515,14 +515,14 @@ def test_the_shipped_gears_keep_their_ratio_then_jam_on_the_bar():
 
 
 def _complementarity_error(pattern, diagonal, lower, b, bounds, x):
-    """The largest violation of _solve's conditions by x, in impulses (the residual over
+    """The largest violation of solve's conditions by x, in impulses (the residual over
     the row's diagonal): (K x - b)_i zero between the bounds, >= 0 at the lower, <= 0 at
     the upper."""
-    from hecker_dynamics.contact.joints import _row_sum
+    from hecker_dynamics.contact.joint_solve import row_sum
     low_bound, high_bound = bounds
     worst = 0.0
     for i in range(len(b)):
-        r = _row_sum(pattern, diagonal, lower, i, x) - b[i]
+        r = row_sum(pattern, diagonal, lower, i, x) - b[i]
         error = max(0.0, -r) if x[i] <= low_bound[i] else (
             max(0.0, r) if x[i] >= high_bound[i] else abs(r))
         worst = max(worst, error / diagonal[i])
@@ -537,7 +537,7 @@ def test_the_ragdolls_limit_impulses_meet_their_conditions_to_rounding(monkeypat
     passes stopped at an impulse change of 1e-13 left 3.8e-13 here (7e-9 in the first
     second): their change per pass is not their error."""
     from hecker_dynamics.contact import joints
-    solve, worst, bounded = joints._solve, [0.0], [0]
+    solve, worst, bounded = joints.solve, [0.0], [0]
 
     def checked(pattern, diagonal, lower, b, bounds, warm):
         x = solve(pattern, diagonal, lower, b, bounds, warm)
@@ -547,7 +547,7 @@ def test_the_ragdolls_limit_impulses_meet_their_conditions_to_rounding(monkeypat
             worst[0] = max(worst[0], error / (1.0 + max(map(abs, x))))
         return x
 
-    monkeypatch.setattr(joints, "_solve", checked)
+    monkeypatch.setattr(joints, "solve", checked)
     sim = Simulation(load_scene("ragdoll"))
     sim.model.use_python()
     sim.advance_to(500_000_000, keep=False)

@@ -16,7 +16,7 @@ from scene_builders import make_scene
 from test_joints import chain_scene, gear_scene, pendulum_scene, slider_scene, weld_scenes
 
 from hecker_dynamics import Simulation
-from hecker_dynamics.contact import joints, sparse
+from hecker_dynamics.contact import joint_solve, joints, sparse
 from hecker_dynamics.dynamics import kernel
 
 pytestmark = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
@@ -110,9 +110,9 @@ def test_kernel_has_the_joint_constants():
             k.JOINT_DRIFT_ITERATIONS, k.JOINT_MAX_ITERATIONS, k.JOINT_ROUNDING,
             k.JOINT_MAX_TURN, k.JOINT_MOST_SUBSTEPS, k.JOINT_DEPENDENT, k.JOINT_CHORD,
             k.JOINT_ACTIVE_SETS, k.JOINT_EXTRAPOLATED_TURN) == \
-        (joints.TOLERANCE, joints.CONVERGED, joints.NEWTON_ITERATIONS,
-         joints.DRIFT_ITERATIONS, joints.MAX_ITERATIONS, joints.ROUNDING, joints.MAX_TURN,
-         joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joints.ACTIVE_SETS,
+        (joints.TOLERANCE, joint_solve.CONVERGED, joints.NEWTON_ITERATIONS,
+         joints.DRIFT_ITERATIONS, joint_solve.MAX_ITERATIONS, joints.ROUNDING, joints.MAX_TURN,
+         joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joint_solve.ACTIVE_SETS,
          joints.EXTRAPOLATED_TURN)
 
 
