@@ -25,6 +25,7 @@
 #define HD_MAX_CONDITION 1000.0
 #define HD_MARGIN 5e-3
 #define HD_MATCH 1e-2
+#define HD_FRICTION_CARRY 0.5
 #define HD_SLOP 1e-4
 #define HD_CORRECTION 0.2
 #define HD_MAX_CORRECTION 0.05

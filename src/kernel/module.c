@@ -69,6 +69,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
      * the Python modules'. */
     static const struct { const char *name; double value; } reals[] = {
         {"CONVERGED", HD_CONVERGED}, {"MARGIN", HD_MARGIN}, {"MATCH", HD_MATCH},
+        {"FRICTION_CARRY", HD_FRICTION_CARRY},
         {"SLOP", HD_SLOP}, {"CORRECTION", HD_CORRECTION}, {"MAX_CORRECTION", HD_MAX_CORRECTION},
         {"JOINT_TOLERANCE", HD_JOINT_TOLERANCE}, {"JOINT_CONVERGED", HD_JOINT_CONVERGED},
         {"JOINT_ROUNDING", HD_JOINT_ROUNDING}, {"JOINT_MAX_TURN", HD_MAX_TURN},

@@ -135,8 +135,9 @@ int hd_find_warm(hd_contact_model *m, const long *key, long next, long *low, lon
 }
 
 /* Last step's impulses of the contact nearest this point among warm[low] to warm[end - 1], its
- * key's, if within HD_MATCH, each used once (contact/warm.py: WarmStarts._recall; `<=`: the last of
- * equally near ones); (c, s) the cosine and sine of body b's angle. */
+ * key's, if within HD_MATCH (the tangent one by HD_FRICTION_CARRY), each used once
+ * (contact/warm.py: WarmStarts._recall; `<=`: the last of equally near ones); (c, s) the
+ * cosine and sine of body b's angle. */
 void hd_recall(hd_contact_model *m, long low, long end, double rx, double ry, double c,
                    double s, double *jn, double *jt)
 {
@@ -160,7 +161,7 @@ void hd_recall(hd_contact_model *m, long low, long end, double rx, double ry, do
         return;
     m->warm[best].used = 1;
     *jn = m->warm[best].jn;
-    *jt = m->warm[best].jt;
+    *jt = m->warm[best].jt * HD_FRICTION_CARRY;
 }
 
 /* Keep only the warm-start impulses of the sleeping islands' contacts, in their order

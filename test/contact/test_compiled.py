@@ -40,6 +40,7 @@ def test_kernel_has_the_solver_constants():
         (solve.CONVERGED, detect.MARGIN, warm.MATCH, solve.SLOP, solve.CORRECTION,
          solve.MAX_CORRECTION, islands.MAX_CONDITION)
     assert (k.SLEEP_SPEED, k.TIME_TO_SLEEP) == (sleep.SLEEP_SPEED, sleep.TIME_TO_SLEEP)
+    assert k.FRICTION_CARRY == warm.FRICTION_CARRY
     assert (k.WIDE_UNITS, k.COLOURS) == (islands.WIDE_UNITS, islands.COLOURS)
 
 
