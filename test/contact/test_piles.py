@@ -14,7 +14,8 @@ import pytest
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import BOX, pyramid
-from hecker_dynamics.contact import warm
+from hecker_dynamics.contact import solve, solver, warm
+from hecker_dynamics.contact.rows import ContactRow
 from hecker_dynamics.dynamics import kernel
 
 SECOND = 1_000_000_000
@@ -45,16 +46,57 @@ def test_a_pyramid_of_40_rows_stands_still_after_2_s():
     assert speed <= MOST_SPEED
 
 
-def test_friction_is_warm_started_with_a_fraction_of_its_impulse():
-    """The impulses a contact starts the next step from are the ones kept for it, the
-    tangent one times FRICTION_CARRY, exactly."""
+def test_friction_is_kept_whole_only_where_the_passes_converged():
+    """The impulses a contact keeps for the next step's warm start: the tangent one times
+    its row's carry, exactly; the solve sets FRICTION_CARRY on the rows of a big island
+    whose passes ran out (a 10-row pyramid's, 100 units, swept in colour order) and leaves
+    1 on those of a small one (a 2-row pyramid's, resting after 0.5 s)."""
     class Kept(warm.WarmStarts):
         sleep = False
         island: list[int] = []
         _kernel = None
 
+    def rows_of(rows: int) -> list[ContactRow]:
+        sim = Simulation(pyramid(rows))
+        sim.model.use_python()
+        sim.advance_to(SECOND // 2)
+        kept: list[ContactRow] = []
+        original = solve.solve_velocities
+
+        def spy(found, velocity, units):  # type: ignore[no-untyped-def]
+            swept = original(found, velocity, units)
+            kept.extend(found)
+            return swept
+
+        solver.solve_velocities = spy
+        try:
+            sim.advance_to(sim.time_ns + sim.step_ns)
+        finally:
+            solver.solve_velocities = original
+        return kept
+
+    deep, single = rows_of(10), rows_of(2)
+    assert {row.carry for row in deep} == {warm.FRICTION_CARRY}
+    assert {row.carry for row in single} == {1.0}
     kept = Kept()
-    kept._warm = {(-1, 0, 0, 0): [(0.25, -0.25, 0.75, -0.3), (-0.25, -0.25, 0.5, 0.1)]}
-    assert kept._recall((-1, 0, 0, 0), -0.25, -0.25, 0.0) == (0.5, 0.1 * warm.FRICTION_CARRY)
-    assert kept._recall((-1, 0, 0, 0), 0.25, -0.25, 0.0) == (0.75, -0.3 * warm.FRICTION_CARRY)
-    assert kept._recall((-1, 0, 0, 0), 0.25, -0.25, 0.0) == (0.0, 0.0)  # each used once
+    kept._remember(deep[:2], {row.b: [0.0, 0.0, 0.0] for row in deep[:2]})
+    assert [contact[3] for contact in kept._warm[deep[0].key]] == \
+        [row.jt * warm.FRICTION_CARRY for row in deep[:2]]
+
+
+@pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not built or "
+                    "HECKER_DYNAMICS_KERNEL=0")
+def test_kernel_gives_a_deep_pile_its_passes_with_the_bits_of_python():
+    """A pyramid of 29 rows (435 boxes, about 840 blocks: isqrt(units) // SPAN passes, more
+    than MIN_ITERATIONS) for 10 steps: kernel and Python give identical states and
+    impulses."""
+    scene = pyramid(29)
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    for sim in (fast, slow):
+        sim.advance_to(10 * scene.step_ns)
+    assert np.array_equal(fast.q, slow.q) and np.array_equal(fast.v, slow.v)
+    state = fast.model.contacts.export_state()
+    assert state == slow.model.contacts.export_state()
+    units = sum(len(remembered) for _, remembered in state) // 2  # two points a block
+    assert solve.passes(units) == math.isqrt(units) // solve.SPAN > solve.MIN_ITERATIONS
