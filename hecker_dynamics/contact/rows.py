@@ -34,8 +34,9 @@ class ContactRow:
     friction coefficient ``mu``; the accumulated normal and tangent impulses ``jn`` and
     ``jt``, the only fields the solver changes; the overlap at the step's end (``depth``,
     negative for a gap within :data:`~.detect.MARGIN`); inverse masses and inertias (zero for a
-    wall); the normal velocity before any impulse (``approach``); and the pair of parts
-    (``key``), for warm starting.
+    wall); the normal velocity before any impulse (``approach``); the pair of parts
+    (``key``), for warm starting; and the fraction of its tangent impulse it keeps for that
+    (``carry``: :data:`~.warm.FRICTION_CARRY` where its big island's passes ran out, else 1).
     """
 
     a: int
@@ -59,6 +60,7 @@ class ContactRow:
     ii_b: float
     approach: float
     key: PartKey
+    carry: float = 1.0
 
     def normal_velocity(self, velocity: Velocities) -> float:
         """The contact's normal velocity for the bodies' ``velocity`` (see

@@ -5,12 +5,15 @@ positions only.
 """
 from __future__ import annotations
 
+import math
+
 from .coupled import JointUnit
 from .islands import WIDE_UNITS, coloured, islands, schedule, unit_bodies
 from .rows import Block, ContactRow, States, Velocities, solve_point
+from .warm import FRICTION_CARRY
 
 __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_ITERATIONS",
-           "POSITION_ITERATIONS", "SLOP", "WORK", "correct_positions", "passes",
+           "POSITION_ITERATIONS", "SLOP", "SPAN", "WORK", "correct_positions", "passes",
            "solve_velocities"]
 
 #: The velocity solver's passes over the contacts per step: as many as fit in
@@ -19,9 +22,15 @@ __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_I
 #: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
 #: body). So a scene's cost per step is bounded by its number of contacts alone: small
 #: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
+#: An island of n units also gets isqrt(n) // :data:`SPAN` passes: a pass carries a change
+#: across a contact or two, and a pile's depth grows as the square root of its contacts;
+#: with fewer, the weight of a deep pile never settles into its warm starts and the pile
+#: sways (100 rows, 5,050 boxes: 0.07 m/s after 2 s with 12 passes, 0.02 with 16, 0.007
+#: with 20, 0.001 with 40).
 WORK = 600
 MIN_ITERATIONS = 6
 MAX_ITERATIONS = 40
+SPAN = 4
 CONVERGED = 1e-13
 #: Overlap left alone (m) by the position correction.
 SLOP = 1e-4
@@ -33,7 +42,7 @@ POSITION_ITERATIONS = 4
 
 def passes(units: int) -> int:
     """The most passes of the velocity solver over ``units`` contacts and blocks."""
-    return min(max(WORK // units, MIN_ITERATIONS), MAX_ITERATIONS)
+    return min(max(WORK // units, MIN_ITERATIONS, math.isqrt(units) // SPAN), MAX_ITERATIONS)
 
 
 def solve_velocities(rows: list[ContactRow], velocity: Velocities,
@@ -46,10 +55,13 @@ def solve_velocities(rows: list[ContactRow], velocity: Velocities,
     velocity by more than :data:`CONVERGED` relative to its fastest body, or
     :func:`passes` passes for its own number of units. Islands are independent, so
     each gets the bits it would get alone; a big island without joint rows is swept in
-    colour order (:func:`~.islands.coloured`). Returns each island's units in the order swept."""
+    colour order (:func:`~.islands.coloured`), and keeps :data:`~.warm.FRICTION_CARRY` of
+    its rows' tangent impulses for the next warm start (``carry``) when its passes run
+    out. Returns each island's units in the order swept."""
     swept = []
     for island, coupled in islands(schedule(rows), joint_units):
-        if len(island) >= WIDE_UNITS and not coupled:
+        wide = len(island) >= WIDE_UNITS and not coupled
+        if wide:
             island = coloured(island)
         swept.append(island)
         for joint in coupled:
@@ -70,7 +82,18 @@ def solve_velocities(rows: list[ContactRow], velocity: Velocities,
                 largest = max(largest, joint.solve(velocity))
             if largest <= CONVERGED * scale:
                 break
+        else:  # a small island, or one with joint rows, keeps its friction whole (a jam)
+            if wide:
+                _carry_friction(island)
     return swept
+
+
+def _carry_friction(island: list[ContactRow | Block]) -> None:
+    """The rows of a big island whose passes ran out keep :data:`~.warm.FRICTION_CARRY` of
+    their tangent impulses for the next warm start."""
+    for unit in island:
+        for row in (unit.first, unit.second) if isinstance(unit, Block) else (unit,):
+            row.carry = FRICTION_CARRY
 
 
 def correct_positions(islands: list[list[ContactRow | Block]], velocity: Velocities,

@@ -10,22 +10,25 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    j = -(1 + e) v_rel.n / (1/M_A + 1/M_B + (perp(r_A).n)^2/I_A + (perp(r_B).n)^2/I_B),
    for all contacts together (and the velocity rows of the joints of their islands:
    :mod:`.coupled`) by sequential impulses with accumulated, clamped totals
-   (:mod:`.rows`, :mod:`.solve`), warm-started from the previous step's impulses (a
-   contact is recognised by its pair of parts and its point, fixed in the second body,
-   staying within :data:`~.warm.MATCH`: :mod:`.warm`), plus Coulomb friction
+   (:mod:`.rows`, :mod:`.solve`), warm-started from the previous step's impulses (the
+   friction, where a big island's passes ran out, from :data:`~.warm.FRICTION_CARRY` of its
+   own; a contact is recognised by its
+   pair of parts and its point, fixed in the second body, staying within
+   :data:`~.warm.MATCH`: :mod:`.warm`), plus Coulomb friction
    |j_t| <= mu j_n. The two points of a manifold are solved as one block
    (:class:`~.rows.Block`, the 2 x 2 complementarity problem), which a stack of boxes
    needs to converge in few passes. The work per step is bounded by the number of
    contacts alone (:func:`~.solve.passes`), island by island (bodies joined through
    contacts, which share no body with another island: :mod:`.islands`): up to
-   :data:`~.solve.WORK` contact solves (at least :data:`~.solve.MIN_ITERATIONS`, at most
-   :data:`~.solve.MAX_ITERATIONS` passes), fewer when no impulse changes a velocity by
-   more than :data:`~.solve.CONVERGED` relative to the island's fastest body. An island
-   of at least :data:`~.islands.WIDE_UNITS` units and no joint rows is swept in colour
-   order (units of one colour share no body; Box2D v3's graph colouring), so that the
-   compiled kernel can solve four blocks of a colour at once. A contact that closed
-   during the step bounces with restitution e if it approached faster than the
-   restitution threshold; otherwise its normal velocity is made just
+   :data:`~.solve.WORK` contact solves (at least :data:`~.solve.MIN_ITERATIONS` passes and,
+   so that deep piles settle, one per :data:`~.solve.SPAN` of the square root of the
+   island's units; at most :data:`~.solve.MAX_ITERATIONS`), fewer when no impulse changes
+   a velocity by more than :data:`~.solve.CONVERGED` relative to the island's fastest
+   body. An island of at least :data:`~.islands.WIDE_UNITS` units and no joint rows is
+   swept in colour order (units of one colour share no body; Box2D v3's graph
+   colouring), so that the compiled kernel can solve four blocks of a colour at once. A
+   contact that closed during the step bounces with restitution e if it approached
+   faster than the restitution threshold; otherwise its normal velocity is made just
    enough that the bodies end the step touching, neither overlapping nor pushed apart,
    so resting contacts stay at rest;
 3. moves each body whose velocity the impulses changed by h times the change from the

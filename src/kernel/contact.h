@@ -21,10 +21,12 @@
 #define HD_WORK 600
 #define HD_MIN_ITERATIONS 6
 #define HD_MAX_ITERATIONS 40
+#define HD_SPAN 4
 #define HD_CONVERGED 1e-13
 #define HD_MAX_CONDITION 1000.0
 #define HD_MARGIN 5e-3
 #define HD_MATCH 1e-2
+#define HD_FRICTION_CARRY 0.5
 #define HD_SLOP 1e-4
 #define HD_CORRECTION 0.2
 #define HD_MAX_CORRECTION 0.05
@@ -78,7 +80,7 @@ typedef struct {
 typedef struct {
     long a, b;  /* body indices into the velocity table; a wall is the last slot */
     double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
-    double im_a, ii_a, im_b, ii_b, approach;
+    double im_a, ii_a, im_b, ii_b, approach, carry;
     long key[4];
     int points;
 } hd_row;

@@ -1,9 +1,10 @@
 /* The response: hecker_dynamics/contact/solver.py's ContactPass.resolve, operation for
  * operation. Sequential impulses (the article series' collision impulse for each contact
  * with both bodies' mass and moment of inertia, accumulated and clamped, with Coulomb
- * friction), warm-started from the last step's impulses, two-point manifolds solved as
- * blocks, island by island, each with at most HD_WORK / (its units) passes (within
- * HD_MIN_ITERATIONS .. HD_MAX_ITERATIONS);
+ * friction), warm-started from the last step's impulses (the friction's by
+ * HD_FRICTION_CARRY where a big island's passes ran out), two-point manifolds solved as
+ * blocks, island by island, each with at most HD_WORK / (its units) passes (at least
+ * HD_MIN_ITERATIONS and isqrt(its units) / HD_SPAN, at most HD_MAX_ITERATIONS);
  * then the position change h (v' - v) of each body the impulses moved, and the position
  * correction of the overlap beyond HD_SLOP.
  *
@@ -51,6 +52,7 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
         target = hd_max(target, -c->e * hd_min(impact, 0.0));
     }
     r->target = target;
+    r->carry = 1.0;
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);

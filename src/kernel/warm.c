@@ -135,8 +135,8 @@ int hd_find_warm(hd_contact_model *m, const long *key, long next, long *low, lon
 }
 
 /* Last step's impulses of the contact nearest this point among warm[low] to warm[end - 1], its
- * key's, if within HD_MATCH, each used once (contact/warm.py: WarmStarts._recall; `<=`: the last of
- * equally near ones); (c, s) the cosine and sine of body b's angle. */
+ * key's, if within HD_MATCH, each used once (contact/warm.py: WarmStarts._recall; `<=`: the
+ * last of equally near ones); (c, s) the cosine and sine of body b's angle. */
 void hd_recall(hd_contact_model *m, long low, long end, double rx, double ry, double c,
                    double s, double *jn, double *jt)
 {
@@ -202,7 +202,7 @@ int hd_remember(hd_contact_model *m, long count)
         w->lx = c * r->rbx + s * r->rby;
         w->ly = -s * r->rbx + c * r->rby;
         w->jn = r->jn;
-        w->jt = r->jt;
+        w->jt = r->jt * r->carry;
         w->used = 0;
     }
     m->warm_count = kept + count;

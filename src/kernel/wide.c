@@ -532,7 +532,8 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
-    for (long iteration = 0; iteration < passes; ++iteration) {
+    int converged = 0;
+    for (long iteration = 0; iteration < passes && !converged; ++iteration) {
         double largest = 0.0;
         for (int c = 0; c <= HD_COLOURS; ++c) {
             if (colour_start[c + 1] == colour_start[c])
@@ -543,8 +544,7 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
                 largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
                                                         m->velocity));
         }
-        if (largest <= HD_CONVERGED * scale)
-            break;
+        converged = largest <= HD_CONVERGED * scale;
     }
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {
@@ -560,5 +560,5 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
                 hd_correct_unit(m->units + w->single[s], m->rows, base, m->shift);
         }
     }
-    return 0;
+    return converged;
 }

@@ -24,8 +24,8 @@ struct hd_wide;
  * changes a velocity by more than HD_CONVERGED * scale, then the island's position
  * correction after a step of h into m->shift in the same order (`base`: a double per row,
  * for their depths); `wide`: how many islands this step solved here before it; `known`:
- * whether this step's islands are last step's, when its colours are kept from then. 0 on
- * success, -1 out of memory. */
+ * whether this step's islands are last step's, when its colours are kept from then. 1 when
+ * the passes converged, 0 when they ran out, -1 out of memory. */
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
                   long passes, double scale, double h, double *base);
 void hd_wide_free(struct hd_wide *w);

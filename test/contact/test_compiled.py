@@ -31,15 +31,16 @@ def _scene(name):
 @needs_kernel
 def test_kernel_has_the_solver_constants():
     k = kernel._kernel
-    assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.POSITION_ITERATIONS,
+    assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.SPAN, k.POSITION_ITERATIONS,
             k.MAX_CONTACT_SUBSTEPS) == \
-        (solve.MAX_ITERATIONS, solve.MIN_ITERATIONS, solve.WORK, solve.POSITION_ITERATIONS,
-         detect.MAX_SUBSTEPS)
+        (solve.MAX_ITERATIONS, solve.MIN_ITERATIONS, solve.WORK, solve.SPAN,
+         solve.POSITION_ITERATIONS, detect.MAX_SUBSTEPS)
     assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION,
             k.MAX_CONDITION) == \
         (solve.CONVERGED, detect.MARGIN, warm.MATCH, solve.SLOP, solve.CORRECTION,
          solve.MAX_CORRECTION, islands.MAX_CONDITION)
     assert (k.SLEEP_SPEED, k.TIME_TO_SLEEP) == (sleep.SLEEP_SPEED, sleep.TIME_TO_SLEEP)
+    assert k.FRICTION_CARRY == warm.FRICTION_CARRY
     assert (k.WIDE_UNITS, k.COLOURS) == (islands.WIDE_UNITS, islands.COLOURS)
 
 
