@@ -129,11 +129,6 @@ CHORD = 0.125
 #: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
 #: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
 MAX_TURN = 0.1
-#: Stage 1 extrapolates the last steps' multipliers into a step whose bodies turn by at
-#: most this fraction of :data:`MAX_TURN` (:meth:`JointPass._guess`); from further, Newton's
-#: method may settle on another root of SHAKE's equations (seen once in 3,435 steps and
-#: parts of a 50-link chain at h = 1/60 s at half of it).
-EXTRAPOLATED_TURN = 0.25
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
@@ -246,8 +241,6 @@ class JointPass:
         self.tolerance = TOLERANCE
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
         self.max_turn = MAX_TURN
-        #: The largest turn :meth:`parts` measured last (rad): the step being resolved.
-        self.turn = 0.0
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
@@ -271,9 +264,6 @@ class JointPass:
         self.keys: list[tuple[str, str]] = []
         #: Each row's kind (:data:`RIGID`, ...), in the same order.
         self.kinds: list[str] = []
-        #: The multipliers of the two steps before the last one and their lengths, the
-        #: latest first (:meth:`_guess`).
-        self.earlier: list[tuple[list[float], float]] = []
         self.reset()
         self._compiled = compiled
         self._kernel: Optional[CompiledJoints] = None  # made at the first step
@@ -305,11 +295,9 @@ class JointPass:
         """Read the state back from the kernel after steps :meth:`kernel_pass` began."""
         self._in_kernel().save()
 
-    def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float,
-                earlier: list[tuple[list[float], float]]) -> None:
-        """Take the warm starts, Newton multipliers, last step length and the earlier
-        steps' multipliers the kernel left."""
-        self.warm, self.newton, self.step_h, self.earlier = warm, newton, step_h, earlier
+    def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float) -> None:
+        """Take the warm starts, Newton multipliers and last step length the kernel left."""
+        self.warm, self.newton, self.step_h = warm, newton, step_h
         self._set_efforts()
 
     # ------------------------------------------------------------------ state
@@ -358,20 +346,17 @@ class JointPass:
         #: The extra impulses the last contact solve added (:meth:`take_extra`).
         self.extra = [0.0] * len(self.keys)
         self.newton = None
-        self.earlier = []
         self.step_h = 1.0
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
         counted joint angles, the warm-start impulses and Newton multipliers with the step
-        they were taken over (and the two steps' before, :meth:`_guess`), the efforts and
-        motor speeds."""
+        they were taken over, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
                 "angle": dict(self.angle) if self._initial is not None else {},
                 "raw": dict(self.raw) if self._initial is not None else {},
                 "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
                 "newton": None if self.newton is None else list(self.newton),
-                "earlier": [[list(nu), step] for nu, step in self.earlier],
                 "step_h": self.step_h,
                 "extra": [[list(key), value] for key, value in zip(self.keys, self.extra)],
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
@@ -391,8 +376,6 @@ class JointPass:
         self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
         self.step_h = float(state.get("step_h", self.step_h))
-        self.earlier = [([float(x) for x in nu], float(step))
-                        for nu, step in state.get("earlier", [])]
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
@@ -521,7 +504,6 @@ class JointPass:
                 (ua, va, *_), (ub, vb, *_) = a.place(end), b.place(end)
                 dx, dy, ex, ey = xb - xa, yb - ya, ub - ua, vb - va
                 turn = max(turn, math.atan2(abs(dx * ey - dy * ex), dx * ex + dy * ey))
-        self.turn = turn
         if not turn > self.max_turn:  # within, or not finite: the divergence check reports it
             return 1
         parts = turn / self.max_turn
@@ -560,11 +542,11 @@ class JointPass:
     def _hold(self, rows0: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
-        symmetric: factored by :func:`.sparse.lu`), warm-started from the last steps'
-        multipliers (:meth:`_guess`); returns the rows at the new ``q``. The matrix of one
-        iterate serves the next ones while each cuts the error by :data:`CHORD` at least
-        (near the solution the matrix changes by less than the error: a simplified Newton
-        step costs a solve, not a factorization).
+        symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
+        multipliers scaled to this step's length (they grow as h^2); returns the rows at
+        the new ``q``. The matrix of one iterate serves the next ones while each cuts the
+        error by :data:`CHORD` at least (near the solution the matrix changes by less
+        than the error: a simplified Newton step costs a solve, not a factorization).
         Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
         iterate's own matrix does not halve the largest error (SHAKE's equations have no
         solution near the step's end: a body turned far, or a long chain's weakest modes
@@ -575,7 +557,9 @@ class JointPass:
         rigid = [rows0[i] for i in self.rigid]
         direction = directions(rigid, self.inverse_mass)
         target = [row.c for row in rigid]
-        nu = self._guess(h, len(rigid))
+        scale = h / self.step_h
+        scale = scale * scale
+        nu = [0.0] * len(rigid) if self.newton is None else [x * scale for x in self.newton]
         moved = list(q)
         apply(q, direction, nu)
         # The rows' values round at about eps |q|: no error can be asked below that.
@@ -593,8 +577,6 @@ class JointPass:
                 if turned > self.max_turn:
                     raise JointsUnsolved(f"the joints turn a body by {turned:.3g} rad in a "
                                          f"step of {h:g} s")
-                if self.newton is not None:
-                    self.earlier = [(self.newton, self.step_h), *self.earlier[:1]]
                 self.newton = nu
                 return rows
             if fresh and not largest <= 0.5 * previous:
@@ -613,31 +595,6 @@ class JointPass:
             apply(q, direction, step)
         raise JointsUnsolved(f"Newton's method on the joints did not converge in "
                              f"{NEWTON_ITERATIONS} iterations in a step of {h:g} s")
-
-    def _guess(self, h: float, count: int) -> list[float]:
-        """Stage 1's first multipliers for a step of ``h``: where the step turns no body by
-        more than :data:`EXTRAPOLATED_TURN` of :attr:`max_turn`, the last steps'
-        extrapolated (they are h^2 times the constraint forces, smooth in time):
-        quadratically when the last three steps were of ``h`` too, linearly when the last
-        two were; else the last one's scaled to this step's length (as h^2); zero after
-        :meth:`forget`. On a 50-link chain at h = 1/240 s the quadratic guess starts Newton
-        at 1e-5 to 1e-6 m from the solution instead of 1e-3 m: over its first 4 s, 2.7
-        Newton solves a step instead of 3.6."""
-        if self.newton is None:
-            return [0.0] * count
-        smooth = self.turn <= EXTRAPOLATED_TURN * self.max_turn
-        same = [self.newton] if self.step_h == h and smooth else []  # the latest steps of h
-        for nu, step in self.earlier:
-            if not same or step != h:
-                break
-            same.append(nu)
-        if len(same) == 3:
-            return [3.0 * a - 3.0 * b + c for a, b, c in zip(*same)]
-        if len(same) == 2:
-            return [2.0 * a - b for a, b in zip(*same)]
-        scale = h / self.step_h
-        scale = scale * scale
-        return [x * scale for x in self.newton]
 
     def _correct(self, rows: list[JointRow], q: list[float], h: float) -> list[JointRow]:
         """Stage 2: remove drift of the rigid rows and limits passed, positions only;

@@ -91,7 +91,7 @@ class CompiledJoints:
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)
-                               + 2 * len(joint_pass.keys) + 3 * rigid + 6)
+                               + 2 * len(joint_pass.keys) + rigid + 2)
 
     def load(self) -> None:
         """The Python pass's state into the kernel."""
@@ -108,9 +108,6 @@ class CompiledJoints:
         newton = p.newton
         values += p.warm + (newton if newton is not None else [0.0] * len(p.rigid)) + p.extra
         values += [0.0 if newton is None else 1.0, p.step_h]
-        earlier = p.earlier + [([0.0] * len(p.rigid), 0.0)] * (2 - len(p.earlier))
-        values += earlier[0][0] + earlier[1][0] + [float(len(p.earlier)), earlier[0][1],
-                                                   earlier[1][1], p.turn]
         self._state[:] = values
         _kernel.joint_state(self.kernel, self._state, True)
 
@@ -127,13 +124,7 @@ class CompiledJoints:
         rows, rigid = len(p.keys), len(p.rigid)
         newton = values[at + rows: at + rows + rigid]
         p.extra = values[at + rows + rigid: at + 2 * rows + rigid]
-        flags = at + 2 * rows + rigid
-        tail = flags + 2 + 2 * rigid
-        earlier = [(values[flags + 2 + k * rigid: flags + 2 + (k + 1) * rigid],
-                    values[tail + 1 + k]) for k in range(round(values[tail]))]
-        p.turn = values[tail + 3]
-        p.restore(values[at: at + rows], newton if values[flags] != 0.0 else None,
-                  values[flags + 1], earlier)
+        p.restore(values[at: at + rows], newton if values[-2] != 0.0 else None, values[-1])
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does."""

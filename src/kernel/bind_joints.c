@@ -157,21 +157,18 @@ fail:
 }
 
 /* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
- * the contact solve's extra impulses, whether the multipliers are set, the last step's
- * length, the two earlier passes' multipliers, how many of them there are and their steps,
- * and the turn hd_joints_parts last measured. */
+ * the contact solve's extra impulses, whether the multipliers are set, and the last
+ * step's length. */
 static Py_ssize_t hd_joint_state_length(const hd_joint_model *m)
 {
-    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + 3 * m->rigid_count + 6;
+    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 2;
 }
 
 PyDoc_STRVAR(joint_state_doc,
 "joint_state(joints, state, load)\n\n"
 "Copy the joint pass's state (joint.h: HD_JOINT_STATE per joint, the warm-start impulses,\n"
 "the Newton multipliers, the contact solve's extra impulses, 1.0 if the multipliers are\n"
-"set, the last step's length, the two earlier passes' multipliers, their count and steps,\n"
-"the last measured turn)\n"
-"from ``state``\n"
+"set, the last step's length) from ``state``\n"
 "into the kernel (``load``) or from the kernel into ``state``.");
 
 static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
@@ -207,22 +204,12 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
         memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
         m->newton_valid = s[flags] != 0.0;
         m->last_h = s[flags + 1];
-        memcpy(m->earlier, s + flags + 2, 2 * newton);
-        m->earlier_count = (long)s[flags + 2 + 2 * m->rigid_count];
-        m->earlier_h[0] = s[flags + 3 + 2 * m->rigid_count];
-        m->earlier_h[1] = s[flags + 4 + 2 * m->rigid_count];
-        m->turn = s[flags + 5 + 2 * m->rigid_count];
     } else {
         memcpy(s, m->warm, warm);
         memcpy(s + m->row_count, m->newton, newton);
         memcpy(s + m->row_count + m->rigid_count, m->extra, warm);
         s[flags] = m->newton_valid ? 1.0 : 0.0;
         s[flags + 1] = m->last_h;
-        memcpy(s + flags + 2, m->earlier, 2 * newton);
-        s[flags + 2 + 2 * m->rigid_count] = (double)m->earlier_count;
-        s[flags + 3 + 2 * m->rigid_count] = m->earlier_h[0];
-        s[flags + 4 + 2 * m->rigid_count] = m->earlier_h[1];
-        s[flags + 5 + 2 * m->rigid_count] = m->turn;
     }
     PyBuffer_Release(&view);
     Py_RETURN_NONE;

@@ -578,34 +578,6 @@ static double hd_largest_abs(const double *x, long n)
     return largest;
 }
 
-/* contact/joints.py: JointPass._guess, into m->nu. */
-static void hd_guess(hd_joint_model *m, double h)
-{
-    const long nr = m->rigid_count;
-    const double *a = m->newton, *b = m->earlier, *c = m->earlier + nr;
-    int same = 0;  /* how many of the latest passes were over steps of h */
-    if (m->newton_valid && m->last_h == h && m->turn <= HD_EXTRAPOLATED_TURN * m->max_turn) {
-        same = 1;
-        for (long k = 0; k < m->earlier_count && same == k + 1; ++k)
-            same += m->earlier_h[k] == h;
-    }
-    if (!m->newton_valid) {
-        for (long k = 0; k < nr; ++k)
-            m->nu[k] = 0.0;
-    } else if (same == 3) {
-        for (long k = 0; k < nr; ++k)
-            m->nu[k] = 3.0 * a[k] - 3.0 * b[k] + c[k];
-    } else if (same == 2) {
-        for (long k = 0; k < nr; ++k)
-            m->nu[k] = 2.0 * a[k] - b[k];
-    } else {
-        double scale = h / m->last_h;
-        scale = scale * scale;
-        for (long k = 0; k < nr; ++k)
-            m->nu[k] = a[k] * scale;
-    }
-}
-
 /* contact/joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
  * holds the directions of the rows at q0 already. */
 static int hd_hold(hd_joint_model *m, double h, int again)
@@ -618,9 +590,12 @@ static int hd_hold(hd_joint_model *m, double h, int again)
     const hd_pattern *p = &m->rigid_pattern;
     if (!again)
         hd_directions(m, m->rows0, m->rigid, nr, m->dir0);
-    for (long k = 0; k < nr; ++k)
+    double scale = h / m->last_h;
+    scale = scale * scale;
+    for (long k = 0; k < nr; ++k) {
         m->target[k] = m->rows0[m->rigid[k]].c;
-    hd_guess(m, h);
+        m->nu[k] = m->newton_valid ? m->newton[k] * scale : 0.0;
+    }
     const long n3 = 3 * m->body_count;
     hd_apply(m->q, m->dir0, nr, m->nu);
     /* The rows' values round at about eps |q|: no error can be asked below that. */
@@ -640,12 +615,6 @@ static int hd_hold(hd_joint_model *m, double h, int again)
                 turned = hd_max(turned, fabs(m->q[k] - m->moved[k]));
             if (turned > m->max_turn)
                 return HD_JOINTS_UNSOLVED;
-            if (m->newton_valid) {
-                memcpy(m->earlier + nr, m->earlier, (size_t)nr * sizeof(double));
-                memcpy(m->earlier, m->newton, (size_t)nr * sizeof(double));
-                m->earlier_h[1] = m->earlier_h[0], m->earlier_h[0] = m->last_h;
-                m->earlier_count = m->earlier_count < 2 ? m->earlier_count + 1 : 2;
-            }
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
             if (factored)
@@ -749,7 +718,7 @@ static void hd_velocities(hd_joint_model *m, double h)
     m->last_h = h;
 }
 
-long hd_joints_parts(hd_joint_model *m, const double *q0, const double *q1)
+long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1)
 {
     double turn = 0.0;
     for (long k = 0; k < m->turning_count; ++k) {
@@ -780,7 +749,6 @@ long hd_joints_parts(hd_joint_model *m, const double *q0, const double *q1)
         const double ex = ends[1][1][0] - ends[1][0][0], ey = ends[1][1][1] - ends[1][0][1];
         turn = hd_max(turn, atan2(fabs(dx * ey - dy * ex), dx * ex + dy * ey));
     }
-    m->turn = turn;
     if (!(turn > m->max_turn))  /* within, or not finite: the divergence check reports it */
         return 1;
     const double parts = turn / m->max_turn;
@@ -883,12 +851,10 @@ int hd_joints_prepare(hd_joint_model *m)
     m->flags = malloc(4 * R * sizeof(int));
     m->warm = calloc(R, sizeof(double));
     m->newton = calloc(R, sizeof(double));
-    m->earlier = calloc(2 * R, sizeof(double));
     m->extra = calloc(R, sizeof(double));
     m->settled = calloc(B, sizeof(double));
     if (m->rigid == NULL || m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
-            m->flags == NULL || m->warm == NULL || m->newton == NULL || m->earlier == NULL ||
-            m->extra == NULL ||
+            m->flags == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
             m->settled == NULL)
         return HD_JOINTS_OUT_OF_MEMORY;
     m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;
@@ -921,7 +887,6 @@ void hd_joints_free(hd_joint_model *m)
     free(m->trig);
     free(m->warm);
     free(m->newton);
-    free(m->earlier);
     free(m->extra);
     free(m->settled);
     free(m->memory);

@@ -24,7 +24,6 @@
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
-#define HD_EXTRAPOLATED_TURN 0.25
 #define HD_MOST_SUBSTEPS 1024L
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
 
@@ -82,17 +81,12 @@ typedef struct hd_joint_model {
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
     double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
-    double turn;  /* JointPass.turn: the turn hd_joints_parts last measured */
     double *warm, *newton; /* row_count, rigid_count */
     /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
      * the velocities before the last velocity stage (3 per body). */
     double *extra, *settled;
     int newton_valid;
     double last_h;
-    /* The multipliers of the two passes before the last one (2 x rigid_count, the latest
-     * first), how many there are and their steps (contact/joints.py: JointPass.earlier). */
-    double *earlier, earlier_h[2];
-    long earlier_count;
     /* Whether the last pass ended well: m->q, m->rows and m->dir are its final pose, rows
      * and directions (hd_joints_resolve starts from them when it may). */
     int ended;
@@ -116,7 +110,7 @@ void hd_joints_free(hd_joint_model *m);
 /* contact/joint_solve.py: dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
 double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
 /* contact/joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
-long hd_joints_parts(hd_joint_model *m, const double *q0, const double *q1);
+long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
 /* contact/joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
  * place; HD_JOINTS_UNSOLVED (nothing changed but the working memory) when the positions
  * have no solution near the step's end (JointsUnsolved). */

@@ -19,7 +19,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
-from hecker_dynamics.contact.joints import EXTRAPOLATED_TURN, MAX_TURN, MOST_SUBSTEPS
+from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
@@ -234,24 +234,3 @@ def test_a_spin_no_part_can_follow_ends_in_a_clear_error(python):
     message = str(failure.value)
     assert "take a shorter step" in message and "\n" not in message
     assert sim.steps == 0 and math.isfinite(sim.q[0, 0])
-
-
-def test_stage_1_starts_from_the_last_multipliers_extrapolated():
-    """The multipliers of stage 1 are h^2 times the pins' forces, smooth in time while the
-    chain swings slowly: the last three steps' extrapolated start Newton's method 40 to 50
-    times closer to the step's solution than the last step's alone (measured 0.023 of its
-    distance on 10 links, 0.020 on 50, at 0.5 s), which saves about one Newton solve in
-    four."""
-    for links in (10, 50):
-        sim = Simulation(chain(links, 1.0 / 240.0, 1.0))
-        sim.model.use_python()
-        sim.advance_to(SECOND // 2, keep=False)
-        joints = sim.model.joints
-        assert joints.turn <= EXTRAPOLATED_TURN * MAX_TURN and len(joints.earlier) == 2
-        last = list(joints.newton)
-        guess = joints._guess(sim.step_ns * 1e-9, len(last))
-        sim.advance_to(sim.time_ns + sim.step_ns, keep=False)
-        solution = joints.newton
-        before = max(abs(a - b) for a, b in zip(last, solution))
-        now = max(abs(a - b) for a, b in zip(guess, solution))
-        assert now < 0.05 * before
