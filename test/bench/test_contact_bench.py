@@ -189,9 +189,10 @@ def test_contact_scenes_are_the_bench_s_own_and_the_shipped_ones_with_contacts()
     names = contacts.contact_scene_names()
     assert names[:3] == ["ball_box", "many_pyramids", "tumbler"] and "ship" not in names
     assert {"sample", "seesaw", "door", "car_flip"} <= set(names)
+    assert not {"robot", "warehouse", "kiwi"} & set(names)  # driven: the node's loop
     for name in names[3:]:
         scene = load_scene(name)
-        assert scene.walls or scene.collisions
+        assert (scene.walls or scene.collisions) and not scene.drives
 
 
 def _row(engine, method, cost):
