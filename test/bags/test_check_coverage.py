@@ -39,7 +39,7 @@ def ball_session():
 
 @pytest.fixture(scope="module")
 def gears_session():
-    return run_live(load_scene("gears"), 20, motors=8)
+    return run_live(load_scene("gears"), 27, motors=8)
 
 
 def _check(capsys, path: Path, scene: str = "sample", *options: str) -> tuple[int, str, str]:
@@ -174,7 +174,7 @@ def test_a_spawned_bodys_outputs_removed_fail(tmp_path, capsys, ball_session):
 
 
 def test_every_motor_command_removed_fails(tmp_path, capsys, gears_session):
-    path = record(gears_session, tmp_path / "live", 20,
+    path = record(gears_session, tmp_path / "live", 27,
                   drop=lambda _, item: item.topic.endswith("/motor_speed"))
     _mismatch(capsys, path, "/small_axle/motor_speed", scene="gears")
 

@@ -52,8 +52,8 @@ CASES = [
     ]
 ] + [(name, 10 + n, {"world": n % 2}, late) for n, (name, late) in enumerate(
     (("seesaw", 0), ("door", 1_700_000_000), ("car_flip", 600_000_000), ("ship", 0)))] + [
-    ("gears", 20, {"motors": 8}, 0), ("gears", 21, {"motors": 8, "world": 1}, 1_300_000_000),
-    ("gears", 22, {"motors": 8, "lockstep": True, "keyframe_period_ns": 250_000_000},
+    ("gears", 27, {"motors": 8}, 0), ("gears", 21, {"motors": 8, "world": 1}, 1_300_000_000),
+    ("gears", 36, {"motors": 8, "lockstep": True, "keyframe_period_ns": 250_000_000},
      2_100_000_000)] + [
     ("sample", 100 + n, {"reset_at": int(1e9 * (n % 3)) or None, "max_steps": (None, 25)[n % 2],
                          "world": n % 3, "lockstep": n % 5 == 4},
@@ -348,10 +348,10 @@ def test_motor_commands_are_recorded_and_a_replay_without_them_differs(tmp_path,
     the published joint states, so a replay that ignores them fails the check: the
     bit-for-bit pass above is no accident."""
     scene = load_scene("gears")
-    session = run_live(scene, 20, motors=8)
+    session = run_live(scene, 27, motors=8)
     motor = "/small_axle/motor_speed"
     assert sum(p.topic == motor for p in session.published) == 8
-    path = record(session, tmp_path / "live", 20)
+    path = record(session, tmp_path / "live", 27)
     events = [bags.input_event_fields(m.decode()) for m in read_bag(path).on(
         "/dynamics_node/input_events")]
     mine = [e for e in events if e.topic == motor]
