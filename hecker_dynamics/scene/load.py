@@ -53,7 +53,7 @@ __all__ = [
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
-    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "MAX_SECONDS",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -346,9 +346,14 @@ def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
 
 # ----------------------------------------------------------------------------- reading
 
+#: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
+#: within an int64 and a ROS stamp.
+MAX_SECONDS = 1e9
+
+
 def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
                    positive: bool = False) -> int:
-    seconds = reader.number(key, default, minimum=0.0, maximum=1e9, positive=positive)
+    seconds = reader.number(key, default, minimum=0.0, maximum=MAX_SECONDS, positive=positive)
     ns = round(seconds * 1e9)
     if positive and ns < 1:
         reader.fail(key, f"must be at least one nanosecond, not {seconds}")

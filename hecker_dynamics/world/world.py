@@ -27,6 +27,7 @@ from ..dynamics.simulation import BodyState, Simulation
 from ..scene.commands import WrenchCommand
 from ..scene.load import (
     INTEGRATORS,
+    MAX_SECONDS,
     BodySpec,
     Scene,
     load_scene,
@@ -109,7 +110,7 @@ class World:
                  integrator: str = "auto", tolerance: float = 1e-6, frame: str = "world",
                  restitution_threshold: Optional[float] = None, sleep: bool = False,
                  events: bool = False) -> None:
-        step_ns = round(number(step, "step", positive=True) * 1e9)
+        step_ns = round(number(step, "step", positive=True, maximum=MAX_SECONDS) * 1e9)
         if step_ns < 1:
             raise ValueError(f"step: must be at least one nanosecond, not {step}")
         if integrator not in INTEGRATORS:
@@ -546,7 +547,7 @@ class World:
         """Advance by ``dt`` seconds, a whole number of steps (default one step)."""
         steps = 1
         if dt is not None:
-            span = number(dt, "dt", positive=True) * 1e9
+            span = number(dt, "dt", positive=True, maximum=MAX_SECONDS) * 1e9
             step_ns = self.simulation.step_ns
             steps = round(span / step_ns)
             # Each step was rounded to whole nanoseconds, by half a nanosecond at most.
@@ -558,7 +559,7 @@ class World:
     def advance(self, t: float) -> None:
         """Step to the step instant nearest ``t`` (s), which must not be behind the world."""
         sim = self.simulation
-        steps = round((number(t, "t") * 1e9 - sim.time_ns) / sim.step_ns)
+        steps = round((number(t, "t", maximum=MAX_SECONDS) * 1e9 - sim.time_ns) / sim.step_ns)
         if steps < 0:
             raise ValueError(f"t: {t} s is behind the world's time ({self.time} s)")
         self._run_to(sim.time_ns + steps * sim.step_ns)
@@ -593,9 +594,11 @@ class World:
             at = body._local(point, "point")
         duration_ns = 0
         if duration is not None:
-            duration_ns = round(number(duration, "duration", positive=True) * 1e9)
+            duration_ns = round(number(duration, "duration", positive=True,
+                                       maximum=MAX_SECONDS) * 1e9)
         now = sim.time_ns
-        stamp = now if start is None else round(number(start, "start") * 1e9)
+        stamp = now if start is None else round(number(start, "start",
+                                                        maximum=MAX_SECONDS) * 1e9)
         if stamp < now:
             raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
         if name is None:
