@@ -43,7 +43,16 @@ from .joints import (
 )
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
-from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
+from .parameters import (
+    NAME_MAX,
+    NAME_PATTERN,
+    NAME_RULE,
+    REQUIRED,
+    ParameterReader,
+    SceneError,
+    flatten,
+    unflatten,
+)
 from .rosyaml import merge_parameters, read_parameters_file
 from .sensors import SensorSpec, read_sensor
 
@@ -493,8 +502,7 @@ def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
     group = reader.child("points")
     for pname in group.names():
         if not NAME_PATTERN.fullmatch(pname):
-            group.fail(pname, "is not a valid point name (letters, digits and underscores, "
-                              "starting with a letter)")
+            group.fail(pname, f"is not a valid point name ({NAME_RULE})")
     return [(pname, group.vector(pname)) for pname in group.names()]
 
 
@@ -806,6 +814,9 @@ def _read_wrench_topic(name: str, reader: ParameterReader, fixed: str,
     topic = reader.string("topic", name)
     if not TOPIC_PATTERN.fullmatch(topic) or "//" in topic or topic.endswith("/"):
         reader.fail("topic", f"'{topic}' is not a valid ROS topic name")
+    if len(topic) > 2 * NAME_MAX:
+        reader.fail("topic", f"is {len(topic)} characters long, over {2 * NAME_MAX} (ROS 2 "
+                             "takes 247 with the namespace)")
     return WrenchTopic(name, topic, body, frame)
 
 

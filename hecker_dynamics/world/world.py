@@ -39,7 +39,7 @@ from ..scene.load import (
     read_wall,
     scene_from_parameters,
 )
-from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
+from ..scene.parameters import NAME_PATTERN, NAME_RULE, ParameterReader, flatten
 from ..scene.world import deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
@@ -79,8 +79,7 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
 
 def _name(value: object, argument: str) -> str:
     if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"{argument}: {value!r} is not a valid name (letters, digits and "
-                         "underscores, starting with a letter)")
+        raise ValueError(f"{argument}: {value!r} is not a valid name ({NAME_RULE})")
     return value
 
 

@@ -497,6 +497,12 @@ ONE_BOX = {"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}
                        "points": {"tip\n": [0.5, 0.0]}}}}, "bodies.b.points"),
     ({"wrench_topics": {"jet": {"body": "b", "topic": "b//jet"}}}, "wrench_topics.jet.topic"),
     ({"wrench_topics": {"jet": {"body": "b", "topic": "b/jet/"}}}, "wrench_topics.jet.topic"),
+    # Names and topics longer than ROS 2's topic names take (247 characters in all).
+    ({"bodies": {"b" * 101: {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}, "bodies"),
+    ({"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                       "points": {"p" * 101: [0.5, 0.0]}}}}, "bodies.b.points"),
+    ({"wrench_topics": {"jet": {"body": "b", "topic": "/".join(["j" * 50] * 5)}}},
+     "wrench_topics.jet.topic"),
 ])
 def test_out_of_range_values_and_names_are_errors_not_crashes(tmp_path, change, parameter):
     """Numbers too large for a double or for the nanosecond clock, a restitution above 1
