@@ -266,7 +266,9 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
         if not path.is_file():
-            raise SceneError(f"{path}: no such scene file")
+            what = ("is a directory, not a scene file" if path.is_dir()
+                    else "is not a regular file" if path.exists() else "no such scene file")
+            raise SceneError(f"{path}: {what}")
         return path
     for directory in config_directories():
         candidate = directory / f"{name_or_path}.yaml"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import re
 from pathlib import Path
 
@@ -319,6 +320,18 @@ def test_unreadable_files_name_the_file(tmp_path):
     with pytest.raises(SceneError, match="no shipped scene called 'nonesuch'.*sample"):
         load_scene("nonesuch")
     assert _is_the_shipped_sample(scene_path("sample"))
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda p: None, r"no such scene file$"),
+    (lambda p: p.mkdir(), r"is a directory, not a scene file$"),
+    (lambda p: os.mkfifo(p), r"is not a regular file$"),
+])
+def test_a_scene_path_that_is_no_file_says_what_it_is(tmp_path, make, message):
+    path = tmp_path / "scene.yaml"
+    make(path)
+    with pytest.raises(SceneError, match=f"^{re.escape(str(path))}: {message}"):
+        load_scene(path)
 
 
 # ------------------------------------------------------------------ model: only what is declared
