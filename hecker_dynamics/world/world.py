@@ -25,6 +25,7 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
 from ..scene.commands import WrenchCommand
+from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (
     INTEGRATORS,
     MAX_SECONDS,
@@ -646,7 +647,8 @@ class World:
     def state(self) -> dict[str, Any]:
         """Everything the world's future depends on, as plain data (JSON-able; floats
         exact): :meth:`Simulation.export_state` and the forces scheduled and applied."""
-        return {"simulation": self.simulation.export_state(),
+        return {"scene": scene_fingerprint(self.simulation.scene),
+                "simulation": self.simulation.export_state(),
                 "schedule": [[stamp, order, _command_data(command)]
                              for stamp, order, command in self._schedule],
                 "applied": copy.deepcopy(self._applied), "count": self._count}
@@ -654,9 +656,14 @@ class World:
     def set_state(self, state: Mapping[str, Any]) -> None:
         """Go on from :meth:`state`'s data, of this world or one of the same scene: the
         steps that follow are bit for bit those that followed the state taken."""
-        if not isinstance(state, Mapping) or set(state) != {"simulation", "schedule",
+        if not isinstance(state, Mapping) or set(state) != {"scene", "simulation", "schedule",
                                                              "applied", "count"}:
             raise ValueError("state: expected what World.state() returns")
+        # A state of another scene with as many bodies would fit q and v: compare the scenes.
+        own = scene_fingerprint(self.simulation.scene)
+        if state["scene"] != own:
+            raise ValueError(f"state: taken in a world of another scene (fingerprint "
+                             f"{state['scene']}; this world's {own})")
         saved = self.simulation.export_state()
         try:
             self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))

@@ -200,6 +200,23 @@ def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> N
     assert json.dumps(world.state()) == before
 
 
+def test_a_state_of_another_scene_is_refused() -> None:
+    """Two bodies' q and v fit any two-body world: the scene itself must match."""
+    world = sample_in_python()
+    other = sample_in_python()
+    other["right"].position = (0.5, 3.0)  # moving a body changes the state, not the scene
+    world.set_state(other.state())
+    heavier = free_world()
+    for name in ("left", "right"):
+        heavier.add_body(name, hd.Circle(0.3), mass=2.0, position=(0, 1 if name == "left" else 3))
+    heavier.step()
+    before = json.dumps(world.state())
+    with pytest.raises(ValueError, match=r"^state: taken in a world of another scene "
+                                         r"\(fingerprint [0-9a-f]+; this world's [0-9a-f]+\)$"):
+        world.set_state(heavier.state())
+    assert json.dumps(world.state()) == before
+
+
 def test_moving_a_body_and_names() -> None:
     world = free_world(gravity=(0, -9.81))
     ball = world.add_body("ball", hd.Circle(0.5), mass=1.0)
