@@ -152,6 +152,9 @@ class World:
         or of a :class:`Scene`; ``script``: its scripted inputs act at their times, as
         ``hecker-dynamics run`` plays them. A held force stops after the scene's
         ``input_timeout``, as the node's commands do."""
+        if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
+            raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
+                            f"hd.Scene, not {type(scene).__name__}")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)

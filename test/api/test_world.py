@@ -296,6 +296,8 @@ ERRORS = [
     (lambda w: w.add_body("b", hd.Circle(1.0), mass=np.complex128(1.0)), TypeError,
      r"^mass: expected a real number, not complex"),
     (lambda w: w.add_body("b", None, mass=1.0), TypeError, r"^shape: expected hd\.Box"),
+    (lambda w: hd.World.from_scene(5), TypeError,
+     r"^scene: expected a scene file's path, a shipped scene's name or an hd\.Scene, not int$"),
     (lambda w: w.add_body("b" * 101, hd.Circle(1.0), mass=1.0), ValueError,
      r"^name: 'b+' is not a valid name \(letters, digits and underscores, starting with a "
      r"letter, at most 100\)$"),
