@@ -21,6 +21,7 @@ import argparse
 import contextlib
 import dataclasses
 import decimal
+import math
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -190,8 +191,8 @@ def _tolerance(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text}") from None
-    if not value >= 0.0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative number, not {text}")
+    if not 0.0 <= value < math.inf:  # an infinite tolerance would compare nothing
+        raise argparse.ArgumentTypeError(f"must be a finite non-negative number, not {text}")
     return value
 
 

@@ -138,6 +138,19 @@ def test_bad_argument_exits_2_with_usage(capsys, option, value):
     assert "usage:" in err and f"argument {option}:" in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("command", [["compare", "a", "b"], ["replay", "sample", "b", "--check"]])
+@pytest.mark.parametrize("option", ["--atol", "--atol-position", "--atol-angle",
+                                    "--atol-velocity"])
+@pytest.mark.parametrize("value", ["-1", "nan", "inf"])
+def test_a_tolerance_that_compares_nothing_exits_2(capsys, command, option, value):
+    """An infinite tolerance would let any finite difference "match"."""
+    with pytest.raises(SystemExit) as caught:
+        main([*command, option, value])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}: must be a finite non-negative number, not {value}" in err
+
+
 def test_run_reads_seconds_exactly_as_the_bag_commands_do(capsys):
     """--step and --duration are decimal seconds made whole nanoseconds, as --start and
     --duration of `script` and `replay` are: 1.0000000015 s is exactly 1000000001.5 ns,

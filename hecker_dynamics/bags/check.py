@@ -114,6 +114,7 @@ def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
                           f"{span(min(compared.missing), max(compared.missing))}")
     inputs = input_topics(scene)
     coverage.inputs = sum(1 for m in bag.messages if m.topic in inputs)
+    coverage.name_other_topics(bag.topics, [*output_types(scene, tf=True), *inputs])
     return report, coverage
 
 

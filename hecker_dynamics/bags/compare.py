@@ -150,9 +150,15 @@ class CompareReport:
                 and all(t.ok(self.tolerances) for t in self.topics))
 
     def largest(self) -> dict[str, float]:
-        """The largest position, angle, velocity and angular velocity difference overall."""
-        return {kind: max((getattr(t, kind).value for t in self.topics), default=0.0)
-                for kind in ("position", "angle", "velocity", "angular_velocity")}
+        """The largest position, angle, velocity and angular velocity difference overall
+        (NaN when any topic's is: a NaN difference fails, so it must show)."""
+        largest = {}
+        for kind in ("position", "angle", "velocity", "angular_velocity"):
+            overall = Worst()
+            for t in self.topics:
+                overall.update(getattr(t, kind).value, 0)
+            largest[kind] = overall.value
+        return largest
 
     def text(self) -> str:
         """A readable report, one topic per paragraph."""

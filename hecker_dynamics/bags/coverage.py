@@ -19,8 +19,10 @@ of order, and messages that cannot be read always fail.
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+
+from .io import INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT
 
 __all__ = ["DISCOVERY_NS", "STOP_NS", "INPUT_LAG_NS", "LOST_RUN", "LOST_SHARE", "Stretch",
            "TopicCoverage", "Coverage", "seconds", "span", "runs"]
@@ -116,6 +118,16 @@ class Coverage:
             self.notes.insert(0, f"not checked: {text} (accepted: --partial)")
         else:
             self.failures.append(text)
+
+    def name_other_topics(self, recorded: Mapping[str, str], node: Iterable[str]) -> None:
+        """Name, as not compared, the ``recorded`` topics (topic -> type) that are not the
+        ``node``'s inputs or outputs nor its records: ``ros2 bag record -a`` records every
+        node's, and a match says what the recording holds that it did not read."""
+        known = set(node) | set(self.topics) | set(self.not_compared)
+        for topic, msgtype in recorded.items():
+            if topic not in known and msgtype not in (SESSION_INFO, KEYFRAME, INPUT_EVENT,
+                                                       WORLD_EVENT):
+                self.not_compared[topic] = "not a topic of the node for this scene"
 
     def add_missing(self, stretch: Stretch) -> None:
         """Outputs the recorder should have written: a failure, or with --partial a note."""

@@ -664,6 +664,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     for topic, why in skipped.items():
         if topic in bag.topics:
             coverage.not_compared[topic] = why
+    coverage.name_other_topics(bag.topics, [*produced_topics, *input_topics(scene)])
     recorded = _read_outputs(bag, compared, coverage)
     if not any(recorded.topics.values()):
         coverage.fail(f"no recorded outputs of the node on {', '.join(sorted(compared))}",

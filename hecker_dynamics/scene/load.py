@@ -43,7 +43,16 @@ from .joints import (
 )
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
-from .parameters import NAME_PATTERN, REQUIRED, ParameterReader, SceneError, flatten, unflatten
+from .parameters import (
+    NAME_MAX,
+    NAME_PATTERN,
+    NAME_RULE,
+    REQUIRED,
+    ParameterReader,
+    SceneError,
+    flatten,
+    unflatten,
+)
 from .rosyaml import merge_parameters, read_parameters_file
 from .sensors import SensorSpec, read_sensor
 
@@ -53,7 +62,7 @@ __all__ = [
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
-    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "MAX_SECONDS",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -257,7 +266,9 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
         if not path.is_file():
-            raise SceneError(f"{path}: no such scene file")
+            what = ("is a directory, not a scene file" if path.is_dir()
+                    else "is not a regular file" if path.exists() else "no such scene file")
+            raise SceneError(f"{path}: {what}")
         return path
     for directory in config_directories():
         candidate = directory / f"{name_or_path}.yaml"
@@ -346,9 +357,14 @@ def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
 
 # ----------------------------------------------------------------------------- reading
 
+#: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
+#: within an int64 and a ROS stamp.
+MAX_SECONDS = 1e9
+
+
 def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
                    positive: bool = False) -> int:
-    seconds = reader.number(key, default, minimum=0.0, maximum=1e9, positive=positive)
+    seconds = reader.number(key, default, minimum=0.0, maximum=MAX_SECONDS, positive=positive)
     ns = round(seconds * 1e9)
     if positive and ns < 1:
         reader.fail(key, f"must be at least one nanosecond, not {seconds}")
@@ -488,8 +504,7 @@ def _read_points(reader: ParameterReader) -> list[tuple[str, Vec2]]:
     group = reader.child("points")
     for pname in group.names():
         if not NAME_PATTERN.fullmatch(pname):
-            group.fail(pname, "is not a valid point name (letters, digits and underscores, "
-                              "starting with a letter)")
+            group.fail(pname, f"is not a valid point name ({NAME_RULE})")
     return [(pname, group.vector(pname)) for pname in group.names()]
 
 
@@ -801,6 +816,9 @@ def _read_wrench_topic(name: str, reader: ParameterReader, fixed: str,
     topic = reader.string("topic", name)
     if not TOPIC_PATTERN.fullmatch(topic) or "//" in topic or topic.endswith("/"):
         reader.fail("topic", f"'{topic}' is not a valid ROS topic name")
+    if len(topic) > 2 * NAME_MAX:
+        reader.fail("topic", f"is {len(topic)} characters long, over {2 * NAME_MAX} (ROS 2 "
+                             "takes 247 with the namespace)")
     return WrenchTopic(name, topic, body, frame)
 
 

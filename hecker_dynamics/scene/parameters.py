@@ -14,10 +14,15 @@ import re
 from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
-__all__ = ["NAME_PATTERN", "quoted", "SceneError", "unflatten", "flatten", "ParameterReader",
-           "REQUIRED"]
+__all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "SceneError", "unflatten", "flatten",
+           "ParameterReader", "REQUIRED"]
 
-NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")  # used with fullmatch
+#: A name's longest: two of them make a topic (``/<body>/<sensor>/scan``) that stays within
+#: ROS 2's 247 characters (RMW_TOPIC_MAX_NAME_LENGTH) with room for a namespace.
+NAME_MAX = 100
+NAME_PATTERN = re.compile(rf"[A-Za-z][A-Za-z0-9_]{{0,{NAME_MAX - 1}}}")  # used with fullmatch
+#: What :data:`NAME_PATTERN` takes, for error messages.
+NAME_RULE = f"letters, digits and underscores, starting with a letter, at most {NAME_MAX}"
 #: Most characters of a bad value quoted in an error message (a hostile file may hold
 #: megabytes in one value).
 QUOTE = 60
@@ -181,8 +186,7 @@ class ParameterReader:
         """A string usable as a ROS name segment (letters, digits, underscores)."""
         value = self.string(key, default)
         if not NAME_PATTERN.fullmatch(value):
-            self.fail(key, f"{quoted(value)} is not a valid name (letters, digits and underscores, "
-                           "starting with a letter)")
+            self.fail(key, f"{quoted(value)} is not a valid name ({NAME_RULE})")
         return value
 
     def strings(self, key: str, default: Any = None) -> tuple[str, ...]:
@@ -215,8 +219,7 @@ class ParameterReader:
         group = self.child(key)
         for name in group.names():
             if not NAME_PATTERN.fullmatch(name):
-                group.fail(name, "is not a valid name (letters, digits and underscores, "
-                                 "starting with a letter)")
+                group.fail(name, f"is not a valid name ({NAME_RULE})")
             yield name, group.child(name)
 
     def check_all_read(self, ignore: frozenset[str] = frozenset()) -> None:

@@ -248,8 +248,13 @@ def bag_timeline(scene: Scene, path: str) -> Timeline:
             msg = message.decode()
             stamp = stamp_ns_of(msg)
             p, o = msg.pose.position, msg.pose.orientation
-            by_stamp.setdefault(message.log_ns if stamp is None else stamp, {})[name] = \
-                pose_from_fields((p.x, p.y), (o.x, o.y, o.z, o.w))
+            pose = pose_from_fields((p.x, p.y), (o.x, o.y, o.z, o.w))
+            if not all(map(math.isfinite, pose)):
+                bad = ", ".join(f"{k} {v}" for k, v in zip(("x", "y", "angle"), pose)
+                                if not math.isfinite(v))
+                raise VizError(f"--bag {path}: {topic} at {message.log_ns * 1e-9:g} s: the "
+                               f"pose is not finite ({bad})")
+            by_stamp.setdefault(message.log_ns if stamp is None else stamp, {})[name] = pose
     stamps = sorted(s for s, found in by_stamp.items() if len(found) == len(names))
     if not stamps:
         raise VizError(f"--bag {path}: the bag holds no instant with a pose of every body "

@@ -104,7 +104,13 @@ ShapeLike = Union[Box, Circle, Polygon]
 def shape_parameters(shape: Union[ShapeLike, Sequence[ShapeLike]]) -> dict[str, Any]:
     """A body's shape parameters: one shape in place, or ``parts`` for a compound body (a
     list of shapes, or one shape placed off the body frame's origin or turned in it)."""
-    shapes = [shape] if isinstance(shape, (Box, Circle, Polygon)) else list(shape)
+    if isinstance(shape, (Box, Circle, Polygon)):
+        shapes: list[Any] = [shape]
+    elif isinstance(shape, (list, tuple)):
+        shapes = list(shape)
+    else:
+        raise TypeError("shape: expected hd.Box, hd.Circle, hd.Polygon or a list of them, "
+                        f"not {type(shape).__name__}")
     for i, part in enumerate(shapes):
         if not isinstance(part, (Box, Circle, Polygon)):
             raise TypeError(f"shape[{i}]: expected hd.Box, hd.Circle or hd.Polygon, "

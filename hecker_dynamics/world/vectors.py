@@ -16,10 +16,13 @@ VectorLike = Union[Sequence[float], npt.NDArray[np.floating]]
 
 
 def number(value: object, argument: str, *, positive: bool = False,
-           minimum: Union[float, None] = None) -> float:
+           minimum: Union[float, None] = None, maximum: Union[float, None] = None) -> float:
     """``value`` as a finite float; TypeError or ValueError naming ``argument``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
         raise TypeError(f"{argument}: expected a number, not {type(value).__name__}")
+    if isinstance(value, np.complexfloating):
+        # float() would drop the imaginary part with a mere warning.
+        raise TypeError(f"{argument}: expected a real number, not {type(value).__name__}")
     result = float(value)
     if not math.isfinite(result):
         raise ValueError(f"{argument}: must be finite, not {result}")
@@ -27,6 +30,8 @@ def number(value: object, argument: str, *, positive: bool = False,
         raise ValueError(f"{argument}: must be positive, not {result}")
     if minimum is not None and result < minimum:
         raise ValueError(f"{argument}: must be at least {minimum}, not {result}")
+    if maximum is not None and result > maximum:
+        raise ValueError(f"{argument}: must be at most {maximum}, not {result}")
     return result
 
 
@@ -34,7 +39,11 @@ def vector(value: object, argument: str) -> Vec2:
     """``value`` (a tuple, list or numpy array of two numbers) as two floats."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise TypeError(f"{argument}: expected two numbers (x, y), not {type(value).__name__}")
-    items = list(np.ravel(value)) if isinstance(value, np.ndarray) else list(value)
+    if isinstance(value, np.ndarray) and value.ndim != 1:
+        # Raveling would read a (2, 1) column or a (1, 2) row as a vector by accident.
+        raise ValueError(f"{argument}: expected two numbers (x, y), not an array of shape "
+                         f"{value.shape}")
+    items = list(value)
     if len(items) != 2:
         raise ValueError(f"{argument}: expected two numbers (x, y), not {len(items)}")
     return (number(items[0], argument), number(items[1], argument))

@@ -25,8 +25,10 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
 from ..scene.commands import WrenchCommand
+from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (
     INTEGRATORS,
+    MAX_SECONDS,
     BodySpec,
     Scene,
     load_scene,
@@ -38,7 +40,7 @@ from ..scene.load import (
     read_wall,
     scene_from_parameters,
 )
-from ..scene.parameters import NAME_PATTERN, ParameterReader, flatten
+from ..scene.parameters import NAME_PATTERN, NAME_RULE, ParameterReader, flatten
 from ..scene.world import deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
@@ -78,8 +80,7 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
 
 def _name(value: object, argument: str) -> str:
     if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"{argument}: {value!r} is not a valid name (letters, digits and "
-                         "underscores, starting with a letter)")
+        raise ValueError(f"{argument}: {value!r} is not a valid name ({NAME_RULE})")
     return value
 
 
@@ -109,7 +110,7 @@ class World:
                  integrator: str = "auto", tolerance: float = 1e-6, frame: str = "world",
                  restitution_threshold: Optional[float] = None, sleep: bool = False,
                  events: bool = False) -> None:
-        step_ns = round(number(step, "step", positive=True) * 1e9)
+        step_ns = round(number(step, "step", positive=True, maximum=MAX_SECONDS) * 1e9)
         if step_ns < 1:
             raise ValueError(f"step: must be at least one nanosecond, not {step}")
         if integrator not in INTEGRATORS:
@@ -151,6 +152,9 @@ class World:
         or of a :class:`Scene`; ``script``: its scripted inputs act at their times, as
         ``hecker-dynamics run`` plays them. A held force stops after the scene's
         ``input_timeout``, as the node's commands do."""
+        if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
+            raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
+                            f"hd.Scene, not {type(scene).__name__}")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)
@@ -546,7 +550,7 @@ class World:
         """Advance by ``dt`` seconds, a whole number of steps (default one step)."""
         steps = 1
         if dt is not None:
-            span = number(dt, "dt", positive=True) * 1e9
+            span = number(dt, "dt", positive=True, maximum=MAX_SECONDS) * 1e9
             step_ns = self.simulation.step_ns
             steps = round(span / step_ns)
             # Each step was rounded to whole nanoseconds, by half a nanosecond at most.
@@ -558,7 +562,7 @@ class World:
     def advance(self, t: float) -> None:
         """Step to the step instant nearest ``t`` (s), which must not be behind the world."""
         sim = self.simulation
-        steps = round((number(t, "t") * 1e9 - sim.time_ns) / sim.step_ns)
+        steps = round((number(t, "t", maximum=MAX_SECONDS) * 1e9 - sim.time_ns) / sim.step_ns)
         if steps < 0:
             raise ValueError(f"t: {t} s is behind the world's time ({self.time} s)")
         self._run_to(sim.time_ns + steps * sim.step_ns)
@@ -593,9 +597,11 @@ class World:
             at = body._local(point, "point")
         duration_ns = 0
         if duration is not None:
-            duration_ns = round(number(duration, "duration", positive=True) * 1e9)
+            duration_ns = round(number(duration, "duration", positive=True,
+                                       maximum=MAX_SECONDS) * 1e9)
         now = sim.time_ns
-        stamp = now if start is None else round(number(start, "start") * 1e9)
+        stamp = now if start is None else round(number(start, "start",
+                                                        maximum=MAX_SECONDS) * 1e9)
         if stamp < now:
             raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
         if name is None:
@@ -644,7 +650,8 @@ class World:
     def state(self) -> dict[str, Any]:
         """Everything the world's future depends on, as plain data (JSON-able; floats
         exact): :meth:`Simulation.export_state` and the forces scheduled and applied."""
-        return {"simulation": self.simulation.export_state(),
+        return {"scene": scene_fingerprint(self.simulation.scene),
+                "simulation": self.simulation.export_state(),
                 "schedule": [[stamp, order, _command_data(command)]
                              for stamp, order, command in self._schedule],
                 "applied": copy.deepcopy(self._applied), "count": self._count}
@@ -652,9 +659,14 @@ class World:
     def set_state(self, state: Mapping[str, Any]) -> None:
         """Go on from :meth:`state`'s data, of this world or one of the same scene: the
         steps that follow are bit for bit those that followed the state taken."""
-        if not isinstance(state, Mapping) or set(state) != {"simulation", "schedule",
+        if not isinstance(state, Mapping) or set(state) != {"scene", "simulation", "schedule",
                                                              "applied", "count"}:
             raise ValueError("state: expected what World.state() returns")
+        # A state of another scene with as many bodies would fit q and v: compare the scenes.
+        own = scene_fingerprint(self.simulation.scene)
+        if state["scene"] != own:
+            raise ValueError(f"state: taken in a world of another scene (fingerprint "
+                             f"{state['scene']}; this world's {own})")
         saved = self.simulation.export_state()
         try:
             self.simulation.import_state(copy.deepcopy(dict(state["simulation"])))

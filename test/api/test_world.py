@@ -200,6 +200,23 @@ def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> N
     assert json.dumps(world.state()) == before
 
 
+def test_a_state_of_another_scene_is_refused() -> None:
+    """Two bodies' q and v fit any two-body world: the scene itself must match."""
+    world = sample_in_python()
+    other = sample_in_python()
+    other["right"].position = (0.5, 3.0)  # moving a body changes the state, not the scene
+    world.set_state(other.state())
+    heavier = free_world()
+    for name in ("left", "right"):
+        heavier.add_body(name, hd.Circle(0.3), mass=2.0, position=(0, 1 if name == "left" else 3))
+    heavier.step()
+    before = json.dumps(world.state())
+    with pytest.raises(ValueError, match=r"^state: taken in a world of another scene "
+                                         r"\(fingerprint [0-9a-f]+; this world's [0-9a-f]+\)$"):
+        world.set_state(heavier.state())
+    assert json.dumps(world.state()) == before
+
+
 def test_moving_a_body_and_names() -> None:
     world = free_world(gravity=(0, -9.81))
     ball = world.add_body("ball", hd.Circle(0.5), mass=1.0)
@@ -242,7 +259,7 @@ ERRORS = [
      r"^name: the world already has a body called 'box'$"),
     (lambda w: w.add_body("my box", hd.Circle(1.0), mass=1.0), ValueError,
      r"^name: 'my box' is not a valid name"),
-    (lambda w: w.add_body("b", "circle", mass=1.0), TypeError, r"^shape\[0\]: expected hd\.Box"),
+    (lambda w: w.add_body("b", "circle", mass=1.0), TypeError, r"^shape: expected hd\.Box"),
     (lambda w: hd.Box(-1.0, 1.0), ValueError, r"^width: must be positive, not -1\.0$"),
     (lambda w: w["box"].apply_force((1, 0), frame="local"), ValueError,
      r"^frame: must be 'world' or 'body', not 'local'$"),
@@ -261,6 +278,29 @@ ERRORS = [
     (lambda w: hd.World(step=0.0), ValueError, r"^step: must be positive"),
     (lambda w: w.set_state({}), ValueError, r"^state: expected what World\.state\(\) returns$"),
     (lambda w: w.joint_state("hinge"), ValueError, r"^name: no revolute or prismatic joint"),
+    # Times beyond what a scene file holds (1e9 s) overflowed into tracebacks.
+    (lambda w: w.step(1e300), ValueError, r"^dt: must be at most 1000000000\.0, not 1e\+300$"),
+    (lambda w: w.advance(1e300), ValueError, r"^t: must be at most 1000000000\.0"),
+    (lambda w: w["box"].apply_force((1, 0), duration=1e300), ValueError,
+     r"^duration: must be at most 1000000000\.0"),
+    (lambda w: w["box"].apply_force((1, 0), start=1e10), ValueError,
+     r"^start: must be at most 1000000000\.0"),
+    (lambda w: hd.World(step=1e20), ValueError, r"^step: must be at most 1000000000\.0"),
+    # A complex number or an array of another shape is not two real numbers.
+    (lambda w: w["box"].apply_force(np.array([1.0, 2.0j])), TypeError,
+     r"^force: expected a real number, not complex"),
+    (lambda w: w["box"].apply_force(np.ones((2, 1))), ValueError,
+     r"^force: expected two numbers \(x, y\), not an array of shape \(2, 1\)$"),
+    (lambda w: hd.World(gravity=np.zeros((1, 2))), ValueError,
+     r"^gravity: expected two numbers \(x, y\), not an array of shape \(1, 2\)$"),
+    (lambda w: w.add_body("b", hd.Circle(1.0), mass=np.complex128(1.0)), TypeError,
+     r"^mass: expected a real number, not complex"),
+    (lambda w: w.add_body("b", None, mass=1.0), TypeError, r"^shape: expected hd\.Box"),
+    (lambda w: hd.World.from_scene(5), TypeError,
+     r"^scene: expected a scene file's path, a shipped scene's name or an hd\.Scene, not int$"),
+    (lambda w: w.add_body("b" * 101, hd.Circle(1.0), mass=1.0), ValueError,
+     r"^name: 'b+' is not a valid name \(letters, digits and underscores, starting with a "
+     r"letter, at most 100\)$"),
 ]
 
 

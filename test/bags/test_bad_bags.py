@@ -191,6 +191,21 @@ def test_atol_zero_is_bit_identical(tmp_path, capsys):
                 "--atol", "0")[0] == 0
 
 
+def test_a_nan_difference_is_the_largest_overall(tmp_path):
+    pose = fields.Pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    from hecker_dynamics.bags.io import pose_stamped_message
+    for name, (a, b) in {"expected": (0.0, 0.0), "actual": (1e-3, float("nan"))}.items():
+        with BagWriter(tmp_path / name, "mcap") as writer:
+            for topic, x in (("/a/pose", a), ("/b/pose", b)):
+                writer.write(topic, POSE_STAMPED, SEC, pose_stamped_message(
+                    fields.PoseStampedFields(fields.Header(1, 0, "world"),
+                                             pose._replace(position=(x, 0.0, 0.0)))))
+    report, ok = compare_bags(tmp_path / "expected", tmp_path / "actual", atol=1.0)
+    assert not ok
+    assert np.isnan(report.largest()["position"])  # not the 1e-3 of the topic before it
+    assert "largest overall: position nan," in report.text()
+
+
 def test_a_topic_in_neither_bag_is_an_error_saying_so(capsys):
     bag = str(GOLDEN / "sample" / "output")
     err = _one_line_error(capsys, "compare", bag, bag, "--topic", "/nope")

@@ -212,6 +212,42 @@ def _rewrite(source: Path, target: Path, change) -> Path:
     return target
 
 
+def _with_foreign_topics(source: Path, target: Path) -> Path:
+    """A copy with what a recorder may hold besides the node: another node's topic and a
+    topic named like an output the scene does not publish, of another type."""
+    bag = read_bag(source)
+    string = "std_msgs/msg/String"
+    with BagWriter(target, "mcap") as writer:
+        for topic, msgtype in bag.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in bag.messages:
+            writer.write_raw(message.topic, message.log_ns, message.raw)
+        for topic in ("/chatter", "/left/odom"):
+            writer.write(topic, string, bag.messages[0].log_ns,
+                         bags.typestore().types[string](data="hello"))
+    return target
+
+
+@pytest.mark.parametrize("live", [True, False])
+def test_topics_not_of_the_node_are_named_as_not_compared(tmp_path, capsys, sample_session,
+                                                           live):
+    """A match must say what the recording holds that it did not compare."""
+    if live:
+        source = record(sample_session, tmp_path / "live", 14)
+    else:
+        assert main(["script", "sample", "-o", str(tmp_path / "in"), "--duration", "1"]) == 0
+        assert main(["replay", "sample", str(tmp_path / "in"), "-o", str(tmp_path / "out"),
+                     "--with-inputs"]) == 0
+        source = tmp_path / "out"
+    code, out, _ = _check(capsys, _with_foreign_topics(source, tmp_path / "more"))
+    verdict = _verdict(out)
+    assert code == 0, out
+    for topic in ("/chatter", "/left/odom"):
+        assert f"{topic} (not a topic of the node for this scene)" in verdict, verdict
+        line = next(line for line in out.splitlines() if line.split()[:1] == [topic])
+        assert line.endswith("not compared: not a topic of the node for this scene"), line
+
+
 def test_a_pose_stamp_moved_by_a_bit_flip_fails(tmp_path, capsys, sample_session):
     path = record(sample_session, tmp_path / "live", 14)
     poses = read_bag(path).on("/left/pose")

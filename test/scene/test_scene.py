@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import re
 from pathlib import Path
 
@@ -321,6 +322,18 @@ def test_unreadable_files_name_the_file(tmp_path):
     assert _is_the_shipped_sample(scene_path("sample"))
 
 
+@pytest.mark.parametrize("make, message", [
+    (lambda p: None, r"no such scene file$"),
+    (lambda p: p.mkdir(), r"is a directory, not a scene file$"),
+    (lambda p: os.mkfifo(p), r"is not a regular file$"),
+])
+def test_a_scene_path_that_is_no_file_says_what_it_is(tmp_path, make, message):
+    path = tmp_path / "scene.yaml"
+    make(path)
+    with pytest.raises(SceneError, match=f"^{re.escape(str(path))}: {message}"):
+        load_scene(path)
+
+
 # ------------------------------------------------------------------ model: only what is declared
 
 def _contact_pass(model):
@@ -497,6 +510,12 @@ ONE_BOX = {"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}
                        "points": {"tip\n": [0.5, 0.0]}}}}, "bodies.b.points"),
     ({"wrench_topics": {"jet": {"body": "b", "topic": "b//jet"}}}, "wrench_topics.jet.topic"),
     ({"wrench_topics": {"jet": {"body": "b", "topic": "b/jet/"}}}, "wrench_topics.jet.topic"),
+    # Names and topics longer than ROS 2's topic names take (247 characters in all).
+    ({"bodies": {"b" * 101: {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}, "bodies"),
+    ({"bodies": {"b": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0,
+                       "points": {"p" * 101: [0.5, 0.0]}}}}, "bodies.b.points"),
+    ({"wrench_topics": {"jet": {"body": "b", "topic": "/".join(["j" * 50] * 5)}}},
+     "wrench_topics.jet.topic"),
 ])
 def test_out_of_range_values_and_names_are_errors_not_crashes(tmp_path, change, parameter):
     """Numbers too large for a double or for the nanosecond clock, a restitution above 1

@@ -335,3 +335,26 @@ def test_a_bag_is_drawn_only_within_its_session(replayed, tmp_path, capsys):
     assert main([*bag, "--start", "1.5", "--fps", "10"]) == 0
     with Image.open(out) as gif:
         assert gif.n_frames == 5
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_a_bag_pose_that_is_not_finite_is_a_one_line_error(replayed, tmp_path, capsys, value):
+    """matplotlib refused the view of a NaN pose with a traceback."""
+    from hecker_dynamics.bags.io import BagWriter, read_bag, typestore
+    source = read_bag(replayed["sample"])
+    target = source.on("/left/pose")[3]
+    with BagWriter(tmp_path / "bad", "mcap") as writer:
+        for topic, msgtype in source.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in source.messages:
+            raw = message.raw
+            if message.index == target.index and message.topic == target.topic:
+                msg = message.decode()
+                msg.pose.position.y = value
+                raw = bytes(typestore().serialize_cdr(msg, message.msgtype))
+            writer.write_raw(message.topic, message.log_ns, raw)
+    out = tmp_path / "x.png"
+    err = _one_line_error(capsys, ["render", "sample", "--bag", str(tmp_path / "bad"),
+                                   "-o", str(out)])
+    assert f"/left/pose at 0.08 s: the pose is not finite (y {value})" in err, err
+    assert not out.exists()
