@@ -115,7 +115,8 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["JointPass", "JointsUnsolved", "MAX_TURN", "MOST_SUBSTEPS"]
+__all__ = ["UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
+           "MOST_SUBSTEPS"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -132,6 +133,14 @@ MAX_TURN = 0.1
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
+#: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast
+#: turns leave no solution near a part's end; joined masses far apart (the measured limit
+#: on a 10-link chain lies between 1e8 and 1e10 to one) make the rows' system so
+#: ill-conditioned that rounding keeps its error above TOLERANCE.
+UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOST_SUBSTEPS} parts"
+UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
+                   "apart (beyond about 1e8 to one); take a shorter step, or masses closer "
+                   "together")
 
 
 class JointsUnsolved(ArithmeticError):

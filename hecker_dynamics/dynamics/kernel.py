@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
 
-from ..contact.joints import MOST_SUBSTEPS
+from ..contact.joints import UNSOLVED, UNSOLVED_ADVICE
 from ..integrators.methods import EmbeddedRungeKutta, Integrator
 from .forces import (
     AnchorSpringTerm,
@@ -164,9 +164,7 @@ KERNEL_METHODS = {"explicit_euler": "EXPLICIT_EULER",
 _FAILURES = {"SUBSTEP_UNDERFLOW": "the sub-step size underflowed",
              "TOO_MANY_SUBSTEPS": f"more than {EmbeddedRungeKutta.MAX_SUBSTEPS} sub-steps in "
                                   "one step",
-             "JOINTS_UNSOLVED": f"the joints have no solution near the end of the step, "
-                                f"taken in {MOST_SUBSTEPS} parts: the bodies turn too fast "
-                                "for the step; take a shorter step"}
+             "JOINTS_UNSOLVED": f"{UNSOLVED}: {UNSOLVED_ADVICE}"}
 
 
 class Advanced(NamedTuple):

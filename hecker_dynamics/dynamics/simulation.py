@@ -26,7 +26,7 @@ from typing import Any, NamedTuple, NoReturn, Optional
 import numpy as np
 
 from ..contact.events import Impact, WallEvents
-from ..contact.joints import MOST_SUBSTEPS, JointsUnsolved
+from ..contact.joints import MOST_SUBSTEPS, UNSOLVED, UNSOLVED_ADVICE, JointsUnsolved
 from ..geometry.planar import wrap_angles_in_place
 from ..integrators.methods import (
     EmbeddedRungeKutta,
@@ -633,10 +633,8 @@ class Simulation:
                 return q1, v1
             except JointsUnsolved as error:
                 if room < 2:
-                    raise IntegrationError(f"the joints have no solution near the end of "
-                                           f"the step, taken in {MOST_SUBSTEPS} parts "
-                                           f"({error}): the bodies turn too fast for the "
-                                           "step; take a shorter step") from error
+                    raise IntegrationError(f"{UNSOLVED} ({error}): {UNSOLVED_ADVICE}"
+                                           ) from error
             parts = 2
         part = h / parts
         for k in range(parts):
