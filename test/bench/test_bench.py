@@ -141,11 +141,14 @@ def test_mujoco_does_not_reset_a_diverged_state():
 
 
 # A budget no run exceeds: the test checks the files a run writes, and on a loaded machine
-# without the kernel a tight one skipped the very cases it reads (RK4 at h = 0.01 s).
+# without the kernel a tight one skipped the very cases it reads (RK4 at h = 0.01 s). The
+# default scene and the ball drop shrink to what the files need: a second of the scene, one
+# tolerance and one step of the drop.
 TINY = run.Mode(
     "tiny", steps={s: [0.1, 0.01] for s in scenes.BENCH_SCENES}, tolerances=[1e-6],
     adaptive_steps=[0.1], budget=Budget(60.0, 2, 60.0, 5), ring_sizes=[1, 4], ring_wall=0.01,
-    shipped_duration=0.2, shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=60)
+    shipped_duration=0.2, shipped_steps=[1.0], shipped_ref_divisor=2.0, profile_steps=60,
+    sample_duration=1.0, bounce_tolerances=[1e-6], bounce_steps=[0.004])
 
 
 def test_quick_bench_runs_end_to_end_and_writes_well_formed_files(tmp_path, monkeypatch):
