@@ -702,9 +702,11 @@ class Simulation:
         left = self._steps_left(t_ns, max_steps, taken)
         # The kernel's runs first: they need no floating-point error settings, which cost
         # a smooth run more than its steps.
+        refused = None  # the instant the kernel's run was refused at, not asked again there
         while per_publish and left:
             ran = self._run_checked(left, per_publish, kept)
             if not ran:
+                refused = self._time_ns
                 break
             taken += ran
             left = self._steps_left(t_ns, max_steps, taken)
@@ -712,7 +714,8 @@ class Simulation:
             return snapshots
         with np.errstate(all="ignore"):
             while left:
-                ran = per_publish and self._run_checked(left, per_publish, kept)
+                ran = per_publish and self._time_ns != refused and \
+                    self._run_checked(left, per_publish, kept)
                 if not ran:
                     ran = self._advance(min(left, per_publish - (self._time_ns - start) // step
                                             % per_publish if per_publish else 1))
