@@ -403,9 +403,9 @@ class Simulation:
         commands a drive sends from its wheels every control period share one resolved
         point, which lets the input set take their new values in place (:func:`.inputs.same_place`).
         """
-        (px, py) = point = command.point
+        px, py = command.point
         # The signs tell 0.0 from -0.0, which compare equal but need not give the same bits.
-        key = (command.body, command.frame_id, point, math.copysign(1.0, px),
+        key = (command.body, command.frame_id, px, py, math.copysign(1.0, px),
                math.copysign(1.0, py))
         place = self._places.get(key)
         if place is None:
