@@ -151,7 +151,10 @@ class InputBuffer:
 def same_place(a: WrenchRow, b: WrenchRow) -> bool:
     """Whether rows ``a`` and ``b`` act on the same body at the same point in the same axes
     (their forces and torques aside), to the bit: equal points with a zero in them may
-    differ in its sign, so they count only as the same object."""
+    differ in its sign, so they count only as the same object. A buffer kept without rows
+    (the viewer's, whose commands are only drawn) has empty ones: never the same place."""
+    if not (a and b):
+        return False
     return a.body == b.body and a.axes_body == b.axes_body and \
         a.point_body == b.point_body and a.at_point == b.at_point and \
         (a.point is b.point or (a.point == b.point and 0.0 not in a.point))
