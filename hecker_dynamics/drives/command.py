@@ -38,7 +38,7 @@ class CommandedDrive:
     def receive(self, command: VelocityCommand) -> None:
         """Take a new twist command; it replaces the previous one."""
         values = (command.linear_x, command.linear_y, command.angular_z)
-        if not all(math.isfinite(x) for x in values):
+        if not all(map(math.isfinite, values)):
             raise ValueError(f"drive '{self.name}': a cmd_vel with a non-finite value "
                              f"{values}")
         self.command = command

@@ -335,8 +335,8 @@ class EnergyBound:
     def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:
         """Count the rate of a new input set until the next check."""
         if inputs is not None:
-            with np.errstate(all="ignore"):
-                rates = self._unit_rates(q, (inputs,))
+            # A term's rows are plain floats, whose overflow numpy has no say in.
+            rates = self._unit_rates(q, (inputs,))
             self._set(INPUT_RATE, list(map(max, self.row(INPUT_RATE), rates)))
             self._inputs_set = True
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple, Optional, Protocol
 
@@ -180,6 +181,11 @@ def _no_couplings() -> tuple[np.ndarray, np.ndarray]:
 
 #: The couplings of a term whose forces depend on their own body's state only.
 NO_COUPLINGS: tuple[np.ndarray, np.ndarray] = _no_couplings()
+
+
+#: The cached columns of a :class:`ConstantWrenchTerm` that depend on where its wrenches act
+#: and not on their values (``turns`` does: a torque of zero turns nothing).
+_PLACE_COLUMNS = ("rotated", "moving_point", "couplings", "_sums", "_point_columns", "places")
 
 
 def _columns(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -533,8 +539,41 @@ class ConstantWrenchTerm:
         self.uses_orientation = any(axes >= 0 or (at and owner >= 0)
                                     for _, _, _, axes, owner, _, at in self._rows)
 
+    def with_values(self, rows: Sequence[WrenchRow]) -> ConstantWrenchTerm:
+        """The term :func:`~.model.wrench_term` builds from ``rows``, which differ from this
+        term's only in their forces and torques (each row acts on the same body at the
+        same point in the same axes, in the same order): the columns that do not hold the
+        values are this term's, only the forces and torques are new."""
+        term = ConstantWrenchTerm.__new__(ConstantWrenchTerm)
+        term.body, term.axes_body, term.point_body, term.point, term.at_point = (
+            self.body, self.axes_body, self.point_body, self.point, self.at_point)
+        # As tolist() gives them: plain floats, each value as float64 rounds it.
+        term._rows = [(body, [float(row.force[0]), float(row.force[1])], float(row.torque),
+                       axes, owner, point, at_point)
+                      for (body, _, _, axes, owner, point, at_point), row in zip(self._rows, rows)]
+        term.uses_orientation = self.uses_orientation
+        cached = term.__dict__
+        for name in _PLACE_COLUMNS:
+            if name in self.__dict__:  # the same for the new values
+                cached[name] = self.__dict__[name]
+        return term
+
     # The inputs make a new term whenever they change, and the kernel and the plain-float
     # sums read its rows only: the columns of the numpy sums are made when first needed.
+
+    @functools.cached_property
+    def force(self) -> np.ndarray:
+        return np.array([row[1] for row in self._rows], dtype=float).reshape(-1, 2)
+
+    @functools.cached_property
+    def torque(self) -> np.ndarray:
+        return np.array([row[2] for row in self._rows], dtype=float)
+
+    @functools.cached_property
+    def places(self) -> np.ndarray:
+        """(body, axes_body, point_body, at_point) per wrench, int64: where each acts."""
+        return np.array([(body, axes, owner, at) for body, _, _, axes, owner, _, at
+                         in self._rows], dtype=np.int64).reshape(-1, 4)
 
     @functools.cached_property
     def rotated(self) -> np.ndarray:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections import Counter
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any, Optional
@@ -19,7 +18,7 @@ from typing import Any, Optional
 from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
 
-__all__ = ["Held", "InputBuffer"]
+__all__ = ["Held", "InputBuffer", "same_place"]
 
 
 @dataclass(frozen=True)
@@ -40,8 +39,14 @@ class InputBuffer:
         self.max_active = max_active
         self._pending: list[tuple[int, int, Held]] = []
         self._active: dict[tuple[str, str], Held] = {}
-        self._pending_keys: Counter[tuple[str, str]] = Counter()
+        #: How many pending commands each key has (a plain dict: a Counter's updates cost
+        #: more, and the drives add two commands at every control instant).
+        self._pending_keys: dict[tuple[str, str], int] = {}
         self._order = itertools.count()
+        #: Whether the last :meth:`update` that changed the active commands only replaced
+        #: some by commands acting at the same place (:func:`same_place`): the active rows
+        #: differ from before in their forces and torques alone.
+        self.values_only = False
 
     def end_of(self, command: WrenchCommand) -> Optional[int]:
         """When a command stops acting, if nothing replaces it (None: never)."""
@@ -62,7 +67,7 @@ class InputBuffer:
                 len(self._active.keys() | self._pending_keys.keys()) >= self.max_active:
             raise InputError(f"more than {self.max_active} input sources at once; dropped {what}")
         held = Held(command, row, self.end_of(command))
-        self._pending_keys[key] += 1
+        self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
         heapq.heappush(self._pending, (command.stamp_ns, next(self._order), held))
 
     def update(self, now_ns: int) -> bool:
@@ -70,18 +75,23 @@ class InputBuffer:
         if not self._pending and not self._active:
             return False
         changed = False
+        values_only = True
         while self._pending and self._pending[0][0] <= now_ns:
             held = heapq.heappop(self._pending)[2]
             key = (held.command.body, held.command.source)
-            self._pending_keys[key] -= 1
-            if not self._pending_keys[key]:
-                del self._pending_keys[key]
-            self._active[key] = held
+            left = self._pending_keys.pop(key) - 1
+            if left:
+                self._pending_keys[key] = left
+            replaced = self._active.get(key)
+            if replaced is None or not same_place(replaced.row, held.row):
+                values_only = False
+            self._active[key] = held  # a replaced key keeps its place in the order
             changed = True
         ended = [key for key, held in self._active.items()
                  if held.end_ns is not None and held.end_ns <= now_ns]
         for key in ended:
             del self._active[key]
+        self.values_only = values_only and not ended
         return changed or bool(ended)
 
     def next_change(self) -> Optional[int]:
@@ -119,7 +129,8 @@ class InputBuffer:
         self._pending = [(int(stamp), int(number), held(data))
                          for stamp, number, data in state["pending"]]
         for _, _, item in self._pending:
-            self._pending_keys[(item.command.body, item.command.source)] += 1
+            key = (item.command.body, item.command.source)
+            self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
         for data in state["active"]:
             item = held(data)
             self._active[(item.command.body, item.command.source)] = item
@@ -135,6 +146,18 @@ class InputBuffer:
 
     def __len__(self) -> int:
         return len(self._pending) + len(self._active)
+
+
+def same_place(a: WrenchRow, b: WrenchRow) -> bool:
+    """Whether rows ``a`` and ``b`` act on the same body at the same point in the same axes
+    (their forces and torques aside), to the bit: equal points with a zero in them may
+    differ in its sign, so they count only as the same object. A buffer kept without rows
+    (the viewer's, whose commands are only drawn) has empty ones: never the same place."""
+    if not (a and b):
+        return False
+    return a.body == b.body and a.axes_body == b.axes_body and \
+        a.point_body == b.point_body and a.at_point == b.at_point and \
+        (a.point is b.point or (a.point == b.point and 0.0 not in a.point))
 
 
 def _command_data(command: WrenchCommand) -> dict[str, Any]:

@@ -102,11 +102,8 @@ def _law(term: AnchorSpringTerm | BodySpringTerm) -> list[np.ndarray]:
 def _packed_wrenches(term: ConstantWrenchTerm) -> Packed:
     """The wrenches' columns (body, axes, point body, at point; force, torque, point) read
     off their rows: the inputs pack a new term whenever they change."""
-    rows = term.rows
-    ints = [(body, axes, owner, at) for body, _, _, axes, owner, _, at in rows]
-    reals = [(f[0], f[1], torque, p[0], p[1]) for _, f, torque, _, _, p, _ in rows]
-    return (_kernel.WRENCH, np.array(ints, dtype=np.int64).reshape(-1, 4),
-            np.array(reals, dtype=np.float64).reshape(-1, 5))
+    reals = [(f[0], f[1], torque, p[0], p[1]) for _, f, torque, _, _, p, _ in term.rows]
+    return (_kernel.WRENCH, term.places, np.array(reals, dtype=np.float64).reshape(-1, 5))
 
 
 #: Per kind of term: its columns in the kernel's layout (kernel.h, enum TermKind; the kind

@@ -72,6 +72,7 @@ class Model:
         self.cm_local = np.array([b.mass.center_of_mass for b in scene.bodies])
         self._cm_local_rows = [(float(x), float(y)) for x, y in self.cm_local]
         self.terms: tuple[ForceTerm, ...] = tuple(_build_terms(self, scene))
+        self._terms_oriented = any(t.uses_orientation for t in self.terms)
         # The scene's couplings, the inputs' couplings and the coloring of both, once asked.
         self._term_couplings: Optional[tuple[tuple[int, int], ...]] = None
         self._coloring: Optional[tuple[tuple[tuple[int, int], ...], Coloring]] = None
@@ -107,7 +108,7 @@ class Model:
     def inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
         self._inputs = term
         self._active = self.terms if term is None else (*self.terms, term)
-        self._oriented = any(t.uses_orientation for t in self._active)
+        self._oriented = self._terms_oriented or (term is not None and term.uses_orientation)
         if self.compiled is not None:
             self.compiled.set_inputs(term)
 

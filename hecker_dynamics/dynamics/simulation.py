@@ -58,6 +58,8 @@ FIXED_STEP = (ExplicitEuler, SemiImplicitEuler, VelocityVerlet, RungeKutta4)
 #: The most values (q and v of every body, at each publish instant) one kernel call of
 #: :meth:`Simulation.advance_to` writes: memory in step with its state, not its length.
 RUN_VALUES = 1 << 16
+#: The most places of commands (body, frame and point) a simulation keeps resolved.
+PLACES = 1024
 #: The joint states of a snapshot of a scene without joints (read-only, so shared).
 NO_JOINTS: Mapping[str, tuple[float, float, float]] = MappingProxyType({})
 
@@ -183,6 +185,8 @@ class Simulation:
         self._embedded = (self.integrator if isinstance(self.integrator, EmbeddedRungeKutta)
                           else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
+        #: Where the commands pushed so far act (:meth:`_row`), by body, frame and point.
+        self._places: dict[tuple[Any, ...], tuple[int, int, int, tuple[float, float]]] = {}
         self.reset(start_ns)
 
     # ----------------------------------------------------------------- state
@@ -393,10 +397,30 @@ class Simulation:
         self._inputs.add(command, self._row(command))
 
     def _row(self, command: WrenchCommand) -> WrenchRow:
-        """The command as a constant-wrench row: its frame resolved to a body or the world."""
+        """The command as a constant-wrench row: its frame resolved to a body or the world.
+
+        Where a command acts (its body, frame and point) is resolved once and kept, so the
+        commands a drive sends from its wheels every control period share one resolved
+        point, which lets the input set take their new values in place (:func:`.inputs.same_place`).
+        """
+        px, py = command.point
+        # The signs tell 0.0 from -0.0, which compare equal but need not give the same bits.
+        key = (command.body, command.frame_id, px, py, math.copysign(1.0, px),
+               math.copysign(1.0, py))
+        place = self._places.get(key)
+        if place is None:
+            if len(self._places) >= PLACES:  # bounded whatever points the inputs name
+                self._places.clear()
+            place = self._places[key] = self._place(command)
+        target, axes, owner, resolved = place
+        return WrenchRow(target, command.force, command.torque, axes, owner, resolved, True)
+
+    def _place(self, command: WrenchCommand) -> tuple[int, int, int, tuple[float, float]]:
+        """Where ``command`` acts: its body's row, the body whose axes its force is in and
+        the body its point is relative to (-1: the fixed frame), and that point."""
         target = self.model.index[command.body]
         if command.frame_id == self.scene.frame_id:
-            return WrenchRow(target, command.force, command.torque, -1, -1, command.point, True)
+            return target, -1, -1, command.point
         name, _, point_name = command.frame_id.partition("/")
         owner = self.model.index.get(name)
         if owner is None:
@@ -411,8 +435,7 @@ class Simulation:
                                  f"point '{point_name}' (points: {', '.join(points) or 'none'})")
             origin = points[point_name]
         point = (origin[0] + command.point[0], origin[1] + command.point[1])
-        return WrenchRow(target, command.force, command.torque, owner, owner,
-                         tuple(self.model.local(owner, point)), True)
+        return target, owner, owner, tuple(self.model.local(owner, point))
 
     # ----------------------------------------------------------------- stepping
 
@@ -532,7 +555,12 @@ class Simulation:
         """Make the inputs active now the model's (what the step from now sees)."""
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
-            self.model.inputs = wrench_term(rows) if rows else None
+            term = self.model.inputs
+            # A drive's control instant replaces its commands by ones at the same points:
+            # the term keeps its places and takes the new values.
+            self.model.inputs = (term.with_values(rows) if term is not None and
+                                 self._inputs.values_only else
+                                 wrench_term(rows) if rows else None)
             self._bound.inputs_changed(self.q, self.model.inputs)
             self._hold(rows)
 
@@ -672,9 +700,11 @@ class Simulation:
         left = self._steps_left(t_ns, max_steps, taken)
         # The kernel's runs first: they need no floating-point error settings, which cost
         # a smooth run more than its steps.
+        refused = None  # the instant the kernel's run was refused at, not asked again there
         while per_publish and left:
             ran = self._run_checked(left, per_publish, kept)
             if not ran:
+                refused = self._time_ns
                 break
             taken += ran
             left = self._steps_left(t_ns, max_steps, taken)
@@ -682,7 +712,8 @@ class Simulation:
             return snapshots
         with np.errstate(all="ignore"):
             while left:
-                ran = per_publish and self._run_checked(left, per_publish, kept)
+                ran = per_publish and self._time_ns != refused and \
+                    self._run_checked(left, per_publish, kept)
                 if not ran:
                     ran = self._advance(min(left, per_publish - (self._time_ns - start) // step
                                             % per_publish if per_publish else 1))

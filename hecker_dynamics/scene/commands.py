@@ -40,7 +40,7 @@ class WrenchCommand:
     def check_finite(self) -> None:
         """Raise :class:`InputError` if any number of the wrench is NaN or infinite."""
         numbers = (*self.point, *self.force, self.torque)
-        if not all(math.isfinite(x) for x in numbers):
+        if not all(map(math.isfinite, numbers)):
             raise InputError(
                 f"wrench for body '{self.body}' from '{self.source}' has a non-finite "
                 f"value (point={self.point}, force={self.force}, torque={self.torque})")
