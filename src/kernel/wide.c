@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "crew.h"
 #include "rows.h"
 #include "simd.h"
 #include "wide.h"
@@ -494,6 +495,67 @@ static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 }
 #endif
 
+/* The velocity passes of one island (hd_wide_solve), alone or in two lanes of a crew: the
+ * largest change of each lane's share of a pass (two passes' worth, as one lane may write
+ * the next pass's while the other still reads this one's), and whether they converged. */
+typedef struct {
+    hd_contact_model *m;
+    const long *colour_start;
+    long passes;
+    double tolerance;
+    double largest[2][2];
+    int converged;
+} hd_passes;
+
+/* Lane `lane`'s share of a colour's `count` sets of lanes from `first`: lane -1 (alone)
+ * all of them, lane 0 the first half and lane 1 the rest. */
+static void hd_share(int lane, long first, long count, long *from, long *to)
+{
+    const long half = first + (count + 1) / 2;
+    *from = lane == 1 ? half : first;
+    *to = lane == 0 ? half : first + count;
+}
+
+/* The passes of `job` for `lane` (hd_task; -1: alone): each colour's blocks split between
+ * the two lanes, its other units and those that fit no colour solved by lane 0 in their
+ * order, the lanes meeting after each colour. A colour's units share no moving body, so
+ * each lane solves its own as one thread would, and the bits are one thread's; the
+ * largest change of a pass, a maximum, is the same whichever lane found it. */
+static void hd_run_passes(void *passes, int lane)
+{
+    hd_passes *job = passes;
+    hd_contact_model *m = job->m;
+    struct hd_wide *w = m->wide;
+    const long *colour_start = job->colour_start;
+    for (long iteration = 0; iteration < job->passes; ++iteration) {
+        double largest = 0.0;
+        for (int c = 0; c <= HD_COLOURS; ++c) {
+            if (colour_start[c + 1] == colour_start[c])
+                continue;  /* a colour none of the island's units has */
+            long from, to;
+            hd_share(lane, w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c], &from,
+                     &to);
+            largest = hd_pass_lanes(w->lanes + from, to - from, m->velocity, largest);
+            for (long s = w->single_start[c]; lane < 1 && s < w->single_start[c + 1]; ++s)
+                largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
+                                                        m->velocity));
+            if (lane >= 0)
+                hd_crew_meet(m->crew, lane);
+        }
+        if (lane >= 0) {
+            double *shares = job->largest[iteration % 2];
+            shares[lane] = largest;
+            hd_crew_meet(m->crew, lane);
+            largest = hd_max(shares[0], shares[1]);
+        }
+        if (largest <= job->tolerance) {
+            if (lane < 1)
+                job->converged = 1;
+            break;
+        }
+    }
+}
+
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
                   long passes, double scale, double h, double *base)
 {
@@ -532,20 +594,14 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
-    int converged = 0;
-    for (long iteration = 0; iteration < passes && !converged; ++iteration) {
-        double largest = 0.0;
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            if (colour_start[c + 1] == colour_start[c])
-                continue;  /* a colour none of the island's units has */
-            largest = hd_pass_lanes(w->lanes + w->lane_start[c],
-                                    w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
-            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
-                                                        m->velocity));
-        }
-        converged = largest <= HD_CONVERGED * scale;
-    }
+    hd_passes job = {m, colour_start, passes, HD_CONVERGED * scale, {{0.0}}, 0};
+    if (size >= HD_CREW_UNITS && m->threads > 1 && m->crew == NULL)
+        m->crew = hd_crew_new();  /* none to be had: one thread */
+    if (size >= HD_CREW_UNITS && m->threads > 1 && m->crew != NULL)
+        hd_crew_run(m->crew, hd_run_passes, &job);
+    else
+        hd_run_passes(&job, -1);
+    const int converged = job.converged;
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {
         for (int l = 0; k + 1 < lanes && l < HD_LANES && w->lanes[k + 1].first[l] >= 0; ++l)
