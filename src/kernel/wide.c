@@ -495,9 +495,10 @@ static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 }
 #endif
 
-/* The velocity passes of one island (hd_wide_solve), alone or in two lanes of a crew: the
- * largest change of each lane's share of a pass (two passes' worth, as one lane may write
- * the next pass's while the other still reads this one's), and whether they converged. */
+/* The velocity passes and the position correction of one island (hd_wide_solve), alone or
+ * in two lanes of a crew: the largest change of each lane's share of a pass (two passes'
+ * worth, as one lane may write the next pass's while the other still reads this one's),
+ * whether they converged, and the rows' depths. */
 typedef struct {
     hd_contact_model *m;
     const long *colour_start;
@@ -505,6 +506,7 @@ typedef struct {
     double tolerance;
     double largest[2][2];
     int converged;
+    const double *base;  /* the rows' depths, for the position correction */
 } hd_passes;
 
 /* Lane `lane`'s share of a colour's `count` sets of lanes from `first`: lane -1 (alone)
@@ -556,6 +558,45 @@ static void hd_run_passes(void *passes, int lane)
     }
 }
 
+/* The position correction's passes of `job` for `lane` (hd_task; -1: alone), shared out as
+ * hd_run_passes shares the velocity passes. */
+static void hd_run_corrections(void *passes, int lane)
+{
+    hd_passes *job = passes;
+    hd_contact_model *m = job->m;
+    struct hd_wide *w = m->wide;
+    for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
+        for (int c = 0; c <= HD_COLOURS; ++c) {
+            if (job->colour_start[c + 1] == job->colour_start[c])
+                continue;
+            long from, to;
+            hd_share(lane, w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c], &from,
+                     &to);
+            hd_correct_lanes(w->lanes + from, to - from, m->shift);
+            for (long s = w->single_start[c]; lane < 1 && s < w->single_start[c + 1]; ++s)
+                hd_correct_unit(m->units + w->single[s], m->rows, job->base, m->shift);
+            if (lane >= 0)
+                hd_crew_meet(m->crew, lane);
+        }
+    }
+}
+
+/* `task` of `job` for an island of `size` units: on two threads where the model asks for
+ * them and the island is big enough to gain (the worker started on first use), else alone. */
+static void hd_share_out(hd_contact_model *m, long size, hd_task task, void *job)
+{
+    if (size < HD_CREW_UNITS || m->threads < 2) {
+        task(job, -1);
+        return;
+    }
+    if (m->crew == NULL)
+        m->crew = hd_crew_new();
+    if (m->crew == NULL)
+        task(job, -1);  /* no second thread to be had */
+    else
+        hd_crew_run(m->crew, task, job);
+}
+
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
                   long passes, double scale, double h, double *base)
 {
@@ -594,13 +635,8 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
-    hd_passes job = {m, colour_start, passes, HD_CONVERGED * scale, {{0.0}}, 0};
-    if (size >= HD_CREW_UNITS && m->threads > 1 && m->crew == NULL)
-        m->crew = hd_crew_new();  /* none to be had: one thread */
-    if (size >= HD_CREW_UNITS && m->threads > 1 && m->crew != NULL)
-        hd_crew_run(m->crew, hd_run_passes, &job);
-    else
-        hd_run_passes(&job, -1);
+    hd_passes job = {m, colour_start, passes, HD_CONVERGED * scale, {{0.0}}, 0, NULL};
+    hd_share_out(m, size, hd_run_passes, &job);
     const int converged = job.converged;
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {
@@ -608,13 +644,9 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
             hd_prefetch_rows(m, w->lanes[k + 1].first[l], 1);
         hd_store_lanes(m, w->lanes + k, base);
     }
-    for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            hd_correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
-                             m->shift);
-            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                hd_correct_unit(m->units + w->single[s], m->rows, base, m->shift);
-        }
+    if (deep) {
+        job.base = base;
+        hd_share_out(m, size, hd_run_corrections, &job);
     }
     return converged;
 }
