@@ -495,106 +495,112 @@ static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 }
 #endif
 
-/* The velocity passes and the position correction of one island (hd_wide_solve), alone or
- * in two lanes of a crew: the largest change of each lane's share of a pass (two passes'
- * worth, as one lane may write the next pass's while the other still reads this one's),
- * whether they converged, and the rows' depths. */
+/* Sets of lanes in a chunk of a colour shared between two threads (crew.h), at least. */
+#define HD_CHUNK 8
+
+/* The velocity passes and the position correction of one island (hd_wide_solve): the
+ * colour at hand and the sets of lanes of each of its chunks when two threads share it,
+ * and the rows' depths for the correction. */
 typedef struct {
     hd_contact_model *m;
-    const long *colour_start;
-    long passes;
-    double tolerance;
-    double largest[2][2];
-    int converged;
-    const double *base;  /* the rows' depths, for the position correction */
+    const double *base;
+    int colour;
+    long chunk_sets;
 } hd_passes;
 
-/* Lane `lane`'s share of a colour's `count` sets of lanes from `first`: lane -1 (alone)
- * all of them, lane 0 the first half and lane 1 the rest. */
-static void hd_share(int lane, long first, long count, long *from, long *to)
+/* Lanes `from` to `to` - 1 of chunk `chunk` of the colour at hand. */
+static void hd_chunk_lanes(const hd_passes *job, long chunk, long *from, long *to)
 {
-    const long half = first + (count + 1) / 2;
-    *from = lane == 1 ? half : first;
-    *to = lane == 0 ? half : first + count;
+    const struct hd_wide *w = job->m->wide;
+    *from = w->lane_start[job->colour] + chunk * job->chunk_sets;
+    const long end = w->lane_start[job->colour + 1];
+    *to = *from + job->chunk_sets < end ? *from + job->chunk_sets : end;
 }
 
-/* The passes of `job` for `lane` (hd_task; -1: alone): each colour's blocks split between
- * the two lanes, its other units and those that fit no colour solved by lane 0 in their
- * order, the lanes meeting after each colour. A colour's units share no moving body, so
- * each lane solves its own as one thread would, and the bits are one thread's; the
- * largest change of a pass, a maximum, is the same whichever lane found it. */
-static void hd_run_passes(void *passes, int lane)
+/* hd_chunk: a velocity pass over a chunk of the colour's blocks. */
+static double hd_pass_chunk(void *passes, long chunk)
+{
+    hd_passes *job = passes;
+    long from, to;
+    hd_chunk_lanes(job, chunk, &from, &to);
+    return hd_pass_lanes(job->m->wide->lanes + from, to - from, job->m->velocity, 0.0);
+}
+
+/* A velocity pass over the colour's units that are not in lanes, in their order. */
+static double hd_pass_singles(void *passes)
 {
     hd_passes *job = passes;
     hd_contact_model *m = job->m;
-    struct hd_wide *w = m->wide;
-    const long *colour_start = job->colour_start;
-    for (long iteration = 0; iteration < job->passes; ++iteration) {
-        double largest = 0.0;
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            if (colour_start[c + 1] == colour_start[c])
-                continue;  /* a colour none of the island's units has */
-            long from, to;
-            hd_share(lane, w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c], &from,
-                     &to);
-            largest = hd_pass_lanes(w->lanes + from, to - from, m->velocity, largest);
-            for (long s = w->single_start[c]; lane < 1 && s < w->single_start[c + 1]; ++s)
-                largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
-                                                        m->velocity));
-            if (lane >= 0)
-                hd_crew_meet(m->crew, lane);
-        }
-        if (lane >= 0) {
-            double *shares = job->largest[iteration % 2];
-            shares[lane] = largest;
-            hd_crew_meet(m->crew, lane);
-            largest = hd_max(shares[0], shares[1]);
-        }
-        if (largest <= job->tolerance) {
-            if (lane < 1)
-                job->converged = 1;
-            break;
-        }
-    }
+    const struct hd_wide *w = m->wide;
+    double largest = 0.0;
+    for (long s = w->single_start[job->colour]; s < w->single_start[job->colour + 1]; ++s)
+        largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows, m->velocity));
+    return largest;
 }
 
-/* The position correction's passes of `job` for `lane` (hd_task; -1: alone), shared out as
- * hd_run_passes shares the velocity passes. */
-static void hd_run_corrections(void *passes, int lane)
+/* hd_chunk: a pass of the position correction over a chunk of the colour's blocks. */
+static double hd_correct_chunk(void *passes, long chunk)
+{
+    hd_passes *job = passes;
+    long from, to;
+    hd_chunk_lanes(job, chunk, &from, &to);
+    hd_correct_lanes(job->m->wide->lanes + from, to - from, job->m->shift);
+    return 0.0;
+}
+
+/* A pass of the position correction over the colour's units not in lanes, in order. */
+static double hd_correct_singles(void *passes)
 {
     hd_passes *job = passes;
     hd_contact_model *m = job->m;
-    struct hd_wide *w = m->wide;
-    for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            if (job->colour_start[c + 1] == job->colour_start[c])
-                continue;
-            long from, to;
-            hd_share(lane, w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c], &from,
-                     &to);
-            hd_correct_lanes(w->lanes + from, to - from, m->shift);
-            for (long s = w->single_start[c]; lane < 1 && s < w->single_start[c + 1]; ++s)
-                hd_correct_unit(m->units + w->single[s], m->rows, job->base, m->shift);
-            if (lane >= 0)
-                hd_crew_meet(m->crew, lane);
-        }
-    }
+    const struct hd_wide *w = m->wide;
+    for (long s = w->single_start[job->colour]; s < w->single_start[job->colour + 1]; ++s)
+        hd_correct_unit(m->units + w->single[s], m->rows, job->base, m->shift);
+    return 0.0;
 }
 
-/* `task` of `job` for an island of `size` units: on two threads where the model asks for
- * them and the island is big enough to gain (the worker started on first use), else alone. */
-static void hd_share_out(hd_contact_model *m, long size, hd_task task, void *job)
+/* One pass of `chunk` and `singles` over every colour of the island in order: on the crew
+ * where there is one (each colour's chunks to whichever thread takes them first, its
+ * other units on this thread meanwhile), else on this thread; the largest change. A
+ * colour's units share no moving body, so each is solved as one thread would solve it,
+ * and the largest change, a maximum of numbers (a NaN change counts for none either way),
+ * is one thread's too. */
+static double hd_sweep(hd_passes *job, const long *colour_start, struct hd_crew *crew,
+                       hd_chunk chunk, double (*singles)(void *))
 {
-    if (size < HD_CREW_UNITS || m->threads < 2) {
-        task(job, -1);
-        return;
+    const struct hd_wide *w = job->m->wide;
+    double largest = 0.0;
+    for (int c = 0; c <= HD_COLOURS; ++c) {
+        if (colour_start[c + 1] == colour_start[c])
+            continue;  /* a colour none of the island's units has */
+        job->colour = c;
+        const long sets = w->lane_start[c + 1] - w->lane_start[c];
+        if (crew == NULL || sets == 0) {
+            job->chunk_sets = sets;
+            largest = hd_max(largest, sets > 0 ? chunk(job, 0) : 0.0);
+            largest = hd_max(largest, singles(job));
+            continue;
+        }
+        const long fewest = (sets + HD_MOST_CHUNKS - 1) / HD_MOST_CHUNKS;
+        job->chunk_sets = fewest > HD_CHUNK ? fewest : HD_CHUNK;
+        largest = hd_max(largest, hd_crew_share(crew, chunk, job,
+                                                (sets + job->chunk_sets - 1) / job->chunk_sets,
+                                                singles));
     }
+    return largest;
+}
+
+/* The crew of an island of `size` units, woken: where the model asks for two threads and
+ * the island is big enough to gain (the worker started on first use), else NULL. */
+static struct hd_crew *hd_crew_for(hd_contact_model *m, long size)
+{
+    if (size < HD_CREW_UNITS || m->threads < 2)
+        return NULL;
     if (m->crew == NULL)
-        m->crew = hd_crew_new();
-    if (m->crew == NULL)
-        task(job, -1);  /* no second thread to be had */
-    else
-        hd_crew_run(m->crew, task, job);
+        m->crew = hd_crew_new();  /* NULL: no second thread to be had */
+    if (m->crew != NULL)
+        hd_crew_begin(m->crew);
+    return m->crew;
 }
 
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
@@ -635,18 +641,22 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
-    hd_passes job = {m, colour_start, passes, HD_CONVERGED * scale, {{0.0}}, 0, NULL};
-    hd_share_out(m, size, hd_run_passes, &job);
-    const int converged = job.converged;
+    hd_passes job = {m, base, 0, 0};
+    int converged = 0;
+    struct hd_crew *crew = hd_crew_for(m, size);
+    for (long iteration = 0; iteration < passes && !converged; ++iteration) {
+        const double largest = hd_sweep(&job, colour_start, crew, hd_pass_chunk,
+                                        hd_pass_singles);
+        converged = largest <= HD_CONVERGED * scale;
+    }
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {
         for (int l = 0; k + 1 < lanes && l < HD_LANES && w->lanes[k + 1].first[l] >= 0; ++l)
             hd_prefetch_rows(m, w->lanes[k + 1].first[l], 1);
         hd_store_lanes(m, w->lanes + k, base);
     }
-    if (deep) {
-        job.base = base;
-        hd_share_out(m, size, hd_run_corrections, &job);
-    }
+    crew = deep ? hd_crew_for(m, size) : NULL;
+    for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration)
+        hd_sweep(&job, colour_start, crew, hd_correct_chunk, hd_correct_singles);
     return converged;
 }
