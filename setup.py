@@ -20,11 +20,12 @@ KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/bind.c", "src/kernel/bind_f
                   "src/kernel/warm.c", "src/kernel/islands.c", "src/kernel/solve.c",
                   "src/kernel/sleep.c", "src/kernel/solver.c", "src/kernel/joint.c",
                   "src/kernel/sparse.c", "src/kernel/coupled.c", "src/kernel/wide.c",
-                  "src/kernel/bound.c", "src/kernel/raycast.c"]
+                  "src/kernel/crew.c", "src/kernel/bound.c", "src/kernel/raycast.c"]
 KERNEL_HEADERS = ["src/kernel/kernel.h", "src/kernel/contact.h", "src/kernel/joint.h",
                   "src/kernel/sparse.h", "src/kernel/coupled.h", "src/kernel/rows.h",
-                  "src/kernel/wide.h", "src/kernel/floats.h", "src/kernel/simd.h",
-                  "src/kernel/solver.h", "src/kernel/bind.h", "src/kernel/raycast.h"]
+                  "src/kernel/wide.h", "src/kernel/crew.h", "src/kernel/floats.h",
+                  "src/kernel/simd.h", "src/kernel/solver.h", "src/kernel/bind.h",
+                  "src/kernel/raycast.h"]
 
 #: GCC and Clang (compiler type "unix" on Linux and macOS, "mingw32" and "cygwin" on
 #: Windows). No contraction of a * b + c into a fused multiply-add and no fast-math, so the
@@ -59,7 +60,7 @@ class KernelBuildExt(build_ext):
             if compiler in ("unix", "mingw32", "cygwin"):
                 gcc = GCC_FLAGS if _is_gcc(self.compiler.compiler_so[:1]) else []
                 extension.extra_compile_args = GNU_FLAGS + gcc + list(extension.extra_compile_args)
-                extension.libraries = list(extension.libraries) + ["m"]
+                extension.libraries = list(extension.libraries) + ["m", "pthread"]
             elif compiler == "msvc":
                 extension.extra_compile_args = MSVC_FLAGS + list(extension.extra_compile_args)
         super().build_extensions()

@@ -69,6 +69,7 @@ class CompiledContacts:
             static_reals=_doubles(static_reals), static_bounds=_doubles(contacts.static_bounds),
             static_material=_doubles(contacts.static_material),
             static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept))
+        _kernel.threads(self.kernel, contacts.threads)
         if contacts.sleep:
             self.set_sleep(contacts)
 

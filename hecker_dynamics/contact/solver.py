@@ -103,7 +103,7 @@ class ContactPass(Sleep, WarmStarts):
                  center_of_mass: States, threshold: float, *, lean: bool,
                  apart: Iterable[tuple[int, int]] = (), compiled: bool = False,
                  sleep: bool = False, restless: Iterable[int] = (),
-                 joints: Optional[JointPass] = None) -> None:
+                 joints: Optional[JointPass] = None, threads: int = 1) -> None:
         """The pass for ``scene``'s walls and collision groups, with the bodies' ``mass``,
         moment of ``inertia`` and ``center_of_mass`` (N x 2, body axes) in the scene's
         order; ``threshold``: the approach speed below which contacts do not bounce;
@@ -112,7 +112,9 @@ class ContactPass(Sleep, WarmStarts):
         resolve in the kernel (:mod:`.compiled`), which must be built; ``sleep``: let
         resting islands sleep; ``restless``: bodies that never sleep (pushed by more than
         gravity and contacts); ``joints``: the scene's joint pass, whose velocity rows the
-        solve sweeps with the contacts of the islands they are in (:mod:`.coupled`)."""
+        solve sweeps with the contacts of the islands they are in (:mod:`.coupled`);
+        ``threads``: the kernel's threads for the velocity passes of big islands (1 or 2,
+        the same bits either way; the Python path has one)."""
         index = {body.name: i for i, body in enumerate(scene.bodies)}
         self.threshold = threshold
         self.inverse_mass = (1.0 / mass).tolist()
@@ -182,6 +184,7 @@ class ContactPass(Sleep, WarmStarts):
         self.calm = self._calm(())
         self._woken: set[int] = set()
         self._joints = joints
+        self.threads = threads
         self._kernel: Optional[_compiled.CompiledContacts] = (
             _compiled.CompiledContacts(self) if compiled else None)
 

@@ -96,7 +96,8 @@ class Model:
                         # joined bodies do not collide by default
                         apart=() if self.joints is None else self.joints.connected,
                         compiled=self.compiled is not None,
-                        sleep=scene.sleep, restless=_restless(self, scene), joints=self.joints)
+                        sleep=scene.sleep, restless=_restless(self, scene), joints=self.joints,
+                        threads=scene.threads)
             if scene.walls or scene.collisions or scene.map else None)
 
     @property

@@ -4,7 +4,8 @@ The fingerprint hashes the checked :class:`~hecker_dynamics.scene.load.Scene` (e
 with defaults filled in, floats by their exact value), not the file's text: a scene loaded
 from a shipped name, from a parameters file in another directory or from the node's own
 parameters has one fingerprint, and so does a file that only writes a default out. Only
-``source`` (where the file was found) is left out.
+``source`` (where the file was found) and ``threads`` (which gives the same bits any way)
+are left out.
 """
 from __future__ import annotations
 
@@ -60,6 +61,7 @@ def _plain(value: Any) -> Any:
 def scene_fingerprint(scene: Scene) -> str:
     """The scene's fingerprint: hex digits of a SHA-256 over its checked specs."""
     described = _plain(dataclasses.replace(scene, source=""))
+    del described["threads"]
     for name, default in _ADDED_LATER.items():
         if getattr(scene, name) == default:
             del described[name]

@@ -51,6 +51,7 @@ from .parameters import (
     ParameterReader,
     SceneError,
     flatten,
+    quoted,
     unflatten,
 )
 from .rosyaml import merge_parameters, read_parameters_file
@@ -232,6 +233,7 @@ class Scene:
     drives: tuple[DriveSpec, ...] = ()  # cmd_vel drives (scene/drives.py)
     map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
     publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
+    threads: int = 1  # the kernel's threads for big islands (contacts.threads): same bits
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -425,6 +427,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         joints=joints,
         sleep=contacts.boolean("sleep", False),
         events=contacts.boolean("events", False),
+        threads=_read_threads(contacts),
         sensors=tuple(read_sensor(name, r, points, step_ns)
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
@@ -434,6 +437,14 @@ def _read_scene(root: ParameterReader) -> Scene:
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
+
+
+def _read_threads(contacts: ParameterReader) -> int:
+    """``contacts.threads``: 1 or 2 (the kernel's velocity passes of big islands)."""
+    value = contacts.raw("threads", 1)
+    if isinstance(value, bool) or value not in (1, 2) or not isinstance(value, int):
+        contacts.fail("threads", f"must be 1 or 2, not {quoted(value)}")
+    return value
 
 
 def _read_shape(reader: ParameterReader, *, part: bool) -> Shape:

@@ -303,6 +303,30 @@ static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(threads_doc,
+"threads(contacts[, count]) -> (count, started)\n\n"
+"The threads of the velocity passes of big islands (1 or 2, the same bits either way;\n"
+"wide.h), first set to `count` if given, and whether the second thread was started.");
+
+static PyObject *hd_py_threads(PyObject *self, PyObject *args)
+{
+    PyObject *capsule;
+    int count = 0;
+    if (!PyArg_ParseTuple(args, "O|i:threads", &capsule, &count))
+        return NULL;
+    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    if (m == NULL)
+        return NULL;
+    if (PyTuple_GET_SIZE(args) > 1) {
+        if (count < 1 || count > 2) {
+            PyErr_Format(PyExc_ValueError, "threads: 1 or 2, not %d", count);
+            return NULL;
+        }
+        m->threads = count;
+    }
+    return Py_BuildValue("(iO)", m->threads, m->crew != NULL ? Py_True : Py_False);
+}
+
 PyDoc_STRVAR(sleep_doc,
 "sleep(contacts[, enabled, calm, rested, island]) -> (rested, island)\n\n"
 "Sleeping of resting islands (ContactPass._doze): per body its rest time (s) and\n"
@@ -425,5 +449,6 @@ PyMethodDef hd_bind_contacts[] = {
     {"resolve", hd_py_resolve, METH_VARARGS, resolve_doc},
     {"warm", hd_py_warm, METH_VARARGS, warm_doc},
     {"sleep", hd_py_sleep, METH_VARARGS, sleep_doc},
+    {"threads", hd_py_threads, METH_VARARGS, threads_doc},
     {NULL, NULL, 0, NULL},
 };

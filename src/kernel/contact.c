@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "crew.h"
 #include "wide.h"
 
 int hd_contact_prepare(hd_contact_model *m)
@@ -110,5 +111,6 @@ void hd_contact_free(hd_contact_model *m)
     free(m->rested);
     free(m->island);
     hd_wide_free(m->wide);
+    hd_crew_free(m->crew);
     free(m);
 }

@@ -190,6 +190,10 @@ typedef struct hd_contact_model {
     struct hd_joint_model *joints;
     struct hd_coupled *coupled;
     struct hd_wide *wide;  /* wide.h's working memory, made on first use */
+    /* Threads of the big islands' velocity passes (1 or 2; wide.h: HD_CREW_UNITS) and the
+     * second one's crew (crew.h), started on first use. */
+    int threads;
+    struct hd_crew *crew;
 } hd_contact_model;
 
 /* 0 on success, -1 out of memory. */

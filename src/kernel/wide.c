@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "contact.h"
+#include "crew.h"
 #include "rows.h"
 #include "simd.h"
 #include "wide.h"
@@ -494,6 +495,114 @@ static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 }
 #endif
 
+/* Sets of lanes in a chunk of a colour shared between two threads (crew.h), at least. */
+#define HD_CHUNK 8
+
+/* The velocity passes and the position correction of one island (hd_wide_solve): the
+ * colour at hand and the sets of lanes of each of its chunks when two threads share it,
+ * and the rows' depths for the correction. */
+typedef struct {
+    hd_contact_model *m;
+    const double *base;
+    int colour;
+    long chunk_sets;
+} hd_passes;
+
+/* Lanes `from` to `to` - 1 of chunk `chunk` of the colour at hand. */
+static void hd_chunk_lanes(const hd_passes *job, long chunk, long *from, long *to)
+{
+    const struct hd_wide *w = job->m->wide;
+    *from = w->lane_start[job->colour] + chunk * job->chunk_sets;
+    const long end = w->lane_start[job->colour + 1];
+    *to = *from + job->chunk_sets < end ? *from + job->chunk_sets : end;
+}
+
+/* hd_chunk: a velocity pass over a chunk of the colour's blocks. */
+static double hd_pass_chunk(void *passes, long chunk)
+{
+    hd_passes *job = passes;
+    long from, to;
+    hd_chunk_lanes(job, chunk, &from, &to);
+    return hd_pass_lanes(job->m->wide->lanes + from, to - from, job->m->velocity, 0.0);
+}
+
+/* A velocity pass over the colour's units that are not in lanes, in their order. */
+static double hd_pass_singles(void *passes)
+{
+    hd_passes *job = passes;
+    hd_contact_model *m = job->m;
+    const struct hd_wide *w = m->wide;
+    double largest = 0.0;
+    for (long s = w->single_start[job->colour]; s < w->single_start[job->colour + 1]; ++s)
+        largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows, m->velocity));
+    return largest;
+}
+
+/* hd_chunk: a pass of the position correction over a chunk of the colour's blocks. */
+static double hd_correct_chunk(void *passes, long chunk)
+{
+    hd_passes *job = passes;
+    long from, to;
+    hd_chunk_lanes(job, chunk, &from, &to);
+    hd_correct_lanes(job->m->wide->lanes + from, to - from, job->m->shift);
+    return 0.0;
+}
+
+/* A pass of the position correction over the colour's units not in lanes, in order. */
+static double hd_correct_singles(void *passes)
+{
+    hd_passes *job = passes;
+    hd_contact_model *m = job->m;
+    const struct hd_wide *w = m->wide;
+    for (long s = w->single_start[job->colour]; s < w->single_start[job->colour + 1]; ++s)
+        hd_correct_unit(m->units + w->single[s], m->rows, job->base, m->shift);
+    return 0.0;
+}
+
+/* One pass of `chunk` and `singles` over every colour of the island in order: on the crew
+ * where there is one (each colour's chunks to whichever thread takes them first, its
+ * other units on this thread meanwhile), else on this thread; the largest change. A
+ * colour's units share no moving body, so each is solved as one thread would solve it,
+ * and the largest change, a maximum of numbers (a NaN change counts for none either way),
+ * is one thread's too. */
+static double hd_sweep(hd_passes *job, const long *colour_start, struct hd_crew *crew,
+                       hd_chunk chunk, double (*singles)(void *))
+{
+    const struct hd_wide *w = job->m->wide;
+    double largest = 0.0;
+    for (int c = 0; c <= HD_COLOURS; ++c) {
+        if (colour_start[c + 1] == colour_start[c])
+            continue;  /* a colour none of the island's units has */
+        job->colour = c;
+        const long sets = w->lane_start[c + 1] - w->lane_start[c];
+        if (crew == NULL || sets == 0) {
+            job->chunk_sets = sets;
+            largest = hd_max(largest, sets > 0 ? chunk(job, 0) : 0.0);
+            largest = hd_max(largest, singles(job));
+            continue;
+        }
+        const long fewest = (sets + HD_MOST_CHUNKS - 1) / HD_MOST_CHUNKS;
+        job->chunk_sets = fewest > HD_CHUNK ? fewest : HD_CHUNK;
+        largest = hd_max(largest, hd_crew_share(crew, chunk, job,
+                                                (sets + job->chunk_sets - 1) / job->chunk_sets,
+                                                singles));
+    }
+    return largest;
+}
+
+/* The crew of an island of `size` units, woken: where the model asks for two threads and
+ * the island is big enough to gain (the worker started on first use), else NULL. */
+static struct hd_crew *hd_crew_for(hd_contact_model *m, long size)
+{
+    if (size < HD_CREW_UNITS || m->threads < 2)
+        return NULL;
+    if (m->crew == NULL)
+        m->crew = hd_crew_new();  /* NULL: no second thread to be had */
+    if (m->crew != NULL)
+        hd_crew_begin(m->crew);
+    return m->crew;
+}
+
 int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
                   long passes, double scale, double h, double *base)
 {
@@ -532,18 +641,12 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
+    hd_passes job = {m, base, 0, 0};
     int converged = 0;
+    struct hd_crew *crew = hd_crew_for(m, size);
     for (long iteration = 0; iteration < passes && !converged; ++iteration) {
-        double largest = 0.0;
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            if (colour_start[c + 1] == colour_start[c])
-                continue;  /* a colour none of the island's units has */
-            largest = hd_pass_lanes(w->lanes + w->lane_start[c],
-                                    w->lane_start[c + 1] - w->lane_start[c], m->velocity, largest);
-            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows,
-                                                        m->velocity));
-        }
+        const double largest = hd_sweep(&job, colour_start, crew, hd_pass_chunk,
+                                        hd_pass_singles);
         converged = largest <= HD_CONVERGED * scale;
     }
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
@@ -552,13 +655,8 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
             hd_prefetch_rows(m, w->lanes[k + 1].first[l], 1);
         hd_store_lanes(m, w->lanes + k, base);
     }
-    for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration) {
-        for (int c = 0; c <= HD_COLOURS; ++c) {
-            hd_correct_lanes(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
-                             m->shift);
-            for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
-                hd_correct_unit(m->units + w->single[s], m->rows, base, m->shift);
-        }
-    }
+    crew = deep ? hd_crew_for(m, size) : NULL;
+    for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration)
+        hd_sweep(&job, colour_start, crew, hd_correct_chunk, hd_correct_singles);
     return converged;
 }

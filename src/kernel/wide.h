@@ -16,6 +16,10 @@
  * none last, one by one in their order. */
 #define HD_WIDE_UNITS 64
 #define HD_COLOURS 64
+/* Islands of at least HD_CREW_UNITS units run their velocity passes and position
+ * correction on two threads (crew.h) where the contact model's `threads` is 2: below it a
+ * colour has a chunk or two, and handing them out costs more than the second core gains. */
+#define HD_CREW_UNITS 256
 
 struct hd_wide;
 

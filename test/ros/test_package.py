@@ -160,7 +160,8 @@ def test_cmake_builds_the_kernel_as_setup_py_does(cmake):
     assert gcc and gcc.group(1).split() == _setup_py_value("GCC_FLAGS")
     assert re.search(r"set_target_properties\(_kernel PROPERTIES C_STANDARD 11 "
                      r"C_STANDARD_REQUIRED ON C_EXTENSIONS ON\)", cmake)
-    assert '["m"]' in setup and "target_link_libraries(_kernel PRIVATE m)" in cmake
+    assert '["m", "pthread"]' in setup
+    assert "target_link_libraries(_kernel PRIVATE m pthread)" in cmake
     assert re.search(r'install\(TARGETS _kernel\s+LIBRARY DESTINATION '
                      r'"\$\{PYTHON_INSTALL_DIR\}/\$\{PROJECT_NAME\}"\s*\)', cmake)
     # An sdist carries the kernel's sources.

@@ -252,6 +252,10 @@ ERRORS = {
     "mass_and_density": ("bodies.a.density", 1.0, "bodies.a.mass", "not both"),
     "no_bodies": ("bodies", {}, "bodies", "at least one body"),
     "negative_stiffness": ("forces.s.stiffness", -1.0, "forces.s.stiffness", "at least 0"),
+    "three_threads": ("contacts.threads", 3, "contacts.threads", "must be 1 or 2, not 3"),
+    "no_threads": ("contacts.threads", 0, "contacts.threads", "must be 1 or 2"),
+    "threads_double": ("contacts.threads", 2.0, "contacts.threads", "not 2.0"),
+    "threads_bool": ("contacts.threads", True, "contacts.threads", "not True"),
 }
 
 
