@@ -556,11 +556,12 @@ class Simulation:
         if self._inputs.update(self._time_ns):
             rows = [held.row for held in self._inputs.active()]
             term = self.model.inputs
-            # A drive's control instant replaces its commands by ones at the same points:
-            # the term keeps its places and takes the new values.
-            self.model.inputs = (term.with_values(rows) if term is not None and
-                                 self._inputs.values_only else
-                                 wrench_term(rows) if rows else None)
+            if term is not None and self._inputs.values_only:
+                # A drive's control instant replaces its commands by ones at the same
+                # points: the term keeps its places and takes the new values.
+                self.model.inputs = term.with_values(rows)
+            else:
+                self.model.inputs = wrench_term(rows) if rows else None
             self._bound.inputs_changed(self.q, self.model.inputs)
             self._hold(rows)
 
