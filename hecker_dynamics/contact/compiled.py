@@ -68,7 +68,8 @@ class CompiledContacts:
             thickness=contacts.thickness, static_ints=_integers(static_ints),
             static_reals=_doubles(static_reals), static_bounds=_doubles(contacts.static_bounds),
             static_material=_doubles(contacts.static_material),
-            static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept))
+            static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept),
+            slop=_doubles(contacts.slop))
         _kernel.threads(self.kernel, contacts.threads)
         if contacts.sleep:
             self.set_sleep(contacts)

@@ -35,8 +35,10 @@ class ContactRow:
     ``jt``, the only fields the solver changes; the overlap at the step's end (``depth``,
     negative for a gap within :data:`~.detect.MARGIN`); inverse masses and inertias (zero for a
     wall); the normal velocity before any impulse (``approach``); the pair of parts
-    (``key``), for warm starting; and the fraction of its tangent impulse it keeps for that
-    (``carry``: :data:`~.warm.FRICTION_CARRY` where its big island's passes ran out, else 1).
+    (``key``), for warm starting; the overlap the position correction leaves (``slop``: the
+    smaller of its bodies', :func:`~.solve.slop`); and the fraction of its tangent impulse it
+    keeps for that (``carry``: :data:`~.warm.FRICTION_CARRY` where its big island's passes
+    ran out, else 1).
     """
 
     a: int
@@ -60,6 +62,7 @@ class ContactRow:
     ii_b: float
     approach: float
     key: PartKey
+    slop: float
     carry: float = 1.0
 
     def normal_velocity(self, velocity: Velocities) -> float:

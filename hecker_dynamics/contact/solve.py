@@ -1,7 +1,7 @@
 """The velocity solve and the position correction (C twin: ``src/kernel/solve.c``):
 sequential impulses island by island over the units of :mod:`.islands` with the rows'
-arithmetic of :mod:`.rows`, then the overlap beyond :data:`SLOP` pushed apart by moving
-positions only.
+arithmetic of :mod:`.rows`, then the overlap beyond each contact's slop (:func:`slop`)
+pushed apart by moving positions only.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from .rows import Block, ContactRow, States, Velocities, solve_point
 from .warm import FRICTION_CARRY
 
 __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_ITERATIONS",
-           "POSITION_ITERATIONS", "SLOP", "SPAN", "WORK", "correct_positions", "passes",
-           "solve_velocities"]
+           "POSITION_ITERATIONS", "SLOP", "SLOP_FRACTION", "SPAN", "WORK", "correct_positions",
+           "passes", "slop", "solve_velocities"]
 
 #: The velocity solver's passes over the contacts per step: as many as fit in
 #: :data:`WORK` solves of a contact or two-point manifold, but at least
@@ -32,8 +32,12 @@ MIN_ITERATIONS = 6
 MAX_ITERATIONS = 40
 SPAN = 4
 CONVERGED = 1e-13
-#: Overlap left alone (m) by the position correction.
+#: Overlap left alone (m) by the position correction: at most :data:`SLOP`, and at most
+#: :data:`SLOP_FRACTION` of the thinner body's size (:func:`slop`), so that a body smaller
+#: than the fixed slop (a 1e-6 m box) cannot rest sunk wholly into what it lies on. Bodies
+#: from 1 cm up all get :data:`SLOP` itself.
 SLOP = 1e-4
+SLOP_FRACTION = 0.01
 #: Fraction of the remaining overlap removed per step, and the most removed per step (m).
 CORRECTION = 0.2
 MAX_CORRECTION = 0.05
@@ -43,6 +47,13 @@ POSITION_ITERATIONS = 4
 def passes(units: int) -> int:
     """The most passes of the velocity solver over ``units`` contacts and blocks."""
     return min(max(WORK // units, MIN_ITERATIONS, math.isqrt(units) // SPAN), MAX_ITERATIONS)
+
+
+def slop(size: float) -> float:
+    """The overlap (m) the position correction leaves to a body ``size`` thick (its thinnest
+    colliding part, else twice its reach): :data:`SLOP`, or :data:`SLOP_FRACTION` of its
+    size where that is less; a contact takes the smaller of its two bodies'."""
+    return min(SLOP, SLOP_FRACTION * size)
 
 
 def solve_velocities(rows: list[ContactRow], velocity: Velocities,
@@ -98,7 +109,7 @@ def _carry_friction(island: list[ContactRow | Block]) -> None:
 
 def correct_positions(islands: list[list[ContactRow | Block]], velocity: Velocities,
                        q1: States, h: float) -> None:
-    """Remove overlap beyond :data:`SLOP` by moving positions only, island by island,
+    """Remove overlap beyond each row's ``slop`` by moving positions only, island by island,
     each in the order its velocities were swept; an island with no contact that deep
     moves nothing (islands share no body, so each gets the bits it would get alone).
 
@@ -111,13 +122,14 @@ def correct_positions(islands: list[list[ContactRow | Block]], velocity: Velocit
         rows = [row for unit in island
                 for row in ((unit.first, unit.second) if isinstance(unit, Block)
                             else (unit,))]
-        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach)
+        # The depth beyond the slop: x - slop <= 0 exactly when x <= slop.
+        base = [row.depth - h * (row.normal_velocity(velocity) - row.approach) - row.slop
                 for row in rows]
-        if max(base) <= SLOP:
+        if max(base) <= 0.0:
             continue
         for _ in range(POSITION_ITERATIONS):
-            for row, depth in zip(rows, base):
-                excess = depth - SLOP - row.normal_velocity(shift)
+            for row, beyond in zip(rows, base):
+                excess = beyond - row.normal_velocity(shift)
                 if excess <= 0.0:
                     continue
                 push = min(CORRECTION * excess, MAX_CORRECTION) * row.mass_n

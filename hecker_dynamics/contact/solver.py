@@ -76,7 +76,7 @@ from .detect import Contact
 from .materials import PairMaterials
 from .rows import ContactRow, States, Velocities, normal_velocity
 from .sleep import Sleep
-from .solve import correct_positions, solve_velocities
+from .solve import correct_positions, slop, solve_velocities
 from .warm import WarmImpulses, WarmStarts
 
 if TYPE_CHECKING:
@@ -163,6 +163,9 @@ class ContactPass(Sleep, WarmStarts):
         self.colliding = colliding
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
+        #: Per body, the overlap the position correction leaves it (solve.py: slop): by its
+        #: thinnest colliding part, or its reach where it has none.
+        self.slop = [slop(min(width, 2.0 * extent)) for width, extent in zip(thickness, reach)]
         self.thickness = min((thickness[i] for i in swept), default=math.inf)
         if scene.map is not None:  # a wall of the map may be one cell thin
             self.thickness = min(self.thickness, scene.map.occupancy.resolution)
@@ -362,8 +365,9 @@ class ContactPass(Sleep, WarmStarts):
             raise ArithmeticError("the contact's effective mass underflowed (a lever arm or "
                                   "inverse mass too large for a double)")
         approach = normal_velocity(velocity[a], velocity[b], rax, ray, rbx, rby, nx, ny)
+        overlap = min(self.slop[a], self.slop[b]) if a >= 0 else self.slop[b]
         return ContactRow(a, b, rax, ray, rbx, rby, nx, ny, mass_n, mass_t, 0.0, mu, 0.0, 0.0,
-                          depth, im_a, ii_a, im_b, ii_b, approach, key)
+                          depth, im_a, ii_a, im_b, ii_b, approach, key, overlap)
 
     def impact(self, q: States, v: States, contacts: list[Contact]) -> bool:
         """Bounce at the instant of touch: the impulses of ``contacts`` (found at ``q``,

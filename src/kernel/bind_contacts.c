@@ -152,7 +152,7 @@ PyDoc_STRVAR(contacts_doc,
 "contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
 "         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
 "         thickness, static_ints, static_reals, static_bounds, static_material,\n"
-"         static_bodies, swept) -> Contacts\n\n"
+"         static_bodies, swept, slop) -> Contacts\n\n"
 "A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
 "wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
@@ -160,7 +160,7 @@ PyDoc_STRVAR(contacts_doc,
 "the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials);\n"
 "per map box (kind, vertex count), its vertices and normals in the fixed frame and its\n"
 "bounds (x0, x1, y0, y1), the boxes' (restitution, friction) and the bodies that collide\n"
-"with them; the bodies whose travel sets the sub-steps.");
+"with them; the bodies whose travel sets the sub-steps; per body its slop.");
 
 static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs)
 {
@@ -168,13 +168,13 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
                             "part_reals", "walls", "wall_first", "wall_body", "colliding",
                             "classes", "class_groups", "materials", "apart", "threshold",
                             "thickness", "static_ints", "static_reals", "static_bounds",
-                            "static_material", "static_bodies", "swept", NULL};
-    PyObject *o[19];
+                            "static_material", "static_bodies", "swept", "slop", NULL};
+    PyObject *o[20];
     double threshold, thickness;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOO:contacts", names, o,
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOOO:contacts", names, o,
                                      o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8,
                                      o + 9, o + 10, o + 11, o + 12, &threshold, &thickness,
-                                     o + 13, o + 14, o + 15, o + 16, o + 17, o + 18))
+                                     o + 13, o + 14, o + 15, o + 16, o + 17, o + 18, o + 19))
         return NULL;
     hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
     if (m == NULL)
@@ -204,7 +204,8 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
                                           NULL)) == NULL ||
         (static_material = hd_read_array(o[16], "static_material", 'd', 2, NULL)) == NULL ||
         (m->static_body = hd_read_array(o[17], "static_bodies", 'q', -1, &static_bodies)) == NULL ||
-        (m->swept = hd_read_array(o[18], "swept", 'q', -1, &swept)) == NULL)
+        (m->swept = hd_read_array(o[18], "swept", 'q', -1, &swept)) == NULL ||
+        (m->slop = hd_read_array(o[19], "slop", 'd', bodies, NULL)) == NULL)
         goto fail;
     m->static_material[0] = static_material[0];
     m->static_material[1] = static_material[1];

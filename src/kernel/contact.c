@@ -81,6 +81,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->inverse_mass);
     free(m->inverse_inertia);
     free(m->reach);
+    free(m->slop);
     free(m->wall);
     free(m->wall_first);
     free(m->wall_body);

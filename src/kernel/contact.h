@@ -81,6 +81,7 @@ typedef struct {
     long a, b;  /* body indices into the velocity table; a wall is the last slot */
     double rax, ray, rbx, rby, nx, ny, mass_n, mass_t, target, mu, jn, jt, depth;
     double im_a, ii_a, im_b, ii_b, approach, carry;
+    double slop;  /* the smaller of its bodies' (contact/solve.py: slop) */
     long key[4];
     int points;
 } hd_row;
@@ -103,7 +104,7 @@ typedef struct {
 
 typedef struct hd_contact_model {
     long bodies;
-    double *inverse_mass, *inverse_inertia, *reach;  /* per body */
+    double *inverse_mass, *inverse_inertia, *reach, *slop;  /* per body */
     long *part_first;  /* bodies + 1: the parts of body i are part_first[i] .. [i + 1] - 1 */
     hd_part *parts;
     long part_count, max_vertices;

@@ -105,7 +105,8 @@ static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *veloc
 }
 
 /* The depths of the rows of the units `members` (size of them) after the velocity
- * change, depth - h (v_n' - v_n), into base[row]; whether the deepest is beyond HD_SLOP,
+ * change beyond the row's slop, depth - h (v_n' - v_n) - slop, into base[row] (x - slop
+ * <= 0 exactly when x <= slop); whether the deepest is beyond its slop,
  * the deepest found as Python's max() finds it in the order swept, whose first row is
  * `first` (contact/solve.py: correct_positions). That max keeps its first value if it is
  * NaN and else is the largest of the values that are not NaN (or one of two zeros, alike
@@ -118,7 +119,8 @@ static inline int hd_depths_after(const hd_contact_model *m, const long *members
         for (long i = u->first; i <= u->first + u->pair; ++i) {
             const hd_row *r = m->rows + i;
             base[i] = r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a,
-                                                         m->velocity + 3 * r->b, r) - r->approach);
+                                                         m->velocity + 3 * r->b, r) - r->approach)
+                      - r->slop;
         }
     }
     double deepest = base[first];
@@ -127,11 +129,11 @@ static inline int hd_depths_after(const hd_contact_model *m, const long *members
         for (long i = u->first; i <= u->first + u->pair; ++i)
             deepest = hd_max(deepest, base[i]);
     }
-    return !(deepest <= HD_SLOP);
+    return !(deepest <= 0.0);
 }
 
 /* One pass of the position correction over a unit's rows: each moves its bodies' shifts
- * apart along the normal by a fraction of the excess of its depth `base` beyond HD_SLOP
+ * apart along the normal by a fraction of the excess of its depth beyond its slop, `base`
  * (contact/solve.py: correct_positions). */
 static HD_HOT void hd_correct_unit(const hd_unit *u, const hd_row *rows, const double *base,
                                    double *shift)
@@ -139,7 +141,7 @@ static HD_HOT void hd_correct_unit(const hd_unit *u, const hd_row *rows, const d
     for (long i = u->first; i <= u->first + u->pair; ++i) {
         const hd_row *r = rows + i;
         double *sa = shift + 3 * r->a, *sb = shift + 3 * r->b;
-        const double excess = base[i] - HD_SLOP - hd_normal_velocity(sa, sb, r);
+        const double excess = base[i] - hd_normal_velocity(sa, sb, r);
         if (excess <= 0.0)
             continue;
         const double amount = hd_min(HD_CORRECTION * excess, HD_MAX_CORRECTION) * r->mass_n;

@@ -53,6 +53,7 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
     }
     r->target = target;
     r->carry = 1.0;
+    r->slop = c->a >= 0 ? hd_min(m->slop[a], m->slop[b]) : m->slop[b];
     r->mu = c->mu;
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);

@@ -226,7 +226,8 @@ static void hd_load_lanes(const hd_contact_model *m, const long *pair, int fille
     }
 }
 
-/* The lanes' impulses back into their rows, and the rows' depths `base` into the lanes. */
+/* The lanes' impulses back into their rows, and the rows' depths beyond their slops `base`
+ * into the lanes. */
 static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
 {
     for (int l = 0; l < HD_LANES && x->first[l] >= 0; ++l) {
@@ -383,12 +384,11 @@ static HD_HOT void hd_correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, 
                                hd_v4 ray, hd_v4 rbx, hd_v4 rby, hd_v4 base, hd_v4 mass_n)
 {
     const hd_v4 zero = {0.0, 0.0, 0.0, 0.0};
-    const hd_v4 slop = {HD_SLOP, HD_SLOP, HD_SLOP, HD_SLOP};
     const hd_v4 fraction = {HD_CORRECTION, HD_CORRECTION, HD_CORRECTION, HD_CORRECTION};
     const hd_v4 most = {HD_MAX_CORRECTION, HD_MAX_CORRECTION, HD_MAX_CORRECTION,
                         HD_MAX_CORRECTION};
     const hd_v4 excess =
-        base - slop - hd_normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
+        base - hd_normal_velocity4(*sa, *sb, rax, ray, rbx, rby, x->nx, x->ny);
     const hd_m4 on = ~(excess <= zero);
     const hd_v4 amount = hd_min_v(fraction * excess, most) * mass_n;
     hd_twist4 a = *sa, b = *sb;

@@ -26,7 +26,7 @@ from scene_builders import box_body, box_inertia, make_scene, rotation
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
-from hecker_dynamics.contact.solve import SLOP
+from hecker_dynamics.contact.solve import SLOP, SLOP_FRACTION
 from hecker_dynamics.contact.solver import ContactPass
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.geometry.planar import wrap_angle
@@ -299,6 +299,33 @@ def test_stack_of_five_boxes_stands_still_for_a_minute():
     assert np.all(drift[:, 2] <= 1e-4), drift
     assert np.abs(sim.q[index] - q1).max() <= 1e-10
     assert np.abs(sim.v).max() <= 1e-12
+
+
+@pytest.mark.parametrize("size", [1e-6, 1e-5, 1e-4, 1e-3])
+def test_tiny_boxes_rest_on_the_floor_and_on_each_other(size):
+    """Two boxes of side s, 1e-6 to 1e-3 m, the lower one started sunk 0.2 s into the
+    floor and the upper 0.2 s into it: the overlap the position correction leaves is
+    SLOP_FRACTION of s for boxes this small (a fixed SLOP = 1e-4 m left a 1e-6 m box sunk
+    as deep as it was, up to a hundred of its sides), so after 1 s each box is at its
+    contact height within that fraction per interface below it, level within a corner
+    sunk one slop deeper, and still. Both paths, kernel on and off, give the same bits."""
+    bodies = {"low": box_body((size, size), 1.0, position=[0.0, 0.3 * size]),
+              "top": box_body((size, size), 1.0, position=[0.0, 1.1 * size])}
+    runs = []
+    for python in ((False, True) if kernel.enabled() else (True,)):
+        sim = _sim(bodies, _group("low", "top", e=0.0), _floor(e=0.0), GRAVITY)
+        if python:
+            sim.model.use_python()
+        sim.advance_to(SECOND)
+        runs.append(sim)
+        low, top = (sim.q[sim.model.index[name]] for name in ("low", "top"))
+        assert abs(low[1] - 0.5 * size) <= SLOP_FRACTION * size
+        assert abs(top[1] - 1.5 * size) <= 2 * SLOP_FRACTION * size
+        assert max(abs(low[2]), abs(top[2])) <= SLOP_FRACTION
+        assert np.abs(sim.v[:, :2]).max() <= 1e-9 and np.abs(sim.v[:, 2]).max() <= 1e-9 / size
+    assert all(np.array_equal(run.q, runs[0].q) and np.array_equal(run.v, runs[0].v)
+               for run in runs)
+
 
 
 @pytest.mark.skipif(not kernel.enabled(), reason="2500 steps of 210 boxes take minutes in "
