@@ -26,7 +26,7 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import TYPE_CHECKING, NoReturn, Optional
 
 import numpy as np
 
@@ -829,8 +829,19 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
     regress_parser.set_defaults(handler=regress_command)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser refusing bad arguments in one line, as every other error is: the
+    command, what is wrong, and where the help is (``--help`` prints the usage)."""
+
+    def error(self, message: str) -> NoReturn:
+        command = self.prog.removeprefix("hecker-dynamics").strip()
+        where = f"{command}: " if command else ""
+        self.exit(2, f"hecker-dynamics: error: {where}{_one_line(message)} (see "
+                     f"'{self.prog} --help')\n")
+
+
 def parser() -> argparse.ArgumentParser:
-    top = argparse.ArgumentParser(
+    top = _Parser(
         prog="hecker-dynamics",
         description="2D rigid-body dynamics after Chris Hecker's 'Physics, Part 2: Angular "
                     "Effects', without ROS.")

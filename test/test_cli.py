@@ -130,12 +130,29 @@ def test_diverging_scene_exits_2(tmp_path, capsys):
                                            ("--duration", "2e9"), ("--duration", "1e999999"),
                                            ("--step", "1e-10"), ("--step", "0"),
                                            ("--step", "fast"), ("--step", "1e999999")])
-def test_bad_argument_exits_2_with_usage(capsys, option, value):
+def test_bad_argument_exits_2_in_one_line(capsys, option, value):
+    """argparse's refusal is one line, as every other error, naming the command, the
+    option and where the help is: no usage block before it."""
     with pytest.raises(SystemExit) as caught:
         main(["run", option, value])
     assert caught.value.code == 2
     err = capsys.readouterr().err
-    assert "usage:" in err and f"argument {option}:" in err and "Traceback" not in err
+    assert err.startswith(f"hecker-dynamics: error: run: argument {option}: ")
+    assert err.endswith("(see 'hecker-dynamics run --help')\n") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("argv, start", [
+    ([], "hecker-dynamics: error: the following arguments are required: COMMAND"),
+    (["bogus"], "hecker-dynamics: error: argument COMMAND: invalid choice: 'bogus'"),
+    (["run", "--nope"], "hecker-dynamics: error: unrecognized arguments: --nope"),
+    (["compare", "a"], "hecker-dynamics: error: compare: the following arguments are required"),
+    (["replay", "sample", "b", "--atol"], "hecker-dynamics: error: replay: argument --atol:")])
+def test_argparse_refusals_are_one_line(capsys, argv, start):
+    with pytest.raises(SystemExit) as caught:
+        main(argv)
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(start) and err.count("\n") == 1, err
 
 
 @pytest.mark.parametrize("command", [["compare", "a", "b"], ["replay", "sample", "b", "--check"]])

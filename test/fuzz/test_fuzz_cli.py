@@ -7,7 +7,7 @@ expressions of every shape.
 
 Each case knows whether its arguments are all valid. A valid case must exit 0 and write
 its file (a sweep's metric columns equal to an independent evaluation of the expression);
-an invalid one must exit 2 in one line (or with argparse's usage) and change nothing in
+an invalid one must exit 2 in one line (argparse's refusals too) and change nothing in
 its folder. Never a traceback, a hang or a silent pass. Seeded; ``--fuzz-seconds`` sets
 how long each runs.
 """
