@@ -620,6 +620,8 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
             _check_counts(path, reader.message_count, connections, read,
                           complete=len(selected) == len(connections))
             _check_times(path, reader.start_time, reader.end_time, messages)
+            if path.is_dir():
+                _check_files(path, reader.message_count, reader.start_time, reader.end_time)
             custom = dict(reader.storage.metadata.custom or {}) \
                 if hasattr(reader.storage, "metadata") else {}
             storage = _storage_name(path)
@@ -673,6 +675,47 @@ def _check_times(path: Path, start: Any, end: Any,
         raise BagError(f"{path}: messages are logged from {first} ns to {last} ns, outside "
                        f"the span the metadata states ({start} ns to {end} ns); is the bag "
                        "corrupt?")
+
+
+def _check_files(path: Path, total: int, start: Any, end: Any) -> None:
+    """Refuse a bag whose metadata's ``files`` (rosbag2's per-file entries, when it has them)
+    do not add up to the bag it describes: other storage files than
+    ``relative_file_paths``, message counts that do not sum to the bag's (an edited or
+    truncated recording), or spans of the files with messages that do not make the bag's."""
+    import yaml
+
+    info = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    files = info.get("files")
+    if files is None:
+        return
+    if not isinstance(files, list) or not all(isinstance(f, dict) for f in files):
+        raise BagError(f"{path}: files in the metadata is {quoted(files)}, not a list of "
+                       "file entries")
+    named = [f.get("path") for f in files]
+    if sorted(map(str, named)) != sorted(map(str, info.get("relative_file_paths") or [])):
+        raise BagError(f"{path}: the metadata's files ({', '.join(map(str, named))}) are not "
+                       "its relative_file_paths; is the metadata edited?")
+    counts = [_count(path, f.get("message_count"), f"message_count of file '{f.get('path')}'")
+              for f in files]
+    if sum(counts) != total:
+        raise BagError(f"{path}: the metadata's files hold {' + '.join(map(str, counts))} = "
+                       f"{sum(counts)} messages but the bag message_count {total}; is the bag "
+                       "truncated or its metadata edited?")
+    spans = [(_span(path, f, "starting_time", "nanoseconds_since_epoch"),
+              _span(path, f, "duration", "nanoseconds")) for f, n in zip(files, counts) if n]
+    if spans and isinstance(start, int) and isinstance(end, int) and \
+            (min(s for s, _ in spans), max(s + d for s, d in spans) + 1) != (start, end):
+        raise BagError(f"{path}: the metadata's files span other times than the bag "
+                       f"({start} ns to {end - 1} ns); is the metadata edited?")
+
+
+def _span(path: Path, entry: dict[str, Any], key: str, field_name: str) -> int:
+    value = entry.get(key)
+    value = value.get(field_name) if isinstance(value, dict) else None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise BagError(f"{path}: {key} of file '{entry.get('path')}' in the metadata is "
+                       f"{quoted(value)}, not a time in nanoseconds")
+    return value
 
 
 def _storage_name(path: Path) -> str:

@@ -128,6 +128,50 @@ def test_topic_message_count_must_match_what_was_read(sample_out, capsys):
     assert "message_count" in err
 
 
+def _edit_file_entry(key, value):
+    def change(info):
+        entry = info["files"][0]
+        if isinstance(entry[key], dict):
+            (inner,) = entry[key]
+            entry[key][inner] += value
+        elif isinstance(value, str):
+            entry[key] = value
+        else:
+            entry[key] += value
+    return change
+
+
+@pytest.mark.parametrize("command", ["compare", "replay"])
+@pytest.mark.parametrize("key, value, fragment", [
+    ("message_count", -1, "= {less} messages but the bag message_count {total};"),
+    ("message_count", 1, "= {more} messages but the bag message_count {total};"),
+    ("message_count", "many", "message_count of file '{file}' in the metadata is 'many'"),
+    ("starting_time", 1, "span other times than the bag"),
+    ("duration", -1, "span other times than the bag"),
+    ("path", "other.mcap", "files (other.mcap) are not its relative_file_paths")])
+def test_an_edited_file_entry_of_the_metadata_is_refused(tmp_path, sample_out, capsys, command,
+                                                          key, value, fragment):
+    """rosbag2's per-file entries (``files``) must add up to the bag: a per-file message
+    count edited by one (or the file's times, or its name) is named in one line by
+    ``compare`` and ``replay --check``, never a match."""
+    golden = str(GOLDEN / "sample" / "output")
+    if command == "compare":
+        bag, argv = sample_out, ["compare", str(sample_out), golden]
+    else:  # a session recorded with its inputs, which its check passes untouched
+        bag = tmp_path / "recording"
+        assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", str(bag),
+                     "--with-inputs", "--no-progress"]) == 0
+        argv = ["replay", "sample", str(bag), "--check"]
+        assert main(argv) == 0
+        capsys.readouterr()
+    info = _metadata(bag)["rosbag2_bagfile_information"]
+    total, file = info["message_count"], info["files"][0]["path"]
+    _set_metadata(bag, _edit_file_entry(key, value))
+    err = _one_line_error(capsys, *argv)
+    expected = fragment.format(less=total - 1, more=total + 1, total=total, file=file)
+    assert str(bag) in err and expected in err, err
+
+
 def test_empty_relative_file_paths_is_refused(sample_out, capsys):
     _set_metadata(sample_out, lambda info: info.__setitem__("relative_file_paths", []))
     err = _one_line_error(capsys, "replay", "sample", str(sample_out), "--check")
