@@ -24,6 +24,7 @@ import decimal
 import math
 import sys
 import time
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, Optional
@@ -883,6 +884,12 @@ def _one_line(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
+def _show_warning(message: Warning | str, category: type[Warning], *_: object,
+                  **__: object) -> None:
+    """A warning as one line of stderr, as errors are."""
+    print(f"hecker-dynamics: warning: {_one_line(str(message))}", file=sys.stderr)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser().parse_args(argv)
     # A file name that is not valid UTF-8 reaches Python as escapes (surrogates); printed
@@ -892,7 +899,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         # Every result is checked for finiteness (a SceneError, a DivergenceError), so
         # numpy's overflow warnings would only add lines to the one-line error.
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.showwarning = _show_warning
             return args.handler(args)
     except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError,
             OutputError) as error:

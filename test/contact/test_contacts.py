@@ -27,7 +27,7 @@ from scene_builders import box_body, box_inertia, make_scene, rotation
 from hecker_dynamics import Simulation
 from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.contact.solve import SLOP, SLOP_FRACTION
-from hecker_dynamics.contact.solver import ContactPass
+from hecker_dynamics.contact.solver import MASS_RATIO, ContactPass, MassRatioWarning
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.geometry.planar import wrap_angle
 from hecker_dynamics.integrators.methods import METHODS
@@ -695,3 +695,26 @@ def test_concave_body_bounces_off_walls_and_is_refused_in_a_collision_group():
     with pytest.raises(SceneError, match="body 'ell'.*convex"):
         _sim({"ell": ell, "b": box_body((0.2, 0.2), 1.0, position=[3.0, 0.0])},
              collisions={"all": {"bodies": ["ell", "b"]}})
+
+
+@pytest.mark.parametrize("heavy", [300.0, 1e6])
+def test_a_heavy_body_on_a_much_lighter_one_is_warned_of(heavy, recwarn):
+    """A 1 m box of `heavy` kg resting on a 0.5 m box of 1 kg on the floor. Up to a few
+    hundred to one the solver holds it up (the light box's top within 1 mm of its height
+    after 3 s); past MASS_RATIO it cannot, and loading the scene warns, naming both bodies:
+    at 1e6 to one the light box is squeezed out sideways, with the energy bounded, so
+    nothing else says so."""
+    bodies = {"light": box_body((0.5, 0.5), 1.0, position=[0.0, 0.25]),
+              "heavy": box_body((1.0, 1.0), heavy, position=[0.0, 1.0])}
+    sim = _sim(bodies, _group("light", "heavy", e=0.0), _floor(e=0.0), GRAVITY)
+    warned = [w for w in recwarn if issubclass(w.category, MassRatioWarning)]
+    sim.advance_to(3 * SECOND)
+    light, top = sim.q[sim.model.index["light"]], sim.q[sim.model.index["heavy"]]
+    if heavy <= MASS_RATIO:
+        assert not warned
+        assert abs(light[0]) < 1e-3 and abs(top[1] - 1.0) < 1e-3
+    else:
+        (warning,) = warned
+        assert "'heavy' (1e+06 kg) is 1e+06 times as heavy as 'light' (1 kg)" in \
+            str(warning.message)
+        assert abs(light[0]) > 0.5  # squeezed out: what the warning is about
