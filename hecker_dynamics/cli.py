@@ -842,7 +842,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parser() -> argparse.ArgumentParser:
-    top = _Parser(
+    top: argparse.ArgumentParser = _Parser(
         prog="hecker-dynamics",
         description="2D rigid-body dynamics after Chris Hecker's 'Physics, Part 2: Angular "
                     "Effects', without ROS.")
