@@ -535,7 +535,8 @@ def compare_bags(expected: Union[str, os.PathLike[str], BagContents],
 
     ``atol`` sets one tolerance for positions, angles and velocities; ``tolerances`` sets
     them one by one. Returns the report and whether the bags match. Raises
-    :class:`~hecker_dynamics.bags.io.BagError` if a bag cannot be read.
+    :class:`~hecker_dynamics.bags.io.BagError` if a bag cannot be read, or if neither holds
+    a message on the topics compared (two emptied bags are no match).
     """
     if tolerances is None:
         tolerances = Tolerances.uniform(atol) if atol is not None else Tolerances()
@@ -545,5 +546,9 @@ def compare_bags(expected: Union[str, os.PathLike[str], BagContents],
         t[: -len("/twist")] + "/pose" for t in wanted if t.endswith("/twist")]
     a = expected if isinstance(expected, BagContents) else read_bag(expected, reading)
     b = actual if isinstance(actual, BagContents) else read_bag(actual, reading)
-    return compare_contents(a, b, tolerances=tolerances, topics=wanted)
+    report, ok = compare_contents(a, b, tolerances=tolerances, topics=wanted)
+    if ok and not any(t.expected or t.actual for t in report.topics):
+        raise BagError(f"{a.path} and {b.path}: neither bag holds a message"
+                       f"{' on the topics given' if wanted else ''}; nothing to compare")
+    return report, ok
 

@@ -235,6 +235,22 @@ def test_atol_zero_is_bit_identical(tmp_path, capsys):
                 "--atol", "0")[0] == 0
 
 
+def test_two_bags_without_messages_are_no_match(tmp_path, capsys):
+    """Two emptied bags (or bags whose topics hold nothing) compare nothing: refused in one
+    line rather than reported as a match of 0 messages."""
+    for name in ("a", "b"):
+        with BagWriter(tmp_path / name, "mcap") as writer:
+            writer.add_topic("/b/pose", POSE_STAMPED)
+    err = _one_line_error(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"))
+    assert "neither bag holds a message; nothing to compare" in err
+    err = _one_line_error(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                          "--topic", "/b/pose")
+    assert "neither bag holds a message on the topics given" in err
+    _pose_bag(tmp_path / "c", 0.0)  # one side's message: a mismatch, not an error
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "c"))
+    assert code == 1 and "MISMATCH" in out
+
+
 def test_a_nan_difference_is_the_largest_overall(tmp_path):
     pose = fields.Pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
     from hecker_dynamics.bags.io import pose_stamped_message
