@@ -51,8 +51,8 @@ def passes(units: int) -> int:
 
 def slop(size: float) -> float:
     """The overlap (m) the position correction leaves to a body ``size`` thick (its thinnest
-    colliding part, else twice its reach): :data:`SLOP`, or :data:`SLOP_FRACTION` of its
-    size where that is less; a contact takes the smaller of its two bodies'."""
+    part, at most twice its reach): :data:`SLOP`, or :data:`SLOP_FRACTION` of its size
+    where that is less; a contact takes the smaller of its two bodies'."""
     return min(SLOP, SLOP_FRACTION * size)
 
 

@@ -114,11 +114,17 @@ def _warn_mass_ratios(scene: Scene, mass: States) -> None:
 
 def _polygon_part(local: np.ndarray, colliding: bool) -> tuple[PolygonPart, float, float]:
     """A polygon's part from its vertices ``local`` (relative to the CM, body axes), its
-    farthest vertex from the CM and, ``colliding``, its thickness; a colliding polygon is
-    checked convex and turned counter-clockwise, with its edges' normals."""
+    farthest vertex from the CM and its thickness; a colliding polygon is checked convex
+    and turned counter-clockwise, with its edges' normals, and is as thick as its incircle;
+    one that meets only walls (maybe concave) 2 area / perimeter, the thickness of a long
+    thin strip."""
     extent = float(np.max(np.hypot(local[:, 0], local[:, 1])))
     if not colliding:
-        return PolygonPart([tuple(p) for p in local.tolist()], []), extent, math.inf
+        edges = np.roll(local, -1, axis=0) - local
+        area = abs(float(np.sum(local[:, 0] * edges[:, 1] - local[:, 1] * edges[:, 0]))) / 2
+        perimeter = float(np.sum(np.hypot(edges[:, 0], edges[:, 1])))
+        return (PolygonPart([tuple(p) for p in local.tolist()], []), extent,
+                2.0 * area / perimeter)
     poly = ConvexPolygon.from_vertices(local)
     return poly.part(), extent, 2.0 * poly.inradius
 
@@ -183,8 +189,7 @@ class ContactPass(Sleep, WarmStarts):
                 outline, extent, width = outlines[key]
                 parts.append(PolygonPart(list(outline.vertices), list(outline.normals)))
                 extents.append(extent)
-                if i in convex:
-                    widths.append(width)
+                widths.append(width)
             self.parts.append(parts)
             reach.append(max(extents))
             thickness.append(min(widths, default=math.inf))
@@ -192,7 +197,7 @@ class ContactPass(Sleep, WarmStarts):
         #: Farthest shape point from each body's CM, and thinnest colliding part.
         self.reach = reach
         #: Per body, the overlap the position correction leaves it (solve.py: slop): by its
-        #: thinnest colliding part, or its reach where it has none.
+        #: thinnest part (at most twice its reach).
         self.slop = [slop(min(width, 2.0 * extent)) for width, extent in zip(thickness, reach)]
         self.thickness = min((thickness[i] for i in swept), default=math.inf)
         if scene.map is not None:  # a wall of the map may be one cell thin

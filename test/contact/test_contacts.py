@@ -327,6 +327,20 @@ def test_tiny_boxes_rest_on_the_floor_and_on_each_other(size):
                for run in runs)
 
 
+@pytest.mark.parametrize("thickness", [1e-6, 1e-4])
+def test_a_thin_plank_that_meets_only_walls_rests_on_the_floor(thickness):
+    """A 1 m plank `thickness` thick, in no collision group, started sunk 0.3 of its
+    thickness into the floor: its slop is by its thickness (2 area / perimeter, nearly
+    the thickness for a long strip), not by its 1 m length, so after 1 s it lies on the
+    floor within SLOP_FRACTION of its thickness, level and still."""
+    plank = box_body((1.0, thickness), 1.0, position=[0.0, 0.2 * thickness])
+    sim = _sim({"plank": plank}, walls=_floor(e=0.0), forces=GRAVITY)
+    sim.advance_to(SECOND)
+    x, y, angle = sim.q[0]
+    assert abs(y - 0.5 * thickness) <= SLOP_FRACTION * thickness
+    assert abs(angle) <= SLOP_FRACTION * thickness and np.abs(sim.v).max() <= 1e-9
+
+
 
 @pytest.mark.skipif(not kernel.enabled(), reason="2500 steps of 210 boxes take minutes in "
                     "Python; the kernel repeats the Python pass bit for bit (test_compiled)")
