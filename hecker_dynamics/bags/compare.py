@@ -522,6 +522,11 @@ def compare_contents(expected: BagContents, actual: BagContents, *,
             report.type_mismatches.append(f"{topic}: expected {expected.topics[topic]}, "
                                           f"actual {actual.topics[topic]}")
             continue
+        hashes = expected.digests.get(topic, ""), actual.digests.get(topic, "")
+        if all(hashes) and hashes[0] != hashes[1]:  # '' where a bag has none (before Jazzy)
+            report.type_mismatches.append(f"{topic}: {expected.topics[topic]} of type hash "
+                                          f"{hashes[0]} expected, {hashes[1]} actual")
+            continue
         report.topics.append(_compare_topic(topic, expected.topics[topic], expected, actual,
                                             tol.exact))
     return report, report.ok

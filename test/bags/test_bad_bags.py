@@ -235,6 +235,17 @@ def test_atol_zero_is_bit_identical(tmp_path, capsys):
                 "--atol", "0")[0] == 0
 
 
+def test_another_type_hash_is_a_mismatch(sample_out, capsys):
+    """A topic whose type hash (RIHS01, the message definition's) differs between the bags
+    holds messages of another definition: a type mismatch, not a match of their bytes."""
+    def change(info):
+        entry = info["topics_with_message_count"][0]["topic_metadata"]
+        entry["type_description_hash"] = "RIHS01_" + "0" * 64
+    _set_metadata(sample_out, change)
+    code, out, _ = _cli(capsys, "compare", str(GOLDEN / "sample" / "output"), str(sample_out))
+    assert code == 1 and f"expected, RIHS01_{'0' * 64} actual" in out and "MISMATCH" in out
+
+
 def test_two_bags_without_messages_are_no_match(tmp_path, capsys):
     """Two emptied bags (or bags whose topics hold nothing) compare nothing: refused in one
     line rather than reported as a match of 0 messages."""
