@@ -23,7 +23,11 @@ def number(value: object, argument: str, *, positive: bool = False,
     if isinstance(value, np.complexfloating):
         # float() would drop the imaginary part with a mere warning.
         raise TypeError(f"{argument}: expected a real number, not {type(value).__name__}")
-    result = float(value)
+    try:
+        result = float(value)
+    except OverflowError:  # an int past the largest double
+        raise ValueError(f"{argument}: must be finite, not an integer of "
+                         f"{len(str(abs(int(value))))} digits") from None
     if not math.isfinite(result):
         raise ValueError(f"{argument}: must be finite, not {result}")
     if positive and result <= 0.0:

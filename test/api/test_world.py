@@ -295,6 +295,11 @@ ERRORS = [
      r"^gravity: expected two numbers \(x, y\), not an array of shape \(1, 2\)$"),
     (lambda w: w.add_body("b", hd.Circle(1.0), mass=np.complex128(1.0)), TypeError,
      r"^mass: expected a real number, not complex"),
+    # An integer past the largest double would raise float()'s OverflowError.
+    (lambda w: w["box"].apply_force((10**400, 0)), ValueError,
+     r"^force: must be finite, not an integer of 401 digits$"),
+    (lambda w: setattr(w["box"], "velocity", (0, -10**309)), ValueError,
+     r"^velocity: must be finite, not an integer of 310 digits$"),
     (lambda w: w.add_body("b", None, mass=1.0), TypeError, r"^shape: expected hd\.Box"),
     (lambda w: hd.World.from_scene(5), TypeError,
      r"^scene: expected a scene file's path, a shipped scene's name or an hd\.Scene, not int$"),
