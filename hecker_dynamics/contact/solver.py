@@ -99,12 +99,18 @@ class MassRatioWarning(UserWarning):
 
 
 def _warn_mass_ratios(scene: Scene, mass: States) -> None:
-    """Warn, once per collision group, when its heaviest body is more than
-    :data:`MASS_RATIO` times its lightest."""
+    """Warn, once per collision group, when a body that gravity pulls is more than
+    :data:`MASS_RATIO` times the group's lightest. A heavy body that no gravity pulls (a
+    fixed incline made of a body) presses nothing."""
+    from ..scene.load import Gravity
+
     index = {body.name: i for i, body in enumerate(scene.bodies)}
+    pulled = {b for force in scene.forces if isinstance(force, Gravity)
+              and any(force.acceleration) for b in force.bodies}
     for group in scene.collisions:
-        masses = sorted((float(mass[index[b]]), b) for b in group.bodies)
-        (light, small), (heavy, big) = masses[0], masses[-1]
+        light, small = min((float(mass[index[b]]), b) for b in group.bodies)
+        heavy, big = max(((float(mass[index[b]]), b) for b in group.bodies if b in pulled),
+                         default=(0.0, ""))
         if heavy > MASS_RATIO * light:
             warnings.warn(
                 f"collision group '{group.name}': '{big}' ({heavy:g} kg) is {heavy / light:.3g} "
