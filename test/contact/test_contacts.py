@@ -732,3 +732,15 @@ def test_a_heavy_body_on_a_much_lighter_one_is_warned_of(heavy, recwarn):
         assert "'heavy' (1e+06 kg) is 1e+06 times as heavy as 'light' (1 kg)" in \
             str(warning.message)
         assert abs(light[0]) > 0.5  # squeezed out: what the warning is about
+
+
+def test_a_heavy_body_that_no_gravity_pulls_is_not_warned_of(recwarn):
+    """A 1e12 kg plank that feels no gravity (a fixed incline made of a body) under a 2 kg
+    box presses nothing: no MassRatioWarning, where the same plank pulled by gravity is
+    warned of."""
+    bodies = {"plank": box_body((6.0, 0.2), 1e12), "box": box_body((0.5, 0.25), 2.0,
+                                                                   position=[0.0, 0.225])}
+    _sim(bodies, _group("plank", "box"), None, {"g": {"type": "gravity", "bodies": ["box"]}})
+    assert not [w for w in recwarn if issubclass(w.category, MassRatioWarning)]
+    _sim(bodies, _group("plank", "box"), None, GRAVITY)
+    assert [w for w in recwarn if issubclass(w.category, MassRatioWarning)]
