@@ -89,8 +89,8 @@ __all__ = ["MASS_RATIO", "ContactPass", "MassRatioWarning"]
 #: The largest ratio of the masses of two bodies that may touch that the velocity solver
 #: settles: sequential impulses carry a heavy body's weight through a light one at a rate
 #: of about the ratio's inverse per pass, so a 1 kg box under a 1 m box of 300 kg drifts
-#: by under a millimetre in 3 s, of 1e3 kg slides off at 0.08 m/s, of 1e4 kg presses it 2 mm into the
-#: floor, and of 1e6 kg squeezes it out sideways.
+#: by under a millimetre in 3 s, of 1e3 kg slides off at 0.08 m/s, of 1e4 kg presses it
+#: 2 mm into the floor, and of 1e6 kg squeezes it out sideways.
 MASS_RATIO = 1e3
 
 
