@@ -107,10 +107,19 @@ def _number(document: dict[str, Any], key: str, source: str) -> float:
     return float(value)
 
 
+def _check_regular(path: Path, what: str) -> None:
+    """Refuse a device or a pipe (``/dev/zero``, a FIFO), whose reading never ends; a
+    missing file is left to the reader's error."""
+    if path.exists() and not path.is_file():
+        raise _fail(str(path), f"cannot read the {what} (a folder, device or pipe, not a "
+                               "regular file)")
+
+
 def read_map(path: Path) -> OccupancyMap:
     """The map of a nav2 map YAML file; :class:`SceneError` (one line) if it is missing or
     bad."""
     source = str(path)
+    _check_regular(path, "map file")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:
@@ -196,6 +205,7 @@ def cell_boxes(occupied: np.ndarray) -> tuple[tuple[int, int, int, int], ...]:
 def read_image(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     """An image's colour channels (rows, columns, k) and alpha (or None), on a 0..1
     scale; :class:`SceneError` if it cannot be read."""
+    _check_regular(path, "map image")
     try:
         raw = path.read_bytes()
     except OSError as error:

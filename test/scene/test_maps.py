@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import struct
 import zlib
 from pathlib import Path
@@ -192,6 +193,24 @@ def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
     with pytest.raises(SceneError) as error:
         read_map(path)
     assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("image", [False, True])
+@pytest.mark.parametrize("special", ["/dev/zero", "fifo", "folder"])
+def test_a_map_file_or_image_that_is_no_regular_file_is_refused(tmp_path, image, special):
+    """/dev/zero or a pipe, as the map file or its image, would be read for ever: refused
+    in one line before reading."""
+    if special == "fifo":
+        special = str(tmp_path / "pipe")
+        os.mkfifo(special)
+    elif special == "folder":
+        special = str(tmp_path)
+    path = write_map(tmp_path, special) if image else Path(special)
+    with pytest.raises(SceneError) as error:
+        read_map(path)
+    what = "map image" if image else "map file"
+    assert f"cannot read the {what} (a folder, device or pipe" in str(error.value)
+    assert "\n" not in str(error.value)
 
 
 # ----------------------------------------------------------------------------- scenes
