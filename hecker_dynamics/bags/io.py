@@ -698,9 +698,9 @@ def _check_files(path: Path, total: int, start: Any, end: Any) -> None:
     counts = [_count(path, f.get("message_count"), f"message_count of file '{f.get('path')}'")
               for f in files]
     if sum(counts) != total:
-        raise BagError(f"{path}: the metadata's files hold {' + '.join(map(str, counts))} = "
-                       f"{sum(counts)} messages but the bag message_count {total}; is the bag "
-                       "truncated or its metadata edited?")
+        held = " + ".join(map(str, counts)) + (f" = {sum(counts)}" if len(counts) > 1 else "")
+        raise BagError(f"{path}: the metadata's files hold {held} messages but the bag "
+                       f"message_count {total}; is the bag truncated or its metadata edited?")
     spans = [(_span(path, f, "starting_time", "nanoseconds_since_epoch"),
               _span(path, f, "duration", "nanoseconds")) for f, n in zip(files, counts) if n]
     if spans and isinstance(start, int) and isinstance(end, int) and \

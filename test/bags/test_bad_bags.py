@@ -143,8 +143,8 @@ def _edit_file_entry(key, value):
 
 @pytest.mark.parametrize("command", ["compare", "replay"])
 @pytest.mark.parametrize("key, value, fragment", [
-    ("message_count", -1, "= {less} messages but the bag message_count {total};"),
-    ("message_count", 1, "= {more} messages but the bag message_count {total};"),
+    ("message_count", -1, "files hold {less} messages but the bag message_count {total};"),
+    ("message_count", 1, "files hold {more} messages but the bag message_count {total};"),
     ("message_count", "many", "message_count of file '{file}' in the metadata is 'many'"),
     ("starting_time", 1, "span other times than the bag"),
     ("duration", -1, "span other times than the bag"),
