@@ -101,12 +101,17 @@ class MassRatioWarning(UserWarning):
 def _warn_mass_ratios(scene: Scene, mass: States) -> None:
     """Warn, once per collision group, when a body that gravity pulls is more than
     :data:`MASS_RATIO` times the group's lightest. A heavy body that no gravity pulls (a
-    fixed incline made of a body) presses nothing."""
+    fixed incline made of a body) presses nothing, nor does one whose weight a pin, weld or
+    distance joint to the fixed frame carries (the tumbler's drum)."""
+    from ..scene.joints import DistanceJoint, RevoluteJoint, WeldJoint
     from ..scene.load import Gravity
 
     index = {body.name: i for i, body in enumerate(scene.bodies)}
+    held = {joint.body_b for joint in scene.joints
+            if isinstance(joint, (RevoluteJoint, WeldJoint, DistanceJoint))
+            and joint.body_a is None}
     pulled = {b for force in scene.forces if isinstance(force, Gravity)
-              and any(force.acceleration) for b in force.bodies}
+              and any(force.acceleration) for b in force.bodies} - held
     for group in scene.collisions:
         light, small = min((float(mass[index[b]]), b) for b in group.bodies)
         heavy, big = max(((float(mass[index[b]]), b) for b in group.bodies if b in pulled),
@@ -117,6 +122,7 @@ def _warn_mass_ratios(scene: Scene, mass: States) -> None:
                 f"times as heavy as '{small}' ({light:g} kg); a body resting on one more than "
                 f"{MASS_RATIO:g} times lighter presses it into what it lies on or squeezes it "
                 "out (docs/scenes.md: Contacts)", MassRatioWarning, stacklevel=2)
+
 
 def _polygon_part(local: np.ndarray, colliding: bool) -> tuple[PolygonPart, float, float]:
     """A polygon's part from its vertices ``local`` (relative to the CM, body axes), its

@@ -744,3 +744,20 @@ def test_a_heavy_body_that_no_gravity_pulls_is_not_warned_of(recwarn):
     assert not [w for w in recwarn if issubclass(w.category, MassRatioWarning)]
     _sim(bodies, _group("plank", "box"), None, GRAVITY)
     assert [w for w in recwarn if issubclass(w.category, MassRatioWarning)]
+
+
+def test_a_heavy_body_pinned_to_the_fixed_frame_is_not_warned_of(recwarn):
+    """The same 1e12 kg plank under gravity, pinned at its centre to the fixed frame (the
+    tumbler's drum): the pin carries its weight, so it presses nothing and is not warned
+    of; its prismatic joint along gravity carries none, so that one is."""
+    bodies = {"plank": box_body((6.0, 0.2), 1e12), "box": box_body((0.5, 0.25), 2.0,
+                                                                   position=[0.0, 0.225])}
+    for kind, warned in (("revolute", False), ("prismatic", True)):
+        joint = {"type": kind, "body_b": "plank", "point_b": [0.0, 0.0]}
+        if kind == "prismatic":
+            joint["axis"] = [0.0, 1.0]
+        params = {"step": 0.001, "bodies": bodies, "collisions": _group("plank", "box"),
+                  "forces": GRAVITY, "joints": {"hold": joint}}
+        recwarn.clear()
+        Simulation(make_scene(params))
+        assert bool([w for w in recwarn if issubclass(w.category, MassRatioWarning)]) is warned
