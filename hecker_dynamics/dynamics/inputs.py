@@ -12,8 +12,8 @@ from __future__ import annotations
 import heapq
 import itertools
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
-from typing import Any, Optional
+from dataclasses import asdict
+from typing import Any, NamedTuple, Optional
 
 from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
@@ -21,9 +21,9 @@ from .forces import WrenchRow
 __all__ = ["Held", "InputBuffer", "same_place"]
 
 
-@dataclass(frozen=True)
-class Held:
-    """A command in the buffer with its resolved force row and the time it stops acting."""
+class Held(NamedTuple):
+    """A command in the buffer with its resolved force row and the time it stops acting (a
+    named tuple: the drives hold two new ones at every control instant)."""
 
     command: WrenchCommand
     row: WrenchRow
