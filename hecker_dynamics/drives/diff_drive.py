@@ -51,34 +51,45 @@ class DiffDrive(CommandedDrive):
         theta = float(q[self.body, 2])
         vx, vy, omega = v[self.body].tolist()
         c, s = math.cos(theta), math.sin(theta)
-        period = spec.period_ns * 1e-9
         if self.active(time_ns):
             assert self.command is not None
+            period = spec.period_ns * 1e-9
             # The axle centre's velocity, a body point's velocity (Eq. 9), in body axes:
             # v_C = v_CM + omega perp(r_C), turned back by -theta.
             u = c * vx + s * vy - omega * self._axle[1]
-            errors = (self.command.linear_x - u, self.command.angular_z - omega)
-            force = spec.linear_kp * errors[0] + spec.linear_ki * (
-                self.integrals[0] + errors[0] * period)
-            torque = spec.angular_kp * errors[1] + spec.angular_ki * (
-                self.integrals[1] + errors[1] * period)
-            wanted = (force / 2.0 - torque / spec.separation,
-                      force / 2.0 + torque / spec.separation)
-            pushes = [min(max(f, -spec.max_force), spec.max_force) for f in wanted]
-            if pushes == list(wanted):  # conditional integration: no wind-up while capped
-                self.integrals = [i + e * period for i, e in zip(self.integrals, errors)]
+            error_v, error_w = self.command.linear_x - u, self.command.angular_z - omega
+            integral_v, integral_w = self.integrals
+            force = spec.linear_kp * error_v + spec.linear_ki * (integral_v + error_v * period)
+            torque = spec.angular_kp * error_w + spec.angular_ki * (
+                integral_w + error_w * period)
+            wanted_left = force / 2.0 - torque / spec.separation
+            wanted_right = force / 2.0 + torque / spec.separation
+            limit = spec.max_force
+            left = min(max(wanted_left, -limit), limit)
+            right = min(max(wanted_right, -limit), limit)
+            # Conditional integration: no wind-up while capped. A NaN passes the caps as
+            # itself, and counts as uncapped (as the same object compares equal in a list).
+            if (left is wanted_left or left == wanted_left) and \
+                    (right is wanted_right or right == wanted_right):
+                self.integrals = [integral_v + error_v * period, integral_w + error_w * period]
         else:
-            pushes = [0.0, 0.0]
+            left = right = 0.0
             self.integrals = [0.0, 0.0]
-        commands = []
-        for source, wheel, offset, push in zip(self._sources, self.wheels, self._offsets,
-                                               pushes):
-            # The sideways slip: the body-y component of the wheel's point's velocity (Eq. 9).
-            slip = -s * vx + c * vy + omega * offset[0]
-            grip = -spec.lateral_damping * slip
-            scale = min(1.0, spec.traction / math.hypot(push, grip)) if (push or grip) else 1.0
-            commands.append(WrenchCommand(
-                stamp_ns=time_ns, body=spec.body, source=source,
-                frame_id=spec.body, point=wheel, force=(push * scale, grip * scale),
-                duration_ns=spec.period_ns))
-        return commands
+        body, duration = spec.body, spec.period_ns
+        (left_point, right_point), (left_source, right_source) = self.wheels, self._sources
+        # The sideways slip: the body-y component of the wheel's point's velocity (Eq. 9).
+        across = -s * vx + c * vy
+        return [WrenchCommand(time_ns, body, left_source, body, left_point,
+                              self._grip(left, across + omega * self._offsets[0][0]), 0.0,
+                              duration),
+                WrenchCommand(time_ns, body, right_source, body, right_point,
+                              self._grip(right, across + omega * self._offsets[1][0]), 0.0,
+                              duration)]
+
+    def _grip(self, push: float, slip: float) -> tuple[float, float]:
+        """A wheel's force in body axes: its ``push`` forward and the lateral damping's grip
+        against its sideways ``slip`` speed, the whole capped at the traction."""
+        spec = self.spec
+        grip = -spec.lateral_damping * slip
+        scale = min(1.0, spec.traction / math.hypot(push, grip)) if (push or grip) else 1.0
+        return (push * scale, grip * scale)

@@ -314,8 +314,8 @@ class EnergyBound:
         """Take the rates of work from the state ``q`` and the inputs and motors now."""
         terms = self._wrenches if self.model.inputs is None else [*self._wrenches,
                                                                   self.model.inputs]
-        with np.errstate(all="ignore"):
-            rates = self._unit_rates(q, terms) if terms else [0.0] * len(self.members)
+        # Plain floats, whose overflow numpy has no say in (as in inputs_changed).
+        rates = self._unit_rates(q, terms) if terms else [0.0] * len(self.members)
         self._set(RATE, [steady + rate for steady, rate in zip(self._steady, rates)])
         self._set(INPUT_RATE, [0.0] * len(rates))
         self._inputs_set = self._motors_moved = False

@@ -12,8 +12,8 @@ from __future__ import annotations
 import heapq
 import itertools
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
-from typing import Any, Optional
+from dataclasses import asdict
+from typing import Any, NamedTuple, Optional
 
 from ..scene.commands import InputError, WrenchCommand
 from .forces import WrenchRow
@@ -21,9 +21,9 @@ from .forces import WrenchRow
 __all__ = ["Held", "InputBuffer", "same_place"]
 
 
-@dataclass(frozen=True)
-class Held:
-    """A command in the buffer with its resolved force row and the time it stops acting."""
+class Held(NamedTuple):
+    """A command in the buffer with its resolved force row and the time it stops acting (a
+    named tuple: the drives hold two new ones at every control instant)."""
 
     command: WrenchCommand
     row: WrenchRow
@@ -58,14 +58,14 @@ class InputBuffer:
 
     def add(self, command: WrenchCommand, row: WrenchRow) -> None:
         """Queue a command; raises :class:`InputError` when the buffer is full."""
-        what = f"the command for '{command.body}' from '{command.source}'"
         if len(self._pending) >= self.max_pending:
             raise InputError(f"input buffer full ({self.max_pending} pending commands); "
-                             f"dropped {what}")
+                             f"dropped {_what(command)}")
         key = (command.body, command.source)
         if key not in self._active and key not in self._pending_keys and \
                 len(self._active.keys() | self._pending_keys.keys()) >= self.max_active:
-            raise InputError(f"more than {self.max_active} input sources at once; dropped {what}")
+            raise InputError(f"more than {self.max_active} input sources at once; dropped "
+                             f"{_what(command)}")
         held = Held(command, row, self.end_of(command))
         self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
         heapq.heappush(self._pending, (command.stamp_ns, next(self._order), held))
@@ -146,6 +146,10 @@ class InputBuffer:
 
     def __len__(self) -> int:
         return len(self._pending) + len(self._active)
+
+
+def _what(command: WrenchCommand) -> str:
+    return f"the command for '{command.body}' from '{command.source}'"
 
 
 def same_place(a: WrenchRow, b: WrenchRow) -> bool:

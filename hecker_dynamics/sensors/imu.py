@@ -62,14 +62,15 @@ class Imu:
         #: and y.
         self.deviations = (spec.orientation_noise, spec.angular_velocity_noise,
                            spec.linear_acceleration_noise, spec.linear_acceleration_noise)
+        self._noisy = any(deviation > 0.0 for deviation in self.deviations)
 
     def read(self, q: np.ndarray, v: np.ndarray, accelerations: np.ndarray,
              stamp_ns: int) -> ImuReading:
         """The sample at CM state (q, v) whose accelerations (Model.accelerations) are
         ``accelerations``, all (N, 3), stamped ``stamp_ns``."""
-        spec = self.spec
-        theta, omega = float(q[self.body, 2]), float(v[self.body, 2])
-        ax, ay, alpha = accelerations[self.body].tolist()
+        body = self.body
+        theta, omega = float(q[body, 2]), float(v[body, 2])
+        ax, ay, alpha = accelerations[body].tolist()
         (mx, my), (gx, gy) = self.mount, self.gravity
         c, s = math.cos(theta), math.sin(theta)
         rx = c * mx - s * my
@@ -77,11 +78,12 @@ class Imu:
         # a_P = a_CM + alpha perp(r) - omega^2 r, less gravity: the specific force.
         fx = ax - alpha * ry - omega * omega * rx - gx
         fy = ay + alpha * rx - omega * omega * ry - gy
-        yaw = theta + spec.angle
+        yaw = theta + self.spec.angle
         cy, sy = math.cos(yaw), math.sin(yaw)
-        sensed = [yaw, omega, cy * fx + sy * fy, -sy * fx + cy * fy]
-        if any(deviation > 0.0 for deviation in self.deviations):
-            draws = self.noise.normals(stamp_ns, 4).tolist()
-            sensed = [x + deviation * draw
-                      for x, deviation, draw in zip(sensed, self.deviations, draws)]
-        return ImuReading(stamp_ns, sensed[0], sensed[1], (sensed[2], sensed[3]))
+        along, across = cy * fx + sy * fy, -sy * fx + cy * fy
+        if self._noisy:
+            d_yaw, d_omega, d_x, d_y = self.deviations
+            n_yaw, n_omega, n_x, n_y = self.noise.normals(stamp_ns, 4).tolist()
+            return ImuReading(stamp_ns, yaw + d_yaw * n_yaw, omega + d_omega * n_omega,
+                              (along + d_x * n_x, across + d_y * n_y))
+        return ImuReading(stamp_ns, yaw, omega, (along, across))

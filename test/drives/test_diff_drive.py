@@ -155,3 +155,64 @@ def test_a_run_with_drives_publishes_what_the_node_loop_does():
     played = play_with_drives(Simulation(scene), scene.script, 6_000_000_000)
     assert len(played) == 300 and [s.bodies for s in played] == [s.bodies for s in looped]
     assert played[-1].bodies[2].position[0] > 3.0  # the robot drove across the room
+
+
+def _reference_wrenches(drive, q, v, time_ns):
+    """The control law of the module's docstring written out as lists, one wheel after
+    the other: the oracle of the controller's plain-float form."""
+    spec = drive.spec
+    theta, (vx, vy, omega) = float(q[drive.body, 2]), v[drive.body].tolist()
+    c, s = math.cos(theta), math.sin(theta)
+    period = spec.period_ns * 1e-9
+    integrals = list(drive.integrals)
+    if drive.active(time_ns):
+        u = c * vx + s * vy - omega * drive._axle[1]
+        errors = (drive.command.linear_x - u, drive.command.angular_z - omega)
+        force = spec.linear_kp * errors[0] + spec.linear_ki * (integrals[0] + errors[0] * period)
+        torque = spec.angular_kp * errors[1] + spec.angular_ki * (
+            integrals[1] + errors[1] * period)
+        wanted = (force / 2.0 - torque / spec.separation, force / 2.0 + torque / spec.separation)
+        pushes = [min(max(f, -spec.max_force), spec.max_force) for f in wanted]
+        if pushes == list(wanted):
+            integrals = [i + e * period for i, e in zip(integrals, errors)]
+    else:
+        pushes, integrals = [0.0, 0.0], [0.0, 0.0]
+    forces = []
+    for offset, push in zip(drive._offsets, pushes):
+        grip = -spec.lateral_damping * (-s * vx + c * vy + omega * offset[0])
+        scale = min(1.0, spec.traction / math.hypot(push, grip)) if (push or grip) else 1.0
+        forces.append((push * scale, grip * scale))
+    return forces, integrals
+
+
+def _bits(values):
+    return np.array(values, dtype=float).tobytes()
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("max_force", [5.0, 500.0])
+def test_the_wheel_forces_have_the_bits_of_the_written_out_law(seed, max_force):
+    """Random states and commands, capped or not, in traction or slipping, NaN commands
+    included: the same wheel forces and integrals to the bit, at every control instant."""
+    rng = np.random.default_rng(seed)
+    sim = robot_sim(max_force=max_force, traction=8.0 * max_force / 5.0, lateral_damping=30.0,
+                    cmd_vel_timeout=0.05)
+    drive = DriveSet(sim).drives[0]
+    time_ns = 0
+    for instant in range(400):
+        time_ns += drive.spec.period_ns
+        q, v = sim.q.copy(), sim.v.copy()
+        q[:, 2] = rng.uniform(-math.pi, math.pi)
+        v[:] = rng.normal(0.0, 2.0, v.shape)
+        if instant % 7 == 0:
+            x, z = rng.normal(0.0, 1.5, 2)
+            drive.command = VelocityCommand(time_ns, float(x), float(z))  # as received
+        if instant == 200:
+            drive.command = VelocityCommand(time_ns, math.nan, 0.5)  # past receive's check
+        expected, integrals = _reference_wrenches(drive, q, v, time_ns)
+        commands = drive.wrenches(q, v, time_ns)
+        assert _bits([c.force for c in commands]) == _bits(expected)
+        assert _bits(drive.integrals) == _bits(integrals)
+        assert [c.point for c in commands] == list(drive.wheels)
+        assert all(c.stamp_ns == time_ns and c.duration_ns == drive.spec.period_ns
+                   for c in commands)

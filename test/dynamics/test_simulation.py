@@ -16,6 +16,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics import DivergenceError, Simulation, WrenchCommand, load_scene
+from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.integrators.methods import METHODS
 from hecker_dynamics.scene.load import shipped_scenes
@@ -239,6 +240,32 @@ def _diverging(integrator):
     sim.push(WrenchCommand(50 * MS, "tiny", "boom", "world", (2.0, 0.1), (1e308, 1e308),
                            0.0, 0))
     return sim
+
+
+def _blow_up(python: bool) -> tuple[str, bytes, bytes, bytes]:
+    """Diverge :func:`_diverging`'s scene in the kernel or in Python with numpy (``python``):
+    the error, the state kept, and the accelerations the huge input gives at it."""
+    sim = _diverging("semi_implicit_euler")
+    if python:
+        sim.model.use_python(lean=False)
+    sim.advance_to(50 * MS)
+    accelerations = sim.accelerations().tobytes()
+    with pytest.raises(DivergenceError) as caught:
+        sim.advance_to(100 * MS)
+    return str(caught.value), sim.q.tobytes(), sim.v.tobytes(), accelerations
+
+
+@pytest.mark.parametrize("python", [False, True])
+def test_a_run_sets_its_own_floating_point_error_settings_where_numpy_steps(python):
+    """Steps and accelerations in Python quiet numpy's floating-point errors themselves,
+    and the kernel's, which skip those settings, do no numpy arithmetic: a caller's
+    settings that raise on every error change nothing, overflow included."""
+    if not python and not kernel.enabled():
+        pytest.skip("needs the compiled kernel")
+    quiet = _blow_up(python)
+    with np.errstate(all="raise"):
+        assert _blow_up(python) == quiet
+    assert not np.isfinite(np.frombuffer(quiet[3])).all()  # the input overflowed them
 
 
 @pytest.mark.parametrize("integrator", METHODS)

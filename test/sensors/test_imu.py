@@ -4,6 +4,7 @@ fall), and a central difference of a body point's velocity (Eq. 9) along an RK4 
 from __future__ import annotations
 
 import math
+import zlib
 
 import numpy as np
 import pytest
@@ -108,6 +109,35 @@ def test_noise_is_seeded_by_stamp():
     spread = np.std([[r.yaw, r.angular_velocity, *r.linear_acceleration] for r in readings],
                     axis=0)
     np.testing.assert_allclose(spread, [0.01, 0.02, 0.1, 0.1], rtol=0.08)  # 5 sigma: 7.9 %
+
+
+@pytest.mark.parametrize("deviations", [(0.01, 0.02, 0.1, 0.3), (0.0, 0.02, 0.1, 0.3),
+                                        (0.01, 0.0, 0.0, 0.0)])
+def test_each_value_adds_its_deviation_times_its_own_draw(deviations):
+    """A noisy reading is the clean one plus each deviation times the draw of its place
+    (yaw, omega, x, y) from the reading's generator (:class:`~.noise.Noise`), to the bit;
+    a zero deviation still adds its zero times the draw, and one noisy value is noise."""
+    body = {"shape": "box", "size": [0.4, 0.2], "mass": 3.0, "velocity": [0.3, -0.2],
+            "angular_velocity": 1.7}
+    forces = {"g": {"type": "gravity"}}
+    noisy, sim = setup(body, forces, position=[0.15, 0.05], angle=0.4, seed=9,
+                       orientation_noise=deviations[0], angular_velocity_noise=deviations[1],
+                       linear_acceleration_noise=deviations[2])
+    noisy.deviations = deviations  # x and y apart, so that a swap of the two shows
+    clean, _ = setup(body, forces, position=[0.15, 0.05], angle=0.4)
+    for _ in range(321):
+        sim.step()
+    a = sim.model.accelerations(sim.q, sim.v)
+    for stamp in (sim.time_ns, 5 * sim.time_ns + 7):
+        base, reading = (imu.read(sim.q, sim.v, a, stamp) for imu in (clean, noisy))
+        draws = np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+            [9, zlib.crc32(noisy.spec.frame_id.encode()), stamp]))).standard_normal(4)
+        expected = [value + deviation * draw for value, deviation, draw in
+                    zip((base.yaw, base.angular_velocity, *base.linear_acceleration),
+                        deviations, draws.tolist())]
+        got = [reading.yaw, reading.angular_velocity, *reading.linear_acceleration]
+        assert np.array(got).tobytes() == np.array(expected).tobytes()
+        assert reading.stamp_ns == stamp
 
 
 def test_a_bad_imu_rate_is_refused_by_name():
