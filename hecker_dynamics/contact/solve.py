@@ -5,15 +5,13 @@ pushed apart by moving positions only.
 """
 from __future__ import annotations
 
-import math
-
 from .coupled import JointUnit
 from .islands import WIDE_UNITS, coloured, islands, schedule, unit_bodies
 from .rows import Block, ContactRow, States, Velocities, solve_point
 from .warm import FRICTION_CARRY
 
 __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_ITERATIONS",
-           "POSITION_ITERATIONS", "SLOP", "SLOP_FRACTION", "SPAN", "WORK", "correct_positions",
+           "POSITION_ITERATIONS", "SETTLE", "SLOP", "SLOP_FRACTION", "WORK", "correct_positions",
            "passes", "slop", "solve_velocities"]
 
 #: The velocity solver's passes over the contacts per step: as many as fit in
@@ -22,15 +20,18 @@ __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_I
 #: (no impulse changes a velocity by more than :data:`CONVERGED` relative to the fastest
 #: body). So a scene's cost per step is bounded by its number of contacts alone: small
 #: scenes converge to rounding, large ones take the fixed minimum, as game engines do.
-#: An island of n units also gets isqrt(n) // :data:`SPAN` passes: a pass carries a change
-#: across a contact or two, and a pile's depth grows as the square root of its contacts;
-#: with fewer, the weight of a deep pile never settles into its warm starts and the pile
-#: sways (100 rows, 5,050 boxes: 0.07 m/s after 2 s with 12 passes, 0.02 with 16, 0.007
-#: with 20, 0.001 with 40).
+#: An island of n units also gets n // :data:`SETTLE` passes: a pass carries a change
+#: across a contact or two, so the slowest sway of a pile d contacts deep fades by about
+#: 1/d^2 a pass, and d^2 grows as the pile's contacts; with fewer, the weight of a deep
+#: pile never settles into its warm starts and the pile sways. Fastest box of the
+#: benchmark's pyramids (rows^2 units) after 2 s, 1 cm/s allowed: 50 rows 0.009 m/s with
+#: 5 passes, 0.004 with 6; 60 rows 0.012 with 7, 0.004 with 9; 70 rows 0.013 with 10,
+#: 0.005 with 12; 80 rows 0.004 with 16; 100 rows 0.07 with 12, 0.007 with 20, 0.004
+#: with 25.
 WORK = 600
 MIN_ITERATIONS = 6
 MAX_ITERATIONS = 40
-SPAN = 4
+SETTLE = 400
 CONVERGED = 1e-13
 #: Overlap left alone (m) by the position correction: at most :data:`SLOP`, and at most
 #: :data:`SLOP_FRACTION` of the thinner body's size (:func:`slop`), so that a body smaller
@@ -46,7 +47,7 @@ POSITION_ITERATIONS = 4
 
 def passes(units: int) -> int:
     """The most passes of the velocity solver over ``units`` contacts and blocks."""
-    return min(max(WORK // units, MIN_ITERATIONS, math.isqrt(units) // SPAN), MAX_ITERATIONS)
+    return min(max(WORK // units, MIN_ITERATIONS, units // SETTLE), MAX_ITERATIONS)
 
 
 def slop(size: float) -> float:

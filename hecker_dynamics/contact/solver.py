@@ -21,8 +21,8 @@ After the integrator has taken a step from (q0, v0) to (q1, v1), the pass:
    contacts alone (:func:`~.solve.passes`), island by island (bodies joined through
    contacts, which share no body with another island: :mod:`.islands`): up to
    :data:`~.solve.WORK` contact solves (at least :data:`~.solve.MIN_ITERATIONS` passes and,
-   so that deep piles settle, one per :data:`~.solve.SPAN` of the square root of the
-   island's units; at most :data:`~.solve.MAX_ITERATIONS`), fewer when no impulse changes
+   so that deep piles settle, one per :data:`~.solve.SETTLE` of the island's units; at
+   most :data:`~.solve.MAX_ITERATIONS`), fewer when no impulse changes
    a velocity by more than :data:`~.solve.CONVERGED` relative to the island's fastest
    body. An island of at least :data:`~.islands.WIDE_UNITS` units and no joint rows is
    swept in colour order (units of one colour share no body; Box2D v3's graph

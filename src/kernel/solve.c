@@ -11,17 +11,6 @@
 #include "solver.h"
 #include "wide.h"
 
-/* The integer square root of n >= 0 (Python's math.isqrt). */
-static long hd_isqrt(long n)
-{
-    long r = (long)sqrt((double)n);
-    while (r * r > n)
-        --r;
-    while ((r + 1) * (r + 1) <= n)
-        ++r;
-    return r;
-}
-
 /* The rows of a big island (solved in colour order) whose passes ran out before it
  * converged: each keeps its friction by HD_FRICTION_CARRY for the next step's warm start
  * (contact/solve.py: solve_velocities). */
@@ -36,7 +25,7 @@ static void hd_carry_friction(hd_contact_model *m, const long *members, long siz
 
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
  * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
- * units) passes, but at least HD_MIN_ITERATIONS and isqrt(its units) / HD_SPAN and at most
+ * units) passes, but at least HD_MIN_ITERATIONS and (its units) / HD_SETTLE and at most
  * HD_MAX_ITERATIONS
  * (contact/solve.py: solve_velocities); then each island's position correction into m->shift,
  * in the order its units were swept (contact/solve.py: correct_positions), with `base` for
@@ -69,8 +58,8 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
         const long coupled = hd_coupled_size(m, i);
         long passes = HD_WORK / (size + coupled);
         passes = passes < HD_MIN_ITERATIONS ? HD_MIN_ITERATIONS : passes;
-        const long span = hd_isqrt(size + coupled) / HD_SPAN;
-        passes = passes < span ? span : passes;
+        const long settle = (size + coupled) / HD_SETTLE;
+        passes = passes < settle ? settle : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
         if (size >= HD_WIDE_UNITS && coupled == 0) {
             const int converged = hd_wide_solve(m, wide++, same, members, size, passes, scale,

@@ -4,7 +4,7 @@
  * friction), warm-started from the last step's impulses (the friction's by
  * HD_FRICTION_CARRY where a big island's passes ran out), two-point manifolds solved as
  * blocks, island by island, each with at most HD_WORK / (its units) passes (at least
- * HD_MIN_ITERATIONS and isqrt(its units) / HD_SPAN, at most HD_MAX_ITERATIONS);
+ * HD_MIN_ITERATIONS and (its units) / HD_SETTLE, at most HD_MAX_ITERATIONS);
  * then the position change h (v' - v) of each body the impulses moved, and the position
  * correction of the overlap beyond HD_SLOP.
  *

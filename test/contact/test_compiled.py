@@ -31,9 +31,9 @@ def _scene(name):
 @needs_kernel
 def test_kernel_has_the_solver_constants():
     k = kernel._kernel
-    assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.SPAN, k.POSITION_ITERATIONS,
+    assert (k.MAX_ITERATIONS, k.MIN_ITERATIONS, k.WORK, k.SETTLE, k.POSITION_ITERATIONS,
             k.MAX_CONTACT_SUBSTEPS) == \
-        (solve.MAX_ITERATIONS, solve.MIN_ITERATIONS, solve.WORK, solve.SPAN,
+        (solve.MAX_ITERATIONS, solve.MIN_ITERATIONS, solve.WORK, solve.SETTLE,
          solve.POSITION_ITERATIONS, detect.MAX_SUBSTEPS)
     assert (k.CONVERGED, k.MARGIN, k.MATCH, k.SLOP, k.CORRECTION, k.MAX_CORRECTION,
             k.MAX_CONDITION) == \
