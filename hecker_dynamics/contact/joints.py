@@ -341,9 +341,14 @@ class JointPass:
         template = self.rows(start, 1.0)
         self.rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
         if self.pattern is None:  # where the factors can be non-zero: the same at any pose
-            self.pattern = Pattern.of([[e[0] for e in r.entries] for r in template])
+            shares = [[jx * dx + jy * dy + jw * dw
+                       for (_, jx, jy, jw), (_, dx, dy, dw) in zip(row.entries, towards)]
+                      for row, towards in zip(template, directions(template, self.inverse_mass))]
+            self.pattern = Pattern.of([[e[0] for e in r.entries] for r in template]).lightest(
+                shares)
             self.rigid_pattern = Pattern.of([[e[0] for e in template[i].entries]
-                                             for i in self.rigid])
+                                             for i in self.rigid]).lightest(
+                [shares[i] for i in self.rigid])
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
         self.warm = [0.0] * len(template)
@@ -552,8 +557,11 @@ class JointPass:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
         symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
-        multipliers scaled to this step's length (they grow as h^2); returns the rows at
-        the new ``q``. The matrix of one iterate serves the next ones while each cuts the
+        multipliers scaled to this step's length (they grow as h^2), and where that start
+        fails, once more from the free step (zero multipliers: a light body between heavy
+        ones moves by the small difference of their large multipliers, which the last
+        step's, along rows that have turned since, miss by far); returns the rows at the
+        new ``q``. The matrix of one iterate serves the next ones while each cuts the
         error by :data:`CHORD` at least (near the solution the matrix changes by less
         than the error: a simplified Newton step costs a solve, not a factorization).
         Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
@@ -566,10 +574,21 @@ class JointPass:
         rigid = [rows0[i] for i in self.rigid]
         direction = directions(rigid, self.inverse_mass)
         target = [row.c for row in rigid]
-        scale = h / self.step_h
-        scale = scale * scale
-        nu = [0.0] * len(rigid) if self.newton is None else [x * scale for x in self.newton]
         moved = list(q)
+        if self.newton is not None:
+            scale = h / self.step_h
+            scale = scale * scale
+            try:
+                return self._newton(q, moved, direction, target, [x * scale for x in self.newton],
+                                    h)
+            except JointsUnsolved:
+                q[:] = moved
+        return self._newton(q, moved, direction, target, [0.0] * len(rigid), h)
+
+    def _newton(self, q: list[float], moved: list[float], direction: Directions,
+                target: list[float], nu: list[float], h: float) -> list[JointRow]:
+        """:meth:`_hold`'s Newton iteration from the multipliers ``nu``, on ``q`` (which
+        was ``moved``) towards the rigid rows' values ``target``."""
         apply(q, direction, nu)
         # The rows' values round at about eps |q|: no error can be asked below that.
         tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
