@@ -251,6 +251,8 @@ class JointPass:
         self.tolerance = TOLERANCE
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
         self.max_turn = MAX_TURN
+        #: The largest error of the last Newton iteration's first iterate (:meth:`_newton`).
+        self.first_error = math.inf
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
@@ -559,10 +561,10 @@ class JointPass:
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
         symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
         multipliers scaled to this step's length (they grow as h^2), and where that start
-        fails, once more from the free step (zero multipliers: a light body between heavy
-        ones moves by the small difference of their large multipliers, which the last
-        step's, along rows that have turned since, miss by far); returns the rows at the
-        new ``q``. The matrix of one iterate serves the next ones while each cuts the
+        fails and began further from the solution than the free step, once more from the
+        free step (zero multipliers: a light body between heavy ones moves by the small
+        difference of their large multipliers, which the last step's, along rows that have
+        turned since, miss by far); returns the rows at the new ``q``. The matrix of one iterate serves the next ones while each cuts the
         error by :data:`CHORD` at least (near the solution the matrix changes by less
         than the error: a simplified Newton step costs a solve, not a factorization).
         Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
@@ -584,12 +586,17 @@ class JointPass:
                                     h)
             except JointsUnsolved:
                 q[:] = moved
+                rows = self.rows(q, h)
+                if not max(abs(rows[i].c - c0) for i, c0 in zip(self.rigid, target)
+                           ) < self.first_error:
+                    raise
         return self._newton(q, moved, direction, target, [0.0] * len(rigid), h)
 
     def _newton(self, q: list[float], moved: list[float], direction: Directions,
                 target: list[float], nu: list[float], h: float) -> list[JointRow]:
         """:meth:`_hold`'s Newton iteration from the multipliers ``nu``, on ``q`` (which
-        was ``moved``) towards the rigid rows' values ``target``."""
+        was ``moved``) towards the rigid rows' values ``target``; keeps the largest error
+        of its first iterate in :attr:`first_error`."""
         apply(q, direction, nu)
         # The rows' values round at about eps |q|: no error can be asked below that.
         tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
@@ -597,10 +604,12 @@ class JointPass:
         previous = math.inf
         factors: Optional[tuple[Factors, list[float]]] = None  # the last matrix's L U
         fresh = False  # whether the last step's matrix was that iterate's own
-        for _ in range(NEWTON_ITERATIONS):
+        for iteration in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
             error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
             largest = max(map(abs, error))
+            if iteration == 0:
+                self.first_error = largest
             if largest <= tolerance:
                 turned = max(abs(q[k] - moved[k]) for k in range(2, len(q), 3))
                 if turned > self.max_turn:

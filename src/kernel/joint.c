@@ -579,7 +579,8 @@ static double hd_largest_abs(const double *x, long n)
 }
 
 /* contact/joints.py: JointPass._newton, from the multipliers in m->nu, on m->q (which was
- * m->moved), the directions and targets of the rigid rows in m->dir0 and m->target. */
+ * m->moved), the directions and targets of the rigid rows in m->dir0 and m->target; the first
+ * iterate's largest error in m->first_error. */
 static int hd_newton(hd_joint_model *m, double h)
 {
     const long nr = m->rigid_count;
@@ -597,6 +598,8 @@ static int hd_newton(hd_joint_model *m, double h)
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
         const double largest = hd_largest_abs(m->step, nr);
+        if (iteration == 0)
+            m->first_error = largest;
         if (largest <= tolerance) {
             double turned = 0.0;
             for (long k = 2; k < n3; k += 3)
@@ -652,6 +655,11 @@ static int hd_hold(hd_joint_model *m, double h, int again)
         if (hd_newton(m, h) == HD_JOINTS_OK)
             return HD_JOINTS_OK;
         memcpy(m->q, m->moved, (size_t)(3 * m->body_count) * sizeof(double));
+        hd_build_rows(m, m->q, h, m->rows, 1);
+        for (long k = 0; k < nr; ++k)
+            m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
+        if (!(hd_largest_abs(m->step, nr) < m->first_error))
+            return HD_JOINTS_UNSOLVED;
     }
     for (long k = 0; k < nr; ++k)
         m->nu[k] = 0.0;
