@@ -564,9 +564,10 @@ class JointPass:
         fails and began further from the solution than the free step, once more from the
         free step (zero multipliers: a light body between heavy ones moves by the small
         difference of their large multipliers, which the last step's, along rows that have
-        turned since, miss by far); returns the rows at the new ``q``. The matrix of one iterate serves the next ones while each cuts the
-        error by :data:`CHORD` at least (near the solution the matrix changes by less
-        than the error: a simplified Newton step costs a solve, not a factorization).
+        turned since, miss by far); returns the rows at the new ``q``. The matrix of one
+        iterate serves the next ones while each cuts the error by :data:`CHORD` at least
+        (near the solution the matrix changes by less than the error: a simplified Newton
+        step costs a solve, not a factorization).
         Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
         iterate's own matrix does not halve the largest error (SHAKE's equations have no
         solution near the step's end: a body turned far, or a long chain's weakest modes
