@@ -135,11 +135,12 @@ MOST_SUBSTEPS = 1024
 DRIFT_ITERATIONS = 8
 #: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast
 #: turns leave no solution near a part's end; joined masses far apart (the measured limit
-#: on a 10-link chain lies between 1e8 and 1e10 to one) make the rows' system so
-#: ill-conditioned that rounding keeps its error above TOLERANCE.
+#: on a 10-link chain of alternating masses at h = 1/240 s lies between 1e14 and 1e15 to
+#: one) move a light body by the difference of its heavy neighbours' multipliers, which
+#: rounding leaves above TOLERANCE.
 UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOST_SUBSTEPS} parts"
 UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
-                   "apart (beyond about 1e8 to one); take a shorter step, or masses closer "
+                   "apart (beyond about 1e14 to one); take a shorter step, or masses closer "
                    "together")
 
 
@@ -250,6 +251,8 @@ class JointPass:
         self.tolerance = TOLERANCE
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
         self.max_turn = MAX_TURN
+        #: The largest error of the last Newton iteration's first iterate (:meth:`_newton`).
+        self.first_error = math.inf
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
@@ -341,9 +344,14 @@ class JointPass:
         template = self.rows(start, 1.0)
         self.rigid = [i for i, r in enumerate(template) if r.kind == RIGID]
         if self.pattern is None:  # where the factors can be non-zero: the same at any pose
-            self.pattern = Pattern.of([[e[0] for e in r.entries] for r in template])
+            shares = [[jx * dx + jy * dy + jw * dw
+                       for (_, jx, jy, jw), (_, dx, dy, dw) in zip(row.entries, towards)]
+                      for row, towards in zip(template, directions(template, self.inverse_mass))]
+            self.pattern = Pattern.of([[e[0] for e in r.entries] for r in template]).lightest(
+                shares)
             self.rigid_pattern = Pattern.of([[e[0] for e in template[i].entries]
-                                             for i in self.rigid])
+                                             for i in self.rigid]).lightest(
+                [shares[i] for i in self.rigid])
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
         self.warm = [0.0] * len(template)
@@ -552,10 +560,14 @@ class JointPass:
         """Stage 1: move ``q`` along M^-1 G(q0)^T until the rigid rows have their values
         at the step's start (Newton's method on G(q) M^-1 G(q0)^T, which is not
         symmetric: factored by :func:`.sparse.lu`), warm-started from the last step's
-        multipliers scaled to this step's length (they grow as h^2); returns the rows at
-        the new ``q``. The matrix of one iterate serves the next ones while each cuts the
-        error by :data:`CHORD` at least (near the solution the matrix changes by less
-        than the error: a simplified Newton step costs a solve, not a factorization).
+        multipliers scaled to this step's length (they grow as h^2), and where that start
+        fails and began further from the solution than the free step, once more from the
+        free step (zero multipliers: a light body between heavy ones moves by the small
+        difference of their large multipliers, which the last step's, along rows that have
+        turned since, miss by far); returns the rows at the new ``q``. The matrix of one
+        iterate serves the next ones while each cuts the error by :data:`CHORD` at least
+        (near the solution the matrix changes by less than the error: a simplified Newton
+        step costs a solve, not a factorization).
         Raises :class:`JointsUnsolved`, changing nothing but ``q``, when a step with its
         iterate's own matrix does not halve the largest error (SHAKE's equations have no
         solution near the step's end: a body turned far, or a long chain's weakest modes
@@ -566,10 +578,26 @@ class JointPass:
         rigid = [rows0[i] for i in self.rigid]
         direction = directions(rigid, self.inverse_mass)
         target = [row.c for row in rigid]
-        scale = h / self.step_h
-        scale = scale * scale
-        nu = [0.0] * len(rigid) if self.newton is None else [x * scale for x in self.newton]
         moved = list(q)
+        if self.newton is not None:
+            scale = h / self.step_h
+            scale = scale * scale
+            try:
+                return self._newton(q, moved, direction, target, [x * scale for x in self.newton],
+                                    h)
+            except JointsUnsolved:
+                q[:] = moved
+                rows = self.rows(q, h)
+                if not max(abs(rows[i].c - c0) for i, c0 in zip(self.rigid, target)
+                           ) < self.first_error:
+                    raise
+        return self._newton(q, moved, direction, target, [0.0] * len(rigid), h)
+
+    def _newton(self, q: list[float], moved: list[float], direction: Directions,
+                target: list[float], nu: list[float], h: float) -> list[JointRow]:
+        """:meth:`_hold`'s Newton iteration from the multipliers ``nu``, on ``q`` (which
+        was ``moved``) towards the rigid rows' values ``target``; keeps the largest error
+        of its first iterate in :attr:`first_error`."""
         apply(q, direction, nu)
         # The rows' values round at about eps |q|: no error can be asked below that.
         tolerance = max(self.tolerance, ROUNDING * (1.0 + max(map(abs, q))))
@@ -577,10 +605,12 @@ class JointPass:
         previous = math.inf
         factors: Optional[tuple[Factors, list[float]]] = None  # the last matrix's L U
         fresh = False  # whether the last step's matrix was that iterate's own
-        for _ in range(NEWTON_ITERATIONS):
+        for iteration in range(NEWTON_ITERATIONS):
             rows = self.rows(q, h)
             error = [rows[i].c - c0 for i, c0 in zip(self.rigid, target)]
             largest = max(map(abs, error))
+            if iteration == 0:
+                self.first_error = largest
             if largest <= tolerance:
                 turned = max(abs(q[k] - moved[k]) for k in range(2, len(q), 3))
                 if turned > self.max_turn:

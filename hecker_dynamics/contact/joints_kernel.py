@@ -76,9 +76,11 @@ class CompiledJoints:
         ints, reals = _columns(joint_pass)
         assert joint_pass.pattern is not None  # the start pose has fixed the rows
 
-        def arrays(pattern: Pattern) -> tuple[np.ndarray, np.ndarray]:
+        def arrays(pattern: Pattern) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             return (np.array(pattern.start, dtype=np.int64),
-                    np.array(pattern.columns, dtype=np.int64))
+                    np.array(pattern.columns, dtype=np.int64),
+                    np.array([pattern.bound(i) for i in range(len(pattern.start) - 1)],
+                             dtype=np.float64))
 
         self.kernel: Any = _kernel.joints(
             bodies=np.ascontiguousarray(joint_pass.bodies, dtype=np.int64),

@@ -22,9 +22,10 @@ order of the rows decides the cost, never the result's accuracy:
   routines below operation for operation.
 - :func:`factor` (L D L^T) and :func:`lu` (L U, for the Newton matrix) go row by row
   ("up-looking"), without pivoting, summing each entry's updates in ascending order. A
-  row whose pivot vanishes (below :data:`DEPENDENT` of its diagonal) repeats what earlier
-  rows hold: it is dropped, its impulse is zero and the others carry the load, as a
-  pseudo-inverse would (two pins at one point, the loops of a grid of pins).
+  row whose pivot vanishes (below :data:`DEPENDENT` of its lightest body's share of its
+  diagonal, :attr:`Pattern.dependent`) repeats what earlier rows hold: it is dropped, its
+  impulse is zero and the others carry the load, as a pseudo-inverse would (two pins at
+  one point, the loops of a grid of pins).
 - Rows can be left out of a solve (``active``): their impulses are zero.
 """
 from __future__ import annotations
@@ -37,10 +38,11 @@ from typing import Any, Optional
 __all__ = ["DEPENDENT", "DISSECT_ABOVE", "Pattern", "Factors", "joint_order",
            "minimum_degree", "factor", "substitute", "lu", "lu_solve"]
 
-#: A pivot at most this fraction of its row's diagonal marks the row as dependent on the
-#: rows before it. Independent rows of the stiffest chains measured (200 links: condition
-#: numbers near 1e6) keep pivots above 1e-7 of their diagonal; rounding leaves dependent
-#: rows' pivots near 1e-16 of theirs.
+#: A pivot at most this fraction of its row's diagonal (of its lightest body's share of it,
+#: :meth:`Pattern.lightest`) marks the row as dependent on the rows before it. Independent
+#: rows of the stiffest chains measured (200 links: condition numbers near 1e6) keep pivots
+#: above 1e-7 of their diagonal; rounding leaves dependent rows' pivots near 1e-16 of
+#: theirs (at most 5e-14 in a 10 x 10 grid of pins).
 DEPENDENT = 1e-10
 
 
@@ -116,11 +118,36 @@ class Pattern:
     """Where the strict lower triangle of the rows' factors can be non-zero: row i's
     columns are ``columns[start[i]:start[i + 1]]`` (ascending), each a *slot* of the
     factors' arrays; ``above[i]`` lists the slots of column i, (row, slot) by ascending
-    row, for the upper triangle's access."""
+    row, for the upper triangle's access; ``dependent[i]``: the fraction of row i's diagonal
+    at or below which its pivot drops it (:data:`DEPENDENT` unless :meth:`lightest` set
+    it; empty: :data:`DEPENDENT` for every row)."""
 
     start: tuple[int, ...]
     columns: tuple[int, ...]
     above: tuple[tuple[tuple[int, int], ...], ...]
+    dependent: tuple[float, ...] = ()
+
+    def lightest(self, shares: Sequence[Sequence[float]]) -> Pattern:
+        """This pattern with each row's bound scaled by its lightest body's share of its
+        diagonal over the mean share (``shares[i]``: J_b M_b^-1 J_b^T of each body b of
+        row i). A row between a heavy and a light body is independent of the rows before
+        it through the heavy body alone: its pivot is about the heavy body's share, which
+        is 1e-12 of the diagonal between 1 kg and 1e-12 kg, where a dependent row's pivot
+        is rounding of the whole diagonal. A row on one body, or on bodies of equal
+        shares, keeps :data:`DEPENDENT`."""
+        bounds = []
+        for row in shares:
+            positive = [s for s in row if s > 0.0]
+            if len(positive) < 2:
+                bounds.append(DEPENDENT)
+                continue
+            mean = sum(positive) / len(positive)
+            bounds.append(DEPENDENT * (min(positive) / mean))
+        return Pattern(self.start, self.columns, self.above, tuple(bounds))
+
+    def bound(self, i: int) -> float:
+        """The fraction of row i's diagonal at or below which its pivot drops it."""
+        return self.dependent[i] if self.dependent else DEPENDENT
 
     @classmethod
     def of(cls, row_bodies: Sequence[Sequence[int]]) -> Pattern:
@@ -171,7 +198,7 @@ def factor(pattern: Pattern, diagonal: list[float], lower: list[float],
            active: Optional[Sequence[bool]] = None) -> Factors:
     """K = L D L^T of the symmetric K given by its ``diagonal`` and its strict ``lower``
     triangle (by the pattern's slots), for the ``active`` rows (default: all); a row
-    whose pivot is at most :data:`DEPENDENT` of its diagonal is dropped."""
+    whose pivot is at most :meth:`Pattern.bound` of its diagonal is dropped."""
     start, columns = pattern.start, pattern.columns
     n = len(diagonal)
     low = [0.0] * len(lower)
@@ -201,7 +228,7 @@ def factor(pattern: Pattern, diagonal: list[float], lower: list[float],
         s = diagonal[i]
         for slot in range(first, end):
             s -= low[slot] * diag[columns[slot]] * low[slot]
-        if s > DEPENDENT * diagonal[i]:
+        if s > pattern.bound(i) * diagonal[i]:
             diag[i] = s
         else:
             out[i] = True
@@ -273,7 +300,7 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
         s = diagonal[i]
         for slot in range(first, end):
             s -= low[slot] * upper[slot]
-        if abs(s) > DEPENDENT * abs(diagonal[i]):
+        if abs(s) > pattern.bound(i) * abs(diagonal[i]):
             diag[i] = 1.0 / s
         else:
             out[i] = True

@@ -23,22 +23,26 @@ PyDoc_STRVAR(joints_doc,
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
 "checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
-"Pattern), each as (start, columns); the model indices of the bodies whose turning\n"
+"Pattern), each as (start, columns, dependent); the model indices of the bodies whose turning\n"
 "JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
 "step (JointPass.max_turn).");
 
-/* A contact/sparse.py Pattern from (start, columns); -1 with an exception set. */
-static int hd_read_pattern(PyObject *pair, hd_pattern *p)
+/* A contact/sparse.py Pattern from (start, columns, dependent); -1 with an exception set. */
+static int hd_read_pattern(PyObject *triple, hd_pattern *p)
 {
-    PyObject *start_object, *columns_object;
-    if (!PyArg_ParseTuple(pair, "OO:pattern", &start_object, &columns_object))
+    PyObject *start_object, *columns_object, *dependent_object;
+    if (!PyArg_ParseTuple(triple, "OOO:pattern", &start_object, &columns_object,
+                          &dependent_object))
         return -1;
     Py_ssize_t count, length;
     long *start = hd_read_array(start_object, "start", 'q', -1, &length);
     long *columns = start == NULL ? NULL
                     : hd_read_array(columns_object, "columns", 'q', -1, &count);
-    if (columns == NULL) {
+    double *dependent = columns == NULL ? NULL
+                        : hd_read_array(dependent_object, "dependent", 'd', length - 1, NULL);
+    if (dependent == NULL) {
         free(start);
+        free(columns);
         return -1;
     }
     const long rows = (long)length - 1;
@@ -52,10 +56,11 @@ static int hd_read_pattern(PyObject *pair, hd_pattern *p)
     if (!ok) {
         free(start);
         free(columns);
+        free(dependent);
         PyErr_SetString(PyExc_ValueError, "pattern: not a contact/sparse.py Pattern");
         return -1;
     }
-    if (hd_pattern_init(p, rows, start, columns) < 0) {
+    if (hd_pattern_init(p, rows, start, columns, dependent) < 0) {
         PyErr_NoMemory();
         return -1;
     }

@@ -578,24 +578,13 @@ static double hd_largest_abs(const double *x, long n)
     return largest;
 }
 
-/* contact/joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
- * holds the directions of the rows at q0 already. */
-static int hd_hold(hd_joint_model *m, double h, int again)
+/* contact/joints.py: JointPass._newton, from the multipliers in m->nu, on m->q (which was
+ * m->moved), the directions and targets of the rigid rows in m->dir0 and m->target; the first
+ * iterate's largest error in m->first_error. */
+static int hd_newton(hd_joint_model *m, double h)
 {
     const long nr = m->rigid_count;
-    if (nr == 0) {
-        hd_build_rows(m, m->q, h, m->rows, 0);
-        return HD_JOINTS_OK;
-    }
     const hd_pattern *p = &m->rigid_pattern;
-    if (!again)
-        hd_directions(m, m->rows0, m->rigid, nr, m->dir0);
-    double scale = h / m->last_h;
-    scale = scale * scale;
-    for (long k = 0; k < nr; ++k) {
-        m->target[k] = m->rows0[m->rigid[k]].c;
-        m->nu[k] = m->newton_valid ? m->newton[k] * scale : 0.0;
-    }
     const long n3 = 3 * m->body_count;
     hd_apply(m->q, m->dir0, nr, m->nu);
     /* The rows' values round at about eps |q|: no error can be asked below that. */
@@ -609,6 +598,8 @@ static int hd_hold(hd_joint_model *m, double h, int again)
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
         const double largest = hd_largest_abs(m->step, nr);
+        if (iteration == 0)
+            m->first_error = largest;
         if (largest <= tolerance) {
             double turned = 0.0;
             for (long k = 2; k < n3; k += 3)
@@ -641,6 +632,38 @@ static int hd_hold(hd_joint_model *m, double h, int again)
         hd_apply(m->q, m->dir0, nr, m->step);
     }
     return HD_JOINTS_UNSOLVED;
+}
+
+/* contact/joints.py: JointPass._hold, on m->q; the rows at the new q in m->rows. `again`: m->dir0
+ * holds the directions of the rows at q0 already. */
+static int hd_hold(hd_joint_model *m, double h, int again)
+{
+    const long nr = m->rigid_count;
+    if (nr == 0) {
+        hd_build_rows(m, m->q, h, m->rows, 0);
+        return HD_JOINTS_OK;
+    }
+    if (!again)
+        hd_directions(m, m->rows0, m->rigid, nr, m->dir0);
+    for (long k = 0; k < nr; ++k)
+        m->target[k] = m->rows0[m->rigid[k]].c;
+    if (m->newton_valid) {
+        double scale = h / m->last_h;
+        scale = scale * scale;
+        for (long k = 0; k < nr; ++k)
+            m->nu[k] = m->newton[k] * scale;
+        if (hd_newton(m, h) == HD_JOINTS_OK)
+            return HD_JOINTS_OK;
+        memcpy(m->q, m->moved, (size_t)(3 * m->body_count) * sizeof(double));
+        hd_build_rows(m, m->q, h, m->rows, 1);
+        for (long k = 0; k < nr; ++k)
+            m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
+        if (!(hd_largest_abs(m->step, nr) < m->first_error))
+            return HD_JOINTS_UNSOLVED;
+    }
+    for (long k = 0; k < nr; ++k)
+        m->nu[k] = 0.0;
+    return hd_newton(m, h);
 }
 
 /* contact/joints.py: JointPass._correct, on m->q and m->rows. */

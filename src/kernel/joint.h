@@ -87,6 +87,7 @@ typedef struct hd_joint_model {
     double *extra, *settled;
     int newton_valid;
     double last_h;
+    double first_error;  /* JointPass.first_error */
     /* Whether the last pass ended well: m->q, m->rows and m->dir are its final pose, rows
      * and directions (hd_joints_resolve starts from them when it may). */
     int ended;

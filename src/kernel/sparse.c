@@ -5,9 +5,9 @@
 
 #include "sparse.h"
 
-int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns)
+int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns, double *dependent)
 {
-    p->n = n, p->start = start, p->columns = columns;
+    p->n = n, p->start = start, p->columns = columns, p->dependent = dependent;
     const long slots = start[n];
     p->above_start = calloc((size_t)n + 1, sizeof(long));
     p->above_row = malloc(((size_t)slots + 1) * sizeof(long));
@@ -85,6 +85,7 @@ void hd_pattern_free(hd_pattern *p)
 {
     free(p->start);
     free(p->columns);
+    free(p->dependent);
     free(p->above_start);
     free(p->above_row);
     free(p->above_slot);
@@ -158,7 +159,7 @@ void hd_factor(const hd_pattern *p, const double *diagonal, const double *lower,
         double s = diagonal[i];
         for (long slot = start[i]; slot < start[i + 1]; ++slot)
             s -= low[slot] * diag[columns[slot]] * low[slot];
-        if (s > HD_DEPENDENT * diagonal[i])
+        if (s > p->dependent[i] * diagonal[i])
             diag[i] = s;
         else
             out[i] = 1;
@@ -255,7 +256,7 @@ void hd_lu(const hd_pattern *p, const double *diagonal, const double *lower, dou
         double s = diagonal[i];
         for (long slot = start[i]; slot < start[i + 1]; ++slot)
             s -= low[slot] * upper[slot];
-        if (fabs(s) > HD_DEPENDENT * fabs(diagonal[i]))
+        if (fabs(s) > p->dependent[i] * fabs(diagonal[i]))
             diag[i] = 1.0 / s;
         else
             out[i] = 1;

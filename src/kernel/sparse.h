@@ -4,7 +4,8 @@
 #ifndef HECKER_DYNAMICS_SPARSE_H
 #define HECKER_DYNAMICS_SPARSE_H
 
-/* contact/sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row. */
+/* contact/sparse.py: DEPENDENT, a pivot at most this fraction of its diagonal drops its row
+ * (scaled per row by Pattern.lightest: hd_pattern.dependent). */
 #define HD_DEPENDENT 1e-10
 /* The most updates a pattern keeps listed (16 bytes each); beyond, the factorizations
  * scatter each row into a dense vector and update it by columns, in the same order. */
@@ -16,6 +17,9 @@
 typedef struct {
     long n;
     long *start, *columns;
+    /* contact/sparse.py: Pattern.dependent, per row the fraction of its diagonal at or below
+     * which its pivot drops it. */
+    double *dependent;
     long *above_start, *above_row, *above_slot;
     /* The updates of each entry, in the order the factorizations subtract them: slot s
      * (row i, column j) takes (a, b) = update_a/update_b[update_start[s] ..
@@ -28,9 +32,9 @@ typedef struct {
     double *work;
 } hd_pattern;
 
-/* Take `start` (n + 1) and `columns` (start[n]), which the pattern owns from now on, and
- * make the column lists; 0, or -1 out of memory. */
-int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns);
+/* Take `start` (n + 1), `columns` (start[n]) and `dependent` (n), which the pattern owns from
+ * now on, and make the column lists; 0, or -1 out of memory. */
+int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns, double *dependent);
 void hd_pattern_free(hd_pattern *p);
 
 /* contact/sparse.py: factor, K = L D L^T for the rows `active` marks (NULL: all); `out` marks the
