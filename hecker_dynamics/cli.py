@@ -891,7 +891,12 @@ def _show_warning(message: Warning | str, category: type[Warning], *_: object,
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    args = parser().parse_args(argv)
+    top = parser()
+    args, unknown = top.parse_known_args(argv)
+    if unknown:
+        # The top parser would refuse them without naming the command they were given to.
+        _Parser(prog=f"{top.prog} {args.command}").error(
+            f"unrecognized arguments: {' '.join(unknown)}")
     # A file name that is not valid UTF-8 reaches Python as escapes (surrogates); printed
     # back in a report line it must not end the run with an encoding error.
     if hasattr(sys.stdout, "reconfigure"):

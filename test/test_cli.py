@@ -144,7 +144,8 @@ def test_bad_argument_exits_2_in_one_line(capsys, option, value):
 @pytest.mark.parametrize("argv, start", [
     ([], "hecker-dynamics: error: the following arguments are required: COMMAND"),
     (["bogus"], "hecker-dynamics: error: argument COMMAND: invalid choice: 'bogus'"),
-    (["run", "--nope"], "hecker-dynamics: error: unrecognized arguments: --nope"),
+    (["run", "--nope"], "hecker-dynamics: error: run: unrecognized arguments: --nope"),
+    (["compare", "a", "b", "c"], "hecker-dynamics: error: compare: unrecognized arguments: c"),
     (["compare", "a"], "hecker-dynamics: error: compare: the following arguments are required"),
     (["replay", "sample", "b", "--atol"], "hecker-dynamics: error: replay: argument --atol:")])
 def test_argparse_refusals_are_one_line(capsys, argv, start):
