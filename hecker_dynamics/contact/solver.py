@@ -70,7 +70,7 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
-from ..geometry.shapes import Circle
+from ..geometry.shapes import Circle, Polygon, area_properties
 from . import compiled as _compiled
 from .collision import CirclePart, ConvexPolygon, Part, PolygonPart
 from .detect import Contact
@@ -133,8 +133,8 @@ def _polygon_part(local: np.ndarray, colliding: bool) -> tuple[PolygonPart, floa
     extent = float(np.max(np.hypot(local[:, 0], local[:, 1])))
     if not colliding:
         edges = np.roll(local, -1, axis=0) - local
-        area = abs(float(np.sum(local[:, 0] * edges[:, 1] - local[:, 1] * edges[:, 0]))) / 2
         perimeter = float(np.sum(np.hypot(edges[:, 0], edges[:, 1])))
+        area = area_properties(Polygon(local)).area
         return (PolygonPart([tuple(p) for p in local.tolist()], []), extent,
                 2.0 * area / perimeter)
     poly = ConvexPolygon.from_vertices(local)
