@@ -79,8 +79,7 @@ class CompiledJoints:
         def arrays(pattern: Pattern) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             return (np.array(pattern.start, dtype=np.int64),
                     np.array(pattern.columns, dtype=np.int64),
-                    np.array([pattern.bound(i) for i in range(len(pattern.start) - 1)],
-                             dtype=np.float64))
+                    np.array(pattern.bounds, dtype=np.float64))
 
         self.kernel: Any = _kernel.joints(
             bodies=np.ascontiguousarray(joint_pass.bodies, dtype=np.int64),

@@ -145,9 +145,10 @@ class Pattern:
             bounds.append(DEPENDENT * (min(positive) / mean))
         return Pattern(self.start, self.columns, self.above, tuple(bounds))
 
-    def bound(self, i: int) -> float:
-        """The fraction of row i's diagonal at or below which its pivot drops it."""
-        return self.dependent[i] if self.dependent else DEPENDENT
+    @property
+    def bounds(self) -> tuple[float, ...]:
+        """Each row's fraction of its diagonal at or below which its pivot drops it."""
+        return self.dependent or (DEPENDENT,) * (len(self.start) - 1)
 
     @classmethod
     def of(cls, row_bodies: Sequence[Sequence[int]]) -> Pattern:
@@ -198,8 +199,8 @@ def factor(pattern: Pattern, diagonal: list[float], lower: list[float],
            active: Optional[Sequence[bool]] = None) -> Factors:
     """K = L D L^T of the symmetric K given by its ``diagonal`` and its strict ``lower``
     triangle (by the pattern's slots), for the ``active`` rows (default: all); a row
-    whose pivot is at most :meth:`Pattern.bound` of its diagonal is dropped."""
-    start, columns = pattern.start, pattern.columns
+    whose pivot is at most its :attr:`Pattern.bounds` of its diagonal is dropped."""
+    start, columns, bounds = pattern.start, pattern.columns, pattern.bounds
     n = len(diagonal)
     low = [0.0] * len(lower)
     diag = [0.0] * n
@@ -228,7 +229,7 @@ def factor(pattern: Pattern, diagonal: list[float], lower: list[float],
         s = diagonal[i]
         for slot in range(first, end):
             s -= low[slot] * diag[columns[slot]] * low[slot]
-        if s > pattern.bound(i) * diagonal[i]:
+        if s > bounds[i] * diagonal[i]:
             diag[i] = s
         else:
             out[i] = True
@@ -270,7 +271,7 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
     matrix is K changed by the step's motion. Returns (L by slots, the reciprocals of U's
     diagonal, rows dropped), U's strict upper triangle taking the place of ``upper``; the
     reciprocals keep divisions, whose latency chains, out of the repeated solves."""
-    start, columns = pattern.start, pattern.columns
+    start, columns, bounds = pattern.start, pattern.columns, pattern.bounds
     n = len(diagonal)
     low = [0.0] * len(lower)
     diag = [0.0] * n
@@ -300,7 +301,7 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
         s = diagonal[i]
         for slot in range(first, end):
             s -= low[slot] * upper[slot]
-        if abs(s) > pattern.bound(i) * abs(diagonal[i]):
+        if abs(s) > bounds[i] * abs(diagonal[i]):
             diag[i] = 1.0 / s
         else:
             out[i] = True
