@@ -1,10 +1,22 @@
 """The joint section of the benchmark (hecker_dynamics.bench.joints) on small runs."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
-from hecker_dynamics.bench.joints import Case, Run, chain, joint_bench, measure, renaming, targets
+from hecker_dynamics.bench.joints import (
+    LOOSE_LINKS,
+    Case,
+    Run,
+    _cases,
+    chain,
+    joint_bench,
+    measure,
+    renaming,
+    targets,
+)
 from hecker_dynamics.bench.scenes import bench_scene, pinned_by_springs
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.scene.joints import RevoluteJoint
@@ -98,3 +110,29 @@ def test_joint_bench_writes_its_table_and_targets(tmp_path):
     assert [v for _, _, v in verdicts] == ["met", "not measured", "met"]
     assert text.count("| met |") == 2 and "| not measured |" in text
     assert len((tmp_path / "joints.csv").read_text().splitlines()) == 1 + 4 + 1
+
+
+def test_the_loose_chains_cost_against_the_exact_ones_outside_the_targets(tmp_path):
+    """A chain held to 1e-9 m: its row's last column is its cost over the exact chain's
+    (not over its own, 1.00), its pins hold to the looser tolerance (each of a pin's two
+    rows to 1e-9 m: the gap, their hypotenuse, to sqrt(2) 1e-9 m), and target 1 reports
+    the exact chains' largest gap alone; every loose case of the full list names an exact
+    chain of the list."""
+    exact = Case("chain of 2, h = 1/240 s", lambda: chain(2, 1.0 / 240.0, 0.2))
+    loose = Case("chain of 2, h = 1/240 s, joints to 1e-09 m",
+                 lambda: chain(2, 1.0 / 240.0, 0.2), engines=("hecker_dynamics",),
+                 tolerance=1e-9, reference=exact.name)
+    renamed = {name: (1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
+    verdicts = joint_bench([], tmp_path, "hecker-dynamics bench --joints", log=lambda _: None,
+                           cases=[exact, loose], rounds=1, renamed=renamed)
+    ours, looser = exact.median("hecker_dynamics"), loose.median("hecker_dynamics")
+    assert ours.cost is not None and looser.cost is not None
+    assert looser.gap <= math.sqrt(2.0) * 1e-9 and ours.gap <= 1e-11
+    row = f"| {loose.name} | hecker_dynamics | {looser.cost * 1e6:.1f} | {looser.gap:.2g} | "
+    assert row + f"{looser.cost / ours.cost:.2f} |" in (tmp_path / "joints.md").read_text()
+    assert verdicts[0] == ("1: chains of 2-200 links at h = 1/60 and 1/240 s run, pins within "
+                           "1e-9 m", f"all ran; largest pin gap {ours.gap:.2g} m", "met")
+    names = {case.name for case in _cases()}
+    loose_cases = [case for case in _cases() if case.reference is not None]
+    assert len(loose_cases) == 2 * len(LOOSE_LINKS)
+    assert all(case.reference in names and case.tolerance == 1e-9 for case in loose_cases)
