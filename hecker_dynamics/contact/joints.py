@@ -40,7 +40,9 @@ some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
 (:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
 its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
 (:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
-error. A step that needs none of this is RATTLE's, unchanged.
+error. A step that needs none of this is RATTLE's, unchanged; a run whose steps take
+different numbers of parts is not symplectic, and its energy can drift (docs/scenes.md,
+steps in parts).
 
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
 ropes) join the block where they hold their equations and sit at their bounds elsewhere,
