@@ -257,8 +257,9 @@ class Runner:
     script, the input counters, the diagnostics schedule and the session records. The
     rclpy node and the offline replay both drive one, so a replayed session gives the
     node's outputs. Commands, moved and spawned or deleted bodies and restarts go through
-    the World's methods; stepping and reading go to the simulation under it
-    (:attr:`sim`), as the World's own stepping does, so that a tick costs what it did.
+    the World's methods (call the runner's, which keep :attr:`sim` and :attr:`scene` in
+    step with it); stepping and reading go to the simulation under it (:attr:`sim`), as
+    the World's own stepping does, so that a tick costs what it did.
 
     ``max_steps`` caps the physics steps of one :meth:`advance` (the node's catch-up cap;
     None: no cap). ``wall_clock`` times the steps for the diagnostics (the replay passes a
@@ -278,6 +279,10 @@ class Runner:
     returns to the scene given.
     """
 
+    world: World
+    sim: Simulation  # the simulation under world (see _follow)
+    scene: Scene  # world's scene
+
     def __init__(self, scene: Scene, *, start_ns: int = 0, play_script: bool = True,
                  max_steps: Optional[int] = None, started: bool = True,
                  hardware_id: str = "/dynamics_node",
@@ -287,7 +292,7 @@ class Runner:
         self.base_scene = scene
         self.edits: list[WorldEdit] = []
         # The runner plays the script itself (_arrive), at the node's instants.
-        self.world = World.from_scene(scene, script=False, start_ns=start_ns)
+        self._follow(World.from_scene(scene, script=False, start_ns=start_ns))
         self.drives = DriveSet(self.sim)
         self.sensors = SensorSet(scene, self.sim)
         self.touches = Touches(scene)
@@ -317,21 +322,19 @@ class Runner:
         if started:
             self.restart(start_ns, "start")
 
-    @property
-    def sim(self) -> Simulation:
-        """The simulation under :attr:`world`, which the hot path steps and reads."""
-        return self.world.simulation
-
-    @property
-    def scene(self) -> Scene:
-        """The scene that runs now (see the class)."""
-        return self.world.scene
+    def _follow(self, world: World) -> None:
+        """Run ``world``, or go on with :attr:`world` after a change of its bodies.
+        :attr:`sim` (the simulation under it) and :attr:`scene` (its scene) are plain
+        attributes that follow it here, since every stop of :meth:`advance` reads them
+        about ten times: as the World's properties they cost a tick of the 1-body ring
+        (bench/node.py) about 2 % more."""
+        self.world, self.sim, self.scene = world, world.simulation, world.scene
 
     def restart(self, start_ns: int, reason: str = "reset") -> None:
         """Restart the scene at ``start_ns`` (first tick, reset service, clock jump)."""
         if self.edits:  # back to the scene given, without the bodies spawned or deleted
             self.edits = []
-            self.world = World.from_scene(self.base_scene, script=False, start_ns=start_ns)
+            self._follow(World.from_scene(self.base_scene, script=False, start_ns=start_ns))
         else:
             self.world.reset(start_ns)
         self.drives = DriveSet(self.sim)
@@ -512,6 +515,7 @@ class Runner:
             self.world.edit_bodies(edit)
         except SceneError as error:
             raise InputError(str(error)) from None
+        self._follow(self.world)
         self.edits.append(edit)
         drives, self.drives = self.drives, DriveSet(self.sim)  # the bodies' rows moved
         self.drives.import_state(drives.export_state())
@@ -552,7 +556,7 @@ class Runner:
         if self.halted is not None or self.paused:
             return Tick([])
         # The hot path steps the simulation under the World itself: World.step takes
-        # seconds and checks them, and keeps no snapshots nor a catch-up cap.
+        # seconds and checks them, and keeps neither snapshots nor a catch-up cap.
         sim = self.sim
         tick = Tick([])
         steps_before = sim.steps
@@ -607,9 +611,8 @@ class Runner:
         ended there (:mod:`~..sensors.touch`), each instant once: what :meth:`advance`
         takes as it steps on from the instant, and a replay that ends at an instant the
         node stepped on from takes there."""
-        sim = self.sim
-        now, frame_id = sim.time_ns, self.scene.frame_id
-        readings, events = self.sensors.sample(sim), self.touches.sample(sim)
+        now, frame_id = self.sim.time_ns, self.scene.frame_id
+        readings, events = self.sensors.sample(self.sim), self.touches.sample(self.sim)
         if not readings and not events:  # most stops: nothing to build
             return []
         return [(now, reading_output(reading)) for reading in readings] + \
@@ -663,9 +666,9 @@ class Runner:
                              f"the scene's {', '.join(names)}")
         if edits or self.edits:
             self.edits = edits
-            self.world = World.from_scene(self.base_scene, script=False,
-                                          start_ns=self.sim.start_ns)
-            self.world.edit_bodies(*edits)
+            world = World.from_scene(self.base_scene, script=False, start_ns=self.sim.start_ns)
+            world.edit_bodies(*edits)
+            self._follow(world)
         runner = state.pop("runner")
         size = len(keyframe.bodies)
         state["q"] = [list(keyframe.q[3 * i:3 * i + 3]) for i in range(size)]
