@@ -256,6 +256,18 @@ fail:
     return NULL;
 }
 
+/* The contact pass a fast call takes first (`contacts`), its arguments read into `given` by
+ * hd_arguments; NULL with an exception set if they or the capsule are not right. */
+static hd_contact_model *hd_contacts_call(const char *function, PyObject *const *args,
+                                          Py_ssize_t nargs, PyObject *kwnames,
+                                          const char *const *names, int positional,
+                                          int required, PyObject **given)
+{
+    if (hd_arguments(function, args, nargs, kwnames, names, positional, required, given) < 0)
+        return NULL;
+    return PyCapsule_GetPointer(given[0], HD_CONTACTS_CAPSULE);
+}
+
 PyDoc_STRVAR(resolve_doc,
 "resolve(contacts, q1, v1, q0, v0, h, joints=None)\n\n"
 "The contact pass after a step of ``h`` (s) from (q0, v0) to (q1, v1) (ContactPass.resolve):\n"
@@ -270,15 +282,13 @@ static PyObject *hd_py_resolve(PyObject *self, PyObject *const *args, Py_ssize_t
     static const char *const names[] = {"contacts", "q1", "v1", "q0", "v0", "h", "joints",
                                         NULL};
     PyObject *given[7];
-    if (hd_arguments("resolve", args, nargs, kwnames, names, 7, 6, given) < 0)
+    hd_contact_model *m = hd_contacts_call("resolve", args, nargs, kwnames, names, 7, 6, given);
+    if (m == NULL)
         return NULL;
-    PyObject *capsule = given[0], *const *objects = given + 1;
+    PyObject *const *objects = given + 1;
     PyObject *joints_object = given[6] != NULL ? given[6] : Py_None;
     const double h = PyFloat_AsDouble(given[5]);
     if (h == -1.0 && PyErr_Occurred())
-        return NULL;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
-    if (m == NULL)
         return NULL;
     hd_joint_model *joints = NULL;
     if (joints_object != Py_None) {
@@ -322,12 +332,10 @@ static PyObject *hd_py_threads(PyObject *self, PyObject *const *args, Py_ssize_t
 {
     static const char *const names[] = {"contacts", "count", NULL};
     PyObject *given[2];
-    if (hd_arguments("threads", args, nargs, kwnames, names, 1, 1, given) < 0)
-        return NULL;
-    PyObject *capsule = given[0], *count_object = given[1];
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    hd_contact_model *m = hd_contacts_call("threads", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
+    PyObject *count_object = given[1];
     if (count_object != NULL && count_object != Py_None) {
         const long count = PyLong_AsLong(count_object);
         if (count == -1 && PyErr_Occurred())
@@ -355,12 +363,10 @@ static PyObject *hd_py_sleep(PyObject *self, PyObject *const *args, Py_ssize_t n
     static const char *const names[] = {"contacts", "enabled", "calm", "rested", "island",
                                         NULL};
     PyObject *given[5];
-    if (hd_arguments("sleep", args, nargs, kwnames, names, 1, 1, given) < 0)
-        return NULL;
-    PyObject *capsule = given[0], *const *objects = given + 2;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    hd_contact_model *m = hd_contacts_call("sleep", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
+    PyObject *const *objects = given + 2;
     const int settings = (given[1] != NULL) + (objects[0] != NULL) + (objects[1] != NULL) +
                          (objects[2] != NULL);
     if (settings != 0 && settings != 4) {
@@ -416,21 +422,18 @@ PyDoc_STRVAR(warm_doc,
 "warm(contacts, *, impulses=None) -> list\n\n"
 "The impulses the pass ``contacts`` keeps for warm starting, as (k0, k1, k2, k3, lx, ly,\n"
 "jn, jt) per contact: the key of its pair of parts (k0..k3), its point in body b's axes and\n"
-"its normal and tangent impulses, those of one pair of parts together\n"
-"and in the order the solver met them; given ``impulses`` (a sequence of such tuples),\n"
-"replace them first.");
+"its normal and tangent impulses, those of one pair of parts together and in the order the\n"
+"solver met them; given ``impulses`` (a sequence of such tuples), replace them first.");
 
 static PyObject *hd_py_warm(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
                             PyObject *kwnames)
 {
     static const char *const names[] = {"contacts", "impulses", NULL};
     PyObject *given[2];
-    if (hd_arguments("warm", args, nargs, kwnames, names, 1, 1, given) < 0)
-        return NULL;
-    PyObject *capsule = given[0], *impulses = given[1] != NULL ? given[1] : Py_None;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    hd_contact_model *m = hd_contacts_call("warm", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
+    PyObject *impulses = given[1] != NULL ? given[1] : Py_None;
     if (impulses != Py_None) {
         PyObject *items = PySequence_Fast(impulses, "impulses: a sequence of tuples");
         if (items == NULL)
