@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
+import numbers
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
@@ -86,12 +87,10 @@ def _name(value: object, argument: str) -> str:
 
 
 def _nanoseconds(value: object, argument: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{argument}: expected a whole number of nanoseconds, "
                         f"not {type(value).__name__}")
-    if value < 0:
-        raise ValueError(f"{argument}: must be at least 0, not {value}")
-    return value
+    return int(value)
 
 
 def _optional(values: dict[str, Any], key: str, value: Optional[float], *,

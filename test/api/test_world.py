@@ -580,5 +580,7 @@ def test_a_scene_s_script_starts_with_the_world_and_again_at_a_reset() -> None:
     assert later.simulation.time_ns == ROS_START_NS + 999 + 4 * 10**9
     with pytest.raises(TypeError, match=r"^start_ns: expected a whole number of nanoseconds"):
         hd.World.from_scene("sample", start_ns=1.5)  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match=r"^start_ns: must be at least 0, not -1$"):
-        later.reset(start_ns=-1)
+    with pytest.raises(TypeError, match=r"^start_ns: expected a whole number of nanoseconds"):
+        later.reset(start_ns=True)
+    later.reset(start_ns=np.int64(5))  # a numpy integer is a whole number too
+    assert later.simulation.time_ns == 5 and type(later.simulation.start_ns) is int
