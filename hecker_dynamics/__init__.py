@@ -5,7 +5,7 @@ the center of mass and moment of inertia from the shape (Eq. 3 and Eq. 13), forc
 points of application, perp-dot torques (Eq. 11), and integration of linear and angular
 motion (F = M a, Eq. 5; tau = I alpha, Eq. 14). :class:`World` is the Python API
 (``docs/api.md``). Nothing here imports rclpy; the ROS node in ``hecker_dynamics.ros.node``
-is thin glue over :class:`~hecker_dynamics.dynamics.simulation.Simulation`.
+is thin glue over a :class:`World` (``hecker_dynamics.ros.runner.Runner``).
 """
 from ._version import __version__
 from .dynamics.simulation import BodyState, DivergenceError, Simulation, Snapshot

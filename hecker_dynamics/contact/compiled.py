@@ -70,7 +70,7 @@ class CompiledContacts:
             static_material=_doubles(contacts.static_material),
             static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept),
             slop=_doubles(contacts.slop))
-        _kernel.threads(self.kernel, contacts.threads)
+        _kernel.threads(self.kernel, count=contacts.threads)
         if contacts.sleep:
             self.set_sleep(contacts)
 
@@ -78,14 +78,14 @@ class CompiledContacts:
                 h: float, joints: Any = None) -> None:
         """``ContactPass.resolve`` in the kernel: (q1, v1) change in place; ``joints``: the
         kernel's joint pass (a capsule) whose last rows the solve sweeps too."""
-        _kernel.resolve(self.kernel, q1, v1, np.ascontiguousarray(q0),
-                        np.ascontiguousarray(v0), h, joints)
+        _kernel.resolve(self.kernel, q1=q1, v1=v1, q0=np.ascontiguousarray(q0),
+                        v0=np.ascontiguousarray(v0), h=h, joints=joints)
 
     def set_sleep(self, contacts: Sleep) -> None:
         """Take sleeping on or off and each body's calm flag, rest time and sleeping island
         from ``contacts``."""
-        _kernel.sleep(self.kernel, int(contacts.sleep), _integers(contacts.calm),
-                      _doubles(contacts.rested), _integers(contacts.island))
+        _kernel.sleep(self.kernel, enabled=contacts.sleep, calm=_integers(contacts.calm),
+                      rested=_doubles(contacts.rested), island=_integers(contacts.island))
 
     def sleep_state(self) -> tuple[list[float], list[int]]:
         """Each body's rest time and sleeping island (-1: awake)."""
@@ -99,7 +99,7 @@ class CompiledContacts:
 
     def set_impulses(self, impulses: list[WarmImpulse]) -> None:
         """Replace the warm-start impulses."""
-        _kernel.warm(self.kernel, impulses)
+        _kernel.warm(self.kernel, impulses=impulses)
 
 
 def _doubles(values: Any) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""The ROS 2 node ``dynamics_node``: thin rclpy glue over :class:`Simulation`.
+"""The ROS 2 node ``dynamics_node``: thin rclpy glue over the :class:`~hecker_dynamics.World`
+that its :class:`~.runner.Runner` drives.
 
 Inputs are turned into commands by :mod:`.fields`, the simulation steps in fixed steps up
 to the ROS clock (or, in lockstep, as fast as it can while publishing ``/clock``), and every
@@ -295,7 +296,8 @@ class DynamicsNode(Node):
 
     @property
     def sim(self) -> Any:
-        """The simulation that runs now (a spawn, a delete or a restart replaces it)."""
+        """The simulation under the runner's World now (a spawn, a delete or a restart
+        replaces it)."""
         return self.runner.sim
 
     # ----------------------------------------------------------------- logging

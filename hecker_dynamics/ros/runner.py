@@ -31,6 +31,7 @@ from ..scene.load import (
 from ..scene.world import EditKind, WorldEdit, apply_edits
 from ..sensors.schedule import SensorSet
 from ..sensors.touch import Touches
+from ..world import World
 from .cmd_vel import CmdVelTopic, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
@@ -252,9 +253,13 @@ class Tick:
 
 
 class Runner:
-    """The node's run loop without ROS: a :class:`Simulation`, the scene's script, the
-    input counters, the diagnostics schedule and the session records. The rclpy node and
-    the offline replay both drive one, so a replayed session gives the node's outputs.
+    """The node's run loop without ROS: a :class:`~hecker_dynamics.World` of the scene, its
+    script, the input counters, the diagnostics schedule and the session records. The
+    rclpy node and the offline replay both drive one, so a replayed session gives the
+    node's outputs. Commands, moved and spawned or deleted bodies and restarts go through
+    the World's methods (call the runner's, which keep :attr:`sim` and :attr:`scene` in
+    step with it); stepping and reading go to the simulation under it (:attr:`sim`), as
+    the World's own stepping does, so that a tick costs what it did.
 
     ``max_steps`` caps the physics steps of one :meth:`advance` (the node's catch-up cap;
     None: no cap). ``wall_clock`` times the steps for the diagnostics (the replay passes a
@@ -269,10 +274,14 @@ class Runner:
     ``record`` the records pile up in :attr:`records` for the node to publish
     (:meth:`take_records`).
 
-    :attr:`scene` is the world that runs now: the scene given (:attr:`base_scene`) with the
+    :attr:`scene` is the world's scene now: the scene given (:attr:`base_scene`) with the
     bodies spawned and deleted since the session's start (:attr:`edits`); a restart
     returns to the scene given.
     """
+
+    world: World
+    sim: Simulation  # the simulation under world (see _follow)
+    scene: Scene  # world's scene
 
     def __init__(self, scene: Scene, *, start_ns: int = 0, play_script: bool = True,
                  max_steps: Optional[int] = None, started: bool = True,
@@ -280,9 +289,10 @@ class Runner:
                  wall_clock: Callable[[], int] = time.perf_counter_ns,
                  record: bool = False, keyframe_period_ns: int = 0,
                  lockstep: bool = False) -> None:
-        self.base_scene = self.scene = scene
+        self.base_scene = scene
         self.edits: list[WorldEdit] = []
-        self.sim = Simulation(scene, start_ns=start_ns)
+        # The runner plays the script itself (_arrive), at the node's instants.
+        self._follow(World.from_scene(scene, script=False, start_ns=start_ns))
         self.drives = DriveSet(self.sim)
         self.sensors = SensorSet(scene, self.sim)
         self.touches = Touches(scene)
@@ -312,13 +322,21 @@ class Runner:
         if started:
             self.restart(start_ns, "start")
 
+    def _follow(self, world: World) -> None:
+        """Run ``world``, or go on with :attr:`world` after a change of its bodies.
+        :attr:`sim` (the simulation under it) and :attr:`scene` (its scene) are plain
+        attributes that follow it here, since every stop of :meth:`advance` reads them
+        about ten times: as the World's properties they cost a tick of the 1-body ring
+        (bench/node.py) about 2 % more."""
+        self.world, self.sim, self.scene = world, world.simulation, world.scene
+
     def restart(self, start_ns: int, reason: str = "reset") -> None:
         """Restart the scene at ``start_ns`` (first tick, reset service, clock jump)."""
         if self.edits:  # back to the scene given, without the bodies spawned or deleted
-            self.scene, self.edits = self.base_scene, []
-            self.sim = Simulation(self.scene, start_ns=start_ns)
+            self.edits = []
+            self._follow(World.from_scene(self.base_scene, script=False, start_ns=start_ns))
         else:
-            self.sim.reset(start_ns)
+            self.world.reset(start_ns)
         self.drives = DriveSet(self.sim)
         self.sensors = SensorSet(self.scene, self.sim)
         self.touches = Touches(self.scene)
@@ -408,7 +426,7 @@ class Runner:
         lines = [LogLine(f"{topic}:out_of_plane", warning, dropped=False)
                  for warning in warnings]
         try:
-            self.sim.push(command)
+            self.world.push(command)
         except InputError as error:  # the scene refuses it (unknown body or frame, stamp...)
             self.rejected += 1
             return lines + [LogLine(f"{topic}:scene", f"input on '{topic}' rejected: {error}")]
@@ -424,7 +442,7 @@ class Runner:
             if len(values) != 6:
                 raise InputError(f"a body state has 6 values, not {len(values)}")
             x, y, angle, vx, vy, omega = (float(value) for value in values)
-            self.sim.set_body_state(body, (x, y), angle, (vx, vy), omega)
+            self.world.set_body_state(body, (x, y), angle, (vx, vy), omega)
         return self._change(WorldChange.SET_STATE, move, body, tuple(float(v) for v in values))
 
     def pause(self) -> WorldEventFields:
@@ -451,7 +469,7 @@ class Runner:
         def go_on() -> None:
             if not self.paused:
                 raise InputError("the simulation is not paused")
-            self.sim.skip_to(time_ns)
+            self.sim.skip_to(time_ns)  # the World has no pause: only the clock moves
             self.paused = False
         return self._change(WorldChange.RESUME, go_on, time_ns=time_ns)
 
@@ -482,7 +500,7 @@ class Runner:
                    collisions: Sequence[str] = ()) -> WorldEventFields:
         """Add body ``name`` now, read from ``spec`` (the YAML of a scene's
         ``bodies.<name>``), joining the collision groups ``collisions``; the rules are
-        :mod:`hecker_dynamics.scene.world`'s, the carry-over :meth:`Simulation.with_world`'s."""
+        :mod:`hecker_dynamics.scene.world`'s, the carry-over :meth:`World.edit_bodies`'s."""
         edit = WorldEdit(EditKind.SPAWN, name, spec, tuple(collisions))
         return self._change(WorldChange.SPAWN, lambda: self._edit(edit), name, spec=spec,
                             collisions=edit.collisions)
@@ -494,15 +512,14 @@ class Runner:
 
     def _edit(self, edit: WorldEdit) -> None:
         try:
-            scene = edit.apply(self.scene)
+            self.world.edit_bodies(edit)
         except SceneError as error:
             raise InputError(str(error)) from None
-        self.sim = self.sim.with_world(scene)
-        self.scene = scene
+        self._follow(self.world)
         self.edits.append(edit)
         drives, self.drives = self.drives, DriveSet(self.sim)  # the bodies' rows moved
         self.drives.import_state(drives.export_state())
-        self.sensors = SensorSet(scene, self.sim, self.sensors.sampled_ns)
+        self.sensors = SensorSet(self.scene, self.sim, self.sensors.sampled_ns)
 
     def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
                 values: tuple[float, ...] = (), time_ns: int = 0, spec: str = "",
@@ -538,6 +555,8 @@ class Runner:
         """
         if self.halted is not None or self.paused:
             return Tick([])
+        # The hot path steps the simulation under the World itself: World.step takes
+        # seconds and checks them, and keeps neither snapshots nor a catch-up cap.
         sim = self.sim
         tick = Tick([])
         steps_before = sim.steps
@@ -574,7 +593,7 @@ class Runner:
                                                  self._script_index, sim.time_ns + sim.step_ns)
             for command in due:
                 try:
-                    sim.push(command)
+                    self.world.push(command)
                 except InputError as error:
                     tick.script_errors.append(f"scripted input rejected: {error}")
         try:
@@ -646,12 +665,16 @@ class Runner:
             raise ValueError(f"a keyframe of bodies {', '.join(keyframe.bodies)} does not fit "
                              f"the scene's {', '.join(names)}")
         if edits or self.edits:
-            self.scene, self.edits = scene, edits
-            self.sim = Simulation(self.base_scene, start_ns=self.sim.start_ns).with_world(scene)
+            self.edits = edits
+            world = World.from_scene(self.base_scene, script=False, start_ns=self.sim.start_ns)
+            world.edit_bodies(*edits)
+            self._follow(world)
         runner = state.pop("runner")
         size = len(keyframe.bodies)
         state["q"] = [list(keyframe.q[3 * i:3 * i + 3]) for i in range(size)]
         state["v"] = [list(keyframe.v[3 * i:3 * i + 3]) for i in range(size)]
+        # The keyframe holds the simulation's own state (Simulation.export_state), which
+        # goes to it whole; the World's forces are none of the runner's.
         self.sim.import_state(state)
         self.drives = DriveSet(self.sim)
         self.drives.import_state(runner.get("drives", []))

@@ -15,7 +15,9 @@ body's shape (Eq. 3 and Eq. 13).
 from __future__ import annotations
 
 import copy
+import dataclasses
 import functools
+import numbers
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
@@ -41,7 +43,7 @@ from ..scene.load import (
     scene_from_parameters,
 )
 from ..scene.parameters import NAME_PATTERN, NAME_RULE, ParameterReader, flatten
-from ..scene.world import deleted, spawned
+from ..scene.world import WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
 from .vectors import VectorLike, number, vector
@@ -82,6 +84,13 @@ def _name(value: object, argument: str) -> str:
     if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
         raise ValueError(f"{argument}: {value!r} is not a valid name ({NAME_RULE})")
     return value
+
+
+def _nanoseconds(value: object, argument: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{argument}: expected a whole number of nanoseconds, "
+                        f"not {type(value).__name__}")
+    return int(value)
 
 
 def _optional(values: dict[str, Any], key: str, value: Optional[float], *,
@@ -134,10 +143,13 @@ class World:
         self._params = params  # None: a world read from a scene file, whose shape is fixed
         self._scene = scene
         self._sim: Optional[Simulation] = None
+        self._start_ns = 0
         self._frames: Optional[tuple[BodyState, ...]] = None
+        self._frames_of: tuple[Any, Any] = (None, None)  # the state (q, v) they were read from
         self._started = False
         self._bodies: dict[str, Body] = {}
         self._schedule: list[tuple[int, int, WrenchCommand]] = []  # (stamp, order, command)
+        self._script: tuple[WrenchCommand, ...] = ()  # played: stamps from the start
         self._applied: dict[str, dict[str, Optional[int]]] = {}  # body: source: end (ns)
         self._count = 0
         self._added: Optional[tuple[str, str]] = None  # the entry an add_* call is making
@@ -147,20 +159,31 @@ class World:
 
     @classmethod
     def from_scene(cls, scene: Union[str, os.PathLike[str], Scene, None] = None, *,
-                   script: bool = True) -> World:
+                   script: bool = True, start_ns: int = 0) -> World:
         """The world of a scene file (a path or a shipped scene's name, default ``sample``)
         or of a :class:`Scene`; ``script``: its scripted inputs act at their times, as
         ``hecker-dynamics run`` plays them. A held force stops after the scene's
-        ``input_timeout``, as the node's commands do."""
+        ``input_timeout``, as the node's commands do. ``start_ns``: the sim time it starts
+        at, in whole nanoseconds (a ROS time, as the node starts at, needs more digits than
+        a float's seconds hold)."""
         if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
             raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
                             f"hd.Scene, not {type(scene).__name__}")
+        start_ns = _nanoseconds(start_ns, "start_ns")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)
+        world._start_ns = start_ns
         if script:
-            world._schedule = [(c.stamp_ns, i, c) for i, c in enumerate(loaded.script)]
+            world._script = loaded.script
+            world._schedule = world._scripted(start_ns)
         return world
+
+    def _scripted(self, start_ns: int) -> list[tuple[int, int, WrenchCommand]]:
+        """The script's commands scheduled from ``start_ns``: their stamps count from the
+        start, as :meth:`Simulation.play`'s do."""
+        return [(start_ns + c.stamp_ns, i, dataclasses.replace(c, stamp_ns=start_ns + c.stamp_ns))
+                for i, c in enumerate(self._script)]
 
     # ----------------------------------------------------------------- building
 
@@ -458,6 +481,24 @@ class World:
         on it alone goes with it, and the others keep their state bit for bit."""
         name = self._body_name(body, "body")
         self._change_bodies(deleted, name, SOURCE)
+        self._forget(name)
+
+    def edit_bodies(self, *edits: WorldEdit) -> None:
+        """Spawn and delete bodies as the node's ``spawn_body`` and ``delete_body`` services
+        do, ``edits`` made in order (each a :class:`~hecker_dynamics.scene.world.WorldEdit`:
+        a spawned body's YAML and collision groups, or a deleted body's name), going on
+        from the state now in one :meth:`Simulation.with_world`. Refused (nothing changes)
+        with the one-line :class:`SceneError` of the first edit the rules refuse."""
+        before = set(self._bodies)
+        self._change_bodies(apply_edits, edits)
+        names = {spec.name for spec in self.scene.bodies}
+        for name in before - names:
+            self._forget(name)
+        for name in names - before:
+            self._bodies[name] = Body(self, name)
+
+    def _forget(self, name: str) -> None:
+        """Drop what the world keeps for body ``name``, deleted from its scene."""
         del self._bodies[name]
         self._applied.pop(name, None)
         # As the simulation drops its held commands: those on the body or in its axes.
@@ -485,7 +526,7 @@ class World:
     def simulation(self) -> Simulation:
         """The :class:`Simulation` under this world (for the node's and bags' tools)."""
         if self._sim is None:
-            self._sim = Simulation(self.scene)
+            self._sim = Simulation(self.scene, start_ns=self._start_ns)
         return self._sim
 
     def _index(self, name: str) -> int:
@@ -498,8 +539,12 @@ class World:
         return self.scene.bodies[self._index(name)]
 
     def _body_state(self, name: str) -> BodyState:
-        if self._frames is None:
-            self._frames = self.simulation.snapshot().bodies
+        sim = self.simulation
+        # Read again once the state moved on, also where a node stepped the simulation
+        # itself (ros/runner.py): each step, move or restore replaces the arrays q and v.
+        if self._frames is None or self._frames_of[0] is not sim.q or \
+                self._frames_of[1] is not sim.v:
+            self._frames, self._frames_of = sim.snapshot().bodies, (sim.q, sim.v)
         return self._frames[self._index(name)]
 
     def __getitem__(self, name: str) -> Body:
@@ -567,6 +612,18 @@ class World:
             raise ValueError(f"t: {t} s is behind the world's time ({self.time} s)")
         self._run_to(sim.time_ns + steps * sim.step_ns)
 
+    def reset(self, start_ns: Optional[int] = None) -> None:
+        """Back to the initial state of the world's scene (with the bodies spawned and
+        removed so far), at sim time ``start_ns`` (whole nanoseconds; default the start it
+        had): the forces applied are dropped, a scene's script is scheduled again, and the
+        steps that follow are those of a new world of that scene (:meth:`Simulation.reset`)."""
+        if start_ns is not None:
+            self._start_ns = _nanoseconds(start_ns, "start_ns")
+        sim = self.simulation
+        sim.reset(start_ns)
+        self._schedule, self._applied, self._count = self._scripted(sim.start_ns), {}, 0
+        self._frames = None
+
     def _run_to(self, end_ns: int) -> None:
         """Advance to ``end_ns``, pushing each scheduled force as sim time reaches its
         start, as :meth:`Simulation.play` pushes a script."""
@@ -623,6 +680,15 @@ class World:
         self._applied.setdefault(body.name, {})[source] = (
             stamp + duration_ns if duration_ns else None)
 
+    def push(self, command: WrenchCommand) -> None:
+        """Queue ``command`` as the node queues its inputs (:meth:`Simulation.push`): stamped
+        in sim-time nanoseconds, held for its ``duration_ns`` or until the scene's input
+        timeout, replacing the one of the same body and source. Raises :class:`InputError`
+        (and changes nothing) if the simulation refuses it. A force pushed so is the
+        caller's: :meth:`Body.clear_forces` does not know it."""
+        self.simulation.push(command)
+        self._started = True
+
     def _clear(self, name: str) -> None:
         """Replace what acts on body ``name`` by a zero force for one step (the input
         buffer's way to end a held command) and drop what is scheduled for it."""
@@ -637,12 +703,21 @@ class World:
               angle: Optional[float] = None, velocity: Optional[tuple[float, float]] = None,
               angular_velocity: Optional[float] = None) -> None:
         now = self._body_state(name)
-        self.simulation.set_body_state(
+        self.set_body_state(
             name, now.position if position is None else position,
             now.angle if angle is None else number(angle, "angle"),
             now.linear_velocity if velocity is None else velocity,
             now.angular_velocity if angular_velocity is None
             else number(angular_velocity, "angular_velocity"))
+
+    def set_body_state(self, name: str, position: tuple[float, float], angle: float,
+                       velocity: tuple[float, float], angular_velocity: float) -> None:
+        """Move body ``name`` now, as the node's ``set_body_state`` service does
+        (:meth:`Simulation.set_body_state`): its frame to ``position`` and ``angle``, the
+        frame's origin moving at ``velocity``, turning at ``angular_velocity``; the contacts
+        forget their warm starts and every body wakes. Raises :class:`InputError` (and
+        changes nothing) for an unknown body or a value that is not finite."""
+        self.simulation.set_body_state(name, position, angle, velocity, angular_velocity)
         self._started, self._frames = True, None
 
     # ----------------------------------------------------------------- state

@@ -96,3 +96,47 @@ void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t 
         PyErr_NoMemory();
     return copy;
 }
+
+int hd_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
+                 PyObject *kwnames, const char *const *names, int positional, int required,
+                 PyObject **out)
+{
+    int count = 0;
+    while (names[count] != NULL)
+        out[count++] = NULL;
+    if (nargs > positional) {
+        PyErr_Format(PyExc_TypeError, "%s() takes at most %d positional arguments (%zd given)",
+                     function, positional, nargs);
+        return -1;
+    }
+    for (Py_ssize_t k = 0; k < nargs; ++k)
+        out[k] = args[k];
+    const Py_ssize_t keywords = kwnames == NULL ? 0 : PyTuple_GET_SIZE(kwnames);
+    for (Py_ssize_t i = 0; i < keywords; ++i) {
+        PyObject *key = PyTuple_GET_ITEM(kwnames, i);
+        /* Keywords mostly come in the order of the names: try the next one first. */
+        int k = (int)(nargs + i) < count ? (int)(nargs + i) : 0, tried = 0;
+        while (tried < count && PyUnicode_CompareWithASCIIString(key, names[k]) != 0) {
+            k = (k + 1) % count;
+            ++tried;
+        }
+        if (tried == count) {
+            PyErr_Format(PyExc_TypeError, "%s() got an unexpected keyword argument '%U'",
+                         function, key);
+            return -1;
+        }
+        if (out[k] != NULL) {
+            PyErr_Format(PyExc_TypeError, "%s() got multiple values for argument '%s'",
+                         function, names[k]);
+            return -1;
+        }
+        out[k] = args[nargs + i];
+    }
+    for (int k = 0; k < required; ++k)
+        if (out[k] == NULL) {
+            PyErr_Format(PyExc_TypeError, "%s() missing required argument '%s'", function,
+                         names[k]);
+            return -1;
+        }
+    return 0;
+}

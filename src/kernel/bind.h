@@ -36,6 +36,16 @@ int hd_get_state(PyObject *q, PyObject *v, Py_ssize_t n3, Py_buffer *qv, Py_buff
 void *hd_read_array(PyObject *object, const char *what, char format, Py_ssize_t count,
                     Py_ssize_t *got);
 
+/* The arguments of a METH_FASTCALL | METH_KEYWORDS call of `function`, by name, without
+ * the tuple and dict PyArg_ParseTupleAndKeywords needs (about 2 us a call with seven
+ * keywords): `out[k]` the argument named `names[k]` (a NULL-terminated list), given by
+ * position (the first `positional` at most) or by keyword, or NULL where left out. -1
+ * with an exception set if one of the first `required` is missing, one is given twice, a
+ * keyword is unknown or too many are given by position. */
+int hd_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
+                 PyObject *kwnames, const char *const *names, int positional, int required,
+                 PyObject **out);
+
 /* Each binding file's functions: bind_forces.c (dynamics/kernel.py's terms, pairs and
  * bound), bind_stepper.c (its whole steps), bind_contacts.c (contact/compiled.py),
  * bind_joints.c (contact/joints_kernel.py), bind_raycast.c (sensors/laser.py). */

@@ -1,5 +1,5 @@
 /* The binding of the contact pass (contact.h) for hecker_dynamics/contact/compiled.py:
- * contacts (keyword arguments), resolve, warm, sleep.
+ * contacts, resolve, threads, sleep and warm, each taking keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -256,21 +256,39 @@ fail:
     return NULL;
 }
 
-PyDoc_STRVAR(resolve_doc,
-"resolve(contacts, q1, v1, q0, v0, h[, joints])\n\n"
-"The contact pass after a step of ``h`` from (q0, v0) to (q1, v1): updates q1 and v1 in\n"
-"place, sleeping bodies back at (q0, v0) (ContactPass.resolve); with the joint pass\n"
-"``joints`` (not None), its last velocity rows solved with the contacts.");
-
-static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
+/* The contact pass a fast call takes first (`contacts`), its arguments read into `given` by
+ * hd_arguments; NULL with an exception set if they or the capsule are not right. */
+static hd_contact_model *hd_contacts_call(const char *function, PyObject *const *args,
+                                          Py_ssize_t nargs, PyObject *kwnames,
+                                          const char *const *names, int positional,
+                                          int required, PyObject **given)
 {
-    PyObject *capsule, *objects[4], *joints_object = Py_None;
-    double h;
-    if (!PyArg_ParseTuple(args, "OOOOOd|O:resolve", &capsule, objects, objects + 1, objects + 2,
-                          objects + 3, &h, &joints_object))
+    if (hd_arguments(function, args, nargs, kwnames, names, positional, required, given) < 0)
         return NULL;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    return PyCapsule_GetPointer(given[0], HD_CONTACTS_CAPSULE);
+}
+
+PyDoc_STRVAR(resolve_doc,
+"resolve(contacts, q1, v1, q0, v0, h, joints=None)\n\n"
+"The contact pass after a step of ``h`` (s) from (q0, v0) to (q1, v1) (ContactPass.resolve):\n"
+"``contacts`` the pass (contacts()); ``q1`` and ``v1`` the step's end state, (x, y, angle)\n"
+"and (vx, vy, omega) of each CM, C-contiguous float64, updated in place; ``q0`` and ``v0``\n"
+"the step's start, where sleeping bodies go back to; ``joints`` the joint pass (joints(),\n"
+"or None) whose last velocity rows are solved with the contacts.");
+
+static PyObject *hd_py_resolve(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                               PyObject *kwnames)
+{
+    static const char *const names[] = {"contacts", "q1", "v1", "q0", "v0", "h", "joints",
+                                        NULL};
+    PyObject *given[7];
+    hd_contact_model *m = hd_contacts_call("resolve", args, nargs, kwnames, names, 7, 6, given);
     if (m == NULL)
+        return NULL;
+    PyObject *const *objects = given + 1;
+    PyObject *joints_object = given[6] != NULL ? given[6] : Py_None;
+    const double h = PyFloat_AsDouble(given[5]);
+    if (h == -1.0 && PyErr_Occurred())
         return NULL;
     hd_joint_model *joints = NULL;
     if (joints_object != Py_None) {
@@ -283,9 +301,8 @@ static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
             }
     }
     Py_buffer views[4];
-    const char *names[4] = {"q1", "v1", "q0", "v0"};
     for (int k = 0; k < 4; ++k) {
-        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * m->bodies, k < 2) < 0) {
+        if (hd_get_buffer(objects[k], views + k, names[k + 1], 'd', 3 * m->bodies, k < 2) < 0) {
             while (k-- > 0)
                 PyBuffer_Release(views + k);
             return NULL;
@@ -305,55 +322,66 @@ static PyObject *hd_py_resolve(PyObject *self, PyObject *args)
 }
 
 PyDoc_STRVAR(threads_doc,
-"threads(contacts[, count]) -> (count, started)\n\n"
-"The threads of the velocity passes of big islands (1 or 2, the same bits either way;\n"
-"wide.h), first set to `count` if given, and whether the second thread was started.");
+"threads(contacts, *, count=None) -> (count, started)\n\n"
+"The threads of the velocity passes of big islands of the pass ``contacts`` (1 or 2, the\n"
+"same bits either way; wide.h), first set to ``count`` if given, and whether the second\n"
+"thread was started.");
 
-static PyObject *hd_py_threads(PyObject *self, PyObject *args)
+static PyObject *hd_py_threads(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                               PyObject *kwnames)
 {
-    PyObject *capsule;
-    int count = 0;
-    if (!PyArg_ParseTuple(args, "O|i:threads", &capsule, &count))
-        return NULL;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    static const char *const names[] = {"contacts", "count", NULL};
+    PyObject *given[2];
+    hd_contact_model *m = hd_contacts_call("threads", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
-    if (PyTuple_GET_SIZE(args) > 1) {
+    PyObject *count_object = given[1];
+    if (count_object != NULL && count_object != Py_None) {
+        const long count = PyLong_AsLong(count_object);
+        if (count == -1 && PyErr_Occurred())
+            return NULL;
         if (count < 1 || count > 2) {
-            PyErr_Format(PyExc_ValueError, "threads: 1 or 2, not %d", count);
+            PyErr_Format(PyExc_ValueError, "threads: 1 or 2, not %ld", count);
             return NULL;
         }
-        m->threads = count;
+        m->threads = (int)count;
     }
     return Py_BuildValue("(iO)", m->threads, m->crew != NULL ? Py_True : Py_False);
 }
 
 PyDoc_STRVAR(sleep_doc,
-"sleep(contacts[, enabled, calm, rested, island]) -> (rested, island)\n\n"
-"Sleeping of resting islands (ContactPass._doze): per body its rest time (s) and\n"
-"sleeping island (-1: awake); with the arguments, first turn sleeping on or off and set\n"
-"per body whether it may sleep (calm), its rest time and its island.");
+"sleep(contacts, *, enabled=None, calm=None, rested=None, island=None) -> (rested, island)\n\n"
+"Sleeping of resting islands (ContactPass._doze) in the pass ``contacts``: per body its\n"
+"rest time (s) and sleeping island (-1: awake). Given all four keywords, first set them:\n"
+"``enabled`` whether resting islands sleep, and per body (C-contiguous) ``calm`` whether it\n"
+"may sleep (int64 0 or 1), ``rested`` its rest time (float64), ``island`` its sleeping\n"
+"island (int64, -1: awake).");
 
-static PyObject *hd_py_sleep(PyObject *self, PyObject *args)
+static PyObject *hd_py_sleep(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                             PyObject *kwnames)
 {
-    PyObject *capsule, *objects[3] = {NULL, NULL, NULL};
-    int enabled = 0;
-    if (!PyArg_ParseTuple(args, "O|iOOO:sleep", &capsule, &enabled, objects, objects + 1,
-                          objects + 2))
-        return NULL;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    static const char *const names[] = {"contacts", "enabled", "calm", "rested", "island",
+                                        NULL};
+    PyObject *given[5];
+    hd_contact_model *m = hd_contacts_call("sleep", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
-    if (objects[0] != NULL) {
-        if (objects[2] == NULL) {
-            PyErr_SetString(PyExc_TypeError, "sleep: give enabled, calm, rested and island");
+    PyObject *const *objects = given + 2;
+    const int settings = (given[1] != NULL) + (objects[0] != NULL) + (objects[1] != NULL) +
+                         (objects[2] != NULL);
+    if (settings != 0 && settings != 4) {
+        PyErr_SetString(PyExc_TypeError, "sleep: give enabled, calm, rested and island "
+                        "together, or none");
+        return NULL;
+    }
+    if (settings) {
+        const int enabled = PyObject_IsTrue(given[1]);
+        if (enabled < 0)
             return NULL;
-        }
         Py_buffer views[3];
-        const char *names[3] = {"calm", "rested", "island"};
         const char kinds[3] = {'q', 'd', 'q'};
         for (int k = 0; k < 3; ++k) {
-            if (hd_get_buffer(objects[k], views + k, names[k], kinds[k], m->bodies, 0) < 0) {
+            if (hd_get_buffer(objects[k], views + k, names[k + 2], kinds[k], m->bodies, 0) < 0) {
                 while (k-- > 0)
                     PyBuffer_Release(views + k);
                 return NULL;
@@ -391,20 +419,22 @@ static PyObject *hd_py_sleep(PyObject *self, PyObject *args)
 }
 
 PyDoc_STRVAR(warm_doc,
-"warm(contacts[, impulses]) -> list\n\n"
-"The impulses kept for warm starting, as (k0, k1, k2, k3, lx, ly, jn, jt) per contact,\n"
-"those of one pair of parts (k0..k3) together and in the order the solver met them; with\n"
-"``impulses``, replace them first.");
+"warm(contacts, *, impulses=None) -> list\n\n"
+"The impulses the pass ``contacts`` keeps for warm starting, as (k0, k1, k2, k3, lx, ly,\n"
+"jn, jt) per contact: the key of its pair of parts (k0..k3), its point in body b's axes and\n"
+"its normal and tangent impulses, those of one pair of parts together and in the order the\n"
+"solver met them; given ``impulses`` (a sequence of such tuples), replace them first.");
 
-static PyObject *hd_py_warm(PyObject *self, PyObject *args)
+static PyObject *hd_py_warm(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                            PyObject *kwnames)
 {
-    PyObject *capsule, *impulses = NULL;
-    if (!PyArg_ParseTuple(args, "O|O:warm", &capsule, &impulses))
-        return NULL;
-    hd_contact_model *m = PyCapsule_GetPointer(capsule, HD_CONTACTS_CAPSULE);
+    static const char *const names[] = {"contacts", "impulses", NULL};
+    PyObject *given[2];
+    hd_contact_model *m = hd_contacts_call("warm", args, nargs, kwnames, names, 1, 1, given);
     if (m == NULL)
         return NULL;
-    if (impulses != NULL) {
+    PyObject *impulses = given[1] != NULL ? given[1] : Py_None;
+    if (impulses != Py_None) {
         PyObject *items = PySequence_Fast(impulses, "impulses: a sequence of tuples");
         if (items == NULL)
             return NULL;
@@ -447,9 +477,12 @@ static PyObject *hd_py_warm(PyObject *self, PyObject *args)
 PyMethodDef hd_bind_contacts[] = {
     {"contacts", (PyCFunction)(void (*)(void))hd_py_contacts, METH_VARARGS | METH_KEYWORDS,
      contacts_doc},
-    {"resolve", hd_py_resolve, METH_VARARGS, resolve_doc},
-    {"warm", hd_py_warm, METH_VARARGS, warm_doc},
-    {"sleep", hd_py_sleep, METH_VARARGS, sleep_doc},
-    {"threads", hd_py_threads, METH_VARARGS, threads_doc},
+    {"resolve", (PyCFunction)(void (*)(void))hd_py_resolve, METH_FASTCALL | METH_KEYWORDS,
+     resolve_doc},
+    {"warm", (PyCFunction)(void (*)(void))hd_py_warm, METH_FASTCALL | METH_KEYWORDS, warm_doc},
+    {"sleep", (PyCFunction)(void (*)(void))hd_py_sleep, METH_FASTCALL | METH_KEYWORDS,
+     sleep_doc},
+    {"threads", (PyCFunction)(void (*)(void))hd_py_threads, METH_FASTCALL | METH_KEYWORDS,
+     threads_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -17,7 +17,7 @@ import hecker_dynamics as hd
 from hecker_dynamics.geometry.shapes import Circle as Disc
 from hecker_dynamics.geometry.shapes import box as box_polygon
 from hecker_dynamics.geometry.shapes import mass_properties
-from hecker_dynamics.scene.world import deleted, spawned
+from hecker_dynamics.scene.world import EditKind, WorldEdit, deleted, spawned
 
 # Velocity Verlet integrates a constant acceleration exactly, so what is left is round-off:
 # a few ulps of the largest term per step, over a few thousand steps.
@@ -509,3 +509,78 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
                              b.angular_velocity) for b in sim.snapshot().bodies]
     world.add_body("c", hd.Circle(0.1), mass=0.1, position=(3.0, 1.0))  # the name is free again
     assert world["c"].mass == 0.1
+
+
+#: A ROS time as the node starts at: more nanoseconds than a float's seconds hold exactly.
+ROS_START_NS = 1_765_000_000_123_456_789
+
+
+def test_the_node_s_calls_on_a_world_are_the_simulation_s() -> None:
+    """What the node's run loop does through a World (started at a ROS time): a command
+    pushed, a body moved, a body spawned and one deleted by the services' YAML, a restart
+    at another time, gives bit for bit what the same calls on a bare Simulation give, the
+    spawned and deleted bodies following in the World's names."""
+    scene = two_balls(extra=True).scene
+    world = hd.World.from_scene(scene, script=False, start_ns=ROS_START_NS)
+    sim = hd.Simulation(scene, start_ns=ROS_START_NS)
+    step = scene.step_ns
+    push = hd.WrenchCommand(ROS_START_NS + 3 * step, "b", "kick", "b", (0.25, 0.0),
+                            (0.0, 40.0), 0.0, 30 * step)
+    spawn = WorldEdit(EditKind.SPAWN, "d", "{shape: circle, radius: 0.1, mass: 0.2, "
+                      "position: [0.5, 1.5]}", ("pile",))
+    for target in (world, sim):
+        target.push(push)
+    world.simulation.advance_to(ROS_START_NS + 50 * step, keep=False)
+    sim.advance_to(ROS_START_NS + 50 * step, keep=False)
+    world.set_body_state("a", (0.1, 1.2), 0.3, (0.5, -0.2), 1.5)
+    sim.set_body_state("a", (0.1, 1.2), 0.3, (0.5, -0.2), 1.5)
+    world.edit_bodies(spawn, WorldEdit(EditKind.DELETE, "c"))
+    sim = sim.with_world(deleted(spawned(sim.scene, "d", spawn.spec, spawn.collisions), "c"))
+    assert [b.name for b in world] == ["a", "b", "d"] and world.scene.bodies == sim.scene.bodies
+    for start in (None, ROS_START_NS + 7):
+        world.simulation.advance_to(world.simulation.time_ns + 200 * step, keep=False)
+        sim.advance_to(sim.time_ns + 200 * step, keep=False)
+        assert poses(world) == [(b.name, b.position, b.angle, b.linear_velocity,
+                                 b.angular_velocity) for b in sim.snapshot().bodies]
+        world.reset(start)
+        sim.reset(start)
+        assert world.simulation.time_ns == sim.time_ns == (start or ROS_START_NS)
+    with pytest.raises(hd.InputError, match=r"^unknown body 'c'"):
+        world.set_body_state("c", (0.0, 0.0), 0.0, (0.0, 0.0), 0.0)
+    with pytest.raises(hd.SceneError, match=r"'a' is already a body"):
+        world.edit_bodies(WorldEdit(EditKind.DELETE, "d"),
+                          WorldEdit(EditKind.SPAWN, "a", "{shape: circle, radius: 0.1, "
+                                                        "mass: 0.2}"))
+    assert [b.name for b in world] == ["a", "b", "d"]  # the refused edits changed nothing
+
+
+def test_a_world_s_bodies_follow_its_simulation_stepped_directly() -> None:
+    """A body's pose read, then the simulation under the world stepped by itself (as the
+    node's run loop steps it): the pose read again is the new one, not the one read
+    before."""
+    world = two_balls(extra=False)
+    before = world["b"].position
+    world.simulation.advance_to(100 * world.simulation.step_ns, keep=False)
+    after = world.simulation.snapshot().bodies[1]
+    assert world["b"].position == after.position != before
+    assert world["b"].angular_velocity == after.angular_velocity
+
+
+def test_a_scene_s_script_starts_with_the_world_and_again_at_a_reset() -> None:
+    """The sample scene (its kick scripted at 3 s) started at a ROS time, or reset to one,
+    steps bit for bit as from 0: the script's stamps count from the start."""
+    from_zero = hd.World.from_scene("sample")
+    from_zero.step(4.0)
+    later = hd.World.from_scene("sample", start_ns=ROS_START_NS)
+    later.step(4.0)
+    assert poses(later) == poses(from_zero)
+    later.reset(start_ns=ROS_START_NS + 999)
+    later.step(4.0)
+    assert poses(later) == poses(from_zero)
+    assert later.simulation.time_ns == ROS_START_NS + 999 + 4 * 10**9
+    with pytest.raises(TypeError, match=r"^start_ns: expected a whole number of nanoseconds"):
+        hd.World.from_scene("sample", start_ns=1.5)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"^start_ns: expected a whole number of nanoseconds"):
+        later.reset(start_ns=True)
+    later.reset(start_ns=np.int64(5))  # a numpy integer is a whole number too
+    assert later.simulation.time_ns == 5 and type(later.simulation.start_ns) is int

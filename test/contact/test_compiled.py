@@ -163,6 +163,42 @@ def test_kernel_leaves_joined_bodies_apart():
 
 
 @needs_kernel
+def test_kernel_sleep_state_is_set_whole_or_not_at_all():
+    """The contact binding's sleep() sets enabled, calm, rested and island together, by
+    keyword: given some of them it is refused, changing nothing; given all four, it reads
+    back what it was given; warm() and threads() take their settings by keyword too, and
+    a keyword unknown, missing or given twice is refused by name."""
+    from hecker_dynamics import _kernel
+
+    sim = Simulation(pyramid(4, sleep=True))
+    sim.advance_to(SECOND)  # some boxes at rest a while
+    capsule = sim.model.contacts._kernel.kernel
+    before = _kernel.sleep(capsule)
+    bodies = len(before[0])
+    calm, island = np.ones(bodies, dtype=np.int64), np.full(bodies, -1, dtype=np.int64)
+    rested = np.arange(bodies, dtype=np.float64) * 0.125
+    with pytest.raises(TypeError, match="together"):
+        _kernel.sleep(capsule, enabled=True, calm=calm, rested=rested)
+    with pytest.raises(TypeError):  # the settings are keywords only
+        _kernel.sleep(capsule, True, calm, rested, island)
+    assert _kernel.sleep(capsule) == before
+    assert _kernel.sleep(capsule, enabled=True, calm=calm, rested=rested,
+                         island=island) == (rested.tolist(), island.tolist())
+    impulses = _kernel.warm(capsule)
+    assert impulses and _kernel.warm(capsule, impulses=impulses[:3]) == impulses[:3]
+    with pytest.raises(ValueError, match="1 or 2, not 3"):
+        _kernel.threads(capsule, count=3)
+    assert _kernel.threads(capsule, count=1) == (1, False)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'impulse'"):
+        _kernel.warm(capsule, impulse=[])
+    q, v = sim.q.copy(), sim.v.copy()
+    with pytest.raises(TypeError, match="missing required argument 'h'"):
+        _kernel.resolve(capsule, q1=q, v1=v, q0=q, v0=v)
+    with pytest.raises(TypeError, match="multiple values for argument 'q1'"):
+        _kernel.resolve(capsule, q, v, q, v, 0.004, q1=q)
+
+
+@needs_kernel
 def test_kernel_recalls_restored_and_reordered_warm_starts_as_python():
     """A pyramid of 12 rows restored mid-fall from its exported state: the warm starts
     come back sorted by key, not in the order detection finds the contacts (walls first,
