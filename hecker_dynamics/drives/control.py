@@ -55,8 +55,7 @@ class DriveSet:
                     if play_script else 0
                 if due:
                     drive.receive(VelocityCommand(now, *self._script_commands[index][due - 1]))
-                for command in drive.wrenches(sim.q, sim.v, now):
-                    sim.push(command)
+                sim.push_replacements(drive.wrenches(sim.q, sim.v, now))
                 self._next_ns[index] = now + drive.spec.period_ns
 
     def next_stop(self) -> int | None:
