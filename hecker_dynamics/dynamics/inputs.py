@@ -39,6 +39,9 @@ class InputBuffer:
         self.max_active = max_active
         self._pending: list[tuple[int, int, Held]] = []
         self._active: dict[tuple[str, str], Held] = {}
+        #: The first end of an active command (None: none ends), kept as they change: the
+        #: simulation asks at every stop whether anything changes, mostly when nothing does.
+        self._first_end: Optional[int] = None
         #: How many pending commands each key has (a plain dict: a Counter's updates cost
         #: more, and the drives add two commands at every control instant).
         self._pending_keys: dict[tuple[str, str], int] = {}
@@ -97,7 +100,8 @@ class InputBuffer:
 
     def update(self, now_ns: int) -> bool:
         """Start due commands and stop ended ones at the start of a step; True if any changed."""
-        if not self._pending and not self._active and not self._staged:
+        if not self._staged and (not self._pending or self._pending[0][0] > now_ns) and \
+                (self._first_end is None or self._first_end > now_ns):
             return False
         changed = False
         values_only = True
@@ -121,6 +125,7 @@ class InputBuffer:
                  if held.end_ns is not None and held.end_ns <= now_ns]
         for key in ended:
             del self._active[key]
+        self._track_ends()
         self.values_only = values_only and not ended
         return changed or bool(ended)
 
@@ -128,12 +133,16 @@ class InputBuffer:
         """The earliest time at which :meth:`update` may change the active commands: the
         first pending stamp or the first end of an active command (None: never, unless a
         command is added)."""
-        if not self._pending and not self._active and not self._staged:
-            return None
-        ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
+        first = self._first_end
         if self._pending or self._staged:
-            ends.append((self._pending or self._staged)[0][0])
-        return min(ends, default=None)
+            stamp = (self._pending or self._staged)[0][0]
+            return stamp if first is None or stamp < first else first
+        return first
+
+    def _track_ends(self) -> None:
+        """Take the first end of the active commands again, after they changed."""
+        ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
+        self._first_end = min(ends) if ends else None
 
     def export_state(self) -> dict[str, Any]:
         """The buffer as plain data: pending commands in heap order with their order
@@ -164,6 +173,7 @@ class InputBuffer:
         for data in state["active"]:
             item = held(data)
             self._active[(item.command.body, item.command.source)] = item
+        self._track_ends()
         self._order = itertools.count(int(state["next_order"]))
 
     def active(self) -> list[Held]:
@@ -174,6 +184,7 @@ class InputBuffer:
         self._pending.clear()
         self._pending_keys.clear()
         self._active.clear()
+        self._first_end = None
 
     def __len__(self) -> int:
         return len(self._pending) + len(self._staged) + len(self._active)

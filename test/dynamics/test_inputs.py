@@ -349,3 +349,30 @@ def test_replace_takes_only_commands_stamped_now_of_active_sources():
     sim.push(cmd(now + MS, source="new"))
     assert not buffer.replace(wheels(now, 2.0), rows, now)  # another command is pending
     assert len(buffer) == 3
+
+
+def test_next_change_and_update_follow_the_commands_held():
+    """The buffer keeps the first end of its active commands as they change: at every
+    point of a random run of pushes, replacements and updates, next_change is the first
+    pending stamp or active end, and update changes something exactly when one of them
+    has come (the active set compared with the buffer's exported state)."""
+    rng = np.random.default_rng(7)
+    sim = _sim(timeout=0.02)
+    buffer = sim._inputs
+    now = 0
+    for _ in range(400):
+        if rng.random() < 0.4:
+            stamp = now + int(rng.integers(0, 5)) * MS
+            sim.push(cmd(stamp, source=f"s{rng.integers(4)}",
+                         duration_ns=int(rng.integers(0, 3)) * 3 * MS))
+        state = buffer.export_state()
+        ends = [buffer.end_of(held.command) for held in buffer.active()]
+        expected = min([end for end in ends if end is not None] +
+                       [entry[0] for entry in state["pending"]], default=None)
+        assert buffer.next_change() == expected
+        before = [held.command for held in buffer.active()]
+        due = expected is not None and expected <= now
+        assert buffer.update(now) == due
+        if not due:
+            assert [held.command for held in buffer.active()] == before
+        now += int(rng.integers(0, 3)) * MS
