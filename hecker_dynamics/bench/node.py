@@ -17,6 +17,8 @@ import statistics
 import time
 from typing import NamedTuple, Optional
 
+import numpy as np
+
 from ..ros.cdr import SnapshotSerializer, serialize_output
 from ..ros.outputs import SnapshotOutputs
 from ..ros.runner import Runner
@@ -24,7 +26,8 @@ from ..scene.load import Scene
 from ..viz.progress import BarFactory, run_parts
 from .scenes import ring
 
-__all__ = ["NODE_BODIES", "NodeCost", "node_scene", "node_run", "node_cost", "node_table"]
+__all__ = ["NODE_BODIES", "NodeCost", "node_scene", "tick_targets", "node_run", "node_cost",
+           "node_table"]
 
 NODE_BODIES = (1, 10, 100)
 #: The node's default timing: 1 kHz physics, 50 Hz publishing.
@@ -56,21 +59,36 @@ def node_scene(bodies: int, floor: bool = False) -> Scene:
                                publish_diagnostics=True, publish_tf=True)
 
 
-def node_run(scene: Scene, seconds: float, pause: float = 0.0) -> tuple[float, float]:
+def tick_targets(scene: Scene, seconds: float, spread_ns: int = 0,
+                 seed: int = 0) -> list[int]:
+    """The sim times the node's 50 Hz ticks over ``seconds`` step to, from the start:
+    each a publish period after the last, moved by up to ``spread_ns`` either way (drawn
+    from ``seed``) as a live tick's wake moves on the wall clock, off the step grid, which
+    adds a stop wherever a tick ends between the drives' and sensors' instants; the last
+    ends the run at ``seconds``."""
+    period = scene.publish_period_ns
+    count = round(seconds * 1e9 / period)
+    shifts = np.random.default_rng(seed).integers(-spread_ns, spread_ns, count,
+                                                  endpoint=True).tolist()
+    shifts[-1] = 0
+    return [k * period + shift for k, shift in zip(range(1, count + 1), shifts)]
+
+
+def node_run(scene: Scene, seconds: float, pause: float = 0.0,
+             spread_ns: int = 0) -> tuple[float, float]:
     """CPU seconds per sim second of :meth:`Runner.advance` and of serializing what it
     gave (the snapshots' messages and the sensors' readings), over ``seconds`` of
-    ``scene`` in the node's 50 Hz ticks. ``pause``: seconds slept after each tick, as the
-    node sleeps between its ticks (a core that ran other work meanwhile leaves the tick
-    colder caches; the sleep itself is not CPU time)."""
+    ``scene`` in the node's 50 Hz ticks (moved by up to ``spread_ns``:
+    :func:`tick_targets`). ``pause``: seconds slept after each tick, as the node sleeps
+    between its ticks (a core that ran other work meanwhile leaves the tick colder
+    caches; the sleep itself is not CPU time)."""
     runner = Runner(scene)
     serialize = SnapshotSerializer(SnapshotOutputs(scene))
     # CPU time of this process, not wall time: on a loaded machine the wall clock also
     # counts the time other processes held the core.
     clock = time.process_time
     advance = outputs = 0.0
-    target = 0
-    for _ in range(round(seconds * 1e9 / scene.publish_period_ns)):
-        target += scene.publish_period_ns
+    for target in tick_targets(scene, seconds, spread_ns):
         start = clock()
         tick = runner.advance(target)
         middle = clock()

@@ -5,10 +5,10 @@ forces at the same steps; a velocity command takes effect at the next control in
 from __future__ import annotations
 
 import bisect
-from typing import Any, Union
+from typing import Any, Optional, Union
 
 from ..dynamics.simulation import Simulation, Snapshot
-from ..scene.commands import WrenchCommand
+from ..scene.commands import InputError, WrenchCommand
 from ..scene.drives import DiffDriveSpec
 from .command import VelocityCommand
 from .diff_drive import DiffDrive
@@ -45,9 +45,11 @@ class DriveSet:
             if drive.spec.body == body:
                 drive.receive(command)
 
-    def arrive(self, sim: Simulation, play_script: bool = True) -> None:
+    def arrive(self, sim: Simulation, play_script: bool = True,
+               rejected: Optional[list[str]] = None) -> None:
         """Push the wheel forces of the drives whose control instant is now, each after the
-        scripted command that holds now (with ``play_script``)."""
+        scripted command that holds now (with ``play_script``). ``rejected``: where wheel
+        forces the simulation refuses are told (else its :class:`InputError` is raised)."""
         now = sim.time_ns
         for index, drive in enumerate(self.drives):
             if now >= self._next_ns[index]:
@@ -55,8 +57,12 @@ class DriveSet:
                     if play_script else 0
                 if due:
                     drive.receive(VelocityCommand(now, *self._script_commands[index][due - 1]))
-                for command in drive.wrenches(sim.q, sim.v, now):
-                    sim.push(command)
+                try:
+                    sim.push_replacements(drive.wrenches(sim.q, sim.v, now))
+                except InputError as error:
+                    if rejected is None:
+                        raise
+                    rejected.append(f"drive force rejected: {error}")
                 self._next_ns[index] = now + drive.spec.period_ns
 
     def next_stop(self) -> int | None:
@@ -74,15 +80,24 @@ class DriveSet:
 
 
 def advance_with_drives(sim: Simulation, drives: DriveSet, t_ns: int,
-                        play_script: bool = True) -> list[Snapshot]:
-    """:meth:`Simulation.advance_to` ``t_ns``, pushing the drives' wheel forces at their
-    control instants on the way (after their scripted commands, with ``play_script``);
-    the snapshots at the publish instants."""
+                        play_script: bool = True, max_steps: Optional[int] = None,
+                        keep: bool = True, rejected: Optional[list[str]] = None
+                        ) -> list[Snapshot]:
+    """:meth:`Simulation.advance_to` ``t_ns`` (at most ``max_steps``; snapshots kept as
+    ``keep`` says), pushing the drives' wheel forces at their control instants on the way
+    (after their scripted commands, with ``play_script``); the snapshots at the publish
+    instants. ``rejected``: as :meth:`DriveSet.arrive` takes it."""
     snapshots: list[Snapshot] = []
+    start = sim.steps
     while sim.time_ns + sim.step_ns <= t_ns:
-        drives.arrive(sim, play_script)
+        taken = sim.steps - start
+        if max_steps is not None and taken >= max_steps:
+            break
+        drives.arrive(sim, play_script, rejected)
         following = drives.next_stop()
-        snapshots += sim.advance_to(t_ns if following is None else min(t_ns, following))
+        snapshots += sim.advance_to(t_ns if following is None else min(t_ns, following),
+                                    None if max_steps is None else max_steps - taken,
+                                    keep=keep)
     return snapshots
 
 

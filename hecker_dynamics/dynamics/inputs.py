@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from typing import Any, NamedTuple, Optional
 
@@ -39,10 +39,16 @@ class InputBuffer:
         self.max_active = max_active
         self._pending: list[tuple[int, int, Held]] = []
         self._active: dict[tuple[str, str], Held] = {}
+        #: The first end of an active command (None: none ends), kept as they change: the
+        #: simulation asks at every stop whether anything changes, mostly when nothing does.
+        self._first_end: Optional[int] = None
         #: How many pending commands each key has (a plain dict: a Counter's updates cost
         #: more, and the drives add two commands at every control instant).
         self._pending_keys: dict[tuple[str, str], int] = {}
         self._order = itertools.count()
+        #: Commands taken by :meth:`replace`, as pending entries (stamp, order, held) due
+        #: at the next :meth:`update`, outside the heap: never beside pending ones.
+        self._staged: list[tuple[int, int, Held]] = []
         #: Whether the last :meth:`update` that changed the active commands only replaced
         #: some by commands acting at the same place (:func:`same_place`): the active rows
         #: differ from before in their forces and torques alone.
@@ -58,6 +64,11 @@ class InputBuffer:
 
     def add(self, command: WrenchCommand, row: WrenchRow) -> None:
         """Queue a command; raises :class:`InputError` when the buffer is full."""
+        for entry in self._staged:  # queued before it, as the heap would hold them
+            heapq.heappush(self._pending, entry)
+            key = (entry[2].command.body, entry[2].command.source)
+            self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
+        self._staged = []
         if len(self._pending) >= self.max_pending:
             raise InputError(f"input buffer full ({self.max_pending} pending commands); "
                              f"dropped {_what(command)}")
@@ -70,18 +81,41 @@ class InputBuffer:
         self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
         heapq.heappush(self._pending, (command.stamp_ns, next(self._order), held))
 
+    def replace(self, commands: Sequence[WrenchCommand], rows: Sequence[WrenchRow],
+                now_ns: int) -> bool:
+        """Queue ``commands`` (with their resolved ``rows``), each stamped ``now_ns`` and
+        from a body and source whose command is active (a drive's wheels at its control
+        instant), as :meth:`add` would, where nothing is pending: they wait outside the
+        heap, with their order numbers, for the next :meth:`update`, which takes them as
+        it would from the heap. False, and nothing queued, otherwise."""
+        if self._pending or self._staged:
+            return False
+        active = self._active
+        for command in commands:
+            if command.stamp_ns != now_ns or (command.body, command.source) not in active:
+                return False
+        self._staged = [(now_ns, next(self._order), Held(command, row, self.end_of(command)))
+                        for command, row in zip(commands, rows)]
+        return True
+
     def update(self, now_ns: int) -> bool:
         """Start due commands and stop ended ones at the start of a step; True if any changed."""
-        if not self._pending and not self._active:
+        if not self._staged and (not self._pending or self._pending[0][0] > now_ns) and \
+                (self._first_end is None or self._first_end > now_ns):
             return False
         changed = False
         values_only = True
+        due = [entry[2] for entry in self._staged]  # never beside pending ones (add)
+        self._staged = []
         while self._pending and self._pending[0][0] <= now_ns:
             held = heapq.heappop(self._pending)[2]
             key = (held.command.body, held.command.source)
             left = self._pending_keys.pop(key) - 1
             if left:
                 self._pending_keys[key] = left
+            due.append(held)
+        for held in due:
+            key = (held.command.body, held.command.source)
             replaced = self._active.get(key)
             if replaced is None or not same_place(replaced.row, held.row):
                 values_only = False
@@ -91,6 +125,7 @@ class InputBuffer:
                  if held.end_ns is not None and held.end_ns <= now_ns]
         for key in ended:
             del self._active[key]
+        self._track_ends()
         self.values_only = values_only and not ended
         return changed or bool(ended)
 
@@ -98,12 +133,16 @@ class InputBuffer:
         """The earliest time at which :meth:`update` may change the active commands: the
         first pending stamp or the first end of an active command (None: never, unless a
         command is added)."""
-        if not self._pending and not self._active:
-            return None
+        first = self._first_end
+        if self._pending or self._staged:
+            stamp = (self._pending or self._staged)[0][0]
+            return stamp if first is None or stamp < first else first
+        return first
+
+    def _track_ends(self) -> None:
+        """Take the first end of the active commands again, after they changed."""
         ends = [held.end_ns for held in self._active.values() if held.end_ns is not None]
-        if self._pending:
-            ends.append(self._pending[0][0])
-        return min(ends, default=None)
+        self._first_end = min(ends) if ends else None
 
     def export_state(self) -> dict[str, Any]:
         """The buffer as plain data: pending commands in heap order with their order
@@ -113,7 +152,7 @@ class InputBuffer:
         self._order = itertools.count(order)
         return {
             "pending": [[stamp, number, _command_data(held.command)]
-                        for stamp, number, held in self._pending],
+                        for stamp, number, held in self._pending or self._staged],
             "active": [_command_data(held.command) for held in self._active.values()],
             "next_order": order,
         }
@@ -134,18 +173,21 @@ class InputBuffer:
         for data in state["active"]:
             item = held(data)
             self._active[(item.command.body, item.command.source)] = item
+        self._track_ends()
         self._order = itertools.count(int(state["next_order"]))
 
     def active(self) -> list[Held]:
         return list(self._active.values())
 
     def clear(self) -> None:
+        self._staged = []
         self._pending.clear()
         self._pending_keys.clear()
         self._active.clear()
+        self._first_end = None
 
     def __len__(self) -> int:
-        return len(self._pending) + len(self._active)
+        return len(self._pending) + len(self._staged) + len(self._active)
 
 
 def _what(command: WrenchCommand) -> str:

@@ -17,7 +17,7 @@ instant's check between its steps: the same bits at one call's cost.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import replace
 from itertools import repeat
@@ -396,6 +396,21 @@ class Simulation:
                 f"command for '{command.body}' from '{command.source}' ended before the "
                 f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
         self._inputs.add(command, self._row(command))
+
+    def push_replacements(self, commands: Sequence[WrenchCommand]) -> None:
+        """:meth:`push` each of ``commands``, stamped now, from bodies and sources whose
+        commands act now (a drive's wheels at its control instant): where nothing else is
+        pending, they skip the checks that cannot fail for them and the buffer's heap
+        (:meth:`.InputBuffer.replace`), with the same bits and the same errors."""
+        try:
+            for command in commands:
+                command.check_finite()
+            rows = [self._row(command) for command in commands]
+        except (InputError, KeyError):  # refused by push, as the same commands would be
+            rows = None
+        if rows is None or not self._inputs.replace(commands, rows, self._time_ns):
+            for command in commands:
+                self.push(command)
 
     def _row(self, command: WrenchCommand) -> WrenchRow:
         """The command as a constant-wrench row: its frame resolved to a body or the world.

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NamedTuple, Optional, Union
 
 from .._version import __version__
-from ..drives.control import DriveSet
+from ..drives.control import DriveSet, advance_with_drives
 from ..dynamics.simulation import DivergenceError, Simulation, Snapshot
 from ..scene.commands import InputError, WrenchCommand
 from ..scene.fingerprint import scene_fingerprint
@@ -571,9 +571,10 @@ class Runner:
                 if sim.time_ns + sim.step_ns > stop:
                     break
                 tick.readings += self.leave()
-                tick.snapshots += sim.advance_to(
-                    stop, max_steps=None if self.max_steps is None else self.max_steps - taken,
-                    keep=keep)
+                tick.snapshots += advance_with_drives(
+                    sim, self.drives, stop, self.play_script,
+                    None if self.max_steps is None else self.max_steps - taken, keep,
+                    tick.script_errors)
         except DivergenceError as error:
             self.halted = tick.diverged = str(error)
             tick.diagnostics = self._diagnostics(0, 0, 0)
@@ -596,10 +597,7 @@ class Runner:
                     self.world.push(command)
                 except InputError as error:
                     tick.script_errors.append(f"scripted input rejected: {error}")
-        try:
-            self.drives.arrive(sim, self.play_script)
-        except InputError as error:
-            tick.script_errors.append(f"drive force rejected: {error}")
+        self.drives.arrive(sim, self.play_script, tick.script_errors)
         if self.keyframe_steps and sim.steps >= self._next_keyframe_step and not self._stepping:
             if self.record:
                 self.records.append(self.keyframe())
@@ -628,8 +626,7 @@ class Runner:
             stop = sim.start_ns + (-(-(stamp - sim.start_ns) // sim.step_ns) - 1) * sim.step_ns
         if self.keyframe_steps and not self._stepping:
             stop = min(stop, sim.start_ns + self._next_keyframe_step * sim.step_ns)
-        for next_stop in (self.drives.next_stop(), self.sensors.next_stop(sim.time_ns),
-                          self.touches.next_stop(sim)):
+        for next_stop in (self.sensors.next_stop(sim.time_ns), self.touches.next_stop(sim)):
             if next_stop is not None:
                 stop = min(stop, next_stop)
         return stop

@@ -178,6 +178,10 @@ class _Pushes(Simulation):
         super().push(command)
         self.pushed.append(command)
 
+    def push_replacements(self, commands: Sequence[WrenchCommand]) -> None:
+        for command in commands:  # each through push, to keep it
+            self.push(command)
+
 
 def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:
     """``round(duration x fps)`` instants from ``start_ns``, ``1/fps`` apart (whole ns)."""

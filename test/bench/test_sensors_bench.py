@@ -10,12 +10,14 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.bench import box2d_v3, sensors
-from hecker_dynamics.bench.node import node_run
+from hecker_dynamics.bench.node import node_run, tick_targets
 from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.geometry.shapes import Circle
+from hecker_dynamics.ros.cdr import serialize_output
 from hecker_dynamics.ros.outputs import OutputKind
+from hecker_dynamics.ros.runner import Runner
 from hecker_dynamics.sensors.laser import Laser
 
 
@@ -91,12 +93,39 @@ def test_the_node_run_sleeps_after_each_tick_as_asked(monkeypatch):
     node_run(scene, 0.5, pause=sensors.TICK_PAUSE)
     assert sleeps == [sensors.TICK_PAUSE] * 25 and len(kinds) == 2 * (4 + 24)
     runs = []
-    monkeypatch.setattr(sensors, "node_run",
-                        lambda scene, seconds, pause: runs.append(pause) or (0.02, 0.001))
+    monkeypatch.setattr(sensors, "node_run", lambda scene, seconds, pause, spread:
+                        runs.append((pause, spread)) or (0.02, 0.001))
     shares = sensors.node_shares(rounds=2, seconds=0.1)
     assert [share.case for share in shares] == [
         "robot, 10 Hz scan", "robot, no laser", "robot, 10 Hz scan, 20 ms asleep after each tick"]
-    assert runs == [0.0, 0.0, sensors.TICK_PAUSE] * 2
+    spread = sensors.TICK_SPREAD_NS
+    assert runs == [(0.0, spread), (0.0, spread), (sensors.TICK_PAUSE, spread)] * 2
+
+
+def test_the_node_ticks_end_off_the_step_grid_as_live_ones_do(monkeypatch):
+    """With a spread, the ticks' targets move off their 50 Hz instants by up to the
+    spread either way, about half of them before it, as a live node's wall-clock ticks
+    do (each adds a stop between the drive's instants); the run still ends at its length
+    and reads the same sensors at the same instants, and the tick targets the runner saw
+    are those."""
+    scene = sensors.robot_at_1khz()
+    period, spread = scene.publish_period_ns, sensors.TICK_SPREAD_NS
+    targets = tick_targets(scene, 2.0, spread)
+    shifts = [t - k * period for k, t in enumerate(targets, 1)]
+    assert len(targets) == 100 and shifts[-1] == 0
+    assert all(-spread <= s <= spread for s in shifts) and len(set(shifts)) > 90
+    assert 35 <= sum(s < 0 for s in shifts) <= 65 and tick_targets(scene, 2.0) == [
+        k * period for k in range(1, 101)]
+    seen, kinds = {0: [], spread: []}, {0: [], spread: []}
+    advance = Runner.advance
+    for key in seen:
+        monkeypatch.setattr(Runner, "advance", lambda runner, target, keep=True, key=key:
+                            seen[key].append(target) or advance(runner, target, keep))
+        monkeypatch.setattr("hecker_dynamics.bench.node.serialize_output",
+                            lambda output, key=key: kinds[key].append(serialize_output(output)))
+        node_run(scene, 0.5, spread_ns=key)
+    assert seen[spread] == tick_targets(scene, 0.5, spread) != seen[0]
+    assert kinds[spread] == kinds[0] and len(kinds[0]) == 4 + 24
 
 
 @pytest.mark.parametrize("kernel_cost, verdict", [(1e-4, "met (0.100 x)"),

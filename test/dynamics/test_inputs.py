@@ -282,3 +282,97 @@ def test_flood_of_sources_is_refused_beyond_the_limit():
     sim.push(cmd(0, (0.002, 0.0), source="s7"))  # an existing source may still update
     sim.advance_to(10 * MS)
     assert _vx(sim) == pytest.approx((999 * 0.001 + 0.002) * 0.01 / MASS, rel=1e-10)
+
+
+def _pushed_and_replaced(commands_at, late=()):
+    """Two simulations fed the same commands: at each instant in ``commands_at`` (time in
+    steps, commands), one pushes them and the other hands them to
+    Simulation.push_replacements; ``late`` are pushed to both after the last instant's.
+    Their buffers' exported states and next changes, and the states, after each instant
+    and after a step from it."""
+    runs = []
+    for use_replace in (False, True):
+        sim, seen = _sim(timeout=0.0), []
+        for steps, commands in commands_at:
+            while sim.steps < steps:
+                sim.step()
+            if use_replace:
+                sim.push_replacements(commands)
+            else:
+                for command in commands:
+                    sim.push(command)
+            for command in late if steps == commands_at[-1][0] else ():
+                sim.push(command)
+            seen.append((sim.export_state()["inputs"], sim._inputs.next_change(),
+                         len(sim._inputs)))
+            sim.step()
+            seen.append((sim.export_state(), sim.q.tobytes(), sim.v.tobytes()))
+        runs.append(seen)
+    return runs
+
+
+def wheels(stamp_ns, force):
+    return [cmd(stamp_ns, (force, 0.5), source="left", frame="b", point=(0.0, 0.2),
+                duration_ns=2 * MS),
+            cmd(stamp_ns, (force, -0.5), source="right", frame="b", point=(0.0, -0.2),
+                duration_ns=2 * MS)]
+
+
+def test_replaced_commands_queue_and_act_as_pushed_ones():
+    """A drive's wheels replaced at each control instant (Simulation.push_replacements)
+    leave the buffer, its keyframe data (the order numbers too) and the states as pushing
+    them does:
+    the first instant's (nothing active yet) and those after another command was pushed
+    go through push; a command pushed after a replace queues behind the replaced ones."""
+    instants = [(0, wheels(0, 1.0)), (2, wheels(2 * MS, 2.0)), (4, wheels(4 * MS, -3.0)),
+                (6, wheels(6 * MS, 0.25)), (8, wheels(8 * MS, 4.0))]
+    extra = cmd(8 * MS, (0.0, 1.0), source="joy", duration_ns=5 * MS)
+    pushed, replaced = _pushed_and_replaced(instants, late=[extra])
+    assert pushed == replaced
+    # The buffer held the replaced commands as pending ones, with their order numbers.
+    exported = pushed[2][0]
+    assert [entry[:2] for entry in exported["pending"]] == [[2 * MS, 2], [2 * MS, 3]]
+    assert pushed[2][1] == 2 * MS and pushed[2][2] == 4
+
+
+def test_replace_takes_only_commands_stamped_now_of_active_sources():
+    sim = _sim(timeout=0.0)
+    buffer = sim._inputs
+    for command in wheels(0, 1.0):
+        sim.push(command)
+    sim.step()
+    sim.step()
+    now = sim.time_ns
+    rows = [sim._row(command) for command in wheels(now, 2.0)]
+    assert not buffer.replace(wheels(now + MS, 2.0), rows, now)  # not stamped now
+    assert not buffer.replace([cmd(now, source="new")], rows[:1], now)  # not active
+    sim.push(cmd(now + MS, source="new"))
+    assert not buffer.replace(wheels(now, 2.0), rows, now)  # another command is pending
+    assert len(buffer) == 3
+
+
+def test_next_change_and_update_follow_the_commands_held():
+    """The buffer keeps the first end of its active commands as they change: at every
+    point of a random run of pushes, replacements and updates, next_change is the first
+    pending stamp or active end, and update changes something exactly when one of them
+    has come (the active set compared with the buffer's exported state)."""
+    rng = np.random.default_rng(7)
+    sim = _sim(timeout=0.02)
+    buffer = sim._inputs
+    now = 0
+    for _ in range(400):
+        if rng.random() < 0.4:
+            stamp = now + int(rng.integers(0, 5)) * MS
+            sim.push(cmd(stamp, source=f"s{rng.integers(4)}",
+                         duration_ns=int(rng.integers(0, 3)) * 3 * MS))
+        state = buffer.export_state()
+        ends = [buffer.end_of(held.command) for held in buffer.active()]
+        expected = min([end for end in ends if end is not None] +
+                       [entry[0] for entry in state["pending"]], default=None)
+        assert buffer.next_change() == expected
+        before = [held.command for held in buffer.active()]
+        due = expected is not None and expected <= now
+        assert buffer.update(now) == due
+        if not due:
+            assert [held.command for held in buffer.active()] == before
+        now += int(rng.integers(0, 3)) * MS
