@@ -276,6 +276,17 @@ class Simulation:
                          int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
         self._halted = divergence["halted"]
 
+    def __getstate__(self) -> dict[str, Any]:
+        """What :mod:`pickle` and :func:`copy.deepcopy` keep: the scene and
+        :meth:`export_state`'s plain data, not the compiled kernel's handles (capsules),
+        which :meth:`__setstate__` builds anew, so a copy steps bit for bit as this does."""
+        return {"scene": self.scene, "state": self.export_state()}
+
+    def __setstate__(self, saved: dict[str, Any]) -> None:
+        state = saved["state"]
+        self.__init__(saved["scene"], start_ns=int(state["start_ns"]))  # type: ignore[misc]
+        self.import_state(state)
+
     def _hold(self, rows: list[WrenchRow]) -> None:
         """Keep the bodies the inputs push awake (where resting islands sleep)."""
         contacts = self.model.contacts
