@@ -406,7 +406,40 @@ class Simulation:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' ended before the "
                 f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
-        self._inputs.add(command, self._row(command))
+        self._inputs.add(command, self.check_reach(command))
+
+    def check_reach(self, command: WrenchCommand) -> WrenchRow:
+        """``command``'s row (:meth:`_row`), or :class:`InputError` if its wrench, acting
+        alone for one step from its body's motion now, would give the body an energy of
+        motion no double holds: 1/2 m (|v| + |F| h / m)^2 + 1/2 I (|omega| + (|tau| +
+        |r| |F|) h / I)^2 (Eq. 5, 11 and 14). 1e308 N on 1 kg is 1e305 m/s a millisecond
+        later, a finite state the energy bound could not judge."""
+        row = self._row(command)
+        i, fx, fy, owner = row.body, *row.force, row.point_body
+        force = math.hypot(fx, fy)
+        lever = 0.0
+        if row.at_point and force:
+            q = self.q
+            if owner == i:
+                lever = math.hypot(*row.point)
+            elif owner < 0:
+                lever = math.hypot(row.point[0] - q[i, 0], row.point[1] - q[i, 1])
+            else:  # a point of another body: at most its distance from that body's CM more
+                lever = math.hypot(*row.point) + math.hypot(q[owner, 0] - q[i, 0],
+                                                            q[owner, 1] - q[i, 1])
+        mass, inertia = float(self.model.mass[i]), float(self.model.inertia[i])
+        vx, vy, spin = self.v[i].tolist()
+        h = self.step_seconds
+        speed = math.hypot(vx, vy) + force * h / mass
+        turn = abs(spin) + (abs(row.torque) + lever * force) * h / inertia
+        energy = 0.5 * mass * speed * speed + 0.5 * inertia * turn * turn
+        if not math.isfinite(energy):
+            raise InputError(
+                f"wrench for body '{command.body}' from '{command.source}' would give it an "
+                f"energy of motion past what a double holds after one step of {h:g} s "
+                f"({speed:.3g} m/s, {turn:.3g} rad/s; force={command.force}, "
+                f"point={command.point}, torque={command.torque})")
+        return row
 
     def _row(self, command: WrenchCommand) -> WrenchRow:
         """The command as a constant-wrench row: its frame resolved to a body or the world.

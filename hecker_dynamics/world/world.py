@@ -613,10 +613,11 @@ class World:
                                 at, vector(force, "force"), number(torque, "torque"),
                                 duration_ns)
         command.check_finite()
-        self._started = True
+        sim.check_reach(command)  # a scheduled force too: refused now, not mid-advance
         if stamp == now:
             sim.push(command)
-        else:
+        self._started = True
+        if stamp != now:
             order = max((entry[1] for entry in self._schedule), default=-1) + 1
             self._schedule.append((stamp, order, command))
             self._schedule.sort(key=lambda entry: entry[:2])
