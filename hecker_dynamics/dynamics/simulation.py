@@ -310,6 +310,10 @@ class Simulation:
                                     np.array([angle], dtype=float),
                                     np.array([linear_velocity], dtype=float),
                                     np.array([angular_velocity], dtype=float))
+        energy = self.scene.bodies[index].mass.energy_of_motion(math.hypot(*v[0, :2]), v[0, 2])
+        if not math.isfinite(energy):  # a state the energy bound could not judge
+            raise InputError(f"the state for '{name}' moves it with an energy of motion past "
+                             f"what a double holds ({numbers})")
         self.q, self.v = self.q.copy(), self.v.copy()
         self.q[index], self.v[index] = q[0], v[0]
         wrap_angles_in_place(self.q[:, 2])
@@ -427,13 +431,12 @@ class Simulation:
             else:  # a point of another body: at most its distance from that body's CM more
                 lever = math.hypot(*row.point) + math.hypot(q[owner, 0] - q[i, 0],
                                                             q[owner, 1] - q[i, 1])
-        mass, inertia = float(self.model.mass[i]), float(self.model.inertia[i])
+        properties = self.scene.bodies[i].mass
         vx, vy, spin = self.v[i].tolist()
         h = self.step_seconds
-        speed = math.hypot(vx, vy) + force * h / mass
-        turn = abs(spin) + (abs(row.torque) + lever * force) * h / inertia
-        energy = 0.5 * mass * speed * speed + 0.5 * inertia * turn * turn
-        if not math.isfinite(energy):
+        speed = math.hypot(vx, vy) + force * h / properties.mass
+        turn = abs(spin) + (abs(row.torque) + lever * force) * h / properties.moment_of_inertia
+        if not math.isfinite(properties.energy_of_motion(speed, turn)):
             raise InputError(
                 f"wrench for body '{command.body}' from '{command.source}' would give it an "
                 f"energy of motion past what a double holds after one step of {h:g} s "

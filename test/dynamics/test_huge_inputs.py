@@ -77,3 +77,36 @@ def test_run_refuses_a_scripted_runaway_force_in_one_line(tmp_path, capsys) -> N
     assert err.startswith("hecker-dynamics: error: scripted input rejected: wrench for body "
                           "'puck' from 'blast' would")
     assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize("motion", [{"velocity": (1e200, 0.0)}, {"angular_velocity": 1e200},
+                                    {"velocity": (0.0, -2e154)}])
+def test_a_body_moved_past_what_a_double_holds_is_refused(motion) -> None:
+    """Set on a Body (Simulation.set_body_state) or given at the start, a motion whose
+    energy overflows is refused naming the body; 1e154 m/s on 1 kg (5e307 J) is not."""
+    world, body = unit_box()
+    before = json.dumps(world.state())
+    with pytest.raises(InputError, match=r"^the state for 'b' moves it with an energy of "
+                                         r"motion past what a double holds"):
+        for key, value in motion.items():
+            setattr(body, key, value)
+    assert json.dumps(world.state()) == before
+    body.velocity = (1e154, 0.0)
+    assert math.isfinite(world.energy)
+    other = hd.World(step=H)
+    key = next(iter(motion))
+    with pytest.raises(hd.SceneError, match=rf"^World: parameter 'bodies\.b\.{key}': moves "
+                                            r"the body so fast .* past what a double holds$"):
+        other.add_body("b", hd.Box(1.0, 1.0), mass=1.0, **motion)
+    assert len(other) == 0
+
+
+def test_a_scene_file_whose_body_moves_past_what_a_double_holds_is_refused(tmp_path,
+                                                                           capsys) -> None:
+    path = write_scene(tmp_path, {"bodies": {"puck": {
+        "shape": "box", "size": [1.0, 0.5], "mass": 1.0, "angular_velocity": 1e160}}})
+    assert main(["run", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"hecker-dynamics: error: {path}: parameter 'bodies.puck.angular_velocity': "
+                   "moves the body so fast (0 m/s, 1e+160 rad/s) that its energy of motion is "
+                   "past what a double holds\n")
