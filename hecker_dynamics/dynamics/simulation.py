@@ -256,8 +256,17 @@ class Simulation:
         if q.shape != self.q.shape or v.shape != self.v.shape:
             raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
                              f"{self.model.size}")
-        self.start_ns, self._time_ns = int(state["start_ns"]), int(state["time_ns"])
-        self._steps = int(state["steps"])
+        start_ns, time_ns = int(state["start_ns"]), int(state["time_ns"])
+        steps = int(state["steps"])
+        if time_ns < start_ns or steps < 0:
+            raise ValueError(f"a clock at {time_ns} ns after {steps} steps from a start at "
+                             f"{start_ns} ns")
+        for spec, qi, vi in zip(self.scene.bodies, q.tolist(), v.tolist()):
+            energy = spec.mass.energy_of_motion(math.hypot(vi[0], vi[1]), vi[2])
+            if not (all(map(math.isfinite, qi)) and math.isfinite(energy)):
+                raise ValueError(f"the state of '{spec.name}' ({qi}, {vi}) is not finite or "
+                                 "moves it with an energy of motion past what a double holds")
+        self.start_ns, self._time_ns, self._steps = start_ns, time_ns, steps
         self.q, self.v = q, v
         self._inputs.import_state(state["inputs"], self._row)
         rows = [held.row for held in self._inputs.active()]

@@ -87,3 +87,30 @@ def test_a_copy_keeps_sleeping_islands_and_located_impacts(option: str) -> None:
         w["box2"].apply_force((30.0, 0.0), point=(0.0, 2.0), duration=0.1)
         w.advance(3.0)
     same_run(world, branch)
+
+
+@pytest.mark.parametrize("damage", ["NaN q", "inf v", "1e200 v", "time before start",
+                                    "negative steps"])
+def test_a_state_the_world_could_not_have_is_refused(damage: str) -> None:
+    """set_state (and so a copy's or a keyframe's import) refuses a state with a value that
+    is not finite, an energy of motion no double holds, or a clock before its start."""
+    world = hd.World(gravity=(0.0, -9.81), step=0.001)
+    world.add_body("ball", hd.Circle(0.2), mass=1.0, position=(0, 1))
+    world.advance(0.1)
+    state = world.state()
+    before = json.dumps(state)
+    simulation = state["simulation"]
+    if damage == "NaN q":
+        simulation["q"][0][1] = float("nan")
+    elif damage == "inf v":
+        simulation["v"][0][2] = float("inf")
+    elif damage == "1e200 v":
+        simulation["v"][0][0] = 1e200
+    elif damage == "time before start":
+        simulation["time_ns"] = simulation["start_ns"] - 5
+    else:
+        simulation["steps"] = -1
+    with pytest.raises(ValueError, match=r"^state: not what World\.state\(\) returns "
+                                         r"\(ValueError: .*\)$"):
+        world.set_state(state)
+    assert json.dumps(world.state()) == before
