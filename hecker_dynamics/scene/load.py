@@ -266,10 +266,13 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
+    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path) or \
+            path.is_symlink():
         if not path.is_file():
             what = ("is a directory, not a scene file" if path.is_dir()
-                    else "is not a regular file" if path.exists() else "no such scene file")
+                    else "is not a regular file" if path.exists()
+                    else "is a broken symlink or a symlink loop" if path.is_symlink()
+                    else "no such scene file")
             raise SceneError(f"{path}: {what}")
         return path
     for directory in config_directories():
