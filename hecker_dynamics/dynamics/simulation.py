@@ -425,8 +425,10 @@ class Simulation:
         """``command``'s row (:meth:`_row`), or :class:`InputError` if its wrench, acting
         alone for one step from its body's motion now, would give the body an energy of
         motion no double holds: 1/2 m (|v| + |F| h / m)^2 + 1/2 I (|omega| + (|tau| +
-        |r| |F|) h / I)^2 (Eq. 5, 11 and 14). 1e308 N on 1 kg is 1e305 m/s a millisecond
-        later, a finite state the energy bound could not judge."""
+        |r| |F|) h / I)^2, with the force over the mass (Eq. 5), the torque of the force at
+        the lever arm r (Eq. 11) and the angular acceleration, torque over I (Eq. 14).
+        1e308 N on 1 kg is 1e305 m/s a millisecond later, a finite state the energy bound
+        could not judge."""
         row = self._row(command)
         i, fx, fy, owner = row.body, *row.force, row.point_body
         force = math.hypot(fx, fy)

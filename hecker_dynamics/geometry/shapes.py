@@ -101,7 +101,8 @@ class MassProperties:
 
     def energy_of_motion(self, speed: float, spin: float) -> float:
         """1/2 M v^2 + 1/2 I omega^2 of the body moving its CM at ``speed`` and turning
-        at ``spin`` (Eq. 13's I about the CM): ``inf`` where no double holds it."""
+        at ``spin``, I its moment of inertia about the CM (Eq. 13): ``inf`` where no double
+        holds it."""
         speed, spin = float(speed), float(spin)  # plain floats overflow to inf quietly
         return 0.5 * float(self.mass) * speed * speed + \
             0.5 * float(self.moment_of_inertia) * spin * spin

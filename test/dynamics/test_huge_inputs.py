@@ -6,7 +6,8 @@ stepped, read and published with an infinite energy before any check.
 
 The line drawn is the body's energy of motion after one step of the wrench acting alone,
 from its motion now, 1/2 m (|v| + |F| h / m)^2 + 1/2 I (|omega| + (|tau| + |r| |F|) h /
-I)^2 (Eq. 5, 11 and 14): it must be a finite double. Just inside it, the step is the
+I)^2 (the force over the mass, Eq. 5; the torque at the lever arm r, Eq. 11; the angular
+acceleration, Eq. 14): it must be a finite double. Just inside it, the step is the
 exact constant-acceleration step, so nothing legitimate is refused."""
 from __future__ import annotations
 
