@@ -211,6 +211,9 @@ class World:
             read_joint(key, values["type"], reader, specs, points, params["frame_id"])
 
     def _body_name(self, body: BodyLike, argument: str) -> str:
+        if isinstance(body, Body) and body._world is not self:  # a copy's has the same name
+            raise ValueError(f"{argument}: body '{body.name}' is a Body of another World "
+                             f"(this world's: world['{body.name}'])")
         name = body.name if isinstance(body, Body) else body
         if not isinstance(name, str):
             raise TypeError(f"{argument}: expected a Body or a body's name, "

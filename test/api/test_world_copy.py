@@ -114,3 +114,19 @@ def test_a_state_the_world_could_not_have_is_refused(damage: str) -> None:
                                          r"\(ValueError: .*\)$"):
         world.set_state(state)
     assert json.dumps(world.state()) == before
+
+
+def test_a_body_of_another_world_is_refused_not_taken_by_its_name() -> None:
+    """After a copy both worlds have a body 'ball': the original's Body given to the branch
+    must not stand for the branch's own body of that name."""
+    world = hd.World(step=0.001)
+    ball = world.add_body("ball", hd.Circle(0.2), mass=1.0)
+    world.add_body("post", hd.Circle(0.2), mass=1.0, position=(2, 0))
+    branch = copy.deepcopy(world)
+    message = r"is a Body of another World \(this world's: world\['ball'\]\)$"
+    with pytest.raises(ValueError, match=r"^body_a: body 'ball' " + message):
+        branch.add_spring("s", ball, body_b="post", stiffness=1.0)
+    branch.step()
+    with pytest.raises(ValueError, match=r"^body: body 'ball' " + message):
+        branch.remove_body(ball)
+    assert "ball" in branch and len(branch) == 2
