@@ -608,10 +608,11 @@ class World:
         if stamp < now:
             raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
         if name is None:
-            self._count += 1
-            source = f"force{self._count}"
-        else:
+            source = f"force{self._count + 1}"
+        elif isinstance(name, str):
             source = name
+        else:
+            raise TypeError(f"name: expected a string, not {type(name).__name__}")
         command = WrenchCommand(stamp, body.name, source, body.name if in_body else fixed,
                                 at, vector(force, "force"), number(torque, "torque"),
                                 duration_ns)
@@ -619,6 +620,8 @@ class World:
         sim.check_reach(command)  # a scheduled force too: refused now, not mid-advance
         if stamp == now:
             sim.push(command)
+        if name is None:  # counted once taken, so a refused force changes nothing
+            self._count += 1
         self._started = True
         if stamp != now:
             order = max((entry[1] for entry in self._schedule), default=-1) + 1
