@@ -162,6 +162,11 @@ class World:
             world._schedule = [(c.stamp_ns, i, c) for i, c in enumerate(loaded.script)]
         return world
 
+    def __copy__(self) -> World:
+        """A branch, as :func:`copy.deepcopy` makes it: a shallow copy would share the
+        simulation and its bodies, so stepping one world would step the other."""
+        return copy.deepcopy(self)
+
     # ----------------------------------------------------------------- building
 
     def _edit(self, what: str) -> dict[str, Any]:

@@ -15,6 +15,7 @@ from hecker_dynamics.scene.load import shipped_scenes
 
 COPIES: dict[str, Callable[[hd.World], hd.World]] = {
     "deepcopy": copy.deepcopy,
+    "copy": copy.copy,  # a shallow copy sharing the simulation would step both
     "pickle": lambda world: pickle.loads(pickle.dumps(world)),
 }
 
