@@ -22,6 +22,8 @@ import contextlib
 import dataclasses
 import decimal
 import math
+import os
+import signal
 import sys
 import time
 import warnings
@@ -911,6 +913,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             OutputError) as error:
         print(f"hecker-dynamics: error: {_one_line(str(error))}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # The reader went away (``| head``): what is left to print goes nowhere, and the
+        # exit status is the shell's for a write to a closed pipe, 128 + SIGPIPE.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
 
 
 if __name__ == "__main__":

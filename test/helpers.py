@@ -70,3 +70,10 @@ def exact_wrapped_angle(angle0: float, omega: float, step: float, n: int) -> flo
 def angle_difference(a: float, b: float) -> float:
     """|a - b| taken the short way round the circle."""
     return abs(math.remainder(a - b, 2.0 * math.pi))
+
+
+def push_unchecked(sim: Any, command: Any) -> None:
+    """Queue ``command`` on ``sim`` past the push's check that refuses a wrench running its
+    body away within one step (:meth:`Simulation.check_reach`): for the tests of what a
+    state overflowing inside a step does."""
+    sim._inputs.add(command, sim._row(command))

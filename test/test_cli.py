@@ -237,6 +237,20 @@ def test_as_a_process_exit_codes_and_no_traceback(tmp_path):
     assert "Traceback" not in bad.stderr and "'step'" in bad.stderr and str(path) in bad.stderr
 
 
+def test_a_reader_that_stops_reading_gets_no_traceback():
+    """``hecker-dynamics run | head -1``: the pipe closes before the report is written; the
+    run ends quietly with the shell's status for a broken pipe, 128 + SIGPIPE."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    process = subprocess.Popen([sys.executable, "-m", "hecker_dynamics.cli", "run",
+                                "--duration", "0.2"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, env=env)
+    assert process.stdout is not None and process.stderr is not None
+    process.stdout.close()  # no reader left: the first line written breaks the pipe
+    err = process.stderr.read().decode()
+    assert process.wait(timeout=120) == 141
+    assert err == ""
+
+
 def test_bag_commands_refuse_absurd_times_without_a_traceback(tmp_path, capsys):
     with pytest.raises(SystemExit) as caught:
         main(["script", "sample", "-o", str(tmp_path / "in"), "--start", "1e999999"])

@@ -590,7 +590,11 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
 
     path = Path(path)
     if not path.exists():
-        raise BagError(f"{path}: no such bag")
+        raise BagError(f"{path}: " + ("is a broken symlink or a symlink loop"
+                                      if path.is_symlink() else "no such bag"))
+    if path.is_dir() and not (path / "metadata.yaml").exists():
+        raise BagError(f"{path}: no metadata.yaml (a recording cut off before it was closed? "
+                       f"'ros2 bag reindex {path}' writes it)")
     wanted = set(topics) if topics is not None else None
     try:
         with Reader(path) as reader:

@@ -229,7 +229,8 @@ def _observe(extrema: _Extrema, snapshot: Snapshot, contacts: Optional[int]) -> 
 def summarize(scene: Scene) -> dict[str, Cell]:
     """Run ``scene`` for its duration with its script and return its summary row.
 
-    Columns: ``status`` (``ok`` or ``diverged``) and ``message``; ``time``, ``steps``;
+    Columns: ``status`` (``ok``, ``diverged``, or ``rejected``: a scripted input or drive
+    force was refused, the run went on without it) and ``message``; ``time``, ``steps``;
     ``energy_start``, ``energy_end``, ``energy_max``; ``contacts_end`` and ``contacts_max``
     (None for a scene without contacts); per body ``<body>.<field>`` for the final
     :data:`STATE_FIELDS` and ``<body>.x_min``, ``x_max``, ``y_min``, ``y_max``, ``speed_max``
@@ -245,7 +246,8 @@ def summarize(scene: Scene) -> dict[str, Cell]:
     first = sim.snapshot()
     extrema = _Extrema()
     _observe(extrema, first, contacts())
-    halted = runner.advance(0).diverged
+    started = runner.advance(0)
+    halted, refused = started.diverged, list(started.script_errors)
     period = scene.publish_period_ns
     tick = 0
     while halted is None and tick + period <= scene.duration_ns:
@@ -254,12 +256,14 @@ def summarize(scene: Scene) -> dict[str, Cell]:
         for snapshot in result.snapshots:
             _observe(extrema, snapshot, contacts() if snapshot is result.snapshots[-1] else None)
         halted = result.diverged
+        refused += result.script_errors
     last = sim.snapshot()
     final_contacts = contacts()
     if final_contacts is not None:
         extrema.add("contacts", final_contacts)
     row: dict[str, Cell] = {
-        "status": "ok" if halted is None else "diverged", "message": halted or "",
+        "status": "diverged" if halted else "rejected" if refused else "ok",
+        "message": halted or (refused[0] if refused else ""),
         "time": last.time_ns * 1e-9, "steps": last.steps,
         "energy_start": first.energy, "energy_end": last.energy,
         "energy_max": extrema.high["energy"],

@@ -256,8 +256,17 @@ class Simulation:
         if q.shape != self.q.shape or v.shape != self.v.shape:
             raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
                              f"{self.model.size}")
-        self.start_ns, self._time_ns = int(state["start_ns"]), int(state["time_ns"])
-        self._steps = int(state["steps"])
+        start_ns, time_ns = int(state["start_ns"]), int(state["time_ns"])
+        steps = int(state["steps"])
+        if time_ns < start_ns or steps < 0:
+            raise ValueError(f"a clock at {time_ns} ns after {steps} steps from a start at "
+                             f"{start_ns} ns")
+        for spec, qi, vi in zip(self.scene.bodies, q.tolist(), v.tolist()):
+            energy = spec.mass.energy_of_motion(math.hypot(vi[0], vi[1]), vi[2])
+            if not (all(map(math.isfinite, qi)) and math.isfinite(energy)):
+                raise ValueError(f"the state of '{spec.name}' ({qi}, {vi}) is not finite or "
+                                 "moves it with an energy of motion past what a double holds")
+        self.start_ns, self._time_ns, self._steps = start_ns, time_ns, steps
         self.q, self.v = q, v
         self._inputs.import_state(state["inputs"], self._row)
         rows = [held.row for held in self._inputs.active()]
@@ -275,6 +284,17 @@ class Simulation:
                          np.array(divergence["checked_v"], dtype=float).reshape(v.shape),
                          int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
         self._halted = divergence["halted"]
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What :mod:`pickle` and :func:`copy.deepcopy` keep: the scene and
+        :meth:`export_state`'s plain data, not the compiled kernel's handles (capsules),
+        which :meth:`__setstate__` builds anew, so a copy steps bit for bit as this does."""
+        return {"scene": self.scene, "state": self.export_state()}
+
+    def __setstate__(self, saved: dict[str, Any]) -> None:
+        state = saved["state"]
+        self.__init__(saved["scene"], start_ns=int(state["start_ns"]))  # type: ignore[misc]
+        self.import_state(state)
 
     def _hold(self, rows: list[WrenchRow]) -> None:
         """Keep the bodies the inputs push awake (where resting islands sleep)."""
@@ -299,6 +319,10 @@ class Simulation:
                                     np.array([angle], dtype=float),
                                     np.array([linear_velocity], dtype=float),
                                     np.array([angular_velocity], dtype=float))
+        energy = self.scene.bodies[index].mass.energy_of_motion(math.hypot(*v[0, :2]), v[0, 2])
+        if not math.isfinite(energy):  # a state the energy bound could not judge
+            raise InputError(f"the state for '{name}' moves it with an energy of motion past "
+                             f"what a double holds ({numbers})")
         self.q, self.v = self.q.copy(), self.v.copy()
         self.q[index], self.v[index] = q[0], v[0]
         wrap_angles_in_place(self.q[:, 2])
@@ -395,7 +419,41 @@ class Simulation:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' ended before the "
                 f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
-        self._inputs.add(command, self._row(command))
+        self._inputs.add(command, self.check_reach(command))
+
+    def check_reach(self, command: WrenchCommand) -> WrenchRow:
+        """``command``'s row (:meth:`_row`), or :class:`InputError` if its wrench, acting
+        alone for one step from its body's motion now, would give the body an energy of
+        motion no double holds: 1/2 m (|v| + |F| h / m)^2 + 1/2 I (|omega| + (|tau| +
+        |r| |F|) h / I)^2, with the force over the mass (Eq. 5), the torque of the force at
+        the lever arm r (Eq. 11) and the angular acceleration, torque over I (Eq. 14).
+        1e308 N on 1 kg is 1e305 m/s a millisecond later, a finite state the energy bound
+        could not judge."""
+        row = self._row(command)
+        i, fx, fy, owner = row.body, *row.force, row.point_body
+        force = math.hypot(fx, fy)
+        lever = 0.0
+        if row.at_point and force:
+            q = self.q
+            if owner == i:
+                lever = math.hypot(*row.point)
+            elif owner < 0:
+                lever = math.hypot(row.point[0] - q[i, 0], row.point[1] - q[i, 1])
+            else:  # a point of another body: at most its distance from that body's CM more
+                lever = math.hypot(*row.point) + math.hypot(q[owner, 0] - q[i, 0],
+                                                            q[owner, 1] - q[i, 1])
+        properties = self.scene.bodies[i].mass
+        vx, vy, spin = self.v[i].tolist()
+        h = self.step_seconds
+        speed = math.hypot(vx, vy) + force * h / properties.mass
+        turn = abs(spin) + (abs(row.torque) + lever * force) * h / properties.moment_of_inertia
+        if not math.isfinite(properties.energy_of_motion(speed, turn)):
+            raise InputError(
+                f"wrench for body '{command.body}' from '{command.source}' would give it an "
+                f"energy of motion past what a double holds after one step of {h:g} s "
+                f"({speed:.3g} m/s, {turn:.3g} rad/s; force={command.force}, "
+                f"point={command.point}, torque={command.torque})")
+        return row
 
     def push_replacements(self, commands: Sequence[WrenchCommand]) -> None:
         """:meth:`push` each of ``commands``, stamped now, from bodies and sources whose

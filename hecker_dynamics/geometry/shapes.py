@@ -99,6 +99,14 @@ class MassProperties:
     center_of_mass: tuple[float, float]  # body frame
     moment_of_inertia: float
 
+    def energy_of_motion(self, speed: float, spin: float) -> float:
+        """1/2 M v^2 + 1/2 I omega^2 of the body moving its CM at ``speed`` and turning
+        at ``spin``, I its moment of inertia about the CM (Eq. 13): ``inf`` where no double
+        holds it."""
+        speed, spin = float(speed), float(spin)  # plain floats overflow to inf quietly
+        return 0.5 * float(self.mass) * speed * speed + \
+            0.5 * float(self.moment_of_inertia) * spin * spin
+
 
 def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Whether closed segments p1-p2 and q1-q2 touch or cross, element-wise over the

@@ -266,10 +266,13 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path):
+    if path.suffix in (".yaml", ".yml") or path.is_file() or os.sep in str(name_or_path) or \
+            path.is_symlink():
         if not path.is_file():
             what = ("is a directory, not a scene file" if path.is_dir()
-                    else "is not a regular file" if path.exists() else "no such scene file")
+                    else "is not a regular file" if path.exists()
+                    else "is a broken symlink or a symlink loop" if path.is_symlink()
+                    else "no such scene file")
             raise SceneError(f"{path}: {what}")
         return path
     for directory in config_directories():
@@ -501,13 +504,23 @@ def read_body(name: str, reader: ParameterReader) -> BodySpec:
     except GeometryError as error:
         raise SceneError(f"{reader.source}: body '{name}': {error}") from error
     points = dict(_read_points(reader))
+    angle, velocity = reader.number("angle", 0.0), reader.vector("velocity", [0.0, 0.0])
+    spin = reader.number("angular_velocity", 0.0)
+    # The CM's velocity, v_O + omega perp(r_OC) (Eq. 9), and the spin: a state whose energy
+    # of motion no double holds is one the energy bound cannot judge.
+    cx, cy = properties.center_of_mass
+    c, s = math.cos(angle), math.sin(angle)
+    speed = math.hypot(velocity[0] - spin * (s * cx + c * cy),
+                       velocity[1] + spin * (c * cx - s * cy))
+    if not math.isfinite(properties.energy_of_motion(speed, spin)):
+        spinning = not math.isfinite(properties.energy_of_motion(0.0, spin))
+        reader.fail("angular_velocity" if spinning else "velocity",
+                    f"moves the body so fast ({speed:.3g} m/s, {abs(spin):.3g} rad/s) that "
+                    "its energy of motion is past what a double holds")
     return BodySpec(
         name=name, shapes=tuple(shapes), mass=properties,
-        position=reader.vector("position", [0.0, 0.0]),
-        angle=reader.number("angle", 0.0),
-        velocity=reader.vector("velocity", [0.0, 0.0]),
-        angular_velocity=reader.number("angular_velocity", 0.0),
-        points=points,
+        position=reader.vector("position", [0.0, 0.0]), angle=angle, velocity=velocity,
+        angular_velocity=spin, points=points,
     )
 
 

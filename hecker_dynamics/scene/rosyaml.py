@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import re
 import sys
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,8 +30,8 @@ import yaml
 
 from .parameters import SceneError, quoted
 
-__all__ = ["MAX_BYTES", "MAX_DEPTH", "merge_parameters", "read_parameters_file",
-           "read_parameters_text", "ros_scalar"]
+__all__ = ["DuplicateParameterWarning", "MAX_BYTES", "MAX_DEPTH", "merge_parameters",
+           "read_parameters_file", "read_parameters_text", "ros_scalar"]
 
 #: Largest parameters file read (bytes): a scene with thousands of bodies is far smaller.
 MAX_BYTES = 16 << 20
@@ -49,6 +50,11 @@ _SPECIAL = re.compile(r"[+-]?(inf|infinity|nan(\([0-9a-zA-Z_]*\))?)", re.IGNOREC
 _YAML_SPECIAL = frozenset(f"{sign}.{word}" for sign in ("", "+", "-")
                           for word in ("inf", "Inf", "INF")) | {".nan", ".NaN", ".NAN"}
 INT64 = 1 << 63
+
+
+class DuplicateParameterWarning(UserWarning):
+    """A parameters file gives one parameter twice: ROS 2 keeps the last value."""
+
 #: libyaml's parser where PyYAML was built with it (as rcl's is; ten times faster), else
 #: PyYAML's own: the same events.
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -155,6 +161,12 @@ class _Builder:
         raise self.fail(event, f"unexpected {type(event).__name__}")
 
     def merge(self, mapping: dict[Any, Any], key: Any, value: Any, event: yaml.Event) -> None:
+        for name in _replaced(mapping, {key: value}):
+            # rcl keeps the last value; the earlier one, likely a slip, is lost: say so.
+            mark = event.start_mark
+            warnings.warn(f"{self.source}: line {mark.line + 1}: parameter "
+                          f"'{name.split('ros__parameters.', 1)[-1]}' is given again; ROS 2 "
+                          "keeps the last value", DuplicateParameterWarning, stacklevel=2)
         try:
             merge_parameters(mapping, {key: value})
         except SceneError as error:
@@ -173,6 +185,17 @@ class _Builder:
             for key, section in document.items():
                 self.merge(merged, key, section, event)
         return merged
+
+
+def _replaced(mapping: dict[Any, Any], values: dict[Any, Any], prefix: str = "") -> Iterator[str]:
+    """The dotted names of the values in ``mapping`` that merging ``values`` replaces."""
+    for key, value in values.items():
+        old = mapping.get(key)
+        name = f"{prefix}{repr(str(key))[1:-1][:120]}"
+        if isinstance(old, dict) and isinstance(value, dict):
+            yield from _replaced(old, value, f"{name}.")
+        elif key in mapping and not isinstance(old, dict) and not isinstance(value, dict):
+            yield name
 
 
 def merge_parameters(mapping: dict[Any, Any], values: dict[Any, Any]) -> None:

@@ -185,6 +185,11 @@ class World:
         return [(start_ns + c.stamp_ns, i, dataclasses.replace(c, stamp_ns=start_ns + c.stamp_ns))
                 for i, c in enumerate(self._script)]
 
+    def __copy__(self) -> World:
+        """A branch, as :func:`copy.deepcopy` makes it: a shallow copy would share the
+        simulation and its bodies, so stepping one world would step the other."""
+        return copy.deepcopy(self)
+
     # ----------------------------------------------------------------- building
 
     def _edit(self, what: str) -> dict[str, Any]:
@@ -234,6 +239,9 @@ class World:
             read_joint(key, values["type"], reader, specs, points, params["frame_id"])
 
     def _body_name(self, body: BodyLike, argument: str) -> str:
+        if isinstance(body, Body) and body._world is not self:  # a copy's has the same name
+            raise ValueError(f"{argument}: body '{body.name}' is a Body of another World "
+                             f"(this world's: world['{body.name}'])")
         name = body.name if isinstance(body, Body) else body
         if not isinstance(name, str):
             raise TypeError(f"{argument}: expected a Body or a body's name, "
@@ -662,18 +670,22 @@ class World:
         if stamp < now:
             raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
         if name is None:
-            self._count += 1
-            source = f"force{self._count}"
-        else:
+            source = f"force{self._count + 1}"
+        elif isinstance(name, str):
             source = name
+        else:
+            raise TypeError(f"name: expected a string, not {type(name).__name__}")
         command = WrenchCommand(stamp, body.name, source, body.name if in_body else fixed,
                                 at, vector(force, "force"), number(torque, "torque"),
                                 duration_ns)
         command.check_finite()
-        self._started = True
+        sim.check_reach(command)  # a scheduled force too: refused now, not mid-advance
         if stamp == now:
             sim.push(command)
-        else:
+        if name is None:  # counted once taken, so a refused force changes nothing
+            self._count += 1
+        self._started = True
+        if stamp != now:
             order = max((entry[1] for entry in self._schedule), default=-1) + 1
             self._schedule.append((stamp, order, command))
             self._schedule.sort(key=lambda entry: entry[:2])

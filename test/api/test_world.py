@@ -306,6 +306,11 @@ ERRORS = [
     (lambda w: w.add_body("b" * 101, hd.Circle(1.0), mass=1.0), ValueError,
      r"^name: 'b+' is not a valid name \(letters, digits and underscores, starting with a "
      r"letter, at most 100\)$"),
+    # A force's name is its source, a string, as a message's id is.
+    (lambda w: w["box"].apply_force((1, 0), name=123), TypeError,
+     r"^name: expected a string, not int$"),
+    (lambda w: w["box"].apply_torque(1.0, name=b"spin"), TypeError,
+     r"^name: expected a string, not bytes$"),
 ]
 
 

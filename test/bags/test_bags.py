@@ -490,6 +490,15 @@ def test_reader_errors_are_bag_errors(tmp_path):
         read_bag(tmp_path / "junk.mcap")
     with pytest.raises(BagError, match="no such bag"):
         read_bag(tmp_path / "absent")
+    cut = tmp_path / "cut"  # what a recorder killed mid-recording leaves
+    cut.mkdir()
+    (cut / "cut_0.mcap").write_bytes(b"\x89MCAP0\r\n")
+    with pytest.raises(BagError, match=r"cut: no metadata\.yaml \(a recording cut off before "
+                                       r"it was closed\? 'ros2 bag reindex .*cut' writes it\)$"):
+        read_bag(cut)
+    (tmp_path / "loop").symlink_to(tmp_path / "loop")
+    with pytest.raises(BagError, match=r"loop: is a broken symlink or a symlink loop$"):
+        read_bag(tmp_path / "loop")
     db = tmp_path / "bare.db3"
     sqlite3.connect(db).close()
     with pytest.raises(BagError):

@@ -227,14 +227,30 @@ def test_summary_of_free_flight_is_exact(tmp_path):
 
 def test_summary_reports_a_divergence_and_keeps_the_last_finite_state(tmp_path):
     path = write_scene(tmp_path, {
+        "step": 0.001, "duration": 0.2, "integrator": "explicit_euler",
+        "bodies": {"tiny": {"shape": "circle", "radius": 0.1, "mass": 1e-3,
+                            "position": [1.0, 0.0]}},
+        "forces": {"pin": {"type": "spring", "body_a": "tiny", "anchor": [0.0, 0.0],
+                           "stiffness": 1e4}}})
+    variant, = make_variants(str(path), [parse_setting("bodies.tiny.mass=1e-3")])
+    row = summarize(variant.scene)  # h sqrt(k / m) = 3.2: explicit Euler's spiral outward
+    assert row["status"] == "diverged" and "tiny diverged" in row["message"]
+    assert row["time"] < 0.2 and all(math.isfinite(row[f"tiny.{f}"]) for f in ("x", "y", "vx"))
+
+
+def test_summary_reports_a_refused_scripted_input(tmp_path):
+    """1e308 N on 1 g: refused as it is pushed, so the row must not read ``ok``."""
+    path = write_scene(tmp_path, {
         "step": 0.001, "duration": 0.2, "integrator": "semi_implicit_euler",
         "bodies": {"tiny": {"shape": "circle", "radius": 0.1, "mass": 1e-3}},
         "script": {"boom": {"time": 0.05, "body": "tiny", "frame_id": "world",
                             "force": [1e308, 1e308], "duration": 0.1}}})
     variant, = make_variants(str(path), [parse_setting("bodies.tiny.mass=1e-3")])
     row = summarize(variant.scene)
-    assert row["status"] == "diverged" and "tiny diverged" in row["message"]
-    assert row["time"] < 0.2 and all(math.isfinite(row[f"tiny.{f}"]) for f in ("x", "y", "vx"))
+    assert row["status"] == "rejected"
+    assert row["message"].startswith("scripted input rejected: wrench for body 'tiny' from "
+                                     "'boom' would give it an energy of motion past")
+    assert row["time"] == 0.2 and row["tiny.x"] == row["tiny.vx"] == 0.0
 
 
 def test_summary_counts_contacts_of_a_resting_box(tmp_path):

@@ -13,6 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from helpers import push_unchecked
 
 from hecker_dynamics.dynamics.simulation import BodyState, Simulation
 from hecker_dynamics.geometry.shapes import Circle, Polygon, box
@@ -601,8 +602,8 @@ def test_runner_diagnostics_schedule_and_divergence():
         "substeps"] == "0"
     assert runner.advance(S // 2).diagnostics is None  # at most once a second of sim time
     assert dict(runner.advance(S).diagnostics.values)["substeps"] == "500"
-    runner.sim.push(WrenchCommand(S + 5_000_000, "tiny", "boom", "world", (2.0, 0.1),
-                                  (1e308, 1e308), 0.0, 0))
+    push_unchecked(runner.sim, WrenchCommand(S + 5_000_000, "tiny", "boom", "world",
+                                             (2.0, 0.1), (1e308, 1e308), 0.0, 0))
     tick = runner.advance(2 * S)
     assert tick.diverged and runner.halted == tick.diverged and runner.done()
     assert (tick.diagnostics.level, tick.diagnostics.message) == (DIAGNOSTIC_ERROR, tick.diverged)

@@ -14,6 +14,7 @@ import pytest
 
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene.load import SceneError, load_scene
+from hecker_dynamics.scene.rosyaml import DuplicateParameterWarning
 
 HEAD = "dynamics_node:\n  ros__parameters:\n"
 BODY = ("    bodies:\n      b:\n        shape: box\n        size: [1.0, 0.5]\n"
@@ -103,16 +104,28 @@ def test_wildcard_and_node_sections_merge_node_first(tmp_path):
     assert load_scene(_write(tmp_path, text)).bodies[0].mass.mass == 2.0
 
 
-def test_duplicate_keys_as_ros2_treats_them(tmp_path):
+def test_duplicate_keys_as_ros2_treats_them(tmp_path, capsys):
     """rcl keeps one value per parameter name, the last one written; a repeated mapping
-    (a node section, 'bodies') adds its parameters to the earlier one's."""
+    (a node section, 'bodies') adds its parameters to the earlier one's. A value given
+    again loses the earlier one, so it warns, naming the line and the parameter."""
     text = (_scene_text("2.0") + "    step: 0.002\n    step: 0.004\n"
             "    bodies:\n      c:\n        shape: circle\n        radius: 0.5\n"
             "        mass: 1.0\n"
-            "dynamics_node:\n  ros__parameters:\n    duration: 2.0\n")
-    scene = load_scene(_write(tmp_path, text))
+            "dynamics_node:\n  ros__parameters:\n    duration: 2.0\n"
+            "    bodies:\n      b:\n        mass: 3.0\n")
+    path = _write(tmp_path, text)
+    with pytest.warns(DuplicateParameterWarning) as caught:
+        scene = load_scene(path)
+    assert [str(w.message) for w in caught] == [
+        f"{path}: line 9: parameter 'step' is given again; ROS 2 keeps the last value",
+        f"{path}: line 15: parameter 'bodies.b.mass' is given again; ROS 2 keeps the last "
+        "value"]
     assert scene.step_ns == 4_000_000 and scene.duration_ns == 2_000_000_000
-    assert [b.name for b in scene.bodies] == ["b", "c"]
+    assert [b.name for b in scene.bodies] == ["b", "c"] and scene.bodies[0].mass.mass == 3.0
+    assert main(["run", str(path), "--duration", "0.01"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 2 and err.startswith(
+        f"hecker-dynamics: warning: {path}: line 9: parameter 'step' is given again")
 
 
 def test_multiple_documents_merge_as_ros2_reads_them(tmp_path):

@@ -338,6 +338,20 @@ def test_a_scene_path_that_is_no_file_says_what_it_is(tmp_path, make, message):
         load_scene(path)
 
 
+@pytest.mark.parametrize("loop", [True, False])
+def test_a_symlink_that_leads_nowhere_is_named_so_not_taken_for_a_scene_name(tmp_path,
+                                                                               monkeypatch,
+                                                                               loop):
+    """A bare name that is a dangling symlink or a symlink loop is the file the user
+    meant, not a shipped scene's name."""
+    monkeypatch.chdir(tmp_path)
+    Path("scene").symlink_to("other" if loop else "gone.yaml")
+    if loop:
+        Path("other").symlink_to("scene")
+    with pytest.raises(SceneError, match=r"^scene: is a broken symlink or a symlink loop$"):
+        load_scene("scene")
+
+
 # ------------------------------------------------------------------ model: only what is declared
 
 def _contact_pass(model):
