@@ -949,6 +949,34 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
         ext.run(stepper, None, False)
 
 
+def test_the_force_binding_takes_its_arguments_by_name(ext):
+    """program, pair, accelerations and bound take their arguments by keyword: the
+    accelerations by name are those by position, bound's check by name is the one by
+    position, and a keyword unknown or missing is refused by name."""
+    program = ext.program(bodies=2, inverse_mass=np.array([1.0, 1.0, 2.0, 0.5, 0.5, 4.0]),
+                          terms=[_gravity(0), _gravity(1)])
+    q, v = np.array([0.0, 1.0, 0.3, 1.0, 0.0, -0.2]), np.array([1.0, 0.0, 2.0, 0.0, 0.5, 1.0])
+    named, placed = np.empty(6), np.empty(6)
+    ext.accelerations(program, inputs=None, oriented=True, q=q, v=v, out=named)
+    ext.accelerations(program, None, True, q, v, placed)
+    assert named.tolist() == placed.tolist() == [0.0, -9.81, 0.0, 0.0, -9.81 * 0.5, 0.0]
+    assert ext.pair(slopes=2, a=np.array([0.0, 1.0]), error=np.array([1.0, -1.0]),
+                    error_order=1) is not None
+    statics, unit = np.array([1.0, 2.0, 0.1, 0.2, -1.0, -1.0]), np.zeros(2, np.int64)
+    budgets = np.zeros((2, 8))
+    checks = [ext.bound(None, q=q, v=v, statics=statics, unit=unit, budget=budgets[0],
+                        seconds=0.01, growth=10.0),
+              ext.bound(None, q, v, statics, unit, budgets[1], 0.01, 10.0)]
+    assert checks[0] == checks[1] and budgets[0].tobytes() == budgets[1].tobytes()
+    assert budgets[0].any()
+    with pytest.raises(TypeError, match="unexpected keyword argument 'outs'"):
+        ext.accelerations(program, inputs=None, oriented=True, q=q, v=v, outs=named)
+    with pytest.raises(TypeError, match="missing required argument 'out'"):
+        ext.accelerations(program, inputs=None, oriented=True, q=q, v=v)
+    with pytest.raises(TypeError, match="missing required argument 'budget'"):
+        ext.bound(None, q=q, v=v, statics=statics, unit=unit)
+
+
 def test_the_stepper_binding_takes_its_arguments_by_name(ext, program):
     """stepper, step, run and failed_state take their arguments by keyword: steps by name
     have the bits of steps by position, and a keyword unknown, missing or given twice is
