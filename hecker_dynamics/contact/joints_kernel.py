@@ -110,11 +110,11 @@ class CompiledJoints:
         values += p.warm + (newton if newton is not None else [0.0] * len(p.rigid)) + p.extra
         values += [0.0 if newton is None else 1.0, p.step_h]
         self._state[:] = values
-        _kernel.joint_state(self.kernel, self._state, True)
+        _kernel.joint_state(self.kernel, state=self._state, load=True)
 
     def save(self) -> None:
         """The kernel's state back into the Python pass."""
-        _kernel.joint_state(self.kernel, self._state, False)
+        _kernel.joint_state(self.kernel, state=self._state, load=False)
         values = self._state.tolist()
         p = self._pass
         stride = _kernel.JOINT_STATE
@@ -130,7 +130,7 @@ class CompiledJoints:
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does."""
         self.load()
-        if not _kernel.joints_resolve(self.kernel, len(q0), q0, q1, v1, h):
+        if not _kernel.joints_resolve(self.kernel, bodies=len(q0), q0=q0, q1=q1, v1=v1, h=h):
             raise JointsUnsolved(f"the joints have no solution near the end of a step of "
                                  f"{h:g} s")
         self.save()

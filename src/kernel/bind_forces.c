@@ -1,5 +1,6 @@
 /* The binding of the force terms (kernel.h, forces.c) and the energy bound (bound.c) for
- * hecker_dynamics/dynamics/kernel.py: program, pair, accelerations, bound.
+ * hecker_dynamics/dynamics/kernel.py: program, pair, accelerations and bound, each taking
+ * keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -89,15 +90,19 @@ static int hd_read_term(PyObject *item, hd_term *term, long bodies)
 
 PyDoc_STRVAR(program_doc,
 "program(bodies, inverse_mass, terms) -> capsule\n\n"
-"Copy a model's force terms into a program: ``inverse_mass`` holds 1/m, 1/m, 1/I per body\n"
-"(None for a program of inputs), ``terms`` is a sequence of (kind, ints, reals) with the\n"
-"columns of kernel.h per instance, in the order they are summed.");
+"Copy a model's force terms into a program of ``bodies`` bodies: ``inverse_mass`` holds\n"
+"1/m (1/kg), 1/m, 1/I (1/(kg m^2)) per body, C-contiguous float64 (None for a program of\n"
+"inputs), ``terms`` is a sequence of (kind, ints, reals), kind a term's code (GRAVITY ...),\n"
+"ints int64 and reals float64 rows with the columns of kernel.h per instance, in the order\n"
+"they are summed.");
 
-static PyObject *hd_py_program(PyObject *self, PyObject *args)
+static PyObject *hd_py_program(PyObject *self, PyObject *args, PyObject *kwargs)
 {
+    static char *names[] = {"bodies", "inverse_mass", "terms", NULL};
     long bodies;
     PyObject *inverse_mass, *terms;
-    if (!PyArg_ParseTuple(args, "lOO:program", &bodies, &inverse_mass, &terms))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "lOO:program", names, &bodies,
+                                     &inverse_mass, &terms))
         return NULL;
     if (bodies < 0) {
         PyErr_SetString(PyExc_ValueError, "bodies must not be negative");
@@ -165,15 +170,19 @@ static void hd_pair_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(pair_doc,
 "pair(slopes, a, error, error_order) -> capsule\n\n"
-"An embedded Runge-Kutta pair: ``a`` is slopes x (slopes - 1) coefficients (stages, then\n"
-"the weights of the new state), ``error`` rows of ``slopes`` coefficients each.");
+"An embedded Runge-Kutta pair of ``slopes`` slopes (2 to 64): ``a`` is slopes x (slopes -\n"
+"1) coefficients, C-contiguous float64 (stages, then the weights of the new state),\n"
+"``error`` 1 or 2 rows of ``slopes`` coefficients each, ``error_order`` the order of the\n"
+"error estimate (int).");
 
-static PyObject *hd_py_pair(PyObject *self, PyObject *args)
+static PyObject *hd_py_pair(PyObject *self, PyObject *args, PyObject *kwargs)
 {
+    static char *names[] = {"slopes", "a", "error", "error_order", NULL};
     long slopes;
     int error_order;
     PyObject *a, *error;
-    if (!PyArg_ParseTuple(args, "lOOi:pair", &slopes, &a, &error, &error_order))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "lOOi:pair", names, &slopes, &a, &error,
+                                     &error_order))
         return NULL;
     if (slopes < 2 || slopes > 64) {
         PyErr_SetString(PyExc_ValueError, "a pair has 2 to 64 slopes");
@@ -213,17 +222,24 @@ static PyObject *hd_py_pair(PyObject *self, PyObject *args)
 
 PyDoc_STRVAR(accelerations_doc,
 "accelerations(program, inputs, oriented, q, v, out)\n\n"
-"Write (ax, ay, alpha) per body into ``out`` from the state (q, v): each a C-contiguous\n"
-"float64 array of 3 values per body.");
+"Write (ax, ay, alpha) (m/s^2, rad/s^2) per body into ``out`` from the state (q, v),\n"
+"(x, y, angle) and (vx, vy, omega) of each CM: each a C-contiguous float64 array of 3\n"
+"values per body; the forces of ``program`` (program()) and of the inputs' program\n"
+"``inputs`` (None: none); ``oriented``: some active force needs the angles.");
 
-static PyObject *hd_py_accelerations(PyObject *self, PyObject *args)
+static PyObject *hd_py_accelerations(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                                     PyObject *kwnames)
 {
-    PyObject *program, *inputs, *qo, *vo, *outo;
-    int oriented;
+    static const char *const names[] = {"program", "inputs", "oriented", "q", "v", "out",
+                                        NULL};
+    PyObject *given[6];
     hd_program *p, *in;
-    if (!PyArg_ParseTuple(args, "OOpOOO:accelerations", &program, &inputs, &oriented, &qo,
-                          &vo, &outo) ||
-        hd_get_programs(program, inputs, &p, &in) < 0)
+    if (hd_arguments("accelerations", args, nargs, kwnames, names, 6, 6, given) < 0 ||
+        hd_get_programs(given[0], given[1], &p, &in) < 0)
+        return NULL;
+    PyObject *qo = given[3], *vo = given[4], *outo = given[5];
+    const int oriented = PyObject_IsTrue(given[2]);
+    if (oriented < 0)
         return NULL;
     const Py_ssize_t n3 = 3 * p->bodies;
     Py_buffer qv, vv, ov;
@@ -329,24 +345,31 @@ static int hd_run_bound(hd_bound_args *a, int check, double seconds, double grow
 }
 
 PyDoc_STRVAR(bound_doc,
-"bound(springs, q, v, statics, unit, budget[, seconds, growth]) -> float or None\n\n"
+"bound(springs, q, v, statics, unit, budget, seconds=None, growth=0.0) -> float or None\n\n"
 "The energy bound (dynamics/divergence.py, with the same bits). Without ``seconds``: each unit's\n"
 "energy of motion and springs at (q, v) into row ENERGY of ``budget`` and its excess over\n"
 "the bodies' floors into row EXCESS (`_sums`). With them: one check (`_check_python`),\n"
 "the budget advanced by ``seconds`` and the limits ``growth`` times its square; returns\n"
 "the largest ratio of a unit's excess to its limit. ``springs``: a program of the\n"
 "springs, or None; ``statics``: masses, moments of inertia and floors, one per body\n"
-"each; ``unit``: int64, one per body; ``budget``: float64, writable, 8 rows of one value\n"
-"per unit.");
+"each (float64; kg, kg m^2, J); ``unit``: int64, one per body; ``budget``: float64,\n"
+"writable, 8 rows of one value per unit; (q, v): (x, y, angle) and (vx, vy, omega) of each\n"
+"CM, C-contiguous float64; ``seconds`` (s).");
 
-static PyObject *hd_py_bound(PyObject *self, PyObject *args)
+static PyObject *hd_py_bound(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                             PyObject *kwnames)
 {
-    PyObject *springs, *objects[5], *seconds = NULL;
-    double growth = 0.0, worst = 0.0;
-    hd_bound_args a;
-    if (!PyArg_ParseTuple(args, "OOOOOO|Od:bound", &springs, objects, objects + 1,
-                          objects + 2, objects + 3, objects + 4, &seconds, &growth))
+    static const char *const names[] = {"springs", "q", "v", "statics", "unit", "budget",
+                                        "seconds", "growth", NULL};
+    PyObject *given[8];
+    if (hd_arguments("bound", args, nargs, kwnames, names, 8, 6, given) < 0)
         return NULL;
+    PyObject *springs = given[0], *const *objects = given + 1;
+    PyObject *seconds = given[6] != Py_None ? given[6] : NULL;
+    double growth = 0.0, worst = 0.0;
+    if (given[7] != NULL && (growth = PyFloat_AsDouble(given[7])) == -1.0 && PyErr_Occurred())
+        return NULL;
+    hd_bound_args a;
     const double interval = seconds == NULL ? 0.0 : PyFloat_AsDouble(seconds);
     if ((seconds != NULL && PyErr_Occurred()) || hd_get_bound_args(&a, springs, objects) < 0 ||
         hd_run_bound(&a, seconds != NULL, interval, growth, &worst) < 0)
@@ -357,9 +380,12 @@ static PyObject *hd_py_bound(PyObject *self, PyObject *args)
 }
 
 PyMethodDef hd_bind_forces[] = {
-    {"program", hd_py_program, METH_VARARGS, program_doc},
-    {"pair", hd_py_pair, METH_VARARGS, pair_doc},
-    {"accelerations", hd_py_accelerations, METH_VARARGS, accelerations_doc},
-    {"bound", hd_py_bound, METH_VARARGS, bound_doc},
+    {"program", (PyCFunction)(void (*)(void))hd_py_program, METH_VARARGS | METH_KEYWORDS,
+     program_doc},
+    {"pair", (PyCFunction)(void (*)(void))hd_py_pair, METH_VARARGS | METH_KEYWORDS, pair_doc},
+    {"accelerations", (PyCFunction)(void (*)(void))hd_py_accelerations,
+     METH_FASTCALL | METH_KEYWORDS, accelerations_doc},
+    {"bound", (PyCFunction)(void (*)(void))hd_py_bound, METH_FASTCALL | METH_KEYWORDS,
+     bound_doc},
     {NULL, NULL, 0, NULL},
 };

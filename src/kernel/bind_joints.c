@@ -1,5 +1,5 @@
 /* The binding of the joint pass (joint.h) for hecker_dynamics/contact/joints_kernel.py:
- * joints (keyword arguments), joint_state, joints_resolve.
+ * joints, joint_state and joints_resolve, each taking keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -161,6 +161,18 @@ fail:
     return NULL;
 }
 
+/* The joint pass a fast call takes first (`joints`), all its `count` arguments read into
+ * `given` by hd_arguments, by position or keyword; NULL with an exception set if they or
+ * the capsule are not right. */
+static hd_joint_model *hd_joints_call(const char *function, PyObject *const *args,
+                                      Py_ssize_t nargs, PyObject *kwnames,
+                                      const char *const *names, int count, PyObject **given)
+{
+    if (hd_arguments(function, args, nargs, kwnames, names, count, count, given) < 0)
+        return NULL;
+    return PyCapsule_GetPointer(given[0], HD_JOINTS_CAPSULE);
+}
+
 /* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
  * the contact solve's extra impulses, whether the multipliers are set, and the last
  * step's length. */
@@ -171,21 +183,25 @@ static Py_ssize_t hd_joint_state_length(const hd_joint_model *m)
 
 PyDoc_STRVAR(joint_state_doc,
 "joint_state(joints, state, load)\n\n"
-"Copy the joint pass's state (joint.h: HD_JOINT_STATE per joint, the warm-start impulses,\n"
-"the Newton multipliers, the contact solve's extra impulses, 1.0 if the multipliers are\n"
-"set, the last step's length) from ``state``\n"
-"into the kernel (``load``) or from the kernel into ``state``.");
+"Copy the joint pass ``joints`` (joints())'s state from ``state`` into the kernel if\n"
+"``load`` is true, else from the kernel into ``state``: ``state`` C-contiguous float64,\n"
+"HD_JOINT_STATE values per joint (reference angle (rad), reference distance along the axis\n"
+"(m), angle (rad), its unwrapped value (rad), motor speed (rad/s or m/s)), the warm-start\n"
+"impulses of the rows, the Newton multipliers of the rigid rows, the contact solve's extra\n"
+"impulses of the rows, 1.0 if the multipliers are set, the last step's length (s).");
 
-static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
+static PyObject *hd_py_joint_state(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                                   PyObject *kwnames)
 {
-    PyObject *capsule, *object;
-    int load;
-    if (!PyArg_ParseTuple(args, "OOp:joint_state", &capsule, &object, &load))
+    static const char *const names[] = {"joints", "state", "load", NULL};
+    PyObject *given[3];
+    hd_joint_model *m = hd_joints_call("joint_state", args, nargs, kwnames, names, 3, given);
+    if (m == NULL)
         return NULL;
-    hd_joint_model *m = PyCapsule_GetPointer(capsule, HD_JOINTS_CAPSULE);
+    const int load = PyObject_IsTrue(given[2]);
     Py_buffer view;
-    if (m == NULL
-        || hd_get_buffer(object, &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
+    if (load < 0
+        || hd_get_buffer(given[1], &view, "state", 'd', hd_joint_state_length(m), !load) < 0)
         return NULL;
     double *s = view.buf;
     for (long i = 0; i < m->joint_count; ++i, s += HD_JOINT_STATE) {
@@ -221,21 +237,28 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *args)
 }
 
 PyDoc_STRVAR(joints_resolve_doc,
-"joints_resolve(joints, bodies, q0, q1, v1, h)\n\n"
-"The joint pass after a step of ``h`` from q0 to (q1, v1) of ``bodies`` bodies: updates\n"
-"q1 and v1 in place (JointPass.resolve). Returns False, changing nothing, when the\n"
-"positions have no solution near the step's end (JointsUnsolved), else True.");
+"joints_resolve(joints, bodies, q0, q1, v1, h) -> bool\n\n"
+"The joint pass ``joints`` (joints()) after a step of ``h`` (s) from q0 to (q1, v1)\n"
+"(JointPass.resolve): ``bodies`` the model's number of bodies; ``q0`` the step's start and\n"
+"``q1`` its end, (x, y, angle) of each CM, ``v1`` the end's (vx, vy, omega), each\n"
+"C-contiguous float64 of 3 * bodies values; q1 and v1 are updated in place. Returns False,\n"
+"changing nothing, when the positions have no solution near the step's end\n"
+"(JointsUnsolved), else True.");
 
-static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *args)
+static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                                      PyObject *kwnames)
 {
-    PyObject *capsule, *objects[3];
-    long bodies;
-    double h;
-    if (!PyArg_ParseTuple(args, "OlOOOd:joints_resolve", &capsule, &bodies, objects,
-                          objects + 1, objects + 2, &h))
-        return NULL;
-    hd_joint_model *m = PyCapsule_GetPointer(capsule, HD_JOINTS_CAPSULE);
+    static const char *const names[] = {"joints", "bodies", "q0", "q1", "v1", "h", NULL};
+    PyObject *given[6];
+    hd_joint_model *m = hd_joints_call("joints_resolve", args, nargs, kwnames, names, 6, given);
     if (m == NULL)
+        return NULL;
+    PyObject *const *objects = given + 2;
+    const long bodies = PyLong_AsLong(given[1]);
+    if (bodies == -1 && PyErr_Occurred())
+        return NULL;
+    const double h = PyFloat_AsDouble(given[5]);
+    if (h == -1.0 && PyErr_Occurred())
         return NULL;
     for (long k = 0; k < m->body_count; ++k)
         if (m->bodies[k] >= bodies) {
@@ -243,9 +266,8 @@ static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *args)
             return NULL;
         }
     Py_buffer views[3];
-    const char *names[3] = {"q0", "q1", "v1"};
     for (int k = 0; k < 3; ++k) {
-        if (hd_get_buffer(objects[k], views + k, names[k], 'd', 3 * bodies, k > 0) < 0) {
+        if (hd_get_buffer(objects[k], views + k, names[k + 2], 'd', 3 * bodies, k > 0) < 0) {
             while (k-- > 0)
                 PyBuffer_Release(views + k);
             return NULL;
@@ -265,7 +287,9 @@ static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *args)
 PyMethodDef hd_bind_joints[] = {
     {"joints", (PyCFunction)(void (*)(void))hd_py_joints, METH_VARARGS | METH_KEYWORDS,
      joints_doc},
-    {"joint_state", hd_py_joint_state, METH_VARARGS, joint_state_doc},
-    {"joints_resolve", hd_py_joints_resolve, METH_VARARGS, joints_resolve_doc},
+    {"joint_state", (PyCFunction)(void (*)(void))hd_py_joint_state,
+     METH_FASTCALL | METH_KEYWORDS, joint_state_doc},
+    {"joints_resolve", (PyCFunction)(void (*)(void))hd_py_joints_resolve,
+     METH_FASTCALL | METH_KEYWORDS, joints_resolve_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -1,6 +1,6 @@
 /* The binding of whole steps (steppers.c) for hecker_dynamics/dynamics/kernel.py:
- * stepper, step, run (steps with the energy bound's checks at the publish instants),
- * failed_state.
+ * stepper, step, run (steps with the energy bound's checks at the publish instants) and
+ * failed_state, each taking keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -34,20 +34,22 @@ static void hd_stepper_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(stepper_doc,
 "stepper(program, method, pair, tolerance, contacts) -> Stepper\n\n"
-"Whole steps of ``method`` (EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, or\n"
-"EMBEDDED with the Pair ``pair`` and ``tolerance``) on ``program``, with the contact pass\n"
-"``contacts`` (None: none) after each step, and the memory they need, for ``step``.");
+"Whole steps of ``method`` (int: EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4,\n"
+"or EMBEDDED with the Pair ``pair`` (pair(), else None) and the sub-steps' relative\n"
+"``tolerance``) on the forces' ``program`` (program()), with the contact pass ``contacts``\n"
+"(contacts(), None: none) after each step, and the memory they need, for ``step``.");
 
-static PyObject *hd_py_stepper(PyObject *self, PyObject *args)
+static PyObject *hd_py_stepper(PyObject *self, PyObject *args, PyObject *kwargs)
 {
+    static char *names[] = {"program", "method", "pair", "tolerance", "contacts", NULL};
     PyObject *program, *pair_object, *contacts_object;
     int method;
     double tolerance;
     hd_program *p, *unused;
     hd_pair *pair = NULL;
     hd_contact_model *contacts = NULL;
-    if (!PyArg_ParseTuple(args, "OiOdO:stepper", &program, &method, &pair_object, &tolerance,
-                          &contacts_object) ||
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OiOdO:stepper", names, &program, &method,
+                                     &pair_object, &tolerance, &contacts_object) ||
         hd_get_programs(program, Py_None, &p, &unused) < 0)
         return NULL;
     if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
@@ -91,58 +93,63 @@ static PyObject *hd_py_stepper(PyObject *self, PyObject *args)
 PyDoc_STRVAR(step_doc,
 "step(stepper, inputs, oriented, q, v, h, steps, size, joints)\n"
 "    -> (status, taken, evaluations, substeps, rejected, size)\n\n"
-"Advance (q, v), C-contiguous float64 arrays of 3 values per body, in place by up to\n"
-"``steps`` steps of ``h`` with the Stepper's method and passes, the inputs' program\n"
-"``inputs`` (None: none) added to its forces (an embedded pair starting from sub-step\n"
-"``size``), wrapping the angles after each step. ``oriented``: some active force needs the\n"
-"angles; ``joints`` (None: none): the joint pass before the contacts. ``status``: ADVANCED,\n"
+"Advance (q, v), (x, y, angle) and (vx, vy, omega) of each CM, C-contiguous float64 of 3\n"
+"values per body, in place by up to ``steps`` (int) steps of ``h`` (s) with the Stepper\n"
+"``stepper``'s method and passes, the inputs' program ``inputs`` (program(), None: none)\n"
+"added to its forces (an embedded pair starting from sub-step ``size`` (s)), wrapping the\n"
+"angles after each step. ``oriented``: some active force needs the angles; ``joints``\n"
+"(joints(), None: none): the joint pass before the contacts. ``status``: ADVANCED,\n"
 "NOT_FINITE (a new state was not finite; ``failed_state`` gives it), SUBSTEP_UNDERFLOW,\n"
 "TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. The GIL is released meanwhile, unless the call is\n"
 "short.");
 
-/* The first arguments of step and run, (stepper, inputs, oriented), of a call of `name` that
- * takes `expected` arguments: the stepper, the inputs' program (NULL for None) and
+/* The arguments of a fast call of step or run (`function`), all `count` of `names` read
+ * into `given` by hd_arguments, by position or keyword, and the first three, (stepper,
+ * inputs, oriented), read: the stepper, the inputs' program (NULL for None) and
  * `oriented`; -1 with an exception set. */
-static int hd_get_stepping(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t expected,
-                           const char *name, hd_stepper **s, hd_program **in, int *oriented)
+static int hd_get_stepping(const char *function, PyObject *const *args, Py_ssize_t nargs,
+                           PyObject *kwnames, const char *const *names, int count,
+                           PyObject **given, hd_stepper **s, hd_program **in, int *oriented)
 {
-    if (nargs != expected) {
-        PyErr_Format(PyExc_TypeError, "%s() takes %zd arguments (%zd given)", name, expected,
-                     nargs);
+    if (hd_arguments(function, args, nargs, kwnames, names, count, count, given) < 0)
         return -1;
-    }
-    hd_stepper_capsule *c = PyCapsule_GetPointer(args[0], HD_STEPPER_CAPSULE);
+    hd_stepper_capsule *c = PyCapsule_GetPointer(given[0], HD_STEPPER_CAPSULE);
     if (c == NULL)
         return -1;
     *s = &c->stepper;
     *in = NULL;
-    if (args[1] != Py_None) {
-        if ((*in = PyCapsule_GetPointer(args[1], HD_PROGRAM_CAPSULE)) == NULL)
+    if (given[1] != Py_None) {
+        if ((*in = PyCapsule_GetPointer(given[1], HD_PROGRAM_CAPSULE)) == NULL)
             return -1;
         if ((*in)->bodies != (*s)->program->bodies) {
             PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
             return -1;
         }
     }
-    *oriented = PyObject_IsTrue(args[2]);
+    *oriented = PyObject_IsTrue(given[2]);
     return *oriented < 0 ? -1 : 0;
 }
 
-static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                            PyObject *kwnames)
 {
+    static const char *const names[] = {"stepper", "inputs", "oriented", "q", "v", "h",
+                                        "steps", "size", "joints", NULL};
+    PyObject *given[9];
     hd_stepper *s;
     hd_program *in;
     int oriented;
-    if (hd_get_stepping(args, nargs, 9, "step", &s, &in, &oriented) < 0)
+    if (hd_get_stepping("step", args, nargs, kwnames, names, 9, given, &s, &in,
+                        &oriented) < 0)
         return NULL;
-    const double h = PyFloat_AsDouble(args[5]);
-    const long steps = PyLong_AsLong(args[6]);
-    double size = PyFloat_AsDouble(args[7]);
+    const double h = PyFloat_AsDouble(given[5]);
+    const long steps = PyLong_AsLong(given[6]);
+    double size = PyFloat_AsDouble(given[7]);
     if (PyErr_Occurred())
         return NULL;
     hd_joint_model *joints = NULL;
-    if (args[8] != Py_None) {
-        if ((joints = PyCapsule_GetPointer(args[8], HD_JOINTS_CAPSULE)) == NULL)
+    if (given[8] != Py_None) {
+        if ((joints = PyCapsule_GetPointer(given[8], HD_JOINTS_CAPSULE)) == NULL)
             return NULL;
         for (long k = 0; k < joints->body_count; ++k)
             if (joints->bodies[k] >= s->program->bodies) {
@@ -153,7 +160,7 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
     if (s->method != HD_EMBEDDED)
         size = 0.0;
     Py_buffer qv, vv;
-    if (hd_get_state(args[3], args[4], 3 * s->program->bodies, &qv, &vv) < 0)
+    if (hd_get_state(given[3], given[4], 3 * s->program->bodies, &qv, &vv) < 0)
         return NULL;
     long taken = 0;
     hd_work work = {0, 0, 0};
@@ -274,31 +281,39 @@ PyDoc_STRVAR(run_doc,
 "run(stepper, inputs, oriented, q, v, qs, vs, h, first, per, steps, size,\n"
 "    springs, statics, unit, budget, growth, first_seconds, period_seconds)\n"
 "    -> (status, taken, evaluations, substeps, rejected, size, checked, worst)\n\n"
-"``steps`` steps of ``h`` from (q, v) (read only) as ``step`` takes them, without a joint\n"
-"pass, with the energy bound's check (``bound``'s, on ``springs``, ``statics``, ``unit``\n"
-"and ``budget``, limits ``growth`` times its square) at each publish instant: after\n"
-"``first`` steps (over ``first_seconds``) and every ``per`` steps after it (over\n"
-"``period_seconds``). Segment k between instants steps in row k of (qs, vs), float64\n"
-"arrays of 3 values per body per segment, from a copy of the row before. Stops at the\n"
-"first failing step (``status`` as ``step``'s; the last good state ends row\n"
-"(segments begun - 1)) or after the first check over 1. ``checked``: the checks made,\n"
-"``worst``: their largest ratio of excess to limit.");
+"``steps`` (int) steps of ``h`` (s) from (q, v) (read only; C-contiguous float64 of 3\n"
+"values per body) as ``step`` takes them, without a joint pass, with the energy bound's\n"
+"check (``bound``'s, on the springs' program ``springs`` (None: none), ``statics`` (float64,\n"
+"3 per body), ``unit`` (int64, each body's unit) and ``budget`` (float64, HD_BUDGET_ROWS\n"
+"rows (kernel.h) of a column per unit, written), limits ``growth`` times its square) at each\n"
+"publish instant: after ``first`` steps (over ``first_seconds`` s) and every ``per`` steps\n"
+"after it (over ``period_seconds`` s). Segment k between instants steps in row k of (qs, vs),\n"
+"C-contiguous float64 of 3 values per body per segment, from a copy of the row before.\n"
+"Stops at the first failing step (``status`` as ``step``'s; the last good state ends row\n"
+"(segments begun - 1)) or after the first check over 1. ``size``: as ``step``'s;\n"
+"``checked``: the checks made, ``worst``: their largest ratio of excess to limit.");
 
-static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                           PyObject *kwnames)
 {
+    static const char *const names[] = {"stepper", "inputs", "oriented", "q", "v", "qs", "vs",
+                                        "h", "first", "per", "steps", "size", "springs",
+                                        "statics", "unit", "budget", "growth",
+                                        "first_seconds", "period_seconds", NULL};
+    PyObject *given[19];
     hd_stepper *s;
     hd_program *in;
     int oriented;
-    if (hd_get_stepping(args, nargs, 19, "run", &s, &in, &oriented) < 0)
+    if (hd_get_stepping("run", args, nargs, kwnames, names, 19, given, &s, &in, &oriented) < 0)
         return NULL;
     const long n = s->program->bodies, n3 = 3 * n;
-    const double h = PyFloat_AsDouble(args[7]);
-    const long first = PyLong_AsLong(args[8]), per = PyLong_AsLong(args[9]);
-    const long steps = PyLong_AsLong(args[10]);
-    double size = PyFloat_AsDouble(args[11]);
-    const double growth = PyFloat_AsDouble(args[16]);
-    const double first_seconds = PyFloat_AsDouble(args[17]);
-    const double period_seconds = PyFloat_AsDouble(args[18]);
+    const double h = PyFloat_AsDouble(given[7]);
+    const long first = PyLong_AsLong(given[8]), per = PyLong_AsLong(given[9]);
+    const long steps = PyLong_AsLong(given[10]);
+    double size = PyFloat_AsDouble(given[11]);
+    const double growth = PyFloat_AsDouble(given[16]);
+    const double first_seconds = PyFloat_AsDouble(given[17]);
+    const double period_seconds = PyFloat_AsDouble(given[18]);
     if (PyErr_Occurred())
         return NULL;
     if (first < 1 || per < 1 || steps < 0) {
@@ -309,20 +324,20 @@ static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nar
         size = 0.0;
     const long segments = steps <= first ? 1 : 1 + (steps - first + per - 1) / per;
     Py_buffer qv, vv, qsv, vsv;
-    if (hd_get_buffer(args[3], &qv, "q", 'd', n3, 0) < 0)
+    if (hd_get_buffer(given[3], &qv, "q", 'd', n3, 0) < 0)
         return NULL;
-    if (hd_get_buffer(args[4], &vv, "v", 'd', n3, 0) < 0) {
+    if (hd_get_buffer(given[4], &vv, "v", 'd', n3, 0) < 0) {
         PyBuffer_Release(&qv);
         return NULL;
     }
-    if (hd_get_state(args[5], args[6], segments * n3, &qsv, &vsv) < 0) {
+    if (hd_get_state(given[5], given[6], segments * n3, &qsv, &vsv) < 0) {
         PyBuffer_Release(&qv);
         PyBuffer_Release(&vv);
         return NULL;
     }
     hd_run_bound b;
     double *memory = NULL;
-    if (hd_get_run_bound(&b, n, args + 12) < 0)
+    if (hd_get_run_bound(&b, n, given + 12) < 0)
         goto released;
     memory = malloc((size_t)(2 * n + 1) * sizeof(double));
     if (memory == NULL) {
@@ -370,12 +385,16 @@ released:
 
 PyDoc_STRVAR(failed_state_doc,
 "failed_state(stepper, q, v)\n\n"
-"Copy the state that ended the last ``step`` with NOT_FINITE into (q, v).");
+"Copy the state that ended the Stepper ``stepper``'s last ``step`` with NOT_FINITE into\n"
+"``q`` and ``v``, C-contiguous float64 of 3 values per body: (x, y, angle) and (vx, vy,\n"
+"omega) of each CM.");
 
-static PyObject *hd_py_failed_state(PyObject *self, PyObject *args)
+static PyObject *hd_py_failed_state(PyObject *self, PyObject *args, PyObject *kwargs)
 {
+    static char *names[] = {"stepper", "q", "v", NULL};
     PyObject *capsule, *qo, *vo;
-    if (!PyArg_ParseTuple(args, "OOO:failed_state", &capsule, &qo, &vo))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO:failed_state", names, &capsule, &qo,
+                                     &vo))
         return NULL;
     hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, HD_STEPPER_CAPSULE);
     if (c == NULL)
@@ -393,9 +412,11 @@ static PyObject *hd_py_failed_state(PyObject *self, PyObject *args)
 
 
 PyMethodDef hd_bind_stepper[] = {
-    {"stepper", hd_py_stepper, METH_VARARGS, stepper_doc},
-    {"step", (PyCFunction)(void (*)(void))hd_py_step, METH_FASTCALL, step_doc},
-    {"run", (PyCFunction)(void (*)(void))hd_py_run, METH_FASTCALL, run_doc},
-    {"failed_state", hd_py_failed_state, METH_VARARGS, failed_state_doc},
+    {"stepper", (PyCFunction)(void (*)(void))hd_py_stepper, METH_VARARGS | METH_KEYWORDS,
+     stepper_doc},
+    {"step", (PyCFunction)(void (*)(void))hd_py_step, METH_FASTCALL | METH_KEYWORDS, step_doc},
+    {"run", (PyCFunction)(void (*)(void))hd_py_run, METH_FASTCALL | METH_KEYWORDS, run_doc},
+    {"failed_state", (PyCFunction)(void (*)(void))hd_py_failed_state,
+     METH_VARARGS | METH_KEYWORDS, failed_state_doc},
     {NULL, NULL, 0, NULL},
 };

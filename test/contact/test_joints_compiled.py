@@ -104,6 +104,39 @@ def test_a_motor_command_between_kernel_calls_is_seen_by_the_kernel():
     assert fast.model.joints.efforts["axle_a"] == pytest.approx(-0.3, rel=1e-12)
 
 
+def test_the_joint_binding_takes_its_per_step_arguments_by_name():
+    """joints_resolve and joint_state take their arguments by keyword: the state set by
+    name reads back as given, a step resolved by name has the bits of one resolved by
+    position from the same state, and a keyword unknown or missing is refused by name."""
+    from hecker_dynamics import _kernel
+
+    sim = Simulation(SCENES["chain"]("implicit_midpoint"))
+    for _ in range(20):
+        sim.step()
+    bridge = sim.model.joints._in_kernel()
+    capsule, saved = bridge.kernel, np.zeros_like(bridge._state)
+    _kernel.joint_state(capsule, state=saved, load=False)
+    q0, q1, v1 = sim.q.copy(), sim.q + 1e-4 * sim.v, sim.v.copy()
+    by_name, by_position = (q1.copy(), v1.copy()), (q1.copy(), v1.copy())
+    assert _kernel.joints_resolve(capsule, bodies=len(q0), q0=q0, q1=by_name[0],
+                                  v1=by_name[1], h=1e-4)
+    _kernel.joint_state(capsule, state=saved, load=True)
+    assert _kernel.joints_resolve(capsule, len(q0), q0, *by_position, 1e-4)
+    assert np.array_equal(by_name[0], by_position[0]) and not np.array_equal(by_name[0], q1)
+    assert np.array_equal(by_name[1], by_position[1])
+    loaded, state = np.arange(saved.size, dtype=np.float64) * 0.25, np.zeros_like(saved)
+    loaded[-2] = 1.0  # the flag of set multipliers reads back as 0.0 or 1.0
+    _kernel.joint_state(capsule, state=loaded, load=True)
+    _kernel.joint_state(capsule, state=state, load=False)
+    assert np.array_equal(state, loaded)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'v0'"):
+        _kernel.joints_resolve(capsule, bodies=len(q0), q0=q0, q1=q1, v0=v1, h=1e-4)
+    with pytest.raises(TypeError, match="missing required argument 'h'"):
+        _kernel.joints_resolve(capsule, bodies=len(q0), q0=q0, q1=q1, v1=v1)
+    with pytest.raises(TypeError, match="missing required argument 'load'"):
+        _kernel.joint_state(capsule, state=state)
+
+
 def test_kernel_has_the_joint_constants():
     k = kernel._kernel
     assert (k.JOINT_TOLERANCE, k.JOINT_CONVERGED, k.JOINT_NEWTON_ITERATIONS,

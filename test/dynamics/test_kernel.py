@@ -862,7 +862,7 @@ def test_the_binding_refuses_bad_arrays(ext, program):
                 ext.step(stepper, None, False, *arrays, 0.001, 3, 0.0, None)
             with pytest.raises(error, match=message):
                 ext.failed_state(stepper, *arrays)
-    with pytest.raises(TypeError, match="takes 9 arguments"):
+    with pytest.raises(TypeError, match="missing required argument 'size'"):
         ext.step(stepper, None, False, np.zeros(6), np.zeros(6), 0.001, 3)
 
 
@@ -945,8 +945,68 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
             ({"inputs": ext.program(3, None, [])}, ValueError, "a program for other bodies")):
         with pytest.raises(error, match=message):
             run(**kwargs)
-    with pytest.raises(TypeError, match=r"run\(\) takes 19 arguments \(3 given\)"):
+    with pytest.raises(TypeError, match=r"run\(\) missing required argument 'q'"):
         ext.run(stepper, None, False)
+
+
+def test_the_force_binding_takes_its_arguments_by_name(ext):
+    """program, pair, accelerations and bound take their arguments by keyword: the
+    accelerations by name are those by position, bound's check by name is the one by
+    position, and a keyword unknown or missing is refused by name."""
+    program = ext.program(bodies=2, inverse_mass=np.array([1.0, 1.0, 2.0, 0.5, 0.5, 4.0]),
+                          terms=[_gravity(0), _gravity(1)])
+    q, v = np.array([0.0, 1.0, 0.3, 1.0, 0.0, -0.2]), np.array([1.0, 0.0, 2.0, 0.0, 0.5, 1.0])
+    named, placed = np.empty(6), np.empty(6)
+    ext.accelerations(program, inputs=None, oriented=True, q=q, v=v, out=named)
+    ext.accelerations(program, None, True, q, v, placed)
+    assert named.tolist() == placed.tolist() == [0.0, -9.81, 0.0, 0.0, -9.81 * 0.5, 0.0]
+    assert ext.pair(slopes=2, a=np.array([0.0, 1.0]), error=np.array([1.0, -1.0]),
+                    error_order=1) is not None
+    statics, unit = np.array([1.0, 2.0, 0.1, 0.2, -1.0, -1.0]), np.zeros(2, np.int64)
+    budgets = np.zeros((2, 8))
+    checks = [ext.bound(None, q=q, v=v, statics=statics, unit=unit, budget=budgets[0],
+                        seconds=0.01, growth=10.0),
+              ext.bound(None, q, v, statics, unit, budgets[1], 0.01, 10.0)]
+    assert checks[0] == checks[1] and budgets[0].tobytes() == budgets[1].tobytes()
+    assert budgets[0].any()
+    with pytest.raises(TypeError, match="unexpected keyword argument 'outs'"):
+        ext.accelerations(program, inputs=None, oriented=True, q=q, v=v, outs=named)
+    with pytest.raises(TypeError, match="missing required argument 'out'"):
+        ext.accelerations(program, inputs=None, oriented=True, q=q, v=v)
+    with pytest.raises(TypeError, match="missing required argument 'budget'"):
+        ext.bound(None, q=q, v=v, statics=statics, unit=unit)
+
+
+def test_the_stepper_binding_takes_its_arguments_by_name(ext, program):
+    """stepper, step, run and failed_state take their arguments by keyword: steps by name
+    have the bits of steps by position, and a keyword unknown, missing or given twice is
+    refused by name."""
+    stepper = ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0,
+                          contacts=None)
+    q, v = np.array([0.0, 1.0, 0.3, 1.0, 0.0, -0.2]), np.array([1.0, 0.0, 2.0, 0.0, 0.5, 1.0])
+    named, placed = (q.copy(), v.copy()), (q.copy(), v.copy())
+    done = ext.step(stepper, inputs=None, oriented=True, q=named[0], v=named[1], h=0.01,
+                    steps=7, size=0.0, joints=None)
+    assert done == ext.step(stepper, None, True, *placed, 0.01, 7, 0.0, None)
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(named, placed))
+    assert not np.array_equal(named[0], q)
+    ext.failed_state(stepper=stepper, q=np.zeros(6), v=np.zeros(6))
+    qs, vs = np.zeros((2, 1, 2, 3))
+    arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, h=0.001, first=5,
+                     per=5, steps=5, size=0.0, springs=None, statics=np.ones(6),
+                     unit=np.zeros(2, np.int64), budget=np.zeros(8), growth=1000.0,
+                     first_seconds=0.005, period_seconds=0.005)
+    assert ext.run(stepper, **arguments)[:2] == (ext.ADVANCED, 5)
+    period = arguments.pop("period_seconds")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'period'"):
+        ext.run(stepper, **arguments, period=period)
+    with pytest.raises(TypeError, match="missing required argument 'period_seconds'"):
+        ext.run(stepper, **arguments)
+    with pytest.raises(TypeError, match="multiple values for argument 'q'"):
+        ext.step(stepper, None, True, q, v, 0.01, 7, 0.0, None, q=q)
+    with pytest.raises(TypeError, match="missing required argument 'tolerance'"):
+        ext.stepper(program=program, method=ext.RK4, pair=None, tolerances=0.0,
+                    contacts=None)
 
 
 # ----------------------------------------------------------------- 6. fallback
