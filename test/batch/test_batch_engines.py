@@ -195,10 +195,14 @@ def _wait_for(scheduler_file: Path, workers: int) -> str:
     import time
 
     deadline = time.monotonic() + 120
-    while not scheduler_file.exists():
-        assert time.monotonic() < deadline, "the scheduler did not start"
-        time.sleep(0.2)
-    address = json.loads(scheduler_file.read_text())["address"]
+    # The scheduler creates the file before it writes it: wait for a whole document.
+    while True:
+        try:
+            address = json.loads(scheduler_file.read_text())["address"]
+            break
+        except (FileNotFoundError, json.JSONDecodeError, KeyError):
+            assert time.monotonic() < deadline, "the scheduler did not start"
+            time.sleep(0.2)
     if workers:
         with distributed.Client(address, timeout="30s") as client:
             client.wait_for_workers(workers, timeout=120)
