@@ -28,7 +28,7 @@ from ..scene.load import (
     load_scene,
     scene_from_parameters,
 )
-from ..scene.world import EditKind, WorldEdit, apply_edits
+from ..scene.world import EditKind, WorldEdit
 from ..sensors.schedule import SensorSet
 from ..sensors.touch import Touches
 from ..world import World
@@ -656,15 +656,18 @@ class Runner:
         world it had then (the scene with the bodies spawned and deleted it records)."""
         state = decode_state(keyframe.state)
         edits = [WorldEdit.from_data(data) for data in state.pop("world", [])]
-        scene = apply_edits(self.base_scene, edits)
+        world = None
+        scene = self.base_scene
+        if edits or self.edits:  # the world it had then, built once
+            world = World.from_scene(self.base_scene, script=False, start_ns=self.sim.start_ns)
+            world.edit_bodies(*edits)
+            scene = world.scene
         names = tuple(body.name for body in scene.bodies)
         if tuple(keyframe.bodies) != names:
             raise ValueError(f"a keyframe of bodies {', '.join(keyframe.bodies)} does not fit "
                              f"the scene's {', '.join(names)}")
-        if edits or self.edits:
+        if world is not None:
             self.edits = edits
-            world = World.from_scene(self.base_scene, script=False, start_ns=self.sim.start_ns)
-            world.edit_bodies(*edits)
             self._follow(world)
         runner = state.pop("runner")
         size = len(keyframe.bodies)

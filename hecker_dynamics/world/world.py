@@ -679,9 +679,10 @@ class World:
                                 at, vector(force, "force"), number(torque, "torque"),
                                 duration_ns)
         command.check_finite()
-        sim.check_reach(command)  # a scheduled force too: refused now, not mid-advance
         if stamp == now:
-            sim.push(command)
+            sim.push(command)  # checks its reach (Simulation.check_reach)
+        else:  # a scheduled force too: refused now, not mid-advance
+            sim.check_reach(command)
         if name is None:  # counted once taken, so a refused force changes nothing
             self._count += 1
         self._started = True
