@@ -140,3 +140,12 @@ int hd_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
         }
     return 0;
 }
+
+void *hd_capsule_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
+                           PyObject *kwnames, const char *const *names, int positional,
+                           int required, const char *capsule, PyObject **out)
+{
+    if (hd_arguments(function, args, nargs, kwnames, names, positional, required, out) < 0)
+        return NULL;
+    return PyCapsule_GetPointer(out[0], capsule);
+}

@@ -46,6 +46,12 @@ int hd_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
                  PyObject *kwnames, const char *const *names, int positional, int required,
                  PyObject **out);
 
+/* hd_arguments for a call whose first argument is a capsule named `capsule` (a contact
+ * pass, a joint pass, a stepper): the pointer it holds, NULL with an exception set. */
+void *hd_capsule_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
+                           PyObject *kwnames, const char *const *names, int positional,
+                           int required, const char *capsule, PyObject **out);
+
 /* Each binding file's functions: bind_forces.c (dynamics/kernel.py's terms, pairs and
  * bound), bind_stepper.c (its whole steps), bind_contacts.c (contact/compiled.py),
  * bind_joints.c (contact/joints_kernel.py), bind_raycast.c (sensors/laser.py). */

@@ -256,18 +256,6 @@ fail:
     return NULL;
 }
 
-/* The contact pass a fast call takes first (`contacts`), its arguments read into `given` by
- * hd_arguments; NULL with an exception set if they or the capsule are not right. */
-static hd_contact_model *hd_contacts_call(const char *function, PyObject *const *args,
-                                          Py_ssize_t nargs, PyObject *kwnames,
-                                          const char *const *names, int positional,
-                                          int required, PyObject **given)
-{
-    if (hd_arguments(function, args, nargs, kwnames, names, positional, required, given) < 0)
-        return NULL;
-    return PyCapsule_GetPointer(given[0], HD_CONTACTS_CAPSULE);
-}
-
 PyDoc_STRVAR(resolve_doc,
 "resolve(contacts, q1, v1, q0, v0, h, joints=None)\n\n"
 "The contact pass after a step of ``h`` (s) from (q0, v0) to (q1, v1) (ContactPass.resolve):\n"
@@ -282,7 +270,8 @@ static PyObject *hd_py_resolve(PyObject *self, PyObject *const *args, Py_ssize_t
     static const char *const names[] = {"contacts", "q1", "v1", "q0", "v0", "h", "joints",
                                         NULL};
     PyObject *given[7];
-    hd_contact_model *m = hd_contacts_call("resolve", args, nargs, kwnames, names, 7, 6, given);
+    hd_contact_model *m = hd_capsule_arguments("resolve", args, nargs, kwnames, names, 7,
+                                               6, HD_CONTACTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     PyObject *const *objects = given + 1;
@@ -332,7 +321,8 @@ static PyObject *hd_py_threads(PyObject *self, PyObject *const *args, Py_ssize_t
 {
     static const char *const names[] = {"contacts", "count", NULL};
     PyObject *given[2];
-    hd_contact_model *m = hd_contacts_call("threads", args, nargs, kwnames, names, 1, 1, given);
+    hd_contact_model *m = hd_capsule_arguments("threads", args, nargs, kwnames, names, 1,
+                                               1, HD_CONTACTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     PyObject *count_object = given[1];
@@ -363,7 +353,8 @@ static PyObject *hd_py_sleep(PyObject *self, PyObject *const *args, Py_ssize_t n
     static const char *const names[] = {"contacts", "enabled", "calm", "rested", "island",
                                         NULL};
     PyObject *given[5];
-    hd_contact_model *m = hd_contacts_call("sleep", args, nargs, kwnames, names, 1, 1, given);
+    hd_contact_model *m = hd_capsule_arguments("sleep", args, nargs, kwnames, names, 1,
+                                               1, HD_CONTACTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     PyObject *const *objects = given + 2;
@@ -430,7 +421,8 @@ static PyObject *hd_py_warm(PyObject *self, PyObject *const *args, Py_ssize_t na
 {
     static const char *const names[] = {"contacts", "impulses", NULL};
     PyObject *given[2];
-    hd_contact_model *m = hd_contacts_call("warm", args, nargs, kwnames, names, 1, 1, given);
+    hd_contact_model *m = hd_capsule_arguments("warm", args, nargs, kwnames, names, 1,
+                                               1, HD_CONTACTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     PyObject *impulses = given[1] != NULL ? given[1] : Py_None;

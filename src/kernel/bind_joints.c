@@ -161,18 +161,6 @@ fail:
     return NULL;
 }
 
-/* The joint pass a fast call takes first (`joints`), all its `count` arguments read into
- * `given` by hd_arguments, by position or keyword; NULL with an exception set if they or
- * the capsule are not right. */
-static hd_joint_model *hd_joints_call(const char *function, PyObject *const *args,
-                                      Py_ssize_t nargs, PyObject *kwnames,
-                                      const char *const *names, int count, PyObject **given)
-{
-    if (hd_arguments(function, args, nargs, kwnames, names, count, count, given) < 0)
-        return NULL;
-    return PyCapsule_GetPointer(given[0], HD_JOINTS_CAPSULE);
-}
-
 /* The state's length: HD_JOINT_STATE per joint, the warm starts, the Newton multipliers,
  * the contact solve's extra impulses, whether the multipliers are set, and the last
  * step's length. */
@@ -195,7 +183,8 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *const *args, Py_ssi
 {
     static const char *const names[] = {"joints", "state", "load", NULL};
     PyObject *given[3];
-    hd_joint_model *m = hd_joints_call("joint_state", args, nargs, kwnames, names, 3, given);
+    hd_joint_model *m = hd_capsule_arguments("joint_state", args, nargs, kwnames, names,
+                                             3, 3, HD_JOINTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     const int load = PyObject_IsTrue(given[2]);
@@ -250,7 +239,8 @@ static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *const *args, Py_
 {
     static const char *const names[] = {"joints", "bodies", "q0", "q1", "v1", "h", NULL};
     PyObject *given[6];
-    hd_joint_model *m = hd_joints_call("joints_resolve", args, nargs, kwnames, names, 6, given);
+    hd_joint_model *m = hd_capsule_arguments("joints_resolve", args, nargs, kwnames, names,
+                                             6, 6, HD_JOINTS_CAPSULE, given);
     if (m == NULL)
         return NULL;
     PyObject *const *objects = given + 2;

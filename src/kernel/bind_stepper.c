@@ -111,9 +111,8 @@ static int hd_get_stepping(const char *function, PyObject *const *args, Py_ssize
                            PyObject *kwnames, const char *const *names, int count,
                            PyObject **given, hd_stepper **s, hd_program **in, int *oriented)
 {
-    if (hd_arguments(function, args, nargs, kwnames, names, count, count, given) < 0)
-        return -1;
-    hd_stepper_capsule *c = PyCapsule_GetPointer(given[0], HD_STEPPER_CAPSULE);
+    hd_stepper_capsule *c = hd_capsule_arguments(function, args, nargs, kwnames, names, count,
+                                                 count, HD_STEPPER_CAPSULE, given);
     if (c == NULL)
         return -1;
     *s = &c->stepper;
