@@ -19,6 +19,7 @@ KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/bind.c", "src/kernel/bind_f
                   "src/kernel/manifold.c", "src/kernel/contact.c", "src/kernel/detect.c",
                   "src/kernel/warm.c", "src/kernel/islands.c", "src/kernel/solve.c",
                   "src/kernel/sleep.c", "src/kernel/solver.c", "src/kernel/joint.c",
+                  "src/kernel/soft_joint.c",
                   "src/kernel/sparse.c", "src/kernel/coupled.c", "src/kernel/wide.c",
                   "src/kernel/crew.c", "src/kernel/bound.c", "src/kernel/raycast.c"]
 KERNEL_HEADERS = ["src/kernel/kernel.h", "src/kernel/contact.h", "src/kernel/joint.h",

@@ -11,6 +11,11 @@ Cases:
 - the chains of 50 and 200 links once more in the core alone, their joints held to
   :data:`DRIFT` (target 1's pin gap) instead of the pass's 1e-12 m: what exactness costs
   against a projection to 1e-9 m, each row's cost over the exact chain's;
+- every chain once more in the core alone with soft joints (``joint_solver.type: soft``
+  at its defaults: Box2D v3's solver, 4 sub-steps, stepped by ``semi_implicit_euler``),
+  each row's cost over the exact chain's, and in the targets' table against Box2D v3's
+  cost and pin gap on the same chain (outside targets 1 and 2, which are the exact
+  pass's);
 - ``joint_grid``: Box2D's ``joint_grid`` benchmark at its published size (:func:`grid`:
   100 x 100 circles of radius 0.4 m, density 1, at unit spacing, each pinned to its right
   and lower neighbours at the midpoints, the middle 7 of the top row fixed), at h = 1/60 s
@@ -65,8 +70,8 @@ from .scene_peers import SCENE_PEERS, scene_engine
 from .scenes import SPRING_PINS, pinned_by_springs
 
 __all__ = ["CHAIN_LINKS", "CHAIN_STEPS", "COST_STEP", "GRID_SIZE", "GRID_TOLERANCE", "JOINT_FILES",
-           "LOOSE_LINKS", "ROUNDS", "Run", "chain", "grid", "joint_bench", "measure", "pin_gap",
-           "renaming", "targets"]
+           "LOOSE_LINKS", "ROUNDS", "Run", "SOFT", "chain", "grid", "joint_bench", "measure",
+           "pin_gap", "renaming", "targets"]
 
 #: The chains' lengths, links.
 CHAIN_LINKS = (2, 10, 50, 200)
@@ -99,15 +104,18 @@ RENAMING = 0.10
 #: what 1e-12 m costs against 1e-9 m).
 LOOSE_LINKS = (50, 200)
 PEERS = SCENE_PEERS  # pymunk, box2d (2.3), box2d_v3
+#: What ends the name of a chain case with soft joints.
+SOFT = ", soft joints"
 #: The files :func:`joint_bench` writes into its folder.
 JOINT_FILES = ("joints.md", "joints.csv")
 
 
 def chain(links: int, step: float = COST_STEP, duration: float = CHAIN_DURATION,
-          names: Optional[Callable[[int], str]] = None) -> Scene:
+          names: Optional[Callable[[int], str]] = None, soft: bool = False) -> Scene:
     """The chain of ``links`` links (see the module) at ``step`` with ``velocity_verlet``;
     ``names(i)`` names the i-th joint (default ``pin0000`` on: zero-padded, so that their
-    order is the chain's)."""
+    order is the chain's); ``soft``: with soft joints at their defaults instead
+    (``joint_solver.type: soft``, which steps by ``semi_implicit_euler``)."""
     name = names or (lambda i: f"pin{i:04d}")
     length, width = LINK
     bodies, joints = {}, {}
@@ -119,11 +127,12 @@ def chain(links: int, step: float = COST_STEP, duration: float = CHAIN_DURATION,
         if i:
             joint.update(body_a=f"link{i - 1:04d}", point_a=[0.5 * length, 0.0])
         joints[name(i)] = joint
+    solver = {"joint_solver": {"type": "soft"}} if soft else {}
     return scene_from_parameters(flatten({
-        "step": step, "integrator": "velocity_verlet", "duration": duration,
-        "publish_rate": 1.0 / duration, "bodies": bodies,
+        "step": step, "integrator": "semi_implicit_euler" if soft else "velocity_verlet",
+        "duration": duration, "publish_rate": 1.0 / duration, "bodies": bodies,
         "forces": {"gravity": {"type": "gravity", "acceleration": [0.0, -GRAVITY]}},
-        "joints": joints}), f"bench:chain of {links}")
+        "joints": joints, **solver}), f"bench:chain of {links}")
 
 
 def grid(size: int = GRID_SIZE, step: float = GRID_STEP,
@@ -285,6 +294,10 @@ def _chain_cases() -> list[Case]:
                    functools.partial(chain, links, step), engines=("hecker_dynamics",),
                    tolerance=DRIFT, reference=_chain_name(links, step))
               for step in CHAIN_STEPS for links in LOOSE_LINKS]
+    cases += [Case(_chain_name(links, step) + SOFT,
+                   functools.partial(chain, links, step, soft=True), engines=("hecker_dynamics",),
+                   reference=_chain_name(links, step))
+              for step in CHAIN_STEPS for links in CHAIN_LINKS]
     return cases
 
 
@@ -329,8 +342,11 @@ def renaming(links: int = RENAMED_LINKS, duration: float = RENAMED_DURATION,
 
 def targets(cases: list[Case], renamed: dict[str, tuple[float, np.ndarray]]
             ) -> list[tuple[str, str, str]]:
-    """(target, what was measured, met / missed / not measured) for the three targets."""
-    chains = [c for c in cases if c.name.startswith("chain of ") and c.tolerance is None]
+    """(target, what was measured, met / missed / not measured) for the three targets, and
+    where the cases hold chains with soft joints, their cost and gap against Box2D v3's
+    (:func:`_soft_line`)."""
+    chains = [c for c in cases if c.name.startswith("chain of ") and c.tolerance is None
+              and not c.name.endswith(SOFT)]
     ours = [(c.name, c.median("hecker_dynamics")) for c in chains]
     bad = [f"{name}: {run.failure or f'pin gap {run.gap:.2g} m'}" for name, run in ours
            if run.failure is not None or not run.gap <= DRIFT]
@@ -365,7 +381,30 @@ def targets(cases: list[Case], renamed: dict[str, tuple[float, np.ndarray]]
                           renamed.items()) + f"; largest change {100 * spread:.1f} %; "
                 f"{'the same' if same else 'different'} bits",
                 "met" if spread < RENAMING and same else "missed"))
-    return out
+    soft = [c for c in cases if c.name.endswith(SOFT)]
+    return out + [_soft_line(soft, {c.name: c for c in chains})] if soft else out
+
+
+def _soft_line(soft: list[Case], exact: dict[str, Case]) -> tuple[str, str, str]:
+    """The soft chains' cost over Box2D v3's on the same chain (its exact case's peer run)
+    and both pin gaps: met where every soft chain costs at most Box2D v3's."""
+    parts, ratios = [], []
+    for case in soft:
+        ours = case.median("hecker_dynamics")
+        peer_case = exact.get(case.reference or "")
+        peer = None if peer_case is None else peer_case.median("box2d_v3")
+        ratio = (None if ours.cost is None or peer is None or peer.cost is None
+                 else ours.cost / peer.cost)
+        ratios.append(ratio)
+        links, step = case.name[9:].split(",")[:2]
+        cost = ours.failure or ("-" if ratio is None else f"{ratio:.2f}")
+        theirs = "-" if peer is None else f"{peer.gap:.2g}"
+        parts.append(f"{links} links{step}: {cost} (gaps {ours.gap:.2g} m, v3 {theirs} m)")
+    measured = [r for r in ratios if r is not None]
+    verdict = ("not measured" if len(measured) < len(ratios) else
+               "met" if all(r <= 1.0 for r in measured) else "missed")
+    return ("soft joints (joint_solver.type: soft): cost per step at most Box2D v3's on each "
+            "chain", "soft / Box2D v3: " + "; ".join(parts), verdict)
 
 
 def joint_bench(peers: list[str], out: Path, command: str,

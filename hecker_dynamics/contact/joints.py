@@ -207,6 +207,10 @@ def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec,
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
+    #: The equal sub-steps every step is taken in, each with its own pass (soft joints,
+    #: :mod:`.soft_joints`); 0: this pass, in the parts :meth:`parts` asks for.
+    substeps = 0
+
     def __init__(self, scene: Scene, inverse_mass: np.ndarray, cm_local: np.ndarray,
                  compiled: bool = False) -> None:
         """The joints of ``scene``, whose bodies have the inverse masses and moments of

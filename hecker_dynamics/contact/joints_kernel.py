@@ -15,6 +15,7 @@ import numpy as np
 from ..scene.joints import DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoint, WeldJoint
 from .joint_rows import weld_law
 from .joints import JointsUnsolved
+from .soft_joints import SoftJointPass
 
 try:
     from .. import _kernel  # type: ignore[attr-defined]
@@ -69,6 +70,14 @@ def _columns(joint_pass: JointPass) -> tuple[list[list[int]], list[list[float]]]
     return ints, reals
 
 
+def _softness(joint_pass: JointPass) -> dict[str, Any]:
+    """The soft joints' settings of :class:`~.soft_joints.SoftJointPass` (none: exact)."""
+    if not isinstance(joint_pass, SoftJointPass):
+        return {}
+    soft = joint_pass.soft
+    return {"substeps": soft.substeps, "hertz": soft.hertz, "damping_ratio": soft.damping_ratio}
+
+
 class CompiledJoints:
     """A scene's joint pass as a kernel object."""
 
@@ -88,7 +97,8 @@ class CompiledJoints:
             reals=np.array(reals, dtype=np.float64).reshape(-1), rows=len(joint_pass.keys),
             pattern=arrays(joint_pass.pattern), rigid_pattern=arrays(joint_pass.rigid_pattern),
             turning=np.ascontiguousarray(joint_pass.turning, dtype=np.int64),
-            tolerance=joint_pass.tolerance, max_turn=joint_pass.max_turn)
+            tolerance=joint_pass.tolerance, max_turn=joint_pass.max_turn,
+            **_softness(joint_pass))
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)

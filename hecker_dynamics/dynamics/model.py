@@ -17,6 +17,7 @@ from typing import Any, Optional
 import numpy as np
 
 from ..contact.joints import JointPass
+from ..contact.soft_joints import SoftJointPass
 from ..contact.solver import ContactPass
 from ..geometry.planar import cos_sin_of, perp, rotate
 from ..integrators.coloring import Coloring, color
@@ -87,8 +88,8 @@ class Model:
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
         self.joints: Optional[JointPass] = (
-            JointPass(scene, self.inverse_mass, self.cm_local,
-                      compiled=self.compiled is not None)
+            (JointPass if scene.soft_joints is None else SoftJointPass)(
+                scene, self.inverse_mass, self.cm_local, compiled=self.compiled is not None)
             if scene.joints else None)
         self.contacts: Optional[ContactPass] = (
             ContactPass(scene, self.mass, self.inertia, self.cm_local,

@@ -733,9 +733,18 @@ class Simulation:
         (:meth:`~..contact.joints.JointPass.parts`), in halves when the pass finds no
         solution near its end (:class:`~..contact.joints.JointsUnsolved`), each part the
         same way; ``room``: how many parts this step may still be cut into, in all (a
-        step in :data:`~..contact.joints.MOST_SUBSTEPS` at most)."""
-        q1, v1 = self._free_step(f, q, v, h, start)
+        step in :data:`~..contact.joints.MOST_SUBSTEPS` at most). Soft joints
+        (:mod:`~..contact.soft_joints`) take every step in their equal sub-steps instead,
+        each a free step and their pass."""
         joints = self.model.joints
+        if joints is not None and joints.substeps:
+            part = h / joints.substeps
+            for k in range(joints.substeps):
+                q1, v1 = self._free_step(f, q, v, part, start + k * part)
+                joints.resolve(q, q1, v1, part)
+                q, v = q1, v1
+            return q, v
+        q1, v1 = self._free_step(f, q, v, h, start)
         if joints is None:
             return q1, v1
         parts = min(joints.parts(q, q1), room)

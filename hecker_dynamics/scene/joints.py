@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Optional, Union
 
 __all__ = ["Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-           "DistanceJoint", "GearJoint", "JointSpec"]
+           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints"]
 
 Vec2 = tuple[float, float]
 
@@ -100,3 +100,15 @@ class GearJoint:
 
 
 JointSpec = Union[RevoluteJoint, PrismaticJoint, WeldJoint, DistanceJoint, GearJoint]
+
+
+@dataclass(frozen=True)
+class SoftJoints:
+    """``joint_solver.type: soft``: the joints solved as Box2D v3 solves them, in
+    ``substeps`` equal sub-steps of sequential impulses on soft rows, whose position error
+    a spring-damper of ``hertz`` (Hz) and ``damping_ratio`` removes
+    (:mod:`hecker_dynamics.contact.soft_joints`)."""
+
+    substeps: int = 4
+    hertz: float = 60.0
+    damping_ratio: float = 2.0

@@ -39,6 +39,7 @@ from .joints import (
     PrismaticJoint,
     RevoluteJoint,
     RotarySpring,
+    SoftJoints,
     WeldJoint,
 )
 from .maps import MapSpec, read_map
@@ -234,6 +235,7 @@ class Scene:
     map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
     publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
     threads: int = 1  # the kernel's threads for big islands (contacts.threads): same bits
+    soft_joints: Optional[SoftJoints] = None  # joint_solver.type soft; None: exact
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -431,6 +433,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         sleep=contacts.boolean("sleep", False),
         events=contacts.boolean("events", False),
         threads=_read_threads(contacts),
+        soft_joints=_read_joint_solver(root),
         sensors=tuple(read_sensor(name, r, points, step_ns)
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
@@ -440,6 +443,38 @@ def _read_scene(root: ParameterReader) -> Scene:
     )
     root.check_all_read(ignore=NODE_PARAMETERS)
     return scene
+
+
+#: The most sub-steps ``joint_solver.substeps`` takes.
+MOST_SOFT_SUBSTEPS = 64
+
+
+def _read_joint_solver(root: ParameterReader) -> Optional[SoftJoints]:
+    """``joint_solver``: ``type`` exact (None) or soft, with its sub-steps and softness;
+    soft joints step as Box2D v3 does, so only with semi-implicit Euler and no contacts."""
+    solver = root.child("joint_solver")
+    if solver.string("type", "exact", choices=("exact", "soft")) == "exact":
+        for key in ("substeps", "hertz", "damping_ratio"):
+            if solver.has(key):
+                solver.fail(key, "is a setting of joint_solver.type soft, not exact")
+        return None
+    substeps = solver.raw("substeps", 4)
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or \
+            not 1 <= substeps <= MOST_SOFT_SUBSTEPS:
+        solver.fail("substeps", f"must be an integer from 1 to {MOST_SOFT_SUBSTEPS}, "
+                                f"not {quoted(substeps)}")
+    soft = SoftJoints(substeps, solver.number("hertz", 60.0, positive=True),
+                      solver.number("damping_ratio", 2.0, minimum=0.0))
+    method = root.raw("integrator", "auto")
+    if method != "semi_implicit_euler":
+        solver.fail("type", "soft joints take semi-implicit Euler sub-steps as Box2D v3 "
+                            f"does: set integrator to semi_implicit_euler, not {quoted(method)}")
+    contacts = [what for what, key in (("walls", "walls"), ("collision groups", "collisions"),
+                                       ("a map", "map")) if root.has(key)]
+    if contacts:
+        solver.fail("type", f"soft joints are not solved with contacts, and this scene has "
+                            f"{' and '.join(contacts)}: use joint_solver.type exact")
+    return soft
 
 
 def _read_threads(contacts: ParameterReader) -> int:

@@ -18,14 +18,15 @@ static void hd_joints_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(joints_doc,
 "joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
-"       tolerance, max_turn) -> Joints\n\n"
+"       tolerance, max_turn, *, substeps=0, hertz=0.0, damping_ratio=0.0) -> Joints\n\n"
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
 "checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
 "Pattern), each as (start, columns, dependent); the model indices of the bodies whose turning\n"
 "JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
-"step (JointPass.max_turn).");
+"step (JointPass.max_turn); soft joints (soft_joint.c): ``substeps`` a step's sub-steps (0:\n"
+"the exact pass), ``hertz`` (Hz) and ``damping_ratio`` their rows' softness (SoftJoints).");
 
 /* A contact/sparse.py Pattern from (start, columns, dependent); -1 with an exception set. */
 static int hd_read_pattern(PyObject *triple, hd_pattern *p)
@@ -70,14 +71,20 @@ static int hd_read_pattern(PyObject *triple, hd_pattern *p)
 static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"bodies", "inverse_mass", "ints", "reals", "rows", "pattern",
-                            "rigid_pattern", "turning", "tolerance", "max_turn", NULL};
+                            "rigid_pattern", "turning", "tolerance", "max_turn", "substeps",
+                            "hertz", "damping_ratio", NULL};
     PyObject *o[4], *patterns[2], *turning_object;
-    long rows;
-    double tolerance, max_turn;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOdd:joints", names, o, o + 1, o + 2,
-                                     o + 3, &rows, patterns, patterns + 1, &turning_object,
-                                     &tolerance, &max_turn))
+    long rows, substeps = 0;
+    double tolerance, max_turn, hertz = 0.0, damping_ratio = 0.0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOdd|$ldd:joints", names, o, o + 1,
+                                     o + 2, o + 3, &rows, patterns, patterns + 1,
+                                     &turning_object, &tolerance, &max_turn, &substeps, &hertz,
+                                     &damping_ratio))
         return NULL;
+    if (substeps < 0) {
+        PyErr_SetString(PyExc_ValueError, "joints: substeps must not be negative");
+        return NULL;
+    }
     hd_joint_model *m = calloc(1, sizeof(hd_joint_model));
     if (m == NULL)
         return PyErr_NoMemory();
@@ -94,6 +101,7 @@ static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
     m->body_count = (long)bodies;
     m->turning_count = (long)turning;
     m->tolerance = tolerance, m->max_turn = max_turn;
+    m->substeps = substeps, m->hertz = hertz, m->damping_ratio = damping_ratio;
     m->joint_count = (long)(ints_count / HD_JOINT_INTS);
     if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,
                                                           sizeof(hd_joint))) == NULL) {
@@ -228,7 +236,7 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *const *args, Py_ssi
 PyDoc_STRVAR(joints_resolve_doc,
 "joints_resolve(joints, bodies, q0, q1, v1, h) -> bool\n\n"
 "The joint pass ``joints`` (joints()) after a step of ``h`` (s) from q0 to (q1, v1)\n"
-"(JointPass.resolve): ``bodies`` the model's number of bodies; ``q0`` the step's start and\n"
+"(JointPass.resolve; a soft pass's sub-step, SoftJointPass.resolve): ``bodies`` the model's number of bodies; ``q0`` the step's start and\n"
 "``q1`` its end, (x, y, angle) of each CM, ``v1`` the end's (vx, vy, omega), each\n"
 "C-contiguous float64 of 3 * bodies values; q1 and v1 are updated in place. Returns False,\n"
 "changing nothing, when the positions have no solution near the step's end\n"
@@ -265,7 +273,12 @@ static PyObject *hd_py_joints_resolve(PyObject *self, PyObject *const *args, Py_
     }
     int status;
     Py_BEGIN_ALLOW_THREADS
-    status = hd_joints_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    if (m->substeps > 0) {
+        hd_soft_joints_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+        status = HD_JOINTS_OK;
+    } else {
+        status = hd_joints_resolve(m, views[0].buf, views[1].buf, views[2].buf, h);
+    }
     Py_END_ALLOW_THREADS
     for (int k = 0; k < 3; ++k)
         PyBuffer_Release(views + k);

@@ -71,7 +71,7 @@ static void hd_add_entry(hd_joint_row *r, long body, double jx, double jy, doubl
 static hd_joint_row *hd_new_row(hd_joint_row *rows, long *n, int kind, double c)
 {
     hd_joint_row *r = rows + (*n)++;
-    r->kind = kind, r->count = 0, r->scaled = 0;
+    r->kind = kind, r->count = 0, r->scaled = 0, r->pair = 0;
     r->c = c, r->speed = 0.0, r->bound = INFINITY, r->stiffness = 0.0, r->damping = 0.0;
     return r;
 }
@@ -127,6 +127,7 @@ static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_an
         hd_joint_row *r = hd_new_row(rows, n, kind, ux * (pb.x - pa.x) + uy * (pb.y - pa.y));
         hd_fixed(r, jt, pa, pb, ux, uy);
         r->stiffness = stiffness, r->damping = damping, r->scaled = 1;
+        r->pair = axis == 0 && kind == HD_RIGID;
     }
 }
 
@@ -153,7 +154,7 @@ static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, 
     for (int axis = 0; axis < 2; ++axis) {
         const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
         hd_joint_row *r = rows + (*n)++;
-        r->kind = HD_RIGID, r->count = 0, r->scaled = 1;
+        r->kind = HD_RIGID, r->count = 0, r->scaled = 1, r->pair = axis == 0;
         r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
         r->stiffness = 0.0, r->damping = 0.0;
         if (values_only)
@@ -218,11 +219,9 @@ static void hd_turn_all(const hd_joint_model *m, const double *q)
     }
 }
 
-/* contact/joints.py: JointPass.rows: every joint's rows at q (local bodies); returns their count.
- * Leaves the cosines and sines of q's angles in m->trig. `values_only`: the rows' values
- * are wanted, not their Jacobians (which the plain pins then skip). */
-static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
-                          int values_only)
+/* contact/joints.py: JointPass.rows (joint.h). */
+long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
+                   int values_only)
 {
     long n = 0;
     const double *trig = m->trig;
@@ -302,8 +301,8 @@ static long hd_build_rows(const hd_joint_model *m, const double *q, double h, hd
 /* contact/joint_solve.py: directions: per row, M^-1 J^T (rows[index[k]] for k < n; index
  * NULL: rows k).
  */
-static void hd_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
-                          long n, hd_joint_row *out)
+void hd_joint_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
+                         long n, hd_joint_row *out)
 {
     for (long k = 0; k < n; ++k) {
         const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
@@ -331,23 +330,6 @@ static void hd_apply(double *x, const hd_joint_row *direction, long n, const dou
             target[2] += direction[i].j[e][2] * amount;
         }
     }
-}
-
-/* contact/joint_solve.py: dot. */
-static double hd_dot(const hd_joint_row *row, const hd_joint_row *direction)
-{
-    double s = 0.0;
-    for (int e = 0; e < row->count; ++e)
-        for (int f = 0; f < direction->count; ++f)
-            if (row->body[e] == direction->body[f])
-                s += row->j[e][0] * direction->j[f][0] + row->j[e][1] * direction->j[f][1]
-                     + row->j[e][2] * direction->j[f][2];
-    return s;
-}
-
-double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
-{
-    return hd_dot(row, direction);
 }
 
 /* contact/joint_solve.py: dot, over the entries `meets` pairs (count of them). */
@@ -594,7 +576,7 @@ static int hd_newton(hd_joint_model *m, double h)
     int factored = 0, fresh = 0;  /* the last matrix's L U is kept; it was that iterate's */
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
         /* An iterate that may take the last matrix needs its rows' values only (at first). */
-        hd_build_rows(m, m->q, h, m->rows, factored);
+        hd_joint_rows(m, m->q, h, m->rows, factored);
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
         const double largest = hd_largest_abs(m->step, nr);
@@ -609,7 +591,7 @@ static int hd_newton(hd_joint_model *m, double h)
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
             if (factored)
-                hd_build_rows(m, m->q, h, m->rows, 0);
+                hd_joint_rows(m, m->q, h, m->rows, 0);
             return HD_JOINTS_OK;
         }
         if (fresh && !(largest <= 0.5 * previous))
@@ -617,7 +599,7 @@ static int hd_newton(hd_joint_model *m, double h)
         fresh = !factored || !(largest <= HD_CHORD * previous);
         if (fresh) {
             if (factored)
-                hd_build_rows(m, m->q, h, m->rows, 0);
+                hd_joint_rows(m, m->q, h, m->rows, 0);
             hd_matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
                       m->upper);
             hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
@@ -640,11 +622,11 @@ static int hd_hold(hd_joint_model *m, double h, int again)
 {
     const long nr = m->rigid_count;
     if (nr == 0) {
-        hd_build_rows(m, m->q, h, m->rows, 0);
+        hd_joint_rows(m, m->q, h, m->rows, 0);
         return HD_JOINTS_OK;
     }
     if (!again)
-        hd_directions(m, m->rows0, m->rigid, nr, m->dir0);
+        hd_joint_directions(m, m->rows0, m->rigid, nr, m->dir0);
     for (long k = 0; k < nr; ++k)
         m->target[k] = m->rows0[m->rigid[k]].c;
     if (m->newton_valid) {
@@ -655,7 +637,7 @@ static int hd_hold(hd_joint_model *m, double h, int again)
         if (hd_newton(m, h) == HD_JOINTS_OK)
             return HD_JOINTS_OK;
         memcpy(m->q, m->moved, (size_t)(3 * m->body_count) * sizeof(double));
-        hd_build_rows(m, m->q, h, m->rows, 1);
+        hd_joint_rows(m, m->q, h, m->rows, 1);
         for (long k = 0; k < nr; ++k)
             m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
         if (!(hd_largest_abs(m->step, nr) < m->first_error))
@@ -685,36 +667,25 @@ static void hd_correct(hd_joint_model *m, double h)
             m->active[i] = r->kind == HD_RIGID || (r->kind == HD_LIMIT && r->c < 0.0);
             m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
-        hd_directions(m, m->rows, NULL, n, m->dir);
+        hd_joint_directions(m, m->rows, NULL, n, m->dir);
         hd_matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
         hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
         hd_substitute(p, m->low, m->diag, m->out, m->rhs);
         hd_apply(m->q, m->dir, n, m->rhs);
-        hd_build_rows(m, m->q, h, m->rows, 0);
+        hd_joint_rows(m, m->q, h, m->rows, 0);
     }
-}
-
-/* contact/joint_solve.py: rate. */
-static double hd_rate(const hd_joint_row *row, const double *v)
-{
-    double s = 0.0;
-    for (int e = 0; e < row->count; ++e) {
-        const double *w = v + 3 * row->body[e];
-        s += row->j[e][0] * w[0] + row->j[e][1] * w[1] + row->j[e][2] * w[2];
-    }
-    return s;
 }
 
 /* contact/joints.py: JointPass._velocities, on m->v at the rows m->rows. */
 static void hd_velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
-    hd_directions(m, m->rows, NULL, n, m->dir);
+    hd_joint_directions(m, m->rows, NULL, n, m->dir);
     hd_matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
               NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
-        m->b[i] = -hd_rate(row, m->v);
+        m->b[i] = -hd_joint_rate(row, m->v);
         m->low_bound[i] = -INFINITY, m->high_bound[i] = INFINITY;
         if (row->kind == HD_LIMIT) {
             m->b[i] -= (0.0 > row->c ? 0.0 : row->c) / h;
@@ -780,6 +751,36 @@ long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1
     return ceil(parts) < 2.0 ? 2 : (long)ceil(parts);
 }
 
+void hd_joint_count_turns(hd_joint_model *m)
+{
+    for (long i = 0; i < m->joint_count; ++i) {
+        hd_joint *jt = m->joints + i;
+        if (jt->kind == HD_GEAR)
+            continue;
+        const hd_anchor pa = hd_place(jt->a, jt->point_a, m->q, m->trig),
+                    pb = hd_place(jt->b, jt->point_b, m->q, m->trig);
+        jt->angle = hd_joint_angle(jt, pa, pb);
+        jt->raw = pb.angle - pa.angle;
+    }
+}
+
+void hd_joint_rows_again(hd_joint_model *m)
+{
+    hd_joint_row *swap = m->rows0;
+    m->rows0 = m->rows, m->rows = swap;
+    swap = m->dir0, m->dir0 = m->dir, m->dir = swap;
+}
+
+void hd_joint_ended(hd_joint_model *m, double *q1, double *v1)
+{
+    for (long k = 0; k < m->body_count; ++k)
+        for (int c = 0; c < 3; ++c) {
+            q1[3 * m->bodies[k] + c] = m->q[3 * k + c];
+            v1[3 * m->bodies[k] + c] = m->v[3 * k + c];
+        }
+    m->ended = 1;
+}
+
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)
 {
     const long nb = m->body_count;
@@ -799,13 +800,10 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
             m->v[3 * k + c] = v1[3 * m->bodies[k] + c];
         }
     m->ended = 0;
-    if (again) {
-        hd_joint_row *swap = m->rows0;
-        m->rows0 = m->rows, m->rows = swap;
-        swap = m->dir0, m->dir0 = m->dir, m->dir = swap;
-    } else {
-        hd_build_rows(m, m->start, h, m->rows0, 0);
-    }
+    if (again)
+        hd_joint_rows_again(m);
+    else
+        hd_joint_rows(m, m->start, h, m->rows0, 0);
     const int status = hd_hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
@@ -814,21 +812,8 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
     hd_correct(m, h);
     memcpy(m->settled, m->v, (size_t)(3 * nb) * sizeof(double));
     hd_velocities(m, h);
-    for (long i = 0; i < m->joint_count; ++i) {  /* JointPass._count_turns, at m->trig's q */
-        hd_joint *jt = m->joints + i;
-        if (jt->kind == HD_GEAR)
-            continue;
-        const hd_anchor pa = hd_place(jt->a, jt->point_a, m->q, m->trig),
-                    pb = hd_place(jt->b, jt->point_b, m->q, m->trig);
-        jt->angle = hd_joint_angle(jt, pa, pb);
-        jt->raw = pb.angle - pa.angle;
-    }
-    for (long k = 0; k < nb; ++k)
-        for (int c = 0; c < 3; ++c) {
-            q1[3 * m->bodies[k] + c] = m->q[3 * k + c];
-            v1[3 * m->bodies[k] + c] = m->v[3 * k + c];
-        }
-    m->ended = 1;
+    hd_joint_count_turns(m);
+    hd_joint_ended(m, q1, v1);
     return HD_JOINTS_OK;
 }
 
@@ -847,7 +832,7 @@ int hd_joints_prepare(hd_joint_model *m)
     m->angles = m->trig + 2 * nb;
     for (long b = 0; b < nb; ++b)
         m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
-    const long n = hd_build_rows(m, zero, 1.0, probe, 0);
+    const long n = hd_joint_rows(m, zero, 1.0, probe, 0);
     m->row_count = n;
     m->rigid = malloc((size_t)(n + 1) * sizeof(long));
     m->rigid_count = 0;

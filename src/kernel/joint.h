@@ -63,6 +63,7 @@ typedef struct {
  * entries. */
 typedef struct {
     int kind, count, scaled;
+    int pair;  /* the first of a rigid point's two rows, x then y (soft_joint.c's blocks) */
     long body[4];
     double j[4][3];
     double c, speed, bound, stiffness, damping;
@@ -81,6 +82,10 @@ typedef struct hd_joint_model {
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
     double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
+    /* Soft joints (soft_joint.c): the sub-steps of a step (0: this exact pass), and the
+     * rows' softness (SoftJoints.hertz, damping_ratio). */
+    long substeps;
+    double hertz, damping_ratio;
     double *warm, *newton; /* row_count, rigid_count */
     /* The extra impulses the last contact solve added to `warm` (coupled.h), row_count;
      * the velocities before the last velocity stage (3 per body). */
@@ -108,13 +113,55 @@ enum hd_joint_status { HD_JOINTS_OK = 0, HD_JOINTS_OUT_OF_MEMORY = -1, HD_JOINTS
  * that many rows, else HD_JOINTS_OUT_OF_MEMORY or OK. */
 int hd_joints_prepare(hd_joint_model *m);
 void hd_joints_free(hd_joint_model *m);
-/* contact/joint_solve.py: dot, J_row . (M^-1 J^T)_direction over the bodies the two share. */
-double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction);
+/* contact/joint_solve.py: dot, J_row . (M^-1 J^T)_direction over the bodies the two share
+ * (inline: the soft sweeps take three a pin). */
+static inline double hd_joint_dot(const hd_joint_row *row, const hd_joint_row *direction)
+{
+    double s = 0.0;
+    for (int e = 0; e < row->count; ++e)
+        for (int f = 0; f < direction->count; ++f)
+            if (row->body[e] == direction->body[f])
+                s += row->j[e][0] * direction->j[f][0] + row->j[e][1] * direction->j[f][1]
+                     + row->j[e][2] * direction->j[f][2];
+    return s;
+}
+
+/* contact/joint_solve.py: rate, the row's velocity J v (v: 3 per local body). */
+static inline double hd_joint_rate(const hd_joint_row *row, const double *v)
+{
+    double s = 0.0;
+    for (int e = 0; e < row->count; ++e) {
+        const double *w = v + 3 * row->body[e];
+        s += row->j[e][0] * w[0] + row->j[e][1] * w[1] + row->j[e][2] * w[2];
+    }
+    return s;
+}
+/* contact/joints.py: JointPass.rows at q (local bodies) into `rows`; returns their count and
+ * leaves the cosines and sines of q's angles in m->trig. `values_only`: the plain pins'
+ * Jacobians are not wanted. */
+long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
+                   int values_only);
+/* contact/joint_solve.py: directions: M^-1 J^T of rows[index[k]] for k < n (index NULL:
+ * rows k) into `out`. */
+void hd_joint_directions(const hd_joint_model *m, const hd_joint_row *rows, const long *index,
+                         long n, hd_joint_row *out);
+/* contact/joints.py: JointPass._count_turns at the pose of m->trig, m->q. */
+void hd_joint_count_turns(hd_joint_model *m);
+/* The last pass's final rows and directions (m->rows, m->dir) as this pass's rows at its start
+ * (m->rows0, m->dir0): where the last pass ended is where this one starts. */
+void hd_joint_rows_again(hd_joint_model *m);
+/* The pass's final m->q and m->v into the model's q1 and v1 of all bodies; marks m->q, m->rows
+ * and m->dir the final pose, rows and directions (m->ended). */
+void hd_joint_ended(hd_joint_model *m, double *q1, double *v1);
 /* contact/joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
 long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
 /* contact/joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in
  * place; HD_JOINTS_UNSOLVED (nothing changed but the working memory) when the positions
  * have no solution near the step's end (JointsUnsolved). */
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h);
+/* contact/soft_joints.py: SoftJointPass.resolve, one sub-step of `h` on the model's (q0, q1, v1)
+ * of all bodies, q1 and v1 in place (soft_joint.c). */
+void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1,
+                            double h);
 
 #endif

@@ -291,6 +291,28 @@ static int hd_one_step(hd_run *s, const double *q, const double *v, double *q1, 
     }
 }
 
+/* A step of soft joints (soft_joint.c), as dynamics/simulation.py: Simulation._constrained_step
+ * takes it: in the joints' equal sub-steps, each the method's step and their pass. The sub-steps'
+ * ends go through the first level of `s->levels`. */
+static int hd_soft_step(hd_run *s, hd_joint_model *joints, const double *q, const double *v,
+                        double *q1, double *v1, double h)
+{
+    const long n3 = s->f->n3;
+    double *q_part = s->levels, *v_part = q_part + n3;
+    const double part = h / (double)joints->substeps;
+    const double *from_q = q, *from_v = v;
+    for (long k = 0; k < joints->substeps; ++k) {
+        const int status = hd_one_step(s, from_q, from_v, q1, v1, part);
+        if (status != HD_ADVANCED)
+            return status;
+        hd_soft_joints_resolve(joints, from_q, q1, v1, part);
+        memcpy(q_part, q1, (size_t)n3 * sizeof(double));
+        memcpy(v_part, v1, (size_t)n3 * sizeof(double));
+        from_q = q_part, from_v = v_part;
+    }
+    return HD_ADVANCED;
+}
+
 /* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
  * dynamics/simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's
  * arm would turn too far (hd_joints_parts), in halves when the joints have no solution near the
@@ -301,6 +323,8 @@ static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *
                                const double *v, double *q1, double *v1, double h, long room,
                                int level)
 {
+    if (joints != NULL && joints->substeps > 0)
+        return hd_soft_step(s, joints, q, v, q1, v1, h);
     int status = hd_one_step(s, q, v, q1, v1, h);
     if (status != HD_ADVANCED || joints == NULL)
         return status;

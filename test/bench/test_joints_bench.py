@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.bench.joints import (
+    CHAIN_LINKS,
     LOOSE_LINKS,
+    SOFT,
     Case,
     Run,
     _cases,
@@ -133,6 +135,32 @@ def test_the_loose_chains_cost_against_the_exact_ones_outside_the_targets(tmp_pa
     assert verdicts[0] == ("1: chains of 2-200 links at h = 1/60 and 1/240 s run, pins within "
                            "1e-9 m", f"all ran; largest pin gap {ours.gap:.2g} m", "met")
     names = {case.name for case in _cases()}
-    loose_cases = [case for case in _cases() if case.reference is not None]
+    loose_cases = [case for case in _cases()
+                   if case.reference is not None and not case.name.endswith(SOFT)]
     assert len(loose_cases) == 2 * len(LOOSE_LINKS)
     assert all(case.reference in names and case.tolerance == 1e-9 for case in loose_cases)
+    soft_cases = [case for case in _cases() if case.name.endswith(SOFT)]
+    assert len(soft_cases) == 2 * len(CHAIN_LINKS)
+    assert all(case.reference in names and case.reference + SOFT == case.name
+               for case in soft_cases)
+
+
+def test_soft_chains_report_their_cost_and_gap_against_box2d_v3_s():
+    """A soft chain's line: its cost over Box2D v3's on the exact case of the same chain,
+    both gaps; met where no soft chain costs more, missed where one does, not measured
+    without the peer; targets 1 and 2 leave the soft chains out."""
+    exact = _case("chain of 2, h = 1/240 s", {"hecker_dynamics": [Run(2e-6, 1e-12)],
+                                              "box2d_v3": [Run(4e-6, 1e-3)]})
+    soft = _case("chain of 2, h = 1/240 s" + SOFT,
+                 {"hecker_dynamics": [Run(1e-6, 5e-4)]})
+    soft.reference = exact.name
+    renamed = {name: (1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
+    verdicts = targets([exact, soft], renamed)
+    assert verdicts[0][1] == "all ran; largest pin gap 1e-12 m"
+    assert verdicts[1][1] == "core / Box2D v3: 2 links 0.50"
+    assert verdicts[3][1:] == ("soft / Box2D v3: 2 links h = 1/240 s: 0.25 (gaps 0.0005 m, "
+                               "v3 0.001 m)", "met")
+    soft.runs["hecker_dynamics"] = [Run(8e-6, 5e-4)]
+    assert targets([exact, soft], renamed)[3][2] == "missed"
+    del exact.runs["box2d_v3"]
+    assert targets([exact, soft], renamed)[3][2] == "not measured"

@@ -1,0 +1,192 @@
+"""Soft joints: the joints solved as Box2D v3 solves them (``joint_solver.type: soft``),
+the cheap and inexact option beside :class:`~.joints.JointPass`'s exact projection.
+
+Each step is taken in ``substeps`` equal sub-steps of semi-implicit Euler (the simulation
+takes them, :meth:`~..dynamics.simulation.Simulation._constrained_step`); after each
+sub-step's free step, which moved the bodies from (q0, v0) to (q1 = q0 + h v1, v1) under
+the smooth forces alone, :meth:`SoftJointPass.resolve` does what Box2D v3's solver stages
+do between its velocity and position integration (erincatto/box2d ``src/solver.c``):
+
+1. *Warm start*: every row's impulse of the last sub-step, along its Jacobian at q0.
+2. *Solve, with bias*: one sweep of sequential impulses over the rows at q0 (their
+   Jacobians from the body point velocity v_P = v_CM + omega perp(r), Eq. 9; an impulse
+   lambda changes the velocities by M^-1 J^T lambda: the force over the mass, F = m a of
+   Eq. 5, and the torque perp(r) . P of Eq. 11 over inertia, Eq. 14), each
+   rigid row soft: its position error C fed back as a velocity bias, a spring-damper of
+   ``hertz`` and ``damping_ratio`` per unit effective mass integrated implicitly over the
+   sub-step (b2MakeSoft: bias rate omega / (2 zeta + h omega), mass scale and impulse scale
+   from h omega (2 zeta + h omega)). A pin's two rows are one 2 x 2 block, as Box2D's
+   point constraint is.
+3. *Integrate positions*: q1 moves by h times the velocity change of stages 1 and 2, so
+   the positions move with the solved velocities, as they do in Box2D.
+4. *Relax, without bias*: one sweep over the rows at the new q1 toward zero velocity
+   (rigid rows with their whole effective mass, no bias), so the bias of stage 2 adds no
+   kinetic energy to the step's end.
+
+Limits are Box2D's: speculative while open (the joint may approach its limit by what
+closes it within the sub-step), soft when passed; motors are clamped to their largest
+effort times the sub-step; springs (a revolute spring, a soft weld) take their own
+stiffness and damping in the same implicit form, in both sweeps. The impulses carry to the
+next sub-step and step (Box2D's warm start). The rows are :class:`~.joints.JointPass`'s,
+in its solve order (the joint graph's, never the names'), so every joint kind is solved,
+and the efforts are the rows' impulses over the sub-step.
+
+It is first order and holds the joints only as well as one sweep of sequential impulses
+per sub-step does: a pin opens by millimetres on long chains, as Box2D v3's do
+(docs/scenes.md has the measured gaps). The compiled kernel's ``src/kernel/soft_joint.c``
+repeats :meth:`SoftJointPass.resolve` operation for operation, so both give the same bits.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Optional
+
+import numpy as np
+
+from ..scene.joints import SoftJoints
+from .joint_rows import LIMIT, MOTOR, RIGID, SOFT, JointRow
+from .joint_solve import Directions, directions, dot, rate
+from .joints import JointPass
+
+if TYPE_CHECKING:
+    from ..scene.load import Scene
+
+__all__ = ["SoftJointPass", "softness"]
+
+
+def softness(hertz: float, damping_ratio: float, h: float) -> tuple[float, float, float]:
+    """(bias rate 1/s, mass scale, impulse scale) of a spring-damper of ``hertz`` and
+    ``damping_ratio`` per unit effective mass, integrated implicitly over ``h``: Box2D v3's
+    b2MakeSoft."""
+    omega = 2.0 * math.pi * hertz
+    a1 = 2.0 * damping_ratio + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+class SoftJointPass(JointPass):
+    """The scene's joints, solved in soft sub-steps (see the module docstring)."""
+
+    def __init__(self, scene: Scene, inverse_mass: np.ndarray, cm_local: np.ndarray,
+                 compiled: bool = False) -> None:
+        soft = scene.soft_joints
+        assert soft is not None  # the scene asks for soft joints
+        self.soft: SoftJoints = soft
+        #: The sub-steps of a step, which the simulation takes (0: the exact pass's parts).
+        self.substeps = soft.substeps
+        #: The last sub-step's end pose, its rows and their directions there: the next
+        #: sub-step's start and rows, unless something moved the bodies in between or the
+        #: sub-step's length changed (the kernel's keeps them likewise, m->ended).
+        self._end: Optional[tuple[list[float], list[JointRow], Directions]] = None
+        #: Per row, whether it begins a pin's two rows (x, then y, rigid): one 2 x 2 block.
+        self.pairs: list[bool] = []
+        super().__init__(scene, inverse_mass, cm_local, compiled)
+
+    def reset(self, q: Optional[np.ndarray] = None) -> None:
+        super().reset(q)
+        self.pairs = [kind == RIGID and part == "x" for (_, part), kind in
+                      zip(self.keys, self.kinds)]
+
+    def forget(self) -> None:
+        super().forget()
+        self._end = None
+
+    def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
+        """One sub-step of length ``h`` from ``q0`` to (``q1``, ``v1``), after its free
+        semi-implicit Euler step; updates ``q1`` and ``v1`` (all bodies) in place."""
+        if self._initial is None:
+            self.reset(q0)
+        if self._compiled:
+            self._in_kernel().resolve(q0, q1, v1, h)
+            self._end = None
+            return
+        index = self.bodies
+        start = q0[index].reshape(-1).tolist()
+        end = self._end
+        if end is not None and end[0] == start and h == self.step_h:
+            rows, towards = end[1], end[2]
+        else:
+            rows = self.rows(start, h)
+            towards = directions(rows, self.inverse_mass)
+        q = q1[index].reshape(-1).tolist()
+        v = v1[index].reshape(-1).tolist()
+        free = list(v)
+        for entries, amount in zip(towards, self.warm):  # stage 1
+            _push(v, entries, amount)
+        self._sweep(rows, towards, v, h, softness(self.soft.hertz, self.soft.damping_ratio, h))
+        for k in range(len(q)):  # stage 3
+            q[k] += h * (v[k] - free[k])
+        rows = self.rows(q, h)
+        towards = directions(rows, self.inverse_mass)
+        self._sweep(rows, towards, v, h, None)
+        self._end = (q, rows, towards)
+        self.step_h = h
+        self._set_efforts()
+        self._count_turns(q)
+        q1[index] = np.array(q).reshape(-1, 3)
+        v1[index] = np.array(v).reshape(-1, 3)
+
+    def _sweep(self, rows: list[JointRow], towards: Directions, v: list[float], h: float,
+               soft: Optional[tuple[float, float, float]]) -> None:
+        """One sweep of sequential impulses over ``rows`` (with their directions M^-1 J^T
+        ``towards``) on the velocities ``v``, adding to the impulses :attr:`warm`; with
+        the ``soft`` (bias rate, mass scale, impulse scale) of stage 2, or None: stage 4."""
+        lam, pairs = self.warm, self.pairs
+        i, n = 0, len(rows)
+        while i < n:
+            row = rows[i]
+            if pairs[i]:  # a pin's x and y rows: Box2D's 2 x 2 point block
+                other = rows[i + 1]
+                k11 = dot(row, towards[i])
+                k12 = dot(row, towards[i + 1])
+                k22 = dot(other, towards[i + 1])
+                bx, by = rate(row, v), rate(other, v)
+                scale, keep = 1.0, 0.0
+                if soft is not None:
+                    bx += soft[0] * row.c
+                    by += soft[0] * other.c
+                    scale, keep = soft[1], soft[2]
+                det = k11 * k22 - k12 * k12
+                det = 1.0 / det if det != 0.0 else det
+                sx, sy = det * (k22 * bx - k12 * by), det * (k11 * by - k12 * bx)
+                ix = -scale * sx - keep * lam[i]
+                iy = -scale * sy - keep * lam[i + 1]
+                lam[i] += ix
+                lam[i + 1] += iy
+                _push(v, towards[i], ix)
+                _push(v, towards[i + 1], iy)
+                i += 2
+                continue
+            diagonal = dot(row, towards[i])
+            mass = 1.0 / diagonal if diagonal > 0.0 else 0.0
+            velocity = rate(row, v)
+            old = lam[i]
+            if row.kind == SOFT:  # the row's own spring, in both sweeps
+                stiffness, damping = row.stiffness, row.damping
+                compliance = h * (damping + h * stiffness)
+                a2 = compliance if row.scaled else compliance * diagonal
+                bias = stiffness / (damping + h * stiffness) if compliance > 0.0 else 0.0
+                new = old - a2 / (1.0 + a2) * mass * (velocity + bias * row.c) - old / (1.0 + a2)
+            elif row.kind == MOTOR:
+                new = min(max(old - mass * (velocity - row.speed), -row.bound), row.bound)
+            else:  # rigid or a limit
+                bias, scale, keep = 0.0, 1.0, 0.0
+                if row.kind == LIMIT and row.c > 0.0:  # open: speculative
+                    bias = row.c / h
+                elif soft is not None:
+                    bias, scale, keep = soft[0] * row.c, soft[1], soft[2]
+                new = old - scale * mass * (velocity + bias) - keep * old
+                if row.kind == LIMIT:
+                    new = max(new, 0.0)
+            lam[i] = new
+            _push(v, towards[i], new - old)
+            i += 1
+
+
+def _push(v: list[float], entries: list[tuple[int, float, float, float]], amount: float) -> None:
+    """v += M^-1 J^T amount for one row's direction ``entries``."""
+    for b, dx, dy, dw in entries:
+        v[3 * b] += dx * amount
+        v[3 * b + 1] += dy * amount
+        v[3 * b + 2] += dw * amount

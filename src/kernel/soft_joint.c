@@ -1,0 +1,151 @@
+/* Soft joints: hecker_dynamics/contact/soft_joints.py (SoftJointPass.resolve), operation for
+ * operation (see joint.h): one sub-step's warm start, sweep with bias, position update and
+ * sweep without bias, as Box2D v3's solver stages, on the rows joint.c builds.
+ */
+#include <stddef.h>
+
+#include "floats.h"
+#include "joint.h"
+
+/* contact/soft_joints.py: _push, v += M^-1 J^T amount along one row's direction (no zero
+ * skipped: a zero impulse still adds its signed zeros, as Python does). */
+static inline void hd_push(double *v, const hd_joint_row *direction, double amount)
+{
+    for (int e = 0; e < direction->count; ++e) {
+        double *target = v + 3 * direction->body[e];
+        target[0] += direction->j[e][0] * amount;
+        target[1] += direction->j[e][1] * amount;
+        target[2] += direction->j[e][2] * amount;
+    }
+}
+
+/* contact/joint_solve.py: dot of a row and a direction on the same bodies in the same order,
+ * each body once (a pin's, a slider's or a weld's rows on two bodies, or one): only entry e
+ * meets entry e, so the sum takes them in dot's order without its search. */
+static inline double hd_dot_along(const hd_joint_row *row, const hd_joint_row *direction)
+{
+    double s = 0.0;
+    for (int e = 0; e < row->count; ++e)
+        s += row->j[e][0] * direction->j[e][0] + row->j[e][1] * direction->j[e][1]
+             + row->j[e][2] * direction->j[e][2];
+    return s;
+}
+
+/* Whether a row's bodies are each once in it (its directions then meet it entry by entry). */
+static inline int hd_distinct(const hd_joint_row *row)
+{
+    return row->count == 1 || (row->count == 2 && row->body[0] != row->body[1]);
+}
+
+/* contact/soft_joints.py: SoftJointPass._sweep over rows with their directions on m->v, adding to
+ * the impulses m->warm; `soft` the (bias rate, mass scale, impulse scale) of the sweep with
+ * bias, NULL for the relaxing sweep. */
+static void hd_sweep(hd_joint_model *m, const hd_joint_row *rows, const hd_joint_row *towards,
+                     double h, const double *soft)
+{
+    double *lam = m->warm, *v = m->v;
+    const long n = m->row_count;
+    long i = 0;
+    while (i < n) {
+        const hd_joint_row *row = rows + i;
+        if (row->pair) {  /* a pin's x and y rows: Box2D's 2 x 2 point block */
+            const hd_joint_row *other = rows + i + 1;  /* on row's bodies, in their order */
+            const int along = hd_distinct(row);
+            const double k11 = along ? hd_dot_along(row, towards + i)
+                                     : hd_joint_dot(row, towards + i);
+            const double k12 = along ? hd_dot_along(row, towards + i + 1)
+                                     : hd_joint_dot(row, towards + i + 1);
+            const double k22 = along ? hd_dot_along(other, towards + i + 1)
+                                     : hd_joint_dot(other, towards + i + 1);
+            double bx = hd_joint_rate(row, v), by = hd_joint_rate(other, v);
+            double scale = 1.0, keep = 0.0;
+            if (soft != NULL) {
+                bx += soft[0] * row->c;
+                by += soft[0] * other->c;
+                scale = soft[1], keep = soft[2];
+            }
+            double det = k11 * k22 - k12 * k12;
+            det = det != 0.0 ? 1.0 / det : det;
+            const double sx = det * (k22 * bx - k12 * by), sy = det * (k11 * by - k12 * bx);
+            const double ix = -scale * sx - keep * lam[i];
+            const double iy = -scale * sy - keep * lam[i + 1];
+            lam[i] += ix;
+            lam[i + 1] += iy;
+            hd_push(v, towards + i, ix);
+            hd_push(v, towards + i + 1, iy);
+            i += 2;
+            continue;
+        }
+        const double diagonal = hd_distinct(row) ? hd_dot_along(row, towards + i)
+                                                 : hd_joint_dot(row, towards + i);
+        const double mass = diagonal > 0.0 ? 1.0 / diagonal : 0.0;
+        const double velocity = hd_joint_rate(row, v);
+        const double old = lam[i];
+        double new;
+        if (row->kind == HD_SOFT) {  /* the row's own spring, in both sweeps */
+            const double stiffness = row->stiffness, damping = row->damping;
+            const double compliance = h * (damping + h * stiffness);
+            const double a2 = row->scaled ? compliance : compliance * diagonal;
+            const double bias = compliance > 0.0 ? stiffness / (damping + h * stiffness) : 0.0;
+            new = old - a2 / (1.0 + a2) * mass * (velocity + bias * row->c) - old / (1.0 + a2);
+        } else if (row->kind == HD_MOTOR) {
+            new = hd_min(hd_max(old - mass * (velocity - row->speed), -row->bound), row->bound);
+        } else {  /* rigid or a limit */
+            double bias = 0.0, scale = 1.0, keep = 0.0;
+            if (row->kind == HD_LIMIT && row->c > 0.0) {  /* open: speculative */
+                bias = row->c / h;
+            } else if (soft != NULL) {
+                bias = soft[0] * row->c, scale = soft[1], keep = soft[2];
+            }
+            new = old - scale * mass * (velocity + bias) - keep * old;
+            if (row->kind == HD_LIMIT)
+                new = hd_max(new, 0.0);
+        }
+        lam[i] = new;
+        hd_push(v, towards + i, new - old);
+        i += 1;
+    }
+}
+
+void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1,
+                            double h)
+{
+    const long nb = m->body_count, n = m->row_count;
+    /* The last sub-step's end, its rows built at the same length, is this one's start
+     * (compared as Python compares floats). */
+    int again = m->ended && h == m->last_h;
+    for (long k = 0; k < nb; ++k)
+        for (int c = 0; c < 3; ++c) {
+            const double start = q0[3 * m->bodies[k] + c];
+            again = again && start == m->q[3 * k + c];
+            m->start[3 * k + c] = start;
+        }
+    if (again) {
+        hd_joint_rows_again(m);
+    } else {
+        hd_joint_rows(m, m->start, h, m->rows0, 0);
+        hd_joint_directions(m, m->rows0, NULL, n, m->dir0);
+    }
+    for (long k = 0; k < nb; ++k)
+        for (int c = 0; c < 3; ++c) {
+            m->q[3 * k + c] = q1[3 * m->bodies[k] + c];
+            m->v[3 * k + c] = m->moved[3 * k + c] = v1[3 * m->bodies[k] + c];  /* moved: free */
+        }
+    for (long i = 0; i < n; ++i)  /* stage 1 */
+        hd_push(m->v, m->dir0 + i, m->warm[i]);
+    /* contact/soft_joints.py: softness, Box2D v3's b2MakeSoft */
+    const double omega = 2.0 * HD_PI * m->hertz;
+    const double a1 = 2.0 * m->damping_ratio + h * omega;
+    const double a2 = h * omega * a1;
+    const double a3 = 1.0 / (1.0 + a2);
+    const double soft[3] = {omega / a1, a2 * a3, a3};
+    hd_sweep(m, m->rows0, m->dir0, h, soft);
+    for (long k = 0; k < 3 * nb; ++k)  /* stage 3 */
+        m->q[k] += h * (m->v[k] - m->moved[k]);
+    hd_joint_rows(m, m->q, h, m->rows, 0);
+    hd_joint_directions(m, m->rows, NULL, n, m->dir);
+    hd_sweep(m, m->rows, m->dir, h, NULL);
+    m->last_h = h;
+    hd_joint_count_turns(m);
+    hd_joint_ended(m, q1, v1);
+}

@@ -1,0 +1,163 @@
+"""Soft joints (``joint_solver.type: soft``, hecker_dynamics.contact.soft_joints): Box2D v3's
+sub-stepped soft solve, against the kernel's bits, itself, a pendulum's period, the
+benchmark chains' energy and Box2D v3's measured pin gaps, and the scenes it refuses.
+
+References: the kernel repeats the pass operation for operation (the same bits); gravity is
+conservative and the soft rows only take energy out over a step (the relaxing sweep ends
+each sub-step at the rigid rows' velocities), so a chain's energy never rises by more than
+the sub-steps' first-order error; a small swing's period is 2 pi sqrt(I_pivot / (m g d))
+to first order in the step; the chains' pins open by about as much as Box2D v3's do on
+the same chains, the same solver in floats (docs/bench/joints.md: 0.0037, 0.015, 0.047
+and 0.28 m at 2, 10, 50 and 200 links at h = 1/60 s; 0.0014, 0.0043, 0.038, 0.075 m at
+1/240 s, each the largest of 10 samples of a chaotic motion, so a factor of two).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scene_builders import make_scene
+from test_joints import I_PIVOT, ROD, pendulum_scene
+from test_joints_compiled import SCENES
+
+from hecker_dynamics.bench.joints import chain, pin_gap
+from hecker_dynamics.dynamics import Simulation, kernel
+from hecker_dynamics.dynamics.model import Model
+from hecker_dynamics.scene import SceneError
+from hecker_dynamics.scene.joints import SoftJoints
+
+needs_kernel = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
+                                  "built or HECKER_DYNAMICS_KERNEL=0")
+SECOND = 1_000_000_000
+#: Box2D v3's largest pin gaps on the benchmark chains (docs/bench/joints.md), m, by
+#: (links, steps per second).
+BOX2D_V3_GAPS = {(2, 60): 0.0037, (10, 60): 0.015, (50, 60): 0.047, (200, 60): 0.28,
+                 (2, 240): 0.0014, (10, 240): 0.0043, (50, 240): 0.038, (200, 240): 0.075}
+
+
+def soft(scene, **settings):
+    """``scene`` with soft joints (``settings``: SoftJoints' fields) stepped as they step."""
+    return replace(scene, integrator="semi_implicit_euler", soft_joints=SoftJoints(**settings))
+
+
+def _same(a: Simulation, b: Simulation) -> None:
+    assert a.steps == b.steps
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.v, b.v)
+    assert a.model.joints.export_state() == b.model.joints.export_state()
+
+
+@needs_kernel
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_kernel_steps_soft_joints_with_the_bits_of_python(name):
+    """0.3 s of each joint scene (pins, a chain, gears with a motor and limits, a slider
+    with limits and a motor, welds, a spring, a soft weld, a rope and a rod) with soft
+    joints: whole steps in the kernel and steps in Python give the same bits."""
+    scene = soft(SCENES[name]("semi_implicit_euler"))
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    assert fast._compiled is not None and fast.model.joints.compiled
+    fast.advance_to(300_000_000)
+    slow.advance_to(300_000_000)
+    _same(fast, slow)
+    assert any(x != 0.0 for x in fast.model.joints.warm)
+
+
+@needs_kernel
+def test_the_kernels_soft_pass_after_a_python_step_has_the_bits_of_python():
+    """The kernel's soft sub-step called from a step taken in Python (the binding's
+    joints_resolve) gives Python's bits, its rows rebuilt where Python reuses them."""
+    scene = soft(SCENES["gears"]("semi_implicit_euler"), substeps=3)
+    fast, slow = Simulation(scene), Simulation(scene)
+    fast._compiled = None  # steps in Python, the joint pass in the kernel
+    slow.model.use_python()
+    fast.advance_to(200_000_000)
+    slow.advance_to(200_000_000)
+    _same(fast, slow)
+
+
+@pytest.mark.parametrize("python", [False, True])
+def test_two_runs_give_the_same_bits(python):
+    scene = soft(chain(20, 1.0 / 60.0, 1.0))
+    runs = [Simulation(scene) for _ in range(2)]
+    for sim in runs:
+        if python:
+            sim.model.use_python()
+        sim.advance_to(SECOND)
+    _same(*runs)
+
+
+def test_a_small_swing_has_the_pendulum_s_period():
+    """A rod pinned at its end swinging 0.05 rad: its period within 0.1 % of
+    2 pi sqrt(I_pivot / (m g d)) at h = 1/60 s in 4 sub-steps (measured: 0.015 % long;
+    first order, and the soft pin gives a little)."""
+    amplitude, h = 0.05, 1.0 / 60.0
+    sim = Simulation(soft(replace(pendulum_scene(amplitude), step_ns=round(h * 1e9),
+                                  publish_period_ns=round(h * 1e9))))
+    crossings, before = [], float(sim.q[0, 2])
+    while len(crossings) < 6:
+        sim.step()
+        after = float(sim.q[0, 2])
+        if before > 0.0 >= after:
+            crossings.append(sim.time_ns * 1e-9 - h * after / (after - before))
+        before = after
+    period = (crossings[-1] - crossings[0]) / (len(crossings) - 1)
+    exact = 2.0 * math.pi * math.sqrt(I_PIVOT / (ROD["mass"] * 9.81 * 0.5))
+    assert period == pytest.approx(exact, rel=1e-3)
+
+
+@needs_kernel
+@pytest.mark.parametrize("links", [2, 10, 50, 200])
+@pytest.mark.parametrize("per_second", [60, 240])
+def test_soft_chains_run_their_10_s_within_box2d_v3_s_gaps(links, per_second):
+    """The benchmark's chains over 10 s, sampled every 0.1 s: they run, the energy never
+    rises above its start by more than 1 % of m g L N^2 / 2 (the energy the chain gives up
+    hanging down), and the pins open by at most twice Box2D v3's largest gap there."""
+    scene = soft(chain(links, 1.0 / per_second, 10.0))
+    sim, model = Simulation(scene), Model(scene)
+    scale = 9.81 * 0.5 * links * links / 2.0
+    start = model.energy(sim.q, sim.v)
+    worst, highest = 0.0, start
+    for k in range(1, 101):
+        sim.advance_to(k * SECOND // 10, keep=False)
+        worst = max(worst, pin_gap(scene, model, sim.q))
+        highest = max(highest, model.energy(sim.q, sim.v))
+    assert highest - start <= 0.01 * scale
+    assert 0.0 < worst <= 2.0 * BOX2D_V3_GAPS[links, per_second]
+
+
+@pytest.mark.parametrize("change, problem", [
+    ({"integrator": "velocity_verlet"}, "set integrator to semi_implicit_euler, not "
+                                        "'velocity_verlet'"),
+    ({"integrator": None}, "not 'auto'"),
+    ({"walls": {"floor": {"point": [0.0, -5.0], "normal": [0.0, 1.0]}}},
+     "this scene has walls: use joint_solver.type exact"),
+    ({"joint_solver": {"type": "soft", "substeps": 0}}, "must be an integer from 1 to 64"),
+    ({"joint_solver": {"type": "soft", "substeps": 2.0}}, "must be an integer from 1 to 64"),
+    ({"joint_solver": {"type": "soft", "hertz": 0.0}}, "hertz"),
+    ({"joint_solver": {"type": "soft", "damping_ratio": -1.0}}, "damping_ratio"),
+    ({"joint_solver": {"type": "exact", "substeps": 4}},
+     "'joint_solver.substeps': is a setting of joint_solver.type soft, not exact"),
+    ({"joint_solver": {"type": "stiff"}}, "joint_solver.type"),
+])
+def test_soft_joints_refuse_what_they_cannot_solve(change, problem):
+    params = {"step": 0.01, "integrator": "semi_implicit_euler",
+              "bodies": {"rod": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0}},
+              "joints": {"pin": {"type": "revolute", "body_b": "rod", "point_b": [-0.5, 0.0]}},
+              "joint_solver": {"type": "soft"}}
+    params.update(change)
+    params = {key: value for key, value in params.items() if value is not None}
+    with pytest.raises(SceneError, match=problem.replace("(", r"\(")) as error:
+        make_scene(params)
+    assert "\n" not in str(error.value)
+
+
+def test_the_default_is_the_exact_pass_and_soft_takes_its_defaults():
+    params = {"step": 0.01, "integrator": "semi_implicit_euler",
+              "bodies": {"rod": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0}},
+              "joints": {"pin": {"type": "revolute", "body_b": "rod", "point_b": [-0.5, 0.0]}}}
+    assert make_scene(params).soft_joints is None
+    scene = make_scene({**params, "joint_solver": {"type": "soft"}})
+    assert scene.soft_joints == SoftJoints(4, 60.0, 2.0)
+    assert Simulation(scene).model.joints.substeps == 4
