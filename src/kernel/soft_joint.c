@@ -7,11 +7,16 @@
 #include "floats.h"
 #include "joint.h"
 
+/* The sweep's small functions take `n`, the entries of a row whose bodies are each once in it
+ * (a pin's, a slider's or a weld's rows: 1 or 2), as a constant, so that each is unrolled for
+ * it; 0: any row, as the Python functions take it. None changes an operation. */
+
 /* contact/soft_joints.py: _push, v += M^-1 J^T amount along one row's direction (no zero
  * skipped: a zero impulse still adds its signed zeros, as Python does). */
-static inline void hd_push(double *v, const hd_joint_row *direction, double amount)
+static HD_HOT void hd_push(double *v, const hd_joint_row *direction, double amount, int n)
 {
-    for (int e = 0; e < direction->count; ++e) {
+    const int count = n ? n : direction->count;
+    for (int e = 0; e < count; ++e) {
         double *target = v + 3 * direction->body[e];
         target[0] += direction->j[e][0] * amount;
         target[1] += direction->j[e][1] * amount;
@@ -19,22 +24,97 @@ static inline void hd_push(double *v, const hd_joint_row *direction, double amou
     }
 }
 
-/* contact/joint_solve.py: dot of a row and a direction on the same bodies in the same order,
- * each body once (a pin's, a slider's or a weld's rows on two bodies, or one): only entry e
- * meets entry e, so the sum takes them in dot's order without its search. */
-static inline double hd_dot_along(const hd_joint_row *row, const hd_joint_row *direction)
+/* contact/joint_solve.py: dot; with n, of a row and a direction on the same bodies in the same
+ * order, each once: only entry e meets entry e, so the sum takes them in dot's order without
+ * its search. */
+static HD_HOT double hd_dot(const hd_joint_row *row, const hd_joint_row *direction, int n)
 {
+    if (n == 0)
+        return hd_joint_dot(row, direction);
     double s = 0.0;
-    for (int e = 0; e < row->count; ++e)
+    for (int e = 0; e < n; ++e)
         s += row->j[e][0] * direction->j[e][0] + row->j[e][1] * direction->j[e][1]
              + row->j[e][2] * direction->j[e][2];
     return s;
 }
 
-/* Whether a row's bodies are each once in it (its directions then meet it entry by entry). */
-static inline int hd_distinct(const hd_joint_row *row)
+/* contact/joint_solve.py: rate. */
+static HD_HOT double hd_rate(const hd_joint_row *row, const double *v, int n)
 {
-    return row->count == 1 || (row->count == 2 && row->body[0] != row->body[1]);
+    const int count = n ? n : row->count;
+    double s = 0.0;
+    for (int e = 0; e < count; ++e) {
+        const double *w = v + 3 * row->body[e];
+        s += row->j[e][0] * w[0] + row->j[e][1] * w[1] + row->j[e][2] * w[2];
+    }
+    return s;
+}
+
+/* The entries of a row whose bodies are each once in it (1 or 2), else 0. */
+static HD_HOT int hd_distinct(const hd_joint_row *row)
+{
+    if (row->count == 1 || (row->count == 2 && row->body[0] != row->body[1]))
+        return row->count;
+    return 0;
+}
+
+/* contact/soft_joints.py: SoftJointPass._sweep, a pin's x and y rows (`row` and the next, on
+ * the same bodies) as Box2D's 2 x 2 point block, `lam` their impulses. */
+static HD_HOT void hd_pin(const hd_joint_row *row, const hd_joint_row *towards, double *lam,
+                          double *v, const double *soft, int n)
+{
+    const hd_joint_row *other = row + 1;
+    const double k11 = hd_dot(row, towards, n);
+    const double k12 = hd_dot(row, towards + 1, n);
+    const double k22 = hd_dot(other, towards + 1, n);
+    double bx = hd_rate(row, v, n), by = hd_rate(other, v, n);
+    double scale = 1.0, keep = 0.0;
+    if (soft != NULL) {
+        bx += soft[0] * row->c;
+        by += soft[0] * other->c;
+        scale = soft[1], keep = soft[2];
+    }
+    double det = k11 * k22 - k12 * k12;
+    det = det != 0.0 ? 1.0 / det : det;
+    const double sx = det * (k22 * bx - k12 * by), sy = det * (k11 * by - k12 * bx);
+    const double ix = -scale * sx - keep * lam[0];
+    const double iy = -scale * sy - keep * lam[1];
+    lam[0] += ix;
+    lam[1] += iy;
+    hd_push(v, towards, ix, n);
+    hd_push(v, towards + 1, iy, n);
+}
+
+/* contact/soft_joints.py: SoftJointPass._sweep, one row but a pin's. */
+static HD_HOT void hd_row(const hd_joint_row *row, const hd_joint_row *towards, double *lam,
+                          double *v, double h, const double *soft, int n)
+{
+    const double diagonal = hd_dot(row, towards, n);
+    const double mass = diagonal > 0.0 ? 1.0 / diagonal : 0.0;
+    const double velocity = hd_rate(row, v, n);
+    const double old = *lam;
+    double new;
+    if (row->kind == HD_SOFT) {  /* the row's own spring, in both sweeps */
+        const double stiffness = row->stiffness, damping = row->damping;
+        const double compliance = h * (damping + h * stiffness);
+        const double a2 = row->scaled ? compliance : compliance * diagonal;
+        const double bias = compliance > 0.0 ? stiffness / (damping + h * stiffness) : 0.0;
+        new = old - a2 / (1.0 + a2) * mass * (velocity + bias * row->c) - old / (1.0 + a2);
+    } else if (row->kind == HD_MOTOR) {
+        new = hd_min(hd_max(old - mass * (velocity - row->speed), -row->bound), row->bound);
+    } else {  /* rigid or a limit */
+        double bias = 0.0, scale = 1.0, keep = 0.0;
+        if (row->kind == HD_LIMIT && row->c > 0.0) {  /* open: speculative */
+            bias = row->c / h;
+        } else if (soft != NULL) {
+            bias = soft[0] * row->c, scale = soft[1], keep = soft[2];
+        }
+        new = old - scale * mass * (velocity + bias) - keep * old;
+        if (row->kind == HD_LIMIT)
+            new = hd_max(new, 0.0);
+    }
+    *lam = new;
+    hd_push(v, towards, new - old, n);
 }
 
 /* contact/soft_joints.py: SoftJointPass._sweep over rows with their directions on m->v, adding to
@@ -48,62 +128,24 @@ static void hd_sweep(hd_joint_model *m, const hd_joint_row *rows, const hd_joint
     long i = 0;
     while (i < n) {
         const hd_joint_row *row = rows + i;
-        if (row->pair) {  /* a pin's x and y rows: Box2D's 2 x 2 point block */
-            const hd_joint_row *other = rows + i + 1;  /* on row's bodies, in their order */
-            const int along = hd_distinct(row);
-            const double k11 = along ? hd_dot_along(row, towards + i)
-                                     : hd_joint_dot(row, towards + i);
-            const double k12 = along ? hd_dot_along(row, towards + i + 1)
-                                     : hd_joint_dot(row, towards + i + 1);
-            const double k22 = along ? hd_dot_along(other, towards + i + 1)
-                                     : hd_joint_dot(other, towards + i + 1);
-            double bx = hd_joint_rate(row, v), by = hd_joint_rate(other, v);
-            double scale = 1.0, keep = 0.0;
-            if (soft != NULL) {
-                bx += soft[0] * row->c;
-                by += soft[0] * other->c;
-                scale = soft[1], keep = soft[2];
-            }
-            double det = k11 * k22 - k12 * k12;
-            det = det != 0.0 ? 1.0 / det : det;
-            const double sx = det * (k22 * bx - k12 * by), sy = det * (k11 * by - k12 * bx);
-            const double ix = -scale * sx - keep * lam[i];
-            const double iy = -scale * sy - keep * lam[i + 1];
-            lam[i] += ix;
-            lam[i + 1] += iy;
-            hd_push(v, towards + i, ix);
-            hd_push(v, towards + i + 1, iy);
+        const int along = hd_distinct(row);  /* constants below: each case unrolled */
+        if (row->pair) {
+            if (along == 2)
+                hd_pin(row, towards + i, lam + i, v, soft, 2);
+            else if (along == 1)
+                hd_pin(row, towards + i, lam + i, v, soft, 1);
+            else
+                hd_pin(row, towards + i, lam + i, v, soft, 0);
             i += 2;
-            continue;
+        } else {
+            if (along == 2)
+                hd_row(row, towards + i, lam + i, v, h, soft, 2);
+            else if (along == 1)
+                hd_row(row, towards + i, lam + i, v, h, soft, 1);
+            else
+                hd_row(row, towards + i, lam + i, v, h, soft, 0);
+            i += 1;
         }
-        const double diagonal = hd_distinct(row) ? hd_dot_along(row, towards + i)
-                                                 : hd_joint_dot(row, towards + i);
-        const double mass = diagonal > 0.0 ? 1.0 / diagonal : 0.0;
-        const double velocity = hd_joint_rate(row, v);
-        const double old = lam[i];
-        double new;
-        if (row->kind == HD_SOFT) {  /* the row's own spring, in both sweeps */
-            const double stiffness = row->stiffness, damping = row->damping;
-            const double compliance = h * (damping + h * stiffness);
-            const double a2 = row->scaled ? compliance : compliance * diagonal;
-            const double bias = compliance > 0.0 ? stiffness / (damping + h * stiffness) : 0.0;
-            new = old - a2 / (1.0 + a2) * mass * (velocity + bias * row->c) - old / (1.0 + a2);
-        } else if (row->kind == HD_MOTOR) {
-            new = hd_min(hd_max(old - mass * (velocity - row->speed), -row->bound), row->bound);
-        } else {  /* rigid or a limit */
-            double bias = 0.0, scale = 1.0, keep = 0.0;
-            if (row->kind == HD_LIMIT && row->c > 0.0) {  /* open: speculative */
-                bias = row->c / h;
-            } else if (soft != NULL) {
-                bias = soft[0] * row->c, scale = soft[1], keep = soft[2];
-            }
-            new = old - scale * mass * (velocity + bias) - keep * old;
-            if (row->kind == HD_LIMIT)
-                new = hd_max(new, 0.0);
-        }
-        lam[i] = new;
-        hd_push(v, towards + i, new - old);
-        i += 1;
     }
 }
 
@@ -132,7 +174,7 @@ void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, dou
             m->v[3 * k + c] = m->moved[3 * k + c] = v1[3 * m->bodies[k] + c];  /* moved: free */
         }
     for (long i = 0; i < n; ++i)  /* stage 1 */
-        hd_push(m->v, m->dir0 + i, m->warm[i]);
+        hd_push(m->v, m->dir0 + i, m->warm[i], 0);
     /* contact/soft_joints.py: softness, Box2D v3's b2MakeSoft */
     const double omega = 2.0 * HD_PI * m->hertz;
     const double a1 = 2.0 * m->damping_ratio + h * omega;
