@@ -92,6 +92,11 @@ class SoftJointPass(JointPass):
         super().forget()
         self._end = None
 
+    def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float) -> None:
+        """Take the kernel's state; the kernel moved the bodies since :attr:`_end`."""
+        super().restore(warm, newton, step_h)
+        self._end = None
+
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """One sub-step of length ``h`` from ``q0`` to (``q1``, ``v1``), after its free
         semi-implicit Euler step; updates ``q1`` and ``v1`` (all bodies) in place."""

@@ -77,6 +77,25 @@ def test_the_kernels_soft_pass_after_a_python_step_has_the_bits_of_python():
     _same(fast, slow)
 
 
+@needs_kernel
+def test_python_and_the_kernel_take_turns_with_the_bits_of_python():
+    """Steps in Python, then whole steps in the kernel, then Python again, give the bits of
+    Python alone: the pass's state (impulses, counted angles, sub-step) goes across, and
+    no rows kept from before the kernel's steps are used after them."""
+    scene = soft(SCENES["slider"]("semi_implicit_euler"))
+    mixed, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    steps, joints = mixed._compiled, mixed.model.joints
+    mixed._compiled, joints._compiled = None, False  # Python first
+    mixed.advance_to(100_000_000)
+    mixed._compiled, joints._compiled = steps, True  # then the kernel
+    mixed.advance_to(200_000_000)
+    mixed.model.use_python()
+    mixed.advance_to(300_000_000)
+    slow.advance_to(300_000_000)
+    _same(mixed, slow)
+
+
 @pytest.mark.parametrize("python", [False, True])
 def test_two_runs_give_the_same_bits(python):
     scene = soft(chain(20, 1.0 / 60.0, 1.0))
