@@ -103,8 +103,7 @@ class SoftJointPass(JointPass):
         if self._initial is None:
             self.reset(q0)
         if self._compiled:
-            self._in_kernel().resolve(q0, q1, v1, h)
-            self._end = None
+            self._in_kernel().resolve(q0, q1, v1, h)  # its restore drops _end
             return
         index = self.bodies
         start = q0[index].reshape(-1).tolist()
