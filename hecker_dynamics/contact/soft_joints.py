@@ -43,7 +43,8 @@ from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
-from ..scene.joints import SoftJoints
+from ..scene.joints import SoftJoints, soft_refusal
+from ..scene.parameters import SceneError
 from .joint_rows import LIMIT, MOTOR, RIGID, SOFT, JointRow
 from .joint_solve import Directions, directions, dot, rate
 from .joints import JointPass
@@ -72,6 +73,14 @@ class SoftJointPass(JointPass):
                  compiled: bool = False) -> None:
         soft = scene.soft_joints
         assert soft is not None  # the scene asks for soft joints
+        # The loader refuses these; a scene changed after loading (a command line's
+        # --integrator or --map) is refused here.
+        problem = soft_refusal(scene.integrator, [
+            what for what, there in (("walls", scene.walls), ("collision groups",
+                                                             scene.collisions),
+                                     ("a map", scene.map is not None)) if there])
+        if problem is not None:
+            raise SceneError(f"joint_solver.type soft: {problem}")
         self.soft: SoftJoints = soft
         #: The sub-steps of a step, which the simulation takes (0: the exact pass's parts).
         self.substeps = soft.substeps

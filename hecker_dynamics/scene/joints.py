@@ -5,11 +5,14 @@ These are the specs only; :mod:`hecker_dynamics.contact.joints` solves them.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Optional, Union
 
+from .parameters import quoted
+
 __all__ = ["Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints"]
+           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints", "soft_refusal"]
 
 Vec2 = tuple[float, float]
 
@@ -112,3 +115,16 @@ class SoftJoints:
     substeps: int = 4
     hertz: float = 60.0
     damping_ratio: float = 2.0
+
+
+def soft_refusal(integrator: str, contacts: Sequence[str]) -> Optional[str]:
+    """Why soft joints cannot step with ``integrator`` in a scene that has ``contacts``
+    (what it has of walls, collision groups and a map), or None: their sub-steps are
+    Box2D's semi-implicit Euler, and the contact solve sweeps the exact pass's rows."""
+    if integrator != "semi_implicit_euler":
+        return ("soft joints take semi-implicit Euler sub-steps as Box2D v3 does: set "
+                f"integrator to semi_implicit_euler, not {quoted(integrator)}")
+    if contacts:
+        return (f"soft joints are not solved with contacts, and this scene has "
+                f"{' and '.join(contacts)}: use joint_solver.type exact")
+    return None

@@ -41,6 +41,7 @@ from .joints import (
     RotarySpring,
     SoftJoints,
     WeldJoint,
+    soft_refusal,
 )
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
@@ -465,15 +466,12 @@ def _read_joint_solver(root: ParameterReader) -> Optional[SoftJoints]:
                                 f"not {quoted(substeps)}")
     soft = SoftJoints(substeps, solver.number("hertz", 60.0, positive=True),
                       solver.number("damping_ratio", 2.0, minimum=0.0))
-    method = root.raw("integrator", "auto")
-    if method != "semi_implicit_euler":
-        solver.fail("type", "soft joints take semi-implicit Euler sub-steps as Box2D v3 "
-                            f"does: set integrator to semi_implicit_euler, not {quoted(method)}")
-    contacts = [what for what, key in (("walls", "walls"), ("collision groups", "collisions"),
-                                       ("a map", "map")) if root.has(key)]
-    if contacts:
-        solver.fail("type", f"soft joints are not solved with contacts, and this scene has "
-                            f"{' and '.join(contacts)}: use joint_solver.type exact")
+    problem = soft_refusal(root.raw("integrator", "auto"),
+                           [what for what, key in (("walls", "walls"),
+                                                   ("collision groups", "collisions"),
+                                                   ("a map", "map")) if root.has(key)])
+    if problem is not None:
+        solver.fail("type", problem)
     return soft
 
 

@@ -172,6 +172,18 @@ def test_soft_joints_refuse_what_they_cannot_solve(change, problem):
     assert "\n" not in str(error.value)
 
 
+@pytest.mark.parametrize("change, problem", [
+    ({"integrator": "rk4"}, "set integrator to semi_implicit_euler, not 'rk4'"),
+    ({"walls": (None,)}, "this scene has walls"),
+])
+def test_a_scene_changed_after_loading_is_refused_too(change, problem):
+    """What a command line may change after loading (``--integrator``, ``--map``) is
+    refused when the simulation is made."""
+    scene = soft(SCENES["pendulum"]("semi_implicit_euler"))
+    with pytest.raises(SceneError, match=f"joint_solver.type soft: .*{problem}"):
+        Simulation(replace(scene, **change))
+
+
 def test_the_default_is_the_exact_pass_and_soft_takes_its_defaults():
     params = {"step": 0.01, "integrator": "semi_implicit_euler",
               "bodies": {"rod": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0}},
