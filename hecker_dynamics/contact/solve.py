@@ -69,7 +69,9 @@ def solve_velocities(rows: list[ContactRow], velocity: Velocities,
     each gets the bits it would get alone; a big island without joint rows is swept in
     colour order (:func:`~.islands.coloured`), and keeps :data:`~.warm.FRICTION_CARRY` of
     its rows' tangent impulses for the next warm start (``carry``) when its passes run
-    out. Returns each island's units in the order swept."""
+    out. (The kernel sweeps a smaller island level by level, ``src/kernel/solve.c``:
+    ``hd_level_order``, trading only units that share no body, with the same bits.)
+    Returns each island's units in the order swept."""
     swept = []
     for island, coupled in islands(schedule(rows), joint_units):
         wide = len(island) >= WIDE_UNITS and not coupled
