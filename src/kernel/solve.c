@@ -58,7 +58,7 @@ static void hd_level_order(const hd_contact_model *m, long *members, long size)
 }
 
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
- * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
+ * velocity by more than m->converged relative to its fastest body, or HD_WORK / (its
  * units) passes, but at least HD_MIN_ITERATIONS and (its units) / HD_SETTLE and at most
  * HD_MAX_ITERATIONS
  * (contact/solve.py: solve_velocities); then each island's position correction into m->shift,
@@ -112,7 +112,7 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
                 largest = hd_max(largest,
                                  hd_solve_unit(m->units + members[k], m->rows, m->velocity));
             largest = hd_coupled_sweep(m, i, largest);
-            if (largest <= HD_CONVERGED * scale)
+            if (largest <= m->converged * scale)
                 break;
         }
         if (!hd_depths_after(m, members, size, m->units[members[0]].first, h, base))
