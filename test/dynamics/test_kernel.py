@@ -321,8 +321,9 @@ def spy_on_chunks(sim, runs: list | None = None) -> list[tuple[int, int]]:
         calls.append((steps, kernel.Advanced(*done).taken))
         return done
 
-    def spy_run(q, v, qs, vs, h, first, per, steps, *settings):
-        done = run(q, v, qs, vs, h, first, per, steps, *settings)
+    def spy_run(q, v, qs, vs, first, steps, *settings):
+        done = run(q, v, qs, vs, first, steps, *settings)
+        per = sim._per_publish
         if runs is not None:
             runs.append((first, per, steps))
         left, end = done[0][1], 0
@@ -537,7 +538,7 @@ def one_instant_per_call(sim):
     """The simulation without :meth:`Simulation._run_checked`: one kernel call per publish
     instant, the energy bound checked from Python after each, as before runs of many
     instants took one call."""
-    sim._run_checked = lambda limit, per, snapshots: 0
+    sim._run_checked = lambda limit, snapshots: 0
     return sim
 
 
@@ -915,29 +916,31 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
     first instant, then every 4, are 4 rows (1, 4, 4, 1 steps); the rows' state, the
     bound's statics, units and budget are checked against the bodies, and a segment of
     no step is refused."""
-    stepper = ext.stepper(program, 0, None, 0.0, None)
     statics, unit = np.ones(6), np.zeros(2, np.int64)
 
     def run(rows=4, first=1, per=4, steps=10, statics=statics, unit=unit, budget=None,
             inputs=None):
+        stepper = ext.stepper(program, 0, None, 0.0, None, h=0.001, per=per,
+                              period_seconds=0.004, springs=None, statics=statics, unit=unit,
+                              budget=np.zeros(8) if budget is None else budget, growth=1000.0)
         qs, vs = np.zeros((2, rows, 2, 3))
-        done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, 0.001,
-                       first, per, steps, 0.0, None, statics, unit,
-                       np.zeros(8) if budget is None else budget, 1000.0, 0.001, 0.004)
+        done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, first, steps,
+                       0.0, 0.001)
         return done, qs
 
     (status, taken, *_, checked, worst), qs = run()
     assert (status, taken, checked) == (0, 10, 3) and worst == 0.0
     # each row the state after 1, 5, 9 and 10 steps, as step() takes them
     q, v = np.zeros(6), np.zeros(6)
+    stepper = ext.stepper(program, 0, None, 0.0, None)
     for row, steps in enumerate((1, 4, 4, 1)):
         ext.step(stepper, None, False, q, v, 0.001, steps, 0.0, None)
         assert qs[row].tobytes() == q.tobytes()
     assert q[1] < 0.0  # gravity moved the first body
     for kwargs, error, message in (
             ({"rows": 3}, ValueError, "q: expected 24 values, got 18"),
-            ({"first": 0}, ValueError, "first and per need at least 1 step"),
-            ({"per": 0}, ValueError, "first and per need at least 1 step"),
+            ({"first": 0}, ValueError, "first needs at least 1 step"),
+            ({"per": 0}, ValueError, "runs need a step h > 0 and per >= 1"),
             ({"statics": np.ones(5)}, ValueError, "statics: expected 6 values"),
             ({"unit": np.zeros(2)}, TypeError, "unit: expected int64"),
             ({"unit": np.ones(2, np.int64)}, ValueError, "unit index is out of range"),
@@ -947,6 +950,9 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
             run(**kwargs)
     with pytest.raises(TypeError, match=r"run\(\) missing required argument 'q'"):
         ext.run(stepper, None, False)
+    with pytest.raises(ValueError, match="built without the energy bound's budget"):
+        ext.run(stepper, None, False, np.zeros(6), np.zeros(6), *np.zeros((2, 1, 2, 3)), 1, 1,
+                0.0, 0.001)
 
 
 def test_the_force_binding_takes_its_arguments_by_name(ext):
@@ -992,16 +998,29 @@ def test_the_stepper_binding_takes_its_arguments_by_name(ext, program):
     assert not np.array_equal(named[0], q)
     ext.failed_state(stepper=stepper, q=np.zeros(6), v=np.zeros(6))
     qs, vs = np.zeros((2, 1, 2, 3))
-    arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, h=0.001, first=5,
-                     per=5, steps=5, size=0.0, springs=None, statics=np.ones(6),
-                     unit=np.zeros(2, np.int64), budget=np.zeros(8), growth=1000.0,
-                     first_seconds=0.005, period_seconds=0.005)
-    assert ext.run(stepper, **arguments)[:2] == (ext.ADVANCED, 5)
-    period = arguments.pop("period_seconds")
-    with pytest.raises(TypeError, match="unexpected keyword argument 'period'"):
-        ext.run(stepper, **arguments, period=period)
-    with pytest.raises(TypeError, match="missing required argument 'period_seconds'"):
-        ext.run(stepper, **arguments)
+    runs = ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0,
+                       contacts=None, h=0.001, per=5, period_seconds=0.005, springs=None,
+                       statics=np.ones(6), unit=np.zeros(2, np.int64), budget=np.zeros(8),
+                       growth=1000.0)
+    arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, first=5, steps=5,
+                     size=0.0, first_seconds=0.005)
+    named = ext.run(runs, **arguments)
+    assert named[:2] == (ext.ADVANCED, 5)
+    placed = qs.copy()
+    assert ext.run(runs, *arguments.values()) == named and qs.tobytes() == placed.tobytes()
+    first = arguments.pop("first_seconds")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'first_second'"):
+        ext.run(runs, **arguments, first_second=first)
+    with pytest.raises(TypeError, match="missing required argument 'first_seconds'"):
+        ext.run(runs, **arguments)
+    with pytest.raises(TypeError, match="multiple values for argument 'q'"):
+        ext.run(runs, None, False, q, q=q, v=v, qs=qs, vs=vs, first=5, steps=5, size=0.0,
+                first_seconds=first)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'h'"):
+        ext.run(runs, **arguments, first_seconds=first, h=0.001)
+    with pytest.raises(TypeError, match="'period' is an invalid keyword"):
+        ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0, contacts=None,
+                    period=5)
     with pytest.raises(TypeError, match="multiple values for argument 'q'"):
         ext.step(stepper, None, True, q, v, 0.01, 7, 0.0, None, q=q)
     with pytest.raises(TypeError, match="missing required argument 'tolerance'"):
