@@ -151,11 +151,22 @@ class CompiledForces:
                                        inverse_mass=np.ascontiguousarray(inverse_mass),
                                        terms=[pack(term) for term in terms])
         self.inputs = None
+        self._places: Optional[np.ndarray] = None  # where the inputs' program acts
 
     def set_inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
-        """The wrenches of the inputs active from now on (None: none)."""
-        self.inputs = None if term is None else _kernel.program(
-            bodies=self.bodies, inverse_mass=None, terms=[pack(term)])
+        """The wrenches of the inputs active from now on (None: none). A term that shares
+        the places of the last one (:meth:`.ConstantWrenchTerm.with_values`: a drive's
+        control instant) gives the program its new forces and torques in place."""
+        if term is None:
+            self.inputs = None
+        elif self.inputs is not None and term.places is self._places:
+            _kernel.wrench_values(self.inputs, values=[
+                value for _, (fx, fy), torque, *_ in term.rows for value in (fx, fy, torque)])
+        else:
+            packed = pack(term)
+            self._places = packed[1]
+            self.inputs = _kernel.program(bodies=self.bodies, inverse_mass=None,
+                                          terms=[packed])
 
     def accelerations(self, q: np.ndarray, v: np.ndarray, oriented: bool) -> np.ndarray:
         """(ax, ay, alpha) per body, as :meth:`.Model.accelerations`."""

@@ -605,8 +605,10 @@ class Simulation:
                 not self._in_kernel():
             return 0
         self._update_inputs()
+        if not self._bound.kernel_ready():  # inputs held: advance_to goes instant by instant
+            return 0
         limit = self._before_change(limit)
-        if not self._bound.kernel_ready() or limit < 1:
+        if limit < 1:
             return 0
         step, per = self.step_ns, self._per_publish
         first = per - (self._time_ns - self.start_ns) // step % per  # steps to the next instant

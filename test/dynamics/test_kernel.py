@@ -50,6 +50,7 @@ from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.dynamics.forces import WrenchRow
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
@@ -186,6 +187,49 @@ def test_accelerations_with_input_wrenches_are_bit_identical(forces):
     fast.inputs = lean.inputs = None
     for q, v in random_states(fast.size, 5, seed=99):
         assert fast.accelerations(q, v).tobytes() == lean.accelerations(q, v).tobytes()
+
+
+def test_new_input_values_in_place_give_the_bits_of_a_new_program():
+    """A term of new values at the same places (``with_values``, a drive's control
+    instant) updates the kernel's inputs program in place: the same program object, and
+    the accelerations of a program packed anew and of the plain-float sums."""
+    scene = scene_of(tuple(FORCES))
+    fast, lean = compiled_model(scene), Model(scene, lean=True)
+    fast.inputs = lean.inputs = wrench_term(INPUT_ROWS)
+    program = fast.compiled.inputs
+    for k in range(3):
+        rows = [WrenchRow(body, (fx * (k - 1.5), fy + k), torque * k, axes, owner, point, at)
+                for body, (fx, fy), torque, axes, owner, point, at in INPUT_ROWS]
+        fast.inputs = fast.inputs.with_values(rows)
+        lean.inputs = wrench_term(rows)
+        assert fast.compiled.inputs is program
+        for q, v in random_states(fast.size, 5, seed=k):
+            assert fast.accelerations(q, v).tobytes() == lean.accelerations(q, v).tobytes()
+    fast.inputs = wrench_term(INPUT_ROWS[:2])  # other places: a new program
+    assert fast.compiled.inputs is not program
+
+
+def test_the_binding_refuses_input_values_it_cannot_take_whole(ext, program):
+    """wrench_values takes 3 floats a row of a program of one wrench term, by name, and
+    leaves the program as it was where it refuses them."""
+    inputs = ext.program(2, None, [(7, np.array([[0, -1, -1, 0], [1, -1, -1, 0]], np.int64),
+                                    np.array([[1.0, 2.0, 3.0, 0.0, 0.0],
+                                              [4.0, 5.0, 6.0, 0.0, 0.0]]))])
+    q, v, out = np.zeros(6), np.zeros(6), np.empty(6)
+    ext.wrench_values(inputs, values=[-1.0, 0.5, 2.0, 0.0, -0.0, 7.0])
+    ext.accelerations(program, inputs, False, q, v, out)
+    assert out.tolist() == [-1.0, 0.5 - 9.81, 2.0, 0.0, 0.0, 7.0]  # gravity on body 0
+    for values, error, message in (([1.0] * 5, ValueError, "a list of 6 floats"),
+                                   ((1.0,) * 6, ValueError, "a list of 6 floats"),
+                                   ([1.0] * 5 + ["x"], TypeError, "must be real number")):
+        with pytest.raises(error, match=message):
+            ext.wrench_values(inputs, values=values)
+    with pytest.raises(ValueError, match="one wrench term"):
+        ext.wrench_values(program, values=[])
+    with pytest.raises(TypeError, match="unexpected keyword argument 'value'"):
+        ext.wrench_values(inputs, value=[1.0] * 6)
+    ext.accelerations(program, inputs, False, q, v, out)
+    assert out.tolist() == [-1.0, 0.5 - 9.81, 2.0, 0.0, 0.0, 7.0]  # gravity on body 0
 
 
 def test_no_active_terms_give_zeros():
