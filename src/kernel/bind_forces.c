@@ -280,9 +280,8 @@ static PyObject *hd_py_wrench_values(PyObject *self, PyObject *const *args, Py_s
 {
     static const char *const names[] = {"program", "values", NULL};
     PyObject *given[2];
-    if (hd_arguments("wrench_values", args, nargs, kwnames, names, 2, 2, given) < 0)
-        return NULL;
-    hd_program *p = PyCapsule_GetPointer(given[0], HD_PROGRAM_CAPSULE);
+    hd_program *p = hd_capsule_arguments("wrench_values", args, nargs, kwnames, names, 2, 2,
+                                         HD_PROGRAM_CAPSULE, given);
     if (p == NULL)
         return NULL;
     if (p->term_count != 1 || p->terms[0].kind != HD_WRENCH) {
