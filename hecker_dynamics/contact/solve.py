@@ -58,18 +58,22 @@ def slop(size: float) -> float:
 
 
 def solve_velocities(rows: list[ContactRow], velocity: Velocities,
-                      joint_units: list[JointUnit]) -> list[list[ContactRow | Block]]:
+                      joint_units: list[JointUnit],
+                      converged: float = CONVERGED) -> list[list[ContactRow | Block]]:
     """Gauss-Seidel passes over the rows, each two-point manifold as one block
     (:class:`~.rows.Block`), every other contact point by point, then the velocity rows of the
     joints in the island (:mod:`.coupled`), island by island (bodies that touch,
     through contacts or joints, share no body with another island; a joint's rows are
     swept only in an island that has a contact): each until no impulse changes a
-    velocity by more than :data:`CONVERGED` relative to its fastest body, or
+    velocity by more than ``converged`` (the scene's ``contacts.converged``, by default
+    :data:`CONVERGED`) relative to its fastest body, or
     :func:`passes` passes for its own number of units. Islands are independent, so
     each gets the bits it would get alone; a big island without joint rows is swept in
     colour order (:func:`~.islands.coloured`), and keeps :data:`~.warm.FRICTION_CARRY` of
     its rows' tangent impulses for the next warm start (``carry``) when its passes run
-    out. Returns each island's units in the order swept."""
+    out. (The kernel sweeps a smaller island level by level, ``src/kernel/solve.c``:
+    ``hd_level_order``, trading only units that share no body, with the same bits.)
+    Returns each island's units in the order swept."""
     swept = []
     for island, coupled in islands(schedule(rows), joint_units):
         wide = len(island) >= WIDE_UNITS and not coupled
@@ -92,7 +96,7 @@ def solve_velocities(rows: list[ContactRow], velocity: Velocities,
                 largest = max(largest, change)
             for joint in coupled:
                 largest = max(largest, joint.solve(velocity))
-            if largest <= CONVERGED * scale:
+            if largest <= converged * scale:
                 break
         else:  # a small island, or one with joint rows, keeps its friction whole (a jam)
             if wide:

@@ -77,7 +77,7 @@ from .detect import Contact
 from .materials import PairMaterials
 from .rows import ContactRow, States, Velocities, normal_velocity
 from .sleep import Sleep
-from .solve import correct_positions, slop, solve_velocities
+from .solve import CONVERGED, correct_positions, slop, solve_velocities
 from .warm import WarmImpulses, WarmStarts
 
 if TYPE_CHECKING:
@@ -233,6 +233,9 @@ class ContactPass(Sleep, WarmStarts):
         self._woken: set[int] = set()
         self._joints = joints
         self.threads = threads
+        #: The velocity passes' tolerance: the scene's ``contacts.converged``, by default
+        #: :data:`~.solve.CONVERGED`.
+        self.converged = CONVERGED if scene.converged is None else scene.converged
         self._kernel: Optional[_compiled.CompiledContacts] = (
             _compiled.CompiledContacts(self) if compiled else None)
 
@@ -361,7 +364,7 @@ class ContactPass(Sleep, WarmStarts):
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
             row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
-        islands = solve_velocities(rows, velocity, units)
+        islands = solve_velocities(rows, velocity, units, self.converged)
         if joints is not None:
             joints.take_extra(units)
         self._remember(rows, poses)
@@ -433,7 +436,7 @@ class ContactPass(Sleep, WarmStarts):
         for row, contact, bounces in zip(rows, contacts, bouncing):
             if bounces:  # the others end touching (target 0) or, separating, get nothing
                 row.target = -contact.e * row.approach
-        solve_velocities(rows, velocity, [])
+        solve_velocities(rows, velocity, [], self.converged)
         for b in touched:
             v[b] = velocity[b]
         return True

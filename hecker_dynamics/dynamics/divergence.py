@@ -394,13 +394,18 @@ class EnergyBound:
 
     def kernel_data(self) -> Optional[kernel.BoundData]:
         """What the kernel needs to make checks in a row between its steps
-        (:meth:`.kernel.CompiledSteps.run`), while a check passed needs nothing more than
-        the state: no rate of work to take again after it (no inputs, none just ended, no
-        lever arm that moves, no motors); None otherwise, and without the kernel."""
-        if not self._compiled or self._motors or self._stale or self._inputs_set or \
-                self.model.inputs is not None:
+        (:meth:`.kernel.CompiledSteps.run`), the same arrays for the bound's lifetime; None
+        without the kernel."""
+        if not self._compiled:
             return None
         return (self._program, self._statics, self._unit_array, self._budget, GROWTH)
+
+    def kernel_ready(self) -> bool:
+        """Whether the kernel may make the checks on :meth:`kernel_data` now: a check
+        passed needs nothing more than the state, no rate of work to take again after it
+        (no inputs, none just ended, no lever arm that moves, no motors)."""
+        return self._compiled and not (self._motors or self._stale or self._inputs_set or
+                                       self.model.inputs is not None)
 
     def kernel_checked(self, worst: float) -> Optional[str]:
         """The kernel made checks on :meth:`kernel_data` whose largest ratio was

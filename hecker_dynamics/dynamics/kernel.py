@@ -49,7 +49,7 @@ try:
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
-__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "BoundData",
+__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "BoundData", "Runs",
            "CompiledForces", "Advanced", "CompiledSteps", "compiled_steps"]
 
 #: The environment variable that switches the kernel off when set to "0".
@@ -88,6 +88,17 @@ Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.
 #: An energy bound's data for the kernel's checks: the springs' program (or None), the
 #: statics, the unit of each body, the budget (written in place) and the growth factor.
 BoundData = tuple[Any, np.ndarray, np.ndarray, np.ndarray, float]
+
+
+class Runs(NamedTuple):
+    """What the kernel's runs (:meth:`CompiledSteps.run`) share from call to call: the
+    step ``h`` (s), the steps ``per`` from one publish instant to the next and their
+    ``period_seconds``, and the energy bound's data ``bound`` it checks."""
+
+    h: float
+    per: int
+    period_seconds: float
+    bound: BoundData
 
 
 def _packed(kind: int, ints: list[np.ndarray], reals: list[np.ndarray]) -> Packed:
@@ -140,11 +151,22 @@ class CompiledForces:
                                        inverse_mass=np.ascontiguousarray(inverse_mass),
                                        terms=[pack(term) for term in terms])
         self.inputs = None
+        self._places: Optional[np.ndarray] = None  # where the inputs' program acts
 
     def set_inputs(self, term: Optional[ConstantWrenchTerm]) -> None:
-        """The wrenches of the inputs active from now on (None: none)."""
-        self.inputs = None if term is None else _kernel.program(
-            bodies=self.bodies, inverse_mass=None, terms=[pack(term)])
+        """The wrenches of the inputs active from now on (None: none). A term that shares
+        the places of the last one (:meth:`.ConstantWrenchTerm.with_values`: a drive's
+        control instant) gives the program its new forces and torques in place."""
+        if term is None:
+            self.inputs = None
+        elif self.inputs is not None and term.places is self._places:
+            _kernel.wrench_values(self.inputs, values=[
+                value for _, (fx, fy), torque, *_ in term.rows for value in (fx, fy, torque)])
+        else:
+            packed = pack(term)
+            self._places = packed[1]
+            self.inputs = _kernel.program(bodies=self.bodies, inverse_mass=None,
+                                          terms=[packed])
 
     def accelerations(self, q: np.ndarray, v: np.ndarray, oriented: bool) -> np.ndarray:
         """(ax, ay, alpha) per body, as :meth:`.Model.accelerations`."""
@@ -203,14 +225,27 @@ class CompiledSteps:
                                      error=np.ascontiguousarray(pair.error),
                                      error_order=pair.error_order)
             self.tolerance = integrator.tolerance
-        # The kernel's stepper: the method bound to the program and the contact pass, with
-        # the memory its steps need, kept from call to call.
-        self.stepper = _kernel.stepper(
-            program=forces.program, method=self.method, pair=self.pair,
-            tolerance=self.tolerance,
-            contacts=None if contacts is None else contacts.kernel_pass())
+        self.stepper: Any = None
+        self.start(None)
         #: The status of a call that took all its steps.
         self.advanced = _kernel.ADVANCED
+
+    def start(self, runs: Optional[Runs]) -> None:
+        """Build the kernel's stepper: the method bound to the program and the contact
+        pass, with the memory its steps need, kept from call to call, and what the runs of
+        :meth:`run` share (None: no runs), packed once so that each run passes only what
+        changes: a new energy bound (a reset) needs a new stepper."""
+        contacts = self.contacts
+        fixed: dict[str, Any] = {}
+        if runs is not None:
+            springs, statics, unit, budget, growth = runs.bound
+            fixed = dict(h=runs.h, per=runs.per, period_seconds=runs.period_seconds,
+                         springs=springs, statics=statics, unit=unit, budget=budget,
+                         growth=growth)
+        self.stepper = _kernel.stepper(
+            program=self.forces.program, method=self.method, pair=self.pair,
+            tolerance=self.tolerance,
+            contacts=None if contacts is None else contacts.kernel_pass(), **fixed)
 
     def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int, oriented: bool,
                 substep_size: float = 0.0) -> Advanced:
@@ -229,22 +264,20 @@ class CompiledSteps:
         joints.kernel_done()
         return done
 
-    def run(self, q: np.ndarray, v: np.ndarray, qs: np.ndarray, vs: np.ndarray, h: float,
-            first: int, per: int, steps: int, oriented: bool, substep_size: float,
-            bound: BoundData, first_seconds: float,
-            period_seconds: float) -> tuple[Advanced, int, float]:
-        """Take ``steps`` steps from (q, v), left as they are, as :meth:`advance` takes
-        them (no joint pass), and check the energy bound ``bound`` at each publish instant:
-        after ``first`` steps, over ``first_seconds``, and every ``per`` steps after it,
-        over ``period_seconds``, as :meth:`~.divergence.EnergyBound.check` does. The steps
-        from one instant to the next go into the next row of (qs, vs), (segments, N, 3)
-        arrays; the run stops at the first failing step or after the first check over 1.
-        Returns what :meth:`advance` does (a plain tuple too), the checks made and their
-        largest ratio."""
-        # By position: the kernel's run takes its 19 arguments by name too, but a call naming
-        # them cost the ring of 1 body about 11 % more a publish instant.
-        done = _kernel.run(self.stepper, self.forces.inputs, oriented, q, v, qs, vs, h, first,
-                           per, steps, substep_size, *bound, first_seconds, period_seconds)
+    def run(self, q: np.ndarray, v: np.ndarray, qs: np.ndarray, vs: np.ndarray, first: int,
+            steps: int, oriented: bool, substep_size: float,
+            first_seconds: float) -> tuple[Advanced, int, float]:
+        """Take ``steps`` steps of the :class:`Runs` given to :meth:`start` from (q, v),
+        left as they are, as :meth:`advance` takes them (no joint pass), and check its
+        energy bound at each publish instant: after ``first`` steps, over
+        ``first_seconds``, and every ``per`` steps after it, over ``period_seconds``, as
+        :meth:`~.divergence.EnergyBound.check` does. The steps from one instant to the next
+        go into the next row of (qs, vs), (segments, N, 3) arrays; the run stops at the
+        first failing step or after the first check over 1. Returns what :meth:`advance`
+        does (a plain tuple too), the checks made and their largest ratio."""
+        done = _kernel.run(self.stepper, inputs=self.forces.inputs, oriented=oriented, q=q,
+                           v=v, qs=qs, vs=vs, first=first, steps=steps, size=substep_size,
+                           first_seconds=first_seconds)
         return done[:6], done[6], done[7]
 
     def failure(self, status: int) -> tuple[Optional[str], Optional[tuple[np.ndarray,

@@ -10,7 +10,7 @@ Where the compiled kernel is built (:mod:`.kernel`) and the method is explicit, 
 between one publish instant or input change and the next run in the kernel in one call,
 joint and contact passes included, with the results of Python's plain-float path (:mod:`.kernel` and
 :mod:`..contact.compiled` say how far they agree). Without a joint pass, and while the
-energy bound's check needs nothing but the state (:meth:`.EnergyBound.kernel_data`), one
+energy bound's check needs nothing but the state (:meth:`.EnergyBound.kernel_ready`), one
 call goes on through the publish instants up to the next input change, making each
 instant's check between its steps: the same bits at one call's cost.
 """
@@ -45,7 +45,7 @@ from ..scene.load import Scene
 from .divergence import EnergyBound
 from .forces import WrenchRow
 from .inputs import InputBuffer
-from .kernel import Advanced, compiled_steps
+from .kernel import Advanced, Runs, compiled_steps
 from .model import FrameRow, Model, wrench_term
 
 __all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
@@ -172,6 +172,10 @@ class Simulation:
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
                                    self.model.contacts is not None)
         self.integrator = make_integrator(method, scene.tolerance)
+        # Steps from one publish instant to the next; 0 where the period is not a whole
+        # number of steps, and a run stops after every step to look.
+        self._per_publish = (0 if scene.publish_period_ns % scene.step_ns
+                             else scene.publish_period_ns // scene.step_ns)
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         contacts = self.model.contacts
@@ -209,6 +213,11 @@ class Simulation:
         if self._events is not None:
             self._events.reset()
         self._bound = EnergyBound(self.model, self.q, self.v)
+        if self._compiled is not None:  # its runs check this bound
+            bound = self._bound.kernel_data()
+            per = self._per_publish
+            self._compiled.start(None if bound is None or not per else Runs(
+                self.step_seconds, per, per * self.step_ns * 1e-9, bound))
         self._halted: Optional[str] = None  # why the energy bound stopped the run
         if isinstance(self.integrator, ImplicitTheta):
             self.integrator.step_check = self._bound.step_ok
@@ -582,10 +591,9 @@ class Simulation:
             error = IntegrationError(failed)
             raise self._failed(error) from error
 
-    def _run_checked(self, limit: int, per: int,
-                     snapshots: Optional[list[Snapshot]]) -> int:
+    def _run_checked(self, limit: int, snapshots: Optional[list[Snapshot]]) -> int:
         """Up to ``limit`` steps in one kernel call, with the energy bound's checks at the
-        publish instants passed (every ``per`` steps from the start) made in the kernel too
+        publish instants passed (every publish period from the start) made in the kernel too
         (:meth:`.kernel.CompiledSteps.run`), and a snapshot of each instant appended to
         ``snapshots`` (None: none): what :meth:`advance_to` does one instant at a time,
         with the same bits, at one call's cost. Returns the steps taken; 0 where the
@@ -597,11 +605,12 @@ class Simulation:
                 not self._in_kernel():
             return 0
         self._update_inputs()
-        bound = self._bound.kernel_data()
-        limit = self._before_change(limit)
-        if bound is None or limit < 1:
+        if not self._bound.kernel_ready():  # inputs held: advance_to goes instant by instant
             return 0
-        step = self.step_ns
+        limit = self._before_change(limit)
+        if limit < 1:
+            return 0
+        step, per = self.step_ns, self._per_publish
         first = per - (self._time_ns - self.start_ns) // step % per  # steps to the next instant
         rows = max(1, RUN_VALUES // (6 * self.model.size))
         limit = min(limit, first + (rows - 1) * per)
@@ -609,9 +618,8 @@ class Simulation:
         qs, vs = np.empty((2, rows, *self.q.shape))
         start_ns, start_steps = self._time_ns, self._steps
         done, checked, worst = compiled.run(
-            self.q, self.v, qs, vs, self.step_seconds, first, per, limit, self.model.oriented,
-            self._substep_size(), bound, (start_ns + first * step - self._checked[2]) * 1e-9,
-            per * step * 1e-9)
+            self.q, self.v, qs, vs, first, limit, self.model.oriented, self._substep_size(),
+            (start_ns + first * step - self._checked[2]) * 1e-9)
         taken = done[1]
         row = min(rows - 1, 0 if taken < first else 1 + (taken - first) // per)
         self.q, self.v = qs[row], vs[row]
@@ -786,16 +794,14 @@ class Simulation:
         snapshots: list[Snapshot] = []
         kept = snapshots if keep else None
         period, step, start = self.scene.publish_period_ns, self.step_ns, self.start_ns
-        # Steps from one publish instant to the next; 0 where the period is not a whole
-        # number of steps, and the run stops after every step to look.
-        per_publish = 0 if period % step else period // step
+        per_publish = self._per_publish
         taken = 0
         left = self._steps_left(t_ns, max_steps, taken)
         # The kernel's runs first: they need no floating-point error settings, which cost
         # a smooth run more than its steps.
         refused = None  # the instant the kernel's run was refused at, not asked again there
         while per_publish and left:
-            ran = self._run_checked(left, per_publish, kept)
+            ran = self._run_checked(left, kept)
             if not ran:
                 refused = self._time_ns
                 break
@@ -806,7 +812,7 @@ class Simulation:
         with np.errstate(all="ignore") if self._numpy_steps() else nullcontext():
             while left:
                 ran = per_publish and self._time_ns != refused and \
-                    self._run_checked(left, per_publish, kept)
+                    self._run_checked(left, kept)
                 if not ran:
                     ran = self._advance(min(left, per_publish - (self._time_ns - start) // step
                                             % per_publish if per_publish else 1))

@@ -236,6 +236,8 @@ class Scene:
     map: Optional[MapSpec] = None  # a nav2 map's occupied cells as static boxes (scene/maps.py)
     publish_contacts: bool = False  # touches beginning and ending (sensors/touch.py)
     threads: int = 1  # the kernel's threads for big islands (contacts.threads): same bits
+    # The contact passes' tolerance (contacts.converged); None: contact/solve.py's CONVERGED.
+    converged: Optional[float] = None
     soft_joints: Optional[SoftJoints] = None  # joint_solver.type soft; None: exact
 
     def has_frame(self, frame_id: str) -> bool:
@@ -434,6 +436,8 @@ def _read_scene(root: ParameterReader) -> Scene:
         sleep=contacts.boolean("sleep", False),
         events=contacts.boolean("events", False),
         threads=_read_threads(contacts),
+        converged=(contacts.number("converged", positive=True) if contacts.has("converged")
+                   else None),
         soft_joints=_read_joint_solver(root),
         sensors=tuple(read_sensor(name, r, points, step_ns)
                       for name, r in root.named_children("sensors")),

@@ -47,7 +47,8 @@ int hd_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
                  PyObject **out);
 
 /* hd_arguments for a call whose first argument is a capsule named `capsule` (a contact
- * pass, a joint pass, a stepper): the pointer it holds, NULL with an exception set. */
+ * pass, a joint pass, a stepper, a program): the pointer it holds, NULL with an exception
+ * set. */
 void *hd_capsule_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs,
                            PyObject *kwnames, const char *const *names, int positional,
                            int required, const char *capsule, PyObject **out);

@@ -4,6 +4,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -152,7 +153,7 @@ PyDoc_STRVAR(contacts_doc,
 "contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
 "         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
 "         thickness, static_ints, static_reals, static_bounds, static_material,\n"
-"         static_bodies, swept, slop) -> Contacts\n\n"
+"         static_bodies, swept, slop, converged) -> Contacts\n\n"
 "A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
 "wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
@@ -160,7 +161,9 @@ PyDoc_STRVAR(contacts_doc,
 "the pairs (i, j), sorted, that do not collide (contact/materials.py: PairMaterials);\n"
 "per map box (kind, vertex count), its vertices and normals in the fixed frame and its\n"
 "bounds (x0, x1, y0, y1), the boxes' (restitution, friction) and the bodies that collide\n"
-"with them; the bodies whose travel sets the sub-steps; per body its slop.");
+"with them; the bodies whose travel sets the sub-steps; per body its slop; the velocity\n"
+"passes' tolerance (contacts.converged, positive: they stop once no impulse changes a\n"
+"velocity by more than it relative to the island's fastest body, contact/solve.py).");
 
 static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs)
 {
@@ -168,14 +171,19 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
                             "part_reals", "walls", "wall_first", "wall_body", "colliding",
                             "classes", "class_groups", "materials", "apart", "threshold",
                             "thickness", "static_ints", "static_reals", "static_bounds",
-                            "static_material", "static_bodies", "swept", "slop", NULL};
+                            "static_material", "static_bodies", "swept", "slop", "converged", NULL};
     PyObject *o[20];
-    double threshold, thickness;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOOO:contacts", names, o,
+    double threshold, thickness, converged;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOOOd:contacts", names, o,
                                      o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8,
                                      o + 9, o + 10, o + 11, o + 12, &threshold, &thickness,
-                                     o + 13, o + 14, o + 15, o + 16, o + 17, o + 18, o + 19))
+                                     o + 13, o + 14, o + 15, o + 16, o + 17, o + 18, o + 19,
+                                     &converged))
         return NULL;
+    if (!(converged > 0.0 && isfinite(converged))) {
+        PyErr_SetString(PyExc_ValueError, "contacts: converged must be positive and finite");
+        return NULL;
+    }
     hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
     if (m == NULL)
         return PyErr_NoMemory();
@@ -185,6 +193,7 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
     double *part_reals = NULL, *static_values = NULL, *static_material = NULL;
     m->threshold = threshold;
     m->thickness = thickness;
+    m->converged = converged;
     if ((m->inverse_mass = hd_read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
         (m->inverse_inertia = hd_read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
         (m->reach = hd_read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||

@@ -1,6 +1,6 @@
 /* The binding of the force terms (kernel.h, forces.c) and the energy bound (bound.c) for
- * hecker_dynamics/dynamics/kernel.py: program, pair, accelerations and bound, each taking
- * keyword arguments.
+ * hecker_dynamics/dynamics/kernel.py: program, pair, accelerations, bound and
+ * wrench_values (the inputs' new values in place), each taking keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -268,6 +268,48 @@ static PyObject *hd_py_accelerations(PyObject *self, PyObject *const *args, Py_s
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(wrench_values_doc,
+"wrench_values(program, values)\n\n"
+"Give the wrenches of the inputs' ``program`` (program() of one WRENCH term, no masses)\n"
+"new values in place, where they act as before: ``values`` is a list of floats, the force\n"
+"(fx, fy, N) and torque (N m) of each row in turn, 3 per row. The program is left as it was\n"
+"if a value is refused.");
+
+static PyObject *hd_py_wrench_values(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
+                                     PyObject *kwnames)
+{
+    static const char *const names[] = {"program", "values", NULL};
+    PyObject *given[2];
+    hd_program *p = hd_capsule_arguments("wrench_values", args, nargs, kwnames, names, 2, 2,
+                                         HD_PROGRAM_CAPSULE, given);
+    if (p == NULL)
+        return NULL;
+    if (p->term_count != 1 || p->terms[0].kind != HD_WRENCH) {
+        PyErr_SetString(PyExc_ValueError, "program: a program of one wrench term is needed");
+        return NULL;
+    }
+    hd_term *term = p->terms;
+    if (!PyList_Check(given[1]) || PyList_GET_SIZE(given[1]) != 3 * term->count) {
+        PyErr_Format(PyExc_ValueError, "values: a list of %ld floats is needed",
+                     3 * term->count);
+        return NULL;
+    }
+    double *values = malloc((size_t)(3 * term->count + 1) * sizeof(double));
+    if (values == NULL)
+        return PyErr_NoMemory();
+    for (long k = 0; k < 3 * term->count; ++k) {
+        values[k] = PyFloat_AsDouble(PyList_GET_ITEM(given[1], k));
+        if (values[k] == -1.0 && PyErr_Occurred()) {
+            free(values);
+            return NULL;
+        }
+    }
+    for (long e = 0; e < term->count; ++e)  /* reals: fx, fy, torque, px, py (kernel.h) */
+        memcpy(term->reals + 5 * e, values + 3 * e, 3 * sizeof(double));
+    free(values);
+    Py_RETURN_NONE;
+}
+
 /* The arguments of bound: the springs' program (or None), q, v,
  * the statics (masses, moments of inertia, floors), the unit of each body and the budget
  * (writable), checked against each other. */
@@ -387,5 +429,7 @@ PyMethodDef hd_bind_forces[] = {
      METH_FASTCALL | METH_KEYWORDS, accelerations_doc},
     {"bound", (PyCFunction)(void (*)(void))hd_py_bound, METH_FASTCALL | METH_KEYWORDS,
      bound_doc},
+    {"wrench_values", (PyCFunction)(void (*)(void))hd_py_wrench_values,
+     METH_FASTCALL | METH_KEYWORDS, wrench_values_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -1,6 +1,6 @@
 /* The binding of whole steps (steppers.c) for hecker_dynamics/dynamics/kernel.py:
- * stepper, step, run (steps with the energy bound's checks at the publish instants) and
- * failed_state, each taking keyword arguments.
+ * stepper (with what run's calls share), step, run (steps with the energy bound's checks
+ * at the publish instants) and failed_state, each taking keyword arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -13,11 +13,36 @@
 #include "joint.h"
 #include "kernel.h"
 
-/* A stepper capsule's contents: the kernel's stepper and the objects whose data it points
- * into, held for its lifetime. */
+/* What run needs that stays the same from call to call, given when its stepper is built:
+ * the step `h` (s), the steps `per` from one publish instant to the next and their
+ * `period_seconds`, and the energy bound's data (dynamics/divergence.py): the springs'
+ * program (NULL: none), the statics (masses, moments of inertia, floors), the unit of each
+ * body, the budget (writable; its `units` columns) and the `growth` of its limits.
+ * `per` 0: the stepper takes no runs. */
+typedef struct {
+    double h, period_seconds, growth;
+    long per, units;
+    hd_program *springs;
+    Py_buffer statics, unit, budget;
+} hd_run_bound;
+
+/* Release the buffers of a run's data that has them (per > 0). */
+static void hd_release_run_bound(hd_run_bound *b)
+{
+    if (b->per < 1)
+        return;
+    PyBuffer_Release(&b->statics);
+    PyBuffer_Release(&b->unit);
+    PyBuffer_Release(&b->budget);
+    b->per = 0;
+}
+
+/* A stepper capsule's contents: the kernel's stepper, run's data, and the objects whose
+ * data they point into, held for its lifetime. */
 typedef struct {
     hd_stepper stepper;
-    PyObject *program, *pair, *contacts;
+    hd_run_bound run;
+    PyObject *program, *pair, *contacts, *springs;
 } hd_stepper_capsule;
 
 static void hd_stepper_destructor(PyObject *capsule)
@@ -26,30 +51,93 @@ static void hd_stepper_destructor(PyObject *capsule)
     if (c == NULL)
         return;
     hd_stepper_free(&c->stepper);
+    hd_release_run_bound(&c->run);
     Py_XDECREF(c->program);
     Py_XDECREF(c->pair);
     Py_XDECREF(c->contacts);
+    Py_XDECREF(c->springs);
     free(c);
 }
 
+/* Read run's data into `b` for `bodies` bodies: the energy bound's `objects` (springs,
+ * statics, unit, budget), whose buffers it then holds, unless the budget is None (no runs;
+ * `b->per` 0); -1 with an exception set and nothing held. */
+static int hd_get_run_bound(hd_run_bound *b, long bodies, PyObject *const objects[4])
+{
+    const long per = b->per;
+    b->per = 0;
+    if (objects[3] == Py_None)
+        return 0;
+    if (per < 1 || !(b->h > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "stepper: runs need a step h > 0 and per >= 1");
+        return -1;
+    }
+    b->springs = NULL;
+    if (objects[0] != Py_None
+        && (b->springs = PyCapsule_GetPointer(objects[0], HD_PROGRAM_CAPSULE)) == NULL)
+        return -1;
+    if (b->springs != NULL && b->springs->bodies != bodies) {
+        PyErr_SetString(PyExc_ValueError, "springs: a program for other bodies");
+        return -1;
+    }
+    if (hd_get_buffer(objects[1], &b->statics, "statics", 'd', 3 * bodies, 0) < 0)
+        return -1;
+    if (hd_get_buffer(objects[2], &b->unit, "unit", 'q', bodies, 0) < 0) {
+        PyBuffer_Release(&b->statics);
+        return -1;
+    }
+    if (hd_get_buffer(objects[3], &b->budget, "budget", 'd', -1, 1) < 0) {
+        PyBuffer_Release(&b->statics);
+        PyBuffer_Release(&b->unit);
+        return -1;
+    }
+    b->per = per;
+    b->units = (long)(b->budget.len / 8 / HD_BUDGET_ROWS);
+    const char *wrong = b->budget.len != 8 * HD_BUDGET_ROWS * b->units
+                        ? "budget: a whole number of columns of the budget's rows is needed" : NULL;
+    const long *unit = b->unit.buf;
+    for (long k = 0; wrong == NULL && k < bodies; ++k)
+        if (unit[k] < 0 || unit[k] >= b->units)
+            wrong = "unit: a unit index is out of range";
+    if (wrong != NULL) {
+        PyErr_SetString(PyExc_ValueError, wrong);
+        hd_release_run_bound(b);
+        return -1;
+    }
+    return 0;
+}
+
 PyDoc_STRVAR(stepper_doc,
-"stepper(program, method, pair, tolerance, contacts) -> Stepper\n\n"
+"stepper(program, method, pair, tolerance, contacts, *, h=0.0, per=0, period_seconds=0.0,\n"
+"        springs=None, statics=None, unit=None, budget=None, growth=0.0) -> Stepper\n\n"
 "Whole steps of ``method`` (int: EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4,\n"
 "or EMBEDDED with the Pair ``pair`` (pair(), else None) and the sub-steps' relative\n"
 "``tolerance``) on the forces' ``program`` (program()), with the contact pass ``contacts``\n"
-"(contacts(), None: none) after each step, and the memory they need, for ``step``.");
+"(contacts(), None: none) after each step, and the memory they need, for ``step``; and for\n"
+"``run``, what its calls share (budget None: no runs): the step ``h`` (s), the steps\n"
+"``per`` (int) from one publish instant to the next and their ``period_seconds`` (s), and\n"
+"the energy bound's data (``bound``'s), held for the stepper's lifetime: the springs'\n"
+"program ``springs`` (None: none), ``statics`` (float64, 3 per body), ``unit`` (int64,\n"
+"each body's unit), ``budget`` (float64, HD_BUDGET_ROWS rows (kernel.h) of a column per\n"
+"unit, written by each run) and the limits' ``growth``.");
 
 static PyObject *hd_py_stepper(PyObject *self, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"program", "method", "pair", "tolerance", "contacts", NULL};
+    static char *names[] = {"program", "method", "pair", "tolerance", "contacts", "h", "per",
+                            "period_seconds", "springs", "statics", "unit", "budget",
+                            "growth", NULL};
     PyObject *program, *pair_object, *contacts_object;
+    PyObject *bound[4] = {Py_None, Py_None, Py_None, Py_None};
     int method;
     double tolerance;
+    hd_run_bound run = {0.0, 0.0, 0.0, 0, 0, NULL};
     hd_program *p, *unused;
     hd_pair *pair = NULL;
     hd_contact_model *contacts = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OiOdO:stepper", names, &program, &method,
-                                     &pair_object, &tolerance, &contacts_object) ||
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OiOdO|$dldOOOOd:stepper", names,
+                                     &program, &method, &pair_object, &tolerance,
+                                     &contacts_object, &run.h, &run.per, &run.period_seconds,
+                                     &bound[0], &bound[1], &bound[2], &bound[3], &run.growth) ||
         hd_get_programs(program, Py_None, &p, &unused) < 0)
         return NULL;
     if (method < HD_EXPLICIT_EULER || method > HD_EMBEDDED) {
@@ -67,22 +155,30 @@ static PyObject *hd_py_stepper(PyObject *self, PyObject *args, PyObject *kwargs)
             return NULL;
         }
     }
+    if (hd_get_run_bound(&run, p->bodies, bound) < 0)
+        return NULL;
     hd_stepper_capsule *c = calloc(1, sizeof(hd_stepper_capsule));
-    if (c == NULL)
+    if (c == NULL) {
+        hd_release_run_bound(&run);
         return PyErr_NoMemory();
+    }
     if (hd_stepper_init(&c->stepper, p, method, pair, tolerance, contacts) != HD_ADVANCED) {
+        hd_release_run_bound(&run);
         free(c);
         return PyErr_NoMemory();
     }
+    c->run = run;
     PyObject *capsule = PyCapsule_New(c, HD_STEPPER_CAPSULE, hd_stepper_destructor);
     if (capsule == NULL) {
         hd_stepper_free(&c->stepper);
+        hd_release_run_bound(&c->run);
         free(c);
         return NULL;
     }
     c->program = Py_NewRef(program);
     c->pair = Py_NewRef(pair_object);
     c->contacts = Py_NewRef(contacts_object);
+    c->springs = Py_NewRef(bound[0]);
     return capsule;
 }
 
@@ -105,28 +201,29 @@ PyDoc_STRVAR(step_doc,
 
 /* The arguments of a fast call of step or run (`function`), all `count` of `names` read
  * into `given` by hd_arguments, by position or keyword, and the first three, (stepper,
- * inputs, oriented), read: the stepper, the inputs' program (NULL for None) and
- * `oriented`; -1 with an exception set. */
-static int hd_get_stepping(const char *function, PyObject *const *args, Py_ssize_t nargs,
-                           PyObject *kwnames, const char *const *names, int count,
-                           PyObject **given, hd_stepper **s, hd_program **in, int *oriented)
+ * inputs, oriented), read: the stepper's capsule, the inputs' program (NULL for None) and
+ * `oriented`; NULL with an exception set. */
+static hd_stepper_capsule *hd_get_stepping(const char *function, PyObject *const *args,
+                                           Py_ssize_t nargs, PyObject *kwnames,
+                                           const char *const *names, int count,
+                                           PyObject **given, hd_program **in, int *oriented)
 {
     hd_stepper_capsule *c = hd_capsule_arguments(function, args, nargs, kwnames, names, count,
                                                  count, HD_STEPPER_CAPSULE, given);
     if (c == NULL)
-        return -1;
-    *s = &c->stepper;
+        return NULL;
+    *in = NULL;
     *in = NULL;
     if (given[1] != Py_None) {
         if ((*in = PyCapsule_GetPointer(given[1], HD_PROGRAM_CAPSULE)) == NULL)
-            return -1;
-        if ((*in)->bodies != (*s)->program->bodies) {
+            return NULL;
+        if ((*in)->bodies != c->stepper.program->bodies) {
             PyErr_SetString(PyExc_ValueError, "inputs: a program for other bodies");
-            return -1;
+            return NULL;
         }
     }
     *oriented = PyObject_IsTrue(given[2]);
-    return *oriented < 0 ? -1 : 0;
+    return *oriented < 0 ? NULL : c;
 }
 
 static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
@@ -135,12 +232,13 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
     static const char *const names[] = {"stepper", "inputs", "oriented", "q", "v", "h",
                                         "steps", "size", "joints", NULL};
     PyObject *given[9];
-    hd_stepper *s;
     hd_program *in;
     int oriented;
-    if (hd_get_stepping("step", args, nargs, kwnames, names, 9, given, &s, &in,
-                        &oriented) < 0)
+    hd_stepper_capsule *c = hd_get_stepping("step", args, nargs, kwnames, names, 9, given, &in,
+                                            &oriented);
+    if (c == NULL)
         return NULL;
+    hd_stepper *s = &c->stepper;
     const double h = PyFloat_AsDouble(given[5]);
     const long steps = PyLong_AsLong(given[6]);
     double size = PyFloat_AsDouble(given[7]);
@@ -181,66 +279,18 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
                          work.rejected, size);
 }
 
-/* The arguments of run that hold the energy bound's data (dynamics/divergence.py): the
- * springs' program (NULL: none), the statics (masses, moments of inertia, floors), the unit
- * of each body and the budget (writable). */
-typedef struct {
-    hd_program *springs;
-    Py_buffer statics, unit, budget;
-    long units;
-} hd_run_bound;
-
-static int hd_get_run_bound(hd_run_bound *b, long bodies, PyObject *const objects[4])
-{
-    b->springs = NULL;
-    if (objects[0] != Py_None
-        && (b->springs = PyCapsule_GetPointer(objects[0], HD_PROGRAM_CAPSULE)) == NULL)
-        return -1;
-    if (b->springs != NULL && b->springs->bodies != bodies) {
-        PyErr_SetString(PyExc_ValueError, "springs: a program for other bodies");
-        return -1;
-    }
-    if (hd_get_buffer(objects[1], &b->statics, "statics", 'd', 3 * bodies, 0) < 0)
-        return -1;
-    if (hd_get_buffer(objects[2], &b->unit, "unit", 'q', bodies, 0) < 0) {
-        PyBuffer_Release(&b->statics);
-        return -1;
-    }
-    if (hd_get_buffer(objects[3], &b->budget, "budget", 'd', -1, 1) < 0) {
-        PyBuffer_Release(&b->statics);
-        PyBuffer_Release(&b->unit);
-        return -1;
-    }
-    b->units = (long)(b->budget.len / 8 / HD_BUDGET_ROWS);
-    const char *wrong = b->budget.len != 8 * HD_BUDGET_ROWS * b->units
-                        ? "budget: a whole number of columns of the budget's rows is needed" : NULL;
-    const long *unit = b->unit.buf;
-    for (long k = 0; wrong == NULL && k < bodies; ++k)
-        if (unit[k] < 0 || unit[k] >= b->units)
-            wrong = "unit: a unit index is out of range";
-    if (wrong != NULL) {
-        PyErr_SetString(PyExc_ValueError, wrong);
-        PyBuffer_Release(&b->statics);
-        PyBuffer_Release(&b->unit);
-        PyBuffer_Release(&b->budget);
-        return -1;
-    }
-    return 0;
-}
-
 /* The steps of run: the segments from the start to the first publish instant (`first` steps)
- * and from each instant to the next (`per`), `steps` in all; segment k steps in slot k of
+ * and from each instant to the next (b->per), `steps` in all; segment k steps in slot k of
  * (qs, vs), from a copy of the slot before (of (q0, v0) for the first). After each segment
  * that ends on an instant, the energy bound's check over `first_seconds` (the first) or
- * `period_seconds`; a check over 1 ends the run. */
-static int hd_run_segments(hd_stepper *s, const hd_program *in, int oriented, double *size,
-                           const double *q0, const double *v0, double *qs, double *vs,
-                           double h, long first, long per, long steps, hd_run_bound *b,
-                           double growth, double first_seconds, double period_seconds,
-                           double *scratch_memory, long *taken, hd_work *work, long *checked,
-                           double *worst)
+ * b->period_seconds; a check over 1 ends the run. */
+static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, const hd_program *in,
+                           int oriented, double *size, const double *q0, const double *v0,
+                           double *qs, double *vs, long first, long steps,
+                           double first_seconds, double *scratch_memory, long *taken,
+                           hd_work *work, long *checked, double *worst)
 {
-    const long n = s->program->bodies, n3 = 3 * n;
+    const long n = s->program->bodies, n3 = 3 * n, per = b->per;
     const size_t bytes = (size_t)n3 * sizeof(double);
     hd_scratch scratch = {scratch_memory, scratch_memory + n, NULL};
     const double *from_q = q0, *from_v = v0;
@@ -253,8 +303,8 @@ static int hd_run_segments(hd_stepper *s, const hd_program *in, int oriented, do
         memcpy(q, from_q, bytes);
         memcpy(v, from_v, bytes);
         long segment = 0;
-        const int status = hd_stepper_advance(s, in, oriented, NULL, size, q, v, h, end - done,
-                                              &segment, work);
+        const int status = hd_stepper_advance(s, in, oriented, NULL, size, q, v, b->h,
+                                              end - done, &segment, work);
         *taken += segment;
         if (status != HD_ADVANCED)
             return status;
@@ -262,7 +312,7 @@ static int hd_run_segments(hd_stepper *s, const hd_program *in, int oriented, do
         if (done == first + k * per) {  /* a publish instant */
             const double ratio = hd_bound_check(
                 b->springs, q, v, n, b->statics.buf, b->unit.buf, b->units, b->budget.buf,
-                k == 0 ? first_seconds : period_seconds, growth, &scratch);
+                k == 0 ? first_seconds : b->period_seconds, b->growth, &scratch);
             *checked += 1;
             if (ratio > *worst)
                 *worst = ratio;
@@ -277,51 +327,51 @@ static int hd_run_segments(hd_stepper *s, const hd_program *in, int oriented, do
 }
 
 PyDoc_STRVAR(run_doc,
-"run(stepper, inputs, oriented, q, v, qs, vs, h, first, per, steps, size,\n"
-"    springs, statics, unit, budget, growth, first_seconds, period_seconds)\n"
+"run(stepper, inputs, oriented, q, v, qs, vs, first, steps, size, first_seconds)\n"
 "    -> (status, taken, evaluations, substeps, rejected, size, checked, worst)\n\n"
-"``steps`` (int) steps of ``h`` (s) from (q, v) (read only; C-contiguous float64 of 3\n"
-"values per body) as ``step`` takes them, without a joint pass, with the energy bound's\n"
-"check (``bound``'s, on the springs' program ``springs`` (None: none), ``statics`` (float64,\n"
-"3 per body), ``unit`` (int64, each body's unit) and ``budget`` (float64, HD_BUDGET_ROWS\n"
-"rows (kernel.h) of a column per unit, written), limits ``growth`` times its square) at each\n"
-"publish instant: after ``first`` steps (over ``first_seconds`` s) and every ``per`` steps\n"
-"after it (over ``period_seconds`` s). Segment k between instants steps in row k of (qs, vs),\n"
-"C-contiguous float64 of 3 values per body per segment, from a copy of the row before.\n"
-"Stops at the first failing step (``status`` as ``step``'s; the last good state ends row\n"
-"(segments begun - 1)) or after the first check over 1. ``size``: as ``step``'s;\n"
-"``checked``: the checks made, ``worst``: their largest ratio of excess to limit.");
+"``steps`` (int) steps of the Stepper ``stepper``'s ``h`` from (q, v) (read only;\n"
+"C-contiguous float64 of 3 values per body) as ``step`` takes them, without a joint pass,\n"
+"with the energy bound's check on the stepper's data (``bound``'s, given to ``stepper``)\n"
+"at each publish instant: after ``first`` steps (over ``first_seconds`` s) and every\n"
+"``per`` steps after it (over ``period_seconds`` s). Segment k between instants steps in\n"
+"row k of (qs, vs), C-contiguous float64 of 3 values per body per segment, from a copy of\n"
+"the row before. Stops at the first failing step (``status`` as ``step``'s; the last good\n"
+"state ends row (segments begun - 1)) or after the first check over 1. ``inputs``,\n"
+"``oriented``, ``size``: as ``step``'s; ``checked``: the checks made, ``worst``: their\n"
+"largest ratio of excess to limit.");
 
 static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
                            PyObject *kwnames)
 {
     static const char *const names[] = {"stepper", "inputs", "oriented", "q", "v", "qs", "vs",
-                                        "h", "first", "per", "steps", "size", "springs",
-                                        "statics", "unit", "budget", "growth",
-                                        "first_seconds", "period_seconds", NULL};
-    PyObject *given[19];
-    hd_stepper *s;
+                                        "first", "steps", "size", "first_seconds", NULL};
+    PyObject *given[11];
     hd_program *in;
     int oriented;
-    if (hd_get_stepping("run", args, nargs, kwnames, names, 19, given, &s, &in, &oriented) < 0)
+    hd_stepper_capsule *c = hd_get_stepping("run", args, nargs, kwnames, names, 11, given, &in,
+                                            &oriented);
+    if (c == NULL)
         return NULL;
+    hd_stepper *s = &c->stepper;
+    const hd_run_bound *b = &c->run;
     const long n = s->program->bodies, n3 = 3 * n;
-    const double h = PyFloat_AsDouble(given[7]);
-    const long first = PyLong_AsLong(given[8]), per = PyLong_AsLong(given[9]);
-    const long steps = PyLong_AsLong(given[10]);
-    double size = PyFloat_AsDouble(given[11]);
-    const double growth = PyFloat_AsDouble(given[16]);
-    const double first_seconds = PyFloat_AsDouble(given[17]);
-    const double period_seconds = PyFloat_AsDouble(given[18]);
+    const long first = PyLong_AsLong(given[7]), steps = PyLong_AsLong(given[8]);
+    double size = PyFloat_AsDouble(given[9]);
+    const double first_seconds = PyFloat_AsDouble(given[10]);
     if (PyErr_Occurred())
         return NULL;
-    if (first < 1 || per < 1 || steps < 0) {
-        PyErr_SetString(PyExc_ValueError, "run: first and per need at least 1 step");
+    if (b->per < 1) {
+        PyErr_SetString(PyExc_ValueError, "run: a stepper built without the energy bound's "
+                                          "budget takes no runs");
+        return NULL;
+    }
+    if (first < 1 || steps < 0) {
+        PyErr_SetString(PyExc_ValueError, "run: first needs at least 1 step");
         return NULL;
     }
     if (s->method != HD_EMBEDDED)
         size = 0.0;
-    const long segments = steps <= first ? 1 : 1 + (steps - first + per - 1) / per;
+    const long segments = steps <= first ? 1 : 1 + (steps - first + b->per - 1) / b->per;
     Py_buffer qv, vv, qsv, vsv;
     if (hd_get_buffer(given[3], &qv, "q", 'd', n3, 0) < 0)
         return NULL;
@@ -334,34 +384,23 @@ static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nar
         PyBuffer_Release(&vv);
         return NULL;
     }
-    hd_run_bound b;
-    double *memory = NULL;
-    if (hd_get_run_bound(&b, n, given + 12) < 0)
-        goto released;
-    memory = malloc((size_t)(2 * n + 1) * sizeof(double));
-    if (memory == NULL) {
-        PyErr_NoMemory();
-        goto bound_released;
-    }
     long taken = 0, checked = 0;
     double worst = 0.0;
     hd_work work = {0, 0, 0};
-    int status;
-    if (steps * n < HD_GIL_WORK && s->contacts == NULL) {
-        status = hd_run_segments(s, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf, h,
-                                 first, per, steps, &b, growth, first_seconds, period_seconds,
-                                 memory, &taken, &work, &checked, &worst);
-    } else {
+    int status = HD_OUT_OF_MEMORY;
+    double *memory = malloc((size_t)(2 * n + 1) * sizeof(double));
+    if (memory != NULL && steps * n < HD_GIL_WORK && s->contacts == NULL) {
+        status = hd_run_segments(s, b, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf,
+                                 first, steps, first_seconds, memory, &taken, &work, &checked,
+                                 &worst);
+    } else if (memory != NULL) {
         Py_BEGIN_ALLOW_THREADS
-        status = hd_run_segments(s, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf, h,
-                                 first, per, steps, &b, growth, first_seconds, period_seconds,
-                                 memory, &taken, &work, &checked, &worst);
+        status = hd_run_segments(s, b, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf,
+                                 first, steps, first_seconds, memory, &taken, &work, &checked,
+                                 &worst);
         Py_END_ALLOW_THREADS
     }
     free(memory);
-    PyBuffer_Release(&b.statics);
-    PyBuffer_Release(&b.unit);
-    PyBuffer_Release(&b.budget);
     PyBuffer_Release(&qv);
     PyBuffer_Release(&vv);
     PyBuffer_Release(&qsv);
@@ -370,16 +409,6 @@ static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nar
         return PyErr_NoMemory();
     return Py_BuildValue("illlldld", status, taken, work.evaluations, work.substeps,
                          work.rejected, size, checked, worst);
-bound_released:
-    PyBuffer_Release(&b.statics);
-    PyBuffer_Release(&b.unit);
-    PyBuffer_Release(&b.budget);
-released:
-    PyBuffer_Release(&qv);
-    PyBuffer_Release(&vv);
-    PyBuffer_Release(&qsv);
-    PyBuffer_Release(&vsv);
-    return NULL;
 }
 
 PyDoc_STRVAR(failed_state_doc,

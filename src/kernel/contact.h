@@ -125,6 +125,7 @@ typedef struct hd_contact_model {
     long apart_count;
     long *apart;
     double threshold;  /* restitution threshold (m/s) */
+    double converged;  /* the passes' tolerance (contacts.converged; HD_CONVERGED by default) */
     double thickness;  /* of the thinnest colliding part */
     /* The map's boxes (contact/detect.py: Detection._static_contacts): static_count convex
      * parts fixed in the world (`placed` only), their bounds (x0, x1, y0, y1 each), their

@@ -4,6 +4,7 @@
  */
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "contact.h"
 #include "coupled.h"
@@ -23,8 +24,41 @@ static void hd_carry_friction(hd_contact_model *m, const long *members, long siz
     }
 }
 
+/* Put the `size` units `members` of a small island (fewer than HD_WIDE_UNITS) in the order
+ * of their levels, each level's in their order: a unit's level is one past the last level
+ * of the units before it that share a body with it (the walls' slot is none: its velocity
+ * stays +0, wide.h). Units of a body keep their order, so only units that share no body
+ * trade places, and those commute: a pass in the new order gives the bits of a pass in
+ * the old, and so does the largest change, a maximum of non-negative changes (a NaN
+ * counts for none either way). A level's units follow each other, so that the CPU
+ * overlaps their chains of operations; sorting twice gives the order sorting once gives. */
+static void hd_level_order(const hd_contact_model *m, long *members, long size)
+{
+    const long wall = m->bodies;
+    long a[HD_WIDE_UNITS], b[HD_WIDE_UNITS], level[HD_WIDE_UNITS], sorted[HD_WIDE_UNITS];
+    long count[HD_WIDE_UNITS + 1] = {0};
+    for (long k = 0; k < size; ++k) {
+        const hd_row *r = m->rows + m->units[members[k]].first;
+        a[k] = r->a;
+        b[k] = r->b;
+        level[k] = 0;
+        for (long j = 0; j < k; ++j) {
+            const int shared = (a[k] != wall && (a[k] == a[j] || a[k] == b[j])) ||
+                               b[k] == a[j] || b[k] == b[j];
+            if (shared && level[j] >= level[k])
+                level[k] = level[j] + 1;
+        }
+        count[level[k] + 1] += 1;
+    }
+    for (long l = 0; l < size; ++l)
+        count[l + 1] += count[l];
+    for (long k = 0; k < size; ++k)
+        sorted[count[level[k]]++] = members[k];
+    memcpy(members, sorted, (size_t)size * sizeof(long));
+}
+
 /* Gauss-Seidel passes over the units island by island, each until no impulse changes a
- * velocity by more than HD_CONVERGED relative to its fastest body, or HD_WORK / (its
+ * velocity by more than m->converged relative to its fastest body, or HD_WORK / (its
  * units) passes, but at least HD_MIN_ITERATIONS and (its units) / HD_SETTLE and at most
  * HD_MAX_ITERATIONS
  * (contact/solve.py: solve_velocities); then each island's position correction into m->shift,
@@ -43,8 +77,10 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
         return -1;
     long wide = 0;  /* the islands solved in colour order so far */
     for (long i = 0; i < count_islands; ++i) {
-        const long *members = m->order + m->island_start[i];
+        long *members = m->order + m->island_start[i];
         const long size = m->island_start[i + 1] - m->island_start[i];
+        if (!same && size < HD_WIDE_UNITS && hd_coupled_size(m, i) == 0)
+            hd_level_order(m, members, size);
         hd_coupled_warm_start(m, i);
         double fastest = 0.0;
         for (long k = 0; k < size; ++k) {
@@ -76,7 +112,7 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
                 largest = hd_max(largest,
                                  hd_solve_unit(m->units + members[k], m->rows, m->velocity));
             largest = hd_coupled_sweep(m, i, largest);
-            if (largest <= HD_CONVERGED * scale)
+            if (largest <= m->converged * scale)
                 break;
         }
         if (!hd_depths_after(m, members, size, m->units[members[0]].first, h, base))

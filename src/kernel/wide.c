@@ -647,7 +647,7 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     for (long iteration = 0; iteration < passes && !converged; ++iteration) {
         const double largest = hd_sweep(&job, colour_start, crew, hd_pass_chunk,
                                         hd_pass_singles);
-        converged = largest <= HD_CONVERGED * scale;
+        converged = largest <= m->converged * scale;
     }
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {

@@ -25,7 +25,7 @@ struct hd_wide;
 
 /* At most `passes` Gauss-Seidel passes over the island's `size` units (`members`, indices
  * into m->units, in island order, within m->order) in colour order, until no impulse
- * changes a velocity by more than HD_CONVERGED * scale, then the island's position
+ * changes a velocity by more than m->converged * scale, then the island's position
  * correction after a step of h into m->shift in the same order (`base`: a double per row,
  * for their depths); `wide`: how many islands this step solved here before it; `known`:
  * whether this step's islands are last step's, when its colours are kept from then. 1 when

@@ -63,8 +63,8 @@ def test_friction_is_kept_whole_only_where_the_passes_converged():
         kept: list[ContactRow] = []
         original = solve.solve_velocities
 
-        def spy(found, velocity, units):  # type: ignore[no-untyped-def]
-            swept = original(found, velocity, units)
+        def spy(found, velocity, units, converged):  # type: ignore[no-untyped-def]
+            swept = original(found, velocity, units, converged)
             kept.extend(found)
             return swept
 

@@ -50,6 +50,7 @@ from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics import kernel
 from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.dynamics.forces import WrenchRow
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
 from hecker_dynamics.integrators.methods import EmbeddedRungeKutta
@@ -188,6 +189,49 @@ def test_accelerations_with_input_wrenches_are_bit_identical(forces):
         assert fast.accelerations(q, v).tobytes() == lean.accelerations(q, v).tobytes()
 
 
+def test_new_input_values_in_place_give_the_bits_of_a_new_program():
+    """A term of new values at the same places (``with_values``, a drive's control
+    instant) updates the kernel's inputs program in place: the same program object, and
+    the accelerations of a program packed anew and of the plain-float sums."""
+    scene = scene_of(tuple(FORCES))
+    fast, lean = compiled_model(scene), Model(scene, lean=True)
+    fast.inputs = lean.inputs = wrench_term(INPUT_ROWS)
+    program = fast.compiled.inputs
+    for k in range(3):
+        rows = [WrenchRow(body, (fx * (k - 1.5), fy + k), torque * k, axes, owner, point, at)
+                for body, (fx, fy), torque, axes, owner, point, at in INPUT_ROWS]
+        fast.inputs = fast.inputs.with_values(rows)
+        lean.inputs = wrench_term(rows)
+        assert fast.compiled.inputs is program
+        for q, v in random_states(fast.size, 5, seed=k):
+            assert fast.accelerations(q, v).tobytes() == lean.accelerations(q, v).tobytes()
+    fast.inputs = wrench_term(INPUT_ROWS[:2])  # other places: a new program
+    assert fast.compiled.inputs is not program
+
+
+def test_the_binding_refuses_input_values_it_cannot_take_whole(ext, program):
+    """wrench_values takes 3 floats a row of a program of one wrench term, by name, and
+    leaves the program as it was where it refuses them."""
+    inputs = ext.program(2, None, [(7, np.array([[0, -1, -1, 0], [1, -1, -1, 0]], np.int64),
+                                    np.array([[1.0, 2.0, 3.0, 0.0, 0.0],
+                                              [4.0, 5.0, 6.0, 0.0, 0.0]]))])
+    q, v, out = np.zeros(6), np.zeros(6), np.empty(6)
+    ext.wrench_values(inputs, values=[-1.0, 0.5, 2.0, 0.0, -0.0, 7.0])
+    ext.accelerations(program, inputs, False, q, v, out)
+    assert out.tolist() == [-1.0, 0.5 - 9.81, 2.0, 0.0, 0.0, 7.0]  # gravity on body 0
+    for values, error, message in (([1.0] * 5, ValueError, "a list of 6 floats"),
+                                   ((1.0,) * 6, ValueError, "a list of 6 floats"),
+                                   ([1.0] * 5 + ["x"], TypeError, "must be real number")):
+        with pytest.raises(error, match=message):
+            ext.wrench_values(inputs, values=values)
+    with pytest.raises(ValueError, match="one wrench term"):
+        ext.wrench_values(program, values=[])
+    with pytest.raises(TypeError, match="unexpected keyword argument 'value'"):
+        ext.wrench_values(inputs, value=[1.0] * 6)
+    ext.accelerations(program, inputs, False, q, v, out)
+    assert out.tolist() == [-1.0, 0.5 - 9.81, 2.0, 0.0, 0.0, 7.0]  # gravity on body 0
+
+
 def test_no_active_terms_give_zeros():
     scene = scene_of(())
     fast, lean = compiled_model(scene), Model(scene, lean=True)
@@ -321,8 +365,9 @@ def spy_on_chunks(sim, runs: list | None = None) -> list[tuple[int, int]]:
         calls.append((steps, kernel.Advanced(*done).taken))
         return done
 
-    def spy_run(q, v, qs, vs, h, first, per, steps, *settings):
-        done = run(q, v, qs, vs, h, first, per, steps, *settings)
+    def spy_run(q, v, qs, vs, first, steps, *settings):
+        done = run(q, v, qs, vs, first, steps, *settings)
+        per = sim._per_publish
         if runs is not None:
             runs.append((first, per, steps))
         left, end = done[0][1], 0
@@ -537,7 +582,7 @@ def one_instant_per_call(sim):
     """The simulation without :meth:`Simulation._run_checked`: one kernel call per publish
     instant, the energy bound checked from Python after each, as before runs of many
     instants took one call."""
-    sim._run_checked = lambda limit, per, snapshots: 0
+    sim._run_checked = lambda limit, snapshots: 0
     return sim
 
 
@@ -915,29 +960,31 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
     first instant, then every 4, are 4 rows (1, 4, 4, 1 steps); the rows' state, the
     bound's statics, units and budget are checked against the bodies, and a segment of
     no step is refused."""
-    stepper = ext.stepper(program, 0, None, 0.0, None)
     statics, unit = np.ones(6), np.zeros(2, np.int64)
 
     def run(rows=4, first=1, per=4, steps=10, statics=statics, unit=unit, budget=None,
             inputs=None):
+        stepper = ext.stepper(program, 0, None, 0.0, None, h=0.001, per=per,
+                              period_seconds=0.004, springs=None, statics=statics, unit=unit,
+                              budget=np.zeros(8) if budget is None else budget, growth=1000.0)
         qs, vs = np.zeros((2, rows, 2, 3))
-        done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, 0.001,
-                       first, per, steps, 0.0, None, statics, unit,
-                       np.zeros(8) if budget is None else budget, 1000.0, 0.001, 0.004)
+        done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, first, steps,
+                       0.0, 0.001)
         return done, qs
 
     (status, taken, *_, checked, worst), qs = run()
     assert (status, taken, checked) == (0, 10, 3) and worst == 0.0
     # each row the state after 1, 5, 9 and 10 steps, as step() takes them
     q, v = np.zeros(6), np.zeros(6)
+    stepper = ext.stepper(program, 0, None, 0.0, None)
     for row, steps in enumerate((1, 4, 4, 1)):
         ext.step(stepper, None, False, q, v, 0.001, steps, 0.0, None)
         assert qs[row].tobytes() == q.tobytes()
     assert q[1] < 0.0  # gravity moved the first body
     for kwargs, error, message in (
             ({"rows": 3}, ValueError, "q: expected 24 values, got 18"),
-            ({"first": 0}, ValueError, "first and per need at least 1 step"),
-            ({"per": 0}, ValueError, "first and per need at least 1 step"),
+            ({"first": 0}, ValueError, "first needs at least 1 step"),
+            ({"per": 0}, ValueError, "runs need a step h > 0 and per >= 1"),
             ({"statics": np.ones(5)}, ValueError, "statics: expected 6 values"),
             ({"unit": np.zeros(2)}, TypeError, "unit: expected int64"),
             ({"unit": np.ones(2, np.int64)}, ValueError, "unit index is out of range"),
@@ -947,6 +994,9 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
             run(**kwargs)
     with pytest.raises(TypeError, match=r"run\(\) missing required argument 'q'"):
         ext.run(stepper, None, False)
+    with pytest.raises(ValueError, match="built without the energy bound's budget"):
+        ext.run(stepper, None, False, np.zeros(6), np.zeros(6), *np.zeros((2, 1, 2, 3)), 1, 1,
+                0.0, 0.001)
 
 
 def test_the_force_binding_takes_its_arguments_by_name(ext):
@@ -992,16 +1042,29 @@ def test_the_stepper_binding_takes_its_arguments_by_name(ext, program):
     assert not np.array_equal(named[0], q)
     ext.failed_state(stepper=stepper, q=np.zeros(6), v=np.zeros(6))
     qs, vs = np.zeros((2, 1, 2, 3))
-    arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, h=0.001, first=5,
-                     per=5, steps=5, size=0.0, springs=None, statics=np.ones(6),
-                     unit=np.zeros(2, np.int64), budget=np.zeros(8), growth=1000.0,
-                     first_seconds=0.005, period_seconds=0.005)
-    assert ext.run(stepper, **arguments)[:2] == (ext.ADVANCED, 5)
-    period = arguments.pop("period_seconds")
-    with pytest.raises(TypeError, match="unexpected keyword argument 'period'"):
-        ext.run(stepper, **arguments, period=period)
-    with pytest.raises(TypeError, match="missing required argument 'period_seconds'"):
-        ext.run(stepper, **arguments)
+    runs = ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0,
+                       contacts=None, h=0.001, per=5, period_seconds=0.005, springs=None,
+                       statics=np.ones(6), unit=np.zeros(2, np.int64), budget=np.zeros(8),
+                       growth=1000.0)
+    arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, first=5, steps=5,
+                     size=0.0, first_seconds=0.005)
+    named = ext.run(runs, **arguments)
+    assert named[:2] == (ext.ADVANCED, 5)
+    placed = qs.copy()
+    assert ext.run(runs, *arguments.values()) == named and qs.tobytes() == placed.tobytes()
+    first = arguments.pop("first_seconds")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'first_second'"):
+        ext.run(runs, **arguments, first_second=first)
+    with pytest.raises(TypeError, match="missing required argument 'first_seconds'"):
+        ext.run(runs, **arguments)
+    with pytest.raises(TypeError, match="multiple values for argument 'q'"):
+        ext.run(runs, None, False, q, q=q, v=v, qs=qs, vs=vs, first=5, steps=5, size=0.0,
+                first_seconds=first)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'h'"):
+        ext.run(runs, **arguments, first_seconds=first, h=0.001)
+    with pytest.raises(TypeError, match="'period' is an invalid keyword"):
+        ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0, contacts=None,
+                    period=5)
     with pytest.raises(TypeError, match="multiple values for argument 'q'"):
         ext.step(stepper, None, True, q, v, 0.01, 7, 0.0, None, q=q)
     with pytest.raises(TypeError, match="missing required argument 'tolerance'"):

@@ -256,6 +256,9 @@ ERRORS = {
     "no_threads": ("contacts.threads", 0, "contacts.threads", "must be 1 or 2"),
     "threads_double": ("contacts.threads", 2.0, "contacts.threads", "not 2.0"),
     "threads_bool": ("contacts.threads", True, "contacts.threads", "not True"),
+    "zero_converged": ("contacts.converged", 0.0, "contacts.converged", "must be positive"),
+    "negative_converged": ("contacts.converged", -1e-6, "contacts.converged", "positive"),
+    "converged_text": ("contacts.converged", "tight", "contacts.converged", "must be a number"),
 }
 
 
