@@ -54,7 +54,8 @@ def measure(scene: Scene, seconds: float,
     gaps, energies = [0.0], []
     for snapshot in sim.advance_to(round(seconds * SECOND)):
         energies.append(snapshot.energy)
-        gaps.append(pin_gap(scene, model, sim.q))
+        # The snapshot's own state: sim.q is already the run's end when they are read.
+        gaps.append(pin_gap(scene, model, snapshot._state()[0]))
     return sim, max(gaps), energies
 
 
