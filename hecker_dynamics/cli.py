@@ -918,6 +918,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         # exit status is the shell's for a write to a closed pipe, 128 + SIGPIPE.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
+    except KeyboardInterrupt:
+        # Ctrl-C: the writers have removed what they had begun (a bag's or a file's scratch
+        # copy), so one line says why the command stopped, with the shell's status for it.
+        print("hecker-dynamics: interrupted", file=sys.stderr)
+        return 128 + signal.SIGINT
 
 
 if __name__ == "__main__":

@@ -257,3 +257,24 @@ def test_bag_commands_refuse_absurd_times_without_a_traceback(tmp_path, capsys):
     assert caught.value.code == 2
     err = capsys.readouterr().err
     assert "argument --start:" in err and "Traceback" not in err
+
+
+def test_ctrl_c_mid_write_ends_in_one_line_and_leaves_no_bag(tmp_path, capsys, monkeypatch):
+    """Ctrl-C while ``replay`` writes its bag: no traceback but one line, the shell's
+    status for SIGINT (128 + 2), and neither the bag nor its scratch directory left."""
+    from hecker_dynamics.bags.io import BagWriter
+
+    assert main(["script", "sample", "-o", str(tmp_path / "in")]) == 0
+    written = BagWriter.write_raw
+
+    def interrupted(self, topic, log_ns, raw):
+        if self.count == 100:
+            raise KeyboardInterrupt
+        written(self, topic, log_ns, raw)
+
+    monkeypatch.setattr(BagWriter, "write_raw", interrupted)
+    capsys.readouterr()
+    code = main(["replay", "sample", str(tmp_path / "in"), "-o", str(tmp_path / "out")])
+    assert code == 130
+    assert capsys.readouterr().err == "hecker-dynamics: interrupted\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in"]

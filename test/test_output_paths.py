@@ -209,3 +209,54 @@ def test_render_and_plot_check_the_path_before_they_draw(place, capsys, monkeypa
     _refused(capsys, _render("folder.gif"), "is a folder")
     _refused(capsys, _render("old.gif"), "exists")
     assert os.path.exists("old.gif")
+
+
+def test_a_sweep_on_a_full_disk_ends_in_one_line_with_whole_rows(place):
+    """A file size limit (RLIMIT_FSIZE: writes past it fail, as on a full disk) cuts the
+    partial rows in the middle of the second row: the sweep ends with one line, exit 2, and
+    the partial file keeps the header and the first row, whole."""
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "hecker_dynamics.cli", *SWEEP[:3], "bodies.left.mass=1:2:4",
+               *SWEEP[4:]]
+    subprocess.run([*command, "-o", "whole.csv"], check=True, capture_output=True)
+    lines = (place / "whole.csv").read_text().splitlines(keepends=True)
+    limit = len(lines[0]) + len(lines[1]) + len(lines[2]) // 2
+
+    def full_disk() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past it fails with EFBIG
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = dict(os.environ, PYTHONPATH=str(GOLDEN.parent.parent))
+    result = subprocess.run([*command, "-o", "t.csv"], preexec_fn=full_disk, env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr == ("hecker-dynamics: error: cannot write the sweep's output: "
+                             "[Errno 27] File too large\n")
+    assert (place / "t.csv.partial.csv").read_text() == lines[0] + lines[1]
+    assert not (place / "t.csv").exists()
+
+
+def test_sweep_bags_on_a_full_disk_leave_no_cut_parameters_file(place):
+    """A file size limit below a variant's parameters file: the sweep ends with one line,
+    exit 2, and leaves no part of that file (``regress`` would read it as the scene)."""
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    def full_disk() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))
+
+    env = dict(os.environ, PYTHONPATH=str(GOLDEN.parent.parent))
+    result = subprocess.run([sys.executable, "-m", "hecker_dynamics.cli",
+                             *_sweep_bags("bags")], preexec_fn=full_disk, env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith("hecker-dynamics: error: ")
+    assert result.stderr.count("\n") == 1 and "File too large" in result.stderr
+    assert list((place / "bags").iterdir()) == []

@@ -45,6 +45,13 @@ class RecordingCheck:
     sessions: int = 0
     notes: list[str] = field(default_factory=list)
 
+    def __post_init__(self) -> None:
+        # A match must rest on something compared: a session 0 s long, or output topics
+        # that hold nothing (which --partial accepts as missing), would pass on no data.
+        if self.halted is None and not self.coverage.checked and not self.coverage.keyframes:
+            self.coverage.fail("nothing to check: the recording holds no output of the node "
+                               "in the span replayed, nor a keyframe")
+
     @property
     def ok(self) -> bool:
         return self.halted is None and self.report.ok and self.coverage.ok

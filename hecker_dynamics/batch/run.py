@@ -20,7 +20,7 @@ from ..bags.compare import Tolerances
 from ..bags.io import BagError, read_bag
 from ..bags.replay import replay_to_bag, script_to_bag
 from ..dynamics.simulation import DivergenceError
-from ..files import OutputError
+from ..files import OutputError, replacing
 from ..scene.commands import InputError
 from ..scene.load import load_scene, shipped_scenes
 from ..scene.names import NODE_NAME
@@ -85,13 +85,19 @@ def _write_bag(variant: Variant, directory: Path) -> None:
     ``replay --check`` reads them (``regress`` finds the file next to the bag)."""
     name = _bag_name(variant)
     scene_file = directory / f"{name}.yaml"
-    scene_file.write_text(yaml.safe_dump(
-        {NODE_NAME: {"ros__parameters": unflatten(variant.parameters)}}, sort_keys=True))
+    # Whole or not at all, as the bag is: regress would read a cut file as the scene.
+    with replacing(scene_file, option="--bags", overwrite=True) as scratch:
+        scratch.write_text(yaml.safe_dump(
+            {NODE_NAME: {"ros__parameters": unflatten(variant.parameters)}}, sort_keys=True))
     scene = replace(variant.scene, source=str(scene_file))
-    with tempfile.TemporaryDirectory() as scratch:
-        script_to_bag(scene, Path(scratch) / "inputs")
-        replay_to_bag(scene, read_bag(Path(scratch) / "inputs"), directory / name,
-                      with_inputs=True, overwrite=True)
+    try:
+        with tempfile.TemporaryDirectory() as scratch_bags:
+            script_to_bag(scene, Path(scratch_bags) / "inputs")
+            replay_to_bag(scene, read_bag(Path(scratch_bags) / "inputs"), directory / name,
+                          with_inputs=True, overwrite=True)
+    except BaseException:
+        scene_file.unlink(missing_ok=True)  # the parameters of a bag that is not there
+        raise
 
 
 def summary_columns(variant: Variant) -> set[str]:

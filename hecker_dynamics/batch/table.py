@@ -7,8 +7,9 @@ missing value; columns come in the order of the first row, which every row of a 
 shares (the scene fixes the bodies).
 
 While the variants run, finished rows go to a partial CSV file next to the table as they
-come (``<table>.partial.csv``, one row per line, flushed), so a sweep that stops keeps
-what it finished; the partial file is removed once the table is written.
+come (``<table>.partial.csv``, one row per line, each written whole or cut back off), so a
+sweep that stops keeps what it finished; the partial file is removed once the table is
+written.
 
 :func:`check_table` checks ``-o`` before any variant runs (:mod:`hecker_dynamics.files`:
 neither the table nor the partial file of an earlier sweep is replaced without
@@ -16,9 +17,11 @@ neither the table nor the partial file of an earlier sweep is replaced without
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import importlib.util
 import io
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Optional, TextIO
@@ -110,26 +113,47 @@ def write_table(path: Path, rows: Sequence[Mapping[str, Any]], *,
 
 
 class PartialRows:
-    """Finished rows appended to a CSV file as they come, in finishing order."""
+    """Finished rows appended to a CSV file as they come, in finishing order, each whole:
+    a write that fails part-way (a full disk) cuts the file back to the rows before it, so
+    a reader never takes half a row for a row with empty cells."""
 
     def __init__(self, path: Path, *, overwrite: bool = False) -> None:
         self.path = path
         self.overwrite = overwrite
-        self._stream: Optional[TextIO] = None
+        self._fd: Optional[int] = None
+        self._size = 0  # bytes of whole rows (the header's included) in the file
         self._columns: list[str] = []
 
     def add(self, row: Mapping[str, Any]) -> None:
-        if self._stream is None:
+        text = io.StringIO()
+        if self._fd is None:
             self._columns = list(row)
             # Open across add() calls, so rows reach the disk as they come; close() shuts it.
-            self._stream = open(self.path, "w" if self.overwrite else "x",  # noqa: SIM115
-                                newline="")
-            _write_csv(self._stream, self._columns, [])
-        _write_csv(self._stream, self._columns, [row], header=False)
-        self._stream.flush()
+            replace = os.O_TRUNC if self.overwrite else os.O_EXCL
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | replace, 0o666)
+            _write_csv(text, self._columns, [])
+        _write_csv(text, self._columns, [row], header=False)
+        data = text.getvalue().encode()
+        _append_whole(self._fd, data, self._size)
+        self._size += len(data)
 
     def close(self, *, keep: bool) -> None:
-        if self._stream is not None:
-            self._stream.close()
-        if not keep:
+        """Close the file; remove it unless ``keep`` and it holds a row."""
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        if not keep or not self._size:
             self.path.unlink(missing_ok=True)
+
+
+def _append_whole(fd: int, data: bytes, size: int) -> None:
+    """Write ``data`` at the end of the file of ``fd``, which holds ``size`` bytes, unbuffered;
+    on an :class:`OSError` cut the file back to ``size`` bytes and raise it."""
+    try:
+        view = memoryview(data)
+        while view:  # a write may take part of it (a disk filling up) before it fails
+            view = view[os.write(fd, view):]
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.ftruncate(fd, size)
+        raise

@@ -8,6 +8,7 @@ parameter; :mod:`hecker_dynamics.sensors` computes the readings.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Union
@@ -15,11 +16,14 @@ from typing import Union
 from .parameters import REQUIRED, ParameterReader
 
 __all__ = ["LaserSpec", "ImuSpec", "SensorSpec", "SENSOR_TYPES", "MAX_RAYS",
-           "sample_period_ns", "read_sensor"]
+           "MAX_IMU_NOISE", "sample_period_ns", "read_sensor"]
 
 SENSOR_TYPES = ("laser", "imu")
 #: Most rays of one scan: a scan costs rays x edges in memory.
 MAX_RAYS = 100_000
+#: Largest standard deviation of an IMU's noise: ``sensor_msgs/Imu`` carries its square
+#: (the covariance), which must be a double too.
+MAX_IMU_NOISE = math.sqrt(sys.float_info.max)
 Vec2 = tuple[float, float]
 
 
@@ -95,6 +99,10 @@ def _seed(reader: ParameterReader) -> int:
     return int(seed)
 
 
+def _imu_noise(reader: ParameterReader, key: str) -> float:
+    return reader.number(key, 0.0, minimum=0.0, maximum=MAX_IMU_NOISE)
+
+
 def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping[str, Vec2]],
                 step_ns: int) -> SensorSpec:
     """One ``sensors.<name>`` entry; ``points`` holds each body's declared points (a
@@ -110,11 +118,10 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     angle = reader.number("angle", 0.0)
     if kind == "imu":
         return ImuSpec(name, body, position, angle, sample_period_ns(reader, step_ns, 100.0),
-                       orientation_noise=reader.number("orientation_noise", 0.0, minimum=0.0),
-                       angular_velocity_noise=reader.number("angular_velocity_noise", 0.0,
-                                                            minimum=0.0),
-                       linear_acceleration_noise=reader.number("linear_acceleration_noise",
-                                                               0.0, minimum=0.0),
+                       orientation_noise=_imu_noise(reader, "orientation_noise"),
+                       angular_velocity_noise=_imu_noise(reader, "angular_velocity_noise"),
+                       linear_acceleration_noise=_imu_noise(reader,
+                                                            "linear_acceleration_noise"),
                        seed=_seed(reader))
     angle_min = reader.number("angle_min", -math.pi)
     angle_max = reader.number("angle_max", math.pi)

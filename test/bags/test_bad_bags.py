@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from hecker_dynamics.bags.compare import compare_bags
-from hecker_dynamics.bags.io import POSE_STAMPED, BagError, BagWriter, read_bag
+from hecker_dynamics.bags.io import POSE_STAMPED, TWIST, BagError, BagWriter, read_bag
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros import fields
 
@@ -281,3 +281,29 @@ def test_a_topic_in_neither_bag_is_an_error_saying_so(capsys):
     bag = str(GOLDEN / "sample" / "output")
     err = _one_line_error(capsys, "compare", bag, bag, "--topic", "/nope")
     assert "/nope" in err and "neither" in err
+
+
+def test_a_check_that_compares_no_output_is_a_mismatch(tmp_path, capsys):
+    """A recording of a session 0 s long, and one whose output topics hold nothing checked
+    with --partial: the check compares no output, so it fails (exit 1) rather than report
+    a match of 0 of 0 recorded outputs."""
+    script = str(tmp_path / "in")
+    assert main(["script", "sample", "-o", script]) == 0
+    instant = str(tmp_path / "instant")
+    assert main(["replay", "sample", script, "-o", instant, "--with-inputs", "--start", "2",
+                 "--duration", "0"]) == 0
+    emptied = tmp_path / "emptied"
+    with BagWriter(emptied, "mcap", custom_data=read_bag(script).custom_data) as writer:
+        for body in ("left", "right"):
+            writer.add_topic(f"/{body}/pose", POSE_STAMPED)
+            writer.add_topic(f"/{body}/twist", TWIST)
+        for message in read_bag(script).messages:
+            writer.add_topic(message.topic, message.msgtype)
+            writer.write_raw(message.topic, message.log_ns, message.raw)
+    for argv in ([instant, "--check"], [str(emptied), "--check", "--partial"]):
+        capsys.readouterr()
+        code, out, err = _cli(capsys, "replay", "sample", *argv)
+        assert code == 1 and "Traceback" not in err
+        assert out.splitlines()[-1] == (
+            f"check against the recording {argv[0]}: mismatch: nothing to check: the "
+            "recording holds no output of the node in the span replayed, nor a keyframe")

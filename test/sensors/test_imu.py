@@ -4,6 +4,7 @@ fall), and a central difference of a body point's velocity (Eq. 9) along an RK4 
 from __future__ import annotations
 
 import math
+import sys
 import zlib
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.ros.sensor_fields import imu_fields
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.sensors.imu import Imu
 
@@ -143,3 +145,17 @@ def test_each_value_adds_its_deviation_times_its_own_draw(deviations):
 def test_a_bad_imu_rate_is_refused_by_name():
     with pytest.raises(SceneError, match="sensors.imu.rate"):
         setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, rate=3000.0)
+
+
+@pytest.mark.parametrize("key", ["orientation_noise", "angular_velocity_noise",
+                                 "linear_acceleration_noise"])
+def test_a_noise_whose_variance_is_no_double_is_refused_by_name(key):
+    """The Imu message carries each noise's variance: a deviation past sqrt(max double)
+    (1.3e154) would overflow it when the reading is published, so the loader refuses it;
+    the largest one allowed gives finite covariances."""
+    body = {"shape": "circle", "radius": 0.5, "mass": 1.0}
+    with pytest.raises(SceneError, match=f"sensors.imu.{key}': must be at most 1.34"):
+        setup(body, **{key: 1e155})
+    imu, sim = setup(body, **{key: math.sqrt(sys.float_info.max)})
+    fields = imu_fields(imu.spec, read(imu, sim))
+    assert all(math.isfinite(v) for covariance in fields[2::2] for v in covariance)
