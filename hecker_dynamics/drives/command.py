@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from ..geometry.shapes import MassProperties
+from ..scene.commands import InputError
 from ..scene.drives import DriveSpec
 
 __all__ = ["VelocityCommand", "CommandedDrive"]
@@ -26,22 +28,34 @@ class VelocityCommand:
 
 class CommandedDrive:
     """A drive's command and its controller's integrals (``axes`` of them); ``body_index``
-    is the driven body's row in the state."""
+    is the driven body's row in the state, ``properties`` its mass and inertia."""
 
-    def __init__(self, spec: DriveSpec, body_index: int, axes: int) -> None:
+    def __init__(self, spec: DriveSpec, body_index: int, axes: int,
+                 properties: MassProperties) -> None:
         self.name = spec.name
         self.timeout_ns = spec.cmd_vel_timeout_ns
         self.body = body_index
+        self._properties = properties
         self.command: VelocityCommand | None = None
         self.integrals = [0.0] * axes
 
     def receive(self, command: VelocityCommand) -> None:
-        """Take a new twist command; it replaces the previous one."""
+        """Take a new twist command (:meth:`check` first); it replaces the previous one."""
+        self.check(command)
+        self.command = command
+
+    def check(self, command: VelocityCommand) -> None:
+        """:class:`InputError` for a value that is not finite, or a twist whose energy of
+        motion on the driven body (Eq. 13) no double holds: the controller's errors would
+        overflow, and the wheel forces mixed from them would be inf - inf."""
         values = (command.linear_x, command.linear_y, command.angular_z)
         if not all(map(math.isfinite, values)):
-            raise ValueError(f"drive '{self.name}': a cmd_vel with a non-finite value "
+            raise InputError(f"drive '{self.name}': a cmd_vel with a non-finite value "
                              f"{values}")
-        self.command = command
+        speed = math.hypot(command.linear_x, command.linear_y)
+        if not math.isfinite(self._properties.energy_of_motion(speed, command.angular_z)):
+            raise InputError(f"drive '{self.name}': a cmd_vel of {values} asks its body for "
+                             "an energy of motion past what a double holds")
 
     def export_state(self) -> dict[str, Any]:
         """The controller's state, for keyframes (a command's sideways speed only when it
@@ -54,8 +68,11 @@ class CommandedDrive:
     def import_state(self, state: dict[str, Any]) -> None:
         self.integrals = [float(x) for x in state["integrals"]]
         c = state["command"]
-        self.command = None if c is None else VelocityCommand(
+        command = None if c is None else VelocityCommand(
             int(c[0]), float(c[1]), float(c[2]), float(c[3]) if len(c) > 3 else 0.0)
+        if command is not None:
+            self.check(command)
+        self.command = command
 
     def active(self, time_ns: int) -> bool:
         """Whether a command younger than the cmd_vel timeout holds at ``time_ns``."""

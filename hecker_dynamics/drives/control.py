@@ -22,12 +22,13 @@ class DriveSet:
     instant."""
 
     def __init__(self, sim: Simulation) -> None:
-        model = sim.model
-        self.drives: list[Union[DiffDrive, WrenchDrive]] = [
-            DiffDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
-            if isinstance(spec, DiffDriveSpec) else
-            WrenchDrive(spec, model.index[spec.body], model.cm_local[model.index[spec.body]])
-            for spec in sim.scene.drives]
+        model, bodies = sim.model, sim.scene.bodies
+        self.drives: list[Union[DiffDrive, WrenchDrive]] = []
+        for spec in sim.scene.drives:
+            i = model.index[spec.body]
+            self.drives.append(DiffDrive(spec, i, model.cm_local[i], bodies[i].mass)
+                               if isinstance(spec, DiffDriveSpec) else
+                               WrenchDrive(spec, i, model.cm_local[i], bodies[i].mass))
         self._next_ns = [sim.time_ns] * len(self.drives)
         #: Per drive, its script's times (from the start) and commands (linear x, angular
         #: z, linear y): a diff drive's entries are (t, x, z), the others' (t, x, y, z).
@@ -35,12 +36,16 @@ class DriveSet:
         self._script_commands = [[(x, rest[-1], rest[0] if len(rest) == 2 else 0.0)
                                   for _, x, *rest in drive.spec.script]
                                  for drive in self.drives]
+        for drive, commands in zip(self.drives, self._script_commands):
+            for command in commands:
+                drive.check(VelocityCommand(0, *command))
 
     def __bool__(self) -> bool:
         return bool(self.drives)
 
     def receive(self, body: str, command: VelocityCommand) -> None:
-        """Give ``command`` to every drive of ``body`` (raises ValueError if not finite)."""
+        """Give ``command`` to every drive of ``body`` (:class:`InputError` where a drive
+        refuses it: :meth:`.CommandedDrive.check`)."""
         for drive in self.drives:
             if drive.spec.body == body:
                 drive.receive(command)

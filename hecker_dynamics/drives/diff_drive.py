@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from ..geometry.shapes import MassProperties
 from ..scene.commands import WrenchCommand
 from ..scene.drives import DiffDriveSpec
 from .command import CommandedDrive, VelocityCommand
@@ -30,10 +31,11 @@ __all__ = ["DiffDrive", "VelocityCommand"]
 class DiffDrive(CommandedDrive):
     """The controller of one ``diff_drive``: its last command and its integrals."""
 
-    def __init__(self, spec: DiffDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
+    def __init__(self, spec: DiffDriveSpec, body_index: int, cm_local: np.ndarray,
+                 properties: MassProperties) -> None:
         """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
-        body frame."""
-        super().__init__(spec, body_index, 2)
+        body frame, ``properties`` its mass and inertia."""
+        super().__init__(spec, body_index, 2, properties)
         self.spec = spec
         cx, cy = spec.center
         half = spec.separation / 2.0

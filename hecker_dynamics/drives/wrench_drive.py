@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from ..geometry.shapes import MassProperties
 from ..scene.commands import WrenchCommand
 from ..scene.drives import WrenchDriveSpec, actuation
 from .command import CommandedDrive
@@ -60,10 +61,11 @@ def nonnegative_least_squares(a: np.ndarray, b: np.ndarray, tolerance: float = 1
 class WrenchDrive(CommandedDrive):
     """The controller of one ``omni`` or ``thrusters`` drive."""
 
-    def __init__(self, spec: WrenchDriveSpec, body_index: int, cm_local: np.ndarray) -> None:
+    def __init__(self, spec: WrenchDriveSpec, body_index: int, cm_local: np.ndarray,
+                 properties: MassProperties) -> None:
         """``body_index`` is the driven body's row in the state, ``cm_local`` its CM in its
-        body frame."""
-        super().__init__(spec, body_index, 3)
+        body frame, ``properties`` its mass and inertia."""
+        super().__init__(spec, body_index, 3, properties)
         self.spec = spec
         cm = (float(cm_local[0]), float(cm_local[1]))
         self._actuation = actuation(spec.actuators, cm)

@@ -12,6 +12,7 @@ from scene_builders import body_speeds, driven_robot
 from hecker_dynamics.drives.control import DriveSet, advance_with_drives
 from hecker_dynamics.drives.diff_drive import VelocityCommand
 from hecker_dynamics.dynamics.simulation import Simulation
+from hecker_dynamics.scene.commands import InputError
 from hecker_dynamics.scene.parameters import SceneError
 
 MASS = 10.0
@@ -107,6 +108,30 @@ def test_the_controller_state_round_trips():
     copy.import_state(drive.export_state())
     assert copy.export_state() == drive.export_state()
     assert copy.wrenches(sim.q, sim.v, 20_000_000) == drive.wrenches(sim.q, sim.v, 20_000_000)
+
+
+def test_a_cmd_vel_whose_energy_no_double_holds_is_refused_and_the_last_one_kept():
+    """1e308 m/s is finite, but 1/2 m v^2 is not: the PI's errors would overflow and the
+    wheels' mix turn inf - inf into NaN forces, refused at every control instant until the
+    timeout. The command is refused when it arrives, from a topic, a script or a keyframe;
+    the largest speed a double's energy holds on this body is still taken."""
+    sim = robot_sim()
+    drives = DriveSet(sim)
+    drive = drives.drives[0]
+    drive.receive(VelocityCommand(0, 0.5, 0.0))
+    for linear, angular in ((1e308, 0.0), (0.0, 1e308), (-2e154, 0.0)):
+        with pytest.raises(InputError, match="energy of motion past what a double holds"):
+            drives.receive("robot", VelocityCommand(1, linear, angular))
+        assert drive.command == VelocityCommand(0, 0.5, 0.0)
+    state = drive.export_state()
+    state["command"] = [0, 1e308, 0.0]
+    with pytest.raises(InputError, match="drive 'base'"):
+        drive.import_state(state)
+    drive.receive(VelocityCommand(2, 1e153, 0.0))  # 1/2 m v^2 of 1e306 J: a double
+    assert all(math.isfinite(x) for w in drive.wrenches(sim.q, sim.v, 10_000_000)
+               for x in w.force)
+    with pytest.raises(InputError, match="energy of motion"):
+        DriveSet(robot_sim(script=[0.0, 1e308, 0.0]))
 
 
 @pytest.mark.parametrize("drive, problem", [
