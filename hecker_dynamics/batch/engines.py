@@ -28,7 +28,7 @@ import multiprocessing
 import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Optional, Protocol
 
@@ -77,12 +77,15 @@ class ProcessPool:
     def __init__(self, workers: Optional[int] = None) -> None:
         self.notes: list[str] = []
         self.workers = workers or default_workers()
+        #: Every task given to the pool (:meth:`close` ends the workers of those running).
+        self._futures: list[Future[Any]] = []
         self._executor = ProcessPoolExecutor(max_workers=self.workers,
                                              mp_context=_start_context())
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:
         futures = {self._executor.submit(function, task): i for i, task in enumerate(tasks)}
+        self._futures.extend(futures)
         try:
             for future in as_completed(futures):
                 yield futures[future], future.result()
@@ -94,7 +97,16 @@ class ProcessPool:
                 future.cancel()
 
     def close(self) -> None:
-        self._executor.shutdown(cancel_futures=True)
+        """Cancel the tasks not begun; where the caller stopped while tasks were running
+        (Ctrl-C, SIGTERM, an error writing a row), end their workers too: waiting for them
+        would hold the command for as long as its longest variant runs, and a worker
+        outlives a parent killed meanwhile. (Python 3.14's ``terminate_workers``; before
+        it, the executor's ``_processes`` are the only handle on its workers.)"""
+        executor = self._executor
+        if any(not future.done() for future in self._futures):
+            for process in list((executor._processes or {}).values()):
+                process.terminate()
+        executor.shutdown(cancel_futures=True)
 
 
 def _start_context() -> multiprocessing.context.BaseContext:
