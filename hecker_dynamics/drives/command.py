@@ -46,8 +46,9 @@ class CommandedDrive:
 
     def check(self, command: VelocityCommand) -> None:
         """:class:`InputError` for a value that is not finite, or a twist whose energy of
-        motion on the driven body (Eq. 13) no double holds: the controller's errors would
-        overflow, and the wheel forces mixed from them would be inf - inf."""
+        motion on the driven body (1/2 m v^2 + 1/2 I omega^2) no double holds: the
+        controller's errors would overflow, and the wheel forces mixed from them would be
+        inf - inf."""
         values = (command.linear_x, command.linear_y, command.angular_z)
         if not all(map(math.isfinite, values)):
             raise InputError(f"drive '{self.name}': a cmd_vel with a non-finite value "
