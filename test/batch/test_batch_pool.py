@@ -66,11 +66,14 @@ def test_a_stopped_sweep_ends_its_running_workers(tmp_path, signum, status):
     """A sweep stopped mid-variant (SIGTERM from a CI timeout, or Ctrl-C) ends in one line
     with the shell's status, and its pool workers end with it: before, the command waited
     for the running variant (minutes for a long one), and after SIGTERM the workers ran on
-    as orphans until their variants ended."""
+    as orphans until their variants ended. A worker ended mid-variant first removes what
+    it had begun: no parameters file without its bag, no scratch file."""
+    bags = tmp_path / "bags"
     process = subprocess.Popen(
         [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain", "--set",
          "bodies.link00.mass=1,2", "--duration", "3000", "--workers", "1",
-         "-o", str(tmp_path / "rows.csv")], stderr=subprocess.PIPE, text=True)
+         "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
+        stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60.0
         while len(_descendants(process.pid)) < 2:  # the fork server and a worker
@@ -89,3 +92,4 @@ def test_a_stopped_sweep_ends_its_running_workers(tmp_path, signum, status):
     while any(map(_alive, workers)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not [pid for pid in workers if _alive(pid)]
+    assert not bags.exists() or list(bags.iterdir()) == []
