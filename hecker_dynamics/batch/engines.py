@@ -26,10 +26,9 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import os
-import signal
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Optional, Protocol
 
@@ -78,17 +77,12 @@ class ProcessPool:
     def __init__(self, workers: Optional[int] = None) -> None:
         self.notes: list[str] = []
         self.workers = workers or default_workers()
-        #: Every task given to the pool (:meth:`close` ends the workers of those running).
-        self._futures: list[Future[Any]] = []
         self._executor = ProcessPoolExecutor(max_workers=self.workers,
-                                             mp_context=_start_context(),
-                                             initializer=_stop_on_sigterm)
+                                             mp_context=_start_context())
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:
-        futures = {self._executor.submit(_stoppable, function, task): i
-                   for i, task in enumerate(tasks)}
-        self._futures.extend(futures)
+        futures = {self._executor.submit(function, task): i for i, task in enumerate(tasks)}
         try:
             for future in as_completed(futures):
                 yield futures[future], future.result()
@@ -100,52 +94,7 @@ class ProcessPool:
                 future.cancel()
 
     def close(self) -> None:
-        """Cancel the tasks not begun; where the caller stopped while tasks were running
-        (Ctrl-C, SIGTERM, an error writing a row), end their workers too: waiting for them
-        would hold the command for as long as its longest variant runs, and a worker
-        outlives a parent killed meanwhile. A worker takes SIGTERM as the end of its task
-        (:func:`_stop_on_sigterm`): the task removes the files it had begun, then the
-        worker exits. (Python 3.14's ``terminate_workers``; before it, the executor's
-        ``_processes`` are the only handle on its workers.)"""
-        executor = self._executor
-        if any(not future.done() for future in self._futures):
-            for process in list((executor._processes or {}).values()):
-                process.terminate()
-        executor.shutdown(cancel_futures=True)
-
-
-class _Stopped(BaseException):
-    """SIGTERM in a pool worker's task."""
-
-
-#: Whether this pool worker is running a task (:func:`_stoppable`).
-_in_task = False
-
-
-def _stop_on_sigterm() -> None:
-    """A pool worker's start: SIGTERM ends a running task as an exception, so that its
-    ``finally`` and ``except BaseException`` clauses remove what it had begun (a variant's
-    bag and parameters file), and then the worker; an idle worker exits at once."""
-    signal.signal(signal.SIGTERM, _on_sigterm)
-
-
-def _on_sigterm(signum: int, frame: object) -> None:
-    if not _in_task:
-        os._exit(128 + signum)
-    raise _Stopped
-
-
-def _stoppable(function: Callable[[Any], Any], task: Any) -> Any:
-    """``function(task)`` in a pool worker; on SIGTERM the worker exits once the task has
-    unwound, so that no task queued behind it starts."""
-    global _in_task
-    try:
-        _in_task = True
-        return function(task)
-    except _Stopped:
-        os._exit(128 + signal.SIGTERM)
-    finally:
-        _in_task = False
+        self._executor.shutdown(cancel_futures=True)
 
 
 def _start_context() -> multiprocessing.context.BaseContext:

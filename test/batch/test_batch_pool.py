@@ -1,15 +1,8 @@
 """The process pool's workers start without forking this (threaded) process."""
 from __future__ import annotations
 
-import signal
-import subprocess
-import sys
 import threading
-import time
 import warnings
-from pathlib import Path
-
-import pytest
 
 from hecker_dynamics.batch.engines import ProcessPool
 
@@ -34,62 +27,3 @@ def test_the_pool_does_not_fork_a_threaded_process():
         pool.close()
     assert results == [(0, 3), (1, 4), (2, 5)]
     assert not [w for w in caught if "fork" in str(w.message)], [str(w.message) for w in caught]
-
-
-def _descendants(pid: int) -> set[int]:
-    """The live processes under ``pid``, from /proc's parent links."""
-    parents = {}
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:  # ended meanwhile
-            continue
-        if fields[0] != "Z":
-            parents[int(stat.parent.name)] = int(fields[1])
-    found, frontier = set(), {pid}
-    while frontier:
-        frontier = {child for child, parent in parents.items() if parent in frontier}
-        found |= frontier
-    return found
-
-
-def _alive(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
-
-
-@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
-@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
-def test_a_stopped_sweep_ends_its_running_workers(tmp_path, signum, status):
-    """A sweep stopped mid-variant (SIGTERM from a CI timeout, or Ctrl-C) ends in one line
-    with the shell's status, and its pool workers end with it: before, the command waited
-    for the running variant (minutes for a long one), and after SIGTERM the workers ran on
-    as orphans until their variants ended. A worker ended mid-variant first removes what
-    it had begun: no parameters file without its bag, no scratch file."""
-    bags = tmp_path / "bags"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain", "--set",
-         "bodies.link00.mass=1,2", "--duration", "3000", "--workers", "1",
-         "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
-        stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 60.0
-        while len(_descendants(process.pid)) < 2:  # the fork server and a worker
-            assert process.poll() is None and time.monotonic() < deadline
-            time.sleep(0.2)
-        time.sleep(1.0)  # into the variant's run
-        workers = _descendants(process.pid)
-        process.send_signal(signum)
-        _, err = process.communicate(timeout=30)
-    finally:
-        process.kill()
-    assert process.returncode == status
-    assert err.strip().splitlines()[-1] in ("hecker-dynamics: terminated",
-                                            "hecker-dynamics: interrupted")
-    deadline = time.monotonic() + 10.0
-    while any(map(_alive, workers)) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert not [pid for pid in workers if _alive(pid)]
-    assert not bags.exists() or list(bags.iterdir()) == []
