@@ -60,8 +60,8 @@ class DriveSet:
             if now >= self._next_ns[index]:
                 due = bisect.bisect_right(self._script_times[index], now - sim.start_ns) \
                     if play_script else 0
-                if due:
-                    drive.receive(VelocityCommand(now, *self._script_commands[index][due - 1]))
+                if due:  # a script's commands were checked when the set was built
+                    drive.command = VelocityCommand(now, *self._script_commands[index][due - 1])
                 try:
                     sim.push_replacements(drive.wrenches(sim.q, sim.v, now))
                 except InputError as error:
