@@ -108,6 +108,9 @@ class TopicReport:
     matched: int = 0
     missing: list[int] = field(default_factory=list)  # stamps only in the expected bag
     extra: list[int] = field(default_factory=list)  # stamps only in the actual bag
+    #: Stamps of messages logged after one stamped later, in either bag (the node publishes
+    #: in stamp order, so the bag was reordered or tampered with).
+    out_of_order: list[int] = field(default_factory=list)
     position: Worst = field(default_factory=Worst)
     angle: Worst = field(default_factory=Worst)
     velocity: Worst = field(default_factory=Worst)
@@ -117,7 +120,7 @@ class TopicReport:
 
     def ok(self, tol: Tolerances) -> bool:
         return (not self.missing and not self.extra and not self.different
-                and _within(self.position.value, tol.position)
+                and not self.out_of_order and _within(self.position.value, tol.position)
                 and _within(self.angle.value, tol.angle)
                 and _within(self.velocity.value, tol.velocity)
                 and _within(self.angular_velocity.value, tol.velocity))
@@ -181,6 +184,8 @@ class CompareReport:
                              f"{min(t.missing) * 1e-9:.6f} s")
             if t.extra:
                 lines.append(f"     extra {len(t.extra)}: first at {min(t.extra) * 1e-9:.6f} s")
+            if t.out_of_order:
+                lines.append(f"     {_disorder(t.out_of_order)}")
             measured = [(name, w) for name, w in (
                 ("position", t.position), ("angle", t.angle), ("velocity", t.velocity),
                 ("angular velocity", t.angular_velocity)) if w.stamp_ns is not None]
@@ -215,6 +220,8 @@ class CompareReport:
                     parts.append(f"{len(t.missing)} missing")
                 if t.extra:
                     parts.append(f"{len(t.extra)} extra")
+                if t.out_of_order:
+                    parts.append(_disorder(t.out_of_order))
                 if t.different:
                     parts.append(f"{t.different} differ")
                 for kind, tol in (("position", self.tolerances.position),
@@ -228,7 +235,23 @@ class CompareReport:
         return "mismatch: " + "; ".join(problems)
 
 
+def _disorder(stamps: Sequence[int]) -> str:
+    return (f"{len(stamps)} logged after a later stamp (out of order), first stamped "
+            f"{stamps[0] * 1e-9:.6f} s")
+
+
 # ----------------------------------------------------------------------------- matching
+
+def _late(keys: Sequence[int]) -> list[int]:
+    """The stamps that come, in log order, after a later one."""
+    late, latest = [], None
+    for key in keys:
+        if latest is not None and key < latest:
+            late.append(key)
+        else:
+            latest = key
+    return late
+
 
 def _keys(messages: Sequence[BagMessage], decoded: Sequence[Any],
           sibling: Optional[Sequence[int]]) -> list[int]:
@@ -476,12 +499,15 @@ def _compare_topic(topic: str, msgtype: str, expected: BagContents,
         pose_topic = topic[: -len("/twist")] + "/pose"
         if bag.topics.get(pose_topic) != POSE_STAMPED:
             return None
-        return [stamp for m in bag.on(pose_topic)
-                if (stamp := stamp_ns_of(m.decode())) is not None]  # always: PoseStamped
+        # In stamp order: the i-th twist logged is the i-th instant published. A pose
+        # logged out of order is the pose topic's fault, said there, not the twist's.
+        return sorted(stamp for m in bag.on(pose_topic)
+                      if (stamp := stamp_ns_of(m.decode())) is not None)  # always: PoseStamped
 
     if structured:
         ka = _keys(ea, da, sibling(expected))
         kb = _keys(aa, db, sibling(actual))
+        report.out_of_order = _late(ka) + _late(kb)
     else:
         ka, kb = [m.log_ns for m in ea], [m.log_ns for m in aa]
     ga, gb = _group(ka), _group(kb)

@@ -307,3 +307,29 @@ def test_a_check_that_compares_no_output_is_a_mismatch(tmp_path, capsys):
         assert out.splitlines()[-1] == (
             f"check against the recording {argv[0]}: mismatch: nothing to check: the "
             "recording holds no output of the node in the span replayed, nor a keyframe")
+
+
+def test_a_pose_logged_out_of_order_is_blamed_on_its_topic(tmp_path, capsys):
+    """Two poses of /left/pose swapped in log order: the check names /left/pose, out of
+    order, and not /left/twist (whose twists were placed by the poses' log order)."""
+    script, recording = str(tmp_path / "in"), tmp_path / "rec"
+    assert main(["script", "sample", "-o", script]) == 0
+    assert main(["replay", "sample", script, "-o", str(recording), "--with-inputs"]) == 0
+    messages = read_bag(recording).messages
+    first, second = [i for i, m in enumerate(messages) if m.topic == "/left/pose"][5:7]
+    order = list(range(len(messages)))
+    order[first], order[second] = second, first
+    swapped = tmp_path / "swapped"
+    source = read_bag(recording)
+    with BagWriter(swapped, "mcap", custom_data=source.custom_data) as writer:
+        for topic, msgtype in source.topics.items():
+            writer.add_topic(topic, msgtype)
+        for place, index in enumerate(order):  # the log times stay; the payloads swap
+            writer.write_raw(messages[index].topic, messages[place].log_ns,
+                             messages[index].raw)
+    capsys.readouterr()
+    code, out, _ = _cli(capsys, "replay", "sample", str(swapped), "--check")
+    assert code == 1
+    verdict = out.splitlines()[-1]
+    assert verdict.endswith("mismatch: /left/pose: 1 logged after a later stamp (out of "
+                            "order), first stamped 0.120000 s"), verdict
