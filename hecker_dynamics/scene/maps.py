@@ -248,6 +248,11 @@ def _read_pgm(raw: bytes) -> np.ndarray:
         values = np.array(raw[at:].split()[:count], dtype=float)
         if len(values) < count:
             raise ValueError("PGM pixels cut short")
+        odd = values[(values < 0) | (values != np.floor(values))]
+        if odd.size:
+            raise ValueError(f"PGM pixel {odd[0]:g} is not a whole number from 0 to {maxval}")
+    if values.max() > maxval:  # a shade past white: no image of that maxval holds it
+        raise ValueError(f"PGM pixel {values.max():g} is above its maxval {maxval}")
     return (values / maxval).reshape(height, width, 1)
 
 

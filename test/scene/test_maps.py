@@ -366,3 +366,19 @@ def test_a_spawned_body_joins_a_map_that_holds_every_body_and_a_deleted_one_leav
     only_robot = dataclasses.replace(scene, map=dataclasses.replace(scene.map,
                                                                     bodies=("robot",)))
     assert spawned(only_robot, "ball", spec).map.bodies == ("robot",)
+
+
+@pytest.mark.parametrize("header, pixels, problem", [
+    (b"P5\n2 1\n100\n", bytes([50, 200]), "PGM pixel 200 is above its maxval 100"),
+    (b"P5\n2 1\n1000\n", bytes([0, 50, 4, 0]), "PGM pixel 1024 is above its maxval 1000"),
+    (b"P2\n2 1\n100\n", b"50 101\n", "PGM pixel 101 is above its maxval 100"),
+    (b"P2\n2 1\n100\n", b"50 -1\n", "PGM pixel -1 is not a whole number from 0 to 100"),
+    (b"P2\n2 1\n100\n", b"50 0.5\n", "PGM pixel 0.5 is not a whole number from 0 to 100"),
+])
+def test_a_pgm_pixel_outside_its_maxval_is_refused(tmp_path, header, pixels, problem):
+    """A pixel above the maxval the header gives (a shade past white, which nav2's
+    map_server never reads) is a bad image, not a cell that is free beyond free."""
+    (tmp_path / "m.pgm").write_bytes(header + pixels)
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, "m.pgm"))
+    assert problem in str(error.value) and "\n" not in str(error.value)
