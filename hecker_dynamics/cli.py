@@ -25,6 +25,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Iterator, Sequence
@@ -892,7 +893,30 @@ def _show_warning(message: Warning | str, category: type[Warning], *_: object,
     print(f"hecker-dynamics: warning: {_one_line(str(message))}", file=sys.stderr)
 
 
+class _Terminated(BaseException):
+    """SIGTERM (a CI job's timeout, ``kill``), raised in the main thread so that the
+    command unwinds as on Ctrl-C: the writers remove what they had begun, a sweep stops
+    its workers (:meth:`~.batch.engines.ProcessPool.close`)."""
+
+
+def _terminate(signum: int, frame: object) -> NoReturn:
+    raise _Terminated
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)  # only the main thread may take a signal
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _main(argv)
+    except _Terminated:
+        print("hecker-dynamics: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: Optional[Sequence[str]]) -> int:
     top = parser()
     args, unknown = top.parse_known_args(argv)
     if unknown:

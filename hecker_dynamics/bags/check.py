@@ -11,7 +11,7 @@ the bag, unless named otherwise by ``topics`` or accepted missing by ``partial``
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -127,17 +127,19 @@ def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
 
 def check_recording(scene: Scene, bag: BagContents, *, tolerances: Tolerances,
                     topics: Optional[Sequence[str]] = None,
-                    partial: bool = False) -> RecordingCheck:
+                    partial: bool = False,
+                    progress: Optional[Callable[[float], None]] = None) -> RecordingCheck:
     """``replay SCENE BAG --check``: replay the bag on ``scene`` and check everything it
-    holds (see the module docstring). Raises
+    holds (see the module docstring); ``progress`` is told of each publish tick. Raises
     :class:`~hecker_dynamics.bags.replay.ReplayError` for a bag that cannot be checked."""
     if is_live_recording(bag):
-        live = check_live(scene, bag, tolerances=tolerances, topics=topics, partial=partial)
+        live = check_live(scene, bag, tolerances=tolerances, topics=topics, partial=partial,
+                          progress=progress)
         return RecordingCheck(str(bag.path), live.report, live.coverage, True, live.halted,
                               live.sessions)
     tf = "/tf" in bag.topics or "/tf" in (topics or ())
     recorded_output_topics(scene, bag, tf=tf)
-    produced, result = replay_outputs(scene, bag, tf=tf)
+    produced, result = replay_outputs(scene, bag, tf=tf, progress=progress)
     report, coverage = check_outputs(scene, bag, outputs_as_bag(scene, produced, tf=tf),
                                      tolerances=tolerances, tf=tf, topics=topics,
                                      partial=partial)

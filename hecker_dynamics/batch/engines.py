@@ -12,6 +12,15 @@ the results come, in finishing order; the caller puts them back in order.
   The fork server imports the task module once, so a worker starts without importing it;
   a worker imports the main module again, so a script that runs a sweep keeps its top
   level under ``if __name__ == "__main__":`` (the command line's entry points do).
+  A pool stopped while tasks run (Ctrl-C, SIGTERM, an error writing a row) closes the
+  write end of a pipe whose read end its workers hold; a task looks at it at its safe
+  points (:func:`stop_point`, between publish instants) and unwinds as from any error,
+  removing what it had begun, so the worker is free again within one publish period. A
+  signal to a worker, or the command killed (which closes the pipe too), stops its task
+  the same way; workers still running after :data:`STOP_GRACE` are killed. (A pipe, not
+  shared memory: that is a file, which a full disk refuses. Ending a worker by a signal's
+  exception at an arbitrary point cannot promise its cleanup: one stopped between making
+  a scratch file and its ``try`` leaves the file.)
 - :class:`DaskCluster` (``--cluster ADDRESS``, or ``--cluster local`` for a
   ``LocalCluster`` of worker processes on this machine): each task is a
   ``client.submit(..., retries=N)``, collected with ``as_completed``. The scheduler
@@ -23,17 +32,21 @@ the results come, in finishing order; the caller puts them back in order.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
+import signal
+import threading
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed, wait
 from concurrent.futures.process import BrokenProcessPool
+from multiprocessing.connection import Connection
 from typing import Any, Optional, Protocol
 
 __all__ = ["Engine", "EngineError", "ProcessPool", "DaskCluster", "make_engine",
-           "default_workers"]
+           "default_workers", "Stopped", "stop_point", "STOP_GRACE"]
 
 #: Extra attempts of a task that raised on a Dask worker.
 RETRIES = 2
@@ -41,6 +54,9 @@ RETRIES = 2
 #: them by name, as ``pkgutil.resolve_name`` reads it.
 TASK_MODULE = "hecker_dynamics.batch.run"
 TASK_PROBE = f"{TASK_MODULE}:run_variant"
+#: Seconds a stopped pool waits for its running tasks to reach a safe point before it
+#: kills their workers: many publish periods of any shipped scene, under load.
+STOP_GRACE = 10.0
 
 
 class EngineError(RuntimeError):
@@ -69,6 +85,74 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+class Stopped(Exception):
+    """The task's pool is stopping: raised by :func:`stop_point` in a worker."""
+
+
+class _StoppedTask:
+    """What a worker returns for a task it stopped (picklable, by its module's name)."""
+
+
+#: The read end of the pool's stop pipe (None outside a pool worker): readable (at its
+#: end) once the pool stops or the command has gone. Whether a signal reached the worker.
+_stop_pipe: Optional[Connection] = None
+_signalled = False
+
+
+def _start_worker(pipe: Connection) -> None:
+    """A pool worker's start: keep the stop pipe, and take SIGINT (Ctrl-C reaches the
+    whole process group) and SIGTERM as a stop at the next safe point."""
+    global _stop_pipe
+    _stop_pipe = pipe
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _on_signal)
+
+
+def _on_signal(signum: int, frame: object) -> None:
+    global _signalled
+    _signalled = True
+
+
+def stop_point() -> None:
+    """Raise :class:`Stopped` in a pool worker whose pool is stopping, which a signal
+    reached, or whose fork server has gone (the command was killed); elsewhere nothing.
+    A task calls it where it may stop and clean up as after any error."""
+    if _stop_pipe is not None and (_signalled or _stop_pipe.poll()):
+        raise Stopped
+
+
+def _stoppable(function: Callable[[Any], Any], task: Any) -> Any:
+    """``function(task)`` in a pool worker, or :class:`_StoppedTask` if it stopped (a task
+    queued before the stop stops before it begins)."""
+    try:
+        stop_point()
+        return function(task)
+    except Stopped:
+        return _StoppedTask()
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM until the block ends, then take them: a submit starts a
+    worker, and one broken off while it starts is one the executor does not know of, so
+    shutdown would not wait for it; it reads its arguments after this process removed
+    their semaphores and prints a traceback. (In the main thread only, where Python runs
+    signal handlers.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, _: caught.append(signum))
+                for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
+        if caught:
+            signal.raise_signal(caught[0])
+
+
 class ProcessPool:
     """``workers`` processes on this machine."""
 
@@ -77,15 +161,30 @@ class ProcessPool:
     def __init__(self, workers: Optional[int] = None) -> None:
         self.notes: list[str] = []
         self.workers = workers or default_workers()
-        self._executor = ProcessPoolExecutor(max_workers=self.workers,
-                                             mp_context=_start_context())
+        context = _start_context()
+        #: The stop pipe: its write end closed by :meth:`close` while tasks run, read by
+        #: the workers' :func:`stop_point` (no lock: a worker killed holding one would
+        #: hold it).
+        self._stopping, self._stop = context.Pipe(duplex=False)
+        #: Every task given to the pool (:meth:`close` stops those running).
+        self._futures: list[Future[Any]] = []
+        self._executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=context,
+                                             initializer=_start_worker,
+                                             initargs=(self._stopping,))
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:
-        futures = {self._executor.submit(function, task): i for i, task in enumerate(tasks)}
+        with _signals_held():
+            futures = {self._executor.submit(_stoppable, function, task): i
+                       for i, task in enumerate(tasks)}
+            self._futures.extend(futures)
         try:
             for future in as_completed(futures):
-                yield futures[future], future.result()
+                result = future.result()
+                if isinstance(result, _StoppedTask):
+                    raise EngineError("a worker process was stopped by a signal before its "
+                                      "task ended")
+                yield futures[future], result
         except BrokenProcessPool:
             raise EngineError("a worker process died and the process pool cannot replace "
                               "it; --cluster local retries a lost task instead") from None
@@ -94,7 +193,21 @@ class ProcessPool:
                 future.cancel()
 
     def close(self) -> None:
+        """Cancel the tasks not begun and stop those running: they unwind at their next
+        :func:`stop_point`; workers still busy after :data:`STOP_GRACE` are killed (waiting
+        for them would hold the command as long as its longest variant)."""
+        running = [future for future in self._futures if not future.done()]
+        if running:
+            self._stop.close()
+            try:
+                wait(running, timeout=STOP_GRACE)
+            finally:
+                if not all(future.done() for future in running):
+                    for process in list((self._executor._processes or {}).values()):
+                        process.kill()
         self._executor.shutdown(cancel_futures=True)
+        self._stop.close()
+        self._stopping.close()
 
 
 def _start_context() -> multiprocessing.context.BaseContext:

@@ -226,8 +226,9 @@ def _observe(extrema: _Extrema, snapshot: Snapshot, contacts: Optional[int]) -> 
         extrema.add(f"{body.name}.speed", math.hypot(*body.linear_velocity))
 
 
-def summarize(scene: Scene) -> dict[str, Cell]:
-    """Run ``scene`` for its duration with its script and return its summary row.
+def summarize(scene: Scene, between: Callable[[], None] = lambda: None) -> dict[str, Cell]:
+    """Run ``scene`` for its duration with its script and return its summary row;
+    ``between`` is called before each publish tick (it may raise to stop the run).
 
     Columns: ``status`` (``ok``, ``diverged``, or ``rejected``: a scripted input or drive
     force was refused, the run went on without it) and ``message``; ``time``, ``steps``;
@@ -251,6 +252,7 @@ def summarize(scene: Scene) -> dict[str, Cell]:
     period = scene.publish_period_ns
     tick = 0
     while halted is None and tick + period <= scene.duration_ns:
+        between()
         tick += period
         result = runner.advance(tick)
         for snapshot in result.snapshots:

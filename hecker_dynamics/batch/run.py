@@ -26,7 +26,7 @@ from ..scene.load import load_scene, shipped_scenes
 from ..scene.names import NODE_NAME
 from ..scene.parameters import SceneError, quoted, unflatten
 from ..viz.progress import Progress
-from .engines import Engine
+from .engines import Engine, stop_point
 from .metrics import STATE_FIELDS, Cell, Metric, summarize
 from .table import PartialRows, partial_path, table_path, write_table
 from .variants import Variant
@@ -65,10 +65,12 @@ def _numbers(row: Mapping[str, Cell]) -> dict[str, Cell]:
 
 
 def run_variant(task: SweepTask) -> dict[str, Cell]:
-    """The table row of one variant: its index and values, its summary, its metrics."""
+    """The table row of one variant: its index and values, its summary, its metrics. It
+    may stop at each publish instant of its runs (:func:`~.engines.stop_point`), its bag
+    and parameters file removed."""
     variant = task.variant
     row: dict[str, Cell] = {"variant": variant.index, **dict(variant.values)}
-    row.update(summarize(variant.scene))
+    row.update(summarize(variant.scene, between=stop_point))
     names = _numbers(row)
     row.update({metric.name: metric.evaluate(names) for metric in task.metrics})
     if task.bags is not None:
@@ -94,7 +96,7 @@ def _write_bag(variant: Variant, directory: Path) -> None:
         with tempfile.TemporaryDirectory() as scratch_bags:
             script_to_bag(scene, Path(scratch_bags) / "inputs")
             replay_to_bag(scene, read_bag(Path(scratch_bags) / "inputs"), directory / name,
-                          with_inputs=True, overwrite=True)
+                          with_inputs=True, overwrite=True, progress=lambda _: stop_point())
     except BaseException:
         scene_file.unlink(missing_ok=True)  # the parameters of a bag that is not there
         raise
@@ -229,7 +231,7 @@ def check_bag(task: BagTask) -> BagResult:
         scene = load_scene(task.scene or _scene_of(task.bag, bag.custom_data.get(
             "hecker_dynamics.scene"), task.scene_dir))
         check = check_recording(scene, bag, tolerances=task.tolerances, topics=task.topics,
-                                partial=task.partial)
+                                partial=task.partial, progress=lambda _: stop_point())
     except (SceneError, BagError, InputError, DivergenceError, OSError) as error:
         return BagResult(task.bag, "error", str(error))
     if check.halted:

@@ -1,8 +1,16 @@
-"""The process pool's workers start without forking this (threaded) process."""
+"""The process pool's workers start without forking this (threaded) process, and stop
+at a safe point when the sweep is stopped."""
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
 import threading
+import time
 import warnings
+from pathlib import Path
+
+import pytest
 
 from hecker_dynamics.batch.engines import ProcessPool
 
@@ -27,3 +35,67 @@ def test_the_pool_does_not_fork_a_threaded_process():
         pool.close()
     assert results == [(0, 3), (1, 4), (2, 5)]
     assert not [w for w in caught if "fork" in str(w.message)], [str(w.message) for w in caught]
+
+
+def _descendants(pid: int) -> set[int]:
+    """The live processes under ``pid``, from /proc's parent links."""
+    parents = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        if fields[0] != "Z":
+            parents[int(stat.parent.name)] = int(fields[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {child for child, parent in parents.items() if parent in frontier}
+        found |= frontier
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+@pytest.mark.parametrize("signum, status, line", [
+    (signal.SIGTERM, 143, "hecker-dynamics: terminated"),
+    (signal.SIGINT, 130, "hecker-dynamics: interrupted")])
+def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, line):
+    """A sweep stopped mid-variant (SIGTERM from a CI timeout, or Ctrl-C) ends in one line
+    with the shell's status, its pool workers and fork server with it: before, Ctrl-C
+    waited for the running variant (minutes for a long one), and after SIGTERM the worker
+    ran on as an orphan until its variant ended. The worker stops at a publish instant and
+    removes what it had begun: the bags folder is left empty, the partial file holds no
+    cut row."""
+    bags = tmp_path / "bags"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain", "--set",
+         "bodies.link00.mass=1,2", "--duration", "3000", "--workers", "1",
+         "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
+        stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120.0
+        while len(_descendants(process.pid)) < 2:  # the fork server and a worker
+            assert process.poll() is None and time.monotonic() < deadline
+            time.sleep(0.1)
+        time.sleep(2.0)  # into the variant's run
+        under = _descendants(process.pid)
+        process.send_signal(signum)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == status, err
+    assert err.splitlines() == [line], err
+    deadline = time.monotonic() + 10.0
+    while any(map(_alive, under)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [pid for pid in under if _alive(pid)]
+    assert list(bags.iterdir()) == []
+    assert not (tmp_path / "rows.csv").exists()
+    partial = tmp_path / "rows.csv.partial.csv"
+    assert not partial.exists() or partial.read_text().count("\n") <= 1
