@@ -31,6 +31,7 @@ RGB, RGBA, palette), the formats ``map_saver`` writes.
 from __future__ import annotations
 
 import math
+import re
 import struct
 import zlib
 from dataclasses import dataclass
@@ -101,10 +102,26 @@ def _number(document: dict[str, Any], key: str, source: str) -> float:
     if key not in document:
         raise _fail(source, f"missing '{key}'")
     value = document[key]
+    if isinstance(value, str) and _DECIMAL.fullmatch(value.strip()):
+        raise _fail(source, f"'{key}' is read as the string {value!r}: {_as_number(value)}")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or \
             not math.isfinite(value):
         raise _fail(source, f"'{key}' must be a finite number, not {value!r}")
     return float(value)
+
+
+#: A decimal number as C's strtod reads it (nav2's yaml-cpp too), which YAML 1.1 may take
+#: for text: ``1e-3`` (an exponent without a dot), or any number quoted.
+_DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
+
+
+def _as_number(text: str) -> str:
+    """How to write ``text`` so that YAML 1.1 reads a number."""
+    mantissa, e, exponent = text.strip().replace("E", "e").partition("e")
+    if e and "." not in mantissa:
+        return (f"YAML 1.1 reads a number with an exponent but no dot as text; write "
+                f"{mantissa}.0e{exponent}")
+    return "a quoted number is text in YAML; write it unquoted"
 
 
 def _check_regular(path: Path, what: str) -> None:

@@ -186,6 +186,10 @@ def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
     ({"negate": 2}, "'negate' must be 0, 1, true or false"),
     ({"image": "missing.pgm"}, "cannot read the map image"),
     ({"image": "map.yaml"}, "must be a PGM (P2, P5) or PNG file"),
+    ({"resolution": "1e-300"}, "'resolution' is read as the string '1e-300': YAML 1.1 reads "
+                               "a number with an exponent but no dot as text; write 1.0e-300"),
+    ({"free_thresh": "0.25"}, "'free_thresh' is read as the string '0.25': a quoted number "
+                              "is text in YAML; write it unquoted"),
 ])
 def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
     write_pgm(tmp_path / "m.pgm", [[0]])
