@@ -24,6 +24,7 @@ from ..geometry.shapes import (
     MassProperties,
     Polygon,
     Shape,
+    area_properties,
     box,
     is_convex,
     mass_properties,
@@ -526,9 +527,19 @@ def read_body(name: str, reader: ParameterReader) -> BodySpec:
             densities = [d if d is not None else density for d in own]
         elif has_mass:
             relative = [d if d is not None else 1.0 for d in own]
-            with np.errstate(all="ignore"):
-                unit = mass_properties(shapes, relative)
             mass = reader.number("mass", positive=True)
+            with np.errstate(all="ignore"):
+                try:
+                    unit = mass_properties(shapes, relative)
+                except GeometryError:
+                    # Not its figures, which are the shape's at unit density: the mass
+                    # they quote is not the one given.
+                    area = sum(area_properties(shape).area for shape in shapes)
+                    raise GeometryError(
+                        f"its shape (area {area:.4g} m^2) is too small or too large to "
+                        "integrate in double precision, so its mass of "
+                        f"{mass:g} kg cannot be spread over it (sizes from about 1e-150 to "
+                        "1e150 m can)") from None
             densities = [d * mass / unit.mass for d in relative]
         elif all(d is not None for d in own):
             densities = [d for d in own if d is not None]

@@ -206,6 +206,19 @@ def test_absurd_radius_is_refused(tmp_path, capsys):
     _refused_in_one_line(_write(tmp_path, text), capsys, "body 'b'")
 
 
+@pytest.mark.parametrize("mass", ["1.0", "2.5"])
+def test_a_circle_too_small_to_integrate_quotes_the_mass_given(tmp_path, capsys, mass):
+    """A 1e-160 m circle: its unit-density figures underflow (mass 3.142e-320, moment of
+    inertia 0), and the error quoted them as the body's mass; it now quotes the mass given
+    and the shape's area."""
+    text = HEAD + "    bodies:\n      b:\n        shape: circle\n        radius: 1.0e-160\n" \
+                  f"        mass: {mass}\n"
+    err = _refused_in_one_line(_write(tmp_path, text), capsys, "body 'b'",
+                               f"its mass of {float(mass):g} kg cannot be spread over it",
+                               "area 3.142e-320 m^2")
+    assert "e-320)" not in err.split("area")[0]
+
+
 def test_polygon_vertex_count_is_bounded_and_a_big_one_loads_fast(tmp_path, capsys):
     """A 1000-vertex polygon loads (it took 9 s: a pair-by-pair simplicity check), with the
     mass properties of the disc it approximates; beyond the bound one line names the
