@@ -400,7 +400,9 @@ def _read_scene(root: ParameterReader) -> Scene:
     if frame_id in body_names:
         root.fail("frame_id", f"'{frame_id}' is also a body's name")
     points = {b.name: b.points for b in bodies}
-    forces = tuple(read_force(name, r, points) for name, r in root.named_children("forces"))
+    by_name = {b.name: b for b in bodies}
+    forces = tuple(_check_push(read_force(name, r, points), r, by_name, step_ns)
+                   for name, r in root.named_children("forces"))
     walls = tuple(read_wall(name, r, body_names) for name, r in root.named_children("walls"))
     collisions = read_collisions(root, {b.name: b for b in bodies})
     joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
@@ -665,6 +667,28 @@ def read_force(name: str, reader: ParameterReader,
         name, body, reader.vector("force", REQUIRED),
         body_axes=reader.string("axes", "world", choices=("world", "body")) == "body",
         point=_point(reader, "point", points[body]))
+
+
+def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+                step_ns: int) -> ForceSpec:
+    """Refuse gravity or a constant force that gives a body, from rest, in one step, an
+    energy of motion no double holds (``acceleration: [0, -1e308]``): the run's energy
+    bound would stop it at its first step, but the masses say so already."""
+    if isinstance(force, Gravity):
+        key, pushed = "acceleration", [(bodies[n], math.hypot(*force.acceleration))
+                                       for n in force.bodies]
+    elif isinstance(force, ConstantForceSpec):
+        body = bodies[force.body]
+        key, pushed = "force", [(body, math.hypot(*force.force) / body.mass.mass)]
+    else:
+        return force
+    for body, acceleration in pushed:
+        speed = acceleration * (step_ns * 1e-9)
+        if not math.isfinite(body.mass.energy_of_motion(speed, 0.0)):
+            reader.fail(key, f"would give body '{body.name}' ({body.mass.mass:.4g} kg), from "
+                             f"rest, in one step of {step_ns * 1e-9:g} s, a speed of "
+                             f"{speed:.3g} m/s: an energy of motion past what a double holds")
+    return force
 
 
 def read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:

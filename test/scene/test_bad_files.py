@@ -237,3 +237,17 @@ def test_polygon_vertex_count_is_bounded_and_a_big_one_loads_fast(tmp_path, caps
     text = HEAD + "    bodies:\n      b:\n        shape: polygon\n        mass: 1.0\n" \
                   f"        vertices: [{', '.join(repr(x) for x in many)}]\n"
     _refused_in_one_line(_write(tmp_path, text, "many.yaml"), capsys, "bodies.b.vertices")
+
+
+@pytest.mark.parametrize("force, parameter, speed", [
+    ("{type: gravity, acceleration: [0.0, -1.0e308]}", "forces.f.acceleration", "1e+305"),
+    ("{type: constant_force, body: b, force: [1.5e308, 0.0]}", "forces.f.force", "7.5e+304"),
+])
+def test_a_force_no_double_holds_a_step_of_is_refused_at_load(tmp_path, capsys, force,
+                                                               parameter, speed):
+    """Gravity of 1e308 m/s^2 (or a constant force as big) on a 2 kg body: one step from
+    rest gives it an energy of motion past a double. It was stopped at the first step as
+    a divergence; the masses are known at load, so the file is refused there."""
+    text = _scene_text(extra=f"    forces:\n      f: {force}\n")
+    _refused_in_one_line(_write(tmp_path, text), capsys, f"parameter '{parameter}'",
+                         f"speed of {speed} m/s", "past what a double holds")
