@@ -35,6 +35,7 @@ from .drives import DriveSpec, read_drive
 from .joints import (
     DistanceJoint,
     GearJoint,
+    JointEnds,
     JointSpec,
     Motor,
     PrismaticJoint,
@@ -777,15 +778,67 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
     joints: list[JointSpec] = []
     gears = []
     points = {b: spec.points for b, spec in bodies.items()}  # once: a grid has 20,000 joints
+    readers = {}
     for name, reader in root.named_children("joints"):
         kind = reader.string("type", REQUIRED, choices=JOINT_TYPES)
         if kind == "gear":
             gears.append((name, reader))
             continue
         joints.append(read_joint(name, kind, reader, bodies, points, fixed))
+        readers[name] = reader
+    _check_rods(joints, bodies, readers)
     revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
     joints += [read_gear(name, reader, revolute) for name, reader in gears]
     return tuple(sorted(joints, key=lambda j: j.name))
+
+
+def _start(joint: JointEnds, bodies: Mapping[str, BodySpec]) -> tuple[Vec2, Vec2]:
+    """Where a joint's two points are at the start, in the fixed frame."""
+    start_a = joint.point_a if joint.body_a is None else _place(bodies[joint.body_a],
+                                                                 joint.point_a)
+    return start_a, _place(bodies[joint.body_b], joint.point_b)
+
+
+def _check_rods(joints: Sequence[JointSpec], bodies: Mapping[str, BodySpec],
+                readers: Mapping[str, ParameterReader]) -> None:
+    """Refuse a rod whose length the other joints of its two bodies never let it reach.
+
+    Pins and welds join points that coincide at the start (:func:`read_joint`), and a
+    slider starts at 0 within its limits, so every set of them holds at the start: two
+    pins of one pair at different points, or a pin beside a weld or a slider, hold the
+    pair as a weld does (redundant rows, which the joint pass solves). A rod may start at
+    another length and pull to its own; beside a weld (or what holds as one) its points
+    stay as far apart as they start, and beside one pin they stay between |d_a - d_b| and
+    d_a + d_b apart, d_a and d_b their distances from the pin: a rod outside that range
+    fights the pin for ever, and its pull tore the pin open."""
+    pairs: dict[frozenset[Optional[str]], list[JointEnds]] = {}
+    for joint in joints:
+        if isinstance(joint, JointEnds):
+            pairs.setdefault(frozenset((joint.body_a, joint.body_b)), []).append(joint)
+    for group in pairs.values():
+        pins = [j for j in group if isinstance(j, RevoluteJoint)]
+        holding: list[JointEnds] = [j for j in group if isinstance(j, PrismaticJoint)
+                   or (isinstance(j, WeldJoint) and j.frequency == 0.0)]
+        anchors = [_start(pin, bodies)[1] for pin in pins]
+        if any(math.dist(anchors[0], other) > 1e-6 for other in anchors[1:]):
+            holding += pins[1:]
+        if not pins and not holding:
+            continue
+        for rod in (j for j in group if isinstance(j, DistanceJoint) and not j.rope):
+            end_a, end_b = _start(rod, bodies)
+            gap = math.dist(end_a, end_b)
+            if holding:
+                low = high = gap
+                held = f"'{holding[0].name}' holds its bodies rigidly beside it"
+            else:
+                d_a, d_b = math.dist(end_a, anchors[0]), math.dist(end_b, anchors[0])
+                low, high = abs(d_a - d_b), d_a + d_b
+                held = f"pin '{pins[0].name}' joins its bodies"
+            if not low - 1e-6 <= rod.length <= high + 1e-6:
+                span = f"{low:.6g} m apart" if low == high else \
+                    f"{low:.6g} to {high:.6g} m apart"
+                readers[rod.name].fail("length", f"{rod.length:g} m is out of reach: {held}, "
+                                                 f"so the rod's points stay {span}")
 
 
 def read_gear(name: str, reader: ParameterReader, revolute: Sequence[str]) -> GearJoint:

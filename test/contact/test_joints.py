@@ -553,3 +553,44 @@ def test_the_ragdolls_limit_impulses_meet_their_conditions_to_rounding(monkeypat
     sim.advance_to(500_000_000, keep=False)
     assert bounded[0] == sim.steps
     assert worst[0] < 1e-14
+
+
+PAIR = {"bodies": {"a": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0},
+                   "b": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0,
+                         "position": [1.0, 0.0]}}}
+PAIR_PIN = {"type": "revolute", "body_a": "a", "body_b": "b", "point_b": [-0.5, 0.0]}
+PAIR_ROD = {"type": "distance", "body_a": "a", "body_b": "b"}  # origin to origin, 1 m at start
+
+
+@pytest.mark.parametrize("others, length, problem", [
+    ({"pin": PAIR_PIN}, 2.0, "pin 'pin' joins its bodies, so the rod's points stay 0 to 1 m apart"),
+    ({"pin": PAIR_PIN}, 0.8, None),
+    ({"w": {**PAIR_PIN, "type": "weld"}}, 1.5,
+     "'w' holds its bodies rigidly beside it, so the rod's points stay 1 m apart"),
+    ({"w": {**PAIR_PIN, "type": "weld", "frequency": 5.0}}, 1.5, None),  # a spring, not rigid
+    ({"pin": PAIR_PIN, "pin2": {**PAIR_PIN, "point_b": [0.0, 0.0]}}, 1.5,
+     "'pin2' holds its bodies rigidly beside it, so the rod's points stay 1 m apart"),
+    ({"pin": PAIR_PIN, "pin2": {**PAIR_PIN, "point_b": [0.0, 0.0]}}, 1.0, None),
+    ({"pin": PAIR_PIN, "s": {"type": "prismatic", "body_a": "a", "body_b": "b",
+                        "axis": [1.0, 0.0]}}, 1.2, "'s' holds its bodies rigidly"),
+    ({"pin": {**PAIR_PIN, "body_a": "b", "body_b": "a", "point_b": [0.5, 0.0]}}, 2.5,
+     "stay 0 to 1 m apart"),
+])
+def test_a_rod_the_other_joints_of_its_pair_never_let_reach_is_refused(tmp_path, others,
+                                                                       length, problem):
+    """A rod beside a pin of the same two bodies can only span |d_a - d_b| to d_a + d_b
+    (its points' distances from the pin), beside a weld (or two pins at different points,
+    or a pin and a slider: each holds as a weld) only the gap it starts with. A rod out of
+    that reach was loaded and tore the pin open; a soft weld is a spring, so anything
+    goes beside it. Pins and welds of one pair need no such check: their points coincide
+    at the start, so every set of them holds there."""
+    path = write_scene(tmp_path, {**PAIR, "joints": {**others, "rod": {**PAIR_ROD,
+                                                                       "length": length}}})
+    if problem is None:
+        load_scene(path)
+        return
+    with pytest.raises(SceneError) as caught:
+        load_scene(path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}: parameter 'joints.rod.length': {length:g} m is out "
+                              "of reach: ") and problem in message and "\n" not in message
