@@ -468,11 +468,12 @@ class Simulation:
         """:meth:`push` each of ``commands``, stamped now, from bodies and sources whose
         commands act now (a drive's wheels at its control instant): where nothing else is
         pending, they skip the checks that cannot fail for them and the buffer's heap
-        (:meth:`.InputBuffer.replace`), with the same bits and the same errors."""
+        (:meth:`.InputBuffer.replace`), with the same bits and the same errors. The reach
+        check (:meth:`check_reach`) can fail for them, so it stays."""
         try:
             for command in commands:
                 command.check_finite()
-            rows = [self._row(command) for command in commands]
+            rows = [self.check_reach(command) for command in commands]
         except (InputError, KeyError):  # refused by push, as the same commands would be
             rows = None
         if rows is None or not self._inputs.replace(commands, rows, self._time_ns):

@@ -134,6 +134,24 @@ def test_a_cmd_vel_whose_energy_no_double_holds_is_refused_and_the_last_one_kept
         DriveSet(robot_sim(script=[0.0, 1e308, 0.0]))
 
 
+def test_a_runaway_wheel_force_replacing_the_last_is_refused_as_a_push_is():
+    """A drive whose wheels push 5e307 N on 10 kg from its second command on: each wheel
+    force, given in place of the last one (push_replacements), is refused by the reach
+    check as a first push is (one step takes the body past a double's energy), not applied
+    and left to the divergence check at the next step."""
+    sim = robot_sim(integrator="semi_implicit_euler", max_force=1e308, linear_kp=1e308,
+                    linear_ki=0.0, script=[0.0, 0.0, 0.0, 0.1, 1.0, 0.0])
+    drives, rejected = DriveSet(sim), []
+    advance_with_drives(sim, drives, 100_000_000, rejected=rejected)  # to the first 0.1 s
+    assert not rejected and sim.time_ns == 100_000_000
+    before = sim.snapshot()
+    advance_with_drives(sim, drives, 110_000_000, rejected=rejected)
+    assert rejected and all("energy of motion past what a double holds" in line
+                            for line in rejected), rejected
+    assert np.isfinite(sim.q).all() and np.isfinite(sim.v).all()
+    assert sim.time_ns == 110_000_000 and before.time_ns == 100_000_000
+
+
 @pytest.mark.parametrize("drive, problem", [
     ({"body": "nobody"}, "unknown body"),
     ({"separation": 0.0}, "must be positive"),
