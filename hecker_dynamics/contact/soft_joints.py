@@ -38,13 +38,12 @@ repeats :meth:`SoftJointPass.resolve` operation for operation, so both give the 
 """
 from __future__ import annotations
 
-import math
 import warnings
 from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
-from ..scene.joints import JointEnds, SoftJoints, soft_refusal
+from ..scene.joints import JointEnds, SoftJoints, soft_refusal, softness
 from ..scene.parameters import SceneError
 from .joint_rows import LIMIT, MOTOR, RIGID, SOFT, JointRow
 from .joint_solve import Directions, directions, dot, rate
@@ -55,17 +54,6 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
 
 __all__ = ["SOFT_MASS_RATIO", "SoftJointPass", "softness"]
-
-
-def softness(hertz: float, damping_ratio: float, h: float) -> tuple[float, float, float]:
-    """(bias rate 1/s, mass scale, impulse scale) of a spring-damper of ``hertz`` and
-    ``damping_ratio`` per unit effective mass, integrated implicitly over ``h``: Box2D v3's
-    b2MakeSoft."""
-    omega = 2.0 * math.pi * hertz
-    a1 = 2.0 * damping_ratio + h * omega
-    a2 = h * omega * a1
-    a3 = 1.0 / (1.0 + a2)
-    return omega / a1, a2 * a3, a3
 
 
 #: Masses a soft joint joins more than this many times apart: one sweep of sequential

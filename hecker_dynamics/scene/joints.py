@@ -5,6 +5,7 @@ These are the specs only; :mod:`hecker_dynamics.contact.joints` solves them.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Optional, Union
@@ -12,7 +13,7 @@ from typing import Optional, Union
 from .parameters import quoted
 
 __all__ = ["Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints", "soft_refusal"]
+           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints", "soft_refusal", "softness"]
 
 Vec2 = tuple[float, float]
 
@@ -115,6 +116,17 @@ class SoftJoints:
     substeps: int = 4
     hertz: float = 60.0
     damping_ratio: float = 2.0
+
+
+def softness(hertz: float, damping_ratio: float, h: float) -> tuple[float, float, float]:
+    """(bias rate 1/s, mass scale, impulse scale) of a spring-damper of ``hertz`` and
+    ``damping_ratio`` per unit effective mass, integrated implicitly over ``h``: Box2D v3's
+    b2MakeSoft."""
+    omega = 2.0 * math.pi * hertz
+    a1 = 2.0 * damping_ratio + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
 
 
 def soft_refusal(integrator: str, contacts: Sequence[str]) -> Optional[str]:

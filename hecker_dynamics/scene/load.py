@@ -44,6 +44,7 @@ from .joints import (
     SoftJoints,
     WeldJoint,
     soft_refusal,
+    softness,
 )
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
@@ -442,7 +443,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         threads=_read_threads(contacts),
         converged=(contacts.number("converged", positive=True) if contacts.has("converged")
                    else None),
-        soft_joints=_read_joint_solver(root),
+        soft_joints=_read_joint_solver(root, step_ns),
         sensors=tuple(read_sensor(name, r, points, step_ns)
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
@@ -458,7 +459,7 @@ def _read_scene(root: ParameterReader) -> Scene:
 MOST_SOFT_SUBSTEPS = 64
 
 
-def _read_joint_solver(root: ParameterReader) -> Optional[SoftJoints]:
+def _read_joint_solver(root: ParameterReader, step_ns: int) -> Optional[SoftJoints]:
     """``joint_solver``: ``type`` exact (None) or soft, with its sub-steps and softness;
     soft joints step as Box2D v3 does, so only with semi-implicit Euler and no contacts."""
     solver = root.child("joint_solver")
@@ -474,6 +475,14 @@ def _read_joint_solver(root: ParameterReader) -> Optional[SoftJoints]:
                                 f"not {quoted(substeps)}")
     soft = SoftJoints(substeps, solver.number("hertz", 60.0, positive=True),
                       solver.number("damping_ratio", 2.0, minimum=0.0))
+    h = step_ns * 1e-9 / substeps
+    if not all(map(math.isfinite, softness(soft.hertz, soft.damping_ratio, h))):
+        # hertz 1e308 or damping_ratio 1e308: the spring's implicit terms overflow, and the
+        # first sub-step's impulses would be NaN.
+        stiff = not all(map(math.isfinite, softness(soft.hertz, 0.0, h)))
+        solver.fail("hertz" if stiff else "damping_ratio",
+                    f"hertz {soft.hertz:g} with damping_ratio {soft.damping_ratio:g} over "
+                    f"sub-steps of {h:g} s is a spring too stiff for a double")
     problem = soft_refusal(root.raw("integrator", "auto"),
                            [what for what, key in (("walls", "walls"),
                                                    ("collision groups", "collisions"),
