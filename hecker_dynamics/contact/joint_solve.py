@@ -37,11 +37,15 @@ def rate(row: JointRow, v: list[float]) -> float:
 Directions = list[list[tuple[int, float, float, float]]]
 
 
-def directions(rows: list[JointRow], inverse_mass: list[float]) -> Directions:
+def directions(rows: list[JointRow], inverse_mass: list[float],
+               skip: Optional[list[bool]] = None) -> Directions:
     """Per row, M^-1 J^T: how an impulse along the row changes each body's velocity (the
-    force part by Eq. 5, the angular part by tau = I alpha, Eq. 14)."""
-    return [[(b, inverse_mass[3 * b] * jx, inverse_mass[3 * b + 1] * jy,
-              inverse_mass[3 * b + 2] * jw) for b, jx, jy, jw in row.entries] for row in rows]
+    force part by Eq. 5, the angular part by tau = I alpha, Eq. 14); none (no entries)
+    for the rows ``skip`` marks."""
+    return [[] if skip is not None and skip[i] else
+            [(b, inverse_mass[3 * b] * jx, inverse_mass[3 * b + 1] * jy,
+              inverse_mass[3 * b + 2] * jw) for b, jx, jy, jw in row.entries]
+            for i, row in enumerate(rows)]
 
 
 def apply(x: list[float], direction: Directions, impulse: list[float]) -> None:

@@ -16,7 +16,9 @@ do between its velocity and position integration (erincatto/box2d ``src/solver.c
    ``hertz`` and ``damping_ratio`` per unit effective mass integrated implicitly over the
    sub-step (b2MakeSoft: bias rate omega / (2 zeta + h omega), mass scale and impulse scale
    from h omega (2 zeta + h omega)). A pin's two rows are one 2 x 2 block, as Box2D's
-   point constraint is.
+   point constraint is, its velocity error and K = J M^-1 J^T taken straight from its
+   arms (:func:`_pin_block`) as Box2D's revolute joint takes them, without the rows'
+   directions: the sweeps' and the rows' cost is mostly pins.
 3. *Integrate positions*: q1 moves by h times the velocity change of stages 1 and 2, so
    the positions move with the solved velocities, as they do in Box2D.
 4. *Relax, without bias*: one sweep over the rows at the new q1 toward zero velocity
@@ -113,6 +115,9 @@ class SoftJointPass(JointPass):
         super().reset(q)
         self.pairs = [kind == RIGID and part == "x" for (_, part), kind in
                       zip(self.keys, self.kinds)]
+        #: Per row, whether it is one of a pin's two rows, which need no directions.
+        self.in_pins = [pair or (i > 0 and self.pairs[i - 1]) for i, pair in
+                        enumerate(self.pairs)]
 
     def forget(self) -> None:
         super().forget()
@@ -138,17 +143,16 @@ class SoftJointPass(JointPass):
             rows, towards = end[1], end[2]
         else:
             rows = self.rows(start, h)
-            towards = directions(rows, self.inverse_mass)
+            towards = directions(rows, self.inverse_mass, self.in_pins)
         q = q1[index].reshape(-1).tolist()
         v = v1[index].reshape(-1).tolist()
         free = list(v)
-        for entries, amount in zip(towards, self.warm):  # stage 1
-            _push(v, entries, amount)
+        self._warm_start(rows, towards, v)
         self._sweep(rows, towards, v, h, softness(self.soft.hertz, self.soft.damping_ratio, h))
         for k in range(len(q)):  # stage 3
             q[k] += h * (v[k] - free[k])
         rows = self.rows(q, h)
-        towards = directions(rows, self.inverse_mass)
+        towards = directions(rows, self.inverse_mass, self.in_pins)
         self._sweep(rows, towards, v, h, None)
         self._end = (q, rows, towards)
         self.step_h = h
@@ -157,21 +161,32 @@ class SoftJointPass(JointPass):
         q1[index] = np.array(q).reshape(-1, 3)
         v1[index] = np.array(v).reshape(-1, 3)
 
+    def _warm_start(self, rows: list[JointRow], towards: Directions, v: list[float]) -> None:
+        """Stage 1: every row's impulse of the last sub-step (:attr:`warm`) on ``v``, along
+        its Jacobian at q0."""
+        lam, pairs = self.warm, self.pairs
+        i, n = 0, len(rows)
+        while i < n:
+            if pairs[i]:
+                _push_pin(v, rows[i], rows[i + 1], lam[i], lam[i + 1], self.inverse_mass)
+                i += 2
+            else:
+                _push(v, towards[i], lam[i])
+                i += 1
+
     def _sweep(self, rows: list[JointRow], towards: Directions, v: list[float], h: float,
                soft: Optional[tuple[float, float, float]]) -> None:
         """One sweep of sequential impulses over ``rows`` (with their directions M^-1 J^T
-        ``towards``) on the velocities ``v``, adding to the impulses :attr:`warm`; with
-        the ``soft`` (bias rate, mass scale, impulse scale) of stage 2, or None: stage 4."""
-        lam, pairs = self.warm, self.pairs
+        ``towards``; a pin's block takes its masses itself) on the velocities ``v``,
+        adding to the impulses :attr:`warm`; with the ``soft`` (bias rate, mass scale,
+        impulse scale) of stage 2, or None: stage 4."""
+        lam, pairs, inverse = self.warm, self.pairs, self.inverse_mass
         i, n = 0, len(rows)
         while i < n:
             row = rows[i]
             if pairs[i]:  # a pin's x and y rows: Box2D's 2 x 2 point block
                 other = rows[i + 1]
-                k11 = dot(row, towards[i])
-                k12 = dot(row, towards[i + 1])
-                k22 = dot(other, towards[i + 1])
-                bx, by = rate(row, v), rate(other, v)
+                bx, by, k11, k12, k22 = _pin_block(row, other, v, inverse)
                 scale, keep = 1.0, 0.0
                 if soft is not None:
                     bx += soft[0] * row.c
@@ -184,8 +199,7 @@ class SoftJointPass(JointPass):
                 iy = -scale * sy - keep * lam[i + 1]
                 lam[i] += ix
                 lam[i + 1] += iy
-                _push(v, towards[i], ix)
-                _push(v, towards[i + 1], iy)
+                _push_pin(v, row, other, ix, iy, inverse)
                 i += 2
                 continue
             diagonal = dot(row, towards[i])
@@ -220,3 +234,49 @@ def _push(v: list[float], entries: list[tuple[int, float, float, float]], amount
         v[3 * b] += dx * amount
         v[3 * b + 1] += dy * amount
         v[3 * b + 2] += dw * amount
+
+
+def _pin_block(x_row: JointRow, y_row: JointRow, v: list[float], inverse_mass: list[float]
+               ) -> tuple[float, float, float, float, float]:
+    """A pin's velocity error J v (its x and y rows) and the entries k11, k12, k22 of its
+    K = J M^-1 J^T, read off the rows' Jacobians without their directions: (1, 0, p) and
+    (0, 1, q) on body B, (-1, 0, p') and (0, -1, q') on body A, where (p, q) = perp(r) of
+    the body point velocity v_P = v_CM + omega perp(r) (Eq. 9) for the arm r to the pin.
+    Box2D v3's point block (revolute_joint.c), its K from the arms each time."""
+    b, _, _, p = x_row.entries[0]
+    q = y_row.entries[0][3]
+    w = v[3 * b + 2]
+    bx, by = v[3 * b] + p * w, v[3 * b + 1] + q * w
+    turn = inverse_mass[3 * b + 2]
+    k11 = inverse_mass[3 * b] + p * (turn * p)
+    k12 = p * (turn * q)
+    k22 = inverse_mass[3 * b + 1] + q * (turn * q)
+    if len(x_row.entries) > 1:
+        a, _, _, p = x_row.entries[1]
+        q = y_row.entries[1][3]
+        w = v[3 * a + 2]
+        bx += p * w - v[3 * a]
+        by += q * w - v[3 * a + 1]
+        turn = inverse_mass[3 * a + 2]
+        k11 += inverse_mass[3 * a] + p * (turn * p)
+        k12 += p * (turn * q)
+        k22 += inverse_mass[3 * a + 1] + q * (turn * q)
+    return bx, by, k11, k12, k22
+
+
+def _push_pin(v: list[float], x_row: JointRow, y_row: JointRow, ix: float, iy: float,
+              inverse_mass: list[float]) -> None:
+    """v += M^-1 J^T (ix, iy) for a pin's x and y rows (their Jacobians as
+    :func:`_pin_block` reads them): the force over the mass (Eq. 5) and the torque of
+    the impulse over the moment of inertia (Eqs. 11 and 14)."""
+    b, _, _, p = x_row.entries[0]
+    q = y_row.entries[0][3]
+    v[3 * b] += inverse_mass[3 * b] * ix
+    v[3 * b + 1] += inverse_mass[3 * b + 1] * iy
+    v[3 * b + 2] += inverse_mass[3 * b + 2] * (p * ix + q * iy)
+    if len(x_row.entries) > 1:
+        a, _, _, p = x_row.entries[1]
+        q = y_row.entries[1][3]
+        v[3 * a] -= inverse_mass[3 * a] * ix
+        v[3 * a + 1] -= inverse_mass[3 * a + 1] * iy
+        v[3 * a + 2] += inverse_mass[3 * a + 2] * (p * ix + q * iy)

@@ -133,7 +133,7 @@ static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_an
 
 /* One entry of a point row (contact/joint_rows.py: fixed_entries): on body b, u and
  * perp(r) . u; on body a (sign -1) their negatives. */
-static inline void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
+static HD_HOT void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
                                   double rx, double ry)
 {
     double *j = r->j[r->count];
@@ -145,25 +145,32 @@ static inline void hd_point_entry(hd_joint_row *r, long body, double sign, doubl
     r->count += 1;
 }
 
+/* One row of a rigid pin along (ux, uy) (contact/joint_rows.py: point_rows, the same operations),
+ * inlined with (ux, uy) constant. */
+static HD_HOT void hd_pin_row(hd_joint_row *r, const hd_joint *jt, const hd_anchor *pa,
+                              const hd_anchor *pb, double dx, double dy, double ux, double uy,
+                              int pair, int values_only)
+{
+    r->kind = HD_RIGID, r->count = 0, r->scaled = 1, r->pair = pair;
+    r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
+    r->stiffness = 0.0, r->damping = 0.0;
+    if (values_only)
+        return;
+    if (jt->b >= 0)
+        hd_point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
+    if (jt->a >= 0)
+        hd_point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
+}
+
 /* contact/joint_rows.py: point_rows of a rigid pin, written out for the common case (the same
  * operations as point_rows). */
 static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const hd_anchor *pa,
                                const hd_anchor *pb, int values_only)
 {
     const double dx = pb->x - pa->x, dy = pb->y - pa->y;
-    for (int axis = 0; axis < 2; ++axis) {
-        const double ux = axis == 0 ? 1.0 : 0.0, uy = axis == 0 ? 0.0 : 1.0;
-        hd_joint_row *r = rows + (*n)++;
-        r->kind = HD_RIGID, r->count = 0, r->scaled = 1, r->pair = axis == 0;
-        r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
-        r->stiffness = 0.0, r->damping = 0.0;
-        if (values_only)
-            continue;
-        if (jt->b >= 0)
-            hd_point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
-        if (jt->a >= 0)
-            hd_point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
-    }
+    hd_pin_row(rows + *n, jt, pa, pb, dx, dy, 1.0, 0.0, 1, values_only);
+    hd_pin_row(rows + *n + 1, jt, pa, pb, dx, dy, 0.0, 1.0, 0, values_only);
+    *n += 2;
 }
 
 /* contact/joint_rows.py: bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */

@@ -8,7 +8,7 @@
 #include "joint.h"
 
 /* The sweep's small functions take `n`, the entries of a row whose bodies are each once in it
- * (a pin's, a slider's or a weld's rows: 1 or 2), as a constant, so that each is unrolled for
+ * (a slider's, a weld's or a rod's rows: 1 or 2), as a constant, so that each is unrolled for
  * it; 0: any row, as the Python functions take it. None changes an operation. */
 
 /* contact/soft_joints.py: _push, v += M^-1 J^T amount along one row's direction (no zero
@@ -58,22 +58,70 @@ static HD_HOT int hd_distinct(const hd_joint_row *row)
     return 0;
 }
 
-/* contact/soft_joints.py: SoftJointPass._sweep, a pin's x and y rows (`row` and the next, on
- * the same bodies) as Box2D's 2 x 2 point block, `lam` their impulses. */
-static HD_HOT void hd_pin(const hd_joint_row *row, const hd_joint_row *towards, double *lam,
-                          double *v, const double *soft, int n)
+/* contact/soft_joints.py: _pin_block, a pin's velocity error J v into b[0], b[1] and its K into
+ * k[0] (k11), k[1] (k12), k[2] (k22), read off its rows' Jacobians: (1, 0, p), (0, 1, q) on body B
+ * (entry 0), (-1, 0, p'), (0, -1, q') on body A (entry 1, if any). */
+static HD_HOT void hd_pin_block(const hd_joint_row *row, const double *v, const double *inverse,
+                                double *b, double *k)
 {
     const hd_joint_row *other = row + 1;
-    const double k11 = hd_dot(row, towards, n);
-    const double k12 = hd_dot(row, towards + 1, n);
-    const double k22 = hd_dot(other, towards + 1, n);
-    double bx = hd_rate(row, v, n), by = hd_rate(other, v, n);
+    const long body = row->body[0];
+    double p = row->j[0][2], q = other->j[0][2];
+    double w = v[3 * body + 2];
+    b[0] = v[3 * body] + p * w, b[1] = v[3 * body + 1] + q * w;
+    double turn = inverse[3 * body + 2];
+    k[0] = inverse[3 * body] + p * (turn * p);
+    k[1] = p * (turn * q);
+    k[2] = inverse[3 * body + 1] + q * (turn * q);
+    if (row->count > 1) {
+        const long a = row->body[1];
+        p = row->j[1][2], q = other->j[1][2];
+        w = v[3 * a + 2];
+        b[0] += p * w - v[3 * a];
+        b[1] += q * w - v[3 * a + 1];
+        turn = inverse[3 * a + 2];
+        k[0] += inverse[3 * a] + p * (turn * p);
+        k[1] += p * (turn * q);
+        k[2] += inverse[3 * a + 1] + q * (turn * q);
+    }
+}
+
+/* contact/soft_joints.py: _push_pin, v += M^-1 J^T (ix, iy) for a pin's x and y rows. */
+static HD_HOT void hd_push_pin(double *v, const hd_joint_row *row, double ix, double iy,
+                               const double *inverse)
+{
+    const hd_joint_row *other = row + 1;
+    const long body = row->body[0];
+    double *target = v + 3 * body;
+    const double *im = inverse + 3 * body;
+    target[0] += im[0] * ix;
+    target[1] += im[1] * iy;
+    target[2] += im[2] * (row->j[0][2] * ix + other->j[0][2] * iy);
+    if (row->count > 1) {
+        const long a = row->body[1];
+        target = v + 3 * a, im = inverse + 3 * a;
+        target[0] -= im[0] * ix;
+        target[1] -= im[1] * iy;
+        target[2] += im[2] * (row->j[1][2] * ix + other->j[1][2] * iy);
+    }
+}
+
+/* contact/soft_joints.py: SoftJointPass._sweep, a pin's x and y rows (`row` and the next, on
+ * the same bodies) as Box2D's 2 x 2 point block, `lam` their impulses. */
+static HD_HOT void hd_pin(const hd_joint_row *row, double *lam, double *v, const double *inverse,
+                          const double *soft)
+{
+    const hd_joint_row *other = row + 1;
+    double b[2], k[3];
+    hd_pin_block(row, v, inverse, b, k);
+    double bx = b[0], by = b[1];
     double scale = 1.0, keep = 0.0;
     if (soft != NULL) {
         bx += soft[0] * row->c;
         by += soft[0] * other->c;
         scale = soft[1], keep = soft[2];
     }
+    const double k11 = k[0], k12 = k[1], k22 = k[2];
     double det = k11 * k22 - k12 * k12;
     det = det != 0.0 ? 1.0 / det : det;
     const double sx = det * (k22 * bx - k12 * by), sy = det * (k11 * by - k12 * bx);
@@ -81,8 +129,7 @@ static HD_HOT void hd_pin(const hd_joint_row *row, const hd_joint_row *towards, 
     const double iy = -scale * sy - keep * lam[1];
     lam[0] += ix;
     lam[1] += iy;
-    hd_push(v, towards, ix, n);
-    hd_push(v, towards + 1, iy, n);
+    hd_push_pin(v, row, ix, iy, inverse);
 }
 
 /* contact/soft_joints.py: SoftJointPass._sweep, one row but a pin's. */
@@ -128,16 +175,11 @@ static void hd_sweep(hd_joint_model *m, const hd_joint_row *rows, const hd_joint
     long i = 0;
     while (i < n) {
         const hd_joint_row *row = rows + i;
-        const int along = hd_distinct(row);  /* constants below: each case unrolled */
         if (row->pair) {
-            if (along == 2)
-                hd_pin(row, towards + i, lam + i, v, soft, 2);
-            else if (along == 1)
-                hd_pin(row, towards + i, lam + i, v, soft, 1);
-            else
-                hd_pin(row, towards + i, lam + i, v, soft, 0);
+            hd_pin(row, lam + i, v, m->inverse_mass, soft);
             i += 2;
         } else {
+            const int along = hd_distinct(row);  /* constants below: each case unrolled */
             if (along == 2)
                 hd_row(row, towards + i, lam + i, v, h, soft, 2);
             else if (along == 1)
@@ -149,10 +191,39 @@ static void hd_sweep(hd_joint_model *m, const hd_joint_row *rows, const hd_joint
     }
 }
 
+/* contact/joint_solve.py: directions with SoftJointPass.in_pins skipped: M^-1 J^T of the rows
+ * outside pins (a pin's block takes its masses itself). */
+static void hd_soft_directions(const hd_joint_model *m, const hd_joint_row *rows,
+                               hd_joint_row *out)
+{
+    for (long i = 0; i < m->row_count; ++i) {
+        if (rows[i].pair) {
+            out[i].count = out[i + 1].count = 0;
+            i += 1;
+        } else {
+            hd_joint_directions(m, rows + i, NULL, 1, out + i);
+        }
+    }
+}
+
+/* contact/soft_joints.py: SoftJointPass._warm_start, the impulses m->warm on m->v along the rows
+ * at q0. */
+static void hd_warm_start(hd_joint_model *m)
+{
+    for (long i = 0; i < m->row_count; ++i) {
+        if (m->rows0[i].pair) {
+            hd_push_pin(m->v, m->rows0 + i, m->warm[i], m->warm[i + 1], m->inverse_mass);
+            i += 1;
+        } else {
+            hd_push(m->v, m->dir0 + i, m->warm[i], 0);
+        }
+    }
+}
+
 void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1,
                             double h)
 {
-    const long nb = m->body_count, n = m->row_count;
+    const long nb = m->body_count;
     /* The last sub-step's end, its rows built at the same length, is this one's start
      * (compared as Python compares floats). */
     int again = m->ended && h == m->last_h;
@@ -166,15 +237,14 @@ void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, dou
         hd_joint_rows_again(m);
     } else {
         hd_joint_rows(m, m->start, h, m->rows0, 0);
-        hd_joint_directions(m, m->rows0, NULL, n, m->dir0);
+        hd_soft_directions(m, m->rows0, m->dir0);
     }
     for (long k = 0; k < nb; ++k)
         for (int c = 0; c < 3; ++c) {
             m->q[3 * k + c] = q1[3 * m->bodies[k] + c];
             m->v[3 * k + c] = m->moved[3 * k + c] = v1[3 * m->bodies[k] + c];  /* moved: free */
         }
-    for (long i = 0; i < n; ++i)  /* stage 1 */
-        hd_push(m->v, m->dir0 + i, m->warm[i], 0);
+    hd_warm_start(m);  /* stage 1 */
     /* contact/soft_joints.py: softness, Box2D v3's b2MakeSoft */
     const double omega = 2.0 * HD_PI * m->hertz;
     const double a1 = 2.0 * m->damping_ratio + h * omega;
@@ -185,7 +255,7 @@ void hd_soft_joints_resolve(hd_joint_model *m, const double *q0, double *q1, dou
     for (long k = 0; k < 3 * nb; ++k)  /* stage 3 */
         m->q[k] += h * (m->v[k] - m->moved[k]);
     hd_joint_rows(m, m->q, h, m->rows, 0);
-    hd_joint_directions(m, m->rows, NULL, n, m->dir);
+    hd_soft_directions(m, m->rows, m->dir);
     hd_sweep(m, m->rows, m->dir, h, NULL);
     m->last_h = h;
     hd_joint_count_turns(m);

@@ -24,7 +24,8 @@ from test_joints import I_PIVOT, ROD, pendulum_scene
 from test_joints_compiled import SCENES
 
 from hecker_dynamics.bench.joints import chain, pin_gap
-from hecker_dynamics.contact.soft_joints import SOFT_MASS_RATIO
+from hecker_dynamics.contact.joint_solve import directions, dot, rate
+from hecker_dynamics.contact.soft_joints import SOFT_MASS_RATIO, _pin_block
 from hecker_dynamics.contact.solver import MassRatioWarning
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
@@ -147,6 +148,30 @@ def test_soft_chains_run_their_10_s_within_box2d_v3_s_gaps(links, per_second):
         highest = max(highest, model.energy(sim.q, sim.v))
     assert highest - start <= 0.01 * scale
     assert 0.0 < worst <= 2.0 * BOX2D_V3_GAPS[links, per_second]
+
+
+@pytest.mark.parametrize("name", ["chain", "weld", "pendulum", "gears"])
+def test_a_pins_block_is_its_rows_k_and_velocity_error(name):
+    """A pin's 2 x 2 block read off its arms (``_pin_block``, Box2D v3's way) is, bit for
+    bit, J M^-1 J^T and J v of its two rows as the rows' directions give them (the
+    entries it leaves out are zeros), at random poses and velocities."""
+    sim = Simulation(soft(SCENES[name]("semi_implicit_euler")))
+    joints = sim.model.joints
+    joints.reset(sim.q)
+    generator = np.random.default_rng(33)
+    blocks = 0
+    for _ in range(20):
+        q = (sim.q[joints.bodies] + generator.normal(size=(len(joints.bodies), 3))).reshape(-1)
+        v = generator.normal(size=q.size).tolist()
+        rows = joints.rows(q.tolist(), 0.01)
+        towards = directions(rows, joints.inverse_mass)
+        for i in (i for i, pair in enumerate(joints.pairs) if pair):
+            x, y = rows[i], rows[i + 1]
+            assert _pin_block(x, y, v, joints.inverse_mass) == (
+                rate(x, v), rate(y, v), dot(x, towards[i]), dot(x, towards[i + 1]),
+                dot(y, towards[i + 1]))
+            blocks += 1
+    assert blocks >= 20
 
 
 def _with_light_link(scene, ratio: float):
