@@ -192,6 +192,10 @@ typedef struct hd_contact_model {
     struct hd_joint_model *joints;
     struct hd_coupled *coupled;
     struct hd_wide *wide;  /* wide.h's working memory, made on first use */
+    /* The most passes a small island of at least HD_LEVEL_UNITS units ran last step, and
+     * whether this step's went through wide.h's lanes (solve.c: hd_solve_velocities). */
+    long level_passes;
+    int level_lanes;
     /* Threads of the big islands' velocity passes (1 or 2; wide.h: HD_CREW_UNITS) and the
      * second one's crew (crew.h), started on first use. */
     int threads;

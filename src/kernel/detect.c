@@ -183,6 +183,49 @@ static void hd_sort_boxes(double *edge, long *body, long count)
     }
 }
 
+/* A box's left edge and body, and where it was, for hd_sort_all. */
+typedef struct {
+    double x0;
+    long body, at;
+} hd_sort_key;
+
+static int hd_by_left_edge(const void *p, const void *q)
+{
+    const hd_sort_key *u = p, *w = q;
+    return hd_after(u->x0, u->body, w->x0, w->body) - hd_after(w->x0, w->body, u->x0, u->body);
+}
+
+/* hd_sort_boxes for boxes in any order (the first detection's, in body order: insertion
+ * sort would move each box past about half the others): with every left edge finite,
+ * (x0, body) orders them totally, so quicksort gives insertion sort's order. 0 when sorted,
+ * -1 when there was no memory for it (hd_sort_boxes then sorts them). */
+static int hd_sort_all(double *edge, long *body, long count)
+{
+    hd_sort_key *keys = malloc((size_t)count * sizeof *keys);
+    double *copy = malloc(4 * (size_t)count * sizeof(double));
+    long *bodies = malloc((size_t)count * sizeof(long));
+    if (keys == NULL || copy == NULL || bodies == NULL) {
+        free(keys);
+        free(copy);
+        free(bodies);
+        return -1;
+    }
+    for (long k = 0; k < count; ++k)
+        keys[k] = (hd_sort_key){edge[k], body[k], k};
+    qsort(keys, (size_t)count, sizeof *keys, hd_by_left_edge);
+    memcpy(copy, edge, 4 * (size_t)count * sizeof(double));
+    memcpy(bodies, body, (size_t)count * sizeof(long));
+    for (long k = 0; k < count; ++k) {
+        for (int e = 0; e < 4; ++e)
+            edge[e * count + k] = copy[e * count + keys[k].at];
+        body[k] = bodies[keys[k].at];
+    }
+    free(keys);
+    free(copy);
+    free(bodies);
+    return 0;
+}
+
 /* The sweep (contact/detect.py: Detection._candidate_pairs) pairs each box with the
  * boxes after it up to the first whose left edge is past its right edge, those that
  * overlap in y too, in that order. In a tall pile most of those are far off in y (a
@@ -391,7 +434,8 @@ int hd_detect(hd_contact_model *m, const double *q)
         m->sweep_body[k] = b;
         hd_extend(&extent, left[k], right[k], bottom[k], top[k]);
     }
-    hd_sort_boxes(m->sweep, m->sweep_body, count);
+    if (m->sweep_order || extent.wild || hd_sort_all(m->sweep, m->sweep_body, count) < 0)
+        hd_sort_boxes(m->sweep, m->sweep_body, count);
     m->sweep_order = 1;
     const hd_bands bands = hd_plan_bands(&extent, count);
     /* One band: the sweep's own columns, each box's pairs from the next box on. */

@@ -16,11 +16,13 @@
  * Each edge's distance is the same fold of the same products as one edge at a time; they
  * are found two edges at a time (an odd count's last edge twice), and a second edge found
  * past the stop changes nothing. */
-static long hd_max_separation(const double *v1, const double *n1, long k1, const double *v2,
-                              long k2, double margin, double *separation)
+static HD_HOT long hd_max_separation(const double *v1, const double *n1, long k1,
+                                     const double *v2, long k2, double margin,
+                                     double *separation)
 {
     long best_edge = 0;
     double best = -INFINITY;
+#pragma GCC unroll 2
     for (long i = 0; i < k1; i += 2) {
         const long e = i + 1 < k1 ? i + 1 : i;
         const hd_v2 nx = hd_v2_pair(n1[2 * i], n1[2 * e]),
@@ -29,6 +31,7 @@ static long hd_max_separation(const double *v1, const double *n1, long k1, const
                     vy = hd_v2_pair(v1[2 * i + 1], v1[2 * e + 1]);
         hd_v2 s = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[0]), vx)),
                             hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[1]), vy)));
+#pragma GCC unroll 3
         for (long j = 1; j < k2; ++j) {
             const hd_v2 t = hd_v2_add(hd_v2_mul(nx, hd_v2_sub(hd_v2_all(v2[2 * j]), vx)),
                                       hd_v2_mul(ny, hd_v2_sub(hd_v2_all(v2[2 * j + 1]), vy)));
@@ -78,8 +81,11 @@ static int hd_clip(const double *p0, const double *p1, double nx, double ny, dou
     return count;
 }
 
-int hd_polygon_polygon(const double *va, const double *na, long ka, const double *vb,
-                       const double *nb, long kb, double margin, hd_found *out)
+/* hd_polygon_polygon, inlined into it twice: for two quadrilaterals (boxes, most pairs), where
+ * the loops have constant counts and unroll and the next vertex's index is a mask, and for
+ * any other pair; the same operations either way. */
+static HD_HOT int hd_polygons(const double *va, const double *na, long ka, const double *vb,
+                              const double *nb, long kb, double margin, hd_found *out)
 {
     double sep_a, sep_b;
     const long edge_a = hd_max_separation(va, na, ka, vb, kb, margin, &sep_a);
@@ -122,6 +128,14 @@ int hd_polygon_polygon(const double *va, const double *na, long ka, const double
         }
     }
     return count;
+}
+
+int hd_polygon_polygon(const double *va, const double *na, long ka, const double *vb,
+                       const double *nb, long kb, double margin, hd_found *out)
+{
+    if (ka == 4 && kb == 4)
+        return hd_polygons(va, na, 4, vb, nb, 4, margin, out);
+    return hd_polygons(va, na, ka, vb, nb, kb, margin, out);
 }
 
 int hd_polygon_circle(const double *v, const double *n, long k, double cx, double cy,

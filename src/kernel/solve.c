@@ -1,6 +1,7 @@
 /* The velocity solve and the position correction (hecker_dynamics/contact/solve.py):
  * Gauss-Seidel passes island by island over the units of islands.c, the big islands'
- * through wide.c's lanes, with the arithmetic of rows.h.
+ * through wide.c's lanes in colour order, a settling small island's through them level by
+ * level, with the arithmetic of rows.h.
  */
 #include <math.h>
 #include <stddef.h>
@@ -9,6 +10,7 @@
 #include "contact.h"
 #include "coupled.h"
 #include "rows.h"
+#include "simd.h"
 #include "solver.h"
 #include "wide.h"
 
@@ -63,14 +65,23 @@ static void hd_level_order(const hd_contact_model *m, long *members, long size)
  * HD_MAX_ITERATIONS
  * (contact/solve.py: solve_velocities); then each island's position correction into m->shift,
  * in the order its units were swept (contact/solve.py: correct_positions), with `base` for
- * the rows' depths. */
+ * the rows' depths. A small island of at least HD_LEVEL_UNITS units goes through wide.c's
+ * lanes a level at a time (wide.h) while last step's such islands needed more than
+ * HD_LEVEL_PASSES passes, else one unit at a time: either way with the bits of its
+ * sequential sweep, so the choice, made from last step, changes no bit. */
 int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
 {
     const long units = hd_schedule(m, count);
-    const int same = hd_same_units(m, units);
-    if (same < 0)
+    const int same_units = hd_same_units(m, units);
+    if (same_units < 0)
         return -1;
-    if (!same)
+    /* Small islands through the lanes while the last step's needed passes; the colours
+     * kept in wide.h are only this step's where last step took the same way. */
+    const int level_lanes = HD_VECTORS && m->level_passes > HD_LEVEL_PASSES;
+    const int same = same_units && level_lanes == m->level_lanes;
+    m->level_lanes = level_lanes;
+    m->level_passes = 0;
+    if (!same_units)
         m->island_count = hd_islands(m, units);
     const long count_islands = m->island_count;
     if (count_islands < 0)
@@ -79,7 +90,7 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
     for (long i = 0; i < count_islands; ++i) {
         long *members = m->order + m->island_start[i];
         const long size = m->island_start[i + 1] - m->island_start[i];
-        if (!same && size < HD_WIDE_UNITS && hd_coupled_size(m, i) == 0)
+        if (!same_units && size < HD_WIDE_UNITS && hd_coupled_size(m, i) == 0)
             hd_level_order(m, members, size);
         hd_coupled_warm_start(m, i);
         double fastest = 0.0;
@@ -97,17 +108,27 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
         const long settle = (size + coupled) / HD_SETTLE;
         passes = passes < settle ? settle : passes;
         passes = passes > HD_MAX_ITERATIONS ? HD_MAX_ITERATIONS : passes;
+        long ran = 0;
         if (size >= HD_WIDE_UNITS && coupled == 0) {
-            const int converged = hd_wide_solve(m, wide++, same, members, size, passes, scale,
-                                                h, base);
+            const int converged = hd_wide_solve(m, wide++, same, 0, members, size, passes,
+                                                scale, h, base, &ran);
             if (converged < 0)
                 return -1;
             if (!converged)
                 hd_carry_friction(m, members, size);
             continue;
         }
+        const int levels = size >= HD_LEVEL_UNITS && coupled == 0;
+        if (levels && level_lanes) {
+            if (hd_wide_solve(m, wide++, same, 1, members, size, passes, scale, h, base,
+                              &ran) < 0)
+                return -1;
+            m->level_passes = ran > m->level_passes ? ran : m->level_passes;
+            continue;
+        }
         for (long iteration = 0; iteration < passes; ++iteration) {
             double largest = 0.0;
+            ran += 1;
             for (long k = 0; k < size; ++k)
                 largest = hd_max(largest,
                                  hd_solve_unit(m->units + members[k], m->rows, m->velocity));
@@ -115,6 +136,8 @@ int hd_solve_velocities(hd_contact_model *m, long count, double h, double *base)
             if (largest <= m->converged * scale)
                 break;
         }
+        if (levels)
+            m->level_passes = ran > m->level_passes ? ran : m->level_passes;
         if (!hd_depths_after(m, members, size, m->units[members[0]].first, h, base))
             continue;
         for (int iteration = 0; iteration < HD_POSITION_ITERATIONS; ++iteration) {

@@ -154,6 +154,40 @@ static void hd_colour_units(hd_contact_model *m, const long *members, long size,
         sorted[count[w->colour[k]]++] = members[k];
 }
 
+/* A small island's units in their order (solve.c: hd_level_order's) cut into runs that
+ * share no body but the walls' slot, each run a colour: a run's units commute, so the
+ * lanes solve them at once with the bits of the island's sequential sweep. In level order
+ * the runs are the levels (a level's first unit shares a body with a unit of the level
+ * before). `sorted` gets the units in their order. */
+static void hd_level_runs(hd_contact_model *m, const long *members, long size, long *sorted,
+                          long *colour_start)
+{
+    uint64_t *used = m->wide->used;
+    const long wall = m->bodies;
+    int run = 0;
+    colour_start[0] = 0;
+    for (long k = 0; k < size; ++k) {
+        const hd_row *r = m->rows + m->units[members[k]].first;
+        if ((r->a != wall && used[r->a]) || used[r->b]) {
+            for (long j = colour_start[run]; j < k; ++j) {
+                const hd_row *q = m->rows + m->units[sorted[j]].first;
+                used[q->a] = used[q->b] = 0;
+            }
+            colour_start[++run] = k;
+        }
+        if (r->a != wall)
+            used[r->a] = 1;
+        used[r->b] = 1;
+        sorted[k] = members[k];
+    }
+    for (long j = colour_start[run]; j < size; ++j) {
+        const hd_row *q = m->rows + m->units[sorted[j]].first;
+        used[q->a] = used[q->b] = 0;
+    }
+    for (int c = run + 1; c <= HD_COLOURS + 1; ++c)
+        colour_start[c] = size;
+}
+
 /* The colour order visits the units and their rows all over memory: how many units ahead
  * the packing of lanes asks for a unit's rows (and twice as far for the unit itself). */
 #define HD_AHEAD 8
@@ -603,14 +637,16 @@ static struct hd_crew *hd_crew_for(hd_contact_model *m, long size)
     return m->crew;
 }
 
-int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members, long size,
-                  long passes, double scale, double h, double *base)
+int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const long *members,
+                  long size, long passes, double scale, double h, double *base, long *ran)
 {
     if (hd_reserve(m, wide, size) < 0)
         return -1;
     struct hd_wide *w = m->wide;
     long *sorted = w->sorted + (members - m->order), *colour_start = w->colour_start[wide];
-    if (!known)
+    if (!known && levels)
+        hd_level_runs(m, members, size, sorted, colour_start);
+    else if (!known)
         hd_colour_units(m, members, size, sorted, colour_start);
     /* Each colour's blocks four to a set of lanes, the rest of it one by one (the units
      * that fit no colour one by one in their order). */
@@ -636,7 +672,9 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
                 w->single[singles++] = u;
             }
         }
-        if (filled > 0)
+        if (filled == 1)  /* one block alone: cheaper one by one than in padded lanes */
+            w->single[singles++] = pair[0];
+        else if (filled > 0)
             hd_load_lanes(m, pair, filled, w->lanes + lanes++);
     }
     w->lane_start[HD_COLOURS + 1] = lanes;
@@ -644,10 +682,12 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, const long *members
     hd_passes job = {m, base, 0, 0};
     int converged = 0;
     struct hd_crew *crew = hd_crew_for(m, size);
-    for (long iteration = 0; iteration < passes && !converged; ++iteration) {
+    *ran = 0;
+    while (*ran < passes && !converged) {
         const double largest = hd_sweep(&job, colour_start, crew, hd_pass_chunk,
                                         hd_pass_singles);
         converged = largest <= m->converged * scale;
+        *ran += 1;
     }
     const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {

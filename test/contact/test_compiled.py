@@ -27,6 +27,8 @@ needs_kernel = pytest.mark.skipif(not kernel.enabled(), reason="the compiled ker
 def _scene(name):
     if name == "balls":  # small islands of one-point contacts, with walls and without
         return ball_box(grid=4)
+    if name == "pile":  # 36 blocks, one island below WIDE_UNITS, that settles for a while
+        return pyramid(6)
     return pyramid(4) if name == "pyramid" else load_scene(name)
 
 
@@ -47,18 +49,21 @@ def test_kernel_has_the_solver_constants():
 
 
 @needs_kernel
-@pytest.mark.parametrize("name", ["pyramid", "balls", "seesaw", "door", "car_flip"])
+@pytest.mark.parametrize("name", ["pyramid", "pile", "balls", "seesaw", "door", "car_flip"])
 def test_kernel_steps_contact_scenes_with_the_bits_of_python(name):
-    """1 s of each scene (2.5 s of the pyramid settling): whole steps in the kernel and
+    """1 s of each scene (2.5 s of the pyramids settling): whole steps in the kernel and
     steps in Python with the Python contact pass give identical states and impulses. The
-    kernel sweeps the small islands of the pyramid and of the balls in another order than
-    Python (solve.c: hd_level_order), one that must give the same bits."""
+    kernel sweeps the small islands of the pyramids and of the balls in another order than
+    Python (solve.c: hd_level_order), one that must give the same bits, and while the pile
+    of 6 rows settles (all of its passes a step) it solves its blocks a level at a time in
+    SIMD lanes (src/kernel/wide.h: HD_LEVEL_UNITS, HD_LEVEL_PASSES), one by one again once
+    it has settled."""
     scene = _scene(name)
     fast, slow = Simulation(scene), Simulation(scene)
     slow.model.use_python()
     assert fast._compiled is not None and fast.model.contacts.compiled
     assert not slow.model.contacts.compiled
-    until = 2_500_000_000 if name == "pyramid" else 1_000_000_000
+    until = 2_500_000_000 if name in ("pyramid", "pile") else 1_000_000_000
     fast.advance_to(until)
     slow.advance_to(until)
     assert fast.steps == slow.steps
