@@ -267,8 +267,8 @@ def _pin_block(x_row: JointRow, y_row: JointRow, v: list[float], inverse_mass: l
 def _push_pin(v: list[float], x_row: JointRow, y_row: JointRow, ix: float, iy: float,
               inverse_mass: list[float]) -> None:
     """v += M^-1 J^T (ix, iy) for a pin's x and y rows (their Jacobians as
-    :func:`_pin_block` reads them): the force over the mass (Eq. 5) and the torque of
-    the impulse over the moment of inertia (Eqs. 11 and 14)."""
+    :func:`_pin_block` reads them): the force over the mass (Eq. 5), the torque of the
+    impulse at its arm (Eq. 11) and the angular acceleration, torque over I (Eq. 14)."""
     b, _, _, p = x_row.entries[0]
     q = y_row.entries[0][3]
     v[3 * b] += inverse_mass[3 * b] * ix
