@@ -10,6 +10,7 @@
 #define _GNU_SOURCE  /* glibc's sincos (hd_turn_all) */
 #endif
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -131,46 +132,61 @@ static void hd_point_rows(hd_joint_row *rows, long *n, const hd_joint *jt, hd_an
     }
 }
 
-/* One entry of a point row (contact/joint_rows.py: fixed_entries): on body b, u and
- * perp(r) . u; on body a (sign -1) their negatives. */
-static HD_HOT void hd_point_entry(hd_joint_row *r, long body, double sign, double ux, double uy,
-                                  double rx, double ry)
+/* One end of a plain pin (_Frame.place, the same operations as hd_place): the point (*x, *y)
+ * and its arm (*rx, *ry) from the CM. */
+static HD_HOT void hd_pin_end(long body, const double *local, const double *q,
+                              const double *trig, double *x, double *y, double *rx, double *ry)
 {
-    double *j = r->j[r->count];
-    r->body[r->count] = body;
-    if (sign > 0.0)
-        j[0] = ux, j[1] = uy, j[2] = ux * -ry + uy * rx;
-    else
-        j[0] = -ux, j[1] = -uy, j[2] = -(ux * -ry + uy * rx);
-    r->count += 1;
+    if (body < 0) {
+        *x = local[0], *y = local[1], *rx = 0.0, *ry = 0.0;
+        return;
+    }
+    const double c = trig[2 * body], s = trig[2 * body + 1];
+    *rx = c * local[0] - s * local[1];
+    *ry = s * local[0] + c * local[1];
+    *x = q[3 * body] + *rx, *y = q[3 * body + 1] + *ry;
 }
 
-/* One row of a rigid pin along (ux, uy) (contact/joint_rows.py: point_rows, the same operations),
- * inlined with (ux, uy) constant. */
-static HD_HOT void hd_pin_row(hd_joint_row *r, const hd_joint *jt, const hd_anchor *pa,
-                              const hd_anchor *pb, double dx, double dy, double ux, double uy,
-                              int pair, int values_only)
+/* The entries of a pin's row along (ux, uy) (contact/joint_rows.py: fixed_entries): on body
+ * b, u and perp(r_b) . u; on body a their negatives. */
+static HD_HOT void hd_pin_entries(hd_joint_row *r, const hd_joint *jt, double ux, double uy,
+                                  double rax, double ray, double rbx, double rby)
 {
-    r->kind = HD_RIGID, r->count = 0, r->scaled = 1, r->pair = pair;
-    r->c = ux * dx + uy * dy, r->speed = 0.0, r->bound = INFINITY;
-    r->stiffness = 0.0, r->damping = 0.0;
+    int count = 0;
+    if (jt->b >= 0) {
+        double *j = r->j[count];
+        r->body[count++] = jt->b;
+        j[0] = ux, j[1] = uy, j[2] = ux * -rby + uy * rbx;
+    }
+    if (jt->a >= 0) {
+        double *j = r->j[count];
+        r->body[count++] = jt->a;
+        j[0] = -ux, j[1] = -uy, j[2] = -(ux * -ray + uy * rax);
+    }
+    r->count = count;
+}
+
+/* contact/joint_rows.py: point_rows of a rigid pin with no limit, motor or spring, written
+ * out (the same operations as point_rows): its x row, then its y row. `values_only`: their
+ * values alone (which is all an iterate that keeps the last matrix reads of them). */
+static HD_HOT void hd_pin_rows(hd_joint_row *r, const hd_joint *jt, const double *q,
+                               const double *trig, int values_only)
+{
+    double xa, ya, rax, ray, xb, yb, rbx, rby;
+    hd_pin_end(jt->a, jt->point_a, q, trig, &xa, &ya, &rax, &ray);
+    hd_pin_end(jt->b, jt->point_b, q, trig, &xb, &yb, &rbx, &rby);
+    const double dx = xb - xa, dy = yb - ya;
+    r[0].c = 1.0 * dx + 0.0 * dy;
+    r[1].c = 0.0 * dx + 1.0 * dy;
     if (values_only)
         return;
-    if (jt->b >= 0)
-        hd_point_entry(r, jt->b, 1.0, ux, uy, pb->rx, pb->ry);
-    if (jt->a >= 0)
-        hd_point_entry(r, jt->a, -1.0, ux, uy, pa->rx, pa->ry);
-}
-
-/* contact/joint_rows.py: point_rows of a rigid pin, written out for the common case (the same
- * operations as point_rows). */
-static inline void hd_pin_rows(hd_joint_row *rows, long *n, const hd_joint *jt, const hd_anchor *pa,
-                               const hd_anchor *pb, int values_only)
-{
-    const double dx = pb->x - pa->x, dy = pb->y - pa->y;
-    hd_pin_row(rows + *n, jt, pa, pb, dx, dy, 1.0, 0.0, 1, values_only);
-    hd_pin_row(rows + *n + 1, jt, pa, pb, dx, dy, 0.0, 1.0, 0, values_only);
-    *n += 2;
+    for (int axis = 0; axis < 2; ++axis) {
+        r[axis].kind = HD_RIGID, r[axis].scaled = 1, r[axis].pair = axis == 0;
+        r[axis].speed = 0.0, r[axis].bound = INFINITY, r[axis].stiffness = 0.0;
+        r[axis].damping = 0.0;
+    }
+    hd_pin_entries(r, jt, 1.0, 0.0, rax, ray, rbx, rby);
+    hd_pin_entries(r + 1, jt, 0.0, 1.0, rax, ray, rbx, rby);
 }
 
 /* contact/joint_rows.py: bounded_rows, the coordinate `value` with the Jacobian of `coordinate`. */
@@ -250,12 +266,15 @@ long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_
             r->c = value;
             continue;
         }
-        const hd_anchor pa = hd_place(jt->a, jt->point_a, q, trig),
-                    pb = hd_place(jt->b, jt->point_b, q, trig);
         if (jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
                                          jt->has_spring)) {
-            hd_pin_rows(rows, &n, jt, &pa, &pb, values_only);  /* its angle is not wanted */
-        } else if (jt->kind == HD_REVOLUTE) {
+            hd_pin_rows(rows + n, jt, q, trig, values_only);  /* its angle is not wanted */
+            n += 2;
+            continue;
+        }
+        const hd_anchor pa = hd_place(jt->a, jt->point_a, q, trig),
+                    pb = hd_place(jt->b, jt->point_b, q, trig);
+        if (jt->kind == HD_REVOLUTE) {
             hd_point_rows(rows, &n, jt, pa, pb, HD_RIGID, 0.0, 0.0);
             const double angle = hd_joint_angle(jt, pa, pb);
             hd_joint_row coordinate = {0};
@@ -313,12 +332,16 @@ void hd_joint_directions(const hd_joint_model *m, const hd_joint_row *rows, cons
 {
     for (long k = 0; k < n; ++k) {
         const hd_joint_row *row = rows + (index == NULL ? k : index[k]);
-        out[k].count = row->count;  /* _apply and _dot read no more of a direction */
-        for (int e = 0; e < row->count; ++e) {
-            out[k].body[e] = row->body[e];
-            const double *im = m->inverse_mass + 3 * row->body[e];
-            for (int c = 0; c < 3; ++c)
-                out[k].j[e][c] = im[c] * row->j[e][c];
+        const int count = row->count;
+        hd_joint_row *d = out + k;
+        d->count = count;  /* _apply and _dot read no more of a direction */
+        for (int e = 0; e < count; ++e) {
+            const long body = row->body[e];
+            const double *im = m->inverse_mass + 3 * body;
+            d->body[e] = body;
+            d->j[e][0] = im[0] * row->j[e][0];
+            d->j[e][1] = im[1] * row->j[e][1];
+            d->j[e][2] = im[2] * row->j[e][2];
         }
     }
 }
@@ -330,22 +353,27 @@ static void hd_apply(double *x, const hd_joint_row *direction, long n, const dou
         const double amount = impulse[i];
         if (amount == 0.0)
             continue;
-        for (int e = 0; e < direction[i].count; ++e) {
-            double *target = x + 3 * direction[i].body[e];
-            target[0] += direction[i].j[e][0] * amount;
-            target[1] += direction[i].j[e][1] * amount;
-            target[2] += direction[i].j[e][2] * amount;
+        const hd_joint_row *d = direction + i;
+        const int count = d->count;
+        for (int e = 0; e < count; ++e) {
+            double *target = x + 3 * d->body[e];
+            const double *j = d->j[e];
+            target[0] += j[0] * amount;
+            target[1] += j[1] * amount;
+            target[2] += j[2] * amount;
         }
     }
 }
 
-/* contact/joint_solve.py: dot, over the entries `meets` pairs (count of them). */
-static double hd_dot_meeting(const hd_joint_row *row, const hd_joint_row *direction,
-                             const unsigned char *meets, long count)
+/* contact/joint_solve.py: dot, over the pairs `first` .. `end` of `meets`, their entries found
+ * from the first row `rows` and the first direction `directions`. */
+static HD_HOT double hd_dot_meeting(const hd_meets *meets, const char *rows,
+                                    const char *directions, long first, long end)
 {
     double s = 0.0;
-    for (long k = 0; k < count; ++k) {
-        const double *a = row->j[meets[k] >> 2], *b = direction->j[meets[k] & 3];
+    for (long k = first; k < end; ++k) {
+        const double *a = (const double *)(rows + meets->row_at[k]);
+        const double *b = (const double *)(directions + meets->direction_at[k]);
         s += a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     }
     return s;
@@ -364,6 +392,19 @@ static long hd_meeting(const hd_joint_row *row, const hd_joint_row *direction, u
                 count += 1;
             }
     return count;
+}
+
+/* Where the entries of the pairs `first` .. `end` of m are: row `row`'s and direction
+ * `direction`'s (hd_meets.row_at, direction_at). */
+static void hd_place_pairs(hd_meets *m, long first, long end, long row, long direction)
+{
+    for (long k = first; k < end; ++k) {
+        m->row_at[k] = row * (long)sizeof(hd_joint_row) + (long)offsetof(hd_joint_row, j)
+                       + (m->pair[k] >> 2) * 3 * (long)sizeof(double);
+        m->direction_at[k] = direction * (long)sizeof(hd_joint_row)
+                             + (long)offsetof(hd_joint_row, j)
+                             + (m->pair[k] & 3) * 3 * (long)sizeof(double);
+    }
 }
 
 /* The meets of pattern p's row pairs, for the rows rows[index[k]] (index NULL: rows k);
@@ -393,11 +434,26 @@ static int hd_make_meets(const hd_pattern *p, const hd_joint_row *rows, const lo
                 count += hd_meeting(other, row, out == NULL ? NULL : out + count);
             }
         }
-        if (pass == 0 && (m->pair = malloc((size_t)count + 1)) == NULL)
+        if (pass == 0 && ((m->pair = malloc((size_t)count + 1)) == NULL ||
+                          (m->row_at = malloc(((size_t)count + 1) * sizeof(long))) == NULL ||
+                          (m->direction_at = malloc(((size_t)count + 1) * sizeof(long))) == NULL))
             return -1;
         m->diag[n] = count;  /* the ends of the last lists */
         if (slots > 0)
             m->lower[slots] = m->upper[slots] = count;
+    }
+    /* Each pair's entries: the row's and the direction's of the diagonal, or of the lower's
+     * (row i, direction j) or the upper's (row j, direction i) of each slot. */
+    for (long i = 0; i < n; ++i) {
+        const long row_i = index == NULL ? i : index[i];
+        long end = p->start[i] < p->start[i + 1] ? m->lower[p->start[i]] : m->diag[i + 1];
+        hd_place_pairs(m, m->diag[i], end, row_i, i);
+        for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
+            const long j = p->columns[slot], row_j = index == NULL ? j : index[j];
+            hd_place_pairs(m, m->lower[slot], m->upper[slot], row_i, j);
+            end = slot + 1 < p->start[i + 1] ? m->lower[slot + 1] : m->diag[i + 1];
+            hd_place_pairs(m, m->upper[slot], end, row_j, i);
+        }
     }
     return 0;
 }
@@ -408,16 +464,19 @@ static void hd_free_meets(hd_meets *m)
     free(m->lower);
     free(m->upper);
     free(m->pair);
+    free(m->row_at);
+    free(m->direction_at);
 }
 
-/* contact/joint_solve.py: matrix, on the rows rows[index[k]] (index NULL: rows k) and the
- * directions `direction` (one per k), whose entries meet as `meets` says; `upper` NULL: the
- * symmetric K, its lower triangle only. */
+/* contact/joint_solve.py: matrix, on the rows `rows` and the directions `direction` (one per
+ * row of the pattern), whose entries meet, and where, as `meets` says (the rows it was made
+ * for: all, or the rigid ones of `rows`); `upper` NULL: the symmetric K, its lower triangle
+ * only. */
 static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint_row *rows,
-                      const long *index, const hd_joint_row *direction, const int *active,
-                      double *diagonal, double *lower, double *upper)
+                      const hd_joint_row *direction, const int *active, double *diagonal,
+                      double *lower, double *upper)
 {
-    const unsigned char *pair = meets->pair;
+    const char *row0 = (const char *)rows, *direction0 = (const char *)direction;
     for (long i = 0; i < p->n; ++i) {
         const long first = p->start[i], end = p->start[i + 1];
         if (active != NULL && !active[i]) {
@@ -429,25 +488,21 @@ static void hd_matrix(const hd_pattern *p, const hd_meets *meets, const hd_joint
             }
             continue;
         }
-        const hd_joint_row *row = rows + (index == NULL ? i : index[i]);
         /* Row i's lists: its diagonal's, then per slot the lower's and the upper's. */
         const long diag_end = first < end ? meets->lower[first] : meets->diag[i + 1];
-        diagonal[i] = hd_dot_meeting(row, direction + i, pair + meets->diag[i],
-                                     diag_end - meets->diag[i]);
+        diagonal[i] = hd_dot_meeting(meets, row0, direction0, meets->diag[i], diag_end);
         for (long slot = first; slot < end; ++slot) {
-            const long j = p->columns[slot];
-            if (active != NULL && !active[j]) {
+            if (active != NULL && !active[p->columns[slot]]) {
                 lower[slot] = 0.0;
                 if (upper != NULL)
                     upper[slot] = 0.0;
                 continue;
             }
-            lower[slot] = hd_dot_meeting(row, direction + j, pair + meets->lower[slot],
-                                         meets->upper[slot] - meets->lower[slot]);
+            lower[slot] = hd_dot_meeting(meets, row0, direction0, meets->lower[slot],
+                                         meets->upper[slot]);
             if (upper != NULL) {
                 const long next = slot + 1 < end ? meets->lower[slot + 1] : meets->diag[i + 1];
-                upper[slot] = hd_dot_meeting(rows + (index == NULL ? j : index[j]), direction + i,
-                                             pair + meets->upper[slot], next - meets->upper[slot]);
+                upper[slot] = hd_dot_meeting(meets, row0, direction0, meets->upper[slot], next);
             }
         }
     }
@@ -584,9 +639,15 @@ static int hd_newton(hd_joint_model *m, double h)
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
         /* An iterate that may take the last matrix needs its rows' values only (at first). */
         hd_joint_rows(m, m->q, h, m->rows, factored);
-        for (long k = 0; k < nr; ++k)
-            m->step[k] = m->rows[m->rigid[k]].c - m->target[k];
-        const double largest = hd_largest_abs(m->step, nr);
+        /* The errors, negated as the step's right-hand side (|-e| = |e|), and the largest (as
+         * hd_largest_abs finds it), in one sweep. */
+        double largest = 0.0;
+        for (long k = 0; k < nr; ++k) {
+            const double error = m->rows[m->rigid[k]].c - m->target[k];
+            m->step[k] = -error;
+            if (k == 0 || fabs(error) > largest)
+                largest = fabs(error);
+        }
         if (iteration == 0)
             m->first_error = largest;
         if (largest <= tolerance) {
@@ -607,14 +668,11 @@ static int hd_newton(hd_joint_model *m, double h)
         if (fresh) {
             if (factored)
                 hd_joint_rows(m, m->q, h, m->rows, 0);
-            hd_matrix(p, &m->rigid_meets, m->rows, m->rigid, m->dir0, NULL, m->diagonal, m->lower,
-                      m->upper);
+            hd_matrix(p, &m->rigid_meets, m->rows, m->dir0, NULL, m->diagonal, m->lower, m->upper);
             hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
             factored = 1;
         }
         previous = largest;
-        for (long k = 0; k < nr; ++k)
-            m->step[k] = -m->step[k];
         hd_lu_solve(p, m->low, m->upper, m->diag, m->out, m->step);
         for (long k = 0; k < nr; ++k)
             m->nu[k] = m->nu[k] + m->step[k];
@@ -675,7 +733,7 @@ static void hd_correct(hd_joint_model *m, double h)
             m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
         hd_joint_directions(m, m->rows, NULL, n, m->dir);
-        hd_matrix(p, &m->meets, m->rows, NULL, m->dir, m->active, m->diagonal, m->lower, NULL);
+        hd_matrix(p, &m->meets, m->rows, m->dir, m->active, m->diagonal, m->lower, NULL);
         hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
         hd_substitute(p, m->low, m->diag, m->out, m->rhs);
         hd_apply(m->q, m->dir, n, m->rhs);
@@ -688,8 +746,7 @@ static void hd_velocities(hd_joint_model *m, double h)
 {
     const long n = m->row_count;
     hd_joint_directions(m, m->rows, NULL, n, m->dir);
-    hd_matrix(&m->pattern, &m->meets, m->rows, NULL, m->dir, NULL, m->diagonal, m->lower,
-              NULL);
+    hd_matrix(&m->pattern, &m->meets, m->rows, m->dir, NULL, m->diagonal, m->lower, NULL);
     for (long i = 0; i < n; ++i) {
         const hd_joint_row *row = m->rows + i;
         m->b[i] = -hd_joint_rate(row, m->v);

@@ -57,6 +57,9 @@ typedef struct {
 typedef struct {
     long *diag, *lower, *upper;
     unsigned char *pair;
+    /* Per pair, where its row's and its direction's entries are (bytes from the first row
+     * and the first direction): hd_matrix walks these instead of finding the rows. */
+    long *row_at, *direction_at;
 } hd_meets;
 
 /* One scalar constraint (contact/joint_rows.py: JointRow): up to four (body, jx, jy, jw)
