@@ -86,6 +86,8 @@ FLOOR_SPEED = 1.0
 # The rows of the budget array, one column per unit (``src/kernel/bound.c`` reads the same).
 ROOT, WORK, RATE, INPUT_RATE, POWER, ENERGY, EXCESS, LIMIT = range(8)
 BUDGET_ROWS = 8
+#: The most force terms whose places (:meth:`EnergyBound._places`) a bound keeps.
+KEPT_PLACES = 16
 
 
 def energy_units(scene: Scene) -> list[int]:
@@ -185,6 +187,9 @@ class EnergyBound:
                     self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
                                          spec.name))
         self._speeds: dict[str, float] = {}
+        #: :meth:`_places` of the terms seen, by their body column's id (with the column).
+        self._kept_places: dict[int, tuple[np.ndarray, list[tuple[int, float, float,
+                                                                  Optional[float]]]]] = {}
         self._inputs_set = self._motors_moved = self._stale = False
         #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
         self.worst_ratio = 0.0
@@ -295,20 +300,39 @@ class EnergyBound:
         """c of each unit: the coefficient of sqrt(B) in the rate of work of ``terms`` at
         positions ``q`` (see the module)."""
         rates = [0.0] * len(self.members)
-        rows = q.tolist()
+        rows = None
         for term in terms:
-            for body, (fx, fy), torque, _, owner, (px, py), at_point in term.rows:
-                force = math.hypot(fx, fy)
-                root_mass, root_inertia = self._roots[body]
-                lever = 0.0
-                if at_point:
+            for (unit, root_mass, root_inertia, lever), (body, (fx, fy), torque, _, owner,
+                                                         (px, py), _) in zip(
+                    self._places(term), term.rows):
+                if lever is None:
                     # The point is relative to its owner's CM, or in fixed-frame
                     # coordinates (owner -1); r is at most the sum of the two distances.
+                    rows = q.tolist() if rows is None else rows
                     ox, oy = (rows[owner][0], rows[owner][1]) if owner >= 0 else (0.0, 0.0)
-                    lever = math.hypot(ox - rows[body][0], oy - rows[body][1]) + math.hypot(px, py)
-                rates[self.units[body]] += (force * root_mass
-                                            + (lever * force + abs(torque)) * root_inertia)
+                    lever = math.hypot(ox - rows[body][0], oy - rows[body][1]) + \
+                        math.hypot(px, py)
+                force = math.hypot(fx, fy)
+                rates[unit] += force * root_mass + (lever * force + abs(torque)) * root_inertia
         return rates
+
+    def _places(self, term: ConstantWrenchTerm) -> list[tuple[int, float, float, Optional[float]]]:
+        """Per row of ``term``: its body's unit, sqrt(2 / m) and sqrt(2 / I) of its body,
+        and its lever arm where that does not follow the state (None where it does): 0 at
+        the CM, |r| at a point of the body itself (the distance of the body's CM from
+        itself is 0 in a state, which is always finite). Kept for the term's places, which
+        a drive's new wheel forces keep (:meth:`.ConstantWrenchTerm.with_values`)."""
+        kept = self._kept_places.get(id(term.body))
+        if kept is not None and kept[0] is term.body:
+            return kept[1]
+        places = []
+        for body, _, _, _, owner, (px, py), at_point in term.rows:
+            lever = (None if owner != body else math.hypot(px, py)) if at_point else 0.0
+            places.append((self.units[body], *self._roots[body], lever))
+        if len(self._kept_places) >= KEPT_PLACES:  # bounded whatever terms the inputs make
+            self._kept_places.clear()
+        self._kept_places[id(term.body)] = (term.body, places)
+        return places
 
     def _refresh(self, q: np.ndarray) -> None:
         """Take the rates of work from the state ``q`` and the inputs and motors now."""

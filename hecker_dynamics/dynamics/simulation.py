@@ -65,6 +65,16 @@ PLACES = 1024
 NO_JOINTS: Mapping[str, tuple[float, float, float]] = MappingProxyType({})
 
 
+class Place(NamedTuple):
+    """Where a command acts (:meth:`Simulation._place`), kept for its body, frame and point."""
+
+    body: int  # the body's row
+    axes_body: int  # the body whose axes its force is in; -1: the fixed frame's
+    point_body: int  # the body its point is relative to; -1: the fixed frame
+    point: tuple[float, float]
+    lever: Optional[float]  # the point's distance from the CM where it is the body's own
+
+
 class DivergenceError(RuntimeError):
     """The state stopped being finite, or its energy went past what the scene's forces
     allow (:mod:`.divergence`); the simulation kept its last good state."""
@@ -190,8 +200,13 @@ class Simulation:
         self._embedded = (self.integrator if isinstance(self.integrator, EmbeddedRungeKutta)
                           else None)
         self._inputs = InputBuffer(scene.input_timeout_ns)
-        #: Where the commands pushed so far act (:meth:`_row`), by body, frame and point.
-        self._places: dict[tuple[Any, ...], tuple[int, int, int, tuple[float, float]]] = {}
+        #: Where the commands pushed so far act (:meth:`_resolved`), by body, frame and
+        #: point: the body's row, the axes' and the point's bodies, the point, and the lever
+        #: arm the reach check takes where the point is its own body's (else None).
+        self._places: dict[tuple[Any, ...], Place] = {}
+        #: Each body's mass and moment of inertia, as the reach check takes them.
+        self._inertias = [(float(body.mass.mass), float(body.mass.moment_of_inertia))
+                          for body in scene.bodies]
         self.reset(start_ns)
 
     # ----------------------------------------------------------------- state
@@ -437,32 +452,34 @@ class Simulation:
         |r| |F|) h / I)^2, with the force over the mass (Eq. 5), the torque of the force at
         the lever arm r (Eq. 11) and the angular acceleration, torque over I (Eq. 14).
         1e308 N on 1 kg is 1e305 m/s a millisecond later, a finite state the energy bound
-        could not judge."""
-        row = self._row(command)
-        i, fx, fy, owner = row.body, *row.force, row.point_body
+        could not judge. A drive's wheels push at points of their own body, whose lever
+        arm their place keeps (:meth:`_resolved`)."""
+        i, axes, owner, point, own_lever = self._resolved(command)
+        fx, fy = command.force
         force = math.hypot(fx, fy)
         lever = 0.0
-        if row.at_point and force:
+        if force:
             q = self.q
-            if owner == i:
-                lever = math.hypot(*row.point)
+            if own_lever is not None:
+                lever = own_lever
             elif owner < 0:
-                lever = math.hypot(row.point[0] - q[i, 0], row.point[1] - q[i, 1])
+                lever = math.hypot(point[0] - q[i, 0], point[1] - q[i, 1])
             else:  # a point of another body: at most its distance from that body's CM more
-                lever = math.hypot(*row.point) + math.hypot(q[owner, 0] - q[i, 0],
-                                                            q[owner, 1] - q[i, 1])
-        properties = self.scene.bodies[i].mass
+                lever = math.hypot(*point) + math.hypot(q[owner, 0] - q[i, 0],
+                                                        q[owner, 1] - q[i, 1])
+        mass, inertia = self._inertias[i]
         vx, vy, spin = self.v[i].tolist()
         h = self.step_seconds
-        speed = math.hypot(vx, vy) + force * h / properties.mass
-        turn = abs(spin) + (abs(row.torque) + lever * force) * h / properties.moment_of_inertia
-        if not math.isfinite(properties.energy_of_motion(speed, turn)):
+        speed = math.hypot(vx, vy) + force * h / mass
+        turn = abs(spin) + (abs(command.torque) + lever * force) * h / inertia
+        # MassProperties.energy_of_motion's operations, in plain floats.
+        if not math.isfinite(0.5 * mass * speed * speed + 0.5 * inertia * turn * turn):
             raise InputError(
                 f"wrench for body '{command.body}' from '{command.source}' would give it an "
                 f"energy of motion past what a double holds after one step of {h:g} s "
                 f"({speed:.3g} m/s, {turn:.3g} rad/s; force={command.force}, "
                 f"point={command.point}, torque={command.torque})")
-        return row
+        return WrenchRow(i, command.force, command.torque, axes, owner, point, True)
 
     def push_replacements(self, commands: Sequence[WrenchCommand]) -> None:
         """:meth:`push` each of ``commands``, stamped now, from bodies and sources whose
@@ -487,6 +504,12 @@ class Simulation:
         commands a drive sends from its wheels every control period share one resolved
         point, which lets the input set take their new values in place (:func:`.inputs.same_place`).
         """
+        target, axes, owner, resolved, _ = self._resolved(command)
+        return WrenchRow(target, command.force, command.torque, axes, owner, resolved, True)
+
+    def _resolved(self, command: WrenchCommand) -> Place:
+        """Where ``command`` acts (:meth:`_place`), resolved once for its body, frame and
+        point and kept."""
         px, py = command.point
         # The signs tell 0.0 from -0.0, which compare equal but need not give the same bits.
         key = (command.body, command.frame_id, px, py, math.copysign(1.0, px),
@@ -496,15 +519,16 @@ class Simulation:
             if len(self._places) >= PLACES:  # bounded whatever points the inputs name
                 self._places.clear()
             place = self._places[key] = self._place(command)
-        target, axes, owner, resolved = place
-        return WrenchRow(target, command.force, command.torque, axes, owner, resolved, True)
+        return place
 
-    def _place(self, command: WrenchCommand) -> tuple[int, int, int, tuple[float, float]]:
+    def _place(self, command: WrenchCommand) -> Place:
         """Where ``command`` acts: its body's row, the body whose axes its force is in and
-        the body its point is relative to (-1: the fixed frame), and that point."""
+        the body its point is relative to (-1: the fixed frame), that point, and its
+        distance from the CM where it is a point of the body itself, the lever arm a force
+        there has whatever the state (None elsewhere)."""
         target = self.model.index[command.body]
         if command.frame_id == self.scene.frame_id:
-            return target, -1, -1, command.point
+            return Place(target, -1, -1, command.point, None)
         name, _, point_name = command.frame_id.partition("/")
         owner = self.model.index.get(name)
         if owner is None:
@@ -519,7 +543,9 @@ class Simulation:
                                  f"point '{point_name}' (points: {', '.join(points) or 'none'})")
             origin = points[point_name]
         point = (origin[0] + command.point[0], origin[1] + command.point[1])
-        return target, owner, owner, tuple(self.model.local(owner, point))
+        resolved = tuple(self.model.local(owner, point))
+        return Place(target, owner, owner, resolved,
+                     math.hypot(*resolved) if owner == target else None)
 
     # ----------------------------------------------------------------- stepping
 

@@ -589,7 +589,7 @@ class Runner:
         """At the simulation's present instant: push the scripted commands due by the end
         of the next step, then take the keyframe due at this step."""
         sim = self.sim
-        if self.play_script:
+        if self.play_script and self._script_index < len(self.scene.script):  # else none due
             due, self._script_index = due_script(self.scene.script, sim.start_ns,
                                                  self._script_index, sim.time_ns + sim.step_ns)
             for command in due:

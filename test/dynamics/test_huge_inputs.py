@@ -111,3 +111,33 @@ def test_a_scene_file_whose_body_moves_past_what_a_double_holds_is_refused(tmp_p
     assert err == (f"hecker-dynamics: error: {path}: parameter 'bodies.puck.angular_velocity': "
                    "moves the body so fast (0 m/s, 1e+160 rad/s) that its energy of motion is "
                    "past what a double holds\n")
+
+
+@pytest.mark.parametrize("frame_id, lever", [
+    ("b", 3.0),  # a point of the body itself: the lever arm its kept place holds
+    ("world", 2.0),  # from the state: the body's CM is at (1, 0)
+    ("c", 3.0 + 2.0),  # another body's point, 3 m from its CM, which is 2 m away
+])
+def test_the_reach_check_takes_the_lever_arm_of_each_frame(frame_id, lever) -> None:
+    """A force pushed at (3, 0) in ``frame_id`` (a body's own point, whose lever arm the
+    simulation keeps with the point, the fixed frame's, another body's) is refused exactly
+    where the written-out energy after one step overflows, pushed first and again (the
+    kept place), by the torque of its lever arm alone (the force's own speed stays far
+    below overflow)."""
+    world = hd.World(step=H, integrator="semi_implicit_euler")
+    world.add_body("b", hd.Box(1.0, 1.0), mass=1.0, position=(1.0, 0.0))
+    world.add_body("c", hd.Box(1.0, 1.0), mass=1.0, position=(3.0, 0.0))
+    sim = world.simulation
+    inertia = sim.scene.bodies[0].mass.moment_of_inertia
+    verdicts = []
+    for force in (1e156, 2e156, 3e156, 4e156, 5e156, 1e156, 5e156):
+        speed, turn = force * H, lever * force * H / inertia
+        refused = not math.isfinite(0.5 * speed * speed + 0.5 * inertia * turn * turn)
+        verdicts.append(refused)
+        command = WrenchCommand(0, "b", "push", frame_id, (3.0, 0.0), (0.0, force))
+        if refused:
+            with pytest.raises(InputError, match="past what a double holds"):
+                sim.check_reach(command)
+        else:
+            assert sim.check_reach(command).force == (0.0, force)
+    assert verdicts[0] is False and verdicts[-1] is True  # both sides of the line
