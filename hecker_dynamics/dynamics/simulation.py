@@ -29,6 +29,7 @@ import numpy as np
 from ..contact.events import Impact, WallEvents
 from ..contact.joints import MOST_SUBSTEPS, UNSOLVED, UNSOLVED_ADVICE, JointsUnsolved
 from ..geometry.planar import wrap_angles_in_place
+from ..geometry.shapes import energy_of_motion
 from ..integrators.methods import (
     EmbeddedRungeKutta,
     ExplicitEuler,
@@ -472,8 +473,7 @@ class Simulation:
         h = self.step_seconds
         speed = math.hypot(vx, vy) + force * h / mass
         turn = abs(spin) + (abs(command.torque) + lever * force) * h / inertia
-        # MassProperties.energy_of_motion's operations, in plain floats.
-        if not math.isfinite(0.5 * mass * speed * speed + 0.5 * inertia * turn * turn):
+        if not math.isfinite(energy_of_motion(mass, inertia, speed, turn)):
             raise InputError(
                 f"wrench for body '{command.body}' from '{command.source}' would give it an "
                 f"energy of motion past what a double holds after one step of {h:g} s "

@@ -22,7 +22,8 @@ import numpy as np
 from .planar import perp_dot
 
 __all__ = ["GeometryError", "Polygon", "Circle", "Shape", "box", "AreaProperties", "MassProperties",
-           "is_simple", "is_convex", "area_properties", "mass_properties"]
+           "is_simple", "is_convex", "area_properties", "mass_properties",
+           "energy_of_motion"]
 
 
 class GeometryError(ValueError):
@@ -100,12 +101,16 @@ class MassProperties:
     moment_of_inertia: float
 
     def energy_of_motion(self, speed: float, spin: float) -> float:
-        """1/2 M v^2 + 1/2 I omega^2 of the body moving its CM at ``speed`` and turning
-        at ``spin``, I its moment of inertia about the CM (Eq. 13): ``inf`` where no double
-        holds it."""
-        speed, spin = float(speed), float(spin)  # plain floats overflow to inf quietly
-        return 0.5 * float(self.mass) * speed * speed + \
-            0.5 * float(self.moment_of_inertia) * spin * spin
+        """:func:`energy_of_motion` of this body."""
+        return energy_of_motion(float(self.mass), float(self.moment_of_inertia),
+                                float(speed), float(spin))
+
+
+def energy_of_motion(mass: float, moment_of_inertia: float, speed: float, spin: float) -> float:
+    """1/2 M v^2 + 1/2 I omega^2 of a body of ``mass`` moving its CM at ``speed`` and
+    turning at ``spin``, I its moment of inertia about the CM (Eq. 13): ``inf`` where no
+    double holds it. Plain floats (not numpy's), which overflow to inf quietly."""
+    return 0.5 * mass * speed * speed + 0.5 * moment_of_inertia * spin * spin
 
 
 def _segments_cross(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
