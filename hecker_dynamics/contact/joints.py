@@ -40,9 +40,12 @@ some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
 (:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
 its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
 (:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
-error. A step that needs none of this is RATTLE's, unchanged; a run whose steps take
-different numbers of parts is not symplectic, and its energy can drift (docs/scenes.md,
-steps in parts).
+error. Where a step needed halves, the next steps start in as many parts as it needed, and
+try half as many after :data:`SETTLED_STEPS` steps that needed no more
+(:meth:`JointPass.remember`): a fast long chain's steps in a row have no solution whole,
+and each whole attempt that fails costs about as much as a part solved. A step that needs
+none of this is RATTLE's, unchanged; a run whose steps take different numbers of parts is
+not symplectic, and its energy can drift (docs/scenes.md, steps in parts).
 
 The rigid rows of a stage are one block solved exactly; rows with bounds (limits, motors,
 ropes) join the block where they hold their equations and sit at their bounds elsewhere,
@@ -118,7 +121,7 @@ if TYPE_CHECKING:
     from .joints_kernel import CompiledJoints
 
 __all__ = ["UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
-           "MOST_SUBSTEPS"]
+           "MOST_SUBSTEPS", "SETTLED_STEPS"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -134,6 +137,9 @@ CHORD = 0.125
 MAX_TURN = 0.1
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
+#: Steps in a row that stage 1 solves in the parts remembered from an earlier failure
+#: (:meth:`JointPass.remember`) before a step tries half as many again.
+SETTLED_STEPS = 4
 DRIFT_ITERATIONS = 8
 #: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast
 #: turns leave no solution near a part's end; joined masses far apart (the measured limit
@@ -370,17 +376,20 @@ class JointPass:
         self.extra = [0.0] * len(self.keys)
         self.newton = None
         self.step_h = 1.0
+        #: The parts a step starts in (:meth:`remember`), the steps in a row that needed no
+        #: more, and the parts the step under way has needed so far.
+        self.remembered, self.settled_steps, self.needed = 1, 0, 1
 
     def export_state(self) -> dict[str, Any]:
         """What the pass carries from step to step, as plain data: the start pose, the
         counted joint angles, the warm-start impulses and Newton multipliers with the step
-        they were taken over, the efforts and motor speeds."""
+        they were taken over, the parts remembered, the efforts and motor speeds."""
         return {"initial": None if self._initial is None else self._initial.tolist(),
                 "angle": dict(self.angle) if self._initial is not None else {},
                 "raw": dict(self.raw) if self._initial is not None else {},
                 "warm": [[list(key), value] for key, value in zip(self.keys, self.warm)],
                 "newton": None if self.newton is None else list(self.newton),
-                "step_h": self.step_h,
+                "step_h": self.step_h, "parts": [self.remembered, self.settled_steps],
                 "extra": [[list(key), value] for key, value in zip(self.keys, self.extra)],
                 "efforts": dict(self.efforts), "motor_speed": dict(self.motor_speed)}
 
@@ -399,6 +408,7 @@ class JointPass:
         self.newton = (None if state["newton"] is None
                         else [float(x) for x in state["newton"]])
         self.step_h = float(state.get("step_h", self.step_h))
+        self.remembered, self.settled_steps = (int(n) for n in state.get("parts", (1, 0)))
         self.efforts = {k: float(x) for k, x in state["efforts"].items()}
         self.motor_speed.update({k: float(x) for k, x in state["motor_speed"].items()})
 
@@ -531,6 +541,19 @@ class JointPass:
             return 1
         parts = turn / self.max_turn
         return MOST_SUBSTEPS if parts >= MOST_SUBSTEPS else max(math.ceil(parts), 2)
+
+    def remember(self) -> None:
+        """After a whole step (:attr:`needed`: the most parts a failure of stage 1 asked
+        for): where it needed more parts than :attr:`remembered`, the next steps start in
+        that many; after :data:`SETTLED_STEPS` steps in a row that needed no more, in half
+        as many."""
+        if self.needed > self.remembered:
+            self.remembered, self.settled_steps = self.needed, 0
+        elif self.remembered > 1:
+            self.settled_steps += 1
+            if self.settled_steps == SETTLED_STEPS:
+                self.remembered, self.settled_steps = self.remembered // 2, 0
+        self.needed = 1
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """Constrain the step from ``q0`` to (``q1``, ``v1``) of length ``h``; updates

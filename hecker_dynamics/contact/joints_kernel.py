@@ -102,7 +102,7 @@ class CompiledJoints:
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)
-                               + 2 * len(joint_pass.keys) + rigid + 2)
+                               + 2 * len(joint_pass.keys) + rigid + 4)
 
     def load(self) -> None:
         """The Python pass's state into the kernel."""
@@ -118,7 +118,7 @@ class CompiledJoints:
                        p.motor_speed.get(name, 0.0)]
         newton = p.newton
         values += p.warm + (newton if newton is not None else [0.0] * len(p.rigid)) + p.extra
-        values += [0.0 if newton is None else 1.0, p.step_h]
+        values += [0.0 if newton is None else 1.0, p.step_h, p.remembered, p.settled_steps]
         self._state[:] = values
         _kernel.joint_state(self.kernel, state=self._state, load=True)
 
@@ -135,7 +135,8 @@ class CompiledJoints:
         rows, rigid = len(p.keys), len(p.rigid)
         newton = values[at + rows: at + rows + rigid]
         p.extra = values[at + rows + rigid: at + 2 * rows + rigid]
-        p.restore(values[at: at + rows], newton if values[-2] != 0.0 else None, values[-1])
+        p.remembered, p.settled_steps = int(values[-2]), int(values[-1])
+        p.restore(values[at: at + rows], newton if values[-4] != 0.0 else None, values[-3])
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
         """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does."""

@@ -762,15 +762,18 @@ class Simulation:
 
     def _constrained_step(self, f: Callable[[np.ndarray, np.ndarray], np.ndarray],
                           q: np.ndarray, v: np.ndarray, h: float, start: float,
-                          room: int = MOST_SUBSTEPS) -> tuple[np.ndarray, np.ndarray]:
+                          room: int = MOST_SUBSTEPS, pieces: int = 1
+                          ) -> tuple[np.ndarray, np.ndarray]:
         """One integrator step of ``h`` and the joint pass, taken in equal parts when a
         joint's arm would turn further in it than the pass allows
         (:meth:`~..contact.joints.JointPass.parts`), in halves when the pass finds no
         solution near its end (:class:`~..contact.joints.JointsUnsolved`), each part the
         same way; ``room``: how many parts this step may still be cut into, in all (a
-        step in :data:`~..contact.joints.MOST_SUBSTEPS` at most). Soft joints
-        (:mod:`~..contact.soft_joints`) take every step in their equal sub-steps instead,
-        each a free step and their pass."""
+        step in :data:`~..contact.joints.MOST_SUBSTEPS` at most); ``pieces``: how many
+        parts of the whole step this one is. A whole step starts in the parts the pass
+        remembers from the last steps' halves (:meth:`~..contact.joints.JointPass.remember`).
+        Soft joints (:mod:`~..contact.soft_joints`) take every step in their equal
+        sub-steps instead, each a free step and their pass."""
         joints = self.model.joints
         if joints is not None and joints.substeps:
             part = h / joints.substeps
@@ -782,19 +785,26 @@ class Simulation:
         q1, v1 = self._free_step(f, q, v, h, start)
         if joints is None:
             return q1, v1
-        parts = min(joints.parts(q, q1), room)
+        whole = room == MOST_SUBSTEPS
+        parts = min(max(joints.parts(q, q1), joints.remembered if whole else 1), room)
         if parts == 1:
             try:
                 joints.resolve(q, q1, v1, h)
+                if whole:
+                    joints.remember()
                 return q1, v1
             except JointsUnsolved as error:
                 if room < 2:
                     raise IntegrationError(f"{UNSOLVED} ({error}): {UNSOLVED_ADVICE}"
                                            ) from error
             parts = 2
+            joints.needed = max(joints.needed, 2 * pieces)
         part = h / parts
         for k in range(parts):
-            q, v = self._constrained_step(f, q, v, part, start + k * part, room // parts)
+            q, v = self._constrained_step(f, q, v, part, start + k * part, room // parts,
+                                          pieces * parts)
+        if whole:
+            joints.remember()
         return q, v
 
     def _free_step(self, f: Callable[[np.ndarray, np.ndarray], np.ndarray], q: np.ndarray,

@@ -174,7 +174,7 @@ fail:
  * step's length. */
 static Py_ssize_t hd_joint_state_length(const hd_joint_model *m)
 {
-    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 2;
+    return HD_JOINT_STATE * m->joint_count + 2 * m->row_count + m->rigid_count + 4;
 }
 
 PyDoc_STRVAR(joint_state_doc,
@@ -222,12 +222,15 @@ static PyObject *hd_py_joint_state(PyObject *self, PyObject *const *args, Py_ssi
         memcpy(m->extra, s + m->row_count + m->rigid_count, warm);
         m->newton_valid = s[flags] != 0.0;
         m->last_h = s[flags + 1];
+        m->remembered = (long)s[flags + 2], m->settled_steps = (long)s[flags + 3];
+        m->needed = 1;
     } else {
         memcpy(s, m->warm, warm);
         memcpy(s + m->row_count, m->newton, newton);
         memcpy(s + m->row_count + m->rigid_count, m->extra, warm);
         s[flags] = m->newton_valid ? 1.0 : 0.0;
         s[flags + 1] = m->last_h;
+        s[flags + 2] = (double)m->remembered, s[flags + 3] = (double)m->settled_steps;
     }
     PyBuffer_Release(&view);
     Py_RETURN_NONE;

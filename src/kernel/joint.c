@@ -776,6 +776,18 @@ static void hd_velocities(hd_joint_model *m, double h)
     m->last_h = h;
 }
 
+void hd_joints_remember(hd_joint_model *m)
+{
+    if (m->needed > m->remembered) {
+        m->remembered = m->needed, m->settled_steps = 0;
+    } else if (m->remembered > 1) {
+        m->settled_steps += 1;
+        if (m->settled_steps == HD_SETTLED_STEPS)
+            m->remembered = m->remembered / 2, m->settled_steps = 0;
+    }
+    m->needed = 1;
+}
+
 long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1)
 {
     double turn = 0.0;
@@ -894,6 +906,7 @@ int hd_joints_prepare(hd_joint_model *m)
         return HD_JOINTS_OUT_OF_MEMORY;
     }
     m->angles = m->trig + 2 * nb;
+    m->remembered = m->needed = 1, m->settled_steps = 0;
     for (long b = 0; b < nb; ++b)
         m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
     const long n = hd_joint_rows(m, zero, 1.0, probe, 0);

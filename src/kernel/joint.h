@@ -25,6 +25,7 @@
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
 #define HD_MOST_SUBSTEPS 1024L
+#define HD_SETTLED_STEPS 4
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
 
 enum hd_joint_kind { HD_REVOLUTE = 0, HD_PRISMATIC = 1, HD_WELD = 2, HD_ROD = 3, HD_ROPE = 4,
@@ -95,6 +96,9 @@ typedef struct hd_joint_model {
     double *extra, *settled;
     int newton_valid;
     double last_h;
+    /* JointPass.remembered, settled_steps and needed: the parts a whole step starts in, the
+     * steps in a row that needed no more, and the parts the step under way has needed. */
+    long remembered, settled_steps, needed;
     double first_error;  /* JointPass.first_error */
     /* Whether the last pass ended well: m->q, m->rows and m->dir are its final pose, rows
      * and directions (hd_joints_resolve starts from them when it may). */
@@ -156,6 +160,8 @@ void hd_joint_rows_again(hd_joint_model *m);
 /* The pass's final m->q and m->v into the model's q1 and v1 of all bodies; marks m->q, m->rows
  * and m->dir the final pose, rows and directions (m->ended). */
 void hd_joint_ended(hd_joint_model *m, double *q1, double *v1);
+/* contact/joints.py: JointPass.remember, after a whole step. */
+void hd_joints_remember(hd_joint_model *m);
 /* contact/joints.py: JointPass.parts, for the model's q0 and q1 of all bodies. */
 long hd_joints_parts(const hd_joint_model *m, const double *q0, const double *q1);
 /* contact/joints.py: JointPass.resolve on the model's (q0, q1, v1) of all bodies, q1 and v1 in

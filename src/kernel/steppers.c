@@ -316,27 +316,36 @@ static int hd_soft_step(hd_run *s, hd_joint_model *joints, const double *q, cons
 /* One step of the method and the joint pass (joint.h; `joints` NULL: none), as
  * dynamics/simulation.py: Simulation._constrained_step takes them: in equal parts when a joint's
  * arm would turn too far (hd_joints_parts), in halves when the joints have no solution near the
- * step's end, each part the same way; `room`: how many parts this step may still be cut into
- * (HD_MOST_SUBSTEPS at the top), `level`: how deep this part is. `s->levels` holds two states per
- * level for the parts' ends. */
+ * step's end, each part the same way, a whole step in at least the parts the joints remember
+ * (hd_joints_remember); `room`: how many parts this step may still be cut into
+ * (HD_MOST_SUBSTEPS at the top), `pieces`: how many parts of the whole step this one is,
+ * `level`: how deep this part is. `s->levels` holds two states per level for the parts' ends. */
 static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *q,
                                const double *v, double *q1, double *v1, double h, long room,
-                               int level)
+                               long pieces, int level)
 {
     if (joints != NULL && joints->substeps > 0)
         return hd_soft_step(s, joints, q, v, q1, v1, h);
     int status = hd_one_step(s, q, v, q1, v1, h);
     if (status != HD_ADVANCED || joints == NULL)
         return status;
+    const int whole = room == HD_MOST_SUBSTEPS;
     long parts = hd_joints_parts(joints, q, q1);
+    if (whole && joints->remembered > parts)
+        parts = joints->remembered;
     parts = parts < room ? parts : room;
     if (parts == 1) {
         switch (hd_joints_resolve(joints, q, q1, v1, h)) {
-        case HD_JOINTS_OK: return HD_ADVANCED;
+        case HD_JOINTS_OK:
+            if (whole)
+                hd_joints_remember(joints);
+            return HD_ADVANCED;
         case HD_JOINTS_UNSOLVED:
             if (room < 2)
                 return HD_UNSOLVED_JOINTS;
             parts = 2;
+            if (2 * pieces > joints->needed)
+                joints->needed = 2 * pieces;
             break;
         default: return HD_OUT_OF_MEMORY;
         }
@@ -347,12 +356,14 @@ static int hd_constrained_step(hd_run *s, hd_joint_model *joints, const double *
     const double *from_q = q, *from_v = v;
     for (long k = 0; k < parts; ++k) {
         if ((status = hd_constrained_step(s, joints, from_q, from_v, q1, v1, part, room / parts,
-                                          level + 1)) != HD_ADVANCED)
+                                          pieces * parts, level + 1)) != HD_ADVANCED)
             return status;
         memcpy(q_part, q1, (size_t)n3 * sizeof(double));
         memcpy(v_part, v1, (size_t)n3 * sizeof(double));
         from_q = q_part, from_v = v_part;
     }
+    if (whole)
+        hd_joints_remember(joints);
     return HD_ADVANCED;
 }
 
@@ -384,7 +395,7 @@ static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model 
                                  double h, double *spare)
 {
     const long n3 = s->f->n3;
-    int status = hd_constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 0);
+    int status = hd_constrained_step(s, joints, q, v, q1, v1, h, HD_MOST_SUBSTEPS, 1, 0);
     if (status != HD_ADVANCED)
         return status;
     const long parts = hd_substeps(m, q, q1);
@@ -397,7 +408,7 @@ static int hd_step_with_contacts(hd_run *s, hd_contact_model *m, hd_joint_model 
     const double part = h / (double)parts;
     for (long k = 0; k < parts; ++k) {
         if ((status = hd_constrained_step(s, joints, q_part, v_part, q_next, v_next, part,
-                                          HD_MOST_SUBSTEPS, 0))
+                                          HD_MOST_SUBSTEPS, 1, 0))
                 != HD_ADVANCED)
             return status;
         if (hd_resolve(m, q_next, v_next, q_part, v_part, part) < 0)
@@ -505,7 +516,7 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
         }
         status = contacts == NULL
                  ? hd_constrained_step(&stepper, joints, cur_q, cur_v, next_q, next_v, h,
-                                       HD_MOST_SUBSTEPS, 0)
+                                       HD_MOST_SUBSTEPS, 1, 0)
                  : hd_step_with_contacts(&stepper, contacts, joints, cur_q, cur_v, next_q, next_v,
                                          h, spare);
         if (status != HD_ADVANCED)

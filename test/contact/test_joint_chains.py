@@ -19,7 +19,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
-from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS
+from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
@@ -121,21 +121,64 @@ def test_the_kernel_and_python_give_the_same_bits_where_steps_go_in_parts():
 def test_the_old_failure_in_python_and_in_the_kernel_gives_the_same_bits():
     """From the kernel's state at 6.8 s, the 50-link chain's old failure (6.87 s) is taken
     in parts the same way by Python and by the kernel."""
-    sim = Simulation(chain(50, 1.0 / 240.0, 10.0))
-    sim.advance_to(round(6.8 * SECOND), keep=False)
+    (q1, v1, work1), (q2, v2, work2) = (
+        (sim.q, sim.v, sim.integrator.counters.evaluations - before)
+        for sim, _, before in _continued(50, 1.0 / 240.0, 6.8, 6.95))
+    assert work1 == work2 > 2 * 36  # 36 steps of two evaluations, some in parts
+    assert np.array_equal(q1, q2) and np.array_equal(v1, v2)
+
+
+def _continued(links: int, step: float, start: float,
+               end: float) -> list[tuple[Simulation, dict, int]]:
+    """The chain run by the kernel to ``start`` (s), then from its exported state to ``end``
+    by the kernel and by Python: each simulation, the state it started from and its
+    evaluations then."""
+    sim = Simulation(chain(links, step, 10.0))
+    sim.advance_to(round(start * SECOND), keep=False)
     state = sim.export_state()
     ends = []
     for python in (False, True):
-        other = Simulation(chain(50, 1.0 / 240.0, 10.0))
+        other = Simulation(chain(links, step, 10.0))
         if python:
             other.model.use_python()
         other.import_state(state)
         before = other.integrator.counters.evaluations
-        other.advance_to(round(6.95 * SECOND), keep=False)
-        ends.append((other.q, other.v, other.integrator.counters.evaluations - before))
-    (q1, v1, work1), (q2, v2, work2) = ends
-    assert work1 == work2 > 2 * 36  # 36 steps of two evaluations, some in parts
+        other.advance_to(round(end * SECOND), keep=False)
+        ends.append((other, state, before))
+    return ends
+
+
+@needs_kernel
+def test_the_parts_remembered_carry_over_alike_in_python_and_in_the_kernel():
+    """The 200-link chain at h = 1/60 s stalls whole from about 1 s: from a state the kernel
+    left with the parts remembered, Python and the kernel take the next steps in the same
+    parts, to the same bits, and remember the same."""
+    ends = _continued(200, 1.0 / 60.0, 1.5, 1.6)
+    assert ends[0][1]["joints"]["parts"][0] > 1
+    (q1, v1, *kept1), (q2, v2, *kept2) = (
+        (sim.q, sim.v, sim.model.joints.remembered, sim.model.joints.settled_steps)
+        for sim, _, _ in ends)
+    assert kept1 == kept2
     assert np.array_equal(q1, q2) and np.array_equal(v1, v2)
+
+
+def test_a_step_that_needed_halves_leaves_its_parts_to_the_next_steps():
+    """remember(): the most parts a step's failures asked for stay until SETTLED_STEPS steps
+    in a row needed no more, then halve."""
+    joints = Simulation(chain(2, 1.0 / 240.0, 1.0)).model.joints
+    assert (joints.remembered, joints.settled_steps, joints.needed) == (1, 0, 1)
+    joints.needed = 8
+    joints.remember()
+    kept = [(joints.remembered, joints.settled_steps, joints.needed)]
+    for _ in range(SETTLED_STEPS + 1):
+        joints.remember()
+        kept.append((joints.remembered, joints.settled_steps))
+    assert kept == [(8, 0, 1)] + [(8, k) for k in range(1, SETTLED_STEPS)] + [(4, 0), (4, 1)]
+    joints.needed = 2  # no more than remembered: one more step settled
+    joints.remember()
+    assert (joints.remembered, joints.settled_steps) == (4, 2)
+    joints.forget()
+    assert (joints.remembered, joints.settled_steps, joints.needed) == (1, 0, 1)
 
 
 def _names(links: int, naming: str):

@@ -125,7 +125,8 @@ def test_the_joint_binding_takes_its_per_step_arguments_by_name():
     assert np.array_equal(by_name[0], by_position[0]) and not np.array_equal(by_name[0], q1)
     assert np.array_equal(by_name[1], by_position[1])
     loaded, state = np.arange(saved.size, dtype=np.float64) * 0.25, np.zeros_like(saved)
-    loaded[-2] = 1.0  # the flag of set multipliers reads back as 0.0 or 1.0
+    loaded[-4] = 1.0  # the flag of set multipliers reads back as 0.0 or 1.0
+    loaded[-2:] = 6.0, 2.0  # the parts remembered and the steps since: whole numbers
     _kernel.joint_state(capsule, state=loaded, load=True)
     _kernel.joint_state(capsule, state=state, load=False)
     assert np.array_equal(state, loaded)
@@ -142,10 +143,11 @@ def test_kernel_has_the_joint_constants():
     assert (k.JOINT_TOLERANCE, k.JOINT_CONVERGED, k.JOINT_NEWTON_ITERATIONS,
             k.JOINT_DRIFT_ITERATIONS, k.JOINT_MAX_ITERATIONS, k.JOINT_ROUNDING,
             k.JOINT_MAX_TURN, k.JOINT_MOST_SUBSTEPS, k.JOINT_DEPENDENT, k.JOINT_CHORD,
-            k.JOINT_ACTIVE_SETS) == \
+            k.JOINT_ACTIVE_SETS, k.JOINT_SETTLED_STEPS) == \
         (joints.TOLERANCE, joint_solve.CONVERGED, joints.NEWTON_ITERATIONS,
          joints.DRIFT_ITERATIONS, joint_solve.MAX_ITERATIONS, joints.ROUNDING, joints.MAX_TURN,
-         joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joint_solve.ACTIVE_SETS)
+         joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joint_solve.ACTIVE_SETS,
+         joints.SETTLED_STEPS)
 
 
 def test_a_repeated_pin_is_dropped_and_the_rod_swings_as_on_one_pin():
