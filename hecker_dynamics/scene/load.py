@@ -287,8 +287,11 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
         candidate = directory / f"{name_or_path}.yaml"
         if candidate.is_file():
             return candidate
-    raise SceneError(f"no shipped scene called '{name_or_path}' "
-                     f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
+    shipped = f"(shipped: {', '.join(shipped_scenes()) or 'none found'})"
+    if path.is_dir():
+        raise SceneError(f"{path}: is a directory, not a scene file, and no shipped scene is "
+                         f"called so {shipped}")
+    raise SceneError(f"no shipped scene called '{name_or_path}' {shipped}")
 
 
 def scene_summary(name_or_path: Union[str, os.PathLike[str], None]) -> str:
