@@ -229,19 +229,32 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
 
 
 def _twist_places(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],
-                  offset: int) -> list[int]:
+                  offset: int) -> list[tuple[int, str]]:
     """The index in ``replayed`` of each recorded twist, the first at ``offset``, each next
     one after the last, at the first of :data:`LOST_TWISTS` + 1 places on that matches it
-    bit for bit, else right after the last."""
-    places = []
+    bit for bit, else right after the last; with a fault ("" for none). A twist that matches
+    none of those places but one of as many before is out of place, or recorded twice when
+    an earlier twist took that place: the next one is sought where it would have been, so
+    one twist moved does not shift every later comparison by a place."""
+    places: list[tuple[int, str]] = []
+    taken: set[int] = set()
     place = offset
     for message in messages:
         if place >= 0:  # before the replay's first snapshot a twist stays unchecked
-            for later in range(place, min(place + LOST_TWISTS + 1, len(replayed))):
-                if raw[id(replayed[later])] == message.raw:
-                    place = later
-                    break
-        places.append(place)
+            ahead = range(place, min(place + LOST_TWISTS + 1, len(replayed)))
+            found = next((p for p in ahead if raw[id(replayed[p])] == message.raw), None)
+            if found is None:
+                behind = range(min(place, len(replayed)) - 1,
+                               max(place - LOST_TWISTS - 2, -1), -1)
+                back = next((p for p in behind if raw[id(replayed[p])] == message.raw), None)
+                if back is not None:
+                    places.append((back, "is recorded twice" if back in taken else
+                                   "comes after a later one: out of place"))
+                    continue
+            else:
+                place = found
+        taken.add(place)
+        places.append((place, ""))
         place += 1
     return places
 
@@ -835,8 +848,10 @@ def _match_twists(topic: str, twists: list[BagMessage], outputs: list[tuple[int,
                     if s is not None), key=lambda item: item[0].log_ns)
     places = _twist_places(twists, replayed, raw,
                            _twist_offset(twists, replayed, raw, poses))
-    for message, place in zip(twists, places):
-        if place < 0:
+    for message, (place, fault) in zip(twists, places):
+        if fault:
+            coverage.fail(f"{topic}: the twist logged at {seconds(message.log_ns)} s {fault}")
+        elif place < 0:
             early[topic].append(message)
         elif place >= len(replayed):
             coverage.fail(f"{topic}: the twist logged at {seconds(message.log_ns)} s comes "

@@ -106,6 +106,8 @@ def _start_worker(pipe: Connection) -> None:
     _stop_pipe = pipe
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _on_signal)
+    # The fork server started with both blocked (see _start_fork_server).
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
 
 def _on_signal(signum: int, frame: object) -> None:
@@ -215,8 +217,33 @@ def _start_context() -> multiprocessing.context.BaseContext:
     if "forkserver" in multiprocessing.get_all_start_methods():
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload([TASK_MODULE])
+        _start_fork_server()
         return context
     return multiprocessing.get_context("spawn")
+
+
+def _start_fork_server() -> None:
+    """Start the fork server with Ctrl-C and SIGTERM ignored, which it keeps through its
+    ``exec``: a SIGTERM to the whole process group (a CI runner ending a job, ``kill --
+    -PGID``) ended it under its running workers; the pool then took them for dead,
+    neither waited for nor killed them, and each, its task stopped, waited for tasks
+    forever, holding the command's output open. (It ignores Ctrl-C itself once it has
+    imported the task module; before, one printed a traceback of that import.) Both are
+    blocked meanwhile, so one sent to the command then is taken after, not lost. In the
+    main thread only; elsewhere the fork server starts on first use."""
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    held = (signal.SIGINT, signal.SIGTERM)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    previous = {signum: signal.signal(signum, signal.SIG_IGN) for signum in held}
+    try:
+        forkserver.ensure_running()
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 class DaskCluster:

@@ -287,8 +287,11 @@ def scene_path(name_or_path: Union[str, os.PathLike[str], None]) -> Path:
         candidate = directory / f"{name_or_path}.yaml"
         if candidate.is_file():
             return candidate
-    raise SceneError(f"no shipped scene called '{name_or_path}' "
-                     f"(shipped: {', '.join(shipped_scenes()) or 'none found'})")
+    shipped = f"(shipped: {', '.join(shipped_scenes()) or 'none found'})"
+    if path.is_dir():
+        raise SceneError(f"{path}: is a directory, not a scene file, and no shipped scene is "
+                         f"called so {shipped}")
+    raise SceneError(f"no shipped scene called '{name_or_path}' {shipped}")
 
 
 def scene_summary(name_or_path: Union[str, os.PathLike[str], None]) -> str:
@@ -796,6 +799,7 @@ def _read_joints(root: ParameterReader, bodies: Mapping[str, BodySpec],
         joints.append(read_joint(name, kind, reader, bodies, points, fixed))
         readers[name] = reader
     _check_rods(joints, bodies, readers)
+    _check_loops(joints, bodies, readers)
     revolute = [joint.name for joint in joints if isinstance(joint, RevoluteJoint)]
     joints += [read_gear(name, reader, revolute) for name, reader in gears]
     return tuple(sorted(joints, key=lambda j: j.name))
@@ -848,6 +852,96 @@ def _check_rods(joints: Sequence[JointSpec], bodies: Mapping[str, BodySpec],
                     f"{low:.6g} to {high:.6g} m apart"
                 readers[rod.name].fail("length", f"{rod.length:g} m is out of reach: {held}, "
                                                  f"so the rod's points stay {span}")
+
+
+#: A point of a body in its frame (None: a fixed-frame point), as a node of the joints' graph.
+_Node = tuple[Optional[str], Vec2]
+
+
+def _check_loops(joints: Sequence[JointSpec], bodies: Mapping[str, BodySpec],
+                 readers: Mapping[str, ParameterReader]) -> None:
+    """Refuse a rod that a loop of other joints never lets reach its length (a four-bar
+    linkage whose coupler rod is too long, a triangle of rods 1, 1 and 5 m): loaded, the
+    joint pass tore the loop's pins open by metres without a word.
+
+    Along a path of joints from one of the rod's points to the other, each body holds the
+    points where the path enters and leaves it a fixed distance apart, a pin joins its
+    points, a rigid weld holds them as far apart as they start and another rod at its
+    length (sliders, ropes and soft welds give no bound). However the path turns, its ends
+    stay between 2 m - s and s apart, s the sum of those distances and m the longest: the
+    rod's length must lie there for the shortest such path."""
+    rods = [j for j in joints if isinstance(j, DistanceJoint) and not j.rope]
+    if not rods:
+        return
+    links: dict[_Node, list[tuple[_Node, float, str]]] = {}
+    on_body: dict[Optional[str], set[Vec2]] = {}
+    for joint in joints:
+        if isinstance(joint, RevoluteJoint):
+            gap = 0.0
+        elif isinstance(joint, WeldJoint) and joint.frequency == 0.0:
+            gap = math.dist(*_start(joint, bodies))
+        elif isinstance(joint, DistanceJoint) and not joint.rope:
+            gap = joint.length
+        else:
+            continue
+        end_a, end_b = (joint.body_a, joint.point_a), (joint.body_b, joint.point_b)
+        links.setdefault(end_a, []).append((end_b, gap, joint.name))
+        links.setdefault(end_b, []).append((end_a, gap, joint.name))
+        for body, point in (end_a, end_b):
+            on_body.setdefault(body, set()).add(point)
+    for rod in rods:
+        path = _shortest_path(links, on_body, (rod.body_a, rod.point_a),
+                              (rod.body_b, rod.point_b), rod.name)
+        if path is None:
+            continue
+        lengths = [length for length, _ in path]
+        high = sum(lengths)
+        low = max(0.0, 2.0 * max(lengths) - high)
+        if not low - 1e-6 <= rod.length <= high + 1e-6:
+            names = ", ".join(f"'{name}'" for _, name in path if name is not None)
+            span = f"{high:.6g} m apart" if high - low <= 1e-6 else \
+                f"{low:.6g} to {high:.6g} m apart"
+            readers[rod.name].fail("length", f"{rod.length:g} m is out of reach: the loop "
+                                             f"through {names} holds the rod's points {span}")
+
+
+def _shortest_path(links: Mapping[_Node, list[tuple[_Node, float, str]]],
+                   on_body: Mapping[Optional[str], set[Vec2]], start: _Node, end: _Node,
+                   without: str) -> Optional[list[tuple[float, Optional[str]]]]:
+    """The shortest path of joints (all but ``without``) and bodies from ``start`` to
+    ``end`` as its lengths, each with its joint's name (None: across a body); None when
+    no path joins them (Dijkstra's)."""
+    import heapq
+
+    best: dict[_Node, float] = {start: 0.0}
+    came: dict[_Node, tuple[_Node, float, Optional[str]]] = {}
+    queue: list[tuple[float, int, _Node]] = [(0.0, 0, start)]
+    pushed = 1
+    while queue:
+        distance, _, node = heapq.heappop(queue)
+        if node == end:
+            path: list[tuple[float, Optional[str]]] = []
+            while node != start:
+                node, length, name = came[node]
+                path.append((length, name))
+            return path[::-1]
+        if distance > best[node]:
+            continue
+        body, point = node
+        steps: list[tuple[_Node, float, Optional[str]]] = [
+            (other, length, name) for other, length, name in links.get(node, [])
+            if name != without]
+        across = set(on_body.get(body, ()))
+        if body == end[0]:
+            across.add(end[1])
+        steps += [((body, other), math.dist(point, other), None) for other in across]
+        for target, length, name in steps:
+            if target != node and distance + length < best.get(target, math.inf):
+                best[target] = distance + length
+                came[target] = (node, length, name)
+                heapq.heappush(queue, (distance + length, pushed, target))
+                pushed += 1
+    return None
 
 
 def read_gear(name: str, reader: ParameterReader, revolute: Sequence[str]) -> GearJoint:

@@ -130,6 +130,10 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     count = reader.number("count", 360, minimum=1.0, maximum=MAX_RAYS)
     if not count.is_integer():
         reader.fail("count", f"must be a whole number, not {count}")
+    if count == 1.0 and angle_max != angle_min:
+        # A scan of it would claim angle_max, which no ray reaches (angle_increment 0).
+        reader.fail("count", f"one ray is cast at angle_min ({angle_min}); give angle_max "
+                             f"equal to it, not {angle_max}, or count 2 or more")
     range_min = reader.number("range_min", 0.0, minimum=0.0)
     range_max = reader.number("range_max", 10.0, positive=True)
     if range_max <= range_min:

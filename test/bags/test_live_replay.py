@@ -389,3 +389,47 @@ def test_cmd_vel_commands_are_recorded_and_a_replay_without_them_differs(tmp_pat
     assert len(speeds) > 10  # the robot followed the commands
     monkeypatch.setattr("hecker_dynamics.ros.runner.take_cmd_vel", lambda *args: [])
     assert not _check(scene, path).ok
+
+
+def _rewritten(source: Path, path: Path, change) -> Path:
+    """The recording at ``source`` written again with ``change`` applied to its messages'
+    (topic, log time, bytes) in log order."""
+    bag = read_bag(source)
+    rows = change([(m.topic, m.log_ns, m.raw) for m in bag.messages])
+    with bags.BagWriter(path, "mcap") as writer:
+        for topic, msgtype in bag.topics.items():
+            writer.add_topic(topic, msgtype)
+        for topic, log_ns, raw in sorted(rows, key=lambda row: row[1]):
+            writer.write_raw(topic, log_ns, raw)
+    return path
+
+
+@pytest.mark.parametrize("tamper,problem", [
+    ("swap", "comes after a later one: out of place"), ("repeat", "is recorded twice")])
+def test_a_twist_out_of_place_is_named_and_the_rest_compared(tmp_path, tamper, problem):
+    """Two twists swapped in log order were reported as the topic's last twist coming
+    "after the last one the node published", with every twist after the swap compared with
+    the next one's values (velocity differences of 13.7 m/s). The twist out of place, or
+    recorded twice, is named; the others are compared where they belong."""
+    scene = load_scene("sample")
+    session = run_live(scene, 25)
+    honest = record(session, tmp_path / "live", 25)
+    twists = [m.log_ns for m in read_bag(honest).on("/left/twist")]
+    first, second = next((a, b) for a, b in zip(twists[30:], twists[31:]) if a < b)
+
+    def change(rows):
+        if tamper == "repeat":
+            return rows + [(t, second + 1, raw) for t, log, raw in rows
+                           if t == "/left/twist" and log == first]
+        swapped = {first: second, second: first}
+        return [(t, swapped.get(log, log) if t == "/left/twist" else log, raw)
+                for t, log, raw in rows]
+
+    check = _check(scene, _rewritten(honest, tmp_path / "tampered", change))
+    assert not check.ok
+    moved = second if tamper == "swap" else second + 1
+    assert check.problems == [f"/left/twist: the twist logged at {moved * 1e-9:.9f} s "
+                              f"{problem}"], check.problems
+    report = {t.topic: t for t in check.report.topics}["/left/twist"]
+    assert report.matched == len(twists) - (tamper == "swap")
+    assert check.report.largest()["velocity"] == 0.0

@@ -2,6 +2,7 @@
 at a safe point when the sweep is stopped."""
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -65,19 +66,24 @@ def _alive(pid: int) -> bool:
 @pytest.mark.parametrize("signum, status, line", [
     (signal.SIGTERM, 143, "hecker-dynamics: terminated"),
     (signal.SIGINT, 130, "hecker-dynamics: interrupted")])
-def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, line):
+@pytest.mark.parametrize("group", [False, True], ids=["command", "group"])
+def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, line, group):
     """A sweep stopped mid-variant (SIGTERM from a CI timeout, or Ctrl-C) ends in one line
     with the shell's status, its pool workers and fork server with it: before, Ctrl-C
     waited for the running variant (minutes for a long one), and after SIGTERM the worker
     ran on as an orphan until its variant ended. The worker stops at a publish instant and
     removes what it had begun: the bags folder is left empty, the partial file holds no
-    cut row."""
+    cut row. The signal sent to the whole process group (a terminal's Ctrl-C; a CI runner
+    or ``kill -- -PGID`` ending a job) too: SIGTERM killed the fork server with the
+    command, the pool then took its worker for dead and neither waited for it nor killed
+    it, and the worker, its variant stopped, waited for tasks forever, holding the
+    command's stdout and stderr."""
     bags = tmp_path / "bags"
     process = subprocess.Popen(
         [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain", "--set",
          "bodies.link00.mass=1,2", "--duration", "3000", "--workers", "1",
          "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
-        stderr=subprocess.PIPE, text=True)
+        stderr=subprocess.PIPE, text=True, start_new_session=group)
     try:
         deadline = time.monotonic() + 120.0
         while len(_descendants(process.pid)) < 2:  # the fork server and a worker
@@ -85,7 +91,10 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
             time.sleep(0.1)
         time.sleep(2.0)  # into the variant's run
         under = _descendants(process.pid)
-        process.send_signal(signum)
+        if group:
+            os.killpg(process.pid, signum)
+        else:
+            process.send_signal(signum)
         _, err = process.communicate(timeout=60)
     finally:
         process.kill()

@@ -568,3 +568,14 @@ def test_polygon_parts_turn_about_their_center():
               "center": [1.0, 1.0], "angle": math.pi / 2}}}}})
     vertices = scene.bodies[0].shapes[0].vertices
     np.testing.assert_allclose(vertices, [[1.0, 1.0], [1.0, 3.0], [0.0, 1.0]], atol=1e-15)
+
+
+def test_a_folder_named_without_a_separator_is_named_as_a_folder(tmp_path, monkeypatch):
+    """``hecker-dynamics run robots`` with a folder ``robots`` here was refused as "no
+    shipped scene called 'robots'", which sent the user looking for a typo."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "robots").mkdir()
+    with pytest.raises(SceneError) as caught:
+        load_scene("robots")
+    assert str(caught.value).startswith("robots: is a directory, not a scene file, and no "
+                                        "shipped scene is called so (shipped: ")
