@@ -8,7 +8,7 @@ import zlib
 import numpy as np
 import pytest
 
-from hecker_dynamics.sensors.noise import BATCH, Noise, seed_words
+from hecker_dynamics.sensors.noise import BATCH, DRAWN_AHEAD, Noise, seed_words
 
 # Seeds of one and two words (the largest a scene takes is 2**63), stamps of one and two
 # words, zero (one word), and past 2**64 (taken modulo 2**64): entropies of 3 to 5 words,
@@ -83,3 +83,13 @@ def test_bad_seed_and_period_are_refused() -> None:
         Noise(-1, "robot/imu", PERIOD)
     with pytest.raises(ValueError, match="positive"):
         Noise(1, "robot/imu", 0)
+
+
+def test_readings_of_few_and_many_draws_on_one_sensor() -> None:
+    """An IMU's few draws come with their batch's seeds, a laser's hundreds as each reading
+    comes: switching between the two, and between two small counts, still draws each
+    reading's own numbers, ahead of and behind the batch."""
+    noise = Noise(5, "robot/imu", PERIOD)
+    counts = [4, 4, DRAWN_AHEAD, 181, 4, 3, 1, DRAWN_AHEAD + 1, 4]
+    for k, count in enumerate(counts):
+        assert_draws(noise, 5, "robot/imu", (7 - 3 * k) % 11 * PERIOD, count)
