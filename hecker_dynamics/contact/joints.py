@@ -120,8 +120,8 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
-           "MOST_SUBSTEPS", "SETTLED_STEPS"]
+__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
+           "MOST_SUBSTEPS", "PARTS", "SETTLED_STEPS"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -150,6 +150,14 @@ UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOS
 UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
                    "apart (beyond about 1e14 to one); take a shorter step, or masses closer "
                    "together")
+
+
+#: The attributes of :class:`JointPass` that carry from step to step and that the compiled
+#: kernel keeps between its calls (:meth:`JointPass.kernel_pass`).
+CARRIED = ("angle", "raw", "warm", "newton", "extra", "step_h", "efforts")
+#: The parts a whole step starts in and the steps since (:meth:`JointPass.remember`), carried
+#: too: the kernel's whole steps change them; around its resolve alone the simulation does.
+PARTS = ("remembered", "settled_steps")
 
 
 class JointsUnsolved(ArithmeticError):
@@ -280,6 +288,7 @@ class JointPass:
         #: positions moved with.
         self._settled: list[float] = []
         self.rigid: list[int] = []
+        self._kernel: Optional[CompiledJoints] = None  # made at the first step
         #: Where the factors of all rows' matrices, and of the rigid rows' alone, can be
         #: non-zero (:class:`.sparse.Pattern`), once the start pose has fixed the rows.
         self.pattern: Optional[Pattern] = None
@@ -290,7 +299,6 @@ class JointPass:
         self.kinds: list[str] = []
         self.reset()
         self._compiled = compiled
-        self._kernel: Optional[CompiledJoints] = None  # made at the first step
 
     @property
     def compiled(self) -> bool:
@@ -299,7 +307,32 @@ class JointPass:
 
     def use_python(self) -> None:
         """Resolve in Python from now on."""
+        self._take_back()
         self._compiled, self._kernel = False, None
+
+    if not TYPE_CHECKING:  # typed as the attributes they stand for
+        def __getattr__(self, name: str) -> Any:
+            """A :data:`CARRIED` or :data:`PARTS` attribute while the kernel holds it newer
+            (they are absent then): read back from the kernel, all at once, on the first
+            read after its steps."""
+            kernel = self.__dict__.get("_kernel")
+            if name not in CARRIED + PARTS or kernel is None or not kernel.ahead:
+                raise AttributeError(f"'{type(self).__name__}' object has no attribute "
+                                     f"'{name}'")
+            kernel.take_back()
+            return self.__dict__[name]
+
+    def _take_back(self) -> None:
+        """Read the state back from the kernel if it holds it newer."""
+        if self._kernel is not None:
+            self._kernel.take_back()
+
+    def _changing(self) -> None:
+        """Before this pass's state is changed here: read it back from the kernel, which
+        takes it anew before its next call."""
+        if self._kernel is not None:
+            self._kernel.take_back()
+            self._kernel.loaded = False
 
     def _in_kernel(self) -> CompiledJoints:
         """The kernel's pass, made once the start pose has fixed the rows."""
@@ -309,15 +342,19 @@ class JointPass:
         return self._kernel
 
     def kernel_pass(self) -> Any:
-        """The kernel's joint pass (a capsule) with this pass's state loaded, for whole
-        steps in the kernel; :meth:`kernel_done` reads the state back after them."""
+        """The kernel's joint pass (a capsule) holding this pass's state, for whole steps
+        in the kernel; :meth:`kernel_done` follows them. The state stays in the kernel
+        from call to call: it is loaded only after it changed here (:meth:`reset`,
+        :meth:`forget`, :meth:`import_state`, a motor command), and read back only when
+        read (:data:`CARRIED`), so that a scene of many joints stepped call by call does
+        not move all their state through Python at every call."""
         compiled = self._in_kernel()
-        compiled.load()
+        compiled.begin()
         return compiled.kernel
 
     def kernel_done(self) -> None:
-        """Read the state back from the kernel after steps :meth:`kernel_pass` began."""
-        self._in_kernel().save()
+        """After steps :meth:`kernel_pass` began: the kernel's state is the newer."""
+        self._in_kernel().end(whole=True)
 
     def restore(self, warm: list[float], newton: Optional[list[float]], step_h: float) -> None:
         """Take the warm starts, Newton multipliers and last step length the kernel left."""
@@ -371,6 +408,7 @@ class JointPass:
 
     def forget(self) -> None:
         """Drop what warm-starts the next step (after a body was moved by hand)."""
+        self._changing()
         self.warm = [0.0] * len(self.keys)
         #: The extra impulses the last contact solve added (:meth:`take_extra`).
         self.extra = [0.0] * len(self.keys)
@@ -751,6 +789,7 @@ class JointPass:
         """Add the extra impulses the contact solve gave ``units`` to this step's impulses
         (so to the efforts and to the next step's warm start), and keep them to warm-start
         the next contact solve; ``units`` the solve left out count as zero."""
+        self._changing()
         self.extra = [0.0] * len(self.keys)
         for unit in units:
             if unit.extra != 0.0:

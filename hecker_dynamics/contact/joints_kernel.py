@@ -3,8 +3,10 @@
 :class:`CompiledJoints` packs a :class:`~.joints.JointPass`'s joints once into the kernel's
 layout; its :meth:`~CompiledJoints.resolve` is ``JointPass.resolve`` in C, operation for
 operation, so the two give the same bits. The pass's state (start pose, counted angles,
-motor speeds, warm starts) stays the Python object's: it is loaded into the kernel before
-each call and read back after it.
+motor speeds, warm starts) stays in the kernel from call to call: it is loaded only after
+the Python object changed it, and read back into the object only when the object's
+attributes are read (:data:`~.joints.CARRIED`); moving it costs O(joints) in Python, more
+than a soft step of the kernel on a large grid.
 """
 from __future__ import annotations
 
@@ -14,7 +16,7 @@ import numpy as np
 
 from ..scene.joints import DistanceJoint, GearJoint, PrismaticJoint, RevoluteJoint, WeldJoint
 from .joint_rows import weld_law
-from .joints import JointsUnsolved
+from .joints import CARRIED, PARTS, JointsUnsolved
 from .soft_joints import SoftJointPass
 
 try:
@@ -103,6 +105,52 @@ class CompiledJoints:
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)
                                + 2 * len(joint_pass.keys) + rigid + 4)
+        #: Whether the kernel holds the pass's state (else :meth:`begin` loads it).
+        self.loaded = False
+        #: Whether the kernel's state is newer than the pass's :data:`~.joints.CARRIED`
+        #: attributes, which are absent then (:meth:`take_back` reads them back).
+        self.ahead = False
+        #: Where each motor's speed lies in the state.
+        self._motors = [(_kernel.JOINT_STATE * i + 4, spec.name)
+                        for i, spec in enumerate(joint_pass.specs)
+                        if isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor]
+        #: Where each joint's counted angle lies in the state (its unwrapped one next), in
+        #: the order of the pass's own (its frames').
+        solved = {spec.name: i for i, spec in enumerate(joint_pass.specs)}
+        self._angles = [(name, _kernel.JOINT_STATE * solved[name] + 2)
+                        for name in joint_pass.frames]
+
+    def begin(self) -> None:
+        """Before a call of the kernel: load the pass's state if the kernel does not hold
+        it; else pass the kernel's own state through :attr:`_state` (copies in C, no
+        Python per joint) with what Python keeps of it: the motor speeds commanded
+        (O(motors)) and, unless the kernel's whole steps changed them since, the parts
+        remembered (:data:`~.joints.PARTS`). Loading resets what the kernel keeps within
+        a call alone, as loading the pass's state at every call did."""
+        if not self.loaded:
+            self.load()
+            self.loaded = True
+            return
+        _kernel.joint_state(self.kernel, state=self._state, load=False)
+        for at, name in self._motors:
+            self._state[at] = self._pass.motor_speed[name]
+        if PARTS[0] in self._pass.__dict__:
+            self._state[-2:] = [self._pass.remembered, self._pass.settled_steps]
+        _kernel.joint_state(self.kernel, state=self._state, load=True)
+
+    def end(self, whole: bool = False) -> None:
+        """After a call of the kernel: its state is the newer; the pass's copy is dropped
+        until read, and the parts remembered too after ``whole`` steps (which change
+        them; a resolve alone does not, the simulation keeps them then)."""
+        for name in CARRIED + PARTS if whole else CARRIED:
+            self._pass.__dict__.pop(name, None)
+        self.ahead = True
+
+    def take_back(self) -> None:
+        """The kernel's state into the pass, if it is the newer."""
+        if self.ahead:
+            self.ahead = False
+            self.save()
 
     def load(self) -> None:
         """The Python pass's state into the kernel."""
@@ -127,21 +175,22 @@ class CompiledJoints:
         _kernel.joint_state(self.kernel, state=self._state, load=False)
         values = self._state.tolist()
         p = self._pass
-        stride = _kernel.JOINT_STATE
-        for i, spec in enumerate(p.specs):
-            if not isinstance(spec, GearJoint):
-                p.angle[spec.name], p.raw[spec.name] = values[stride * i + 2: stride * i + 4]
-        at = stride * len(p.specs)
+        p.angle = {name: values[at] for name, at in self._angles}
+        p.raw = {name: values[at + 1] for name, at in self._angles}
+        at = _kernel.JOINT_STATE * len(p.specs)
         rows, rigid = len(p.keys), len(p.rigid)
         newton = values[at + rows: at + rows + rigid]
         p.extra = values[at + rows + rigid: at + 2 * rows + rigid]
-        p.remembered, p.settled_steps = int(values[-2]), int(values[-1])
+        if PARTS[0] not in p.__dict__:  # else the simulation's, newer (see end)
+            p.remembered, p.settled_steps = int(values[-2]), int(values[-1])
         p.restore(values[at: at + rows], newton if values[-4] != 0.0 else None, values[-3])
 
     def resolve(self, q0: np.ndarray, q1: np.ndarray, v1: np.ndarray, h: float) -> None:
-        """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does."""
-        self.load()
+        """``JointPass.resolve`` in the kernel; raises :class:`.JointsUnsolved` as it does,
+        the kernel's state left as it was before the call (the step is retried in halves)."""
+        self.begin()  # leaves the state it loaded in _state
         if not _kernel.joints_resolve(self.kernel, bodies=len(q0), q0=q0, q1=q1, v1=v1, h=h):
+            _kernel.joint_state(self.kernel, state=self._state, load=True)
             raise JointsUnsolved(f"the joints have no solution near the end of a step of "
                                  f"{h:g} s")
-        self.save()
+        self.end()

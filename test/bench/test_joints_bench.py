@@ -140,15 +140,19 @@ def test_the_loose_chains_cost_against_the_exact_ones_outside_the_targets(tmp_pa
     assert len(loose_cases) == 2 * len(LOOSE_LINKS)
     assert all(case.reference in names and case.tolerance == 1e-9 for case in loose_cases)
     soft_cases = [case for case in _cases() if case.name.endswith(SOFT)]
-    assert len(soft_cases) == 2 * len(CHAIN_LINKS)
+    assert len(soft_cases) == 2 * len(CHAIN_LINKS) + 1  # and the grid
     assert all(case.reference in names and case.reference + SOFT == case.name
-               for case in soft_cases)
+               for case in soft_cases[:-1])
+    grid_case = soft_cases[-1]
+    assert grid_case.reference in names and grid_case.reference.startswith(
+        grid_case.name[:-len(SOFT)] + ", joints to ")
 
 
 def test_soft_chains_report_their_cost_and_gap_against_box2d_v3_s():
     """A soft chain's line: its cost over Box2D v3's on the exact case of the same chain,
-    both gaps; met where no soft chain costs more, missed where one does, not measured
-    without the peer; targets 1 and 2 leave the soft chains out."""
+    both gaps, and the soft grid's likewise; met where no soft chain costs more, missed
+    where one does (the grid at twice v3's), not measured without the peer; targets 1 and
+    2 leave the soft chains and the grids out."""
     exact = _case("chain of 2, h = 1/240 s", {"hecker_dynamics": [Run(2e-6, 1e-12)],
                                               "box2d_v3": [Run(4e-6, 1e-3)]})
     soft = _case("chain of 2, h = 1/240 s" + SOFT,
@@ -160,6 +164,14 @@ def test_soft_chains_report_their_cost_and_gap_against_box2d_v3_s():
     assert verdicts[1][1] == "core / Box2D v3: 2 links 0.50"
     assert verdicts[3][1:] == ("soft / Box2D v3: 2 links h = 1/240 s: 0.25 (gaps 0.0005 m, "
                                "v3 0.001 m)", "met")
+    grid = _case("joint_grid 3 x 3, h = 1/60 s, joints to 1e-09 m",
+                 {"hecker_dynamics": [Run(9e-6, 1e-9)], "box2d_v3": [Run(3e-6, 2e-3)]})
+    soft_grid = _case("joint_grid 3 x 3, h = 1/60 s" + SOFT,
+                      {"hecker_dynamics": [Run(6e-6, 4e-3)]})
+    soft_grid.reference = grid.name
+    assert targets([exact, soft, grid, soft_grid], renamed)[3][1:] == (
+        "soft / Box2D v3: 2 links h = 1/240 s: 0.25 (gaps 0.0005 m, v3 0.001 m); "
+        "joint_grid 3 x 3 h = 1/60 s: 2.00 (gaps 0.004 m, v3 0.002 m)", "missed")
     soft.runs["hecker_dynamics"] = [Run(8e-6, 5e-4)]
     assert targets([exact, soft], renamed)[3][2] == "missed"
     del exact.runs["box2d_v3"]

@@ -172,3 +172,55 @@ def test_a_repeated_pin_is_dropped_and_the_rod_swings_as_on_one_pin():
     assert np.abs(runs[0].q - runs[2].q).max() < 1e-12
     assert np.abs(runs[0].v - runs[2].v).max() < 1e-11
     assert abs(runs[0].q[0, 2]) > 0.02  # it swung (0.025 rad)
+
+
+def _grid_and_chain(soft: bool) -> dict[str, object]:
+    from hecker_dynamics.bench.joints import chain, grid
+    return {"grid": grid(6, soft=soft), "chain": chain(30, 1.0 / 60.0, soft=soft)}
+
+
+@pytest.mark.parametrize("soft", [False, True])
+@pytest.mark.parametrize("name", ["grid", "chain"])
+def test_a_run_in_one_step_calls_has_the_bits_of_one_call(name, soft):
+    """The joint state stays in the kernel between calls and is read back only when read:
+    a run taken one step a call, one taken so while reading the joint state after every
+    call, one carried through export_state and import_state halfway (which loads the state
+    back into the kernel), and one moved by hand halfway (the pass forgets its warm
+    starts) give, at every call's end, the bits of the same run in one call (the last
+    moved likewise) and of the Python pass; anything the calls left out of the state
+    moved (an angle, a warm start, the Newton multipliers, the step length) shows here."""
+    scene = _grid_and_chain(soft)[name]
+    steps = 16
+
+    def run(calls: str, python: bool = False, moved: bool = False
+            ) -> tuple[Simulation, list[tuple[np.ndarray, np.ndarray]]]:
+        sim = Simulation(scene)
+        if python:
+            sim.model.use_python()
+        assert sim.model.joints.compiled != python
+        ends = []
+        for k in range(steps) if calls != "one" else [steps - 1]:
+            end = sim.time_ns + (steps if calls == "one" else 1) * sim.step_ns
+            if moved and calls == "one":  # the body moved halfway, as the others move it
+                sim.advance_to(sim.time_ns + steps // 2 * sim.step_ns, keep=False)
+            if moved and (calls == "one" or k == steps // 2):
+                sim.set_body_state(scene.bodies[3].name, (3.1, -0.2), 0.3, (0.5, 0.0), 1.0)
+            if calls == "carried" and k == steps // 2:
+                sim.import_state(sim.export_state())
+            sim.advance_to(end, keep=False)
+            if calls == "read":
+                sim.model.joints.export_state()
+            ends.append((sim.q.copy(), sim.v.copy()))
+        return sim, ends
+
+    for moved in (False, True):
+        one, [(q, v)] = run("one", moved=moved)
+        slow, slow_ends = run("each", python=True, moved=moved)
+        _compare(one, slow)
+        assert np.array_equal(q, slow_ends[-1][0]) and np.array_equal(v, slow_ends[-1][1])
+        for calls in ("each", "read", "carried"):
+            fast, ends = run(calls, moved=moved)
+            _compare(fast, slow)
+            assert all(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+                       for a, b in zip(ends, slow_ends))
+    assert any(x != 0.0 for x in fast.model.joints.warm)
