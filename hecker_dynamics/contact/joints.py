@@ -344,10 +344,12 @@ class JointPass:
     def kernel_pass(self) -> Any:
         """The kernel's joint pass (a capsule) holding this pass's state, for whole steps
         in the kernel; :meth:`kernel_done` follows them. The state stays in the kernel
-        from call to call: it is loaded only after it changed here (:meth:`reset`,
-        :meth:`forget`, :meth:`import_state`, a motor command), and read back only when
-        read (:data:`CARRIED`), so that a scene of many joints stepped call by call does
-        not move all their state through Python at every call."""
+        from call to call: it is loaded from this object only after it changed here
+        (:meth:`reset`, :meth:`forget`, :meth:`import_state`), else passed through an
+        array with the motor speeds and the parts this object keeps (copies in C), and
+        read back only when read (:data:`CARRIED`, :data:`PARTS`), so that a scene of many
+        joints stepped call by call does not move all their state through Python at every
+        call."""
         compiled = self._in_kernel()
         compiled.begin()
         return compiled.kernel

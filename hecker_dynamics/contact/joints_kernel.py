@@ -3,10 +3,11 @@
 :class:`CompiledJoints` packs a :class:`~.joints.JointPass`'s joints once into the kernel's
 layout; its :meth:`~CompiledJoints.resolve` is ``JointPass.resolve`` in C, operation for
 operation, so the two give the same bits. The pass's state (start pose, counted angles,
-motor speeds, warm starts) stays in the kernel from call to call: it is loaded only after
-the Python object changed it, and read back into the object only when the object's
-attributes are read (:data:`~.joints.CARRIED`); moving it costs O(joints) in Python, more
-than a soft step of the kernel on a large grid.
+motor speeds, warm starts) stays in the kernel from call to call: it is loaded from the
+Python object only after the object changed it (else only the motor speeds and the parts
+the object keeps go in, :meth:`~CompiledJoints.begin`), and read back into the object only
+when the object's attributes are read (:data:`~.joints.CARRIED`); moving it costs O(joints)
+in Python, more than a soft step of the kernel on a large grid.
 """
 from __future__ import annotations
 

@@ -224,3 +224,31 @@ def test_a_run_in_one_step_calls_has_the_bits_of_one_call(name, soft):
             assert all(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
                        for a, b in zip(ends, slow_ends))
     assert any(x != 0.0 for x in fast.model.joints.warm)
+
+
+@pytest.mark.parametrize("method", ["velocity_verlet", "implicit_midpoint"])
+def test_the_parts_remembered_carry_across_calls_as_within_one(method):
+    """The 200-link chain at h = 1/60 s stalls whole from about 1 s and its steps start in
+    the parts remembered: from such a state, steps in one call and in one-step calls
+    (reading the joint state after each, which takes the state back from the kernel) give
+    the same bits and remember the same, whether the kernel takes whole steps
+    (``velocity_verlet``) or the simulation takes them with the kernel's resolve alone
+    (``implicit_midpoint``: the simulation keeps the parts)."""
+    from hecker_dynamics.bench.joints import chain
+
+    start = Simulation(chain(200, 1.0 / 60.0, 10.0))
+    start.advance_to(1_500_000_000, keep=False)
+    state = start.export_state()
+    assert state["joints"]["parts"][0] > 1
+    ends = []
+    for calls in (1, 6):
+        sim = Simulation(replace(chain(200, 1.0 / 60.0, 10.0), integrator=method))
+        sim.import_state(state)
+        for _ in range(calls):
+            sim.advance_to(sim.time_ns + 6 // calls * sim.step_ns, keep=False)
+            if calls > 1:
+                sim.model.joints.export_state()
+        ends.append(sim)
+    _compare(*ends)
+    assert (ends[0].model.joints.remembered, ends[0].model.joints.settled_steps) == \
+        (ends[1].model.joints.remembered, ends[1].model.joints.settled_steps)
