@@ -554,6 +554,23 @@ def test_parameter_names_must_be_strings(tmp_path):
         load_scene(path)
 
 
+@pytest.mark.parametrize("written, read", [("y", "True"), ("off", "False"), ("1", "1"),
+                                           ("1.5", "1.5")])
+def test_a_name_yaml_reads_as_another_type_is_named_as_written(tmp_path, written, read):
+    """YAML reads an unquoted y, yes, on (n, no, off) as a boolean and digits as a
+    number: a joint named y was refused as "'joints.True': names must be strings", a
+    name the user never wrote. The refusal names what was written, where, and says to
+    quote it."""
+    path = tmp_path / "keys.yaml"
+    path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n"
+                    f"      {written}: {{shape: box}}\n")
+    with pytest.raises(SceneError) as error:
+        load_scene(path)
+    assert str(error.value) == (
+        f"{path}: line 4, column 7: parameter 'bodies.{written}': names must be strings, "
+        f"and YAML reads {written} as {read}: quote it ('{written}')")
+
+
 def test_a_directory_named_like_a_shipped_scene_does_not_hide_it(tmp_path, monkeypatch):
     """`hecker-dynamics script ship -o ship` makes a bag directory called ship; the name
     must still mean the shipped scene."""
