@@ -547,6 +547,25 @@ def test_out_of_range_values_and_names_are_errors_not_crashes(tmp_path, change, 
         load_scene(write_scene(tmp_path, params))
 
 
+@pytest.mark.parametrize("change, message", [
+    ({"sensors": {"l": {"type": "laser", "body": "b", "count": 0}}},
+     "parameter 'sensors.l.count': must be at least 1, not 0"),
+    ({"sensors": {"l": {"type": "laser", "body": "b", "count": 200000}}},
+     "parameter 'sensors.l.count': must be at most 100000, not 200000"),
+    ({"step": 0.004166667, "publish_rate": 7},
+     "parameter 'publish_rate': 7 Hz is not a whole number of physics steps of 0.004166667 s"),
+    ({"step": 0.0},  "parameter 'step': must be positive, not 0"),
+    ({"publish_rate": -2.5},  "parameter 'publish_rate': must be positive, not -2.5"),
+])
+def test_refusals_give_numbers_as_written(tmp_path, change, message):
+    """A count of 0 was refused as "must be at least 1.0, not 0.0" and a step of
+    0.004166667 s shown as 0.004166667000000001 s: whole numbers are given without '.0',
+    others by the shortest text that reads back as the same double."""
+    with pytest.raises(SceneError) as error:
+        load_scene(write_scene(tmp_path, {**ONE_BOX, **change}))
+    assert str(error.value).endswith(message), str(error.value)
+
+
 def test_parameter_names_must_be_strings(tmp_path):
     path = tmp_path / "keys.yaml"
     path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n      1: {shape: box}\n")
