@@ -62,6 +62,15 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _into_a_variant(process: subprocess.Popen) -> None:
+    """Wait until ``process`` has its fork server and a worker, and 2 s more."""
+    deadline = time.monotonic() + 120.0
+    while len(_descendants(process.pid)) < 2:  # the fork server and a worker
+        assert process.poll() is None and time.monotonic() < deadline
+        time.sleep(0.1)
+    time.sleep(2.0)  # into the variant's run
+
+
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
 @pytest.mark.parametrize("signum, status, line", [
     (signal.SIGTERM, 143, "hecker-dynamics: terminated"),
@@ -85,11 +94,7 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
          "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
         stderr=subprocess.PIPE, text=True, start_new_session=group)
     try:
-        deadline = time.monotonic() + 120.0
-        while len(_descendants(process.pid)) < 2:  # the fork server and a worker
-            assert process.poll() is None and time.monotonic() < deadline
-            time.sleep(0.1)
-        time.sleep(2.0)  # into the variant's run
+        _into_a_variant(process)
         under = _descendants(process.pid)
         if group:
             os.killpg(process.pid, signum)
@@ -147,11 +152,7 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                start_new_session=True)
     try:
-        deadline = time.monotonic() + 120.0
-        while len(_descendants(process.pid)) < 2:  # the fork server and a worker
-            assert process.poll() is None and time.monotonic() < deadline
-            time.sleep(0.1)
-        time.sleep(2.0)  # into the variant's run
+        _into_a_variant(process)
         process.kill()
         process.wait()
         ended = threading.Event()
