@@ -260,3 +260,13 @@ def test_sweep_bags_on_a_full_disk_leave_no_cut_parameters_file(place):
     assert result.stderr.startswith("hecker-dynamics: error: ")
     assert result.stderr.count("\n") == 1 and "File too large" in result.stderr
     assert list((place / "bags").iterdir()) == []
+
+
+@pytest.mark.parametrize("command", [
+    ["script", "sample"], ["replay", "sample", str(GOLDEN / "sample" / "input")]])
+def test_a_bag_name_too_long_for_the_file_system_is_one_line(place, capsys, command):
+    """``replay -o`` and ``script -o`` with a name longer than the file system takes
+    printed a traceback of the OSError from the bag writer's first look at the path."""
+    before = _listing(place)
+    _refused(capsys, [*command, "-o", "x" * 300], "cannot create the bag (File name too long)")
+    assert _listing(place) == before

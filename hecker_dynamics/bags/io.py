@@ -780,9 +780,14 @@ class BagWriter:
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
-        if self.path.exists() and not self.overwrite:
+        try:
+            exists = self.path.exists()
+        except OSError as error:  # a name too long, a loop of links: nothing to write to
+            raise BagError(f"{self.path}: cannot create the bag "
+                           f"({error.strerror or _describe(error)})") from None
+        if exists and not self.overwrite:
             raise BagError(f"{self.path} exists already (remove it or pass --overwrite)")
-        if self.path.exists() and not _looks_like_bag(self.path):
+        if exists and not _looks_like_bag(self.path):
             raise BagError(f"{self.path} exists and is not a bag; not overwriting it")
         if not self.path.parent.is_dir():
             raise BagError(f"{self.path.parent}: no such directory")

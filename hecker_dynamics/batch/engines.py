@@ -17,7 +17,12 @@ the results come, in finishing order; the caller puts them back in order.
   points (:func:`stop_point`, between publish instants) and unwinds as from any error,
   removing what it had begun, so the worker is free again within one publish period. A
   signal to a worker, or the command killed (which closes the pipe too), stops its task
-  the same way; workers still running after :data:`STOP_GRACE` are killed. (A pipe, not
+  the same way; workers still running after :data:`STOP_GRACE` are killed. A second pipe,
+  which the command never closes, tells a worker the command has gone (killed by SIGKILL,
+  say): it exits once its task has unwound (after :data:`STOP_GRACE` at most), and with
+  the last worker the fork server and multiprocessing's resource tracker, whose pipes the
+  workers hold, end too; else all three waited forever, holding the command's output open.
+  (A pipe, not
   shared memory: that is a file, which a full disk refuses. Ending a worker by a signal's
   exception at an arbitrary point cannot promise its cleanup: one stopped between making
   a scratch file and its ``try`` leaves the file.)
@@ -97,17 +102,32 @@ class _StoppedTask:
 #: end) once the pool stops or the command has gone. Whether a signal reached the worker.
 _stop_pipe: Optional[Connection] = None
 _signalled = False
+#: Held by a pool worker while it runs a task (see :func:`_exit_when_orphaned`).
+_in_task = threading.Lock()
 
 
-def _start_worker(pipe: Connection) -> None:
-    """A pool worker's start: keep the stop pipe, and take SIGINT (Ctrl-C reaches the
-    whole process group) and SIGTERM as a stop at the next safe point."""
+def _start_worker(pipe: Connection, command: Connection) -> None:
+    """A pool worker's start: keep the stop pipe, take SIGINT (Ctrl-C reaches the whole
+    process group) and SIGTERM as a stop at the next safe point, and exit once the
+    command has gone (``command``, the read end of its pipe of life, at its end)."""
     global _stop_pipe
     _stop_pipe = pipe
+    threading.Thread(target=_exit_when_orphaned, args=(command,), daemon=True).start()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _on_signal)
     # The fork server started with both blocked (see _start_fork_server).
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+
+def _exit_when_orphaned(command: Connection) -> None:
+    """End this worker once the command's end of ``command`` has closed, which only its
+    death does: the executor that would send the worker its sentinel has gone, and the
+    worker holds the write end of its own task queue, so it would wait for a task
+    forever. A task running then sees the stop pipe closed too and unwinds at its next
+    safe point; the worker exits when it has, or after :data:`STOP_GRACE`."""
+    command.poll(None)  # nothing is ever sent: readable means closed
+    _in_task.acquire(timeout=STOP_GRACE)
+    os._exit(1)
 
 
 def _on_signal(signum: int, frame: object) -> None:
@@ -126,11 +146,12 @@ def stop_point() -> None:
 def _stoppable(function: Callable[[Any], Any], task: Any) -> Any:
     """``function(task)`` in a pool worker, or :class:`_StoppedTask` if it stopped (a task
     queued before the stop stops before it begins)."""
-    try:
-        stop_point()
-        return function(task)
-    except Stopped:
-        return _StoppedTask()
+    with _in_task:
+        try:
+            stop_point()
+            return function(task)
+        except Stopped:
+            return _StoppedTask()
 
 
 @contextlib.contextmanager
@@ -168,11 +189,14 @@ class ProcessPool:
         #: the workers' :func:`stop_point` (no lock: a worker killed holding one would
         #: hold it).
         self._stopping, self._stop = context.Pipe(duplex=False)
+        #: The pipe of life: its write end closed only after the workers have ended, or
+        #: by this process's death (see :func:`_exit_when_orphaned`).
+        self._orphaned, self._alive = context.Pipe(duplex=False)
         #: Every task given to the pool (:meth:`close` stops those running).
         self._futures: list[Future[Any]] = []
         self._executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=context,
                                              initializer=_start_worker,
-                                             initargs=(self._stopping,))
+                                             initargs=(self._stopping, self._orphaned))
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:
@@ -208,8 +232,8 @@ class ProcessPool:
                     for process in list((self._executor._processes or {}).values()):
                         process.kill()
         self._executor.shutdown(cancel_futures=True)
-        self._stop.close()
-        self._stopping.close()
+        for end in (self._stop, self._stopping, self._alive, self._orphaned):
+            end.close()
 
 
 def _start_context() -> multiprocessing.context.BaseContext:

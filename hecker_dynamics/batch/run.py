@@ -239,16 +239,27 @@ def check_bag(task: BagTask) -> BagResult:
     return BagResult(task.bag, "ok" if check.ok else "mismatch", check.verdict())
 
 
+#: What rosbag2 names a bag's storage files (sqlite3, mcap, and either compressed).
+_STORAGE = ("*.db3", "*.mcap", "*.db3.zstd", "*.mcap.zstd")
+
+
+def _is_bag(path: Path) -> bool:
+    """Whether ``path`` is a bag directory: it has ``metadata.yaml``, or a storage file
+    without it (a recording cut off before rosbag2 wrote it, which the check then names
+    as such: left out, it would pass unseen)."""
+    return (path / "metadata.yaml").is_file() or \
+        (path.is_dir() and any(next(path.glob(pattern), None) for pattern in _STORAGE))
+
+
 def find_bags(paths: Sequence[Path]) -> list[Path]:
-    """The bags named: each path is a bag directory (it has ``metadata.yaml``) or holds
-    bag directories; raises :class:`BagError` for a path that is neither."""
+    """The bags named: each path is a bag directory (see :func:`_is_bag`) or holds bag
+    directories; raises :class:`BagError` for a path that is neither."""
     found = []
     for path in paths:
-        if (path / "metadata.yaml").is_file():
+        if _is_bag(path):
             found.append(path)
             continue
-        inner = sorted(p for p in path.iterdir() if (p / "metadata.yaml").is_file()) \
-            if path.is_dir() else []
+        inner = sorted(p for p in path.iterdir() if _is_bag(p)) if path.is_dir() else []
         if not inner:
             raise BagError(f"{path}: not a bag directory and holds none")
         found.extend(inner)

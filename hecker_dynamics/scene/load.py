@@ -56,7 +56,9 @@ from .parameters import (
     ParameterReader,
     SceneError,
     flatten,
+    number_text,
     quoted,
+    seconds_text,
     unflatten,
 )
 from .rosyaml import merge_parameters, read_parameters_file
@@ -396,8 +398,8 @@ def _read_scene(root: ParameterReader) -> Scene:
     steps_per_publish = 1e9 / rate / step_ns
     if not 0.5 <= steps_per_publish < 1e12 or \
             abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish:
-        root.fail("publish_rate", f"{rate} Hz is not a whole number of physics steps "
-                                  f"of {step_ns * 1e-9} s")
+        root.fail("publish_rate", f"{number_text(rate)} Hz is not a whole number of physics "
+                                  f"steps of {seconds_text(step_ns)} s")
     bodies = tuple(read_body(name, r) for name, r in root.named_children("bodies"))
     if not bodies:
         root.fail("bodies", "a scene needs at least one body")

@@ -14,8 +14,8 @@ import re
 from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
-__all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "SceneError", "unflatten", "flatten",
-           "ParameterReader", "REQUIRED"]
+__all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "number_text", "seconds_text",
+           "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED"]
 
 #: A name's longest: two of them make a topic (``/<body>/<sensor>/scan``) that stays within
 #: ROS 2's 247 characters (RMW_TOPIC_MAX_NAME_LENGTH) with room for a namespace.
@@ -36,6 +36,23 @@ def quoted(value: Any) -> str:
     if len(text) <= QUOTE:
         return text
     return f"{text[:QUOTE]}... ({len(text)} characters)"
+
+
+def number_text(value: float) -> str:
+    """A number for a message: a whole one without ``.0`` (a count of 0 read as "not
+    0.0"), any other by ``repr``, the shortest text that reads back as the same double."""
+    if isinstance(value, int):
+        return str(value)
+    if math.isfinite(value) and value.is_integer() and abs(value) < 1e16:
+        return str(int(value))
+    return repr(value)
+
+
+def seconds_text(ns: int) -> str:
+    """``ns`` nanoseconds as seconds for a message: ``ns / 1e9`` is the double nearest the
+    exact quotient, so a step of 4166667 ns reads 0.004166667 (``ns * 1e-9`` rounds twice:
+    0.004166667000000001)."""
+    return number_text(ns / 1e9)
 
 
 class SceneError(ValueError):
@@ -128,11 +145,11 @@ class ParameterReader:
             self.fail(key, f"must be a number, not {quoted(value)}")
         value = self._finite(key, value)
         if positive and value <= 0.0:
-            self.fail(key, f"must be positive, not {value}")
+            self.fail(key, f"must be positive, not {number_text(value)}")
         if minimum is not None and value < minimum:
-            self.fail(key, f"must be at least {minimum}, not {value}")
+            self.fail(key, f"must be at least {number_text(minimum)}, not {number_text(value)}")
         if maximum is not None and value > maximum:
-            self.fail(key, f"must be at most {maximum}, not {value}")
+            self.fail(key, f"must be at most {number_text(maximum)}, not {number_text(value)}")
         return value
 
     def _finite(self, key: str, value: Any) -> float:

@@ -154,7 +154,10 @@ class _Builder:
                 if not isinstance(key_event, yaml.ScalarEvent):
                     raise self.fail(key_event, "a key must be a plain name")
                 key = ros_scalar(key_event.value, key_event.tag, not key_event.style)
-                name = repr(str(key))[1:-1][:120]
+                name = repr(str(key_event.value))[1:-1][:120]
+                if not isinstance(key, str):
+                    raise self.fail(key_event, _not_a_name(f"{path}.{name}" if path else name,
+                                                           name, key))
                 child = self.value(events, next(events), depth + 1,
                                    f"{path}.{name}" if path else name)
                 self.merge(mapping, key, child, key_event)
@@ -185,6 +188,14 @@ class _Builder:
             for key, section in document.items():
                 self.merge(merged, key, section, event)
         return merged
+
+
+def _not_a_name(path: str, written: str, key: Any) -> str:
+    """Why a key ``written`` that YAML reads as ``key`` (y as True, 1 as 1) names nothing:
+    the reader's check would name what YAML read ("'joints.True'"), never written."""
+    parameter = path.split("ros__parameters.", 1)[-1]
+    return (f"parameter '{parameter}': names must be strings, and YAML reads {written} as "
+            f"{quoted(key)}: quote it ('{written}')")
 
 
 def _replaced(mapping: dict[Any, Any], values: dict[Any, Any], prefix: str = "") -> Iterator[str]:

@@ -4,6 +4,7 @@ killed mid-sweep survived, a tampered bag found."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -170,6 +171,27 @@ def test_regress_command_exits_1_on_a_mismatch_and_2_on_bad_input(bag_suite, tmp
     empty.mkdir()
     assert main(["regress", str(empty)]) == 2
     assert "not a bag directory and holds none" in capsys.readouterr().err
+
+
+def test_a_bag_cut_off_before_its_metadata_is_an_error_not_skipped(bag_suite, tmp_path,
+                                                                   capsys):
+    """A recording cut off before rosbag2 wrote its metadata.yaml (a killed recorder, a
+    full disk) beside good bags was silently left out of the folder's bags: "1 bag(s):
+    1 ok", exit 0. A folder holding a bag's storage file is a bag: its line is an error
+    that says how to rebuild the metadata, and the exit is 2."""
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    shutil.copytree(bag_suite / "a_sample", suite / "a_sample")
+    shutil.copytree(bag_suite / "a_sample", suite / "b_cut")
+    (suite / "b_cut" / "metadata.yaml").unlink()
+    assert main(["regress", str(suite), "--workers", "1", "--no-progress"]) == 2
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[:2] for line in out[:-1]] == [
+        ["OK", str(suite / "a_sample")], ["ERROR", str(suite / "b_cut")]], out
+    assert "no metadata.yaml" in out[1] and "ros2 bag reindex" in out[1]
+    assert out[-1] == "2 bag(s): 1 ok, 0 mismatch, 1 error"
+    assert main(["regress", str(suite / "b_cut"), "--no-progress"]) == 2
+    assert "no metadata.yaml" in capsys.readouterr().out
 
 
 def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,

@@ -62,6 +62,15 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _into_a_variant(process: subprocess.Popen) -> None:
+    """Wait until ``process`` has its fork server and a worker, and 2 s more."""
+    deadline = time.monotonic() + 120.0
+    while len(_descendants(process.pid)) < 2:  # the fork server and a worker
+        assert process.poll() is None and time.monotonic() < deadline
+        time.sleep(0.1)
+    time.sleep(2.0)  # into the variant's run
+
+
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
 @pytest.mark.parametrize("signum, status, line", [
     (signal.SIGTERM, 143, "hecker-dynamics: terminated"),
@@ -85,11 +94,7 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
          "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
         stderr=subprocess.PIPE, text=True, start_new_session=group)
     try:
-        deadline = time.monotonic() + 120.0
-        while len(_descendants(process.pid)) < 2:  # the fork server and a worker
-            assert process.poll() is None and time.monotonic() < deadline
-            time.sleep(0.1)
-        time.sleep(2.0)  # into the variant's run
+        _into_a_variant(process)
         under = _descendants(process.pid)
         if group:
             os.killpg(process.pid, signum)
@@ -107,4 +112,64 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
     assert list(bags.iterdir()) == []
     assert not (tmp_path / "rows.csv").exists()
     partial = tmp_path / "rows.csv.partial.csv"
+    assert not partial.exists() or partial.read_text().count("\n") <= 1
+
+
+def _session(sid: int) -> set[int]:
+    """The live processes of session ``sid``, from /proc."""
+    found = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # ended meanwhile
+            continue
+        if fields[0] != "Z" and int(fields[3]) == sid:
+            found.add(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+@pytest.mark.parametrize("command", ["sweep", "regress"])
+def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
+    """SIGKILL of the command alone (a CI runner's hard kill, the OOM killer): before, its
+    worker, its variant unwound, waited for tasks forever, and kept the fork server and
+    the resource tracker alive with it, all holding the command's stdout and stderr, so a
+    CI step reading them never ended. Now every process of its session ends within
+    seconds, its output reaches its end, and nothing is left half written."""
+    bags = tmp_path / "bags"
+    if command == "sweep":
+        arguments = ["sweep", "chain", "--set", "bodies.link00.mass=1,2", "--duration",
+                     "3000", "--workers", "1", "--bags", str(bags), "-o",
+                     str(tmp_path / "rows.csv")]
+    else:
+        recorded = tmp_path / "recorded"
+        subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain",
+                        "--set", "bodies.link00.mass=1", "--duration", "30", "--workers",
+                        "1", "--bags", str(recorded), "-o", str(tmp_path / "recorded.csv")],
+                       check=True, capture_output=True)
+        arguments = ["regress", str(recorded), "--workers", "1"]
+    process = subprocess.Popen([sys.executable, "-m", "hecker_dynamics.cli", *arguments],
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                               start_new_session=True)
+    try:
+        _into_a_variant(process)
+        process.kill()
+        process.wait()
+        ended = threading.Event()
+        reader = threading.Thread(target=lambda: (process.stdout.read(), ended.set()),
+                                  daemon=True)
+        reader.start()
+        deadline = time.monotonic() + 15.0
+        while _session(process.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = _session(process.pid)
+        assert ended.wait(timeout=5.0), "the command's output never reached its end"
+    finally:
+        for pid in _session(process.pid):
+            os.kill(pid, signal.SIGKILL)
+    assert not left
+    if command == "sweep":
+        assert list(bags.iterdir()) == []
+    partial = tmp_path / "rows.csv.partial.csv"
+    assert not (tmp_path / "rows.csv").exists()
     assert not partial.exists() or partial.read_text().count("\n") <= 1

@@ -547,11 +547,47 @@ def test_out_of_range_values_and_names_are_errors_not_crashes(tmp_path, change, 
         load_scene(write_scene(tmp_path, params))
 
 
+@pytest.mark.parametrize("change, message", [
+    ({"sensors": {"l": {"type": "laser", "body": "b", "count": 0}}},
+     "parameter 'sensors.l.count': must be at least 1, not 0"),
+    ({"sensors": {"l": {"type": "laser", "body": "b", "count": 200000}}},
+     "parameter 'sensors.l.count': must be at most 100000, not 200000"),
+    ({"step": 0.004166667, "publish_rate": 7},
+     "parameter 'publish_rate': 7 Hz is not a whole number of physics steps of 0.004166667 s"),
+    ({"step": 0.0},  "parameter 'step': must be positive, not 0"),
+    ({"publish_rate": -2.5},  "parameter 'publish_rate': must be positive, not -2.5"),
+])
+def test_refusals_give_numbers_as_written(tmp_path, change, message):
+    """A count of 0 was refused as "must be at least 1.0, not 0.0" and a step of
+    0.004166667 s shown as 0.004166667000000001 s: whole numbers are given without '.0',
+    others by the shortest text that reads back as the same double."""
+    with pytest.raises(SceneError) as error:
+        load_scene(write_scene(tmp_path, {**ONE_BOX, **change}))
+    assert str(error.value).endswith(message), str(error.value)
+
+
 def test_parameter_names_must_be_strings(tmp_path):
     path = tmp_path / "keys.yaml"
     path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n      1: {shape: box}\n")
     with pytest.raises(SceneError, match="names must be strings"):
         load_scene(path)
+
+
+@pytest.mark.parametrize("written, read", [("y", "True"), ("off", "False"), ("1", "1"),
+                                           ("1.5", "1.5")])
+def test_a_name_yaml_reads_as_another_type_is_named_as_written(tmp_path, written, read):
+    """YAML reads an unquoted y, yes, on (n, no, off) as a boolean and digits as a
+    number: a joint named y was refused as "'joints.True': names must be strings", a
+    name the user never wrote. The refusal names what was written, where, and says to
+    quote it."""
+    path = tmp_path / "keys.yaml"
+    path.write_text("dynamics_node:\n  ros__parameters:\n    bodies:\n"
+                    f"      {written}: {{shape: box}}\n")
+    with pytest.raises(SceneError) as error:
+        load_scene(path)
+    assert str(error.value) == (
+        f"{path}: line 4, column 7: parameter 'bodies.{written}': names must be strings, "
+        f"and YAML reads {written} as {read}: quote it ('{written}')")
 
 
 def test_a_directory_named_like_a_shipped_scene_does_not_hide_it(tmp_path, monkeypatch):
