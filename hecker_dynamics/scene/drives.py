@@ -16,7 +16,6 @@ from typing import Any, Union
 import numpy as np
 
 from .parameters import REQUIRED, ParameterReader
-from .sensors import sample_period_ns
 
 __all__ = ["DiffDriveSpec", "WrenchDriveSpec", "DriveSpec", "DRIVE_TYPES", "read_drive"]
 
@@ -123,7 +122,7 @@ def _read_controller(name: str, body: str, reader: ParameterReader, step_ns: int
         linear_ki=reader.number("linear_ki", 0.0, minimum=0.0),
         angular_kp=reader.number("angular_kp", REQUIRED, minimum=0.0),
         angular_ki=reader.number("angular_ki", 0.0, minimum=0.0),
-        period_ns=sample_period_ns(reader, step_ns, 100.0),
+        period_ns=reader.period_ns("rate", step_ns, 100.0),
         cmd_vel_timeout_ns=round(timeout * 1e9))
 
 

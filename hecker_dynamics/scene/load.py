@@ -56,9 +56,7 @@ from .parameters import (
     ParameterReader,
     SceneError,
     flatten,
-    number_text,
     quoted,
-    seconds_text,
     unflatten,
 )
 from .rosyaml import merge_parameters, read_parameters_file
@@ -394,12 +392,7 @@ def _read_scene(root: ParameterReader) -> Scene:
     if not frame_id or "/" in frame_id:
         root.fail("frame_id", f"must be a non-empty name without '/', not '{frame_id}'")
     step_ns = _seconds_to_ns(root, "step", 0.001, positive=True)
-    rate = root.number("publish_rate", 50.0, positive=True)
-    steps_per_publish = 1e9 / rate / step_ns
-    if not 0.5 <= steps_per_publish < 1e12 or \
-            abs(steps_per_publish - round(steps_per_publish)) > 1e-6 * steps_per_publish:
-        root.fail("publish_rate", f"{number_text(rate)} Hz is not a whole number of physics "
-                                  f"steps of {seconds_text(step_ns)} s")
+    publish_period_ns = root.period_ns("publish_rate", step_ns, 50.0)
     bodies = tuple(read_body(name, r) for name, r in root.named_children("bodies"))
     if not bodies:
         root.fail("bodies", "a scene needs at least one body")
@@ -421,7 +414,7 @@ def _read_scene(root: ParameterReader) -> Scene:
         step_ns=step_ns,
         integrator=root.string("integrator", "auto", choices=INTEGRATORS),
         tolerance=root.number("tolerance", 1e-6, positive=True),
-        publish_period_ns=round(steps_per_publish) * step_ns,
+        publish_period_ns=publish_period_ns,
         duration_ns=_seconds_to_ns(root, "duration", 10.0),
         input_timeout_ns=_seconds_to_ns(root, "input_timeout", 0.5),
         input_max_lead_ns=_seconds_to_ns(root, "input_max_lead", 10.0),

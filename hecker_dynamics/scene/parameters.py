@@ -152,6 +152,16 @@ class ParameterReader:
             self.fail(key, f"must be at most {number_text(maximum)}, not {number_text(value)}")
         return value
 
+    def period_ns(self, key: str, step_ns: int, default_rate: float) -> int:
+        """The period of the rate ``key`` (Hz), in ns: a whole number of physics steps of
+        ``step_ns``, so that every sample or publish instant falls on a step."""
+        rate = self.number(key, default_rate, positive=True)
+        steps = 1e9 / rate / step_ns
+        if not 0.5 <= steps < 1e12 or abs(steps - round(steps)) > 1e-6 * steps:
+            self.fail(key, f"{number_text(rate)} Hz is not a whole number of physics steps "
+                           f"of {seconds_text(step_ns)} s")
+        return round(steps) * step_ns
+
     def _finite(self, key: str, value: Any) -> float:
         """``value`` as a finite float (a huge integer does not fit one)."""
         try:

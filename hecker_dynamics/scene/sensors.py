@@ -16,7 +16,7 @@ from typing import Union
 from .parameters import REQUIRED, ParameterReader
 
 __all__ = ["LaserSpec", "ImuSpec", "SensorSpec", "SENSOR_TYPES", "MAX_RAYS",
-           "MAX_IMU_NOISE", "sample_period_ns", "read_sensor"]
+           "MAX_IMU_NOISE", "read_sensor"]
 
 SENSOR_TYPES = ("laser", "imu")
 #: Most rays of one scan: a scan costs rays x edges in memory.
@@ -82,16 +82,6 @@ class ImuSpec:
 SensorSpec = Union[LaserSpec, ImuSpec]
 
 
-def sample_period_ns(reader: ParameterReader, step_ns: int, default_rate: float) -> int:
-    """The sample period for ``rate`` (Hz): a whole number of physics steps."""
-    rate = reader.number("rate", default_rate, positive=True)
-    steps = 1e9 / rate / step_ns
-    if not 0.5 <= steps < 1e12 or abs(steps - round(steps)) > 1e-6 * steps:
-        reader.fail("rate", f"{rate} Hz is not a whole number of physics steps "
-                            f"of {step_ns * 1e-9} s")
-    return round(steps) * step_ns
-
-
 def _seed(reader: ParameterReader) -> int:
     seed = reader.number("seed", 0, minimum=0.0, maximum=2.0 ** 63)
     if not float(seed).is_integer():
@@ -117,7 +107,7 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     position = reader.vector("position", [0.0, 0.0])
     angle = reader.number("angle", 0.0)
     if kind == "imu":
-        return ImuSpec(name, body, position, angle, sample_period_ns(reader, step_ns, 100.0),
+        return ImuSpec(name, body, position, angle, reader.period_ns("rate", step_ns, 100.0),
                        orientation_noise=_imu_noise(reader, "orientation_noise"),
                        angular_velocity_noise=_imu_noise(reader, "angular_velocity_noise"),
                        linear_acceleration_noise=_imu_noise(reader,
@@ -139,5 +129,5 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     if range_max <= range_min:
         reader.fail("range_max", f"must exceed range_min ({range_min}), not {range_max}")
     return LaserSpec(name, body, position, angle, angle_min, angle_max, int(count),
-                     range_min, range_max, sample_period_ns(reader, step_ns, 10.0),
+                     range_min, range_max, reader.period_ns("rate", step_ns, 10.0),
                      noise=reader.number("noise", 0.0, minimum=0.0), seed=_seed(reader))

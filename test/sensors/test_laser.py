@@ -155,7 +155,7 @@ def test_noise_is_gaussian_seeded_by_stamp_and_replays():
     ({"angle_min": 1.0, "angle_max": 0.0}, "must be at least angle_min"),
     # One ray, cast at angle_min, under a scan that claimed angle_max 2.0 (increment 0).
     ({"angle_min": -2.0, "angle_max": 2.0, "count": 1}, "one ray is cast at angle_min"),
-    ({"rate": 3.0}, "not a whole number of physics steps"),
+    ({"rate": 3.0}, "3 Hz is not a whole number of physics steps of 0.01 s"),
 ])
 def test_bad_laser_parameters_are_refused_by_name(laser, problem):
     spec = {"type": "laser", "body": "robot", **laser}
