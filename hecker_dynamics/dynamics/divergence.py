@@ -86,8 +86,6 @@ FLOOR_SPEED = 1.0
 # The rows of the budget array, one column per unit (``src/kernel/bound.c`` reads the same).
 ROOT, WORK, RATE, INPUT_RATE, POWER, ENERGY, EXCESS, LIMIT = range(8)
 BUDGET_ROWS = 8
-#: The most force terms whose places (:meth:`EnergyBound._places`) a bound keeps.
-KEPT_PLACES = 16
 
 
 def energy_units(scene: Scene) -> list[int]:
@@ -187,9 +185,6 @@ class EnergyBound:
                     self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
                                          spec.name))
         self._speeds: dict[str, float] = {}
-        #: :meth:`_places` of the terms seen, by their body column's id (with the column).
-        self._kept_places: dict[int, tuple[np.ndarray, list[tuple[int, float, float,
-                                                                  Optional[float]]]]] = {}
         self._inputs_set = self._motors_moved = self._stale = False
         #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
         self.worst_ratio = 0.0
@@ -320,18 +315,11 @@ class EnergyBound:
         """Per row of ``term``: its body's unit, sqrt(2 / m) and sqrt(2 / I) of its body,
         and its lever arm where that does not follow the state (None where it does): 0 at
         the CM, |r| at a point of the body itself (the distance of the body's CM from
-        itself is 0 in a state, which is always finite). Kept for the term's places, which
-        a drive's new wheel forces keep (:meth:`.ConstantWrenchTerm.with_values`)."""
-        kept = self._kept_places.get(id(term.body))
-        if kept is not None and kept[0] is term.body:
-            return kept[1]
+        itself is 0 in a state, which is always finite)."""
         places = []
         for body, _, _, _, owner, (px, py), at_point in term.rows:
             lever = (None if owner != body else math.hypot(px, py)) if at_point else 0.0
             places.append((self.units[body], *self._roots[body], lever))
-        if len(self._kept_places) >= KEPT_PLACES:  # bounded whatever terms the inputs make
-            self._kept_places.clear()
-        self._kept_places[id(term.body)] = (term.body, places)
         return places
 
     def _refresh(self, q: np.ndarray) -> None:
