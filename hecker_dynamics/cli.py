@@ -49,6 +49,7 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
+from .scene.parameters import seconds_text
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -111,8 +112,8 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
         if scene.publish_period_ns % args.step:
             step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
             raise SceneError(f"--step {step}: the publish period "
-                             f"{scene.publish_period_ns * 1e-9:g} s must be a whole number "
-                             "of steps")
+                             f"{seconds_text(scene.publish_period_ns)} s must be a whole "
+                             "number of steps")
         changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration

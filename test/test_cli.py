@@ -115,6 +115,10 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
                         "--step 0.0007:")
     _assert_clean_error(capsys, main(["run", "--step", "1.0000001", "--duration", "0.1"]),
                         "--step 1.0000001:")
+    # The chain's 10 Hz over steps of 1/240 s (4166667 ns) is 24 steps, 100000008 ns:
+    # the period is named as it is, not as 0.1 s, which 0.05 s steps would divide.
+    _assert_clean_error(capsys, main(["run", "chain", "--step", "0.05"]),
+                        "--step 0.05: the publish period 0.100000008 s must be")
 
 
 def test_diverging_scene_exits_2(tmp_path, capsys):
