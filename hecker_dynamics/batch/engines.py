@@ -16,8 +16,9 @@ the results come, in finishing order; the caller puts them back in order.
   write end of a pipe whose read end its workers hold; a task looks at it at its safe
   points (:func:`stop_point`, between publish instants) and unwinds as from any error,
   removing what it had begun, so the worker is free again within one publish period. A
-  signal to a worker, or the command killed (which closes the pipe too), stops its task
-  the same way; workers still running after :data:`STOP_GRACE` are killed. A second pipe,
+  signal to a worker (one the command does not ignore), or the command killed (which
+  closes the pipe too), stops its task the same way; workers still running after
+  :data:`STOP_GRACE` are killed. A second pipe,
   which the command never closes, tells a worker the command has gone (killed by SIGKILL,
   say): it exits once its task has unwound (after :data:`STOP_GRACE` at most), and with
   the last worker the fork server and multiprocessing's resource tracker, whose pipes the
@@ -106,17 +107,27 @@ _signalled = False
 _in_task = threading.Lock()
 
 
-def _start_worker(pipe: Connection, command: Connection) -> None:
-    """A pool worker's start: keep the stop pipe, take SIGINT (Ctrl-C reaches the whole
-    process group) and SIGTERM as a stop at the next safe point, and exit once the
-    command has gone (``command``, the read end of its pipe of life, at its end)."""
+#: The signals a worker takes as a stop: Ctrl-C reaches the whole process group, and so
+#: does a CI runner's SIGTERM.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _start_worker(pipe: Connection, command: Connection,
+                  ignored: tuple[int, ...]) -> None:
+    """A pool worker's start: keep the stop pipe, take the :data:`STOP_SIGNALS` the command
+    does not ignore (``ignored``) as a stop at the next safe point, and exit once the
+    command has gone (``command``, the read end of its pipe of life, at its end). A
+    command started ignoring SIGINT (``cmd &`` in a script, which a Ctrl-C in its terminal
+    still reaches) runs on through one; its workers must too, else the command ran on
+    and reported their stopped tasks as its failure."""
     global _stop_pipe
     _stop_pipe = pipe
     threading.Thread(target=_exit_when_orphaned, args=(command,), daemon=True).start()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, _on_signal)
+    for signum in STOP_SIGNALS:
+        if signum not in ignored:
+            signal.signal(signum, _on_signal)
     # The fork server started with both blocked (see _start_fork_server).
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
 
 def _exit_when_orphaned(command: Connection) -> None:
@@ -154,6 +165,12 @@ def _stoppable(function: Callable[[Any], Any], task: Any) -> Any:
             return _StoppedTask()
 
 
+def _ignored_signals() -> tuple[int, ...]:
+    """The :data:`STOP_SIGNALS` this process ignores."""
+    return tuple(signum for signum in STOP_SIGNALS
+                 if signal.getsignal(signum) == signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def _signals_held() -> Iterator[None]:
     """Hold Ctrl-C and SIGTERM until the block ends, then take them: a submit starts a
@@ -166,7 +183,7 @@ def _signals_held() -> Iterator[None]:
         return
     caught: list[int] = []
     previous = {signum: signal.signal(signum, lambda signum, _: caught.append(signum))
-                for signum in (signal.SIGINT, signal.SIGTERM)}
+                for signum in STOP_SIGNALS}
     try:
         yield
     finally:
@@ -196,7 +213,8 @@ class ProcessPool:
         self._futures: list[Future[Any]] = []
         self._executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=context,
                                              initializer=_start_worker,
-                                             initargs=(self._stopping, self._orphaned))
+                                             initargs=(self._stopping, self._orphaned,
+                                                       _ignored_signals()))
 
     def run(self, function: Callable[[Any], Any],
             tasks: Sequence[Any]) -> Iterator[tuple[int, Any]]:
@@ -259,9 +277,8 @@ def _start_fork_server() -> None:
 
     if threading.current_thread() is not threading.main_thread():
         return
-    held = (signal.SIGINT, signal.SIGTERM)
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    previous = {signum: signal.signal(signum, signal.SIG_IGN) for signum in held}
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    previous = {signum: signal.signal(signum, signal.SIG_IGN) for signum in STOP_SIGNALS}
     try:
         forkserver.ensure_running()
     finally:

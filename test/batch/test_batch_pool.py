@@ -38,8 +38,9 @@ def test_the_pool_does_not_fork_a_threaded_process():
     assert not [w for w in caught if "fork" in str(w.message)], [str(w.message) for w in caught]
 
 
-def _descendants(pid: int) -> set[int]:
-    """The live processes under ``pid``, from /proc's parent links."""
+def _descendants(pid: int, depth: int = 1) -> set[int]:
+    """The live processes under ``pid``, from /proc's parent links: its children and
+    theirs (``depth`` 1), or those at least ``depth`` generations down only."""
     parents = {}
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
@@ -48,10 +49,12 @@ def _descendants(pid: int) -> set[int]:
             continue
         if fields[0] != "Z":
             parents[int(stat.parent.name)] = int(fields[1])
-    found, frontier = set(), {pid}
+    found, frontier, generation = set(), {pid}, 0
     while frontier:
         frontier = {child for child, parent in parents.items() if parent in frontier}
-        found |= frontier
+        generation += 1
+        if generation >= depth:
+            found |= frontier
     return found
 
 
@@ -63,12 +66,27 @@ def _alive(pid: int) -> bool:
 
 
 def _into_a_variant(process: subprocess.Popen) -> None:
-    """Wait until ``process`` has its fork server and a worker, and 2 s more."""
+    """Wait until ``process`` has a worker (a child of its fork server, beside which it
+    has the resource tracker), and 2 s more."""
     deadline = time.monotonic() + 120.0
-    while len(_descendants(process.pid)) < 2:  # the fork server and a worker
+    while not _descendants(process.pid, depth=2):
         assert process.poll() is None and time.monotonic() < deadline
         time.sleep(0.1)
     time.sleep(2.0)  # into the variant's run
+
+
+def _sweep(tmp_path: Path, *, sigint: int, group: bool) -> subprocess.Popen:
+    """A sweep of two long variants on one worker, started with SIGINT's disposition
+    ``sigint``, as a shell starts a command: at its default in the foreground, ignored for
+    ``cmd &`` in a script. (Set here, not inherited: pytest itself may run ignoring it.)"""
+    arguments = ["sweep", "chain", "--set", "bodies.link00.mass=1,2", "--duration", "3000",
+                 "--workers", "1", "--bags", str(tmp_path / "bags"), "-o",
+                 str(tmp_path / "rows.csv")]
+    start = ("import os, signal, sys; signal.signal(signal.SIGINT, signal.Handlers(int("
+             "sys.argv[1]))); os.execv(sys.executable, [sys.executable, '-m', "
+             "'hecker_dynamics.cli', *sys.argv[2:]])")
+    return subprocess.Popen([sys.executable, "-c", start, str(int(sigint)), *arguments],
+                            stderr=subprocess.PIPE, text=True, start_new_session=group)
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
@@ -88,11 +106,7 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
     it, and the worker, its variant stopped, waited for tasks forever, holding the
     command's stdout and stderr."""
     bags = tmp_path / "bags"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain", "--set",
-         "bodies.link00.mass=1,2", "--duration", "3000", "--workers", "1",
-         "--bags", str(bags), "-o", str(tmp_path / "rows.csv")],
-        stderr=subprocess.PIPE, text=True, start_new_session=group)
+    process = _sweep(tmp_path, sigint=signal.SIG_DFL, group=group)
     try:
         _into_a_variant(process)
         under = _descendants(process.pid)
@@ -113,6 +127,27 @@ def test_a_stopped_sweep_stops_its_running_workers(tmp_path, signum, status, lin
     assert not (tmp_path / "rows.csv").exists()
     partial = tmp_path / "rows.csv.partial.csv"
     assert not partial.exists() or partial.read_text().count("\n") <= 1
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_sweep_that_ignores_ctrl_c_keeps_its_workers_running(tmp_path):
+    """A sweep started ignoring SIGINT (``cmd &`` in a script) still gets a Ctrl-C in its
+    terminal, sent to the whole group: the command ran on as it should, but its worker
+    took the signal as a stop, and the sweep then failed with "a worker process was
+    stopped by a signal" (rc 2). Its workers ignore it too now; SIGTERM still stops all."""
+    process = _sweep(tmp_path, sigint=signal.SIG_IGN, group=True)
+    try:
+        _into_a_variant(process)
+        under = _descendants(process.pid)
+        os.killpg(process.pid, signal.SIGINT)
+        time.sleep(3.0)  # many publish instants of the variant, each a stop point
+        assert process.poll() is None, process.communicate()[1]
+        assert all(map(_alive, under))
+        os.killpg(process.pid, signal.SIGTERM)
+        _, err = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert (process.returncode, err) == (143, "hecker-dynamics: terminated\n")
 
 
 def _session(sid: int) -> set[int]:
