@@ -42,7 +42,14 @@ from ..scene.load import (
     read_wall,
     scene_from_parameters,
 )
-from ..scene.parameters import NAME_PATTERN, NAME_RULE, ParameterReader, flatten
+from ..scene.parameters import (
+    NAME_PATTERN,
+    NAME_RULE,
+    ParameterReader,
+    flatten,
+    number_text,
+    seconds_text,
+)
 from ..scene.world import WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
@@ -608,8 +615,8 @@ class World:
             steps = round(span / step_ns)
             # Each step was rounded to whole nanoseconds, by half a nanosecond at most.
             if steps < 1 or abs(span - steps * step_ns) > 0.5 * steps + 0.5:
-                raise ValueError(f"dt: {dt} s is not a whole number of steps of "
-                                 f"{step_ns * 1e-9} s")
+                raise ValueError(f"dt: {number_text(dt)} s is not a whole number of steps "
+                                 f"of {seconds_text(step_ns)} s")
         self._run_to(self.simulation.time_ns + steps * self.simulation.step_ns)
 
     def advance(self, t: float) -> None:
@@ -617,7 +624,8 @@ class World:
         sim = self.simulation
         steps = round((number(t, "t", maximum=MAX_SECONDS) * 1e9 - sim.time_ns) / sim.step_ns)
         if steps < 0:
-            raise ValueError(f"t: {t} s is behind the world's time ({self.time} s)")
+            raise ValueError(f"t: {number_text(t)} s is behind the world's time "
+                             f"({seconds_text(sim.time_ns)} s)")
         self._run_to(sim.time_ns + steps * sim.step_ns)
 
     def reset(self, start_ns: Optional[int] = None) -> None:
