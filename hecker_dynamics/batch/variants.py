@@ -88,10 +88,16 @@ def _scalar(text: str, setting: str) -> Value:
             break
         return value
     else:
-        loaded = yaml.safe_load(text) if text else None
+        try:
+            loaded = yaml.safe_load(text) if text else None
+        except yaml.YAMLError:  # a list's bracket, cut at its commas: "[100", "0]"
+            loaded = None
         if isinstance(loaded, (bool, str)):
             return loaded
-    raise SceneError(f"--set {setting}: '{text}' is not a finite number, a boolean or a name")
+    hint = (" (set one element of an array: NAME[i]=VALUES)"
+            if text.startswith("[") or text.endswith("]") else "")
+    raise SceneError(f"--set {setting}: '{text}' is not a finite number, a boolean or a "
+                     f"name{hint}")
 
 
 def _number(text: str, setting: str) -> float:

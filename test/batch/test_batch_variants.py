@@ -53,6 +53,11 @@ def test_sampling_is_the_seeded_generator():
     ("bodies.left.mass=1:2:0", "not a positive whole number"),
     ("bodies.left.mass=1:2:3:4", "start:stop:count or start:stop"),
     ("bodies.left.mass=nan", "not a finite number"),
+    # A whole array, cut at its commas into "[1" and "2]": YAML's parser error was a
+    # traceback.
+    ("bodies.left.position=[1,2]", r"'\[1' is not a finite number, a boolean or a name "
+                                   r"\(set one element of an array: NAME\[i\]=VALUES\)"),
+    ("bodies.left.name={a", "'{a' is not a finite number, a boolean or a name$"),
 ])
 def test_malformed_settings_are_refused(text, problem):
     with pytest.raises(SceneError, match=problem):
