@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Union
 
-from .parameters import REQUIRED, ParameterReader
+from .parameters import REQUIRED, ParameterReader, number_text
 
 __all__ = ["LaserSpec", "ImuSpec", "SensorSpec", "SENSOR_TYPES", "MAX_RAYS",
            "MAX_IMU_NOISE", "read_sensor"]
@@ -117,6 +117,12 @@ def read_sensor(name: str, reader: ParameterReader, points: Mapping[str, Mapping
     angle_max = reader.number("angle_max", math.pi)
     if angle_max < angle_min:
         reader.fail("angle_max", f"must be at least angle_min ({angle_min}), not {angle_max}")
+    if angle_max - angle_min > 2.0 * math.pi:
+        # Rays past a full turn only cast again the first ones; such a span is degrees
+        # (-135 to 135) far more often than a scan meant to wrap.
+        reader.fail("angle_max", f"must be at most a full turn (2 pi rad) past angle_min "
+                                 f"({number_text(angle_min)}), not {number_text(angle_max)}: "
+                                 f"angles are in radians")
     count = reader.number("count", 360, minimum=1.0, maximum=MAX_RAYS)
     if not count.is_integer():
         reader.fail("count", f"must be a whole number, not {count}")

@@ -156,6 +156,10 @@ def test_noise_is_gaussian_seeded_by_stamp_and_replays():
     # One ray, cast at angle_min, under a scan that claimed angle_max 2.0 (increment 0).
     ({"angle_min": -2.0, "angle_max": 2.0, "count": 1}, "one ray is cast at angle_min"),
     ({"rate": 3.0}, "3 Hz is not a whole number of physics steps of 0.01 s"),
+    # Degrees where radians are meant: rays 270 rad round, each cast 43 times over.
+    ({"angle_min": -135, "angle_max": 135},
+     r"'sensors.front.angle_max': must be at most a full turn \(2 pi rad\) past angle_min "
+     r"\(-135\), not 135: angles are in radians"),
 ])
 def test_bad_laser_parameters_are_refused_by_name(laser, problem):
     spec = {"type": "laser", "body": "robot", **laser}
