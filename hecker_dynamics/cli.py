@@ -449,7 +449,8 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
     replay_parser.add_argument("--start", type=_time_ns, metavar="S",
                                help="sim time at which the session starts, s (default: from "
                                     "the bag: its recorded start, one publish period before "
-                                    "its first pose, or its first message)")
+                                    "its first pose, or its first message); not after "
+                                    "the bag's end")
     replay_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the bag's recorded length, "
                                     "its last pose, or the scene's duration)")

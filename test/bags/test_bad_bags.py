@@ -111,6 +111,22 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
+    """--start past the bag's end (its last message and recorded session, 4 s) would
+    replay none of it: refused in one line, no bag written, rather than a silent run of
+    the scene alone (or a check that can only fail)."""
+    recording = str(tmp_path / "rec")
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", recording,
+                 "--with-inputs"]) == 0
+    for extra in (["-o", str(tmp_path / "o")], ["--check"]):
+        err = _one_line_error(capsys, "replay", "sample", recording, "--start", "100", *extra)
+        assert "--start 100 s" in err and "after the end of the bag, at 4 s" in err
+        assert not (tmp_path / "o").exists()
+    code, _, err = _cli(capsys, "replay", "sample", recording, "--start", "4", "--duration",
+                        "0", "-o", str(tmp_path / "o"))  # the end itself is in the bag
+    assert code == 0, err
+
+
 # ------------------------------------------------------------------ metadata and storage
 
 @pytest.mark.parametrize("count", [0, -5, "many", 1e12, 2000, 2002])
