@@ -194,6 +194,22 @@ def test_a_bag_cut_off_before_its_metadata_is_an_error_not_skipped(bag_suite, tm
     assert "no metadata.yaml" in capsys.readouterr().out
 
 
+def test_a_bag_given_twice_is_checked_once_saying_so(bag_suite, tmp_path, capsys):
+    """The same bag named twice, as a folder holding it and by itself, or through a symlink,
+    was checked and counted twice ("2 bag(s): 2 ok"): each bag is checked once, and a
+    warning names the duplicate."""
+    one = str(bag_suite / "a_sample")
+    (tmp_path / "link").symlink_to(bag_suite / "a_sample")
+    for argv, count in (([one, one], 1), ([one, str(bag_suite / ".." / "bags" / "a_sample")], 1),
+                        ([one, str(tmp_path / "link")], 1), ([str(bag_suite), one], 4)):
+        assert main(["regress", *argv, "--workers", "1", "--no-progress"]) in (0, 1)
+        captured = capsys.readouterr()
+        out = captured.out.splitlines()
+        assert len(out) == count + 1 and out[-1].startswith(f"{count} bag(s): "), out
+        assert captured.err.count("\n") == 1 and "given twice" in captured.err, captured.err
+        assert "checked once" in captured.err
+
+
 def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,
                   log: Path) -> subprocess.Popen[bytes]:
     """A ``dask scheduler`` or ``dask worker`` process on loopback; ``without_package``: one
