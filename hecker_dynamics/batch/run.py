@@ -234,7 +234,8 @@ def check_bag(task: BagTask) -> BagResult:
         check = check_recording(scene, bag, tolerances=task.tolerances, topics=task.topics,
                                 partial=task.partial, progress=lambda _: stop_point())
     except (SceneError, BagError, InputError, DivergenceError, OSError) as error:
-        return BagResult(task.bag, "error", str(error))
+        # The line names the bag first; the reason need not say it again.
+        return BagResult(task.bag, "error", str(error).removeprefix(f"{task.bag}: "))
     if check.halted:
         return BagResult(task.bag, "error", check.halted)
     return BagResult(task.bag, "ok" if check.ok else "mismatch", check.verdict())

@@ -210,6 +210,16 @@ def test_a_bag_given_twice_is_checked_once_saying_so(bag_suite, tmp_path, capsys
         assert "checked once" in captured.err
 
 
+def test_a_bag_that_cannot_be_checked_is_named_once_on_its_line(bag_suite, tmp_path, capsys):
+    """An ERROR line names its bag once: it repeated the path in the reason after it."""
+    cut = tmp_path / "cut"
+    shutil.copytree(bag_suite / "a_sample", cut)
+    (cut / "metadata.yaml").unlink()
+    assert main(["regress", str(cut), "--no-progress"]) == 2
+    line = capsys.readouterr().out.splitlines()[0]
+    assert line.startswith(f"ERROR    {cut}  no metadata.yaml "), line
+
+
 def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,
                   log: Path) -> subprocess.Popen[bytes]:
     """A ``dask scheduler`` or ``dask worker`` process on loopback; ``without_package``: one
