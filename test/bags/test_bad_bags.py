@@ -278,6 +278,23 @@ def test_two_bags_without_messages_are_no_match(tmp_path, capsys):
     assert code == 1 and "MISMATCH" in out
 
 
+def test_a_message_that_cannot_be_decoded_is_named_with_its_bag(tmp_path, capsys):
+    """A pose emptied of its bytes in one of two bags compared: the error names that bag
+    (it named only the message, so which bag was broken was a guess)."""
+    good = GOLDEN / "sample" / "output"
+    broken = tmp_path / "broken"
+    original = read_bag(good)
+    with BagWriter(broken, "mcap") as writer:
+        for topic, msgtype in original.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in original.messages:
+            writer.write_raw(message.topic, message.log_ns,
+                             b"" if message.index == 12 else message.raw)
+    for argv in ([str(good), str(broken)], [str(broken), str(good)]):
+        err = _one_line_error(capsys, "compare", *argv)
+        assert err.startswith(f"hecker-dynamics: error: {broken}: message 12 on "), err
+
+
 def test_a_nan_difference_is_the_largest_overall(tmp_path):
     pose = fields.Pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
     from hecker_dynamics.bags.io import pose_stamped_message
