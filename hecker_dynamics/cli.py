@@ -310,7 +310,7 @@ def _verdict(args: argparse.Namespace, check: RecordingCheck) -> int:
     """Print a check's report and its one-line verdict; exit status 0 or 1."""
     for line in check.lines(args.verbose):
         print(line)
-    print(f"check against the recording {args.input}: {check.verdict()}")
+    print(_one_line(f"check against the recording {args.input}: {check.verdict()}"))
     return 0 if check.ok else 1
 
 
@@ -728,7 +728,7 @@ def regress_command(args: argparse.Namespace) -> int:
     engine = _engine(args)
     try:
         results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),
-                          emit=lambda result: print(result.line(), flush=True),
+                          emit=lambda result: print(_one_line(result.line()), flush=True),
                           progress=_want_progress(args), scene_dir=args.scene_dir,
                           topics=args.topic, partial=args.partial)
     finally:

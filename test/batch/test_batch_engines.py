@@ -220,6 +220,20 @@ def test_a_bag_that_cannot_be_checked_is_named_once_on_its_line(bag_suite, tmp_p
     assert line.startswith(f"ERROR    {cut}  no metadata.yaml "), line
 
 
+def test_a_bag_named_with_a_line_break_keeps_to_its_one_line(bag_suite, tmp_path, capsys):
+    """A bag whose name holds a line break: its line and the summary are two lines, the
+    break written as an escape, as in an error (the line was split in two); so is the
+    verdict of replay --check."""
+    odd = tmp_path / "new\nline"
+    shutil.copytree(bag_suite / "a_sample", odd)
+    assert main(["regress", str(odd), "--no-progress"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 2 and out[0].startswith(f"OK       {tmp_path}/new\\nline  match: "), out
+    assert main(["replay", "sample", str(odd), "--check", "--no-progress"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith(
+        f"check against the recording {tmp_path}/new\\nline: match: ")
+
+
 def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,
                   log: Path) -> subprocess.Popen[bytes]:
     """A ``dask scheduler`` or ``dask worker`` process on loopback; ``without_package``: one
