@@ -115,6 +115,24 @@ def test_a_dead_pool_worker_keeps_the_finished_rows(tmp_path):
     assert not (tmp_path / "t.csv").exists()
 
 
+def test_a_warning_of_the_workers_is_one_line_once(tmp_path):
+    """A load 4e11 times lighter than the wall block it may rest on: the contact pass warns
+    as each variant's scene is built in a worker. The warning reached stderr as Python
+    prints it in the worker (two lines: the source file and line, the code), once a worker;
+    it is the command's one line, once for the sweep."""
+    result = subprocess.run(
+        [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "seesaw", "--set",
+         "bodies.load.mass=1e-9,1e-9,1e-9", "--duration", "0.01", "--workers", "2",
+         "--no-progress", "-o", str(tmp_path / "t.csv")],
+        capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [
+        "hecker-dynamics: warning: collision group 'everything': 'wall_block' (400 kg) is "
+        "4e+11 times as heavy as 'load' (1e-09 kg); a body resting on one more than 1000 "
+        "times lighter presses it into what it lies on or squeezes it out (docs/scenes.md: "
+        "Contacts)"], result.stderr
+
+
 # ----------------------------------------------------------------------------- regress
 
 @pytest.fixture(scope="module")
