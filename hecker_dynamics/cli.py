@@ -49,7 +49,6 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
-from .scene.parameters import seconds_text
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -102,19 +101,22 @@ def _positive(text: str) -> float:
 
 
 def configure(scene: Scene, args: argparse.Namespace) -> Scene:
-    """Apply the command line's overrides (integrator, step, tolerance, map) to a scene."""
+    """Apply the command line's overrides (integrator, step, tolerance, map) to a scene.
+
+    A step reads the scene's file again with it, as the node's ``-p step:=`` does: the
+    publish, sensor and drive periods come anew from their rates, each a whole number of
+    the new steps or refused (kept from the file's step, they would not be the rates)."""
+    if args.step is not None:
+        try:
+            scene = load_scene(scene.source, step_ns=args.step)
+        except SceneError as error:
+            step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
+            raise SceneError(f"--step {step}: {error}") from None
     changes = {}
     if args.integrator:
         changes["integrator"] = args.integrator
     if args.tolerance is not None:
         changes["tolerance"] = args.tolerance
-    if args.step is not None:
-        if scene.publish_period_ns % args.step:
-            step = f"{decimal.Decimal(args.step).scaleb(-9).normalize():f}"  # as given, exactly
-            raise SceneError(f"--step {step}: the publish period "
-                             f"{seconds_text(scene.publish_period_ns)} s must be a whole "
-                             "number of steps")
-        changes["step_ns"] = args.step
     if args.duration is not None:
         changes["duration_ns"] = args.duration
     if args.map is not None:
@@ -308,7 +310,7 @@ def _verdict(args: argparse.Namespace, check: RecordingCheck) -> int:
     """Print a check's report and its one-line verdict; exit status 0 or 1."""
     for line in check.lines(args.verbose):
         print(line)
-    print(f"check against the recording {args.input}: {check.verdict()}")
+    print(_one_line(f"check against the recording {args.input}: {check.verdict()}"))
     return 0 if check.ok else 1
 
 
@@ -449,7 +451,8 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
     replay_parser.add_argument("--start", type=_time_ns, metavar="S",
                                help="sim time at which the session starts, s (default: from "
                                     "the bag: its recorded start, one publish period before "
-                                    "its first pose, or its first message)")
+                                    "its first pose, or its first message); not after "
+                                    "the bag's end")
     replay_parser.add_argument("--duration", type=_time_ns, metavar="S",
                                help="session length, s (default: the bag's recorded length, "
                                     "its last pose, or the scene's duration)")
@@ -725,7 +728,7 @@ def regress_command(args: argparse.Namespace) -> int:
     engine = _engine(args)
     try:
         results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),
-                          emit=lambda result: print(result.line(), flush=True),
+                          emit=lambda result: print(_one_line(result.line()), flush=True),
                           progress=_want_progress(args), scene_dir=args.scene_dir,
                           topics=args.topic, partial=args.partial)
     finally:

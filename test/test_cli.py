@@ -115,10 +115,42 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
                         "--step 0.0007:")
     _assert_clean_error(capsys, main(["run", "--step", "1.0000001", "--duration", "0.1"]),
                         "--step 1.0000001:")
-    # The chain's 10 Hz over steps of 1/240 s (4166667 ns) is 24 steps, 100000008 ns:
-    # the period is named as it is, not as 0.1 s, which 0.05 s steps would divide.
-    _assert_clean_error(capsys, main(["run", "chain", "--step", "0.05"]),
-                        "--step 0.05: the publish period 0.100000008 s must be")
+    # The robot's drive runs at 100 Hz, 10 ms, which steps of 4 ms do not divide: refused,
+    # naming the rate (its control loop waited for an instant no step reaches, for ever).
+    _assert_clean_error(capsys, main(["run", "robot", "--step", "0.004", "--duration", "0.1"]),
+                        "--step 0.004:", "'drives.base.rate': 100 Hz is not a whole number of "
+                                         "physics steps of 0.004 s")
+
+
+def _configured(scene_name: str, step: str):
+    from hecker_dynamics.cli import configure
+    args = parser().parse_args(["run", scene_name, "--step", step])
+    return configure(load_scene(scene_name), args)
+
+
+def test_step_keeps_every_rate_of_the_scene():
+    """--step makes the periods anew from the scene's rates, as the node's
+    ``-p step:=`` does: the publish, sensor and drive periods stay what the rates say (they
+    were kept as whole steps of the file's step, which the new step need not divide)."""
+    robot = _configured("robot", "0.0005")
+    assert robot.step_ns == 500_000
+    assert robot.publish_period_ns == 20_000_000  # 50 Hz
+    assert {s.name: s.period_ns for s in robot.sensors} == {"imu": 20_000_000,
+                                                            "laser": 100_000_000}
+    assert [d.period_ns for d in robot.drives] == [10_000_000]  # 100 Hz
+    assert robot == load_scene_with_step("robot", "0.0005")
+    # The chain's 10 Hz over its steps of 1/240 s (4166667 ns) is 24 steps, 100000008 ns;
+    # over steps of 0.05 s it is 2 steps, 0.1 s, as the scene says: not refused.
+    assert _configured("chain", "0.05").publish_period_ns == 100_000_000
+
+
+def load_scene_with_step(scene_name: str, step: str):
+    """The scene as the node reads it with ``-p step:=STEP``: the file with its step
+    replaced."""
+    from hecker_dynamics.scene.load import scene_from_parameters, scene_parameters
+    from hecker_dynamics.scene.parameters import flatten
+    source, params = scene_parameters(scene_name)
+    return scene_from_parameters(dict(flatten(params), step=float(step)), source)
 
 
 def test_diverging_scene_exits_2(tmp_path, capsys):

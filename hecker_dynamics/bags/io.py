@@ -513,20 +513,23 @@ def stamp_ns_of(msg: Any) -> Optional[int]:
 
 @dataclass(frozen=True)
 class BagMessage:
-    """One message of a bag: topic, type, log time and the CDR bytes."""
+    """One message of a bag: topic, type, log time and the CDR bytes, and the bag read it
+    from (None: made here), which a refusal of its bytes names."""
 
     index: int  # position in the bag's log-time order
     topic: str
     msgtype: str
     log_ns: int
     raw: bytes
+    bag: Optional[Path] = field(default=None, compare=False)
 
     def decode(self) -> Any:
         """The message as a rosbags object; raises :class:`BagError` if it is malformed."""
         try:
             return typestore().deserialize_cdr(self.raw, self.msgtype)
         except Exception as error:  # rosbags raises several kinds for bad bytes
-            raise BagError(f"message {self.index} on '{self.topic}' at "
+            where = f"{self.bag}: " if self.bag is not None else ""
+            raise BagError(f"{where}message {self.index} on '{self.topic}' at "
                            f"{self.log_ns * 1e-9:.9f} s cannot be decoded as "
                            f"{self.msgtype}: {error}") from None
 
@@ -640,7 +643,7 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
     messages.sort(key=lambda m: (m[0], m[1]))
     return BagContents(
         path=path, storage=storage, topics=bag_topics,
-        messages=[BagMessage(i, topic, msgtype, log_ns, raw)
+        messages=[BagMessage(i, topic, msgtype, log_ns, raw, path)
                   for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)

@@ -51,6 +51,7 @@ session's records do not hold.
 from __future__ import annotations
 
 import bisect
+import dataclasses
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -260,7 +261,7 @@ def _twist_places(messages: list[BagMessage], replayed: list[Output], raw: dict[
 
 
 def _relogged(message: BagMessage, log_ns: int) -> BagMessage:
-    return bags.BagMessage(message.index, message.topic, message.msgtype, log_ns, message.raw)
+    return dataclasses.replace(message, log_ns=log_ns)
 
 
 # ----------------------------------------------------------------------------- replay

@@ -202,6 +202,8 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
     plus the scene's duration.
     """
     poses: Optional[list[int]] = None
+    if start_ns is not None:
+        _check_start_in_bag(bag, start_ns)
     if start_ns is None:
         start_ns = bag.custom_int("start_ns")
     if start_ns is None:
@@ -223,6 +225,18 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
                           f"(start {start_ns * 1e-9:.9f} s, duration {duration_ns * 1e-9:g} s)")
     check_session(start_ns, duration_ns, f"{bag.path}: the session")
     return start_ns, start_ns + duration_ns
+
+
+def _check_start_in_bag(bag: BagContents, start_ns: int) -> None:
+    """Refuse a start given past the end of ``bag`` (its last message, or the end of the
+    session it records, whichever is later): the replay would take none of it."""
+    ends = [bag.messages[-1].log_ns] if bag.messages else []
+    recorded_start, recorded_duration = bag.custom_int("start_ns"), bag.custom_int("duration_ns")
+    if recorded_start is not None and recorded_duration is not None:
+        ends.append(recorded_start + recorded_duration)
+    if ends and start_ns > max(ends):
+        raise ReplayError(f"{bag.path}: --start {start_ns * 1e-9:g} s is after the end of the "
+                          f"bag, at {max(ends) * 1e-9:g} s: none of it would be replayed")
 
 
 def check_session(start_ns: int, duration_ns: int, what: str,

@@ -154,15 +154,23 @@ def stop_point() -> None:
         raise Stopped
 
 
-def _stoppable(function: Callable[[Any], Any], task: Any) -> Any:
+#: A warning a task raised in a pool worker: its category, text, file and line.
+_Warned = tuple[type[Warning], str, str, int]
+
+
+def _stoppable(function: Callable[[Any], Any], task: Any) -> tuple[Any, list[_Warned]]:
     """``function(task)`` in a pool worker, or :class:`_StoppedTask` if it stopped (a task
-    queued before the stop stops before it begins)."""
-    with _in_task:
+    queued before the stop stops before it begins), and the warnings it raised: the
+    command shows them as it shows its own (a worker would print each in Python's two
+    lines, once a worker)."""
+    with _in_task, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         try:
             stop_point()
-            return function(task)
+            result = function(task)
         except Stopped:
-            return _StoppedTask()
+            result = _StoppedTask()
+    return result, [(w.category, str(w.message), w.filename, w.lineno) for w in caught]
 
 
 def _ignored_signals() -> tuple[int, ...]:
@@ -211,6 +219,8 @@ class ProcessPool:
         self._orphaned, self._alive = context.Pipe(duplex=False)
         #: Every task given to the pool (:meth:`close` stops those running).
         self._futures: list[Future[Any]] = []
+        #: The warnings of the tasks shown so far, by category and text.
+        self._warned: set[tuple[type[Warning], str]] = set()
         self._executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=context,
                                              initializer=_start_worker,
                                              initargs=(self._stopping, self._orphaned,
@@ -224,7 +234,11 @@ class ProcessPool:
             self._futures.extend(futures)
         try:
             for future in as_completed(futures):
-                result = future.result()
+                result, warned = future.result()
+                for category, text, filename, lineno in warned:
+                    if (category, text) not in self._warned:  # once, not once a task
+                        self._warned.add((category, text))
+                        warnings.warn_explicit(text, category, filename, lineno)
                 if isinstance(result, _StoppedTask):
                     raise EngineError("a worker process was stopped by a signal before its "
                                       "task ended")

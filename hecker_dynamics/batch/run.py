@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import tempfile
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -233,7 +234,8 @@ def check_bag(task: BagTask) -> BagResult:
         check = check_recording(scene, bag, tolerances=task.tolerances, topics=task.topics,
                                 partial=task.partial, progress=lambda _: stop_point())
     except (SceneError, BagError, InputError, DivergenceError, OSError) as error:
-        return BagResult(task.bag, "error", str(error))
+        # The line names the bag first; the reason need not say it again.
+        return BagResult(task.bag, "error", str(error).removeprefix(f"{task.bag}: "))
     if check.halted:
         return BagResult(task.bag, "error", check.halted)
     return BagResult(task.bag, "ok" if check.ok else "mismatch", check.verdict())
@@ -253,17 +255,23 @@ def _is_bag(path: Path) -> bool:
 
 def find_bags(paths: Sequence[Path]) -> list[Path]:
     """The bags named: each path is a bag directory (see :func:`_is_bag`) or holds bag
-    directories; raises :class:`BagError` for a path that is neither."""
-    found = []
+    directories; raises :class:`BagError` for a path that is neither. A bag named again
+    (twice, by a folder and by itself, through a symlink) is kept once, with a warning:
+    checked twice it would count twice in the summary."""
+    found: dict[Path, Path] = {}  # the bag's real path -> the path it was first found by
     for path in paths:
         if _is_bag(path):
-            found.append(path)
-            continue
-        inner = sorted(p for p in path.iterdir() if _is_bag(p)) if path.is_dir() else []
-        if not inner:
-            raise BagError(f"{path}: not a bag directory and holds none")
-        found.extend(inner)
-    return found
+            inner = [path]
+        else:
+            inner = sorted(p for p in path.iterdir() if _is_bag(p)) if path.is_dir() else []
+            if not inner:
+                raise BagError(f"{path}: not a bag directory and holds none")
+        for bag in inner:
+            first = found.setdefault(bag.resolve(), bag)
+            if first is not bag:
+                warnings.warn(f"{bag}: given twice (as {first} before); checked once",
+                              stacklevel=2)
+    return list(found.values())
 
 
 def regress(bags: Sequence[Path], engine: Engine, *, scene: Optional[str],

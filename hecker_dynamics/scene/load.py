@@ -302,16 +302,19 @@ def scene_summary(name_or_path: Union[str, os.PathLike[str], None]) -> str:
     return first[2:].strip() if first.startswith("# ") else ""
 
 
-def load_scene(name_or_path: Union[str, os.PathLike[str], None] = None) -> Scene:
+def load_scene(name_or_path: Union[str, os.PathLike[str], None] = None, *,
+               step_ns: Optional[int] = None) -> Scene:
     """Load a scene from a ROS 2 parameters file, or a shipped scene by name.
 
     A file whose only scene parameter is ``scene`` runs the scene that names, as the node
     does; ``scene`` together with scene parameters is refused, as the node refuses it.
+    ``step_ns``: the physics step in place of the file's ``step`` (as the node's
+    ``-p step:=`` gives it), from which every rate's period is made anew.
     """
-    return _load_file(scene_path(name_or_path), redirected=False)
+    return _load_file(scene_path(name_or_path), redirected=False, step_ns=step_ns)
 
 
-def _load_file(path: Path, *, redirected: bool) -> Scene:
+def _load_file(path: Path, *, redirected: bool, step_ns: Optional[int]) -> Scene:
     source, params = scene_parameters(path)
     requested = params.get("scene")
     if requested:
@@ -319,8 +322,8 @@ def _load_file(path: Path, *, redirected: bool) -> Scene:
         if redirected:
             raise SceneError(f"{source}: names another scene ('{requested}') and is itself "
                              "named by one; give the scene file itself")
-        return _load_file(scene_path(requested), redirected=True)
-    return _read_scene(ParameterReader(params, source))
+        return _load_file(scene_path(requested), redirected=True, step_ns=step_ns)
+    return _read_scene(ParameterReader(params, source), step_ns)
 
 
 def scene_parameters(name_or_path: Union[str, os.PathLike[str], None] = None
@@ -387,11 +390,13 @@ def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
     return ns
 
 
-def _read_scene(root: ParameterReader) -> Scene:
+def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
+    """The scene of the parameters in ``root``; ``step_ns``: see :func:`load_scene`."""
     frame_id = root.string("frame_id", "world")
     if not frame_id or "/" in frame_id:
         root.fail("frame_id", f"must be a non-empty name without '/', not '{frame_id}'")
-    step_ns = _seconds_to_ns(root, "step", 0.001, positive=True)
+    written = _seconds_to_ns(root, "step", 0.001, positive=True)
+    step_ns = written if step_ns is None else step_ns
     publish_period_ns = root.period_ns("publish_rate", step_ns, 50.0)
     bodies = tuple(read_body(name, r) for name, r in root.named_children("bodies"))
     if not bodies:

@@ -111,6 +111,22 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
+    """--start past the bag's end (its last message and recorded session, 4 s) would
+    replay none of it: refused in one line, no bag written, rather than a silent run of
+    the scene alone (or a check that can only fail)."""
+    recording = str(tmp_path / "rec")
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", recording,
+                 "--with-inputs"]) == 0
+    for extra in (["-o", str(tmp_path / "o")], ["--check"]):
+        err = _one_line_error(capsys, "replay", "sample", recording, "--start", "100", *extra)
+        assert "--start 100 s" in err and "after the end of the bag, at 4 s" in err
+        assert not (tmp_path / "o").exists()
+    code, _, err = _cli(capsys, "replay", "sample", recording, "--start", "4", "--duration",
+                        "0", "-o", str(tmp_path / "o"))  # the end itself is in the bag
+    assert code == 0, err
+
+
 # ------------------------------------------------------------------ metadata and storage
 
 @pytest.mark.parametrize("count", [0, -5, "many", 1e12, 2000, 2002])
@@ -260,6 +276,23 @@ def test_two_bags_without_messages_are_no_match(tmp_path, capsys):
     _pose_bag(tmp_path / "c", 0.0)  # one side's message: a mismatch, not an error
     code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "c"))
     assert code == 1 and "MISMATCH" in out
+
+
+def test_a_message_that_cannot_be_decoded_is_named_with_its_bag(tmp_path, capsys):
+    """A pose emptied of its bytes in one of two bags compared: the error names that bag
+    (it named only the message, so which bag was broken was a guess)."""
+    good = GOLDEN / "sample" / "output"
+    broken = tmp_path / "broken"
+    original = read_bag(good)
+    with BagWriter(broken, "mcap") as writer:
+        for topic, msgtype in original.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in original.messages:
+            writer.write_raw(message.topic, message.log_ns,
+                             b"" if message.index == 12 else message.raw)
+    for argv in ([str(good), str(broken)], [str(broken), str(good)]):
+        err = _one_line_error(capsys, "compare", *argv)
+        assert err.startswith(f"hecker-dynamics: error: {broken}: message 12 on "), err
 
 
 def test_a_nan_difference_is_the_largest_overall(tmp_path):

@@ -115,6 +115,24 @@ def test_a_dead_pool_worker_keeps_the_finished_rows(tmp_path):
     assert not (tmp_path / "t.csv").exists()
 
 
+def test_a_warning_of_the_workers_is_one_line_once(tmp_path):
+    """A load 4e11 times lighter than the wall block it may rest on: the contact pass warns
+    as each variant's scene is built in a worker. The warning reached stderr as Python
+    prints it in the worker (two lines: the source file and line, the code), once a worker;
+    it is the command's one line, once for the sweep."""
+    result = subprocess.run(
+        [sys.executable, "-m", "hecker_dynamics.cli", "sweep", "seesaw", "--set",
+         "bodies.load.mass=1e-9,1e-9,1e-9", "--duration", "0.01", "--workers", "2",
+         "--no-progress", "-o", str(tmp_path / "t.csv")],
+        capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [
+        "hecker-dynamics: warning: collision group 'everything': 'wall_block' (400 kg) is "
+        "4e+11 times as heavy as 'load' (1e-09 kg); a body resting on one more than 1000 "
+        "times lighter presses it into what it lies on or squeezes it out (docs/scenes.md: "
+        "Contacts)"], result.stderr
+
+
 # ----------------------------------------------------------------------------- regress
 
 @pytest.fixture(scope="module")
@@ -192,6 +210,46 @@ def test_a_bag_cut_off_before_its_metadata_is_an_error_not_skipped(bag_suite, tm
     assert out[-1] == "2 bag(s): 1 ok, 0 mismatch, 1 error"
     assert main(["regress", str(suite / "b_cut"), "--no-progress"]) == 2
     assert "no metadata.yaml" in capsys.readouterr().out
+
+
+def test_a_bag_given_twice_is_checked_once_saying_so(bag_suite, tmp_path, capsys):
+    """The same bag named twice, as a folder holding it and by itself, or through a symlink,
+    was checked and counted twice ("2 bag(s): 2 ok"): each bag is checked once, and a
+    warning names the duplicate."""
+    one = str(bag_suite / "a_sample")
+    (tmp_path / "link").symlink_to(bag_suite / "a_sample")
+    for argv, count in (([one, one], 1), ([one, str(bag_suite / ".." / "bags" / "a_sample")], 1),
+                        ([one, str(tmp_path / "link")], 1), ([str(bag_suite), one], 4)):
+        assert main(["regress", *argv, "--workers", "1", "--no-progress"]) in (0, 1)
+        captured = capsys.readouterr()
+        out = captured.out.splitlines()
+        assert len(out) == count + 1 and out[-1].startswith(f"{count} bag(s): "), out
+        assert captured.err.count("\n") == 1 and "given twice" in captured.err, captured.err
+        assert "checked once" in captured.err
+
+
+def test_a_bag_that_cannot_be_checked_is_named_once_on_its_line(bag_suite, tmp_path, capsys):
+    """An ERROR line names its bag once: it repeated the path in the reason after it."""
+    cut = tmp_path / "cut"
+    shutil.copytree(bag_suite / "a_sample", cut)
+    (cut / "metadata.yaml").unlink()
+    assert main(["regress", str(cut), "--no-progress"]) == 2
+    line = capsys.readouterr().out.splitlines()[0]
+    assert line.startswith(f"ERROR    {cut}  no metadata.yaml "), line
+
+
+def test_a_bag_named_with_a_line_break_keeps_to_its_one_line(bag_suite, tmp_path, capsys):
+    """A bag whose name holds a line break: its line and the summary are two lines, the
+    break written as an escape, as in an error (the line was split in two); so is the
+    verdict of replay --check."""
+    odd = tmp_path / "new\nline"
+    shutil.copytree(bag_suite / "a_sample", odd)
+    assert main(["regress", str(odd), "--no-progress"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 2 and out[0].startswith(f"OK       {tmp_path}/new\\nline  match: "), out
+    assert main(["replay", "sample", str(odd), "--check", "--no-progress"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith(
+        f"check against the recording {tmp_path}/new\\nline: match: ")
 
 
 def _dask_process(role: str, scheduler_file: Path, *, without_package: bool,
