@@ -8,6 +8,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "floats.h"
 #include "kernel.h"
 
 int hd_int_columns(int kind)
@@ -60,7 +61,7 @@ static void hd_apply(double *wrench, double rx, double ry, double fx, double fy)
 
 /* Force on end A of a damped spring, d = p_A - p_B, dv = v_A - v_B (dynamics/forces.py:
  * `spring_force_scalar`). */
-static void hd_spring(double dx, double dy, double dvx, double dvy, double k, double rest,
+static HD_HOT void hd_spring(double dx, double dy, double dvx, double dvy, double k, double rest,
                       double c, double *fx, double *fy)
 {
     if (rest == 0.0) {
@@ -88,6 +89,12 @@ static void hd_drag(double vx, double vy, double c, long quadratic, double *fx, 
     *fy = -scale * vy;
 }
 
+/* GCC's pairing of scalar operations into vectors (on at -O2 from GCC 12) packs and unpacks
+ * each spring's x and y halves: a quarter more instructions in the springs' loop, the most
+ * of a large ring's step. Off here; the operations, and so the bits, are the same. */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-tree-slp-vectorize")))
+#endif
 static void hd_add_term(const hd_term *t, const hd_scratch *s, const double *q, const double *v)
 {
     const int ni = hd_int_columns(t->kind), nr = hd_real_columns(t->kind);

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "floats.h"
+#include "simd.h"
 #include "contact.h"
 #include "joint.h"
 #include "kernel.h"
@@ -41,18 +42,24 @@ static void hd_euler(hd_forces *f, const double *q, const double *v, double *q1,
         f->work->evaluations += 1;
         hd_wrench(p, f->inputs, f->oriented, q, v, &f->scratch);
         const double *w = f->scratch.wrench, *inverse_mass = p->inverse_mass;
-        if (symplectic)
-            for (long k = 0; k < f->n3; ++k) {
-                const double acceleration = w[k] * inverse_mass[k];
-                v1[k] = v[k] + h * acceleration;
-                q1[k] = q[k] + h * v1[k];
-            }
-        else
-            for (long k = 0; k < f->n3; ++k) {
-                const double acceleration = w[k] * inverse_mass[k];
-                v1[k] = v[k] + h * acceleration;
-                q1[k] = q[k] + h * v[k];
-            }
+        /* Two elements at a time, each with the operations of one (simd.h): the update is
+         * a pass over the whole state, a large part of a cheap step. */
+        const hd_v2 step = hd_v2_all(h);
+        long k = 0;
+        for (; k + 1 < f->n3; k += 2) {
+            const hd_v2 acceleration = hd_v2_mul(hd_v2_pair(w[k], w[k + 1]),
+                                                 hd_v2_pair(inverse_mass[k], inverse_mass[k + 1]));
+            const hd_v2 before = hd_v2_pair(v[k], v[k + 1]);
+            const hd_v2 after = hd_v2_add(before, hd_v2_mul(step, acceleration));
+            hd_v2_store(v1 + k, after);
+            hd_v2_store(q1 + k, hd_v2_add(hd_v2_pair(q[k], q[k + 1]),
+                                          hd_v2_mul(step, symplectic ? after : before)));
+        }
+        for (; k < f->n3; ++k) {
+            const double acceleration = w[k] * inverse_mass[k];
+            v1[k] = v[k] + h * acceleration;
+            q1[k] = q[k] + h * (symplectic ? v1[k] : v[k]);
+        }
         return;
     }
     for (long k = 0; k < f->n3; ++k) {
@@ -231,15 +238,28 @@ static int hd_embedded(hd_forces *f, const hd_pair *pair, double tolerance, doub
 /* Whether the new state (q, v) of N bodies is finite; if so, its angles are wrapped into
  * [-pi, pi), touching only those outside (geometry/planar.py: wrap_angle, with numpy's remainder:
  * fmod moved to the sign of the divisor). One pass over the state: x - x is 0 for a
- * finite x and NaN otherwise. */
+ * finite x and NaN otherwise, summed (a NaN stays in the sum; positions and velocities two
+ * at a time, simd.h), and whether any angle is outside, so that the wrapping pass runs only
+ * then. */
 static int hd_settle(double *q, const double *v, long n)
 {
+    hd_v2 pairs = hd_v2_all(0.0);
+    double angles = 0.0;
+    int outside = 0;
     for (long b = 0; b < n; ++b) {
         const double *x = q + 3 * b, *u = v + 3 * b;
-        if (!((x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (u[0] - u[0]) + (u[1] - u[1])
-              + (u[2] - u[2]) == 0.0))
-            return 0;
+        const hd_v2 position = hd_v2_pair(x[0], x[1]), velocity = hd_v2_pair(u[0], u[1]);
+        pairs = hd_v2_add(pairs, hd_v2_add(hd_v2_sub(position, position),
+                                           hd_v2_sub(velocity, velocity)));
+        angles += (x[2] - x[2]) + (u[2] - u[2]);
+        outside |= !(x[2] >= -HD_PI && x[2] < HD_PI);
     }
+    double sums[2];
+    hd_v2_store(sums, pairs);
+    if (!(sums[0] + sums[1] + angles == 0.0))
+        return 0;
+    if (!outside)
+        return 1;
     for (long b = 0; b < n; ++b) {
         double theta = q[3 * b + 2];
         if (theta >= -HD_PI && theta < HD_PI)
