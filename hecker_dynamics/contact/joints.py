@@ -33,19 +33,15 @@ constrained velocity Verlet step (Andersen 1983; Leimkuhler and Skeel 1994):
 Where the step is too long for stage 1, it is taken in parts. SHAKE's equations (stage 1)
 lose their solution when the joints' arms turn far within a step, and on long chains even
 at small turns: the Newton matrix G(q) M^-1 G(q0)^T changes sign along the iteration and
-the iteration stalls (a 50-link chain folding at 0.5 rad a step; a 200-link chain at h =
-1/60 s, turning 0.02 rad a step: its weakest modes, condition numbers 1e5, move further
+the iteration stalls (a 50-link chain folding at 0.5 rad a step; a 200-link chain at
+h = 1/60 s, turning 0.02 rad a step: its weakest modes, condition numbers 1e5, move further
 than the directions at q0 can follow). So the simulation takes a step in equal parts where
 some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
 (:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
-its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`, or
-where the joints' loads ring a body faster than :data:`MAX_RING` per step
-(:meth:`JointPass.ringing`: a light chain holding a heavy body, whose tension makes each
-link a stiff torsion spring that SHAKE takes explicitly, so that velocity Verlet's bound h
-omega < 2 holds for it; beyond it the chain's zigzag grows, pumps energy, and stage 1 then
-stalls) (:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with
-a clear error. Where a step needed halves, the next steps start in as many parts as it
-needed, and try half as many after :data:`SETTLED_STEPS` steps that needed no more
+its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
+(:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
+error. Where a step needed halves, the next steps start in as many parts as it needed, and
+try half as many after :data:`SETTLED_STEPS` steps that needed no more
 (:meth:`JointPass.remember`): a fast long chain's steps in a row have no solution whole,
 and each whole attempt that fails costs about as much as a part solved. A step that needs
 none of this is RATTLE's, unchanged; a run whose steps take different numbers of parts is
@@ -124,8 +120,7 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_RING",
-           "MAX_TURN",
+__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
            "MOST_SUBSTEPS", "PARTS", "SETTLED_STEPS"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
@@ -140,29 +135,21 @@ CHORD = 0.125
 #: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
 #: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
 MAX_TURN = 0.1
-#: The most a step may advance the fastest oscillation a joint's load drives (rad: h omega,
-#: :meth:`JointPass.ringing`): velocity Verlet, and RATTLE with it, grows any oscillation
-#: with h omega > 2, and SHAKE takes a load's turn with its rows' directions at q0, so a
-#: light link pulled hard at both ends (a chain holding a heavy body) rings at
-#: omega^2 = T l / I; a step that would advance it further is taken in halves.
-MAX_RING = 1.0
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 #: Steps in a row that stage 1 solves in the parts remembered from an earlier failure
 #: (:meth:`JointPass.remember`) before a step tries half as many again.
 SETTLED_STEPS = 4
 DRIFT_ITERATIONS = 8
-#: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast turns
-#: leave no solution near a part's end; a load that rings a light body faster than MAX_RING per
-#: part asks for more parts than there are; joined masses far apart (the measured limit on a
-#: 10-link chain of alternating masses at h = 1/240 s lies between 1e14 and 1e15 to one) move a
-#: light body by the difference of its heavy neighbours' multipliers, which rounding leaves above
-#: TOLERANCE.
+#: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast
+#: turns leave no solution near a part's end; joined masses far apart (the measured limit
+#: on a 10-link chain of alternating masses at h = 1/240 s lies between 1e14 and 1e15 to
+#: one) move a light body by the difference of its heavy neighbours' multipliers, which
+#: rounding leaves above TOLERANCE.
 UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOST_SUBSTEPS} parts"
-UNSOLVED_ADVICE = ("the bodies turn too fast for the step, a joint's load rings a light body "
-                   "faster than the step can follow (a light chain holding a heavy body), or "
-                   "the masses joined are too far apart (beyond about 1e14 to one); take a "
-                   "shorter step, or masses closer together")
+UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
+                   "apart (beyond about 1e14 to one); take a shorter step, or masses closer "
+                   "together")
 
 
 #: The attributes of :class:`JointPass` that carry from step to step and that the compiled
@@ -280,14 +267,6 @@ class JointPass:
         #: The scene indices of the bodies whose turning :meth:`parts` watches.
         self.turning = self.bodies[sorted(turning)]
         self._rods = [self.frames[s.name] for s in self.specs if isinstance(s, DistanceJoint)]
-        #: Per body, its farthest joint point from its CM (m): the arm that a joint's load
-        #: turns it by (:meth:`ringing`).
-        self.reach = [0.0] * len(involved)
-        for joined in self.frames.values():
-            for f in joined:
-                if f.body >= 0:
-                    x, y = f.local
-                    self.reach[f.body] = max(self.reach[f.body], math.sqrt(x * x + y * y))
         #: The constraint error (m or rad) the position stages count as met.
         self.tolerance = TOLERANCE
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
@@ -626,14 +605,9 @@ class JointPass:
             self._in_kernel().resolve(q0, q1, v1, h)
             return
         start = q0[index].reshape(-1).tolist()
-        rows0 = self.rows(start, h)
-        ringing = self.ringing(rows0)
-        if h * h * ringing > MAX_RING * MAX_RING:
-            raise JointsUnsolved(f"the joints' loads ring a body at {math.sqrt(ringing):.3g} "
-                                 f"rad/s, too fast for a step of {h:g} s")
         q = q1[index].reshape(-1).tolist()
         moved = list(q)
-        rows = self._hold(rows0, q, h)
+        rows = self._hold(self.rows(start, h), q, h)
         v = v1[index].reshape(-1).tolist()
         for k, (now, before) in enumerate(zip(q, moved)):
             v[k] += (now - before) / h
@@ -643,49 +617,6 @@ class JointPass:
         self._count_turns(q)
         q1[index] = np.array(q).reshape(-1, 3)
         v1[index] = np.array(v).reshape(-1, 3)
-
-    def ringing(self, rows: list[JointRow]) -> float:
-        """omega^2 (1/s^2) of the fastest oscillation the last step's joint loads drive, as
-        two joined bodies ring: a load F on a point at arm r from a body's CM turns with
-        the body, so its torque perp(r) . F (Eq. 11) changes by -(r . F) per radian turned,
-        a torsional stiffness k <= |F| |r|, or k / r^2 across the arm at the point. Where a
-        row joins two bodies, each at its :attr:`reach` r, the joined point rings at the sum
-        of their stiffnesses over the sum of their masses there, 1 / (1/m + r^2 / I): a push
-        at the point moves the CM by F = M a (Eq. 5) and turns the body by tau = I alpha
-        (Eq. 14), with the moment of inertia of Eq. 13. A chain of equal links under a
-        tension T gives T l / I up to a factor 1.35, its fastest (zigzag) mode, while a light
-        link between heavy ones, which only follows them, gives their slow ring. Each row's
-        force is 2 lambda / h, lambda its last velocity stage's impulse (RATTLE's second
-        half kick, h F / 2), of the rigid rows only and without what the contact solve
-        added (:meth:`take_extra`): a limit's, a motor's or a contact's impulse may be a
-        blow, not a held load; a body's rows along x and y add up to at most sqrt 2 |F|.
-        SHAKE turns the loads with the rows' directions at the step's start (G(q0)), so
-        that stiffness is explicit and velocity Verlet's bound h omega < 2 holds for it."""
-        load = [0.0] * len(self.reach)
-        for row, warm, extra in zip(rows, self.warm, self.extra):
-            impulse = warm - extra  # the contact solve's extra is a blow, not a held load
-            if impulse == 0.0 or row.kind != RIGID:  # so may a limit's or motor's be
-                continue
-            for b, jx, jy, _ in row.entries:
-                if jx != 0.0 or jy != 0.0:  # an angle row's load does not turn with a body
-                    load[b] += abs(impulse)
-        most = 0.0
-        for row in rows:
-            ends = [b for b, jx, jy, _ in row.entries if jx != 0.0 or jy != 0.0]
-            if len(ends) != 2:  # held by the world alone, or an angle row
-                continue
-            stiffness, mass = 0.0, 0.0
-            for b in ends:
-                reach = self.reach[b]
-                mobility = self.inverse_mass[3 * b] + reach * reach * self.inverse_mass[3 * b + 2]
-                if mobility == 0.0:  # a body that does not move: no ring at this row
-                    break
-                if reach > 0.0:
-                    stiffness += load[b] / reach
-                mass += 1.0 / mobility
-            else:
-                most = max(most, stiffness / mass)
-        return 2.0 * most / self.step_h
 
     def _count_turns(self, q: list[float]) -> None:
         """Keep counting whole turns of each joint angle from the pose ``q``."""

@@ -857,50 +857,6 @@ void hd_joint_ended(hd_joint_model *m, double *q1, double *v1)
     m->ended = 1;
 }
 
-/* contact/joints.py: JointPass.ringing, on the rows `rows` (the step's rows at q0). */
-static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
-{
-    double *load = m->reach + m->body_count;
-    for (long b = 0; b < m->body_count; ++b)
-        load[b] = 0.0;
-    for (long i = 0; i < m->row_count; ++i) {
-        const double impulse = m->warm[i] - m->extra[i];  /* the contact solve's is a blow */
-        const hd_joint_row *row = rows + i;
-        if (impulse == 0.0 || row->kind != HD_RIGID)  /* so may a limit's or motor's be */
-            continue;
-        for (int e = 0; e < row->count; ++e)
-            if (row->j[e][0] != 0.0 || row->j[e][1] != 0.0)  /* not an angle row's */
-                load[row->body[e]] += fabs(impulse);
-    }
-    double most = 0.0;
-    for (long i = 0; i < m->row_count; ++i) {
-        const hd_joint_row *row = rows + i;
-        long ends[4], count = 0;
-        for (int e = 0; e < row->count; ++e)
-            if (row->j[e][0] != 0.0 || row->j[e][1] != 0.0)
-                ends[count++] = row->body[e];
-        if (count != 2)  /* held by the world alone, or an angle row */
-            continue;
-        double stiffness = 0.0, mass = 0.0;
-        int still = 0;
-        for (long k = 0; k < 2 && !still; ++k) {
-            const long b = ends[k];
-            const double reach = m->reach[b];
-            const double mobility = m->inverse_mass[3 * b] +
-                                    reach * reach * m->inverse_mass[3 * b + 2];
-            still = mobility == 0.0;  /* a body that does not move: no ring at this row */
-            if (still)
-                break;
-            if (reach > 0.0)
-                stiffness += load[b] / reach;
-            mass += 1.0 / mobility;
-        }
-        if (!still)
-            most = hd_max(most, stiffness / mass);
-    }
-    return 2.0 * most / m->last_h;
-}
-
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)
 {
     const long nb = m->body_count;
@@ -924,8 +880,6 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
         hd_joint_rows_again(m);
     else
         hd_joint_rows(m, m->start, h, m->rows0, 0);
-    if (h * h * hd_ringing(m, m->rows0) > HD_MAX_RING * HD_MAX_RING)
-        return HD_JOINTS_UNSOLVED;
     const int status = hd_hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
@@ -952,24 +906,6 @@ int hd_joints_prepare(hd_joint_model *m)
         return HD_JOINTS_OUT_OF_MEMORY;
     }
     m->angles = m->trig + 2 * nb;
-    m->reach = calloc(2 * (size_t)nb + 1, sizeof(double));  /* and hd_ringing's loads */
-    if (m->reach == NULL) {
-        free(probe);
-        free(zero);
-        return HD_JOINTS_OUT_OF_MEMORY;
-    }
-    for (long i = 0; i < m->joint_count; ++i) {  /* JointPass.reach */
-        const hd_joint *jt = m->joints + i;
-        if (jt->kind == HD_GEAR)
-            continue;
-        const long bodies[2] = {jt->a, jt->b};
-        const double *points[2] = {jt->point_a, jt->point_b};
-        for (int e = 0; e < 2; ++e)
-            if (bodies[e] >= 0)
-                m->reach[bodies[e]] = hd_max(m->reach[bodies[e]],
-                                             sqrt(points[e][0] * points[e][0] +
-                                                  points[e][1] * points[e][1]));
-    }
     m->remembered = m->needed = 1, m->settled_steps = 0;
     for (long b = 0; b < nb; ++b)
         m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
@@ -1033,7 +969,6 @@ void hd_joints_free(hd_joint_model *m)
     free(m->joints);
     free(m->rigid);
     free(m->turning);
-    free(m->reach);
     free(m->trig);
     free(m->warm);
     free(m->newton);

@@ -24,7 +24,6 @@
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
-#define HD_MAX_RING 1.0
 #define HD_MOST_SUBSTEPS 1024L
 #define HD_SETTLED_STEPS 4
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
@@ -86,9 +85,6 @@ typedef struct hd_joint_model {
     hd_meets meets, rigid_meets;
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
-    /* JointPass.reach: per local body, its farthest joint point from its CM (and as many
-     * places after them for hd_ringing's loads). */
-    double *reach;
     double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
     /* Soft joints (soft_joint.c): the sub-steps of a step (0: this exact pass), and the
      * rows' softness (SoftJoints.hertz, damping_ratio). */

@@ -19,7 +19,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
-from hecker_dynamics.contact.joints import MAX_RING, MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
+from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
@@ -65,12 +65,11 @@ def test_the_50_link_chain_runs_past_where_it_diverged():
     120 rad/s (0.5 rad a step) near t = 6.87 s, where SHAKE's equations had no solution
     near the step's end; the pass kept a wild iterate and the run diverged. Now such steps
     go in parts: the chain runs its 10 s, the pins hold to 1e-9 m and the energy (zero at
-    the start) stays within 0.2 % of its scale (measured: up to 9.1 J of 6131 J; 3.1 J
-    before the whip's steps went in parts for its links' ring too, MAX_RING)."""
+    the start) stays within 0.1 % of its scale (measured: -1.5 to +3.1 J of 6131 J)."""
     sim, gap, energies = run(50, 1.0 / 240.0, "velocity_verlet", 10.0)
     assert sim.time_ns >= 9.99 * SECOND
     assert gap < 1e-9
-    assert max(abs(e) for e in energies) < 2e-3 * energy_scale(50)
+    assert max(abs(e) for e in energies) < 1e-3 * energy_scale(50)
     assert sim.integrator.counters.evaluations > 2 * sim.steps  # some steps went in parts
 
 
@@ -343,75 +342,4 @@ def test_masses_joined_too_far_apart_end_in_an_error_that_names_them(python):
         sim.advance_to(10 * sim.step_ns)
     message = str(failure.value)
     assert "masses joined are too far apart" in message and "\n" not in message
-    assert np.isfinite(sim.q).all()
-
-
-def _holding(heavy: float, at: int, step: float) -> tuple[Scene, float]:
-    """The 20-link chain with link ``at`` of ``heavy`` kg (the others 1 kg), and its energy
-    scale: the potential energy it gives up hanging straight down."""
-    masses = [1.0] * 20
-    masses[at] = heavy
-    return _alternating(masses, step), 9.81 * sum(m * 0.5 * (i + 0.5)
-                                                  for i, m in enumerate(masses))
-
-
-@needs_kernel
-@pytest.mark.parametrize("heavy, at, step, seconds", [
-    (1e6, 19, 1.0 / 240.0, 2.0), (1e4, 19, 1.0 / 240.0, 10.0), (1e4, 10, 1.0 / 60.0, 10.0)])
-def test_a_light_chain_holding_a_heavy_link_keeps_its_pins_and_energy(heavy, at, step,
-                                                                      seconds):
-    """A wrecking ball: the chain's tension T makes each light link a torsion spring of
-    stiffness T l, ringing (links turning against their neighbours, a zigzag) at
-    sqrt(T l / I), 1.5e4 rad/s under a 1e6 kg end at 1/240 s: SHAKE takes that stiffness
-    at the step's start, so velocity Verlet's h omega < 2 holds for it, and beyond it the
-    zigzag grew, pumped energy and stalled Newton's method (the 1e6 kg end stopped at
-    0.825 s, the 1e4 kg end gained 90 % of the energy scale, the 1e4 kg middle link at
-    1/60 s stopped at 0.87 s). Steps now go in parts where the ring would advance by more
-    than MAX_RING: each run keeps its pins within 1e-9 m and its energy within 1e-4 of its
-    scale (measured: at most 4.3e-6), in parts (measured: 14 to 163 a step)."""
-    scene, scale = _holding(heavy, at, step)
-    sim, gap, energies = measure(scene, seconds)
-    assert sim.time_ns >= (seconds - step) * SECOND
-    assert gap < 1e-9
-    assert max(abs(e) for e in energies) < 1e-4 * scale
-    assert sim.integrator.counters.evaluations > 8 * 2 * sim.steps
-
-
-@needs_kernel
-def test_a_heavy_link_rings_its_chain_alike_in_python_and_in_the_kernel():
-    """The 1e4 kg middle link at h = 1/60 s from the kernel's state at 0.8 s, past where
-    the chain stopped before (0.87 s), by the kernel and by Python: the same parts, the
-    same bits."""
-    scene, _ = _holding(1e4, 10, 1.0 / 60.0)
-    sim = Simulation(scene)
-    sim.advance_to(round(0.8 * SECOND), keep=False)
-    state = sim.export_state()
-    ends = []
-    for python in (False, True):
-        other = Simulation(scene)
-        if python:
-            other.model.use_python()
-        other.import_state(state)
-        other.advance_to(round(0.9 * SECOND), keep=False)
-        ends.append((other.q, other.v, other.integrator.counters.evaluations))
-    (q1, v1, work1), (q2, v2, work2) = ends
-    assert work1 == work2 > 2 * 6 * 8  # 6 steps of two evaluations, in parts
-    assert np.array_equal(q1, q2) and np.array_equal(v1, v2)
-
-
-@pytest.mark.parametrize("python", [False, True])
-def test_a_ring_no_part_can_follow_ends_in_an_error_that_says_so(python):
-    """A 1e12 kg end: its chain's tension rings the light links at about 2e7 rad/s, which
-    even h / MOST_SUBSTEPS cannot follow within MAX_RING. The run stops with one line that
-    names the ring, keeping the last finite state."""
-    assert 2e7 * (1.0 / 60.0) / MOST_SUBSTEPS > MAX_RING
-    scene, _ = _holding(1e12, 19, 1.0 / 60.0)
-    sim = Simulation(scene)
-    if python:
-        sim.model.use_python()
-    with pytest.raises(DivergenceError) as failure:
-        sim.advance_to(10 * sim.step_ns)
-    message = str(failure.value)
-    assert "rings a light body faster than the step can follow" in message
-    assert "\n" not in message
     assert np.isfinite(sim.q).all()
