@@ -54,6 +54,7 @@ from ..ros.outputs import (
 from ..ros.runner import InputSource, Runner
 from ..scene.commands import InputError
 from ..scene.load import Scene
+from ..scene.parameters import seconds_text
 from . import io as bags
 from .io import (
     APPLIED_WRENCH,
@@ -235,8 +236,9 @@ def _check_start_in_bag(bag: BagContents, start_ns: int) -> None:
     if recorded_start is not None and recorded_duration is not None:
         ends.append(recorded_start + recorded_duration)
     if ends and start_ns > max(ends):
-        raise ReplayError(f"{bag.path}: --start {start_ns * 1e-9:g} s is after the end of the "
-                          f"bag, at {max(ends) * 1e-9:g} s: none of it would be replayed")
+        raise ReplayError(f"{bag.path}: --start {seconds_text(start_ns)} s is after the end "
+                          f"of the bag, at {seconds_text(max(ends))} s: none of it would be "
+                          "replayed")
 
 
 def check_session(start_ns: int, duration_ns: int, what: str,
