@@ -64,6 +64,7 @@ from .forces import (
     ConstantWrenchTerm,
     GravityTerm,
     ScalarKinematics,
+    lever_arm,
     spring_energy_scalar,
 )
 
@@ -298,15 +299,11 @@ class EnergyBound:
         rows = None
         for term in terms:
             for (unit, root_mass, root_inertia, lever), (body, (fx, fy), torque, _, owner,
-                                                         (px, py), _) in zip(
+                                                         point, _) in zip(
                     self._places(term), term.rows):
-                if lever is None:
-                    # The point is relative to its owner's CM, or in fixed-frame
-                    # coordinates (owner -1); r is at most the sum of the two distances.
+                if lever is None:  # it follows the state
                     rows = q.tolist() if rows is None else rows
-                    ox, oy = (rows[owner][0], rows[owner][1]) if owner >= 0 else (0.0, 0.0)
-                    lever = math.hypot(ox - rows[body][0], oy - rows[body][1]) + \
-                        math.hypot(px, py)
+                    lever = lever_arm(body, owner, point, rows)
                 force = math.hypot(fx, fy)
                 rates[unit] += force * root_mass + (lever * force + abs(torque)) * root_inertia
         return rates

@@ -32,7 +32,7 @@ from ..geometry.planar import LARGEST_SQUARE, SMALLEST_SQUARE, cos_sin, cos_sin_
 __all__ = ["Kinematics", "ScalarKinematics", "ForceTerm", "BodySum", "GravityTerm", "SpringLaw",
            "spring_force", "spring_force_scalar", "spring_energy", "spring_energy_scalar",
            "AnchorSpringTerm", "BodySpringTerm", "drag_force", "drag_force_scalar",
-           "CenterDragTerm", "PointDragTerm", "AngularDampingTerm", "WrenchRow",
+           "CenterDragTerm", "PointDragTerm", "AngularDampingTerm", "WrenchRow", "lever_arm",
            "ConstantWrenchTerm"]
 
 
@@ -516,6 +516,23 @@ class WrenchRow(NamedTuple):
     point_body: int  # the body whose CM the point is relative to; -1: the fixed frame
     point: tuple[float, float]
     at_point: bool  # False: at the CM of ``body``
+
+
+def lever_arm(body: int, point_body: int, point: tuple[float, float],
+              positions: np.ndarray | Sequence[Sequence[float]]) -> float:
+    """At most the lever arm r a force at ``point`` has about ``body``'s CM (its torque,
+    Eq. 11), from the bodies' ``positions`` (rows x, y, ...): exact for a point of the body
+    itself or of the fixed frame (``point_body`` -1); for another body's point, whose
+    orientation it does not read, the sum of the point's distance from that body's CM and
+    of the CMs'."""
+    px, py = point
+    if point_body == body:
+        return math.hypot(px, py)
+    x, y = positions[body][0], positions[body][1]
+    if point_body < 0:
+        return math.hypot(px - x, py - y)
+    return math.hypot(px, py) + math.hypot(positions[point_body][0] - x,
+                                           positions[point_body][1] - y)
 
 
 class ConstantWrenchTerm:

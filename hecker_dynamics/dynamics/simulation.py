@@ -44,7 +44,7 @@ from ..integrators.methods import (
 from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import Scene
 from .divergence import EnergyBound
-from .forces import WrenchRow
+from .forces import WrenchRow, lever_arm
 from .inputs import InputBuffer
 from .kernel import Advanced, Runs, compiled_steps
 from .model import FrameRow, Model, wrench_term
@@ -460,14 +460,7 @@ class Simulation:
         force = math.hypot(fx, fy)
         lever = 0.0
         if force:
-            q = self.q
-            if own_lever is not None:
-                lever = own_lever
-            elif owner < 0:
-                lever = math.hypot(point[0] - q[i, 0], point[1] - q[i, 1])
-            else:  # a point of another body: at most its distance from that body's CM more
-                lever = math.hypot(*point) + math.hypot(q[owner, 0] - q[i, 0],
-                                                        q[owner, 1] - q[i, 1])
+            lever = own_lever if own_lever is not None else lever_arm(i, owner, point, self.q)
         mass, inertia = self._inertias[i]
         vx, vy, spin = self.v[i].tolist()
         h = self.step_seconds

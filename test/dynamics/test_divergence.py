@@ -716,3 +716,24 @@ def test_a_constant_force_at_a_body_point_has_the_rate_of_its_fixed_lever(axes) 
         sim.advance_to(t_ns, keep=False)
         assert sim._bound.row(RATE)[0] == pytest.approx(expected, rel=1e-14)
     assert math.hypot(*sim.q[0, :2]) > 0.3 and abs(sim.v[0, 2] - 3.0) > 0.5  # moved, turned
+
+
+def test_an_input_at_a_fixed_frame_point_has_the_rate_of_its_lever_now() -> None:
+    """An input force F at a fixed-frame point p, with a torque tau, on a body that moves:
+    the rate the bound grows by is |F| sqrt(2/m) + (|p - x| |F| + |tau|) sqrt(2/I), with
+    the lever arm |p - x| from the body's CM x at the check (its torque, Eq. 11), not a
+    bound of it."""
+    params = {"integrator": "rk4", "step": 0.01, "publish_rate": 50.0, "duration": 3.0,
+              "bodies": {"box": {"shape": "box", "size": [2.0, 0.5], "mass": 10.0,
+                                 "velocity": [1.5, -0.5], "angular_velocity": 3.0}}}
+    sim = Simulation(make_scene(params))
+    push = WrenchCommand(0, "box", "test", "world", (1.0, 2.0), (3.0, -4.0), 2.0, 3 * SEC)
+    mass, inertia = float(sim.model.mass[0]), float(sim.model.inertia[0])
+    sim.play((push,), SEC, keep=False)
+    for t_ns in (SEC, 2 * SEC):
+        sim.advance_to(t_ns, keep=False)
+        x, y = sim.q[0, :2].tolist()
+        lever = math.hypot(1.0 - x, 2.0 - y)
+        expected = 5.0 * math.sqrt(2.0 / mass) + (lever * 5.0 + 2.0) * math.sqrt(2.0 / inertia)
+        assert sim._bound.row(RATE)[0] == pytest.approx(expected, rel=1e-14)
+    assert lever < math.hypot(x, y) + math.hypot(1.0, 2.0) - 0.5  # tighter than the old bound
