@@ -38,12 +38,15 @@ h = 1/60 s, turning 0.02 rad a step: its weakest modes, condition numbers 1e5, m
 than the directions at q0 can follow). So the simulation takes a step in equal parts where
 some joint's arm, axis or rod would turn by more than :data:`MAX_TURN` in it
 (:meth:`JointPass.parts`), and in halves where stage 1's Newton iteration fails to halve
-its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`
-(:class:`JointsUnsolved`), in :data:`MOST_SUBSTEPS` parts at most, then stops with a clear
-error. Where a step needed halves, the next steps start in as many parts as it needed, and
-try half as many after :data:`SETTLED_STEPS` steps that needed no more
-(:meth:`JointPass.remember`): a fast long chain's steps in a row have no solution whole,
-and each whole attempt that fails costs about as much as a part solved. A step that needs
+its error at every iteration or its solution turns a body by more than :data:`MAX_TURN`,
+or where the last step's loads ring a body faster than :data:`MAX_RING` a step
+(:meth:`JointPass.ringing`: a light chain holding a heavy body, whose tension makes each
+link a stiff torsion spring that SHAKE takes explicitly) (:class:`JointsUnsolved`), in
+:data:`MOST_SUBSTEPS` parts at most, then stops with a clear error. Where a step needed
+halves, the next steps start in as many parts as it needed, and try half as many after
+:data:`SETTLED_STEPS` steps that needed no more (:meth:`JointPass.remember`): a fast long
+chain's steps in a row have no solution whole, and each whole attempt that fails costs
+about as much as a part solved. A step that needs
 none of this is RATTLE's, unchanged; a run whose steps take different numbers of parts is
 not symplectic, and its energy can drift (docs/scenes.md, steps in parts).
 
@@ -120,8 +123,8 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_TURN",
-           "MOST_SUBSTEPS", "PARTS", "SETTLED_STEPS"]
+__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_RING",
+           "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "SETTLED_STEPS", "ringing_advice"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -135,6 +138,13 @@ CHORD = 0.125
 #: The most a step may turn a joint's arm (rad), by the bodies' own motion or by the joints'
 #: correction: a step that would is taken in parts (:meth:`JointPass.parts`) or halves.
 MAX_TURN = 0.1
+#: The most a step may advance the fastest ring its joints' loads can drive (rad: h omega,
+#: :meth:`JointPass.ringing`'s rating of omega): a step that would is taken in halves. SHAKE
+#: takes a load's arm at the step's start, so the torsional stiffness a tension gives a
+#: light link is explicit, and velocity Verlet grows any oscillation with h omega > 2; 1,
+#: not 2, because steps whose parts change pump a ring near 2 (a chain of 1 kg links ending
+#: in 1e4 kg at h = 1/240 s: 2.5e-5 of its energy scale in 10 s at 1, 22 % at 2).
+MAX_RING = 1.0
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 #: Steps in a row that stage 1 solves in the parts remembered from an earlier failure
@@ -150,6 +160,15 @@ UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOS
 UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
                    "apart (beyond about 1e14 to one); take a shorter step, or masses closer "
                    "together")
+
+
+def ringing_advice(omega: float) -> str:
+    """Why a step failed when its parts ran out on the ring of :meth:`JointPass.ringing`
+    (``omega``, rad/s), and the step that needs no parts for it (h omega < 2)."""
+    return (f"the joints' loads ring a light body at {omega:.3g} rad/s (a chain's tension "
+            f"turning its links against each other), faster than {MOST_SUBSTEPS} parts of the "
+            f"step can follow; take a step below {2.0 / omega:.3g} s, or heavier bodies under "
+            f"the load")
 
 
 #: The attributes of :class:`JointPass` that carry from step to step and that the compiled
@@ -218,6 +237,32 @@ def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec,
     return tuple(specs[i] for i in joint_order(neighbours, keys, loops))
 
 
+def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[bool]:
+    """Per body, whether it lies on a closed loop of joints (or on a path between two), the
+    fixed frame (-1) one node: what is left after the bodies and the frame held by one joint
+    or none are taken away, again and again (the graph's 2-core, which is one whatever the
+    order). A chain or a tree of joints leaves nothing; a bridge anchored at both ends, or a
+    grid, leaves itself."""
+    frame = bodies
+    neighbours: list[list[int]] = [[] for _ in range(bodies + 1)]
+    for a, b in joined:
+        a = frame if a < 0 else a
+        neighbours[a].append(b)
+        neighbours[b].append(a)
+    joints = [len(n) for n in neighbours]
+    left = [True] * (bodies + 1)
+    loose = [node for node, count in enumerate(joints) if count <= 1]
+    while loose:
+        node = loose.pop()
+        left[node] = False
+        for other in neighbours[node]:
+            if left[other]:
+                joints[other] -= 1
+                if joints[other] == 1:
+                    loose.append(other)
+    return left[:bodies]
+
+
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
@@ -275,6 +320,11 @@ class JointPass:
         self.first_error = math.inf
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
+        looped = _on_loops(len(involved), [(a.body, b.body) for a, b in self.frames.values()])
+        #: Per body, 1/I where its turn is its own (no closed loop of joints holds it), else 0:
+        #: the bodies :meth:`ringing` rates.
+        self.free_turn = [0.0 if on else self.inverse_mass[3 * b + 2]
+                          for b, on in enumerate(looped)]
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
         ends = [(index[s.body_a], index[s.body_b]) for s in specs
                 if not isinstance(s, GearJoint) and s.body_a is not None
@@ -405,6 +455,19 @@ class JointPass:
                 [shares[i] for i in self.rigid])
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
+        #: The first (x) row of each rigid point's two rows, x then y (:meth:`ringing`).
+        self.pins = [i for i, ((_, part), kind) in enumerate(zip(self.keys, self.kinds))
+                     if kind == RIGID and part == "x"]
+        #: Per body, its pins in that order (:meth:`ringing`): the pin's point on it (from
+        #: its CM), the body at the pin's other end (-1: the fixed frame) and that end's arm.
+        self.pinned: list[list[tuple[Vec2, int, float]]] = [[] for _ in self.bodies]
+        for i in self.pins:
+            ends = self.frames[self.keys[i][0]]
+            for mine, other in (ends, ends[::-1]):
+                if mine.body >= 0:
+                    x, y = other.local
+                    self.pinned[mine.body].append((mine.local, other.body,
+                                                   math.sqrt(x * x + y * y)))
         self.warm = [0.0] * len(template)
         self.extra = [0.0] * len(template)
 
@@ -605,9 +668,12 @@ class JointPass:
             self._in_kernel().resolve(q0, q1, v1, h)
             return
         start = q0[index].reshape(-1).tolist()
+        rows0 = self.rows(start, h)
+        if h * h * self.ringing(rows0) > MAX_RING * MAX_RING:
+            raise JointsUnsolved(f"the joints' loads ring a body too fast for a step of {h:g} s")
         q = q1[index].reshape(-1).tolist()
         moved = list(q)
-        rows = self._hold(self.rows(start, h), q, h)
+        rows = self._hold(rows0, q, h)
         v = v1[index].reshape(-1).tolist()
         for k, (now, before) in enumerate(zip(q, moved)):
             v[k] += (now - before) / h
@@ -617,6 +683,70 @@ class JointPass:
         self._count_turns(q)
         q1[index] = np.array(q).reshape(-1, 3)
         v1[index] = np.array(v).reshape(-1, 3)
+
+    def ringing(self, rows: list[JointRow]) -> float:
+        """omega^2 (1/s^2) of the fastest ring the last step's loads on the pins drive, the
+        bodies at the pose of ``rows``, as rated body by body. A load F on a point at arm r
+        from a body's CM turns with the body: its torque perp(r) . F (Eq. 11) changes by
+        -(r . F) per radian the body turns, so the loads give the body a torsional
+        stiffness k = sum of r . F over its pins (positive where they pull its points away
+        from its CM: a link of a chain under a tension T, k = T l, l its length). A body
+        rings with its neighbours: it turns about its CM while each neighbour turns about
+        its own CM to follow the pin they share (a chain's zigzag), or it turns about one
+        of its pins while the neighbour there stays; each such motion rings at the sum of
+        the stiffnesses it turns over the sum of the moments of inertia it moves (tau = I
+        alpha, Eq. 14, with the moment of inertia of Eq. 13; a neighbour held at its CM
+        moves along instead, F = M a, Eq. 5), and a pin to the fixed frame or to a body
+        that does not move holds it. The body's rating is the fastest: a chain under an
+        even tension gives sqrt(T l / I), its zigzag; a light body between heavy ones
+        rates their slow turn, as it only follows them. A body on a closed loop of joints
+        (:attr:`free_turn` 0: a bridge anchored at both ends, a grid) is not rated: the
+        loop holds its turn (Box2D's joint grid hangs still under loads that rate its
+        bodies, each on its own, up to h omega = 20). The loads are 2 lambda / h, lambda
+        the last velocity stage's impulses (RATTLE's second half kick, h F / 2) without
+        what the contact solve added (:meth:`take_extra`: a blow, not a held load). SHAKE
+        takes the arms at the step's start (G(q0)), so that stiffness is explicit, and
+        velocity Verlet grows the ring where h omega > 2: a light chain holding a heavy
+        body rings there at steps that its own motion allows (issue 33)."""
+        stiffness = [0.0] * len(self.bodies)
+        warm, extra = self.warm, self.extra
+        for i in self.pins:
+            x, y = warm[i] - extra[i], warm[i + 1] - extra[i + 1]
+            # r . F of each end: the x row's entry is (+-1, 0, -+r_y), the y row's
+            # (0, +-1, +-r_x), the load on that end +-(x, y).
+            for (b, _, _, turn_x), (_, _, _, turn_y) in zip(rows[i].entries,
+                                                            rows[i + 1].entries):
+                stiffness[b] += x * turn_y - y * turn_x
+        inverse = self.inverse_mass
+        most = 0.0
+        for b, pins in enumerate(self.pinned):
+            if self.free_turn[b] == 0.0 or inverse[3 * b] == 0.0:
+                continue
+            for pivot in range(-1, len(pins)):  # about its CM, then about each pin
+                px, py = (0.0, 0.0) if pivot < 0 else pins[pivot][0]
+                turn = stiffness[b]
+                inertia = 1.0 / self.free_turn[b] + (px * px + py * py) / inverse[3 * b]
+                for j, ((x, y), other, reach) in enumerate(pins):
+                    if j == pivot:
+                        continue
+                    if other < 0 or inverse[3 * other] == 0.0:  # held: no turn about here
+                        break
+                    dx, dy = x - px, y - py
+                    moved = dx * dx + dy * dy
+                    if reach > 0.0 and inverse[3 * other + 2] != 0.0:  # it turns along
+                        share = moved / (reach * reach)
+                        turn += stiffness[other] * share
+                        inertia += share / inverse[3 * other + 2]
+                    else:  # it moves along
+                        inertia += moved / inverse[3 * other]
+                else:
+                    most = max(most, turn / inertia)
+        return 2.0 * most / self.step_h
+
+    def ring(self, q: np.ndarray) -> float:
+        """omega (rad/s) of :meth:`ringing` with the bodies at ``q`` (all bodies)."""
+        return math.sqrt(self.ringing(self.rows(q[self.bodies].reshape(-1).tolist(),
+                                                self.step_h)))
 
     def _count_turns(self, q: list[float]) -> None:
         """Keep counting whole turns of each joint angle from the pose ``q``."""

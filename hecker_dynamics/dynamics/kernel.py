@@ -217,6 +217,8 @@ class CompiledSteps:
         self.joints = joints
         self.method = getattr(_kernel, KERNEL_METHODS[integrator.name])
         self._failures = {getattr(_kernel, name): text for name, text in _FAILURES.items()}
+        #: The status of a call whose joints had no solution in a step's last parts.
+        self.unsolved = _kernel.JOINTS_UNSOLVED
         self.pair = None
         self.tolerance = 0.0
         if isinstance(integrator, EmbeddedRungeKutta):

@@ -27,7 +27,14 @@ from typing import Any, NamedTuple, NoReturn, Optional
 import numpy as np
 
 from ..contact.events import Impact, WallEvents
-from ..contact.joints import MOST_SUBSTEPS, UNSOLVED, UNSOLVED_ADVICE, JointsUnsolved
+from ..contact.joints import (
+    MAX_RING,
+    MOST_SUBSTEPS,
+    UNSOLVED,
+    UNSOLVED_ADVICE,
+    JointsUnsolved,
+    ringing_advice,
+)
 from ..geometry.planar import wrap_angles_in_place
 from ..geometry.shapes import energy_of_motion
 from ..integrators.methods import (
@@ -608,6 +615,8 @@ class Simulation:
             failed, diverged = self._compiled.failure(status)  # type: ignore[union-attr]
             if diverged is not None:
                 raise self._diverged(*diverged)
+            if status == self._compiled.unsolved:  # type: ignore[union-attr]
+                failed = f"{self._compiled.name}: {self._unsolved()}"  # type: ignore[union-attr]
             error = IntegrationError(failed)
             raise self._failed(error) from error
 
@@ -696,6 +705,18 @@ class Simulation:
         self.q, self.v = q, v
         self._steps += 1
         self._time_ns += self.step_ns
+
+    def _unsolved(self, detail: str = "") -> str:
+        """Why the joints gave up on a step whose parts ran out (``detail``: what the last
+        part's pass said): the ring of their loads (those of the last part solved, the
+        bodies at the step's start: :meth:`~..contact.joints.JointPass.ringing`) where even
+        a step's shortest part cannot follow it, else what else it can be."""
+        joints = self.model.joints
+        assert joints is not None  # only joints give up so
+        omega = joints.ring(self.q)
+        if self.step_seconds / MOST_SUBSTEPS * omega > MAX_RING:
+            return f"{UNSOLVED}: {ringing_advice(omega)}"
+        return f"{UNSOLVED}{detail}: {UNSOLVED_ADVICE}"
 
     def _failed(self, error: Exception) -> DivergenceError:
         return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
@@ -788,8 +809,7 @@ class Simulation:
                 return q1, v1
             except JointsUnsolved as error:
                 if room < 2:
-                    raise IntegrationError(f"{UNSOLVED} ({error}): {UNSOLVED_ADVICE}"
-                                           ) from error
+                    raise IntegrationError(self._unsolved(f" ({error})")) from error
             parts = 2
             joints.needed = max(joints.needed, 2 * pieces)
         part = h / parts

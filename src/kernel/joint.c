@@ -857,6 +857,56 @@ void hd_joint_ended(hd_joint_model *m, double *q1, double *v1)
     m->ended = 1;
 }
 
+/* contact/joints.py: JointPass.ringing, the bodies at the pose of `rows`. */
+static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
+{
+    double *stiffness = m->stiffness;
+    for (long b = 0; b < m->body_count; ++b)
+        stiffness[b] = 0.0;
+    for (long k = 0; k < m->pin_count; ++k) {
+        const long i = m->pins[k];
+        const double x = m->warm[i] - m->extra[i], y = m->warm[i + 1] - m->extra[i + 1];
+        const hd_joint_row *along_x = rows + i, *along_y = rows + i + 1;
+        for (int e = 0; e < along_x->count && e < along_y->count; ++e)
+            stiffness[along_x->body[e]] += x * along_y->j[e][2] - y * along_x->j[e][2];
+    }
+    const double *inverse = m->inverse_mass;
+    double most = 0.0;
+    for (long b = 0; b < m->body_count; ++b) {
+        if (m->free_turn[b] == 0.0 || inverse[3 * b] == 0.0)
+            continue;
+        const struct hd_pin_end *pins = m->pinned + m->pinned_start[b];
+        const long count = m->pinned_start[b + 1] - m->pinned_start[b];
+        for (long pivot = -1; pivot < count; ++pivot) {  /* about its CM, then each pin */
+            const double px = pivot < 0 ? 0.0 : pins[pivot].x;
+            const double py = pivot < 0 ? 0.0 : pins[pivot].y;
+            double turn = stiffness[b];
+            double inertia = 1.0 / m->free_turn[b] + (px * px + py * py) / inverse[3 * b];
+            int held = 0;
+            for (long j = 0; j < count && !held; ++j) {
+                if (j == pivot)
+                    continue;
+                const long other = pins[j].other;
+                held = other < 0 || inverse[3 * other] == 0.0;  /* no turn about here */
+                if (held)
+                    break;
+                const double dx = pins[j].x - px, dy = pins[j].y - py;
+                const double moved = dx * dx + dy * dy;
+                if (pins[j].reach > 0.0 && inverse[3 * other + 2] != 0.0) {  /* it turns along */
+                    const double share = moved / (pins[j].reach * pins[j].reach);
+                    turn += stiffness[other] * share;
+                    inertia += share / inverse[3 * other + 2];
+                } else {  /* it moves along */
+                    inertia += moved / inverse[3 * other];
+                }
+            }
+            if (!held)
+                most = hd_max(most, turn / inertia);
+        }
+    }
+    return 2.0 * most / m->last_h;
+}
+
 int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v1, double h)
 {
     const long nb = m->body_count;
@@ -880,6 +930,8 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
         hd_joint_rows_again(m);
     else
         hd_joint_rows(m, m->start, h, m->rows0, 0);
+    if (h * h * hd_ringing(m, m->rows0) > HD_MAX_RING * HD_MAX_RING)
+        return HD_JOINTS_UNSOLVED;
     const int status = hd_hold(m, h, again);
     if (status != HD_JOINTS_OK)
         return status;
@@ -890,6 +942,79 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
     hd_velocities(m, h);
     hd_joint_count_turns(m);
     hd_joint_ended(m, q1, v1);
+    return HD_JOINTS_OK;
+}
+
+/* contact/joints.py: _on_loops, into m->free_turn: 1/I of each body on no loop of joints,
+ * else 0; `left` (body_count + 1 ints) working memory. Taking away the bodies (and the
+ * frame, the last node) of one joint or none in passes leaves the same 2-core as Python's
+ * order does. */
+static void hd_free_turns(hd_joint_model *m, int *joints, int *left)
+{
+    const long nb = m->body_count;
+    for (long node = 0; node <= nb; ++node)
+        joints[node] = 0, left[node] = 1;
+    for (long i = 0; i < m->joint_count; ++i) {
+        const hd_joint *jt = m->joints + i;
+        if (jt->kind == HD_GEAR)
+            continue;
+        ++joints[jt->a < 0 ? nb : jt->a];
+        ++joints[jt->b];
+    }
+    for (int changed = 1; changed;) {
+        changed = 0;
+        for (long node = 0; node <= nb; ++node) {
+            if (!left[node] || joints[node] > 1)
+                continue;
+            left[node] = 0, changed = 1;
+            for (long i = 0; i < m->joint_count; ++i) {
+                const hd_joint *jt = m->joints + i;
+                const long a = jt->a < 0 ? nb : jt->a;
+                if (jt->kind == HD_GEAR || (a != node && jt->b != node))
+                    continue;
+                const long other = a == node ? jt->b : a;
+                if (left[other])
+                    --joints[other];
+            }
+        }
+    }
+    for (long b = 0; b < nb; ++b)
+        m->free_turn[b] = left[b] ? 0.0 : m->inverse_mass[3 * b + 2];
+}
+
+/* contact/joints.py: JointPass.pinned, in m->pinned_start and m->pinned: the pins (the
+ * rigid point rows) of the joints in their order, each on body a, then on body b. */
+static int hd_pin_ends(hd_joint_model *m)
+{
+    const long nb = m->body_count;
+    m->pinned_start = calloc((size_t)nb + 2, sizeof(long));
+    m->pinned = malloc((2 * (size_t)m->joint_count + 1) * sizeof(struct hd_pin_end));
+    if (m->pinned_start == NULL || m->pinned == NULL)
+        return HD_JOINTS_OUT_OF_MEMORY;
+    for (int pass = 0; pass < 2; ++pass) {
+        long *next = m->pinned_start + (pass == 0 ? 2 : 1);
+        for (long i = 0; i < m->joint_count; ++i) {
+            const hd_joint *jt = m->joints + i;
+            if (!(jt->kind == HD_REVOLUTE || (jt->kind == HD_WELD && !jt->has_spring)))
+                continue;
+            const long ends[2] = {jt->a, jt->b};
+            const double *points[2] = {jt->point_a, jt->point_b};
+            for (int e = 0; e < 2; ++e) {
+                if (ends[e] < 0)
+                    continue;
+                if (pass == 0) {
+                    ++next[ends[e]];
+                    continue;
+                }
+                const double *far = points[1 - e];
+                m->pinned[next[ends[e]]++] = (struct hd_pin_end){
+                    points[e][0], points[e][1], ends[1 - e], sqrt(far[0] * far[0] + far[1] * far[1])};
+            }
+        }
+        if (pass == 0)
+            for (long b = 0; b < nb; ++b)
+                m->pinned_start[b + 2] += m->pinned_start[b + 1];
+    }
     return HD_JOINTS_OK;
 }
 
@@ -916,7 +1041,12 @@ int hd_joints_prepare(hd_joint_model *m)
     for (long i = 0; m->rigid != NULL && i < n; ++i)
         if (probe[i].kind == HD_RIGID)
             m->rigid[m->rigid_count++] = i;
-    int status = m->rigid == NULL ? HD_JOINTS_OUT_OF_MEMORY : HD_JOINTS_OK;
+    m->pins = malloc((size_t)(n + 1) * sizeof(long));
+    m->pin_count = 0;
+    for (long i = 0; m->pins != NULL && i < n; ++i)
+        if (probe[i].pair)
+            m->pins[m->pin_count++] = i;
+    int status = m->rigid == NULL || m->pins == NULL ? HD_JOINTS_OUT_OF_MEMORY : HD_JOINTS_OK;
     if (status == HD_JOINTS_OK && (m->pattern.n != n || m->rigid_pattern.n != m->rigid_count))
         status = HD_JOINTS_MISMATCH;
     if (status == HD_JOINTS_OK && (hd_make_meets(&m->pattern, probe, NULL, &m->meets) < 0 ||
@@ -938,9 +1068,19 @@ int hd_joints_prepare(hd_joint_model *m)
     m->newton = calloc(R, sizeof(double));
     m->extra = calloc(R, sizeof(double));
     m->settled = calloc(B, sizeof(double));
-    if (m->rigid == NULL || m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
+    m->stiffness = calloc(B, sizeof(double));
+    m->free_turn = calloc(B, sizeof(double));
+    if (m->stiffness == NULL || m->free_turn == NULL || m->rigid == NULL ||
+            m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
             m->flags == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
             m->settled == NULL)
+        return HD_JOINTS_OUT_OF_MEMORY;
+    int *work = malloc((2 * (size_t)nb + 2) * sizeof(int));
+    if (work == NULL)
+        return HD_JOINTS_OUT_OF_MEMORY;
+    hd_free_turns(m, work, work + nb + 1);
+    free(work);
+    if (hd_pin_ends(m) != HD_JOINTS_OK)
         return HD_JOINTS_OUT_OF_MEMORY;
     m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;
     m->dir = m->dir0 + R;
@@ -968,6 +1108,11 @@ void hd_joints_free(hd_joint_model *m)
     free(m->inverse_mass);
     free(m->joints);
     free(m->rigid);
+    free(m->pins);
+    free(m->stiffness);
+    free(m->free_turn);
+    free(m->pinned_start);
+    free(m->pinned);
     free(m->turning);
     free(m->trig);
     free(m->warm);

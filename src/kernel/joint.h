@@ -24,6 +24,7 @@
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
+#define HD_MAX_RING 1.0
 #define HD_MOST_SUBSTEPS 1024L
 #define HD_SETTLED_STEPS 4
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
@@ -79,6 +80,7 @@ typedef struct hd_joint_model {
     double *inverse_mass;  /* 3 per local body */
     hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
+    long *pins, pin_count; /* JointPass.pins: each rigid point's x row (its y row next) */
     /* Where the factors of all rows' matrices, and of the rigid rows' alone, can be
      * non-zero (contact/sparse.py: Pattern, JointPass.pattern and rigid_pattern). */
     hd_pattern pattern, rigid_pattern;
@@ -104,6 +106,12 @@ typedef struct hd_joint_model {
      * and directions (hd_joints_resolve starts from them when it may). */
     int ended;
     /* working memory */
+    double *stiffness;     /* per body (hd_ringing) */
+    double *free_turn;     /* JointPass.free_turn: per body, 1/I or 0 on a loop of joints */
+    /* JointPass.pinned: per body b, its pins' ends at pinned[pinned_start[b]] ..
+     * pinned[pinned_start[b + 1] - 1]. */
+    long *pinned_start;
+    struct hd_pin_end { double x, y; long other; double reach; } *pinned;
     double *memory, *trig, *angles;  /* trig: cos, sin of `angles` (joint.c: hd_turn_all) */
     hd_joint_row *row_memory, *rows0, *rows, *dir0, *dir;  /* the last four in the first */
     double *start, *q, *moved, *v, *target, *nu, *step, *rhs, *b, *low_bound, *high_bound, *x;

@@ -19,7 +19,7 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
-from hecker_dynamics.contact.joints import MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
+from hecker_dynamics.contact.joints import MAX_RING, MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
@@ -342,4 +342,118 @@ def test_masses_joined_too_far_apart_end_in_an_error_that_names_them(python):
         sim.advance_to(10 * sim.step_ns)
     message = str(failure.value)
     assert "masses joined are too far apart" in message and "\n" not in message
+    assert np.isfinite(sim.q).all()
+
+
+def _holding(heavy: float, step: float) -> tuple[Scene, float]:
+    """The 20-link chain of :func:`_alternating` ending in a link of ``heavy`` kg, and its
+    energy scale: the potential energy it gives up hanging straight down."""
+    masses = [1.0] * 19 + [heavy]
+    return _alternating(masses, step), 9.81 * sum(m * 0.5 * (i + 0.5)
+                                                  for i, m in enumerate(masses))
+
+
+@needs_kernel
+@pytest.mark.parametrize("heavy, seconds", [(1e4, 3.0), (1e6, 2.0)])
+def test_a_light_chain_holding_a_heavy_end_keeps_its_pins_and_energy(heavy, seconds):
+    """Issue 33, a wrecking ball: the chain's tension T makes each light link a torsion
+    spring of stiffness T l, and the links ring against each other at sqrt(T l / I), about
+    1.5e3 rad/s under a 1e4 kg end and 1.5e4 rad/s under 1e6 kg. SHAKE takes that stiffness
+    at the step's start, and at h = 1/240 s the ring grew: the 1e4 kg end gained 23 % of
+    the energy scale by 2 s and 90 % by 3 s, the 1e6 kg end stopped at 0.825 s ("no
+    solution"). Steps now go in parts where JointPass.ringing's rating of the ring would
+    advance by more than MAX_RING: the pins hold to 1e-9 m and the energy to 1e-5 of its
+    scale (measured: 1.5e-7 and 6.7e-10, 10 s at 1e4 kg: 2.5e-5), the steps in parts
+    (measured: 13.6 and 105 a step). 3 s and
+    2 s: past where the ring had grown (1e4 kg) or stopped the run (1e6 kg), within the
+    test's budget (1e6 kg takes hundreds of parts a step)."""
+    step = 1.0 / 240.0
+    scene, scale = _holding(heavy, step)
+    sim, gap, energies = measure(scene, seconds)
+    assert sim.time_ns >= (seconds - step) * SECOND
+    assert gap < 1e-9
+    assert max(abs(e) for e in energies) < 1e-5 * scale
+    assert sim.integrator.counters.evaluations > 8 * 2 * sim.steps
+
+
+def test_a_heavy_end_keeps_its_energy_in_python_too():
+    """The 1e4 kg end of the test above over its first 0.5 s in Python (with or without
+    the kernel built): the energy within 1e-5 of its scale, where it had gained 1.3e-4 by
+    0.5 s (measured now: 7.6e-9), the pins within 1e-9 m."""
+    scene, scale = _holding(1e4, 1.0 / 240.0)
+    sim, gap, energies = measure(scene, 0.5, python=True)
+    assert sim.time_ns >= 0.49 * SECOND
+    assert gap < 1e-9
+    assert max(abs(e) for e in energies) < 1e-5 * scale
+
+
+@needs_kernel
+def test_a_heavy_end_rings_alike_in_python_and_in_the_kernel():
+    """The 1e4 kg end from the kernel's state at 0.9 s, by the kernel and by Python to
+    1 s: the same parts (the ring's halves among them), the same bits."""
+    scene, _ = _holding(1e4, 1.0 / 240.0)
+    sim = Simulation(scene)
+    sim.advance_to(round(0.9 * SECOND), keep=False)
+    state = sim.export_state()
+    ends = []
+    for python in (False, True):
+        other = Simulation(scene)
+        if python:
+            other.model.use_python()
+        other.import_state(state)
+        other.advance_to(SECOND, keep=False)
+        ends.append((other.q, other.v, other.integrator.counters.evaluations))
+    (q1, v1, work1), (q2, v2, work2) = ends
+    assert work1 == work2 > 8 * 2 * 24  # 24 steps, in parts
+    assert np.array_equal(q1, q2) and np.array_equal(v1, v2)
+
+
+#: Force evaluations of chains of equal links in 10 s (:func:`run`), counted before the
+#: ring was watched.
+UNIFORM_EVALUATIONS = {(2, 1.0 / 60.0): 2952, (10, 1.0 / 240.0): 6426}
+
+
+@needs_kernel
+@pytest.mark.parametrize("links, step", [(2, 1.0 / 60.0), (10, 1.0 / 240.0)])
+def test_chains_of_equal_links_take_no_parts_for_the_ring(links, step):
+    """Chains of equal links whose rated ring stays below MAX_RING a part
+    (measured: at most 0.43 and 0.95) take the parts they took before it was watched, so
+    keep their bits. Longer chains at h = 1/60 s pass it in their whips and as they swing
+    through the bottom (10 links: 1.3, 50: 3.0; docs/scenes.md), and take more parts there."""
+    sim, _, _ = run(links, step, "velocity_verlet", 10.0)
+    assert sim.integrator.counters.evaluations == UNIFORM_EVALUATIONS[links, step]
+
+
+@needs_kernel
+def test_a_joint_grid_takes_no_parts_for_the_ring():
+    """Box2D's joint_grid, 40 x 40, its 10 steps: every body lies on loops of joints, which
+    hold its turn, so the ring is not rated there (JointPass.free_turn) and the grid takes
+    no step in parts. Rated each on its own, its bodies reach h omega = 20 while the grid
+    hangs still (its loads make a statically indeterminate frame): 688 force evaluations,
+    not 20."""
+    scene = grid(40)
+    sim = Simulation(scene)
+    assert sim.model.joints is not None
+    sim.model.joints.tolerance = 1e-9
+    for _ in range(10):
+        sim.step()
+    assert sim.integrator.counters.evaluations == 2 * 10
+    assert not any(sim.model.joints.free_turn)
+
+
+@pytest.mark.parametrize("python", [False, True])
+def test_a_ring_no_part_can_follow_ends_in_an_error_that_says_so(python):
+    """A 1e12 kg end at h = 1/60 s: the chain's tension rings its light links faster than
+    even h / MOST_SUBSTEPS can follow within MAX_RING. The run stops with one line that
+    names the ring and the step that would follow it, keeping the last finite state."""
+    assert 1e5 * (1.0 / 60.0) / MOST_SUBSTEPS > MAX_RING  # its ring by 0.05 s: 1.2e5 rad/s
+    scene, _ = _holding(1e12, 1.0 / 60.0)
+    sim = Simulation(scene)
+    if python:
+        sim.model.use_python()
+    with pytest.raises(DivergenceError) as failure:
+        sim.advance_to(2 * SECOND)
+    message = str(failure.value)
+    assert "ring a light body at" in message and "take a step below" in message
+    assert "turn too fast" not in message and "\n" not in message
     assert np.isfinite(sim.q).all()
