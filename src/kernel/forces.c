@@ -185,14 +185,20 @@ static void hd_add_term(const hd_term *t, const hd_scratch *s, const double *q, 
 }
 
 /* cos and sin of every body's angle (glibc takes both at once: sincos, the same bits as
- * cos and sin apart). */
-static void hd_angles(const double *q, long n, hd_scratch *scratch)
+ * cos and sin apart), and, unless `wrench` is NULL, each body's wrench set to zero in the
+ * same pass: on a large scene each pass over the bodies is a trip to memory. */
+static void hd_angles(const double *q, long n, hd_scratch *scratch, double *wrench)
 {
     double *c = scratch->cos, *sn = scratch->sin;
     for (long b = 0; b < n; ++b) {
         const double theta = q[3 * b + 2];
         c[b] = cos(theta);
         sn[b] = sin(theta);
+        if (wrench != NULL) {
+            wrench[3 * b] = 0.0;
+            wrench[3 * b + 1] = 0.0;
+            wrench[3 * b + 2] = 0.0;
+        }
     }
 }
 
@@ -201,9 +207,10 @@ void hd_wrench(const hd_program *program, const hd_program *inputs, int oriented
 {
     const long n = program->bodies;
     if (oriented)
-        hd_angles(q, n, scratch);
-    for (long k = 0; k < 3 * n; ++k)
-        scratch->wrench[k] = 0.0;
+        hd_angles(q, n, scratch, scratch->wrench);
+    else
+        for (long k = 0; k < 3 * n; ++k)
+            scratch->wrench[k] = 0.0;
     for (long t = 0; t < program->term_count; ++t)
         hd_add_term(program->terms + t, scratch, q, v);
     if (inputs != NULL)
@@ -235,7 +242,7 @@ static double hd_spring_energy(double dx, double dy, double k, double rest)
 void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
                               double *energy, double *excess, hd_scratch *scratch)
 {
-    hd_angles(q, program->bodies, scratch);
+    hd_angles(q, program->bodies, scratch, NULL);
     for (long t = 0; t < program->term_count; ++t) {
         const hd_term *term = program->terms + t;
         if (term->kind != HD_ANCHOR_SPRING && term->kind != HD_BODY_SPRING)

@@ -29,43 +29,102 @@ static void hd_evaluate(hd_forces *f, const double *q, const double *v, double *
     hd_accelerations(f->program, f->inputs, f->oriented, q, v, a, &f->scratch);
 }
 
+/* What a pass over a new state found: whether every value is finite, and the first and
+ * last body whose angle lies outside [-pi, pi) (last -1: none), the span the wrapping pass
+ * walks (hd_settle): on a large scene some angle crosses +-pi at many steps, few at once. */
+typedef struct {
+    int finite;
+    long first, last;
+} hd_check;
+
+/* The sums of such a pass, body by body: x - x is 0 for a finite x and NaN otherwise, and a
+ * NaN stays in the sum (positions and velocities two at a time, simd.h). */
+typedef struct {
+    hd_v2 pairs;
+    double angles;
+    long first, last;
+} hd_tally;
+
+#define HD_TALLY_START {hd_v2_all(0.0), 0.0, 0, -1}
+
+static HD_HOT void hd_tally_body(hd_tally *t, long b, hd_v2 position, hd_v2 velocity,
+                                 double theta, double omega)
+{
+    t->pairs = hd_v2_add(t->pairs, hd_v2_add(hd_v2_sub(position, position),
+                                             hd_v2_sub(velocity, velocity)));
+    t->angles += (theta - theta) + (omega - omega);
+    if (!(theta >= -HD_PI && theta < HD_PI)) {
+        if (t->last < 0)
+            t->first = b;
+        t->last = b;
+    }
+}
+
+static HD_HOT hd_check hd_tally_end(const hd_tally *t)
+{
+    double sums[2];
+    hd_v2_store(sums, t->pairs);
+    return (hd_check){sums[0] + sums[1] + t->angles == 0.0, t->first, t->last};
+}
+
+/* Euler's update of N bodies, v1 = v + h a, then q1 = q + h v1 (`symplectic`) or q + h v,
+ * with a = w / m per element when `inverse_mass` is not NULL (w in `a`, which may be v1
+ * itself: each body's values are read before they are written), else a as given; and the
+ * check of the new state in the same pass. One pass a body, its x and y two at a time. */
+static HD_HOT hd_check hd_euler_update(const double *q, const double *v, const double *a,
+                                       const double *inverse_mass, double *q1, double *v1,
+                                       double h, int symplectic, long n)
+{
+    const hd_v2 step = hd_v2_all(h);
+    hd_tally tally = HD_TALLY_START;
+    for (long b = 0; b < n; ++b) {
+        const long k = 3 * b;
+        hd_v2 acceleration = hd_v2_pair(a[k], a[k + 1]);
+        double alpha = a[k + 2];
+        if (inverse_mass != NULL) {
+            acceleration = hd_v2_mul(acceleration,
+                                     hd_v2_pair(inverse_mass[k], inverse_mass[k + 1]));
+            alpha = alpha * inverse_mass[k + 2];
+        }
+        const hd_v2 before = hd_v2_pair(v[k], v[k + 1]);
+        const hd_v2 after = hd_v2_add(before, hd_v2_mul(step, acceleration));
+        const hd_v2 position = hd_v2_add(hd_v2_pair(q[k], q[k + 1]),
+                                         hd_v2_mul(step, symplectic ? after : before));
+        const double omega = v[k + 2] + h * alpha;
+        const double theta = q[k + 2] + h * (symplectic ? omega : v[k + 2]);
+        hd_v2_store(v1 + k, after);
+        v1[k + 2] = omega;
+        hd_v2_store(q1 + k, position);
+        q1[k + 2] = theta;
+        hd_tally_body(&tally, b, position, after, theta, omega);
+    }
+    return hd_tally_end(&tally);
+}
+
 /* The article's explicit Euler, x += h v and v += h a from the start of the step
  * (integrators/methods.py: ExplicitEuler), or, `symplectic`, semi-implicit Euler: v += h a(q, v),
- * then x += h v with the new velocity (SemiImplicitEuler). */
+ * then x += h v with the new velocity (SemiImplicitEuler); the new state's check into
+ * `check`. v1 must not be v: the forces are summed into v1 (no array of their own, one
+ * stream of memory less on a large scene) and the update turns them into velocities in
+ * place, the accelerations w / m taken in the same pass. */
 static void hd_euler(hd_forces *f, const double *q, const double *v, double *q1, double *v1,
-                     double h, double *a, int symplectic)
+                     double h, double *a, int symplectic, hd_check *check)
 {
     const hd_program *p = f->program;
+    const long n = f->n3 / 3;
+    const double *inverse_mass = NULL;
     if (p->term_count == 0 && (f->inputs == NULL || f->inputs->term_count == 0))
         hd_evaluate(f, q, v, a);
-    else {  /* the accelerations w / m taken in the same pass as the update: one pass less */
+    else {
+        hd_scratch scratch = f->scratch;
+        scratch.wrench = a = v1;
         f->work->evaluations += 1;
-        hd_wrench(p, f->inputs, f->oriented, q, v, &f->scratch);
-        const double *w = f->scratch.wrench, *inverse_mass = p->inverse_mass;
-        /* Two elements at a time, each with the operations of one (simd.h): the update is
-         * a pass over the whole state, a large part of a cheap step. */
-        const hd_v2 step = hd_v2_all(h);
-        long k = 0;
-        for (; k + 1 < f->n3; k += 2) {
-            const hd_v2 acceleration = hd_v2_mul(hd_v2_pair(w[k], w[k + 1]),
-                                                 hd_v2_pair(inverse_mass[k], inverse_mass[k + 1]));
-            const hd_v2 before = hd_v2_pair(v[k], v[k + 1]);
-            const hd_v2 after = hd_v2_add(before, hd_v2_mul(step, acceleration));
-            hd_v2_store(v1 + k, after);
-            hd_v2_store(q1 + k, hd_v2_add(hd_v2_pair(q[k], q[k + 1]),
-                                          hd_v2_mul(step, symplectic ? after : before)));
-        }
-        for (; k < f->n3; ++k) {
-            const double acceleration = w[k] * inverse_mass[k];
-            v1[k] = v[k] + h * acceleration;
-            q1[k] = q[k] + h * (symplectic ? v1[k] : v[k]);
-        }
-        return;
+        hd_wrench(p, f->inputs, f->oriented, q, v, &scratch);
+        inverse_mass = p->inverse_mass;
     }
-    for (long k = 0; k < f->n3; ++k) {
-        v1[k] = v[k] + h * a[k];
-        q1[k] = q[k] + h * (symplectic ? v1[k] : v[k]);
-    }
+    /* the method a constant in each copy of the loop */
+    *check = symplectic ? hd_euler_update(q, v, a, inverse_mass, q1, v1, h, 1, n)
+                        : hd_euler_update(q, v, a, inverse_mass, q1, v1, h, 0, n);
 }
 
 /* x1 = x + h v + h^2/2 a0; v1 = v + h/2 (a0 + a(x1, v + h a0)) (VelocityVerlet). */
@@ -235,32 +294,26 @@ static int hd_embedded(hd_forces *f, const hd_pair *pair, double tolerance, doub
     return HD_TOO_MANY_SUBSTEPS;
 }
 
-/* Whether the new state (q, v) of N bodies is finite; if so, its angles are wrapped into
- * [-pi, pi), touching only those outside (geometry/planar.py: wrap_angle, with numpy's remainder:
- * fmod moved to the sign of the divisor). One pass over the state: x - x is 0 for a
- * finite x and NaN otherwise, summed (a NaN stays in the sum; positions and velocities two
- * at a time, simd.h), and whether any angle is outside, so that the wrapping pass runs only
- * then. */
-static int hd_settle(double *q, const double *v, long n)
+/* The check of the new state (q, v) of N bodies, in one pass. */
+static hd_check hd_check_state(const double *q, const double *v, long n)
 {
-    hd_v2 pairs = hd_v2_all(0.0);
-    double angles = 0.0;
-    int outside = 0;
+    hd_tally tally = HD_TALLY_START;
     for (long b = 0; b < n; ++b) {
         const double *x = q + 3 * b, *u = v + 3 * b;
-        const hd_v2 position = hd_v2_pair(x[0], x[1]), velocity = hd_v2_pair(u[0], u[1]);
-        pairs = hd_v2_add(pairs, hd_v2_add(hd_v2_sub(position, position),
-                                           hd_v2_sub(velocity, velocity)));
-        angles += (x[2] - x[2]) + (u[2] - u[2]);
-        outside |= !(x[2] >= -HD_PI && x[2] < HD_PI);
+        hd_tally_body(&tally, b, hd_v2_pair(x[0], x[1]), hd_v2_pair(u[0], u[1]), x[2], u[2]);
     }
-    double sums[2];
-    hd_v2_store(sums, pairs);
-    if (!(sums[0] + sums[1] + angles == 0.0))
+    return hd_tally_end(&tally);
+}
+
+/* Whether the new state of N bodies is finite (`check`, of that state); if so, its angles
+ * are wrapped into [-pi, pi), touching only those outside (geometry/planar.py: wrap_angle,
+ * with numpy's remainder: fmod moved to the sign of the divisor), between the first and
+ * the last body the check found outside. */
+static int hd_settle(double *q, hd_check check)
+{
+    if (!check.finite)
         return 0;
-    if (!outside)
-        return 1;
-    for (long b = 0; b < n; ++b) {
+    for (long b = check.first; b <= check.last; ++b) {
         double theta = q[3 * b + 2];
         if (theta >= -HD_PI && theta < HD_PI)
             continue;
@@ -293,6 +346,7 @@ typedef struct {
     const hd_pair *pair;
     double tolerance, *size, *buffer;
     double *levels;  /* constrained_step's parts: two states per level of splitting */
+    hd_check check;  /* of the state the last Euler step wrote */
 } hd_run;
 
 /* One step of the method from (q, v) to (q1, v1). */
@@ -300,8 +354,12 @@ static int hd_one_step(hd_run *s, const double *q, const double *v, double *q1, 
                        double h)
 {
     switch (s->method) {
-    case HD_EXPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 0); return HD_ADVANCED;
-    case HD_SEMI_IMPLICIT_EULER: hd_euler(s->f, q, v, q1, v1, h, s->buffer, 1); return HD_ADVANCED;
+    case HD_EXPLICIT_EULER:
+        hd_euler(s->f, q, v, q1, v1, h, s->buffer, 0, &s->check);
+        return HD_ADVANCED;
+    case HD_SEMI_IMPLICIT_EULER:
+        hd_euler(s->f, q, v, q1, v1, h, s->buffer, 1, &s->check);
+        return HD_ADVANCED;
     case HD_VELOCITY_VERLET:
         hd_velocity_verlet(s->f, q, v, q1, v1, h, s->buffer);
         return HD_ADVANCED;
@@ -526,7 +584,12 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
         if (s->levels == NULL)
             return HD_OUT_OF_MEMORY;
     }
-    hd_run stepper = {&f, s->method, s->pair, s->tolerance, size, buffer, s->levels};
+    hd_run stepper = {&f, s->method, s->pair, s->tolerance, size, buffer, s->levels,
+                      {0, 0, -1}};
+    /* With no joint or contact pass after it, an Euler step's own check of the state it
+     * wrote is the step's: no second pass over the new state. */
+    const int checked = contacts == NULL && joints == NULL
+                        && (s->method == HD_EXPLICIT_EULER || s->method == HD_SEMI_IMPLICIT_EULER);
     if (contacts != NULL)
         contacts->joints = joints;  /* for these steps: coupled.h */
     for (long t = 0; t < steps; ++t) {
@@ -541,7 +604,7 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
                                          h, spare);
         if (status != HD_ADVANCED)
             break;
-        if (!hd_settle(next_q, next_v, n)) {
+        if (!hd_settle(next_q, checked ? stepper.check : hd_check_state(next_q, next_v, n))) {
             status = HD_NOT_FINITE;
             break;
         }
