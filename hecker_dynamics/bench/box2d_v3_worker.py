@@ -29,6 +29,7 @@ kind is one function here and one case in :func:`.box2d_v3.describe`.
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import json
 import math
@@ -217,7 +218,8 @@ class World:
         world, h, substeps, step = self.id, self.h, self.substeps, lib.b2World_Step
         self.step = LAW.make_stepper(program, scene["script"], calls,
                                      lambda i: lib.b2Body_SetAwake(self.bodies[i], True),
-                                     lambda: step(world, h, substeps), round(self.h * 1e9))
+                                     functools.partial(step, world, h, substeps),
+                                     round(self.h * 1e9))
 
     def run(self, count: int, block: int) -> Spec:
         """``count`` steps, timed whole, and, where ``block`` > 0, block by block within

@@ -234,7 +234,17 @@ def make_stepper(program: Optional[Callable[[], None]], script: Terms,
     forces and the wrenches of the scripted commands acting then go on the bodies, then
     ``advance()`` takes the peer's step. ``script``: (body, start ns, end ns, frame body or
     -1, point, force, torque) per command (:func:`scripted_wrench`); a pushed body is woken
-    (``wake(body)``) before any force of that step goes on it."""
+    (``wake(body)``) before any force of that step goes on it. With neither forces nor a
+    script (a pyramid), the loop is the peer's own steps and nothing else, as its users
+    write it."""
+    if program is None and not script:
+        def bare(count: int) -> float:
+            start = time.perf_counter()
+            for _ in range(count):
+                advance()
+            return time.perf_counter() - start
+
+        return bare
     spans = [(-(-start // h_ns), -(-end // h_ns), body, (body, frame) if frame >= 0 else (body,),
               scripted_wrench(body, frame, point, force, torque))
              for body, start, end, frame, point, force, torque in script]

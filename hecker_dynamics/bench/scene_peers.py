@@ -25,7 +25,8 @@ its users would call its best honest configuration:
   (``springs="python"``), or, for pymunk with ``springs="native"``, the springs as
   Chipmunk ``DampedSpring`` constraints (Box2D 2.3 has no spring element with a given
   stiffness: its soft distance joint sets a frequency relative to the joint's effective
-  mass, another force law).
+  mass, another force law). With neither forces nor a script (the pyramids), the timed
+  loop calls the peer's own step and nothing else, as its users write it.
 - Joints: each revolute joint as the peer's pin (pymunk ``PivotJoint``, Box2D
   ``RevoluteJoint``) at the same two points, with its limits (pymunk ``RotaryLimitJoint``,
   Box2D's limit; one missing bound taken as a full turn beyond the start) and its motor
@@ -44,6 +45,7 @@ its users would call its best honest configuration:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from typing import Any, NamedTuple, Optional
@@ -343,7 +345,7 @@ def _pymunk(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
     _pymunk_joints(pymunk, space, layout, bodies)
     # A push wakes a sleeping body, as in the core.
     step = _stepper(layout, model, h, [pymunk_calls(b) for b in bodies],
-                    lambda i: bodies[i].activate(), lambda: space.step(h))
+                    lambda i: bodies[i].activate(), functools.partial(space.step, h))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 
@@ -443,7 +445,7 @@ def _box2d(scene: Scene, h: float, springs: str, sleep: bool) -> Engine:
         bodies[i].awake = True
 
     step = _stepper(layout, model, h, [box2d_calls(b) for b in bodies], wake,
-                    lambda: world.Step(h, 8, 3))
+                    functools.partial(world.Step, h, 8, 3))
     return step, lambda: np.array([(*b.position, b.angle) for b in bodies])
 
 

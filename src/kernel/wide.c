@@ -275,6 +275,16 @@ static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
     }
 }
 
+/* A velocity pass over colour c's units that are not in lanes, in their order, their
+ * changes folded into `largest`. */
+static HD_HOT double hd_singles_of(hd_contact_model *m, int c, double largest)
+{
+    const struct hd_wide *w = m->wide;
+    for (long s = w->single_start[c]; s < w->single_start[c + 1]; ++s)
+        largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows, m->velocity));
+    return largest;
+}
+
 #if HD_VECTORS
 /* m ? x : y, lane by lane (m: all ones or all zeros). */
 static HD_HOT hd_v4 hd_pick(hd_m4 m, hd_v4 x, hd_v4 y)
@@ -503,6 +513,32 @@ HD_PER_CPU static double hd_pass_lanes(hd_lanes *lanes, long count, double *velo
     return largest;
 }
 
+/* One velocity pass on this thread over the `count` colours in use (`colours`, in
+ * order), each colour's sets of lanes and then its other units, as hd_sweep takes them
+ * with hd_pass_chunk and hd_pass_singles, without its calls per colour: a pile's levels
+ * hold one set of lanes or none. The largest change, a maximum (a NaN change counts for
+ * none), is hd_sweep's in any order of folding. */
+HD_PER_CPU static double hd_pass_colours(hd_contact_model *m, const int *colours, int count)
+{
+    const struct hd_wide *w = m->wide;
+    hd_v4 most = {0.0, 0.0, 0.0, 0.0};
+    double largest = 0.0;
+    for (int i = 0; i < count; ++i) {
+        const int c = colours[i];
+        hd_lanes *lanes = w->lanes + w->lane_start[c];
+        const long sets = w->lane_start[c + 1] - w->lane_start[c];
+        long k = 0;
+        for (; k + HD_GROUP <= sets; k += HD_GROUP)
+            hd_solve_sets(lanes + k, HD_GROUP, m->velocity, &most);
+        for (; k < sets; ++k)
+            hd_solve_sets(lanes + k, 1, m->velocity, &most);
+        largest = hd_singles_of(m, c, largest);
+    }
+    for (int l = 0; l < HD_LANES; ++l)
+        largest = hd_max(largest, most[l]);
+    return largest;
+}
+
 /* One pass of the position correction over `count` lanes of one colour. */
 HD_PER_CPU static void hd_correct_lanes(const hd_lanes *lanes, long count, double *shift)
 {
@@ -513,6 +549,14 @@ HD_PER_CPU static void hd_correct_lanes(const hd_lanes *lanes, long count, doubl
         hd_correct_sets(lanes + k, 1, shift);
 }
 #else
+static double hd_pass_colours(hd_contact_model *m, const int *colours, int count)
+{
+    double largest = 0.0;
+    for (int i = 0; i < count; ++i)
+        largest = hd_singles_of(m, colours[i], largest);
+    return largest;
+}
+
 static double hd_pass_lanes(hd_lanes *lanes, long count, double *velocity, double largest)
 {
     (void)lanes;
@@ -563,13 +607,8 @@ static double hd_pass_chunk(void *passes, long chunk)
 /* A velocity pass over the colour's units that are not in lanes, in their order. */
 static double hd_pass_singles(void *passes)
 {
-    hd_passes *job = passes;
-    hd_contact_model *m = job->m;
-    const struct hd_wide *w = m->wide;
-    double largest = 0.0;
-    for (long s = w->single_start[job->colour]; s < w->single_start[job->colour + 1]; ++s)
-        largest = hd_max(largest, hd_solve_unit(m->units + w->single[s], m->rows, m->velocity));
-    return largest;
+    const hd_passes *job = passes;
+    return hd_singles_of(job->m, job->colour, 0.0);
 }
 
 /* hd_chunk: a pass of the position correction over a chunk of the colour's blocks. */
@@ -593,26 +632,27 @@ static double hd_correct_singles(void *passes)
     return 0.0;
 }
 
-/* One pass of `chunk` and `singles` over every colour of the island in order: on the crew
- * where there is one (each colour's chunks to whichever thread takes them first, its
- * other units on this thread meanwhile), else on this thread; the largest change. A
+/* One pass of `chunk` and `singles` over the `count` colours the island's units have
+ * (`colours`, in order): on the crew where there is one (each colour's chunks to
+ * whichever thread takes them first, its other units on this thread meanwhile), else on
+ * this thread; the largest change. A
  * colour's units share no moving body, so each is solved as one thread would solve it,
  * and the largest change, a maximum of numbers (a NaN change counts for none either way),
  * is one thread's too. */
-static double hd_sweep(hd_passes *job, const long *colour_start, struct hd_crew *crew,
+static double hd_sweep(hd_passes *job, const int *colours, int count, struct hd_crew *crew,
                        hd_chunk chunk, double (*singles)(void *))
 {
     const struct hd_wide *w = job->m->wide;
     double largest = 0.0;
-    for (int c = 0; c <= HD_COLOURS; ++c) {
-        if (colour_start[c + 1] == colour_start[c])
-            continue;  /* a colour none of the island's units has */
+    for (int k = 0; k < count; ++k) {
+        const int c = colours[k];
         job->colour = c;
         const long sets = w->lane_start[c + 1] - w->lane_start[c];
         if (crew == NULL || sets == 0) {
             job->chunk_sets = sets;
             largest = hd_max(largest, sets > 0 ? chunk(job, 0) : 0.0);
-            largest = hd_max(largest, singles(job));
+            if (w->single_start[c + 1] > w->single_start[c])  /* none: a change of 0 */
+                largest = hd_max(largest, singles(job));
             continue;
         }
         const long fewest = (sets + HD_MOST_CHUNKS - 1) / HD_MOST_CHUNKS;
@@ -651,9 +691,14 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const l
     /* Each colour's blocks four to a set of lanes, the rest of it one by one (the units
      * that fit no colour one by one in their order). */
     long lanes = 0, singles = 0;
+    /* The colours the island's units have, in order: a pass skips the others without
+     * looking at them (a pile's levels are a few of the HD_COLOURS + 1). */
+    int colours[HD_COLOURS + 1], used = 0;
     for (int c = 0; c <= HD_COLOURS; ++c) {
         w->lane_start[c] = lanes;
         w->single_start[c] = singles;
+        if (colour_start[c + 1] > colour_start[c])
+            colours[used++] = c;
         long pair[HD_LANES];
         int filled = 0;
         for (long k = colour_start[c]; k < colour_start[c + 1]; ++k) {
@@ -684,8 +729,9 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const l
     struct hd_crew *crew = hd_crew_for(m, size);
     *ran = 0;
     while (*ran < passes && !converged) {
-        const double largest = hd_sweep(&job, colour_start, crew, hd_pass_chunk,
-                                        hd_pass_singles);
+        const double largest = crew == NULL ? hd_pass_colours(m, colours, used)
+                               : hd_sweep(&job, colours, used, crew, hd_pass_chunk,
+                                          hd_pass_singles);
         converged = largest <= m->converged * scale;
         *ran += 1;
     }
@@ -697,6 +743,6 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const l
     }
     crew = deep ? hd_crew_for(m, size) : NULL;
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration)
-        hd_sweep(&job, colour_start, crew, hd_correct_chunk, hd_correct_singles);
+        hd_sweep(&job, colours, used, crew, hd_correct_chunk, hd_correct_singles);
     return converged;
 }
