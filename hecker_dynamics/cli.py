@@ -44,6 +44,7 @@ from .scene.load import (
     INTEGRATORS,
     Scene,
     SceneError,
+    check_takes_a_step,
     load_scene,
     scene_summary,
     shipped_scenes,
@@ -151,6 +152,8 @@ def run_command(args: argparse.Namespace) -> int:
     from .ros.runner import Runner
 
     scene = configure(load_scene(args.scene), args)
+    check_takes_a_step(scene.duration_ns, scene.step_ns,
+                       "--duration" if args.duration is not None else f"{scene.source}: duration")
     if args.view:
         view_run(scene)
     runner = Runner(scene)
@@ -254,6 +257,8 @@ def replay_command(args: argparse.Namespace) -> int:
     if args.output is not None:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
+    if args.duration is not None:
+        check_takes_a_step(args.duration, scene.step_ns, "--duration")
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)

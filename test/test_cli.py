@@ -122,6 +122,37 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
                                          "physics steps of 0.004 s")
 
 
+@pytest.mark.parametrize("argv, fragment", [
+    (["run", "--duration", "0.0005"], "--duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["run", "--duration", "0"], "--duration 0 s is shorter than one step (0.001 s)"),
+    (["run", "--duration", "0.01", "--step", "0.02"],
+     "--duration 0.01 s is shorter than one step (0.02 s)"),
+    (["sweep", "sample", "--set", "bodies.left.mass=1,2", "--duration", "0.0005", "-o", "t.csv"],
+     "sample.yaml (variant 0): --duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["sweep", "sample", "--set", "step=0.001,0.01", "--duration", "0.005", "-o", "t.csv"],
+     "sample.yaml (variant 1): --duration 0.005 s is shorter than one step (0.01 s)"),
+    (["replay", "sample", "in", "--check", "--duration", "0.0005"],
+     "--duration 0.0005 s is shorter than one step (0.001 s)")])
+def test_a_duration_shorter_than_one_step_is_refused(tmp_path, capsys, monkeypatch, argv,
+                                                      fragment):
+    """The clock takes the whole steps that fit in a duration (1.5 steps take one): a
+    duration under one step took none, and run, sweep and replay exited 0 with the start
+    reported as the end. Each now refuses it in one line, before any work."""
+    monkeypatch.chdir(tmp_path)
+    _assert_clean_error(capsys, main(argv), fragment, "no step would be taken")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_shorter_than_one_step_is_refused_by_run_and_sweep(tmp_path, capsys):
+    path = write_scene(tmp_path, {"duration": 0.0005, "bodies": {
+        "a": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}, "short.yaml")
+    _assert_clean_error(capsys, main(["run", str(path)]),
+                        f"{path}: duration 0.0005 s is shorter than one step (0.001 s)")
+    _assert_clean_error(capsys, main(["sweep", str(path), "--set", "bodies.a.mass=1,2", "-o",
+                                      str(tmp_path / "t.csv")]),
+                        f"{path} (variant 0): duration 0.0005 s is shorter than one step")
+
+
 def _configured(scene_name: str, step: str):
     from hecker_dynamics.cli import configure
     args = parser().parse_args(["run", scene_name, "--step", step])

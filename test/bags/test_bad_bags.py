@@ -123,7 +123,7 @@ def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
         assert "--start 100 s" in err and "after the end of the bag, at 4 s" in err
         assert not (tmp_path / "o").exists()
     code, _, err = _cli(capsys, "replay", "sample", recording, "--start", "4", "--duration",
-                        "0", "-o", str(tmp_path / "o"))  # the end itself is in the bag
+                        "0.001", "-o", str(tmp_path / "o"))  # the end itself is in the bag
     assert code == 0, err
 
 
@@ -317,14 +317,14 @@ def test_a_topic_in_neither_bag_is_an_error_saying_so(capsys):
 
 
 def test_a_check_that_compares_no_output_is_a_mismatch(tmp_path, capsys):
-    """A recording of a session 0 s long, and one whose output topics hold nothing checked
-    with --partial: the check compares no output, so it fails (exit 1) rather than report
-    a match of 0 of 0 recorded outputs."""
+    """A recording of a session one step long (shorter than a publish period), and one whose
+    output topics hold nothing checked with --partial: the check compares no output, so it
+    fails (exit 1) rather than report a match of 0 of 0 recorded outputs."""
     script = str(tmp_path / "in")
     assert main(["script", "sample", "-o", script]) == 0
     instant = str(tmp_path / "instant")
     assert main(["replay", "sample", script, "-o", instant, "--with-inputs", "--start", "2",
-                 "--duration", "0"]) == 0
+                 "--duration", "0.001"]) == 0
     emptied = tmp_path / "emptied"
     with BagWriter(emptied, "mcap", custom_data=read_bag(script).custom_data) as writer:
         for body in ("left", "right"):
