@@ -50,6 +50,7 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
+from .stops import Terminated, raise_terminated, stopped
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -902,25 +903,14 @@ def _show_warning(message: Warning | str, category: type[Warning], *_: object,
     print(f"hecker-dynamics: warning: {_one_line(str(message))}", file=sys.stderr)
 
 
-class _Terminated(BaseException):
-    """SIGTERM (a CI job's timeout, ``kill``), raised in the main thread so that the
-    command unwinds as on Ctrl-C: the writers remove what they had begun, a sweep stops
-    its workers (:meth:`~.batch.engines.ProcessPool.close`)."""
-
-
-def _terminate(signum: int, frame: object) -> NoReturn:
-    raise _Terminated
-
-
 def main(argv: Optional[Sequence[str]] = None) -> int:
     if threading.current_thread() is not threading.main_thread():
         return _main(argv)  # only the main thread may take a signal
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         return _main(argv)
-    except _Terminated:
-        print("hecker-dynamics: terminated", file=sys.stderr)
-        return 128 + signal.SIGTERM
+    except Terminated as stop:
+        return stopped(stop)
     finally:
         signal.signal(signal.SIGTERM, previous)
 
@@ -951,11 +941,10 @@ def _main(argv: Optional[Sequence[str]]) -> int:
         # exit status is the shell's for a write to a closed pipe, 128 + SIGPIPE.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         # Ctrl-C: the writers have removed what they had begun (a bag's or a file's scratch
         # copy), so one line says why the command stopped, with the shell's status for it.
-        print("hecker-dynamics: interrupted", file=sys.stderr)
-        return 128 + signal.SIGINT
+        return stopped(stop)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -323,6 +324,44 @@ def test_a_reader_that_stops_reading_gets_no_traceback():
     err = process.stderr.read().decode()
     assert process.wait(timeout=120) == 141
     assert err == ""
+
+
+#: The console script as installed, with the signal ``sys.argv[1]`` sent to itself as it
+#: first imports numpy (its command line's imports take most of a second; a signal in them
+#: comes at some import): the same moment on every run.
+_SIGNAL_IN_IMPORTS = """
+import os, signal, sys
+from importlib.metadata import entry_points
+
+class SignalAtNumpy:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy":
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), int(sys.argv[1]))
+        return None
+
+script = entry_points(group="console_scripts", name="hecker-dynamics")
+if not script:
+    sys.exit(99)
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as a terminal starts it
+sys.meta_path.insert(0, SignalAtNumpy())
+sys.exit(next(iter(script)).load()(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize("signum, line", [(signal.SIGTERM, "hecker-dynamics: terminated"),
+                                          (signal.SIGINT, "hecker-dynamics: interrupted")])
+def test_a_signal_while_the_command_imports_ends_it_in_one_line(signum, line):
+    """SIGTERM while the console script imported the command line (before ``main`` took
+    it) ended the process without a word, killed by the signal; Ctrl-C then printed a
+    traceback. Both now end it with a command's line and status, 128 + the signal."""
+    process = subprocess.run(
+        [sys.executable, "-c", _SIGNAL_IN_IMPORTS, str(int(signum)), "run", "--duration", "1"],
+        capture_output=True, text=True, timeout=120)
+    if process.returncode == 99:
+        pytest.skip("the package is not installed (no hecker-dynamics console script)")
+    assert (process.returncode, process.stderr, process.stdout) == (128 + signum, line + "\n",
+                                                                   "")
 
 
 def test_bag_commands_refuse_absurd_times_without_a_traceback(tmp_path, capsys):
