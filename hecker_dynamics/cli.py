@@ -711,6 +711,11 @@ def sweep_command(args: argparse.Namespace) -> int:
                             overwrite=args.overwrite)
         if bags.resolve() in (output.resolve(), partial_path(output).resolve()):
             raise OutputError(f"--bags {args.bags}: is where -o writes the table")
+        # A bag is written whole, in place of what was there: a table inside it would go.
+        for name in bag_names(variants):
+            if (bags / name).resolve() in output.resolve().parents:
+                raise OutputError(f"-o {args.output}: is inside {bags / name}, a bag --bags "
+                                  "writes over")
     engine = _engine(args)
     try:
         path = sweep(variants, engine, output, metrics=metrics, bags=bags,
