@@ -167,7 +167,12 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
             t, e = energy(scene, bag)
             grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)
     if second is not None:
-        for b, (times, difference) in enumerate(differences(bags[0], bags[1]).values()):
+        for name in names:
+            if name not in bags[0] or name not in bags[1]:
+                warnings.warn(f"body '{name}' is only in {paths[name in bags[1]]}: no "
+                              "difference is drawn for it", stacklevel=2)
+        for name, (times, difference) in differences(bags[0], bags[1]).items():
+            b = names.index(name)  # the body's colour on the left
             for r in range(len(QUANTITIES)):
                 grid[r][1].plot(times, difference[:, r],
                                 color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0)
