@@ -147,14 +147,19 @@ def _play(runner: Runner, span_ns: int, progress: Progress) -> dict[str, int]:
     return readings
 
 
+def _check_takes_a_step(duration_ns: int, scene: Scene, args: argparse.Namespace) -> None:
+    """:func:`check_takes_a_step`, naming ``--duration`` if given, else the scene's."""
+    check_takes_a_step(duration_ns, scene.step_ns, "--duration" if args.duration is not None
+                       else f"{scene.source}: duration")
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Run a scene as the node runs it (its script, drives and sensors) and print a
     summary."""
     from .ros.runner import Runner
 
     scene = configure(load_scene(args.scene), args)
-    check_takes_a_step(scene.duration_ns, scene.step_ns,
-                       "--duration" if args.duration is not None else f"{scene.source}: duration")
+    _check_takes_a_step(scene.duration_ns, scene, args)
     if args.view:
         view_run(scene)
     runner = Runner(scene)
@@ -227,6 +232,7 @@ def script_command(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene)
     duration = scene.duration_ns if args.duration is None else args.duration
+    _check_takes_a_step(duration, scene, args)
     check_session(args.start, duration, "script:", ("--start", "--duration"))
     count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
                           duration_ns=args.duration, overwrite=args.overwrite,

@@ -133,12 +133,15 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
     (["sweep", "sample", "--set", "step=0.001,0.01", "--duration", "0.005", "-o", "t.csv"],
      "sample.yaml (variant 1): --duration 0.005 s is shorter than one step (0.01 s)"),
     (["replay", "sample", "in", "--check", "--duration", "0.0005"],
+     "--duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["script", "sample", "-o", "in", "--duration", "0.0005"],
      "--duration 0.0005 s is shorter than one step (0.001 s)")])
 def test_a_duration_shorter_than_one_step_is_refused(tmp_path, capsys, monkeypatch, argv,
                                                       fragment):
     """The clock takes the whole steps that fit in a duration (1.5 steps take one): a
     duration under one step took none, and run, sweep and replay exited 0 with the start
-    reported as the end. Each now refuses it in one line, before any work."""
+    reported as the end, and script wrote a session no replay could take a step of. Each
+    now refuses it in one line, before any work."""
     monkeypatch.chdir(tmp_path)
     _assert_clean_error(capsys, main(argv), fragment, "no step would be taken")
     assert list(tmp_path.iterdir()) == []
