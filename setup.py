@@ -117,5 +117,5 @@ setup(
         # Box2D 2.3.10 installs from a wheel; the older box2d-py needs swig to build.
         "bench": ["pymunk>=6", "Box2D>=2.3.10", "mujoco>=3.1", "matplotlib>=3.6"],
     },
-    entry_points={"console_scripts": ["hecker-dynamics = hecker_dynamics.cli:main"]},
+    entry_points={"console_scripts": ["hecker-dynamics = hecker_dynamics.console:main"]},
 )

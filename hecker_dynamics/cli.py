@@ -44,11 +44,13 @@ from .scene.load import (
     INTEGRATORS,
     Scene,
     SceneError,
+    check_takes_a_step,
     load_scene,
     scene_summary,
     shipped_scenes,
     with_map,
 )
+from .stops import Terminated, raise_terminated, stopped
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -145,12 +147,19 @@ def _play(runner: Runner, span_ns: int, progress: Progress) -> dict[str, int]:
     return readings
 
 
+def _check_takes_a_step(duration_ns: int, scene: Scene, args: argparse.Namespace) -> None:
+    """:func:`check_takes_a_step`, naming ``--duration`` if given, else the scene's."""
+    check_takes_a_step(duration_ns, scene.step_ns, "--duration" if args.duration is not None
+                       else f"{scene.source}: duration")
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Run a scene as the node runs it (its script, drives and sensors) and print a
     summary."""
     from .ros.runner import Runner
 
     scene = configure(load_scene(args.scene), args)
+    _check_takes_a_step(scene.duration_ns, scene, args)
     if args.view:
         view_run(scene)
     runner = Runner(scene)
@@ -223,6 +232,7 @@ def script_command(args: argparse.Namespace) -> int:
 
     scene = load_scene(args.scene)
     duration = scene.duration_ns if args.duration is None else args.duration
+    _check_takes_a_step(duration, scene, args)
     check_session(args.start, duration, "script:", ("--start", "--duration"))
     count = script_to_bag(scene, Path(args.output), storage=args.storage, start_ns=args.start,
                           duration_ns=args.duration, overwrite=args.overwrite,
@@ -254,6 +264,8 @@ def replay_command(args: argparse.Namespace) -> int:
     if args.output is not None:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
+    if args.duration is not None:
+        check_takes_a_step(args.duration, scene.step_ns, "--duration")
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
@@ -705,6 +717,11 @@ def sweep_command(args: argparse.Namespace) -> int:
                             overwrite=args.overwrite)
         if bags.resolve() in (output.resolve(), partial_path(output).resolve()):
             raise OutputError(f"--bags {args.bags}: is where -o writes the table")
+        # A bag is written whole, in place of what was there: a table inside it would go.
+        for name in bag_names(variants):
+            if (bags / name).resolve() in output.resolve().parents:
+                raise OutputError(f"-o {args.output}: is inside {bags / name}, a bag --bags "
+                                  "writes over")
     engine = _engine(args)
     try:
         path = sweep(variants, engine, output, metrics=metrics, bags=bags,
@@ -897,25 +914,14 @@ def _show_warning(message: Warning | str, category: type[Warning], *_: object,
     print(f"hecker-dynamics: warning: {_one_line(str(message))}", file=sys.stderr)
 
 
-class _Terminated(BaseException):
-    """SIGTERM (a CI job's timeout, ``kill``), raised in the main thread so that the
-    command unwinds as on Ctrl-C: the writers remove what they had begun, a sweep stops
-    its workers (:meth:`~.batch.engines.ProcessPool.close`)."""
-
-
-def _terminate(signum: int, frame: object) -> NoReturn:
-    raise _Terminated
-
-
 def main(argv: Optional[Sequence[str]] = None) -> int:
     if threading.current_thread() is not threading.main_thread():
         return _main(argv)  # only the main thread may take a signal
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         return _main(argv)
-    except _Terminated:
-        print("hecker-dynamics: terminated", file=sys.stderr)
-        return 128 + signal.SIGTERM
+    except Terminated as stop:
+        return stopped(stop)
     finally:
         signal.signal(signal.SIGTERM, previous)
 
@@ -946,11 +952,10 @@ def _main(argv: Optional[Sequence[str]]) -> int:
         # exit status is the shell's for a write to a closed pipe, 128 + SIGPIPE.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         # Ctrl-C: the writers have removed what they had begun (a bag's or a file's scratch
         # copy), so one line says why the command stopped, with the shell's status for it.
-        print("hecker-dynamics: interrupted", file=sys.stderr)
-        return 128 + signal.SIGINT
+        return stopped(stop)
 
 
 if __name__ == "__main__":

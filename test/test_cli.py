@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -120,6 +121,40 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
     _assert_clean_error(capsys, main(["run", "robot", "--step", "0.004", "--duration", "0.1"]),
                         "--step 0.004:", "'drives.base.rate': 100 Hz is not a whole number of "
                                          "physics steps of 0.004 s")
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["run", "--duration", "0.0005"], "--duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["run", "--duration", "0"], "--duration 0 s is shorter than one step (0.001 s)"),
+    (["run", "--duration", "0.01", "--step", "0.02"],
+     "--duration 0.01 s is shorter than one step (0.02 s)"),
+    (["sweep", "sample", "--set", "bodies.left.mass=1,2", "--duration", "0.0005", "-o", "t.csv"],
+     "sample.yaml (variant 0): --duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["sweep", "sample", "--set", "step=0.001,0.01", "--duration", "0.005", "-o", "t.csv"],
+     "sample.yaml (variant 1): --duration 0.005 s is shorter than one step (0.01 s)"),
+    (["replay", "sample", "in", "--check", "--duration", "0.0005"],
+     "--duration 0.0005 s is shorter than one step (0.001 s)"),
+    (["script", "sample", "-o", "in", "--duration", "0.0005"],
+     "--duration 0.0005 s is shorter than one step (0.001 s)")])
+def test_a_duration_shorter_than_one_step_is_refused(tmp_path, capsys, monkeypatch, argv,
+                                                      fragment):
+    """The clock takes the whole steps that fit in a duration (1.5 steps take one): a
+    duration under one step took none, and run, sweep and replay exited 0 with the start
+    reported as the end, and script wrote a session no replay could take a step of. Each
+    now refuses it in one line, before any work."""
+    monkeypatch.chdir(tmp_path)
+    _assert_clean_error(capsys, main(argv), fragment, "no step would be taken")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_shorter_than_one_step_is_refused_by_run_and_sweep(tmp_path, capsys):
+    path = write_scene(tmp_path, {"duration": 0.0005, "bodies": {
+        "a": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}}}, "short.yaml")
+    _assert_clean_error(capsys, main(["run", str(path)]),
+                        f"{path}: duration 0.0005 s is shorter than one step (0.001 s)")
+    _assert_clean_error(capsys, main(["sweep", str(path), "--set", "bodies.a.mass=1,2", "-o",
+                                      str(tmp_path / "t.csv")]),
+                        f"{path} (variant 0): duration 0.0005 s is shorter than one step")
 
 
 def _configured(scene_name: str, step: str):
@@ -292,6 +327,44 @@ def test_a_reader_that_stops_reading_gets_no_traceback():
     err = process.stderr.read().decode()
     assert process.wait(timeout=120) == 141
     assert err == ""
+
+
+#: The console script as installed, with the signal ``sys.argv[1]`` sent to itself as it
+#: first imports numpy (its command line's imports take most of a second; a signal in them
+#: comes at some import): the same moment on every run.
+_SIGNAL_IN_IMPORTS = """
+import os, signal, sys
+from importlib.metadata import entry_points
+
+class SignalAtNumpy:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy":
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), int(sys.argv[1]))
+        return None
+
+script = entry_points(group="console_scripts", name="hecker-dynamics")
+if not script:
+    sys.exit(99)
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as a terminal starts it
+sys.meta_path.insert(0, SignalAtNumpy())
+sys.exit(next(iter(script)).load()(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize("signum, line", [(signal.SIGTERM, "hecker-dynamics: terminated"),
+                                          (signal.SIGINT, "hecker-dynamics: interrupted")])
+def test_a_signal_while_the_command_imports_ends_it_in_one_line(signum, line):
+    """SIGTERM while the console script imported the command line (before ``main`` took
+    it) ended the process without a word, killed by the signal; Ctrl-C then printed a
+    traceback. Both now end it with a command's line and status, 128 + the signal."""
+    process = subprocess.run(
+        [sys.executable, "-c", _SIGNAL_IN_IMPORTS, str(int(signum)), "run", "--duration", "1"],
+        capture_output=True, text=True, timeout=120)
+    if process.returncode == 99:
+        pytest.skip("the package is not installed (no hecker-dynamics console script)")
+    assert (process.returncode, process.stderr, process.stdout) == (128 + signum, line + "\n",
+                                                                   "")
 
 
 def test_bag_commands_refuse_absurd_times_without_a_traceback(tmp_path, capsys):

@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "hecker_dynamics"
 #: ``_kernel`` is the compiled kernel, ``msg`` and ``srv`` the ROS interfaces colcon
 #: generates; none of them imports the package.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_version", "_kernel", "files", "msg", "srv"),
+    ("_version", "_kernel", "files", "stops", "msg", "srv"),
     ("geometry",),
     ("integrators",),
     ("scene",),
@@ -29,6 +29,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("batch",),
     ("bench",),
     ("cli",),
+    ("console",),
     ("",),
 )
 RANK = {unit: rank for rank, units in enumerate(LAYERS) for unit in units}

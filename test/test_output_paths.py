@@ -124,6 +124,18 @@ def test_sweep_bags_folder_is_checked_before_any_work(place, capsys, path, probl
     assert _listing(place) == before
 
 
+def test_sweep_table_inside_a_bag_it_writes_is_refused(place, capsys):
+    """-o inside a bag folder of --bags (left by an earlier sweep): the sweep wrote the
+    table there, and the next sweep --overwrite, replacing the bag whole, deleted it (and
+    its partial rows, had the bag come after them)."""
+    assert main([*_sweep_bags("bags")]) == 0
+    before = _listing(place)
+    for table in ("bags/variant-000001/t.csv", "bags/../bags/variant-000000/t.csv"):
+        _refused(capsys, [*SWEEP, "-o", table, "--bags", "bags", "--overwrite"],
+                 f"-o {table}: is inside bags/variant-00000", "a bag --bags writes over")
+    assert _listing(place) == before
+
+
 def test_sweep_bags_are_replaced_only_with_overwrite(place, capsys):
     (place / "bags").mkdir()
     (place / "bags" / "variant-000001.yaml").write_text("old")

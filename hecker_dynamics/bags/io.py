@@ -606,11 +606,17 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
             definitions: dict[str, str] = {}
             digests: dict[str, str] = {}
             for conn in connections:
-                digests.setdefault(conn.topic, conn.digest or "")
                 previous = bag_topics.setdefault(conn.topic, conn.msgtype)
                 if previous != conn.msgtype:
                     raise BagError(f"{path}: topic '{conn.topic}' has two types, "
                                    f"{previous} and {conn.msgtype}")
+                # A second connection's definition would be decoded, and checked against
+                # this package's (check_type), as the first one's: refuse two of them.
+                known, digest = digests.get(conn.topic, ""), conn.digest or ""
+                if known and digest and known != digest:
+                    raise BagError(f"{path}: topic '{conn.topic}' has two definitions of "
+                                   f"{conn.msgtype}, type hashes {known} and {digest}")
+                digests[conn.topic] = known or digest
                 if conn.msgdef.data:
                     definitions.setdefault(conn.msgtype, conn.msgdef.data)
             if path.is_dir() and not getattr(reader, "paths", [None]):

@@ -51,7 +51,7 @@ from ..ros.outputs import (
     output_topics,
     sensor_topic,
 )
-from ..ros.runner import InputSource, Runner
+from ..ros.runner import InputSource, Runner, check_wrench_topics
 from ..scene.commands import InputError
 from ..scene.load import Scene
 from ..scene.parameters import seconds_text
@@ -138,8 +138,10 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
 
     The input topics present must have the node's types, at least one must be present
     (with ``need_inputs``), and output topics of bodies the scene does not have mean the bag
-    was recorded with another scene.
+    was recorded with another scene. First the scene's own topics (its wrench topics
+    named like another topic: the bag is not to blame).
     """
+    check_wrench_topics(scene)
     inputs = input_topics(scene)
     _check_types(bag, {topic: msgtype for topic, (msgtype, _) in inputs.items()})
     if need_inputs and not any(topic in bag.topics for topic in inputs):

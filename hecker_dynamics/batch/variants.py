@@ -31,7 +31,7 @@ from typing import Any, Optional, Union
 import numpy as np
 import yaml
 
-from ..scene.load import Scene, scene_from_parameters, scene_parameters
+from ..scene.load import Scene, check_takes_a_step, scene_from_parameters, scene_parameters
 from ..scene.parameters import SceneError, flatten
 
 __all__ = ["Setting", "Variant", "parse_setting", "grid", "sample", "make_variants",
@@ -218,6 +218,8 @@ def make_variants(scene: str, settings: Sequence[Setting], *, samples: Optional[
         for setting, value in zip(settings, row):
             _set(params, setting, value, source)
         built = scene_from_parameters(params, f"{source} (variant {index})")
+        check_takes_a_step(built.duration_ns, built.step_ns, f"{built.source}: " + (
+            "--duration" if duration_ns is not None else "duration"))
         variants.append(Variant(index, tuple((s.column, v) for s, v in zip(settings, row)),
                                 built, params))
     return variants

@@ -230,4 +230,9 @@ def mass_properties(shapes: list[Shape] | tuple[Shape, ...],
     if not (math.isfinite(total) and math.isfinite(inertia) and inertia > 0.0):
         raise GeometryError(f"the mass ({total}) or moment of inertia ({inertia}) is not a "
                             "positive finite number")
+    # F = M a (Eq. 5) and tau = I alpha (Eq. 14) are solved for a and alpha by dividing:
+    # below 1/DBL_MAX (5.6e-309) the inverse is inf.
+    if not (math.isfinite(1.0 / total) and math.isfinite(1.0 / float(inertia))):
+        raise GeometryError(f"the mass ({total:g} kg) or moment of inertia ({inertia:g} kg m^2) "
+                            "is so small that its inverse overflows a double")
     return MassProperties(total, (float(center[0]), float(center[1])), float(inertia))

@@ -32,11 +32,12 @@ from ..scene.world import EditKind, WorldEdit
 from ..sensors.schedule import SensorSet
 from ..sensors.touch import Touches
 from ..world import World
-from .cmd_vel import CmdVelTopic, take_cmd_vel
+from .cmd_vel import CmdVelTopic, cmd_vel_topics, take_cmd_vel
 from .diagnostics import DiagnosticFields, diagnostics_due, simulation_diagnostics
 from .fields import NS_PER_S, applied_wrench_to_command, wrench_stamped_to_command
-from .joint_states import MotorTopic, set_motor_speed
-from .outputs import OutputFields, reading_output, touch_output
+from .joint_states import MotorTopic, motor_topics, set_motor_speed
+from .names import APPLIED_WRENCH_TOPIC, CLOCK_TOPIC
+from .outputs import OutputFields, output_topics, reading_output, touch_output
 from .session import (
     APPLIED_WRENCH_EVENT,
     CMD_VEL_EVENT,
@@ -53,7 +54,7 @@ from .session import (
 
 __all__ = ["InputSource", "NodeOptions", "node_options", "scene_for_node", "due_script",
            "catch_up_cap", "TickAction", "plan_tick", "lag_ns", "plain_parameters", "node_setup",
-           "refused_change", "LogLine", "Tick", "Runner"]
+           "refused_change", "check_wrench_topics", "LogLine", "Tick", "Runner"]
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
@@ -210,6 +211,31 @@ def node_setup(params: Mapping[str, Any], source: str) -> tuple[NodeOptions, Sce
     return node_options(params, source), scene_for_node(params, source)
 
 
+def check_wrench_topics(scene: Scene) -> None:
+    """Refuse a ``wrench_topics`` topic (named freely) that is another topic of the node's
+    (in the root namespace): an output, where ROS 2 would not match a WrenchStamped
+    subscriber to the node's own publisher of another type and a replay wrote both types
+    on the topic; an input, where a replay took it as only one of them (the AppliedWrench
+    input, or the other wrench topic, lost); or ``/clock``."""
+    def qualified(topic: str) -> str:
+        return "/" + topic.lstrip("/")
+
+    taken = {qualified(topic): f"an output of the node ({kind.value})"
+             for topic, kind in output_topics(scene, tf=True).items()}
+    taken[qualified(CLOCK_TOPIC)] = "the clock's topic"
+    taken[qualified(APPLIED_WRENCH_TOPIC)] = "the AppliedWrench input"
+    taken.update({qualified(m.topic): f"the motor input of joint '{m.joint}'"
+                  for m in motor_topics(scene)})
+    taken.update({qualified(d.topic): f"the cmd_vel input of body '{d.body}'"
+                  for d in cmd_vel_topics(scene)})
+    for wrench in scene.wrench_topics:
+        topic = qualified(wrench.topic)
+        if topic in taken:
+            raise SceneError(f"{scene.source}: parameter 'wrench_topics.{wrench.name}.topic': "
+                             f"'{wrench.topic}' is already {taken[topic]}")
+        taken[topic] = f"the topic of wrench_topics.{wrench.name}"
+
+
 def refused_change(names: Sequence[str]) -> str:
     """Why the node refuses to change its parameters ``names`` while it runs: it reads
     every one once, at start (the scene, its options, ``use_sim_time``, which picks how it
@@ -289,6 +315,7 @@ class Runner:
                  wall_clock: Callable[[], int] = time.perf_counter_ns,
                  record: bool = False, keyframe_period_ns: int = 0,
                  lockstep: bool = False) -> None:
+        check_wrench_topics(scene)
         self.base_scene = scene
         self.edits: list[WorldEdit] = []
         # The runner plays the script itself (_arrive), at the node's instants.

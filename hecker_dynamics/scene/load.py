@@ -57,6 +57,7 @@ from .parameters import (
     SceneError,
     flatten,
     quoted,
+    seconds_text,
     unflatten,
 )
 from .rosyaml import merge_parameters, read_parameters_file
@@ -68,7 +69,8 @@ __all__ = [
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
-    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "MAX_SECONDS",
+    "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "check_takes_a_step",
+    "MAX_SECONDS",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -779,6 +781,15 @@ def with_map(scene: Scene, file: str, source: str = "--map") -> Scene:
                       bodies=list(scene.map.bodies))
     reader = ParameterReader({"map": values}, source)
     return replace(scene, map=_read_map(reader.child("map"), {b.name: b for b in scene.bodies}))
+
+
+def check_takes_a_step(duration_ns: int, step_ns: int, what: str) -> None:
+    """Refuse a run or session (``what`` names its duration) shorter than one step: the
+    fixed-step clock takes the whole steps that fit (1.5 steps take one), so it would take
+    none and report its start as its end."""
+    if duration_ns < step_ns:
+        raise SceneError(f"{what} {seconds_text(duration_ns)} s is shorter than one step "
+                         f"({seconds_text(step_ns)} s): no step would be taken")
 
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")

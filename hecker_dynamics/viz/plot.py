@@ -9,6 +9,7 @@ drawn in fixed-frame axes. Without a scene the twists are drawn as the bag has t
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -39,11 +40,22 @@ class Series:
     values: np.ndarray  # (n, 6): x, y, angle, vx, vy, omega
 
 
-def _body_names(bag_topics: dict[str, str]) -> list[str]:
-    """Bodies with both ``/<body>/pose`` and ``/<body>/twist`` in the bag, sorted."""
-    return sorted(topic[1:-len("/pose")] for topic, kind in bag_topics.items()
-                  if kind == POSE_STAMPED and topic.endswith("/pose")
-                  and bag_topics.get(topic[:-len("/pose")] + "/twist") == TWIST)
+def _body_names(path: str, bag_topics: dict[str, str]) -> list[str]:
+    """Bodies with both ``/<body>/pose`` and ``/<body>/twist`` in the bag, sorted; a
+    warning names each other body either topic names, and why it is not drawn."""
+    names = []
+    for body in sorted({topic[1:].rpartition("/")[0] for topic in bag_topics
+                        if topic.endswith(("/pose", "/twist"))} - {""}):
+        found = [(topic, bag_topics.get(topic), msgtype) for topic, msgtype in
+                 ((f"/{body}/pose", POSE_STAMPED), (f"/{body}/twist", TWIST))]
+        wrong = [f"{topic} is {kind or 'not in the bag'}" + (f", not {msgtype}" if kind else "")
+                 for topic, kind, msgtype in found if kind != msgtype]
+        if wrong:
+            warnings.warn(f"{path}: body '{body}' is not drawn: {'; '.join(wrong)}",
+                          stacklevel=2)
+        else:
+            names.append(body)
+    return names
 
 
 def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
@@ -53,12 +65,17 @@ def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
         bag = read_bag(path)
     except BagError as error:
         raise VizError(str(error)) from None
-    names = _body_names(bag.topics)
+    names = _body_names(path, bag.topics)
     series = {}
     for name in names:
         twists = {m.log_ns: m.decode() for m in bag.on(f"/{name}/twist")}
         rows, times = [], []
-        for message in bag.on(f"/{name}/pose"):
+        poses = bag.on(f"/{name}/pose")
+        alone = sum(message.log_ns not in twists for message in poses)
+        if alone:  # a lossy recording: a gap in the lines, said
+            warnings.warn(f"{path}: {alone} of {len(poses)} message(s) on /{name}/pose have no "
+                          f"/{name}/twist logged with them and are not drawn", stacklevel=2)
+        for message in poses:
             if message.log_ns not in twists:
                 continue
             msg = message.decode()
@@ -150,7 +167,12 @@ def plot_bags(output: Path, first: str, second: Optional[str] = None, *,
             t, e = energy(scene, bag)
             grid[-1][0].plot(t, e, styles[k], color="black", linewidth=1.0)
     if second is not None:
-        for b, (times, difference) in enumerate(differences(bags[0], bags[1]).values()):
+        for name in names:
+            if name not in bags[0] or name not in bags[1]:
+                warnings.warn(f"body '{name}' is only in {paths[name in bags[1]]}: no "
+                              "difference is drawn for it", stacklevel=2)
+        for name, (times, difference) in differences(bags[0], bags[1]).items():
+            b = names.index(name)  # the body's colour on the left
             for r in range(len(QUANTITIES)):
                 grid[r][1].plot(times, difference[:, r],
                                 color=BODY_COLORS[b % len(BODY_COLORS)], linewidth=1.0)

@@ -123,7 +123,7 @@ def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
         assert "--start 100 s" in err and "after the end of the bag, at 4 s" in err
         assert not (tmp_path / "o").exists()
     code, _, err = _cli(capsys, "replay", "sample", recording, "--start", "4", "--duration",
-                        "0", "-o", str(tmp_path / "o"))  # the end itself is in the bag
+                        "0.001", "-o", str(tmp_path / "o"))  # the end itself is in the bag
     assert code == 0, err
 
 
@@ -317,14 +317,14 @@ def test_a_topic_in_neither_bag_is_an_error_saying_so(capsys):
 
 
 def test_a_check_that_compares_no_output_is_a_mismatch(tmp_path, capsys):
-    """A recording of a session 0 s long, and one whose output topics hold nothing checked
-    with --partial: the check compares no output, so it fails (exit 1) rather than report
-    a match of 0 of 0 recorded outputs."""
+    """A recording of a session one step long (shorter than a publish period), and one whose
+    output topics hold nothing checked with --partial: the check compares no output, so it
+    fails (exit 1) rather than report a match of 0 of 0 recorded outputs."""
     script = str(tmp_path / "in")
     assert main(["script", "sample", "-o", script]) == 0
     instant = str(tmp_path / "instant")
     assert main(["replay", "sample", script, "-o", instant, "--with-inputs", "--start", "2",
-                 "--duration", "0"]) == 0
+                 "--duration", "0.001"]) == 0
     emptied = tmp_path / "emptied"
     with BagWriter(emptied, "mcap", custom_data=read_bag(script).custom_data) as writer:
         for body in ("left", "right"):
@@ -366,3 +366,59 @@ def test_a_pose_logged_out_of_order_is_blamed_on_its_topic(tmp_path, capsys):
     verdict = out.splitlines()[-1]
     assert verdict.endswith("mismatch: /left/pose: 1 logged after a later stamp (out of "
                             "order), first stamped 0.120000 s"), verdict
+
+
+def _two_connection_bag(recording: Path, path: Path, storage: str, msgtype: str,
+                        rihs01: str | None) -> None:
+    """``recording`` again with every other /left/pose message on a second connection of
+    that topic (as two publishers, or a merge of two recordings, make), of ``msgtype``
+    with the type hash ``rihs01`` (None: this package's)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from hecker_dynamics.bags.io import BAG_VERSION, latched_qos, typestore
+
+    source = read_bag(recording)
+    writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP
+                    if storage == "mcap" else StoragePlugin.SQLITE3)
+    for key, value in source.custom_data.items():
+        writer.set_custom_data(key, value)
+    writer.open()
+    connections = {topic: writer.add_connection(topic, kind, typestore=typestore())
+                   for topic, kind in source.topics.items()}
+    # Another publisher's QoS, as rosbag2 records a second publisher on a topic.
+    second = writer.add_connection(
+        "/left/pose", msgtype, typestore=typestore(), offered_qos_profiles=latched_qos(1),
+        msgdef=typestore().generate_msgdef(msgtype, ros_version=2)[0], rihs01=rihs01)
+    poses = 0
+    for message in source.messages:
+        poses += message.topic == "/left/pose"
+        on_second = message.topic == "/left/pose" and poses % 2 == 0
+        writer.write(second if on_second else connections[message.topic], message.log_ns,
+                     message.raw)
+    writer.close()
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+@pytest.mark.parametrize("msgtype, rihs01, fragment", [
+    ("geometry_msgs/msg/Pose", None, "has two types, geometry_msgs/msg/PoseStamped and "
+                                     "geometry_msgs/msg/Pose"),
+    (POSE_STAMPED, "RIHS01_" + "ab" * 32, f"has two definitions of {POSE_STAMPED}, type "
+                                          "hashes RIHS01_")])
+def test_two_connections_of_a_topic_that_disagree_are_refused(tmp_path, capsys, storage,
+                                                              msgtype, rihs01, fragment):
+    """A topic on two connections of different types or type hashes: which definition its
+    messages have is unknown, so every command refuses the bag in one line rather than
+    decode the second connection's messages as the first one's (it said "match" when only
+    the second connection's hash was foreign; the first one's is checked)."""
+    script, recording = str(tmp_path / "in"), tmp_path / "rec"
+    assert main(["script", "sample", "-o", script]) == 0
+    assert main(["replay", "sample", script, "-o", str(recording), "--with-inputs"]) == 0
+    bag = tmp_path / "two"
+    _two_connection_bag(recording, bag, storage, msgtype, rihs01)
+    capsys.readouterr()
+    for argv in (["replay", "sample", str(bag), "--check"], ["compare", str(recording), str(bag)],
+                 ["compare", str(bag), str(recording)]):
+        err = _one_line_error(capsys, *argv)
+        assert f"{bag}: topic '/left/pose' {fragment}" in err, err
+    code, out, _ = _cli(capsys, "regress", str(bag), "--scene", "sample", "--workers", "1")
+    assert code == 2 and out.splitlines()[0].startswith("ERROR") and fragment in out, out

@@ -259,3 +259,24 @@ def test_small_polygon_far_from_its_frame_origin_keeps_its_inertia(offset):
     exact = size ** 2 * (2.0 * size ** 2) / 12.0
     assert props.moment_of_inertia == pytest.approx(exact, rel=1e-8)
     assert props.center_of_mass == pytest.approx((offset, offset), abs=1e-9)
+
+
+@pytest.mark.parametrize("size, mass", [(1.0, 1e-310), (0.01, 1e-307), (1.0, 1e-320)])
+def test_a_mass_or_inertia_whose_inverse_overflows_is_refused(tmp_path, size, mass):
+    """A body so light that 1/m or 1/I is inf (below 1/DBL_MAX, 5.6e-309): the scene ran to
+    its first step and failed there as "dopri5: the sub-step size underflowed", and the
+    World API took the body with numpy's overflow warning and stepped it. Refused when the
+    body is made, naming it; 1e-300 kg (inverses 1e300 and 6e300) is still a body."""
+    import hecker_dynamics as hd
+
+    with pytest.raises(GeometryError, match="so small that its inverse overflows a double"):
+        mass_properties([box(size, size)], [mass / (size * size)])
+    world = hd.World()
+    with pytest.raises(SceneError, match="body 'a': the mass .* inverse overflows"):
+        world.add_body("a", hd.Box(size, size), mass=mass)
+    world.add_body("a", hd.Box(1.0, 1.0), mass=1e-300)
+    if mass >= 1e-308:  # a scene file reads a number below that as a string, as rcl does
+        path = write_scene(tmp_path, {"bodies": {"a": {
+            "shape": "box", "size": [size, size], "mass": mass}}}, "light.yaml")
+        with pytest.raises(SceneError, match="light.yaml: body 'a': the mass"):
+            load_scene(path)

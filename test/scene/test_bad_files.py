@@ -251,3 +251,31 @@ def test_a_force_no_double_holds_a_step_of_is_refused_at_load(tmp_path, capsys, 
     text = _scene_text(extra=f"    forces:\n      f: {force}\n")
     _refused_in_one_line(_write(tmp_path, text), capsys, f"parameter '{parameter}'",
                          f"speed of {speed} m/s", "past what a double holds")
+
+
+@pytest.mark.parametrize("topic, taken", [
+    ("/b/pose", "an output of the node (geometry_msgs/msg/PoseStamped)"),
+    ("b/twist", "an output of the node (geometry_msgs/msg/Twist)"),
+    ("/tf", "an output of the node (tf2_msgs/msg/TFMessage)"),
+    ("/clock", "the clock's topic"),
+    ("applied_wrench", "the AppliedWrench input"),
+    ("/other", "the topic of wrench_topics.a")])
+def test_a_wrench_topic_that_is_another_topic_of_the_node_is_refused(tmp_path, capsys, topic,
+                                                                     taken):
+    """A WrenchStamped input on a topic the node publishes, on its other inputs or on
+    /clock ran as if nothing were wrong: ROS 2 would not match it to the node's publisher
+    of another type, and a replay took the topic as one input only (the other lost) or
+    wrote two types on it. Refused by run and replay in one line, naming the parameter."""
+    path = _write(tmp_path, _scene_text(extra=(
+        "    wrench_topics:\n      a:\n        topic: /other\n        body: b\n"
+        f"      z:\n        topic: {topic}\n        body: b\n")))
+    load_scene(path)  # a scene of the core; the node's topics are the runner's to check
+    expected = (f"{path}: parameter 'wrench_topics.z.topic': '{topic}' is already {taken}")
+    bag = str(tmp_path / "in")
+    assert main(["script", str(path), "-o", bag]) == 0
+    for argv in (["run", str(path), "--duration", "0.01"],
+                 ["replay", str(path), bag, "-o", str(tmp_path / "out")]):
+        capsys.readouterr()
+        assert main(argv) == 2
+        assert capsys.readouterr().err == f"hecker-dynamics: error: {expected}\n"
+    assert not (tmp_path / "out").exists()

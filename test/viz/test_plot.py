@@ -94,3 +94,66 @@ def test_plot_writes_a_picture_of_one_and_two_bags(bags, tmp_path, capsys):
     assert err.count("\n") == 1 and "no body has both" in err
     assert main(["plot", str(bags / "fine"), "-o", str(tmp_path / "x.gif")]) == 2
     assert "unknown plot type" in capsys.readouterr().err
+
+
+def test_a_body_left_out_of_a_plot_is_named_with_why(bags, tmp_path, capsys):
+    """A tampered recording: the door's /door/pose of another type, every other /block/twist
+    lost. Without --scene the plot drew the block alone and said nothing of the door, nor of
+    the block's poses without a twist; each is now a warning line, and the plot is drawn."""
+    from hecker_dynamics.bags.io import TWIST, BagWriter, read_bag
+
+    source = read_bag(bags / "fine")
+    assert set(source.topics) >= {"/door/pose", "/door/twist", "/block/pose", "/block/twist"}
+    tampered = tmp_path / "tampered"
+    with BagWriter(tampered, "mcap") as writer:
+        writer.add_topic("/door/pose", "geometry_msgs/msg/Pose")
+        writer.add_topic("/lid/twist", TWIST)  # a body with a twist but no pose
+        block_twists = 0
+        for message in source.messages:
+            block_twists += message.topic == "/block/twist"
+            if message.topic != "/door/pose" and not (
+                    message.topic == "/block/twist" and block_twists % 2):
+                writer.add_topic(message.topic, message.msgtype)
+                writer.write_raw(message.topic, message.log_ns, message.raw)
+    poses = len(source.on("/block/pose"))
+    capsys.readouterr()
+    assert main(["plot", str(tampered), "-o", str(tmp_path / "x.png")]) == 0
+    assert capsys.readouterr().err.splitlines() == [
+        f"hecker-dynamics: warning: {tampered}: body 'door' is not drawn: /door/pose is "
+        "geometry_msgs/msg/Pose, not geometry_msgs/msg/PoseStamped",
+        f"hecker-dynamics: warning: {tampered}: body 'lid' is not drawn: /lid/pose is not in "
+        "the bag",
+        f"hecker-dynamics: warning: {tampered}: {(poses + 1) // 2} of {poses} message(s) on "
+        "/block/pose have no /block/twist logged with them and are not drawn"]
+    assert set(read_series(str(bags / "fine"))) == {"door", "block"}
+
+
+def test_a_body_in_one_bag_only_keeps_its_colour_and_is_named(bags, tmp_path, capsys,
+                                                              monkeypatch):
+    """Two bags, the second without the block: the door's difference was drawn in the
+    block's colour (the colours went by place among the bodies both bags hold, the lines
+    on the left by place among all), and the block's missing difference went unsaid."""
+    from matplotlib.figure import Figure
+
+    from hecker_dynamics.bags.io import BagWriter, read_bag
+    from hecker_dynamics.viz.draw import BODY_COLORS
+
+    source = read_bag(bags / "fine")
+    blockless = tmp_path / "no_block"
+    with BagWriter(blockless, "mcap") as writer:
+        for message in source.messages:
+            if not message.topic.startswith("/block/"):
+                writer.add_topic(message.topic, message.msgtype)
+                writer.write_raw(message.topic, message.log_ns, message.raw)
+    figures = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: figures.append(self))
+    capsys.readouterr()
+    assert main(["plot", str(bags / "fine"), str(blockless), "-o",
+                 str(tmp_path / "x.png")]) == 0
+    assert capsys.readouterr().err.splitlines()[0] == (
+        f"hecker-dynamics: warning: body 'block' is only in {bags / 'fine'}: no difference "
+        "is drawn for it")
+    left, right = figures[0].axes[0], figures[0].axes[1]
+    door = BODY_COLORS[sorted(["block", "door"]).index("door")]
+    assert [line.get_color() for line in left.lines if "door" in line.get_label()] == [door] * 2
+    assert [line.get_color() for line in right.lines] == [door]
