@@ -100,6 +100,7 @@ class CompiledJoints:
             reals=np.array(reals, dtype=np.float64).reshape(-1), rows=len(joint_pass.keys),
             pattern=arrays(joint_pass.pattern), rigid_pattern=arrays(joint_pass.rigid_pattern),
             turning=np.ascontiguousarray(joint_pass.turning, dtype=np.int64),
+            free_turn=np.array(joint_pass.free_turn, dtype=np.float64),
             tolerance=joint_pass.tolerance, max_turn=joint_pass.max_turn,
             **_softness(joint_pass))
         self._pass = joint_pass

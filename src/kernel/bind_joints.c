@@ -18,13 +18,14 @@ static void hd_joints_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(joints_doc,
 "joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
-"       tolerance, max_turn, *, substeps=0, hertz=0.0, damping_ratio=0.0) -> Joints\n\n"
+"       free_turn, tolerance, max_turn, *, substeps=0, hertz=0.0, damping_ratio=0.0) -> Joints\n\n"
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
 "checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
 "Pattern), each as (start, columns, dependent); the model indices of the bodies whose turning\n"
-"JointPass.parts watches; the position stages' tolerance; the most an arm may turn in a\n"
+"JointPass.parts watches; per body, JointPass.free_turn (its 1/I, 0 on a loop of joints:\n"
+"the bodies hd_ringing rates); the position stages' tolerance; the most an arm may turn in a\n"
 "step (JointPass.max_turn); soft joints (soft_joint.c): ``substeps`` a step's sub-steps (0:\n"
 "the exact pass), ``hertz`` (Hz) and ``damping_ratio`` their rows' softness (SoftJoints).");
 
@@ -71,15 +72,15 @@ static int hd_read_pattern(PyObject *triple, hd_pattern *p)
 static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"bodies", "inverse_mass", "ints", "reals", "rows", "pattern",
-                            "rigid_pattern", "turning", "tolerance", "max_turn", "substeps",
-                            "hertz", "damping_ratio", NULL};
-    PyObject *o[4], *patterns[2], *turning_object;
+                            "rigid_pattern", "turning", "free_turn", "tolerance", "max_turn",
+                            "substeps", "hertz", "damping_ratio", NULL};
+    PyObject *o[4], *patterns[2], *turning_object, *free_turn_object;
     long rows, substeps = 0;
     double tolerance, max_turn, hertz = 0.0, damping_ratio = 0.0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOdd|$ldd:joints", names, o, o + 1,
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOOdd|$ldd:joints", names, o, o + 1,
                                      o + 2, o + 3, &rows, patterns, patterns + 1,
-                                     &turning_object, &tolerance, &max_turn, &substeps, &hertz,
-                                     &damping_ratio))
+                                     &turning_object, &free_turn_object, &tolerance, &max_turn,
+                                     &substeps, &hertz, &damping_ratio))
         return NULL;
     if (substeps < 0) {
         PyErr_SetString(PyExc_ValueError, "joints: substeps must not be negative");
@@ -93,6 +94,7 @@ static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
     double *reals = NULL;
     if ((m->bodies = hd_read_array(o[0], "bodies", 'q', -1, &bodies)) == NULL ||
         (m->inverse_mass = hd_read_array(o[1], "inverse_mass", 'd', 3 * bodies, NULL)) == NULL ||
+        (m->free_turn = hd_read_array(free_turn_object, "free_turn", 'd', bodies, NULL)) == NULL ||
         (ints = hd_read_array(o[2], "ints", 'q', -1, &ints_count)) == NULL ||
         (reals = hd_read_array(o[3], "reals", 'd', ints_count / HD_JOINT_INTS * HD_JOINT_REALS,
                                NULL)) == NULL ||

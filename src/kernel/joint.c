@@ -883,7 +883,7 @@ static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
             double turn = stiffness[b];
             double inertia = 1.0 / m->free_turn[b] + (px * px + py * py) / inverse[3 * b];
             int held = 0;
-            for (long j = 0; j < count && !held; ++j) {
+            for (long j = 0; j < count; ++j) {
                 if (j == pivot)
                     continue;
                 const long other = pins[j].other;
@@ -943,43 +943,6 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
     hd_joint_count_turns(m);
     hd_joint_ended(m, q1, v1);
     return HD_JOINTS_OK;
-}
-
-/* contact/joints.py: _on_loops, into m->free_turn: 1/I of each body on no loop of joints,
- * else 0; `left` (body_count + 1 ints) working memory. Taking away the bodies (and the
- * frame, the last node) of one joint or none in passes leaves the same 2-core as Python's
- * order does. */
-static void hd_free_turns(hd_joint_model *m, int *joints, int *left)
-{
-    const long nb = m->body_count;
-    for (long node = 0; node <= nb; ++node)
-        joints[node] = 0, left[node] = 1;
-    for (long i = 0; i < m->joint_count; ++i) {
-        const hd_joint *jt = m->joints + i;
-        if (jt->kind == HD_GEAR)
-            continue;
-        ++joints[jt->a < 0 ? nb : jt->a];
-        ++joints[jt->b];
-    }
-    for (int changed = 1; changed;) {
-        changed = 0;
-        for (long node = 0; node <= nb; ++node) {
-            if (!left[node] || joints[node] > 1)
-                continue;
-            left[node] = 0, changed = 1;
-            for (long i = 0; i < m->joint_count; ++i) {
-                const hd_joint *jt = m->joints + i;
-                const long a = jt->a < 0 ? nb : jt->a;
-                if (jt->kind == HD_GEAR || (a != node && jt->b != node))
-                    continue;
-                const long other = a == node ? jt->b : a;
-                if (left[other])
-                    --joints[other];
-            }
-        }
-    }
-    for (long b = 0; b < nb; ++b)
-        m->free_turn[b] = left[b] ? 0.0 : m->inverse_mass[3 * b + 2];
 }
 
 /* contact/joints.py: JointPass.pinned, in m->pinned_start and m->pinned: the pins (the
@@ -1069,17 +1032,11 @@ int hd_joints_prepare(hd_joint_model *m)
     m->extra = calloc(R, sizeof(double));
     m->settled = calloc(B, sizeof(double));
     m->stiffness = calloc(B, sizeof(double));
-    m->free_turn = calloc(B, sizeof(double));
-    if (m->stiffness == NULL || m->free_turn == NULL || m->rigid == NULL ||
+    if (m->stiffness == NULL || m->rigid == NULL ||
             m->row_memory == NULL || m->memory == NULL || m->bounded == NULL ||
             m->flags == NULL || m->warm == NULL || m->newton == NULL || m->extra == NULL ||
             m->settled == NULL)
         return HD_JOINTS_OUT_OF_MEMORY;
-    int *work = malloc((2 * (size_t)nb + 2) * sizeof(int));
-    if (work == NULL)
-        return HD_JOINTS_OUT_OF_MEMORY;
-    hd_free_turns(m, work, work + nb + 1);
-    free(work);
     if (hd_pin_ends(m) != HD_JOINTS_OK)
         return HD_JOINTS_OUT_OF_MEMORY;
     m->rows0 = m->row_memory, m->rows = m->rows0 + R, m->dir0 = m->rows + R;

@@ -78,6 +78,7 @@ typedef struct hd_joint_model {
     long joint_count, body_count, row_count, rigid_count;
     long *bodies;          /* body_count model indices */
     double *inverse_mass;  /* 3 per local body */
+    double *free_turn;     /* JointPass.free_turn: per body, 1/I, or 0 on a loop of joints */
     hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
     long *pins, pin_count; /* JointPass.pins: each rigid point's x row (its y row next) */
@@ -107,7 +108,6 @@ typedef struct hd_joint_model {
     int ended;
     /* working memory */
     double *stiffness;     /* per body (hd_ringing) */
-    double *free_turn;     /* JointPass.free_turn: per body, 1/I or 0 on a loop of joints */
     /* JointPass.pinned: per body b, its pins' ends at pinned[pinned_start[b]] ..
      * pinned[pinned_start[b + 1] - 1]. */
     long *pinned_start;
