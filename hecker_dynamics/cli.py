@@ -265,7 +265,7 @@ def replay_command(args: argparse.Namespace) -> int:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
     if args.duration is not None:
-        check_takes_a_step(args.duration, scene.step_ns, "--duration")
+        _check_takes_a_step(args.duration, scene, args)
     bag = read_bag(args.input)
     if is_live_recording(bag):
         return _replay_live(args, scene, bag)
