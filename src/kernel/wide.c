@@ -498,16 +498,24 @@ static HD_HOT void hd_correct_sets(const hd_lanes *x, int n, double *shift)
     }
 }
 
+/* A velocity pass over `count` sets of lanes of one colour, HD_GROUP at a time, their
+ * changes into `most`. */
+static HD_HOT void hd_solve_colour_sets(hd_lanes *lanes, long count, double *velocity,
+                                        hd_v4 *most)
+{
+    long k = 0;
+    for (; k + HD_GROUP <= count; k += HD_GROUP)
+        hd_solve_sets(lanes + k, HD_GROUP, velocity, most);
+    for (; k < count; ++k)
+        hd_solve_sets(lanes + k, 1, velocity, most);
+}
+
 /* One pass over `count` lanes of one colour. */
 HD_PER_CPU static double hd_pass_lanes(hd_lanes *lanes, long count, double *velocity,
                                        double largest)
 {
     hd_v4 most = {largest, largest, largest, largest};
-    long k = 0;
-    for (; k + HD_GROUP <= count; k += HD_GROUP)
-        hd_solve_sets(lanes + k, HD_GROUP, velocity, &most);
-    for (; k < count; ++k)
-        hd_solve_sets(lanes + k, 1, velocity, &most);
+    hd_solve_colour_sets(lanes, count, velocity, &most);
     for (int l = 0; l < HD_LANES; ++l)
         largest = hd_max(largest, most[l]);
     return largest;
@@ -525,13 +533,8 @@ HD_PER_CPU static double hd_pass_colours(hd_contact_model *m, const int *colours
     double largest = 0.0;
     for (int i = 0; i < count; ++i) {
         const int c = colours[i];
-        hd_lanes *lanes = w->lanes + w->lane_start[c];
-        const long sets = w->lane_start[c + 1] - w->lane_start[c];
-        long k = 0;
-        for (; k + HD_GROUP <= sets; k += HD_GROUP)
-            hd_solve_sets(lanes + k, HD_GROUP, m->velocity, &most);
-        for (; k < sets; ++k)
-            hd_solve_sets(lanes + k, 1, m->velocity, &most);
+        hd_solve_colour_sets(w->lanes + w->lane_start[c], w->lane_start[c + 1] - w->lane_start[c],
+                             m->velocity, &most);
         largest = hd_singles_of(m, c, largest);
     }
     for (int l = 0; l < HD_LANES; ++l)
