@@ -31,7 +31,7 @@ from ..scene.load import Scene
 from ..viz.progress import BarFactory, run_parts
 from . import peers as peer_mod
 from .bounce import BounceRow, bounce_bench
-from .measure import Budget, Case, Outcome, Row, measure
+from .measure import Budget, Case, Outcome, Row, interleaved_runs, measure
 from .reference import PlainModel, Reference, core_reference, reference
 from .ring import c_loop_flags, c_run, compiler_version, load_c_loop
 from .scene_peers import SCENE_PEERS
@@ -98,6 +98,9 @@ class Results:
     references: dict[str, Reference] = field(default_factory=dict)
     checks: list[peer_mod.Check] = field(default_factory=list)
     ring: list[Row] = field(default_factory=list)
+    #: N -> our semi-implicit Euler's cost over the C loop's, one ratio per pair of runs
+    #: made back to back (:data:`RING_PAIRS`); the ring target's figure.
+    ring_pairs: dict[int, list[float]] = field(default_factory=dict)
     sample: dict[str, float] = field(default_factory=dict)  # engine -> s per step
     sample_rows: list[Row] = field(default_factory=list)  # the rows behind ``sample``
     sample_duration: float = 0.0  # s of sim time it was measured over
@@ -238,6 +241,12 @@ def shipped(results: Results, mode: Mode, names: list[str], log: Log) -> None:
         log(f"{name}: done in {time.perf_counter() - started:.1f} s")
 
 
+#: Pairs of back-to-back whole runs (ours, the C loop) per ring size: the machine's speed
+#: drifts by up to half over the minutes one size's sweep takes, and a run next to its pair
+#: sees the same speed.
+RING_PAIRS = 9
+
+
 def ring_part(results: Results, mode: Mode, peers: list[str], log: Log,
               sizes: Optional[list[int]] = None) -> None:
     h = 1e-3
@@ -268,6 +277,12 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log: Log,
                 per_step = 1.0
             steps = int(min(20000, max(10, mode.ring_wall / per_step)))
             case.duration = steps * h
+        # Ours and the C loop take the same steps: a whole run's fixed cost then weighs alike.
+        paired = [case for case in cases if case.engine in ("hecker_dynamics", "c")
+                  and case.method == "semi_implicit_euler"]
+        longest = max((case.duration for case in paired), default=0.0)
+        for case in paired:
+            case.duration = longest
         budget = Budget(per_run=max(mode.ring_wall * 6, 1.0), repeats=mode.budget.repeats,
                         per_case=mode.ring_wall * 4, pilot_steps=5)
         rows = measure(cases, budget, None, None)
@@ -275,7 +290,22 @@ def ring_part(results: Results, mode: Mode, peers: list[str], log: Log,
             row.note = (row.note + "; " if row.note else "") + f"N = {n}"
             row.omega_dt = float(n)  # reused: N
         results.ring += rows
+        if len(paired) == 2:
+            results.ring_pairs[n] = ring_pairs(paired[0], paired[1])
         log(f"ring N = {n}: {time.perf_counter() - started:.1f} s")
+
+
+def ring_pairs(ours: Case, c_loop: Case) -> list[float]:
+    """Our cost per step over the C loop's, from :data:`RING_PAIRS` rounds of whole runs
+    made back to back (:func:`.measure.interleaved_runs`: A B, B A, ...)."""
+    def per_step(case: Case) -> Callable[[], float]:
+        def run() -> float:
+            outcome = case.run(case.duration)
+            return outcome.wall / max(1, outcome.steps)
+        return run
+
+    walls = interleaved_runs({"ours": per_step(ours), "c": per_step(c_loop)}, RING_PAIRS)
+    return [a / b for a, b in zip(walls["ours"], walls["c"])]
 
 
 def sample_step(results: Results, mode: Mode, peers: list[str], log: Log) -> None:

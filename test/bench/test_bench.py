@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hecker_dynamics.bench import peers, reference, report, ring, run, scenes
-from hecker_dynamics.bench.measure import Budget, Row
+from hecker_dynamics.bench.measure import Budget, Case, Outcome, Row
 from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
@@ -167,6 +167,9 @@ def test_quick_bench_runs_end_to_end_and_writes_well_formed_files(tmp_path, monk
     with open(tmp_path / "ring.csv") as handle:
         ring_rows = list(csv.DictReader(handle))
     assert {r["engine"] for r in ring_rows} >= {"hecker_dynamics"}
+    if ring.load_c_loop() is not None:
+        assert sorted(results.ring_pairs) == [1, 4]
+        assert all(len(p) == run.RING_PAIRS and min(p) > 0 for p in results.ring_pairs.values())
     text = (tmp_path / "report.md").read_text()
     assert "## Targets" in text and "## Headline" in text
     for block in text.split("\n\n"):
@@ -174,6 +177,26 @@ def test_quick_bench_runs_end_to_end_and_writes_well_formed_files(tmp_path, monk
         if lines:
             assert len({line.count("|") for line in lines}) == 1, block
     assert results.sample["hecker_dynamics"] > 0
+
+
+def test_ring_pairs_divide_runs_made_back_to_back():
+    """The machine's speed changes between pairs of runs (here 1, 3, 0.5, ... times), never
+    within one: each pair's ratio is then the engines' true ratio, 2, however it drifts."""
+    calls = []
+
+    def timed(cost):
+        def runner(duration):
+            speed = (1.0, 3.0, 0.5, 1.7, 0.9)[len(calls) // 2 % 5]
+            calls.append(cost)
+            return Outcome(cost * speed * 100, np.zeros((1, 3)), np.zeros((1, 3)), steps=100)
+        return runner
+
+    ours = Case("ring10", "hecker_dynamics", "semi_implicit_euler", 1e-3, math.nan, 0.1,
+                timed(2.0))
+    c_loop = Case("ring10", "c", "semi_implicit_euler", 1e-3, math.nan, 0.1, timed(1.0))
+    ratios = run.ring_pairs(ours, c_loop)
+    assert ratios == [2.0] * run.RING_PAIRS
+    assert calls[:4] == [2.0, 1.0, 1.0, 2.0]  # A B, B A: each pair back to back
 
 
 def _row(engine, method, step, cost, error, status="ok"):
