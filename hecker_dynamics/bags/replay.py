@@ -53,7 +53,7 @@ from ..ros.outputs import (
 )
 from ..ros.runner import InputSource, Runner, check_wrench_topics
 from ..scene.commands import InputError
-from ..scene.load import Scene
+from ..scene.load import Scene, check_takes_a_step
 from ..scene.parameters import seconds_text
 from . import io as bags
 from .io import (
@@ -226,6 +226,9 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
     if duration_ns < 0:
         raise ReplayError(f"{bag.path}: the session would end before it starts "
                           f"(start {start_ns * 1e-9:.9f} s, duration {duration_ns * 1e-9:g} s)")
+    # A session the bag records (its custom data, its poses) as shorter than one step would
+    # replay no step, and a check would report every output as missing.
+    check_takes_a_step(duration_ns, scene.step_ns, f"{bag.path}: the session's duration")
     check_session(start_ns, duration_ns, f"{bag.path}: the session")
     return start_ns, start_ns + duration_ns
 

@@ -111,6 +111,24 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("duration_ns", ["999999", "0"])
+def test_a_recorded_session_shorter_than_one_step_is_refused(tmp_path, capsys, duration_ns):
+    """A bag whose custom data records a session shorter than one step (1 ms) would replay
+    no step: a bag of no output written with exit 0, or a check failing on every recorded
+    output as missing. Refused in one line, as a --duration that short is."""
+    recording = tmp_path / "rec"
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", str(recording),
+                 "--with-inputs"]) == 0
+    _set_metadata(recording, lambda info: info["custom_data"].__setitem__(
+        "hecker_dynamics.duration_ns", duration_ns))
+    for extra in (["-o", str(tmp_path / "o")], ["--check"]):
+        err = _one_line_error(capsys, "replay", "sample", str(recording), *extra)
+        assert err == (f"hecker-dynamics: error: {recording}: the session's duration "
+                       f"{int(duration_ns) * 1e-9:g} s is shorter than one step (0.001 s): "
+                       "no step would be taken\n")
+        assert not (tmp_path / "o").exists()
+
+
 def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
     """--start past the bag's end (its last message and recorded session, 4 s) would
     replay none of it: refused in one line, no bag written, rather than a silent run of
