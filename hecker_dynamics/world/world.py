@@ -511,7 +511,9 @@ class World:
         refused while a spring, joint, sensor, drive or scripted force names it; what acted
         on it alone goes with it, and the others keep their state bit for bit."""
         name = self._body_name(body, "body")
-        self._change_bodies(deleted, name, SOURCE)
+        # A World has no call that removes a joint, spring, sensor or drive.
+        self._change_bodies(deleted, name, SOURCE, "a world keeps those: remove them from "
+                            "its scene file, or build the world without them")
         self._forget(name)
 
     def edit_bodies(self, *edits: WorldEdit) -> None:
