@@ -256,6 +256,21 @@ def _pose_bag(path: Path, x: float) -> None:
             fields.PoseStampedFields(fields.Header(1, 0, "world"), pose)))
 
 
+@pytest.mark.parametrize("atol", ["0", "1e-9", "1"])
+@pytest.mark.parametrize("x", [float("nan"), float("inf"), float("-inf")])
+def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsys, atol, x):
+    """The same NaN or infinite position in both bags is no state of a run (the divergence
+    check stops one before it publishes it): --atol 0 took the equal bytes as a match, and
+    any tolerance took equal infinities (0 apart)."""
+    _pose_bag(tmp_path / "a", x)
+    _pose_bag(tmp_path / "b", x)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                        "--atol", atol)
+    assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
+    assert "at 1.000000 s: a position, angle or velocity that is not finite (NaN or " \
+           "infinite) in both bags" in out
+
+
 def test_atol_zero_is_bit_identical(tmp_path, capsys):
     _pose_bag(tmp_path / "a", 0.0)
     _pose_bag(tmp_path / "b", 7.3e-304)
