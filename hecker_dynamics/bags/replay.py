@@ -70,7 +70,7 @@ __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "inp
            "output_types", "output_message", "replay", "replay_to_bag", "replay_outputs",
            "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
-           "recorded_output_topics", "check_session", "check_distinct"]
+           "recorded_output_topics", "check_named_outputs", "check_session", "check_distinct"]
 
 APPLIED_WRENCH_TOPIC = resolve_topic(APPLIED_WRENCH_NAME)
 #: The node's fully qualified name, its diagnostics' hardware_id.
@@ -159,14 +159,27 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
     _check_types(bag, output_types(scene))
 
 
+def check_named_outputs(scene: Scene, topics: Optional[Sequence[str]], tf: bool) -> None:
+    """Raise :class:`ReplayError` for a topic of ``topics`` (``--topic``) that is no output
+    of ``scene`` (with ``tf``, TF's too)."""
+    wanted = output_types(scene, tf=tf)
+    unknown = [t for t in topics or () if t not in wanted]
+    if unknown:
+        raise ReplayError(f"--topic {unknown[0]}: not an output the node publishes for "
+                          f"{scene.source} (its outputs: {', '.join(wanted)})")
+
+
 def recorded_output_topics(scene: Scene, bag: BagContents, *, need_inputs: bool = True,
-                           tf: bool = False) -> list[str]:
+                           tf: bool = False,
+                           topics: Optional[Sequence[str]] = None) -> list[str]:
     """The scene's output topics recorded in ``bag`` (with ``tf``, TF's too), to check a
     replay against.
 
-    Raises :class:`ReplayError` if the bag does not fit the scene
-    (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
+    Raises :class:`ReplayError` if ``topics`` (``--topic``) names no output of the scene
+    (:func:`check_named_outputs`: before the replay, not after it), if the bag does not
+    fit the scene (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
     """
+    check_named_outputs(scene, topics, tf)
     check_bag_for_scene(scene, bag, need_inputs=need_inputs)
     outputs = output_types(scene, tf=tf)
     recorded = [topic for topic in outputs if topic in bag.topics]

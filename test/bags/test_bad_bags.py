@@ -129,6 +129,31 @@ def test_a_recorded_session_shorter_than_one_step_is_refused(tmp_path, capsys, d
         assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("topic", ["/applied_wrench", "/nope"])
+def test_a_topic_that_is_no_output_is_refused_before_the_replay(tmp_path, capsys, topic,
+                                                                monkeypatch):
+    """--topic naming no output of the scene (an input topic, a typo) is a usage error,
+    found before the replay runs: it was refused only after the whole replay, its line
+    already printed."""
+    import sys
+
+    recording = str(tmp_path / "rec")
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", recording,
+                 "--with-inputs"]) == 0
+    capsys.readouterr()
+
+    def no_replay(*args, **kwargs):
+        raise AssertionError("replayed")
+    monkeypatch.setattr(sys.modules["hecker_dynamics.bags.replay"], "replay_outputs", no_replay)
+    code, out, err = _cli(capsys, "replay", "sample", recording, "--check", "--topic", topic)
+    assert (code, out) == (2, "")
+    assert err == (f"hecker-dynamics: error: --topic {topic}: not an output the node "
+                   f"publishes for {GOLDEN.parent.parent / 'config' / 'sample.yaml'} (its "
+                   "outputs: /left/pose, /left/twist, /right/pose, /right/twist)\n")
+    code, out, err = _cli(capsys, "regress", recording, "--topic", topic)
+    assert code == 2 and "not an output the node publishes" in out + err
+
+
 def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
     """--start past the bag's end (its last message and recorded session, 4 s) would
     replay none of it: refused in one line, no bag written, rather than a silent run of
