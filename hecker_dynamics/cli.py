@@ -272,7 +272,8 @@ def replay_command(args: argparse.Namespace) -> int:
     # A check against a recording of the node compares the TF it recorded too.
     tf = args.tf or (args.check and ("/tf" in bag.topics or "/tf" in (args.topic or ())))
     if args.check:
-        recorded_output_topics(scene, bag, need_inputs=not args.play_script, tf=tf)
+        recorded_output_topics(scene, bag, need_inputs=not args.play_script, tf=tf,
+                               topics=args.topic)
     start, end = session_times(scene, bag, args.start, args.duration)
     options = dict(start_ns=start, duration_ns=end - start, play_script=args.play_script,
                    skip_rejected=args.skip_rejected, tf=tf)

@@ -4,9 +4,10 @@ Every command that writes a file or a folder of files (``sweep``, ``render``, ``
 ``bench``) names it here first, so a path that cannot be written fails in one line before
 a simulation starts, and the same rules hold everywhere:
 
-- an empty name, a folder, a device or pipe (``/dev/null``), a folder that is missing or
-  not a folder, or one where nothing can be created (``/proc``, a read-only mount, no
-  permission, a name longer than the file system takes) is an :class:`OutputError`;
+- an empty name, ``-`` (standard output, which no command writes to), a folder, a device
+  or pipe (``/dev/null``), a folder that is missing or not a folder, or one where nothing
+  can be created (``/proc``, a read-only mount, no permission, a name longer than the file
+  system takes) is an :class:`OutputError`;
 - an existing file is replaced only with ``overwrite`` (the ``--overwrite`` option);
 - :func:`replacing` writes into a new file beside the target and moves it into place at
   the end, so a failed or interrupted write leaves the old file (or none), never half a
@@ -44,6 +45,8 @@ def _name_error(option: str, text: str, noun: str = "file") -> Optional[str]:
         return f"{option} '': give a {noun} name"
     if "\0" in text:
         return f"{option} {text!r}: a path cannot hold a NUL character"
+    if text == "-":  # the shell's name for standard output, not a name to write a file by
+        return f"{option} -: cannot write to standard output; give a {noun} name"
     return None
 
 

@@ -68,7 +68,8 @@ def _refused(capsys, argv: list[str], *fragments: str) -> str:
 
 def _bad_paths(suffix: str) -> list[tuple[str, str]]:
     """(path, what the error says) for every kind of path that must be refused."""
-    return [("", "give a file name"), (".", "names a folder"), ("folder/", "names a folder"),
+    return [("", "give a file name"), ("-", "-o -: cannot write to standard output"),
+            (".", "names a folder"), ("folder/", "names a folder"),
             (f"folder{suffix}", "is a folder"), ("/dev/null", "not a regular file"),
             (f"/proc/x{suffix}", "cannot create a file in /proc"),
             (f"missing/x{suffix}", "does not exist"), (f"old{suffix}/x{suffix}", "not a folder"),
@@ -115,12 +116,24 @@ def test_sweep_adds_the_suffix_before_it_checks(place, capsys, monkeypatch):
 
 @pytest.mark.parametrize("path, problem", [
     ("old.csv", "is not a folder"), ("", "give a folder name"),
+    ("-", "--bags -: cannot write to standard output; give a folder name"),
     ("/proc/bags", "cannot create a folder in /proc"),
     ("old.csv/bags", "is inside old.csv, which is not a folder"),
     ("table.csv", "is where -o writes the table")])
 def test_sweep_bags_folder_is_checked_before_any_work(place, capsys, path, problem):
     before = _listing(place)
     _refused(capsys, _sweep_bags(path), problem)
+    assert _listing(place) == before
+
+
+@pytest.mark.parametrize("command", [["script", "sample"],
+                                     ["replay", "sample", str(GOLDEN / "sample" / "input")]])
+def test_a_bag_is_not_written_to_standard_output_nor_to_a_folder_named_dash(place, capsys,
+                                                                          command):
+    """-o -, the shell's standard output, made a bag folder named '-': refused as every
+    command refuses it, nothing written."""
+    before = _listing(place)
+    _refused(capsys, [*command, "-o", "-"], "'-' does not name a new bag directory")
     assert _listing(place) == before
 
 

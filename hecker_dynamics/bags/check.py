@@ -21,7 +21,7 @@ from .coverage import Coverage, span
 from .io import BagContents
 from .live import check_live, is_live_recording
 from .replay import (
-    ReplayError,
+    check_named_outputs,
     input_topics,
     output_types,
     outputs_as_bag,
@@ -90,10 +90,7 @@ def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
     wanted = output_types(scene, tf=tf)
     coverage = Coverage(partial=partial)
     if topics is not None:
-        unknown = [t for t in topics if t not in wanted]
-        if unknown:
-            raise ReplayError(f"--topic {unknown[0]}: not an output the node publishes for "
-                              f"{scene.source} (its outputs: {', '.join(wanted)})")
+        check_named_outputs(scene, topics, tf)
         for topic in wanted:
             if topic not in topics and topic in bag.topics:
                 coverage.not_compared[topic] = "not named by --topic"
@@ -138,7 +135,7 @@ def check_recording(scene: Scene, bag: BagContents, *, tolerances: Tolerances,
         return RecordingCheck(str(bag.path), live.report, live.coverage, True, live.halted,
                               live.sessions)
     tf = "/tf" in bag.topics or "/tf" in (topics or ())
-    recorded_output_topics(scene, bag, tf=tf)
+    recorded_output_topics(scene, bag, tf=tf, topics=topics)
     produced, result = replay_outputs(scene, bag, tf=tf, progress=progress)
     report, coverage = check_outputs(scene, bag, outputs_as_bag(scene, produced, tf=tf),
                                      tolerances=tolerances, tf=tf, topics=topics,

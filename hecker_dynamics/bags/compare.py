@@ -372,14 +372,34 @@ def _same_elsewhere(msgtype: str, a: Any, b: Any, raw_a: bytes) -> bool:
         return False
 
 
+def _finite(msgtype: str, msg: Any) -> bool:
+    """Whether the measured fields of ``msg`` hold what a run publishes: finite vectors
+    and quaternions, ranges that are not NaN (a ray that hits nothing reads infinity)."""
+    for path in _MEASURED.get(msgtype, ()):
+        for item in _items(msg, path):
+            if not all(math.isfinite(getattr(item, name)) for name in ("x", "y", "z", "w")
+                       if hasattr(item, name)):
+                return False
+    return not any(np.isnan(getattr(msg, name)).any()
+                   for name in _MEASURED_ARRAYS.get(msgtype, ()))
+
+
 def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
                      eb: BagMessage, b: Any, stamp: int, exact: bool = False) -> None:
     """Measure the differences of one matched pair into ``report`` and note those in the
-    fields that must be equal; ``exact``: the bytes must be equal too."""
+    fields that must be equal; ``exact``: the bytes must be equal too. A value that is
+    not finite is no state of a run (the divergence check stops one first): equal in both
+    bags, it is noted, never a match."""
+    unrun = f"at {stamp * 1e-9:.6f} s: a position, angle or velocity that is not finite " \
+            "(NaN or infinite) in both bags"
     if exact and ea.raw == eb.raw:
+        if a is not None and not _finite(msgtype, a):
+            report.note(unrun)
         return
     pair = TopicReport(report.topic, msgtype)
     _measure(pair, msgtype, ea, a, eb, b, stamp)
+    if not pair.different and a is not None and not _finite(msgtype, a):
+        pair.note(unrun)  # equal infinities differ by 0
     measured = (pair.position, pair.angle, pair.velocity, pair.angular_velocity)
     if not pair.different and msgtype in _MEASURED and not _same_elsewhere(msgtype, a, b,
                                                                            ea.raw):

@@ -762,7 +762,7 @@ class BagWriter:
         if storage not in STORAGES:
             raise BagError(f"unknown storage '{storage}' (choose from {', '.join(STORAGES)})")
         self.path = Path(path)
-        if self.path.name in ("", ".", ".."):
+        if self.path.name in ("", ".", "..") or os.fspath(path) == "-":  # '-': stdout
             raise BagError(f"'{path}' does not name a new bag directory (give a name such "
                            "as out_bag)")
         self.storage = storage

@@ -53,7 +53,7 @@ from ..ros.outputs import (
 )
 from ..ros.runner import InputSource, Runner, check_wrench_topics
 from ..scene.commands import InputError
-from ..scene.load import Scene
+from ..scene.load import Scene, check_takes_a_step
 from ..scene.parameters import seconds_text
 from . import io as bags
 from .io import (
@@ -70,7 +70,7 @@ __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "inp
            "output_types", "output_message", "replay", "replay_to_bag", "replay_outputs",
            "serialize_outputs",
            "outputs_as_bag", "script_to_bag", "session_times", "check_bag_for_scene",
-           "recorded_output_topics", "check_session", "check_distinct"]
+           "recorded_output_topics", "check_named_outputs", "check_session", "check_distinct"]
 
 APPLIED_WRENCH_TOPIC = resolve_topic(APPLIED_WRENCH_NAME)
 #: The node's fully qualified name, its diagnostics' hardware_id.
@@ -159,14 +159,27 @@ def check_bag_for_scene(scene: Scene, bag: BagContents, *, need_inputs: bool = T
     _check_types(bag, output_types(scene))
 
 
+def check_named_outputs(scene: Scene, topics: Optional[Sequence[str]], tf: bool) -> None:
+    """Raise :class:`ReplayError` for a topic of ``topics`` (``--topic``) that is no output
+    of ``scene`` (with ``tf``, TF's too)."""
+    wanted = output_types(scene, tf=tf)
+    unknown = [t for t in topics or () if t not in wanted]
+    if unknown:
+        raise ReplayError(f"--topic {unknown[0]}: not an output the node publishes for "
+                          f"{scene.source} (its outputs: {', '.join(wanted)})")
+
+
 def recorded_output_topics(scene: Scene, bag: BagContents, *, need_inputs: bool = True,
-                           tf: bool = False) -> list[str]:
+                           tf: bool = False,
+                           topics: Optional[Sequence[str]] = None) -> list[str]:
     """The scene's output topics recorded in ``bag`` (with ``tf``, TF's too), to check a
     replay against.
 
-    Raises :class:`ReplayError` if the bag does not fit the scene
-    (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
+    Raises :class:`ReplayError` if ``topics`` (``--topic``) names no output of the scene
+    (:func:`check_named_outputs`: before the replay, not after it), if the bag does not
+    fit the scene (:func:`check_bag_for_scene`) or holds no recorded pose to compare with.
     """
+    check_named_outputs(scene, topics, tf)
     check_bag_for_scene(scene, bag, need_inputs=need_inputs)
     outputs = output_types(scene, tf=tf)
     recorded = [topic for topic in outputs if topic in bag.topics]
@@ -226,6 +239,9 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
     if duration_ns < 0:
         raise ReplayError(f"{bag.path}: the session would end before it starts "
                           f"(start {start_ns * 1e-9:.9f} s, duration {duration_ns * 1e-9:g} s)")
+    # A session the bag records (its custom data, its poses) as shorter than one step would
+    # replay no step, and a check would report every output as missing.
+    check_takes_a_step(duration_ns, scene.step_ns, f"{bag.path}: the session's duration")
     check_session(start_ns, duration_ns, f"{bag.path}: the session")
     return start_ns, start_ns + duration_ns
 

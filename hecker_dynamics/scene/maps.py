@@ -238,20 +238,25 @@ def read_image(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def _read_pgm(raw: bytes) -> np.ndarray:
-    tokens: list[bytes] = []
+    # Whitespace ends the magic number (the format's rule): 'P58 6 255' is no PGM of width 8.
+    if not (raw[2:3].isspace() or raw[2:3] == b"#"):
+        raise ValueError(f"PGM magic number {raw[:2].decode()} is not followed by whitespace")
+    numbers: list[int] = []
     at = 2
-    while len(tokens) < 3:  # width, height, maxval; '#' starts a comment to the line end
-        while raw[at:at + 1].isspace():
+    for what in ("width", "height", "maxval"):  # '#' starts a comment to the line end
+        while raw[at:at + 1].isspace() or raw[at:at + 1] == b"#":
+            if raw[at:at + 1] == b"#":
+                newline = raw.find(b"\n", at)
+                at = len(raw) if newline < 0 else newline  # a comment to the file's end
             at += 1
-        if raw[at:at + 1] == b"#":
-            at = raw.index(b"\n", at) + 1
-            continue
         end = at
-        while end < len(raw) and not raw[end:end + 1].isspace():
+        while end < len(raw) and not (raw[end:end + 1].isspace() or raw[end:end + 1] == b"#"):
             end += 1
-        tokens.append(raw[at:end])
+        numbers.append(_pgm_number(raw[at:end], what))
         at = end
-    width, height, maxval = (int(t) for t in tokens)
+    if raw[at:at + 1] == b"#":  # one whitespace character parts the maxval from the pixels
+        raise ValueError("PGM maxval followed by a comment, not by one whitespace character")
+    width, height, maxval = numbers
     if not (width > 0 and height > 0 and 0 < maxval < 65536):
         raise ValueError(f"PGM size {width} x {height}, maxval {maxval}")
     count = width * height
@@ -271,6 +276,16 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     if values.max() > maxval:  # a shade past white: no image of that maxval holds it
         raise ValueError(f"PGM pixel {values.max():g} is above its maxval {maxval}")
     return (values / maxval).reshape(height, width, 1)
+
+
+def _pgm_number(token: bytes, what: str) -> int:
+    """A number of a PGM header: ASCII digits only (``int`` would also take a sign, an
+    underscore or other scripts' digits, which no PGM writer writes)."""
+    if not token:
+        raise ValueError(f"PGM header cut short before its {what}")
+    if not (token.isdigit() and token.isascii()):
+        raise ValueError(f"PGM {what} {token.decode(errors='replace')!r} is not a whole number")
+    return int(token)
 
 
 _PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}

@@ -172,9 +172,10 @@ def _ties(scene: Scene, name: str) -> list[str]:
     return ties
 
 
-def deleted(scene: Scene, name: str, source: str = DELETE_BODY_SERVICE) -> Scene:
+def deleted(scene: Scene, name: str, source: str = DELETE_BODY_SERVICE,
+            remedy: str = "remove those from the scene file first") -> Scene:
     """``scene`` without body ``name``; see the module for what goes with it and what
-    refuses the delete."""
+    refuses the delete (the refusal ends with ``remedy``: what the caller can do)."""
     names = [body.name for body in scene.bodies]
     if name not in names:
         raise SceneError(f"{source}: no body {quoted(name)} (bodies: {', '.join(names)})")
@@ -182,8 +183,7 @@ def deleted(scene: Scene, name: str, source: str = DELETE_BODY_SERVICE) -> Scene
         raise SceneError(f"{source}: '{name}' is the last body; a scene needs at least one")
     ties = _ties(scene, name)
     if ties:
-        raise SceneError(f"{source}: body '{name}' is named by {', '.join(ties)}; "
-                         "remove those from the scene file first")
+        raise SceneError(f"{source}: body '{name}' is named by {', '.join(ties)}; {remedy}")
 
     def without(bodies: tuple[str, ...]) -> tuple[str, ...]:
         return tuple(body for body in bodies if body != name)

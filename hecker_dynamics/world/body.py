@@ -35,14 +35,23 @@ class Body:
         self.name = name
 
     def __repr__(self) -> str:
+        if not self._world._holds(self):
+            return f"Body({self.name!r}, removed from its world)"
         return (f"Body({self.name!r}, position={self.position}, angle={self.angle!r}, "
                 f"velocity={self.velocity}, angular_velocity={self.angular_velocity!r})")
 
     # ----------------------------------------------------------------- mass properties
 
     @property
+    def _key(self) -> str:
+        """The body's name, once its world is seen to hold this body still: a removed
+        body's name given to a new body is that body's, and a handle of the old one must
+        not read or push the new one."""
+        return self._world._live(self)
+
+    @property
     def _properties(self) -> MassProperties:
-        return self._world._spec(self.name).mass
+        return self._world._spec(self._key).mass
 
     @property
     def mass(self) -> float:
@@ -62,50 +71,50 @@ class Body:
     @property
     def shapes(self) -> tuple[Shape, ...]:
         """The shapes in the body frame, as the integration of the mass properties saw them."""
-        return self._world._spec(self.name).shapes
+        return self._world._spec(self._key).shapes
 
     @property
     def points(self) -> Mapping[str, Vec2]:
         """The body's named points (body frame)."""
-        return self._world._spec(self.name).points
+        return self._world._spec(self._key).points
 
     # ----------------------------------------------------------------- state
 
     @property
     def position(self) -> Vec2:
         """Origin of the body frame in the world frame (m)."""
-        return self._world._body_state(self.name).position
+        return self._world._body_state(self._key).position
 
     @position.setter
     def position(self, value: VectorLike) -> None:
-        self._world._move(self.name, position=vector(value, "position"))
+        self._world._move(self._key, position=vector(value, "position"))
 
     @property
     def angle(self) -> float:
         """Orientation (rad, counter-clockwise), wrapped into [-pi, pi)."""
-        return self._world._body_state(self.name).angle
+        return self._world._body_state(self._key).angle
 
     @angle.setter
     def angle(self, value: float) -> None:
-        self._world._move(self.name, angle=value)
+        self._world._move(self._key, angle=value)
 
     @property
     def velocity(self) -> Vec2:
         """Velocity of the body frame's origin, world axes (m/s)."""
-        return self._world._body_state(self.name).linear_velocity
+        return self._world._body_state(self._key).linear_velocity
 
     @velocity.setter
     def velocity(self, value: VectorLike) -> None:
-        self._world._move(self.name, velocity=vector(value, "velocity"))
+        self._world._move(self._key, velocity=vector(value, "velocity"))
 
     @property
     def angular_velocity(self) -> float:
         """omega (rad/s, counter-clockwise)."""
-        return self._world._body_state(self.name).angular_velocity
+        return self._world._body_state(self._key).angular_velocity
 
     @angular_velocity.setter
     def angular_velocity(self, value: float) -> None:
-        self._world._move(self.name, angular_velocity=value)
+        self._world._move(self._key, angular_velocity=value)
 
     def world_point(self, point: PointLike) -> Vec2:
         """A body point (body frame, or a named point) in the world frame now."""
@@ -163,4 +172,4 @@ class Body:
 
     def clear_forces(self) -> None:
         """Stop every force and torque applied to this body, held, timed or scheduled."""
-        self._world._clear(self.name)
+        self._world._clear(self._key)

@@ -50,7 +50,7 @@ from ..scene.parameters import (
     number_text,
     seconds_text,
 )
-from ..scene.world import WorldEdit, apply_edits, deleted, spawned
+from ..scene.world import EditKind, WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
 from .vectors import VectorLike, number, vector
@@ -245,10 +245,26 @@ class World:
         else:
             read_joint(key, values["type"], reader, specs, points, params["frame_id"])
 
+    def _holds(self, body: Body) -> bool:
+        """Whether ``body`` is a body of this world now (not one removed since)."""
+        return self._bodies.get(body.name) is body
+
+    def _live(self, body: Body, argument: str = "") -> str:
+        """The name of ``body``, a Body of this world; ValueError if it was removed (a
+        body given the name since is another: its handle must not stand for it)."""
+        if not self._holds(body):
+            raise ValueError(f"{argument}{': ' if argument else ''}body '{body.name}' was "
+                             "removed from the world" + (
+                                 f"; the body called so now is another: world['{body.name}']"
+                                 if body.name in self._bodies else ""))
+        return body.name
+
     def _body_name(self, body: BodyLike, argument: str) -> str:
         if isinstance(body, Body) and body._world is not self:  # a copy's has the same name
             raise ValueError(f"{argument}: body '{body.name}' is a Body of another World "
                              f"(this world's: world['{body.name}'])")
+        if isinstance(body, Body) and body.name in self._bodies:
+            return self._live(body, argument)
         name = body.name if isinstance(body, Body) else body
         if not isinstance(name, str):
             raise TypeError(f"{argument}: expected a Body or a body's name, "
@@ -495,7 +511,9 @@ class World:
         refused while a spring, joint, sensor, drive or scripted force names it; what acted
         on it alone goes with it, and the others keep their state bit for bit."""
         name = self._body_name(body, "body")
-        self._change_bodies(deleted, name, SOURCE)
+        # A World has no call that removes a joint, spring, sensor or drive.
+        self._change_bodies(deleted, name, SOURCE, "a world keeps those: remove them from "
+                            "its scene file, or build the world without them")
         self._forget(name)
 
     def edit_bodies(self, *edits: WorldEdit) -> None:
@@ -507,9 +525,11 @@ class World:
         before = set(self._bodies)
         self._change_bodies(apply_edits, edits)
         names = {spec.name for spec in self.scene.bodies}
-        for name in before - names:
+        # A body deleted and spawned again in these edits is a new body under the old name.
+        removed = {edit.body for edit in edits if edit.kind is EditKind.DELETE} & before
+        for name in (before - names) | removed:
             self._forget(name)
-        for name in names - before:
+        for name in names - set(self._bodies):
             self._bodies[name] = Body(self, name)
 
     def _forget(self, name: str) -> None:
@@ -656,6 +676,7 @@ class World:
     def _apply(self, body: Body, force: VectorLike, point: Optional[PointLike], frame: str,
                duration: Optional[float], start: Optional[float], torque: float,
                name: Optional[str]) -> None:
+        self._live(body)
         sim = self.simulation
         fixed = sim.scene.frame_id
         if frame not in ("world", "body", fixed):

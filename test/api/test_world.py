@@ -502,8 +502,10 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
     world = two_balls(extra=True)
     world.add_spring("tether", "a", anchor=(0, 1), stiffness=10.0)
     world.advance(0.5)
-    with pytest.raises(hd.SceneError, match=r"^World: body 'a' is named by spring 'tether'"):
-        world.remove_body("a")
+    with pytest.raises(hd.SceneError, match=r"^World: body 'a' is named by spring 'tether'; "
+                       r"a world keeps those: remove them from its scene file, or build the "
+                       r"world without them$"):
+        world.remove_body("a")  # no World call removes a spring
     c = world["c"]
     sim = hd.Simulation(world.scene)
     sim.advance_to(500_000_000, keep=False)
@@ -518,6 +520,48 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
                              b.angular_velocity) for b in sim.snapshot().bodies]
     world.add_body("c", hd.Circle(0.1), mass=0.1, position=(3.0, 1.0))  # the name is free again
     assert world["c"].mass == 0.1
+
+
+STALE = r"body 'c' was removed from the world; the body called so now is another: world\['c'\]$"
+
+
+def test_a_removed_body_s_handle_does_not_stand_for_a_new_body_of_its_name() -> None:
+    """The name of a removed body is free again, but the old handle is not the new body's:
+    reading it, moving it, pushing it or removing by it raises, and the new body keeps its
+    mass, its pose and no force."""
+    world = two_balls(extra=True)
+    old = world["c"]
+    world.advance(0.2)
+    world.remove_body(old)
+    new = world.add_body("c", hd.Circle(0.1), mass=3.0, position=(3.0, 1.0))
+    assert repr(old) == "Body('c', removed from its world)" and world["c"] is new
+    for use in (lambda: old.mass, lambda: old.position, lambda: old.points,
+                lambda: setattr(old, "velocity", (1.0, 0.0)),
+                lambda: old.apply_force((0.0, 50.0), (0.0, 0.0)),
+                lambda: old.apply_torque(1.0), old.clear_forces):
+        with pytest.raises(ValueError, match="^" + STALE):
+            use()
+    with pytest.raises(ValueError, match="^body: " + STALE):
+        world.remove_body(old)
+    world.step()
+    assert (new.mass, new.velocity[0], new.angular_velocity) == (3.0, 0.0, 0.0)
+    assert math.isclose(new.velocity[1], -9.81 * 0.004)  # gravity alone: the push refused
+
+
+def test_a_body_deleted_and_spawned_again_in_one_edit_is_a_new_body() -> None:
+    """edit_bodies deleting 'c' and spawning another 'c' in one call: the old handle is
+    stale and the force scheduled on the old body does not fall on the new one."""
+    world = two_balls(extra=True)
+    old = world["c"]
+    world.step()
+    old.apply_force((0.0, 100.0), start=0.5, duration=0.1)
+    world.edit_bodies(WorldEdit(EditKind.DELETE, "c"),
+                      WorldEdit(EditKind.SPAWN, "c", "{shape: circle, radius: 0.1, mass: 0.2, "
+                                "position: [3.0, 1.5]}", ()))
+    with pytest.raises(ValueError, match="^" + STALE):
+        _ = old.position
+    world.advance(0.6)
+    assert world["c"].velocity[1] < 0.0  # falling freely: no 100 N upwards
 
 
 #: A ROS time as the node starts at: more nanoseconds than a float's seconds hold exactly.

@@ -111,6 +111,49 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("duration_ns", ["999999", "0"])
+def test_a_recorded_session_shorter_than_one_step_is_refused(tmp_path, capsys, duration_ns):
+    """A bag whose custom data records a session shorter than one step (1 ms) would replay
+    no step: a bag of no output written with exit 0, or a check failing on every recorded
+    output as missing. Refused in one line, as a --duration that short is."""
+    recording = tmp_path / "rec"
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", str(recording),
+                 "--with-inputs"]) == 0
+    _set_metadata(recording, lambda info: info["custom_data"].__setitem__(
+        "hecker_dynamics.duration_ns", duration_ns))
+    for extra in (["-o", str(tmp_path / "o")], ["--check"]):
+        err = _one_line_error(capsys, "replay", "sample", str(recording), *extra)
+        assert err == (f"hecker-dynamics: error: {recording}: the session's duration "
+                       f"{int(duration_ns) * 1e-9:g} s is shorter than one step (0.001 s): "
+                       "no step would be taken\n")
+        assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("topic", ["/applied_wrench", "/nope"])
+def test_a_topic_that_is_no_output_is_refused_before_the_replay(tmp_path, capsys, topic,
+                                                                monkeypatch):
+    """--topic naming no output of the scene (an input topic, a typo) is a usage error,
+    found before the replay runs: it was refused only after the whole replay, its line
+    already printed."""
+    import sys
+
+    recording = str(tmp_path / "rec")
+    assert main(["replay", "sample", str(GOLDEN / "sample" / "input"), "-o", recording,
+                 "--with-inputs"]) == 0
+    capsys.readouterr()
+
+    def no_replay(*args, **kwargs):
+        raise AssertionError("replayed")
+    monkeypatch.setattr(sys.modules["hecker_dynamics.bags.replay"], "replay_outputs", no_replay)
+    code, out, err = _cli(capsys, "replay", "sample", recording, "--check", "--topic", topic)
+    assert (code, out) == (2, "")
+    assert err == (f"hecker-dynamics: error: --topic {topic}: not an output the node "
+                   f"publishes for {GOLDEN.parent.parent / 'config' / 'sample.yaml'} (its "
+                   "outputs: /left/pose, /left/twist, /right/pose, /right/twist)\n")
+    code, out, err = _cli(capsys, "regress", recording, "--topic", topic)
+    assert code == 2 and "not an output the node publishes" in out + err
+
+
 def test_replay_start_past_the_bag_is_refused(tmp_path, capsys):
     """--start past the bag's end (its last message and recorded session, 4 s) would
     replay none of it: refused in one line, no bag written, rather than a silent run of
@@ -236,6 +279,21 @@ def _pose_bag(path: Path, x: float) -> None:
     with BagWriter(path, "mcap") as writer:
         writer.write("/b/pose", POSE_STAMPED, SEC, pose_stamped_message(
             fields.PoseStampedFields(fields.Header(1, 0, "world"), pose)))
+
+
+@pytest.mark.parametrize("atol", ["0", "1e-9", "1"])
+@pytest.mark.parametrize("x", [float("nan"), float("inf"), float("-inf")])
+def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsys, atol, x):
+    """The same NaN or infinite position in both bags is no state of a run (the divergence
+    check stops one before it publishes it): --atol 0 took the equal bytes as a match, and
+    any tolerance took equal infinities (0 apart)."""
+    _pose_bag(tmp_path / "a", x)
+    _pose_bag(tmp_path / "b", x)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                        "--atol", atol)
+    assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
+    assert "at 1.000000 s: a position, angle or velocity that is not finite (NaN or " \
+           "infinite) in both bags" in out
 
 
 def test_atol_zero_is_bit_identical(tmp_path, capsys):

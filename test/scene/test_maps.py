@@ -372,6 +372,31 @@ def test_a_spawned_body_joins_a_map_that_holds_every_body_and_a_deleted_one_leav
     assert spawned(only_robot, "ball", spec).map.bodies == ("robot",)
 
 
+@pytest.mark.parametrize("raw, problem", [
+    (b"P58 6 255\n" + bytes(48), "PGM magic number P5 is not followed by whitespace"),
+    (b"P28 1 255\n0 0 0 0 0 0 0 0\n", "PGM magic number P2 is not followed by whitespace"),
+    (b"P5\n2_0 1\n255\n" + bytes(20), "PGM width '2_0' is not a whole number"),
+    (b"P5\n2 +1\n255\n" + bytes(2), "PGM height '+1' is not a whole number"),
+    (b"P5\n2 1\n# a comment to the end", "PGM header cut short before its maxval"),
+    (b"P5\n2 1", "PGM header cut short before its maxval"),
+    (b"P5 2 1 255#\n" + bytes(2), "PGM maxval followed by a comment, not by one whitespace"),
+])
+def test_a_pgm_header_that_is_not_the_format_s_is_refused(tmp_path, raw, problem):
+    """The header is the magic number, whitespace, then width, height and maxval in ASCII
+    digits: a width run into the magic number, or written as Python's int() reads it,
+    is a bad image in one line, not a map of another size."""
+    (tmp_path / "m.pgm").write_bytes(raw)
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, "m.pgm"))
+    assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_pgm_header_may_hold_comments_anywhere_between_its_numbers(tmp_path):
+    (tmp_path / "m.pgm").write_bytes(b"P5#c\n2#c\n#c\n1\n#c\n255\n" + bytes([0, 255]))
+    cells = read_map(write_map(tmp_path, "m.pgm", mode="raw")).cells()
+    assert cells.tolist() == [[0, UNKNOWN]]
+
+
 @pytest.mark.parametrize("header, pixels, problem", [
     (b"P5\n2 1\n100\n", bytes([50, 200]), "PGM pixel 200 is above its maxval 100"),
     (b"P5\n2 1\n1000\n", bytes([0, 50, 4, 0]), "PGM pixel 1024 is above its maxval 1000"),
