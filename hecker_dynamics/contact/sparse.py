@@ -25,7 +25,10 @@ order of the rows decides the cost, never the result's accuracy:
   row whose pivot vanishes (below :data:`DEPENDENT` of its lightest body's share of its
   diagonal, :attr:`Pattern.dependent`) repeats what earlier rows hold: it is dropped, its
   impulse is zero and the others carry the load, as a pseudo-inverse would (two pins at
-  one point, the loops of a grid of pins).
+  one point, the loops of a grid of pins). Its column of L (and row of U) stays +0.0, so
+  the updates through it would subtract +0.0, which changes no bit: they are skipped
+  (on Box2D's 100 x 100 joint grid, whose 39,586 rows hold 9,600 dependent ones, two
+  thirds of the updates).
 - Rows can be left out of a solve (``active``): their impulses are zero.
 """
 from __future__ import annotations
@@ -218,7 +221,8 @@ def factor(pattern: Pattern, diagonal: list[float], lower: list[float],
             while a < slot and b < end_j:  # k < j in both rows' patterns
                 ka, kb = columns[a], columns[b]
                 if ka == kb:
-                    s -= low[a] * diag[ka] * low[b]
+                    if not out[ka]:  # a row left out or dropped: +0.0 * 0.0 * 0.0
+                        s -= low[a] * diag[ka] * low[b]
                     a += 1
                     b += 1
                 elif ka < kb:
@@ -288,8 +292,9 @@ def lu(pattern: Pattern, diagonal: list[float], lower: list[float],
             while a < slot and b < end_j:
                 ka, kb = columns[a], columns[b]
                 if ka == kb:
-                    s -= low[a] * upper[b]  # L[i, k] U[k, j]
-                    t -= low[b] * upper[a]  # L[j, k] U[k, i]
+                    if not out[ka]:  # a row dropped: +0.0 * 0.0
+                        s -= low[a] * upper[b]  # L[i, k] U[k, j]
+                        t -= low[b] * upper[a]  # L[j, k] U[k, i]
                     a += 1
                     b += 1
                 elif ka < kb:
