@@ -61,10 +61,14 @@ def joint_order(neighbours: Sequence[set[int]], keys: Sequence[tuple[Any, ...]],
     (:func:`minimum_degree`) where the bodies and joints form no ``loops`` (a chain, a
     tree: no fill at all), else by geometric nested dissection (George 1973): a part of
     more than :data:`DISSECT_ABOVE` nodes is halved at the median of its longer extent,
-    its halves come first (each the same way) and the nodes of the first half that
-    touch the second (the separator) last. Minimum degree alone, on a grid, sweeps it
-    front by front (the x-then-y ties) and fills in O(n^1.5); the dissection fills
-    O(n log n)."""
+    its halves come first (each the same way) and the separator last: the nodes of one
+    half that touch the other, of the half where they are fewer (the first on a tie).
+    On a grid of pins one half's touching nodes can be two rows of pins where the
+    other's are one (Box2D's 100 x 100 joint grid, its second cut: 98 against 51 pins),
+    as the median falls between or inside them; taking the fewer cuts its factorizations'
+    updates through independent rows from 58M to 37M. Minimum degree alone, on a grid,
+    sweeps it front by front (the x-then-y ties) and fills in O(n^1.5); the dissection
+    fills O(n log n)."""
     nodes = list(range(len(neighbours)))
     return _dissect(neighbours, keys, nodes) if loops else minimum_degree(neighbours, keys,
                                                                            nodes)
@@ -79,11 +83,16 @@ def _dissect(neighbours: Sequence[set[int]], keys: Sequence[tuple[Any, ...]],
     axis = 0 if spans[0] >= spans[1] else 1
     ordered = sorted(nodes, key=lambda i: (keys[i][axis], keys[i][1 - axis], keys[i]))
     half = len(ordered) // 2
-    second = set(ordered[half:])
-    separator = [i for i in ordered[:half] if not neighbours[i].isdisjoint(second)]
+    halves = ordered[:half], ordered[half:]
+    # Either half's nodes that touch the other separate them: the fewer, the less fill.
+    touching = [[i for i in side if not neighbours[i].isdisjoint(other)]
+                for side, other in zip(halves, (set(halves[1]), set(halves[0])))]
+    which = 1 if len(touching[1]) < len(touching[0]) else 0
+    separator = touching[which]
     cut = set(separator)
-    first = [i for i in ordered[:half] if i not in cut]
-    return (_dissect(neighbours, keys, first) + _dissect(neighbours, keys, ordered[half:])
+    first, second = ([i for i in side if i not in cut] if k == which else side
+                     for k, side in enumerate(halves))
+    return (_dissect(neighbours, keys, first) + _dissect(neighbours, keys, second)
             + minimum_degree(neighbours, keys, separator))
 
 

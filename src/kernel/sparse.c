@@ -97,7 +97,9 @@ void hd_pattern_free(hd_pattern *p)
 }
 
 /* Row i of L D L^T (its slots of `low`), each entry's updates subtracted in ascending k:
- * from the listed pairs of slots. */
+ * from the listed pairs of slots. Those through a row left out or dropped subtract +0.0,
+ * which changes no bit: contact/sparse.py skips them, the scattered path below too, but
+ * here testing every update would cost more than it saves where no row drops (a chain). */
 static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, double *low,
                              const double *diag, const int *out)
 {
@@ -108,9 +110,8 @@ static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, d
             continue;
         double s = lower[slot];
         for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
-            const long a = p->update_a[u], b = p->update_b[u], k = columns[a];
-            if (!out[k])  /* a row left out or dropped updates by +0.0 * 0.0 * 0.0 */
-                s -= low[a] * diag[k] * low[b];
+            const long a = p->update_a[u], b = p->update_b[u];
+            s -= low[a] * diag[columns[a]] * low[b];
         }
         low[slot] = s / diag[j];
     }
@@ -210,8 +211,6 @@ static void hd_lu_listed(const hd_pattern *p, const double *lower, long i, doubl
         double s = lower[slot], t = upper[slot];
         for (long u = p->update_start[slot]; u < p->update_start[slot + 1]; ++u) {
             const long a = p->update_a[u], b = p->update_b[u];
-            if (out[p->columns[a]])  /* a row dropped updates by +0.0 * 0.0 */
-                continue;
             s -= low[a] * upper[b];  /* L[i, k] U[k, j] */
             t -= low[b] * upper[a];  /* L[j, k] U[k, i] */
         }
