@@ -97,7 +97,9 @@ void hd_pattern_free(hd_pattern *p)
 }
 
 /* Row i of L D L^T (its slots of `low`), each entry's updates subtracted in ascending k:
- * from the listed pairs of slots. */
+ * from the listed pairs of slots. Those through a row left out or dropped subtract +0.0,
+ * which changes no bit: contact/sparse.py skips them, the scattered path below too, but
+ * here testing every update would cost more than it saves where no row drops (a chain). */
 static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, double *low,
                              const double *diag, const int *out)
 {
@@ -117,8 +119,9 @@ static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, d
 
 /* The same without the lists: row i scattered into a dense vector; as each of its columns
  * k (ascending) is finished, column k's entries L[r, k] above row i (kept by columns, in
- * the work) update the entries (i, r) still to come. Every entry takes the same
- * subtractions in the same order, at the cost of the updates alone. */
+ * the work: those before row i's own, position[slot]) update the entries (i, r) still to
+ * come. Every entry takes the same subtractions in the same order, at the cost of the
+ * updates alone. */
 static void hd_factor_scattered(const hd_pattern *p, const double *lower, long i, double *low,
                                 const double *diag, const int *out)
 {
@@ -128,13 +131,15 @@ static void hd_factor_scattered(const hd_pattern *p, const double *lower, long i
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
         x[columns[slot]] = lower[slot];
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
-        const long k = columns[slot];
-        double l = 0.0;  /* a row left out or dropped: its entries stay zero */
-        if (!out[k])
-            low[slot] = l = x[k] / diag[k];
-        column[position[slot]] = l;
+        const long k = columns[slot], at = position[slot];
+        if (out[k]) {  /* a row left out or dropped: its entries stay zero, its updates too */
+            column[at] = 0.0;
+            continue;
+        }
+        const double l = x[k] / diag[k];
+        low[slot] = column[at] = l;
         const double t = l * diag[k];
-        for (long e = above_start[k]; e < above_start[k + 1] && above_row[e] < i; ++e)
+        for (long e = above_start[k]; e < at; ++e)
             x[above_row[e]] -= t * column[e];
     }
 }
@@ -224,13 +229,15 @@ static void hd_lu_scattered(const hd_pattern *p, const double *lower, long i, do
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
         x[columns[slot]] = lower[slot], y[columns[slot]] = upper[slot];
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
-        const long k = columns[slot];
-        double l = 0.0, u = 0.0;  /* a row dropped: its entries stay zero */
-        if (!out[k])
-            low[slot] = l = x[k] * diag[k], u = y[k];
-        upper[slot] = u;
-        column_l[position[slot]] = l, column_u[position[slot]] = u;
-        for (long e = above_start[k]; e < above_start[k + 1] && above_row[e] < i; ++e) {
+        const long k = columns[slot], at = position[slot];
+        if (out[k]) {  /* a row dropped: its entries stay zero, its updates too */
+            upper[slot] = column_l[at] = column_u[at] = 0.0;
+            continue;
+        }
+        const double l = x[k] * diag[k], u = y[k];
+        low[slot] = column_l[at] = l;
+        upper[slot] = column_u[at] = u;
+        for (long e = above_start[k]; e < at; ++e) {
             const long r = above_row[e];
             x[r] -= l * column_u[e];  /* L[i, k] U[k, r] */
             y[r] -= column_l[e] * u;  /* L[r, k] U[k, i] */
