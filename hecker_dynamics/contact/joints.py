@@ -237,12 +237,13 @@ def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec,
     return tuple(specs[i] for i in joint_order(neighbours, keys, loops))
 
 
-def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[bool]:
-    """Per body, whether it lies on a closed loop of joints (or on a path between two), the
-    fixed frame (-1) one node: what is left after the bodies and the frame held by one joint
-    or none are taken away, again and again (the graph's 2-core, which is one whatever the
-    order). A chain or a tree of joints leaves nothing; a bridge anchored at both ends, or a
-    grid, leaves itself."""
+def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[int]:
+    """Per body, how many of its joints lie on closed loops of joints (or on paths between
+    two), the fixed frame (-1) one node: its joints among what is left after the bodies and
+    the frame held by one joint or none are taken away, again and again (the graph's
+    2-core, which is one whatever the order), 0 for a body taken away. A chain or a tree of
+    joints leaves nothing; a bridge anchored at both ends leaves itself, each plank with 2;
+    a grid leaves itself, its bodies with 3 or 4 (its bottom corners with 2)."""
     frame = bodies
     neighbours: list[list[int]] = [[] for _ in range(bodies + 1)]
     for a, b in joined:
@@ -260,7 +261,7 @@ def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[bool]:
                 joints[other] -= 1
                 if joints[other] == 1:
                     loose.append(other)
-    return left[:bodies]
+    return [count if on else 0 for count, on in zip(joints[:bodies], left)]
 
 
 class JointPass:
@@ -321,9 +322,10 @@ class JointPass:
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         looped = _on_loops(len(involved), [(a.body, b.body) for a, b in self.frames.values()])
-        #: Per body, 1/I where its turn is its own (no closed loop of joints holds it), else 0:
-        #: the bodies :meth:`ringing` rates.
-        self.free_turn = [0.0 if on else self.inverse_mass[3 * b + 2]
+        #: Per body, 1/I where its turn is its own, else 0 (a fixed body, or one that three or
+        #: more joints on closed loops hold, a knot of a grid's frame): the bodies
+        #: :meth:`ringing` rates, and those whose turn holds a neighbour's there.
+        self.free_turn = [0.0 if on > 2 else self.inverse_mass[3 * b + 2]
                           for b, on in enumerate(looped)]
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
         ends = [(index[s.body_a], index[s.body_b]) for s in specs
@@ -696,13 +698,18 @@ class JointPass:
         of its pins while the neighbour there stays; each such motion rings at the sum of
         the stiffnesses it turns over the sum of the moments of inertia it moves (tau = I
         alpha, Eq. 14, with the moment of inertia of Eq. 13; a neighbour held at its CM
-        moves along instead, F = M a, Eq. 5), and a pin to the fixed frame or to a body
-        that does not move holds it. The body's rating is the fastest: a chain under an
-        even tension gives sqrt(T l / I), its zigzag; a light body between heavy ones
-        rates their slow turn, as it only follows them. A body on a closed loop of joints
-        (:attr:`free_turn` 0: a bridge anchored at both ends, a grid) is not rated: the
-        loop holds its turn (Box2D's joint grid hangs still under loads that rate its
-        bodies, each on its own, up to h omega = 20). The loads are 2 lambda / h, lambda
+        moves along instead, F = M a, Eq. 5), and a pin to the fixed frame, to a body
+        that does not move or to a knot of loops holds it. The body's rating is the
+        fastest: a chain under an even tension gives sqrt(T l / I), its zigzag; a light
+        body between heavy ones rates their slow turn, as it only follows them. A body
+        with two joints on closed loops of joints (a plank of a bridge anchored at both
+        ends, a link of a ring) is rated as a chain's link: a path of k such bodies between
+        two held ends keeps k - 2 of its 3 k freedoms (2 k + 2 pin rows), its zigzags. A
+        knot of three or more joints on loops (:attr:`free_turn` 0: a grid's bodies) is
+        not rated and holds its neighbours' turns there: each joint more takes two
+        freedoms, and Box2D's joint grid hangs still, with 1e6 kg hung from it too, under
+        loads that rate its knots, each on its own, up to h omega = 20. The loads are 2
+        lambda / h, lambda
         the last velocity stage's impulses (RATTLE's second half kick, h F / 2) without
         what the contact solve added (:meth:`take_extra`: a blow, not a held load). SHAKE
         takes the arms at the step's start (G(q0)), so that stiffness is explicit, and
@@ -729,14 +736,14 @@ class JointPass:
                 for j, ((x, y), other, reach) in enumerate(pins):
                     if j == pivot:
                         continue
-                    if other < 0 or inverse[3 * other] == 0.0:  # held: no turn about here
-                        break
+                    if other < 0 or inverse[3 * other] == 0.0 or self.free_turn[other] == 0.0:
+                        break  # held: no turn about here
                     dx, dy = x - px, y - py
                     moved = dx * dx + dy * dy
-                    if reach > 0.0 and inverse[3 * other + 2] != 0.0:  # it turns along
+                    if reach > 0.0:  # it turns along
                         share = moved / (reach * reach)
                         turn += stiffness[other] * share
-                        inertia += share / inverse[3 * other + 2]
+                        inertia += share / self.free_turn[other]
                     else:  # it moves along
                         inertia += moved / inverse[3 * other]
                 else:

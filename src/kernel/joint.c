@@ -887,15 +887,16 @@ static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
                 if (j == pivot)
                     continue;
                 const long other = pins[j].other;
-                held = other < 0 || inverse[3 * other] == 0.0;  /* no turn about here */
+                /* no turn about here */
+                held = other < 0 || inverse[3 * other] == 0.0 || m->free_turn[other] == 0.0;
                 if (held)
                     break;
                 const double dx = pins[j].x - px, dy = pins[j].y - py;
                 const double moved = dx * dx + dy * dy;
-                if (pins[j].reach > 0.0 && inverse[3 * other + 2] != 0.0) {  /* it turns along */
+                if (pins[j].reach > 0.0) {  /* it turns along */
                     const double share = moved / (pins[j].reach * pins[j].reach);
                     turn += stiffness[other] * share;
-                    inertia += share / inverse[3 * other + 2];
+                    inertia += share / m->free_turn[other];
                 } else {  /* it moves along */
                     inertia += moved / inverse[3 * other];
                 }

@@ -78,7 +78,7 @@ typedef struct hd_joint_model {
     long joint_count, body_count, row_count, rigid_count;
     long *bodies;          /* body_count model indices */
     double *inverse_mass;  /* 3 per local body */
-    double *free_turn;     /* JointPass.free_turn: per body, 1/I, or 0 on a loop of joints */
+    double *free_turn;     /* JointPass.free_turn: per body, 1/I, or 0 where its turn is held */
     hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
     long *pins, pin_count; /* JointPass.pins: each rigid point's x row (its y row next) */
