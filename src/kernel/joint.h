@@ -25,6 +25,7 @@
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
 #define HD_MAX_RING 1.0
+#define HD_RATING_BOUND (1.0 + 1e-9)  /* JointPass.ringing's bound over its rating */
 #define HD_MOST_SUBSTEPS 1024L
 #define HD_SETTLED_STEPS 4
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
