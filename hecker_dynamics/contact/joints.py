@@ -124,7 +124,8 @@ if TYPE_CHECKING:
     from .joints_kernel import CompiledJoints
 
 __all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_RING",
-           "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "SETTLED_STEPS", "ringing_advice"]
+           "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "RATING_BOUND", "SETTLED_STEPS",
+           "ringing_advice"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -145,6 +146,9 @@ MAX_TURN = 0.1
 #: not 2, because steps whose parts change pump a ring near 2 (a chain of 1 kg links ending
 #: in 1e4 kg at h = 1/240 s: 2.5e-5 of its energy scale in 10 s at 1, 22 % at 2).
 MAX_RING = 1.0
+#: What :meth:`JointPass.ringing`'s bound of its rating is multiplied by, above 1 by far more
+#: than the rounding of the rating's sums (a few units in the last place).
+RATING_BOUND = 1.0 + 1e-9
 #: The most parts a step is taken in, in all (ten halvings), before the joints give up.
 MOST_SUBSTEPS = 1024
 #: Steps in a row that stage 1 solves in the parts remembered from an earlier failure
@@ -237,12 +241,13 @@ def _solve_order(scene: Scene, specs: tuple[JointSpec, ...]) -> tuple[JointSpec,
     return tuple(specs[i] for i in joint_order(neighbours, keys, loops))
 
 
-def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[bool]:
-    """Per body, whether it lies on a closed loop of joints (or on a path between two), the
-    fixed frame (-1) one node: what is left after the bodies and the frame held by one joint
-    or none are taken away, again and again (the graph's 2-core, which is one whatever the
-    order). A chain or a tree of joints leaves nothing; a bridge anchored at both ends, or a
-    grid, leaves itself."""
+def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[int]:
+    """Per body, how many of its joints lie on closed loops of joints (or on paths between
+    two), the fixed frame (-1) one node: its joints among what is left after the bodies and
+    the frame held by one joint or none are taken away, again and again (the graph's
+    2-core, which is one whatever the order), 0 for a body taken away. A chain or a tree of
+    joints leaves nothing; a bridge anchored at both ends leaves itself, each plank with 2;
+    a grid leaves itself, its bodies with 3 or 4 (its bottom corners with 2)."""
     frame = bodies
     neighbours: list[list[int]] = [[] for _ in range(bodies + 1)]
     for a, b in joined:
@@ -260,7 +265,7 @@ def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[bool]:
                 joints[other] -= 1
                 if joints[other] == 1:
                     loose.append(other)
-    return left[:bodies]
+    return [count if on else 0 for count, on in zip(joints[:bodies], left)]
 
 
 class JointPass:
@@ -321,9 +326,10 @@ class JointPass:
         #: 1/m, 1/m, 1/I of each of those bodies.
         self.inverse_mass: list[float] = inverse_mass[self.bodies].reshape(-1).tolist()
         looped = _on_loops(len(involved), [(a.body, b.body) for a, b in self.frames.values()])
-        #: Per body, 1/I where its turn is its own (no closed loop of joints holds it), else 0:
-        #: the bodies :meth:`ringing` rates.
-        self.free_turn = [0.0 if on else self.inverse_mass[3 * b + 2]
+        #: Per body, 1/I where its turn is its own, else 0 (a fixed body, or one that three or
+        #: more joints on closed loops hold, a knot of a grid's frame): the bodies
+        #: :meth:`ringing` rates, and those whose turn holds a neighbour's there.
+        self.free_turn = [0.0 if on > 2 else self.inverse_mass[3 * b + 2]
                           for b, on in enumerate(looped)]
         #: Pairs of body indices (i < j) that a joint connects and that must not collide.
         ends = [(index[s.body_a], index[s.body_b]) for s in specs
@@ -669,7 +675,7 @@ class JointPass:
             return
         start = q0[index].reshape(-1).tolist()
         rows0 = self.rows(start, h)
-        if h * h * self.ringing(rows0) > MAX_RING * MAX_RING:
+        if h * h * self.ringing(rows0, h) > MAX_RING * MAX_RING:
             raise JointsUnsolved(f"the joints' loads ring a body too fast for a step of {h:g} s")
         q = q1[index].reshape(-1).tolist()
         moved = list(q)
@@ -684,30 +690,39 @@ class JointPass:
         q1[index] = np.array(q).reshape(-1, 3)
         v1[index] = np.array(v).reshape(-1, 3)
 
-    def ringing(self, rows: list[JointRow]) -> float:
+    def ringing(self, rows: list[JointRow], h: float = 0.0) -> float:
         """omega^2 (1/s^2) of the fastest ring the last step's loads on the pins drive, the
-        bodies at the pose of ``rows``, as rated body by body. A load F on a point at arm r
-        from a body's CM turns with the body: its torque perp(r) . F (Eq. 11) changes by
-        -(r . F) per radian the body turns, so the loads give the body a torsional
-        stiffness k = sum of r . F over its pins (positive where they pull its points away
-        from its CM: a link of a chain under a tension T, k = T l, l its length). A body
-        rings with its neighbours: it turns about its CM while each neighbour turns about
-        its own CM to follow the pin they share (a chain's zigzag), or it turns about one
-        of its pins while the neighbour there stays; each such motion rings at the sum of
-        the stiffnesses it turns over the sum of the moments of inertia it moves (tau = I
-        alpha, Eq. 14, with the moment of inertia of Eq. 13; a neighbour held at its CM
-        moves along instead, F = M a, Eq. 5), and a pin to the fixed frame or to a body
-        that does not move holds it. The body's rating is the fastest: a chain under an
-        even tension gives sqrt(T l / I), its zigzag; a light body between heavy ones
-        rates their slow turn, as it only follows them. A body on a closed loop of joints
-        (:attr:`free_turn` 0: a bridge anchored at both ends, a grid) is not rated: the
-        loop holds its turn (Box2D's joint grid hangs still under loads that rate its
-        bodies, each on its own, up to h omega = 20). The loads are 2 lambda / h, lambda
-        the last velocity stage's impulses (RATTLE's second half kick, h F / 2) without
-        what the contact solve added (:meth:`take_extra`: a blow, not a held load). SHAKE
-        takes the arms at the step's start (G(q0)), so that stiffness is explicit, and
-        velocity Verlet grows the ring where h omega > 2: a light chain holding a heavy
-        body rings there at steps that its own motion allows (issue 33)."""
+        bodies at the pose of ``rows``, as rated body by body; given a step ``h``, a bound
+        of it instead where h omega stays below :data:`MAX_RING` on the bound (below). A
+        load F on a point at arm r from a body's CM turns with the body: its torque
+        perp(r) . F (Eq. 11) changes by -(r . F) per radian the body turns, so the loads give the
+        body a torsional stiffness k = sum of r . F over its pins (positive where they pull
+        its points away from its CM: a link of a chain under a tension T, k = T l, l its
+        length). A body rings with its neighbours: it turns about its CM while each
+        neighbour turns about its own CM to follow the pin they share (a chain's zigzag), or
+        it turns about one of its pins while the neighbour there stays; each such motion
+        rings at the sum of the stiffnesses it turns over the sum of the moments of inertia
+        it moves (tau = I alpha, Eq. 14, with the moment of inertia of Eq. 13; a neighbour
+        held at its CM moves along instead, F = M a, Eq. 5), and a pin to the fixed frame,
+        to a body that does not move or to a knot of loops holds it. The body's rating is
+        the fastest: a chain under an even tension gives sqrt(T l / I), its zigzag; a light
+        body between heavy ones rates their slow turn, as it only follows them. A body with
+        two joints on closed loops of joints (a plank of a bridge anchored at both ends, a
+        link of a ring) is rated as a chain's link: a path of k such bodies between two held
+        ends keeps k - 2 of its 3 k freedoms (2 k + 2 pin rows), its zigzags. A knot of
+        three or more joints on loops (:attr:`free_turn` 0: a grid's bodies) is not rated
+        and holds its neighbours' turns there: each joint more takes two freedoms, and
+        Box2D's joint grid hangs still, with 1e6 kg hung from it too, under loads that rate
+        its knots, each on its own, up to h omega = 20. The loads are 2 lambda / h, lambda
+        the last velocity stage's impulses (RATTLE's second half kick, h F / 2) without what
+        the contact solve added (:meth:`take_extra`: a blow, not a held load). SHAKE takes
+        the arms at the step's start (G(q0)), so that stiffness is explicit, and velocity
+        Verlet grows the ring where h omega > 2: a light chain holding a heavy body rings
+        there at steps that its own motion allows (issue 33). Each motion's stiffnesses over
+        its moments of inertia is at most the largest of its turning bodies' own |k| / I, so
+        the largest |k| / I of all (:data:`RATING_BOUND` above it for rounding) bounds the
+        rating: a step that it does not halve, the rating does not halve either, and the
+        bodies' modes are not rated then."""
         stiffness = [0.0] * len(self.bodies)
         warm, extra = self.warm, self.extra
         for i in self.pins:
@@ -717,6 +732,11 @@ class JointPass:
             for (b, _, _, turn_x), (_, _, _, turn_y) in zip(rows[i].entries,
                                                             rows[i + 1].entries):
                 stiffness[b] += x * turn_y - y * turn_x
+        if h > 0.0:
+            bound = 2.0 * RATING_BOUND * max(abs(k) * free for k, free
+                                             in zip(stiffness, self.free_turn)) / self.step_h
+            if h * h * bound <= MAX_RING * MAX_RING:
+                return bound
         inverse = self.inverse_mass
         most = 0.0
         for b, pins in enumerate(self.pinned):
@@ -729,14 +749,14 @@ class JointPass:
                 for j, ((x, y), other, reach) in enumerate(pins):
                     if j == pivot:
                         continue
-                    if other < 0 or inverse[3 * other] == 0.0:  # held: no turn about here
-                        break
+                    if other < 0 or inverse[3 * other] == 0.0 or self.free_turn[other] == 0.0:
+                        break  # held: no turn about here
                     dx, dy = x - px, y - py
                     moved = dx * dx + dy * dy
-                    if reach > 0.0 and inverse[3 * other + 2] != 0.0:  # it turns along
+                    if reach > 0.0:  # it turns along
                         share = moved / (reach * reach)
                         turn += stiffness[other] * share
-                        inertia += share / inverse[3 * other + 2]
+                        inertia += share / self.free_turn[other]
                     else:  # it moves along
                         inertia += moved / inverse[3 * other]
                 else:

@@ -24,8 +24,8 @@ PyDoc_STRVAR(joints_doc,
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
 "checks against its own; the patterns of all rows and of the rigid rows (contact/sparse.py:\n"
 "Pattern), each as (start, columns, dependent); the model indices of the bodies whose turning\n"
-"JointPass.parts watches; per body, JointPass.free_turn (its 1/I, 0 on a loop of joints:\n"
-"the bodies hd_ringing rates); the position stages' tolerance; the most an arm may turn in a\n"
+"JointPass.parts watches; per body, JointPass.free_turn (its 1/I, 0 where loops of joints\n"
+"hold its turn: the bodies hd_ringing rates); the position stages' tolerance; the most an arm may turn in a\n"
 "step (JointPass.max_turn); soft joints (soft_joint.c): ``substeps`` a step's sub-steps (0:\n"
 "the exact pass), ``hertz`` (Hz) and ``damping_ratio`` their rows' softness (SoftJoints).");
 

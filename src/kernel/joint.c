@@ -858,7 +858,7 @@ void hd_joint_ended(hd_joint_model *m, double *q1, double *v1)
 }
 
 /* contact/joints.py: JointPass.ringing, the bodies at the pose of `rows`. */
-static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
+static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows, double h)
 {
     double *stiffness = m->stiffness;
     for (long b = 0; b < m->body_count; ++b)
@@ -869,6 +869,14 @@ static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
         const hd_joint_row *along_x = rows + i, *along_y = rows + i + 1;
         for (int e = 0; e < along_x->count && e < along_y->count; ++e)
             stiffness[along_x->body[e]] += x * along_y->j[e][2] - y * along_x->j[e][2];
+    }
+    if (h > 0.0) {  /* JointPass.ringing's bound: the largest |k| / I */
+        double most = 0.0;
+        for (long b = 0; b < m->body_count; ++b)
+            most = hd_max(most, fabs(stiffness[b]) * m->free_turn[b]);
+        const double bound = 2.0 * HD_RATING_BOUND * most / m->last_h;
+        if (h * h * bound <= HD_MAX_RING * HD_MAX_RING)
+            return bound;
     }
     const double *inverse = m->inverse_mass;
     double most = 0.0;
@@ -887,15 +895,16 @@ static double hd_ringing(const hd_joint_model *m, const hd_joint_row *rows)
                 if (j == pivot)
                     continue;
                 const long other = pins[j].other;
-                held = other < 0 || inverse[3 * other] == 0.0;  /* no turn about here */
+                /* no turn about here */
+                held = other < 0 || inverse[3 * other] == 0.0 || m->free_turn[other] == 0.0;
                 if (held)
                     break;
                 const double dx = pins[j].x - px, dy = pins[j].y - py;
                 const double moved = dx * dx + dy * dy;
-                if (pins[j].reach > 0.0 && inverse[3 * other + 2] != 0.0) {  /* it turns along */
+                if (pins[j].reach > 0.0) {  /* it turns along */
                     const double share = moved / (pins[j].reach * pins[j].reach);
                     turn += stiffness[other] * share;
-                    inertia += share / inverse[3 * other + 2];
+                    inertia += share / m->free_turn[other];
                 } else {  /* it moves along */
                     inertia += moved / inverse[3 * other];
                 }
@@ -930,7 +939,7 @@ int hd_joints_resolve(hd_joint_model *m, const double *q0, double *q1, double *v
         hd_joint_rows_again(m);
     else
         hd_joint_rows(m, m->start, h, m->rows0, 0);
-    if (h * h * hd_ringing(m, m->rows0) > HD_MAX_RING * HD_MAX_RING)
+    if (h * h * hd_ringing(m, m->rows0, h) > HD_MAX_RING * HD_MAX_RING)
         return HD_JOINTS_UNSOLVED;
     const int status = hd_hold(m, h, again);
     if (status != HD_JOINTS_OK)

@@ -25,6 +25,7 @@
 #define HD_JOINT_CONVERGED 1e-13
 #define HD_MAX_TURN 0.1
 #define HD_MAX_RING 1.0
+#define HD_RATING_BOUND (1.0 + 1e-9)  /* JointPass.ringing's bound over its rating */
 #define HD_MOST_SUBSTEPS 1024L
 #define HD_SETTLED_STEPS 4
 #define HD_MAX_SPLITS 10  /* the halvings in HD_MOST_SUBSTEPS: the levels of parts */
@@ -78,7 +79,7 @@ typedef struct hd_joint_model {
     long joint_count, body_count, row_count, rigid_count;
     long *bodies;          /* body_count model indices */
     double *inverse_mass;  /* 3 per local body */
-    double *free_turn;     /* JointPass.free_turn: per body, 1/I, or 0 on a loop of joints */
+    double *free_turn;     /* JointPass.free_turn: per body, 1/I, or 0 where its turn is held */
     hd_joint *joints;      /* in the order JointPass solves them */
     long *rigid;           /* the rigid rows' indices */
     long *pins, pin_count; /* JointPass.pins: each rigid point's x row (its y row next) */

@@ -143,11 +143,11 @@ def test_kernel_has_the_joint_constants():
     assert (k.JOINT_TOLERANCE, k.JOINT_CONVERGED, k.JOINT_NEWTON_ITERATIONS,
             k.JOINT_DRIFT_ITERATIONS, k.JOINT_MAX_ITERATIONS, k.JOINT_ROUNDING,
             k.JOINT_MAX_TURN, k.JOINT_MOST_SUBSTEPS, k.JOINT_DEPENDENT, k.JOINT_CHORD,
-            k.JOINT_ACTIVE_SETS, k.JOINT_SETTLED_STEPS, k.JOINT_MAX_RING) == \
+            k.JOINT_ACTIVE_SETS, k.JOINT_SETTLED_STEPS, k.JOINT_MAX_RING, k.JOINT_RATING_BOUND) == \
         (joints.TOLERANCE, joint_solve.CONVERGED, joints.NEWTON_ITERATIONS,
          joints.DRIFT_ITERATIONS, joint_solve.MAX_ITERATIONS, joints.ROUNDING, joints.MAX_TURN,
          joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joint_solve.ACTIVE_SETS,
-         joints.SETTLED_STEPS, joints.MAX_RING)
+         joints.SETTLED_STEPS, joints.MAX_RING, joints.RATING_BOUND)
 
 
 def test_a_repeated_pin_is_dropped_and_the_rod_swings_as_on_one_pin():
