@@ -49,6 +49,7 @@ from .joints import (
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
 from .parameters import (
+    MAX_SECONDS,
     NAME_MAX,
     NAME_PATTERN,
     NAME_RULE,
@@ -377,11 +378,6 @@ def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
 
 
 # ----------------------------------------------------------------------------- reading
-
-#: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
-#: within an int64 and a ROS stamp.
-MAX_SECONDS = 1e9
-
 
 def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
                    positive: bool = False) -> int:
