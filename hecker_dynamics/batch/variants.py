@@ -6,7 +6,7 @@ VALUES is one of
 
 - a list ``a,b,c`` of YAML scalars (numbers, ``true``/``false``, names);
 - ``start:stop:count``, ``count`` evenly spaced numbers from ``start`` to ``stop``, both
-  included (numpy's ``linspace``);
+  included (numpy's ``linspace``; a count of 1 only with ``start`` equal to ``stop``);
 - ``start:stop``, the interval itself: only with ``--samples``, which draws uniformly in it.
 
 Without ``--samples`` the variants are the grid of every combination, the last ``--set``
@@ -127,6 +127,10 @@ def parse_setting(text: str) -> Setting:
             if isinstance(count, bool) or not isinstance(count, int) or count < 1:
                 raise SceneError(f"--set {text}: the count '{parts[2]}' is not a positive "
                                  "whole number")
+            if count == 1 and start != stop:
+                # linspace gives start alone: the stop, said to be included, would be lost.
+                raise SceneError(f"--set {text}: one value cannot include both ends; give "
+                                 f"a count of 2 or more, or start equal to stop")
             if count > MAX_VARIANTS:
                 raise SceneError(f"--set {text}: the count {count} is over the "
                                  f"{MAX_VARIANTS} variants a sweep may have")
