@@ -209,8 +209,10 @@ def _set(params: dict[str, Any], setting: Setting, value: Value, source: str) ->
 
 
 def make_variants(scene: str, settings: Sequence[Setting], *, samples: Optional[int] = None,
-                  seed: int = 0, duration_ns: Optional[int] = None) -> list[Variant]:
-    """Load ``scene``, build and check every variant's scene (raises :class:`SceneError`)."""
+                  seed: int = 0, duration_ns: Optional[int] = None,
+                  duration_given: Optional[str] = None) -> list[Variant]:
+    """Load ``scene``, build and check every variant's scene (raises :class:`SceneError`);
+    ``duration_given``: ``duration_ns`` as the command line wrote it, for messages."""
     source, nested = scene_parameters(scene)
     base = flatten(nested) if isinstance(nested, Mapping) else {}
     rows = grid(settings) if samples is None else sample(settings, samples, seed)
@@ -223,7 +225,7 @@ def make_variants(scene: str, settings: Sequence[Setting], *, samples: Optional[
             _set(params, setting, value, source)
         built = scene_from_parameters(params, f"{source} (variant {index})")
         check_takes_a_step(built.duration_ns, built.step_ns, f"{built.source}: " + (
-            "--duration" if duration_ns is not None else "duration"))
+            "--duration" if duration_ns is not None else "duration"), given=duration_given)
         variants.append(Variant(index, tuple((s.column, v) for s, v in zip(settings, row)),
                                 built, params))
     return variants
