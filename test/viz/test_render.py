@@ -138,6 +138,9 @@ def test_bad_options_end_in_one_line_errors(tmp_path, capsys, replayed):
     assert "--size" in _one_line_error(capsys, ["render", "ship", "-o", out, "--size", "big"])
     assert "gives no frame" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--duration", "0.01", "--fps", "10"])
+    # Quoted as given, not as the whole nanoseconds it rounds to ("--duration 0 s").
+    assert "--duration 1e-10 s at --fps 20 gives no frame" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--duration", "1e-10"])
     # A bag with inputs but no poses (what 'script' writes), and no bag at all.
     assert main(["script", "ship", "-o", str(tmp_path / "inputs"), "--duration", "1"]) == 0
     capsys.readouterr()
