@@ -126,6 +126,9 @@ def test_bad_options_end_in_one_line_errors(tmp_path, capsys, replayed):
         capsys, ["render", "ship", "-o", out, "--trail", "hull"])
     assert "has no point 'nose'" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--trail", "ship/nose"])
+    # An empty point name drew the CM's trail as if none were given.
+    assert "name a point of 'ship' after the '/'" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--trail", "ship/"])
     assert "zero size" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--view", "0,0,0,1"])
     assert "zero size" in _one_line_error(
