@@ -66,6 +66,13 @@ __all__ = ["configure", "run_command", "scenes_command", "script_command", "repl
            "compare_command", "bench_command", "sweep_command", "regress_command", "parser", "main"]
 
 
+class _Nanoseconds(int):
+    """Nanoseconds read from a command line's seconds, with the seconds as ``given``: a
+    message quotes those, not the whole nanoseconds they round to (1e-10 s is 0 ns)."""
+
+    given: str
+
+
 def _time_ns(text: str) -> int:
     """Seconds (exactly, however many digits: stamps of live bags are ~1.7e9 s) to ns."""
     try:
@@ -76,7 +83,9 @@ def _time_ns(text: str) -> int:
         raise argparse.ArgumentTypeError(f"must be a non-negative number of seconds, not {text}")
     if value.adjusted() > 18:  # beyond any stamp; the nanoseconds would overflow the context
         raise argparse.ArgumentTypeError(f"must be at most 1e18 seconds, not {text}")
-    return int((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
+    ns = _Nanoseconds((value * 1_000_000_000).to_integral_value(decimal.ROUND_HALF_EVEN))
+    ns.given = text
+    return ns
 
 
 def _duration_ns(text: str) -> int:
@@ -120,7 +129,7 @@ def configure(scene: Scene, args: argparse.Namespace) -> Scene:
     if args.tolerance is not None:
         changes["tolerance"] = args.tolerance
     if args.duration is not None:
-        changes["duration_ns"] = args.duration
+        changes["duration_ns"] = int(args.duration)
     if args.map is not None:
         scene = with_map(scene, args.map)
     return dataclasses.replace(scene, **changes)
@@ -148,9 +157,12 @@ def _play(runner: Runner, span_ns: int, progress: Progress) -> dict[str, int]:
 
 
 def _check_takes_a_step(duration_ns: int, scene: Scene, args: argparse.Namespace) -> None:
-    """:func:`check_takes_a_step`, naming ``--duration`` if given, else the scene's."""
-    check_takes_a_step(duration_ns, scene.step_ns, "--duration" if args.duration is not None
-                       else f"{scene.source}: duration")
+    """:func:`check_takes_a_step`, naming ``--duration`` as given if given, else the
+    scene's."""
+    if args.duration is not None:
+        check_takes_a_step(duration_ns, scene.step_ns, "--duration", given=args.duration.given)
+    else:
+        check_takes_a_step(duration_ns, scene.step_ns, f"{scene.source}: duration")
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -709,8 +721,9 @@ def sweep_command(args: argparse.Namespace) -> int:
     metrics = [parse_metric(text) for text in args.metric or []]
     if args.seed is not None and args.samples is None:
         raise SceneError("--seed needs --samples")
-    variants = make_variants(args.scene, settings, samples=args.samples,
-                             seed=args.seed or 0, duration_ns=args.duration)
+    given = None if args.duration is None else args.duration.given
+    variants = make_variants(args.scene, settings, samples=args.samples, seed=args.seed or 0,
+                             duration_ns=args.duration, duration_given=given)
     check_metrics(metrics, variants)
     bags = None
     if args.bags is not None:

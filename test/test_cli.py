@@ -135,7 +135,16 @@ def test_step_that_does_not_divide_the_publish_period_exits_2(capsys):
     (["replay", "sample", "in", "--check", "--duration", "0.0005"],
      "--duration 0.0005 s is shorter than one step (0.001 s)"),
     (["script", "sample", "-o", "in", "--duration", "0.0005"],
-     "--duration 0.0005 s is shorter than one step (0.001 s)")])
+     "--duration 0.0005 s is shorter than one step (0.001 s)"),
+    # Seconds that round to whole nanoseconds are quoted as given: 1e-10 read "0 s".
+    (["run", "--duration", "1e-10"], "--duration 1e-10 s is shorter than one step (0.001 s)"),
+    (["run", "--duration", "0.00000000149"], "--duration 0.00000000149 s is shorter than"),
+    (["sweep", "sample", "--set", "bodies.left.mass=1,2", "--duration", "1e-10", "-o", "t.csv"],
+     "sample.yaml (variant 0): --duration 1e-10 s is shorter than one step (0.001 s)"),
+    (["replay", "sample", "in", "--check", "--duration", "1e-10"],
+     "--duration 1e-10 s is shorter than one step (0.001 s)"),
+    (["script", "sample", "-o", "in", "--duration", "1e-10"],
+     "--duration 1e-10 s is shorter than one step (0.001 s)")])
 def test_a_duration_shorter_than_one_step_is_refused(tmp_path, capsys, monkeypatch, argv,
                                                       fragment):
     """The clock takes the whole steps that fit in a duration (1.5 steps take one): a

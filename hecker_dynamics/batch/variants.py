@@ -6,7 +6,7 @@ VALUES is one of
 
 - a list ``a,b,c`` of YAML scalars (numbers, ``true``/``false``, names);
 - ``start:stop:count``, ``count`` evenly spaced numbers from ``start`` to ``stop``, both
-  included (numpy's ``linspace``);
+  included (numpy's ``linspace``; a count of 1 only with ``start`` equal to ``stop``);
 - ``start:stop``, the interval itself: only with ``--samples``, which draws uniformly in it.
 
 Without ``--samples`` the variants are the grid of every combination, the last ``--set``
@@ -127,6 +127,10 @@ def parse_setting(text: str) -> Setting:
             if isinstance(count, bool) or not isinstance(count, int) or count < 1:
                 raise SceneError(f"--set {text}: the count '{parts[2]}' is not a positive "
                                  "whole number")
+            if count == 1 and start != stop:
+                # linspace gives start alone: the stop, said to be included, would be lost.
+                raise SceneError(f"--set {text}: one value cannot include both ends; give "
+                                 f"a count of 2 or more, or start equal to stop")
             if count > MAX_VARIANTS:
                 raise SceneError(f"--set {text}: the count {count} is over the "
                                  f"{MAX_VARIANTS} variants a sweep may have")
@@ -205,8 +209,10 @@ def _set(params: dict[str, Any], setting: Setting, value: Value, source: str) ->
 
 
 def make_variants(scene: str, settings: Sequence[Setting], *, samples: Optional[int] = None,
-                  seed: int = 0, duration_ns: Optional[int] = None) -> list[Variant]:
-    """Load ``scene``, build and check every variant's scene (raises :class:`SceneError`)."""
+                  seed: int = 0, duration_ns: Optional[int] = None,
+                  duration_given: Optional[str] = None) -> list[Variant]:
+    """Load ``scene``, build and check every variant's scene (raises :class:`SceneError`);
+    ``duration_given``: ``duration_ns`` as the command line wrote it, for messages."""
     source, nested = scene_parameters(scene)
     base = flatten(nested) if isinstance(nested, Mapping) else {}
     rows = grid(settings) if samples is None else sample(settings, samples, seed)
@@ -219,7 +225,7 @@ def make_variants(scene: str, settings: Sequence[Setting], *, samples: Optional[
             _set(params, setting, value, source)
         built = scene_from_parameters(params, f"{source} (variant {index})")
         check_takes_a_step(built.duration_ns, built.step_ns, f"{built.source}: " + (
-            "--duration" if duration_ns is not None else "duration"))
+            "--duration" if duration_ns is not None else "duration"), given=duration_given)
         variants.append(Variant(index, tuple((s.column, v) for s, v in zip(settings, row)),
                                 built, params))
     return variants

@@ -15,7 +15,7 @@ from typing import Any, Union
 
 import numpy as np
 
-from .parameters import REQUIRED, ParameterReader
+from .parameters import MAX_SECONDS, REQUIRED, ParameterReader
 
 __all__ = ["DiffDriveSpec", "WrenchDriveSpec", "DriveSpec", "DRIVE_TYPES", "read_drive"]
 
@@ -83,13 +83,15 @@ DriveSpec = Union[DiffDriveSpec, WrenchDriveSpec]
 
 
 def _script(reader: ParameterReader, width: int) -> list[tuple[float, ...]]:
-    """The drive's scripted commands, ``width`` numbers each, times at least 0 and in order."""
+    """The drive's scripted commands, ``width`` numbers each, times at least 0 and in order,
+    and at most a scene's longest time (their nanoseconds stay within an int64)."""
     flat = reader.numbers("script", [], multiple_of=width)
     script = [tuple(flat[i:i + width]) for i in range(0, len(flat), width)]
     times = [entry[0] for entry in script]
-    if any(t < 0 for t in times) or times != sorted(times):
+    if any(not 0 <= t <= MAX_SECONDS for t in times) or times != sorted(times):
         reader.fail("script", f"times (every {('', '', '', 'third', 'fourth')[width]} number "
-                              "from the first) must be at least 0 and in order")
+                              f"from the first) must be from 0 to {MAX_SECONDS:g} s and in "
+                              "order")
     return script
 
 

@@ -49,6 +49,7 @@ from .joints import (
 from .maps import MapSpec, read_map
 from .names import NODE_NAME
 from .parameters import (
+    MAX_SECONDS,
     NAME_MAX,
     NAME_PATTERN,
     NAME_RULE,
@@ -377,11 +378,6 @@ def scene_from_parameters(params: Mapping[str, Any], source: str) -> Scene:
 
 
 # ----------------------------------------------------------------------------- reading
-
-#: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
-#: within an int64 and a ROS stamp.
-MAX_SECONDS = 1e9
-
 
 def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
                    positive: bool = False) -> int:
@@ -783,12 +779,15 @@ def with_map(scene: Scene, file: str, source: str = "--map") -> Scene:
     return replace(scene, map=_read_map(reader.child("map"), {b.name: b for b in scene.bodies}))
 
 
-def check_takes_a_step(duration_ns: int, step_ns: int, what: str) -> None:
-    """Refuse a run or session (``what`` names its duration) shorter than one step: the
-    fixed-step clock takes the whole steps that fit (1.5 steps take one), so it would take
-    none and report its start as its end."""
+def check_takes_a_step(duration_ns: int, step_ns: int, what: str,
+                       given: Optional[str] = None) -> None:
+    """Refuse a run or session (``what`` names its duration, quoted as ``given`` if the
+    seconds were written) shorter than one step: the fixed-step clock takes the whole
+    steps that fit (1.5 steps take one), so it would take none and report its start as its
+    end."""
     if duration_ns < step_ns:
-        raise SceneError(f"{what} {seconds_text(duration_ns)} s is shorter than one step "
+        seconds = seconds_text(duration_ns) if given is None else given
+        raise SceneError(f"{what} {seconds} s is shorter than one step "
                          f"({seconds_text(step_ns)} s): no step would be taken")
 
 

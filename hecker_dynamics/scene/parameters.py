@@ -15,7 +15,7 @@ from collections.abc import Iterator, Mapping
 from typing import Any, NoReturn
 
 __all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "number_text", "seconds_text",
-           "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED"]
+           "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED", "MAX_SECONDS"]
 
 #: A name's longest: two of them make a topic (``/<body>/<sensor>/scan``) that stays within
 #: ROS 2's 247 characters (RMW_TOPIC_MAX_NAME_LENGTH) with room for a namespace.
@@ -53,6 +53,11 @@ def seconds_text(ns: int) -> str:
     exact quotient, so a step of 4166667 ns reads 0.004166667 (``ns * 1e-9`` rounds twice:
     0.004166667000000001)."""
     return number_text(ns / 1e9)
+
+
+#: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
+#: within an int64 and a ROS stamp.
+MAX_SECONDS = 1e9
 
 
 class SceneError(ValueError):

@@ -77,7 +77,8 @@ def render_command(args: argparse.Namespace) -> int:
         ((timeline.end_ns - start) if timeline is not None else scene.duration_ns)
     if timeline is not None:
         _check_in_session(timeline, start, duration)
-    render.check_span(output, size, start, duration, fps)  # before the run: fail fast
+    given = None if args.duration is None else args.duration.given
+    render.check_span(output, size, start, duration, fps, given)  # before the run: fail fast
     if timeline is None:
         render.check_run(scene, start + duration)
         timeline = run_timeline(scene, start + duration)
@@ -122,7 +123,8 @@ def plot_command(args: argparse.Namespace) -> int:
 
 def add_viz_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser],
                      seconds: Callable[[str], int]) -> None:
-    """Register ``render`` and ``plot``; ``seconds`` reads a time option into ns."""
+    """Register ``render`` and ``plot``; ``seconds`` reads a time option into ns (an int
+    whose ``given`` is the text read, for messages)."""
     render_parser = commands.add_parser(
         "render", help="draw a run of a scene or a bag's poses to GIF, MP4, PNG or SVG",
         description="Draw the bodies (filled, with their CM and a mark along their x axis), "

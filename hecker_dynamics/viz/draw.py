@@ -119,11 +119,14 @@ def parse_size(text: str) -> tuple[int, int]:
 
 def parse_trail(scene: Scene, text: str) -> Trail:
     """``BODY`` (its CM) or ``BODY/POINT`` (a named point of the body)."""
-    name, _, point = text.partition("/")
+    name, slash, point = text.partition("/")
     names = [body.name for body in scene.bodies]
     if name not in names:
         raise VizError(f"--trail {text}: unknown body '{name}' (bodies: {', '.join(names)})")
     body = scene.bodies[names.index(name)]
+    if slash and not point:
+        raise VizError(f"--trail {text}: name a point of '{name}' after the '/', or give "
+                       f"'{name}' alone for its CM")
     if not point:
         return Trail(names.index(name), body.mass.center_of_mass, text)
     if point not in body.points:

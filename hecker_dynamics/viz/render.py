@@ -65,16 +65,19 @@ def check_output(path: Path) -> str:
     return kind
 
 
-def span_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:
+def span_times(start_ns: int, duration_ns: int, fps: float,
+               given: str | None = None) -> list[int]:
     """The frame instants of ``[start, start + duration)`` at ``fps``; raises
-    :class:`VizError` when there are none or more than :data:`MAX_FRAMES`."""
+    :class:`VizError` when there are none or more than :data:`MAX_FRAMES`, quoting the
+    duration as ``given`` on the command line if it was (1e-10 s is 0 ns)."""
     count = round(duration_ns * fps / NS_PER_S)
+    seconds = f"{duration_ns * 1e-9:g}" if given is None else given
     if count > MAX_FRAMES:
-        raise VizError(f"--duration {duration_ns * 1e-9:g} s at --fps {fps:g} is {count:.3g} "
+        raise VizError(f"--duration {seconds} s at --fps {fps:g} is {count:.3g} "
                        f"frames, over the {MAX_FRAMES} a picture may have")
     times = frame_times(start_ns, duration_ns, fps)
     if not times:
-        raise VizError(f"--duration {duration_ns * 1e-9:g} s at --fps {fps:g} gives no frame")
+        raise VizError(f"--duration {seconds} s at --fps {fps:g} gives no frame")
     return times
 
 
@@ -197,10 +200,10 @@ def _write_mp4(path: Path, pixels: Iterator[np.ndarray], fps: float,
 
 
 def check_span(output: Path, size: tuple[int, int], start_ns: int, duration_ns: int,
-               fps: float) -> list[int]:
+               fps: float, given: str | None = None) -> list[int]:
     """:func:`span_times`, an animation's pixels, and for a GIF its rate and the memory its
     frames take."""
-    times = span_times(start_ns, duration_ns, fps)
+    times = span_times(start_ns, duration_ns, fps, given)
     animation = FORMATS.get(output.suffix.lower()) == "animation"
     if animation and len(times) * size[0] * size[1] > MAX_PIXELS:
         raise VizError(f"-o {output}: {len(times)} frames of {size[0]}x{size[1]} are over "

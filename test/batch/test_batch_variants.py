@@ -52,6 +52,8 @@ def test_sampling_is_the_seeded_generator():
     ("bodies.left.mass=1:x:3", "is not a number"),
     ("bodies.left.mass=1:2:0", "not a positive whole number"),
     ("bodies.left.mass=1:2:3:4", "start:stop:count or start:stop"),
+    # linspace's one value is the start: the stop, "both included", was silently dropped.
+    ("bodies.left.mass=1:2:1", "one value cannot include both ends; give a count of 2"),
     ("bodies.left.mass=nan", "not a finite number"),
     # A whole array, cut at its commas into "[1" and "2]": YAML's parser error was a
     # traceback.
@@ -62,6 +64,10 @@ def test_sampling_is_the_seeded_generator():
 def test_malformed_settings_are_refused(text, problem):
     with pytest.raises(SceneError, match=problem):
         parse_setting(text)
+
+
+def test_a_range_of_one_value_is_its_start_equal_to_its_stop():
+    assert parse_setting("bodies.left.mass=1.5:1.5:1").values == (1.5,)
 
 
 @pytest.mark.parametrize("setting, problem", [

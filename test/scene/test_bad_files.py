@@ -279,3 +279,18 @@ def test_a_wrench_topic_that_is_another_topic_of_the_node_is_refused(tmp_path, c
         assert main(argv) == 2
         assert capsys.readouterr().err == f"hecker-dynamics: error: {expected}\n"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("drive, width", [
+    ("type: diff_drive\n        separation: 0.5", 3),
+    ("type: omni\n        wheels: [0.0, 0.5, 0.0, 0.5, 0.0, 1.5708, -0.5, 0.0, -1.5708]", 4)])
+@pytest.mark.parametrize("time", ["1.0e+300", "2.0e+9"])
+def test_a_drive_script_time_past_a_scene_s_longest_is_refused(tmp_path, capsys, drive,
+                                                                 width, time):
+    """A drive's scripted command at 1e300 s overflowed its nanoseconds (a traceback), and
+    one at 2e9 s took a stamp past an int64's; a scene's times end at 1e9 s."""
+    command = ", ".join([time] + ["0.0"] * (width - 1))
+    path = _write(tmp_path, _scene_text(extra=(
+        f"    drives:\n      d:\n        {drive}\n        body: b\n        max_force: 1.0\n"
+        f"        linear_kp: 1.0\n        angular_kp: 1.0\n        script: [{command}]\n")))
+    _refused_in_one_line(path, capsys, "parameter 'drives.d.script'", "from 0 to 1e+09 s")

@@ -126,6 +126,9 @@ def test_bad_options_end_in_one_line_errors(tmp_path, capsys, replayed):
         capsys, ["render", "ship", "-o", out, "--trail", "hull"])
     assert "has no point 'nose'" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--trail", "ship/nose"])
+    # An empty point name drew the CM's trail as if none were given.
+    assert "name a point of 'ship' after the '/'" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--trail", "ship/"])
     assert "zero size" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--view", "0,0,0,1"])
     assert "zero size" in _one_line_error(
@@ -138,6 +141,9 @@ def test_bad_options_end_in_one_line_errors(tmp_path, capsys, replayed):
     assert "--size" in _one_line_error(capsys, ["render", "ship", "-o", out, "--size", "big"])
     assert "gives no frame" in _one_line_error(
         capsys, ["render", "ship", "-o", out, "--duration", "0.01", "--fps", "10"])
+    # Quoted as given, not as the whole nanoseconds it rounds to ("--duration 0 s").
+    assert "--duration 1e-10 s at --fps 20 gives no frame" in _one_line_error(
+        capsys, ["render", "ship", "-o", out, "--duration", "1e-10"])
     # A bag with inputs but no poses (what 'script' writes), and no bag at all.
     assert main(["script", "ship", "-o", str(tmp_path / "inputs"), "--duration", "1"]) == 0
     capsys.readouterr()
