@@ -18,6 +18,7 @@ from hecker_dynamics.bags.compare import compare_bags
 from hecker_dynamics.bags.io import POSE_STAMPED, TWIST, BagError, BagWriter, read_bag
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros import fields
+from hecker_dynamics.scene.load import load_scene
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"
 SEC = 1_000_000_000
@@ -148,7 +149,7 @@ def test_a_topic_that_is_no_output_is_refused_before_the_replay(tmp_path, capsys
     code, out, err = _cli(capsys, "replay", "sample", recording, "--check", "--topic", topic)
     assert (code, out) == (2, "")
     assert err == (f"hecker-dynamics: error: --topic {topic}: not an output the node "
-                   f"publishes for {GOLDEN.parent.parent / 'config' / 'sample.yaml'} (its "
+                   f"publishes for {load_scene('sample').source} (its "
                    "outputs: /left/pose, /left/twist, /right/pose, /right/twist)\n")
     code, out, err = _cli(capsys, "regress", recording, "--topic", topic)
     assert code == 2 and "not an output the node publishes" in out + err
