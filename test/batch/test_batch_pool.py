@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from hecker_dynamics.batch.engines import ProcessPool
+from hecker_dynamics.dynamics import kernel
 
 
 def test_the_pool_does_not_fork_a_threaded_process():
@@ -178,8 +179,12 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
                      str(tmp_path / "rows.csv")]
     else:
         recorded = tmp_path / "recorded"
+        # The session must outlast the wait into its replay (the start and 2 s): 30 s of the
+        # chain in the kernel; 3 s without it, whose Python steps take about as long (30 s
+        # there made the recording alone take four minutes).
+        seconds = "30" if kernel.enabled() else "3"
         subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain",
-                        "--set", "bodies.link00.mass=1", "--duration", "30", "--workers",
+                        "--set", "bodies.link00.mass=1", "--duration", seconds, "--workers",
                         "1", "--bags", str(recorded), "-o", str(tmp_path / "recorded.csv")],
                        check=True, capture_output=True)
         arguments = ["regress", str(recorded), "--workers", "1"]
