@@ -10,6 +10,8 @@ import sys
 
 import pytest
 
+from hecker_dynamics.dynamics import kernel
+
 fcntl = pytest.importorskip("fcntl", reason="no pseudo-terminals on this platform")
 termios = pytest.importorskip("termios", reason="no pseudo-terminals on this platform")
 # The command line these start imports rosbags as it starts.
@@ -60,6 +62,8 @@ def test_run_writes_nothing_to_stderr_when_it_is_not_a_terminal():
     assert out.startswith("scene ") and err == ""
 
 
+@pytest.mark.skipif(not kernel.enabled(), reason="the bar is the same either way, and the "
+                    "bench's parts take 30 s on the Python path against 3 s in the kernel")
 def test_bench_bar_counts_its_parts_on_a_terminal(tmp_path):
     """The contact section in three parts: one pyramid, one scene, the node's cost. (Off a
     terminal it draws nothing, as ``run`` above: both ask ``cli._want_progress``.)"""

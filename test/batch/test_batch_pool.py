@@ -179,10 +179,10 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
                      str(tmp_path / "rows.csv")]
     else:
         recorded = tmp_path / "recorded"
-        # The session must outlast the wait into its replay (the start and 2 s): 30 s of the
-        # chain in the kernel; 3 s without it, whose Python steps take about as long (30 s
-        # there made the recording alone take four minutes).
-        seconds = "30" if kernel.enabled() else "3"
+        # The session must outlast the wait into its replay (the start and 2 s), which the
+        # check before the kill makes sure of: 10 s of the chain in the kernel (its replay
+        # takes about 7 s); 1 s without it, whose Python steps take about as long.
+        seconds = "10" if kernel.enabled() else "1"
         subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain",
                         "--set", "bodies.link00.mass=1", "--duration", seconds, "--workers",
                         "1", "--bags", str(recorded), "-o", str(tmp_path / "recorded.csv")],
@@ -193,6 +193,7 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
                                start_new_session=True)
     try:
         _into_a_variant(process)
+        assert process.poll() is None, "the command ended before the kill"
         process.kill()
         process.wait()
         ended = threading.Event()
