@@ -12,7 +12,9 @@ one of the two has.
 The ratios (:func:`quick_ratios`), each our cost over another engine's:
 
 - ``ring N=<n> / <engine>``: the ring's semi-implicit Euler per body-step against the C
-  loop, pymunk (``DampedSpring``) and MuJoCo (``euler``);
+  loop, pymunk (``DampedSpring``) and MuJoCo (``euler``); against the C loop from the
+  back-to-back pairs of whole runs (``Results.ring_pairs``) where the run made them, as the
+  ring's target reads it (their median, their spread as the noise);
 - ``sample / <engine> (<configuration>)``: the default scene's step against each peer;
 - ``<scene> rk4 h=<h> / mujoco rk4``: RK4 against MuJoCo's RK4 at equal steps;
 - ``<scene> error <= <e> / <peer>``: the cheapest configuration reaching a final position
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import statistics
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,6 +77,12 @@ def _ratio(ours: Optional[Row], theirs: Optional[Row]) -> Optional[Ratio]:
     return Ratio(ours.cost / theirs.cost, 0.0 if math.isnan(noise) else noise)
 
 
+def _paired(ratios: list[float]) -> Ratio:
+    """The median of ratios of runs made back to back, and their spread over it."""
+    median = statistics.median(ratios)
+    return Ratio(median, (max(ratios) - min(ratios)) / median)
+
+
 def _find(rows: Iterable[Row], scene: str, engine: str, method: str,
           step: Optional[float] = None) -> Optional[Row]:
     return next((r for r in rows if r.scene == scene and r.engine == engine and
@@ -89,6 +98,9 @@ def quick_ratios(results: Any) -> dict[str, Ratio]:
                                    ("mujoco", "euler")):
                 ratios[f"ring N={int(row.omega_dt)} / {engine}"] = _ratio(
                     row, _find(results.ring, row.scene, engine, method))
+    for n, pairs in results.ring_pairs.items():
+        if pairs:
+            ratios[f"ring N={n} / c"] = _paired(pairs)
     ours = _find(results.sample_rows, "sample", "hecker_dynamics", "semi_implicit_euler")
     for row in results.sample_rows:
         if not row.engine.startswith("hecker_dynamics"):

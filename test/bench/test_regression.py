@@ -77,6 +77,9 @@ def test_the_ratios_come_from_rounds_side_by_side(tmp_path):
     assert ratios["harmonic error <= 0.001 / mujoco"] == \
         ratios["harmonic rk4 h=0.01 / mujoco rk4"]
     assert "harmonic error <= 1e-06 / mujoco" not in ratios  # neither reaches it
+    results.ring_pairs = {10: [1.3, 1.1, 1.2, 1.6]}  # the target's figure, where made
+    paired = quick_ratios(results)["ring N=10 / c"]
+    assert (paired.value, paired.noise) == (pytest.approx(1.25), pytest.approx(0.5 / 1.25))
     path = tmp_path / "reference.json"
     write_reference(path, ratios, {"command": "test"})
     assert read_reference(path) == ratios
