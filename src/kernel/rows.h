@@ -104,25 +104,24 @@ static HD_HOT double hd_solve_unit(const hd_unit *u, hd_row *rows, double *veloc
     return hd_max(change, hd_solve_friction(r, va, vb));
 }
 
-/* The depths of the rows of the units `members` (size of them) after the velocity
- * change beyond the row's slop, depth - h (v_n' - v_n) - slop, into base[row] (x - slop
- * <= 0 exactly when x <= slop); whether the deepest is beyond its slop,
- * the deepest found as Python's max() finds it in the order swept, whose first row is
- * `first` (contact/solve.py: correct_positions). That max keeps its first value if it is
- * NaN and else is the largest of the values that are not NaN (or one of two zeros, alike
- * against HD_SLOP) in any order, so the members are taken in their order in memory. */
-static inline int hd_depths_after(const hd_contact_model *m, const long *members, long size,
-                                  long first, double h, double *base)
+/* Row r's depth after the velocity change beyond its slop, depth - h (v_n' - v_n) - slop
+ * (x - slop <= 0 exactly when x <= slop; contact/solve.py: correct_positions). */
+static HD_HOT double hd_depth_after(const hd_contact_model *m, const hd_row *r, double h)
 {
-    for (long k = 0; k < size; ++k) {
-        const hd_unit *u = m->units + members[k];
-        for (long i = u->first; i <= u->first + u->pair; ++i) {
-            const hd_row *r = m->rows + i;
-            base[i] = r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a,
-                                                         m->velocity + 3 * r->b, r) - r->approach)
-                      - r->slop;
-        }
-    }
+    return r->depth - h * (hd_normal_velocity(m->velocity + 3 * r->a, m->velocity + 3 * r->b, r)
+                           - r->approach)
+           - r->slop;
+}
+
+/* Whether the deepest of the rows of the units `members` (size of them), their
+ * hd_depth_after in base[row], is beyond its slop, the deepest found as Python's max()
+ * finds it in the order swept, whose first row is `first` (contact/solve.py:
+ * correct_positions). That max keeps its first value if it is NaN and else is the largest
+ * of the values that are not NaN (or one of two zeros, alike against HD_SLOP) in any
+ * order, so the members are taken in their order in memory. */
+static inline int hd_deepest_beyond(const hd_contact_model *m, const long *members, long size,
+                                    long first, const double *base)
+{
     double deepest = base[first];
     for (long k = 0; k < size; ++k) {
         const hd_unit *u = m->units + members[k];
@@ -130,6 +129,19 @@ static inline int hd_depths_after(const hd_contact_model *m, const long *members
             deepest = hd_max(deepest, base[i]);
     }
     return !(deepest <= 0.0);
+}
+
+/* The rows of the units `members` (size of them): hd_depth_after into base[row], then
+ * hd_deepest_beyond. */
+static inline int hd_depths_after(const hd_contact_model *m, const long *members, long size,
+                                  long first, double h, double *base)
+{
+    for (long k = 0; k < size; ++k) {
+        const hd_unit *u = m->units + members[k];
+        for (long i = u->first; i <= u->first + u->pair; ++i)
+            base[i] = hd_depth_after(m, m->rows + i, h);
+    }
+    return hd_deepest_beyond(m, members, size, first, base);
 }
 
 /* One pass of the position correction over a unit's rows: each moves its bodies' shifts

@@ -213,7 +213,10 @@ static double *hd_lane(hd_v4 *v, int l) { return (double *)v + l; }
  * only, which keep it +0, and change nothing (unit effective masses, no friction). */
 static void hd_load_lanes(const hd_contact_model *m, const long *pair, int filled, hd_lanes *x)
 {
-    memset(x, 0, sizeof *x);
+    /* A full set's lanes get every field below but their depths, which hd_store_lanes sets
+     * before the position correction reads them: only a padded set needs zeros first. */
+    if (filled < HD_LANES)
+        memset(x, 0, sizeof *x);
     for (int l = filled; l < HD_LANES; ++l) {
         x->a[l] = x->b[l] = m->bodies;
         x->first[l] = -1;
@@ -260,9 +263,9 @@ static void hd_load_lanes(const hd_contact_model *m, const long *pair, int fille
     }
 }
 
-/* The lanes' impulses back into their rows, and the rows' depths beyond their slops `base`
- * into the lanes. */
-static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
+/* The lanes' impulses back into their rows, and the rows' hd_depth_after after a step of
+ * h into base[row] and into the lanes: one visit of each row after the passes. */
+static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, double h, double *base)
 {
     for (int l = 0; l < HD_LANES && x->first[l] >= 0; ++l) {
         hd_row *one = m->rows + x->first[l], *two = one + 1;
@@ -270,8 +273,8 @@ static void hd_store_lanes(hd_contact_model *m, hd_lanes *x, const double *base)
         two->jn = *hd_lane(&x->jn2, l);
         one->jt = *hd_lane(&x->jt1, l);
         two->jt = *hd_lane(&x->jt2, l);
-        *hd_lane(&x->base1, l) = base[x->first[l]];
-        *hd_lane(&x->base2, l) = base[x->first[l] + 1];
+        *hd_lane(&x->base1, l) = base[x->first[l]] = hd_depth_after(m, one, h);
+        *hd_lane(&x->base2, l) = base[x->first[l] + 1] = hd_depth_after(m, two, h);
     }
 }
 
@@ -738,12 +741,17 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const l
         converged = largest <= m->converged * scale;
         *ran += 1;
     }
-    const int deep = hd_depths_after(m, members, size, m->units[sorted[0]].first, h, base);
     for (long k = 0; k < lanes; ++k) {
         for (int l = 0; k + 1 < lanes && l < HD_LANES && w->lanes[k + 1].first[l] >= 0; ++l)
             hd_prefetch_rows(m, w->lanes[k + 1].first[l], 1);
-        hd_store_lanes(m, w->lanes + k, base);
+        hd_store_lanes(m, w->lanes + k, h, base);
     }
+    for (long s = 0; s < singles; ++s) {
+        const hd_unit *u = m->units + w->single[s];
+        for (long i = u->first; i <= u->first + u->pair; ++i)
+            base[i] = hd_depth_after(m, m->rows + i, h);
+    }
+    const int deep = hd_deepest_beyond(m, members, size, m->units[sorted[0]].first, base);
     crew = deep ? hd_crew_for(m, size) : NULL;
     for (int iteration = 0; deep && iteration < HD_POSITION_ITERATIONS; ++iteration)
         hd_sweep(&job, colours, used, crew, hd_correct_chunk, hd_correct_singles);
