@@ -242,6 +242,13 @@ static void hd_turn_all(const hd_joint_model *m, const double *q)
     }
 }
 
+/* A revolute joint with no limit, motor or spring: its two point rows alone (hd_pin_rows). */
+static int hd_plain_pin(const hd_joint *jt)
+{
+    return jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
+                                        jt->has_spring);
+}
+
 /* contact/joints.py: JointPass.rows (joint.h). */
 long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_row *rows,
                    int values_only)
@@ -249,6 +256,11 @@ long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_
     long n = 0;
     const double *trig = m->trig;
     hd_turn_all(m, q);
+    if (m->plain_pins) {  /* a chain's or a tree's: the loop below, its pins' branch alone */
+        for (long i = 0; i < m->joint_count; ++i)
+            hd_pin_rows(rows + 2 * i, m->joints + i, q, trig, values_only);
+        return 2 * m->joint_count;
+    }
     for (long i = 0; i < m->joint_count; ++i) {
         const hd_joint *jt = m->joints + i;
         if (jt->kind == HD_GEAR) {
@@ -266,8 +278,7 @@ long hd_joint_rows(const hd_joint_model *m, const double *q, double h, hd_joint_
             r->c = value;
             continue;
         }
-        if (jt->kind == HD_REVOLUTE && !(jt->has_lower || jt->has_upper || jt->has_motor ||
-                                         jt->has_spring)) {
+        if (hd_plain_pin(jt)) {
             hd_pin_rows(rows + n, jt, q, trig, values_only);  /* its angle is not wanted */
             n += 2;
             continue;
@@ -346,7 +357,19 @@ void hd_joint_directions(const hd_joint_model *m, const hd_joint_row *rows, cons
     }
 }
 
-/* contact/joint_solve.py: apply: x += M^-1 J^T impulse, row by row, skipping zero impulses. */
+/* Entry e of the direction d times `amount`, added to its body's three coordinates in x. */
+static HD_HOT void hd_add_along(double *x, const hd_joint_row *d, int e, double amount)
+{
+    double *target = x + 3 * d->body[e];
+    const double *j = d->j[e];
+    target[0] += j[0] * amount;
+    target[1] += j[1] * amount;
+    target[2] += j[2] * amount;
+}
+
+/* contact/joint_solve.py: apply: x += M^-1 J^T impulse, row by row, skipping zero impulses;
+ * each row's entries in their order, a pin's two written out (the loop over them cost a
+ * third of the adds' instructions). */
 static void hd_apply(double *x, const hd_joint_row *direction, long n, const double *impulse)
 {
     for (long i = 0; i < n; ++i) {
@@ -355,13 +378,13 @@ static void hd_apply(double *x, const hd_joint_row *direction, long n, const dou
             continue;
         const hd_joint_row *d = direction + i;
         const int count = d->count;
-        for (int e = 0; e < count; ++e) {
-            double *target = x + 3 * d->body[e];
-            const double *j = d->j[e];
-            target[0] += j[0] * amount;
-            target[1] += j[1] * amount;
-            target[2] += j[2] * amount;
+        if (count == 2) {
+            hd_add_along(x, d, 0, amount);
+            hd_add_along(x, d, 1, amount);
+            continue;
         }
+        for (int e = 0; e < count; ++e)
+            hd_add_along(x, d, e, amount);
     }
 }
 
@@ -1006,6 +1029,9 @@ int hd_joints_prepare(hd_joint_model *m)
     m->remembered = m->needed = 1, m->settled_steps = 0;
     for (long b = 0; b < nb; ++b)
         m->angles[b] = NAN;  /* no angle's cos and sin computed yet */
+    m->plain_pins = 1;
+    for (long i = 0; i < m->joint_count; ++i)
+        m->plain_pins = m->plain_pins && hd_plain_pin(m->joints + i);
     const long n = hd_joint_rows(m, zero, 1.0, probe, 0);
     m->row_count = n;
     m->rigid = malloc((size_t)(n + 1) * sizeof(long));

@@ -90,6 +90,7 @@ typedef struct hd_joint_model {
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
     double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
+    int plain_pins;  /* every joint a revolute one with no limit, motor or spring (a chain) */
     /* Soft joints (soft_joint.c): the sub-steps of a step (0: this exact pass), and the
      * rows' softness (SoftJoints.hertz, damping_ratio). */
     long substeps;

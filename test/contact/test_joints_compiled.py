@@ -26,6 +26,7 @@ pytestmark = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kerne
 SCENES = {
     "pendulum": lambda method: pendulum_scene(1.0, method=method),
     "chain": lambda method: _method(chain_scene(20), method),
+    "limited_chain": lambda method: _limited_chain(method),
     "gears": lambda method: _method(gear_scene(2.0, {"speed": 5.0, "max_torque": 0.3},
                                                {"lower": -1.0, "upper": 1.0}), method),
     "slider": lambda method: _method(slider_scene(lower=-0.1, upper=0.05, motor={
@@ -53,6 +54,23 @@ SCENES = {
 def _method(scene, method):
     """``scene`` with another integrator."""
     return replace(scene, integrator=method)
+
+
+def _limited_chain(method: str):
+    """A chain of 8 plain pins ending in a pin with a limit and a motor: the kernel builds
+    the plain pins' rows apart only where every joint is one (a chain of plain pins alone),
+    so this one takes the general rows, its plain pins among them."""
+    bodies, pins = {}, {}
+    for i in range(9):
+        bodies[f"l{i}"] = {"shape": "box", "size": [0.1, 0.02], "mass": 0.1,
+                           "position": [0.05 + 0.1 * i, 0.0]}
+        pins[f"j{i}"] = {"type": "revolute", "body_b": f"l{i}", "point_b": [-0.05, 0.0]}
+        if i:
+            pins[f"j{i}"].update(body_a=f"l{i - 1}", point_a=[0.05, 0.0])
+    pins["j8"].update(lower=-0.3, upper=0.3, motor={"speed": 2.0, "max_torque": 0.05})
+    return make_scene({"step": 0.001, "integrator": method, "publish_rate": 10.0,
+                       "bodies": bodies, "forces": {"gravity": {"type": "gravity"}},
+                       "joints": pins})
 
 
 def _compare(fast: Simulation, slow: Simulation) -> None:
