@@ -294,3 +294,27 @@ def test_a_drive_script_time_past_a_scene_s_longest_is_refused(tmp_path, capsys,
         f"    drives:\n      d:\n        {drive}\n        body: b\n        max_force: 1.0\n"
         f"        linear_kp: 1.0\n        angular_kp: 1.0\n        script: [{command}]\n")))
     _refused_in_one_line(path, capsys, "parameter 'drives.d.script'", "from 0 to 1e+09 s")
+
+
+@pytest.mark.parametrize("groups, pair, first", [
+    ([["a", "b", "c"], ["d", "c", "a"]], ("c", "a"), "g0"),
+    ([["a", "b"], ["b", "c"], ["c", "a", "b"]], ("c", "b"), "g1"),
+    ([["a", "b", "c"], ["a", "b", "d"], ["d", "b", "a"]], ("a", "b"), "g0"),
+])
+def test_a_pair_in_two_collision_groups_is_named_with_its_first_group(tmp_path, capsys,
+                                                                       groups, pair, first):
+    """The first pair of the later group's list that an earlier group holds, and the first
+    group holding it; groups that share one body only are fine."""
+    bodies = "".join(f"      {n}:\n        shape: box\n        size: [1.0, 0.5]\n"
+                     f"        mass: 1.0\n        position: [{3.0 * k}, 0.0]\n"
+                     for k, n in enumerate("abcd"))
+    listed = "".join(f"      g{k}:\n        bodies: [{', '.join(members)}]\n"
+                     for k, members in enumerate(groups))
+    text = HEAD + "    bodies:\n" + bodies + "    collisions:\n" + listed
+    _refused_in_one_line(_write(tmp_path, text), capsys, "collisions.g",
+                         f"bodies '{pair[0]}' and '{pair[1]}' are already in collision "
+                         f"group '{first}'")
+    fine = HEAD + "    bodies:\n" + bodies + "    collisions:\n" + \
+        "      g0:\n        bodies: [a, b, c]\n      g1:\n        bodies: [c, d]\n"
+    assert [g.bodies for g in load_scene(_write(tmp_path, fine, "fine.yaml")).collisions] == \
+        [("a", "b", "c"), ("c", "d")]
