@@ -43,11 +43,16 @@ import yaml
 
 from .parameters import SceneError
 
-__all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "OccupancyMap", "MapSpec",
-           "read_map", "occupancy", "cell_boxes"]
+__all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "MAX_CELLS", "OccupancyMap",
+           "MapSpec", "read_map", "occupancy", "cell_boxes"]
 
 MAP_MODES = ("trinary", "scale", "raw")
 OCCUPIED, FREE, UNKNOWN = 100, 0, -1
+#: The most cells a map image may hold (8192 x 8192, 410 m square at 5 cm a cell): reading
+#: one takes up to some 100 bytes a cell (an RGBA PNG's channels as doubles), 6.7 GB here.
+#: The header's size is checked before any pixel is read, so a small file claiming a huge
+#: image (a PNG's pixels compress a thousandfold) is refused without the memory.
+MAX_CELLS = 8192 * 8192
 
 
 @dataclass(frozen=True)
@@ -259,6 +264,7 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     width, height, maxval = numbers
     if not (width > 0 and height > 0 and 0 < maxval < 65536):
         raise ValueError(f"PGM size {width} x {height}, maxval {maxval}")
+    _check_size("PGM", width, height)
     count = width * height
     if raw[:2] == b"P5":
         dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
@@ -276,6 +282,12 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     if values.max() > maxval:  # a shade past white: no image of that maxval holds it
         raise ValueError(f"PGM pixel {values.max():g} is above its maxval {maxval}")
     return (values / maxval).reshape(height, width, 1)
+
+
+def _check_size(kind: str, width: int, height: int) -> None:
+    if width * height > MAX_CELLS:
+        raise ValueError(f"{kind} of {width} x {height} pixels, more than the "
+                         f"{MAX_CELLS:,} cells a map may hold")
 
 
 def _pgm_number(token: bytes, what: str) -> int:
@@ -309,10 +321,16 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
     if depth != 8 or colour not in _PNG_CHANNELS or interlace:
         raise ValueError(f"PNG of bit depth {depth}, colour type {colour}, interlace "
                          f"{interlace}; only 8-bit non-interlaced images are read")
+    if not (width > 0 and height > 0):
+        raise ValueError(f"PNG size {width} x {height}")
+    _check_size("PNG", width, height)
     k = _PNG_CHANNELS[colour]
     stride = width * k
-    packed = zlib.decompress(b"".join(data))
-    if len(packed) != height * (stride + 1):
+    size = height * (stride + 1)
+    # Never inflate past the size the header gives: a byte more tells too much data.
+    inflate = zlib.decompressobj()
+    packed = inflate.decompress(b"".join(data), size + 1)
+    if len(packed) != size or not inflate.eof:
         raise ValueError("PNG pixel data of the wrong size")
     pixels = np.zeros((height, stride), dtype=np.uint8)
     previous = np.zeros(stride, dtype=np.int64)

@@ -8,6 +8,7 @@ import dataclasses
 import math
 import os
 import struct
+import tracemalloc
 import zlib
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.fingerprint import scene_fingerprint
 from hecker_dynamics.scene.load import load_scene, scene_path, with_map
-from hecker_dynamics.scene.maps import OCCUPIED, UNKNOWN, cell_boxes, read_map
+from hecker_dynamics.scene.maps import MAX_CELLS, OCCUPIED, UNKNOWN, cell_boxes, read_map
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.scene.world import deleted, spawned
 from hecker_dynamics.sensors.laser import Laser
@@ -411,3 +412,61 @@ def test_a_pgm_pixel_outside_its_maxval_is_refused(tmp_path, header, pixels, pro
     with pytest.raises(SceneError) as error:
         read_map(write_map(tmp_path, "m.pgm"))
     assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+def png_bytes(columns: int, rows: int, colour: int, idat: bytes) -> bytes:
+    """A PNG of the header's size and the compressed pixel data given, whatever they hold."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + \
+            struct.pack(">I", zlib.crc32(kind + data))
+    return (b"\x89PNG\r\n\x1a\n"
+            + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
+            + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+
+
+def _inflated_zeros(count: int) -> bytes:
+    """``count`` zero bytes compressed, made a megabyte at a time."""
+    deflate, block = zlib.compressobj(9), bytes(1 << 20)
+    parts = [deflate.compress(block) for _ in range(count >> 20)]
+    return b"".join(parts) + deflate.compress(bytes(count & ((1 << 20) - 1))) + \
+        deflate.flush()
+
+
+@pytest.mark.parametrize("image, raw", [
+    ("m.png", png_bytes(100_000, 100_000, 0, zlib.compress(bytes(1000)))),
+    ("m.png", png_bytes(8193, 8192, 6, zlib.compress(bytes(1000)))),
+    ("m.pgm", b"P5\n100000 100000\n255\n" + bytes(1000)),
+    ("m.pgm", b"P2\n8192 8193\n255\n0 0 0\n"),
+], ids=["png-1e10", "png-rgba-8193x8192", "pgm-1e10", "pgm-ascii-8192x8193"])
+def test_an_image_of_more_cells_than_a_map_may_hold_is_refused_by_its_header(tmp_path, image,
+                                                                             raw):
+    """A small file whose header claims a huge image (a PNG's zeros compress a
+    thousandfold) is refused before any of its pixels is read."""
+    (tmp_path / image).write_bytes(raw)
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, image))
+    kind = image[-3:].upper()
+    assert f"{kind} of " in str(error.value) and "x" in str(error.value)
+    assert f"more than the {MAX_CELLS:,} cells a map may hold" in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_png_pixel_data_past_its_header_s_size_is_never_inflated(tmp_path):
+    """An IDAT of 64 MB of zeros under a 2 x 2 header is refused having inflated no more
+    than the header's 2 x 3 bytes and one: memory stays that of the file."""
+    (tmp_path / "m.png").write_bytes(png_bytes(2, 2, 0, _inflated_zeros(64 << 20)))
+    path = write_map(tmp_path, "m.png")
+    tracemalloc.start()
+    try:
+        with pytest.raises(SceneError, match="PNG pixel data of the wrong size"):
+            read_map(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20
+
+
+def test_a_png_of_no_pixels_is_refused(tmp_path):
+    (tmp_path / "m.png").write_bytes(png_bytes(0, 3, 0, zlib.compress(bytes(3))))
+    with pytest.raises(SceneError, match=r"bad map image \(PNG size 0 x 3\)"):
+        read_map(write_map(tmp_path, "m.png"))
