@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .parameters import SceneError
+from .parameters import SceneError, number_text
 
 __all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "MAX_CELLS", "OccupancyMap",
            "MapSpec", "read_map", "occupancy", "cell_boxes"]
@@ -168,8 +168,13 @@ def read_map(path: Path) -> OccupancyMap:
     mode = document.get("mode", "trinary")
     if mode not in MAP_MODES:
         raise _fail(source, f"'mode' must be one of {', '.join(MAP_MODES)}, not {mode!r}")
-    if mode == "scale" and not free < occupied:
-        raise _fail(source, "'free_thresh' must be below 'occupied_thresh' in scale mode")
+    # nav2's loader takes any thresholds without a word, but its map_saver refuses all but
+    # 0 <= free < occupied <= 1, and its loaders disagree outside them (jazzy's since 1.3.7
+    # lets free override occupied): 65 for 0.65 would make a map of no walls.
+    if mode != "raw" and not 0.0 <= free < occupied <= 1.0:
+        raise _fail(source, f"'free_thresh' {number_text(free)} and 'occupied_thresh' "
+                            f"{number_text(occupied)} must be fractions with 0 <= free_thresh "
+                            f"< occupied_thresh <= 1 in {mode} mode")
     negate = document.get("negate")
     if negate not in (0, 1) or isinstance(negate, float):
         raise _fail(source, f"'negate' must be 0, 1, true or false, not {negate!r}")

@@ -129,6 +129,14 @@ def test_raw_mode_keeps_values_up_to_100(tmp_path):
     assert cells.tolist() == [[0, 37, 100, UNKNOWN, UNKNOWN]]
 
 
+def test_raw_mode_reads_no_threshold_and_takes_any(tmp_path):
+    """Raw mode's cells are the pixels' values: thresholds nav2 requires but never reads
+    there are not refused."""
+    write_pgm(tmp_path / "m.pgm", [[0, 100]])
+    path = write_map(tmp_path, "m.pgm", mode="raw", occupied_thresh=65, free_thresh=80)
+    assert read_map(path).cells().tolist() == [[0, 100]]
+
+
 def test_the_image_s_top_row_is_the_map_s_top_and_the_origin_its_lower_left_corner(tmp_path):
     write_pgm(tmp_path / "m.pgm", [[0, 255, 255], [255, 255, 255]])  # black: top left
     grid = read_map(write_map(tmp_path, "m.pgm", origin=[1.0, -2.0, 0.0]))
@@ -191,6 +199,11 @@ def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
                                "a number with an exponent but no dot as text; write 1.0e-300"),
     ({"free_thresh": "0.25"}, "'free_thresh' is read as the string '0.25': a quoted number "
                               "is text in YAML; write it unquoted"),
+    ({"occupied_thresh": 65}, "'free_thresh' 0.25 and 'occupied_thresh' 65 must be fractions "
+                              "with 0 <= free_thresh < occupied_thresh <= 1 in trinary mode"),
+    ({"free_thresh": -0.1}, "'free_thresh' -0.1 and 'occupied_thresh' 0.75 must be"),
+    ({"free_thresh": 0.75}, "'free_thresh' 0.75 and 'occupied_thresh' 0.75 must be"),
+    ({"free_thresh": 0.8, "mode": "scale"}, "occupied_thresh <= 1 in scale mode"),
 ])
 def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
     write_pgm(tmp_path / "m.pgm", [[0]])
