@@ -268,6 +268,13 @@ ERRORS = [
      r"^frame: must be 'world' or 'body', not 'local'$"),
     (lambda w: w["box"].apply_force((1, 0), duration=0.0), ValueError,
      r"^duration: must be positive, not 0\.0$"),
+    # 4e-10 s rounded to 0 ns, which held the force until clear_forces(); 1e-5 s acted
+    # over a whole step of 3.9 ms, 390 times the impulse asked for.
+    (lambda w: w["box"].apply_force((1, 0), duration=4e-10), ValueError,
+     r"^duration: 4e-10 s is shorter than one step \(0\.00390625 s\), over which a force acts "
+     r"whole$"),
+    (lambda w: w["box"].apply_torque(1.0, duration=1e-5), ValueError,
+     r"^duration: 1e-05 s is shorter than one step \(0\.00390625 s\)"),
     (lambda w: w["box"].apply_force((1, 0), point="tip", frame="body"), ValueError,
      r"^point: body 'box' has no point 'tip' \(points: none\)$"),
     (lambda w: w["box"].apply_force((float("nan"), 0)), ValueError, r"^force: must be finite"),
