@@ -306,6 +306,7 @@ def _pgm_number(token: bytes, what: str) -> int:
 
 
 _PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}
+_PNG_CRITICAL = (b"IHDR", b"PLTE", b"IDAT", b"IEND")
 
 
 def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
@@ -313,7 +314,15 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
     while at < len(raw):
         length, kind = struct.unpack(">I4s", raw[at:at + 8])
         chunk = raw[at + 8:at + 8 + length]
+        crc = raw[at + 8 + length:at + 12 + length]
         at += 12 + length
+        name = kind.decode("ascii", errors="replace")
+        if len(crc) < 4:
+            raise ValueError(f"PNG cut short in its {name} chunk")
+        # A critical chunk whose CRC fails is a damaged file, which libpng (and so nav2's
+        # map_server) refuses: a changed palette byte would be a map of other cells.
+        if kind in _PNG_CRITICAL and struct.unpack(">I", crc)[0] != zlib.crc32(kind + chunk):
+            raise ValueError(f"PNG {name} chunk fails its CRC check (a damaged file)")
         if kind == b"IHDR":
             header = chunk
         elif kind == b"PLTE":

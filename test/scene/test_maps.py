@@ -483,3 +483,31 @@ def test_a_png_of_no_pixels_is_refused(tmp_path):
     (tmp_path / "m.png").write_bytes(png_bytes(0, 3, 0, zlib.compress(bytes(3))))
     with pytest.raises(SceneError, match=r"bad map image \(PNG size 0 x 3\)"):
         read_map(write_map(tmp_path, "m.png"))
+
+
+@pytest.mark.parametrize("at, problem", [
+    (44, "PNG PLTE chunk fails its CRC check (a damaged file)"),  # white turned black
+    (20, "PNG IHDR chunk fails its CRC check"),  # the height
+    (-1, "PNG IEND chunk fails its CRC check"),
+    (None, "PNG cut short in its IEND chunk"),
+])
+def test_a_damaged_png_is_refused_not_read_as_other_cells(tmp_path, at, problem):
+    """A byte changed in a palette gave a map of other cells without a word: the critical
+    chunks' CRCs are checked, as libpng checks them."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + \
+            struct.pack(">I", zlib.crc32(kind + data))
+    raw = bytearray(b"\x89PNG\r\n\x1a\n"
+                    + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 1, 8, 3, 0, 0, 0))
+                    + chunk(b"PLTE", bytes([0, 0, 0, 255, 255, 255]))
+                    + chunk(b"IDAT", zlib.compress(bytes([0, 0, 1]))) + chunk(b"IEND", b""))
+    (tmp_path / "m.png").write_bytes(bytes(raw))
+    assert read_map(write_map(tmp_path, "m.png")).cells().tolist() == [[OCCUPIED, 0]]
+    if at is None:
+        del raw[-2:]
+    else:
+        raw[at] ^= 0xFF
+    (tmp_path / "m.png").write_bytes(bytes(raw))
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, "m.png"))
+    assert problem in str(error.value) and "\n" not in str(error.value)
