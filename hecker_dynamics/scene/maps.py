@@ -122,11 +122,16 @@ _DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 
 def _as_number(text: str) -> str:
     """How to write ``text`` so that YAML 1.1 reads a number."""
-    mantissa, e, exponent = text.strip().replace("E", "e").partition("e")
-    if e and "." not in mantissa:
-        return (f"YAML 1.1 reads a number with an exponent but no dot as text; write "
-                f"{mantissa}.0e{exponent}")
-    return "a quoted number is text in YAML; write it unquoted"
+    if not isinstance(yaml.safe_load(text), str):  # a number written plain: it was quoted
+        return "a quoted number is text in YAML; write it unquoted"
+    # YAML 1.1 takes an exponent only after a dot and with its sign: 1e-3 and 1.0e3 are text.
+    mantissa, _, exponent = text.strip().replace("E", "e").partition("e")
+    if "." not in mantissa:
+        mantissa += ".0"
+    if exponent[:1] not in ("+", "-"):
+        exponent = "+" + exponent
+    return (f"YAML 1.1 reads an exponent as a number only after a dot and with its sign; "
+            f"write {mantissa}e{exponent}")
 
 
 def _check_regular(path: Path, what: str) -> None:

@@ -196,7 +196,8 @@ def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
     ({"image": "missing.pgm"}, "cannot read the map image"),
     ({"image": "map.yaml"}, "must be a PGM (P2, P5) or PNG file"),
     ({"resolution": "1e-300"}, "'resolution' is read as the string '1e-300': YAML 1.1 reads "
-                               "a number with an exponent but no dot as text; write 1.0e-300"),
+                               "an exponent as a number only after a dot and with its sign; "
+                               "write 1.0e-300"),
     ({"free_thresh": "0.25"}, "'free_thresh' is read as the string '0.25': a quoted number "
                               "is text in YAML; write it unquoted"),
     ({"occupied_thresh": 65}, "'free_thresh' 0.25 and 'occupied_thresh' 65 must be fractions "
@@ -511,3 +512,21 @@ def test_a_damaged_png_is_refused_not_read_as_other_cells(tmp_path, at, problem)
     with pytest.raises(SceneError) as error:
         read_map(write_map(tmp_path, "m.png"))
     assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("text, spelled", [("1e3", "1.0e+3"), ("1.0e3", "1.0e+3"),
+                                           ("5.E2", "5.e+2"), ("-2e-1", "-2.0e-1")])
+def test_a_map_number_yaml_1_1_reads_as_text_is_told_a_spelling_it_reads(tmp_path, text,
+                                                                         spelled):
+    """An exponent without its sign is text to YAML 1.1 too: '1.0e3' was called a quoted
+    number, and '1e3' told to be written '1.0e3', text again. The spelling given reads as
+    the number."""
+    write_pgm(tmp_path / "m.pgm", [[0]])
+    path = write_map(tmp_path, "m.pgm")
+    path.write_text(path.read_text().replace("resolution: 0.5", f"resolution: {text}"))
+    with pytest.raises(SceneError) as error:
+        read_map(path)
+    assert str(error.value).endswith(
+        f"'resolution' is read as the string '{text}': YAML 1.1 reads an exponent as a number "
+        f"only after a dot and with its sign; write {spelled}")
+    assert yaml.safe_load(spelled) == float(text)
