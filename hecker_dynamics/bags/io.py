@@ -18,6 +18,7 @@ import contextlib
 import os
 import shutil
 import sqlite3
+import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
@@ -746,7 +747,8 @@ def _storage_name(path: Path) -> str:
 # ----------------------------------------------------------------------------- writing
 
 class BagWriter:
-    """Writes a rosbag2 bag atomically: into a temporary directory renamed on success.
+    """Writes a rosbag2 bag atomically: into a temporary directory of its own (two writers
+    of one bag never share one) renamed on success.
 
     Topics are added on first use, in that order, with the QoS profile the node's publisher
     on the topic offers (:func:`~hecker_dynamics.ros.names.output_qos`); the bag
@@ -769,7 +771,7 @@ class BagWriter:
         self.overwrite = overwrite
         self.compress = compress
         self.custom_data = dict(custom_data or {})
-        self._tmp = self.path.with_name(f".{self.path.name}.partial")
+        self._tmp: Optional[Path] = None  # the temporary directory open() makes
         self._writer: Any = None
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
@@ -802,14 +804,12 @@ class BagWriter:
             raise BagError(f"{self.path.parent}: no such directory")
         plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
         try:
-            # A stale temporary directory (or file) of this writer's is a killed run's.
-            if self._tmp.is_dir() and not self._tmp.is_symlink():
-                shutil.rmtree(self._tmp)
-            elif self._tmp.exists() or self._tmp.is_symlink():
-                self._tmp.unlink()
+            # A name no other writer has: a second command writing this bag meanwhile
+            # would otherwise take the first's files for a killed run's and remove them.
             # The storage file is named after the directory, so write to a directory of
             # the final name inside the temporary one and move it out at the end.
-            self._tmp.mkdir()
+            self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.partial-",
+                                              dir=self.path.parent))
         except OSError as error:
             raise BagError(f"{self.path}: cannot create the bag "
                            f"({error.strerror or _describe(error)})") from None
@@ -857,21 +857,30 @@ class BagWriter:
         except Exception as error:
             self.abort()
             raise BagError(f"{self.path}: cannot finish the bag ({_describe(error)})") from None
+        tmp = self._tmp
+        assert tmp is not None  # made by open()
         try:
-            if self.path.exists():
-                shutil.rmtree(self.path)
-            os.replace(self._tmp / self.path.name, self.path)
+            if os.path.lexists(self.path):  # made meanwhile, by another command?
+                if not self.overwrite or not _looks_like_bag(self.path):
+                    self.abort()
+                    raise BagError(f"{self.path} exists (made while this ran)"
+                                   + ("; remove it or pass --overwrite" if not self.overwrite
+                                      else " and is not a bag; not overwriting it"))
+                # Moved aside whole, then removed: never a bag half deleted under its name.
+                os.replace(self.path, tmp / "replaced")
+            os.replace(tmp / self.path.name, self.path)
         except OSError as error:
             self.abort()
             raise BagError(f"{self.path}: cannot finish the bag "
                            f"({error.strerror or _describe(error)})") from None
-        shutil.rmtree(self._tmp, ignore_errors=True)
+        shutil.rmtree(tmp, ignore_errors=True)
 
     def abort(self) -> None:
         if self._writer is not None:
             with contextlib.suppress(Exception):
                 self._writer.abort()
-        shutil.rmtree(self._tmp, ignore_errors=True)
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
 
 
 def _looks_like_bag(path: Path) -> bool:

@@ -17,6 +17,7 @@ instant's check between its steps: the same bits at one call's cost.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import nullcontext
 from dataclasses import replace
@@ -177,6 +178,23 @@ class Snapshot:
                 f"steps={self.steps}, bodies={self.bodies!r})")
 
 
+def _numbers(rows: Any, what: str) -> np.ndarray:
+    """``rows`` of numbers (export_state's lists, or an array) as floats; text and
+    booleans, which numpy would take for numbers ('1' as 1.0, True as 1.0), are refused."""
+    values = np.array(rows, dtype=float)  # refuses rows of two lengths, and other text
+    for item in np.asarray(rows, dtype=object).ravel():
+        if isinstance(item, (bool, np.bool_)) or not isinstance(item, numbers.Real):
+            raise ValueError(f"'{what}' holds {item!r}, not a number")
+    return values
+
+
+def _whole(value: Any, what: str) -> int:
+    """A count or a time in nanoseconds, as export_state writes it: an int."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"'{what}' is {value!r}, not a whole number")
+    return int(value)
+
+
 class Simulation:
     """A deterministic, fixed-step simulation of one scene."""
 
@@ -284,15 +302,16 @@ class Simulation:
 
     def import_state(self, state: dict[str, Any]) -> None:
         """Continue from :meth:`export_state`'s data (of a simulation of the same scene)."""
-        q, v = np.array(state["q"], dtype=float), np.array(state["v"], dtype=float)
+        q, v = _numbers(state["q"], "q"), _numbers(state["v"], "v")
         if q.shape != self.q.shape or v.shape != self.v.shape:
             raise ValueError(f"a state of {len(q)} bodies does not fit a scene of "
                              f"{self.model.size}")
-        start_ns, time_ns = int(state["start_ns"]), int(state["time_ns"])
-        steps = int(state["steps"])
-        if time_ns < start_ns or steps < 0:
-            raise ValueError(f"a clock at {time_ns} ns after {steps} steps from a start at "
-                             f"{start_ns} ns")
+        start_ns, time_ns, steps = (_whole(state[key], key)
+                                    for key in ("start_ns", "time_ns", "steps"))
+        # The clock stands at a step instant: a pause moves the start with it (skip_to).
+        if steps < 0 or time_ns != start_ns + steps * self.step_ns:
+            raise ValueError(f"a clock at {time_ns} ns after {steps} steps of "
+                             f"{self.step_ns} ns from a start at {start_ns} ns")
         for spec, qi, vi in zip(self.scene.bodies, q.tolist(), v.tolist()):
             energy = spec.mass.energy_of_motion(math.hypot(vi[0], vi[1]), vi[2])
             if not (all(map(math.isfinite, qi)) and math.isfinite(energy)):

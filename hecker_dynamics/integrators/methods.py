@@ -175,7 +175,10 @@ class EmbeddedRungeKutta(Integrator):
         return {"substep_size": self.substep_size}
 
     def import_state(self, state: dict[str, Any]) -> None:
-        self.substep_size = float(state["substep_size"])
+        size = float(state["substep_size"])
+        if not size > 0.0:  # NaN too: no controller chooses it, and 0 fails the next step
+            raise ValueError(f"'substep_size' is {size}, not a positive size")
+        self.substep_size = size
 
     def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
              h: float) -> tuple[np.ndarray, np.ndarray]:

@@ -71,7 +71,7 @@ __all__ = [
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "check_takes_a_step",
-    "MAX_SECONDS",
+    "MAX_SECONDS", "MAP_SURFACE",
 ]
 
 DEFAULT_SCENE = "sample"
@@ -407,6 +407,9 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
     forces = tuple(_check_push(read_force(name, r, points), r, by_name, step_ns)
                    for name, r in root.named_children("forces"))
     walls = tuple(read_wall(name, r, body_names) for name, r in root.named_children("walls"))
+    if any(wall.name == MAP_SURFACE for wall in walls):  # a map may come with --map too
+        root.fail(f"walls.{MAP_SURFACE}", f"'{MAP_SURFACE}' names the map's boxes in contact "
+                                          "events; give the wall another name")
     collisions = read_collisions(root, {b.name: b for b in bodies})
     joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
     publish = root.child("publish")
@@ -808,6 +811,10 @@ def check_takes_a_step(duration_ns: int, step_ns: int, what: str,
         raise SceneError(f"{what} {seconds} s is shorter than one step "
                          f"({seconds_text(step_ns)} s): no step would be taken")
 
+
+#: The surface a contact event names for the map's boxes (a wall's name for a wall's):
+#: no wall may take it, or its touches and the map's would be one.
+MAP_SURFACE = "map"
 
 JOINT_TYPES = ("revolute", "prismatic", "weld", "distance", "gear")
 

@@ -41,13 +41,18 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .parameters import SceneError
+from .parameters import SceneError, number_text
 
-__all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "OccupancyMap", "MapSpec",
-           "read_map", "occupancy", "cell_boxes"]
+__all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "MAX_CELLS", "OccupancyMap",
+           "MapSpec", "read_map", "occupancy", "cell_boxes"]
 
 MAP_MODES = ("trinary", "scale", "raw")
 OCCUPIED, FREE, UNKNOWN = 100, 0, -1
+#: The most cells a map image may hold (8192 x 8192, 410 m square at 5 cm a cell): reading
+#: one takes up to some 100 bytes a cell (an RGBA PNG's channels as doubles), 6.7 GB here.
+#: The header's size is checked before any pixel is read, so a small file claiming a huge
+#: image (a PNG's pixels compress a thousandfold) is refused without the memory.
+MAX_CELLS = 8192 * 8192
 
 
 @dataclass(frozen=True)
@@ -117,11 +122,16 @@ _DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 
 def _as_number(text: str) -> str:
     """How to write ``text`` so that YAML 1.1 reads a number."""
-    mantissa, e, exponent = text.strip().replace("E", "e").partition("e")
-    if e and "." not in mantissa:
-        return (f"YAML 1.1 reads a number with an exponent but no dot as text; write "
-                f"{mantissa}.0e{exponent}")
-    return "a quoted number is text in YAML; write it unquoted"
+    if not isinstance(yaml.safe_load(text), str):  # a number written plain: it was quoted
+        return "a quoted number is text in YAML; write it unquoted"
+    # YAML 1.1 takes an exponent only after a dot and with its sign: 1e-3 and 1.0e3 are text.
+    mantissa, _, exponent = text.strip().replace("E", "e").partition("e")
+    if "." not in mantissa:
+        mantissa += ".0"
+    if exponent[:1] not in ("+", "-"):
+        exponent = "+" + exponent
+    return (f"YAML 1.1 reads an exponent as a number only after a dot and with its sign; "
+            f"write {mantissa}e{exponent}")
 
 
 def _check_regular(path: Path, what: str) -> None:
@@ -163,8 +173,13 @@ def read_map(path: Path) -> OccupancyMap:
     mode = document.get("mode", "trinary")
     if mode not in MAP_MODES:
         raise _fail(source, f"'mode' must be one of {', '.join(MAP_MODES)}, not {mode!r}")
-    if mode == "scale" and not free < occupied:
-        raise _fail(source, "'free_thresh' must be below 'occupied_thresh' in scale mode")
+    # nav2's loader takes any thresholds without a word, but its map_saver refuses all but
+    # 0 <= free < occupied <= 1, and its loaders disagree outside them (jazzy's since 1.3.7
+    # lets free override occupied): 65 for 0.65 would make a map of no walls.
+    if mode != "raw" and not 0.0 <= free < occupied <= 1.0:
+        raise _fail(source, f"'free_thresh' {number_text(free)} and 'occupied_thresh' "
+                            f"{number_text(occupied)} must be fractions with 0 <= free_thresh "
+                            f"< occupied_thresh <= 1 in {mode} mode")
     negate = document.get("negate")
     if negate not in (0, 1) or isinstance(negate, float):
         raise _fail(source, f"'negate' must be 0, 1, true or false, not {negate!r}")
@@ -259,6 +274,7 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     width, height, maxval = numbers
     if not (width > 0 and height > 0 and 0 < maxval < 65536):
         raise ValueError(f"PGM size {width} x {height}, maxval {maxval}")
+    _check_size("PGM", width, height)
     count = width * height
     if raw[:2] == b"P5":
         dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
@@ -278,6 +294,12 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     return (values / maxval).reshape(height, width, 1)
 
 
+def _check_size(kind: str, width: int, height: int) -> None:
+    if width * height > MAX_CELLS:
+        raise ValueError(f"{kind} of {width} x {height} pixels, more than the "
+                         f"{MAX_CELLS:,} cells a map may hold")
+
+
 def _pgm_number(token: bytes, what: str) -> int:
     """A number of a PGM header: ASCII digits only (``int`` would also take a sign, an
     underscore or other scripts' digits, which no PGM writer writes)."""
@@ -289,6 +311,7 @@ def _pgm_number(token: bytes, what: str) -> int:
 
 
 _PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}
+_PNG_CRITICAL = (b"IHDR", b"PLTE", b"IDAT", b"IEND")
 
 
 def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
@@ -296,7 +319,15 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
     while at < len(raw):
         length, kind = struct.unpack(">I4s", raw[at:at + 8])
         chunk = raw[at + 8:at + 8 + length]
+        crc = raw[at + 8 + length:at + 12 + length]
         at += 12 + length
+        name = kind.decode("ascii", errors="replace")
+        if len(crc) < 4:
+            raise ValueError(f"PNG cut short in its {name} chunk")
+        # A critical chunk whose CRC fails is a damaged file, which libpng (and so nav2's
+        # map_server) refuses: a changed palette byte would be a map of other cells.
+        if kind in _PNG_CRITICAL and struct.unpack(">I", crc)[0] != zlib.crc32(kind + chunk):
+            raise ValueError(f"PNG {name} chunk fails its CRC check (a damaged file)")
         if kind == b"IHDR":
             header = chunk
         elif kind == b"PLTE":
@@ -309,10 +340,16 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
     if depth != 8 or colour not in _PNG_CHANNELS or interlace:
         raise ValueError(f"PNG of bit depth {depth}, colour type {colour}, interlace "
                          f"{interlace}; only 8-bit non-interlaced images are read")
+    if not (width > 0 and height > 0):
+        raise ValueError(f"PNG size {width} x {height}")
+    _check_size("PNG", width, height)
     k = _PNG_CHANNELS[colour]
     stride = width * k
-    packed = zlib.decompress(b"".join(data))
-    if len(packed) != height * (stride + 1):
+    size = height * (stride + 1)
+    # Never inflate past the size the header gives: a byte more tells too much data.
+    inflate = zlib.decompressobj()
+    packed = inflate.decompress(b"".join(data), size + 1)
+    if len(packed) != size or not inflate.eof:
         raise ValueError("PNG pixel data of the wrong size")
     pixels = np.zeros((height, stride), dtype=np.uint8)
     previous = np.zeros(stride, dtype=np.int64)

@@ -21,12 +21,9 @@ import enum
 from typing import Any, NamedTuple, Optional
 
 from ..dynamics.simulation import Simulation
-from ..scene.load import Scene
+from ..scene.load import MAP_SURFACE, Scene
 
 __all__ = ["TouchKind", "TouchEvent", "Touches", "MAP_SURFACE"]
-
-#: The surface name of the map's boxes.
-MAP_SURFACE = "map"
 
 #: A touching pair: the fixed surface (a wall's name, :data:`MAP_SURFACE`, or "" between
 #: two bodies), body a ("" against a surface) and body b.

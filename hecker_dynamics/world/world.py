@@ -693,6 +693,11 @@ class World:
         if duration is not None:
             duration_ns = round(number(duration, "duration", positive=True,
                                        maximum=MAX_SECONDS) * 1e9)
+            # A force acts over whole steps, and 0 ns would be no duration: held for ever.
+            if duration_ns < sim.step_ns:
+                raise ValueError(f"duration: {number_text(duration)} s is shorter than one "
+                                 f"step ({seconds_text(sim.step_ns)} s), over which a force "
+                                 "acts whole")
         now = sim.time_ns
         stamp = now if start is None else round(number(start, "start",
                                                         maximum=MAX_SECONDS) * 1e9)

@@ -108,9 +108,9 @@ def test_timed_held_cleared_and_scheduled_forces() -> None:
     assert b.velocity[0] == speed
 
 
-def sample_in_python() -> hd.World:
-    """config/sample.yaml, written with the API."""
-    world = hd.World(gravity=(0.0, -9.81), step=0.001, integrator="semi_implicit_euler")
+def sample_in_python(integrator: str = "semi_implicit_euler") -> hd.World:
+    """config/sample.yaml, written with the API (with ``integrator``)."""
+    world = hd.World(gravity=(0.0, -9.81), step=0.001, integrator=integrator)
     for name, point, normal in (("floor", (0, 0), (0, 1)), ("ceiling", (0, 5), (0, -1)),
                                 ("left_wall", (-3, 0), (1, 0)), ("right_wall", (3, 0), (-1, 0))):
         world.add_wall(name, point=point, normal=normal, restitution=0.8, friction=0.2)
@@ -180,20 +180,35 @@ def test_state_round_trip_is_bit_exact() -> None:
     assert world.state() == later
 
 
-@pytest.mark.parametrize("damage", ["no q", "a body short", "a bad schedule", "q of text"])
+DAMAGES = {
+    "no q": lambda sim: sim.pop("q"),
+    "a body short": lambda sim: sim.__setitem__("v", sim["v"][:-1]),
+    "q of text": lambda sim: sim["q"][0].__setitem__(0, "far"),
+    # numpy reads the text '1' and the boolean True as 1.0
+    "q of digits": lambda sim: sim["q"][0].__setitem__(0, "1"),
+    "v of a boolean": lambda sim: sim["v"][1].__setitem__(2, True),
+    # a clock off the instants its steps reach
+    "a clock between steps": lambda sim: sim.__setitem__("time_ns", sim["time_ns"] + 1),
+    "steps the clock never took": lambda sim: sim.__setitem__("steps", sim["steps"] + 5),
+    "a clock in floats": lambda sim: sim.__setitem__("time_ns", float(sim["time_ns"])),
+    # dopri5's next sub-step size: NaN was taken, 0 failed the next step
+    "a sub-step size of NaN": lambda sim: sim["integrator"].__setitem__("substep_size",
+                                                                         float("nan")),
+    "a sub-step size of 0": lambda sim: sim["integrator"].__setitem__("substep_size", 0.0),
+}
+
+
+@pytest.mark.parametrize("damage", [*DAMAGES, "a bad schedule"])
 def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> None:
-    world = sample_in_python()
+    world = sample_in_python(integrator="dopri5") if "sub-step" in damage \
+        else sample_in_python()
     world.advance(2.9)
     state = json.loads(json.dumps(world.state()))
     before = json.dumps(world.state())
-    if damage == "no q":
-        del state["simulation"]["q"]
-    elif damage == "a body short":
-        state["simulation"]["v"] = state["simulation"]["v"][:-1]
-    elif damage == "a bad schedule":
+    if damage == "a bad schedule":
         state["schedule"] = [[0, 0, {"body": "left"}]]
     else:
-        state["simulation"]["q"][0][0] = "far"
+        DAMAGES[damage](state["simulation"])
     with pytest.raises(ValueError, match=r"^state: ") as caught:
         world.set_state(state)
     assert "\n" not in str(caught.value)
@@ -268,6 +283,13 @@ ERRORS = [
      r"^frame: must be 'world' or 'body', not 'local'$"),
     (lambda w: w["box"].apply_force((1, 0), duration=0.0), ValueError,
      r"^duration: must be positive, not 0\.0$"),
+    # 4e-10 s rounded to 0 ns, which held the force until clear_forces(); 1e-5 s acted
+    # over a whole step of 3.9 ms, 390 times the impulse asked for.
+    (lambda w: w["box"].apply_force((1, 0), duration=4e-10), ValueError,
+     r"^duration: 4e-10 s is shorter than one step \(0\.00390625 s\), over which a force acts "
+     r"whole$"),
+    (lambda w: w["box"].apply_torque(1.0, duration=1e-5), ValueError,
+     r"^duration: 1e-05 s is shorter than one step \(0\.00390625 s\)"),
     (lambda w: w["box"].apply_force((1, 0), point="tip", frame="body"), ValueError,
      r"^point: body 'box' has no point 'tip' \(points: none\)$"),
     (lambda w: w["box"].apply_force((float("nan"), 0)), ValueError, r"^force: must be finite"),

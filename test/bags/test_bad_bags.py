@@ -282,6 +282,39 @@ def _pose_bag(path: Path, x: float) -> None:
             fields.PoseStampedFields(fields.Header(1, 0, "world"), pose)))
 
 
+def _pose_of(path: Path) -> float:
+    return float(read_bag(path).on("/b/pose")[0].decode().pose.position.x)
+
+
+def test_two_writers_of_one_bag_never_mix_their_files(tmp_path):
+    """Two commands writing one bag at once: the second took the first's temporary
+    directory for a killed run's and removed it, and the first then said it wrote the bag
+    it had lost (a 43-byte mcap beside its metadata). Each writes its own; the last to
+    finish with --overwrite leaves its bag whole, and one without --overwrite refuses to
+    remove a bag made while it ran."""
+    path = tmp_path / "bag"
+    pose = fields.Pose((1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    from hecker_dynamics.bags.io import pose_stamped_message
+    message = pose_stamped_message(fields.PoseStampedFields(fields.Header(1, 0, "world"),
+                                                            pose))
+    first, second = BagWriter(path, overwrite=True), BagWriter(path, overwrite=True)
+    first.open()
+    second.open()  # removed the first's files
+    first.write("/b/pose", POSE_STAMPED, SEC, message)
+    second.abort()  # a refused replay's
+    first.close()
+    assert _pose_of(path) == 1.0
+    shutil.rmtree(path)
+    late = BagWriter(path)
+    late.open()
+    _pose_bag(path, 2.0)  # another command's bag, written meanwhile over the first
+    with pytest.raises(BagError, match=r"bag exists \(made while this ran\); remove it or "
+                                       r"pass --overwrite$"):
+        late.close()
+    assert _pose_of(path) == 2.0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+
 @pytest.mark.parametrize("atol", ["0", "1e-9", "1"])
 @pytest.mark.parametrize("x", [float("nan"), float("inf"), float("-inf")])
 def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsys, atol, x):

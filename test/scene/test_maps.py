@@ -8,6 +8,7 @@ import dataclasses
 import math
 import os
 import struct
+import tracemalloc
 import zlib
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.fingerprint import scene_fingerprint
 from hecker_dynamics.scene.load import load_scene, scene_path, with_map
-from hecker_dynamics.scene.maps import OCCUPIED, UNKNOWN, cell_boxes, read_map
+from hecker_dynamics.scene.maps import MAX_CELLS, OCCUPIED, UNKNOWN, cell_boxes, read_map
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.scene.world import deleted, spawned
 from hecker_dynamics.sensors.laser import Laser
@@ -128,6 +129,14 @@ def test_raw_mode_keeps_values_up_to_100(tmp_path):
     assert cells.tolist() == [[0, 37, 100, UNKNOWN, UNKNOWN]]
 
 
+def test_raw_mode_reads_no_threshold_and_takes_any(tmp_path):
+    """Raw mode's cells are the pixels' values: thresholds nav2 requires but never reads
+    there are not refused."""
+    write_pgm(tmp_path / "m.pgm", [[0, 100]])
+    path = write_map(tmp_path, "m.pgm", mode="raw", occupied_thresh=65, free_thresh=80)
+    assert read_map(path).cells().tolist() == [[0, 100]]
+
+
 def test_the_image_s_top_row_is_the_map_s_top_and_the_origin_its_lower_left_corner(tmp_path):
     write_pgm(tmp_path / "m.pgm", [[0, 255, 255], [255, 255, 255]])  # black: top left
     grid = read_map(write_map(tmp_path, "m.pgm", origin=[1.0, -2.0, 0.0]))
@@ -187,9 +196,15 @@ def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
     ({"image": "missing.pgm"}, "cannot read the map image"),
     ({"image": "map.yaml"}, "must be a PGM (P2, P5) or PNG file"),
     ({"resolution": "1e-300"}, "'resolution' is read as the string '1e-300': YAML 1.1 reads "
-                               "a number with an exponent but no dot as text; write 1.0e-300"),
+                               "an exponent as a number only after a dot and with its sign; "
+                               "write 1.0e-300"),
     ({"free_thresh": "0.25"}, "'free_thresh' is read as the string '0.25': a quoted number "
                               "is text in YAML; write it unquoted"),
+    ({"occupied_thresh": 65}, "'free_thresh' 0.25 and 'occupied_thresh' 65 must be fractions "
+                              "with 0 <= free_thresh < occupied_thresh <= 1 in trinary mode"),
+    ({"free_thresh": -0.1}, "'free_thresh' -0.1 and 'occupied_thresh' 0.75 must be"),
+    ({"free_thresh": 0.75}, "'free_thresh' 0.75 and 'occupied_thresh' 0.75 must be"),
+    ({"free_thresh": 0.8, "mode": "scale"}, "occupied_thresh <= 1 in scale mode"),
 ])
 def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
     write_pgm(tmp_path / "m.pgm", [[0]])
@@ -411,3 +426,107 @@ def test_a_pgm_pixel_outside_its_maxval_is_refused(tmp_path, header, pixels, pro
     with pytest.raises(SceneError) as error:
         read_map(write_map(tmp_path, "m.pgm"))
     assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+def png_bytes(columns: int, rows: int, colour: int, idat: bytes) -> bytes:
+    """A PNG of the header's size and the compressed pixel data given, whatever they hold."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + \
+            struct.pack(">I", zlib.crc32(kind + data))
+    return (b"\x89PNG\r\n\x1a\n"
+            + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
+            + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+
+
+def _inflated_zeros(count: int) -> bytes:
+    """``count`` zero bytes compressed, made a megabyte at a time."""
+    deflate, block = zlib.compressobj(9), bytes(1 << 20)
+    parts = [deflate.compress(block) for _ in range(count >> 20)]
+    return b"".join(parts) + deflate.compress(bytes(count & ((1 << 20) - 1))) + \
+        deflate.flush()
+
+
+@pytest.mark.parametrize("image, raw", [
+    ("m.png", png_bytes(100_000, 100_000, 0, zlib.compress(bytes(1000)))),
+    ("m.png", png_bytes(8193, 8192, 6, zlib.compress(bytes(1000)))),
+    ("m.pgm", b"P5\n100000 100000\n255\n" + bytes(1000)),
+    ("m.pgm", b"P2\n8192 8193\n255\n0 0 0\n"),
+], ids=["png-1e10", "png-rgba-8193x8192", "pgm-1e10", "pgm-ascii-8192x8193"])
+def test_an_image_of_more_cells_than_a_map_may_hold_is_refused_by_its_header(tmp_path, image,
+                                                                             raw):
+    """A small file whose header claims a huge image (a PNG's zeros compress a
+    thousandfold) is refused before any of its pixels is read."""
+    (tmp_path / image).write_bytes(raw)
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, image))
+    kind = image[-3:].upper()
+    assert f"{kind} of " in str(error.value) and "x" in str(error.value)
+    assert f"more than the {MAX_CELLS:,} cells a map may hold" in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_png_pixel_data_past_its_header_s_size_is_never_inflated(tmp_path):
+    """An IDAT of 64 MB of zeros under a 2 x 2 header is refused having inflated no more
+    than the header's 2 x 3 bytes and one: memory stays that of the file."""
+    (tmp_path / "m.png").write_bytes(png_bytes(2, 2, 0, _inflated_zeros(64 << 20)))
+    path = write_map(tmp_path, "m.png")
+    tracemalloc.start()
+    try:
+        with pytest.raises(SceneError, match="PNG pixel data of the wrong size"):
+            read_map(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20
+
+
+def test_a_png_of_no_pixels_is_refused(tmp_path):
+    (tmp_path / "m.png").write_bytes(png_bytes(0, 3, 0, zlib.compress(bytes(3))))
+    with pytest.raises(SceneError, match=r"bad map image \(PNG size 0 x 3\)"):
+        read_map(write_map(tmp_path, "m.png"))
+
+
+@pytest.mark.parametrize("at, problem", [
+    (44, "PNG PLTE chunk fails its CRC check (a damaged file)"),  # white turned black
+    (20, "PNG IHDR chunk fails its CRC check"),  # the height
+    (-1, "PNG IEND chunk fails its CRC check"),
+    (None, "PNG cut short in its IEND chunk"),
+])
+def test_a_damaged_png_is_refused_not_read_as_other_cells(tmp_path, at, problem):
+    """A byte changed in a palette gave a map of other cells without a word: the critical
+    chunks' CRCs are checked, as libpng checks them."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + \
+            struct.pack(">I", zlib.crc32(kind + data))
+    raw = bytearray(b"\x89PNG\r\n\x1a\n"
+                    + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 1, 8, 3, 0, 0, 0))
+                    + chunk(b"PLTE", bytes([0, 0, 0, 255, 255, 255]))
+                    + chunk(b"IDAT", zlib.compress(bytes([0, 0, 1]))) + chunk(b"IEND", b""))
+    (tmp_path / "m.png").write_bytes(bytes(raw))
+    assert read_map(write_map(tmp_path, "m.png")).cells().tolist() == [[OCCUPIED, 0]]
+    if at is None:
+        del raw[-2:]
+    else:
+        raw[at] ^= 0xFF
+    (tmp_path / "m.png").write_bytes(bytes(raw))
+    with pytest.raises(SceneError) as error:
+        read_map(write_map(tmp_path, "m.png"))
+    assert problem in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("text, spelled", [("1e3", "1.0e+3"), ("1.0e3", "1.0e+3"),
+                                           ("5.E2", "5.e+2"), ("-2e-1", "-2.0e-1")])
+def test_a_map_number_yaml_1_1_reads_as_text_is_told_a_spelling_it_reads(tmp_path, text,
+                                                                         spelled):
+    """An exponent without its sign is text to YAML 1.1 too: '1.0e3' was called a quoted
+    number, and '1e3' told to be written '1.0e3', text again. The spelling given reads as
+    the number."""
+    write_pgm(tmp_path / "m.pgm", [[0]])
+    path = write_map(tmp_path, "m.pgm")
+    path.write_text(path.read_text().replace("resolution: 0.5", f"resolution: {text}"))
+    with pytest.raises(SceneError) as error:
+        read_map(path)
+    assert str(error.value).endswith(
+        f"'resolution' is read as the string '{text}': YAML 1.1 reads an exponent as a number "
+        f"only after a dot and with its sign; write {spelled}")
+    assert yaml.safe_load(spelled) == float(text)

@@ -219,6 +219,9 @@ ERRORS = {
     "unknown_body_spring": ("forces.s.body_b", "c", "forces.s.body_b", "unknown body"),
     "unknown_body_gravity": ("forces.g.bodies", ["a", "zz"], "forces.g.bodies", "unknown body"),
     "unknown_body_wall": ("walls.floor.bodies", ["zz"], "walls.floor.bodies", "unknown body"),
+    # Contact events name the map's boxes 'map': a wall of that name shared its touches.
+    "wall_named_map": ("walls.map", {"point": [0.0, -1.0], "normal": [0.0, 1.0]}, "walls.map",
+                       "'map' names the map's boxes in contact events"),
     "unknown_body_script": ("script.kick.body", "zz", "script.kick.body", "unknown body"),
     "unknown_body_topic": ("wrench_topics.thrust.body", "zz", "wrench_topics.thrust.body",
                            "unknown body"),
