@@ -15,6 +15,7 @@ node uses too); this module only copies those fields into rosbags message object
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import shutil
 import sqlite3
@@ -24,6 +25,11 @@ from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any, Literal, Optional, Union
+
+try:
+    import fcntl
+except ImportError:  # Windows: a killed writer's directory is then left behind
+    fcntl = None  # type: ignore[assignment]
 
 import numpy as np
 
@@ -772,6 +778,7 @@ class BagWriter:
         self.compress = compress
         self.custom_data = dict(custom_data or {})
         self._tmp: Optional[Path] = None  # the temporary directory open() makes
+        self._lock: Optional[int] = None  # its lock file, held while this writes
         self._writer: Any = None
         self._connections: dict[str, Any] = {}
         self._types: dict[str, str] = {}
@@ -804,12 +811,14 @@ class BagWriter:
             raise BagError(f"{self.path.parent}: no such directory")
         plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
         try:
+            _remove_killed_writers(self.path)
             # A name no other writer has: a second command writing this bag meanwhile
             # would otherwise take the first's files for a killed run's and remove them.
             # The storage file is named after the directory, so write to a directory of
             # the final name inside the temporary one and move it out at the end.
             self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.partial-",
                                               dir=self.path.parent))
+            self._lock = _hold_writer_lock(self._tmp)
         except OSError as error:
             raise BagError(f"{self.path}: cannot create the bag "
                            f"({error.strerror or _describe(error)})") from None
@@ -873,14 +882,62 @@ class BagWriter:
             self.abort()
             raise BagError(f"{self.path}: cannot finish the bag "
                            f"({error.strerror or _describe(error)})") from None
-        shutil.rmtree(tmp, ignore_errors=True)
+        self._release()
 
     def abort(self) -> None:
         if self._writer is not None:
             with contextlib.suppress(Exception):
                 self._writer.abort()
+        self._release()
+
+    def _release(self) -> None:
+        """Remove the temporary directory, then let go of its lock."""
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
+        if self._lock is not None:
+            os.close(self._lock)
+            self._lock = None
+
+
+#: The file a live writer holds locked in its temporary directory.
+_WRITER_LOCK = "writer.lock"
+
+
+def _hold_writer_lock(directory: Path) -> Optional[int]:
+    """Lock a file in ``directory`` for as long as this process keeps it open (the system
+    lets go when the process ends, however it ends). It gets its name only once locked, so
+    that no other writer finds it unlocked."""
+    if fcntl is None:
+        return None
+    fd, name = tempfile.mkstemp(dir=directory)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    os.rename(name, directory / _WRITER_LOCK)
+    return fd
+
+
+def _remove_killed_writers(path: Path) -> None:
+    """Remove what killed writers of the bag ``path`` left: temporary directories whose lock
+    no process holds, and the one directory or file of the name earlier versions used."""
+    for stale in path.parent.glob(f".{glob.escape(path.name)}.partial*"):
+        if stale.name == f".{path.name}.partial":
+            if stale.is_dir() and not stale.is_symlink():
+                shutil.rmtree(stale, ignore_errors=True)
+            else:
+                stale.unlink(missing_ok=True)
+            continue
+        if fcntl is None or not stale.name.startswith(f".{path.name}.partial-"):
+            continue
+        try:
+            fd = os.open(stale / _WRITER_LOCK, os.O_RDONLY)
+        except OSError:  # no lock yet (a writer making it now) or not a writer's directory
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # held: a live writer's
+            os.close(fd)
+            continue
+        shutil.rmtree(stale, ignore_errors=True)
+        os.close(fd)
 
 
 def _looks_like_bag(path: Path) -> bool:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +85,36 @@ def test_a_file_where_the_partial_directory_goes_is_replaced(tmp_path, capsys):
     code, _, err = _cli(capsys, "script", "sample", "-o", str(tmp_path / "bag"))
     assert code == 0, err
     assert read_bag(tmp_path / "bag").messages
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no flock: a killed writer's files stay")
+def test_a_killed_writers_files_are_removed_by_the_next_and_a_live_ones_kept(tmp_path):
+    """A writer killed with SIGKILL cannot clean up: the next writer of the bag removes its
+    temporary directory (whose lock no process holds now), and leaves a live writer's."""
+    path = tmp_path / "bag"
+    killed = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from hecker_dynamics.bags.io import "
+         "BagWriter; BagWriter(sys.argv[1]).open(); print(flush=True); time.sleep(60)",
+         str(path)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert killed.stdout.readline() == "\n"
+    finally:
+        killed.kill()
+        killed.wait()
+    left = [p.name for p in tmp_path.iterdir()]
+    assert len(left) == 1 and left[0].startswith(".bag.partial-")
+    live = BagWriter(tmp_path / "other")  # a live writer of another bag ...
+    live.open()
+    same = BagWriter(path, overwrite=True)  # ... and of this one
+    same.open()
+    _pose_bag(path, 3.0)  # writes and closes a third writer of the bag
+    assert _pose_of(path) == 3.0
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert left[0] not in names and len(names) == 3  # bag, other's and same's directories
+    same.abort()
+    live.abort()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
 
 
 # ------------------------------------------------------------------ stamps
