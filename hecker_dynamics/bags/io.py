@@ -820,6 +820,7 @@ class BagWriter:
                                               dir=self.path.parent))
             self._lock = _hold_writer_lock(self._tmp)
         except OSError as error:
+            self._release()  # a directory made before its lock failed is no killed run's
             raise BagError(f"{self.path}: cannot create the bag "
                            f"({error.strerror or _describe(error)})") from None
         try:
@@ -831,7 +832,7 @@ class BagWriter:
                 self._writer.set_custom_data(CUSTOM_PREFIX + key, str(value))
             self._writer.open()
         except Exception as error:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._release()
             raise BagError(f"{self.path}: cannot create the bag ({_describe(error)})") from None
 
     def add_topic(self, topic: str, msgtype: str, qos: Optional[list[Any]] = None) -> None:
@@ -891,12 +892,15 @@ class BagWriter:
         self._release()
 
     def _release(self) -> None:
-        """Remove the temporary directory, then let go of its lock."""
-        if self._tmp is not None:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+        """Let go of the temporary directory's lock, then remove the directory. In that
+        order: NFS keeps a removed file that is still open as a '.nfs*' file, so the
+        directory could not be removed; and a writer that takes the lock meanwhile only
+        removes the same directory (nothing in it is wanted any more)."""
         if self._lock is not None:
             os.close(self._lock)
             self._lock = None
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
 
 
 #: The file a live writer holds locked in its temporary directory.
@@ -910,8 +914,17 @@ def _hold_writer_lock(directory: Path) -> Optional[int]:
     if fcntl is None:
         return None
     fd, name = tempfile.mkstemp(dir=directory)
-    fcntl.flock(fd, fcntl.LOCK_EX)
-    os.rename(name, directory / _WRITER_LOCK)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+    except OSError:  # a file system without locks (NFS without its lock daemon: ENOLCK)
+        os.close(fd)
+        os.unlink(name)
+        return None  # written unlocked, as without fcntl: if killed, its directory stays
+    try:
+        os.rename(name, directory / _WRITER_LOCK)
+    except OSError:
+        os.close(fd)
+        raise
     return fd
 
 
@@ -933,11 +946,11 @@ def _remove_killed_writers(path: Path) -> None:
             continue
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:  # held: a live writer's
+        except OSError:  # held: a live writer's (or no locks on this file system)
             os.close(fd)
             continue
+        os.close(fd)  # before the removal, for NFS (see BagWriter._release)
         shutil.rmtree(stale, ignore_errors=True)
-        os.close(fd)
 
 
 def _looks_like_bag(path: Path) -> bool:

@@ -121,13 +121,19 @@ _DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 
 
 def _as_number(text: str) -> str:
-    """How to write ``text`` so that YAML 1.1 reads a number."""
-    if not isinstance(yaml.safe_load(text), str):  # a number written plain: it was quoted
+    """How to write ``text`` so that YAML 1.1 reads the number strtod reads in it."""
+    plain = text.strip()
+    read = yaml.safe_load(plain)
+    if not isinstance(read, str) and read == float(plain):  # it was quoted
         return "a quoted number is text in YAML; write it unquoted"
-    # YAML 1.1 takes an exponent only after a dot and with its sign: 1e-3 and 1.0e3 are text.
-    mantissa, _, exponent = text.strip().replace("E", "e").partition("e")
+    # YAML 1.1 takes an exponent only after a dot and with its sign (1e-3 and 1.0e3 are
+    # text), and a whole number with a leading 0 for octal (010 is 8) or text (08).
+    mantissa, e, exponent = plain.replace("E", "e").partition("e")
     if "." not in mantissa:
         mantissa += ".0"
+    if not e:
+        return (f"YAML 1.1 reads a whole number with a leading 0 as octal or text; "
+                f"write {mantissa}")
     if exponent[:1] not in ("+", "-"):
         exponent = "+" + exponent
     return (f"YAML 1.1 reads an exponent as a number only after a dot and with its sign; "

@@ -347,6 +347,79 @@ def test_two_writers_of_one_bag_never_mix_their_files(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
 
 
+def test_a_writer_that_cannot_lock_or_open_leaves_nothing_and_keeps_no_lock(tmp_path,
+                                                                            monkeypatch):
+    """A file system without locks (NFS without its lock daemon: ENOLCK) still takes a
+    bag, written unlocked; a failure once the directory is made (its lock, or the storage
+    writer's) leaves no directory behind, which no later writer could tell from a live
+    one's, and no lock file open."""
+    import errno
+
+    import hecker_dynamics.bags.io as io
+    if io.fcntl is None:
+        pytest.skip("no flock: a writer takes no lock")
+    opened = set(os.listdir("/proc/self/fd")) if Path("/proc/self/fd").is_dir() else None
+
+    class NoLocks:
+        LOCK_EX, LOCK_NB = io.fcntl.LOCK_EX, io.fcntl.LOCK_NB
+
+        @staticmethod
+        def flock(fd: int, operation: int) -> None:
+            raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+
+    with monkeypatch.context() as patched:
+        patched.setattr(io, "fcntl", NoLocks)
+        _pose_bag(tmp_path / "bag", 1.0)
+    assert _pose_of(tmp_path / "bag") == 1.0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+    def no_room(directory: Path) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    with monkeypatch.context() as patched:
+        patched.setattr(io, "_hold_writer_lock", no_room)
+        with pytest.raises(BagError, match=r"other: cannot create the bag \(No space left"):
+            BagWriter(tmp_path / "other").open()
+    import rosbags.rosbag2
+
+    def no_writer(*args, **kwargs):
+        raise OSError(errno.EACCES, os.strerror(errno.EACCES))
+    with monkeypatch.context() as patched:
+        patched.setattr(rosbags.rosbag2, "Writer", no_writer)
+        with pytest.raises(BagError, match=r"other: cannot create the bag \(.*denied"):
+            BagWriter(tmp_path / "other").open()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+    if opened is not None:
+        assert set(os.listdir("/proc/self/fd")) <= opened
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="reads /proc/self/fd")
+def test_a_writer_lets_go_of_its_lock_before_removing_its_directory(tmp_path, monkeypatch):
+    """NFS keeps a removed file that is still open as a '.nfs*' file in its directory, which
+    then cannot be removed: every bag written there left a directory no writer removes."""
+    import hecker_dynamics.bags.io as io
+    if io.fcntl is None:
+        pytest.skip("no flock: a writer takes no lock")
+    removed = []
+    rmtree = shutil.rmtree
+
+    def checked(path, *args, **kwargs):
+        held = [os.readlink(f"/proc/self/fd/{fd}") for fd in os.listdir("/proc/self/fd")
+                if os.path.islink(f"/proc/self/fd/{fd}")]
+        assert not any(link.startswith(str(path)) for link in held), held
+        removed.append(Path(path).name)
+        return rmtree(path, *args, **kwargs)
+    monkeypatch.setattr(io.shutil, "rmtree", checked)
+    killed = tmp_path / ".bag.partial-killed"
+    killed.mkdir()
+    (killed / "writer.lock").touch()  # no process holds its lock
+    _pose_bag(tmp_path / "bag", 1.0)
+    writer = BagWriter(tmp_path / "bag", overwrite=True)
+    writer.open()
+    writer.abort()
+    assert removed[0] == killed.name and len(removed) == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+
+
 @pytest.mark.parametrize("atol", ["0", "1e-9", "1"])
 @pytest.mark.parametrize("x", [float("nan"), float("inf"), float("-inf")])
 def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsys, atol, x):

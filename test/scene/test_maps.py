@@ -514,19 +514,28 @@ def test_a_damaged_png_is_refused_not_read_as_other_cells(tmp_path, at, problem)
     assert problem in str(error.value) and "\n" not in str(error.value)
 
 
-@pytest.mark.parametrize("text, spelled", [("1e3", "1.0e+3"), ("1.0e3", "1.0e+3"),
-                                           ("5.E2", "5.e+2"), ("-2e-1", "-2.0e-1")])
-def test_a_map_number_yaml_1_1_reads_as_text_is_told_a_spelling_it_reads(tmp_path, text,
-                                                                         spelled):
+EXPONENT = "YAML 1.1 reads an exponent as a number only after a dot and with its sign"
+LEADING_0 = "YAML 1.1 reads a whole number with a leading 0 as octal or text"
+
+
+@pytest.mark.parametrize("written, rule, spelled", [
+    ("1e3", EXPONENT, "1.0e+3"), ("1.0e3", EXPONENT, "1.0e+3"), ("5.E2", EXPONENT, "5.e+2"),
+    ("-2e-1", EXPONENT, "-2.0e-1"),
+    # 08 is text to YAML 1.1 and 010 octal 8: they were told '08.0e+' (text again) and,
+    # quoted, 'write it unquoted' (8, not the 10 nav2 reads)
+    ("08", LEADING_0, "08.0"), ("'010'", LEADING_0, "010.0"), ("'-09'", LEADING_0, "-09.0"),
+])
+def test_a_map_number_yaml_1_1_reads_otherwise_is_told_a_spelling_it_reads(tmp_path, written,
+                                                                           rule, spelled):
     """An exponent without its sign is text to YAML 1.1 too: '1.0e3' was called a quoted
     number, and '1e3' told to be written '1.0e3', text again. The spelling given reads as
     the number."""
     write_pgm(tmp_path / "m.pgm", [[0]])
     path = write_map(tmp_path, "m.pgm")
-    path.write_text(path.read_text().replace("resolution: 0.5", f"resolution: {text}"))
+    path.write_text(path.read_text().replace("resolution: 0.5", f"resolution: {written}"))
     with pytest.raises(SceneError) as error:
         read_map(path)
+    text = written.strip("'")
     assert str(error.value).endswith(
-        f"'resolution' is read as the string '{text}': YAML 1.1 reads an exponent as a number "
-        f"only after a dot and with its sign; write {spelled}")
+        f"'resolution' is read as the string '{text}': {rule}; write {spelled}")
     assert yaml.safe_load(spelled) == float(text)
