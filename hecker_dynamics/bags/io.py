@@ -18,7 +18,9 @@ import contextlib
 import glob
 import os
 import shutil
+import socket
 import sqlite3
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -880,6 +882,10 @@ class BagWriter:
                 os.replace(self.path, tmp / "replaced")
             os.replace(tmp / self.path.name, self.path)
         except OSError as error:
+            replaced = tmp / "replaced"
+            if os.path.lexists(replaced) and not os.path.lexists(self.path):
+                with contextlib.suppress(OSError):  # the old bag back, not lost with this
+                    os.replace(replaced, self.path)
             self.abort()
             raise BagError(f"{self.path}: cannot finish the bag "
                            f"({error.strerror or _describe(error)})") from None
@@ -916,6 +922,9 @@ def _hold_writer_lock(directory: Path) -> Optional[int]:
     fd, name = tempfile.mkstemp(dir=directory)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
+        # Whose: a lock taken on another host of a file system whose locks are each host's
+        # own (NFS mounted nolock) says nothing of that writer, so only this host's count.
+        os.write(fd, socket.gethostname().encode())
     except OSError:  # a file system without locks (NFS without its lock daemon: ENOLCK)
         os.close(fd)
         os.unlink(name)
@@ -941,16 +950,18 @@ def _remove_killed_writers(path: Path) -> None:
         if fcntl is None or not stale.name.startswith(f".{path.name}.partial-"):
             continue
         try:
-            fd = os.open(stale / _WRITER_LOCK, os.O_RDONLY)
+            fd = os.open(stale / _WRITER_LOCK, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW)
         except OSError:  # no lock yet (a writer making it now) or not a writer's directory
             continue
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            killed = stat.S_ISREG(os.fstat(fd).st_mode) and \
+                os.read(fd, 256) == socket.gethostname().encode()
         except OSError:  # held: a live writer's (or no locks on this file system)
-            os.close(fd)
-            continue
+            killed = False
         os.close(fd)  # before the removal, for NFS (see BagWriter._release)
-        shutil.rmtree(stale, ignore_errors=True)
+        if killed:
+            shutil.rmtree(stale, ignore_errors=True)
 
 
 def _looks_like_bag(path: Path) -> bool:

@@ -6,11 +6,14 @@ session times must fit a ROS stamp (int32 seconds).
 """
 from __future__ import annotations
 
+import errno
 import os
 import shutil
+import socket
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -114,6 +117,40 @@ def test_a_killed_writers_files_are_removed_by_the_next_and_a_live_ones_kept(tmp
     assert left[0] not in names and len(names) == 3  # bag, other's and same's directories
     same.abort()
     live.abort()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+    # Kept: a writer's of another host (a lock there says nothing here), and a directory
+    # whose lock is no file (a FIFO, which an open for reading would wait on forever).
+    elsewhere, fifo = tmp_path / ".bag.partial-elsewhere", tmp_path / ".bag.partial-fifo"
+    elsewhere.mkdir()
+    (elsewhere / "writer.lock").write_text(socket.gethostname() + ".other")
+    fifo.mkdir()
+    os.mkfifo(fifo / "writer.lock")
+    _pose_bag(tmp_path / "again", 4.0)
+    writer = BagWriter(path, overwrite=True)
+    writer.open()
+    writer.abort()
+    assert elsewhere.exists() and fifo.exists()
+
+
+def test_a_bag_overwritten_by_a_writer_that_fails_at_the_end_is_kept(tmp_path, monkeypatch):
+    """--overwrite moves the old bag aside before the new one takes its name; when that
+    last move fails, the old bag goes back (it was removed with the writer's files)."""
+    import hecker_dynamics.bags.io as io
+    path = tmp_path / "bag"
+    _pose_bag(path, 1.0)
+    writer = BagWriter(path, overwrite=True)
+    writer.open()
+    writer.write("/b/pose", POSE_STAMPED, SEC, _pose_message(2.0))
+    replace = os.replace
+
+    def failing(source, target):
+        if Path(target) == path and Path(source).name == "bag":
+            raise OSError(errno.EXDEV, "Invalid cross-device link")
+        return replace(source, target)
+    monkeypatch.setattr(io.os, "replace", failing)
+    with pytest.raises(BagError, match=r"bag: cannot finish the bag \(Invalid cross-device "):
+        writer.close()
+    assert _pose_of(path) == 1.0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
 
 
@@ -306,12 +343,15 @@ def test_replay_never_writes_over_its_input(tmp_path, capsys, sample_out):
     assert {p.name: p.read_bytes() for p in sample_out.iterdir()} == before
 
 
-def _pose_bag(path: Path, x: float) -> None:
-    pose = fields.Pose((x, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+def _pose_message(x: float) -> Any:
     from hecker_dynamics.bags.io import pose_stamped_message
+    pose = fields.Pose((x, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    return pose_stamped_message(fields.PoseStampedFields(fields.Header(1, 0, "world"), pose))
+
+
+def _pose_bag(path: Path, x: float) -> None:
     with BagWriter(path, "mcap") as writer:
-        writer.write("/b/pose", POSE_STAMPED, SEC, pose_stamped_message(
-            fields.PoseStampedFields(fields.Header(1, 0, "world"), pose)))
+        writer.write("/b/pose", POSE_STAMPED, SEC, _pose_message(x))
 
 
 def _pose_of(path: Path) -> float:
@@ -325,13 +365,10 @@ def test_two_writers_of_one_bag_never_mix_their_files(tmp_path):
     finish with --overwrite leaves its bag whole, and one without --overwrite refuses to
     remove a bag made while it ran."""
     path = tmp_path / "bag"
-    pose = fields.Pose((1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
-    from hecker_dynamics.bags.io import pose_stamped_message
-    message = pose_stamped_message(fields.PoseStampedFields(fields.Header(1, 0, "world"),
-                                                            pose))
+    message = _pose_message(1.0)
     first, second = BagWriter(path, overwrite=True), BagWriter(path, overwrite=True)
     first.open()
-    second.open()  # removed the first's files
+    second.open()  # once removed the first's files
     first.write("/b/pose", POSE_STAMPED, SEC, message)
     second.abort()  # a refused replay's
     first.close()
@@ -411,7 +448,7 @@ def test_a_writer_lets_go_of_its_lock_before_removing_its_directory(tmp_path, mo
     monkeypatch.setattr(io.shutil, "rmtree", checked)
     killed = tmp_path / ".bag.partial-killed"
     killed.mkdir()
-    (killed / "writer.lock").touch()  # no process holds its lock
+    (killed / "writer.lock").write_text(socket.gethostname())  # no process holds its lock
     _pose_bag(tmp_path / "bag", 1.0)
     writer = BagWriter(tmp_path / "bag", overwrite=True)
     writer.open()
