@@ -180,9 +180,10 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
     else:
         recorded = tmp_path / "recorded"
         # The session must outlast the wait into its replay (the start and 2 s), which the
-        # check before the kill makes sure of: 10 s of the chain in the kernel (its replay
-        # takes about 7 s); 1 s without it, whose Python steps take about as long.
-        seconds = "10" if kernel.enabled() else "1"
+        # check before the kill makes sure of: 20 s of the chain in the kernel (its replay
+        # takes about 13 s on a quiet machine here); 2 s without it, whose Python steps
+        # take about as long.
+        seconds = "20" if kernel.enabled() else "2"
         subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain",
                         "--set", "bodies.link00.mass=1", "--duration", seconds, "--workers",
                         "1", "--bags", str(recorded), "-o", str(tmp_path / "recorded.csv")],
