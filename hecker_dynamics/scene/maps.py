@@ -9,14 +9,16 @@ The YAML keys and the image's cells follow nav2_map_server's ``map_io``:
   cell (0, 0) in the fixed frame), ``occupied_thresh``, ``free_thresh`` and ``negate``
   (0/1 or a boolean) are required; ``mode`` is ``trinary`` (the default), ``scale`` or
   ``raw``;
-- a pixel's shade is the mean of its channels on a 0..1 scale (red, green and blue; in
-  trinary mode an alpha channel joins the mean as opacity); its occupancy is
-  ``1 - shade``, or ``shade`` when ``negate``;
-- trinary: 100 (occupied) when ``occupied_thresh < occupancy``, 0 (free) when
-  ``occupancy < free_thresh``, else -1 (unknown); scale: the same, but a pixel that is not
-  opaque is unknown and the cells between the thresholds get
-  ``rint((occupancy - free) / (occupied - free) * 100)``; raw: ``round(shade * 255)``
-  when it is 0..100, else unknown;
+- a pixel's grey is what GraphicsMagick (Q16, through which nav2 reads images) gives for
+  it: samples as 16-bit quantums (an 8-bit sample v is ``257 v``), a colour's Rec. 601
+  luma ``0.299 R + 0.587 G + 0.114 B`` (float32 tables, rounded), cut to 8 bits by whole
+  division by 257 (not the channels' mean, as nav2 read them up to 1.3.6);
+  its occupancy is ``1 - grey / 255`` (``grey / 255`` when ``negate``), in float32;
+- trinary: 100 (occupied) when ``occupancy >= occupied_thresh``, else 0 (free) when
+  ``occupancy <= free_thresh``, else -1 (unknown); scale: the same, but the cells between
+  the thresholds get ``round((occupancy - free) / (occupied - free) * 100)`` (float32, half
+  away from zero); in both, a pixel whose alpha is below 255 is unknown; raw: the grey
+  itself when it is 0..100, else unknown, whatever the alpha;
 - image row 0 is the map's top: ``OccupancyGrid`` row ``height - 1 - y`` holds image row
   ``y``.
 
@@ -25,8 +27,14 @@ each grid row's runs of occupied cells, a run extended upwards while the next ro
 same run. Every occupied cell lies in exactly one box, and the order is fixed by the grid
 alone (by bottom row, then left column).
 
-Images: PGM (P2 and P5, any maxval) and 8-bit non-interlaced PNG (grey, grey and alpha,
-RGB, RGBA, palette), the formats ``map_saver`` writes.
+Images: PGM (P2 any maxval, P5 any but 1, whose bytes GraphicsMagick reads as bits; a
+maxval other than 255 or 65535 scaled as GraphicsMagick 1.3 scales it, see
+:func:`_pgm_quantums`) and 8-bit non-interlaced PNG (grey, grey and alpha,
+RGB, RGBA, palette, and ``tRNS`` transparency), the formats ``map_saver`` writes.
+
+These are nav2_map_server's rules since 1.3.7 (jazzy's ``map_io.cpp`` at 1.3.13, Eigen
+masks over GraphicsMagick's grey), checked cell for cell against that code built on
+GraphicsMagick 1.3.40 Q16.
 """
 from __future__ import annotations
 
@@ -49,7 +57,8 @@ __all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "MAX_CELLS", "OccupancyMa
 MAP_MODES = ("trinary", "scale", "raw")
 OCCUPIED, FREE, UNKNOWN = 100, 0, -1
 #: The most cells a map image may hold (8192 x 8192, 410 m square at 5 cm a cell): reading
-#: one takes up to some 100 bytes a cell (an RGBA PNG's channels as doubles), 6.7 GB here.
+#: one takes up to some 100 bytes a cell (an RGBA PNG's channels as 64-bit integers and
+#: floats), 6.7 GB here.
 #: The header's size is checked before any pixel is read, so a small file claiming a huge
 #: image (a PNG's pixels compress a thousandfold) is refused without the memory.
 MAX_CELLS = 8192 * 8192
@@ -190,33 +199,36 @@ def read_map(path: Path) -> OccupancyMap:
     if negate not in (0, 1) or isinstance(negate, float):
         raise _fail(source, f"'negate' must be 0, 1, true or false, not {negate!r}")
     image_path = path.parent / image
-    channels, opaque = read_image(image_path)
-    cells = occupancy(channels, opaque, mode=mode, negate=bool(negate),
+    grey, alpha = read_image(image_path)
+    cells = occupancy(grey, alpha, mode=mode, negate=bool(negate),
                       occupied_thresh=occupied, free_thresh=free)
     grid = np.ascontiguousarray(cells[::-1])  # image row 0 is the map's top
     return OccupancyMap(resolution, (ox, oy, yaw), grid.shape[1], grid.shape[0],
                         grid.tobytes(), cell_boxes(grid == OCCUPIED))
 
 
-def occupancy(channels: np.ndarray, opaque: np.ndarray | None, *, mode: str, negate: bool,
+def occupancy(grey: np.ndarray, alpha: np.ndarray | None, *, mode: str, negate: bool,
               occupied_thresh: float, free_thresh: float) -> np.ndarray:
-    """nav2's cell values (int8, image rows) of an image: ``channels`` (rows, columns, k)
-    colour channels on a 0..1 scale (k = 1 grey or 3 RGB), ``opaque`` the alpha channel on
-    that scale (None: no alpha)."""
-    if mode == "trinary" and opaque is not None:
-        channels = np.concatenate([channels, opaque[..., None]], axis=2)
-    shade = channels.mean(axis=2)
-    if mode == "raw":
-        value = np.round(shade * 255.0)
-        return np.where((value >= FREE) & (value <= OCCUPIED), value, UNKNOWN).astype(np.int8)
-    occupied = shade if negate else 1.0 - shade
-    between = UNKNOWN if mode == "trinary" else np.rint(
-        (occupied - free_thresh) / (occupied_thresh - free_thresh) * 100.0)
-    cells = np.where(occupied_thresh < occupied, OCCUPIED,
-                     np.where(occupied < free_thresh, FREE, between))
-    if mode == "scale" and opaque is not None:
-        cells = np.where(opaque < 1.0, UNKNOWN, cells)
-    return np.asarray(cells).astype(np.int8)
+    """nav2's cell values (int8, image rows) of an image's ``grey`` levels and ``alpha``
+    (uint8, None: no alpha channel), see :func:`read_image`."""
+    if mode == "raw":  # nav2 casts the grey to int8: 101..255 fall outside 0..100
+        return np.where(grey <= OCCUPIED, grey, UNKNOWN).astype(np.int8)
+    # nav2 computes in float32, the thresholds cast to it: the >= and <= edges are float32's.
+    shade = grey.astype(np.float32) / np.float32(255.0)
+    occupied = shade if negate else np.float32(1.0) - shade
+    occupied_edge, free_edge = np.float32(occupied_thresh), np.float32(free_thresh)
+    cells = np.full(grey.shape, UNKNOWN, dtype=np.int8)
+    cells[occupied >= occupied_edge] = OCCUPIED
+    cells[occupied <= free_edge] = FREE  # after occupied, as nav2 applies them
+    if mode == "scale":
+        between = (occupied > free_edge) & (occupied < occupied_edge)
+        scaled = (occupied - free_edge) / np.float32(occupied_thresh - free_thresh) \
+            * np.float32(100.0)
+        # std::round, half away from zero: exact in float64 for these positive float32s
+        cells[between] = np.floor(scaled[between].astype(np.float64) + 0.5)
+    if alpha is not None:
+        cells[alpha < 255] = UNKNOWN
+    return cells
 
 
 def cell_boxes(occupied: np.ndarray) -> tuple[tuple[int, int, int, int], ...]:
@@ -240,22 +252,46 @@ def cell_boxes(occupied: np.ndarray) -> tuple[tuple[int, int, int, int], ...]:
 
 # ----------------------------------------------------------------------------- images
 
+#: GraphicsMagick's largest quantum (Q16, as Debian and Ubuntu build it): nav2 reads an
+#: image's samples on this scale, an 8-bit sample v as ``257 v``.
+QUANTUM = 65535
+
+
 def read_image(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
-    """An image's colour channels (rows, columns, k) and alpha (or None), on a 0..1
-    scale; :class:`SceneError` if it cannot be read."""
+    """An image's grey levels and alpha (uint8, rows x columns; alpha None when the image
+    has none) as nav2's map_io takes them from GraphicsMagick; :class:`SceneError` if it
+    cannot be read."""
     _check_regular(path, "map image")
     try:
         raw = path.read_bytes()
     except OSError as error:
         raise _fail(str(path), f"cannot read the map image ({error.strerror})") from None
+    if raw[:8] != b"\x89PNG\r\n\x1a\n" and raw[:2] not in (b"P2", b"P5"):
+        raise _fail(str(path), "the map image must be a PGM (P2, P5) or PNG file")
     try:
-        if raw[:8] == b"\x89PNG\r\n\x1a\n":
-            return _read_png(raw)
         if raw[:2] in (b"P2", b"P5"):
-            return _read_pgm(raw), None
+            quantums, alpha = _read_pgm(raw)[..., None], None
+        else:
+            quantums, alpha = _read_png(raw)
     except (ValueError, IndexError, zlib.error, struct.error) as error:
         raise _fail(str(path), f"bad map image ({error})") from None
-    raise _fail(str(path), "the map image must be a PGM (P2, P5) or PNG file")
+    return grey_levels(quantums), None if alpha is None else (alpha // 257).astype(np.uint8)
+
+
+def grey_levels(quantums: np.ndarray) -> np.ndarray:
+    """GraphicsMagick's 8-bit grey of Q16 samples (rows, columns, 1 grey or 3 RGB), as nav2
+    takes it (``type(GrayscaleType)``, then the ``I`` channel as chars). A colour image's
+    quantums become their Rec. 601 luma, GraphicsMagick's tables in float32 (``0.299f *
+    R``, ``0.587f * G``, ``0.114f * B``, summed in float32) rounded half up; a grey image's
+    stay; the quantum is then cut to a char by whole division by 257."""
+    if quantums.shape[2] == 1:
+        luma = quantums[..., 0]
+    else:
+        samples = quantums.astype(np.float32)
+        total = np.float32(0.299) * samples[..., 0] + np.float32(0.587) * samples[..., 1] \
+            + np.float32(0.114) * samples[..., 2]
+        luma = np.minimum(np.floor(total.astype(np.float64) + 0.5), QUANTUM).astype(np.int64)
+    return (luma // 257).astype(np.uint8)
 
 
 def _read_pgm(raw: bytes) -> np.ndarray:
@@ -281,6 +317,9 @@ def _read_pgm(raw: bytes) -> np.ndarray:
     if not (width > 0 and height > 0 and 0 < maxval < 65536):
         raise ValueError(f"PGM size {width} x {height}, maxval {maxval}")
     _check_size("PGM", width, height)
+    if raw[:2] == b"P5" and maxval == 1:
+        raise ValueError("P5 PGM of maxval 1, whose bytes GraphicsMagick (so nav2) reads as "
+                         "bits; write maxval 255")
     count = width * height
     if raw[:2] == b"P5":
         dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
@@ -297,7 +336,29 @@ def _read_pgm(raw: bytes) -> np.ndarray:
             raise ValueError(f"PGM pixel {odd[0]:g} is not a whole number from 0 to {maxval}")
     if values.max() > maxval:  # a shade past white: no image of that maxval holds it
         raise ValueError(f"PGM pixel {values.max():g} is above its maxval {maxval}")
-    return (values / maxval).reshape(height, width, 1)
+    return _pgm_quantums(values.astype(np.int64), maxval, raw[:2] == b"P5") \
+        .reshape(height, width)
+
+
+def _pgm_quantums(values: np.ndarray, maxval: int, binary: bool) -> np.ndarray:
+    """GraphicsMagick 1.3's Q16 levels of PGM samples (its ``pnm`` coder). An image of at
+    least ``maxval`` cells is read as a palette of ``maxval + 1`` greys, level i at
+    ``i * (65535 // maxval)``; a smaller one at ``round(65535 i / maxval)`` (P2) or its
+    sample scaled to 16 bits (P5). P5 levels are then stretched by ``65535 / top``, ``top``
+    being maxval's rounded share of 65535 (a palette level twice: maxval 4 reads 1 as
+    white). maxval 255 and 65535 read every sample as itself on 16 bits."""
+    if values.size >= maxval:
+        levels = values * (QUANTUM // maxval)
+    elif binary:
+        levels = values * (257 if maxval < 256 else 1)
+    else:
+        levels = np.floor(QUANTUM * values / maxval + 0.5).astype(np.int64)
+    if binary:
+        top = math.floor(QUANTUM * maxval / (255 if maxval < 256 else QUANTUM) + 0.5)
+        if top != QUANTUM:
+            stretched = np.floor(QUANTUM / top * levels + 0.5)
+            levels = np.minimum(stretched, QUANTUM).astype(np.int64)
+    return levels
 
 
 def _check_size(kind: str, width: int, height: int) -> None:
@@ -321,7 +382,7 @@ _PNG_CRITICAL = (b"IHDR", b"PLTE", b"IDAT", b"IEND")
 
 
 def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
-    at, header, palette, data = 8, b"", b"", []
+    at, header, palette, transparency, data = 8, b"", b"", b"", []
     while at < len(raw):
         length, kind = struct.unpack(">I4s", raw[at:at + 8])
         chunk = raw[at + 8:at + 8 + length]
@@ -338,6 +399,8 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
             header = chunk
         elif kind == b"PLTE":
             palette = chunk
+        elif kind == b"tRNS":
+            transparency = chunk
         elif kind == b"IDAT":
             data.append(chunk)
         elif kind == b"IEND":
@@ -364,13 +427,24 @@ def _read_png(raw: bytes) -> tuple[np.ndarray, np.ndarray | None]:
         current = _unfilter(line[0], np.frombuffer(line[1:], dtype=np.uint8), previous, k)
         pixels[row] = current
         previous = current.astype(np.int64)
-    image = pixels.reshape(height, width, k).astype(float)
-    if colour == 3:
-        table = np.frombuffer(palette, dtype=np.uint8).reshape(-1, 3).astype(float)
-        image = table[pixels.reshape(height, width)]
-    has_alpha = colour in (4, 6)
-    channels = image[..., :k - 1] if has_alpha else image
-    return channels / 255.0, (image[..., k - 1] / 255.0 if has_alpha else None)
+    image = pixels.reshape(height, width, k).astype(np.int64)
+    alpha = None
+    if colour in (4, 6):
+        image, alpha = image[..., :k - 1], image[..., k - 1]
+    elif colour == 3:
+        # tRNS gives the first palette entries' alphas, the rest opaque
+        table = np.frombuffer(palette, dtype=np.uint8).reshape(-1, 3).astype(np.int64)
+        opacity = np.full(len(table), 255, dtype=np.int64)
+        opacity[:len(transparency)] = np.frombuffer(transparency, dtype=np.uint8)[:len(table)]
+        index = image[..., 0]
+        image = table[index]
+        alpha = opacity[index] if transparency else None
+    elif transparency:
+        # The one transparent colour, 16-bit samples that GraphicsMagick 1.3 compares with
+        # the quantums: a grey's key scaled to 16 bits, an RGB key not (only black matches).
+        key = np.frombuffer(transparency[:2 * k], dtype=">u2").astype(np.int64)
+        alpha = np.where((image * 257 == key * (257 if k == 1 else 1)).all(axis=2), 0, 255)
+    return image * 257, None if alpha is None else alpha * 257
 
 
 def _unfilter(kind: int, line: np.ndarray, above: np.ndarray, k: int) -> np.ndarray:

@@ -23,7 +23,14 @@ from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import Simulation
 from hecker_dynamics.scene.fingerprint import scene_fingerprint
 from hecker_dynamics.scene.load import load_scene, scene_path, with_map
-from hecker_dynamics.scene.maps import MAX_CELLS, OCCUPIED, UNKNOWN, cell_boxes, read_map
+from hecker_dynamics.scene.maps import (
+    MAX_CELLS,
+    OCCUPIED,
+    UNKNOWN,
+    cell_boxes,
+    read_image,
+    read_map,
+)
 from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.scene.world import deleted, spawned
 from hecker_dynamics.sensors.laser import Laser
@@ -42,9 +49,11 @@ def _paeth(left: int, up: int, corner: int) -> int:
     return left if pa <= pb and pa <= pc else up if pb <= pc else corner
 
 
-def write_png(path: Path, pixels: np.ndarray, colour: int) -> None:
+def write_png(path: Path, pixels: np.ndarray, colour: int, palette: bytes = b"",
+              transparency: bytes = b"") -> None:
     """An 8-bit PNG of ``pixels`` (rows, columns, channels), row r filtered with filter
-    type r % 5 (none, sub, up, average, Paeth), so every filter is undone once."""
+    type r % 5 (none, sub, up, average, Paeth), so every filter is undone once; ``palette``
+    and ``transparency`` are the PLTE and tRNS chunks' data, if any."""
     rows, columns, k = pixels.shape
     packed = b""
     previous = [0] * (columns * k)
@@ -67,6 +76,8 @@ def write_png(path: Path, pixels: np.ndarray, colour: int) -> None:
 
     path.write_bytes(b"\x89PNG\r\n\x1a\n"
                      + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
+                     + (chunk(b"PLTE", palette) if palette else b"")
+                     + (chunk(b"tRNS", transparency) if transparency else b"")
                      + chunk(b"IDAT", zlib.compress(packed)) + chunk(b"IEND", b""))
 
 
@@ -106,21 +117,108 @@ def test_a_rectangle_is_one_box_and_an_l_two():
 
 # ----------------------------------------------------------------------------- nav2 rules
 
-def test_trinary_thresholds_are_strict_and_negate_flips(tmp_path):
-    # maxval 4: shades 0, 1/4, 1/2, 3/4, 1 exactly; occupancy 1 - shade
-    write_pgm(tmp_path / "m.pgm", [[0, 1, 2, 3, 4]], maxval=4)
-    cells = read_map(write_map(tmp_path, "m.pgm")).cells()
-    # occupancy 1 > 0.75: occupied; 0.75 is not above 0.75 and 0.25 not below 0.25: unknown
-    assert cells.tolist() == [[OCCUPIED, UNKNOWN, UNKNOWN, UNKNOWN, 0]]
-    negated = read_map(write_map(tmp_path, "m.pgm", negate=True)).cells()
-    assert negated.tolist() == [[0, UNKNOWN, UNKNOWN, UNKNOWN, OCCUPIED]]
+#: Grey levels on and around the thresholds 0.8 and 0.2, as nav2 (1.3.7 on) computes in
+#: float32: 51 / 255 is 0.2f and 1 - 0.2f rounds to 0.8f, so grey 51's occupancy is the
+#: occupied threshold itself; 204 / 255 is 0.8f and 1 - 0.8f is 0.19999999f, under 0.2f.
+EDGE_GREYS = [0, 51, 52, 102, 127, 128, 203, 204, 255]
+EDGES = {"occupied_thresh": 0.8, "free_thresh": 0.2}
 
 
-def test_scale_mode_interpolates_between_the_thresholds(tmp_path):
-    write_pgm(tmp_path / "m.pgm", [[0, 1, 2, 3, 4]], maxval=4)
-    cells = read_map(write_map(tmp_path, "m.pgm", mode="scale")).cells()
-    # occupancy 0.75 and 0.25 fall between: rint((occ - 0.25) / 0.5 * 100)
-    assert cells.tolist() == [[OCCUPIED, 100, 50, 0, 0]]
+def edge_image(directory: Path, kind: str, greys: list[int] = EDGE_GREYS,
+               alpha: list[int] | None = None) -> str:
+    """One row of ``greys`` in one of the image formats nav2 reads, opaque unless ``alpha``
+    (PNG with an alpha channel, or a palette's tRNS)."""
+    row = np.array([greys], dtype=np.uint8)
+    opacity = np.array([alpha or [255] * len(greys)], dtype=np.uint8)
+    name = f"{kind}.{'pgm' if kind.startswith('pgm') else 'png'}"
+    if kind == "pgm":
+        write_pgm(directory / name, row.tolist())
+    elif kind == "pgm-ascii":
+        (directory / name).write_text(f"P2\n{len(greys)} 1\n255\n{' '.join(map(str, greys))}\n")
+    elif kind == "palette":  # entry i is grey greys[-1 - i]: the indices are not the greys
+        table = np.repeat(row[0, ::-1, None], 3, axis=1)
+        write_png(directory / name, (len(greys) - 1 - np.arange(len(greys)))[None, :, None]
+                  .astype(np.uint8), 3, palette=table.tobytes(),
+                  transparency=opacity[0, ::-1].tobytes() if alpha else b"")
+    else:
+        k = {"grey": (0, 1), "grey-alpha": (4, 1), "rgb": (2, 3), "rgba": (6, 3)}[kind]
+        pixels = np.repeat(row[..., None], k[1], axis=2)
+        if k[0] in (4, 6):
+            pixels = np.concatenate([pixels, opacity[..., None]], axis=2)
+        write_png(directory / name, pixels, k[0])
+    return name
+
+
+FORMATS = ["pgm", "pgm-ascii", "grey", "grey-alpha", "rgb", "rgba", "palette"]
+
+
+@pytest.mark.parametrize("kind", FORMATS)
+def test_trinary_thresholds_include_their_edges_and_negate_flips(tmp_path, kind):
+    image = edge_image(tmp_path, kind)
+    cells = read_map(write_map(tmp_path, image, **EDGES)).cells()
+    # occupancy 1 - grey / 255: grey 51 is 0.8f >= 0.8 (occupied; nav2 <= 1.3.6's strict
+    # '<' said unknown), 52 is 0.796 (unknown), 203 is 0.204 (unknown), 204 is 0.19999999f
+    # <= 0.2 (free)
+    assert cells.tolist() == [[100, 100, -1, -1, -1, -1, -1, 0, 0]]
+    negated = read_map(write_map(tmp_path, image, negate=1, **EDGES)).cells()
+    # occupancy grey / 255: 51 is 0.2f <= 0.2 (free), 204 is 0.8f >= 0.8 (occupied)
+    assert negated.tolist() == [[0, 0, -1, -1, -1, -1, -1, 100, 100]]
+
+
+@pytest.mark.parametrize("kind", FORMATS)
+def test_scale_mode_rounds_between_the_thresholds(tmp_path, kind):
+    image = edge_image(tmp_path, kind)
+    cells = read_map(write_map(tmp_path, image, mode="scale", **EDGES)).cells()
+    # between: round((occupancy - 0.2) / 0.6 * 100): grey 52, occupancy 0.79608: 99.35;
+    # 102 (0.6): 66.67; 127 (0.50196): 50.33; 128 (0.49804): 49.67; 203 (0.20392): 0.65
+    assert cells.tolist() == [[100, 100, 99, 67, 50, 50, 1, 0, 0]]
+    negated = read_map(write_map(tmp_path, image, mode="scale", negate=1, **EDGES)).cells()
+    # occupancy grey / 255: 52 is 0.20392 (0.65), 102 is 0.4 (33.33), 203 is 0.79608
+    assert negated.tolist() == [[0, 0, 1, 33, 50, 50, 99, 100, 100]]
+
+
+def test_thresholds_of_0_and_1_are_reached_by_black_and_white(tmp_path):
+    image = edge_image(tmp_path, "pgm")
+    bounds = {"occupied_thresh": 1.0, "free_thresh": 0.0}
+    # black's occupancy is 1.0 >= 1 and white's 0.0 <= 0 (both unknown before 1.3.7)
+    cells = read_map(write_map(tmp_path, image, **bounds)).cells()
+    assert cells.tolist() == [[100, -1, -1, -1, -1, -1, -1, -1, 0]]
+    # scale: occupancy * 100, 51 -> 80, 52 -> 79.61, 102 -> 60, 203 -> 20.39, 204 -> 20
+    cells = read_map(write_map(tmp_path, image, mode="scale", **bounds)).cells()
+    assert cells.tolist() == [[100, 80, 80, 60, 50, 50, 20, 20, 0]]
+
+
+@pytest.mark.parametrize("kind", ["grey-alpha", "rgba", "palette"])
+def test_a_pixel_not_fully_opaque_is_unknown_but_in_raw_mode(tmp_path, kind):
+    image = edge_image(tmp_path, kind, greys=[0, 0, 0, 255, 100], alpha=[255, 254, 0, 1, 0])
+    for mode in ("trinary", "scale"):  # nav2 >= 1.3.7: alpha < 255 is unknown in both
+        cells = read_map(write_map(tmp_path, image, mode=mode)).cells()
+        assert cells.tolist() == [[OCCUPIED, UNKNOWN, UNKNOWN, UNKNOWN, UNKNOWN]]
+    raw = read_map(write_map(tmp_path, image, mode="raw")).cells()
+    assert raw.tolist() == [[0, 0, 0, UNKNOWN, 100]]  # the grey alone
+
+
+def test_colour_is_graphicsmagick_s_rec601_luma(tmp_path):
+    """A colour pixel's grey is GraphicsMagick's: 0.299f R + 0.587f G + 0.114f B on 16-bit
+    quantums (257 v), rounded, then whole-divided by 257; not the channels' mean."""
+    pixels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255], [0, 38, 255], [0, 40, 255],
+                        [255, 167, 255], [255, 169, 255]]], dtype=np.uint8)
+    # red 0.299 * 65535 = 19594.97 -> 19595 // 257 = 76; green 38469.05 -> 149; blue
+    # 7470.99 -> 29; (0, 38, 255): 5732.64 + 7470.99 = 13203.63 -> 13204 // 257 = 51 (its
+    # mean 97.7); (0, 40, 255): 13505.35 -> 52; (255, 167, 255): 52259.40 -> 203;
+    # (255, 169, 255): 52561.1 -> 204
+    greys = [76, 149, 29, 51, 52, 203, 204]
+    write_png(tmp_path / "m.png", pixels, 2)
+    write_png(tmp_path / "m-alpha.png", np.concatenate(
+        [pixels, np.full((1, 7, 1), 255, dtype=np.uint8)], axis=2), 6)
+    write_png(tmp_path / "m-palette.png", np.arange(7, dtype=np.uint8).reshape(1, 7, 1), 3,
+              palette=pixels.tobytes())
+    for image in ("m.png", "m-alpha.png", "m-palette.png"):
+        raw = read_map(write_map(tmp_path, image, mode="raw")).cells()
+        assert raw.tolist() == [[76, UNKNOWN, 29, 51, 52, UNKNOWN, UNKNOWN]]
+        assert read_image(tmp_path / image)[0].tolist() == [greys]
+        cells = read_map(write_map(tmp_path, image, **EDGES)).cells()
+        assert cells.tolist() == [[-1, -1, 100, 100, -1, -1, 0]]
 
 
 def test_raw_mode_keeps_values_up_to_100(tmp_path):
@@ -170,21 +268,6 @@ def test_png_pixels_are_read_through_every_filter(tmp_path, colour):
     png = read_map(write_map(tmp_path, "m.png", name="png.yaml", mode="scale")).cells()
     pgm = read_map(write_map(tmp_path, "m.pgm", name="pgm.yaml", mode="scale")).cells()
     assert np.array_equal(png, pgm) and len(set(pgm.ravel().tolist())) > 2
-
-
-def test_trinary_mode_averages_alpha_in(tmp_path):
-    # grey + alpha: black and opaque is a shade of (0 + 255) / 2 / 255: occupancy 0.5
-    pixels = np.array([[[0, 255], [0, 0], [255, 255]]], dtype=np.uint8)
-    write_png(tmp_path / "m.png", pixels, 4)
-    cells = read_map(write_map(tmp_path, "m.png")).cells()
-    assert cells.tolist() == [[UNKNOWN, OCCUPIED, 0]]
-
-
-def test_a_transparent_pixel_is_unknown_in_scale_mode(tmp_path):
-    pixels = np.array([[[0, 255], [0, 0]]], dtype=np.uint8)  # grey + alpha
-    write_png(tmp_path / "m.png", pixels, 4)
-    cells = read_map(write_map(tmp_path, "m.png", mode="scale")).cells()
-    assert cells.tolist() == [[OCCUPIED, UNKNOWN]]
 
 
 @pytest.mark.parametrize("keys, problem", [
@@ -412,9 +495,45 @@ def test_a_pgm_header_may_hold_comments_anywhere_between_its_numbers(tmp_path):
     assert cells.tolist() == [[0, UNKNOWN]]
 
 
+@pytest.mark.parametrize("image, greys", [
+    # a PGM of at least maxval cells is a palette, level i at i * (65535 // 4) = 16383 i;
+    # P5 stretches it by 65535 / round(65535 * 4 / 255 = 1028): every level past 0 is white
+    (b"P5\n5 1\n4\n" + bytes([0, 1, 2, 3, 4]), [0, 255, 255, 255, 255]),
+    # P2 keeps the palette: 16383 // 257 = 63, 32766 -> 127, 65532 -> 254 (not 255)
+    (b"P2\n4 1\n4\n0 1 2 4\n", [0, 63, 127, 254]),
+    # fewer cells than maxval 100: P5's 257 v stretched by 65535 / 25700 (655.35 -> 655,
+    # 32767.5 -> 32768); P2's round(65535 v / 100), the same; // 257: 2 and 127
+    (b"P5\n3 1\n100\n" + bytes([0, 1, 50]), [0, 2, 127]),
+    (b"P2\n3 1\n100\n0 1 50\n", [0, 2, 127]),
+    # 16-bit samples are quantums: // 257
+    (b"P5\n4 1\n65535\n" + np.array([0, 256, 257, 65535], dtype=">u2").tobytes(),
+     [0, 0, 1, 255]),
+])
+def test_a_pgm_s_maxval_scales_its_greys_as_graphicsmagick_does(tmp_path, image, greys):
+    (tmp_path / "m.pgm").write_bytes(image)
+    assert read_image(tmp_path / "m.pgm") == (pytest.approx(np.array([greys])), None)
+    raw = read_map(write_map(tmp_path, "m.pgm", mode="raw")).cells()
+    assert raw.tolist() == [[g if g <= 100 else UNKNOWN for g in greys]]
+
+
+def test_a_png_s_transparent_colour_is_graphicsmagick_s(tmp_path):
+    """tRNS: a grey key makes its grey transparent (unknown); GraphicsMagick 1.3 compares an
+    8-bit RGB key with 16-bit quantums, so only a black key matches anything."""
+    grey = np.array([[[77], [255]]], dtype=np.uint8)
+    write_png(tmp_path / "g.png", grey, 0, transparency=struct.pack(">H", 77))
+    assert read_map(write_map(tmp_path, "g.png")).cells().tolist() == [[UNKNOWN, 0]]
+    rgb = np.array([[[60, 0, 120], [0, 0, 0]]], dtype=np.uint8)
+    write_png(tmp_path / "c.png", rgb, 2, transparency=struct.pack(">HHH", 60, 0, 120))
+    # (60, 0, 120): 0.299f * 15420 + 0.114f * 30840 = 8126.4 -> grey 31, occupancy 0.88
+    assert read_map(write_map(tmp_path, "c.png")).cells().tolist() == [[OCCUPIED, OCCUPIED]]
+    write_png(tmp_path / "k.png", rgb, 2, transparency=bytes(6))
+    assert read_map(write_map(tmp_path, "k.png")).cells().tolist() == [[OCCUPIED, UNKNOWN]]
+
+
 @pytest.mark.parametrize("header, pixels, problem", [
     (b"P5\n2 1\n100\n", bytes([50, 200]), "PGM pixel 200 is above its maxval 100"),
     (b"P5\n2 1\n1000\n", bytes([0, 50, 4, 0]), "PGM pixel 1024 is above its maxval 1000"),
+    (b"P5\n2 1\n1\n", bytes([0, 1]), "P5 PGM of maxval 1, whose bytes GraphicsMagick"),
     (b"P2\n2 1\n100\n", b"50 101\n", "PGM pixel 101 is above its maxval 100"),
     (b"P2\n2 1\n100\n", b"50 -1\n", "PGM pixel -1 is not a whole number from 0 to 100"),
     (b"P2\n2 1\n100\n", b"50 0.5\n", "PGM pixel 0.5 is not a whole number from 0 to 100"),
