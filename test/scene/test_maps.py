@@ -49,6 +49,11 @@ def _paeth(left: int, up: int, corner: int) -> int:
     return left if pa <= pb and pa <= pc else up if pb <= pc else corner
 
 
+def chunk(kind: bytes, data: bytes) -> bytes:
+    """A PNG chunk: its length, kind, data and CRC."""
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
 def write_png(path: Path, pixels: np.ndarray, colour: int, palette: bytes = b"",
               transparency: bytes = b"") -> None:
     """An 8-bit PNG of ``pixels`` (rows, columns, channels), row r filtered with filter
@@ -69,10 +74,6 @@ def write_png(path: Path, pixels: np.ndarray, colour: int, palette: bytes = b"",
             out.append((value - predicted) & 0xFF)
         packed += bytes([kind, *out])
         previous = raw
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + \
-            struct.pack(">I", zlib.crc32(kind + data))
 
     path.write_bytes(b"\x89PNG\r\n\x1a\n"
                      + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
@@ -549,9 +550,6 @@ def test_a_pgm_pixel_outside_its_maxval_is_refused(tmp_path, header, pixels, pro
 
 def png_bytes(columns: int, rows: int, colour: int, idat: bytes) -> bytes:
     """A PNG of the header's size and the compressed pixel data given, whatever they hold."""
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + \
-            struct.pack(">I", zlib.crc32(kind + data))
     return (b"\x89PNG\r\n\x1a\n"
             + chunk(b"IHDR", struct.pack(">IIBBBBB", columns, rows, 8, colour, 0, 0, 0))
             + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
@@ -614,9 +612,6 @@ def test_a_png_of_no_pixels_is_refused(tmp_path):
 def test_a_damaged_png_is_refused_not_read_as_other_cells(tmp_path, at, problem):
     """A byte changed in a palette gave a map of other cells without a word: the critical
     chunks' CRCs are checked, as libpng checks them."""
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + \
-            struct.pack(">I", zlib.crc32(kind + data))
     raw = bytearray(b"\x89PNG\r\n\x1a\n"
                     + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 1, 8, 3, 0, 0, 0))
                     + chunk(b"PLTE", bytes([0, 0, 0, 255, 255, 255]))
