@@ -129,6 +129,23 @@ def _number(document: dict[str, Any], key: str, source: str) -> float:
 _DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 
 
+class _MapLoader(yaml.SafeLoader):  # type: ignore[misc]  # PyYAML has no type hints
+    """PyYAML's safe loader, except that a whole number YAML 1.1 reads otherwise than as its
+    decimal digits (octal ``010``, hex ``0x10``, ``1_000``, ``1:30``) stays text: nav2 reads
+    the file with yaml-cpp, which takes ``010`` for 10 where YAML 1.1 takes 8, and fails on
+    the others, so :func:`_number` refuses them with a spelling that both read alike."""
+
+
+def _plain_int(loader: Any, node: Any) -> Any:
+    text, value = loader.construct_scalar(node), loader.construct_yaml_int(node)
+    if re.fullmatch(r"[-+]?[0-9]+", text) and int(text, 10) == value:  # 07 is 7 to both
+        return value
+    return text
+
+
+_MapLoader.add_constructor("tag:yaml.org,2002:int", _plain_int)
+
+
 def _as_number(text: str) -> str:
     """How to write ``text`` so that YAML 1.1 reads the number strtod reads in it."""
     plain = text.strip()
@@ -168,7 +185,7 @@ def read_map(path: Path) -> OccupancyMap:
         reason = getattr(error, "strerror", None) or error
         raise _fail(source, f"cannot read the map file ({reason})") from None
     try:
-        document = yaml.safe_load(text)
+        document = yaml.load(text, Loader=_MapLoader)  # noqa: S506 (a safe loader)
     except yaml.YAMLError as error:
         raise _fail(source, f"not YAML ({' '.join(str(error).split())})") from None
     if not isinstance(document, dict):

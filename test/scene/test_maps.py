@@ -638,6 +638,8 @@ LEADING_0 = "YAML 1.1 reads a whole number with a leading 0 as octal or text"
     # 08 is text to YAML 1.1 and 010 octal 8: they were told '08.0e+' (text again) and,
     # quoted, 'write it unquoted' (8, not the 10 nav2 reads)
     ("08", LEADING_0, "08.0"), ("'010'", LEADING_0, "010.0"), ("'-09'", LEADING_0, "-09.0"),
+    # unquoted 010 was read as 8 without a word, where nav2's yaml-cpp reads 10
+    ("010", LEADING_0, "010.0"), ("-010", LEADING_0, "-010.0"),
 ])
 def test_a_map_number_yaml_1_1_reads_otherwise_is_told_a_spelling_it_reads(tmp_path, written,
                                                                            rule, spelled):
@@ -653,3 +655,17 @@ def test_a_map_number_yaml_1_1_reads_otherwise_is_told_a_spelling_it_reads(tmp_p
     assert str(error.value).endswith(
         f"'resolution' is read as the string '{text}': {rule}; write {spelled}")
     assert yaml.safe_load(spelled) == float(text)
+
+
+@pytest.mark.parametrize("written", ["0x10", "0b11", "1_0", "1:30"])
+def test_a_map_whole_number_yaml_cpp_cannot_read_is_refused(tmp_path, written):
+    """YAML 1.1 reads these as whole numbers (16, 3, 10, 90); nav2's yaml-cpp reads none of
+    them as a double, so the map is refused as nav2 refuses it."""
+    write_pgm(tmp_path / "m.pgm", [[0]])
+    path = write_map(tmp_path, "m.pgm")
+    path.write_text(path.read_text().replace("resolution: 0.5", f"resolution: {written}"))
+    with pytest.raises(SceneError, match=f"'resolution' must be a finite number, not "
+                                         f"'{written}'$"):
+        read_map(path)
+    path.write_text(path.read_text().replace(f"resolution: {written}", "resolution: 07"))
+    assert read_map(path).resolution == 7.0  # YAML 1.1's octal 07 is 7, as to yaml-cpp
