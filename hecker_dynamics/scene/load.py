@@ -1057,6 +1057,9 @@ def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[st
         settings = reader.child("motor")
         motor = Motor(settings.number("speed", 0.0),
                       settings.number(effort, REQUIRED, minimum=0.0))
+        if not math.isfinite(motor.speed * motor.max_effort):  # the energy bound's power
+            settings.fail("speed", f"{motor.speed} times {effort} {motor.max_effort} is a "
+                                   "power past what a double holds")
     if kind == "prismatic":
         ax, ay = reader.vector("axis", REQUIRED)
         length = math.hypot(ax, ay)

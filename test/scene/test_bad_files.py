@@ -330,3 +330,12 @@ def test_a_script_force_shorter_than_one_step_is_refused(tmp_path, capsys, durat
     _refused_in_one_line(path, capsys, "parameter 'script.kick.duration'",
                          "shorter than one step (0.001 s)")
 
+
+def test_a_motor_whose_power_overflows_is_refused(tmp_path, capsys):
+    """The energy bound takes a motor's work at its largest torque times its speed: inf
+    there let the bound take any energy of the bodies it joins."""
+    path = _write(tmp_path, _scene_text(extra=(
+        "    joints:\n      axle:\n        type: revolute\n        body_b: b\n"
+        "        motor: {speed: 1.0e+200, max_torque: 1.0e+200}\n")))
+    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed'",
+                         "is a power past what a double holds")
