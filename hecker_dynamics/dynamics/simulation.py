@@ -833,8 +833,9 @@ class Simulation:
                     joints.remember()
                 return q1, v1
             except JointsUnsolved as error:
-                if room < 2:
-                    raise IntegrationError(self._unsolved(f" ({error})")) from error
+                if room < 2:  # the kernel's words (_account): a replay's diagnostics alike
+                    raise IntegrationError(f"{self.integrator.name}: "
+                                           f"{self._unsolved()}") from error
             parts = 2
             joints.needed = max(joints.needed, 2 * pieces)
         part = h / parts
