@@ -73,8 +73,13 @@ class InputBuffer:
             raise InputError(f"input buffer full ({self.max_pending} pending commands); "
                              f"dropped {_what(command)}")
         key = (command.body, command.source)
-        if key not in self._active and key not in self._pending_keys and \
-                len(self._active.keys() | self._pending_keys.keys()) >= self.max_active:
+        active, pending, cap = self._active, self._pending_keys, self.max_active
+        # The sources are at least the larger of both and at most their sum: the union
+        # (1,000 keys at the cap) is built only between, not for every message of a flood.
+        if key not in active and key not in pending and (
+                max(len(active), len(pending)) >= cap or (
+                    len(active) + len(pending) >= cap
+                    and len(active.keys() | pending.keys()) >= cap)):
             raise InputError(f"more than {self.max_active} input sources at once; dropped "
                              f"{_what(command)}")
         held = Held(command, row, self.end_of(command))

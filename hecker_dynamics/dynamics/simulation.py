@@ -51,6 +51,7 @@ from ..integrators.methods import (
 )
 from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import Scene
+from ..scene.parameters import seconds_text
 from .divergence import EnergyBound
 from .forces import WrenchRow, lever_arm
 from .inputs import InputBuffer
@@ -460,6 +461,11 @@ class Simulation:
         if command.body not in self.model.index:
             raise InputError(f"unknown body '{command.body}' (bodies: "
                              f"{', '.join(self.model.names)})")
+        if 0 < command.duration_ns < self.step_ns:  # it would act a whole step, not its own
+            raise InputError(
+                f"command for '{command.body}' from '{command.source}' lasts "
+                f"{seconds_text(command.duration_ns)} s, shorter than one step "
+                f"({seconds_text(self.step_ns)} s), over which a force acts whole")
         if command.stamp_ns > self._time_ns + self.scene.input_max_lead_ns:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' is stamped "
@@ -827,8 +833,9 @@ class Simulation:
                     joints.remember()
                 return q1, v1
             except JointsUnsolved as error:
-                if room < 2:
-                    raise IntegrationError(self._unsolved(f" ({error})")) from error
+                if room < 2:  # the kernel's words (_account): a replay's diagnostics alike
+                    raise IntegrationError(f"{self.integrator.name}: "
+                                           f"{self._unsolved()}") from error
             parts = 2
             joints.needed = max(joints.needed, 2 * pieces)
         part = h / parts

@@ -77,4 +77,10 @@ def set_motor_speed(sim: Simulation, joint: str, speed: float) -> None:
                          f"(motors: {', '.join(sorted(speeds)) or 'none'})")
     if not math.isfinite(speed):
         raise InputError(f"motor speed for joint '{joint}' must be finite, not {speed}")
+    effort = next(spec.motor.max_effort for spec in sim.scene.joints if spec.name == joint
+                  and isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor)
+    # The energy bound takes the motor's work at effort times speed: inf would blind it.
+    if not math.isfinite(speed * effort):
+        raise InputError(f"motor speed {speed} for joint '{joint}' times its largest effort "
+                         f"{effort} is a power past what a double holds")
     speeds[joint] = float(speed)

@@ -438,7 +438,7 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
         collisions=collisions,
         wrench_topics=tuple(_read_wrench_topic(name, r, frame_id, points)
                             for name, r in root.named_children("wrench_topics")),
-        script=tuple(sorted((_read_command(name, r, frame_id, points)
+        script=tuple(sorted((_read_command(name, r, frame_id, points, step_ns)
                              for name, r in root.named_children("script")),
                             key=lambda c: (c.stamp_ns, c.source))),
         joints=joints,
@@ -1057,6 +1057,9 @@ def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[st
         settings = reader.child("motor")
         motor = Motor(settings.number("speed", 0.0),
                       settings.number(effort, REQUIRED, minimum=0.0))
+        if not math.isfinite(motor.speed * motor.max_effort):  # the energy bound's power
+            settings.fail("speed", f"{motor.speed} times {effort} {motor.max_effort} is a "
+                                   "power past what a double holds")
     if kind == "prismatic":
         ax, ay = reader.vector("axis", REQUIRED)
         length = math.hypot(ax, ay)
@@ -1110,13 +1113,16 @@ def _read_wrench_topic(name: str, reader: ParameterReader, fixed: str,
 
 
 def _read_command(name: str, reader: ParameterReader, fixed: str,
-                  points: Mapping[str, Mapping[str, Vec2]]) -> WrenchCommand:
+                  points: Mapping[str, Mapping[str, Vec2]], step_ns: int) -> WrenchCommand:
     body = _body(reader, "body", points)
     frame = reader.string("frame_id", fixed)
     _check_frame(reader, "frame_id", frame, fixed, points)
+    duration_ns = _seconds_to_ns(reader, "duration", 0.0)
+    if 0 < duration_ns < step_ns:  # a force acts over whole steps: it would act a step
+        reader.fail("duration", f"{reader.number('duration')} s is shorter than one step "
+                                f"({seconds_text(step_ns)} s), over which a force acts whole")
     return WrenchCommand(
         stamp_ns=_seconds_to_ns(reader, "time", REQUIRED),
         body=body, source=reader.string("id", name), frame_id=frame,
         point=reader.vector("point", [0.0, 0.0]), force=reader.vector("force", [0.0, 0.0]),
-        torque=reader.number("torque", 0.0),
-        duration_ns=_seconds_to_ns(reader, "duration", 0.0))
+        torque=reader.number("torque", 0.0), duration_ns=duration_ns)

@@ -6,7 +6,7 @@ import math
 import pytest
 from scene_builders import make_scene
 
-from hecker_dynamics.dynamics import Simulation
+from hecker_dynamics.dynamics import DivergenceError, Simulation
 from hecker_dynamics.ros.joint_states import joint_state_fields, set_motor_speed
 from hecker_dynamics.scene import InputError
 
@@ -48,6 +48,27 @@ def test_a_motor_speed_command_is_held_and_bad_ones_are_refused():
         set_motor_speed(sim, "rail", 1.0)
     with pytest.raises(InputError, match="finite"):
         set_motor_speed(sim, "axle", math.nan)
+
+
+def test_a_motor_speed_past_what_the_energy_bound_takes_is_refused():
+    """The bound takes a motor's work at its largest effort times its target speed: 1e308
+    rad/s at 20 N m made that power inf, and a spring blowing up beside the wheel ran 10 s
+    to 1e151 m unseen, until no number was finite."""
+    scene = make_scene({
+        "step": 0.01, "integrator": "explicit_euler",
+        "bodies": {"wheel": {"shape": "circle", "radius": 0.5, "mass": 1.0},
+                   "bob": {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                           "position": [2.0, 0.0], "velocity": [0.0, 1.0]}},
+        "joints": {"axle": {"type": "revolute", "body_b": "wheel",
+                            "motor": {"speed": 0.0, "max_torque": 20.0}}},
+        "forces": {"s": {"type": "spring", "body_a": "wheel", "point_a": [0.5, 0.0],
+                         "body_b": "bob", "stiffness": 1e4, "rest_length": 1.0}}})
+    sim = Simulation(scene)
+    with pytest.raises(InputError, match=r"^motor speed 1e\+308 for joint 'axle' times its "
+                                         r"largest effort 20.0 is a power past what a double"):
+        set_motor_speed(sim, "axle", 1e308)
+    with pytest.raises(DivergenceError, match=r"bob, wheel diverged by t = 0\.12"):
+        sim.advance_to(10_000_000_000, keep=False)  # its motor holds 0 rad/s
 
 
 def test_each_publish_instant_carries_the_joint_states_of_its_own_time():

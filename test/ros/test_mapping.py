@@ -567,6 +567,22 @@ def test_runner_refuses_input_before_the_start_and_counts_bad_input():
     assert (runner.accepted, runner.rejected) == (2, 5)
 
 
+@pytest.mark.parametrize("duration", [(0, 1), (0, 999_999)])
+def test_runner_refuses_a_wrench_shorter_than_one_step(duration):
+    """A force acts over whole steps: 1 ns gave the impulse of a whole 1 ms step, a
+    million times the one asked for; a wrench of one step or more is taken."""
+    runner = Runner(load_scene("sample"))
+    short = _namespace_applied((0, 0), "world", "left", "kick", (0.0, 0.0, 0.0),
+                               (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), duration)
+    lines = runner.accept("/applied_wrench", short, 0)
+    assert [(line.key, line.dropped) for line in lines] == [("/applied_wrench:scene", True)]
+    assert "lasts" in lines[0].message and "shorter than one step (0.001 s)" in lines[0].message
+    step = _namespace_applied((0, 0), "world", "left", "kick", (0.0, 0.0, 0.0),
+                              (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0, 1_000_000))
+    assert runner.accept("/applied_wrench", step, 0) == []
+    assert (runner.accepted, runner.rejected) == (1, 1)
+
+
 def test_runner_plays_the_script_like_simulation_play():
     scene = load_scene("sample")
     expected = Simulation(scene, start_ns=S).play(scene.script, until_ns=scene.duration_ns)

@@ -318,3 +318,24 @@ def test_a_pair_in_two_collision_groups_is_named_with_its_first_group(tmp_path, 
         "      g0:\n        bodies: [a, b, c]\n      g1:\n        bodies: [c, d]\n"
     assert [g.bodies for g in load_scene(_write(tmp_path, fine, "fine.yaml")).collisions] == \
         [("a", "b", "c"), ("c", "d")]
+
+
+@pytest.mark.parametrize("duration", ["1.0e-9", "0.0005"])
+def test_a_script_force_shorter_than_one_step_is_refused(tmp_path, capsys, duration):
+    """A force acts over whole steps: a scripted kick of 1e-9 s at steps of 1 ms gave the
+    impulse of a whole step, a million times the one written, without a word."""
+    path = _write(tmp_path, _scene_text(extra=(
+        "    step: 0.001\n    script:\n      kick:\n        time: 0.0\n        body: b\n"
+        f"        force: [1.0, 0.0]\n        duration: {duration}\n")))
+    _refused_in_one_line(path, capsys, "parameter 'script.kick.duration'",
+                         "shorter than one step (0.001 s)")
+
+
+def test_a_motor_whose_power_overflows_is_refused(tmp_path, capsys):
+    """The energy bound takes a motor's work at its largest torque times its speed: inf
+    there let the bound take any energy of the bodies it joins."""
+    path = _write(tmp_path, _scene_text(extra=(
+        "    joints:\n      axle:\n        type: revolute\n        body_b: b\n"
+        "        motor: {speed: 1.0e+200, max_torque: 1.0e+200}\n")))
+    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed'",
+                         "is a power past what a double holds")
