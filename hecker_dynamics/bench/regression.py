@@ -94,13 +94,13 @@ def quick_ratios(results: Any) -> dict[str, Ratio]:
     ratios: dict[str, Optional[Ratio]] = {}
     for row in results.ring:
         if row.engine == "hecker_dynamics" and row.method == "semi_implicit_euler":
+            n = int(row.omega_dt)
+            pairs = results.ring_pairs.get(n)
             for engine, method in (("c", "semi_implicit_euler"), ("pymunk", "native"),
                                    ("mujoco", "euler")):
-                ratios[f"ring N={int(row.omega_dt)} / {engine}"] = _ratio(
-                    row, _find(results.ring, row.scene, engine, method))
-    for n, pairs in results.ring_pairs.items():
-        if pairs:
-            ratios[f"ring N={n} / c"] = _paired(pairs)
+                ratios[f"ring N={n} / {engine}"] = (
+                    _paired(pairs) if engine == "c" and pairs
+                    else _ratio(row, _find(results.ring, row.scene, engine, method)))
     ours = _find(results.sample_rows, "sample", "hecker_dynamics", "semi_implicit_euler")
     for row in results.sample_rows:
         if not row.engine.startswith("hecker_dynamics"):
