@@ -11,6 +11,7 @@ from hecker_dynamics.bench.joints import (
     LOOSE_LINKS,
     SOFT,
     Case,
+    Renamed,
     Run,
     _cases,
     chain,
@@ -65,8 +66,9 @@ def test_the_door_on_its_joint_holds_the_pin_better_than_on_a_spring():
 def test_renaming_a_chain_keeps_its_bits():
     results = renaming(60, 0.1, 1)
     assert set(results) == {"padded", "unpadded", "shuffled"}
-    first = results["padded"][1]
-    assert all(np.array_equal(state, first) for _, state in results.values())
+    first = results["padded"].state
+    assert all(np.array_equal(run.state, first) for run in results.values())
+    assert results["padded"].ratio == 1.0
 
 
 def _case(name: str, runs: dict[str, list[Run]]) -> Case:
@@ -79,7 +81,8 @@ def test_the_targets_say_met_missed_or_not_measured():
     """Target 1 misses on a failed or stretched chain, target 2 is not measured without
     Box2D v3 and judged where it ran, target 3 misses on a spread of costs or bits."""
     same = np.zeros((2, 6))
-    renamed = {"padded": (1.0, same), "unpadded": (1.05, same), "shuffled": (0.97, same)}
+    renamed = {"padded": Renamed(1.0, 1.0, same), "unpadded": Renamed(1.05, 1.05, same),
+               "shuffled": Renamed(0.97, 0.97, same)}
     good = [_case("chain of 2, h = 1/240 s", {"hecker_dynamics": [Run(1e-6, 1e-12)]}),
             _case("chain of 2, h = 1/60 s", {"hecker_dynamics": [Run(1e-6, 1e-12)]})]
     verdicts = [verdict for _, _, verdict in targets(good, renamed)]
@@ -92,17 +95,18 @@ def test_the_targets_say_met_missed_or_not_measured():
     assert targets(bad, renamed)[0][2] == "missed"
     stretched = [_case("chain of 2, h = 1/60 s", {"hecker_dynamics": [Run(1e-6, 2e-9)]})]
     assert targets(stretched, renamed)[0][2] == "missed"
-    spread = {**renamed, "unpadded": (1.2, same)}
+    spread = {**renamed, "unpadded": Renamed(1.05, 1.2, same)}
     assert targets(good, spread)[2][2] == "missed"
-    other_bits = {**renamed, "shuffled": (1.0, same + 1e-16)}
+    drifted = {**renamed, "unpadded": Renamed(1.2, 1.05, same)}  # the load, not the names
+    assert targets(good, drifted)[2][2] == "met"
+    other_bits = {**renamed, "shuffled": Renamed(1.0, 1.0, same + 1e-16)}
     assert targets(good, other_bits)[2][2] == "missed"
 
 
 def test_joint_bench_writes_its_table_and_targets(tmp_path):
     cases = [Case("chain of 2, h = 1/240 s", lambda: chain(2, 1.0 / 240.0, 0.05)),
              Case("door on joints", lambda: load_scene("door"), 0.05, ("hecker_dynamics",))]
-    renamed = {"padded": (1.0, np.zeros(1)), "unpadded": (1.0, np.zeros(1)),
-               "shuffled": (1.0, np.zeros(1))}
+    renamed = {name: Renamed(1.0, 1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
     verdicts = joint_bench([], tmp_path, "hecker-dynamics bench --joints", log=lambda _: None,
                            cases=cases, rounds=1, renamed=renamed)
     text = (tmp_path / "joints.md").read_text()
@@ -124,7 +128,7 @@ def test_the_loose_chains_cost_against_the_exact_ones_outside_the_targets(tmp_pa
     loose = Case("chain of 2, h = 1/240 s, joints to 1e-09 m",
                  lambda: chain(2, 1.0 / 240.0, 0.2), engines=("hecker_dynamics",),
                  tolerance=1e-9, reference=exact.name)
-    renamed = {name: (1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
+    renamed = {name: Renamed(1.0, 1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
     verdicts = joint_bench([], tmp_path, "hecker-dynamics bench --joints", log=lambda _: None,
                            cases=[exact, loose], rounds=1, renamed=renamed)
     ours, looser = exact.median("hecker_dynamics"), loose.median("hecker_dynamics")
@@ -158,7 +162,7 @@ def test_soft_chains_report_their_cost_and_gap_against_box2d_v3_s():
     soft = _case("chain of 2, h = 1/240 s" + SOFT,
                  {"hecker_dynamics": [Run(1e-6, 5e-4)]})
     soft.reference = exact.name
-    renamed = {name: (1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
+    renamed = {name: Renamed(1.0, 1.0, np.zeros(1)) for name in ("padded", "unpadded", "shuffled")}
     verdicts = targets([exact, soft], renamed)
     assert verdicts[0][1] == "all ran; largest pin gap 1e-12 m"
     assert verdicts[1][1] == "core / Box2D v3: 2 links 0.50"
