@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 import re
 import struct
+import sys
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,7 +53,7 @@ import yaml
 from .parameters import SceneError, number_text
 
 __all__ = ["MAP_MODES", "OCCUPIED", "FREE", "UNKNOWN", "MAX_CELLS", "OccupancyMap",
-           "MapSpec", "read_map", "occupancy", "cell_boxes"]
+           "MAX_EXTENT", "MapSpec", "read_map", "occupancy", "cell_boxes"]
 
 MAP_MODES = ("trinary", "scale", "raw")
 OCCUPIED, FREE, UNKNOWN = 100, 0, -1
@@ -220,8 +221,29 @@ def read_map(path: Path) -> OccupancyMap:
     cells = occupancy(grey, alpha, mode=mode, negate=bool(negate),
                       occupied_thresh=occupied, free_thresh=free)
     grid = np.ascontiguousarray(cells[::-1])  # image row 0 is the map's top
-    return OccupancyMap(resolution, (ox, oy, yaw), grid.shape[1], grid.shape[0],
-                        grid.tobytes(), cell_boxes(grid == OCCUPIED))
+    grid_map = OccupancyMap(resolution, (ox, oy, yaw), grid.shape[1], grid.shape[0],
+                            grid.tobytes(), cell_boxes(grid == OCCUPIED))
+    _check_extent(grid_map, source)
+    return grid_map
+
+
+#: Largest coordinate of a map's corner (m): a box's centre is the mean of its four
+#: corners (the laser's and the contact pass's fixed bodies), whose sum must be a double.
+MAX_EXTENT = sys.float_info.max / 4.0
+
+
+def _check_extent(grid_map: OccupancyMap, source: str) -> None:
+    """Refuse a map whose corners lie past :data:`MAX_EXTENT` (a huge ``resolution`` or
+    ``origin``): its boxes' centres would be infinite, their corners and rays NaN."""
+    corners = [grid_map.corner(column, row) for column in (0, grid_map.width)
+               for row in (0, grid_map.height)]
+    if not all(abs(value) <= MAX_EXTENT for corner in corners for value in corner):
+        x, y, yaw = grid_map.origin
+        raise _fail(source, f"'resolution' {number_text(grid_map.resolution)} over "
+                            f"{grid_map.width} x {grid_map.height} cells from 'origin' "
+                            f"[{number_text(x)}, {number_text(y)}, {number_text(yaw)}] puts "
+                            f"the map's corners past {MAX_EXTENT:.4g} m, where its boxes' "
+                            f"centres are no doubles")
 
 
 def occupancy(grey: np.ndarray, alpha: np.ndarray | None, *, mode: str, negate: bool,

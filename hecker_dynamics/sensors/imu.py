@@ -7,11 +7,12 @@ velocity (Eq. 9). Differentiating, with dr/dt = omega perp(r) and perp(perp(r)) 
 
 the CM's acceleration (the summed forces over the mass, Eq. 5) plus the tangential term
 (the angular acceleration, the summed torques over inertia, Eq. 14) and the centripetal
-term. An accelerometer reads the specific force a_P - g (at rest under gravity it reads
--g; in free fall zero), turned into the sensor's axes; the gyro reads omega and the
-orientation is the body's angle plus the mount's. The accelerations are the force terms'
-at the sampled state (Model.accelerations, inputs included); contact impulses and joint
-constraint forces act inside the step and are not part of them.
+term. An accelerometer reads the specific force a_P - g (held at rest by a spring or a
+force it reads -g; in free fall zero), turned into the sensor's axes; the gyro reads omega
+and the orientation is the body's angle plus the mount's. The accelerations are the force
+terms' at the sampled state (Model.accelerations, inputs included); contact impulses and
+joint constraint forces act inside the step and are not part of them, so a body resting
+on the floor or hanging from a pin reads zero, as in free fall.
 """
 from __future__ import annotations
 

@@ -224,7 +224,10 @@ class Laser:
         spec = self.spec
         ranges = self.distances(q)
         if spec.noise > 0.0:
-            ranges = ranges + spec.noise * self.noise.normals(stamp_ns, len(ranges))
+            # The noise goes on the hits only: a no-return stays +inf, where a draw that
+            # overflows to -inf (a noise past 1e308 / 8.6) would make it NaN.
+            draws = self.noise.normals(stamp_ns, len(ranges))
+            ranges = np.where(ranges == np.inf, ranges, ranges + spec.noise * draws)
         ranges[ranges > spec.range_max] = np.inf
         ranges[ranges < spec.range_min] = -np.inf
         return LaserScan(stamp_ns, ranges)

@@ -66,6 +66,32 @@ def test_two_balls_exchange_the_collision_impulse():
     assert ma * (va - runner.sim.v[0, 0]) == pytest.approx(j, rel=1e-12)
 
 
+def test_a_body_deleted_and_spawned_again_at_one_instant_ends_its_touch_and_begins_one():
+    """The new body of the old one's name is another body: the old one's touch of the
+    floor ends with its own impulse and the new one's begins, as in a keyframe's replay."""
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0, "position": [0.0, 0.1]}
+    floor = {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0], "restitution": 0.0}}
+    events, runner = events_of({"bodies": {"ball": ball, "box": {**ball, "position": [1.0, 0.1]}},
+                                "forces": {"g": {"type": "gravity"}}, "walls": floor}, S // 2)
+    assert [(f.event, f.body_b) for f in events] == [(TouchKind.BEGIN, "ball"),
+                                                      (TouchKind.BEGIN, "box")]
+    held = runner.touches.touching[("floor", "", "ball")][0]
+    keyframe = runner.keyframe()
+    runner.delete_body("ball")
+    runner.spawn_body("ball", "{shape: circle, radius: 0.1, mass: 5.0, position: [-1.0, 0.1]}")
+    tick = runner.advance(S // 2 + 2_000_000)
+    events = [o.fields for _, o in tick.readings if o.topic == CONTACT_EVENTS_TOPIC]
+    assert [(f.event, f.body_b) for f in events] == [(TouchKind.END, "ball"),
+                                                      (TouchKind.BEGIN, "ball")]
+    assert events[0].normal_impulse == held  # the old ball's alone
+    assert 0.0 < events[1].normal_impulse <= 5.0 * 9.81 * 0.001  # the new ball's first step
+    restored = Runner(runner.base_scene)
+    restored.restore(keyframe)
+    restored.delete_body("ball")
+    restored.spawn_body("ball", "{shape: circle, radius: 0.1, mass: 5.0, position: [-1.0, 0.1]}")
+    assert restored.advance(S // 2 + 2_000_000).readings == tick.readings
+
+
 def test_without_publish_contacts_no_events_and_no_stops():
     ball = {"shape": "circle", "radius": 0.1, "mass": 1.0, "velocity": [0.0, -1.0],
             "position": [0.0, 0.2]}

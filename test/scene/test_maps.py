@@ -289,6 +289,10 @@ def test_png_pixels_are_read_through_every_filter(tmp_path, colour):
     ({"free_thresh": -0.1}, "'free_thresh' -0.1 and 'occupied_thresh' 0.75 must be"),
     ({"free_thresh": 0.75}, "'free_thresh' 0.75 and 'occupied_thresh' 0.75 must be"),
     ({"free_thresh": 0.8, "mode": "scale"}, "occupied_thresh <= 1 in scale mode"),
+    # A box's centre, the mean of its corners, would be inf and its corners' offsets NaN.
+    ({"resolution": 1e308}, "'resolution' 1e+308 over 1 x 1 cells from 'origin' [0, 0, 0] "
+                            "puts the map's corners past 4.494e+307 m"),
+    ({"origin": [-1e308, 0.0, 0.5]}, "'origin' [-1e+308, 0, 0.5] puts the map's corners past"),
 ])
 def test_a_bad_map_file_is_one_line_naming_it(tmp_path, keys, problem):
     write_pgm(tmp_path / "m.pgm", [[0]])

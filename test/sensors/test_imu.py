@@ -63,6 +63,30 @@ def test_specific_force_is_the_push_over_the_mass_and_zero_in_free_fall():
     assert read(pushed, sim).linear_acceleration == pytest.approx(expected, abs=1e-14)
 
 
+def test_a_body_held_up_by_a_force_reads_minus_g_and_one_resting_on_a_wall_zero():
+    """docs/scenes.md: contact and joint forces are not part of the reading, so a body
+    held at rest by a force reads -g (9.81 m/s^2 up) but one resting on the floor reads
+    zero, as in free fall."""
+    body = {"shape": "box", "size": [0.4, 0.2], "mass": 2.0, "position": [0.0, 0.1]}
+    held, sim = setup(body, {"g": {"type": "gravity"},
+                             "hold": {"type": "constant_force", "body": "robot",
+                                      "force": [0.0, 2.0 * 9.81]}})
+    for _ in range(100):
+        sim.step()
+    assert read(held, sim).linear_acceleration == (0.0, 9.81)
+    scene = make_scene({"step": 1e-3, "integrator": "semi_implicit_euler",
+                        "bodies": {"robot": body},
+                        "forces": {"g": {"type": "gravity"}},
+                        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0]}},
+                        "sensors": {"imu": {"type": "imu", "body": "robot"}}})
+    sim = Simulation(scene)
+    for _ in range(500):
+        sim.step()
+    assert abs(sim.q[0, 1] - 0.1) < 1e-3 and abs(sim.v[0, 1]) < 0.01  # on the floor
+    resting = Imu(scene.sensors[0], scene, sim.model.cm_local)
+    assert read(resting, sim).linear_acceleration == (0.0, 0.0)
+
+
 def mount_error(step: float) -> np.ndarray:
     """IMU reading (back in world axes, gravity added back) less a central difference of
     the mount's velocity, a body point's velocity (Eq. 9), over the neighbouring steps, at

@@ -190,6 +190,16 @@ def test_a_hit_beyond_range_max_is_no_return_whatever_the_noise():
     assert sum(math.isfinite(within.scan(q, stamp).ranges[0]) for stamp in range(200)) > 50
 
 
+def test_a_no_return_stays_infinite_under_a_noise_whose_draws_overflow():
+    # Nothing above the robot within range_max: +inf, never inf + (-inf) = NaN from a
+    # draw below -1.8 times a noise of 1e308 (such draws overflow to -inf).
+    laser, model = laser_of({"bodies": {"robot": robot(position=[3.0, 2.0])}},
+                            angle_min=-3.0, angle_max=3.0, count=50, noise=1e308, seed=5)
+    q, _ = model.initial_state()
+    ranges = np.concatenate([laser.scan(q, stamp).ranges for stamp in range(20)])
+    assert np.all(ranges == math.inf)
+
+
 def _shapes(rng: np.random.Generator) -> dict:
     kind = rng.integers(3)
     if kind == 0:
