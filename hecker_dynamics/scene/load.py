@@ -30,7 +30,7 @@ from ..geometry.shapes import (
     mass_properties,
 )
 from ..integrators.methods import METHODS
-from .commands import WrenchCommand
+from .commands import WrenchCommand, shorter_than_a_step
 from .drives import DriveSpec, read_drive
 from .joints import (
     DistanceJoint,
@@ -1118,9 +1118,9 @@ def _read_command(name: str, reader: ParameterReader, fixed: str,
     frame = reader.string("frame_id", fixed)
     _check_frame(reader, "frame_id", frame, fixed, points)
     duration_ns = _seconds_to_ns(reader, "duration", 0.0)
-    if 0 < duration_ns < step_ns:  # a force acts over whole steps: it would act a step
-        reader.fail("duration", f"{reader.number('duration')} s is shorter than one step "
-                                f"({seconds_text(step_ns)} s), over which a force acts whole")
+    short = shorter_than_a_step(duration_ns, step_ns, reader.number("duration", 0.0))
+    if short is not None:
+        reader.fail("duration", short)
     return WrenchCommand(
         stamp_ns=_seconds_to_ns(reader, "time", REQUIRED),
         body=body, source=reader.string("id", name), frame_id=frame,
