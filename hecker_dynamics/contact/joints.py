@@ -297,6 +297,9 @@ class JointPass:
         #: The joints in the order their rows are solved in (:func:`_solve_order`).
         self.specs = _solve_order(scene, specs)
         self._named = named
+        #: Each motor (its largest effort; the speed it is commanded is in motor_speed).
+        self.motors = {s.name: s.motor for s in specs
+                       if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
         self.frames: dict[str, tuple[Frame, Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):

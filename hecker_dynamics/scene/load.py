@@ -43,6 +43,7 @@ from .joints import (
     RotarySpring,
     SoftJoints,
     WeldJoint,
+    motor_overflow,
     soft_refusal,
     softness,
 )
@@ -1057,9 +1058,9 @@ def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[st
         settings = reader.child("motor")
         motor = Motor(settings.number("speed", 0.0),
                       settings.number(effort, REQUIRED, minimum=0.0))
-        if not math.isfinite(motor.speed * motor.max_effort):  # the energy bound's power
-            settings.fail("speed", f"{motor.speed} times {effort} {motor.max_effort} is a "
-                                   "power past what a double holds")
+        overflow = motor_overflow(motor.speed, motor.max_effort)
+        if overflow is not None:
+            settings.fail("speed", overflow)
     if kind == "prismatic":
         ax, ay = reader.vector("axis", REQUIRED)
         length = math.hypot(ax, ay)

@@ -340,5 +340,6 @@ def test_a_motor_whose_power_overflows_is_refused(tmp_path, capsys):
     path = _write(tmp_path, _scene_text(extra=(
         "    joints:\n      axle:\n        type: revolute\n        body_b: b\n"
         "        motor: {speed: 1.0e+200, max_torque: 1.0e+200}\n")))
-    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed'",
-                         "is a power past what a double holds")
+    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed': 1e+200 times "
+                         "the motor's largest effort 1e+200 is a power past what a double "
+                         "holds")
