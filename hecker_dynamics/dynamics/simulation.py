@@ -32,9 +32,9 @@ from ..contact.joints import (
     MAX_RING,
     MOST_SUBSTEPS,
     UNSOLVED,
-    UNSOLVED_ADVICE,
     JointsUnsolved,
     ringing_advice,
+    unsolved_advice,
 )
 from ..geometry.planar import wrap_angles_in_place
 from ..geometry.shapes import energy_of_motion
@@ -739,7 +739,7 @@ class Simulation:
         omega = joints.ring(self.q)
         if self.step_seconds / MOST_SUBSTEPS * omega > MAX_RING:
             return f"{UNSOLVED}: {ringing_advice(omega)}"
-        return f"{UNSOLVED}{detail}: {UNSOLVED_ADVICE}"
+        return f"{UNSOLVED}{detail}: {unsolved_advice(self.scene)}"
 
     def _failed(self, error: Exception) -> DivergenceError:
         return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
