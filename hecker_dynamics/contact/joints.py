@@ -96,6 +96,7 @@ from ..scene.joints import (
     RevoluteJoint,
     WeldJoint,
 )
+from ..scene.parameters import number_text
 from .coupled import JointUnit
 from .joint_rows import (
     EFFORT_SIGNS,
@@ -123,9 +124,9 @@ if TYPE_CHECKING:
     from ..scene.load import Scene
     from .joints_kernel import CompiledJoints
 
-__all__ = ["CARRIED", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass", "JointsUnsolved", "MAX_RING",
-           "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "RATING_BOUND", "SETTLED_STEPS",
-           "ringing_advice"]
+__all__ = ["CARRIED", "GEAR_ADVICE_RATIO", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass",
+           "JointsUnsolved", "MAX_RING", "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "RATING_BOUND",
+           "SETTLED_STEPS", "ringing_advice", "unsolved_advice"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -164,6 +165,29 @@ UNSOLVED = f"the joints have no solution near the end of the step, taken in {MOS
 UNSOLVED_ADVICE = ("the bodies turn too fast for the step, or the masses joined are too far "
                    "apart (beyond about 1e14 to one); take a shorter step, or masses closer "
                    "together")
+
+#: A gear's ratio past which a step the joints give up on names the gear: its row is
+#: angle_a + ratio angle_b, whose rounding grows with the ratio (two wheels of 2 and 8 kg
+#: at 1 ms: ratio 1e3 runs, 1e4 has no solution), while the same gear written the other
+#: way round, ratio 1 / ratio, runs (1e-12 too).
+GEAR_ADVICE_RATIO = 100.0
+
+
+def unsolved_advice(scene: Scene) -> str:
+    """What helps a step whose parts ran out: :data:`UNSOLVED_ADVICE`, or, for a scene
+    with a gear whose ratio passes :data:`GEAR_ADVICE_RATIO` (the largest), that gear
+    written the other way round, which the user can change without changing the
+    motion."""
+    gears = [spec for spec in scene.joints
+             if isinstance(spec, GearJoint) and abs(spec.ratio) > GEAR_ADVICE_RATIO]
+    if not gears:
+        return UNSOLVED_ADVICE
+    gear = max(gears, key=lambda spec: abs(spec.ratio))
+    return (f"the bodies turn too fast for the step, or gear '{gear.name}' ties its joints "
+            f"at a ratio of {gear.ratio:.6g}, which its row's rounding grows with; "
+            f"write it the other way round, the same gear (joint_a: {gear.joint_b}, "
+            f"joint_b: {gear.joint_a}, ratio: {number_text(1.0 / gear.ratio)}), or take a "
+            "shorter step")
 
 
 def ringing_advice(omega: float) -> str:
@@ -297,6 +321,9 @@ class JointPass:
         #: The joints in the order their rows are solved in (:func:`_solve_order`).
         self.specs = _solve_order(scene, specs)
         self._named = named
+        #: Each motor (its largest effort; the speed it is commanded is in motor_speed).
+        self.motors = {s.name: s.motor for s in specs
+                       if isinstance(s, (RevoluteJoint, PrismaticJoint)) and s.motor}
         self.frames: dict[str, tuple[Frame, Frame]] = {}
         for spec in specs:
             if isinstance(spec, GearJoint):

@@ -21,24 +21,41 @@ from two kinds of source:
   sqrt(B), since K_i = m_i |v_i|^2 / 2 + I_i omega_i^2 / 2 <= B. With c the sum of those
   coefficients over the unit's bodies, dB/dt <= c sqrt(B);
 - joint motors: a motor holds its joint's speed at its target s with at most its
-  largest torque or force tau_max, which pushes toward s: its power tau omega_joint is
-  at most tau_max |s| (it is negative whenever the joint turns the other way or faster
-  than s). With P the sum over the unit's motors, dB/dt <= c sqrt(B) + P.
+  largest torque or force tau_max, which pushes toward s: its power tau w, w the joint's
+  speed (J v, the rate of the joint's coordinate), is at most tau_max |s| (it is
+  negative whenever the joint turns the other way or faster than s) and at most
+  tau_max |w|. Both bound it at every instant, so two bounds follow, each valid alone:
 
-So sqrt(B(t)) <= R(t) + sqrt(W(t)), with R(t) = sqrt(B(0)) + int c dt / 2 and
-W(t) = int P dt: the right side squared, G, grows by dG/dt >= c sqrt(G) + P. From rest
-under a constant force, R is met with equality. The potential energy of joints' springs
-and soft welds is not in B (it is never negative, so leaving it out only lowers B); what
-they hold at the start, a wound rotary spring's, joins B(0).
+  - with P the sum of tau_max |s| over the unit's motors, dB/dt <= c sqrt(B) + P;
+  - with w bounded by the energy: a revolute joint's w = omega_b - omega_a, and
+    I_a omega_a^2 / 2 + I_b omega_b^2 / 2 <= B (a body of the fixed frame has no
+    term), so by Cauchy-Schwarz |w| <= sqrt(2 (1 / I_a + 1 / I_b)) sqrt(B). A
+    slider on the fixed frame moves its body's point r_b from the CM along the axis u:
+    w = u . v_b + (perp(r_b) . u) omega_b, so |w| <= sqrt(2 (1 / m_b + |r_b|^2 / I_b))
+    sqrt(B). With c_m the sum over the unit's motors of tau_max times that coefficient,
+    dB/dt <= (c + c_m) sqrt(B). (Between two bodies a slider's lever on body_a is the
+    distance of body_b's point from body_a's CM, which the state moves; such a unit has
+    only the first bound.)
 
-:class:`EnergyBound` keeps R and W per unit as the simulation runs (c from the state at
-each check, the largest input set since the last one; P from the motors' target speeds
-at the last check and now) and at each check refuses a unit whose B exceeds :data:`GROWTH`
-times G, leaving out of B each body's kinetic energy up to its *floor*, that of moving at
-1 m/s and turning at 1 rad/s (ROS units are SI, REP 103): slow motion is never a
-blow-up, and a floor per body lets no heavy body's floor cover a light one. Integration
-error of the explicit methods grows energy, by far less than that factor on any run
-they are stable on.
+So sqrt(B(t)) <= R(t) + min(sqrt(W(t)), M(t)), with R(t) = sqrt(B(0)) + int c dt / 2,
+W(t) = int P dt and M(t) = int c_m dt / 2: the right side squared, G, grows by
+dG/dt >= c sqrt(G) + P with sqrt(W), by dG/dt = (c + c_m) sqrt(G) with M, each the
+bound's own rate, and both start at or above sqrt(B(0)). From rest under a constant
+force, R is met with equality; so is M under a motor at its full effort on a wheel. P
+counts the target speed however slowly the joint turns (a motor of 20 N m aiming at
+1e12 rad/s is 2e13 W), c_m counts the wheel's energy however fast the target: the bound
+takes the smaller. The potential energy of joints' springs and soft welds is not in B
+(it is never negative, so leaving it out only lowers B); what they hold at the start, a
+wound rotary spring's, joins B(0).
+
+:class:`EnergyBound` keeps R, W and M per unit as the simulation runs (c from the state
+at each check, the largest input set since the last one; P from the motors' target
+speeds at the last check and now; c_m from the masses and the motors' efforts alone) and
+at each check refuses a unit whose B exceeds :data:`GROWTH` times G, leaving out of B
+each body's kinetic energy up to its *floor*, that of moving at 1 m/s and turning at
+1 rad/s (ROS units are SI, REP 103): slow motion is never a blow-up, and a floor per
+body lets no heavy body's floor cover a light one. Integration error of the explicit
+methods grows energy, by far less than that factor on any run they are stable on.
 
 The checks are plain float arithmetic, O(bodies + springs), in the compiled kernel
 (``src/kernel/bound.c``) where it is on and in :meth:`EnergyBound._check_python`
@@ -84,9 +101,10 @@ STEP_GROWTH = 2.0
 #: moving this fast is left out of the check.
 FLOOR_SPEED = 1.0
 
-# The rows of the budget array, one column per unit (``src/kernel/bound.c`` reads the same).
-ROOT, WORK, RATE, INPUT_RATE, POWER, ENERGY, EXCESS, LIMIT = range(8)
-BUDGET_ROWS = 8
+# The rows of the budget array, one column per unit (``src/kernel/bound.c`` reads the same):
+# R, W, c, the inputs' c, P, B, B's excess over the floors, the limit, M and c_m.
+ROOT, WORK, RATE, INPUT_RATE, POWER, ENERGY, EXCESS, LIMIT, MOTOR_ROOT, MOTOR_RATE = range(10)
+BUDGET_ROWS = 10
 
 
 def energy_units(scene: Scene) -> list[int]:
@@ -185,6 +203,12 @@ class EnergyBound:
                 if isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor is not None:
                     self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
                                          spec.name))
+        rates = self._motor_rates(model)
+        #: Whether each unit has a slider between two bodies, and so no M (see the module):
+        #: inf, never the smaller, and never nan (its c_m is 0).
+        self._sliding = [rate < 0.0 for rate in rates]
+        self._set(MOTOR_RATE, [max(rate, 0.0) for rate in rates])
+        self._set(MOTOR_ROOT, [math.inf if sliding else 0.0 for sliding in self._sliding])
         self._speeds: dict[str, float] = {}
         self._inputs_set = self._motors_moved = self._stale = False
         #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
@@ -341,6 +365,30 @@ class EnergyBound:
             powers[unit] += effort * abs(speeds[name])
         return powers
 
+    def _motor_rates(self, model: Model) -> list[float]:
+        """c_m of each unit: its motors' largest efforts times the coefficients of
+        sqrt(B) that bound their joints' speeds (see the module); -1 for a unit with a
+        slider between two bodies, whose speed the state's lever arm bounds."""
+        rates = [0.0] * len(self.members)
+        index = model.index
+        for spec in model.scene.joints:
+            if not isinstance(spec, (RevoluteJoint, PrismaticJoint)) or spec.motor is None:
+                continue
+            b = index[spec.body_b]
+            unit = self.units[b]
+            a = None if spec.body_a is None else index[spec.body_a]
+            if isinstance(spec, RevoluteJoint):
+                mobility = 1.0 / self._inertia[b] + (0.0 if a is None else 1.0 / self._inertia[a])
+            elif a is None:
+                rx, ry = model.local(b, spec.point_b).tolist()
+                mobility = 1.0 / self._mass[b] + (rx * rx + ry * ry) / self._inertia[b]
+            else:
+                rates[unit] = -1.0
+                continue
+            if rates[unit] >= 0.0:
+                rates[unit] += spec.motor.max_effort * math.sqrt(2.0 * mobility)
+        return rates
+
     def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:
         """Count the rate of a new input set until the next check."""
         if inputs is not None:
@@ -377,12 +425,14 @@ class EnergyBound:
         budget = self._budget
         budget[ENERGY], budget[EXCESS] = energy, excess = self._sums(q, v)
         root, work, limits = budget[ROOT], budget[WORK], budget[LIMIT]
+        turned = budget[MOTOR_ROOT]
         worst = 0.0
-        for u, (rate, input_rate, power) in enumerate(zip(budget[RATE], budget[INPUT_RATE],
-                                                          budget[POWER])):
+        for u, (rate, input_rate, power, motor_rate) in enumerate(zip(
+                budget[RATE], budget[INPUT_RATE], budget[POWER], budget[MOTOR_RATE])):
             root[u] += 0.5 * seconds * (rate + input_rate)
             work[u] += seconds * power
-            reach = root[u] + math.sqrt(work[u])
+            turned[u] += 0.5 * seconds * motor_rate
+            reach = root[u] + _motors_share(work[u], turned[u])
             limits[u] = GROWTH * (reach * reach)
             ratio = _over(energy[u], excess[u], limits[u])
             worst = ratio if ratio > worst else worst
@@ -477,11 +527,11 @@ class EnergyBound:
     def limits(self) -> list[float]:
         """The largest B, less the floors, that each unit may have now."""
         return [GROWTH * (reach * reach)
-                for reach in (root + math.sqrt(work)
-                              for root, work in zip(self.row(ROOT), self.row(WORK)))]
+                for reach in (root + _motors_share(work, turned) for root, work, turned
+                              in zip(self.row(ROOT), self.row(WORK), self.row(MOTOR_ROOT)))]
 
     def row(self, row: int) -> list[float]:
-        """Row ``row`` of the budget (ROOT ... LIMIT), a value per unit."""
+        """Row ``row`` of the budget (ROOT ... MOTOR_RATE), a value per unit."""
         return self._budget[row].tolist() if self._compiled else list(self._budget[row])
 
     def _set(self, row: int, values: list[float]) -> None:
@@ -493,26 +543,33 @@ class EnergyBound:
     def export_state(self) -> dict[str, Any]:
         """The running budgets, as plain floats (exact), for :meth:`import_state`, with
         the unit of each body (for :meth:`carried`)."""
-        return {"units": list(self.units), "root": self.row(ROOT), "work": self.row(WORK),
-                "rate": self.row(RATE), "input_rate": self.row(INPUT_RATE),
-                "power": self.row(POWER),
-                "speeds": dict(self._speeds), "worst_ratio": self.worst_ratio}
+        state = {"units": list(self.units), "root": self.row(ROOT), "work": self.row(WORK),
+                 "rate": self.row(RATE), "input_rate": self.row(INPUT_RATE),
+                 "power": self.row(POWER), "speeds": dict(self._speeds),
+                 "worst_ratio": self.worst_ratio}
+        turned = self.row(MOTOR_ROOT)
+        if any(turned):  # M is all 0 without motors: their budgets are saved as before M
+            state["motor_root"] = turned
+        return state
 
     def import_state(self, state: dict[str, Any]) -> None:
         """Continue from :meth:`export_state`'s budgets. A budget of other units (another
         world's, or one kept as one number for the whole scene) is pooled: every unit
-        gets the whole of it, which no unit's energy can exceed."""
+        gets the whole of it, which no unit's energy can exceed. A budget saved without
+        M takes it from W (:func:`_saved`)."""
         count = len(self.members)
         pooled = state.get("units") != self.units
         for row, key in ((ROOT, "root"), (WORK, "work"), (RATE, "rate"),
-                         (INPUT_RATE, "input_rate"), (POWER, "power")):
-            saved = state.get(key, 0.0)
-            values = [float(x) for x in saved] if isinstance(saved, list) else [float(saved)]
+                         (INPUT_RATE, "input_rate"), (POWER, "power"),
+                         (MOTOR_ROOT, "motor_root")):
+            values = _saved(state, key)
             if pooled:
-                whole = (math.sqrt(math.fsum(x * x for x in values)) if row == ROOT
-                         else math.fsum(values))
+                whole = (math.sqrt(math.fsum(x * x for x in values))
+                         if row in (ROOT, MOTOR_ROOT) else math.fsum(values))
                 values = [whole] * count
             self._set(row, values)
+        self._set(MOTOR_ROOT, [math.inf if sliding else turned for sliding, turned
+                               in zip(self._sliding, self.row(MOTOR_ROOT))])
         self._speeds = {str(k): float(x) for k, x in state.get("speeds", {}).items()}
         if self._motors and not self._speeds:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
@@ -525,18 +582,24 @@ class EnergyBound:
         """:meth:`export_state`'s budgets of another world's bound, ``state``, carried onto
         this bound's units: ``sources`` gives, for each of this world's bodies, its index
         in the other world (None for a new body). A unit's budget is the sum of the
-        budgets of the units its bodies came from (sqrt of the sum of squares for R): what
-        they could hold together; a unit of new bodies only keeps its own."""
+        budgets of the units its bodies came from (sqrt of the sum of squares for R and M):
+        what they could hold together; a unit of new bodies only keeps its own, and a unit
+        without M (a slider between two bodies) keeps none."""
         carried = self.export_state()
         old_units = state["units"]
+        saved, turned = _saved(state, "motor_root"), self.row(MOTOR_ROOT)
         for unit, members in enumerate(self.members):
             came = sorted({old_units[i] for i in (sources[body] for body in members)
                            if i is not None})
             if came:
                 carried["root"][unit] = math.sqrt(sum(state["root"][u] ** 2 for u in came))
+                turned[unit] = (math.inf if self._sliding[unit]
+                                else math.sqrt(sum(saved[u] ** 2 for u in came)))
                 for key in ("work", "input_rate"):
                     carried[key][unit] = math.fsum(state[key][u] for u in came)
         carried["worst_ratio"] = state["worst_ratio"]
+        if any(turned):
+            carried["motor_root"] = turned
         return carried
 
 
@@ -549,6 +612,25 @@ def _over(energy: float, excess: float, limit: float) -> float:
         return 0.0
     ratio = excess / limit if limit > 0.0 else math.inf
     return math.inf if math.isnan(ratio) else ratio
+
+
+def _saved(state: dict[str, Any], key: str) -> list[float]:
+    """Row ``key`` of an exported budget (:meth:`EnergyBound.export_state`) as floats, a
+    unit's each or one for the whole scene (a keyframe recorded before units). M, where
+    it was not saved (all 0, or a budget saved before motors had it), is 0 for a unit
+    without W, which no motor has worked on, so that 0 bounds as sqrt(W) did, and inf,
+    unknown, for one with: its motors count by W alone."""
+    if key == "motor_root" and key not in state:
+        return [0.0 if work == 0.0 else math.inf for work in _saved(state, "work")]
+    saved = state.get(key, 0.0)
+    return [float(x) for x in saved] if isinstance(saved, list) else [float(saved)]
+
+
+def _motors_share(work: float, turned: float) -> float:
+    """What a unit's motors add to R: the smaller of sqrt(W) and M (``hd_motors_share``
+    in bound.c); sqrt(W) where they are equal, as with no motor (both 0)."""
+    swept = math.sqrt(work)
+    return turned if turned < swept else swept
 
 
 def _turned(cos: np.ndarray, sin: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, ...]:

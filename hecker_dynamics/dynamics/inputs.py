@@ -73,18 +73,25 @@ class InputBuffer:
             raise InputError(f"input buffer full ({self.max_pending} pending commands); "
                              f"dropped {_what(command)}")
         key = (command.body, command.source)
-        active, pending, cap = self._active, self._pending_keys, self.max_active
-        # The sources are at least the larger of both and at most their sum: the union
-        # (1,000 keys at the cap) is built only between, not for every message of a flood.
-        if key not in active and key not in pending and (
-                max(len(active), len(pending)) >= cap or (
-                    len(active) + len(pending) >= cap
-                    and len(active.keys() | pending.keys()) >= cap)):
+        new_source = key not in self._active and key not in self._pending_keys
+        if new_source and self._sources_at_cap():
             raise InputError(f"more than {self.max_active} input sources at once; dropped "
                              f"{_what(command)}")
         held = Held(command, row, self.end_of(command))
         self._pending_keys[key] = self._pending_keys.get(key, 0) + 1
         heapq.heappush(self._pending, (command.stamp_ns, next(self._order), held))
+
+    def _sources_at_cap(self) -> bool:
+        """Whether the sources with a command active or pending number ``max_active``.
+        Their count is at least the larger of the two key sets and at most their sum, so
+        the union (1,000 keys at the cap) is built only when the cap lies between those,
+        not for every message of a flood."""
+        active, pending, cap = len(self._active), len(self._pending_keys), self.max_active
+        if max(active, pending) >= cap:
+            return True
+        if active + pending < cap:
+            return False
+        return len(self._active.keys() | self._pending_keys.keys()) >= cap
 
     def replace(self, commands: Sequence[WrenchCommand], rows: Sequence[WrenchRow],
                 now_ns: int) -> bool:

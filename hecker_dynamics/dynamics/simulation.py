@@ -32,9 +32,9 @@ from ..contact.joints import (
     MAX_RING,
     MOST_SUBSTEPS,
     UNSOLVED,
-    UNSOLVED_ADVICE,
     JointsUnsolved,
     ringing_advice,
+    unsolved_advice,
 )
 from ..geometry.planar import wrap_angles_in_place
 from ..geometry.shapes import energy_of_motion
@@ -49,9 +49,8 @@ from ..integrators.methods import (
     choose_method,
     make_integrator,
 )
-from ..scene.commands import InputError, WrenchCommand
+from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
 from ..scene.load import Scene
-from ..scene.parameters import seconds_text
 from .divergence import EnergyBound
 from .forces import WrenchRow, lever_arm
 from .inputs import InputBuffer
@@ -461,11 +460,10 @@ class Simulation:
         if command.body not in self.model.index:
             raise InputError(f"unknown body '{command.body}' (bodies: "
                              f"{', '.join(self.model.names)})")
-        if 0 < command.duration_ns < self.step_ns:  # it would act a whole step, not its own
-            raise InputError(
-                f"command for '{command.body}' from '{command.source}' lasts "
-                f"{seconds_text(command.duration_ns)} s, shorter than one step "
-                f"({seconds_text(self.step_ns)} s), over which a force acts whole")
+        short = shorter_than_a_step(command.duration_ns, self.step_ns)
+        if short is not None:
+            raise InputError(f"duration of the command for '{command.body}' from "
+                             f"'{command.source}': {short}")
         if command.stamp_ns > self._time_ns + self.scene.input_max_lead_ns:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' is stamped "
@@ -741,7 +739,7 @@ class Simulation:
         omega = joints.ring(self.q)
         if self.step_seconds / MOST_SUBSTEPS * omega > MAX_RING:
             return f"{UNSOLVED}: {ringing_advice(omega)}"
-        return f"{UNSOLVED}{detail}: {UNSOLVED_ADVICE}"
+        return f"{UNSOLVED}{detail}: {unsolved_advice(self.scene)}"
 
     def _failed(self, error: Exception) -> DivergenceError:
         return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "

@@ -12,7 +12,7 @@ from typing import NamedTuple, Optional
 
 from ..dynamics.simulation import Simulation, Snapshot
 from ..scene.commands import InputError
-from ..scene.joints import PrismaticJoint, RevoluteJoint
+from ..scene.joints import PrismaticJoint, RevoluteJoint, motor_overflow
 from ..scene.load import Scene
 from .fields import Header, header
 from .names import motor_topic
@@ -70,17 +70,16 @@ def joint_state_fields(sim: Simulation, stamp_ns: int) -> Optional[JointStateFie
 def set_motor_speed(sim: Simulation, joint: str, speed: float) -> None:
     """Drive the motor of ``joint`` at ``speed`` from the next step on; raises
     :class:`InputError` (and changes nothing) for a joint without a motor or a speed that
-    is not finite."""
-    speeds = {} if sim.model.joints is None else sim.model.joints.motor_speed
-    if joint not in speeds:
+    is not finite or whose power overflows (:func:`.motor_overflow`)."""
+    joints = sim.model.joints
+    motors = {} if joints is None else joints.motors
+    motor = motors.get(joint)
+    if joints is None or motor is None:
         raise InputError(f"no motor on joint '{joint}' "
-                         f"(motors: {', '.join(sorted(speeds)) or 'none'})")
+                         f"(motors: {', '.join(sorted(motors)) or 'none'})")
     if not math.isfinite(speed):
         raise InputError(f"motor speed for joint '{joint}' must be finite, not {speed}")
-    effort = next(spec.motor.max_effort for spec in sim.scene.joints if spec.name == joint
-                  and isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor)
-    # The energy bound takes the motor's work at effort times speed: inf would blind it.
-    if not math.isfinite(speed * effort):
-        raise InputError(f"motor speed {speed} for joint '{joint}' times its largest effort "
-                         f"{effort} is a power past what a double holds")
-    speeds[joint] = float(speed)
+    overflow = motor_overflow(speed, motor.max_effort)
+    if overflow is not None:
+        raise InputError(f"motor speed for joint '{joint}': {overflow}")
+    joints.motor_speed[joint] = float(speed)

@@ -9,12 +9,31 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Optional
 
-__all__ = ["InputError", "WrenchCommand"]
+from .parameters import number_text, seconds_text
+
+__all__ = ["InputError", "WrenchCommand", "shorter_than_a_step"]
 
 
 class InputError(ValueError):
     """A command the simulation refuses; the message says which and why."""
+
+
+def shorter_than_a_step(duration_ns: int, step_ns: int,
+                        written: Optional[float] = None) -> Optional[str]:
+    """Why a force lasting ``duration_ns`` (``written`` seconds, if the caller read them)
+    cannot act at steps of ``step_ns``, or None if it can: a force acts over whole steps
+    (each step that begins before its end), so one shorter than a step would give a whole
+    step's impulse, not its own. 0 ns is no duration (held until replaced), so a positive
+    duration written that rounds to 0 ns is refused too. Each caller names the duration
+    before this text, in its own way (a scene parameter, an argument, a command)."""
+    if not (duration_ns > 0 or (written is not None and written > 0.0)) or \
+            duration_ns >= step_ns:
+        return None
+    seconds = seconds_text(duration_ns) if written is None else number_text(written)
+    return (f"{seconds} s is shorter than one step ({seconds_text(step_ns)} s), over which "
+            "a force acts whole")
 
 
 @dataclass(frozen=True)

@@ -10,10 +10,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Optional, Union
 
-from .parameters import quoted
+from .parameters import number_text, quoted
 
 __all__ = ["Motor", "RotarySpring", "JointEnds", "RevoluteJoint", "PrismaticJoint", "WeldJoint",
-           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints", "soft_refusal", "softness"]
+           "DistanceJoint", "GearJoint", "JointSpec", "SoftJoints", "motor_overflow",
+           "soft_refusal", "softness"]
 
 Vec2 = tuple[float, float]
 
@@ -25,6 +26,17 @@ class Motor:
 
     speed: float
     max_effort: float
+
+
+def motor_overflow(speed: float, max_effort: float) -> Optional[str]:
+    """Why a motor cannot drive at ``speed`` with at most ``max_effort``, or None if it
+    can: the energy bound counts a motor's power as at most its effort times its target
+    speed (:mod:`hecker_dynamics.dynamics.divergence`), which must be a double. Each caller
+    names the speed before this text (a scene parameter, a joint's command)."""
+    if math.isfinite(speed * max_effort):
+        return None
+    return (f"{number_text(speed)} times the motor's largest effort "
+            f"{number_text(max_effort)} is a power past what a double holds")
 
 
 @dataclass(frozen=True)

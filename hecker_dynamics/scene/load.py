@@ -30,7 +30,7 @@ from ..geometry.shapes import (
     mass_properties,
 )
 from ..integrators.methods import METHODS
-from .commands import WrenchCommand
+from .commands import WrenchCommand, shorter_than_a_step
 from .drives import DriveSpec, read_drive
 from .joints import (
     DistanceJoint,
@@ -43,6 +43,7 @@ from .joints import (
     RotarySpring,
     SoftJoints,
     WeldJoint,
+    motor_overflow,
     soft_refusal,
     softness,
 )
@@ -1057,9 +1058,9 @@ def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[st
         settings = reader.child("motor")
         motor = Motor(settings.number("speed", 0.0),
                       settings.number(effort, REQUIRED, minimum=0.0))
-        if not math.isfinite(motor.speed * motor.max_effort):  # the energy bound's power
-            settings.fail("speed", f"{motor.speed} times {effort} {motor.max_effort} is a "
-                                   "power past what a double holds")
+        overflow = motor_overflow(motor.speed, motor.max_effort)
+        if overflow is not None:
+            settings.fail("speed", overflow)
     if kind == "prismatic":
         ax, ay = reader.vector("axis", REQUIRED)
         length = math.hypot(ax, ay)
@@ -1118,9 +1119,9 @@ def _read_command(name: str, reader: ParameterReader, fixed: str,
     frame = reader.string("frame_id", fixed)
     _check_frame(reader, "frame_id", frame, fixed, points)
     duration_ns = _seconds_to_ns(reader, "duration", 0.0)
-    if 0 < duration_ns < step_ns:  # a force acts over whole steps: it would act a step
-        reader.fail("duration", f"{reader.number('duration')} s is shorter than one step "
-                                f"({seconds_text(step_ns)} s), over which a force acts whole")
+    short = shorter_than_a_step(duration_ns, step_ns, reader.number("duration", 0.0))
+    if short is not None:
+        reader.fail("duration", short)
     return WrenchCommand(
         stamp_ns=_seconds_to_ns(reader, "time", REQUIRED),
         body=body, source=reader.string("id", name), frame_id=frame,

@@ -26,7 +26,7 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 # Simulation's hold scheduled and held commands alike.
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
-from ..scene.commands import WrenchCommand
+from ..scene.commands import WrenchCommand, shorter_than_a_step
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (
     INTEGRATORS,
@@ -691,13 +691,11 @@ class World:
             at = body._local(point, "point")
         duration_ns = 0
         if duration is not None:
-            duration_ns = round(number(duration, "duration", positive=True,
-                                       maximum=MAX_SECONDS) * 1e9)
-            # A force acts over whole steps, and 0 ns would be no duration: held for ever.
-            if duration_ns < sim.step_ns:
-                raise ValueError(f"duration: {number_text(duration)} s is shorter than one "
-                                 f"step ({seconds_text(sim.step_ns)} s), over which a force "
-                                 "acts whole")
+            seconds = number(duration, "duration", positive=True, maximum=MAX_SECONDS)
+            duration_ns = round(seconds * 1e9)
+            short = shorter_than_a_step(duration_ns, sim.step_ns, seconds)
+            if short is not None:
+                raise ValueError(f"duration: {short}")
         now = sim.time_ns
         stamp = now if start is None else round(number(start, "start",
                                                         maximum=MAX_SECONDS) * 1e9)

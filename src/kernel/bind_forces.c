@@ -395,8 +395,8 @@ PyDoc_STRVAR(bound_doc,
 "the largest ratio of a unit's excess to its limit. ``springs``: a program of the\n"
 "springs, or None; ``statics``: masses, moments of inertia and floors, one per body\n"
 "each (float64; kg, kg m^2, J); ``unit``: int64, one per body; ``budget``: float64,\n"
-"writable, 8 rows of one value per unit; (q, v): (x, y, angle) and (vx, vy, omega) of each\n"
-"CM, C-contiguous float64; ``seconds`` (s).");
+"writable, HD_BUDGET_ROWS rows (kernel.h) of one value per unit; (q, v): (x, y, angle)\n"
+"and (vx, vy, omega) of each CM, C-contiguous float64; ``seconds`` (s).");
 
 static PyObject *hd_py_bound(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
                              PyObject *kwnames)

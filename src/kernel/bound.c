@@ -41,6 +41,14 @@ static double hd_over(double energy, double excess, double limit)
     return isnan(ratio) ? INFINITY : ratio;
 }
 
+/* What a unit's motors add to R: the smaller of sqrt(W) and M, sqrt(W) where they are
+ * equal (dynamics/divergence.py: _motors_share). */
+static double hd_motors_share(double work, double turned)
+{
+    const double swept = sqrt(work);
+    return turned < swept ? turned : swept;
+}
+
 double hd_bound_check(const hd_program *springs, const double *q, const double *v,
                       long bodies, const double *statics, const long *unit, long units,
                       double *budget, double seconds, double growth, hd_scratch *scratch)
@@ -50,6 +58,8 @@ double hd_bound_check(const hd_program *springs, const double *q, const double *
     const double *rate = budget + HD_BUDGET_RATE * units;
     const double *input_rate = budget + HD_BUDGET_INPUT_RATE * units;
     const double *power = budget + HD_BUDGET_POWER * units;
+    double *turned = budget + HD_BUDGET_MOTOR_ROOT * units;
+    const double *motor_rate = budget + HD_BUDGET_MOTOR_RATE * units;
     const double *energy = budget + HD_BUDGET_ENERGY * units;
     const double *excess = budget + HD_BUDGET_EXCESS * units;
     double *limit = budget + HD_BUDGET_LIMIT * units;
@@ -57,7 +67,8 @@ double hd_bound_check(const hd_program *springs, const double *q, const double *
     for (long u = 0; u < units; ++u) {
         root[u] += 0.5 * seconds * (rate[u] + input_rate[u]);
         work[u] += seconds * power[u];
-        const double reach = root[u] + sqrt(work[u]);
+        turned[u] += 0.5 * seconds * motor_rate[u];
+        const double reach = root[u] + hd_motors_share(work[u], turned[u]);
         limit[u] = growth * (reach * reach);
         const double ratio = hd_over(energy[u], excess[u], limit[u]);
         if (ratio > worst)

@@ -83,11 +83,11 @@ void hd_accelerations(const hd_program *program, const hd_program *inputs, int o
 void hd_unit_spring_potential(const hd_program *program, const double *q, const long *unit,
                               double *energy, double *excess, hd_scratch *scratch);
 
-/* The rows of the energy bound's budget (dynamics/divergence.py: ROOT ... LIMIT), each
- * one value per unit. */
+/* The rows of the energy bound's budget (dynamics/divergence.py: ROOT ... MOTOR_RATE),
+ * each one value per unit. */
 enum hd_budget_row { HD_BUDGET_ROOT, HD_BUDGET_WORK, HD_BUDGET_RATE, HD_BUDGET_INPUT_RATE,
                      HD_BUDGET_POWER, HD_BUDGET_ENERGY, HD_BUDGET_EXCESS, HD_BUDGET_LIMIT,
-                     HD_BUDGET_ROWS };
+                     HD_BUDGET_MOTOR_ROOT, HD_BUDGET_MOTOR_RATE, HD_BUDGET_ROWS };
 
 /* Each unit's B = K + U_springs at (q, v) into the budget's ENERGY row, and B less each
  * body's kinetic energy up to its floor into its EXCESS row. `statics`: the bodies'
@@ -98,9 +98,10 @@ void hd_unit_energy(const hd_program *springs, const double *q, const double *v,
                     hd_scratch *scratch);
 
 /* One check of the energy bound (dynamics/divergence.py: EnergyBound._check): each unit's budget
- * advanced by `seconds` (ROOT by half the rates, WORK by the power), its energy, excess
- * and limit, `growth` times (ROOT + sqrt(WORK))^2; returns the largest ratio of excess to
- * limit (0 for none, inf for an energy that is not finite). */
+ * advanced by `seconds` (ROOT by half the rates, WORK by the power, MOTOR_ROOT by half the
+ * motors' rate), its energy, excess and limit, `growth` times (ROOT + the smaller of
+ * sqrt(WORK) and MOTOR_ROOT)^2; returns the largest ratio of excess to limit (0 for none,
+ * inf for an energy that is not finite). */
 double hd_bound_check(const hd_program *springs, const double *q, const double *v,
                       long bodies, const double *statics, const long *unit, long units,
                       double *budget, double seconds, double growth, hd_scratch *scratch);

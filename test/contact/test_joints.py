@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scene_builders import box_inertia, make_scene, write_scene
 
-from hecker_dynamics.dynamics import Simulation, kernel
+from hecker_dynamics.dynamics import DivergenceError, Simulation, kernel
 from hecker_dynamics.scene import SceneError, load_scene
 
 G = 9.81
@@ -665,3 +665,38 @@ def test_a_rod_a_loop_of_joints_never_lets_reach_is_refused(tmp_path, scene, rod
     message = _refusal(path, problem)
     assert message is None or message == (
         f"{path}: parameter 'joints.rod.length': {length:g} m is out of reach: {problem}"), message
+
+
+@pytest.mark.parametrize("switch", ["1", "0"], ids=["kernel", "python"])
+def test_a_gear_of_ratio_1e12_is_told_to_turn_round_and_runs_so(monkeypatch, switch):
+    """A gear's row is angle_a + ratio angle_b: at a ratio of 1e12 the joints have no
+    solution within rounding, and the advice once spoke of masses (these are 2 and 8 kg).
+    It names the gear and the same gear written the other way round, ratio 1e-12, which
+    runs: the motor turns wheel a at 2 rad/s and wheel b 1e12 times slower."""
+    if switch == "1" and not kernel.built():
+        pytest.skip("the compiled kernel is not built")
+    monkeypatch.setenv(kernel.SWITCH, switch)
+
+    def scene(gear: dict):
+        return make_scene({
+            "step": 0.001, "integrator": "semi_implicit_euler",
+            "bodies": {"a": {"shape": "circle", "radius": 0.3, "mass": 2.0},
+                       "b": {"shape": "circle", "radius": 0.6, "mass": 8.0,
+                             "position": [1.0, 0.0]}},
+            "joints": {"axle_a": {"type": "revolute", "body_b": "a",
+                                  "motor": {"speed": -2.0, "max_torque": 20.0}},
+                       "axle_b": {"type": "revolute", "body_b": "b", "point_b": [1.0, 0.0]},
+                       "mesh": dict(gear, type="gear")}})
+
+    with pytest.raises(DivergenceError) as caught:
+        Simulation(scene({"joint_a": "axle_a", "joint_b": "axle_b", "ratio": 1e12})
+                   ).advance_to(10_000_000)
+    message = str(caught.value)
+    assert "mass" not in message
+    assert ("or gear 'mesh' ties its joints at a ratio of 1e+12, which its row's rounding "
+            "grows with; write it the other way round, the same gear (joint_a: axle_b, "
+            "joint_b: axle_a, ratio: 1e-12), or take a shorter step") in message
+    sim = Simulation(scene({"joint_a": "axle_b", "joint_b": "axle_a", "ratio": 1e-12}))
+    sim.advance_to(1_000_000_000)
+    assert sim.v[0, 2] == pytest.approx(-2.0, rel=1e-9)
+    assert sim.v[1, 2] == pytest.approx(2e-12, rel=1e-9)

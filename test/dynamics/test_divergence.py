@@ -6,8 +6,9 @@ springs between them, joints or collision groups), and no energy crosses from on
 another. A unit's energy of motion and springs, B = K + U_springs, grows only by the work
 of gravity, constant forces and torques and inputs, at a rate of at most c sqrt(B) (c from
 the forces, masses, moments of inertia and lever arms), and of motors, at most their
-largest effort times their target speed (P): sqrt(B(t)) <= sqrt(B(0)) + int c / 2 dt +
-sqrt(int P dt). A unit whose B, less each body's kinetic energy up to its floor (moving
+largest effort times their target speed (P) and times the joint speed the energy allows
+(c_m sqrt(B)): sqrt(B(t)) <= sqrt(B(0)) + int c / 2 dt + min(sqrt(int P dt),
+int c_m / 2 dt). A unit whose B, less each body's kinetic energy up to its floor (moving
 at 1 m/s and turning at 1 rad/s), exceeds GROWTH times that bound squared is refused.
 """
 from __future__ import annotations
@@ -24,12 +25,17 @@ from hecker_dynamics.bench.scenes import bench_scene, configure
 from hecker_dynamics.cli import main
 from hecker_dynamics.dynamics import DivergenceError, Simulation, kernel
 from hecker_dynamics.dynamics.divergence import (
+    BUDGET_ROWS,
     ENERGY,
     EXCESS,
     GROWTH,
     LIMIT,
+    MOTOR_RATE,
+    MOTOR_ROOT,
+    POWER,
     RATE,
     ROOT,
+    WORK,
     EnergyBound,
     energy_units,
 )
@@ -581,8 +587,9 @@ def test_the_kernel_checks_with_python_s_bits(monkeypatch, lean):
     """The kernel's per-unit energies, budgets and limits are the Python path's, bit for
     bit, in plain floats and with numpy, on states whose speeds and positions span 120
     decades (lengths whose squares leave the double range would take the two hypots:
-    see dynamics/kernel.py), with inputs at points raising the rates; and a state that
-    is not finite is refused by both."""
+    see dynamics/kernel.py), with inputs at points raising the rates and motors' powers
+    and rates of any size (M the smaller and sqrt(W) the smaller by turns, a unit
+    without M); and a state that is not finite is refused by both."""
     if not kernel.built():
         pytest.skip("the compiled kernel is not built")
     scene = make_scene(UNITS_SCENE)
@@ -599,19 +606,32 @@ def test_the_kernel_checks_with_python_s_bits(monkeypatch, lean):
         bounds.append(EnergyBound(model, q0, v0))
     compiled, python = bounds
     assert compiled._compiled and not python._compiled
+    units = len(python.members)
+    picks = set()  # whether M was the smaller, unit by unit and check by check
     for k in range(40):
         q = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-60, 60)
         v = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-60, 60)
         if k == 39:
             v[4, 1] = math.inf
+        # Motors' powers and rates over 40 decades, the second unit without M (a slider
+        # between two bodies) and the others' M or sqrt(W) the smaller by turns.
+        power = (rng.uniform(size=units) * 10.0 ** rng.uniform(-20, 40, size=units)).tolist()
+        motor_rate = (rng.uniform(size=units) * 10.0 ** rng.uniform(-20, 20, size=units)
+                      ).tolist()
         for bound in bounds:
             bound.inputs_changed(q, inputs)
+            bound._set(POWER, list(power))
+            bound._set(MOTOR_RATE, list(motor_rate))
+            if k == 0:
+                bound._set(MOTOR_ROOT, [0.0, math.inf] + [0.0] * (units - 2))
         worst = [bound._check(q, v, 0.02 * (k + 1)) for bound in bounds]
+        picks |= {m < math.sqrt(w) for m, w in zip(python.row(MOTOR_ROOT), python.row(WORK))}
         assert np.float64(worst[0]).tobytes() == np.float64(worst[1]).tobytes()
-        for row in range(8):
+        for row in range(BUDGET_ROWS):
             assert np.array(compiled.row(row)).tobytes() == np.array(python.row(row)).tobytes()
         assert compiled._energies(q, v) == python._energies(q, v) == python.row(ENERGY)
     assert worst[0] == math.inf
+    assert python.row(MOTOR_ROOT)[1] == math.inf and picks == {True, False}
 
 
 @pytest.mark.parametrize("params, refused", [
@@ -737,3 +757,111 @@ def test_an_input_at_a_fixed_frame_point_has_the_rate_of_its_lever_now() -> None
         expected = 5.0 * math.sqrt(2.0 / mass) + (lever * 5.0 + 2.0) * math.sqrt(2.0 / inertia)
         assert sim._bound.row(RATE)[0] == pytest.approx(expected, rel=1e-14)
     assert lever < math.hypot(x, y) + math.hypot(1.0, 2.0) - 0.5  # tighter than the old bound
+
+
+def _spring_beside_a_wheel(speed: float) -> dict:
+    """A 1 kg wheel of radius 0.5 m (I = 0.125 kg m^2) pinned to the world, its motor
+    aiming at ``speed`` with at most 20 N m, and a 1 kg bob on a spring of 1e4 N/m from
+    the wheel's rim: explicit Euler at h = 0.01 s (omega h = 1) doubles the spring's
+    energy every step."""
+    return {"step": 0.01, "integrator": "explicit_euler",
+            "bodies": {"wheel": {"shape": "circle", "radius": 0.5, "mass": 1.0},
+                       "bob": {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                               "position": [2.0, 0.0], "velocity": [0.0, 1.0]}},
+            "joints": {"axle": {"type": "revolute", "body_b": "wheel",
+                                "motor": {"speed": speed, "max_torque": 20.0}}},
+            "forces": {"s": {"type": "spring", "body_a": "wheel", "point_a": [0.5, 0.0],
+                             "body_b": "bob", "stiffness": 1e4, "rest_length": 1.0}}}
+
+
+@pytest.mark.parametrize("speed, caught", [(0.0, "0.12"), (1e3, "0.14"), (1e12, "0.14")])
+def test_a_spring_blowing_up_beside_a_fast_motor_is_caught(path, speed, caught):
+    """A motor's power is at most its effort times its joint's speed, which the unit's
+    energy bounds (|omega| <= sqrt(2 B / I)), so its budget need not be its effort times
+    its target speed: at 1e12 rad/s that was 2e13 W, and the spring's blow-up beside the
+    wheel ran to t = 0.46 s (1e16 J, from 1250) before it was refused; at 1e3 rad/s to
+    0.16 s. Whatever the target, it is refused a publish instant after a motor that holds
+    the wheel still (the wheel it spins up turns the spring's end)."""
+    sim = Simulation(make_scene(_spring_beside_a_wheel(speed)))
+    with pytest.raises(DivergenceError, match=rf"bob, wheel diverged by t = {caught}0000 s"):
+        sim.advance_to(10 * SEC, keep=False)
+
+
+def _driven(joint: dict, chassis: bool) -> dict:
+    """A 4 kg disc of radius 0.5 m (I = 0.5 kg m^2) on ``joint``, to the fixed frame or to
+    a free 2 kg box (``chassis``); no gravity."""
+    bodies = {"wheel": {"shape": "circle", "radius": 0.5, "mass": 4.0}}
+    if chassis:
+        bodies["chassis"] = {"shape": "box", "size": [1.0, 0.4], "mass": 2.0}
+        joint = dict(joint, body_a="chassis")
+    return {"integrator": "semi_implicit_euler", "step": 0.001, "bodies": bodies,
+            "joints": {"drive": dict(joint, body_b="wheel")}}
+
+
+@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler", "rk4"])
+@pytest.mark.parametrize("chassis", [False, True], ids=["to the world", "to a free chassis"])
+def test_a_motor_at_its_full_effort_for_10_s_is_within_the_bound(path, method, chassis):
+    """A motor aiming at 1e12 rad/s pushes with its whole 2 N m for 10 s: the wheel (and
+    the chassis, turned the other way) gain B = tau^2 t^2 (1 / I_a + 1 / I_b) / 2 from
+    rest, which M, tau sqrt(2 (1 / I_a + 1 / I_b)) t / 2, meets with equality (M^2 = B):
+    never refused, and the limit is GROWTH B to rounding, where the target's power,
+    2e12 W, gave a limit of 2e16 J."""
+    params = _driven({"type": "revolute", "motor": {"speed": 1e12, "max_torque": 2.0}},
+                     chassis)
+    params["integrator"] = method
+    sim = Simulation(make_scene(params))
+    sim.advance_to(10 * SEC, keep=False)
+    inverse = sum(1.0 / i for i in sim.model.inertia.tolist())
+    energy = 0.5 * (2.0 * 10.0) ** 2 * inverse
+    assert sim.snapshot().energy == pytest.approx(energy, rel=1e-6)
+    assert sim._bound.worst_ratio <= 1.0 / GROWTH
+    assert sim._bound.limits()[0] == pytest.approx(GROWTH * energy, rel=1e-9)
+
+
+def test_a_slider_at_its_full_force_for_10_s_is_within_the_bound(path):
+    """A slider on the fixed frame, its motor aiming at 1e12 m/s with its whole 0.5 N at
+    a point 0.3 m off the disc's CM along the axis: the disc gains m (F t / m)^2 / 2,
+    within M = F sqrt(2 (1 / m + |r|^2 / I)) t / 2 (r along the axis: the force turns
+    nothing, so the bound is loose by (1 + m r^2 / I) only)."""
+    params = _driven({"type": "prismatic", "axis": [1.0, 0.0], "point_b": [0.3, 0.0],
+                      "motor": {"speed": 1e12, "max_force": 0.5}}, chassis=False)
+    sim = Simulation(make_scene(params))
+    sim.advance_to(10 * SEC, keep=False)
+    energy = 0.5 * 4.0 * (0.5 * 10.0 / 4.0) ** 2
+    assert sim.snapshot().energy == pytest.approx(energy, rel=1e-6)
+    assert sim._bound.limits()[0] == pytest.approx(
+        GROWTH * energy * (1.0 + 4.0 * 0.09 / 0.5), rel=1e-9)
+
+
+def test_a_budget_saved_before_motors_had_m_loads_with_their_work_alone():
+    """M joined the budget after keyframes were recorded: a scene without motors saves
+    its budget as before (no ``motor_root``, so old keyframes compare equal), and a
+    budget saved without M loads with M = 0 where W is 0 and inf where it is not (unknown:
+    the motors' work counts by W alone, as it did), through a keyframe's JSON."""
+    plain = Simulation(make_scene(UNITS_SCENE))
+    plain.advance_to(SEC // 10)
+    assert "motor_root" not in plain.export_state()["divergence"]["bound"]
+    params = _driven({"type": "revolute", "motor": {"speed": 5.0, "max_torque": 2.0}},
+                     chassis=False)
+    params["bodies"]["ball"] = {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                                "position": [3.0, 0.0], "velocity": [1.0, 0.0]}
+    sim = Simulation(make_scene(params))
+    sim.advance_to(SEC // 2)
+    wheel = sim._bound.units[sim.model.index["wheel"]]
+    ball = 1 - wheel
+    state = sim.export_state()
+    bound = state["divergence"]["bound"]
+    assert bound["motor_root"][wheel] == pytest.approx(2.0 * math.sqrt(2.0 / 0.5) * 0.25)
+    assert bound["work"][wheel] == pytest.approx(2.0 * 5.0 * 0.5) and bound["work"][ball] == 0.0
+    del bound["motor_root"]
+    again = Simulation(sim.scene)
+    again.import_state(decode_state(encode_state(state)))
+    assert again._bound.row(MOTOR_ROOT)[wheel] == math.inf
+    assert again._bound.row(MOTOR_ROOT)[ball] == 0.0
+    limits, before = again._bound.limits(), sim._bound.limits()
+    assert limits[wheel] == GROWTH * (again._bound.row(ROOT)[wheel] +
+                                      math.sqrt(bound["work"][wheel])) ** 2
+    assert limits[wheel] > before[wheel] and limits[ball] == before[ball]
+    again.advance_to(2 * SEC)
+    sim.advance_to(2 * SEC)
+    assert again.q.tobytes() == sim.q.tobytes()

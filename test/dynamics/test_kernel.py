@@ -49,7 +49,7 @@ from scene_builders import make_scene
 from hecker_dynamics.bench.pyramid import pyramid
 from hecker_dynamics.bench.scenes import bench_scene, configure, ring
 from hecker_dynamics.dynamics import kernel
-from hecker_dynamics.dynamics.divergence import GROWTH
+from hecker_dynamics.dynamics.divergence import BUDGET_ROWS, GROWTH
 from hecker_dynamics.dynamics.forces import WrenchRow
 from hecker_dynamics.dynamics.model import LEAN_BODIES, Model, wrench_term
 from hecker_dynamics.dynamics.simulation import DivergenceError, Simulation
@@ -966,7 +966,8 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
             inputs=None):
         stepper = ext.stepper(program, 0, None, 0.0, None, h=0.001, per=per,
                               period_seconds=0.004, springs=None, statics=statics, unit=unit,
-                              budget=np.zeros(8) if budget is None else budget, growth=1000.0)
+                              budget=np.zeros(BUDGET_ROWS) if budget is None else budget,
+                              growth=1000.0)
         qs, vs = np.zeros((2, rows, 2, 3))
         done = ext.run(stepper, inputs, False, np.zeros(6), np.zeros(6), qs, vs, first, steps,
                        0.0, 0.001)
@@ -988,7 +989,7 @@ def test_the_binding_s_runs_check_their_arrays_and_segments(ext, program):
             ({"statics": np.ones(5)}, ValueError, "statics: expected 6 values"),
             ({"unit": np.zeros(2)}, TypeError, "unit: expected int64"),
             ({"unit": np.ones(2, np.int64)}, ValueError, "unit index is out of range"),
-            ({"budget": np.zeros(7)}, ValueError, "whole number of columns"),
+            ({"budget": np.zeros(BUDGET_ROWS - 1)}, ValueError, "whole number of columns"),
             ({"inputs": ext.program(3, None, [])}, ValueError, "a program for other bodies")):
         with pytest.raises(error, match=message):
             run(**kwargs)
@@ -1013,7 +1014,7 @@ def test_the_force_binding_takes_its_arguments_by_name(ext):
     assert ext.pair(slopes=2, a=np.array([0.0, 1.0]), error=np.array([1.0, -1.0]),
                     error_order=1) is not None
     statics, unit = np.array([1.0, 2.0, 0.1, 0.2, -1.0, -1.0]), np.zeros(2, np.int64)
-    budgets = np.zeros((2, 8))
+    budgets = np.zeros((2, BUDGET_ROWS))
     checks = [ext.bound(None, q=q, v=v, statics=statics, unit=unit, budget=budgets[0],
                         seconds=0.01, growth=10.0),
               ext.bound(None, q, v, statics, unit, budgets[1], 0.01, 10.0)]
@@ -1044,8 +1045,8 @@ def test_the_stepper_binding_takes_its_arguments_by_name(ext, program):
     qs, vs = np.zeros((2, 1, 2, 3))
     runs = ext.stepper(program=program, method=ext.RK4, pair=None, tolerance=0.0,
                        contacts=None, h=0.001, per=5, period_seconds=0.005, springs=None,
-                       statics=np.ones(6), unit=np.zeros(2, np.int64), budget=np.zeros(8),
-                       growth=1000.0)
+                       statics=np.ones(6), unit=np.zeros(2, np.int64),
+                       budget=np.zeros(BUDGET_ROWS), growth=1000.0)
     arguments = dict(inputs=None, oriented=False, q=q, v=v, qs=qs, vs=vs, first=5, steps=5,
                      size=0.0, first_seconds=0.005)
     named = ext.run(runs, **arguments)

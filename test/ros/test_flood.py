@@ -21,6 +21,7 @@ import sys
 import tracemalloc
 from types import SimpleNamespace
 
+import pytest
 from scene_builders import box_body, make_scene
 
 from hecker_dynamics.dynamics.inputs import InputBuffer
@@ -176,3 +177,26 @@ def test_the_cap_on_input_sources_is_exact_without_a_union_per_message():
     assert not any(add(f"flood{i}") for i in range(5000))
     assert _CountedKeys.calls == 0
     assert len(buffer) == 1000
+
+
+@pytest.mark.parametrize("resent, taken", [(400, True), (100, False)])
+def test_sources_active_and_pending_at_once_count_once(resent, taken):
+    """600 sources active and 500 pending (``resent`` of them active ones sent again):
+    1,100 keys, but 1,100 - ``resent`` sources, so a new one is taken below the cap of
+    1,000 (700 sources) and refused at it (1,000), however many keys the two sets hold."""
+    buffer = InputBuffer(timeout_ns=0)
+
+    def add(source: str, stamp_ns: int) -> None:
+        buffer.add(WrenchCommand(stamp_ns, "a", source, "world", (0.0, 0.0), (1.0, 0.0), 0.0),
+                   None)  # type: ignore[arg-type]
+
+    for i in range(600):
+        add(f"s{i}", 0)
+    buffer.update(0)
+    for i in range(500):
+        add(f"s{i}" if i < resent else f"t{i}", 10)
+    if taken:
+        add("new", 10)
+    else:
+        with pytest.raises(InputError, match="more than 1000 input sources at once"):
+            add("new", 10)

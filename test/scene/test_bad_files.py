@@ -320,15 +320,18 @@ def test_a_pair_in_two_collision_groups_is_named_with_its_first_group(tmp_path, 
         [("a", "b", "c"), ("c", "d")]
 
 
-@pytest.mark.parametrize("duration", ["1.0e-9", "0.0005"])
-def test_a_script_force_shorter_than_one_step_is_refused(tmp_path, capsys, duration):
+@pytest.mark.parametrize("duration, seconds", [("1.0e-9", "1e-09"), ("0.0005", "0.0005"),
+                                               ("1.0e-10", "1e-10")])
+def test_a_script_force_shorter_than_one_step_is_refused(tmp_path, capsys, duration, seconds):
     """A force acts over whole steps: a scripted kick of 1e-9 s at steps of 1 ms gave the
-    impulse of a whole step, a million times the one written, without a word."""
+    impulse of a whole step, a million times the one written, without a word; 1e-10 s,
+    0 ns once rounded, was held until the input timeout."""
     path = _write(tmp_path, _scene_text(extra=(
         "    step: 0.001\n    script:\n      kick:\n        time: 0.0\n        body: b\n"
         f"        force: [1.0, 0.0]\n        duration: {duration}\n")))
-    _refused_in_one_line(path, capsys, "parameter 'script.kick.duration'",
-                         "shorter than one step (0.001 s)")
+    _refused_in_one_line(path, capsys,
+                         f"parameter 'script.kick.duration': {seconds} s is shorter than one "
+                         "step (0.001 s), over which a force acts whole")
 
 
 def test_a_motor_whose_power_overflows_is_refused(tmp_path, capsys):
@@ -337,5 +340,6 @@ def test_a_motor_whose_power_overflows_is_refused(tmp_path, capsys):
     path = _write(tmp_path, _scene_text(extra=(
         "    joints:\n      axle:\n        type: revolute\n        body_b: b\n"
         "        motor: {speed: 1.0e+200, max_torque: 1.0e+200}\n")))
-    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed'",
-                         "is a power past what a double holds")
+    _refused_in_one_line(path, capsys, "parameter 'joints.axle.motor.speed': 1e+200 times "
+                         "the motor's largest effort 1e+200 is a power past what a double "
+                         "holds")
