@@ -656,3 +656,36 @@ def test_two_connections_of_a_topic_that_disagree_are_refused(tmp_path, capsys, 
         assert f"{bag}: topic '/left/pose' {fragment}" in err, err
     code, out, _ = _cli(capsys, "regress", str(bag), "--scene", "sample", "--workers", "1")
     assert code == 2 and out.splitlines()[0].startswith("ERROR") and fragment in out, out
+
+
+def test_a_twist_and_a_pose_lost_at_other_instants_leave_the_rest_in_place(tmp_path, capsys):
+    """A bag logged at sim time that lost /left/twist at 0.42 s and /left/pose at 6.02 s:
+    each twist is compared with the replay's at its own instant. Placed by the i-th
+    pose's stamp instead, every twist in between met its neighbour's values and the
+    check failed on velocities the replay never published otherwise."""
+    script, recording = str(tmp_path / "in"), tmp_path / "rec"
+    assert main(["script", "sample", "-o", script]) == 0
+    assert main(["replay", "sample", script, "-o", str(recording), "--with-inputs"]) == 0
+    source = read_bag(recording)
+    lost = {("/left/twist", 420_000_000), ("/left/pose", 6_020_000_000)}
+    assert lost <= {(m.topic, m.log_ns) for m in source.messages}
+    lossy = tmp_path / "lossy"
+    with BagWriter(lossy, "mcap", custom_data=source.custom_data) as writer:
+        for topic, msgtype in source.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in source.messages:
+            if (message.topic, message.log_ns) not in lost:
+                writer.write_raw(message.topic, message.log_ns, message.raw)
+    capsys.readouterr()
+    code, out, _ = _cli(capsys, "replay", "sample", str(lossy), "--check", "--partial",
+                        "--atol", "0")
+    assert code == 0, out
+    verdict = out.splitlines()[-1]
+    assert "/left/twist: 1 outputs of the replay not recorded, at 0.420000000 s" in verdict
+    assert "/left/pose: 1 outputs of the replay not recorded, at 6.020000000 s" in verdict
+    code, out, _ = _cli(capsys, "compare", str(recording), str(lossy), "--topic",
+                        "/left/twist", "--atol", "0")
+    assert code == 1
+    assert "/left/twist (geometry_msgs/msg/Twist): 499 matched of 500 expected / 499 " \
+        "actual\n     missing 1: first at 0.420000 s\nlargest overall: position 0, angle 0, " \
+        "velocity 0, angular_velocity 0\nMISMATCH" in out, out
