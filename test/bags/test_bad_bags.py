@@ -689,3 +689,18 @@ def test_a_twist_and_a_pose_lost_at_other_instants_leave_the_rest_in_place(tmp_p
     assert "/left/twist (geometry_msgs/msg/Twist): 499 matched of 500 expected / 499 " \
         "actual\n     missing 1: first at 0.420000 s\nlargest overall: position 0, angle 0, " \
         "velocity 0, angular_velocity 0\nMISMATCH" in out, out
+
+
+@pytest.mark.parametrize("overwrite", [[], ["--overwrite"]])
+def test_a_broken_symlink_as_the_output_bag_is_refused_before_the_replay(
+        tmp_path, capsys, overwrite):
+    """``-o LINK`` with LINK dangling: one line before any work. It replayed the whole
+    session, then said the name was made while it ran."""
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "elsewhere" / "bag")
+    for argv in (["script", "sample"], ["replay", "sample", str(GOLDEN / "sample" / "input")]):
+        code, out, err = _cli(capsys, *argv, "-o", str(link), *overwrite)
+        assert (code, out) == (2, "")
+        assert err == f"hecker-dynamics: error: {link} is a broken symlink or a symlink " \
+                      "loop; remove it or give another name\n"
+        assert os.readlink(link) == str(tmp_path / "elsewhere" / "bag")
