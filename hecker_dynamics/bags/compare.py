@@ -40,8 +40,10 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from .io import (
+    CONTACT_EVENT,
     DIAGNOSTIC_ARRAY,
     IMU,
+    JOINT_STATE,
     LASER_SCAN,
     MARKER_ARRAY,
     ODOMETRY,
@@ -350,6 +352,9 @@ _MEASURED: dict[str, tuple[tuple[str, ...], ...]] = {
 }
 #: Per structured type, its measured arrays (copied whole by :func:`_same_elsewhere`).
 _MEASURED_ARRAYS: dict[str, tuple[str, ...]] = {LASER_SCAN: ("ranges",)}
+#: Per type compared byte for byte, its numbers, which a run publishes finite only.
+_NUMBERS: dict[str, tuple[str, ...]] = {JOINT_STATE: ("position", "velocity", "effort"),
+                                        CONTACT_EVENT: ("normal_impulse", "tangent_impulse")}
 
 
 def _items(msg: Any, path: tuple[str, ...]) -> list[Any]:
@@ -388,7 +393,8 @@ def _finite(msgtype: str, msg: Any) -> bool:
                        if hasattr(item, name)):
                 return False
     return not any(np.isnan(getattr(msg, name)).any()
-                   for name in _MEASURED_ARRAYS.get(msgtype, ()))
+                   for name in _MEASURED_ARRAYS.get(msgtype, ())) and \
+        all(np.isfinite(getattr(msg, name)).all() for name in _NUMBERS.get(msgtype, ()))
 
 
 def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
@@ -397,8 +403,11 @@ def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     fields that must be equal; ``exact``: the bytes must be equal too. A value that is
     not finite is no state of a run (the divergence check stops one first): equal in both
     bags, it is noted, never a match."""
-    unrun = f"at {stamp * 1e-9:.6f} s: a position, angle or velocity that is not finite " \
-            "(NaN or infinite) in both bags"
+    what = "number" if msgtype in _NUMBERS else "position, angle or velocity"
+    unrun = f"at {stamp * 1e-9:.6f} s: a {what} that is not finite (NaN or infinite) in " \
+            "both bags"
+    if a is None and msgtype in _NUMBERS:  # compared byte for byte, but read for its numbers
+        a = ea.decode()
     if exact and ea.raw == eb.raw:
         if a is not None and not _finite(msgtype, a):
             report.note(unrun)

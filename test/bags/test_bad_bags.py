@@ -20,7 +20,14 @@ import pytest
 import yaml
 
 from hecker_dynamics.bags.compare import compare_bags
-from hecker_dynamics.bags.io import POSE_STAMPED, TWIST, BagError, BagWriter, read_bag
+from hecker_dynamics.bags.io import (
+    POSE_STAMPED,
+    TWIST,
+    BagError,
+    BagWriter,
+    default_message,
+    read_bag,
+)
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros import fields
 from hecker_dynamics.scene.load import load_scene
@@ -470,6 +477,32 @@ def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsy
     assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
     assert "at 1.000000 s: a position, angle or velocity that is not finite (NaN or " \
            "infinite) in both bags" in out
+
+
+@pytest.mark.parametrize("atol", ["0", "1"])
+@pytest.mark.parametrize("x", [float("nan"), float("inf")])
+@pytest.mark.parametrize("msgtype, field_name", [
+    ("sensor_msgs/msg/JointState", "velocity"), ("sensor_msgs/msg/JointState", "effort"),
+    ("hecker_dynamics/msg/ContactEvent", "normal_impulse")])
+def test_a_joint_state_or_impulse_not_finite_in_both_bags_is_never_a_match(
+        tmp_path, capsys, atol, x, msgtype, field_name):
+    """A joint state or contact event, compared byte for byte, with the same NaN or
+    infinity in both bags: it matched, as a pose did before."""
+    msg = default_message(msgtype)
+    msg.header.stamp.sec = 1
+    if msgtype == "sensor_msgs/msg/JointState":
+        msg.name = ["hinge"]
+        msg.position, msg.velocity, msg.effort = (np.zeros(1) for _ in range(3))
+        getattr(msg, field_name)[0] = x
+    else:
+        setattr(msg, field_name, x)
+    for name in "ab":
+        with BagWriter(tmp_path / name) as writer:
+            writer.write("/topic", msgtype, SEC, msg)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                        "--atol", atol)
+    assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
+    assert "at 1.000000 s: a number that is not finite (NaN or infinite) in both bags" in out
 
 
 def test_atol_zero_is_bit_identical(tmp_path, capsys):
