@@ -856,7 +856,8 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
                     "directory that holds the bag), else of a shipped scene. Exit 0 when all "
                     "match, 1 on a mismatch, 2 when a bag cannot be checked.")
     regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR",
-                                help="a bag directory, or a directory of bag directories")
+                                help="a bag directory, or a directory that holds bag directories "
+                                     "(at any depth)")
     regress_parser.add_argument("--scene", help="the scene of every bag")
     regress_parser.add_argument("--scene-dir", metavar="DIR",
                                 help="where the parameters files the bags name are (default: "
