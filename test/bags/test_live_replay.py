@@ -20,6 +20,7 @@ from scene_builders import make_scene
 from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags import read_bag
 from hecker_dynamics.bags.compare import Tolerances, compare_contents
+from hecker_dynamics.bags.coverage import seconds
 from hecker_dynamics.bags.live import check_live, is_live_recording
 from hecker_dynamics.bags.replay import (
     APPLIED_WRENCH_TOPIC,
@@ -428,7 +429,7 @@ def test_a_twist_out_of_place_is_named_and_the_rest_compared(tmp_path, tamper, p
     check = _check(scene, _rewritten(honest, tmp_path / "tampered", change))
     assert not check.ok
     moved = second if tamper == "swap" else second + 1
-    assert check.problems == [f"/left/twist: the twist logged at {moved * 1e-9:.9f} s "
+    assert check.problems == [f"/left/twist: the twist logged at {seconds(moved)} s "
                               f"{problem}"], check.problems
     report = {t.topic: t for t in check.report.topics}["/left/twist"]
     assert report.matched == len(twists) - (tamper == "swap")
