@@ -257,6 +257,7 @@ def script_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
     from .bags.check import RecordingCheck, check_outputs
+    from .bags.coverage import seconds
     from .bags.io import read_bag
     from .bags.live import is_live_recording
     from .bags.replay import (
@@ -305,9 +306,9 @@ def replay_command(args: argparse.Namespace) -> int:
     written = f" written to {args.output}" if args.output and not result.halted else ""
     print(f"replayed {result.inputs} input message(s) from {', '.join(inputs) or 'no topic'} "
           f"on scene {scene.source}: {result.accepted} accepted, {len(result.rejected)} "
-          f"rejected; sim time {start * 1e-9:.9f} s to {result.reached_ns * 1e-9:.9f} s, "
+          f"rejected; sim time {seconds(start)} s to {seconds(result.reached_ns)} s, "
           f"{result.steps} steps, {result.outputs} output message(s){written}"
-          + (f"; the state diverged after {result.reached_ns * 1e-9:.9f} s, so no bag was "
+          + (f"; the state diverged after {seconds(result.reached_ns)} s, so no bag was "
              "written" if result.halted and args.output else ""))
     if result.halted:
         print(f"hecker-dynamics: error: {result.halted}", file=sys.stderr)
@@ -856,7 +857,8 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
                     "directory that holds the bag), else of a shipped scene. Exit 0 when all "
                     "match, 1 on a mismatch, 2 when a bag cannot be checked.")
     regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR",
-                                help="a bag directory, or a directory of bag directories")
+                                help="a bag directory, or a directory that holds bag directories "
+                                     "(at any depth)")
     regress_parser.add_argument("--scene", help="the scene of every bag")
     regress_parser.add_argument("--scene-dir", metavar="DIR",
                                 help="where the parameters files the bags name are (default: "

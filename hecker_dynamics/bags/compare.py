@@ -6,10 +6,12 @@ within the tolerances), so pytest can assert on it and print the report:
     report, ok = compare_bags("expected_bag", "actual_bag", atol=1e-9)
     assert ok, report.text()
 
-Messages are matched by header stamp; messages without a header (``Twist``) by the stamp
-of the same-index message on the sibling ``.../pose`` topic when both topics have the same
-number of messages (a bag recorded from the node logs them at arrival, not at sim time),
-else by log time. Several messages with one stamp match in order. Differences measured:
+Messages are matched by header stamp; messages without a header (``Twist``) by log time
+when the bag logs them at sim time (each at a stamp of the sibling ``.../pose`` topic, as
+``replay`` writes them), else by the stamp of the same-index message on the sibling topic
+when both topics have the same number of messages (a bag recorded from the node logs them
+at arrival, not at sim time), else by log time. Several messages with one stamp match in
+order. Differences measured:
 
 - position: distance between positions (PoseStamped, Odometry, Marker poses and points,
   TFMessage translations) and the largest difference of a LaserScan's ranges (equal
@@ -38,8 +40,10 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from .io import (
+    CONTACT_EVENT,
     DIAGNOSTIC_ARRAY,
     IMU,
+    JOINT_STATE,
     LASER_SCAN,
     MARKER_ARRAY,
     ODOMETRY,
@@ -254,12 +258,17 @@ def _late(keys: Sequence[int]) -> list[int]:
 
 
 def _keys(messages: Sequence[BagMessage], decoded: Sequence[Any],
-          sibling: Optional[Sequence[int]]) -> list[int]:
+          sibling: Optional[tuple[list[int], bool]]) -> list[int]:
+    """Each message's stamp; for messages without a header, see the module docstring
+    (``sibling``: the sibling topic's stamps sorted, and whether it is logged at them)."""
     stamps = [stamp_ns_of(msg) for msg in decoded]
     if all(s is not None for s in stamps):
         return stamps  # type: ignore[return-value]
-    if sibling is not None and len(sibling) == len(messages):
-        return list(sibling)
+    # A bag logged at sim time (replay's, script's) logs each twist at its instant: that
+    # places it even when a twist and a pose of other instants are lost, where the i-th
+    # pose's stamp would give every twist between the two its neighbour's.
+    if sibling is not None and not sibling[1] and len(sibling[0]) == len(messages):
+        return list(sibling[0])
     return [m.log_ns for m in messages]
 
 
@@ -343,6 +352,9 @@ _MEASURED: dict[str, tuple[tuple[str, ...], ...]] = {
 }
 #: Per structured type, its measured arrays (copied whole by :func:`_same_elsewhere`).
 _MEASURED_ARRAYS: dict[str, tuple[str, ...]] = {LASER_SCAN: ("ranges",)}
+#: Per type compared byte for byte, its numbers, which a run publishes finite only.
+_NUMBERS: dict[str, tuple[str, ...]] = {JOINT_STATE: ("position", "velocity", "effort"),
+                                        CONTACT_EVENT: ("normal_impulse", "tangent_impulse")}
 
 
 def _items(msg: Any, path: tuple[str, ...]) -> list[Any]:
@@ -381,7 +393,8 @@ def _finite(msgtype: str, msg: Any) -> bool:
                        if hasattr(item, name)):
                 return False
     return not any(np.isnan(getattr(msg, name)).any()
-                   for name in _MEASURED_ARRAYS.get(msgtype, ()))
+                   for name in _MEASURED_ARRAYS.get(msgtype, ())) and \
+        all(np.isfinite(getattr(msg, name)).all() for name in _NUMBERS.get(msgtype, ()))
 
 
 def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
@@ -390,8 +403,11 @@ def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     fields that must be equal; ``exact``: the bytes must be equal too. A value that is
     not finite is no state of a run (the divergence check stops one first): equal in both
     bags, it is noted, never a match."""
-    unrun = f"at {stamp * 1e-9:.6f} s: a position, angle or velocity that is not finite " \
-            "(NaN or infinite) in both bags"
+    what = "number" if msgtype in _NUMBERS else "position, angle or velocity"
+    unrun = f"at {stamp * 1e-9:.6f} s: a {what} that is not finite (NaN or infinite) in " \
+            "both bags"
+    if a is None and msgtype in _NUMBERS:  # compared byte for byte, but read for its numbers
+        a = ea.decode()
     if exact and ea.raw == eb.raw:
         if a is not None and not _finite(msgtype, a):
             report.note(unrun)
@@ -513,16 +529,17 @@ def _compare_topic(topic: str, msgtype: str, expected: BagContents,
     else:
         da, db = [None] * len(ea), [None] * len(aa)
 
-    def sibling(bag: BagContents) -> Optional[list[int]]:
+    def sibling(bag: BagContents) -> Optional[tuple[list[int], bool]]:
         if not topic.endswith("/twist"):
             return None
         pose_topic = topic[: -len("/twist")] + "/pose"
         if bag.topics.get(pose_topic) != POSE_STAMPED:
             return None
+        poses = [(m.log_ns, stamp) for m in bag.on(pose_topic)
+                 if (stamp := stamp_ns_of(m.decode())) is not None]  # always: PoseStamped
         # In stamp order: the i-th twist logged is the i-th instant published. A pose
         # logged out of order is the pose topic's fault, said there, not the twist's.
-        return sorted(stamp for m in bag.on(pose_topic)
-                      if (stamp := stamp_ns_of(m.decode())) is not None)  # always: PoseStamped
+        return sorted(stamp for _, stamp in poses), all(log == stamp for log, stamp in poses)
 
     if structured:
         ka = _keys(ea, da, sibling(expected))

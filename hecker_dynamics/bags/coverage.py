@@ -43,8 +43,10 @@ LOST_SHARE = 0.01
 
 
 def seconds(ns: int) -> str:
-    """A stamp or log time in seconds, to the nanosecond."""
-    return f"{ns * 1e-9:.9f}"
+    """A stamp or log time in seconds, to the nanosecond: in whole numbers, as a double
+    holds a ROS time (1.7e9 s) only to 256 ns and printed "1700000000.750000238"."""
+    whole, part = divmod(abs(int(ns)), 1_000_000_000)
+    return f"{'-' if ns < 0 else ''}{whole}.{part:09d}"
 
 
 def span(first_ns: int, last_ns: int) -> str:

@@ -805,6 +805,9 @@ class BagWriter:
         except OSError as error:  # a name too long, a loop of links: nothing to write to
             raise BagError(f"{self.path}: cannot create the bag "
                            f"({error.strerror or _describe(error)})") from None
+        if not exists and self.path.is_symlink():  # found only at the end, "made meanwhile"
+            raise BagError(f"{self.path} is a broken symlink or a symlink loop; remove it "
+                           "or give another name")
         if exists and not self.overwrite:
             raise BagError(f"{self.path} exists already (remove it or pass --overwrite)")
         if exists and not _looks_like_bag(self.path):

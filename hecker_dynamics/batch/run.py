@@ -253,17 +253,30 @@ def _is_bag(path: Path) -> bool:
         (path.is_dir() and any(next(path.glob(pattern), None) for pattern in _STORAGE))
 
 
+def _bags_in(folder: Path, seen: set[Path]) -> Iterator[Path]:
+    """The bag directories in ``folder`` and, in name order, in its folders that are no
+    bags, at any depth: a suite kept in folders (one per scene, say) is checked whole, not
+    only its top folder's bags. Hidden folders (a running writer's temporary ones) and a
+    folder reached again (a symlink loop) are not searched."""
+    seen.add(folder.resolve())
+    for path in sorted(folder.iterdir()):
+        if _is_bag(path):
+            yield path
+        elif path.is_dir() and not path.name.startswith(".") and path.resolve() not in seen:
+            yield from _bags_in(path, seen)
+
+
 def find_bags(paths: Sequence[Path]) -> list[Path]:
     """The bags named: each path is a bag directory (see :func:`_is_bag`) or holds bag
-    directories; raises :class:`BagError` for a path that is neither. A bag named again
-    (twice, by a folder and by itself, through a symlink) is kept once, with a warning:
-    checked twice it would count twice in the summary."""
+    directories (:func:`_bags_in`); raises :class:`BagError` for a path that is neither. A
+    bag named again (twice, by a folder and by itself, through a symlink) is kept once,
+    with a warning: checked twice it would count twice in the summary."""
     found: dict[Path, Path] = {}  # the bag's real path -> the path it was first found by
     for path in paths:
         if _is_bag(path):
             inner = [path]
         else:
-            inner = sorted(p for p in path.iterdir() if _is_bag(p)) if path.is_dir() else []
+            inner = list(_bags_in(path, set())) if path.is_dir() else []
             if not inner:
                 raise BagError(f"{path}: not a bag directory and holds none")
         for bag in inner:

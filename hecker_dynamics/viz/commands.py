@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
+from ..bags.coverage import seconds
 from ..files import check_file, file_path, replacing
 from ..scene import Scene, load_scene
 from .frames import Timeline, VizError
@@ -91,7 +92,7 @@ def render_command(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     print(f"wrote {count} frame(s) of {args.bag or args.scene}, sim time "
-          f"{start * 1e-9:g} s to {(start + duration) * 1e-9:g} s, to {output}")
+          f"{seconds(start)} s to {seconds(start + duration)} s, to {output}")
     return 0
 
 

@@ -8,6 +8,7 @@ drawn in fixed-frame axes. Without a scene the twists are drawn as the bag has t
 """
 from __future__ import annotations
 
+import bisect
 import math
 import warnings
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..bags.io import POSE_STAMPED, TWIST, BagError, read_bag, stamp_ns_of
+from ..bags.io import POSE_STAMPED, TWIST, BagError, BagMessage, read_bag, stamp_ns_of
 from ..dynamics import Model
 from ..scene import Scene
 from .draw import BODY_COLORS
@@ -58,9 +59,35 @@ def _body_names(path: str, bag_topics: dict[str, str]) -> list[str]:
     return names
 
 
+def _twists_of(poses: list[BagMessage], stamps: list[int],
+               twists: list[BagMessage]) -> dict[int, BagMessage]:
+    """The twist of each pose (by its index), as the node publishes the two together: a
+    pose and a twist each the only one of its topic logged within half a publish period
+    (the poses' smallest step of stamps) of the other. A bag logged at sim time logs them
+    at one time; a recording logs each on arrival, a little after its publication, where
+    the same time would pair nothing; poses published in a burst (a timer that caught up)
+    are within reach of several twists, which could be any of them: not paired, never
+    paired wrong."""
+    steps = np.diff(np.unique(stamps))
+    reach = int(steps.min()) // 2 if steps.size else 0
+    pose_times = [message.log_ns for message in poses]  # log order, as read_bag gives them
+    twist_times = [message.log_ns for message in twists]
+
+    def near(times: list[int], log_ns: int) -> list[int]:
+        return list(range(bisect.bisect_left(times, log_ns - reach),
+                          bisect.bisect_right(times, log_ns + reach)))
+
+    paired = {}
+    for index, twist in enumerate(twists):
+        candidates = near(pose_times, twist.log_ns)
+        if len(candidates) == 1 and near(twist_times, pose_times[candidates[0]]) == [index]:
+            paired[candidates[0]] = twist
+    return paired
+
+
 def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
-    """Every body's series in the bag at ``path`` (a twist pairs with the pose logged at the
-    same time, as the node publishes them together)."""
+    """Every body's series in the bag at ``path`` (a twist pairs with the pose logged with
+    it, :func:`_twists_of`)."""
     try:
         bag = read_bag(path)
     except BagError as error:
@@ -68,26 +95,25 @@ def read_series(path: str, scene: Optional[Scene] = None) -> dict[str, Series]:
     names = _body_names(path, bag.topics)
     series = {}
     for name in names:
-        twists = {m.log_ns: m.decode() for m in bag.on(f"/{name}/twist")}
         rows, times = [], []
         poses = bag.on(f"/{name}/pose")
-        alone = sum(message.log_ns not in twists for message in poses)
+        decoded = [message.decode() for message in poses]
+        stamps = [stamp_ns_of(msg) or 0 for msg in decoded]  # a PoseStamped has a header
+        twists = _twists_of(poses, stamps, bag.on(f"/{name}/twist"))
+        alone = len(poses) - len(twists)
         if alone:  # a lossy recording: a gap in the lines, said
             warnings.warn(f"{path}: {alone} of {len(poses)} message(s) on /{name}/pose have no "
                           f"/{name}/twist logged with them and are not drawn", stacklevel=2)
-        for message in poses:
-            if message.log_ns not in twists:
+        for index, (msg, stamp) in enumerate(zip(decoded, stamps)):
+            if index not in twists:
                 continue
-            msg = message.decode()
             p, o = msg.pose.position, msg.pose.orientation
             x, y, angle = pose_from_fields((p.x, p.y), (o.x, o.y, o.z, o.w))
-            twist = twists[message.log_ns]
+            twist = twists[index].decode()
             vx, vy = twist.linear.x, twist.linear.y
             if scene is not None and scene.twist_frame == "body":  # to fixed-frame axes
                 c, s = math.cos(angle), math.sin(angle)
                 vx, vy = c * vx - s * vy, s * vx + c * vy
-            stamp = stamp_ns_of(msg)
-            assert stamp is not None  # a PoseStamped has a header
             times.append(stamp * 1e-9)
             rows.append((x, y, angle, vx, vy, twist.angular.z))
         if rows:

@@ -20,7 +20,14 @@ import pytest
 import yaml
 
 from hecker_dynamics.bags.compare import compare_bags
-from hecker_dynamics.bags.io import POSE_STAMPED, TWIST, BagError, BagWriter, read_bag
+from hecker_dynamics.bags.io import (
+    POSE_STAMPED,
+    TWIST,
+    BagError,
+    BagWriter,
+    default_message,
+    read_bag,
+)
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros import fields
 from hecker_dynamics.scene.load import load_scene
@@ -472,6 +479,32 @@ def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsy
            "infinite) in both bags" in out
 
 
+@pytest.mark.parametrize("atol", ["0", "1"])
+@pytest.mark.parametrize("x", [float("nan"), float("inf")])
+@pytest.mark.parametrize("msgtype, field_name", [
+    ("sensor_msgs/msg/JointState", "velocity"), ("sensor_msgs/msg/JointState", "effort"),
+    ("hecker_dynamics/msg/ContactEvent", "normal_impulse")])
+def test_a_joint_state_or_impulse_not_finite_in_both_bags_is_never_a_match(
+        tmp_path, capsys, atol, x, msgtype, field_name):
+    """A joint state or contact event, compared byte for byte, with the same NaN or
+    infinity in both bags: it matched, as a pose did before."""
+    msg = default_message(msgtype)
+    msg.header.stamp.sec = 1
+    if msgtype == "sensor_msgs/msg/JointState":
+        msg.name = ["hinge"]
+        msg.position, msg.velocity, msg.effort = (np.zeros(1) for _ in range(3))
+        getattr(msg, field_name)[0] = x
+    else:
+        setattr(msg, field_name, x)
+    for name in "ab":
+        with BagWriter(tmp_path / name) as writer:
+            writer.write("/topic", msgtype, SEC, msg)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
+                        "--atol", atol)
+    assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
+    assert "at 1.000000 s: a number that is not finite (NaN or infinite) in both bags" in out
+
+
 def test_atol_zero_is_bit_identical(tmp_path, capsys):
     _pose_bag(tmp_path / "a", 0.0)
     _pose_bag(tmp_path / "b", 7.3e-304)
@@ -656,3 +689,51 @@ def test_two_connections_of_a_topic_that_disagree_are_refused(tmp_path, capsys, 
         assert f"{bag}: topic '/left/pose' {fragment}" in err, err
     code, out, _ = _cli(capsys, "regress", str(bag), "--scene", "sample", "--workers", "1")
     assert code == 2 and out.splitlines()[0].startswith("ERROR") and fragment in out, out
+
+
+def test_a_twist_and_a_pose_lost_at_other_instants_leave_the_rest_in_place(tmp_path, capsys):
+    """A bag logged at sim time that lost /left/twist at 0.42 s and /left/pose at 6.02 s:
+    each twist is compared with the replay's at its own instant. Placed by the i-th
+    pose's stamp instead, every twist in between met its neighbour's values and the
+    check failed on velocities the replay never published otherwise."""
+    script, recording = str(tmp_path / "in"), tmp_path / "rec"
+    assert main(["script", "sample", "-o", script]) == 0
+    assert main(["replay", "sample", script, "-o", str(recording), "--with-inputs"]) == 0
+    source = read_bag(recording)
+    lost = {("/left/twist", 420_000_000), ("/left/pose", 6_020_000_000)}
+    assert lost <= {(m.topic, m.log_ns) for m in source.messages}
+    lossy = tmp_path / "lossy"
+    with BagWriter(lossy, "mcap", custom_data=source.custom_data) as writer:
+        for topic, msgtype in source.topics.items():
+            writer.add_topic(topic, msgtype)
+        for message in source.messages:
+            if (message.topic, message.log_ns) not in lost:
+                writer.write_raw(message.topic, message.log_ns, message.raw)
+    capsys.readouterr()
+    code, out, _ = _cli(capsys, "replay", "sample", str(lossy), "--check", "--partial",
+                        "--atol", "0")
+    assert code == 0, out
+    verdict = out.splitlines()[-1]
+    assert "/left/twist: 1 outputs of the replay not recorded, at 0.420000000 s" in verdict
+    assert "/left/pose: 1 outputs of the replay not recorded, at 6.020000000 s" in verdict
+    code, out, _ = _cli(capsys, "compare", str(recording), str(lossy), "--topic",
+                        "/left/twist", "--atol", "0")
+    assert code == 1
+    assert "/left/twist (geometry_msgs/msg/Twist): 499 matched of 500 expected / 499 " \
+        "actual\n     missing 1: first at 0.420000 s\nlargest overall: position 0, angle 0, " \
+        "velocity 0, angular_velocity 0\nMISMATCH" in out, out
+
+
+@pytest.mark.parametrize("overwrite", [[], ["--overwrite"]])
+def test_a_broken_symlink_as_the_output_bag_is_refused_before_the_replay(
+        tmp_path, capsys, overwrite):
+    """``-o LINK`` with LINK dangling: one line before any work. It replayed the whole
+    session, then said the name was made while it ran."""
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "elsewhere" / "bag")
+    for argv in (["script", "sample"], ["replay", "sample", str(GOLDEN / "sample" / "input")]):
+        code, out, err = _cli(capsys, *argv, "-o", str(link), *overwrite)
+        assert (code, out) == (2, "")
+        assert err == f"hecker-dynamics: error: {link} is a broken symlink or a symlink " \
+                      "loop; remove it or give another name\n"
+        assert os.readlink(link) == str(tmp_path / "elsewhere" / "bag")

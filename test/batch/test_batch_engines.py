@@ -212,6 +212,25 @@ def test_a_bag_cut_off_before_its_metadata_is_an_error_not_skipped(bag_suite, tm
     assert "no metadata.yaml" in capsys.readouterr().out
 
 
+def test_bags_in_folders_of_the_folder_are_checked_too(bag_suite, tmp_path, capsys):
+    """A suite kept in folders beside a bag (one per scene, say): only the top folder's bag
+    was checked, "1 bag(s): 1 ok", exit 0, the tampered bag one folder down never read.
+    Every bag at any depth is checked; hidden folders (a writer's temporary ones) and a
+    symlink back up are not searched."""
+    suite = tmp_path / "suite"
+    (suite / "sample" / "more").mkdir(parents=True)
+    shutil.copytree(bag_suite / "a_sample", suite / "a_sample")
+    shutil.copytree(bag_suite / "c_tampered", suite / "sample" / "more" / "c_tampered")
+    shutil.copytree(bag_suite / "b_door", suite / ".out.partial-x" / "out")
+    (suite / "sample" / "loop").symlink_to(suite)
+    assert main(["regress", str(suite), "--workers", "1", "--no-progress"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert [line.split()[:2] for line in out[:-1]] == [
+        ["OK", str(suite / "a_sample")],
+        ["MISMATCH", str(suite / "sample" / "more" / "c_tampered")]], out
+    assert out[-1] == "2 bag(s): 1 ok, 1 mismatch, 0 error"
+
+
 def test_a_bag_given_twice_is_checked_once_saying_so(bag_suite, tmp_path, capsys):
     """The same bag named twice, as a folder holding it and by itself, or through a symlink,
     was checked and counted twice ("2 bag(s): 2 ok"): each bag is checked once, and a

@@ -364,3 +364,20 @@ def test_a_bag_pose_that_is_not_finite_is_a_one_line_error(replayed, tmp_path, c
                                    "-o", str(out)])
     assert f"/left/pose at 0.08 s: the pose is not finite (y {value})" in err, err
     assert not out.exists()
+
+
+def test_the_summary_names_a_ros_time_span_to_the_nanosecond(tmp_path, capsys):
+    """A session at ROS time 1.7e9 s, which a double holds only to 256 ns: render's summary
+    said "sim time 1.7e+09 s to 1.7e+09 s" for a span of 0.5 s, and replay's "to
+    1700000000.750000238 s"."""
+    script, bag = str(tmp_path / "in"), str(tmp_path / "out")
+    assert main(["script", "sample", "-o", script, "--duration", "0.5", "--start",
+                 "1700000000.25"]) == 0
+    capsys.readouterr()
+    assert main(["replay", "sample", script, "-o", bag, "--no-progress"]) == 0
+    assert "; sim time 1700000000.250000000 s to 1700000000.750000000 s, 500 steps" in \
+        capsys.readouterr().out
+    assert main(["render", "sample", "--bag", bag, "-o", str(tmp_path / "f.png")]) == 0
+    assert capsys.readouterr().out == (
+        f"wrote 1 frame(s) of {bag}, sim time 1700000000.250000000 s to "
+        f"1700000000.750000000 s, to {tmp_path / 'f.png'}\n")
