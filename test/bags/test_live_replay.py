@@ -11,7 +11,9 @@ from __future__ import annotations
 import copy
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from live_session import S, record, run_live
@@ -21,7 +23,7 @@ from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags import read_bag
 from hecker_dynamics.bags.compare import Tolerances, compare_contents
 from hecker_dynamics.bags.coverage import seconds
-from hecker_dynamics.bags.live import check_live, is_live_recording
+from hecker_dynamics.bags.live import LiveCheck, check_live, is_live_recording
 from hecker_dynamics.bags.replay import (
     APPLIED_WRENCH_TOPIC,
     ReplayError,
@@ -31,7 +33,12 @@ from hecker_dynamics.bags.replay import (
 )
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
-from hecker_dynamics.ros.session import CMD_VEL_EVENT, MOTOR_SPEED_EVENT
+from hecker_dynamics.ros.session import (
+    CMD_VEL_EVENT,
+    MOTOR_SPEED_EVENT,
+    decode_state,
+    encode_state,
+)
 from hecker_dynamics.scene import load_scene
 from hecker_dynamics.scene.load import scene_parameters
 
@@ -320,6 +327,37 @@ def test_delete_markers_of_bodies_gone_are_recorded_and_the_rest_replays(tmp_pat
                if a not in deletes)
     compared = {t.topic: t.matched for t in check.report.topics}
     assert check.unchecked == 0 and compared["/markers"] == len(arrays) - 1
+
+
+def test_a_keyframe_of_an_older_guard_checks_and_a_changed_budget_does_not(tmp_path):
+    """A session recorded before the divergence guard's motor term (its budget without
+    ``motor_root``, another ``worst_ratio``) still checks: neither changes a step. A
+    keyframe whose running budget changed does not."""
+    scene = load_scene("gears")
+
+    def recorded(edit: Callable[[dict[str, Any]], None], name: str) -> LiveCheck:
+        session = run_live(scene, 7, motors=6)
+        for published in session.published:
+            if published.topic.endswith("/keyframe"):
+                state = decode_state(published.msg.state)
+                edit(state["divergence"]["bound"])
+                published.msg.state = encode_state(state)
+        return _check(scene, record(session, tmp_path / name, 7))
+
+    dropped = []
+
+    def older(budget: dict[str, Any]) -> None:
+        dropped.append(budget.pop("motor_root", None))  # none at the start, all 0 there
+        budget["worst_ratio"] /= 2.0
+
+    def changed(budget: dict[str, Any]) -> None:
+        budget["root"][0] = math.nextafter(budget["root"][0], math.inf)
+
+    check = recorded(older, "older")
+    assert sum(any(m) for m in dropped if m) >= 3
+    assert check.ok and check.keyframes_checked >= 3, check.problems
+    assert any("differs from the recorded keyframe" in p
+               for p in recorded(changed, "changed").problems)
 
 
 def test_a_keyframe_with_a_spawned_body_changed_is_caught(tmp_path):
