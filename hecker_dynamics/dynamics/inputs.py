@@ -133,11 +133,16 @@ class InputBuffer:
                 values_only = False
             self._active[key] = held  # a replaced key keeps its place in the order
             changed = True
-        ended = [key for key, held in self._active.items()
-                 if held.end_ns is not None and held.end_ns <= now_ns]
-        for key in ended:
-            del self._active[key]
         self._track_ends()
+        ended: list[tuple[str, str]] = []
+        # Looked for only where one ends now: at a drive's control instant the commands
+        # ending now were just replaced, and the scan would find none.
+        if self._first_end is not None and self._first_end <= now_ns:
+            ended = [key for key, held in self._active.items()
+                     if held.end_ns is not None and held.end_ns <= now_ns]
+            for key in ended:
+                del self._active[key]
+            self._track_ends()
         self.values_only = values_only and not ended
         return changed or bool(ended)
 
