@@ -1070,21 +1070,32 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
                               + " missing between recorded ones", missing=True)
 
 
+#: Budget terms of the divergence guard that a later version added (a motor's M): a
+#: keyframe recorded before one lacks it, and the replay's is then not compared.
+_ADDED_BUDGET_TERMS = ("motor_root",)
+
+
 def _same_keyframe(mine: KeyframeFields, recorded: KeyframeFields) -> bool:
     """Whether the replay's keyframe holds the recorded one's state: all of it but what the
     divergence guard reports of itself. Its ``worst_ratio`` (how near the run came to the
     guard's limit) depends on the limit's form, and a later version may add a term to the
     budget (a motor's ``motor_root``): neither changes a step, and a session recorded
-    before them must still check. The guard's running budget (R, W, c, P) is compared."""
+    before them must still check. Every other budget term must be there and equal: a
+    recorded keyframe that lacks one, or the guard's budget, differs."""
     if mine == recorded:
         return True
     if mine._replace(state="") != recorded._replace(state=""):
         return False
-    ours, theirs = decode_state(mine.state), decode_state(recorded.state)
-    budgets = ours["divergence"]["bound"], theirs["divergence"]["bound"]
-    shared = budgets[0].keys() & budgets[1].keys() - {"worst_ratio"}
-    for state, budget in zip((ours, theirs), budgets):
-        state["divergence"]["bound"] = {key: budget[key] for key in shared}
+    try:
+        ours, theirs = decode_state(mine.state), decode_state(recorded.state)
+        budgets = ours["divergence"]["bound"], theirs["divergence"]["bound"]
+        for budget in budgets:
+            budget.pop("worst_ratio", None)
+        for key in _ADDED_BUDGET_TERMS:
+            if key not in budgets[1]:
+                budgets[0].pop(key, None)
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return False  # no budget where the replay's keyframe has one
     return ours == theirs
 
 

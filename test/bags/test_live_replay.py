@@ -23,7 +23,7 @@ from hecker_dynamics.bags import io as bags
 from hecker_dynamics.bags import read_bag
 from hecker_dynamics.bags.compare import Tolerances, compare_contents
 from hecker_dynamics.bags.coverage import seconds
-from hecker_dynamics.bags.live import LiveCheck, check_live, is_live_recording
+from hecker_dynamics.bags.live import LiveCheck, _same_keyframe, check_live, is_live_recording
 from hecker_dynamics.bags.replay import (
     APPLIED_WRENCH_TOPIC,
     ReplayError,
@@ -32,10 +32,12 @@ from hecker_dynamics.bags.replay import (
     replay_outputs,
 )
 from hecker_dynamics.cli import main
+from hecker_dynamics.dynamics import Simulation
 from hecker_dynamics.ros.markers import MARKER_ADD, MARKER_DELETE
 from hecker_dynamics.ros.session import (
     CMD_VEL_EVENT,
     MOTOR_SPEED_EVENT,
+    KeyframeFields,
     decode_state,
     encode_state,
 )
@@ -332,32 +334,51 @@ def test_delete_markers_of_bodies_gone_are_recorded_and_the_rest_replays(tmp_pat
 def test_a_keyframe_of_an_older_guard_checks_and_a_changed_budget_does_not(tmp_path):
     """A session recorded before the divergence guard's motor term (its budget without
     ``motor_root``, another ``worst_ratio``) still checks: neither changes a step. A
-    keyframe whose running budget changed does not."""
+    keyframe whose running budget changed, or that lacks a term both versions have, does
+    not (the one the replay starts from is left as it is)."""
     scene = load_scene("gears")
 
     def recorded(edit: Callable[[dict[str, Any]], None], name: str) -> LiveCheck:
         session = run_live(scene, 7, motors=6)
-        for published in session.published:
-            if published.topic.endswith("/keyframe"):
-                state = decode_state(published.msg.state)
-                edit(state["divergence"]["bound"])
-                published.msg.state = encode_state(state)
+        keyframes = [published for published in session.published
+                     if published.topic.endswith("/keyframe")]
+        for published in keyframes[1:]:
+            state = decode_state(published.msg.state)
+            edit(state["divergence"]["bound"])
+            published.msg.state = encode_state(state)
         return _check(scene, record(session, tmp_path / name, 7))
 
     dropped = []
 
     def older(budget: dict[str, Any]) -> None:
-        dropped.append(budget.pop("motor_root", None))  # none at the start, all 0 there
+        dropped.append(budget.pop("motor_root"))
         budget["worst_ratio"] /= 2.0
 
     def changed(budget: dict[str, Any]) -> None:
         budget["root"][0] = math.nextafter(budget["root"][0], math.inf)
 
+    def lost(budget: dict[str, Any]) -> None:  # a term both versions have is no added one
+        del budget["root"]
+
     check = recorded(older, "older")
-    assert sum(any(m) for m in dropped if m) >= 3
+    assert sum(any(m) for m in dropped) >= 3
     assert check.ok and check.keyframes_checked >= 3, check.problems
-    assert any("differs from the recorded keyframe" in p
-               for p in recorded(changed, "changed").problems)
+    for edit in (changed, lost, dict.clear):
+        assert any("differs from the recorded keyframe" in p
+                   for p in recorded(edit, edit.__name__).problems), edit.__name__
+
+
+def test_a_keyframe_without_the_guard_s_budget_differs():
+    """A recorded keyframe whose state lacks the divergence guard's budget, or whose
+    budget is no mapping, is not the replay's (not a KeyError out of the check)."""
+    state = Simulation(load_scene("gears")).export_state()
+    mine = KeyframeFields(0, 0, 0, 0, (), (), (), encode_state(state))
+    reported = copy.deepcopy(state)
+    reported["divergence"]["bound"]["worst_ratio"] += 1.0
+    assert _same_keyframe(mine, mine._replace(state=encode_state(reported)))
+    for divergence in ({}, {"bound": []}, []):
+        recorded = encode_state(dict(state, divergence=divergence))
+        assert not _same_keyframe(mine, mine._replace(state=recorded))
 
 
 def test_a_keyframe_with_a_spawned_body_changed_is_caught(tmp_path):
