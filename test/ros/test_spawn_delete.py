@@ -289,6 +289,39 @@ def test_a_keyframe_after_a_spawn_restores_that_world_and_goes_on_alike():
                                           "position: [0.0, 3.0]}")]
 
 
+def test_a_body_deleted_and_spawned_again_at_one_instant_is_a_new_body():
+    """delete_body then spawn_body of 'ball' at one instant (a held 5 N tug on the old
+    ball, sliding on a frictionless floor, its contact warm-started): the new ball starts
+    where its YAML puts it, at rest, without the tug; a keyframe after the edits, and one
+    before them with the edits made again, go on bit for bit alike."""
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0, "position": [0.0, 0.1],
+            "velocity": [0.5, 0.0]}
+    scene = make_scene({"bodies": {"ball": ball, "box": {**ball, "position": [1.0, 0.1],
+                                                         "velocity": [0.0, 0.0]}},
+                        "forces": {"g": {"type": "gravity"}},
+                        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0],
+                                            "friction": 0.0}}})
+    again = "{shape: circle, radius: 0.1, mass: 1.0, position: [-2.0, 0.1]}"
+    runner = Runner(scene, play_script=False)
+    runner.sim.push(WrenchCommand(0, "ball", "tug", "world", (0.0, 0.0), (5.0, 0.0), 0.0, 0))
+    runner.advance(S // 20)
+    before = runner.keyframe()
+    assert runner.sim.export_state()["contacts"], "the old ball rests on the floor"
+    assert runner.delete_body("ball").accepted and runner.spawn_body("ball", again).accepted
+    assert runner.sim.q[0].tolist() == [-2.0, 0.1, 0.0] and not runner.sim.v[0].any()
+    assert runner.sim.export_state()["inputs"]["active"] == []
+    after = runner.keyframe()
+    restored, replayed = Runner(scene, play_script=False), Runner(scene, play_script=False)
+    restored.restore(after)
+    replayed.restore(before)
+    assert replayed.delete_body("ball").accepted and replayed.spawn_body("ball", again).accepted
+    assert replayed.keyframe() == after
+    for run in (runner, restored, replayed):
+        run.advance(S)
+    assert _bits(runner) == _bits(restored) == _bits(replayed)
+    assert runner.sim.v[0, 0] == 0.0  # no tug on the new ball
+
+
 def test_a_restart_returns_to_the_scene_given():
     runner = Runner(load_scene("seesaw"), record=True)
     runner.advance(S)
