@@ -544,6 +544,21 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
     assert world["c"].mass == 0.1
 
 
+def test_a_group_left_with_one_body_by_removals_takes_bodies_added_later() -> None:
+    """'a' and 'b' removed leave group 'pile' with 'c' alone: a body added into it later
+    is taken, and once 'c' is removed too, the next one collides with that body."""
+    world = two_balls(extra=True)
+    world.advance(0.1)
+    world.remove_body("a")
+    world.remove_body("b")
+    world.add_body("d", hd.Circle(0.2), mass=0.5, position=(-0.1, 1.0), collisions=["pile"])
+    world.remove_body("c")
+    assert [(g.name, g.bodies) for g in world.scene.collisions] == [("pile", ("d",))]
+    world.add_body("e", hd.Circle(0.2), mass=0.5, position=(-0.1, 2.0), collisions=["pile"])
+    world.advance(2.0)
+    assert world["e"].position[1] > 0.5  # resting on 'd', not through it
+
+
 STALE = r"body 'c' was removed from the world; the body called so now is another: world\['c'\]$"
 
 
