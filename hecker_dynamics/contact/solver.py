@@ -113,6 +113,8 @@ def _warn_mass_ratios(scene: Scene, mass: States) -> None:
     pulled = {b for force in scene.forces if isinstance(force, Gravity)
               and any(force.acceleration) for b in force.bodies} - held
     for group in scene.collisions:
+        if not group.bodies:  # left empty by deletes (scene/world.py)
+            continue
         light, small = min((float(mass[index[b]]), b) for b in group.bodies)
         heavy, big = max(((float(mass[index[b]]), b) for b in group.bodies if b in pulled),
                          default=(0.0, ""))

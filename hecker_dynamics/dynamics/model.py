@@ -99,7 +99,9 @@ class Model:
                         compiled=self.compiled is not None,
                         sleep=scene.sleep, restless=_restless(self, scene), joints=self.joints,
                         threads=scene.threads)
-            if scene.walls or scene.collisions or scene.map else None)
+            # A group that deletes left with one body or none pairs nothing: no pass for it.
+            if scene.walls or scene.map or any(len(group.bodies) > 1
+                                               for group in scene.collisions) else None)
 
     @property
     def inputs(self) -> Optional[ConstantWrenchTerm]:

@@ -386,12 +386,14 @@ class Simulation:
         self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9, (index,))
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
 
-    def with_world(self, scene: Scene) -> Simulation:
+    def with_world(self, scene: Scene, renewed: Iterable[str] = ()) -> Simulation:
         """A simulation of ``scene``, this one's world with bodies spawned or deleted (by
         name: :mod:`hecker_dynamics.scene.world`), going on from this one's state now.
 
         The bodies that stay keep their state; a spawned body starts in its scene's initial
-        state. The clock and step count, the integrator (the same method, whatever
+        state, and so does each body named in ``renewed``: a body of this world deleted and
+        spawned again under its name in the change, a new body that takes nothing of the
+        old one's. The clock and step count, the integrator (the same method, whatever
         ``scene.integrator`` would pick) and what it carries, the joints' state and the
         commands held and pending carry over, the contacts' warm starts too where both
         bodies stay; commands on a deleted body, or given in its frame, are dropped. The
@@ -402,7 +404,11 @@ class Simulation:
         """
         state = self.export_state()
         sim = Simulation(replace(scene, integrator=self.integrator.name), start_ns=self.start_ns)
-        old, new = self.model.index, sim.model.index
+        # The bodies that stay, by name in this world: a renewed body's name stands for
+        # another body, which carries nothing (state, commands, warm starts, budget).
+        gone = set(renewed)
+        old = {name: i for name, i in self.model.index.items() if name not in gone}
+        new = {name: i for name, i in sim.model.index.items() if name not in gone}
         q, v = sim.q.tolist(), sim.v.tolist()
         for name, i in new.items():
             if name in old:

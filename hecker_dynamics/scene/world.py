@@ -15,11 +15,13 @@ the body declared in it:
   never name it: a spawn cannot add them.
 
 A deleted body leaves every list of bodies; what acted on it alone goes with it (a force
-left without bodies, a constant force or torque on it, a collision group left with fewer
-than two bodies), while a wall left without bodies stays, stopping nothing, so the walls
-keep their places. The delete is refused, naming them, while something ties the body to
-the rest of the world or to the node's inputs: a spring, a joint (and so a gear of it), a
-wrench topic, a scripted input. The last body cannot be deleted.
+left without bodies, a constant force or torque on it), while a wall left without bodies
+stays, stopping nothing, so the walls keep their places, and a collision group left with
+one body or none stays, pairing nothing, so a later spawn can join it again (a file's
+group needs two bodies: it would have no other use). The delete is refused, naming them,
+while something ties the body to the rest of the world or to the node's inputs: a spring,
+a joint (and so a gear of it), a wrench topic, a scripted input. The last body cannot be
+deleted.
 """
 from __future__ import annotations
 
@@ -199,10 +201,10 @@ def deleted(scene: Scene, name: str, source: str = DELETE_BODY_SERVICE,
         else:
             forces.append(spec)
     groups: list[CollisionGroup] = [dataclasses.replace(c, bodies=without(c.bodies))
-                                    for c in scene.collisions]
+                                    for c in scene.collisions]  # each stays: see the module
     grid = scene.map and dataclasses.replace(scene.map, bodies=without(scene.map.bodies))
     return dataclasses.replace(
         scene, bodies=tuple(b for b in scene.bodies if b.name != name), forces=tuple(forces),
         map=grid,
         walls=tuple(dataclasses.replace(w, bodies=without(w.bodies)) for w in scene.walls),
-        collisions=tuple(c for c in groups if len(c.bodies) >= 2))
+        collisions=tuple(groups))

@@ -19,7 +19,7 @@ import dataclasses
 import functools
 import numbers
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
 
 # The input buffer's own form of a command as plain data, so a World's state and a
@@ -523,10 +523,11 @@ class World:
         from the state now in one :meth:`Simulation.with_world`. Refused (nothing changes)
         with the one-line :class:`SceneError` of the first edit the rules refuse."""
         before = set(self._bodies)
-        self._change_bodies(apply_edits, edits)
-        names = {spec.name for spec in self.scene.bodies}
-        # A body deleted and spawned again in these edits is a new body under the old name.
+        # A body deleted and spawned again in these edits is a new body under the old name:
+        # nothing of the old one's carries to it, in the simulation or here.
         removed = {edit.body for edit in edits if edit.kind is EditKind.DELETE} & before
+        self._change_bodies(apply_edits, edits, renewed=removed)
+        names = {spec.name for spec in self.scene.bodies}
         for name in (before - names) | removed:
             self._forget(name)
         for name in names - set(self._bodies):
@@ -540,11 +541,13 @@ class World:
         self._schedule = [entry for entry in self._schedule if name not in (
             entry[2].body, entry[2].frame_id.partition("/")[0])]
 
-    def _change_bodies(self, change: Callable[..., Scene], *args: Any) -> None:
-        """The world after ``change(scene, *args)`` (:func:`spawned` or :func:`deleted`),
-        going on from its state now (:meth:`Simulation.with_world`)."""
+    def _change_bodies(self, change: Callable[..., Scene], *args: Any,
+                       renewed: Iterable[str] = ()) -> None:
+        """The world after ``change(scene, *args)`` (:func:`spawned`, :func:`deleted` or
+        :func:`apply_edits`), going on from its state now (:meth:`Simulation.with_world`;
+        ``renewed``: bodies it deleted, so that one spawned under their names is new)."""
         scene = change(self.scene, *args)  # SceneError, one line, if it is refused
-        self._sim = self.simulation.with_world(scene)
+        self._sim = self.simulation.with_world(scene, renewed)
         self._scene, self._params, self._frames = scene, None, None
 
     # ----------------------------------------------------------------- the scene

@@ -544,6 +544,21 @@ def test_a_removed_body_leaves_the_others_as_the_node_services_delete() -> None:
     assert world["c"].mass == 0.1
 
 
+def test_a_group_left_with_one_body_by_removals_takes_bodies_added_later() -> None:
+    """'a' and 'b' removed leave group 'pile' with 'c' alone: a body added into it later
+    is taken, and once 'c' is removed too, the next one collides with that body."""
+    world = two_balls(extra=True)
+    world.advance(0.1)
+    world.remove_body("a")
+    world.remove_body("b")
+    world.add_body("d", hd.Circle(0.2), mass=0.5, position=(-0.1, 1.0), collisions=["pile"])
+    world.remove_body("c")
+    assert [(g.name, g.bodies) for g in world.scene.collisions] == [("pile", ("d",))]
+    world.add_body("e", hd.Circle(0.2), mass=0.5, position=(-0.1, 2.0), collisions=["pile"])
+    world.advance(2.0)
+    assert world["e"].position[1] > 0.5  # resting on 'd', not through it
+
+
 STALE = r"body 'c' was removed from the world; the body called so now is another: world\['c'\]$"
 
 
@@ -579,11 +594,48 @@ def test_a_body_deleted_and_spawned_again_in_one_edit_is_a_new_body() -> None:
     old.apply_force((0.0, 100.0), start=0.5, duration=0.1)
     world.edit_bodies(WorldEdit(EditKind.DELETE, "c"),
                       WorldEdit(EditKind.SPAWN, "c", "{shape: circle, radius: 0.1, mass: 0.2, "
-                                "position: [3.0, 1.5]}", ()))
+                                "position: [3.0, 4.5]}", ()))
     with pytest.raises(ValueError, match="^" + STALE):
         _ = old.position
     world.advance(0.6)
-    assert world["c"].velocity[1] < 0.0  # falling freely: no 100 N upwards
+    # Falling freely, still in the air: no 100 N upwards.
+    assert world["c"].position[1] > 0.1 and world["c"].velocity[1] < 0.0
+
+
+BALL_AGAIN = "{shape: circle, radius: 0.1, mass: 1.0, position: [-2.0, 0.1]}"
+
+
+def ball_on_a_floor() -> hd.World:
+    """A ball sliding on a floor (a resting contact: warm starts held) beside a box, pulled
+    by a held 5 N tug."""
+    world = hd.World(gravity=(0, -9.81), step=1 / 200, integrator="semi_implicit_euler")
+    world.add_body("ball", hd.Circle(0.1), mass=1.0, position=(0.0, 0.1), velocity=(0.5, 0.0))
+    world.add_body("box", hd.Box(0.2, 0.2), mass=1.0, position=(1.0, 0.1))
+    world.add_wall("floor", point=(0, 0), normal=(0, 1), friction=0.0)
+    world["ball"].apply_force((5.0, 0.0), name="tug")
+    world.advance(0.05)
+    assert world.simulation.export_state()["contacts"], "the ball rests on the floor"
+    return world
+
+
+def test_a_body_deleted_and_spawned_again_in_one_edit_takes_nothing_of_the_old_one() -> None:
+    """Delete 'ball' and spawn another 'ball' in one edit_bodies: the new ball starts where
+    its YAML puts it, at rest, and the old ball's held tug and warm starts do not carry to
+    it; the world goes on bit for bit as after the node's delete_body then spawn_body (two
+    calls), and the box keeps its state."""
+    world, services = ball_on_a_floor(), ball_on_a_floor()
+    box = world["box"].position, world["box"].velocity
+    world.edit_bodies(WorldEdit(EditKind.DELETE, "ball"),
+                      WorldEdit(EditKind.SPAWN, "ball", BALL_AGAIN))
+    services.edit_bodies(WorldEdit(EditKind.DELETE, "ball"))
+    services.edit_bodies(WorldEdit(EditKind.SPAWN, "ball", BALL_AGAIN))
+    assert (world["ball"].position, world["ball"].velocity) == ((-2.0, 0.1), (0.0, 0.0))
+    assert (world["box"].position, world["box"].velocity) == box
+    assert world.simulation.export_state()["inputs"]["active"] == []
+    world.advance(0.5)
+    services.advance(0.5)
+    assert poses(world) == poses(services)
+    assert world["ball"].velocity[0] == 0.0  # no tug, a floor without friction
 
 
 #: A ROS time as the node starts at: more nanoseconds than a float's seconds hold exactly.

@@ -191,7 +191,62 @@ def test_delete_removes_the_body_from_every_list_and_what_acts_on_it_alone():
     assert [b.name for b in world.bodies] == ["door"]
     assert not any(isinstance(f, ConstantTorqueSpec) for f in world.forces)
     assert [f.name for f in world.forces] == ["hinge_friction"]  # drag: no bodies
-    assert world.walls[0].bodies == () and world.collisions == ()       # the wall stays
+    assert world.walls[0].bodies == ()  # the wall stays, stopping nothing
+    assert [(c.name, c.bodies) for c in world.collisions] == [("door_and_block", ("door",))]
+
+
+def _pair_on_a_line(walls: bool) -> dict[str, Any]:
+    """Ball 'a' rolling at 1 m/s towards 'b', both in group 'pile' (and in a box of walls)."""
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0}
+    params: dict[str, Any] = {
+        "bodies": {"a": {**ball, "velocity": [1.0, 0.0]}, "b": {**ball, "position": [1.0, 0.0]}},
+        "collisions": {"pile": {"bodies": ["a", "b"], "restitution": 1.0}}}
+    if walls:
+        params["walls"] = {"right": {"point": [3.0, 0.0], "normal": [-1.0, 0.0]}}
+    return params
+
+
+@pytest.mark.parametrize("walls", [False, True])
+def test_a_group_left_with_one_body_stays_inert_and_takes_a_later_spawn(walls):
+    """'b' deleted at 0.2 s leaves group 'pile' with 'a' alone: the group stays, 'a' goes
+    on bit for bit as in the file without 'b' (and the group, which a file refuses with one
+    body), from the same state; a body spawned into the group later collides with 'a'."""
+    runner = Runner(make_scene(_pair_on_a_line(walls)))
+    runner.advance(S // 5)
+    state = runner.sim.export_state()
+    assert runner.delete_body("b").accepted
+    assert [(c.name, c.bodies) for c in runner.scene.collisions] == [("pile", ("a",))]
+    params = _pair_on_a_line(walls)
+    del params["bodies"]["b"], params["collisions"]
+    reference = Runner(make_scene(params))
+    state["q"], state["v"] = state["q"][:1], state["v"][:1]
+    state["contacts"] = [] if walls else None
+    state["divergence"].update(checked_q=state["q"], checked_v=state["v"])
+    reference.sim.import_state(state)
+    assert (runner.sim.model.contacts is None) is not walls
+    _same_run(runner, reference, S // 2)
+    assert runner.spawn_body("c", "{shape: circle, radius: 0.1, mass: 1.0, "
+                                  "position: [1.0, 0.0]}", ["pile"]).accepted
+    runner.advance(S)
+    assert runner.sim.v[0, 0] < 0.5 < runner.sim.v[1, 0]  # 'a' struck 'c'
+
+
+def test_a_group_left_with_no_body_stays_and_pairs_its_next_two():
+    params = _pair_on_a_line(walls=True)
+    params["bodies"]["rock"] = {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                                "position": [-2.0, 0.0]}
+    runner = Runner(make_scene(params))
+    runner.advance(S // 5)
+    assert runner.delete_body("a").accepted and runner.delete_body("b").accepted
+    assert [(c.name, c.bodies) for c in runner.scene.collisions] == [("pile", ())]
+    runner.advance(S // 2)
+    for name, x, vx in (("d", 0.0, 1.0), ("e", 1.0, 0.0)):
+        spec = (f"{{shape: circle, radius: 0.1, mass: 1.0, position: [{x}, 0.0], "
+                f"velocity: [{vx}, 0.0]}}")
+        assert runner.spawn_body(name, spec, ["pile"]).accepted
+    runner.advance(2 * S)
+    assert runner.sim.model.names == ("d", "e", "rock")
+    assert runner.sim.v[0, 0] < 0.5 < runner.sim.v[1, 0]  # 'd' struck 'e'
 
 
 @pytest.mark.parametrize("scene,body,message", [
@@ -287,6 +342,39 @@ def test_a_keyframe_after_a_spawn_restores_that_world_and_goes_on_alike():
         WorldEdit(EditKind.SPAWN, "ball", BALL), WorldEdit(EditKind.DELETE, "ball"),
         WorldEdit(EditKind.SPAWN, "dart", "{shape: box, size: [0.3, 0.05], mass: 0.5, "
                                           "position: [0.0, 3.0]}")]
+
+
+def test_a_body_deleted_and_spawned_again_at_one_instant_is_a_new_body():
+    """delete_body then spawn_body of 'ball' at one instant (a held 5 N tug on the old
+    ball, sliding on a frictionless floor, its contact warm-started): the new ball starts
+    where its YAML puts it, at rest, without the tug; a keyframe after the edits, and one
+    before them with the edits made again, go on bit for bit alike."""
+    ball = {"shape": "circle", "radius": 0.1, "mass": 1.0, "position": [0.0, 0.1],
+            "velocity": [0.5, 0.0]}
+    scene = make_scene({"bodies": {"ball": ball, "box": {**ball, "position": [1.0, 0.1],
+                                                         "velocity": [0.0, 0.0]}},
+                        "forces": {"g": {"type": "gravity"}},
+                        "walls": {"floor": {"point": [0.0, 0.0], "normal": [0.0, 1.0],
+                                            "friction": 0.0}}})
+    again = "{shape: circle, radius: 0.1, mass: 1.0, position: [-2.0, 0.1]}"
+    runner = Runner(scene, play_script=False)
+    runner.sim.push(WrenchCommand(0, "ball", "tug", "world", (0.0, 0.0), (5.0, 0.0), 0.0, 0))
+    runner.advance(S // 20)
+    before = runner.keyframe()
+    assert runner.sim.export_state()["contacts"], "the old ball rests on the floor"
+    assert runner.delete_body("ball").accepted and runner.spawn_body("ball", again).accepted
+    assert runner.sim.q[0].tolist() == [-2.0, 0.1, 0.0] and not runner.sim.v[0].any()
+    assert runner.sim.export_state()["inputs"]["active"] == []
+    after = runner.keyframe()
+    restored, replayed = Runner(scene, play_script=False), Runner(scene, play_script=False)
+    restored.restore(after)
+    replayed.restore(before)
+    assert replayed.delete_body("ball").accepted and replayed.spawn_body("ball", again).accepted
+    assert replayed.keyframe() == after
+    for run in (runner, restored, replayed):
+        run.advance(S)
+    assert _bits(runner) == _bits(restored) == _bits(replayed)
+    assert runner.sim.v[0, 0] == 0.0  # no tug on the new ball
 
 
 def test_a_restart_returns_to_the_scene_given():
