@@ -257,9 +257,14 @@ def _bags_in(folder: Path, seen: set[Path]) -> Iterator[Path]:
     """The bag directories in ``folder`` and, in name order, in its folders that are no
     bags, at any depth: a suite kept in folders (one per scene, say) is checked whole, not
     only its top folder's bags. Hidden folders (a running writer's temporary ones) and a
-    folder reached again (a symlink loop) are not searched."""
+    folder reached again (a symlink loop) are not searched; a folder that cannot be listed
+    raises :class:`BagError` naming it (its bags would go unchecked)."""
     seen.add(folder.resolve())
-    for path in sorted(folder.iterdir()):
+    try:
+        entries = sorted(folder.iterdir())
+    except OSError as error:
+        raise BagError(f"{folder}: cannot be listed ({error.strerror or error})") from None
+    for path in entries:
         if _is_bag(path):
             yield path
         elif path.is_dir() and not path.name.startswith(".") and path.resolve() not in seen:

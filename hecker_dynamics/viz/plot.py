@@ -66,8 +66,10 @@ def _twists_of(poses: list[BagMessage], stamps: list[int],
     (the poses' smallest step of stamps) of the other. A bag logged at sim time logs them
     at one time; a recording logs each on arrival, a little after its publication, where
     the same time would pair nothing; poses published in a burst (a timer that caught up)
-    are within reach of several twists, which could be any of them: not paired, never
-    paired wrong."""
+    are within reach of several twists, which could be any of them: not paired. A Twist
+    has no stamp, so the pairing assumes a pose and its twist arrive within half a
+    period of each other: a recorder that logged every twist more than that after its
+    pose would pair each twist with the next pose, a period late, and nothing could say."""
     steps = np.diff(np.unique(stamps))
     reach = int(steps.min()) // 2 if steps.size else 0
     pose_times = [message.log_ns for message in poses]  # log order, as read_bag gives them

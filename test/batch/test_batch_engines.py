@@ -231,6 +231,25 @@ def test_bags_in_folders_of_the_folder_are_checked_too(bag_suite, tmp_path, caps
     assert out[-1] == "2 bag(s): 1 ok, 1 mismatch, 0 error"
 
 
+def test_a_folder_that_cannot_be_listed_is_an_error_naming_it(bag_suite, tmp_path,
+                                                             monkeypatch, capsys):
+    """A subfolder regress cannot list (no read permission: root reads all, so its listing
+    is made to fail) held bags that would go unchecked: one line naming it, exit 2."""
+    suite = tmp_path / "suite"
+    (suite / "locked").mkdir(parents=True)
+    shutil.copytree(bag_suite / "a_sample", suite / "a_sample")
+    listing = Path.iterdir
+
+    def iterdir(self: Path):
+        if self.name == "locked":
+            raise PermissionError(13, "Permission denied", str(self))
+        return listing(self)
+
+    monkeypatch.setattr(Path, "iterdir", iterdir)
+    assert main(["regress", str(suite), "--workers", "1", "--no-progress"]) == 2
+    assert f"{suite / 'locked'}: cannot be listed (Permission denied)" in capsys.readouterr().err
+
+
 def test_a_bag_given_twice_is_checked_once_saying_so(bag_suite, tmp_path, capsys):
     """The same bag named twice, as a folder holding it and by itself, or through a symlink,
     was checked and counted twice ("2 bag(s): 2 ok"): each bag is checked once, and a

@@ -798,7 +798,8 @@ def _driven(joint: dict, chassis: bool) -> dict:
             "joints": {"drive": dict(joint, body_b="wheel")}}
 
 
-@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler", "rk4"])
+@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler", "rk4",
+                                    "implicit_midpoint", "backward_euler"])
 @pytest.mark.parametrize("chassis", [False, True], ids=["to the world", "to a free chassis"])
 def test_a_motor_at_its_full_effort_for_10_s_is_within_the_bound(path, method, chassis):
     """A motor aiming at 1e12 rad/s pushes with its whole 2 N m for 10 s: the wheel (and
