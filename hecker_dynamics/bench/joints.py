@@ -97,11 +97,12 @@ GRID_DURATION = 10 * GRID_STEP
 GRID_TOLERANCE = 1e-9
 #: Target 3's chain and how long it runs.
 RENAMED_LINKS = 1000
-RENAMED_DURATION = 0.5
+RENAMED_DURATION = 2.0
 #: Target 3's interleaved rounds: its namings give the same bits and the same work, so its
-#: spread is the machine's alone; a run steps for 0.1 s in a process of its own that takes
-#: about 2 s (three rounds moved it 15 % at load average 2.6).
-RENAMED_ROUNDS = 9
+#: spread is the machine's alone; a run steps for about 0.4 s in a process of its own that
+#: takes about 1.4 s. At load average 1-2, nine rounds of 0.5 s runs gave largest changes
+#: of 9.9, 7.4 and 4.4 %; fifteen of 2 s runs, 2.3 and 6.0 %.
+RENAMED_ROUNDS = 15
 ROUNDS = 3
 SAMPLES = 10
 #: Target 1's largest pin gap, m, and target 3's largest change of cost.
