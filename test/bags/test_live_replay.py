@@ -339,7 +339,9 @@ def test_a_keyframe_of_an_older_guard_checks_and_a_changed_budget_does_not(tmp_p
     scene = load_scene("gears")
 
     def recorded(edit: Callable[[dict[str, Any]], None], name: str) -> LiveCheck:
-        session = run_live(scene, 7, motors=6)
+        # 1.5 s with keyframes every 0.25 s: the Python path replays gears five times here.
+        session = run_live(scene, 7, duration_ns=3 * S // 2, keyframe_period_ns=S // 4,
+                           motors=6)
         keyframes = [published for published in session.published
                      if published.topic.endswith("/keyframe")]
         for published in keyframes[1:]:
