@@ -69,6 +69,7 @@ from ..dynamics.simulation import DivergenceError, Simulation
 from ..scene.joints import RevoluteJoint
 from ..scene.load import Scene, load_scene, scene_from_parameters
 from ..scene.parameters import flatten
+from .measure import interleaved_runs
 from .scene_peers import SCENE_PEERS, scene_engine
 from .scenes import SPRING_PINS, pinned_by_springs
 
@@ -354,6 +355,12 @@ def _renamed_run(links: int, duration: float, naming: str) -> tuple[float, np.nd
     return (time.perf_counter() - begin) / sim.steps, np.hstack([sim.q, sim.v])
 
 
+def _renamed_run_in(pool: ProcessPoolExecutor, links: int, duration: float,
+                    naming: str) -> tuple[float, np.ndarray]:
+    """:func:`_renamed_run` in a fresh process of ``pool``."""
+    return pool.submit(_renamed_run, links, duration, naming).result()
+
+
 class Renamed(NamedTuple):
     """One naming's results in :func:`renaming`."""
 
@@ -376,18 +383,16 @@ def renaming(links: int = RENAMED_LINKS, duration: float = RENAMED_DURATION,
     three namings kept one order of cost, by up to 20 %, that changed from process to
     process, while their instructions a step stayed within 2.6 % (callgrind): the process's
     memory layout, not the names."""
-    order = ["padded", "unpadded", "shuffled"]
-    costs: dict[str, list[float]] = {name: [] for name in order}
-    states: dict[str, np.ndarray] = {}
     spawn = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(1, mp_context=spawn, max_tasks_per_child=1) as pool:
-        for round_ in range(rounds):
-            for name in order[round_ % len(order):] + order[:round_ % len(order)]:
-                cost, states[name] = pool.submit(_renamed_run, links, duration, name).result()
-                costs[name].append(cost)
-    return {name: Renamed(statistics.median(costs[name]),
-                          statistics.median(c / p for c, p in zip(costs[name], costs["padded"])),
-                          states[name]) for name in order}
+        runs = interleaved_runs({name: functools.partial(_renamed_run_in, pool, links, duration,
+                                                          name)
+                                 for name in ("padded", "unpadded", "shuffled")}, rounds)
+    padded = [cost for cost, _ in runs["padded"]]
+    return {name: Renamed(statistics.median(cost for cost, _ in results),
+                          statistics.median(cost / base for (cost, _), base
+                                            in zip(results, padded)),
+                          results[-1][1]) for name, results in runs.items()}
 
 
 def targets(cases: list[Case], renamed: dict[str, Renamed]
