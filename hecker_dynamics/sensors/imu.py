@@ -18,11 +18,12 @@ the step, and the mean of omega^2 r is no product of ends. Gravity is constant, 
 mean is itself. The result is turned into the sensor's axes at t (the body's angle plus
 the mount's); the gyro reads omega and the orientation that angle, both of the state at t.
 
-The velocities at t - h are those the step from t - h started with, kept on leaving that
-instant (:class:`~.schedule.SensorSet` stops the run there); the velocities at t are the
+The velocities at t - h are those the step from t - h started with, which the simulation
+keeps for it, in Python and in the kernel's runs alike
+(:meth:`~..dynamics.simulation.Simulation.step_start`); the velocities at t are the
 step's own, taken on arriving at t, before anything made at t (a moved body, a spawn)
-changes them. Where no step led to the instant from one kept (the clock skipped there on a
-resume after a pause), the reading falls back to the force terms at the state at t
+changes them. Where no step led to the instant (the clock skipped there on a resume after
+a pause), the reading falls back to the force terms at the state at t
 (:meth:`Imu.forced`: the force over the mass and the angular acceleration, Eq. 5 and
 Eq. 14, with the inputs the next step takes, contacts and joints left out).
 """

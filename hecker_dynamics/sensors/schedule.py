@@ -6,19 +6,14 @@ every instant a sensor is due (:meth:`SensorSet.next_stop`) and samples there
 (:meth:`SensorSet.sample`) as it steps on from it: after every command, input message and
 world change made at that instant. A laser scans the state it leaves the instant with; an
 IMU's gyro and orientation read that state too, and its accelerometer what the step that
-ended at the instant did (:mod:`.imu`): the loop also stops one step before each IMU
-instant, where :meth:`SensorSet.sample` keeps the mounts' velocities the step from there
-starts with, and on arriving at the IMU's instant, right after that step and before
-anything is made there, :meth:`SensorSet.arrive` turns them and the step's own velocities
-into the specific force the sample reads. A stop changes no bits of the run, and nothing
-from outside comes between the stop before an IMU instant and the arrival there (the
-loop steps on from the one straight to the other), so what a world change, a restore or a
-keyframe meets is at most the measured specific forces waiting for their sample
-(:meth:`SensorSet.export_state`): no body is spawned or deleted inside the step measured,
-and the bodies' rows may move after it (an IMU's body cannot be deleted, a spawned body
-carries no sensor). What a reading holds then depends on the states, the
-inputs and the stamp (the noise), not on when the loop's ticks fell: a replay gives the
-same readings.
+ended at the instant did (:mod:`.imu`): on arriving at the IMU's instant, before anything
+is made there, :meth:`SensorSet.arrive` turns the state that step began from (kept by the
+simulation, in Python or in the kernel's run: :meth:`Simulation.step_start`) and the
+step's own into the specific force the sample reads. What a world change, a restore or a
+keyframe meets between the two is at most the measured specific forces waiting for their
+sample (:meth:`SensorSet.export_state`). What a reading holds then depends on the states,
+the inputs and the stamp (the noise), not on when the loop's ticks fell: a replay gives
+the same readings.
 """
 from __future__ import annotations
 
@@ -51,20 +46,20 @@ class SensorSet:
                         else Imu(spec, scene, cm_local) for spec in scene.sensors]
         self.start_ns = sim.start_ns
         self.sampled_ns = sampled_ns
-        self._step_ns, self._h = sim.step_ns, sim.step_seconds
+        self._h = sim.step_seconds
         self._periods = [sensor.spec.period_ns for sensor in self.sensors]
-        #: Every sample instant is a multiple of this after the start (the periods' gcd).
+        #: Every sample instant is a multiple of this after the start (the periods' gcd),
+        #: so the next one after any instant in a cell of this length is the same.
         self._grid = math.gcd(*self._periods) or 1
+        #: The cell (``(now - start) // grid``) :attr:`_next_ns` was worked out for.
+        self._cell: Optional[int] = None
+        self._next_ns: Optional[int] = None
         self._imus = [(index, sensor) for index, sensor in enumerate(self.sensors)
                       if isinstance(sensor, Imu)]
         #: Every IMU instant is a multiple of this after the start (0: no IMU).
         self._imu_grid = math.gcd(*(sensor.spec.period_ns for _, sensor in self._imus))
-        #: :meth:`next_stop` of every instant from the first to before the second.
-        self._stop_range: tuple[int, int] = (0, 0)
-        #: Kept on leaving the instant one step before an IMU's: its steps and time, and
-        #: per IMU due after that step, its index, itself and its mount's velocity.
-        self._before: Optional[tuple[int, int, list[tuple[int, Imu, tuple[float, float]]]]] \
-            = None
+        if self._imus:
+            sim.keep_step_starts()
         #: Measured on arriving at an IMU instant, until the sample there: the instant and
         #: per IMU due, its index and specific force in its axes (:meth:`Imu.measured`).
         self._measured: tuple[int, dict[int, tuple[float, float]]] = (0, {})
@@ -77,45 +72,35 @@ class SensorSet:
         """Whether an IMU is among the sensors (its keyframe state is then kept)."""
         return bool(self._imus)
 
-    def _after(self, now_ns: int, period: int) -> int:
-        """The first instant after ``now_ns`` a sensor of ``period`` samples at."""
-        return self.start_ns + max(1, (now_ns - self.start_ns) // period + 1) * period
-
     def next_stop(self, now_ns: int) -> Optional[int]:
-        """The first instant after ``now_ns`` a sensor samples at, or one step before an IMU
-        does (None without sensors)."""
-        low, stop = self._stop_range
-        if low <= now_ns < stop:
-            return stop
-        if not self.sensors:
-            return None
-        step = self._step_ns
-        stop = min([self._after(now_ns, period) for period in self._periods]
-                   + [self._after(now_ns + step, imu.spec.period_ns) - step
-                      for _, imu in self._imus])
-        self._stop_range = (now_ns, stop)
-        return stop
+        """The first instant after ``now_ns`` a sensor samples at (None without sensors)."""
+        cell = (now_ns - self.start_ns) // self._grid
+        if cell != self._cell:
+            self._cell = cell
+            self._next_ns = min((self.start_ns + max(1, (now_ns - self.start_ns) // period + 1)
+                                 * period for period in self._periods), default=None)
+        return self._next_ns
 
     def arrive(self, sim: Simulation) -> None:
-        """On arriving at the simulation's present instant straight from the stop one step
-        before it: measure the specific force of each IMU due here over that step."""
-        before, self._before = self._before, None
-        if before is None:
+        """On arriving at the simulation's present instant, before anything is made there:
+        measure the specific force of each IMU due here over the step that led here, from
+        the state it began with (:meth:`Simulation.step_start`), once an instant."""
+        now = sim.time_ns
+        since = now - self.start_ns
+        if not self._imus or since <= 0 or since % self._imu_grid or self._measured[0] == now:
             return
-        steps, time_ns, velocities = before
-        if sim.steps == steps + 1 and sim.time_ns == time_ns + self._step_ns:
-            q, v, h = sim.q, sim.v, self._h
-            self._measured = (sim.time_ns, {
-                index: imu.measured(velocity, q, v, h) for index, imu, velocity in velocities})
+        start = sim.step_start()
+        if start is None:  # no step led here: the sample reads the force terms
+            return
+        (q0, v0), q, v, h = start, sim.q, sim.v, self._h
+        self._measured = (now, {index: imu.measured(imu.point_velocity(q0, v0), q, v, h)
+                                for index, imu in self._imus if since % imu.spec.period_ns == 0})
 
     def sample(self, sim: Simulation) -> list[Reading]:
         """The readings of the sensors due at the simulation's present instant, in the
-        scene's order of sensors (none when none is due or they sampled here already);
-        one step before an IMU's instant, keep its mount's velocity for :meth:`arrive`."""
+        scene's order of sensors (none when none is due or they sampled here already)."""
         now = sim.time_ns
         since = now - self.start_ns
-        if self._imus and since >= 0 and (since + self._step_ns) % self._imu_grid == 0:
-            self._keep(sim, since + self._step_ns)
         if now == self.sampled_ns or since <= 0 or since % self._grid:
             return []
         due = [(index, sensor) for index, (sensor, period)
@@ -131,20 +116,12 @@ class SensorSet:
                 readings.append((sensor.spec, sensor.scan(sim.q, now)))
                 continue
             specific_force = measured.get(index) if at == now else None
-            if specific_force is None:  # no step from a stop led here (see Imu.forced)
+            if specific_force is None:  # no step led here (see Imu.forced)
                 if accelerations is None:
                     accelerations = sim.accelerations()
                 specific_force = sensor.forced(sim.q, sim.v, accelerations)
             readings.append((sensor.spec, sensor.read(sim.q, sim.v, specific_force, now)))
         return readings
-
-    def _keep(self, sim: Simulation, since_ns: int) -> None:
-        """Keep the mount's velocity of each IMU due ``since_ns`` after the start."""
-        q, v = sim.q, sim.v
-        velocities = [(index, imu, imu.point_velocity(q, v)) for index, imu in self._imus
-                      if since_ns % imu.spec.period_ns == 0]
-        if velocities:
-            self._before = (sim.steps, sim.time_ns, velocities)
 
     def export_state(self, now_ns: int) -> list[Any]:
         """The specific forces measured on arriving at ``now_ns`` and not yet sampled, as

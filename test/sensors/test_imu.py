@@ -1,5 +1,5 @@
 """IMU readings from the force terms (:meth:`Imu.forced`, what a sample reads where no step
-led to its instant from the stop before it) against the dynamics: the centripetal
+led to its instant) against the dynamics: the centripetal
 acceleration omega^2 r of a body spinning freely, the specific force F / m of a body pushed
 while it falls (zero in free fall), and a central difference of a body point's velocity
 (Eq. 9) along an RK4 run. What the run loop's samples read over their last step is

@@ -215,9 +215,9 @@ def test_kernel_and_python_read_the_same_bits(monkeypatch):
 @pytest.mark.parametrize("stop_ns", [1000 * MS, 998 * MS, 990 * MS])
 def test_a_restore_from_a_keyframe_reads_what_the_run_read(stop_ns):
     # Keyframes at an IMU instant (taken on arriving there, holding the specific force
-    # measured over the step that led there), one step before one (where the stop keeps
-    # the mount's velocity, after the keyframe) and between both; the robot pushes the
-    # crate meanwhile.
+    # measured over the step that led there), one step before one (where the step it
+    # measures begins, after the keyframe) and between both; the robot pushes the crate
+    # meanwhile.
     scene = load_scene("robot")
     whole = Runner(scene)
     whole.advance(stop_ns)
@@ -254,9 +254,8 @@ def test_a_world_change_at_an_imu_instant_keeps_what_the_step_measured():
 
 
 def test_an_imu_instant_the_clock_skipped_to_reads_the_force_terms():
-    # Paused at 1 s and resumed at 1.5 s, an IMU instant: no step led there from the stop
-    # before it, so its sample reads the force terms at its state (Imu.forced), as every
-    # sample did before.
+    # Paused at 1 s and resumed at 1.5 s, an IMU instant: no step led there, so its
+    # sample reads the force terms at its state (Imu.forced), as every sample did before.
     scene = load_scene("robot")
     runner = Runner(scene)
     runner.advance(1000 * MS)

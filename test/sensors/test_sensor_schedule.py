@@ -24,7 +24,7 @@ def _imu(runner: Runner, until_ns: int) -> dict[int, tuple[float, float, float]]
 
 def test_a_push_in_the_step_before_a_sample_instant_is_in_the_reading_of_that_instant():
     # The robot stands still until its script drives it at 0.5 s. A wrench pushed at
-    # 0.118 s for one step, the stop one step before the IMU instant 0.12 s, acts over the
+    # 0.118 s for one step, the step before the IMU instant 0.12 s, acts over the
     # step the reading stamped 0.12 s measures: it holds its F / m (the noise is the
     # stamp's, the same in both); the drives answer it only at their next control instant
     # (0.12 s), so nothing else differs. The reading of 0.1 s, before it, does not change.
@@ -74,13 +74,9 @@ def test_next_sample_instant_for_periods_that_do_not_divide_each_other():
     start = 7 * MS + 3
     sim = Simulation(scene, start_ns=start)
     sensors = SensorSet(scene, sim)
-    step = scene.step_ns
     for now in sorted({start + k * MS + d for k in range(-25, 130) for d in (-1, 0, 1)}):
         expected = min(start + max(1, (now - start) // p + 1) * p for p in periods.values())
-        # One step before each IMU instant too: there the stop keeps what its sample needs.
-        imu = periods["imu"]
-        before_imu = start + max(1, (now + step - start) // imu + 1) * imu - step
-        assert sensors.next_stop(now) == min(expected, before_imu), now
+        assert sensors.next_stop(now) == expected, now
     for k in range(1, 13):
         sim = Simulation(scene, start_ns=start)
         sim.advance_to(start + k * 10 * MS)
