@@ -576,8 +576,9 @@ def _check_first_keyframe(scene: Scene, session: RecordedSession, keyframe: Keyf
         coverage.fail(f"session {session.number}: {stuck}")
     mine = scratch.taken.get(keyframe.stamp_ns)
     if mine is None or _carried(mine, keyframe) != keyframe:
+        why = "" if mine is None else _older_imu(mine, keyframe)
         coverage.fail(f"session {session.number}: the state at {seconds(keyframe.stamp_ns)} s "
-                      "differs from the recorded keyframe")
+                      f"differs from the recorded keyframe{why}")
     else:
         check.keyframes_checked += 1
     return [e for e in before if e.sequence < session.info.next_event]
@@ -1057,7 +1058,7 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
                 continue  # the keyframe the replay started from
             elif not _same_keyframe(mine, keyframe):
                 coverage.fail(f"session {session.number}: the state at {seconds(stamp)} s "
-                              "differs from the recorded keyframe")
+                              f"differs from the recorded keyframe{_older_imu(mine, keyframe)}")
             else:
                 check.keyframes_checked += 1
         inside = [stamp for stamp in recorded if stamp >= start]
@@ -1068,6 +1069,18 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
                 coverage.fail(f"session {session.number}: the keyframe(s) at "
                               + ", ".join(f"{seconds(s)} s" for s in sorted(gaps)[:3])
                               + " missing between recorded ones", missing=True)
+
+
+def _older_imu(mine: KeyframeFields, recorded: KeyframeFields) -> str:
+    """Why a keyframe of a scene with an IMU differs when an older version recorded it:
+    its IMU read the force terms at the sample's state and kept nothing between stops."""
+    try:
+        older = "imu" in decode_state(mine.state)["runner"] and \
+            "imu" not in decode_state(recorded.state)["runner"]
+    except (ValueError, KeyError, TypeError):
+        return ""
+    return (" (recorded by a version whose IMUs left out contacts and joints: record the "
+            "session again)") if older else ""
 
 
 #: Budget terms of the divergence guard that a later version added (a motor's M): a

@@ -228,6 +228,8 @@ class CompiledSteps:
                                      error_order=pair.error_order)
             self.tolerance = integrator.tolerance
         self.stepper: Any = None
+        #: Whether the stepper keeps where each call's last step began (:meth:`keep_starts`).
+        self.keeps_starts = False
         self.start(None)
         #: The status of a call that took all its steps.
         self.advanced = _kernel.ADVANCED
@@ -248,6 +250,22 @@ class CompiledSteps:
             program=self.forces.program, method=self.method, pair=self.pair,
             tolerance=self.tolerance,
             contacts=None if contacts is None else contacts.kernel_pass(), **fixed)
+        if self.keeps_starts:
+            _kernel.keep_starts(self.stepper)
+
+    def keep_starts(self) -> None:
+        """From now on, keep the state each call's last step began from
+        (:meth:`step_start`)."""
+        self.keeps_starts = True
+        _kernel.keep_starts(self.stepper)
+
+    def step_start(self) -> tuple[np.ndarray, np.ndarray]:
+        """The state, (q, v) (N, 3) each, the last step of the last call of :meth:`advance`
+        or :meth:`run` that took one began from (:meth:`keep_starts` before it)."""
+        bodies = self.forces.bodies
+        q, v = np.empty((bodies, 3)), np.empty((bodies, 3))
+        _kernel.step_start(self.stepper, q=q, v=v)
+        return q, v
 
     def advance(self, q: np.ndarray, v: np.ndarray, h: float, steps: int, oriented: bool,
                 substep_size: float = 0.0) -> Advanced:

@@ -233,6 +233,8 @@ class Simulation:
         #: Each body's mass and moment of inertia, as the reach check takes them.
         self._inertias = [(float(body.mass.mass), float(body.mass.moment_of_inertia))
                           for body in scene.bodies]
+        #: Whether the state each step begins from is kept (:meth:`keep_step_starts`).
+        self._keeps_starts = False
         self.reset(start_ns)
 
     # ----------------------------------------------------------------- state
@@ -263,6 +265,31 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):
             self.integrator.step_check = self._bound.step_ok
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
+        #: Where the last step began, while kept: the step count it ended at and the state
+        #: (q, v), which None leaves in the kernel's stepper until asked for; None before
+        #: a step or after the state was set.
+        self._start: Optional[tuple[int, Optional[np.ndarray], Optional[np.ndarray]]] = None
+
+    def keep_step_starts(self) -> None:
+        """From now on, keep the state each step begins from (:meth:`step_start`)."""
+        self._keeps_starts = True
+        if self._compiled is not None:
+            self._compiled.keep_starts()
+
+    def step_start(self) -> Optional[tuple[np.ndarray, np.ndarray]]:
+        """The state (q, v) the step that ended at the present instant began from, or None
+        where it is not known: no step ended here since the state was set (a start, a
+        reset, an import, a move or a clock skipped), or :meth:`keep_step_starts` came
+        after it. What an IMU's accelerometer differences (:mod:`..sensors.imu`)."""
+        start = self._start
+        if start is None or start[0] != self._steps:
+            return None
+        q, v = start[1], start[2]
+        if q is None or v is None:  # the kernel's: fetched once, where it is asked for
+            assert self._compiled is not None
+            q, v = self._compiled.step_start()
+            self._start = (start[0], q, v)
+        return q, v
 
     @property
     def time_ns(self) -> int:
@@ -335,6 +362,7 @@ class Simulation:
                          np.array(divergence["checked_v"], dtype=float).reshape(v.shape),
                          int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
         self._halted = divergence["halted"]
+        self._start = None
 
     def __getstate__(self) -> dict[str, Any]:
         """What :mod:`pickle` and :func:`copy.deepcopy` keep: the scene and
@@ -385,6 +413,7 @@ class Simulation:
         # The new state is where a refused check returns to, its energy within the budget.
         self._bound.moved(self.q, self.v, (self._time_ns - self._checked[2]) * 1e-9, (index,))
         self._checked = (self.q.copy(), self.v.copy(), self._time_ns, self._steps)
+        self._start = None
 
     def with_world(self, scene: Scene, renewed: Iterable[str] = ()) -> Simulation:
         """A simulation of ``scene``, this one's world with bodies spawned or deleted (by
@@ -457,6 +486,7 @@ class Simulation:
             raise ValueError(f"cannot skip by {shift} ns: not a whole number of steps forward")
         self._time_ns += shift
         self.start_ns += shift
+        self._start = None
 
     # ----------------------------------------------------------------- inputs
 
@@ -599,6 +629,8 @@ class Simulation:
                                       self._substep_size())
         self.q, self.v = q, v
         self._account(done)
+        if self._keeps_starts and done[1]:
+            self._start = (self._steps, None, None)
         return done[1]
 
     def _in_kernel(self) -> bool:
@@ -696,6 +728,8 @@ class Simulation:
         self._account(done)
         if problem is not None:
             self._refuse(problem)
+        if self._keeps_starts and taken:
+            self._start = (self._steps, None, None)
         return taken
 
     def _update_inputs(self) -> None:
@@ -731,6 +765,8 @@ class Simulation:
             raise self._failed(error) from error
         if not self._settle(q, v):
             raise self._diverged(q, v)
+        if self._keeps_starts:  # a step's state is never changed in place
+            self._start = (self._steps + 1, self.q, self.v)
         self.q, self.v = q, v
         self._steps += 1
         self._time_ns += self.step_ns
@@ -927,6 +963,7 @@ class Simulation:
         q, v, time_ns, steps = self._checked
         now = self._time_ns
         self.q, self.v, self._time_ns, self._steps = q.copy(), v.copy(), time_ns, steps
+        self._start = None
         over = [self.model.names[body] for body in self._bound.over]
         names = ", ".join(over[:5]) + (", ..." if len(over) > 5 else "")
         self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "

@@ -546,7 +546,9 @@ class Runner:
         self.edits.append(edit)
         drives, self.drives = self.drives, DriveSet(self.sim)  # the bodies' rows moved
         self.drives.import_state(drives.export_state())
-        self.sensors = SensorSet(self.scene, self.sim, self.sensors.sampled_ns)
+        sensors = self.sensors
+        self.sensors = SensorSet(self.scene, self.sim, sensors.sampled_ns)
+        self.sensors.import_state(sensors.export_state(self.sim.time_ns))
 
     def _change(self, kind: WorldChange, apply: Callable[[], None], body: str = "",
                 values: tuple[float, ...] = (), time_ns: int = 0, spec: str = "",
@@ -613,9 +615,11 @@ class Runner:
         return tick
 
     def _arrive(self, tick: Tick) -> None:
-        """At the simulation's present instant: push the scripted commands due by the end
-        of the next step, then take the keyframe due at this step."""
+        """At the simulation's present instant: measure what the step that led here did
+        for the IMUs due here (:meth:`SensorSet.arrive`), push the scripted commands due
+        by the end of the next step, then take the keyframe due at this step."""
         sim = self.sim
+        self.sensors.arrive(sim)
         if self.play_script and self._script_index < len(self.scene.script):  # else none due
             due, self._script_index = due_script(self.scene.script, sim.start_ns,
                                                  self._script_index, sim.time_ns + sim.step_ns)
@@ -672,6 +676,8 @@ class Runner:
             state["runner"]["drives"] = self.drives.export_state()
         if self.touches.enabled:  # likewise without contact events
             state["runner"]["touches"] = self.touches.export_state()
+        if self.sensors.has_imu:  # likewise without IMUs
+            state["runner"]["imu"] = self.sensors.export_state(sim.time_ns)
         if self.edits:  # a keyframe of the scene given holds what it always held
             state["world"] = [edit.as_data() for edit in self.edits]
         return KeyframeFields(sim.time_ns, self.session, sim.steps, self.sequence,
@@ -706,6 +712,7 @@ class Runner:
         self.drives = DriveSet(self.sim)
         self.drives.import_state(runner.get("drives", []))
         self.sensors = SensorSet(self.scene, self.sim)
+        self.sensors.import_state(runner.get("imu", []))
         self.touches = Touches(self.scene)
         self.touches.import_state(runner.get("touches", []))
         self._script_index = int(runner["script_index"])

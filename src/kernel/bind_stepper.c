@@ -1,6 +1,7 @@
 /* The binding of whole steps (steppers.c) for hecker_dynamics/dynamics/kernel.py:
  * stepper (with what run's calls share), step, run (steps with the energy bound's checks
- * at the publish instants) and failed_state, each taking keyword arguments.
+ * at the publish instants), failed_state, keep_starts and step_start, each taking keyword
+ * arguments.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -438,6 +439,56 @@ static PyObject *hd_py_failed_state(PyObject *self, PyObject *args, PyObject *kw
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(keep_starts_doc,
+"keep_starts(stepper)\n\n"
+"From now on, have the Stepper ``stepper`` keep the state that each call's last step of\n"
+"``step`` or ``run`` started from, for ``step_start``.");
+
+static PyObject *hd_py_keep_starts(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"stepper", NULL};
+    PyObject *capsule;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O:keep_starts", names, &capsule))
+        return NULL;
+    hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, HD_STEPPER_CAPSULE);
+    if (c == NULL)
+        return NULL;
+    if (hd_stepper_keep_starts(&c->stepper) != HD_ADVANCED)
+        return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(step_start_doc,
+"step_start(stepper, q, v)\n\n"
+"Copy the state the last step of the Stepper ``stepper``'s last call of ``step`` or ``run``\n"
+"that took one started from into ``q`` and ``v`` (as ``failed_state`` does); the stepper\n"
+"must keep them (``keep_starts``).");
+
+static PyObject *hd_py_step_start(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    static char *names[] = {"stepper", "q", "v", NULL};
+    PyObject *capsule, *qo, *vo;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO:step_start", names, &capsule, &qo,
+                                     &vo))
+        return NULL;
+    hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, HD_STEPPER_CAPSULE);
+    if (c == NULL)
+        return NULL;
+    if (c->stepper.start_q == NULL) {
+        PyErr_SetString(PyExc_ValueError, "step_start: the stepper keeps no starts "
+                                          "(keep_starts)");
+        return NULL;
+    }
+    const Py_ssize_t n3 = 3 * c->stepper.program->bodies;
+    Py_buffer qv, vv;
+    if (hd_get_state(qo, vo, n3, &qv, &vv) < 0)
+        return NULL;
+    memcpy(qv.buf, c->stepper.start_q, (size_t)n3 * sizeof(double));
+    memcpy(vv.buf, c->stepper.start_v, (size_t)n3 * sizeof(double));
+    PyBuffer_Release(&qv);
+    PyBuffer_Release(&vv);
+    Py_RETURN_NONE;
+}
 
 PyMethodDef hd_bind_stepper[] = {
     {"stepper", (PyCFunction)(void (*)(void))hd_py_stepper, METH_VARARGS | METH_KEYWORDS,
@@ -446,5 +497,9 @@ PyMethodDef hd_bind_stepper[] = {
     {"run", (PyCFunction)(void (*)(void))hd_py_run, METH_FASTCALL | METH_KEYWORDS, run_doc},
     {"failed_state", (PyCFunction)(void (*)(void))hd_py_failed_state,
      METH_VARARGS | METH_KEYWORDS, failed_state_doc},
+    {"keep_starts", (PyCFunction)(void (*)(void))hd_py_keep_starts,
+     METH_VARARGS | METH_KEYWORDS, keep_starts_doc},
+    {"step_start", (PyCFunction)(void (*)(void))hd_py_step_start,
+     METH_VARARGS | METH_KEYWORDS, step_start_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -148,6 +148,7 @@ typedef struct {
     double *memory;
     double *levels;  /* a joint pass's parts, allocated by the first step that needs them */
     double *q_new, *v_new;  /* after HD_NOT_FINITE: the failed state */
+    double *start_q, *start_v;  /* hd_stepper_keep_starts: the last step's start (else NULL) */
 } hd_stepper;
 
 int hd_stepper_init(hd_stepper *s, const hd_program *program, int method,
@@ -163,6 +164,7 @@ void hd_stepper_free(hd_stepper *s);
  * step and sub-step, before the contacts, in parts or halves where it needs them
  * (HD_UNSOLVED_JOINTS: still no solution near the end of a part of a step taken in
  * HD_MOST_SUBSTEPS parts). */
+int hd_stepper_keep_starts(hd_stepper *s);
 int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
                        struct hd_joint_model *joints, double *size, double *q, double *v,
                        double h, long steps, long *taken, hd_work *work);

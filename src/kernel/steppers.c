@@ -528,6 +528,7 @@ int hd_stepper_init(hd_stepper *s, const hd_program *program, int method,
     s->tolerance = tolerance;
     s->contacts = contacts;
     s->levels = NULL;
+    s->start_q = s->start_v = NULL;
     s->q_new = s->memory + 5 * n + n3 * (states + 4);
     s->v_new = s->q_new + n3;
     return HD_ADVANCED;
@@ -537,8 +538,23 @@ void hd_stepper_free(hd_stepper *s)
 {
     free(s->memory);
     free(s->levels);
+    free(s->start_q);
     s->memory = NULL;
     s->levels = NULL;
+    s->start_q = s->start_v = NULL;
+}
+
+/* From now on, keep the state each call's last step started from in (start_q, start_v):
+ * an IMU reads the step that ended at its sample (sensors/imu.py). */
+int hd_stepper_keep_starts(hd_stepper *s)
+{
+    if (s->start_q != NULL)
+        return HD_ADVANCED;
+    const long n3 = 3 * s->program->bodies;
+    if ((s->start_q = calloc((size_t)(2 * n3 + 1), sizeof(double))) == NULL)
+        return HD_OUT_OF_MEMORY;
+    s->start_v = s->start_q + n3;
+    return HD_ADVANCED;
 }
 
 /* Leave the last good state in (q, v) and the failed one in the stepper's (q_new, v_new)
@@ -592,7 +608,10 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
                         && (s->method == HD_EXPLICIT_EULER || s->method == HD_SEMI_IMPLICIT_EULER);
     if (contacts != NULL)
         contacts->joints = joints;  /* for these steps: coupled.h */
+    const double *start_q = NULL, *start_v = NULL;  /* where the last step began */
     for (long t = 0; t < steps; ++t) {
+        start_q = cur_q;
+        start_v = cur_v;
         if (hd_everything_asleep(contacts, joints, s->method, n)) {
             *taken += 1;
             continue;
@@ -617,6 +636,11 @@ int hd_stepper_advance(hd_stepper *s, const hd_program *inputs, int oriented,
     }
     if (contacts != NULL)
         contacts->joints = NULL;
+    /* Before settling, which may write over the buffers the last step began from. */
+    if (s->start_q != NULL && status == HD_ADVANCED && start_q != NULL) {
+        memcpy(s->start_q, start_q, (size_t)n3 * sizeof(double));
+        memcpy(s->start_v, start_v, (size_t)n3 * sizeof(double));
+    }
     hd_settle_buffers(s, n3, q, v, cur_q, cur_v, status == HD_NOT_FINITE);
     return status;
 }

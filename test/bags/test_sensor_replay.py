@@ -5,6 +5,7 @@ tolerances) and fails on a range one bit off or a scan topic the recording lacks
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from live_session import S, record, run_live
@@ -15,6 +16,7 @@ from hecker_dynamics.bags.live import check_live
 from hecker_dynamics.bags.replay import replay_outputs, snapshot_messages
 from hecker_dynamics.cli import main
 from hecker_dynamics.ros.runner import Runner
+from hecker_dynamics.ros.session import decode_state, encode_state
 from hecker_dynamics.scene import load_scene
 from hecker_dynamics.sensors.laser import Laser
 
@@ -95,3 +97,59 @@ def test_a_recording_without_the_scan_topic_fails(tmp_path, capsys):
     assert main(["replay", "robot", str(path), "--check", "--atol", "0"]) == 1
     assert main(["replay", "robot", str(path), "--check", "--atol", "0", "--topic",
                  "/robot/pose", "--topic", IMU]) == 0
+
+
+def test_imu_readings_replay_exactly_from_a_keyframe_at_an_imu_instant(tmp_path,
+                                                                       monkeypatch):
+    """An input event's record lost: with ``partial`` the replay starts from the next
+    keyframe, here one taken on arriving at an IMU instant, which holds the specific
+    force measured over the step that led there (sensors/schedule.py), and the readings
+    from there on match the live ones to the bit; the robot runs into the crate and pushes
+    it meanwhile. Without the loss the replay from the start matches too."""
+    scene = load_scene("robot")
+    session = run_live(scene, 43, cmd_vels=10, inputs=3, keyframe_period_ns=S // 4)
+    def stamp(msg: Any) -> int:
+        return msg.header.stamp.sec * S + msg.header.stamp.nanosec
+
+    keyframes = [p.msg for p in session.published if p.topic.endswith("/keyframe")]
+    holding = {stamp(k) for k in keyframes if decode_state(k.state)["runner"]["imu"]}
+    assert len(holding) >= 5  # every other one is at an IMU instant
+    after = {stamp(p.msg): min((stamp(k) for k in keyframes if stamp(k) > stamp(p.msg)),
+                               default=None)
+             for p in session.published if p.topic.endswith("/input_events")}
+    lost = next(p for p in session.published if p.topic.endswith("/input_events")
+                and after[stamp(p.msg)] in holding)
+    whole = check_live(scene, read_bag(record(session, tmp_path / "whole", 43)),
+                       tolerances=EXACT)
+    assert whole.ok, whole.report.text() + "\n" + "\n".join(whole.problems)
+    restored: list[int] = []
+    restore = Runner.restore
+    monkeypatch.setattr(Runner, "restore", lambda runner, keyframe: (
+        restored.append(keyframe.stamp_ns), restore(runner, keyframe))[1])
+    path = record(session, tmp_path / "lossy", 43, drop=lambda _, item: item is lost)
+    check = check_live(scene, read_bag(path), tolerances=EXACT, partial=True)
+    assert check.ok, check.report.text() + "\n" + "\n".join(check.problems)
+    assert restored == [after[stamp(lost.msg)]] and check.unchecked > 0
+    assert any(t.topic == IMU and t.matched > 50 for t in check.report.topics)
+
+
+def test_a_recording_whose_imu_left_out_contacts_fails_naming_it(tmp_path, capsys):
+    """A session recorded before the IMU read its last step (its keyframes without the
+    measured force, its readings the force terms') fails the check: the IMU topic is the
+    one that mismatches and the keyframes say why."""
+    scene = load_scene("robot")
+    session = run_live(scene, 44, cmd_vels=10, inputs=3)
+    for published in session.published:
+        if published.topic.endswith("/keyframe"):
+            state = decode_state(published.msg.state)
+            del state["runner"]["imu"]
+            published.msg.state = encode_state(state)
+        elif published.topic == IMU:
+            published.msg.linear_acceleration.x = 0.0
+    assert main(["replay", "robot", str(record(session, tmp_path / "old", 44)),
+                 "--check"]) == 1
+    out = capsys.readouterr().out
+    assert "differs from the recorded keyframe (recorded by a version whose IMUs left out " \
+           "contacts and joints: record the session again)" in out
+    failed = [line for line in out.splitlines() if line.startswith("FAIL /")]
+    assert len(failed) == 1 and failed[0].startswith(f"FAIL {IMU} ")

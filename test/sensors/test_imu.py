@@ -1,6 +1,9 @@
-"""IMU readings against the dynamics: the centripetal acceleration omega^2 r of a body
-spinning freely, the specific force F / m of a body pushed while it falls (zero in free
-fall), and a central difference of a body point's velocity (Eq. 9) along an RK4 run."""
+"""IMU readings from the force terms (:meth:`Imu.forced`, what a sample reads where no step
+led to its instant) against the dynamics: the centripetal
+acceleration omega^2 r of a body spinning freely, the specific force F / m of a body pushed
+while it falls (zero in free fall), and a central difference of a body point's velocity
+(Eq. 9) along an RK4 run. What the run loop's samples read over their last step is
+test_imu_step.py's."""
 from __future__ import annotations
 
 import math
@@ -27,7 +30,8 @@ def setup(body: dict, forces: dict | None = None, step: float = 1e-4,
 
 
 def read(imu: Imu, sim: Simulation):
-    return imu.read(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v), sim.time_ns)
+    forced = imu.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))
+    return imu.read(sim.q, sim.v, forced, sim.time_ns)
 
 
 def test_a_freely_spinning_body_reads_omega_squared_r_towards_its_centre():
@@ -64,9 +68,9 @@ def test_specific_force_is_the_push_over_the_mass_and_zero_in_free_fall():
 
 
 def test_a_body_held_up_by_a_force_reads_minus_g_and_one_resting_on_a_wall_zero():
-    """docs/scenes.md: contact and joint forces are not part of the reading, so a body
-    held at rest by a force reads -g (9.81 m/s^2 up) but one resting on the floor reads
-    zero, as in free fall."""
+    """Contact and joint forces are not force terms, so from the force terms a body held
+    at rest by a force reads -g (9.81 m/s^2 up) but one resting on the floor zero, as in
+    free fall (the run loop's samples read the floor too: test_imu_step.py)."""
     body = {"shape": "box", "size": [0.4, 0.2], "mass": 2.0, "position": [0.0, 0.1]}
     held, sim = setup(body, {"g": {"type": "gravity"},
                              "hold": {"type": "constant_force", "body": "robot",
@@ -129,7 +133,7 @@ def test_acceleration_at_the_mount_is_the_derivative_of_its_point_velocity():
 def test_noise_is_seeded_by_stamp():
     imu, sim = setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, orientation_noise=0.01,
                      angular_velocity_noise=0.02, linear_acceleration_noise=0.1, seed=4)
-    a = sim.model.accelerations(sim.q, sim.v)
+    a = imu.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))
     readings = [imu.read(sim.q, sim.v, a, stamp) for stamp in range(2000)]
     assert readings == [imu.read(sim.q, sim.v, a, stamp) for stamp in range(2000)]
     spread = np.std([[r.yaw, r.angular_velocity, *r.linear_acceleration] for r in readings],
@@ -153,7 +157,7 @@ def test_each_value_adds_its_deviation_times_its_own_draw(deviations):
     clean, _ = setup(body, forces, position=[0.15, 0.05], angle=0.4)
     for _ in range(321):
         sim.step()
-    a = sim.model.accelerations(sim.q, sim.v)
+    a = clean.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))  # noisy's too
     for stamp in (sim.time_ns, 5 * sim.time_ns + 7):
         base, reading = (imu.read(sim.q, sim.v, a, stamp) for imu in (clean, noisy))
         draws = np.random.Generator(np.random.PCG64(np.random.SeedSequence(

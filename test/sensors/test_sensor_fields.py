@@ -59,7 +59,8 @@ def test_robot_sensors_fill_their_messages():
     assert np.array_equal(back.ranges, scan.ranges.astype(np.float32))  # float32 on the wire
     assert back.scan_time == pytest.approx(0.1)
     imu = Imu(imu_spec, scene, sim.model.cm_local)
-    reading = imu.read(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v), 5)
+    forced = imu.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))
+    reading = imu.read(sim.q, sim.v, forced, 5)
     back = round_trip(IMU, message(IMU, imu_fields(imu_spec, reading)))
     assert back.header.frame_id == "robot/imu"
     assert back.linear_acceleration.x == reading.linear_acceleration[0]

@@ -1,6 +1,7 @@
 """When the run loop samples the sensors: each at start + k / rate (k >= 1), once, as the
 simulation steps on from the instant, so a reading holds every input pushed at its
-instant, however the loop's ticks fell around it."""
+instant (an IMU's, every input of the step that ended there), however the loop's ticks fell
+around it."""
 from __future__ import annotations
 
 import dataclasses
@@ -21,22 +22,25 @@ def _imu(runner: Runner, until_ns: int) -> dict[int, tuple[float, float, float]]
             if output.kind is OutputKind.IMU}
 
 
-def test_a_push_at_a_sample_instant_is_in_the_reading_of_that_instant():
+def test_a_push_in_the_step_before_a_sample_instant_is_in_the_reading_of_that_instant():
     # The robot stands still until its script drives it at 0.5 s. A wrench pushed at
-    # 0.1 s, an IMU instant the tick ended at, is what the step from 0.1 s takes, so the
-    # reading stamped 0.1 s holds its F / m (the noise is the stamp's, the same in both).
+    # 0.118 s for one step, the step before the IMU instant 0.12 s, acts over the
+    # step the reading stamped 0.12 s measures: it holds its F / m (the noise is the
+    # stamp's, the same in both); the drives answer it only at their next control instant
+    # (0.12 s), so nothing else differs. The reading of 0.1 s, before it, does not change.
     scene = load_scene("robot")
     robot = next(body for body in scene.bodies if body.name == "robot")
     plain, pushed = Runner(scene), Runner(scene)
-    before = _imu(plain, 100 * MS), _imu(pushed, 100 * MS)
-    assert before[0] == before[1] and 100 * MS not in before[0]
+    before = _imu(plain, 118 * MS), _imu(pushed, 118 * MS)
+    assert before[0] == before[1] and sorted(before[0]) == [20 * MS * k for k in range(1, 6)]
+    assert pushed.sim.time_ns == 118 * MS
     push = bags.applied_wrench_message(0, "", "robot", "test", (0.0, 0.0), (8.0, 0.0), 0.0,
-                                       10 * MS)
-    assert pushed.accept("/applied_wrench", push, 100 * MS) == []
+                                       2 * MS)
+    assert pushed.accept("/applied_wrench", push, 118 * MS) == []
     quiet, moved = _imu(plain, 200 * MS), _imu(pushed, 200 * MS)
-    assert sorted(quiet) == sorted(moved) == [100 * MS, 120 * MS, 140 * MS, 160 * MS, 180 * MS]
-    ax, ay, _ = moved[100 * MS]
-    bx, by, _ = quiet[100 * MS]
+    assert sorted(quiet) == sorted(moved) == [120 * MS, 140 * MS, 160 * MS, 180 * MS]
+    ax, ay, _ = moved[120 * MS]
+    bx, by, _ = quiet[120 * MS]
     assert abs((ax - bx) - 8.0 / robot.mass.mass) < 1e-12 and abs(ay - by) < 1e-12
 
 
