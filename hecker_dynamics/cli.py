@@ -23,6 +23,7 @@ import dataclasses
 import decimal
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -30,7 +31,7 @@ import time
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn, Optional
+from typing import TYPE_CHECKING, Any, NoReturn, Optional
 
 import numpy as np
 
@@ -872,7 +873,15 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
 
 class _Parser(argparse.ArgumentParser):
     """argparse's parser refusing bad arguments in one line, as every other error is: the
-    command, what is wrong, and where the help is (``--help`` prints the usage)."""
+    command, what is wrong, and where the help is (``--help`` prints the usage).
+
+    A word that starts with a minus and a digit is a value, as Python 3.13's argparse
+    takes it (no option of ours looks so): ``--view -3,0,3,5`` and ``--atol -1e-9`` reach
+    their checks instead of "expected one argument"."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"-\.?\d")
 
     def error(self, message: str) -> NoReturn:
         command = self.prog.removeprefix("hecker-dynamics").strip()

@@ -256,6 +256,25 @@ def test_a_tolerance_that_compares_nothing_exits_2(capsys, command, option, valu
     assert f"argument {option}: must be a finite non-negative number, not {value}" in err
 
 
+@pytest.mark.parametrize("argv, dest, value", [
+    (["render", "sample", "--view", "-3,0,3,5"], "view", "-3,0,3,5"),
+    (["render", "sample", "--view", "-.5,-1,3,5"], "view", "-.5,-1,3,5"),
+    (["sweep", "sample", "--set", "x=1", "--metric", "-2*left.x", "-o", "t.csv"], "metric",
+     ["-2*left.x"])])
+def test_a_value_that_starts_with_a_minus_and_a_digit_is_a_value(argv, dest, value):
+    """docs/cli.md's ``--view X0,Y0,X1,Y1`` with a negative corner, as the default scene's
+    walls need: Python before 3.13 took ``-3,0,3,5`` for an option and refused the view."""
+    assert getattr(parser().parse_args(argv), dest) == value
+
+
+def test_a_negative_tolerance_in_exponent_form_gets_its_own_refusal(capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(["compare", "a", "b", "--atol", "-1e-9"])
+    assert caught.value.code == 2
+    assert ("argument --atol: must be a finite non-negative number, not -1e-9"
+            in capsys.readouterr().err)
+
+
 def test_run_reads_seconds_exactly_as_the_bag_commands_do(capsys):
     """--step and --duration are decimal seconds made whole nanoseconds, as --start and
     --duration of `script` and `replay` are: 1.0000000015 s is exactly 1000000001.5 ns,
