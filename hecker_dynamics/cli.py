@@ -51,7 +51,7 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
-from .stops import Terminated, raise_terminated, stopped
+from .stops import Terminated, keeping_stops, raise_kept_stop, raise_terminated, stopped
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -965,9 +965,11 @@ def _main(argv: Optional[Sequence[str]]) -> int:
     try:
         # Every result is checked for finiteness (a SceneError, a DivergenceError), so
         # numpy's overflow warnings would only add lines to the one-line error.
-        with np.errstate(all="ignore"), warnings.catch_warnings():
+        with np.errstate(all="ignore"), warnings.catch_warnings(), keeping_stops():
             warnings.showwarning = _show_warning
-            return args.handler(args)
+            status: int = args.handler(args)
+            raise_kept_stop()
+            return status
     except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError,
             OutputError) as error:
         print(f"hecker-dynamics: error: {_one_line(str(error))}", file=sys.stderr)

@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import weakref
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from scene_builders import write_scene
 from hecker_dynamics import Simulation, load_scene
 from hecker_dynamics.cli import main, parser
 from hecker_dynamics.scene.load import scene_path, scene_summary, shipped_scenes
+from hecker_dynamics.stops import Terminated
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -273,6 +275,47 @@ def test_a_negative_tolerance_in_exponent_form_gets_its_own_refusal(capsys):
     assert caught.value.code == 2
     assert ("argument --atol: must be a finite non-negative number, not -1e-9"
             in capsys.readouterr().err)
+
+
+def _dropped_by_python(stop: BaseException) -> None:
+    """Raise ``stop`` where Python drops it: in a weakref callback (matplotlib runs many
+    while it draws), which Python reports as "Exception ignored in ..." and goes on."""
+
+    class Referent:
+        pass
+
+    def callback(_: object) -> None:
+        raise stop
+
+    referent = Referent()
+    reference = weakref.ref(referent, callback)
+    del referent
+    assert reference() is None
+
+
+@pytest.mark.parametrize("stop, status, line", [
+    (KeyboardInterrupt(), 130, "hecker-dynamics: interrupted\n"),
+    (Terminated(), 143, "hecker-dynamics: terminated\n")])
+@pytest.mark.parametrize("where", ["while it works", "at its end"])
+def test_a_stop_python_drops_in_a_callback_still_stops_the_command(
+        tmp_path, monkeypatch, capsys, stop, status, line, where):
+    """docs/cli.md: Ctrl-C ends a command with one line and status 130 (SIGTERM: 143),
+    what it was writing removed. A render stopped so used to go on and write its file."""
+    import hecker_dynamics.cli as cli
+
+    if where == "while it works":  # before the run: its first progress step stops it
+        load = cli.load_scene
+        monkeypatch.setattr(cli, "load_scene",
+                            lambda *a, **k: (_dropped_by_python(stop), load(*a, **k))[1])
+    else:  # after the last progress step: the command's end stops it
+        summary = cli.scene_summary
+        monkeypatch.setattr(cli, "scene_summary",
+                            lambda name: (_dropped_by_python(stop), summary(name))[1])
+    argv = ["run", "sample", "--duration", "0.1"] if where == "while it works" else ["scenes"]
+    assert main(argv) == status
+    captured = capsys.readouterr()
+    assert captured.err == line
+    assert where == "at its end" or captured.out == ""
 
 
 def test_run_reads_seconds_exactly_as_the_bag_commands_do(capsys):
