@@ -23,6 +23,7 @@ import dataclasses
 import decimal
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -30,7 +31,7 @@ import time
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn, Optional
+from typing import TYPE_CHECKING, Any, NoReturn, Optional
 
 import numpy as np
 
@@ -50,7 +51,7 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
-from .stops import Terminated, raise_terminated, stopped
+from .stops import Terminated, keeping_stops, raise_kept_stop, raise_terminated, stopped
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
 from .viz.progress import Progress, stderr_is_terminal
@@ -872,7 +873,15 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
 
 class _Parser(argparse.ArgumentParser):
     """argparse's parser refusing bad arguments in one line, as every other error is: the
-    command, what is wrong, and where the help is (``--help`` prints the usage)."""
+    command, what is wrong, and where the help is (``--help`` prints the usage).
+
+    A word that starts with a minus and a digit is a value, as Python 3.13's argparse
+    takes it (no option of ours looks so): ``--view -3,0,3,5`` and ``--atol -1e-9`` reach
+    their checks instead of "expected one argument"."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"-\.?\d")
 
     def error(self, message: str) -> NoReturn:
         command = self.prog.removeprefix("hecker-dynamics").strip()
@@ -956,9 +965,11 @@ def _main(argv: Optional[Sequence[str]]) -> int:
     try:
         # Every result is checked for finiteness (a SceneError, a DivergenceError), so
         # numpy's overflow warnings would only add lines to the one-line error.
-        with np.errstate(all="ignore"), warnings.catch_warnings():
+        with np.errstate(all="ignore"), warnings.catch_warnings(), keeping_stops():
             warnings.showwarning = _show_warning
-            return args.handler(args)
+            status: int = args.handler(args)
+            raise_kept_stop()
+            return status
     except (SceneError, InputError, DivergenceError, BagError, VizError, EngineError,
             OutputError) as error:
         print(f"hecker-dynamics: error: {_one_line(str(error))}", file=sys.stderr)

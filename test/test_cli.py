@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import weakref
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from scene_builders import write_scene
 from hecker_dynamics import Simulation, load_scene
 from hecker_dynamics.cli import main, parser
 from hecker_dynamics.scene.load import scene_path, scene_summary, shipped_scenes
+from hecker_dynamics.stops import Terminated
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -254,6 +256,66 @@ def test_a_tolerance_that_compares_nothing_exits_2(capsys, command, option, valu
     assert caught.value.code == 2
     err = capsys.readouterr().err
     assert f"argument {option}: must be a finite non-negative number, not {value}" in err
+
+
+@pytest.mark.parametrize("argv, dest, value", [
+    (["render", "sample", "--view", "-3,0,3,5"], "view", "-3,0,3,5"),
+    (["render", "sample", "--view", "-.5,-1,3,5"], "view", "-.5,-1,3,5"),
+    (["sweep", "sample", "--set", "x=1", "--metric", "-2*left.x", "-o", "t.csv"], "metric",
+     ["-2*left.x"])])
+def test_a_value_that_starts_with_a_minus_and_a_digit_is_a_value(argv, dest, value):
+    """docs/cli.md's ``--view X0,Y0,X1,Y1`` with a negative corner, as the default scene's
+    walls need: Python before 3.13 took ``-3,0,3,5`` for an option and refused the view."""
+    assert getattr(parser().parse_args(argv), dest) == value
+
+
+def test_a_negative_tolerance_in_exponent_form_gets_its_own_refusal(capsys):
+    with pytest.raises(SystemExit) as caught:
+        main(["compare", "a", "b", "--atol", "-1e-9"])
+    assert caught.value.code == 2
+    assert ("argument --atol: must be a finite non-negative number, not -1e-9"
+            in capsys.readouterr().err)
+
+
+def _dropped_by_python(stop: BaseException) -> None:
+    """Raise ``stop`` where Python drops it: in a weakref callback (matplotlib runs many
+    while it draws), which Python reports as "Exception ignored in ..." and goes on."""
+
+    class Referent:
+        pass
+
+    def callback(_: object) -> None:
+        raise stop
+
+    referent = Referent()
+    reference = weakref.ref(referent, callback)
+    del referent
+    assert reference() is None
+
+
+@pytest.mark.parametrize("stop, status, line", [
+    (KeyboardInterrupt(), 130, "hecker-dynamics: interrupted\n"),
+    (Terminated(), 143, "hecker-dynamics: terminated\n")])
+@pytest.mark.parametrize("where", ["while it works", "at its end"])
+def test_a_stop_python_drops_in_a_callback_still_stops_the_command(
+        tmp_path, monkeypatch, capsys, stop, status, line, where):
+    """docs/cli.md: Ctrl-C ends a command with one line and status 130 (SIGTERM: 143),
+    what it was writing removed. A render stopped so used to go on and write its file."""
+    import hecker_dynamics.cli as cli
+
+    if where == "while it works":  # before the run: its first progress step stops it
+        load = cli.load_scene
+        monkeypatch.setattr(cli, "load_scene",
+                            lambda *a, **k: (_dropped_by_python(stop), load(*a, **k))[1])
+    else:  # after the last progress step: the command's end stops it
+        summary = cli.scene_summary
+        monkeypatch.setattr(cli, "scene_summary",
+                            lambda name: (_dropped_by_python(stop), summary(name))[1])
+    argv = ["run", "sample", "--duration", "0.1"] if where == "while it works" else ["scenes"]
+    assert main(argv) == status
+    captured = capsys.readouterr()
+    assert captured.err == line
+    assert where == "at its end" or captured.out == ""
 
 
 def test_run_reads_seconds_exactly_as_the_bag_commands_do(capsys):

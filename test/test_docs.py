@@ -2,6 +2,7 @@
 docs/scenes.md, every shipped scene is in the README, and the README's CLI lines parse."""
 from __future__ import annotations
 
+import argparse
 import re
 import shlex
 from pathlib import Path
@@ -144,3 +145,158 @@ def test_equation_citations_name_the_right_numbers():
 def test_equations_are_cited_in_one_form():
     forms = {re.match(r"\D+", cited).group().strip() for _, _, cited, _ in _citations()}
     assert forms == {"Eq."}
+
+
+#: The groups of named entries (``bodies.<name>``, ...) and the nested names in them.
+_GROUPS = ("bodies", "forces", "walls", "collisions", "joints", "wrench_topics", "sensors",
+           "drives", "script")
+_NESTED = {"parts": "<part>", "points": "<point>"}
+
+
+def _canonical(path: str) -> str:
+    """``bodies.left.parts.hull.size`` as docs/scenes.md writes it: ``bodies.<name>.size``
+    (a part takes a body's keys), ``bodies.<name>.points.<point>``."""
+    parts = path.split(".")
+    if parts[0] in _GROUPS and len(parts) > 1:
+        parts[1] = "<name>"
+    for i in range(2, len(parts) - 1):
+        if parts[i] in _NESTED:
+            parts[i + 1] = _NESTED[parts[i]]
+    text = ".".join(parts)
+    return re.sub(r"^bodies\.<name>\.parts\.<part>\.", "bodies.<name>.", text)
+
+
+def _documented_scene_keys() -> set[str]:
+    """Every parameter in the tables of docs/scenes.md, by its full dotted name: the first
+    column of a "Parameter" table, the "Parameters" column of a "`type`" table."""
+    keys: set[str] = set()
+    prefix: str | None = None
+    header: list[str] | None = None
+    for line in SCENES_DOC.splitlines():
+        title = re.match(r"## (.*)", line)
+        if title:
+            group = re.fullmatch(r"`([a-z_]+)\.<[a-z]+>`", title.group(1))
+            prefix = (f"{group.group(1)}.<name>." if group else
+                      "" if title.group(1) in ("Top level", "`map`") else None)
+            header = None
+            continue
+        if prefix is None or not line.startswith("|"):
+            header = None
+            continue
+        cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+        if header is None:
+            header = cells
+            continue
+        if set(cells[0]) <= set("- "):
+            continue
+        if header[0] == "Parameter":
+            text = cells[0]
+        elif header[:2] == ["`type`", "Parameters"]:
+            keys.add(prefix + "type")
+            text = cells[1]
+        else:
+            continue
+        keys.update(prefix + token for token in re.findall(r"`([a-z_]+(?:\.[a-z_<>]+)*)`", text)
+                    if token != "world")  # constant_force's axes value, not a key
+    return keys
+
+
+#: With EVERY_FEATURE, scenes that reach the rest of the loader: a map, soft joints,
+#: thrusters and an omni base, a one-shape polygon, every publish and contacts switch.
+_MORE_FEATURES = [
+    {"bodies": {"p": {"shape": "polygon", "vertices": [0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+                      "mass": 1.0},
+                "q": {"shape": "circle", "radius": 0.5, "mass": 1.0, "position": [3.0, 0.0]}},
+     "map": {"file": str(ROOT / "config" / "maps" / "warehouse.yaml"), "restitution": 0.1,
+             "friction": 0.3, "bodies": ["p"]},
+     "contacts": {"sleep": True, "events": True, "threads": 2, "converged": 1e-12},
+     "publish": {"contacts": True},
+     "drives": {"om": {"type": "omni", "body": "q", "center": [0.0, 0.0],
+                       "wheels": [0.3, 0.0, 1.5708, -0.15, 0.26, -0.5236, -0.15, -0.26, 3.6652],
+                       "max_force": 5.0, "linear_kp": 1.0, "linear_ki": 0.5,
+                       "angular_kp": 1.0, "angular_ki": 0.5, "rate": 50.0,
+                       "cmd_vel_timeout": 1.0, "script": [0.0, 1.0, 0.0, 0.0]}}},
+    {"integrator": "semi_implicit_euler",
+     "joint_solver": {"type": "soft", "substeps": 2, "hertz": 30.0, "damping_ratio": 1.0},
+     "bodies": {"a": {"shape": "circle", "radius": 0.5, "mass": 1.0}},
+     "joints": {"pin": {"type": "revolute", "body_b": "a"}},
+     "drives": {"jets": {"type": "thrusters", "body": "a", "max_force": 1.0, "linear_kp": 1.0,
+                         "angular_kp": 1.0,
+                         "thrusters": [0.0, 0.3, 0.0, 0.0, -0.3, 0.0, 0.3, 0.0, 1.57,
+                                       -0.3, 0.0, -1.57, 0.0, 0.3, 3.14, 0.0, -0.3, 3.14]}}},
+]
+
+
+def test_the_scene_parameters_read_and_documented_are_the_same(monkeypatch):
+    """Both ways, by full dotted name: a parameter the loader reads is in a table of
+    docs/scenes.md under its own section, and a parameter a table lists is read."""
+    read: set[str] = set()
+    original = parameters.ParameterReader._get
+
+    def spy(self, key, default):
+        read.add(_canonical(self.path(key)))
+        return original(self, key, default)
+
+    monkeypatch.setattr(parameters.ParameterReader, "_get", spy)
+    for scene in (EVERY_FEATURE, *_MORE_FEATURES):
+        make_scene(scene)
+    # The groups themselves and the mappings of nested parameters are not parameters.
+    mappings = {*_GROUPS, "publish", "contacts", "joint_solver", "map"}
+    leaves = {key for key in read if key not in mappings and not (
+        key.split(".")[0] in _GROUPS and key.count(".") == 1)
+        and not key.endswith((".points", ".parts", ".motor", ".spring"))}
+    documented = _documented_scene_keys()
+    assert len(documented) > 120  # the parse reached every table
+    assert sorted(leaves - documented) == [], "read, but not in docs/scenes.md's tables"
+    assert sorted(documented - leaves) == [], "in docs/scenes.md's tables, but never read"
+
+
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    action = next(a for a in parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_every_option_of_every_command_is_in_the_cli_guide():
+    guide = (ROOT / "docs" / "cli.md").read_text()
+    missing = sorted(f"{name} {'/'.join(action.option_strings)}"
+                     for name, sub in _subparsers().items() for action in sub._actions
+                     if action.option_strings and "--help" not in action.option_strings
+                     and not any(re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", guide)
+                                 for option in action.option_strings))
+    assert not missing, f"options docs/cli.md does not name: {missing}"
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/cli.md", "docs/batch.md",
+                                  "docs/replay.md", "docs/ros.md"])
+def test_every_option_the_guides_name_exists(page):
+    options = {option for sub in _subparsers().values() for action in sub._actions
+               for option in action.option_strings}
+    text = (ROOT / page).read_text()
+    named = set(re.findall(r"(?<![\w/.-])(--[a-z][a-z-]*)", text))
+    # Options of other programs the guides quote: ros2 bag record/play, pip, colcon, dask.
+    others = {"--packages-select", "--from-paths", "--ignore-src", "--params-file",
+              "--ros-args", "--rate", "--once", "--verbose", "--user",
+              "--break-system-packages", "--clock", "--nthreads", "--nworkers", "--numpy",
+              "--installed", "--fuzz-seconds", "--fuzz-seed", "--strict", "--vs"}
+    assert sorted(named - options - others) == []
+
+
+def test_the_readme_layout_names_every_module_and_c_file():
+    block = README[README.index("## Layout"):]
+    block = block[:block.index("\n```\n", block.index("```") + 3)]
+    sections = re.split(r"\n  (?=[a-z_]+/)", block)
+    by_folder = {section.split("/")[0]: section for section in sections[1:]}
+    package = ROOT / "hecker_dynamics"
+    missing = [f"{path.parent.name}/{path.name}"
+               for folder in sorted(p for p in package.iterdir() if (p / "__init__.py").exists())
+               for path in sorted(folder.glob("*.py")) if path.name != "__init__.py"
+               and not re.search(rf"\b{re.escape(path.name)}\b",
+                                 by_folder.get(folder.name, ""))]
+    missing += [path.name for path in sorted(package.glob("*.py"))
+                if path.name != "__init__.py" and f"  {path.name}" not in block
+                and f", {path.name}" not in block and f"; {path.name}" not in block]
+    kernel = block[block.index("src/kernel/"):]
+    missing += [f"src/kernel/{path.name}" for path in sorted((ROOT / "src" / "kernel").glob("*.c"))
+                if path.name not in kernel and not (path.name.startswith("bind_")
+                                                    and "bind_*.c" in kernel)]
+    assert not missing, f"files the README's Layout does not name: {missing}"

@@ -11,6 +11,8 @@ from typing import Optional
 
 from tqdm import tqdm
 
+from ..stops import raise_kept_stop
+
 __all__ = ["BarFactory", "Progress", "run_parts", "stderr_is_terminal"]
 
 
@@ -22,7 +24,8 @@ def stderr_is_terminal() -> bool:
 
 
 class Progress:
-    """A bar of ``total`` ``unit``; call it with the fraction done (0 to 1)."""
+    """A bar of ``total`` ``unit``; call it with the fraction done (0 to 1). Each call is
+    also where a Ctrl-C or SIGTERM that Python dropped stops the work (stops.py)."""
 
     def __init__(self, label: str, total: float, unit: str = "s sim time",
                  enabled: Optional[bool] = None) -> None:
@@ -33,6 +36,7 @@ class Progress:
                                    "[{elapsed}<{remaining}]")
 
     def __call__(self, fraction: float) -> None:
+        raise_kept_stop()
         done = self.total * min(max(fraction, 0.0), 1.0)
         self.bar.update(done - self.bar.n)
 
