@@ -718,6 +718,9 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     pairs, early = _match(ordered, recorded, replayed, coverage)
     _account(ordered, recorded, replayed, pairs, early, coverage, bag, spawned, compared)
     _check_keyframes(ordered, replayed, coverage, check)
+    if check.keyframes_checked and scene.publish_diagnostics:
+        coverage.notes.append("keyframes compared but for when the node last published "
+                              "/diagnostics (its timer's ticks place them; not compared)")
     _check_inputs(bag, ordered, _output_spans(pairs, replayed), wrench_topics, coverage)
     check.report = CompareReport(str(bag.path), "<replay>", tolerances)
     for topic in sorted(pairs):
@@ -1073,21 +1076,28 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
 #: Budget terms of the divergence guard that a later version added (a motor's M): a
 #: keyframe recorded before one lacks it, and the replay's is then not compared.
 _ADDED_BUDGET_TERMS = ("motor_root",)
+#: Where a keyframe's runner state holds the sim time of the node's last diagnostics.
+_DIAGNOSTICS_TIME = "last_diagnostics_ns"
 
 
 def _same_keyframe(mine: KeyframeFields, recorded: KeyframeFields) -> bool:
     """Whether the replay's keyframe holds the recorded one's state: all of it but what the
-    divergence guard reports of itself. Its ``worst_ratio`` (how near the run came to the
-    guard's limit) depends on the limit's form, and a later version may add a term to the
-    budget (a motor's ``motor_root``): neither changes a step, and a session recorded
-    before them must still check. Every other budget term must be there and equal: a
-    recorded keyframe that lacks one, or the guard's budget, differs."""
+    divergence guard reports of itself and when the node last published diagnostics. The
+    guard's ``worst_ratio`` (how near the run came to the guard's limit) depends on the
+    limit's form, and a later version may add a term to the budget (a motor's
+    ``motor_root``): neither changes a step, and a session recorded before them must still
+    check. The node publishes diagnostics at the end of a timer tick, which a replay does
+    not repeat (it stops where the records are), and they change no step and are not
+    compared. Every other budget term must be there and equal: a recorded keyframe that
+    lacks one, or the guard's budget, differs."""
     if mine == recorded:
         return True
     if mine._replace(state="") != recorded._replace(state=""):
         return False
     try:
         ours, theirs = decode_state(mine.state), decode_state(recorded.state)
+        for state in (ours, theirs):
+            state["runner"].pop(_DIAGNOSTICS_TIME, None)
         budgets = ours["divergence"]["bound"], theirs["divergence"]["bound"]
         for budget in budgets:
             budget.pop("worst_ratio", None)

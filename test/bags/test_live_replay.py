@@ -9,6 +9,7 @@ scene must fail, and the old rules (no records) must not reproduce these session
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import os
 from collections.abc import Callable
@@ -522,3 +523,21 @@ def test_plot_draws_a_recording_s_twists_with_their_own_poses(tmp_path, name, se
         for t, row in zip(series.time, series.values):
             assert list(row) == list(at[t]), (body, t)
     assert main(["plot", str(recording), "-o", str(tmp_path / "p.png")]) == 0
+
+
+@pytest.mark.parametrize("name,seed", [("sample", 60), ("robot", 61)])
+def test_a_session_that_publishes_diagnostics_checks(tmp_path, name, seed):
+    """The node publishes diagnostics at the end of its timer's ticks, which a replay does
+    not repeat: when it last did (a keyframe's ``last_diagnostics_ns``) is not compared,
+    and the report says so. The rest of a keyframe still is."""
+    scene = dataclasses.replace(load_scene(name), publish_diagnostics=True)
+    session = run_live(scene, seed, duration_ns=2 * S, cmd_vels=4 if name == "robot" else 0)
+    check = _check(scene, record(session, tmp_path / "live", seed))
+    assert check.ok and check.keyframes_checked >= 1, check.problems
+    assert any("last published /diagnostics" in note for note in check.notes)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    state = decode_state(frames[-1].msg.state)
+    state["runner"]["script_index"] += 1
+    frames[-1].msg.state = encode_state(state)
+    changed = _check(scene, record(session, tmp_path / "changed", seed))
+    assert any("differs from the recorded keyframe" in p for p in changed.problems)
