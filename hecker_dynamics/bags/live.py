@@ -1097,7 +1097,8 @@ def _same_keyframe(mine: KeyframeFields, recorded: KeyframeFields) -> bool:
     try:
         ours, theirs = decode_state(mine.state), decode_state(recorded.state)
         for state in (ours, theirs):
-            state["runner"].pop(_DIAGNOSTICS_TIME, None)
+            if isinstance(state.get("runner"), dict):
+                state["runner"].pop(_DIAGNOSTICS_TIME, None)
         budgets = ours["divergence"]["bound"], theirs["divergence"]["bound"]
         for budget in budgets:
             budget.pop("worst_ratio", None)

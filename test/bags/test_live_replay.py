@@ -541,3 +541,21 @@ def test_a_session_that_publishes_diagnostics_checks(tmp_path, name, seed):
     frames[-1].msg.state = encode_state(state)
     changed = _check(scene, record(session, tmp_path / "changed", seed))
     assert any("differs from the recorded keyframe" in p for p in changed.problems)
+
+
+@pytest.mark.parametrize("slot", ["applied_wrench", "wrench_stamped", "motor_speed"])
+def test_an_input_event_with_a_message_in_a_slot_its_kind_leaves_empty_fails(tmp_path, slot):
+    """The node fills only the slot of an input event's kind: a message in another (here
+    a cmd_vel event's) is no record of the node's, even though the replay never reads it."""
+    scene = load_scene("robot")
+    session = run_live(scene, 62, duration_ns=S, cmd_vels=4, inputs=0)
+    events = [p for p in session.published
+              if p.msgtype == bags.INPUT_EVENT and p.msg.kind == bags.CMD_VEL_EVENT]
+    assert _check(scene, record(session, tmp_path / "honest", 62)).ok
+    held = getattr(events[-1].msg, slot)
+    if slot == "motor_speed":
+        held.data = 1.0
+    else:
+        held.wrench.force.x = 1.0
+    check = _check(scene, record(session, tmp_path / "filled", 62))
+    assert any(f"holds a message in {slot}" in p for p in check.problems), check.problems
