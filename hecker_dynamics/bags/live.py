@@ -1134,6 +1134,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
     burst: dict[str, int] = {}
     latest: dict[str, int] = {}
     copies: dict[tuple[str, bytes], list[int]] = defaultdict(list)
+    unmatched: list[tuple[InputEventFields, int]] = []  # events let pass without a copy
     for topic, messages in recorded.items():
         for message in messages:
             copies[topic, message.raw].append(message.log_ns)
@@ -1163,6 +1164,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
                 # Its publisher's first messages reach the node before the recorder
                 # matches it; equal messages then take each other's copies, so the one
                 # found missing is any of that burst's first.
+                unmatched.append((event, log))
                 coverage.notes.append(
                     f"input event {event.sequence} ({event.topic}, arrived "
                     f"{seconds(event.arrival_ns)} s) not recorded: within "
@@ -1179,6 +1181,16 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
     left: dict[str, int] = defaultdict(int)
     for (topic, _), logs in copies.items():
         left[topic] += len(logs)
+    # A message the recorder logged with an event that has no copy, and that no event
+    # took, is that event's message as the node got it, in other bytes than the record's.
+    for event, log in unmatched:
+        beside = sorted(t for (topic, _), logs in copies.items() if topic == event.topic
+                        for t in logs if abs(t - log) <= INPUT_LAG_NS)
+        if beside:
+            coverage.fail(f"input event {event.sequence} ({event.topic}, arrived "
+                          f"{seconds(event.arrival_ns)} s) holds another message than the "
+                          f"one recorded on {event.topic} with it, at {seconds(beside[0])} s, "
+                          "which no event took")
     for topic, count in sorted(left.items()):
         if count:
             coverage.notes.append(f"{count} message(s) on {topic} that the node did not take "

@@ -559,3 +559,25 @@ def test_an_input_event_with_a_message_in_a_slot_its_kind_leaves_empty_fails(tmp
         held.wrench.force.x = 1.0
     check = _check(scene, record(session, tmp_path / "filled", 62))
     assert any(f"holds a message in {slot}" in p for p in check.problems), check.problems
+
+
+def test_an_input_event_changed_within_a_new_publisher_s_first_second_is_caught(tmp_path):
+    """An event within a second of a new publisher's first message may lack its copy (the
+    recorder had not matched the publisher yet), but not when the recorder logged a
+    message with it that no event took: that is its message, which the record changed.
+    Every cmd_vel event of the session is changed in turn, those of that first second
+    too (where a changed command moves nothing the outputs show, only this catches it)."""
+    scene = load_scene("robot")
+    session = run_live(scene, 7, duration_ns=2 * S, cmd_vels=10, inputs=3, world=1)
+    assert _check(scene, record(session, tmp_path / "honest", 7)).ok
+    events = [p for p in session.published
+              if p.msgtype == bags.INPUT_EVENT and p.msg.kind == bags.CMD_VEL_EVENT
+              and p.msg.accepted]
+    assert len(events) >= 8
+    for n, event in enumerate(events):
+        honest = event.msg
+        event.msg = copy.deepcopy(honest)  # the record only: the input message shares it
+        event.msg.cmd_vel.linear.x += 1.0
+        check = _check(scene, record(session, tmp_path / f"changed{n}", 7))
+        event.msg = honest
+        assert not check.ok, (n, check.notes)
