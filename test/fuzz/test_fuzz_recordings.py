@@ -52,8 +52,8 @@ BASES = [
 #: an output: the session record's version, scene name, reason and catch-up cap, and its
 #: play_script, lockstep and keyframe period (seen through the script's commands, the
 #: resumes and the keyframes they change); the reason texts of events; an input event's
-#: arrival time; what a refused service call asked for. The keyframe a replay starts from (a session's first, at its step 0) is
-#: checked through what follows it.
+#: arrival time; what a refused service call asked for. The keyframe a replay starts from
+#: (a session's first, at its step 0) is checked through what follows it.
 HARMLESS = {(bags.SESSION_INFO, f) for f in ("version", "scene", "reason", "max_catch_up_steps",
                                              "play_script", "lockstep",
                                              "keyframe_period_ns")} | {
