@@ -16,7 +16,8 @@ order. Differences measured:
 - position: distance between positions (PoseStamped, Odometry, Marker poses and points,
   TFMessage translations) and the largest difference of a LaserScan's ranges (equal
   infinities differ by 0),
-- angle: rotation between orientations (radians, from the quaternions; Imu's too),
+- angle: rotation between orientations (radians, from the quaternions; Imu's too), or the
+  difference of the quaternions' lengths where larger (a scaled quaternion turns alike),
 - velocity: norm of the linear velocity difference and of the angular one (Twist, Odometry;
   an Imu's linear acceleration and angular velocity, measured with the velocity tolerance).
 
@@ -295,8 +296,11 @@ def _distance(a: Any, b: Any) -> float:
 def _rotation_angle(qa: Any, qb: Any) -> float:
     """Angle of the rotation between two quaternions (accurate for tiny angles too).
 
-    Only equal quaternions give 0: unequal ones too close for the products to resolve
-    give the smallest positive double, so that ``--atol 0`` means bit-identical."""
+    The rotation depends on the quaternions' directions only, so their lengths' difference
+    counts as an angle too: a quaternion of length 2, or 0, is no orientation a run
+    publishes, and must not match a unit one within a tolerance. Only equal quaternions
+    give 0: unequal ones too close for the products to resolve give the smallest positive
+    double, so that ``--atol 0`` means bit-identical."""
     if (qa.x, qa.y, qa.z, qa.w) == (qb.x, qb.y, qb.z, qb.w):
         return 0.0
     # q_rel = conj(qa) * qb
@@ -304,7 +308,8 @@ def _rotation_angle(qa: Any, qb: Any) -> float:
     x = qa.w * qb.x - qa.x * qb.w - qa.y * qb.z + qa.z * qb.y
     y = qa.w * qb.y + qa.x * qb.z - qa.y * qb.w - qa.z * qb.x
     z = qa.w * qb.z - qa.x * qb.y + qa.y * qb.x - qa.z * qb.w
-    angle = 2.0 * math.atan2(math.hypot(x, y, z), abs(w))
+    stretch = abs(math.hypot(qa.x, qa.y, qa.z, qa.w) - math.hypot(qb.x, qb.y, qb.z, qb.w))
+    angle = max(2.0 * math.atan2(math.hypot(x, y, z), abs(w)), stretch)
     return angle if angle != 0.0 else math.ulp(0.0)
 
 

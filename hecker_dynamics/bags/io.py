@@ -76,7 +76,8 @@ __all__ = [
     "STORAGES", "message_definition_path", "typestore", "read_bag", "resolve_topic",
     "SESSION_INFO", "KEYFRAME", "INPUT_EVENT", "latched_qos", "session_info_message",
     "keyframe_message", "input_event_message", "session_fields", "keyframe_fields",
-    "input_event_fields", "WORLD_EVENT", "world_event_message", "world_event_fields",
+    "input_event_fields", "input_event_unused_slots", "WORLD_EVENT", "world_event_message",
+    "world_event_fields",
     "default_message", "stamp_ns_of", "MAX_STAMP_NS", "LASER_SCAN", "IMU",
     "laser_scan_message", "imu_message", "OCCUPANCY_GRID", "occupancy_grid_message",
     "CONTACT_EVENT", "contact_event_message",
@@ -453,22 +454,33 @@ def keyframe_fields(msg: Any) -> KeyframeFields:
 #: The message type an input event of each kind holds.
 _EVENT_TYPES = {APPLIED_WRENCH_EVENT: APPLIED_WRENCH, WRENCH_STAMPED_EVENT: WRENCH_STAMPED,
                 MOTOR_SPEED_EVENT: FLOAT64, CMD_VEL_EVENT: TWIST}
+#: The slot of an ``InputEvent`` that holds a message of each type.
+_EVENT_SLOTS = {APPLIED_WRENCH: "applied_wrench", WRENCH_STAMPED: "wrench_stamped",
+                FLOAT64: "motor_speed", TWIST: "cmd_vel"}
 
 
 def input_event_message(fields: InputEventFields) -> Any:
     """``hecker_dynamics/msg/InputEvent`` of an input event record (``fields.message`` a
     rosbags ``AppliedWrench``, ``WrenchStamped``, ``Float64`` or ``Twist``)."""
-    slots = {APPLIED_WRENCH: "applied_wrench", WRENCH_STAMPED: "wrench_stamped",
-             FLOAT64: "motor_speed", TWIST: "cmd_vel"}
     held = _EVENT_TYPES[fields.kind]
     messages = {slot: fields.message if msgtype == held else default_message(msgtype)
-                for msgtype, slot in slots.items()}
+                for msgtype, slot in _EVENT_SLOTS.items()}
     sec, nanosec = stamp_from_ns(fields.arrival_ns)
     return default_message(
         INPUT_EVENT, header=header_message(header("", fields.stamp_ns)),
         session=max(fields.session, 0), sequence=fields.sequence, topic=fields.topic,
         arrival=default_message("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
         kind=fields.kind, **messages, accepted=fields.accepted, reason=fields.reason)
+
+
+def input_event_unused_slots(msg: Any) -> list[str]:
+    """The slots of an ``InputEvent`` message that its kind leaves unused but that hold
+    something other than the default message, which the node always leaves there."""
+    store = typestore()
+    held = _EVENT_TYPES.get(int(msg.kind))
+    return [slot for msgtype, slot in _EVENT_SLOTS.items() if msgtype != held
+            and bytes(store.serialize_cdr(getattr(msg, slot), msgtype))
+            != bytes(store.serialize_cdr(default_message(msgtype), msgtype))]
 
 
 def input_event_fields(msg: Any) -> InputEventFields:

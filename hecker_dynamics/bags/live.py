@@ -719,6 +719,9 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     pairs, early = _match(ordered, recorded, replayed, coverage)
     _account(ordered, recorded, replayed, pairs, early, coverage, bag, spawned, compared)
     _check_keyframes(ordered, replayed, coverage, check)
+    if check.keyframes_checked and scene.publish_diagnostics:
+        coverage.notes.append("keyframes compared but for when the node last published "
+                              "/diagnostics (its timer's ticks place them; not compared)")
     _check_inputs(bag, ordered, _output_spans(pairs, replayed), wrench_topics, coverage)
     check.report = CompareReport(str(bag.path), "<replay>", tolerances)
     for topic in sorted(pairs):
@@ -1086,21 +1089,29 @@ def _older_imu(mine: KeyframeFields, recorded: KeyframeFields) -> str:
 #: Budget terms of the divergence guard that a later version added (a motor's M): a
 #: keyframe recorded before one lacks it, and the replay's is then not compared.
 _ADDED_BUDGET_TERMS = ("motor_root",)
+#: Where a keyframe's runner state holds the sim time of the node's last diagnostics.
+_DIAGNOSTICS_TIME = "last_diagnostics_ns"
 
 
 def _same_keyframe(mine: KeyframeFields, recorded: KeyframeFields) -> bool:
     """Whether the replay's keyframe holds the recorded one's state: all of it but what the
-    divergence guard reports of itself. Its ``worst_ratio`` (how near the run came to the
-    guard's limit) depends on the limit's form, and a later version may add a term to the
-    budget (a motor's ``motor_root``): neither changes a step, and a session recorded
-    before them must still check. Every other budget term must be there and equal: a
-    recorded keyframe that lacks one, or the guard's budget, differs."""
+    divergence guard reports of itself and when the node last published diagnostics. The
+    guard's ``worst_ratio`` (how near the run came to the guard's limit) depends on the
+    limit's form, and a later version may add a term to the budget (a motor's
+    ``motor_root``): neither changes a step, and a session recorded before them must still
+    check. The node publishes diagnostics at the end of a timer tick, which a replay does
+    not repeat (it stops where the records are), and they change no step and are not
+    compared. Every other budget term must be there and equal: a recorded keyframe that
+    lacks one, or the guard's budget, differs."""
     if mine == recorded:
         return True
     if mine._replace(state="") != recorded._replace(state=""):
         return False
     try:
         ours, theirs = decode_state(mine.state), decode_state(recorded.state)
+        for state in (ours, theirs):
+            if isinstance(state.get("runner"), dict):
+                state["runner"].pop(_DIAGNOSTICS_TIME, None)
         budgets = ours["divergence"]["bound"], theirs["divergence"]["bound"]
         for budget in budgets:
             budget.pop("worst_ratio", None)
@@ -1136,6 +1147,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
     burst: dict[str, int] = {}
     latest: dict[str, int] = {}
     copies: dict[tuple[str, bytes], list[int]] = defaultdict(list)
+    unmatched: list[tuple[InputEventFields, int]] = []  # events let pass without a copy
     for topic, messages in recorded.items():
         for message in messages:
             copies[topic, message.raw].append(message.log_ns)
@@ -1165,6 +1177,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
                 # Its publisher's first messages reach the node before the recorder
                 # matches it; equal messages then take each other's copies, so the one
                 # found missing is any of that burst's first.
+                unmatched.append((event, log))
                 coverage.notes.append(
                     f"input event {event.sequence} ({event.topic}, arrived "
                     f"{seconds(event.arrival_ns)} s) not recorded: within "
@@ -1181,6 +1194,16 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
     left: dict[str, int] = defaultdict(int)
     for (topic, _), logs in copies.items():
         left[topic] += len(logs)
+    # A message the recorder logged with an event that has no copy, and that no event
+    # took, is that event's message as the node got it, in other bytes than the record's.
+    for event, log in unmatched:
+        beside = sorted(t for (topic, _), logs in copies.items() if topic == event.topic
+                        for t in logs if abs(t - log) <= INPUT_LAG_NS)
+        if beside:
+            coverage.fail(f"input event {event.sequence} ({event.topic}, arrived "
+                          f"{seconds(event.arrival_ns)} s) holds another message than the "
+                          f"one recorded on {event.topic} with it, at {seconds(beside[0])} s, "
+                          "which no event took")
     for topic, count in sorted(left.items()):
         if count:
             coverage.notes.append(f"{count} message(s) on {topic} that the node did not take "

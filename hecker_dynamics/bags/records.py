@@ -8,8 +8,9 @@ failures (:mod:`.coverage`): two different records of one session, event number 
 keyframe; a record outside its session (an event numbered before its session's first or
 after the next session's; a keyframe before its session's start); records logged out of
 the order the node publishes them in; a session record missing between two recorded ones,
-or records of a session whose record is missing; a keyframe or event naming a frame; a
-record that cannot be read. Records recorded twice with the same content count once;
+or records of a session whose record is missing; a keyframe or event naming a frame; an
+input event holding a message in a slot its kind leaves empty; a record that cannot be
+read. Records recorded twice with the same content count once;
 records of sessions before the first recorded one (received latched by a recorder that
 started late) are noted and left out.
 """
@@ -85,6 +86,13 @@ def _decode_record(message: BagMessage, msgtype: str, coverage: Coverage) -> Opt
         if msgtype == KEYFRAME:
             return bags.keyframe_fields(msg)
         if msgtype == INPUT_EVENT:
+            unused = bags.input_event_unused_slots(msg)
+            if unused:
+                coverage.fail(f"record {message.index} on '{message.topic}' logged at "
+                              f"{seconds(message.log_ns)} s holds a message in "
+                              f"{', '.join(unused)}, which its kind ({msg.kind}) leaves "
+                              "empty and the node never fills")
+                return None
             return bags.input_event_fields(msg)
         return bags.world_event_fields(msg)
     except BagError as error:

@@ -377,6 +377,31 @@ def test_compare_reports_largest_differences(tmp_path):
     assert ok, report.text()
 
 
+
+@pytest.mark.parametrize("scale", [2.0, 0.0, 1.0 + 1e-6])
+def test_a_quaternion_of_another_length_is_no_match(tmp_path, scale):
+    """A pose's or transform's quaternion scaled keeps its rotation's axis and angle, but
+    is no orientation a run publishes: its length's change counts as an angle, so the
+    default tolerance does not pass it."""
+    scene = load_scene("sample")
+    script_to_bag(scene, tmp_path / "in", duration_ns=SEC)
+    bag = read_bag(tmp_path / "in")
+    replay_to_bag(scene, bag, tmp_path / "a", tf=True)
+    produced, _ = replay_outputs(scene, bag, tf=True)
+    for output in produced:
+        if output.log_ns == 500_000_000 and output.topic in ("/right/pose", "/tf"):
+            for q in ([output.msg.pose.orientation] if output.topic == "/right/pose" else
+                      [t.transform.rotation for t in output.msg.transforms]):
+                q.x, q.y, q.z, q.w = (scale * c for c in (q.x, q.y, q.z, q.w))
+    report, ok = compare_contents(read_bag(tmp_path / "a"),
+                                  outputs_as_bag(scene, produced, tf=True))
+    assert not ok
+    worst = {t.topic: t for t in report.topics}
+    for topic in ("/right/pose", "/tf"):
+        assert worst[topic].angle.value == pytest.approx(abs(1.0 - scale), rel=1e-9)
+        assert worst[topic].angle.stamp_ns == 500_000_000
+
+
 # ----------------------------------------------------------------------------- bad bags
 
 @pytest.fixture

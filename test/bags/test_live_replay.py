@@ -9,6 +9,7 @@ scene must fail, and the old rules (no records) must not reproduce these session
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import os
 from collections.abc import Callable
@@ -522,3 +523,61 @@ def test_plot_draws_a_recording_s_twists_with_their_own_poses(tmp_path, name, se
         for t, row in zip(series.time, series.values):
             assert list(row) == list(at[t]), (body, t)
     assert main(["plot", str(recording), "-o", str(tmp_path / "p.png")]) == 0
+
+
+@pytest.mark.parametrize("name,seed", [("sample", 60), ("robot", 61)])
+def test_a_session_that_publishes_diagnostics_checks(tmp_path, name, seed):
+    """The node publishes diagnostics at the end of its timer's ticks, which a replay does
+    not repeat: when it last did (a keyframe's ``last_diagnostics_ns``) is not compared,
+    and the report says so. The rest of a keyframe still is."""
+    scene = dataclasses.replace(load_scene(name), publish_diagnostics=True)
+    session = run_live(scene, seed, duration_ns=2 * S, cmd_vels=4 if name == "robot" else 0)
+    check = _check(scene, record(session, tmp_path / "live", seed))
+    assert check.ok and check.keyframes_checked >= 1, check.problems
+    assert any("last published /diagnostics" in note for note in check.notes)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    state = decode_state(frames[-1].msg.state)
+    state["runner"]["script_index"] += 1
+    frames[-1].msg.state = encode_state(state)
+    changed = _check(scene, record(session, tmp_path / "changed", seed))
+    assert any("differs from the recorded keyframe" in p for p in changed.problems)
+
+
+@pytest.mark.parametrize("slot", ["applied_wrench", "wrench_stamped", "motor_speed"])
+def test_an_input_event_with_a_message_in_a_slot_its_kind_leaves_empty_fails(tmp_path, slot):
+    """The node fills only the slot of an input event's kind: a message in another (here
+    a cmd_vel event's) is no record of the node's, even though the replay never reads it."""
+    scene = load_scene("robot")
+    session = run_live(scene, 62, duration_ns=S, cmd_vels=4, inputs=0)
+    events = [p for p in session.published
+              if p.msgtype == bags.INPUT_EVENT and p.msg.kind == bags.CMD_VEL_EVENT]
+    assert _check(scene, record(session, tmp_path / "honest", 62)).ok
+    held = getattr(events[-1].msg, slot)
+    if slot == "motor_speed":
+        held.data = 1.0
+    else:
+        held.wrench.force.x = 1.0
+    check = _check(scene, record(session, tmp_path / "filled", 62))
+    assert any(f"holds a message in {slot}" in p for p in check.problems), check.problems
+
+
+def test_an_input_event_changed_within_a_new_publisher_s_first_second_is_caught(tmp_path):
+    """An event within a second of a new publisher's first message may lack its copy (the
+    recorder had not matched the publisher yet), but not when the recorder logged a
+    message with it that no event took: that is its message, which the record changed.
+    Every cmd_vel event of the session is changed in turn, those of that first second
+    too (where a changed command moves nothing the outputs show, only this catches it)."""
+    scene = load_scene("robot")
+    session = run_live(scene, 7, duration_ns=2 * S, cmd_vels=10, inputs=3, world=1)
+    assert _check(scene, record(session, tmp_path / "honest", 7)).ok
+    events = [p for p in session.published
+              if p.msgtype == bags.INPUT_EVENT and p.msg.kind == bags.CMD_VEL_EVENT
+              and p.msg.accepted]
+    assert len(events) >= 8
+    for n, event in enumerate(events):
+        honest = event.msg
+        event.msg = copy.deepcopy(honest)  # the record only: the input message shares it
+        event.msg.cmd_vel.linear.x += 1.0
+        check = _check(scene, record(session, tmp_path / f"changed{n}", 7))
+        event.msg = honest
+        assert not check.ok, (n, check.notes)

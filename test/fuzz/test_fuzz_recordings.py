@@ -52,9 +52,8 @@ BASES = [
 #: an output: the session record's version, scene name, reason and catch-up cap, and its
 #: play_script, lockstep and keyframe period (seen through the script's commands, the
 #: resumes and the keyframes they change); the reason texts of events; an input event's
-#: arrival time and the message slots its kind leaves unused; what a refused service call
-#: asked for. The keyframe a replay starts from (a session's first, at its step 0) is
-#: checked through what follows it.
+#: arrival time; what a refused service call asked for. The keyframe a replay starts from
+#: (a session's first, at its step 0) is checked through what follows it.
 HARMLESS = {(bags.SESSION_INFO, f) for f in ("version", "scene", "reason", "max_catch_up_steps",
                                              "play_script", "lockstep",
                                              "keyframe_period_ns")} | {
@@ -300,7 +299,6 @@ def _harmless(original: Message, changed: Optional[set[str]], messages: list[Mes
     allowed = {field for msgtype, field in HARMLESS if msgtype == original.msgtype}
     if original.msgtype == bags.INPUT_EVENT:
         slot = SLOTS.get(int(decoded.kind), "")
-        allowed |= set(SLOTS.values()) - {slot}
         held = getattr(decoded, slot, None)
         msgtype = {0: bags.APPLIED_WRENCH, 1: bags.WRENCH_STAMPED, 2: bags.FLOAT64}.get(
             int(decoded.kind))
