@@ -215,6 +215,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         contacts = self.model.contacts
+        if contacts is not None:
+            contacts.follow(self.integrator.position_share)
         #: Wall impacts located inside the step (``contacts.events``), or None.
         self._events = (WallEvents(contacts, scene.tolerance)
                         if scene.events and contacts is not None and contacts.wall_bodies
