@@ -188,6 +188,21 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("value, words", [
+    ("-1700000000750000001", "start -1700000000.750000001 s is before 0"),
+    ("3000000000750000001", "start 3000000000.750000001 s is after 2147483647 s"),
+])
+def test_refused_session_times_are_named_to_the_nanosecond(tmp_path, capsys, value, words):
+    """The refusal names the recorded start exactly, as --start reads it back (through a
+    double, 3000000000.750000001 s printed as 3.0e9 or 3000000000.750000000)."""
+    bag = tmp_path / "in"
+    shutil.copytree(GOLDEN / "sample" / "input", bag)
+    _set_metadata(bag, lambda info: info["custom_data"].__setitem__(
+        "hecker_dynamics.start_ns", value))
+    err = _one_line_error(capsys, "replay", "sample", str(bag), "-o", str(tmp_path / "o"))
+    assert words in err
+
+
 @pytest.mark.parametrize("duration_ns", ["999999", "0"])
 def test_a_recorded_session_shorter_than_one_step_is_refused(tmp_path, capsys, duration_ns):
     """A bag whose custom data records a session shorter than one step (1 ms) would replay
