@@ -51,6 +51,7 @@ from .scene.load import (
     shipped_scenes,
     with_map,
 )
+from .scene.parameters import seconds_text
 from .stops import Terminated, keeping_stops, raise_kept_stop, raise_terminated, stopped
 from .viz.commands import add_viz_commands, view_run
 from .viz.frames import VizError
@@ -189,7 +190,7 @@ def run_command(args: argparse.Namespace) -> int:
     sim_seconds = (last.time_ns - first.time_ns) * 1e-9
     print(f"scene       {scene.source}")
     print(f"integrator  {sim.integrator.name}" + (" (auto)" if scene.integrator == "auto" else ""))
-    print(f"step        {scene.step_ns * 1e-9:g} s, {last.steps} steps, "
+    print(f"step        {seconds_text(scene.step_ns)} s, {last.steps} steps, "
           f"{sim.integrator.counters.evaluations} force evaluations")
     print(f"sim time    {sim_seconds:g} s in {wall:.3f} s wall "
           f"({sim_seconds / wall if wall > 0 else float('inf'):.1f}x real time)")

@@ -40,6 +40,7 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
+from ..scene.parameters import seconds_text
 from .io import (
     CONTACT_EVENT,
     DIAGNOSTIC_ARRAY,
@@ -99,7 +100,7 @@ class Worst:
     def __str__(self) -> str:
         if self.stamp_ns is None:
             return f"{self.value:.3g}"
-        return f"{self.value:.3g} (at {self.stamp_ns * 1e-9:.6f} s)"
+        return f"{self.value:.3g} (at {seconds_text(self.stamp_ns)} s)"
 
 
 @dataclass
@@ -186,9 +187,9 @@ class CompareReport:
                          f"{t.expected} expected / {t.actual} actual")
             if t.missing:
                 lines.append(f"     missing {len(t.missing)}: first at "
-                             f"{min(t.missing) * 1e-9:.6f} s")
+                             f"{seconds_text(min(t.missing))} s")
             if t.extra:
-                lines.append(f"     extra {len(t.extra)}: first at {min(t.extra) * 1e-9:.6f} s")
+                lines.append(f"     extra {len(t.extra)}: first at {seconds_text(min(t.extra))} s")
             if t.out_of_order:
                 lines.append(f"     {_disorder(t.out_of_order)}")
             measured = [(name, w) for name, w in (
@@ -242,7 +243,7 @@ class CompareReport:
 
 def _disorder(stamps: Sequence[int]) -> str:
     return (f"{len(stamps)} logged after a later stamp (out of order), first stamped "
-            f"{stamps[0] * 1e-9:.6f} s")
+            f"{seconds_text(stamps[0])} s")
 
 
 # ----------------------------------------------------------------------------- matching
@@ -325,7 +326,7 @@ def _twist(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
 
 def _ranges(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
     if len(a.ranges) != len(b.ranges):
-        report.note(f"at {stamp * 1e-9:.6f} s: {len(a.ranges)} ranges != {len(b.ranges)}")
+        report.note(f"at {seconds_text(stamp)} s: {len(a.ranges)} ranges != {len(b.ranges)}")
         return
     ra, rb = np.asarray(a.ranges, dtype=float), np.asarray(b.ranges, dtype=float)
     with np.errstate(invalid="ignore"):
@@ -337,7 +338,7 @@ def _ranges(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
 
 def _header(report: TopicReport, a: Any, b: Any, stamp: int) -> None:
     if a.header.frame_id != b.header.frame_id:
-        report.note(f"at {stamp * 1e-9:.6f} s: frame_id '{a.header.frame_id}' != "
+        report.note(f"at {seconds_text(stamp)} s: frame_id '{a.header.frame_id}' != "
                     f"'{b.header.frame_id}'")
 
 
@@ -409,7 +410,7 @@ def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     not finite is no state of a run (the divergence check stops one first): equal in both
     bags, it is noted, never a match."""
     what = "number" if msgtype in _NUMBERS else "position, angle or velocity"
-    unrun = f"at {stamp * 1e-9:.6f} s: a {what} that is not finite (NaN or infinite) in " \
+    unrun = f"at {seconds_text(stamp)} s: a {what} that is not finite (NaN or infinite) in " \
             "both bags"
     if a is None and msgtype in _NUMBERS:  # compared byte for byte, but read for its numbers
         a = ea.decode()
@@ -424,11 +425,11 @@ def _compare_message(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     measured = (pair.position, pair.angle, pair.velocity, pair.angular_velocity)
     if not pair.different and msgtype in _MEASURED and not _same_elsewhere(msgtype, a, b,
                                                                            ea.raw):
-        pair.note(f"at {stamp * 1e-9:.6f} s: fields other than positions, angles and "
+        pair.note(f"at {seconds_text(stamp)} s: fields other than positions, angles and "
                   "velocities differ")
     elif exact and not pair.different and msgtype != DIAGNOSTIC_ARRAY \
             and not any(w.value for w in measured):
-        pair.note(f"at {stamp * 1e-9:.6f} s: message bytes differ (equal values: a zero's "
+        pair.note(f"at {seconds_text(stamp)} s: message bytes differ (equal values: a zero's "
                   "sign or a NaN's bits; --atol 0 asks for bit-identical messages)")
     for name in ("position", "angle", "velocity", "angular_velocity"):
         worst = getattr(pair, name)
@@ -448,20 +449,20 @@ def _measure(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     elif msgtype == ODOMETRY:
         _header(report, a, b, stamp)
         if a.child_frame_id != b.child_frame_id:
-            report.note(f"at {stamp * 1e-9:.6f} s: child_frame_id '{a.child_frame_id}' != "
+            report.note(f"at {seconds_text(stamp)} s: child_frame_id '{a.child_frame_id}' != "
                         f"'{b.child_frame_id}'")
         _pose(report, a.pose.pose, b.pose.pose, stamp)
         _twist(report, a.twist.twist, b.twist.twist, stamp)
     elif msgtype == MARKER_ARRAY:
         if len(a.markers) != len(b.markers):
-            report.note(f"at {stamp * 1e-9:.6f} s: {len(a.markers)} markers != "
+            report.note(f"at {seconds_text(stamp)} s: {len(a.markers)} markers != "
                         f"{len(b.markers)}")
             return
         for ma, mb in zip(a.markers, b.markers):
             same = (ma.ns, ma.id, ma.type, ma.action, ma.header.frame_id, len(ma.points)) == \
                    (mb.ns, mb.id, mb.type, mb.action, mb.header.frame_id, len(mb.points))
             if not same:
-                report.note(f"at {stamp * 1e-9:.6f} s: marker {ma.ns}/{ma.id} differs in "
+                report.note(f"at {seconds_text(stamp)} s: marker {ma.ns}/{ma.id} differs in "
                             "ns, id, type, action, frame or point count")
                 continue
             _pose(report, ma.pose, mb.pose, stamp)
@@ -470,7 +471,7 @@ def _measure(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
     elif msgtype == TF_MESSAGE:
         frames_a = [(t.header.frame_id, t.child_frame_id) for t in a.transforms]
         if frames_a != [(t.header.frame_id, t.child_frame_id) for t in b.transforms]:
-            report.note(f"at {stamp * 1e-9:.6f} s: transforms of other frames")
+            report.note(f"at {seconds_text(stamp)} s: transforms of other frames")
             return
         for ta, tb in zip(a.transforms, b.transforms):
             report.position.update(_distance(ta.transform.translation,
@@ -490,10 +491,10 @@ def _measure(report: TopicReport, msgtype: str, ea: BagMessage, a: Any,
         sa = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in a.status]
         sb = [(s.level, s.name, s.hardware_id, tuple(v.key for v in s.values)) for s in b.status]
         if sa != sb:
-            report.note(f"at {stamp * 1e-9:.6f} s: diagnostic status (level, name, "
+            report.note(f"at {seconds_text(stamp)} s: diagnostic status (level, name, "
                         "hardware_id or keys) differs")
     elif ea.raw != eb.raw:
-        report.note(f"at {stamp * 1e-9:.6f} s: message bytes differ")
+        report.note(f"at {seconds_text(stamp)} s: message bytes differ")
 
 
 def _decode_all(messages: Sequence[BagMessage]) -> list[Any]:

@@ -67,7 +67,7 @@ from ..ros.session import (
 )
 from ..ros.tf import TransformFields
 from ..scene.commands import WrenchCommand
-from ..scene.parameters import quoted
+from ..scene.parameters import quoted, seconds_text
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -551,7 +551,7 @@ class BagMessage:
         except Exception as error:  # rosbags raises several kinds for bad bytes
             where = f"{self.bag}: " if self.bag is not None else ""
             raise BagError(f"{where}message {self.index} on '{self.topic}' at "
-                           f"{self.log_ns * 1e-9:.9f} s cannot be decoded as "
+                           f"{seconds_text(self.log_ns)} s cannot be decoded as "
                            f"{self.msgtype}: {error}") from None
 
 

@@ -80,6 +80,7 @@ from ..ros.session import (
 )
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import Scene
+from ..scene.parameters import seconds_text
 from . import io as bags
 from .compare import CompareReport, Tolerances, compare_pairs
 from .coverage import (
@@ -343,9 +344,9 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
             stamp = usable[-1][0]
             raise ReplayError(
                 f"session {session.number}: its first recorded output at "
-                f"{seconds(first_output_ns)} s comes {(first_output_ns - stamp) * 1e-9:.3f} s "
+                f"{seconds(first_output_ns)} s comes {seconds_text(first_output_ns - stamp)} s "
                 f"after its latest state record to start from (at {seconds(stamp)} s), more "
-                f"than the {MAX_PRELUDE_NS * 1e-9:g} s a replay goes back (record with "
+                f"than the {seconds_text(MAX_PRELUDE_NS)} s a replay goes back (record with "
                 "keyframes on, or start the recorder before the node)")
         usable = near
     _, first_event, keyframe = usable[0]
@@ -1181,7 +1182,7 @@ def _check_inputs(bag: BagContents, sessions: Sequence[RecordedSession],
                 coverage.notes.append(
                     f"input event {event.sequence} ({event.topic}, arrived "
                     f"{seconds(event.arrival_ns)} s) not recorded: within "
-                    f"{DISCOVERY_NS * 1e-9:g} s of the first message after a silence on its "
+                    f"{seconds_text(DISCOVERY_NS)} s of the first message after a silence on its "
                     "topic, before the recorder matched a new publisher; its record replayed")
             elif within or running:
                 coverage.fail(f"input event {event.sequence} ({event.topic}, arrived "

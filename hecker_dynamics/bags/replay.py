@@ -238,7 +238,8 @@ def session_times(scene: Scene, bag: BagContents, start_ns: Optional[int] = None
         duration_ns = scene.duration_ns
     if duration_ns < 0:
         raise ReplayError(f"{bag.path}: the session would end before it starts "
-                          f"(start {start_ns * 1e-9:.9f} s, duration {duration_ns * 1e-9:g} s)")
+                          f"(start {seconds_text(start_ns)} s, "
+                          f"duration {seconds_text(duration_ns)} s)")
     # A session the bag records (its custom data, its poses) as shorter than one step would
     # replay no step, and a check would report every output as missing.
     check_takes_a_step(duration_ns, scene.step_ns, f"{bag.path}: the session's duration")
@@ -267,12 +268,12 @@ def check_session(start_ns: int, duration_ns: int, what: str,
     latest = f"{bags.MAX_STAMP_NS // 1_000_000_000} s, the latest time a ROS stamp " \
              "(int32 seconds) holds"
     if start_ns < 0:
-        raise ReplayError(f"{what} {names[0]} {start_ns * 1e-9:.9f} s is before 0 "
+        raise ReplayError(f"{what} {names[0]} {seconds_text(start_ns)} s is before 0 "
                           "(bag log times cannot be negative)")
     if start_ns > bags.MAX_STAMP_NS:
-        raise ReplayError(f"{what} {names[0]} {start_ns * 1e-9:g} s is after {latest}")
+        raise ReplayError(f"{what} {names[0]} {seconds_text(start_ns)} s is after {latest}")
     if start_ns + duration_ns > bags.MAX_STAMP_NS:
-        raise ReplayError(f"{what} {names[1]} {duration_ns * 1e-9:g} s ends it after {latest}")
+        raise ReplayError(f"{what} {names[1]} {seconds_text(duration_ns)} s ends it after {latest}")
 
 
 def check_distinct(output: Path, inputs: Sequence[Path]) -> None:
@@ -429,7 +430,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
             next_input += 1
             for line in runner.accept(item.topic, item.msg, item.log_ns, item.wrench_topic):
                 if line.dropped:
-                    result.rejected.append(f"at {item.log_ns * 1e-9:.9f} s: {line.message}")
+                    result.rejected.append(f"at {seconds_text(item.log_ns)} s: {line.message}")
                 else:
                     result.warnings.append(line.message)
         run_tick(target)

@@ -69,7 +69,7 @@ class CompiledContacts:
             static_reals=_doubles(static_reals), static_bounds=_doubles(contacts.static_bounds),
             static_material=_doubles(contacts.static_material),
             static_bodies=_integers(contacts.static_bodies), swept=_integers(contacts.swept),
-            slop=_doubles(contacts.slop), converged=contacts.converged)
+            slop=_doubles(contacts.slop), converged=contacts.converged, lead=contacts.lead)
         _kernel.threads(self.kernel, count=contacts.threads)
         if contacts.sleep:
             self.set_sleep(contacts)

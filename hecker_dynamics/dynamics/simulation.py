@@ -51,6 +51,7 @@ from ..integrators.methods import (
 )
 from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
 from ..scene.load import Scene
+from ..scene.parameters import seconds_text
 from .divergence import EnergyBound
 from .forces import WrenchRow, lever_arm
 from .inputs import InputBuffer
@@ -215,6 +216,8 @@ class Simulation:
         if isinstance(self.integrator, ImplicitTheta):  # Jacobians by colored differences
             self.integrator.coloring_source = self.model.jacobian_coloring
         contacts = self.model.contacts
+        if contacts is not None:
+            contacts.follow(self.integrator.position_share)
         #: Wall impacts located inside the step (``contacts.events``), or None.
         self._events = (WallEvents(contacts, scene.tolerance)
                         if scene.events and contacts is not None and contacts.wall_bodies
@@ -503,13 +506,14 @@ class Simulation:
         if command.stamp_ns > self._time_ns + self.scene.input_max_lead_ns:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' is stamped "
-                f"{(command.stamp_ns - self._time_ns) * 1e-9:.3f} s ahead of sim time "
-                f"(limit {self.scene.input_max_lead_ns * 1e-9:g} s)")
+                f"{seconds_text(command.stamp_ns - self._time_ns)} s ahead of sim time "
+                f"(limit {seconds_text(self.scene.input_max_lead_ns)} s)")
         end = self._inputs.end_of(command)
         if end is not None and end <= self._time_ns:
             raise InputError(
                 f"command for '{command.body}' from '{command.source}' ended before the "
-                f"current sim time (stamped {(self._time_ns - command.stamp_ns) * 1e-9:.3f} s ago)")
+                f"current sim time (stamped {seconds_text(self._time_ns - command.stamp_ns)} "
+                "s ago)")
         self._inputs.add(command, self.check_reach(command))
 
     def check_reach(self, command: WrenchCommand) -> WrenchRow:
@@ -784,14 +788,14 @@ class Simulation:
         return f"{UNSOLVED}{detail}: {unsolved_advice(self.scene)}"
 
     def _failed(self, error: Exception) -> DivergenceError:
-        return DivergenceError(f"step at t = {self._time_ns * 1e-9:.6f} s failed: {error}; "
+        return DivergenceError(f"step at t = {seconds_text(self._time_ns)} s failed: {error}; "
                                "kept the last finite state")
 
     def _diverged(self, q: np.ndarray, v: np.ndarray) -> DivergenceError:
         """The error for a new state (q, v) that is not finite, naming its bodies."""
         bad = ~(np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1))
         names = ", ".join(np.array(self.model.names)[bad]) or "the bodies"
-        return DivergenceError(f"state of {names} diverged at t = {self._time_ns * 1e-9:.6f} s; "
+        return DivergenceError(f"state of {names} diverged at t = {seconds_text(self._time_ns)} s; "
                                "kept the last finite state")
 
     def _settle(self, q: np.ndarray, v: np.ndarray) -> bool:
@@ -966,8 +970,8 @@ class Simulation:
         self._start = None
         over = [self.model.names[body] for body in self._bound.over]
         names = ", ".join(over[:5]) + (", ..." if len(over) > 5 else "")
-        self._halted = (f"state of {names} diverged by t = {now * 1e-9:.6f} s: {problem}; "
-                        f"kept the state at t = {time_ns * 1e-9:.6f} s")
+        self._halted = (f"state of {names} diverged by t = {seconds_text(now)} s: {problem}; "
+                        f"kept the state at t = {seconds_text(time_ns)} s")
         raise DivergenceError(self._halted)
 
     def play(self, commands: tuple[WrenchCommand, ...], until_ns: int, *,

@@ -58,11 +58,18 @@ class Counters:
 
 @dataclass
 class Integrator:
-    """Base class: a named method of a given order with work counters."""
+    """Base class: a named method of a given order with work counters.
+
+    :attr:`position_share`: the share s of a step's change of velocity that its positions
+    move with, under a constant acceleration a: q1 = q0 + h (v0 + s a h). The contact pass
+    needs it to keep the method's energy through an elastic bounce
+    (:attr:`~..contact.solver.ContactPass.lead`).
+    """
 
     name: str = ""
     order: int = 0
     counters: Counters = field(default_factory=Counters)
+    position_share = 0.5
 
     def step(self, f: Accelerations, q: np.ndarray, v: np.ndarray,
              h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -86,6 +93,8 @@ class Integrator:
 class ExplicitEuler(Integrator):
     """x += h v; v += h a, both from the state at the start of the step."""
 
+    position_share = 0.0
+
     def __init__(self) -> None:
         super().__init__("explicit_euler", 1)
 
@@ -97,6 +106,8 @@ class ExplicitEuler(Integrator):
 
 class SemiImplicitEuler(Integrator):
     """v += h a(q, v); then x += h v with the new velocity (symplectic Euler)."""
+
+    position_share = 1.0
 
     def __init__(self) -> None:
         super().__init__("semi_implicit_euler", 1)
@@ -268,6 +279,7 @@ class ImplicitTheta(Integrator):
         name, order = ("implicit_midpoint", 2) if theta == 0.5 else ("backward_euler", 1)
         super().__init__(name, order)
         self.theta = theta
+        self.position_share = theta  # q1 = q0 + h v*, v* = v0 + theta (v1 - v0)
         self.coloring_source: Optional[Callable[[], Coloring]] = None
         self.step_check: Optional[StepCheck] = None
 

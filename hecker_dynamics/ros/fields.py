@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 from ..scene.commands import InputError, WrenchCommand
 from ..scene.load import WrenchTopic
+from ..scene.parameters import seconds_text
 
 __all__ = ["NS_PER_S", "Vec3", "Quaternion", "ns_from_stamp", "stamp_from_ns",
            "applied_wrench_to_command", "wrench_stamped_to_command", "Header", "Pose",
@@ -106,7 +107,7 @@ def applied_wrench_to_command(msg: Any, receive_ns: int) -> tuple[WrenchCommand,
     _check_numbers(what, WRENCH_NAMES + POINT_NAMES, numbers)
     duration_ns = ns_from_stamp(msg.duration.sec, msg.duration.nanosec)
     if duration_ns < 0:
-        raise InputError(f"{what}: negative duration {duration_ns * 1e-9:g} s; "
+        raise InputError(f"{what}: negative duration {seconds_text(duration_ns)} s; "
                          "the message is ignored")
     command = WrenchCommand(
         stamp_ns=_start_ns(msg.header.stamp, receive_ns),

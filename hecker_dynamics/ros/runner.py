@@ -28,6 +28,7 @@ from ..scene.load import (
     load_scene,
     scene_from_parameters,
 )
+from ..scene.parameters import seconds_text
 from ..scene.world import EditKind, WorldEdit
 from ..sensors.schedule import SensorSet
 from ..sensors.touch import Touches
@@ -176,14 +177,14 @@ def plan_tick(now_ns: int, last_now_ns: int | None,
     if now_ns == 0:
         return TickAction.WAIT, "the ROS clock is not running yet (waiting for /clock)"
     if last_now_ns is None:
-        return TickAction.START, f"starting the simulation at {now_ns * 1e-9:.9f} s"
+        return TickAction.START, f"starting the simulation at {seconds_text(now_ns)} s"
     delta_ns = now_ns - last_now_ns
     if delta_ns < -jump_ns:
-        return TickAction.RESTART, (f"the ROS clock jumped back by {-delta_ns * 1e-9:.3f} s; "
-                                    f"restarting the scene at {now_ns * 1e-9:.9f} s")
+        return TickAction.RESTART, (f"the ROS clock jumped back by {seconds_text(-delta_ns)} s; "
+                                    f"restarting the scene at {seconds_text(now_ns)} s")
     if delta_ns > jump_ns:
-        return TickAction.RESTART, (f"the ROS clock jumped ahead by {delta_ns * 1e-9:.3f} s; "
-                                    f"restarting the scene at {now_ns * 1e-9:.9f} s")
+        return TickAction.RESTART, (f"the ROS clock jumped ahead by {seconds_text(delta_ns)} s; "
+                                    f"restarting the scene at {seconds_text(now_ns)} s")
     return TickAction.ADVANCE, ""
 
 

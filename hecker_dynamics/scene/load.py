@@ -701,7 +701,7 @@ def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, 
         speed = acceleration * (step_ns * 1e-9)
         if not math.isfinite(body.mass.energy_of_motion(speed, 0.0)):
             reader.fail(key, f"would give body '{body.name}' ({body.mass.mass:.4g} kg), from "
-                             f"rest, in one step of {step_ns * 1e-9:g} s, a speed of "
+                             f"rest, in one step of {seconds_text(step_ns)} s, a speed of "
                              f"{speed:.3g} m/s: an energy of motion past what a double holds")
     return force
 

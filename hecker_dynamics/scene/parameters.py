@@ -49,10 +49,13 @@ def number_text(value: float) -> str:
 
 
 def seconds_text(ns: int) -> str:
-    """``ns`` nanoseconds as seconds for a message: ``ns / 1e9`` is the double nearest the
-    exact quotient, so a step of 4166667 ns reads 0.004166667 (``ns * 1e-9`` rounds twice:
-    0.004166667000000001)."""
-    return number_text(ns / 1e9)
+    """``ns`` nanoseconds as seconds for a message, exactly, in whole numbers: a step of
+    4166667 ns reads 0.004166667 and a ROS time of 1700000000750000001 ns
+    1700000000.750000001, which reads back as the same nanoseconds (a double holds a ROS
+    time only to 256 ns: ``ns * 1e-9`` printed 1700000000.750000238)."""
+    whole, part = divmod(abs(int(ns)), 1_000_000_000)
+    fraction = f".{part:09d}".rstrip("0") if part else ""
+    return f"{'-' if ns < 0 else ''}{whole}{fraction}"
 
 
 #: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay

@@ -14,6 +14,7 @@ from types import ModuleType
 from ..bags.coverage import seconds
 from ..files import check_file, file_path, replacing
 from ..scene import Scene, load_scene
+from ..scene.parameters import seconds_text
 from .frames import Timeline, VizError
 from .progress import Progress
 
@@ -101,11 +102,11 @@ def _check_in_session(timeline: Timeline, start_ns: int, duration_ns: int) -> No
     poses held, labelled with times the bag never reached."""
     first, last = timeline.start_ns * 1e-9, timeline.end_ns * 1e-9
     if not timeline.start_ns <= start_ns < timeline.end_ns:
-        raise VizError(f"--start {start_ns * 1e-9:g} s: outside the bag's session, "
+        raise VizError(f"--start {seconds_text(start_ns)} s: outside the bag's session, "
                        f"{first:g} s to {last:g} s")
     if start_ns + duration_ns > timeline.end_ns:
-        raise VizError(f"--duration {duration_ns * 1e-9:g} s: from --start "
-                       f"{start_ns * 1e-9:g} s it ends after the bag's session, at {last:g} s")
+        raise VizError(f"--duration {seconds_text(duration_ns)} s: from --start "
+                       f"{seconds_text(start_ns)} s it ends after the bag's session, at {last:g} s")
 
 
 def plot_command(args: argparse.Namespace) -> int:

@@ -29,6 +29,7 @@ from ..ros.cmd_vel import CmdVelTopic
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
 from ..ros.joint_states import MotorTopic
 from ..scene import InputError, Scene, WrenchCommand
+from ..scene.parameters import seconds_text
 from ..scene.sensors import LaserSpec
 from ..sensors.laser import Laser
 
@@ -202,8 +203,8 @@ def run_timeline(scene: Scene, end_ns: int) -> Timeline:
              for snapshot in snapshots]
     if not stamps:
         raise VizError(f"--duration: the run of {scene.source} publishes no pose before "
-                       f"{end_ns * 1e-9:g} s (publish period "
-                       f"{scene.publish_period_ns * 1e-9:g} s)")
+                       f"{seconds_text(end_ns)} s (publish period "
+                       f"{seconds_text(scene.publish_period_ns)} s)")
     return Timeline(scene, sim.start_ns, end_ns, stamps, poses, commands)
 
 
@@ -256,7 +257,7 @@ def bag_timeline(scene: Scene, path: str) -> Timeline:
             if not all(map(math.isfinite, pose)):
                 bad = ", ".join(f"{k} {v}" for k, v in zip(("x", "y", "angle"), pose)
                                 if not math.isfinite(v))
-                raise VizError(f"--bag {path}: {topic} at {message.log_ns * 1e-9:g} s: the "
+                raise VizError(f"--bag {path}: {topic} at {seconds_text(message.log_ns)} s: the "
                                f"pose is not finite ({bad})")
             by_stamp.setdefault(message.log_ns if stamp is None else stamp, {})[name] = pose
     stamps = sorted(s for s, found in by_stamp.items() if len(found) == len(names))

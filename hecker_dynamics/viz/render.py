@@ -21,6 +21,7 @@ import numpy as np
 
 from ..files import replacing
 from ..scene import Scene
+from ..scene.parameters import seconds_text
 from .draw import BACKGROUND, DRAWING_COLORS, Drawing, Trail, View, fit_view
 from .frames import NS_PER_S, Frame, Timeline, VizError, frame_times
 
@@ -71,7 +72,7 @@ def span_times(start_ns: int, duration_ns: int, fps: float,
     :class:`VizError` when there are none or more than :data:`MAX_FRAMES`, quoting the
     duration as ``given`` on the command line if it was (1e-10 s is 0 ns)."""
     count = round(duration_ns * fps / NS_PER_S)
-    seconds = f"{duration_ns * 1e-9:g}" if given is None else given
+    seconds = f"{seconds_text(duration_ns)}" if given is None else given
     if count > MAX_FRAMES:
         raise VizError(f"--duration {seconds} s at --fps {fps:g} is {count:.3g} "
                        f"frames, over the {MAX_FRAMES} a picture may have")
@@ -87,7 +88,7 @@ def check_run(scene: Scene, end_ns: int) -> None:
     instants = end_ns // scene.publish_period_ns
     if instants > MAX_RUN_POSES:
         raise VizError(f"--start and --duration: a run of {scene.source} to "
-                       f"{end_ns * 1e-9:g} s publishes {instants:.3g} poses, over the "
+                       f"{seconds_text(end_ns)} s publishes {instants:.3g} poses, over the "
                        f"{MAX_RUN_POSES} a picture keeps; draw an earlier span, or a bag")
 
 

@@ -19,6 +19,7 @@ import dataclasses
 import functools
 import numbers
 import os
+import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import Any, Optional, ParamSpec, TypeVar, Union
 
@@ -67,23 +68,35 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 
+def _locked(method: Callable[P, R]) -> Callable[P, R]:
+    """A method of :class:`World` that holds the world's lock while it runs, so that calls
+    from several threads take turns, each whole (a force applied from one thread while
+    another steps acts from the step instant it is taken at, all of it)."""
+    @functools.wraps(method)
+    def call(*args: P.args, **kwargs: P.kwargs) -> R:
+        with args[0]._lock:  # type: ignore[attr-defined]
+            return method(*args, **kwargs)
+    return call
+
+
 def _adding(method: Callable[P, R]) -> Callable[P, R]:
     """An ``add_*`` method of :class:`World` that leaves nothing behind when it refuses."""
     @functools.wraps(method)
     def add(*args: P.args, **kwargs: P.kwargs) -> R:
         world = args[0]
         assert isinstance(world, World)
-        try:
-            result = method(*args, **kwargs)
-            world._read_added()
-            return result
-        except BaseException:
-            if world._added is not None and world._params is not None:
-                section, key = world._added
-                del world._params[section][key]
-            raise
-        finally:
-            world._added = None
+        with world._lock:
+            try:
+                result = method(*args, **kwargs)
+                world._read_added()
+                return result
+            except BaseException:
+                if world._added is not None and world._params is not None:
+                    section, key = world._added
+                    del world._params[section][key]
+                raise
+            finally:
+                world._added = None
     return add
 
 
@@ -147,6 +160,7 @@ class World:
         self._setup(params, None)
 
     def _setup(self, params: Optional[dict[str, Any]], scene: Optional[Scene]) -> None:
+        self._lock = threading.RLock()
         self._params = params  # None: a world read from a scene file, whose shape is fixed
         self._scene = scene
         self._sim: Optional[Simulation] = None
@@ -191,6 +205,18 @@ class World:
         start, as :meth:`Simulation.play`'s do."""
         return [(start_ns + c.stamp_ns, i, dataclasses.replace(c, stamp_ns=start_ns + c.stamp_ns))
                 for i, c in enumerate(self._script)]
+
+    @_locked
+    def __getstate__(self) -> dict[str, Any]:
+        """The world for :func:`copy.deepcopy` and :mod:`pickle`, but for its lock (a copy
+        gets one of its own)."""
+        state = dict(self.__dict__)
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.RLock()
 
     def __copy__(self) -> World:
         """A branch, as :func:`copy.deepcopy` makes it: a shallow copy would share the
@@ -506,6 +532,7 @@ class World:
         values.update(type="gear", joint_a=_name(joint_a, "joint_a"),
                       joint_b=_name(joint_b, "joint_b"), ratio=number(ratio, "ratio"))
 
+    @_locked
     def remove_body(self, body: BodyLike) -> None:
         """Remove ``body`` (a Body or its name), as the node's ``delete_body`` removes it:
         refused while a spring, joint, sensor, drive or scripted force names it; what acted
@@ -516,6 +543,7 @@ class World:
                             "its scene file, or build the world without them")
         self._forget(name)
 
+    @_locked
     def edit_bodies(self, *edits: WorldEdit) -> None:
         """Spawn and delete bodies as the node's ``spawn_body`` and ``delete_body`` services
         do, ``edits`` made in order (each a :class:`~hecker_dynamics.scene.world.WorldEdit`:
@@ -555,17 +583,25 @@ class World:
     @property
     def scene(self) -> Scene:
         """The :class:`Scene` this world is: the loader's reading of its parameters."""
-        if self._scene is None:
-            assert self._params is not None
-            self._scene = scene_from_parameters(flatten(self._params), SOURCE)
-        return self._scene
+        scene = self._scene
+        if scene is None:  # read under the lock, once: the methods use it unlocked
+            with self._lock:
+                if self._scene is None:
+                    assert self._params is not None
+                    self._scene = scene_from_parameters(flatten(self._params), SOURCE)
+                scene = self._scene
+        return scene
 
     @property
     def simulation(self) -> Simulation:
         """The :class:`Simulation` under this world (for the node's and bags' tools)."""
-        if self._sim is None:
-            self._sim = Simulation(self.scene, start_ns=self._start_ns)
-        return self._sim
+        sim = self._sim
+        if sim is None:  # made under the lock, once: the methods use it unlocked
+            with self._lock:
+                if self._sim is None:
+                    self._sim = Simulation(self.scene, start_ns=self._start_ns)
+                sim = self._sim
+        return sim
 
     def _index(self, name: str) -> int:
         index = self.simulation.model.index
@@ -576,6 +612,7 @@ class World:
     def _spec(self, name: str) -> BodySpec:
         return self.scene.bodies[self._index(name)]
 
+    @_locked
     def _body_state(self, name: str) -> BodyState:
         sim = self.simulation
         # Read again once the state moved on, also where a node stepped the simulation
@@ -585,39 +622,48 @@ class World:
             self._frames, self._frames_of = sim.snapshot().bodies, (sim.q, sim.v)
         return self._frames[self._index(name)]
 
+    @_locked
     def __getitem__(self, name: str) -> Body:
         """The body called ``name``."""
         return self._bodies[self._body_name(name, "name")]
 
+    @_locked
     def __contains__(self, name: object) -> bool:
         return name in self._bodies
 
+    @_locked
     def __iter__(self) -> Iterator[Body]:
         return iter(self.bodies)
 
+    @_locked
     def __len__(self) -> int:
         return len(self._bodies)
 
     @property
+    @_locked
     def bodies(self) -> tuple[Body, ...]:
         """The bodies in the scene's order: by name, as the loader reads them."""
         return tuple(self._bodies[name] for name in sorted(self._bodies))
 
     @property
+    @_locked
     def time(self) -> float:
         """Sim time (s)."""
         return self.simulation.time_ns * 1e-9
 
     @property
+    @_locked
     def time_step(self) -> float:
         """The fixed step (s), a whole number of nanoseconds."""
         return self.simulation.step_ns * 1e-9
 
     @property
+    @_locked
     def energy(self) -> float:
         """Kinetic energy plus the potential energy of gravity and springs (J)."""
         return self.simulation.snapshot().energy
 
+    @_locked
     def joint_state(self, name: str) -> tuple[float, float, float]:
         """(position, velocity, effort) of a revolute or prismatic joint (rad or m,
         per second, N m or N)."""
@@ -629,6 +675,7 @@ class World:
 
     # ----------------------------------------------------------------- stepping
 
+    @_locked
     def step(self, dt: Optional[float] = None) -> None:
         """Advance by ``dt`` seconds, a whole number of steps (default one step)."""
         steps = 1
@@ -642,6 +689,7 @@ class World:
                                  f"of {seconds_text(step_ns)} s")
         self._run_to(self.simulation.time_ns + steps * self.simulation.step_ns)
 
+    @_locked
     def advance(self, t: float) -> None:
         """Step to the step instant nearest ``t`` (s), which must not be behind the world."""
         sim = self.simulation
@@ -651,6 +699,7 @@ class World:
                              f"({seconds_text(sim.time_ns)} s)")
         self._run_to(sim.time_ns + steps * sim.step_ns)
 
+    @_locked
     def reset(self, start_ns: Optional[int] = None) -> None:
         """Back to the initial state of the world's scene (with the bodies spawned and
         removed so far), at sim time ``start_ns`` (whole nanoseconds; default the start it
@@ -676,6 +725,7 @@ class World:
 
     # ----------------------------------------------------------------- forces
 
+    @_locked
     def _apply(self, body: Body, force: VectorLike, point: Optional[PointLike], frame: str,
                duration: Optional[float], start: Optional[float], torque: float,
                name: Optional[str]) -> None:
@@ -728,6 +778,7 @@ class World:
         self._applied.setdefault(body.name, {})[source] = (
             stamp + duration_ns if duration_ns else None)
 
+    @_locked
     def push(self, command: WrenchCommand) -> None:
         """Queue ``command`` as the node queues its inputs (:meth:`Simulation.push`): stamped
         in sim-time nanoseconds, held for its ``duration_ns`` or until the scene's input
@@ -737,6 +788,7 @@ class World:
         self.simulation.push(command)
         self._started = True
 
+    @_locked
     def _clear(self, name: str) -> None:
         """Replace what acts on body ``name`` by a zero force for one step (the input
         buffer's way to end a held command) and drop what is scheduled for it."""
@@ -747,6 +799,7 @@ class World:
                 sim.push(WrenchCommand(sim.time_ns, name, source, sim.scene.frame_id,
                                        (0.0, 0.0), (0.0, 0.0), 0.0, sim.step_ns))
 
+    @_locked
     def _move(self, name: str, *, position: Optional[tuple[float, float]] = None,
               angle: Optional[float] = None, velocity: Optional[tuple[float, float]] = None,
               angular_velocity: Optional[float] = None) -> None:
@@ -758,6 +811,7 @@ class World:
             now.angular_velocity if angular_velocity is None
             else number(angular_velocity, "angular_velocity"))
 
+    @_locked
     def set_body_state(self, name: str, position: tuple[float, float], angle: float,
                        velocity: tuple[float, float], angular_velocity: float) -> None:
         """Move body ``name`` now, as the node's ``set_body_state`` service does
@@ -770,6 +824,7 @@ class World:
 
     # ----------------------------------------------------------------- state
 
+    @_locked
     def state(self) -> dict[str, Any]:
         """Everything the world's future depends on, as plain data (JSON-able; floats
         exact): :meth:`Simulation.export_state` and the forces scheduled and applied."""
@@ -779,6 +834,7 @@ class World:
                              for stamp, order, command in self._schedule],
                 "applied": copy.deepcopy(self._applied), "count": self._count}
 
+    @_locked
     def set_state(self, state: Mapping[str, Any]) -> None:
         """Go on from :meth:`state`'s data, of this world or one of the same scene: the
         steps that follow are bit for bit those that followed the state taken."""

@@ -153,7 +153,7 @@ PyDoc_STRVAR(contacts_doc,
 "contacts(inverse_mass, inverse_inertia, reach, part_ints, part_reals, walls, wall_first,\n"
 "         wall_body, colliding, classes, class_groups, materials, apart, threshold,\n"
 "         thickness, static_ints, static_reals, static_bounds, static_material,\n"
-"         static_bodies, swept, slop, converged) -> Contacts\n\n"
+"         static_bodies, swept, slop, converged, lead) -> Contacts\n\n"
 "A scene's contact pass (contact.h): per body its inverse mass and inertia and reach;\n"
 "per part (body, kind, vertex count) sorted by body, with its values in body axes; per\n"
 "wall (nx, ny, offset, restitution, friction) and its bodies; the colliding bodies; per\n"
@@ -163,7 +163,9 @@ PyDoc_STRVAR(contacts_doc,
 "bounds (x0, x1, y0, y1), the boxes' (restitution, friction) and the bodies that collide\n"
 "with them; the bodies whose travel sets the sub-steps; per body its slop; the velocity\n"
 "passes' tolerance (contacts.converged, positive: they stop once no impulse changes a\n"
-"velocity by more than it relative to the island's fastest body, contact/solve.py).");
+"velocity by more than it relative to the island's fastest body, contact/solve.py); the\n"
+"bounce's share of the step's change of the normal velocity (contact/solver.py:\n"
+"ContactPass.follow, finite).");
 
 static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs)
 {
@@ -171,17 +173,22 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
                             "part_reals", "walls", "wall_first", "wall_body", "colliding",
                             "classes", "class_groups", "materials", "apart", "threshold",
                             "thickness", "static_ints", "static_reals", "static_bounds",
-                            "static_material", "static_bodies", "swept", "slop", "converged", NULL};
+                            "static_material", "static_bodies", "swept", "slop", "converged", "lead",
+                            NULL};
     PyObject *o[20];
-    double threshold, thickness, converged;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOOOd:contacts", names, o,
-                                     o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8,
+    double threshold, thickness, converged, lead;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOOOOOOOOOOddOOOOOOOdd:contacts", names,
+                                     o, o + 1, o + 2, o + 3, o + 4, o + 5, o + 6, o + 7, o + 8,
                                      o + 9, o + 10, o + 11, o + 12, &threshold, &thickness,
                                      o + 13, o + 14, o + 15, o + 16, o + 17, o + 18, o + 19,
-                                     &converged))
+                                     &converged, &lead))
         return NULL;
     if (!(converged > 0.0 && isfinite(converged))) {
         PyErr_SetString(PyExc_ValueError, "contacts: converged must be positive and finite");
+        return NULL;
+    }
+    if (!isfinite(lead)) {
+        PyErr_SetString(PyExc_ValueError, "contacts: lead must be finite");
         return NULL;
     }
     hd_contact_model *m = calloc(1, sizeof(hd_contact_model));
@@ -194,6 +201,7 @@ static PyObject *hd_py_contacts(PyObject *self, PyObject *args, PyObject *kwargs
     m->threshold = threshold;
     m->thickness = thickness;
     m->converged = converged;
+    m->lead = lead;
     if ((m->inverse_mass = hd_read_array(o[0], "inverse_mass", 'd', -1, &bodies)) == NULL ||
         (m->inverse_inertia = hd_read_array(o[1], "inverse_inertia", 'd', bodies, NULL)) == NULL ||
         (m->reach = hd_read_array(o[2], "reach", 'd', bodies, NULL)) == NULL ||

@@ -125,6 +125,7 @@ typedef struct hd_contact_model {
     long apart_count;
     long *apart;
     double threshold;  /* restitution threshold (m/s) */
+    double lead;       /* the bounce's share of the step's change (contact/solver.py: follow) */
     double converged;  /* the passes' tolerance (contacts.converged; HD_CONVERGED by default) */
     double thickness;  /* of the thinnest colliding part */
     /* The map's boxes (contact/detect.py: Detection._static_contacts): static_count convex

@@ -48,7 +48,9 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
     r->approach = hd_normal_velocity(reference + 3 * a, reference + 3 * b, r);
     double target = hd_min(r->approach + c->depth / h, 0.0);
     if (c->depth > 0.0 && r->approach < -m->threshold) {
-        const double impact = hd_normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
+        double impact = hd_normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
+        if (m->lead != 0.0)
+            impact -= m->lead * (r->approach - impact);
         target = hd_max(target, -c->e * hd_min(impact, 0.0));
     }
     r->target = target;

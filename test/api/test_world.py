@@ -7,6 +7,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
+import threading
 
 import numpy as np
 import pytest
@@ -711,3 +713,62 @@ def test_a_scene_s_script_starts_with_the_world_and_again_at_a_reset() -> None:
         later.reset(start_ns=True)
     later.reset(start_ns=np.int64(5))  # a numpy integer is a whole number too
     assert later.simulation.time_ns == 5 and type(later.simulation.start_ns) is int
+
+
+@pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])
+def test_forces_applied_from_another_thread_act_whole_at_the_instant_taken(python):
+    """A controller thread applies 1000 named forces of 2 ms (two steps) to a puck while
+    the main thread steps the world one step at a time. Each call holds the world's lock,
+    so each force is taken at a step instant and acts over its two steps, all of it (before
+    the lock, a force taken while a step ran acted over one step or none, or was refused
+    as already over: "stamped 0.512 s ago"). The run equals, bit for bit, one thread
+    applying the same forces at the instants they were taken (read back from when each
+    ends)."""
+    def puck_world():
+        world = hd.World(step=0.001, integrator="semi_implicit_euler")
+        world.add_body("puck", hd.Circle(0.1), mass=1.0)
+        if python:
+            world.simulation.model.use_python()
+        return world
+
+    world, count = puck_world(), 1000
+    puck = world["puck"]
+    done = threading.Event()
+    refused: list[BaseException] = []
+
+    def controller():
+        try:
+            for i in range(count):
+                puck.apply_force((1.0, 0.5), duration=0.002, name=f"f{i}")
+        except BaseException as error:  # raised in the main thread below
+            refused.append(error)
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=controller)
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # the threads take turns between every few bytecodes
+    try:
+        thread.start()
+        while not done.is_set():
+            world.step()
+        thread.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert not refused, refused
+    world.step(0.002)
+    ends = world._applied["puck"]
+    assert sorted(ends) == sorted(f"f{i}" for i in range(count))
+    taken = sorted((ends[f"f{i}"] - 2_000_000, i) for i in range(count))
+    assert taken == sorted(taken, key=lambda entry: entry[1])  # in the order applied
+    assert world["puck"].velocity == pytest.approx((0.002 * count, 0.001 * count), rel=1e-12)
+
+    again = puck_world()
+    for stamp, i in taken:
+        again.advance((stamp - again.simulation.start_ns) * 1e-9)
+        assert again.simulation.time_ns == stamp
+        again["puck"].apply_force((1.0, 0.5), duration=0.002, name=f"f{i}")
+    again.advance(world.time)
+    assert again.simulation.time_ns == world.simulation.time_ns
+    assert np.array_equal(again.simulation.q, world.simulation.q)
+    assert np.array_equal(again.simulation.v, world.simulation.v)

@@ -188,6 +188,21 @@ def test_bag_session_times_past_a_stamp_are_refused_naming_the_bag(
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("value, words", [
+    ("-1700000000750000001", "start -1700000000.750000001 s is before 0"),
+    ("3000000000750000001", "start 3000000000.750000001 s is after 2147483647 s"),
+])
+def test_refused_session_times_are_named_to_the_nanosecond(tmp_path, capsys, value, words):
+    """The refusal names the recorded start exactly, as --start reads it back (through a
+    double, 3000000000.750000001 s printed as 3.0e9 or 3000000000.750000000)."""
+    bag = tmp_path / "in"
+    shutil.copytree(GOLDEN / "sample" / "input", bag)
+    _set_metadata(bag, lambda info: info["custom_data"].__setitem__(
+        "hecker_dynamics.start_ns", value))
+    err = _one_line_error(capsys, "replay", "sample", str(bag), "-o", str(tmp_path / "o"))
+    assert words in err
+
+
 @pytest.mark.parametrize("duration_ns", ["999999", "0"])
 def test_a_recorded_session_shorter_than_one_step_is_refused(tmp_path, capsys, duration_ns):
     """A bag whose custom data records a session shorter than one step (1 ms) would replay
@@ -475,7 +490,7 @@ def test_a_pose_that_is_not_finite_in_both_bags_is_never_a_match(tmp_path, capsy
     code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
                         "--atol", atol)
     assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
-    assert "at 1.000000 s: a position, angle or velocity that is not finite (NaN or " \
+    assert "at 1 s: a position, angle or velocity that is not finite (NaN or " \
            "infinite) in both bags" in out
 
 
@@ -502,7 +517,7 @@ def test_a_joint_state_or_impulse_not_finite_in_both_bags_is_never_a_match(
     code, out, _ = _cli(capsys, "compare", str(tmp_path / "a"), str(tmp_path / "b"),
                         "--atol", atol)
     assert code == 1 and out.splitlines()[-1] == "MISMATCH", out
-    assert "at 1.000000 s: a number that is not finite (NaN or infinite) in both bags" in out
+    assert "at 1 s: a number that is not finite (NaN or infinite) in both bags" in out
 
 
 def test_atol_zero_is_bit_identical(tmp_path, capsys):
@@ -632,7 +647,7 @@ def test_a_pose_logged_out_of_order_is_blamed_on_its_topic(tmp_path, capsys):
     assert code == 1
     verdict = out.splitlines()[-1]
     assert verdict.endswith("mismatch: /left/pose: 1 logged after a later stamp (out of "
-                            "order), first stamped 0.120000 s"), verdict
+                            "order), first stamped 0.12 s"), verdict
 
 
 def _two_connection_bag(recording: Path, path: Path, storage: str, msgtype: str,
@@ -720,7 +735,7 @@ def test_a_twist_and_a_pose_lost_at_other_instants_leave_the_rest_in_place(tmp_p
                         "/left/twist", "--atol", "0")
     assert code == 1
     assert "/left/twist (geometry_msgs/msg/Twist): 499 matched of 500 expected / 499 " \
-        "actual\n     missing 1: first at 0.420000 s\nlargest overall: position 0, angle 0, " \
+        "actual\n     missing 1: first at 0.42 s\nlargest overall: position 0, angle 0, " \
         "velocity 0, angular_velocity 0\nMISMATCH" in out, out
 
 

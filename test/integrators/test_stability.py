@@ -243,7 +243,7 @@ def test_a_slow_explicit_euler_drift_is_refused_when_it_passes_the_growth_factor
                        publish_rate=50.0)
     sim = Simulation(scene)
     start = sim.snapshot().energy
-    with pytest.raises(DivergenceError, match="by t = 0.700000 s"):
+    with pytest.raises(DivergenceError, match="by t = 0.7 s"):
         sim.advance_to(1_000_000_000)
     assert sim.steps == 680
     assert sim.snapshot().energy == pytest.approx(start * 1.01 ** 680, rel=1e-9)

@@ -356,10 +356,24 @@ def test_plan_tick():
     # A small step back (less than a jump) waits for the clock to pass the sim again.
     assert plan_tick(5 * S - 1000, 5 * S)[0] is TickAction.ADVANCE
     action, reason = plan_tick(2 * S, 5 * S)
-    assert action is TickAction.RESTART and "back by 3.000 s" in reason
+    assert action is TickAction.RESTART and "back by 3 s" in reason
     action, reason = plan_tick(9 * S, 5 * S)
-    assert action is TickAction.RESTART and "ahead by 4.000 s" in reason
+    assert action is TickAction.RESTART and "ahead by 4 s" in reason
     assert plan_tick(6 * S, 5 * S)[0] is TickAction.ADVANCE  # exactly the threshold
+
+
+def test_plan_tick_names_ros_times_to_the_nanosecond():
+    """A ROS time of 1.7e9 s is held by a double only to 256 ns: the log names the exact
+    time (a user copies it into --start), 1700000000.750000001 s, not
+    1700000000.750000238."""
+    now = 1_700_000_000_750_000_001
+    assert plan_tick(now, None)[1] == "starting the simulation at 1700000000.750000001 s"
+    action, reason = plan_tick(now, now + 2 * S + 250_000_000)
+    assert action is TickAction.RESTART
+    assert reason == ("the ROS clock jumped back by 2.25 s; restarting the scene at "
+                      "1700000000.750000001 s")
+    assert plan_tick(now, now - 3 * S - 1)[1].startswith("the ROS clock jumped ahead by "
+                                                         "3.000000001 s;")
 
 
 def test_lag_counts_only_whole_steps():
@@ -567,7 +581,8 @@ def test_runner_refuses_input_before_the_start_and_counts_bad_input():
     assert (runner.accepted, runner.rejected) == (2, 5)
 
 
-@pytest.mark.parametrize("duration, seconds", [((0, 1), "1e-09"), ((0, 999_999), "0.000999999")])
+@pytest.mark.parametrize("duration, seconds", [((0, 1), "0.000000001"),
+                                               ((0, 999_999), "0.000999999")])
 def test_runner_refuses_a_wrench_shorter_than_one_step(duration, seconds):
     """A force acts over whole steps: 1 ns gave the impulse of a whole 1 ms step, a
     million times the one asked for; a wrench of one step or more is taken."""

@@ -32,6 +32,7 @@ from hecker_dynamics.scene.load import (
     scene_path,
     shipped_scenes,
 )
+from hecker_dynamics.scene.parameters import seconds_text
 
 SAMPLE = Path(__file__).resolve().parents[2] / "config" / "sample.yaml"
 
@@ -51,6 +52,19 @@ def _without_source(scene):
 
 
 # ------------------------------------------------------------------ loading
+
+@pytest.mark.parametrize("ns, text", [
+    (1_700_000_000_750_000_001, "1700000000.750000001"), (1_700_000_000_750_000_000,
+                                                         "1700000000.75"),
+    (4_166_667, "0.004166667"), (1_000_000_000, "1"), (0, "0"), (1, "0.000000001"),
+    (-1_500_000_000, "-1.5"), (9_223_372_036_854_775_807, "9223372036.854775807"),
+])
+def test_seconds_are_written_exactly_from_nanoseconds(ns, text):
+    """Times in messages are the exact decimal of their nanoseconds, which --start reads
+    back as the same ns; through a double (ns * 1e-9) 1700000000750000001 ns printed
+    1700000000.750000238 with :.9f and 1.7e+09 with :g."""
+    assert seconds_text(ns) == text
+
 
 def test_sample_scene_loads_with_the_declared_contents():
     scene = load_scene("sample")
