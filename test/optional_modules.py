@@ -1,11 +1,12 @@
 """The skip of the tests whose optional modules are missing (installed by test/conftest.py).
 
-Where rosbags is not installed (a ROS machine need not have it: the node does not use it),
-every test that imports it, at collection or while it runs, directly or through the
-package's bag tools (the command line among them), skips with that reason instead of
-failing: :class:`SkipWithoutModule` stands first among the import finders and turns the
-import into pytest's skip. ``HECKER_TEST_HIDE=rosbags`` hides an installed one the same
-way, to see on any machine what runs where it is missing."""
+Where rosbags, matplotlib or Pillow is not installed (a ROS machine need not have them: the
+node uses none of them), every test that imports one, at collection or while it runs,
+directly or through the package's tools (the bag tools, the pictures, the command line that
+imports them), skips with that reason instead of failing: :class:`SkipWithoutModule`
+stands first among the import finders and turns the import into pytest's skip.
+``HECKER_TEST_HIDE=rosbags`` (or ``matplotlib,PIL``) hides an installed one the same way,
+to see on any machine what runs where it is missing."""
 from __future__ import annotations
 
 import importlib.abc
@@ -23,6 +24,8 @@ import pytest
 OPTIONAL_MODULES = {
     "rosbags": "rosbags is not installed (pip install rosbags): the bag tools, and the "
                "command line that imports them, need it",
+    "matplotlib": "matplotlib is not installed (the viz extra): pictures need it",
+    "PIL": "Pillow is not installed (the viz extra): pictures need it",
 }
 
 

@@ -3,6 +3,7 @@ reason, at collection or while they run, and the others run: none errors
 (test/optional_modules.py). Checked in a child pytest with rosbags hidden (HECKER_TEST_HIDE)."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -28,8 +29,11 @@ def test_an_import_of_a_missing_module_skips_the_importing_test():
 def test_without_rosbags_its_tests_skip_with_the_reason_and_the_rest_run():
     files = ["test/bags/test_bags.py", "test/batch/test_batch_table.py", "test/test_cli.py",
              "test/fuzz/test_fuzz_scenes.py", "test/ros/test_mapping.py"]
-    env = {"HECKER_TEST_HIDE": "rosbags", "PATH": "/usr/bin:/bin"}
-    done = subprocess.run([sys.executable, "-I", "-m", "pytest", "-q", "-rs", "-p",
+    # The package as this run imports it: where it is installed, which colcon puts on
+    # PYTHONPATH (so not -I, which drops it); -P keeps the source tree off the path.
+    env = {"HECKER_TEST_HIDE": "rosbags", "PATH": "/usr/bin:/bin",
+           "PYTHONPATH": os.environ.get("PYTHONPATH", "")}
+    done = subprocess.run([sys.executable, "-s", "-P", "-m", "pytest", "-q", "-rs", "-p",
                            "no:cacheprovider", "-p", "no:xdist", *files], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=600)
     summary = done.stdout.strip().splitlines()[-1]

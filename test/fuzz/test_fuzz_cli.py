@@ -332,11 +332,21 @@ def test_fuzz_sweep(request, tmp_path):
 
 
 def test_fuzz_render(request, tmp_path):
+    _needs_pictures()
     _fuzz(request, tmp_path, _render_case)
 
 
 def test_fuzz_plot(request, tmp_path):
+    _needs_pictures()
     _fuzz(request, tmp_path, _plot_case)
+
+
+def _needs_pictures() -> None:
+    """Skip where the cases' commands, run in Pythons of their own, cannot draw (a ROS
+    machine need not have the viz extra); the import skips with the reason
+    (test/optional_modules.py)."""
+    import matplotlib  # noqa: F401
+    import PIL  # noqa: F401
 
 
 def test_fuzz_regress(request, tmp_path):

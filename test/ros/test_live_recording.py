@@ -57,6 +57,11 @@ def _start(command: list[str], env: dict[str, str]) -> subprocess.Popen:
     return subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True, start_new_session=True)
 
+#: How long a `ros2` command line may take, and a process to stop, on a machine whose two
+#: cores run other work too (a tick's worth of Python start-up there takes seconds).
+CALL_TIMEOUT = 120
+STOP_TIMEOUT = 60
+
 
 def _stop(process: subprocess.Popen) -> str:
     """Ctrl-C: SIGINT to the whole group. ``ros2 run`` does not pass a signal on to the
@@ -64,7 +69,9 @@ def _stop(process: subprocess.Popen) -> str:
     its process alone leaves the node running."""
     os.killpg(process.pid, signal.SIGINT)
     try:
-        output, _ = process.communicate(timeout=20)
+        # A recorder writes its bag's metadata as it stops: on a loaded machine, in tens
+        # of seconds.
+        output, _ = process.communicate(timeout=STOP_TIMEOUT)
     except subprocess.TimeoutExpired:
         os.killpg(process.pid, signal.SIGKILL)
         output, _ = process.communicate()
@@ -112,14 +119,14 @@ def test_a_recorded_session_of_the_real_node_replays_bit_for_bit(tmp_path, ros_e
         # -w 2: the node's and the recorder's subscriptions, so the recorder logs each kick
         subprocess.run(["ros2", "topic", "pub", "-w", "2", "--once", "/applied_wrench",
                         "hecker_dynamics/msg/AppliedWrench", kick], env=ros_env, check=True,
-                       timeout=30, capture_output=True)
+                       timeout=CALL_TIMEOUT, capture_output=True)
         time.sleep(1.0)
         calls = {True: SERVICES, "bodies": BODY_SERVICES}.get(services, [])
         if services == "bodies" and kick == KICKS[-1]:  # the ball goes again, by the end
             calls = [["/delete_body", "hecker_dynamics/srv/DeleteBody", "{name: ball}"]]
         for name, srv, request in calls:
             subprocess.run(["ros2", "service", "call", name, srv, request], env=ros_env,
-                           check=True, timeout=30, capture_output=True)
+                           check=True, timeout=CALL_TIMEOUT, capture_output=True)
     node_output = _stop(node)
     for process in processes:
         _stop(process)

@@ -20,7 +20,7 @@ from hecker_dynamics.scene.parameters import SceneError
 from hecker_dynamics.sensors.imu import Imu
 
 
-def setup(body: dict, forces: dict | None = None, step: float = 1e-4,
+def imu_on(body: dict, forces: dict | None = None, step: float = 1e-4,
           **imu) -> tuple[Imu, Simulation]:
     scene = make_scene({"step": step, "integrator": "rk4", "bodies": {"robot": body},
                         "forces": forces or {},
@@ -37,7 +37,7 @@ def read(imu: Imu, sim: Simulation):
 def test_a_freely_spinning_body_reads_omega_squared_r_towards_its_centre():
     omega, r = 3.0, 0.4
     # The CM is the circle's centre (0.1, 0); the sensor sits r beyond it on the x axis.
-    imu, sim = setup({"shape": "circle", "radius": 0.5, "center": [0.1, 0.0], "mass": 2.0,
+    imu, sim = imu_on({"shape": "circle", "radius": 0.5, "center": [0.1, 0.0], "mass": 2.0,
                       "angular_velocity": omega}, position=[0.1 + r, 0.0])
     for _ in range(1234):
         sim.step()
@@ -52,11 +52,11 @@ def test_a_freely_spinning_body_reads_omega_squared_r_towards_its_centre():
 def test_specific_force_is_the_push_over_the_mass_and_zero_in_free_fall():
     mass, push = 2.0, (3.0, -1.0)
     body = {"shape": "box", "size": [0.4, 0.2], "mass": mass}
-    falling, sim = setup(body, {"g": {"type": "gravity"}}, angle=0.5)
+    falling, sim = imu_on(body, {"g": {"type": "gravity"}}, angle=0.5)
     for _ in range(100):
         sim.step()
     assert read(falling, sim).linear_acceleration == (0.0, 0.0)
-    pushed, sim = setup(body, {"g": {"type": "gravity"},
+    pushed, sim = imu_on(body, {"g": {"type": "gravity"},
                                "push": {"type": "constant_force", "body": "robot",
                                         "force": list(push)}}, angle=0.5)
     for _ in range(100):
@@ -72,7 +72,7 @@ def test_a_body_held_up_by_a_force_reads_minus_g_and_one_resting_on_a_wall_zero(
     at rest by a force reads -g (9.81 m/s^2 up) but one resting on the floor zero, as in
     free fall (the run loop's samples read the floor too: test_imu_step.py)."""
     body = {"shape": "box", "size": [0.4, 0.2], "mass": 2.0, "position": [0.0, 0.1]}
-    held, sim = setup(body, {"g": {"type": "gravity"},
+    held, sim = imu_on(body, {"g": {"type": "gravity"},
                              "hold": {"type": "constant_force", "body": "robot",
                                       "force": [0.0, 2.0 * 9.81]}})
     for _ in range(100):
@@ -97,7 +97,7 @@ def mount_error(step: float) -> np.ndarray:
     t = 0.3 s. A force at a corner turns the body: both the tangential and the centripetal
     terms count."""
     mount = (0.3, -0.2)
-    imu, sim = setup({"shape": "box", "size": [1.0, 0.5], "mass": 1.5, "angular_velocity": 2.0},
+    imu, sim = imu_on({"shape": "box", "size": [1.0, 0.5], "mass": 1.5, "angular_velocity": 2.0},
                      {"g": {"type": "gravity"},
                       "push": {"type": "constant_force", "body": "robot", "force": [0.0, 4.0],
                                "axes": "body", "point": [0.5, 0.25]}},
@@ -131,7 +131,7 @@ def test_acceleration_at_the_mount_is_the_derivative_of_its_point_velocity():
 
 
 def test_noise_is_seeded_by_stamp():
-    imu, sim = setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, orientation_noise=0.01,
+    imu, sim = imu_on({"shape": "circle", "radius": 0.5, "mass": 1.0}, orientation_noise=0.01,
                      angular_velocity_noise=0.02, linear_acceleration_noise=0.1, seed=4)
     a = imu.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))
     readings = [imu.read(sim.q, sim.v, a, stamp) for stamp in range(2000)]
@@ -150,11 +150,11 @@ def test_each_value_adds_its_deviation_times_its_own_draw(deviations):
     body = {"shape": "box", "size": [0.4, 0.2], "mass": 3.0, "velocity": [0.3, -0.2],
             "angular_velocity": 1.7}
     forces = {"g": {"type": "gravity"}}
-    noisy, sim = setup(body, forces, position=[0.15, 0.05], angle=0.4, seed=9,
+    noisy, sim = imu_on(body, forces, position=[0.15, 0.05], angle=0.4, seed=9,
                        orientation_noise=deviations[0], angular_velocity_noise=deviations[1],
                        linear_acceleration_noise=deviations[2])
     noisy.deviations = deviations  # x and y apart, so that a swap of the two shows
-    clean, _ = setup(body, forces, position=[0.15, 0.05], angle=0.4)
+    clean, _ = imu_on(body, forces, position=[0.15, 0.05], angle=0.4)
     for _ in range(321):
         sim.step()
     a = clean.forced(sim.q, sim.v, sim.model.accelerations(sim.q, sim.v))  # noisy's too
@@ -172,7 +172,7 @@ def test_each_value_adds_its_deviation_times_its_own_draw(deviations):
 
 def test_a_bad_imu_rate_is_refused_by_name():
     with pytest.raises(SceneError, match="sensors.imu.rate"):
-        setup({"shape": "circle", "radius": 0.5, "mass": 1.0}, rate=3000.0)
+        imu_on({"shape": "circle", "radius": 0.5, "mass": 1.0}, rate=3000.0)
 
 
 @pytest.mark.parametrize("key", ["orientation_noise", "angular_velocity_noise",
@@ -183,7 +183,7 @@ def test_a_noise_whose_variance_is_no_double_is_refused_by_name(key):
     the largest one allowed gives finite covariances."""
     body = {"shape": "circle", "radius": 0.5, "mass": 1.0}
     with pytest.raises(SceneError, match=f"sensors.imu.{key}': must be at most 1.34"):
-        setup(body, **{key: 1e155})
-    imu, sim = setup(body, **{key: math.sqrt(sys.float_info.max)})
+        imu_on(body, **{key: 1e155})
+    imu, sim = imu_on(body, **{key: math.sqrt(sys.float_info.max)})
     fields = imu_fields(imu.spec, read(imu, sim))
     assert all(math.isfinite(v) for covariance in fields[2::2] for v in covariance)
