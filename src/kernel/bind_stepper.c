@@ -418,25 +418,38 @@ PyDoc_STRVAR(failed_state_doc,
 "``q`` and ``v``, C-contiguous float64 of 3 values per body: (x, y, angle) and (vx, vy,\n"
 "omega) of each CM.");
 
-static PyObject *hd_py_failed_state(PyObject *self, PyObject *args, PyObject *kwargs)
+/* failed_state and step_start: copy a state the stepper keeps, the failed one or the last
+ * step's start (`start`), into the caller's (q, v); `format` names the function. */
+static PyObject *hd_give_state(PyObject *args, PyObject *kwargs, const char *format, int start)
 {
     static char *names[] = {"stepper", "q", "v", NULL};
     PyObject *capsule, *qo, *vo;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO:failed_state", names, &capsule, &qo,
-                                     &vo))
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, format, names, &capsule, &qo, &vo))
         return NULL;
     hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, HD_STEPPER_CAPSULE);
     if (c == NULL)
         return NULL;
+    const double *q = start ? c->stepper.start_q : c->stepper.q_new,
+                 *v = start ? c->stepper.start_v : c->stepper.v_new;
+    if (q == NULL) {
+        PyErr_SetString(PyExc_ValueError, "step_start: the stepper keeps no starts "
+                                          "(keep_starts)");
+        return NULL;
+    }
     const Py_ssize_t n3 = 3 * c->stepper.program->bodies;
     Py_buffer qv, vv;
     if (hd_get_state(qo, vo, n3, &qv, &vv) < 0)
         return NULL;
-    memcpy(qv.buf, c->stepper.q_new, (size_t)n3 * sizeof(double));
-    memcpy(vv.buf, c->stepper.v_new, (size_t)n3 * sizeof(double));
+    memcpy(qv.buf, q, (size_t)n3 * sizeof(double));
+    memcpy(vv.buf, v, (size_t)n3 * sizeof(double));
     PyBuffer_Release(&qv);
     PyBuffer_Release(&vv);
     Py_RETURN_NONE;
+}
+
+static PyObject *hd_py_failed_state(PyObject *self, PyObject *args, PyObject *kwargs)
+{
+    return hd_give_state(args, kwargs, "OOO:failed_state", 0);
 }
 
 PyDoc_STRVAR(keep_starts_doc,
@@ -466,28 +479,7 @@ PyDoc_STRVAR(step_start_doc,
 
 static PyObject *hd_py_step_start(PyObject *self, PyObject *args, PyObject *kwargs)
 {
-    static char *names[] = {"stepper", "q", "v", NULL};
-    PyObject *capsule, *qo, *vo;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOO:step_start", names, &capsule, &qo,
-                                     &vo))
-        return NULL;
-    hd_stepper_capsule *c = PyCapsule_GetPointer(capsule, HD_STEPPER_CAPSULE);
-    if (c == NULL)
-        return NULL;
-    if (c->stepper.start_q == NULL) {
-        PyErr_SetString(PyExc_ValueError, "step_start: the stepper keeps no starts "
-                                          "(keep_starts)");
-        return NULL;
-    }
-    const Py_ssize_t n3 = 3 * c->stepper.program->bodies;
-    Py_buffer qv, vv;
-    if (hd_get_state(qo, vo, n3, &qv, &vv) < 0)
-        return NULL;
-    memcpy(qv.buf, c->stepper.start_q, (size_t)n3 * sizeof(double));
-    memcpy(vv.buf, c->stepper.start_v, (size_t)n3 * sizeof(double));
-    PyBuffer_Release(&qv);
-    PyBuffer_Release(&vv);
-    Py_RETURN_NONE;
+    return hd_give_state(args, kwargs, "OOO:step_start", 1);
 }
 
 PyMethodDef hd_bind_stepper[] = {
