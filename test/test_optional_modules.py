@@ -29,12 +29,14 @@ def test_an_import_of_a_missing_module_skips_the_importing_test():
 def test_without_rosbags_its_tests_skip_with_the_reason_and_the_rest_run():
     files = ["test/bags/test_bags.py", "test/batch/test_batch_table.py", "test/test_cli.py",
              "test/fuzz/test_fuzz_scenes.py", "test/ros/test_mapping.py"]
-    # The package as this run imports it: where it is installed, which colcon puts on
-    # PYTHONPATH (so not -I, which drops it); -P keeps the source tree off the path.
-    env = {"HECKER_TEST_HIDE": "rosbags", "PATH": "/usr/bin:/bin",
-           "PYTHONPATH": os.environ.get("PYTHONPATH", "")}
+    # The package as this run imports it, with this run's environment: where it is
+    # installed, which colcon puts on PYTHONPATH (so not -I, which drops it), and the
+    # shipped scenes, which a ROS machine finds through the ament index; -P keeps the
+    # source tree off the path. No plugins but pytest's own: a ROS machine's launch_testing
+    # plugin turns one module's skip into the whole run's.
+    env = dict(os.environ, HECKER_TEST_HIDE="rosbags", PYTEST_DISABLE_PLUGIN_AUTOLOAD="1")
     done = subprocess.run([sys.executable, "-s", "-P", "-m", "pytest", "-q", "-rs", "-p",
-                           "no:cacheprovider", "-p", "no:xdist", *files], cwd=ROOT, env=env,
+                           "no:cacheprovider", *files], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=600)
     summary = done.stdout.strip().splitlines()[-1]
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
