@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from ..scene.parameters import seconds_text
 from .io import INPUT_EVENT, KEYFRAME, SESSION_INFO, WORLD_EVENT
 
 __all__ = ["DISCOVERY_NS", "STOP_NS", "INPUT_LAG_NS", "LOST_RUN", "LOST_SHARE", "Stretch",
@@ -43,10 +44,9 @@ LOST_SHARE = 0.01
 
 
 def seconds(ns: int) -> str:
-    """A stamp or log time in seconds, to the nanosecond: in whole numbers, as a double
-    holds a ROS time (1.7e9 s) only to 256 ns and printed "1700000000.750000238"."""
-    whole, part = divmod(abs(int(ns)), 1_000_000_000)
-    return f"{'-' if ns < 0 else ''}{whole}.{part:09d}"
+    """A stamp or log time in seconds, to the nanosecond, with all nine places, as the
+    reports print it (:func:`~..scene.parameters.seconds_text`)."""
+    return seconds_text(ns, all_places=True)
 
 
 def span(first_ns: int, last_ns: int) -> str:

@@ -48,13 +48,17 @@ def number_text(value: float) -> str:
     return repr(value)
 
 
-def seconds_text(ns: int) -> str:
+def seconds_text(ns: int, all_places: bool = False) -> str:
     """``ns`` nanoseconds as seconds for a message, exactly, in whole numbers: a step of
     4166667 ns reads 0.004166667 and a ROS time of 1700000000750000001 ns
     1700000000.750000001, which reads back as the same nanoseconds (a double holds a ROS
-    time only to 256 ns: ``ns * 1e-9`` printed 1700000000.750000238)."""
+    time only to 256 ns: ``ns * 1e-9`` printed 1700000000.750000238). Trailing zeros are
+    dropped, unless ``all_places`` keeps the nine, as reports line times up
+    (:func:`..bags.coverage.seconds`)."""
     whole, part = divmod(abs(int(ns)), 1_000_000_000)
-    fraction = f".{part:09d}".rstrip("0") if part else ""
+    fraction = f".{part:09d}"
+    if not all_places:
+        fraction = fraction.rstrip("0").rstrip(".")
     return f"{'-' if ns < 0 else ''}{whole}{fraction}"
 
 

@@ -102,7 +102,7 @@ class Imu:
         whose accelerations (Model.accelerations) are ``accelerations``, all (N, 3):
         a_P = a_CM + alpha perp(r) - omega^2 r (a body point's velocity, Eq. 9,
         differentiated) less gravity: what a sample reads where no step led to its instant
-        from the stop before it."""
+        (:meth:`~..dynamics.simulation.Simulation.step_start` knows none)."""
         body = self.body
         theta, omega = float(q[body, 2]), float(v[body, 2])
         ax, ay, alpha = accelerations[body].tolist()

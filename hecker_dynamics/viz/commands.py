@@ -100,13 +100,13 @@ def render_command(args: argparse.Namespace) -> int:
 def _check_in_session(timeline: Timeline, start_ns: int, duration_ns: int) -> None:
     """A bag's span must lie in its session: past its end every frame would show the last
     poses held, labelled with times the bag never reached."""
-    first, last = timeline.start_ns * 1e-9, timeline.end_ns * 1e-9
+    first, last = seconds_text(timeline.start_ns), seconds_text(timeline.end_ns)
     if not timeline.start_ns <= start_ns < timeline.end_ns:
         raise VizError(f"--start {seconds_text(start_ns)} s: outside the bag's session, "
-                       f"{first:g} s to {last:g} s")
+                       f"{first} s to {last} s")
     if start_ns + duration_ns > timeline.end_ns:
         raise VizError(f"--duration {seconds_text(duration_ns)} s: from --start "
-                       f"{seconds_text(start_ns)} s it ends after the bag's session, at {last:g} s")
+                       f"{seconds_text(start_ns)} s it ends after the bag's session, at {last} s")
 
 
 def plot_command(args: argparse.Namespace) -> int:

@@ -72,7 +72,7 @@ def span_times(start_ns: int, duration_ns: int, fps: float,
     :class:`VizError` when there are none or more than :data:`MAX_FRAMES`, quoting the
     duration as ``given`` on the command line if it was (1e-10 s is 0 ns)."""
     count = round(duration_ns * fps / NS_PER_S)
-    seconds = f"{seconds_text(duration_ns)}" if given is None else given
+    seconds = seconds_text(duration_ns) if given is None else given
     if count > MAX_FRAMES:
         raise VizError(f"--duration {seconds} s at --fps {fps:g} is {count:.3g} "
                        f"frames, over the {MAX_FRAMES} a picture may have")

@@ -343,6 +343,20 @@ def test_a_bag_is_drawn_only_within_its_session(replayed, tmp_path, capsys):
         assert gif.n_frames == 5
 
 
+def test_a_recorded_session_s_span_is_told_in_exact_seconds():
+    # A live recording's session runs at ROS times, past what a double holds to the
+    # nanosecond: the span a user copies into --start must be the bag's own times.
+    from types import SimpleNamespace
+
+    from hecker_dynamics.viz.commands import _check_in_session
+    from hecker_dynamics.viz.frames import VizError
+    session = SimpleNamespace(start_ns=1_700_000_000_750_000_001, end_ns=1_700_000_012_5 * 10**8)
+    with pytest.raises(VizError, match=r"session, 1700000000\.750000001 s to 1700000012\.5 s"):
+        _check_in_session(session, 0, 1)
+    with pytest.raises(VizError, match=r"session, at 1700000012\.5 s"):
+        _check_in_session(session, session.start_ns, 12 * 10**9)
+
+
 @pytest.mark.parametrize("value", [float("nan"), float("inf")])
 def test_a_bag_pose_that_is_not_finite_is_a_one_line_error(replayed, tmp_path, capsys, value):
     """matplotlib refused the view of a NaN pose with a traceback."""
