@@ -181,9 +181,10 @@ def test_a_killed_command_leaves_no_process_behind(tmp_path, command):
         recorded = tmp_path / "recorded"
         # The session must outlast the wait into its replay (the start and 2 s), which the
         # check before the kill makes sure of: 20 s of the chain in the kernel (its replay
-        # takes about 13 s on a quiet machine here); 2 s without it, whose Python steps
-        # take about as long.
-        seconds = "20" if kernel.enabled() else "2"
+        # takes about 13 s on a quiet machine here); 5 s without it, whose Python steps
+        # take about as long (2 s, about as long as the wait, ended before the kill on a
+        # quiet machine).
+        seconds = "20" if kernel.enabled() else "5"
         subprocess.run([sys.executable, "-m", "hecker_dynamics.cli", "sweep", "chain",
                         "--set", "bodies.link00.mass=1", "--duration", seconds, "--workers",
                         "1", "--bags", str(recorded), "-o", str(tmp_path / "recorded.csv")],
