@@ -693,11 +693,29 @@ class World:
     def advance(self, t: float) -> None:
         """Step to the step instant nearest ``t`` (s), which must not be behind the world."""
         sim = self.simulation
-        steps = round((number(t, "t", maximum=MAX_SECONDS) * 1e9 - sim.time_ns) / sim.step_ns)
+        steps = round((self._instant(t, "t") - sim.time_ns) / sim.step_ns)
         if steps < 0:
-            raise ValueError(f"t: {number_text(t)} s is behind the world's time "
-                             f"({seconds_text(sim.time_ns)} s)")
+            raise self._behind(t, "t")
         self._run_to(sim.time_ns + steps * sim.step_ns)
+
+    def _instant(self, seconds: float, argument: str) -> float:
+        """The sim time ``seconds`` (s) in nanoseconds, as a float, at most ``MAX_SECONDS``
+        ahead of the world's time, as a duration is (the world's time itself may be a ROS
+        time, past 1e9 s); a time that far behind it is refused here, a nearer one by the
+        caller, which rounds it to its instant first."""
+        now = self.simulation.time_ns
+        ns = number(seconds, argument) * 1e9
+        # Compared as floats: -1e300 s is -inf ns, which round() cannot take.
+        if ns - now > MAX_SECONDS * 1e9:
+            raise ValueError(f"{argument}: must be at most {MAX_SECONDS} s past the world's "
+                             f"time ({seconds_text(now)} s), not {number_text(float(seconds))}")
+        if ns - now < -MAX_SECONDS * 1e9:
+            raise self._behind(seconds, argument)
+        return ns
+
+    def _behind(self, seconds: float, argument: str) -> ValueError:
+        return ValueError(f"{argument}: {number_text(float(seconds))} s is behind the "
+                          f"world's time ({seconds_text(self.simulation.time_ns)} s)")
 
     @_locked
     def reset(self, start_ns: Optional[int] = None) -> None:
@@ -750,10 +768,11 @@ class World:
             if short is not None:
                 raise ValueError(f"duration: {short}")
         now = sim.time_ns
-        stamp = now if start is None else round(number(start, "start",
-                                                        maximum=MAX_SECONDS) * 1e9)
-        if stamp < now:
-            raise ValueError(f"start: {start} s is behind the world's time ({self.time} s)")
+        stamp = now
+        if start is not None:
+            stamp = round(self._instant(start, "start"))
+            if stamp < now:
+                raise self._behind(start, "start")
         if name is None:
             source = f"force{self._count + 1}"
         elif isinstance(name, str):

@@ -311,7 +311,13 @@ ERRORS = [
     (lambda w: w["box"].apply_force((1, 0), duration=1e300), ValueError,
      r"^duration: must be at most 1000000000\.0"),
     (lambda w: w["box"].apply_force((1, 0), start=1e10), ValueError,
-     r"^start: must be at most 1000000000\.0"),
+     r"^start: must be at most 1000000000\.0 s past the world's time \(0 s\), "
+     r"not 10000000000$"),
+    # -1e300 s is -inf ns, which round() raised OverflowError on.
+    (lambda w: w.advance(-1e300), ValueError, r"^t: -1e\+300 s is behind the world's time "
+     r"\(0 s\)$"),
+    (lambda w: w["box"].apply_force((1, 0), start=-1.7e308), ValueError,
+     r"^start: -1\.7e\+308 s is behind the world's time \(0 s\)$"),
     (lambda w: hd.World(step=1e20), ValueError, r"^step: must be at most 1000000000\.0"),
     # A complex number or an array of another shape is not two real numbers.
     (lambda w: w["box"].apply_force(np.array([1.0, 2.0j])), TypeError,
@@ -681,6 +687,29 @@ def test_the_node_s_calls_on_a_world_are_the_simulation_s() -> None:
                           WorldEdit(EditKind.SPAWN, "a", "{shape: circle, radius: 0.1, "
                                                         "mass: 0.2}"))
     assert [b.name for b in world] == ["a", "b", "d"]  # the refused edits changed nothing
+
+
+def test_a_world_started_at_a_ros_time_takes_times_of_its_clock() -> None:
+    """A world started at a ROS time (1.765e9 s, past the 1e9 s a duration may last) takes
+    the times its own clock gives: advance to 1 s past ``time``, a force from 0.5 s past
+    it, as a world started at 0 does, bit for bit. Both were refused as past 1e9 s. (The
+    start is whole seconds, which a double holds, and the sums with it exactly.)"""
+    start = ROS_START_NS - ROS_START_NS % 10**9
+    worlds = [hd.World.from_scene("sample", script=False, start_ns=start)
+              for start in (0, start)]
+    for world in worlds:
+        world.advance(world.time + 1.0)
+        world["left"].apply_force((0.0, 30.0), point="hook", frame="body", duration=0.1,
+                                  start=world.time + 0.5)
+        world.advance(world.time + 1.0)
+        with pytest.raises(ValueError, match=r"^t: must be at most 1000000000\.0 s past "):
+            world.advance(world.time + 2e9)
+    assert [world.simulation.time_ns - begun for world, begun in
+            zip(worlds, (0, start))] == [2 * 10**9] * 2
+    assert [repr(body) for body in worlds[0]] == [repr(body) for body in worlds[1]]
+    unpushed = hd.World.from_scene("sample", script=False)
+    unpushed.advance(2.0)
+    assert worlds[1]["left"].velocity != unpushed["left"].velocity  # the force acted
 
 
 def test_a_world_s_bodies_follow_its_simulation_stepped_directly() -> None:
