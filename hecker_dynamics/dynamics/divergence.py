@@ -563,6 +563,8 @@ class EnergyBound:
                          (INPUT_RATE, "input_rate"), (POWER, "power"),
                          (MOTOR_ROOT, "motor_root")):
             values = _saved(state, key)
+            if any(map(math.isnan, values)):  # a budget never is; it would bound nothing
+                raise ValueError(f"the energy budget's '{key}' holds nan")
             if pooled:
                 whole = (math.sqrt(math.fsum(x * x for x in values))
                          if row in (ROOT, MOTOR_ROOT) else math.fsum(values))
@@ -577,6 +579,8 @@ class EnergyBound:
         self._inputs_set = any(self.row(INPUT_RATE))
         self._stale = True
         self.worst_ratio = float(state["worst_ratio"])
+        if math.isnan(self.worst_ratio):
+            raise ValueError("the energy budget's 'worst_ratio' is nan")
 
     def carried(self, state: dict[str, Any], sources: Sequence[Optional[int]]) -> dict[str, Any]:
         """:meth:`export_state`'s budgets of another world's bound, ``state``, carried onto

@@ -361,9 +361,12 @@ class Simulation:
             self.model.joints.import_state(state["joints"])
         divergence = state["divergence"]
         self._bound.import_state(divergence["bound"])
-        self._checked = (np.array(divergence["checked_q"], dtype=float).reshape(q.shape),
-                         np.array(divergence["checked_v"], dtype=float).reshape(v.shape),
-                         int(divergence["checked_time_ns"]), int(divergence["checked_steps"]))
+        checked_q, checked_v = (_numbers(divergence[key], key).reshape(shape) for key, shape
+                                in (("checked_q", q.shape), ("checked_v", v.shape)))
+        if not (np.isfinite(checked_q).all() and np.isfinite(checked_v).all()):
+            raise ValueError("the last checked state (checked_q, checked_v) is not finite")
+        self._checked = (checked_q, checked_v, int(divergence["checked_time_ns"]),
+                         int(divergence["checked_steps"]))
         self._halted = divergence["halted"]
         self._start = None
 

@@ -197,6 +197,14 @@ DAMAGES = {
     "a sub-step size of NaN": lambda sim: sim["integrator"].__setitem__("substep_size",
                                                                          float("nan")),
     "a sub-step size of 0": lambda sim: sim["integrator"].__setitem__("substep_size", 0.0),
+    # the divergence guard's budget and last checked state: NaN bounded nothing (the next
+    # step reported a divergence "over nan J"), and a halt would have kept a NaN state
+    "a budget of NaN": lambda sim: sim["divergence"]["bound"].__setitem__(
+        "root", [float("nan")] * len(sim["divergence"]["bound"]["root"])),
+    "a worst ratio of NaN": lambda sim: sim["divergence"]["bound"].__setitem__(
+        "worst_ratio", float("nan")),
+    "a checked state of NaN": lambda sim: sim["divergence"]["checked_v"][0].__setitem__(
+        1, float("nan")),
 }
 
 
