@@ -190,6 +190,12 @@ def _polygon_properties(data: bytes, count: int) -> AreaProperties:
     """:func:`area_properties` of the polygon of ``count`` vertices whose float64 (x, y)
     pairs are ``data``: a pile or a chain of like bodies integrates its outline once."""
     vertices = np.frombuffer(data).reshape(count, 2)
+    repeated = np.flatnonzero((vertices == np.roll(vertices, -1, axis=0)).all(axis=1))
+    if repeated.size:  # an edge of no length, which is_simple() takes for a crossing
+        i = int(repeated[0])
+        raise GeometryError(f"the polygon's vertices {i} and {(i + 1) % count} are the same "
+                            "point (give each corner once: the last does not repeat the "
+                            "first)")
     if not is_simple(vertices):
         raise GeometryError("the polygon's edges cross each other (it is not simple)")
     fan = vertices.mean(axis=0)

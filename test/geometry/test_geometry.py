@@ -227,6 +227,18 @@ def test_degenerate_shape_is_refused_naming_the_body(case, form, tmp_path):
         assert f"bodies.bad_body.{parameter}" in message
 
 
+@pytest.mark.parametrize("vertices, message", [
+    # A closed ring, as GeoJSON writes one, and a corner given twice: they were refused as
+    # polygons whose "edges cross each other".
+    ([(0, 0), (1, 0), (1, 1), (0, 1), (0, 0)], "vertices 4 and 0 are the same point"),
+    ([(0, 0), (1, 0), (1, 0), (1, 1)], "vertices 1 and 2 are the same point"),
+])
+def test_a_corner_given_twice_is_named(vertices, message):
+    with pytest.raises(GeometryError, match=message + r" \(give each corner once: the last "
+                       r"does not repeat the first\)$"):
+        props([Polygon(vertices)], [1.0])
+
+
 def test_geometry_refuses_bad_shapes_directly():
     with pytest.raises(GeometryError):
         Polygon([(0.0, 0.0), (1.0, float("nan")), (0.0, 1.0)])
