@@ -193,6 +193,30 @@ def test_a_changed_keyframe_is_caught(tmp_path):
     assert any("differs from the recorded keyframe" in p for p in check.problems)
 
 
+def test_a_lost_last_keyframe_is_named_and_a_lost_middle_one_fails(tmp_path):
+    """A keyframe after the last recorded one may be lost as the recorder stops: the check
+    passes on the outputs and says so. One between recorded keyframes cannot be: it fails."""
+    scene = load_scene("sample")
+    session = run_live(scene, 23)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    assert len(frames) >= 3
+    last, middle = frames[-1], frames[len(frames) // 2]
+
+    def stamp(frame: Any) -> str:
+        return seconds(frame.msg.header.stamp.sec * S + frame.msg.header.stamp.nanosec)
+
+    check = _check(scene, record(session, tmp_path / "last", 23, drop=lambda _, i: i is last))
+    assert check.ok, "\n".join(check.problems)
+    note = [n for n in check.notes if "not in the recording" in n]
+    assert note and f"from {stamp(last)} s on" in note[0]
+    check = _check(scene, record(session, tmp_path / "middle", 23,
+                                 drop=lambda _, i: i is middle))
+    assert any(f"keyframe(s) at {stamp(middle)} s missing" in p
+               for p in check.problems)
+    complete = _check(scene, record(session, tmp_path / "all", 23))
+    assert complete.ok and not [n for n in complete.notes if "not in the recording" in n]
+
+
 def test_another_scene_is_refused_naming_both_fingerprints(tmp_path, capsys):
     path = record(run_live(load_scene("sample"), 24), tmp_path / "live", 24)
     with pytest.raises(ReplayError, match="fingerprint .* but .*seesaw.yaml has fingerprint"):
