@@ -117,7 +117,7 @@ from .joint_rows import (
     weld_law,
     wrap,
 )
-from .joint_solve import Directions, apply, directions, dot, matrix, rate, solve
+from .joint_solve import Directions, apply, directions, dot, matrix, rate, refine, solve
 from .sparse import Factors, Pattern, factor, joint_order, lu, lu_solve, substitute
 
 if TYPE_CHECKING:
@@ -126,7 +126,7 @@ if TYPE_CHECKING:
 
 __all__ = ["CARRIED", "GEAR_ADVICE_RATIO", "UNSOLVED", "UNSOLVED_ADVICE", "JointPass",
            "JointsUnsolved", "MAX_RING", "MAX_TURN", "MOST_SUBSTEPS", "PARTS", "RATING_BOUND",
-           "SETTLED_STEPS", "ringing_advice", "unsolved_advice"]
+           "SETTLED_STEPS", "SHARE_ABOVE", "ringing_advice", "unsolved_advice"]
 
 #: A constraint error (m or rad) counted as met by the position stages.
 TOLERANCE = 1e-12
@@ -156,6 +156,13 @@ MOST_SUBSTEPS = 1024
 #: (:meth:`JointPass.remember`) before a step tries half as many again.
 SETTLED_STEPS = 4
 DRIFT_ITERATIONS = 8
+#: Where factoring the rows costs more than this many times their factor's entries
+#: (:meth:`.sparse.Pattern.updates` over slots) and every row is rigid, the velocity stage
+#: refines its solve on the Newton matrix's L U instead of factoring K
+#: (:func:`.joint_solve.refine`, :attr:`JointPass.share`): a correction costs about four
+#: multiply-adds a slot, so two or three of them pay where a factorization costs more than
+#: eight a slot (grids of pins: 12 at 10 x 10, 62 at 100 x 100; chains and trees under 5).
+SHARE_ABOVE = 8
 #: Why a step failed when its parts ran out, and what helps; one text for both paths. Fast
 #: turns leave no solution near a part's end; joined masses far apart (the measured limit
 #: on a 10-link chain of alternating masses at h = 1/240 s lies between 1e14 and 1e15 to
@@ -376,6 +383,11 @@ class JointPass:
         #: non-zero (:class:`.sparse.Pattern`), once the start pose has fixed the rows.
         self.pattern: Optional[Pattern] = None
         self.rigid_pattern = Pattern((0,), (), ())
+        #: Whether the velocity stage refines on the Newton matrix's L U (:data:`SHARE_ABOVE`).
+        self.share = False
+        #: The last Newton matrix's L U and U's strict upper triangle, while this pass's
+        #: positions are those it was solved for (the velocity stage's start in refining).
+        self._near: Optional[tuple[Factors, list[float]]] = None
         #: Each row's (joint, part), in the order the rows come at any pose.
         self.keys: list[tuple[str, str]] = []
         #: Each row's kind (:data:`RIGID`, ...), in the same order.
@@ -486,6 +498,8 @@ class JointPass:
             self.rigid_pattern = Pattern.of([[e[0] for e in template[i].entries]
                                              for i in self.rigid]).lightest(
                 [shares[i] for i in self.rigid])
+            self.share = (len(self.rigid) == len(template)
+                          and self.pattern.updates() > SHARE_ABOVE * self.pattern.slots())
         self.keys = [r.key for r in template]
         self.kinds = [r.kind for r in template]
         #: The first (x) row of each rigid point's two rows, x then y (:meth:`ringing`).
@@ -819,6 +833,7 @@ class JointPass:
         solution near the step's end: a body turned far, or a long chain's weakest modes
         moved more than the directions at q0 can follow) or when the solution turns a
         body by more than :data:`MAX_TURN`."""
+        self._near = None
         if not self.rigid:
             return self.rows(q, h)
         rigid = [rows0[i] for i in self.rigid]
@@ -863,6 +878,7 @@ class JointPass:
                     raise JointsUnsolved(f"the joints turn a body by {turned:.3g} rad in a "
                                          f"step of {h:g} s")
                 self.newton = nu
+                self._near = factors
                 return rows
             if fresh and not largest <= 0.5 * previous:
                 raise JointsUnsolved(f"Newton's method on the joints stalls at {largest:.3g} "
@@ -891,6 +907,7 @@ class JointPass:
                        or (r.kind == LIMIT and r.c < -self.tolerance) for r in rows):
                 break
             active = [r.kind == RIGID or (r.kind == LIMIT and r.c < 0.0) for r in rows]
+            self._near = None  # the positions move off the Newton matrix's (and C reuses it)
             direction = directions(rows, self.inverse_mass)
             diagonal, lower = matrix(pattern, rows, direction, active)
             shift = substitute(pattern, factor(pattern, diagonal, lower, active),
@@ -900,8 +917,10 @@ class JointPass:
         return rows
 
     def _velocities(self, rows: list[JointRow], v: list[float], h: float) -> None:
-        """Stage 3: the impulses at the final positions; changes ``v`` in place and keeps
-        each row's impulse for warm starting and the joints' efforts."""
+        """Stage 3: the impulses at the final positions (where :attr:`share`, refined on the
+        Newton matrix's L U while that gets every row's rate within the tolerance over
+        ``h``; else from K's own factors); changes ``v`` in place and keeps each row's
+        impulse for warm starting and the joints' efforts."""
         pattern = self.pattern
         assert pattern is not None  # the start pose has fixed the rows
         direction = directions(rows, self.inverse_mass)
@@ -925,7 +944,14 @@ class JointPass:
                     continue
                 diagonal[i] += 1.0 / (h * compliance)
                 b[i] -= stiffness * row.c / compliance
-        impulse = solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
+        impulse = None
+        if self.share and self._near is not None:  # rigid rows alone: no bounds
+            # What the rows still move along, times h, the next step's Newton removes: at
+            # most the tolerance, and no less than the rates round to.
+            residual = max(self.tolerance / h, ROUNDING * (1.0 + max(map(abs, b))))
+            impulse = refine(pattern, diagonal, lower, b, self._near, residual)
+        if impulse is None:
+            impulse = solve(pattern, diagonal, lower, b, (low_bound, high_bound), self.warm)
         apply(v, direction, impulse)
         self.warm = impulse
         self.step_h = h

@@ -102,7 +102,7 @@ class CompiledJoints:
             turning=np.ascontiguousarray(joint_pass.turning, dtype=np.int64),
             free_turn=np.array(joint_pass.free_turn, dtype=np.float64),
             tolerance=joint_pass.tolerance, max_turn=joint_pass.max_turn,
-            **_softness(joint_pass))
+            share=joint_pass.share, **_softness(joint_pass))
         self._pass = joint_pass
         rigid = sum(1 for kind in joint_pass.kinds if kind == "rigid")
         self._state = np.zeros(_kernel.JOINT_STATE * len(joint_pass.specs)

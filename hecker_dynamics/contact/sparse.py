@@ -202,6 +202,15 @@ class Pattern:
         """The number of entries of the strict lower triangle."""
         return self.start[-1]
 
+    def updates(self) -> int:
+        """The multiply-subtracts of one :func:`factor` with no row dropped: a pair of
+        column k's rows for each k (its entries' count c_k, c_k (c_k - 1) / 2); a solve
+        (:func:`substitute`, :func:`lu_solve`) costs two per slot."""
+        counts = [0] * self.size
+        for k in self.columns:
+            counts[k] += 1
+        return sum(c * (c - 1) // 2 for c in counts)
+
 
 #: (L by the pattern's slots, D or U's diagonal, which rows are left out of the solve).
 Factors = tuple[list[float], list[float], list[bool]]

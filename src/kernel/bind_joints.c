@@ -18,7 +18,8 @@ static void hd_joints_destructor(PyObject *capsule)
 
 PyDoc_STRVAR(joints_doc,
 "joints(bodies, inverse_mass, ints, reals, rows, pattern, rigid_pattern, turning,\n"
-"       free_turn, tolerance, max_turn, *, substeps=0, hertz=0.0, damping_ratio=0.0) -> Joints\n\n"
+"       free_turn, tolerance, max_turn, *, substeps=0, hertz=0.0, damping_ratio=0.0,\n"
+"       share=False) -> Joints\n\n"
 "A scene's joint pass (joint.h): the model indices of the bodies it holds and their 1/m,\n"
 "1/m, 1/I; per joint, in the order JointPass solves them, HD_JOINT_INTS ints and\n"
 "HD_JOINT_REALS reals; ``rows``: the number of rows JointPass counts, which the kernel\n"
@@ -27,7 +28,8 @@ PyDoc_STRVAR(joints_doc,
 "JointPass.parts watches; per body, JointPass.free_turn (its 1/I, 0 where loops of joints\n"
 "hold its turn: the bodies hd_ringing rates); the position stages' tolerance; the most an arm may turn in a\n"
 "step (JointPass.max_turn); soft joints (soft_joint.c): ``substeps`` a step's sub-steps (0:\n"
-"the exact pass), ``hertz`` (Hz) and ``damping_ratio`` their rows' softness (SoftJoints).");
+"the exact pass), ``hertz`` (Hz) and ``damping_ratio`` their rows' softness (SoftJoints);\n"
+"``share``: the velocity stage refines on the Newton matrix's L U (JointPass.share).");
 
 /* A contact/sparse.py Pattern from (start, columns, dependent); -1 with an exception set. */
 static int hd_read_pattern(PyObject *triple, hd_pattern *p)
@@ -73,14 +75,15 @@ static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
 {
     static char *names[] = {"bodies", "inverse_mass", "ints", "reals", "rows", "pattern",
                             "rigid_pattern", "turning", "free_turn", "tolerance", "max_turn",
-                            "substeps", "hertz", "damping_ratio", NULL};
+                            "substeps", "hertz", "damping_ratio", "share", NULL};
     PyObject *o[4], *patterns[2], *turning_object, *free_turn_object;
     long rows, substeps = 0;
     double tolerance, max_turn, hertz = 0.0, damping_ratio = 0.0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOOdd|$ldd:joints", names, o, o + 1,
+    int share = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOOOlOOOOdd|$lddp:joints", names, o, o + 1,
                                      o + 2, o + 3, &rows, patterns, patterns + 1,
                                      &turning_object, &free_turn_object, &tolerance, &max_turn,
-                                     &substeps, &hertz, &damping_ratio))
+                                     &substeps, &hertz, &damping_ratio, &share))
         return NULL;
     if (substeps < 0) {
         PyErr_SetString(PyExc_ValueError, "joints: substeps must not be negative");
@@ -102,7 +105,7 @@ static PyObject *hd_py_joints(PyObject *self, PyObject *args, PyObject *kwargs)
         goto fail;
     m->body_count = (long)bodies;
     m->turning_count = (long)turning;
-    m->tolerance = tolerance, m->max_turn = max_turn;
+    m->tolerance = tolerance, m->max_turn = max_turn, m->share = share;
     m->substeps = substeps, m->hertz = hertz, m->damping_ratio = damping_ratio;
     m->joint_count = (long)(ints_count / HD_JOINT_INTS);
     if (ints_count % HD_JOINT_INTS || (m->joints = calloc((size_t)m->joint_count + 1,

@@ -636,6 +636,38 @@ static void hd_solve(hd_joint_model *m)
     }
 }
 
+/* contact/joint_solve.py: refine, K x = b (m->diagonal, m->lower, m->b) into m->x on the Newton
+ * matrix's L U (m->low, m->upper, m->diag, m->out over the rigid rows, which are all the rows);
+ * 0 where it does not get every row's residual, the dropped rows' too, to `residual`. */
+static int hd_refine(hd_joint_model *m, double residual)
+{
+    const long n = m->row_count;
+    const hd_pattern *p = &m->pattern, *q = &m->rigid_pattern;
+    double *x = m->x, *r = m->rhs;
+    memcpy(x, m->b, (size_t)n * sizeof(double));
+    hd_lu_solve(q, m->low, m->upper, m->diag, m->out, x);
+    double previous = INFINITY;
+    for (long correction = 0; correction <= HD_REFINEMENTS; ++correction) {
+        double largest = 0.0;
+        for (long i = 0; i < n; ++i) {
+            r[i] = m->b[i] - hd_row_sum(p, m->diagonal, m->lower, i, x, NULL);
+            largest = hd_max(largest, fabs(r[i]));
+        }
+        if (largest <= residual)
+            return 1;
+        if (correction == HD_REFINEMENTS || !(largest <= 0.5 * previous))
+            return 0;
+        previous = largest;
+        for (long i = 0; i < n; ++i)
+            if (m->out[i])
+                r[i] = 0.0;
+        hd_lu_solve(q, m->low, m->upper, m->diag, m->out, r);
+        for (long i = 0; i < n; ++i)
+            x[i] = x[i] + r[i];
+    }
+    return 0;
+}
+
 static double hd_largest_abs(const double *x, long n)
 {
     double largest = fabs(x[0]);
@@ -681,6 +713,7 @@ static int hd_newton(hd_joint_model *m, double h)
                 return HD_JOINTS_UNSOLVED;
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
+            m->near = factored;
             if (factored)
                 hd_joint_rows(m, m->q, h, m->rows, 0);
             return HD_JOINTS_OK;
@@ -709,6 +742,7 @@ static int hd_newton(hd_joint_model *m, double h)
 static int hd_hold(hd_joint_model *m, double h, int again)
 {
     const long nr = m->rigid_count;
+    m->near = 0;
     if (nr == 0) {
         hd_joint_rows(m, m->q, h, m->rows, 0);
         return HD_JOINTS_OK;
@@ -755,6 +789,7 @@ static void hd_correct(hd_joint_model *m, double h)
             m->active[i] = r->kind == HD_RIGID || (r->kind == HD_LIMIT && r->c < 0.0);
             m->rhs[i] = m->active[i] ? -r->c : 0.0;
         }
+        m->near = 0;  /* the positions move off the Newton matrix's, whose L U goes */
         hd_joint_directions(m, m->rows, NULL, n, m->dir);
         hd_matrix(p, &m->meets, m->rows, m->dir, m->active, m->diagonal, m->lower, NULL);
         hd_factor(p, m->diagonal, m->lower, m->active, m->low, m->diag, m->out);
@@ -793,7 +828,15 @@ static void hd_velocities(hd_joint_model *m, double h)
             m->b[i] -= stiffness * row->c / compliance;
         }
     }
-    hd_solve(m);
+    int refined = 0;
+    if (m->share && m->near) {  /* rigid rows alone: no bounds */
+        double largest = 0.0;
+        for (long i = 0; i < n; ++i)
+            largest = hd_max(largest, fabs(m->b[i]));
+        refined = hd_refine(m, hd_max(m->tolerance / h, HD_JOINT_ROUNDING * (1.0 + largest)));
+    }
+    if (!refined)
+        hd_solve(m);
     hd_apply(m->v, m->dir, n, m->x);
     memcpy(m->warm, m->x, (size_t)n * sizeof(double));
     m->last_h = h;

@@ -23,6 +23,8 @@
 #define HD_ACTIVE_SETS 8
 #define HD_JOINT_MAX_ITERATIONS 200
 #define HD_JOINT_CONVERGED 1e-13
+/* contact/joint_solve.py: REFINEMENTS */
+#define HD_REFINEMENTS 8
 #define HD_MAX_TURN 0.1
 #define HD_MAX_RING 1.0
 #define HD_RATING_BOUND (1.0 + 1e-9)  /* JointPass.ringing's bound over its rating */
@@ -90,6 +92,9 @@ typedef struct hd_joint_model {
     /* JointPass.parts: the model indices of the bodies whose turning turns a joint's arm. */
     long *turning, turning_count;
     double tolerance, max_turn;  /* JointPass.tolerance and max_turn */
+    /* JointPass.share: the velocity stage refines on the Newton matrix's L U; `near`: that
+     * L U (low, upper, diag, out) is this pass's, at its positions (JointPass._near). */
+    int share, near;
     int plain_pins;  /* every joint a revolute one with no limit, motor or spring (a chain) */
     /* Soft joints (soft_joint.c): the sub-steps of a step (0: this exact pass), and the
      * rows' softness (SoftJoints.hertz, damping_ratio). */

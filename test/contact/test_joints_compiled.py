@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from scene_builders import make_scene
 from test_joints import chain_scene, gear_scene, pendulum_scene, slider_scene, weld_scenes
+from test_sparse import spinning_grid
 
 from hecker_dynamics import Simulation
 from hecker_dynamics.contact import joint_solve, joints, sparse
@@ -96,6 +97,28 @@ def test_kernel_steps_joint_scenes_with_the_bits_of_python(name, method):
     assert any(x != 0.0 for x in fast.model.joints.warm)
 
 
+def test_kernel_refines_a_spinning_grid_with_the_bits_of_python(monkeypatch):
+    """A spinning 10 x 10 grid of pins, whose velocity stage refines on the Newton
+    matrix's L U in some steps and factors K in others (JointPass.share): 30 steps in the
+    kernel and in Python give the same bits."""
+    outcomes = []
+
+    def counted(*args):
+        x = joint_solve.refine(*args)
+        outcomes.append(x is not None)
+        return x
+
+    monkeypatch.setattr(joints, "refine", counted)
+    scene = spinning_grid(10, 1.0)
+    fast, slow = Simulation(scene), Simulation(scene)
+    slow.model.use_python()
+    assert fast.model.joints.share and fast.model.joints.compiled
+    fast.advance_to(30 * scene.step_ns)
+    slow.advance_to(30 * scene.step_ns)
+    assert any(outcomes) and not all(outcomes)
+    _compare(fast, slow)
+
+
 @pytest.mark.parametrize("name", ["chain", "gears", "slider"])
 def test_the_kernels_joint_pass_after_a_python_step_has_the_bits_of_python(name):
     """implicit_midpoint steps in Python; its joint pass runs in C (joints_resolve) or in
@@ -161,11 +184,12 @@ def test_kernel_has_the_joint_constants():
     assert (k.JOINT_TOLERANCE, k.JOINT_CONVERGED, k.JOINT_NEWTON_ITERATIONS,
             k.JOINT_DRIFT_ITERATIONS, k.JOINT_MAX_ITERATIONS, k.JOINT_ROUNDING,
             k.JOINT_MAX_TURN, k.JOINT_MOST_SUBSTEPS, k.JOINT_DEPENDENT, k.JOINT_CHORD,
-            k.JOINT_ACTIVE_SETS, k.JOINT_SETTLED_STEPS, k.JOINT_MAX_RING, k.JOINT_RATING_BOUND) == \
+            k.JOINT_ACTIVE_SETS, k.JOINT_SETTLED_STEPS, k.JOINT_MAX_RING, k.JOINT_RATING_BOUND,
+            k.JOINT_REFINEMENTS) == \
         (joints.TOLERANCE, joint_solve.CONVERGED, joints.NEWTON_ITERATIONS,
          joints.DRIFT_ITERATIONS, joint_solve.MAX_ITERATIONS, joints.ROUNDING, joints.MAX_TURN,
          joints.MOST_SUBSTEPS, sparse.DEPENDENT, joints.CHORD, joint_solve.ACTIVE_SETS,
-         joints.SETTLED_STEPS, joints.MAX_RING, joints.RATING_BOUND)
+         joints.SETTLED_STEPS, joints.MAX_RING, joints.RATING_BOUND, joint_solve.REFINEMENTS)
 
 
 def test_a_repeated_pin_is_dropped_and_the_rod_swings_as_on_one_pin():
