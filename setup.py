@@ -15,7 +15,7 @@ from setuptools.command.build_ext import build_ext
 KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/bind.c", "src/kernel/bind_forces.c",
                   "src/kernel/bind_stepper.c", "src/kernel/bind_contacts.c",
                   "src/kernel/bind_joints.c", "src/kernel/bind_raycast.c",
-                  "src/kernel/forces.c", "src/kernel/steppers.c",
+                  "src/kernel/forces.c", "src/kernel/steppers.c", "src/kernel/drive.c",
                   "src/kernel/manifold.c", "src/kernel/contact.c", "src/kernel/detect.c",
                   "src/kernel/warm.c", "src/kernel/islands.c", "src/kernel/solve.c",
                   "src/kernel/sleep.c", "src/kernel/solver.c", "src/kernel/joint.c",
@@ -23,6 +23,7 @@ KERNEL_SOURCES = ["src/kernel/module.c", "src/kernel/bind.c", "src/kernel/bind_f
                   "src/kernel/sparse.c", "src/kernel/coupled.c", "src/kernel/wide.c",
                   "src/kernel/crew.c", "src/kernel/bound.c", "src/kernel/raycast.c"]
 KERNEL_HEADERS = ["src/kernel/kernel.h", "src/kernel/contact.h", "src/kernel/joint.h",
+                  "src/kernel/drive.h",
                   "src/kernel/sparse.h", "src/kernel/coupled.h", "src/kernel/rows.h",
                   "src/kernel/wide.h", "src/kernel/crew.h", "src/kernel/floats.h",
                   "src/kernel/simd.h", "src/kernel/solver.h", "src/kernel/bind.h",

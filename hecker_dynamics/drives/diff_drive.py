@@ -41,7 +41,8 @@ class DiffDrive(CommandedDrive):
         half = spec.separation / 2.0
         #: Contact points (body frame) of the left and right wheels.
         self.wheels = ((cx, cy + half), (cx, cy - half))
-        self._sources = (f"drive/{spec.name}/left", f"drive/{spec.name}/right")
+        #: The sources of the left and right wheels' commands.
+        self.sources = (f"drive/{spec.name}/left", f"drive/{spec.name}/right")
         # Plain floats: the controller runs at every control instant, on a few numbers.
         self._offsets = [(np.asarray(w, dtype=float) - cm_local).tolist() for w in self.wheels]
         self._axle = (np.asarray(spec.center, dtype=float) - cm_local).tolist()
@@ -78,7 +79,7 @@ class DiffDrive(CommandedDrive):
             left = right = 0.0
             self.integrals = [0.0, 0.0]
         body, duration = spec.body, spec.period_ns
-        (left_point, right_point), (left_source, right_source) = self.wheels, self._sources
+        (left_point, right_point), (left_source, right_source) = self.wheels, self.sources
         # The sideways slip: the body-y component of the wheel's point's velocity (Eq. 9).
         across = -s * vx + c * vy
         return [WrenchCommand(time_ns, body, left_source, body, left_point,
@@ -87,6 +88,11 @@ class DiffDrive(CommandedDrive):
                 WrenchCommand(time_ns, body, right_source, body, right_point,
                               self._grip(right, across + omega * self._offsets[1][0]), 0.0,
                               duration)]
+
+    def kernel_offsets(self) -> tuple[float, float, float]:
+        """What the kernel's twin of :meth:`wrenches` takes of the wheels' places (src/kernel/
+        drive.h): the axle centre's y and each wheel's x from the CM, body frame."""
+        return self._axle[1], self._offsets[0][0], self._offsets[1][0]
 
     def _grip(self, push: float, slip: float) -> tuple[float, float]:
         """A wheel's force in body axes: its ``push`` forward and the lateral damping's grip

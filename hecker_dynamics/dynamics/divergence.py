@@ -466,6 +466,28 @@ class EnergyBound:
         return self._compiled and not (self._motors or self._stale or self._inputs_set or
                                        self.model.inputs is not None)
 
+    def kernel_inputs(self, inputs: ConstantWrenchTerm
+                      ) -> Optional[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """What the kernel's run needs to take the rates of work of ``inputs`` itself, as
+        :meth:`inputs_changed` and :meth:`check` do, while a drive's control instants renew
+        their values (:mod:`.kernel`: ``DriveColumns``): per row its body's unit and
+        sqrt(2 / m), sqrt(2 / I) and lever arm, and each unit's steady rate. None where the
+        rates need more than that: no kernel, motors, a lever arm that follows the state, or
+        constant wrenches of the scene."""
+        if not self._compiled or self._motors or self._moving or self._wrenches:
+            return None
+        places = self._places(inputs)
+        if any(lever is None for *_, lever in places):
+            return None
+        return (np.array([unit for unit, *_ in places], dtype=np.int64),
+                np.array([rates for _, *rates in places], dtype=float).reshape(-1),
+                np.array(self._steady, dtype=float))
+
+    def kernel_inputs_taken(self, changed: bool) -> None:
+        """The kernel's run took the rates of the inputs (:meth:`kernel_inputs`): ``changed``,
+        whether they changed after its last check."""
+        self._inputs_set = changed
+
     def kernel_checked(self, worst: float) -> Optional[str]:
         """The kernel made checks on :meth:`kernel_data` whose largest ratio was
         ``worst``, stopping after the first failing one: :meth:`check`'s verdict."""

@@ -110,6 +110,43 @@ class InputBuffer:
                         for command, row in zip(commands, rows)]
         return True
 
+    def wheels(self, keys: Sequence[tuple[str, str]]) -> Optional[list[int]]:
+        """Where the commands of ``keys`` stand among the active ones (their rows' order),
+        where they are all the commands, active, and none pending: a differential drive's
+        wheels that the kernel's run renews (:meth:`renew`). None otherwise."""
+        active = self._active
+        if self._pending or self._staged or len(active) != len(keys):
+            return None
+        rows = {key: row for row, key in enumerate(active)}
+        found = [rows.get(key) for key in keys]
+        return None if None in found else found  # type: ignore[return-value]
+
+    def only_active(self, count: int) -> bool:
+        """Whether ``count`` commands are active and none pending."""
+        return not (self._pending or self._staged) and len(self._active) == count
+
+    def end(self, key: tuple[str, str]) -> Optional[int]:
+        """When the active command of ``key`` stops acting (None: never)."""
+        return self._active[key].end_ns
+
+    def renew(self, renewed: Sequence[tuple[tuple[str, str], int, tuple[float, float]]],
+              commands: int) -> None:
+        """Take what the kernel's run made of the wheels of its drives: each ``(key, stamp,
+        force)`` of ``renewed`` a command of ``key``'s active one stamped anew with a new
+        force (and no torque), as :meth:`replace` and :meth:`update` would have made the last
+        one of the ``commands`` it renewed in all; their order numbers counted."""
+        active = self._active
+        for key, stamp, force in renewed:
+            old = active[key]
+            c = old.command
+            command = WrenchCommand(stamp, c.body, c.source, c.frame_id, c.point, force, 0.0,
+                                    c.duration_ns)
+            active[key] = Held(command, old.row._replace(force=force, torque=0.0),
+                               self.end_of(command))
+        self._order = itertools.count(next(self._order) + commands)
+        self._track_ends()
+        self.values_only = True
+
     def update(self, now_ns: int) -> bool:
         """Start due commands and stop ended ones at the start of a step; True if any changed."""
         if not self._staged and (not self._pending or self._pending[0][0] > now_ns) and \

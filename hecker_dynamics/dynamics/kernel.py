@@ -5,7 +5,8 @@ and Python's headers are present, and always by colcon. It evaluates the same fo
 as :mod:`.forces` (and the energy bound's checks of :mod:`.divergence`, unit by unit of
 bodies) and steps the explicit methods of :mod:`.integrators` (with the
 joint pass of :mod:`..contact.joints_kernel` and the contact pass of
-:mod:`..contact.compiled` after each step in scenes with joints and contacts), repeating
+:mod:`..contact.compiled` after each step in scenes with joints and contacts, and in its
+runs the control instants of differential drives, src/kernel/drive.c), repeating
 the plain-float path operation for operation: the accelerations and the fixed-step methods
 give the same bits as Python's plain-float path, and the adaptive methods (whose stage
 sums Python leaves to numpy's matrix products) agree with Python to rounding per step.
@@ -21,6 +22,7 @@ run of steps did comes back in :class:`Advanced`, for the caller to account.
 """
 from __future__ import annotations
 
+import enum
 import os
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple, Optional
@@ -50,7 +52,8 @@ except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
 __all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "BoundData", "Runs",
-           "CompiledForces", "Advanced", "CompiledSteps", "compiled_steps"]
+           "DriveInt", "DriveReal", "DriveColumns", "CompiledForces", "Advanced", "CompiledSteps",
+           "compiled_steps"]
 
 #: The environment variable that switches the kernel off when set to "0".
 SWITCH = "HECKER_DYNAMICS_KERNEL"
@@ -88,6 +91,29 @@ Packed = tuple[int, np.ndarray, np.ndarray]  # (kind, ints, reals) as in kernel.
 #: An energy bound's data for the kernel's checks: the springs' program (or None), the
 #: statics, the unit of each body, the budget (written in place) and the growth factor.
 BoundData = tuple[Any, np.ndarray, np.ndarray, np.ndarray, float]
+
+
+#: The integer columns of a differential drive the kernel's run takes (src/kernel/drive.h,
+#: enum hd_drive_int), and its real columns (enum hd_drive_real).
+DriveInt = enum.IntEnum("DriveInt", "BODY PERIOD_NS ROW_LEFT ROW_RIGHT COMMANDED RESTAMP "
+                        "STAMP_NS TIMEOUT_NS NEXT_NS INSTANTS LAST_NS", start=0)
+DriveReal = enum.IntEnum("DriveReal", "PERIOD LINEAR_KP LINEAR_KI ANGULAR_KP ANGULAR_KI "
+                         "SEPARATION MAX_FORCE TRACTION LATERAL_DAMPING AXLE_Y OFFSET_LEFT "
+                         "OFFSET_RIGHT MASS INERTIA LEVER_LEFT LEVER_RIGHT LINEAR_X "
+                         "ANGULAR_Z INTEGRAL_V INTEGRAL_W LEFT_X LEFT_Y RIGHT_X RIGHT_Y",
+                         start=0)
+
+
+#: The most drives one run takes, and the columns of each (src/kernel/drive.h).
+DRIVE_MOST = 0 if _kernel is None else _kernel.DRIVE_MOST
+DRIVE_INTS, DRIVE_REALS = len(DriveInt), len(DriveReal)
+
+#: What a run takes of its differential drives (src/kernel/drive.h): the ints and reals of
+#: each (written by the run), per row of the inputs (every one a drive's wheel) its body's
+#: unit and sqrt(2 / m), sqrt(2 / I) and lever arm, each unit's steady rate, the run's start
+#: and step (ns), and the length it takes (math.hypot).
+DriveColumns = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int,
+                     Callable[[float, float], float]]
 
 
 class Runs(NamedTuple):
@@ -285,19 +311,21 @@ class CompiledSteps:
         return done
 
     def run(self, q: np.ndarray, v: np.ndarray, qs: np.ndarray, vs: np.ndarray, first: int,
-            steps: int, oriented: bool, substep_size: float,
-            first_seconds: float) -> tuple[Advanced, int, float]:
+            steps: int, oriented: bool, substep_size: float, first_seconds: float,
+            drives: Optional[DriveColumns] = None) -> tuple[Advanced, int, float]:
         """Take ``steps`` steps of the :class:`Runs` given to :meth:`start` from (q, v),
         left as they are, as :meth:`advance` takes them (no joint pass), and check its
         energy bound at each publish instant: after ``first`` steps, over
         ``first_seconds``, and every ``per`` steps after it, over ``period_seconds``, as
         :meth:`~.divergence.EnergyBound.check` does. The steps from one instant to the next
         go into the next row of (qs, vs), (segments, N, 3) arrays; the run stops at the
-        first failing step or after the first check over 1. Returns what :meth:`advance`
-        does (a plain tuple too), the checks made and their largest ratio."""
+        first failing step or after the first check over 1. ``drives``: the differential
+        drives whose wheels are all the inputs, their control instants taken inside the run
+        (:data:`DriveColumns`; the run ends at one they leave to Python). Returns what
+        :meth:`advance` does (a plain tuple too), the checks made and their largest ratio."""
         done = _kernel.run(self.stepper, inputs=self.forces.inputs, oriented=oriented, q=q,
                            v=v, qs=qs, vs=vs, first=first, steps=steps, size=substep_size,
-                           first_seconds=first_seconds)
+                           first_seconds=first_seconds, drives=drives)
         return done[:6], done[6], done[7]
 
     def failure(self, status: int) -> tuple[Optional[str], Optional[tuple[np.ndarray,

@@ -53,12 +53,13 @@ from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
 from ..scene.load import Scene
 from ..scene.parameters import seconds_text
 from .divergence import EnergyBound
-from .forces import WrenchRow, lever_arm
+from .forces import ConstantWrenchTerm, WrenchRow, lever_arm
 from .inputs import InputBuffer
-from .kernel import Advanced, Runs, compiled_steps
+from .kernel import Advanced, DriveColumns, DriveInt, DriveReal, Runs, compiled_steps
 from .model import FrameRow, Model, wrench_term
 
-__all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "Simulation"]
+__all__ = ["PROGRESS_UPDATES", "DivergenceError", "BodyState", "Snapshot", "DrivenWheels",
+           "Simulation"]
 
 #: How many times :meth:`Simulation.play` reports its progress over a run, at most: often
 #: enough for a smooth bar, seldom enough that chunking costs nothing measurable.
@@ -83,6 +84,20 @@ class Place(NamedTuple):
     point_body: int  # the body its point is relative to; -1: the fixed frame
     point: tuple[float, float]
     lever: Optional[float]  # the point's distance from the CM where it is the body's own
+
+
+class DrivenWheels(NamedTuple):
+    """Differential drives whose control instants the kernel's run takes
+    (:meth:`Simulation.run_drives`): the keys (body, source) of their wheels' commands, the
+    left and the right wheel of each drive in turn, their columns, a row a drive
+    (:class:`.kernel.DriveInt`, :class:`.kernel.DriveReal`: the drives' own, which the run
+    writes; the simulation fills in the wheels' rows and reach), and each drive's next
+    control instant (ns), which its wheels' commands end at."""
+
+    keys: list[tuple[str, str]]
+    ints: np.ndarray
+    reals: np.ndarray
+    next_ns: list[int]
 
 
 class DivergenceError(RuntimeError):
@@ -236,6 +251,9 @@ class Simulation:
         #: Each body's mass and moment of inertia, as the reach check takes them.
         self._inertias = [(float(body.mass.mass), float(body.mass.moment_of_inertia))
                           for body in scene.bodies]
+        #: Where the drives' wheels of the kernel's runs stand among the inputs
+        #: (:meth:`_lay_out`), with the inputs' places it holds for; None: not yet.
+        self._wheel_layout: Optional[tuple[Any, ...]] = None
         #: Whether the state each step begins from is kept (:meth:`keep_step_starts`).
         self._keeps_starts = False
         self.reset(start_ns)
@@ -688,7 +706,8 @@ class Simulation:
             error = IntegrationError(failed)
             raise self._failed(error) from error
 
-    def _run_checked(self, limit: int, snapshots: Optional[list[Snapshot]]) -> int:
+    def _run_checked(self, limit: int, snapshots: Optional[list[Snapshot]],
+                     wheels: Optional[DrivenWheels] = None) -> int:
         """Up to ``limit`` steps in one kernel call, with the energy bound's checks at the
         publish instants passed (every publish period from the start) made in the kernel too
         (:meth:`.kernel.CompiledSteps.run`), and a snapshot of each instant appended to
@@ -696,15 +715,20 @@ class Simulation:
         with the same bits, at one call's cost. Returns the steps taken; 0 where the
         kernel cannot take them so (a joint pass, whose joint states each snapshot takes
         from its pass, or a check that takes the rates of work again after it passes):
-        then :meth:`advance_to` goes one instant at a time."""
+        then :meth:`advance_to` goes one instant at a time. With ``wheels``, the run takes
+        their drives' control instants too (:meth:`run_drives`)."""
         compiled = self._compiled
         if self._halted is not None or compiled is None or self.model.joints is not None or \
                 not self._in_kernel():
             return 0
         self._update_inputs()
-        if not self._bound.kernel_ready():  # inputs held: advance_to goes instant by instant
+        drives = None
+        if wheels is None:
+            if not self._bound.kernel_ready():  # inputs held: advance_to goes instant by instant
+                return 0
+            limit = self._before_change(limit)
+        elif (drives := self._drive_columns(wheels)) is None:
             return 0
-        limit = self._before_change(limit)
         if limit < 1:
             return 0
         step, per = self.step_ns, self._per_publish
@@ -716,7 +740,10 @@ class Simulation:
         start_ns, start_steps = self._time_ns, self._steps
         done, checked, worst = compiled.run(
             self.q, self.v, qs, vs, first, limit, self.model.oriented, self._substep_size(),
-            (start_ns + first * step - self._checked[2]) * 1e-9)
+            (start_ns + first * step - self._checked[2]) * 1e-9, drives)
+        if wheels is not None:
+            self._take_wheels(wheels, start_ns + (first + (checked - 1) * per) * step
+                              if checked else -1)
         taken = done[1]
         row = min(rows - 1, 0 if taken < first else 1 + (taken - first) // per)
         self.q, self.v = qs[row], vs[row]
@@ -738,6 +765,101 @@ class Simulation:
         if self._keeps_starts and taken:
             self._start = (self._steps, None, None)
         return taken
+
+    def run_drives(self, t_ns: int, max_steps: Optional[int], keep: bool,
+                   wheels: DrivenWheels) -> Optional[list[Snapshot]]:
+        """:meth:`advance_to` ``t_ns`` (at most ``max_steps``) in one run of the kernel that
+        also takes the control instants of the differential drives of ``wheels`` between its
+        steps, their PI law and wheel forces, the reach check of the wheels' commands and
+        the energy bound's rates of them in C (src/kernel/drive.h), with the bits of the
+        drives' Python path (:func:`~..drives.control.advance_with_drives`), where every
+        input is a wheel of theirs; the snapshots at the publish instants passed. The run
+        ends early at an instant whose commands the simulation would refuse, which is the
+        Python path's. None, with nothing done, where the kernel cannot take the run."""
+        if self._compiled is None or not self._per_publish or self._halted is not None or \
+                self.model.joints is not None or not self._in_kernel():
+            return None
+        left = self._steps_left(t_ns, max_steps, 0)
+        snapshots: list[Snapshot] = []
+        if not left or not self._run_checked(left, snapshots if keep else None, wheels):
+            return None
+        return snapshots
+
+    def _drive_columns(self, wheels: DrivenWheels) -> Optional[DriveColumns]:
+        """The run's data of ``wheels`` (:meth:`run_drives`), with the rows of their commands
+        and the reach check's constants filled in (once for the inputs' places); None where
+        the run cannot take them: other inputs, inputs whose rates of work the kernel cannot
+        take (:meth:`.EnergyBound.kernel_inputs`), sleeping islands (which inputs keep
+        awake), or a wheel whose command does not end at its drive's next instant."""
+        term, contacts, inputs = self.model.inputs, self.model.contacts, self._inputs
+        if term is None or (contacts is not None and contacts.sleep) or \
+                not inputs.only_active(len(wheels.keys)):
+            return None
+        layout = self._wheel_layout
+        if layout is None or layout[0] is not term.places or layout[1] is not wheels:
+            layout = self._lay_out(term, wheels)
+            if layout is None:
+                return None
+        keys, next_ns = wheels.keys, wheels.next_ns
+        for k, key in enumerate(keys):
+            if inputs.end(key) != next_ns[k // 2]:
+                return None
+        _, _, row_unit, row_rates, steady = layout
+        return (wheels.ints, wheels.reals, row_unit, row_rates, steady, self._time_ns,
+                self.step_ns, math.hypot)
+
+    def _lay_out(self, term: ConstantWrenchTerm, wheels: DrivenWheels
+                 ) -> Optional[tuple[Any, ...]]:
+        """Where ``wheels``' commands stand among the inputs of ``term`` (all of them), into
+        their columns with their bodies' masses and moments of inertia and their lever arms,
+        and the energy bound's constants of the rows; kept (:attr:`_wheel_layout`) while
+        the term keeps its places. None where the run cannot take them."""
+        rows = self._inputs.wheels(wheels.keys)
+        rates = None if rows is None else self._bound.kernel_inputs(term)
+        if rows is None or rates is None:
+            return None
+        active = self._inputs.active()
+        ints, reals = wheels.ints, wheels.reals
+        for k, row in enumerate(rows):
+            body, _, _, _, lever = self._resolved(active[row].command)
+            if lever is None:
+                return None
+            drive = k // 2
+            ints[drive, DriveInt.ROW_RIGHT if k % 2 else DriveInt.ROW_LEFT] = row
+            reals[drive, DriveReal.MASS], reals[drive, DriveReal.INERTIA] = self._inertias[body]
+            reals[drive, DriveReal.LEVER_RIGHT if k % 2 else DriveReal.LEVER_LEFT] = lever
+        self._wheel_layout = (term.places, wheels, *rates)
+        return self._wheel_layout
+
+    def _take_wheels(self, wheels: DrivenWheels, last_check: int) -> None:
+        """Take into the inputs what the kernel's run made of ``wheels``' commands (the run
+        started now; its last check was at sim time ``last_check``, -1: none): each renewed
+        wheel's command and row as the drives' Python path would have left them, the
+        inputs' term with their new values, and whether the energy bound's input rates
+        changed after its last check."""
+        ints, reals = wheels.ints.tolist(), wheels.reals.tolist()
+        renewed = []
+        last = commands = 0
+        for k, (drive_ints, drive_reals) in enumerate(zip(ints, reals)):
+            instants = drive_ints[DriveInt.INSTANTS]
+            if not instants:
+                continue
+            commands += 2 * instants
+            stamp = drive_ints[DriveInt.LAST_NS]
+            last = max(last, stamp)
+            fx, fy, gx, gy = drive_reals[DriveReal.LEFT_X:DriveReal.RIGHT_Y + 1]
+            renewed += [(wheels.keys[2 * k], stamp, (fx, fy)),
+                        (wheels.keys[2 * k + 1], stamp, (gx, gy))]
+        if not commands:
+            if last_check >= 0:
+                self._bound.kernel_inputs_taken(False)
+            return
+        self._inputs.renew(renewed, commands)
+        rows = [held.row for held in self._inputs.active()]
+        assert self.model.inputs is not None  # the wheels' term, its places kept
+        self.model.inputs = self.model.inputs.with_values(rows)
+        self._bound.kernel_inputs_taken(last >= last_check)
+        self._hold(rows)
 
     def _update_inputs(self) -> None:
         """Make the inputs active now the model's (what the step from now sees)."""

@@ -25,6 +25,7 @@ from ..bags.replay import input_topics, output_types, session_times
 from ..drives.control import play_with_drives
 from ..dynamics import Model, Simulation
 from ..dynamics.inputs import InputBuffer
+from ..dynamics.simulation import DrivenWheels, Snapshot
 from ..ros.cmd_vel import CmdVelTopic
 from ..ros.fields import applied_wrench_to_command, body_pose, wrench_stamped_to_command
 from ..ros.joint_states import MotorTopic
@@ -182,6 +183,10 @@ class _Pushes(Simulation):
     def push_replacements(self, commands: Sequence[WrenchCommand]) -> None:
         for command in commands:  # each through push, to keep it
             self.push(command)
+
+    def run_drives(self, t_ns: int, max_steps: Optional[int], keep: bool,
+                   wheels: DrivenWheels) -> Optional[list[Snapshot]]:
+        return None  # no control instant inside the kernel's runs: each pushes its wheels
 
 
 def frame_times(start_ns: int, duration_ns: int, fps: float) -> list[int]:

@@ -11,6 +11,7 @@
 
 #include "bind.h"
 #include "contact.h"
+#include "drive.h"
 #include "joint.h"
 #include "kernel.h"
 
@@ -200,20 +201,20 @@ PyDoc_STRVAR(step_doc,
 "TOO_MANY_SUBSTEPS or JOINTS_UNSOLVED. The GIL is released meanwhile, unless the call is\n"
 "short.");
 
-/* The arguments of a fast call of step or run (`function`), all `count` of `names` read
- * into `given` by hd_arguments, by position or keyword, and the first three, (stepper,
- * inputs, oriented), read: the stepper's capsule, the inputs' program (NULL for None) and
+/* The arguments of a fast call of step or run (`function`), the `count` of `names` read
+ * into `given` by hd_arguments, by position or keyword (the first `required` of them
+ * needed, the others NULL where left out), and the first three, (stepper, inputs,
+ * oriented), read: the stepper's capsule, the inputs' program (NULL for None) and
  * `oriented`; NULL with an exception set. */
 static hd_stepper_capsule *hd_get_stepping(const char *function, PyObject *const *args,
                                            Py_ssize_t nargs, PyObject *kwnames,
-                                           const char *const *names, int count,
+                                           const char *const *names, int count, int required,
                                            PyObject **given, hd_program **in, int *oriented)
 {
     hd_stepper_capsule *c = hd_capsule_arguments(function, args, nargs, kwnames, names, count,
-                                                 count, HD_STEPPER_CAPSULE, given);
+                                                 required, HD_STEPPER_CAPSULE, given);
     if (c == NULL)
         return NULL;
-    *in = NULL;
     *in = NULL;
     if (given[1] != Py_None) {
         if ((*in = PyCapsule_GetPointer(given[1], HD_PROGRAM_CAPSULE)) == NULL)
@@ -235,7 +236,7 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
     PyObject *given[9];
     hd_program *in;
     int oriented;
-    hd_stepper_capsule *c = hd_get_stepping("step", args, nargs, kwnames, names, 9, given, &in,
+    hd_stepper_capsule *c = hd_get_stepping("step", args, nargs, kwnames, names, 9, 9, given, &in,
                                             &oriented);
     if (c == NULL)
         return NULL;
@@ -285,9 +286,9 @@ static PyObject *hd_py_step(PyObject *self, PyObject *const *args, Py_ssize_t na
  * (qs, vs), from a copy of the slot before (of (q0, v0) for the first). After each segment
  * that ends on an instant, the energy bound's check over `first_seconds` (the first) or
  * b->period_seconds; a check over 1 ends the run. */
-static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, const hd_program *in,
-                           int oriented, double *size, const double *q0, const double *v0,
-                           double *qs, double *vs, long first, long steps,
+static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, hd_program *in,
+                           hd_drives *drives, int oriented, double *size, const double *q0,
+                           const double *v0, double *qs, double *vs, long first, long steps,
                            double first_seconds, double *scratch_memory, long *taken,
                            hd_work *work, long *checked, double *worst)
 {
@@ -303,13 +304,31 @@ static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, const hd_progra
         double *q = qs + k * n3, *v = vs + k * n3;
         memcpy(q, from_q, bytes);
         memcpy(v, from_v, bytes);
-        long segment = 0;
-        const int status = hd_stepper_advance(s, in, oriented, NULL, size, q, v, b->h,
-                                              end - done, &segment, work);
-        *taken += segment;
-        if (status != HD_ADVANCED)
-            return status;
-        done = end;
+        /* The drives' instants inside the run, each after the check of its publish
+         * instant; one the drives leave to Python ends the run there. */
+        if (drives != NULL && done > 0 && hd_drives_next(drives) == done) {
+            const int arrived = hd_drives_arrive(drives, done, q, v, in, b->budget.buf,
+                                                 b->units);
+            if (arrived < 1)
+                return arrived < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
+        }
+        while (done < end) {
+            const long next = drives == NULL ? end : hd_drives_next(drives);
+            const long stop = next > done && next < end ? next : end;
+            long segment = 0;
+            const int status = hd_stepper_advance(s, in, oriented, NULL, size, q, v, b->h,
+                                                  stop - done, &segment, work);
+            *taken += segment;
+            if (status != HD_ADVANCED)
+                return status;
+            done = stop;
+            if (done < end) {
+                const int arrived = hd_drives_arrive(drives, done, q, v, in, b->budget.buf,
+                                                     b->units);
+                if (arrived < 1)
+                    return arrived < 0 ? HD_OUT_OF_MEMORY : HD_ADVANCED;
+            }
+        }
         if (done == first + k * per) {  /* a publish instant */
             const double ratio = hd_bound_check(
                 b->springs, q, v, n, b->statics.buf, b->unit.buf, b->units, b->budget.buf,
@@ -319,6 +338,9 @@ static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, const hd_progra
                 *worst = ratio;
             if (!(ratio <= 1.0))
                 return HD_ADVANCED;
+            /* the rates of work of the inputs now */
+            if (drives != NULL && hd_drives_refresh(drives, in, b->budget.buf, b->units) < 0)
+                return HD_OUT_OF_MEMORY;
         }
         end = done + per < steps ? done + per : steps;
         from_q = q;
@@ -327,8 +349,111 @@ static int hd_run_segments(hd_stepper *s, const hd_run_bound *b, const hd_progra
     return HD_ADVANCED;
 }
 
+/* |(x, y)| by the Python callable `context` (math.hypot), with the GIL taken for it. */
+static double hd_call_hypot(void *context, double x, double y, int *failed)
+{
+    const PyGILState_STATE gil = PyGILState_Ensure();
+    double length = NAN;
+    PyObject *values[2] = {PyFloat_FromDouble(x), PyFloat_FromDouble(y)};
+    if (values[0] != NULL && values[1] != NULL) {
+        PyObject *result = PyObject_Vectorcall((PyObject *)context, values, 2, NULL);
+        if (result != NULL) {
+            length = PyFloat_AsDouble(result);
+            Py_DECREF(result);
+        }
+    }
+    Py_XDECREF(values[0]);
+    Py_XDECREF(values[1]);
+    if (PyErr_Occurred()) {  /* out of memory: the instant is left to Python */
+        PyErr_Clear();
+        *failed = 1;
+    }
+    PyGILState_Release(gil);
+    return length;
+}
+
+/* The drives' buffers a run holds while it takes them. */
+typedef struct {
+    Py_buffer views[5];
+    int held;
+} hd_drive_views;
+
+static void hd_release_drives(hd_drive_views *views)
+{
+    for (int k = 0; k < views->held; ++k)
+        PyBuffer_Release(&views->views[k]);
+    views->held = 0;
+}
+
+/* Read run's `drives` (a tuple: ints, reals, row_unit, row_rates, steady, start_ns, step_ns,
+ * hypot) into `d` for the inputs' program `in`, the energy bound's `units` and `bodies`
+ * bodies, holding its buffers in `views`; -1 with an exception set. */
+static int hd_get_drives(PyObject *object, const hd_program *in, long units, long bodies,
+                         double h, hd_drives *d, hd_drive_views *views)
+{
+    if (!PyTuple_Check(object) || PyTuple_GET_SIZE(object) != 8) {
+        PyErr_SetString(PyExc_TypeError, "drives: a tuple of 8 items is needed");
+        return -1;
+    }
+    if (in == NULL || in->term_count != 1 || in->terms[0].kind != HD_WRENCH) {
+        PyErr_SetString(PyExc_ValueError, "drives: the inputs must be one wrench term");
+        return -1;
+    }
+    const long rows = in->terms[0].count;
+    static const struct { const char *what; char format; int writable; } columns[5] = {
+        {"drives: ints", 'l', 1}, {"drives: reals", 'd', 1}, {"drives: row_unit", 'l', 0},
+        {"drives: row_rates", 'd', 0}, {"drives: steady", 'd', 0}};
+    const Py_ssize_t counts[5] = {-1, -1, rows, 3 * rows, units};
+    for (int k = 0; k < 5; ++k) {
+        if (hd_get_buffer(PyTuple_GET_ITEM(object, k), &views->views[k], columns[k].what,
+                          columns[k].format, counts[k], columns[k].writable) < 0) {
+            hd_release_drives(views);
+            return -1;
+        }
+        views->held = k + 1;
+    }
+    const Py_ssize_t count = views->views[0].len / 8 / HD_DRIVE_INTS;
+    d->count = (long)count;
+    d->ints = views->views[0].buf;
+    d->reals = views->views[1].buf;
+    d->rows = rows;
+    d->row_unit = views->views[2].buf;
+    d->row_rates = views->views[3].buf;
+    d->steady = views->views[4].buf;
+    d->start_ns = PyLong_AsLong(PyTuple_GET_ITEM(object, 5));
+    d->step_ns = PyLong_AsLong(PyTuple_GET_ITEM(object, 6));
+    d->context = PyTuple_GET_ITEM(object, 7);
+    d->hypot = hd_call_hypot;
+    d->h = h;
+    d->failed = 0;
+    int ok = !PyErr_Occurred() && count >= 1 && count <= HD_DRIVE_MOST &&
+        views->views[0].len == count * 8 * HD_DRIVE_INTS &&
+        views->views[1].len == count * 8 * HD_DRIVE_REALS && d->step_ns > 0 &&
+        PyCallable_Check(d->context);
+    for (long k = 0; ok && k < d->count; ++k) {  /* instants on the step grid, after now */
+        long *i = d->ints + k * HD_DRIVE_INTS;
+        ok = i[HD_DRIVE_BODY] >= 0 && i[HD_DRIVE_BODY] < bodies
+            && i[HD_DRIVE_PERIOD_NS] >= d->step_ns && i[HD_DRIVE_PERIOD_NS] % d->step_ns == 0
+            && i[HD_DRIVE_ROW_LEFT] >= 0 && i[HD_DRIVE_ROW_LEFT] < rows
+            && i[HD_DRIVE_ROW_RIGHT] >= 0 && i[HD_DRIVE_ROW_RIGHT] < rows
+            && i[HD_DRIVE_NEXT_NS] > d->start_ns
+            && (i[HD_DRIVE_NEXT_NS] - d->start_ns) % d->step_ns == 0;
+        i[HD_DRIVE_INSTANTS] = 0;
+    }
+    for (long row = 0; ok && row < rows; ++row)
+        ok = d->row_unit[row] >= 0 && d->row_unit[row] < units;
+    if (!ok) {
+        hd_release_drives(views);
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "drives: columns out of range");
+        return -1;
+    }
+    return 0;
+}
+
 PyDoc_STRVAR(run_doc,
-"run(stepper, inputs, oriented, q, v, qs, vs, first, steps, size, first_seconds)\n"
+"run(stepper, inputs, oriented, q, v, qs, vs, first, steps, size, first_seconds,\n"
+"    drives=None)\n"
 "    -> (status, taken, evaluations, substeps, rejected, size, checked, worst)\n\n"
 "``steps`` (int) steps of the Stepper ``stepper``'s ``h`` from (q, v) (read only;\n"
 "C-contiguous float64 of 3 values per body) as ``step`` takes them, without a joint pass,\n"
@@ -339,17 +464,22 @@ PyDoc_STRVAR(run_doc,
 "the row before. Stops at the first failing step (``status`` as ``step``'s; the last good\n"
 "state ends row (segments begun - 1)) or after the first check over 1. ``inputs``,\n"
 "``oriented``, ``size``: as ``step``'s; ``checked``: the checks made, ``worst``: their\n"
-"largest ratio of excess to limit.");
+"largest ratio of excess to limit. ``drives`` (None: none): the differential drives whose\n"
+"wheels are every row of ``inputs``, as src/kernel/drive.h lays them out: a tuple (ints,\n"
+"reals, row_unit, row_rates, steady, start_ns, step_ns, hypot), ``start_ns`` the sim time\n"
+"now; their instants after the start and before the end are taken inside the run (their\n"
+"columns written, the instants counted from 0), which ends at one it leaves to Python.");
 
 static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs,
                            PyObject *kwnames)
 {
     static const char *const names[] = {"stepper", "inputs", "oriented", "q", "v", "qs", "vs",
-                                        "first", "steps", "size", "first_seconds", NULL};
-    PyObject *given[11];
+                                        "first", "steps", "size", "first_seconds", "drives",
+                                        NULL};
+    PyObject *given[12];
     hd_program *in;
     int oriented;
-    hd_stepper_capsule *c = hd_get_stepping("run", args, nargs, kwnames, names, 11, given, &in,
+    hd_stepper_capsule *c = hd_get_stepping("run", args, nargs, kwnames, names, 12, 11, given, &in,
                                             &oriented);
     if (c == NULL)
         return NULL;
@@ -385,23 +515,39 @@ static PyObject *hd_py_run(PyObject *self, PyObject *const *args, Py_ssize_t nar
         PyBuffer_Release(&vv);
         return NULL;
     }
+    hd_drives drive_data;
+    hd_drives *drives = NULL;
+    hd_drive_views drive_views = {.held = 0};
+    if (given[11] != NULL && given[11] != Py_None) {
+        if (hd_get_drives(given[11], in, b->units, n, b->h, &drive_data, &drive_views) < 0) {
+            PyBuffer_Release(&qv);
+            PyBuffer_Release(&vv);
+            PyBuffer_Release(&qsv);
+            PyBuffer_Release(&vsv);
+            return NULL;
+        }
+        drives = &drive_data;
+    }
     long taken = 0, checked = 0;
     double worst = 0.0;
     hd_work work = {0, 0, 0};
     int status = HD_OUT_OF_MEMORY;
-    double *memory = malloc((size_t)(2 * n + 1) * sizeof(double));
+    double *memory = malloc((size_t)(2 * n + 1 + b->units) * sizeof(double));
+    if (drives != NULL)
+        drives->rates = memory + 2 * n + 1;
     if (memory != NULL && steps * n < HD_GIL_WORK && s->contacts == NULL) {
-        status = hd_run_segments(s, b, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf,
-                                 first, steps, first_seconds, memory, &taken, &work, &checked,
-                                 &worst);
+        status = hd_run_segments(s, b, in, drives, oriented, &size, qv.buf, vv.buf, qsv.buf,
+                                 vsv.buf, first, steps, first_seconds, memory, &taken, &work,
+                                 &checked, &worst);
     } else if (memory != NULL) {
         Py_BEGIN_ALLOW_THREADS
-        status = hd_run_segments(s, b, in, oriented, &size, qv.buf, vv.buf, qsv.buf, vsv.buf,
-                                 first, steps, first_seconds, memory, &taken, &work, &checked,
-                                 &worst);
+        status = hd_run_segments(s, b, in, drives, oriented, &size, qv.buf, vv.buf, qsv.buf,
+                                 vsv.buf, first, steps, first_seconds, memory, &taken, &work,
+                                 &checked, &worst);
         Py_END_ALLOW_THREADS
     }
     free(memory);
+    hd_release_drives(&drive_views);
     PyBuffer_Release(&qv);
     PyBuffer_Release(&vv);
     PyBuffer_Release(&qsv);

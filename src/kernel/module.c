@@ -12,6 +12,7 @@
  */
 #include "bind.h"
 #include "contact.h"
+#include "drive.h"
 #include "joint.h"
 #include "kernel.h"
 #include "wide.h"
@@ -47,6 +48,8 @@ PyMODINIT_FUNC PyInit__kernel(void)
         {"JOINT_REALS", HD_JOINT_REALS}, {"JOINT_STATE", HD_JOINT_STATE},
         {"REVOLUTE", HD_REVOLUTE}, {"PRISMATIC", HD_PRISMATIC}, {"WELD", HD_WELD},
         {"ROD", HD_ROD}, {"ROPE", HD_ROPE}, {"GEAR", HD_GEAR},
+        {"DRIVE_INTS", HD_DRIVE_INTS}, {"DRIVE_REALS", HD_DRIVE_REALS},
+        {"DRIVE_MOST", HD_DRIVE_MOST},
     };
     PyObject *m = PyModule_Create(&hd_module);
     if (m == NULL)

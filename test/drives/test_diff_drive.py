@@ -65,10 +65,17 @@ def test_capped_motors_accelerate_at_exactly_twice_the_cap_over_the_mass():
         return commands
 
     drives.drives[0].wrenches = spy
+    drives.run_in_kernel = lambda *args: None  # every instant on the Python path, spied on
     advance_with_drives(sim, drives, 1_000_000_000)
     assert len(pushes) == 200 and max(pushes) == cap
     forward, _, _ = body_speeds(sim.q, sim.v)
     assert forward == pytest.approx(2 * cap / MASS * 1.0, rel=1e-12)
+    # The instants inside the kernel's runs (where it takes them) give the same bits.
+    other = robot_sim(max_force=cap, integrator="semi_implicit_euler")
+    other_drives = DriveSet(other)
+    other_drives.drives[0].receive(VelocityCommand(0, 5.0, 0.0))
+    advance_with_drives(other, other_drives, 1_000_000_000)
+    assert other.q.tobytes() == sim.q.tobytes() and other.v.tobytes() == sim.v.tobytes()
 
 
 def test_traction_caps_each_wheel_on_its_friction_circle():
