@@ -197,7 +197,8 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
     recording began before the replay's first snapshot. The place nearest the sibling
     poses' guess where all of them match, else where the most of them in a row from the
     first do (a twist lost later breaks that row), else the guess. No place leaves more
-    twists before the replay's first snapshot, unchecked, than the poses do: where a body
+    twists before the replay's first snapshot, unchecked, than the poses do (but one, a
+    twist that arrived after the next tick's pose): where a body
     rests, its twists are all alike, and a place a few earlier left one changed twist
     unchecked and matched the rest, shifted, until the body moved (reported as outputs
     missing, not as the twist that differs). Places whose rows tie, twists alike up to a
@@ -212,6 +213,8 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
             guess = bisect.bisect_left(stamps, stamp)
         else:  # count the recorded snapshots the replay does not have
             guess = -sum(1 for _, s in poses if stamp <= s < stamps[0])
+        if not before:  # twists logged before the first pose are of ticks before its
+            guess -= sum(1 for m in messages if m.log_ns < poses[0][0].log_ns)
     count = len(messages)
 
     def matching(offset: int) -> int:
@@ -229,7 +232,7 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
                    for j in range(max(0, -offset), min(count, len(replayed) - offset)))
 
     best, longest, ties = guess, 0, [guess]
-    lowest = max(-count + 1, min(guess, 0))
+    lowest = max(-count + 1, min(guess, 0) - 1)  # a twist logged after the next pose
     for distance in range(len(replayed) + count + 1):
         for offset in (guess - distance, guess + distance):
             if lowest <= offset < len(replayed):
