@@ -419,10 +419,10 @@ class ContactPass(Sleep, WarmStarts):
         # the step, the forces acting after it (follow): reversing the speed they added
         # during the step too would add energy at every bounce.
         # The contact's impulse j adds j (target + impact) / 2 to the energy the method
-        # keeps, so an elastic contact's target is never above -e impact either: one that
-        # was separating before the step (a resting corner that the step's rotation had
-        # lifted) and was stopped at 0 added j impact / 2 (a box rocking at e = 1 gained
-        # 20 % in 100 s). With e = 0 the cap is 0, which no target exceeds.
+        # keeps, so an elastic contact that does not bounce never aims above -e impact:
+        # one that was separating before the step (a resting corner that the step's
+        # rotation had lifted) and was stopped at 0 added j impact / 2 (a box rocking at
+        # e = 1 gained 20 % in 100 s). With e = 0 the cap is 0, which no target exceeds.
         target = min(approach + depth / h, 0.0)
         bounces = depth > 0.0 and approach < -self.threshold
         if bounces or contact.e != 0.0:
@@ -432,7 +432,7 @@ class ContactPass(Sleep, WarmStarts):
                 impact -= self.lead * (approach - impact)
             if bounces:
                 target = max(target, -contact.e * min(impact, 0.0))
-            if contact.e != 0.0:
+            elif contact.e != 0.0:
                 target = min(target, -contact.e * impact)
         row.target = target
         row.jn, row.jt = self._recall(contact.key, row.rbx, row.rby, poses[b][2])

@@ -56,7 +56,7 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
             impact -= m->lead * (r->approach - impact);
         if (bounces)
             target = hd_max(target, -c->e * hd_min(impact, 0.0));
-        if (c->e != 0.0)
+        else if (c->e != 0.0)
             target = hd_min(target, -c->e * impact);
     }
     r->target = target;
