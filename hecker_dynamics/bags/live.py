@@ -196,7 +196,13 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
     """Where the recorded twists start in the replayed sequence; negative when the
     recording began before the replay's first snapshot. The place nearest the sibling
     poses' guess where all of them match, else where the most of them in a row from the
-    first do (a twist lost later breaks that row), else the guess."""
+    first do (a twist lost later breaks that row), else the guess. No place leaves more
+    twists before the replay's first snapshot, unchecked, than the poses do (but one, a
+    twist that arrived after the next tick's pose): where a body
+    rests, its twists are all alike, and a place a few earlier left one changed twist
+    unchecked and matched the rest, shifted, until the body moved (reported as outputs
+    missing, not as the twist that differs). Places whose rows tie, twists alike up to a
+    changed one, are told apart by how many match in all."""
     stamps = [o.log_ns for o in replayed]
     guess = 0
     if poses and messages and stamps:
@@ -207,6 +213,8 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
             guess = bisect.bisect_left(stamps, stamp)
         else:  # count the recorded snapshots the replay does not have
             guess = -sum(1 for _, s in poses if stamp <= s < stamps[0])
+        if not before:  # twists logged before the first pose are of ticks before its
+            guess -= sum(1 for m in messages if m.log_ns < poses[0][0].log_ns)
     count = len(messages)
 
     def matching(offset: int) -> int:
@@ -218,16 +226,26 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
         # Twists past the replay's last are none it published: not all of them match.
         return count if offset + count <= len(replayed) else len(checked)
 
-    best, longest = guess, 0
+    def total(offset: int) -> int:
+        """How many twists match at ``offset``, in a row or not."""
+        return sum(messages[j].raw == raw[id(replayed[offset + j])]
+                   for j in range(max(0, -offset), min(count, len(replayed) - offset)))
+
+    best, longest, ties = guess, 0, [guess]
+    lowest = max(-count + 1, min(guess, 0) - 1)  # a twist logged after the next pose
     for distance in range(len(replayed) + count + 1):
         for offset in (guess - distance, guess + distance):
-            if -count < offset < len(replayed):
+            if lowest <= offset < len(replayed):
                 row = matching(offset)
                 if row == count:
                     return offset
                 if row > longest:
-                    best, longest = offset, row
-    return best
+                    best, longest, ties = offset, row, [offset]
+                elif row == longest and abs(offset - guess) <= LOST_TWISTS:
+                    ties.append(offset)
+    # Alike twists (a body at rest) tie up to a changed one: the place where the most
+    # match after it too.
+    return max(ties, key=total) if longest and len(ties) > 1 else best
 
 
 def _twist_places(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],

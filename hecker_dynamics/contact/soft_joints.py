@@ -45,8 +45,7 @@ from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
-from ..scene.joints import JointEnds, SoftJoints, soft_refusal, softness
-from ..scene.parameters import SceneError
+from ..scene.joints import JointEnds, SoftJoints, softness
 from .joint_rows import LIMIT, MOTOR, RIGID, SOFT, JointRow
 from .joint_solve import Directions, directions, dot, rate
 from .joints import JointPass
@@ -91,14 +90,6 @@ class SoftJointPass(JointPass):
                  compiled: bool = False) -> None:
         soft = scene.soft_joints
         assert soft is not None  # the scene asks for soft joints
-        # The loader refuses these; a scene changed after loading (a command line's
-        # --integrator or --map) is refused here.
-        problem = soft_refusal(scene.integrator, [
-            what for what, there in (("walls", scene.walls), ("collision groups",
-                                                             scene.collisions),
-                                     ("a map", scene.map is not None)) if there])
-        if problem is not None:
-            raise SceneError(f"joint_solver.type soft: {problem}")
         self.soft: SoftJoints = soft
         #: The sub-steps of a step, which the simulation takes (0: the exact pass's parts).
         self.substeps = soft.substeps

@@ -32,10 +32,14 @@ from two kinds of source:
     term), so by Cauchy-Schwarz |w| <= sqrt(2 (1 / I_a + 1 / I_b)) sqrt(B). A
     slider on the fixed frame moves its body's point r_b from the CM along the axis u:
     w = u . v_b + (perp(r_b) . u) omega_b, so |w| <= sqrt(2 (1 / m_b + |r_b|^2 / I_b))
-    sqrt(B). With c_m the sum over the unit's motors of tau_max times that coefficient,
-    dB/dt <= (c + c_m) sqrt(B). (Between two bodies a slider's lever on body_a is the
-    distance of body_b's point from body_a's CM, which the state moves; such a unit has
-    only the first bound.)
+    sqrt(B). Between two bodies the axis turns with body_a about body_b's point P_B, and
+    w = u . v_b + (perp(r_b) . u) omega_b - u . v_a - (perp(s) . u) omega_a, s = P_B - x_a
+    (the motor row's Jacobian, ``contact/joint_rows.py: line_entries``): by
+    Cauchy-Schwarz over the six velocities weighted by the masses and inertias,
+    |w| <= sqrt(2 (1 / m_a + 1 / m_b + |r_b|^2 / I_b + |s|^2 / I_a)) sqrt(B), since
+    |perp(r) . u| <= |r| for the unit axis u; |s| <= |r_b| + |x_b - x_a|
+    (``forces.lever_arm``) follows the state. With c_m the sum over the unit's motors of
+    tau_max times that coefficient, dB/dt <= (c + c_m) sqrt(B).
 
 So sqrt(B(t)) <= R(t) + min(sqrt(W(t)), M(t)), with R(t) = sqrt(B(0)) + int c dt / 2,
 W(t) = int P dt and M(t) = int c_m dt / 2: the right side squared, G, grows by
@@ -50,7 +54,8 @@ wound rotary spring's, joins B(0).
 
 :class:`EnergyBound` keeps R, W and M per unit as the simulation runs (c from the state
 at each check, the largest input set since the last one; P from the motors' target
-speeds at the last check and now; c_m from the masses and the motors' efforts alone) and
+speeds at the last check and now; c_m from the masses and the motors' efforts, and for
+a slider between two bodies its lever at the last check or now, the larger) and
 at each check refuses a unit whose B exceeds :data:`GROWTH` times G, leaving out of B
 each body's kinetic energy up to its *floor*, that of moving at 1 m/s and turning at
 1 rad/s (ROS units are SI, REP 103): slow motion is never a blow-up, and a floor per
@@ -203,12 +208,11 @@ class EnergyBound:
                 if isinstance(spec, (RevoluteJoint, PrismaticJoint)) and spec.motor is not None:
                     self._motors.append((self.units[index[spec.body_b]], spec.motor.max_effort,
                                          spec.name))
-        rates = self._motor_rates(model)
-        #: Whether each unit has a slider between two bodies, and so no M (see the module):
-        #: inf, never the smaller, and never nan (its c_m is 0).
-        self._sliding = [rate < 0.0 for rate in rates]
-        self._set(MOTOR_RATE, [max(rate, 0.0) for rate in rates])
-        self._set(MOTOR_ROOT, [math.inf if sliding else 0.0 for sliding in self._sliding])
+        #: Whether a motor's c_m follows the state: a slider between two bodies (its lever).
+        self._levered = any(isinstance(spec, PrismaticJoint) and spec.motor is not None and
+                            spec.body_a is not None for spec in model.scene.joints)
+        self._set(MOTOR_RATE, self._motor_rates(q))
+        self._set(MOTOR_ROOT, [0.0] * count)
         self._speeds: dict[str, float] = {}
         self._inputs_set = self._motors_moved = self._stale = False
         #: The largest ratio of a unit's excess to its limit seen, for tests and reports.
@@ -353,7 +357,9 @@ class EnergyBound:
         self._set(INPUT_RATE, [0.0] * len(rates))
         self._inputs_set = self._motors_moved = False
         # To take again where a lever moves, or to drop inputs that ended.
-        self._stale = self._moving or self.model.inputs is not None
+        self._stale = self._moving or self._levered or self.model.inputs is not None
+        if self._levered:
+            self._set(MOTOR_RATE, self._motor_rates(q))
         if self._motors:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
             self._set(POWER, self._powers(self._speeds))
@@ -365,28 +371,28 @@ class EnergyBound:
             powers[unit] += effort * abs(speeds[name])
         return powers
 
-    def _motor_rates(self, model: Model) -> list[float]:
-        """c_m of each unit: its motors' largest efforts times the coefficients of
-        sqrt(B) that bound their joints' speeds (see the module); -1 for a unit with a
-        slider between two bodies, whose speed the state's lever arm bounds."""
+    def _motor_rates(self, q: np.ndarray) -> list[float]:
+        """c_m of each unit at positions ``q``: its motors' largest efforts times the
+        coefficients of sqrt(B) that bound their joints' speeds (see the module)."""
         rates = [0.0] * len(self.members)
+        model = self.model
         index = model.index
+        rows = None
         for spec in model.scene.joints:
             if not isinstance(spec, (RevoluteJoint, PrismaticJoint)) or spec.motor is None:
                 continue
             b = index[spec.body_b]
-            unit = self.units[b]
             a = None if spec.body_a is None else index[spec.body_a]
             if isinstance(spec, RevoluteJoint):
                 mobility = 1.0 / self._inertia[b] + (0.0 if a is None else 1.0 / self._inertia[a])
-            elif a is None:
+            else:
                 rx, ry = model.local(b, spec.point_b).tolist()
                 mobility = 1.0 / self._mass[b] + (rx * rx + ry * ry) / self._inertia[b]
-            else:
-                rates[unit] = -1.0
-                continue
-            if rates[unit] >= 0.0:
-                rates[unit] += spec.motor.max_effort * math.sqrt(2.0 * mobility)
+                if a is not None:  # the axis turns with body_a, about P_B
+                    rows = q.tolist() if rows is None else rows
+                    lever = lever_arm(a, b, (rx, ry), rows)
+                    mobility += 1.0 / self._mass[a] + lever * lever / self._inertia[a]
+            rates[self.units[b]] += spec.motor.max_effort * math.sqrt(2.0 * mobility)
         return rates
 
     def inputs_changed(self, q: np.ndarray, inputs: Optional[ConstantWrenchTerm]) -> None:
@@ -414,6 +420,8 @@ class EnergyBound:
         finite)."""
         if self._motors:
             self._motors_changed()
+        if self._levered:  # the interval counts the larger lever of the two
+            self._set(MOTOR_RATE, list(map(max, self.row(MOTOR_RATE), self._motor_rates(q))))
         if self._compiled:
             return kernel.bound_check(self._program, np.ascontiguousarray(q),
                                       np.ascontiguousarray(v), self._statics,
@@ -592,8 +600,6 @@ class EnergyBound:
                          if row in (ROOT, MOTOR_ROOT) else math.fsum(values))
                 values = [whole] * count
             self._set(row, values)
-        self._set(MOTOR_ROOT, [math.inf if sliding else turned for sliding, turned
-                               in zip(self._sliding, self.row(MOTOR_ROOT))])
         self._speeds = {str(k): float(x) for k, x in state.get("speeds", {}).items()}
         if self._motors and not self._speeds:
             self._speeds = dict(self._joints.motor_speed)  # type: ignore[union-attr]
@@ -609,8 +615,7 @@ class EnergyBound:
         this bound's units: ``sources`` gives, for each of this world's bodies, its index
         in the other world (None for a new body). A unit's budget is the sum of the
         budgets of the units its bodies came from (sqrt of the sum of squares for R and M):
-        what they could hold together; a unit of new bodies only keeps its own, and a unit
-        without M (a slider between two bodies) keeps none."""
+        what they could hold together; a unit of new bodies only keeps its own."""
         carried = self.export_state()
         old_units = state["units"]
         saved, turned = _saved(state, "motor_root"), self.row(MOTOR_ROOT)
@@ -619,8 +624,7 @@ class EnergyBound:
                            if i is not None})
             if came:
                 carried["root"][unit] = math.sqrt(sum(state["root"][u] ** 2 for u in came))
-                turned[unit] = (math.inf if self._sliding[unit]
-                                else math.sqrt(sum(saved[u] ** 2 for u in came)))
+                turned[unit] = math.sqrt(sum(saved[u] ** 2 for u in came))
                 for key in ("work", "input_rate"):
                     carried[key][unit] = math.fsum(state[key][u] for u in came)
         carried["worst_ratio"] = state["worst_ratio"]

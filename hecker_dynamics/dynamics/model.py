@@ -29,6 +29,7 @@ from ..scene.load import (
     Gravity,
     Scene,
     SpringSpec,
+    check_soft_joints,
 )
 from . import kernel
 from .forces import (
@@ -87,6 +88,7 @@ class Model:
             kernel.CompiledForces(self.inverse_mass, self.terms) if compiled else None)
         self.inputs = None
         self._inverse_mass_rows = self.inverse_mass.tolist()
+        check_soft_joints(scene)  # as its file would be, after a command line's changes
         self.joints: Optional[JointPass] = (
             (JointPass if scene.soft_joints is None else SoftJointPass)(
                 scene, self.inverse_mass, self.cm_local, compiled=self.compiled is not None)

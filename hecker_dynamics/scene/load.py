@@ -72,6 +72,7 @@ __all__ = [
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
     "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "check_takes_a_step",
+    "check_soft_joints",
     "MAX_SECONDS", "MAP_SURFACE",
 ]
 
@@ -799,6 +800,19 @@ def with_map(scene: Scene, file: str, source: str = "--map") -> Scene:
                       bodies=list(scene.map.bodies))
     reader = ParameterReader({"map": values}, source)
     return replace(scene, map=_read_map(reader.child("map"), {b.name: b for b in scene.bodies}))
+
+
+def check_soft_joints(scene: Scene) -> None:
+    """Refuse soft joints that cannot step (:func:`~.joints.soft_refusal`) with the
+    loader's message: for a scene changed after loading, by a command line's
+    ``--integrator`` or ``--map``, with joints or without, as its file would be."""
+    if scene.soft_joints is None:
+        return
+    problem = soft_refusal(scene.integrator, [
+        what for what, there in (("walls", scene.walls), ("collision groups", scene.collisions),
+                                 ("a map", scene.map is not None)) if there])
+    if problem is not None:
+        raise SceneError(f"{scene.source}: parameter 'joint_solver.type': {problem}")
 
 
 def check_takes_a_step(duration_ns: int, step_ns: int, what: str,

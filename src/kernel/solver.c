@@ -46,12 +46,18 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
     r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
     r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
     r->approach = hd_normal_velocity(reference + 3 * a, reference + 3 * b, r);
+    /* An elastic contact's target is never above -e times its impact either (the work its
+     * impulse would add to the method's energy). */
     double target = hd_min(r->approach + c->depth / h, 0.0);
-    if (c->depth > 0.0 && r->approach < -m->threshold) {
+    const int bounces = c->depth > 0.0 && r->approach < -m->threshold;
+    if (bounces || c->e != 0.0) {
         double impact = hd_normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
         if (m->lead != 0.0)
             impact -= m->lead * (r->approach - impact);
-        target = hd_max(target, -c->e * hd_min(impact, 0.0));
+        if (bounces)
+            target = hd_max(target, -c->e * hd_min(impact, 0.0));
+        else if (c->e != 0.0)
+            target = hd_min(target, -c->e * impact);
     }
     r->target = target;
     r->carry = 1.0;

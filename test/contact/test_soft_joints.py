@@ -19,11 +19,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from scene_builders import make_scene
+from scene_builders import make_scene, write_scene
 from test_joints import I_PIVOT, ROD, pendulum_scene
 from test_joints_compiled import SCENES
 
 from hecker_dynamics.bench.joints import chain, pin_gap
+from hecker_dynamics.cli import main
 from hecker_dynamics.contact.joint_solve import directions, dot, rate
 from hecker_dynamics.contact.soft_joints import SOFT_MASS_RATIO, _pin_block
 from hecker_dynamics.contact.solver import MassRatioWarning
@@ -240,12 +241,31 @@ def test_soft_joints_refuse_what_they_cannot_solve(change, problem):
     ({"integrator": "rk4"}, "set integrator to semi_implicit_euler, not 'rk4'"),
     ({"walls": (None,)}, "this scene has walls"),
 ])
-def test_a_scene_changed_after_loading_is_refused_too(change, problem):
+@pytest.mark.parametrize("joints", [True, False], ids=["pendulum", "no joints"])
+def test_a_scene_changed_after_loading_is_refused_too(change, problem, joints):
     """What a command line may change after loading (``--integrator``, ``--map``) is
-    refused when the simulation is made."""
+    refused when the simulation is made, with the loader's message, whether the scene has
+    joints or not (without joints it ran: no soft pass was made to refuse it)."""
     scene = soft(SCENES["pendulum"]("semi_implicit_euler"))
-    with pytest.raises(SceneError, match=f"joint_solver.type soft: .*{problem}"):
+    if not joints:
+        scene = replace(scene, joints=())
+    with pytest.raises(SceneError, match=f"parameter 'joint_solver.type': .*{problem}"):
         Simulation(replace(scene, **change))
+
+
+def test_the_command_line_refuses_soft_joints_as_the_file_does(tmp_path, capsys):
+    """``run --integrator rk4`` on a file with soft joints and no joints was accepted,
+    where the same integrator in the file is refused: the same line now, status 2."""
+    params = {"step": 0.01, "integrator": "semi_implicit_euler", "duration": 0.1,
+              "joint_solver": {"type": "soft"},
+              "bodies": {"ball": {"shape": "circle", "radius": 0.1, "mass": 1.0}}}
+    rk4_file = write_scene(tmp_path, {**params, "integrator": "rk4"}, "soft.yaml")
+    assert main(["run", str(rk4_file)]) == 2
+    from_file = capsys.readouterr().err
+    soft_file = write_scene(tmp_path, params, "soft.yaml")
+    assert main(["run", str(soft_file), "--integrator", "rk4"]) == 2
+    assert capsys.readouterr().err == from_file
+    assert "parameter 'joint_solver.type': soft joints take" in from_file
 
 
 def test_the_default_is_the_exact_pass_and_soft_takes_its_defaults():

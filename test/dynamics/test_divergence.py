@@ -613,8 +613,8 @@ def test_the_kernel_checks_with_python_s_bits(monkeypatch, lean):
         v = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-60, 60)
         if k == 39:
             v[4, 1] = math.inf
-        # Motors' powers and rates over 40 decades, the second unit without M (a slider
-        # between two bodies) and the others' M or sqrt(W) the smaller by turns.
+        # Motors' powers and rates over 40 decades, the second unit's M unknown (inf: a
+        # budget saved before M) and the others' M or sqrt(W) the smaller by turns.
         power = (rng.uniform(size=units) * 10.0 ** rng.uniform(-20, 40, size=units)).tolist()
         motor_rate = (rng.uniform(size=units) * 10.0 ** rng.uniform(-20, 20, size=units)
                       ).tolist()
@@ -832,6 +832,58 @@ def test_a_slider_at_its_full_force_for_10_s_is_within_the_bound(path):
     assert sim.snapshot().energy == pytest.approx(energy, rel=1e-6)
     assert sim._bound.limits()[0] == pytest.approx(
         GROWTH * energy * (1.0 + 4.0 * 0.09 / 0.5), rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler", "rk4",
+                                    "backward_euler"])
+def test_a_slider_between_two_bodies_at_its_full_force_for_10_s_is_within_the_bound(
+        path, method):
+    """A slider from a free 2 kg chassis to the 4 kg disc's point 0.3 m off its CM along
+    the axis, its motor aiming at 1e12 m/s with its whole 0.5 N for 10 s: the pair gains
+    B = (F t)^2 (1 / m_a + 1 / m_b) / 2, never over M, F sqrt(2 (1 / m_a + 1 / m_b +
+    |r_b|^2 / I_b + |s|^2 / I_a)) integrated over t / 2 (the module's Cauchy-Schwarz
+    bound; |s|, the point's lever about the chassis, at most 0.3 m plus the distance
+    between the CMs, at most d, that at the end): the limit lies between GROWTH B and
+    GROWTH times M with the lever at d. Without M for a slider between two bodies its
+    budget was the target's power alone, 5e12 J after 10 s, a limit of 5e15 J."""
+    params = _driven({"type": "prismatic", "axis": [1.0, 0.0], "point_b": [0.3, 0.0],
+                      "motor": {"speed": 1e12, "max_force": 0.5}}, chassis=True)
+    params["integrator"] = method
+    sim = Simulation(make_scene(params))
+    sim.advance_to(10 * SEC, keep=False)
+    energy = 0.5 * (0.5 * 10.0) ** 2 * (1.0 / 4.0 + 1.0 / 2.0)
+    assert sim.snapshot().energy == pytest.approx(energy, rel=1e-9)
+    wheel, chassis = (sim.model.index[name] for name in ("wheel", "chassis"))
+    d = math.hypot(*(sim.q[wheel, :2] - sim.q[chassis, :2]).tolist())
+    inertia = float(sim.model.inertia[chassis])
+    most = 0.5 * math.sqrt(2.0 * (0.75 + 0.09 / 0.5 + (0.3 + d) ** 2 / inertia)) * 10.0 / 2.0
+    assert sim._bound.worst_ratio <= 1.0 / GROWTH
+    assert GROWTH * energy <= sim._bound.limits()[0] <= GROWTH * most * most
+
+
+@pytest.mark.parametrize("speed, caught", [(0.0, "0.14"), (1e3, "0.18"), (1e12, "0.24")])
+def test_a_spring_blowing_up_beside_a_fast_slider_is_caught(path, speed, caught):
+    """A 1 kg disc on a slider along a free 2 kg carriage, its motor aiming at ``speed``
+    with at most 20 N, and a 1 kg bob on a spring of 1e4 N/m from the disc's rim
+    (explicit Euler at h = 0.01 s, omega h = 1, doubles the spring's energy every step).
+    The slider's power is at most its force times its speed, which the unit's energy
+    bounds (the module's Cauchy-Schwarz bound with the disc's lever about the carriage),
+    so a target of 1e12 m/s no longer makes a budget of 2e13 W: refused at 0.24 s, where
+    it ran to 0.75 s and failed in the joint pass; within a few publish instants of the
+    run whose motor holds the disc still."""
+    params = {"step": 0.01, "integrator": "explicit_euler",
+              "bodies": {"carriage": {"shape": "box", "size": [1.0, 0.4], "mass": 2.0},
+                         "disc": {"shape": "circle", "radius": 0.5, "mass": 1.0},
+                         "bob": {"shape": "circle", "radius": 0.1, "mass": 1.0,
+                                 "position": [2.0, 0.0], "velocity": [0.0, 1.0]}},
+              "joints": {"rail": {"type": "prismatic", "body_a": "carriage", "body_b": "disc",
+                                  "axis": [1.0, 0.0],
+                                  "motor": {"speed": speed, "max_force": 20.0}}},
+              "forces": {"s": {"type": "spring", "body_a": "disc", "point_a": [0.5, 0.0],
+                               "body_b": "bob", "stiffness": 1e4, "rest_length": 1.0}}}
+    sim = Simulation(make_scene(params))
+    with pytest.raises(DivergenceError, match=rf"bob, carriage, disc diverged by t = {caught} s"):
+        sim.advance_to(10 * SEC, keep=False)
 
 
 def test_a_budget_saved_before_motors_had_m_loads_with_their_work_alone():
