@@ -24,14 +24,14 @@ __all__ = ["CONVERGED", "CORRECTION", "MAX_CORRECTION", "MAX_ITERATIONS", "MIN_I
 #: across a contact or two, so the slowest sway of a pile d contacts deep fades by about
 #: 1/d^2 a pass, and d^2 grows as the pile's contacts; with fewer, the weight of a deep
 #: pile never settles into its warm starts and the pile sways. Fastest box of the
-#: benchmark's pyramids (rows^2 units) after 2 s, 1 cm/s allowed: 50 rows 0.009 m/s with
-#: 5 passes, 0.004 with 6; 60 rows 0.012 with 7, 0.004 with 9; 70 rows 0.013 with 10,
-#: 0.005 with 12; 80 rows 0.004 with 16; 100 rows 0.07 with 12, 0.007 with 20, 0.004
-#: with 25.
+#: benchmark's pyramids (rows^2 units) after 2 s, 1 cm/s allowed, with the colours swept
+#: last first (:func:`~.islands.coloured`): 60 rows 0.003 m/s with 6 passes; 80 rows
+#: 0.003 with 10; 100 rows 0.009 with 12, 0.004 with 16 (first colour first it took 25
+#: for 0.004, and 14 left 0.05).
 WORK = 600
 MIN_ITERATIONS = 6
 MAX_ITERATIONS = 40
-SETTLE = 400
+SETTLE = 625
 CONVERGED = 1e-13
 #: Overlap left alone (m) by the position correction: at most :data:`SLOP`, and at most
 #: :data:`SLOP_FRACTION` of the thinner body's size (:func:`slop`), so that a body smaller

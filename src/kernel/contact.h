@@ -21,7 +21,7 @@
 #define HD_WORK 600
 #define HD_MIN_ITERATIONS 6
 #define HD_MAX_ITERATIONS 40
-#define HD_SETTLE 400
+#define HD_SETTLE 625
 #define HD_CONVERGED 1e-13
 #define HD_MAX_CONDITION 1000.0
 #define HD_MARGIN 5e-3

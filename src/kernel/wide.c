@@ -728,6 +728,13 @@ int hd_wide_solve(hd_contact_model *m, long wide, int known, int levels, const l
         else if (filled > 0)
             hd_load_lanes(m, pair, filled, w->lanes + lanes++);
     }
+    /* A big island's colours last first (contact/islands.py: coloured), as its passes and
+     * position correction take them; a small island's levels in their order. */
+    for (int i = 0; !levels && i < used / 2; ++i) {
+        const int c = colours[i];
+        colours[i] = colours[used - 1 - i];
+        colours[used - 1 - i] = c;
+    }
     w->lane_start[HD_COLOURS + 1] = lanes;
     w->single_start[HD_COLOURS + 1] = singles;
     hd_passes job = {m, base, 0, 0};

@@ -1,5 +1,5 @@
 /* The coloured solve of a big island (contact/islands.py: coloured): its units in colour order,
- * four two-point blocks of one colour at a time in SIMD lanes.
+ * the last colour first, four two-point blocks of one colour at a time in SIMD lanes.
  *
  * A colour's units share no body but the walls' slot, whose velocity stays +0 (it is
  * only ever changed by a product with a zero inverse mass), so they can be solved in any

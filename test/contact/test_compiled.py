@@ -279,11 +279,12 @@ def test_restored_simulation_continues_bit_for_bit(name, compiled):
     assert not np.array_equal(cold.q, original.q)
 
 
-def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
+def test_colours_share_no_body_and_come_last_first_after_the_overflow():
     """A body touched by 70 units (more than COLOURS) and a ring of units between walls
     and pairs: every colour's units share no body but the walls', each unit appears once,
-    each colour keeps the island's order, and the 6 units of body 0 that fit no colour come
-    last in their order."""
+    each colour keeps the island's order, the colours come last first (body 0's k-th unit
+    has colour k), and the 6 units of body 0 that fit no colour, the overflow, come first
+    in their order."""
     from types import SimpleNamespace
 
     spokes = [SimpleNamespace(a=0, b=k) for k in range(1, 71)]
@@ -291,9 +292,9 @@ def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
     island = [unit for pair in zip(spokes, ring) for unit in pair] + spokes[len(ring):]
     order = islands.coloured(island)
     assert sorted(map(id, order)) == sorted(map(id, island))
-    assert order[-6:] == spokes[-6:]
+    assert order[:6] == spokes[-6:]
     groups, used = [[]], set()
-    for unit in order[:-6]:  # split where a unit shares a body with its colour
+    for unit in order[6:]:  # split where a unit shares a body with its colour
         bodies = {unit.a, unit.b} - {-1}
         if bodies & used or (groups[-1] and island.index(unit) < island.index(groups[-1][-1])):
             groups.append([])
@@ -301,4 +302,6 @@ def test_colours_share_no_body_and_the_overflow_comes_last_in_order():
         groups[-1].append(unit)
         used |= bodies
     assert len(groups) == islands.COLOURS
+    assert [next(unit for unit in group if unit.a == 0) for group in groups] == \
+        spokes[islands.COLOURS - 1::-1]
     assert all(sum(unit.a == 0 for unit in group) == 1 for group in groups)
