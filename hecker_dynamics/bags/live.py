@@ -1084,8 +1084,9 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
             else:
                 check.keyframes_checked += 1
         inside = [stamp for stamp in recorded if stamp >= start]
-        if inside:
-            gaps = [stamp for stamp in taken if min(inside) < stamp < max(inside)
+        first, last = (min(inside), max(inside)) if inside else (None, None)
+        if first is not None and last is not None:
+            gaps = [stamp for stamp in taken if first < stamp < last
                     and stamp not in recorded]
             if gaps:
                 coverage.fail(f"session {session.number}: the keyframe(s) at "
@@ -1094,7 +1095,7 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
         # A recorder stops its subscriptions one by one, so keyframes after the last
         # recorded one may be lost honestly; the outputs around them are still compared.
         after = sorted(stamp for stamp in taken if stamp not in recorded
-                       and (not inside or stamp > max(inside)))
+                       and (last is None or stamp > last))
         if after:
             coverage.notes.append(
                 f"session {session.number}: {len(after)} keyframe(s) the replay took from "
