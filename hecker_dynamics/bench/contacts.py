@@ -12,7 +12,9 @@ untimed, for each run, the runs of all engines one after another in alternating 
   every step, and again with sleeping on (``contacts.sleep``; the peers' own sleeping, as
   in whole scenes), labelled "(sleeping)"; "moved" is how far the farthest box got from
   its start. Beside them, labelled as explanation only, the median of the
-  :data:`BLOCK`-step blocks of one more run per engine stepped block by block.
+  :data:`BLOCK`-step blocks of one more run per engine stepped block by block. From
+  :data:`THREADED_ROWS` rows, with the kernel, ours also on two threads
+  (``contacts.threads: 2``, the same bits as one), labelled "(2 threads)".
 - **Whole scenes over their full durations**, resting phases included: the box of 100
   balls (:func:`~.pyramid.ball_box`, 5 s), Box2D v3's many pyramids and tumbler scaled to
   fit (:func:`~.pyramid.many_pyramids`, 440 boxes, 2 s; :func:`~.pyramid.tumbler`, 196
@@ -28,7 +30,10 @@ The contact targets, each reported as met or missed with its ratio: (1) every py
 step at most 0.5 of pymunk's cost; (2) the default scene (``sample``) over its full 10 s,
 a step at most 0.5 of pymunk's with the same forces in Python; (3) the node at 10 bodies
 with a floor at most 1 ms of CPU per 20 ms tick. Target 1 also asks for at most Box2D
-v3's cost where it runs (:mod:`.box2d_v3`, in its own interpreter).
+v3's cost where it runs (:mod:`.box2d_v3`, in its own interpreter). Where Box2D v3 ran,
+the two cost targets of issue 37 beside them: the pyramids of :data:`HALF_V3_ROWS` rows at
+most half of v3's cost, on two threads where that is the cheaper, and every pyramid on one
+thread at most v3's.
 """
 from __future__ import annotations
 
@@ -66,8 +71,8 @@ from .pyramid import STEP, ball_box, many_pyramids, pyramid, tumbler
 from .report import MARKERS, agg_pyplot
 from .scene_peers import SCENE_PEERS, scene_engine
 
-__all__ = ["BENCH_SCENES", "BLOCK", "CONTACT_FILES", "PYRAMID_DURATION", "PYRAMID_ROWS",
-           "SLEEPING", "TARGET", "TARGET_ROWS",
+__all__ = ["BENCH_SCENES", "BLOCK", "CONTACT_FILES", "HALF_V3_ROWS", "PYRAMID_DURATION",
+           "PYRAMID_ROWS", "SLEEPING", "TARGET", "TARGET_ROWS", "THREADED", "THREADED_ROWS",
            "ContactResults", "PyramidCost", "PyramidRow", "contact_bench", "contact_scene_names",
            "measure_pyramid", "pyramid_builders", "pyramid_figure", "pyramid_series",
            "scene_rows"]
@@ -80,6 +85,14 @@ PYRAMID_ROWS = (3, 6, 10, 14, 20, 30, 50, 100)
 TARGET_ROWS = 30
 #: Targets 1 and 2: at most this fraction of pymunk's cost.
 TARGET = 0.5
+#: Pyramids from this many rows also run on two threads, where the kernel is on: their
+#: island has at least the 256 units (``wide.h: HD_CREW_UNITS``) from which the kernel
+#: shares its passes; a smaller island keeps one thread whatever ``threads`` says.
+THREADED_ROWS = 30
+#: The suffix of our engine's name on two threads.
+THREADED = " (2 threads)"
+#: Issue 37's pyramids that are to cost at most half of Box2D v3's.
+HALF_V3_ROWS = (10, 30, 50, 100)
 #: Rounds of whole runs: the pyramids up to TARGET_ROWS rows and the whole scenes, and
 #: the larger pyramids.
 ROUNDS = 5
@@ -131,11 +144,15 @@ SLEEPING = " (sleeping)"
 def pyramid_builders(rows: int, peers: list[str]) -> dict[str, Callable[[], Engine]]:
     """Builders of hecker_dynamics and each installed peer of ``peers`` on the pyramid of
     ``rows``, with sleeping off, then each again with sleeping on (named with
-    :data:`SLEEPING`)."""
+    :data:`SLEEPING`); from :data:`THREADED_ROWS` rows, with the kernel, also ours on two
+    threads with sleeping off (named with :data:`THREADED`)."""
     builders: dict[str, Callable[[], Engine]] = {}
     for sleep, suffix in ((False, ""), (True, SLEEPING)):
         scene = pyramid(rows, sleep=sleep)
         builders["hecker_dynamics" + suffix] = functools.partial(_ours, scene)
+        if not sleep and rows >= THREADED_ROWS and kernel.enabled():
+            builders["hecker_dynamics" + THREADED] = functools.partial(
+                _ours, dataclasses.replace(scene, threads=2))
         for name in peers:
             if available(name):
                 builders[name + suffix] = functools.partial(scene_engine, name, scene, STEP,
@@ -263,21 +280,55 @@ class ContactResults:
         return math.nan
 
 
+def _verdict(label: str, sizes: list[tuple[str, float]],
+             bound: float) -> Optional[tuple[str, str, str]]:
+    if not sizes:
+        return None
+    met = sum(ratio <= bound for _, ratio in sizes)
+    return (label, ", ".join(f"{size}: {ratio:.2f}" for size, ratio in sizes)
+            + f"; met at {met} of {len(sizes)} sizes",
+            "met" if met == len(sizes) else "missed")
+
+
 def _pyramid_target(results: ContactResults, peer: str, bound: float,
                     label: str) -> Optional[tuple[str, str, str]]:
-    ratios = [(p.rows, p.ratios[peer][0]) for p in results.pyramids
-              if peer in p.ratios and p.rows <= TARGET_ROWS]
-    if not ratios:
+    return _verdict(label, [(f"{p.rows} rows", p.ratios[peer][0]) for p in results.pyramids
+                            if peer in p.ratios and p.rows <= TARGET_ROWS], bound)
+
+
+def _over_v3(row: PyramidRow, name: str) -> Optional[float]:
+    """The whole-run cost of our engine ``name`` on the pyramid over Box2D v3's; None
+    where either did not run."""
+    ours, theirs = row.costs.get(name), row.costs.get("box2d_v3")
+    if ours is None or theirs is None:
         return None
-    met = [rows for rows, ratio in ratios if ratio <= bound]
-    return (label, ", ".join(f"{rows} rows: {ratio:.2f}" for rows, ratio in ratios)
-            + f"; met at {len(met)} of {len(ratios)} sizes",
-            "met" if len(met) == len(ratios) else "missed")
+    return ours.cost.per_step / theirs.cost.per_step
+
+
+def _v3_targets(results: ContactResults) -> list[Optional[tuple[str, str, str]]]:
+    """Issue 37's two cost targets against Box2D v3 (the module's docstring), where it
+    ran: half its cost at :data:`HALF_V3_ROWS` rows on the cheaper of one and two threads,
+    and at most its cost at every size on one thread."""
+    half: list[tuple[str, float]] = []
+    level: list[tuple[str, float]] = []
+    for row in results.pyramids:
+        one = _over_v3(row, "hecker_dynamics")
+        if one is None:
+            continue
+        level.append((f"{row.rows} rows", one))
+        if row.rows in HALF_V3_ROWS:
+            two = _over_v3(row, "hecker_dynamics" + THREADED)
+            half.append((f"{row.rows} rows", one) if two is None or one <= two
+                        else (f"{row.rows} rows on 2 threads", two))
+    return [_verdict("37.1 pyramids of 10 to 100 rows, per step <= 0.5 x Box2D v3's "
+                     "(one or two threads)", half, TARGET),
+            _verdict("37.2 pyramids, one thread, per step <= Box2D v3's", level, 1.0)]
 
 
 def targets(results: ContactResults) -> list[tuple[str, str, str]]:
     """(target, measured, verdict) for the contact targets 1 to 3, on whole-run costs;
-    target 1 also against Box2D v3 (at most its cost) where it ran."""
+    target 1 also against Box2D v3 (at most its cost) where it ran, then issue 37's
+    (:func:`_v3_targets`)."""
     lines = [line for line in (
         _pyramid_target(results, "pymunk", TARGET,
                         "1. pyramid, per step <= 0.5 x pymunk (rows 3 to 30)"),
@@ -301,7 +352,7 @@ def targets(results: ContactResults) -> list[tuple[str, str, str]]:
                       f"{tick * 1e3:.2f} ms per tick ({100 * results.node.total:.1f} % of a "
                       f"core): ratio {results.node.total / TARGET_SHARE:.2f}",
                       "met" if results.node.total <= TARGET_SHARE else "missed"))
-    return lines
+    return lines + [line for line in _v3_targets(results) if line is not None]
 
 
 def _pyramid_row(rows: int, peers: list[str], log: Callable[[str], None]) -> PyramidRow:
@@ -369,11 +420,12 @@ Series = dict[str, list[tuple[int, float]]]
 
 
 def pyramid_series(results: ContactResults, peers: list[str]) -> tuple[Series, Series]:
-    """The pyramids' figure's data, sleeping off: per engine (ours first, then each peer
-    run) its (boxes, us per step) by size; per peer its (rows, our cost over the peer's)."""
+    """The pyramids' figure's data, sleeping off: per engine (ours on one thread, then on
+    two where it ran, then each peer run) its (boxes, us per step) by size; per peer its
+    (rows, our one thread's cost over the peer's)."""
     costs = {name: [(row.boxes, row.costs[name].cost.per_step * 1e6)
                     for row in results.pyramids if name in row.costs]
-             for name in ["hecker_dynamics", *peers]}
+             for name in ["hecker_dynamics", "hecker_dynamics" + THREADED, *peers]}
     ratios = {name: [(row.rows, row.ratios[name][0]) for row in results.pyramids
                      if name in row.ratios] for name in peers}
     return ({name: points for name, points in costs.items() if points},
@@ -390,7 +442,7 @@ def pyramid_figure(results: ContactResults, peers: list[str], path: Path) -> boo
     fig, (cost, ratio) = plt.subplots(1, 2, figsize=(10, 4))
     for name, points in costs.items():
         cost.loglog(*zip(*points), marker=MARKERS.get(name, "x"),
-                    ls="-" if name == "hecker_dynamics" else "--", label=name)
+                    ls="-" if name.startswith("hecker_dynamics") else "--", label=name)
     for name, points in ratios.items():
         ratio.plot(*zip(*points), marker=MARKERS.get(name, "x"), label=f"ours / {name}")
     cost.set_xlabel("boxes")
@@ -454,6 +506,32 @@ def _pyramid_tables(pyramids: list[PyramidRow], peers: list[str], suffix: str,
     return md
 
 
+def _threads_table(pyramids: list[PyramidRow]) -> list[str]:
+    """Ours on one thread and on two (sleeping off) where both ran, and each over Box2D
+    v3's where it ran."""
+    one, two = "hecker_dynamics", "hecker_dynamics" + THREADED
+    both = [row for row in pyramids if one in row.costs and two in row.costs]
+    if not both:
+        return []
+
+    def ratio(value: Optional[float]) -> str:
+        return "-" if value is None else f"{value:.2f}"
+
+    md = ["", "## Both cores (h = 4 ms, 2 s, sleeping off)", "",
+          "Ours with an island's velocity passes and position correction shared by two "
+          "threads (`contacts.threads: 2`; the same bits as one thread), whole runs as "
+          "above: the wall time a user waits.", "",
+          "| rows (boxes) | one thread us/step | two threads us/step (spread) | two / one | "
+          "one thread / box2d_v3 | two threads / box2d_v3 |", "|---|---|---|---|---|---|"]
+    for row in both:
+        single, shared = row.costs[one].cost, row.costs[two].cost
+        md.append(f"| {row.rows} ({row.boxes}) | {single.per_step * 1e6:.1f} | "
+                  f"{shared.per_step * 1e6:.1f} ({shared.spread:.0%}) | "
+                  f"{shared.per_step / single.per_step:.2f} | {ratio(_over_v3(row, one))} | "
+                  f"{ratio(_over_v3(row, two))} |")
+    return md
+
+
 def write_contacts(results: ContactResults, peers: list[str], out: Path, command: str) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (before, after) = results.load[0], results.load[-1]
@@ -466,6 +544,7 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
         md += ["", "![pyramids: cost per step, and our cost over the peers'](contacts.png)"]
     for suffix, title in (("", "sleeping off"), (SLEEPING, "sleeping on in every engine")):
         md += _pyramid_tables(results.pyramids, peers, suffix, title)
+    md += _threads_table(results.pyramids)
     if results.scenes:
         md += ["", f"## Whole scenes over their full durations (median of {ROUNDS} whole "
                "runs)", "",
@@ -487,8 +566,8 @@ def write_contacts(results: ContactResults, peers: list[str], out: Path, command
     lines = ["section,scene,engine,configuration,step_s,duration_s,us_per_step,spread,moved_m,"
              "block_us_per_step"]
     for pyramid_row in results.pyramids:
-        for name in [n + suffix for suffix in ("", SLEEPING)
-                     for n in ["hecker_dynamics", *peers]]:
+        for name in ["hecker_dynamics" + THREADED] + [n + suffix for suffix in ("", SLEEPING)
+                                                      for n in ["hecker_dynamics", *peers]]:
             if name in pyramid_row.costs:
                 cost = pyramid_row.costs[name]
                 lines.append(f"pyramid,pyramid{pyramid_row.rows},{name},,{STEP!r},"

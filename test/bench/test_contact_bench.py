@@ -220,6 +220,37 @@ def test_targets_report_each_verdict_with_its_ratio():
     assert three[2] == "missed" and "1.02 ms per tick" in three[1] and "ratio 1.02" in three[1]
 
 
+def test_issue_37_targets_take_two_threads_only_where_cheaper():
+    """Target 37.1 takes the cheaper of one and two threads at 10 to 100 rows; 37.2 one
+    thread at every size v3 ran; the table puts both beside v3."""
+    v3, one, two = "box2d_v3", "hecker_dynamics", "hecker_dynamics" + contacts.THREADED
+    results = contacts.ContactResults(pyramids=[
+        _pyramid(6, {one: 8.0, v3: 10.0}, {}),
+        _pyramid(10, {one: 4.0, v3: 10.0}, {}),
+        _pyramid(50, {one: 9.0, two: 6.0, v3: 10.0}, {}),
+        _pyramid(100, {one: 20.0, two: 25.0, v3: 10.0}, {})])
+    half, level = contacts.targets(results)
+    assert half[1] == ("10 rows: 0.40, 50 rows on 2 threads: 0.60, 100 rows: 2.00; "
+                       "met at 1 of 3 sizes") and half[2] == "missed"
+    assert level[1] == ("6 rows: 0.80, 10 rows: 0.40, 50 rows: 0.90, 100 rows: 2.00; "
+                        "met at 3 of 4 sizes") and level[2] == "missed"
+    table = contacts._threads_table(results.pyramids)
+    assert table[-2:] == ["| 50 (1275) | 9.0 | 6.0 (0%) | 0.67 | 0.90 | 0.60 |",
+                          "| 100 (5050) | 20.0 | 25.0 (0%) | 1.25 | 2.00 | 2.50 |"]
+
+
+def test_pyramids_from_30_rows_run_also_on_two_threads_with_the_kernel():
+    from hecker_dynamics.dynamics import kernel
+
+    below = contacts.pyramid_builders(contacts.THREADED_ROWS - 1, [])
+    at = contacts.pyramid_builders(contacts.THREADED_ROWS, [])
+    threaded = "hecker_dynamics" + contacts.THREADED
+    assert threaded not in below
+    assert (threaded in at) == kernel.enabled()
+    if kernel.enabled():
+        assert at[threaded].args[0].threads == 2 and at["hecker_dynamics"].args[0].threads == 1
+
+
 def test_contact_bench_writes_its_tables(tmp_path, monkeypatch):
     # The node's cost over a tenth of its 2 s, once: the tables need its row, not its
     # median (5 x 2 s of ten boxes on a floor took 100 s without the kernel).
