@@ -21,7 +21,7 @@ import numpy as np
 
 from ..ros.cdr import SnapshotSerializer, serialize_output
 from ..ros.outputs import SnapshotOutputs
-from ..ros.runner import Runner
+from ..ros.runner import Runner, tick_target
 from ..scene.load import Scene
 from ..viz.progress import BarFactory, run_parts
 from .scenes import ring
@@ -61,11 +61,10 @@ def node_scene(bodies: int, floor: bool = False) -> Scene:
 
 def tick_targets(scene: Scene, seconds: float, spread_ns: int = 0,
                  seed: int = 0) -> list[int]:
-    """The sim times the node's 50 Hz ticks over ``seconds`` step to, from the start:
+    """The times of the node's 50 Hz ticks over ``seconds``, in sim time from the start:
     each a publish period after the last, moved by up to ``spread_ns`` either way (drawn
-    from ``seed``) as a live tick's wake moves on the wall clock, off the step grid, which
-    adds a stop wherever a tick ends between the drives' and sensors' instants; the last
-    ends the run at ``seconds``."""
+    from ``seed``) as a live tick's wake moves on the wall clock; the last ends the run
+    at ``seconds``."""
     period = scene.publish_period_ns
     count = round(seconds * 1e9 / period)
     shifts = np.random.default_rng(seed).integers(-spread_ns, spread_ns, count,
@@ -79,10 +78,12 @@ def node_run(scene: Scene, seconds: float, pause: float = 0.0,
     """CPU seconds per sim second of :meth:`Runner.advance` and of serializing what it
     gave (the snapshots' messages and the sensors' readings), over ``seconds`` of
     ``scene`` in the node's 50 Hz ticks (moved by up to ``spread_ns``:
-    :func:`tick_targets`). ``pause``: seconds slept after each tick, as the node sleeps
-    between its ticks (a core that ran other work meanwhile leaves the tick colder
-    caches; the sleep itself is not CPU time)."""
+    :func:`tick_targets`), each stepping to the last publish instant at or before its
+    time as the node's do (:func:`~..ros.runner.tick_target`). ``pause``: seconds slept
+    after each tick, as the node sleeps between its ticks (a core that ran other work
+    meanwhile leaves the tick colder caches; the sleep itself is not CPU time)."""
     runner = Runner(scene)
+    period = scene.publish_period_ns
     serialize = SnapshotSerializer(SnapshotOutputs(scene))
     # CPU time of this process, not wall time: on a loaded machine the wall clock also
     # counts the time other processes held the core.
@@ -90,7 +91,7 @@ def node_run(scene: Scene, seconds: float, pause: float = 0.0,
     advance = outputs = 0.0
     for target in tick_targets(scene, seconds, spread_ns):
         start = clock()
-        tick = runner.advance(target)
+        tick = runner.advance(tick_target(target, runner.sim.start_ns, period))
         middle = clock()
         for snapshot in tick.snapshots:
             serialize(snapshot)

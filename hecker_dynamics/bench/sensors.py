@@ -20,9 +20,9 @@ Cases:
   (:func:`.node.node_run`), and the same without its laser: the share of one core the
   node's Python work needs, and the scan's part of it; then the same work with the
   node's 20 ms sleep after each tick (:data:`TICK_PAUSE`), which the running node pays
-  as colder caches. Each tick ends up to a step off its instant (:data:`TICK_SPREAD_NS`),
-  as the live node's do (its live cost, taken on ROS 2 as docs/benchmark.md says, is above
-  all three).
+  as colder caches. Each tick comes up to a step off its instant (:data:`TICK_SPREAD_NS`)
+  and steps to the last publish instant before it, as the live node's do (its live cost,
+  taken on ROS 2 as docs/benchmark.md says, is above all three).
 
 Cost is whole-run cost: the time of :data:`SCANS` scans over their number, a median over
 :data:`ROUNDS` rounds in which every caster runs once (interleaved, so the machine's load
@@ -70,8 +70,9 @@ NODE_SECONDS = 2.0
 TICK_PAUSE = 0.02
 #: How far (ns) each tick of the ``node`` case moves off its 50 Hz instant, either way
 #: (:func:`.node.tick_targets`): one step, as the live node's tick wakes spread on the
-#: wall clock around its first, so that about half its ticks end off the drive's and
-#: sensors' instants and add a stop, which the live node pays.
+#: wall clock; each steps to the last publish instant at or before it, as the node's do
+#: (:func:`~..ros.runner.tick_target`), so about half of them step a period less and the
+#: next one a period more.
 TICK_SPREAD_NS = STEP_NS
 #: Largest difference (m) between Box2D v3's float32 hits and the kernel's that still
 #: counts as the same hit: float32's rounding of 10 m coordinates is 1e-6 m.

@@ -136,12 +136,15 @@ def serve(workers: Sequence[Callable[[], None]], stop: Shutdown, poll_s: float =
         raise raised[0]
 
 
-def tick_every(period_s: float, tick: Callable[[], None], stopped: Callable[[], bool],
+def tick_every(period_s: float, tick: Callable[[], Optional[float]], stopped: Callable[[], bool],
                woken: threading.Event, clock: Callable[[], float] = time.monotonic) -> None:
     """Call ``tick()`` every ``period_s`` of ``clock`` until ``stopped()``, as an rcl timer
     fires: at start + k period, a late tick followed by the next one due (those missed are
-    skipped, not run in a burst). ``woken`` ends a wait early; it is set with the stop, so
-    once stopped every wait returns at once."""
+    skipped, not run in a burst). A tick that returns a number of seconds instead sets the
+    next one due that long after the clock's reading before it, so that the ticks follow
+    instants of the tick's own (the node's publish instants on its own clock). ``woken``
+    ends a wait early; it is set with the stop, so once stopped every wait returns at
+    once."""
     due = clock() + period_s
     while not stopped():
         woken.wait(due - clock())
@@ -150,5 +153,6 @@ def tick_every(period_s: float, tick: Callable[[], None], stopped: Callable[[], 
         now = clock()
         if now < due:
             continue
-        tick()
-        due += period_s * (1 + (now - due) // period_s)
+        after = tick()
+        due = now + after if after is not None else \
+            due + period_s * (1 + (now - due) // period_s)

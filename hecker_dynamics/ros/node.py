@@ -92,9 +92,11 @@ from .runner import (
     Tick,
     TickAction,
     catch_up_cap,
+    next_tick_in,
     node_setup,
     plan_tick,
     refused_change,
+    tick_target,
 )
 from .session import (
     APPLIED_WRENCH_EVENT,
@@ -356,7 +358,7 @@ class DynamicsNode(Node):
             self._warn("clock_jump", reason)
             self.runner.restart(now_ns, "clock jump")
         self._last_tick_ns = now_ns
-        self._advance(now_ns)
+        self._advance(tick_target(now_ns, self.sim.start_ns, self.scene.publish_period_ns))
 
     def tick_thread(self, stopped: Callable[[], bool],
                     woken: threading.Event) -> Optional[Callable[[], None]]:
@@ -374,13 +376,22 @@ class DynamicsNode(Node):
         # change of use_sim_time is refused (_refuse_parameter_change).
         self._clock_ns = time.time_ns
 
-        def tick() -> None:
+        def tick() -> Optional[float]:
             with self.lock:
                 self._on_tick()
+                return self._until_next_tick()
 
         def ticks() -> None:
             tick_every(self.scene.publish_period_ns / NS_PER_S, tick, stopped, woken)
         return ticks
+
+    def _until_next_tick(self) -> Optional[float]:
+        """Seconds from the last tick's clock reading to the next tick's (:func:`next_tick_in`),
+        None before the start."""
+        if self._last_tick_ns is None:
+            return None
+        return next_tick_in(self._last_tick_ns, self.sim.start_ns,
+                            self.scene.publish_period_ns) / NS_PER_S
 
     def _on_lockstep_tick(self) -> None:
         """Steady timer in lockstep: one publish period per tick, then ``/clock``."""

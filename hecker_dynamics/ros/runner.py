@@ -54,12 +54,17 @@ from .session import (
 )
 
 __all__ = ["InputSource", "NodeOptions", "node_options", "scene_for_node", "due_script",
-           "catch_up_cap", "TickAction", "plan_tick", "lag_ns", "plain_parameters", "node_setup",
+           "catch_up_cap", "TickAction", "plan_tick", "tick_target",
+           "next_tick_in", "TICK_MARGIN_NS", "lag_ns", "plain_parameters", "node_setup",
            "refused_change", "check_wrench_topics", "LogLine", "Tick", "Runner"]
 
 #: A change of the ROS clock between two timer ticks larger than this, forwards or
 #: backwards, is a jump: the simulation restarts at the new time instead of stepping there.
 CLOCK_JUMP_NS = NS_PER_S
+#: How long after a publish instant the node's tick thread wakes (ns): the node reads its
+#: clock a little after the thread's own reading (the lock, the calls), so a wake due at
+#: the instant itself could read a time just before it.
+TICK_MARGIN_NS = 100_000
 #: The longest keyframe period accepted (a day of sim time).
 MAX_KEYFRAME_PERIOD_S = 86400.0
 #: The most steps one call of the step service takes.
@@ -186,6 +191,24 @@ def plan_tick(now_ns: int, last_now_ns: int | None,
         return TickAction.RESTART, (f"the ROS clock jumped ahead by {seconds_text(delta_ns)} s; "
                                     f"restarting the scene at {seconds_text(now_ns)} s")
     return TickAction.ADVANCE, ""
+
+
+def tick_target(now_ns: int, start_ns: int, period_ns: int) -> int:
+    """The sim time a clock tick at ``now_ns`` steps to: the last publish instant (``start_ns``
+    and every ``period_ns`` after it) at or before ``now_ns``. A tick that went on past the
+    instant would stop there (the sensors and the drives act at it) and run again for the
+    few steps beyond, two runs a tick where one publishes the same snapshots: a tick lands a
+    little before or after an instant as its wake-up varies. ``now_ns`` before the start:
+    the start."""
+    return start_ns + max(0, now_ns - start_ns) // period_ns * period_ns
+
+
+def next_tick_in(now_ns: int, start_ns: int, period_ns: int) -> int:
+    """How long (ns) after a tick at ``now_ns`` the next one is due: at the next publish
+    instant after it (:func:`tick_target`), and :data:`TICK_MARGIN_NS` later, so that a
+    tick lands just after its instant and publishes the instant's snapshot at once (a tick
+    just before it steps to the instant before, and leaves it to the next tick)."""
+    return tick_target(now_ns, start_ns, period_ns) + period_ns - now_ns + TICK_MARGIN_NS
 
 
 def lag_ns(now_ns: int, sim_time_ns: int, step_ns: int) -> int:

@@ -17,7 +17,7 @@ from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.geometry.shapes import Circle
 from hecker_dynamics.ros.cdr import serialize_output
 from hecker_dynamics.ros.outputs import OutputKind
-from hecker_dynamics.ros.runner import Runner
+from hecker_dynamics.ros.runner import Runner, tick_target
 from hecker_dynamics.sensors.laser import Laser
 
 
@@ -102,12 +102,13 @@ def test_the_node_run_sleeps_after_each_tick_as_asked(monkeypatch):
     assert runs == [(0.0, spread), (0.0, spread), (sensors.TICK_PAUSE, spread)] * 2
 
 
-def test_the_node_ticks_end_off_the_step_grid_as_live_ones_do(monkeypatch):
-    """With a spread, the ticks' targets move off their 50 Hz instants by up to the
-    spread either way, about half of them before it, as a live node's wall-clock ticks
-    do (each adds a stop between the drive's instants); the run still ends at its length
-    and reads the same sensors at the same instants, and the tick targets the runner saw
-    are those."""
+def test_the_node_ticks_come_off_the_step_grid_and_step_to_instants_as_live_ones_do(
+        monkeypatch):
+    """With a spread, the ticks' times move off their 50 Hz instants by up to the spread
+    either way, about half of them before it, as a live node's wall-clock ticks do; each
+    steps to the last publish instant at or before it, as the node's do, so the runner
+    sees those instants; the run still ends at its length and reads the same sensors at
+    the same instants."""
     scene = sensors.robot_at_1khz()
     period, spread = scene.publish_period_ns, sensors.TICK_SPREAD_NS
     targets = tick_targets(scene, 2.0, spread)
@@ -124,7 +125,8 @@ def test_the_node_ticks_end_off_the_step_grid_as_live_ones_do(monkeypatch):
         monkeypatch.setattr("hecker_dynamics.bench.node.serialize_output",
                             lambda output, key=key: kinds[key].append(serialize_output(output)))
         node_run(scene, 0.5, spread_ns=key)
-    assert seen[spread] == tick_targets(scene, 0.5, spread) != seen[0]
+    assert seen[spread] == [tick_target(t, 0, period) for t in tick_targets(scene, 0.5, spread)]
+    assert seen[spread] != seen[0] == tick_targets(scene, 0.5)
     assert kinds[spread] == kinds[0] and len(kinds[0]) == 4 + 24
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import signal
 import threading
+from typing import Optional
 
 import pytest
 
@@ -146,6 +147,22 @@ def test_ticks_come_every_period_and_a_late_one_is_followed_by_the_next_due():
     tick_every(0.02, tick, lambda: len(times) >= 6, fake, clock=fake)
     assert [t - 100.0 for t in times] == pytest.approx(
         [0.02, 0.04, 0.06, 0.13, 0.14, 0.16], abs=1e-9)
+
+
+def test_a_tick_that_names_its_next_sets_when_that_one_comes():
+    """A tick that returns seconds sets the next one that long after the clock read before
+    it (the node's next publish instant), a tick that returns None an rcl timer's next: the
+    first two ticks name theirs, 0.013 s and then 0.031 s on, the rest keep the period from
+    the last."""
+    fake = FakeTime()
+    times: list[float] = []
+
+    def tick() -> Optional[float]:
+        times.append(fake.now)
+        return [0.013, 0.031][len(times) - 1] if len(times) <= 2 else None
+    tick_every(0.02, tick, lambda: len(times) >= 5, fake, clock=fake)
+    assert [t - 100.0 for t in times] == pytest.approx(
+        [0.02, 0.033, 0.064, 0.084, 0.104], abs=1e-9)
 
 
 def test_the_stop_ends_the_ticks_without_another_one():
