@@ -773,8 +773,12 @@ class World:
             stamp = round(self._instant(start, "start"))
             if stamp < now:
                 raise self._behind(start, "start")
-        if name is None:
-            source = f"force{self._count + 1}"
+        count = self._count
+        if name is None:  # the first name of the count's that no force on the body holds
+            count += 1
+            while self._names_a_force(body.name, f"force{count}"):
+                count += 1
+            source = f"force{count}"
         elif isinstance(name, str):
             source = name
         else:
@@ -787,8 +791,7 @@ class World:
             sim.push(command)  # checks its reach (Simulation.check_reach)
         else:  # a scheduled force too: refused now, not mid-advance
             sim.check_reach(command)
-        if name is None:  # counted once taken, so a refused force changes nothing
-            self._count += 1
+        self._count = count  # counted once taken, so a refused force changes nothing
         self._started = True
         if stamp != now:
             order = max((entry[1] for entry in self._schedule), default=-1) + 1
@@ -796,6 +799,12 @@ class World:
             self._schedule.sort(key=lambda entry: entry[:2])
         self._applied.setdefault(body.name, {})[source] = (
             stamp + duration_ns if duration_ns else None)
+
+    def _names_a_force(self, body: str, source: str) -> bool:
+        """Whether a force on ``body`` applied, scheduled, pushed or scripted is ``source``'s."""
+        return (source in self._applied.get(body, {}) or self.simulation.holds_input(body, source)
+                or any(entry[2].body == body and entry[2].source == source
+                       for entry in self._schedule))
 
     @_locked
     def push(self, command: WrenchCommand) -> None:
@@ -872,6 +881,8 @@ class World:
                         for stamp, order, data in state["schedule"]]
             applied = {str(body): dict(sources) for body, sources in state["applied"].items()}
             count = int(state["count"])
+            if count < 0:
+                raise ValueError(f"'count' is {count}, not a count of forces")
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
             self.simulation.import_state(saved)  # a refused state changes nothing
             raise ValueError(f"state: not what World.state() returns "

@@ -110,6 +110,31 @@ def test_timed_held_cleared_and_scheduled_forces() -> None:
     assert b.velocity[0] == speed
 
 
+@pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])
+def test_a_force_without_a_name_replaces_no_force_of_any_name(python) -> None:
+    """A force applied without a name adds to what acts, whatever the others are named:
+    it took the name force1, force2, ... by a count of its own, so after a force the user
+    named "force1" (or pushed from a source "force2", or scheduled as "force3") the next
+    one replaced it and a puck pushed by (1, 0) and (0, 1) N for 1 s went at (0, 1) m/s.
+    Now it takes the count's first name that no force on the body holds. Constant forces
+    on a free 1 kg puck: v = F t (Eq. 5), exact under velocity Verlet but for round-off."""
+    world = free_world()
+    puck = world.add_body("puck", hd.Circle(0.1), mass=1.0)
+    if python:
+        world.simulation.model.use_python()
+    puck.apply_force((1.0, 0.0), name="force1")  # held
+    world.push(hd.WrenchCommand(0, "puck", "force2", "world", (0.0, 0.0), (0.0, 2.0), 0.0, 0))
+    puck.apply_force((0.0, 4.0), start=0.5, duration=0.5, name="force3")
+    puck.apply_force((0.0, 1.0))  # force4
+    puck.apply_force((2.0, 0.0), duration=1.0)  # force5
+    assert sorted(world._applied["puck"]) == [f"force{n}" for n in (1, 3, 4, 5)]
+    world.advance(1.0)
+    assert puck.velocity == pytest.approx((1.0 + 2.0, 2.0 + 4.0 * 0.5 + 1.0), rel=ROUND_OFF)
+    puck.apply_force((0.0, -1.0), name="force4")  # a name given replaces what holds it
+    world.step(1.0)
+    assert puck.velocity == pytest.approx((3.0 + 1.0, 5.0 + 2.0 - 1.0), rel=ROUND_OFF)
+
+
 def sample_in_python(integrator: str = "semi_implicit_euler") -> hd.World:
     """config/sample.yaml, written with the API (with ``integrator``)."""
     world = hd.World(gravity=(0.0, -9.81), step=0.001, integrator=integrator)
@@ -208,7 +233,7 @@ DAMAGES = {
 }
 
 
-@pytest.mark.parametrize("damage", [*DAMAGES, "a bad schedule"])
+@pytest.mark.parametrize("damage", [*DAMAGES, "a bad schedule", "a negative count"])
 def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> None:
     world = sample_in_python(integrator="dopri5") if "sub-step" in damage \
         else sample_in_python()
@@ -217,6 +242,8 @@ def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> N
     before = json.dumps(world.state())
     if damage == "a bad schedule":
         state["schedule"] = [[0, 0, {"body": "left"}]]
+    elif damage == "a negative count":  # of the forces applied without a name
+        state["count"] = -1
     else:
         DAMAGES[damage](state["simulation"])
     with pytest.raises(ValueError, match=r"^state: ") as caught:
