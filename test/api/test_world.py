@@ -295,6 +295,17 @@ def test_step_sizes() -> None:
         world.step(0.005)
 
 
+def test_the_longest_step_is_the_longest_duration() -> None:
+    """A step of 1e9 s, the most a duration may be, was refused as 1000000000.0000001 s:
+    the scene took the nanoseconds times 1e-9, one ulp past what was given, as the
+    world's time and step still read. Flags take numpy's booleans as Python's."""
+    world = hd.World(step=1e9, gravity=(0.0, -1.0), sleep=np.bool_(False))
+    ball = world.add_body("ball", hd.Circle(1.0), mass=1.0)
+    world.step()
+    assert (world.time_step, world.time) == (1e9, 1e9)
+    assert ball.velocity == pytest.approx((0.0, -1e9), rel=1e-15)  # g h, h of the clock's ns
+
+
 def built() -> hd.World:
     world = free_world()
     world.add_body("box", hd.Box(1.0, 0.5), mass=1.0)
@@ -354,6 +365,15 @@ ERRORS = [
     (lambda w: w["box"].apply_force((1, 0), start=-1.7e308), ValueError,
      r"^start: -1\.7e\+308 s is behind the world's time \(0 s\)$"),
     (lambda w: hd.World(step=1e20), ValueError, r"^step: must be at most 1000000000\.0"),
+    # A string's truth is whether it is empty: "false" switched the events on.
+    (lambda w: hd.World(events="false"), TypeError, r"^events: expected True or False, not str$"),
+    (lambda w: hd.World(sleep=1), TypeError, r"^sleep: expected True or False, not int$"),
+    (lambda w: w.add_drag("d", 1.0, quadratic="no"), TypeError,
+     r"^quadratic: expected True or False, not str$"),
+    (lambda w: w.add_revolute_joint("pin", None, "box", collide_connected="False"), TypeError,
+     r"^collide_connected: expected True or False, not str$"),
+    (lambda w: hd.World.from_scene("sample", script="no"), TypeError,
+     r"^script: expected True or False, not str$"),
     # A complex number or an array of another shape is not two real numbers.
     (lambda w: w["box"].apply_force(np.array([1.0, 2.0j])), TypeError,
      r"^force: expected a real number, not complex"),
