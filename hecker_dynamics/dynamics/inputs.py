@@ -125,6 +125,11 @@ class InputBuffer:
         """Whether ``count`` commands are active and none pending."""
         return not (self._pending or self._staged) and len(self._active) == count
 
+    def holds(self, key: tuple[str, str]) -> bool:
+        """Whether a command of ``key`` (body, source) is held, pending or staged."""
+        return key in self._active or key in self._pending_keys or any(
+            (held.command.body, held.command.source) == key for _, _, held in self._staged)
+
     def end(self, key: tuple[str, str]) -> Optional[int]:
         """When the active command of ``key`` stops acting (None: never)."""
         return self._active[key].end_ns

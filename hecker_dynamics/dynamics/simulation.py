@@ -514,6 +514,11 @@ class Simulation:
 
     # ----------------------------------------------------------------- inputs
 
+    def holds_input(self, body: str, source: str) -> bool:
+        """Whether a command on ``body`` from ``source`` is held or waits for its stamp (a
+        new command from that source replaces it)."""
+        return self._inputs.holds((body, source))
+
     def push(self, command: WrenchCommand) -> None:
         """Queue a command; raises :class:`InputError` (and changes nothing) if it is bad."""
         command.check_finite()

@@ -363,7 +363,13 @@ class ImplicitTheta(Integrator):
             if matrix is None or iteration % 8 == 7:
                 jq, jv = self.jacobians(f, q_star, v_star, a)
                 matrix = np.eye(q.size) - th * (th * jq + jv)
-            delta = np.linalg.solve(matrix, -residual).reshape(v.shape)
+            try:
+                delta = np.linalg.solve(matrix, -residual).reshape(v.shape)
+            except np.linalg.LinAlgError:  # numpy's "Singular matrix" told the user nothing
+                raise IntegrationError(
+                    f"{self.name}: Newton's method met a singular Jacobian at step {h:g} s (a "
+                    "force's stiffness times the step squared past what doubles resolve)"
+                ) from None
             v_star = v_star + delta
             self.counters.newton_iterations += 1
             if not np.all(np.isfinite(v_star)):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -707,13 +708,24 @@ def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, 
     return force
 
 
-def read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:
-    nx, ny = reader.vector("normal", REQUIRED)
-    length = math.hypot(nx, ny)
+def _direction(reader: ParameterReader, key: str) -> Vec2:
+    """The vector ``key`` (required, not zero) divided by its length. One of subnormal
+    numbers is scaled up first: its length keeps too few digits (hypot(5e-324, 5e-324) is
+    5e-324, which made (1, 1) a wall's "unit" normal and the wall let bodies through)."""
+    x, y = reader.vector(key, REQUIRED)
+    length = math.hypot(x, y)
     if length == 0.0:
-        reader.fail("normal", "must not be the zero vector")
+        reader.fail(key, "must not be the zero vector")
+    if length < sys.float_info.min:
+        scale = max(abs(x), abs(y))
+        x, y = x / scale, y / scale
+        length = math.hypot(x, y)
+    return (x / length, y / length)
+
+
+def read_wall(name: str, reader: ParameterReader, bodies: set[str]) -> WallSpec:
     known = {b: None for b in sorted(bodies)}
-    return WallSpec(name, reader.vector("point", REQUIRED), (nx / length, ny / length),
+    return WallSpec(name, reader.vector("point", REQUIRED), _direction(reader, "normal"),
                     restitution=reader.number("restitution", 0.5, minimum=0.0, maximum=1.0),
                     friction=reader.number("friction", 0.0, minimum=0.0),
                     bodies=_body_list(reader, "bodies", known))
@@ -1076,11 +1088,7 @@ def read_joint(name: str, kind: str, reader: ParameterReader, bodies: Mapping[st
         if overflow is not None:
             settings.fail("speed", overflow)
     if kind == "prismatic":
-        ax, ay = reader.vector("axis", REQUIRED)
-        length = math.hypot(ax, ay)
-        if length == 0.0:
-            reader.fail("axis", "must not be the zero vector")
-        return PrismaticJoint(**common, axis=(ax / length, ay / length), lower=lower,
+        return PrismaticJoint(**common, axis=_direction(reader, "axis"), lower=lower,
                               upper=upper, motor=motor)
     spring = None
     if reader.has("spring"):

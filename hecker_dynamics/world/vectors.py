@@ -9,7 +9,7 @@ from typing import Union
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Vec2", "VectorLike", "number", "vector"]
+__all__ = ["Vec2", "VectorLike", "flag", "number", "vector"]
 
 Vec2 = tuple[float, float]
 VectorLike = Union[Sequence[float], npt.NDArray[np.floating]]
@@ -37,6 +37,14 @@ def number(value: object, argument: str, *, positive: bool = False,
     if maximum is not None and result > maximum:
         raise ValueError(f"{argument}: must be at most {maximum}, not {result}")
     return result
+
+
+def flag(value: object, argument: str) -> bool:
+    """``value`` as a bool; TypeError naming ``argument`` for anything but True or False
+    (numpy's too): a string's truth is whether it is empty, so "false" would switch on."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{argument}: expected True or False, not {type(value).__name__}")
+    return bool(value)
 
 
 def vector(value: object, argument: str) -> Vec2:

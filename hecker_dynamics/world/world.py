@@ -54,7 +54,7 @@ from ..scene.parameters import (
 from ..scene.world import EditKind, WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
-from .vectors import VectorLike, number, vector
+from .vectors import VectorLike, flag, number, vector
 
 __all__ = ["World"]
 
@@ -147,11 +147,11 @@ class World:
                              f"not {integrator!r}")
         per_check = max(1, round(CHECK_PERIOD_NS / step_ns))
         params: dict[str, Any] = {
-            "frame_id": _name(frame, "frame"), "step": step_ns * 1e-9,
+            "frame_id": _name(frame, "frame"), "step": step_ns / 1e9,  # 1e9 s: not 1e9 + 1 ulp
             "integrator": integrator, "tolerance": number(tolerance, "tolerance", positive=True),
             "publish_rate": 1e9 / (per_check * step_ns),
             "input_timeout": 0.0,  # a held force holds until cleared
-            "contacts": {"sleep": bool(sleep), "events": bool(events)},
+            "contacts": {"sleep": flag(sleep, "sleep"), "events": flag(events, "events")},
         }
         _optional(params, "restitution_threshold", restitution_threshold, minimum=0.0)
         if gravity is not None:
@@ -190,12 +190,12 @@ class World:
         if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
             raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
                             f"hd.Scene, not {type(scene).__name__}")
-        start_ns = _nanoseconds(start_ns, "start_ns")
+        start_ns, play = _nanoseconds(start_ns, "start_ns"), flag(script, "script")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)
         world._start_ns = start_ns
-        if script:
+        if play:
             world._script = loaded.script
             world._schedule = world._scripted(start_ns)
         return world
@@ -424,7 +424,7 @@ class World:
         all), or at a ``point`` of a single body: drag of that body point's velocity
         (Eq. 9), with a torque (Eq. 11)."""
         values = self._section("forces", name, "force")
-        values.update(type="quadratic_drag" if quadratic else "linear_drag",
+        values.update(type="quadratic_drag" if flag(quadratic, "quadratic") else "linear_drag",
                       coefficient=number(coefficient, "coefficient", minimum=0.0))
         if bodies is not None:
             values["bodies"] = self._body_names(bodies, "bodies")
@@ -449,7 +449,7 @@ class World:
         values = self._section("joints", name, "joint")
         values.update(type=kind, body_b=self._body_name(body_b, "body_b"),
                       point_b=self._point(point_b, "point_b"),
-                      collide_connected=bool(collide_connected))
+                      collide_connected=flag(collide_connected, "collide_connected"))
         if body_a is not None:
             values["body_a"] = self._body_name(body_a, "body_a")
         if point_a is not None:
@@ -649,13 +649,13 @@ class World:
     @_locked
     def time(self) -> float:
         """Sim time (s)."""
-        return self.simulation.time_ns * 1e-9
+        return self.simulation.time_ns / 1e9
 
     @property
     @_locked
     def time_step(self) -> float:
         """The fixed step (s), a whole number of nanoseconds."""
-        return self.simulation.step_ns * 1e-9
+        return self.simulation.step_ns / 1e9
 
     @property
     @_locked
@@ -773,8 +773,12 @@ class World:
             stamp = round(self._instant(start, "start"))
             if stamp < now:
                 raise self._behind(start, "start")
-        if name is None:
-            source = f"force{self._count + 1}"
+        count = self._count
+        if name is None:  # the first name of the count's that no force on the body holds
+            count += 1
+            while self._names_a_force(body.name, f"force{count}"):
+                count += 1
+            source = f"force{count}"
         elif isinstance(name, str):
             source = name
         else:
@@ -787,8 +791,7 @@ class World:
             sim.push(command)  # checks its reach (Simulation.check_reach)
         else:  # a scheduled force too: refused now, not mid-advance
             sim.check_reach(command)
-        if name is None:  # counted once taken, so a refused force changes nothing
-            self._count += 1
+        self._count = count  # counted once taken, so a refused force changes nothing
         self._started = True
         if stamp != now:
             order = max((entry[1] for entry in self._schedule), default=-1) + 1
@@ -796,6 +799,12 @@ class World:
             self._schedule.sort(key=lambda entry: entry[:2])
         self._applied.setdefault(body.name, {})[source] = (
             stamp + duration_ns if duration_ns else None)
+
+    def _names_a_force(self, body: str, source: str) -> bool:
+        """Whether a force on ``body`` applied, scheduled, pushed or scripted is ``source``'s."""
+        return (source in self._applied.get(body, {}) or self.simulation.holds_input(body, source)
+                or any(entry[2].body == body and entry[2].source == source
+                       for entry in self._schedule))
 
     @_locked
     def push(self, command: WrenchCommand) -> None:
@@ -872,6 +881,8 @@ class World:
                         for stamp, order, data in state["schedule"]]
             applied = {str(body): dict(sources) for body, sources in state["applied"].items()}
             count = int(state["count"])
+            if count < 0:
+                raise ValueError(f"'count' is {count}, not a count of forces")
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
             self.simulation.import_state(saved)  # a refused state changes nothing
             raise ValueError(f"state: not what World.state() returns "

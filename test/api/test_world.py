@@ -110,6 +110,31 @@ def test_timed_held_cleared_and_scheduled_forces() -> None:
     assert b.velocity[0] == speed
 
 
+@pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])
+def test_a_force_without_a_name_replaces_no_force_of_any_name(python) -> None:
+    """A force applied without a name adds to what acts, whatever the others are named:
+    it took the name force1, force2, ... by a count of its own, so after a force the user
+    named "force1" (or pushed from a source "force2", or scheduled as "force3") the next
+    one replaced it and a puck pushed by (1, 0) and (0, 1) N for 1 s went at (0, 1) m/s.
+    Now it takes the count's first name that no force on the body holds. Constant forces
+    on a free 1 kg puck: v = F t (Eq. 5), exact under velocity Verlet but for round-off."""
+    world = free_world()
+    puck = world.add_body("puck", hd.Circle(0.1), mass=1.0)
+    if python:
+        world.simulation.model.use_python()
+    puck.apply_force((1.0, 0.0), name="force1")  # held
+    world.push(hd.WrenchCommand(0, "puck", "force2", "world", (0.0, 0.0), (0.0, 2.0), 0.0, 0))
+    puck.apply_force((0.0, 4.0), start=0.5, duration=0.5, name="force3")
+    puck.apply_force((0.0, 1.0))  # force4
+    puck.apply_force((2.0, 0.0), duration=1.0)  # force5
+    assert sorted(world._applied["puck"]) == [f"force{n}" for n in (1, 3, 4, 5)]
+    world.advance(1.0)
+    assert puck.velocity == pytest.approx((1.0 + 2.0, 2.0 + 4.0 * 0.5 + 1.0), rel=ROUND_OFF)
+    puck.apply_force((0.0, -1.0), name="force4")  # a name given replaces what holds it
+    world.step(1.0)
+    assert puck.velocity == pytest.approx((3.0 + 1.0, 5.0 + 2.0 - 1.0), rel=ROUND_OFF)
+
+
 def sample_in_python(integrator: str = "semi_implicit_euler") -> hd.World:
     """config/sample.yaml, written with the API (with ``integrator``)."""
     world = hd.World(gravity=(0.0, -9.81), step=0.001, integrator=integrator)
@@ -208,7 +233,7 @@ DAMAGES = {
 }
 
 
-@pytest.mark.parametrize("damage", [*DAMAGES, "a bad schedule"])
+@pytest.mark.parametrize("damage", [*DAMAGES, "a bad schedule", "a negative count"])
 def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> None:
     world = sample_in_python(integrator="dopri5") if "sub-step" in damage \
         else sample_in_python()
@@ -217,6 +242,8 @@ def test_a_damaged_state_is_refused_in_one_line_and_changes_nothing(damage) -> N
     before = json.dumps(world.state())
     if damage == "a bad schedule":
         state["schedule"] = [[0, 0, {"body": "left"}]]
+    elif damage == "a negative count":  # of the forces applied without a name
+        state["count"] = -1
     else:
         DAMAGES[damage](state["simulation"])
     with pytest.raises(ValueError, match=r"^state: ") as caught:
@@ -266,6 +293,17 @@ def test_step_sizes() -> None:
     with pytest.raises(ValueError, match=r"^dt: 0\.005 s is not a whole number of steps "
                                          r"of 0\.004166667 s$"):
         world.step(0.005)
+
+
+def test_the_longest_step_is_the_longest_duration() -> None:
+    """A step of 1e9 s, the most a duration may be, was refused as 1000000000.0000001 s:
+    the scene took the nanoseconds times 1e-9, one ulp past what was given, as the
+    world's time and step still read. Flags take numpy's booleans as Python's."""
+    world = hd.World(step=1e9, gravity=(0.0, -1.0), sleep=np.bool_(False))
+    ball = world.add_body("ball", hd.Circle(1.0), mass=1.0)
+    world.step()
+    assert (world.time_step, world.time) == (1e9, 1e9)
+    assert ball.velocity == pytest.approx((0.0, -1e9), rel=1e-15)  # g h, h of the clock's ns
 
 
 def built() -> hd.World:
@@ -327,6 +365,15 @@ ERRORS = [
     (lambda w: w["box"].apply_force((1, 0), start=-1.7e308), ValueError,
      r"^start: -1\.7e\+308 s is behind the world's time \(0 s\)$"),
     (lambda w: hd.World(step=1e20), ValueError, r"^step: must be at most 1000000000\.0"),
+    # A string's truth is whether it is empty: "false" switched the events on.
+    (lambda w: hd.World(events="false"), TypeError, r"^events: expected True or False, not str$"),
+    (lambda w: hd.World(sleep=1), TypeError, r"^sleep: expected True or False, not int$"),
+    (lambda w: w.add_drag("d", 1.0, quadratic="no"), TypeError,
+     r"^quadratic: expected True or False, not str$"),
+    (lambda w: w.add_revolute_joint("pin", None, "box", collide_connected="False"), TypeError,
+     r"^collide_connected: expected True or False, not str$"),
+    (lambda w: hd.World.from_scene("sample", script="no"), TypeError,
+     r"^script: expected True or False, not str$"),
     # A complex number or an array of another shape is not two real numbers.
     (lambda w: w["box"].apply_force(np.array([1.0, 2.0j])), TypeError,
      r"^force: expected a real number, not complex"),

@@ -632,3 +632,29 @@ def test_a_folder_named_without_a_separator_is_named_as_a_folder(tmp_path, monke
         load_scene("robots")
     assert str(caught.value).startswith("robots: is a directory, not a scene file, and no "
                                         "shipped scene is called so (shipped: ")
+
+
+@pytest.mark.parametrize("tiny", [5e-324, 1e-310])
+def test_a_wall_normal_or_slider_axis_of_subnormal_numbers_is_made_a_unit_vector(tiny):
+    """hypot(5e-324, 5e-324) is 5e-324 (subnormals keep too few digits), so the normal
+    (5e-324, 5e-324) was divided into (1, 1): a wall whose "unit" normal was sqrt(2) long,
+    through which a box resting on it fell at g. Such a vector is scaled up before it is
+    divided by its length: the same direction as (1, 1), of length 1 to rounding. A
+    1 x 1 box on the slope that normal makes, frictionless, slides down it at g sin 45 deg
+    (its velocity along the slope after 1 s, to the contact pass's 1e-3)."""
+    joint = {"type": "prismatic", "body_b": "box", "axis": [tiny, tiny]}
+    unit = make_scene({"bodies": {"box": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}},
+                       "walls": {"slope": {"point": [0.0, -0.7072], "normal": [1.0, 1.0]}}})
+    scene = make_scene({"bodies": {"box": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}},
+                        "walls": {"slope": {"point": [0.0, -0.7072], "normal": [tiny, tiny]}},
+                        "forces": {"g": {"type": "gravity", "acceleration": [0.0, -9.81]}},
+                        "integrator": "semi_implicit_euler"})
+    assert scene.walls[0].normal == unit.walls[0].normal
+    assert math.hypot(*scene.walls[0].normal) == pytest.approx(1.0, abs=1e-15)
+    slider = make_scene({"bodies": {"box": {"shape": "box", "size": [1.0, 1.0], "mass": 1.0}},
+                         "joints": {"slide": joint}})
+    assert slider.joints[0].axis == unit.walls[0].normal
+    sim = Simulation(scene)
+    sim.advance_to(1_000_000_000)
+    along = (sim.v[0, 0] - sim.v[0, 1]) / math.sqrt(2.0)
+    assert along == pytest.approx(9.81 * math.sqrt(0.5), rel=1e-3)
