@@ -306,6 +306,9 @@ class _Replayed:
     starts: dict[int, int] = field(default_factory=dict)
     ends: dict[int, int] = field(default_factory=dict)
     keyframes: dict[int, dict[int, KeyframeFields]] = field(default_factory=dict)
+    #: The sessions replayed from their start without the counts the node carried into
+    #: them (their first keyframe is missing): their keyframes are compared but for those.
+    uncounted: set[int] = field(default_factory=set)
     #: Per session and topic: stamp -> place in ``topics[topic]``.
     places: dict[tuple[int, str], dict[int, int]] = field(default_factory=dict)
     outputs: list[Output] = field(default_factory=list)
@@ -346,7 +349,11 @@ def _starting_point(session: RecordedSession, first_output_ns: Optional[int],
     holes = [(a, b) for a, b in missing if b > lowest]
     starts: list[tuple[int, int, Optional[KeyframeFields]]] = [
         (k.stamp_ns, k.next_event, k) for k in session.keyframes]
-    if not any(k.steps == 0 for k in session.keyframes):
+    if not any(k.steps == 0 for k in session.keyframes) and (
+            session.number == 0 or not session.keyframes or first_output_ns is None
+            or first_output_ns < min(k.stamp_ns for k in session.keyframes)):
+        # A later session's start lacks the counts the node carries over restarts, which
+        # its keyframes hold: the replay starts from one unless outputs come before them.
         starts.insert(0, (session.info.start_ns, session.info.next_event, None))
     usable = [(stamp, first, k) for stamp, first, k in starts
               if all(b < first for _, b in missing)]
@@ -603,10 +610,17 @@ def _check_first_keyframe(scene: Scene, session: RecordedSession, keyframe: Keyf
     return [e for e in before if e.sequence < session.info.next_event]
 
 
-def _carried(keyframe: KeyframeFields, like: KeyframeFields) -> KeyframeFields:
-    """``keyframe`` with the counts the node carries over restarts taken from ``like``."""
+def _carried(keyframe: KeyframeFields, like: KeyframeFields, *,
+             renumber: bool = False) -> KeyframeFields:
+    """``keyframe`` with the counts the node carries over restarts taken from ``like``;
+    with ``renumber``, its pending commands' order numbers shifted as its next one is
+    (a replay that started without the counts numbered them from 0)."""
     try:
         state, other = decode_state(keyframe.state), decode_state(like.state)
+        if renumber:
+            shift = int(other["inputs"]["next_order"]) - int(state["inputs"]["next_order"])
+            for pending in state["inputs"]["pending"]:
+                pending[1] += shift
         state["runner"]["accepted"] = other["runner"]["accepted"]
         state["runner"]["rejected"] = other["runner"]["rejected"]
         state["inputs"]["next_order"] = other["inputs"]["next_order"]
@@ -718,6 +732,14 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
         if keyframe is not None and keyframe.steps == 0:
             before = _check_first_keyframe(scene, session, keyframe, before, check,
                                            wrench_topics)
+        elif keyframe is None and session.number > 0 and session.keyframes:
+            coverage.fail(
+                f"session {session.number}: its first keyframe (taken at its start, "
+                f"{seconds(session.info.start_ns)} s) is missing, and only it holds the counts "
+                "the node carried over from the sessions before (inputs taken and refused, "
+                "the order of commands): the replay from the session's start compares the "
+                "later keyframes without them", missing=True)
+            replayed.uncounted.add(session.number)
         if before:
             coverage.notes.append(f"session {session.number}: {len(before)} event record(s) "
                                   "before the state the replay starts from not replayed")
@@ -1073,6 +1095,8 @@ def _check_keyframes(sessions: Sequence[RecordedSession], replayed: _Replayed,
             if not start <= stamp <= end:
                 continue  # before the replay's start, or past its end (failed already)
             mine = taken.get(stamp)
+            if mine is not None and session.number in replayed.uncounted:
+                mine = _carried(mine, keyframe, renumber=True)
             if mine is None:
                 coverage.fail(f"{record_name(keyframe)} is not one the node took (the replay took "
                               "none there)")

@@ -217,6 +217,42 @@ def test_a_lost_last_keyframe_is_named_and_a_lost_middle_one_fails(tmp_path):
     assert complete.ok and not [n for n in complete.notes if "not in the recording" in n]
 
 
+def test_a_recorder_that_missed_a_later_session_s_first_keyframe_starts_at_a_kept_one(
+        tmp_path):
+    """A recorder started 3.1 s into a session begun by a reset receives the latest two of
+    its keyframes latched, not its first, which holds the counts the node carried over the
+    reset: the replay starts from the earliest recorded keyframe and the honest recording
+    checks (a replay from the session's start, counting from 0, differed in every one)."""
+    scene = load_scene("sample")
+    session = run_live(scene, 1, duration_ns=6 * S, inputs=60, reset_at=1_500_000_000)
+    check = _check(scene, record(session, tmp_path / "live", 1, late_ns=4_600_000_000))
+    assert check.ok, "\n".join(check.problems)
+    assert check.sessions == 1 and check.keyframes_checked == 2
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_removed_first_keyframe_of_a_later_session_is_named(tmp_path, seed):
+    """With a later session's first keyframe removed from a recording that holds the whole
+    session, the check names that keyframe, not the counts carried over the reset that the
+    later keyframes hold and a replay from the session's start cannot know; with --partial
+    it passes, the later keyframes compared but for those counts."""
+    scene = load_scene("sample")
+    session = run_live(scene, seed, duration_ns=4 * S, inputs=60, reset_at=1_500_000_000)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    first = [f for f in frames if f.msg.steps == 0][1]  # session 1's
+    assert first.msg.session == 1
+    path = record(session, tmp_path / "live", seed, drop=lambda _, item: item is first)
+    check = _check(scene, path)
+    start = seconds(first.msg.header.stamp.sec * S + first.msg.header.stamp.nanosec)
+    assert check.problems == [
+        f"session 1: its first keyframe (taken at its start, {start} s) is missing, and only "
+        "it holds the counts the node carried over from the sessions before (inputs taken "
+        "and refused, the order of commands): the replay from the session's start compares "
+        "the later keyframes without them"]
+    partial = _check(scene, path, partial=True)
+    assert partial.ok and partial.keyframes_checked == check.keyframes_checked == 4
+
+
 def test_another_scene_is_refused_naming_both_fingerprints(tmp_path, capsys):
     path = record(run_live(load_scene("sample"), 24), tmp_path / "live", 24)
     with pytest.raises(ReplayError, match="fingerprint .* but .*seesaw.yaml has fingerprint"):
