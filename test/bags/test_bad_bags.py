@@ -752,3 +752,19 @@ def test_a_broken_symlink_as_the_output_bag_is_refused_before_the_replay(
         assert err == f"hecker-dynamics: error: {link} is a broken symlink or a symlink " \
                       "loop; remove it or give another name\n"
         assert os.readlink(link) == str(tmp_path / "elsewhere" / "bag")
+
+
+def test_two_bags_without_a_topic_in_common_are_no_match(tmp_path, capsys):
+    """A scene's inputs compared with its outputs share no topic: refused in one line
+    rather than reported as topics missing beside a largest difference of 0. A topic in
+    both whose types differ compares no message: its report says so, not 0."""
+    golden = GOLDEN / "sample"
+    err = _one_line_error(capsys, "compare", str(golden / "output"), str(golden / "input"))
+    assert "have no topic in common" in err and "/applied_wrench" in err \
+        and "/left/pose" in err and err.rstrip().endswith("nothing to compare")
+    with BagWriter(tmp_path / "twist", "mcap") as writer:
+        writer.write("/b/pose", TWIST, SEC, default_message(TWIST))
+    _pose_bag(tmp_path / "pose", 0.0)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "pose"), str(tmp_path / "twist"))
+    assert code == 1 and "TYPE MISMATCH /b/pose" in out
+    assert "largest overall: none (no message of one bag matched one of the other)" in out
