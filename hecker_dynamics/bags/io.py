@@ -67,7 +67,7 @@ from ..ros.session import (
 )
 from ..ros.tf import TransformFields
 from ..scene.commands import WrenchCommand
-from ..scene.parameters import quoted, seconds_text
+from ..scene.parameters import MAX_STAMP_NS, quoted, seconds_text
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -109,8 +109,6 @@ FLOAT64 = "std_msgs/msg/Float64"
 BAG_VERSION: Literal[9] = 9
 #: Storage formats: name -> rosbags plugin name.
 STORAGES = ("mcap", "sqlite3")
-#: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
-MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 #: Prefix of the keys this package stores in a bag's ``custom_data``.
 CUSTOM_PREFIX = "hecker_dynamics."
 

@@ -429,9 +429,12 @@ class _SessionReplay:
         self.scene, self.session, self.replayed, self.check = scene, session, replayed, check
         self.topics = topics
         info = session.info
-        self.runner = Runner(scene, start_ns=info.start_ns, play_script=info.play_script,
-                             record=True, keyframe_period_ns=info.keyframe_period_ns,
-                             wall_clock=lambda: 0, lockstep=info.lockstep)
+        try:
+            self.runner = Runner(scene, start_ns=info.start_ns, play_script=info.play_script,
+                                 record=True, keyframe_period_ns=info.keyframe_period_ns,
+                                 wall_clock=lambda: 0, lockstep=info.lockstep)
+        except ValueError as error:
+            raise ReplayError(f"session {info.session} cannot be replayed: {error}") from None
         sim = self.runner.sim
         if sim.integrator.name != info.integrator or sim.step_ns != info.step_ns \
                 or scene.publish_period_ns != info.publish_period_ns \

@@ -50,6 +50,7 @@ from ..scene.parameters import (
     flatten,
     number_text,
     seconds_text,
+    stamp_time,
 )
 from ..scene.world import EditKind, WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
@@ -190,7 +191,7 @@ class World:
         if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
             raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
                             f"hd.Scene, not {type(scene).__name__}")
-        start_ns = _nanoseconds(start_ns, "start_ns")
+        start_ns = stamp_time(_nanoseconds(start_ns, "start_ns"), "start_ns")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)
@@ -724,7 +725,7 @@ class World:
         had): the forces applied are dropped, a scene's script is scheduled again, and the
         steps that follow are those of a new world of that scene (:meth:`Simulation.reset`)."""
         if start_ns is not None:
-            self._start_ns = _nanoseconds(start_ns, "start_ns")
+            self._start_ns = stamp_time(_nanoseconds(start_ns, "start_ns"), "start_ns")
         sim = self.simulation
         sim.reset(start_ns)
         self._schedule, self._applied, self._count = self._scripted(sim.start_ns), {}, 0

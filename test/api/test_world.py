@@ -752,6 +752,30 @@ def test_a_scene_s_script_starts_with_the_world_and_again_at_a_reset() -> None:
     assert later.simulation.time_ns == 5 and type(later.simulation.start_ns) is int
 
 
+@pytest.mark.parametrize("start_ns,words", [
+    (2 ** 70, "1180591620717.411303424 s is after 2147483647 s, the latest time a ROS stamp "
+              "(int32 seconds) holds"),
+    (2 ** 31 * 10 ** 9, "2147483648 s is after 2147483647 s"),
+    (-1, "-0.000000001 s is before 0")])
+def test_a_start_no_ros_stamp_holds_is_refused_in_one_line(start_ns, words) -> None:
+    """A world, a reset or a simulation started where the node's messages could not be
+    stamped (int32 seconds, from 0) is refused before it steps, in one line; the latest
+    instant a stamp holds is taken. (2**70 was accepted, and stepped.)"""
+    latest = (2 ** 31 - 1) * 10 ** 9 + 999_999_999
+    assert hd.World.from_scene("sample", start_ns=latest).simulation.time_ns == latest
+    with pytest.raises(ValueError) as refused:
+        hd.World.from_scene("sample", start_ns=start_ns)
+    assert str(refused.value).startswith(f"start_ns: {words}")
+    assert "\n" not in str(refused.value)
+    world = hd.World.from_scene("sample", start_ns=5)
+    with pytest.raises(ValueError, match=r"^start_ns: "):
+        world.reset(start_ns=start_ns)
+    world.step()
+    assert world.simulation.time_ns == 5 + world.simulation.step_ns  # the reset changed nothing
+    with pytest.raises(ValueError, match=r"^start_ns: "):
+        hd.Simulation(hd.load_scene("sample"), start_ns=start_ns)
+
+
 @pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])
 def test_forces_applied_from_another_thread_act_whole_at_the_instant_taken(python):
     """A controller thread applies 1000 named forces of 2 ms (two steps) to a puck while

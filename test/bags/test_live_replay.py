@@ -666,3 +666,17 @@ def test_one_changed_twist_of_a_resting_body_is_named_as_changed(tmp_path, name,
             and p.publish_ns <= twist.publish_ns][-1]  # its tick's
     stamp = pose.msg.header.stamp
     assert f"at {seconds(stamp.sec * S + stamp.nanosec)} s" in check.report.summary()
+
+
+def test_a_session_record_stamped_before_0_is_refused_in_one_line(tmp_path, capsys):
+    """A session record whose start a ROS clock never shows (int32 seconds below 0) cannot
+    be replayed: one line, exit 2, naming the session (no simulation starts there)."""
+    session = run_live(load_scene("sample"), 23, duration_ns=S)
+    info = next(p for p in session.published if p.topic.endswith("/session"))
+    info.msg.header.stamp.sec = -5
+    path = record(session, tmp_path / "live", 23)
+    assert main(["replay", "sample", str(path), "--check"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(
+        "hecker-dynamics: error: session 0 cannot be replayed: start_ns: -4.")
+    assert err.rstrip().endswith("s is before 0, where a ROS clock and a bag's log times start")
