@@ -392,9 +392,7 @@ def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
 
 def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
     """The scene of the parameters in ``root``; ``step_ns``: see :func:`load_scene`."""
-    frame_id = root.string("frame_id", "world")
-    if not frame_id or "/" in frame_id:
-        root.fail("frame_id", f"must be a non-empty name without '/', not '{frame_id}'")
+    frame_id = root.name("frame_id", "world")
     written = _seconds_to_ns(root, "step", 0.001, positive=True)
     step_ns = written if step_ns is None else step_ns
     publish_period_ns = root.period_ns("publish_rate", step_ns, 50.0)

@@ -12,11 +12,11 @@ import array
 import math
 import re
 from collections.abc import Iterator, Mapping
-from typing import Any, NoReturn
+from typing import Any, NoReturn, Optional
 
 __all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "number_text", "seconds_text",
            "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED", "MAX_SECONDS",
-           "MAX_STAMP_NS", "stamp_time"]
+           "MAX_STAMP_NS", "stamp_time", "bad_name"]
 
 #: A name's longest: two of them make a topic (``/<body>/<sensor>/scan``) that stays within
 #: ROS 2's 247 characters (RMW_TOPIC_MAX_NAME_LENGTH) with room for a namespace.
@@ -27,6 +27,14 @@ NAME_RULE = f"letters, digits and underscores, starting with a letter, at most {
 #: Most characters of a bad value quoted in an error message (a hostile file may hold
 #: megabytes in one value).
 QUOTE = 60
+
+
+def bad_name(value: object) -> Optional[str]:
+    """Why ``value`` is no name of the scene's (a body, a point, the fixed frame: a ROS name
+    segment and tf frame, :data:`NAME_PATTERN`), or None for a name."""
+    if isinstance(value, str) and NAME_PATTERN.fullmatch(value):
+        return None
+    return f"{quoted(value)} is not a valid name ({NAME_RULE})"
 
 
 def quoted(value: Any) -> str:
@@ -243,8 +251,9 @@ class ParameterReader:
     def name(self, key: str, default: Any = None) -> str:
         """A string usable as a ROS name segment (letters, digits, underscores)."""
         value = self.string(key, default)
-        if not NAME_PATTERN.fullmatch(value):
-            self.fail(key, f"{quoted(value)} is not a valid name ({NAME_RULE})")
+        problem = bad_name(value)
+        if problem is not None:
+            self.fail(key, problem)
         return value
 
     def strings(self, key: str, default: Any = None) -> tuple[str, ...]:

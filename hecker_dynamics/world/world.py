@@ -44,9 +44,8 @@ from ..scene.load import (
     scene_from_parameters,
 )
 from ..scene.parameters import (
-    NAME_PATTERN,
-    NAME_RULE,
     ParameterReader,
+    bad_name,
     flatten,
     number_text,
     seconds_text,
@@ -102,9 +101,10 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
 
 
 def _name(value: object, argument: str) -> str:
-    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"{argument}: {value!r} is not a valid name ({NAME_RULE})")
-    return value
+    problem = bad_name(value)
+    if problem is not None:
+        raise ValueError(f"{argument}: {problem}")
+    return str(value)
 
 
 def _nanoseconds(value: object, argument: str) -> int:

@@ -12,7 +12,7 @@ import threading
 
 import numpy as np
 import pytest
-from scene_builders import EVERY_FORCE, make_scene
+from scene_builders import EVERY_FORCE, make_scene, write_scene
 from test_docs import EVERY_FEATURE
 
 import hecker_dynamics as hd
@@ -345,7 +345,8 @@ ERRORS = [
     (lambda w: hd.World.from_scene(5), TypeError,
      r"^scene: expected a scene file's path, a shipped scene's name or an hd\.Scene, not int$"),
     (lambda w: w.add_body("b" * 101, hd.Circle(1.0), mass=1.0), ValueError,
-     r"^name: 'b+' is not a valid name \(letters, digits and underscores, starting with a "
+     r"^name: 'b{59}\.\.\. \(103 characters\) is not a valid name \(letters, digits and "
+     r"underscores, starting with a "
      r"letter, at most 100\)$"),
     # A force's name is its source, a string, as a message's id is.
     (lambda w: w["box"].apply_force((1, 0), name=123), TypeError,
@@ -774,6 +775,23 @@ def test_a_start_no_ros_stamp_holds_is_refused_in_one_line(start_ns, words) -> N
     assert world.simulation.time_ns == 5 + world.simulation.step_ns  # the reset changed nothing
     with pytest.raises(ValueError, match=r"^start_ns: "):
         hd.Simulation(hd.load_scene("sample"), start_ns=start_ns)
+
+
+@pytest.mark.parametrize("frame", ["my world", "w\u00f6rld", "9world", "", "w" * 101,
+                                   "world/x", "world-1", "world "])
+def test_a_fixed_frame_s_name_is_one_rule_in_a_scene_file_and_a_world(tmp_path, frame):
+    """A scene file's frame_id took any name without '/' (a space, a non-ASCII letter, 101
+    characters), which World(frame=...) refuses: both now refuse it, in the same words."""
+    with pytest.raises(ValueError) as in_world:
+        hd.World(frame=frame)
+    path = write_scene(tmp_path, {"frame_id": frame, "bodies": {
+        "a": {"shape": "circle", "radius": 1.0, "mass": 1.0}}})
+    with pytest.raises(hd.SceneError) as in_file:
+        hd.load_scene(path)
+    words = str(in_world.value).removeprefix("frame: ")
+    assert words.endswith("is not a valid name (letters, digits and underscores, starting "
+                          "with a letter, at most 100)")
+    assert str(in_file.value).endswith(f"parameter 'frame_id': {words}")
 
 
 @pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])
