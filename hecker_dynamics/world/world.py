@@ -34,6 +34,7 @@ from ..scene.load import (
     MAX_SECONDS,
     BodySpec,
     Scene,
+    check_force,
     load_scene,
     read_body,
     read_collisions,
@@ -263,7 +264,8 @@ class World:
         if section == "walls":
             read_wall(key, reader, set(specs))
         elif section == "forces":
-            read_force(key, reader, points)
+            check_force(read_force(key, reader, points), reader, specs,
+                        round(params["step"] * 1e9))
         elif section == "collisions":
             read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
         elif values["type"] == "gear":
