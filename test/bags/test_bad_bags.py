@@ -69,8 +69,9 @@ def _set_metadata(bag: Path, change) -> None:
 
 # ------------------------------------------------------------------ the writer
 
-@pytest.mark.parametrize("output", ["/proc/x", "/", "", ".", "..", "/proc/self/x/y"])
+@pytest.mark.parametrize("output", ["/proc/x", "/", ".", "..", "/proc/self/x/y"])
 def test_writer_refuses_outputs_it_cannot_create(tmp_path, capsys, output, monkeypatch):
+    # An empty -o is argparse's refusal (test_output_paths.py: an empty path).
     monkeypatch.chdir(tmp_path)
     err = _one_line_error(capsys, "script", "sample", "-o", output, "--overwrite")
     assert "Traceback" not in err
