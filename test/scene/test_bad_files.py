@@ -188,6 +188,21 @@ def test_billion_laughs_is_refused_at_once(tmp_path, capsys):
     _refused_in_one_line(_write(tmp_path, text), capsys, "alias")
 
 
+def test_a_yaml_merge_key_is_refused_naming_it(tmp_path, capsys):
+    """A YAML merge key ('<<: {shape: circle, ...}'), which rcl reads as a name '<<' and
+    merges nothing: it was refused as "bodies.c.shape is required but missing", beside
+    the shape the file shows; now the merge key is named. Quoted, '<<' is a name as any
+    other (refused as no parameter of the scene)."""
+    text = _scene_text(extra="      c:\n        <<: {shape: circle, radius: 0.1}\n"
+                             "        mass: 1.0\n")
+    _refused_in_one_line(_write(tmp_path, text), capsys, "line 9, column 9: merge keys ('<<') "
+                         "are not allowed in a ROS 2 parameters file (ROS 2 reads '<<' as a "
+                         "name)")
+    text = _scene_text(extra="      c:\n        '<<': {shape: circle, radius: 0.1}\n"
+                             "        mass: 1.0\n")
+    assert "merge keys" not in _refused_in_one_line(_write(tmp_path, text, "quoted.yaml"), capsys)
+
+
 def test_deep_nesting_is_refused(tmp_path, capsys):
     text = HEAD + "    x: " + "{a: " * 900 + "1" + "}" * 900 + "\n"
     _refused_in_one_line(_write(tmp_path, text), capsys, "nested")
