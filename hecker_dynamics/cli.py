@@ -240,10 +240,18 @@ def _tolerances(args: argparse.Namespace) -> Tolerances:
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
+def _check_storage(args: argparse.Namespace) -> None:
+    """Refuse --compress with a storage it does not apply to, rather than ignore it."""
+    if args.compress and args.storage != "mcap":
+        raise BagError(f"--compress compresses mcap chunks; --storage {args.storage} has "
+                       "none (leave out one of them)")
+
+
 def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import check_session, script_to_bag
 
+    _check_storage(args)
     scene = load_scene(args.scene)
     duration = scene.duration_ns if args.duration is None else args.duration
     _check_takes_a_step(duration, scene, args)
@@ -276,6 +284,11 @@ def replay_command(args: argparse.Namespace) -> int:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     if (args.topic or args.partial) and not args.check:
         raise BagError("--topic and --partial say what --check compares; give --check")
+    if args.output is None and (args.with_inputs or args.compress or args.overwrite
+                                or args.storage != "mcap"):
+        raise BagError("--storage, --compress, --overwrite and --with-inputs say how -o writes "
+                       "its bag; give -o OUTPUT_BAG")
+    _check_storage(args)
     if args.output is not None:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)

@@ -769,3 +769,24 @@ def test_two_bags_without_a_topic_in_common_are_no_match(tmp_path, capsys):
     code, out, _ = _cli(capsys, "compare", str(tmp_path / "pose"), str(tmp_path / "twist"))
     assert code == 1 and "TYPE MISMATCH /b/pose" in out
     assert "largest overall: none (no message of one bag matched one of the other)" in out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["script", "sample", "-o", "{out}", "--storage", "sqlite3", "--compress"],
+     "--compress compresses mcap chunks; --storage sqlite3 has none"),
+    (["replay", "sample", "{input}", "-o", "{out}", "--storage", "sqlite3", "--compress"],
+     "--compress compresses mcap chunks; --storage sqlite3 has none"),
+    (["replay", "sample", "{output}", "--check", "--overwrite"], "say how -o writes its bag"),
+    (["replay", "sample", "{output}", "--check", "--storage", "sqlite3"],
+     "say how -o writes its bag"),
+    (["replay", "sample", "{output}", "--check", "--with-inputs"], "say how -o writes its bag"),
+])
+def test_options_that_would_change_nothing_are_refused(tmp_path, capsys, argv, words):
+    """--compress with sqlite3 storage wrote an uncompressed bag without a word, and the
+    options of -o's bag given to a --check without -o did nothing: refused in one line,
+    before any work, nothing written."""
+    paths = {"out": str(tmp_path / "out"), "input": str(GOLDEN / "sample" / "input"),
+             "output": str(GOLDEN / "sample" / "output")}
+    err = _one_line_error(capsys, *(arg.format(**paths) for arg in argv))
+    assert words in err
+    assert not (tmp_path / "out").exists()
