@@ -67,6 +67,7 @@ from ..ros.session import (
 )
 from ..ros.tf import TransformFields
 from ..scene.commands import WrenchCommand
+from ..scene.names import NODE_NAME
 from ..scene.parameters import MAX_STAMP_NS, quoted, seconds_text
 
 __all__ = [
@@ -183,9 +184,12 @@ def latched_qos(depth: int) -> list[Any]:
 
 
 def resolve_topic(name: str, namespace: str = "/") -> str:
-    """Fully qualified topic name, as a node in ``namespace`` resolves a relative name."""
+    """Fully qualified topic name, as the node in ``namespace`` resolves a relative name or
+    a private one (``~/session``: below the node's name)."""
     if name.startswith("/"):
         return name
+    if name.startswith("~/"):
+        return resolve_topic(NODE_NAME, namespace) + name[1:]
     namespace = "/" + namespace.strip("/")
     return (namespace.rstrip("/") + "/" + name) if namespace != "/" else "/" + name
 

@@ -61,7 +61,16 @@ from ..dynamics.simulation import Snapshot
 from ..ros.cmd_vel import CmdVelTopic
 from ..ros.joint_states import MotorTopic
 from ..ros.markers import MARKER_DELETE
-from ..ros.names import CLOCK_TOPIC, MAP_TOPIC, MARKERS_TOPIC, TF_STATIC_TOPIC
+from ..ros.names import (
+    CLOCK_TOPIC,
+    INPUT_EVENTS_TOPIC,
+    KEYFRAME_TOPIC,
+    MAP_TOPIC,
+    MARKERS_TOPIC,
+    SESSION_TOPIC,
+    TF_STATIC_TOPIC,
+    WORLD_EVENTS_TOPIC,
+)
 from ..ros.outputs import DIAGNOSTICS_TOPIC, OutputFields, body_topics, sensor_topic
 from ..ros.runner import InputSource, Runner
 from ..ros.session import (
@@ -679,6 +688,7 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
     :class:`~hecker_dynamics.bags.replay.ReplayError` when the bag belongs to another scene
     or cannot be replayed at all."""
     tolerances = tolerances or Tolerances()
+    _check_node_types(scene, bag)
     coverage = Coverage(partial=partial)
     check = LiveCheck(report=CompareReport(str(bag.path), "<replay>", tolerances),
                       coverage=coverage)
@@ -773,6 +783,22 @@ def check_live(scene: Scene, bag: BagContents, *, tolerances: Optional[Tolerance
         check.report.topics.append(compare_pairs(topic, bag.topics[topic], matched, tolerances))
     coverage.keyframes = check.keyframes_checked
     return check
+
+
+def _check_node_types(scene: Scene, bag: BagContents) -> None:
+    """Refuse a topic of the node's inputs or records recorded with another type than the
+    node's (:class:`~hecker_dynamics.bags.io.BagError`): the node never exchanged such
+    messages on it, and the check, which reads records by type and inputs by their bytes,
+    would take it for another node's topic or compare bytes of another type. Only the
+    type's name is compared here, not the hash of its definition."""
+    expected = {topic: msgtype for topic, (msgtype, _) in input_topics(scene).items()}
+    expected.update({resolve_topic(SESSION_TOPIC): SESSION_INFO,
+                     resolve_topic(KEYFRAME_TOPIC): bags.KEYFRAME,
+                     resolve_topic(INPUT_EVENTS_TOPIC): INPUT_EVENT,
+                     resolve_topic(WORLD_EVENTS_TOPIC): WORLD_EVENT})
+    for topic, msgtype in expected.items():
+        if bag.topics.get(topic, msgtype) != msgtype:  # the name only: see check_type
+            bag.check_type(topic, msgtype)
 
 
 def _stamped_by_session(sessions: Sequence[RecordedSession], recorded: _Recorded

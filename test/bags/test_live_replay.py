@@ -680,3 +680,30 @@ def test_a_session_record_stamped_before_0_is_refused_in_one_line(tmp_path, caps
     assert err.count("\n") == 1 and err.startswith(
         "hecker-dynamics: error: session 0 cannot be replayed: start_ns: -4.")
     assert err.rstrip().endswith("s is before 0, where a ROS clock and a bag's log times start")
+
+
+@pytest.mark.parametrize("topic, msgtype, expected", [
+    ("/applied_wrench", bags.WRENCH_STAMPED, bags.APPLIED_WRENCH),
+    ("/dynamics_node/keyframe", "std_msgs/msg/String", bags.KEYFRAME),
+    ("/dynamics_node/input_events", bags.WORLD_EVENT, bags.INPUT_EVENT),
+    ("/dynamics_node/session", bags.KEYFRAME, bags.SESSION_INFO)])
+def test_an_input_or_record_topic_of_another_type_is_refused(tmp_path, capsys, topic, msgtype,
+                                                              expected):
+    """A recording whose /applied_wrench is declared WrenchStamped passed (its inputs were
+    compared by their bytes), one whose ~/keyframe is declared a String passed with 0
+    keyframes (a record is found by its type), and ~/input_events declared WorldEvent was
+    'lacking input event records 0, 5 to 14'. The node never exchanged those types there:
+    one line, exit 2, naming the topic and both types."""
+    source = record(run_live(load_scene("sample"), 3, duration_ns=2 * S, world=2, inputs=12),
+                    tmp_path / "live", 3)
+    bag = read_bag(source)
+    path = tmp_path / "retyped"
+    with bags.BagWriter(path, "mcap") as writer:
+        for name, kind in bag.topics.items():
+            writer.add_topic(name, msgtype if name == topic else kind)
+        for message in bag.messages:
+            writer.write_raw(message.topic, message.log_ns, message.raw)
+    assert main(["replay", "sample", str(path), "--check"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"hecker-dynamics: error: {path}: topic '{topic}' has type {msgtype}, "
+                   f"expected {expected}\n")
