@@ -39,7 +39,7 @@ from .bags.io import STORAGES, BagError
 from .batch.engines import EngineError
 from .batch.variants import MAX_VARIANTS
 from .dynamics.simulation import PROGRESS_UPDATES, DivergenceError
-from .files import OutputError, check_folder
+from .files import OutputError, check_folder, path_argument
 from .scene.commands import InputError
 from .scene.load import (
     INTEGRATORS,
@@ -240,10 +240,18 @@ def _tolerances(args: argparse.Namespace) -> Tolerances:
         velocity=args.atol_velocity if args.atol_velocity is not None else atol)
 
 
+def _check_storage(args: argparse.Namespace) -> None:
+    """Refuse --compress with a storage it does not apply to, rather than ignore it."""
+    if args.compress and args.storage != "mcap":
+        raise BagError(f"--compress compresses mcap chunks; --storage {args.storage} has "
+                       "none (leave out one of them)")
+
+
 def script_command(args: argparse.Namespace) -> int:
     """Write a scene's scripted inputs into an input bag."""
     from .bags.replay import check_session, script_to_bag
 
+    _check_storage(args)
     scene = load_scene(args.scene)
     duration = scene.duration_ns if args.duration is None else args.duration
     _check_takes_a_step(duration, scene, args)
@@ -276,6 +284,11 @@ def replay_command(args: argparse.Namespace) -> int:
         raise BagError("nothing to do: give -o OUTPUT_BAG, --check, or both")
     if (args.topic or args.partial) and not args.check:
         raise BagError("--topic and --partial say what --check compares; give --check")
+    if args.output is None and (args.with_inputs or args.compress or args.overwrite
+                                or args.storage != "mcap"):
+        raise BagError("--storage, --compress, --overwrite and --with-inputs say how -o writes "
+                       "its bag; give -o OUTPUT_BAG")
+    _check_storage(args)
     if args.output is not None:
         check_distinct(Path(args.output), [Path(args.input)])
     scene = load_scene(args.scene)
@@ -446,8 +459,10 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
                     "command, stamped and logged at its start time. The scene's WrenchStamped "
                     "topics are declared too. The bag records the session start and duration, "
                     "so 'replay' reproduces the scene's run.")
-    script_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    script_parser.add_argument("scene", type=path_argument,
+                               help="shipped scene name or path to a parameters file")
     script_parser.add_argument("-o", "--output", required=True, metavar="INPUT_BAG",
+                               type=path_argument,
                                help="bag directory to create")
     script_parser.add_argument("--start", type=_time_ns, default=0, metavar="S",
                                help="sim time at which the session starts, s (default 0)")
@@ -470,9 +485,11 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
                     "topic the scene publishes, and the node's records; exit 1 on a "
                     "mismatch, or when a topic, a stretch of outputs or a record is missing "
                     "(see --topic, --partial).")
-    replay_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
-    replay_parser.add_argument("input", metavar="INPUT_BAG", help="bag with the input messages")
-    replay_parser.add_argument("-o", "--output", metavar="OUTPUT_BAG",
+    replay_parser.add_argument("scene", type=path_argument,
+                               help="shipped scene name or path to a parameters file")
+    replay_parser.add_argument("input", metavar="INPUT_BAG", type=path_argument,
+                               help="bag with the input messages")
+    replay_parser.add_argument("-o", "--output", metavar="OUTPUT_BAG", type=path_argument,
                                help="bag directory to create with the outputs")
     replay_parser.add_argument("--check", action="store_true",
                                help="compare the replay with the outputs recorded in INPUT_BAG")
@@ -509,8 +526,8 @@ def _add_bag_commands(commands: argparse._SubParsersAction[argparse.ArgumentPars
                     "or its log time) and report the largest position, angle and velocity "
                     "differences and the missing or extra messages and topics. Exit 0 when "
                     "the bags match within the tolerances, 1 when they do not, 2 on an error.")
-    compare_parser.add_argument("expected", metavar="EXPECTED_BAG")
-    compare_parser.add_argument("actual", metavar="ACTUAL_BAG")
+    compare_parser.add_argument("expected", metavar="EXPECTED_BAG", type=path_argument)
+    compare_parser.add_argument("actual", metavar="ACTUAL_BAG", type=path_argument)
     compare_parser.add_argument("--topic", action="append", metavar="TOPIC",
                                 help="compare only this topic (repeatable)")
     _add_tolerance_options(compare_parser)
@@ -656,9 +673,9 @@ def _add_bench_command(commands: argparse._SubParsersAction[argparse.ArgumentPar
                             "the system's temporary folder, printed at the end)")
     bench.add_argument("--overwrite", action="store_true",
                        help="replace the report files in --out DIR if they exist")
-    bench.add_argument("--scenes", nargs="+", metavar="SCENE",
+    bench.add_argument("--scenes", nargs="+", metavar="SCENE", type=path_argument,
                        help="benchmark or shipped scenes to run (default: all)")
-    bench.add_argument("--reference", metavar="FILE",
+    bench.add_argument("--reference", metavar="FILE", type=path_argument,
                        help="with --quick: compare the run's cost ratios with this file's "
                             "and say which moved by more than their noise (default: "
                             "bench/reference_ratios.json in the installed package)")
@@ -823,7 +840,8 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
                     "divergence, contacts, per-body extrema and --metric expressions "
                     "(Parquet if pyarrow is installed, else CSV; rows by variant, the same "
                     "bytes however many workers ran). See docs/batch.md.")
-    sweep_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    sweep_parser.add_argument("scene", type=path_argument,
+                              help="shipped scene name or path to a parameters file")
     sweep_parser.add_argument("--set", action="append", required=True, metavar="NAME=VALUES",
                               help="a parameter and its values: a,b,c (a list), "
                                    "start:stop:count (evenly spaced, both ends included) or "
@@ -858,11 +876,11 @@ def _add_batch_commands(commands: argparse._SubParsersAction[argparse.ArgumentPa
                     "name (no directory) of a parameters file in --scene-dir (default: the "
                     "directory that holds the bag), else of a shipped scene. Exit 0 when all "
                     "match, 1 on a mismatch, 2 when a bag cannot be checked.")
-    regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR",
+    regress_parser.add_argument("bags", nargs="+", metavar="BAG_DIR", type=path_argument,
                                 help="a bag directory, or a directory that holds bag directories "
                                      "(at any depth)")
-    regress_parser.add_argument("--scene", help="the scene of every bag")
-    regress_parser.add_argument("--scene-dir", metavar="DIR",
+    regress_parser.add_argument("--scene", type=path_argument, help="the scene of every bag")
+    regress_parser.add_argument("--scene-dir", metavar="DIR", type=path_argument,
                                 help="where the parameters files the bags name are (default: "
                                      "the directory that holds each bag, as 'sweep --bags' "
                                      "writes them)")
@@ -902,7 +920,7 @@ def parser() -> argparse.ArgumentParser:
         "run", help="run a scene with its scripted inputs and print a summary",
         description="Run a scene (a shipped scene name or a ROS 2 parameters file; the "
                     "default scene when none is given) with its scripted inputs.")
-    run_parser.add_argument("scene", nargs="?", default=None,
+    run_parser.add_argument("scene", nargs="?", default=None, type=path_argument,
                             help="shipped scene name or path to a parameters file")
     run_parser.add_argument("--duration", type=_duration_ns,
                             help="sim seconds (default: the scene's)")
@@ -910,7 +928,7 @@ def parser() -> argparse.ArgumentParser:
     run_parser.add_argument("--step", type=_step_ns, help="override the physics step, s")
     run_parser.add_argument("--tolerance", type=_positive,
                             help="override the tolerance of dopri5, dop853 / auto")
-    run_parser.add_argument("--map", metavar="FILE",
+    run_parser.add_argument("--map", metavar="FILE", type=path_argument,
                             help="a Nav2 map YAML whose occupied cells the bodies collide with "
                                  "(replaces the scene's map.file)")
     run_parser.add_argument("--view", action="store_true",

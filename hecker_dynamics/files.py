@@ -15,6 +15,7 @@ a simulation starts, and the same rules hold everywhere:
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import errno
 import os
@@ -26,7 +27,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Optional, Union
 
-__all__ = ["OutputError", "file_path", "check_file", "check_folder", "replacing"]
+__all__ = ["OutputError", "file_path", "check_file", "check_folder", "replacing",
+           "path_argument"]
 
 PathText = Union[str, "os.PathLike[str]"]
 
@@ -48,6 +50,17 @@ def _name_error(option: str, text: str, noun: str = "file") -> Optional[str]:
     if text == "-":  # the shell's name for standard output, not a name to write a file by
         return f"{option} -: cannot write to standard output; give a {noun} name"
     return None
+
+
+def path_argument(text: str) -> str:
+    """The command line's ``type`` of the arguments that name a scene, a bag or another
+    file it reads, and a bag it writes (the files above are checked by :func:`file_path`
+    and :func:`check_folder`): ``text``, unless it is empty (an unset shell variable),
+    which names none; read as a path, it is the working folder, which a command would
+    then read or write."""
+    if not text:
+        raise argparse.ArgumentTypeError("an empty path names no file or folder")
+    return text
 
 
 def _check_parent(option: str, path: Path) -> None:

@@ -295,3 +295,33 @@ def test_a_bag_name_too_long_for_the_file_system_is_one_line(place, capsys, comm
     before = _listing(place)
     _refused(capsys, [*command, "-o", "x" * 300], "cannot create the bag (File name too long)")
     assert _listing(place) == before
+
+
+GOLDEN_INPUT, GOLDEN_OUTPUT = str(GOLDEN / "sample" / "input"), str(GOLDEN / "sample" / "output")
+
+
+@pytest.mark.parametrize("argv, argument", [
+    (["run", ""], "scene"), (["run", "sample", "--map", ""], "--map"),
+    (["script", "", "-o", "in"], "scene"), (["script", "sample", "-o", ""], "-o/--output"),
+    (["replay", "sample", "", "-o", "out"], "INPUT_BAG"),
+    (["replay", "sample", GOLDEN_INPUT, "-o", ""], "-o/--output"),
+    (["compare", "", GOLDEN_OUTPUT], "EXPECTED_BAG"), (["compare", GOLDEN_OUTPUT, ""],
+                                                       "ACTUAL_BAG"),
+    (["regress", ""], "BAG_DIR"), (["regress", GOLDEN_OUTPUT, "--scene-dir", ""], "--scene-dir"),
+    (["render", "sample", "--bag", "", "--size", "64x48"], "--bag"),
+    (["plot", ""], "BAG"), (["plot", GOLDEN_OUTPUT, "--scene", ""], "--scene"),
+    (["sweep", "", "--set", "integrator=rk4", "-o", "t.csv"], "scene"),
+])
+def test_an_empty_path_is_refused_naming_its_argument(place, capsys, argv, argument):
+    """An empty path (an unset shell variable) read as the working folder: 'replay -o ""'
+    said it would write over its input bag, 'compare ""' that '.' has no metadata.yaml,
+    'regress ""' checked every bag under the working folder and 'render --bag ""' drew
+    the scene's run instead of a bag. Each is now refused in one line before any work."""
+    before = _listing(place)
+    with pytest.raises(SystemExit) as refused:  # argparse's refusal, as of every argument
+        main(argv)
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"hecker-dynamics: error: {argv[0]}: argument {argument}: an empty "
+                          "path names no file or folder"), err
+    assert _listing(place) == before

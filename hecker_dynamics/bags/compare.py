@@ -200,8 +200,11 @@ class CompareReport:
             if t.different:
                 lines.append(f"     {t.different} message(s) differ in exact fields:")
                 lines.extend(f"       {d}" for d in t.details)
-        big = self.largest()
-        lines.append("largest overall: " + ", ".join(f"{k} {v:.3g}" for k, v in big.items()))
+        if any(t.matched for t in self.topics):
+            big = self.largest()
+            lines.append("largest overall: " + ", ".join(f"{k} {v:.3g}" for k, v in big.items()))
+        else:
+            lines.append("largest overall: none (no message of one bag matched one of the other)")
         lines.append("MATCH" if self.ok else "MISMATCH")
         return "\n".join(lines)
 
@@ -601,6 +604,11 @@ def compare_contents(expected: BagContents, actual: BagContents, *,
     return report, report.ok
 
 
+def _topic_list(bag: BagContents) -> str:
+    names = sorted(bag.topics)
+    return f"{bag.path}: {', '.join(names[:4])}{', ...' if len(names) > 4 else ''}"
+
+
 def compare_bags(expected: Union[str, os.PathLike[str], BagContents],
                  actual: Union[str, os.PathLike[str], BagContents], *, atol: Optional[float] = None,
                  tolerances: Optional[Tolerances] = None,
@@ -620,6 +628,9 @@ def compare_bags(expected: Union[str, os.PathLike[str], BagContents],
         t[: -len("/twist")] + "/pose" for t in wanted if t.endswith("/twist")]
     a = expected if isinstance(expected, BagContents) else read_bag(expected, reading)
     b = actual if isinstance(actual, BagContents) else read_bag(actual, reading)
+    if wanted is None and a.topics and b.topics and not set(a.topics) & set(b.topics):
+        raise BagError(f"{a.path} and {b.path} have no topic in common ({_topic_list(a)}; "
+                       f"{_topic_list(b)}); nothing to compare")
     report, ok = compare_contents(a, b, tolerances=tolerances, topics=wanted)
     if ok and not any(t.expected or t.actual for t in report.topics):
         raise BagError(f"{a.path} and {b.path}: neither bag holds a message"

@@ -67,7 +67,8 @@ from ..ros.session import (
 )
 from ..ros.tf import TransformFields
 from ..scene.commands import WrenchCommand
-from ..scene.parameters import quoted, seconds_text
+from ..scene.names import NODE_NAME
+from ..scene.parameters import MAX_STAMP_NS, quoted, seconds_text
 
 __all__ = [
     "APPLIED_WRENCH", "POSE_STAMPED", "TWIST", "ODOMETRY", "MARKER_ARRAY", "DIAGNOSTIC_ARRAY",
@@ -109,8 +110,6 @@ FLOAT64 = "std_msgs/msg/Float64"
 BAG_VERSION: Literal[9] = 9
 #: Storage formats: name -> rosbags plugin name.
 STORAGES = ("mcap", "sqlite3")
-#: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
-MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
 #: Prefix of the keys this package stores in a bag's ``custom_data``.
 CUSTOM_PREFIX = "hecker_dynamics."
 
@@ -185,9 +184,12 @@ def latched_qos(depth: int) -> list[Any]:
 
 
 def resolve_topic(name: str, namespace: str = "/") -> str:
-    """Fully qualified topic name, as a node in ``namespace`` resolves a relative name."""
+    """Fully qualified topic name, as the node in ``namespace`` resolves a relative name or
+    a private one (``~/session``: below the node's name)."""
     if name.startswith("/"):
         return name
+    if name.startswith("~/"):
+        return resolve_topic(NODE_NAME, namespace) + name[1:]
     namespace = "/" + namespace.strip("/")
     return (namespace.rstrip("/") + "/" + name) if namespace != "/" else "/" + name
 

@@ -51,7 +51,7 @@ from ..integrators.methods import (
 )
 from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
 from ..scene.load import Scene
-from ..scene.parameters import seconds_text
+from ..scene.parameters import seconds_text, stamp_time
 from .divergence import EnergyBound
 from .forces import ConstantWrenchTerm, WrenchRow, lever_arm
 from .inputs import InputBuffer
@@ -263,7 +263,7 @@ class Simulation:
     def reset(self, start_ns: Optional[int] = None) -> None:
         """Return to the scene's initial state, drop all inputs, restart the clock."""
         if start_ns is not None:
-            self.start_ns = int(start_ns)
+            self.start_ns = stamp_time(int(start_ns), "start_ns")
         self._time_ns = self.start_ns
         self._steps = 0
         self.q, self.v = self.model.initial_state()
@@ -356,6 +356,7 @@ class Simulation:
                              f"{self.model.size}")
         start_ns, time_ns, steps = (_whole(state[key], key)
                                     for key in ("start_ns", "time_ns", "steps"))
+        stamp_time(start_ns, "start_ns")
         # The clock stands at a step instant: a pause moves the start with it (skip_to).
         if steps < 0 or time_ns != start_ns + steps * self.step_ns:
             raise ValueError(f"a clock at {time_ns} ns after {steps} steps of "

@@ -71,7 +71,7 @@ __all__ = [
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
-    "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
+    "check_force", "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "check_takes_a_step",
     "check_soft_joints",
     "MAX_SECONDS", "MAP_SURFACE",
@@ -393,9 +393,7 @@ def _seconds_to_ns(reader: ParameterReader, key: str, default: float, *,
 
 def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
     """The scene of the parameters in ``root``; ``step_ns``: see :func:`load_scene`."""
-    frame_id = root.string("frame_id", "world")
-    if not frame_id or "/" in frame_id:
-        root.fail("frame_id", f"must be a non-empty name without '/', not '{frame_id}'")
+    frame_id = root.name("frame_id", "world")
     written = _seconds_to_ns(root, "step", 0.001, positive=True)
     step_ns = written if step_ns is None else step_ns
     publish_period_ns = root.period_ns("publish_rate", step_ns, 50.0)
@@ -407,7 +405,7 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
         root.fail("frame_id", f"'{frame_id}' is also a body's name")
     points = {b.name: b.points for b in bodies}
     by_name = {b.name: b for b in bodies}
-    forces = tuple(_check_push(read_force(name, r, points), r, by_name, step_ns)
+    forces = tuple(check_force(read_force(name, r, points), r, by_name, step_ns)
                    for name, r in root.named_children("forces"))
     walls = tuple(read_wall(name, r, body_names) for name, r in root.named_children("walls"))
     if any(wall.name == MAP_SURFACE for wall in walls):  # a map may come with --map too
@@ -686,17 +684,20 @@ def read_force(name: str, reader: ParameterReader,
         point=_point(reader, "point", points[body]))
 
 
-def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+def check_force(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
                 step_ns: int) -> ForceSpec:
     """Refuse gravity or a constant force that gives a body, from rest, in one step, an
-    energy of motion no double holds (``acceleration: [0, -1e308]``): the run's energy
-    bound would stop it at its first step, but the masses say so already."""
+    energy of motion no double holds (``acceleration: [0, -1e308]``), or such a spring
+    (:func:`_check_spring`): the run's energy bound would stop it at its first step, but
+    the masses say so already."""
     if isinstance(force, Gravity):
         key, pushed = "acceleration", [(bodies[n], math.hypot(*force.acceleration))
                                        for n in force.bodies]
     elif isinstance(force, ConstantForceSpec):
         body = bodies[force.body]
         key, pushed = "force", [(body, math.hypot(*force.force) / body.mass.mass)]
+    elif isinstance(force, SpringSpec):
+        return _check_spring(force, reader, bodies, step_ns)
     else:
         return force
     for body, acceleration in pushed:
@@ -706,6 +707,44 @@ def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, 
                              f"rest, in one step of {seconds_text(step_ns)} s, a speed of "
                              f"{speed:.3g} m/s: an energy of motion past what a double holds")
     return force
+
+
+def _check_spring(spring: SpringSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+                  step_ns: int) -> SpringSpec:
+    """Refuse a spring that gives a body, in its first step, an energy of motion no double
+    holds (``stiffness: 1e308`` or ``damping: 1e308``): its pull at the start (Hooke's law
+    and the dashpot at the ends' velocities along it), then the dashpot's pull at the speed
+    that gives. The run's energy bound would stop it at its first step (or an adaptive
+    step's size underflow), but the masses and the start say so already."""
+    h = step_ns * 1e-9
+    ends = [(bodies[spring.body_a], spring.point_a)]
+    if spring.body_b is not None:
+        ends.append((bodies[spring.body_b], spring.point_b))
+    places, velocities = [], []
+    for body, point in ends:
+        (x, y), (cx, cy) = _place(body, point), body.position
+        omega = body.angular_velocity
+        places.append((x, y))
+        velocities.append((body.velocity[0] - omega * (y - cy),
+                           body.velocity[1] + omega * (x - cx)))
+    if spring.body_b is None:
+        places.append(spring.point_b)
+        velocities.append((0.0, 0.0))
+    dx, dy = places[0][0] - places[1][0], places[0][1] - places[1][1]
+    dvx, dvy = velocities[0][0] - velocities[1][0], velocities[0][1] - velocities[1][1]
+    length = math.hypot(dx, dy)
+    closing = abs(dvx * dx + dvy * dy) / length if length else math.hypot(dvx, dvy)
+    for body, _ in ends:
+        over = h / body.mass.mass  # speed per newton over a step
+        stretched = spring.stiffness * abs(length - spring.rest_length) * over
+        speed = stretched + spring.damping * (closing + stretched) * over
+        for key, reached in (("stiffness", stretched), ("damping", speed)):
+            if not math.isfinite(body.mass.energy_of_motion(reached, 0.0)):
+                reader.fail(key, f"would give body '{body.name}' ({body.mass.mass:.4g} kg), in "
+                                 f"its first step of {seconds_text(step_ns)} s, a speed of "
+                                 f"{reached:.3g} m/s: an energy of motion past what a double "
+                                 "holds")
+    return spring
 
 
 def _direction(reader: ParameterReader, key: str) -> Vec2:

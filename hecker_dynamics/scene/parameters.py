@@ -12,10 +12,11 @@ import array
 import math
 import re
 from collections.abc import Iterator, Mapping
-from typing import Any, NoReturn
+from typing import Any, NoReturn, Optional
 
 __all__ = ["NAME_MAX", "NAME_PATTERN", "NAME_RULE", "quoted", "number_text", "seconds_text",
-           "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED", "MAX_SECONDS"]
+           "SceneError", "unflatten", "flatten", "ParameterReader", "REQUIRED", "MAX_SECONDS",
+           "MAX_STAMP_NS", "stamp_time", "bad_name"]
 
 #: A name's longest: two of them make a topic (``/<body>/<sensor>/scan``) that stays within
 #: ROS 2's 247 characters (RMW_TOPIC_MAX_NAME_LENGTH) with room for a namespace.
@@ -28,6 +29,14 @@ NAME_RULE = f"letters, digits and underscores, starting with a letter, at most {
 QUOTE = 60
 
 
+def bad_name(value: object) -> Optional[str]:
+    """Why ``value`` is no name of the scene's (a body, a point, the fixed frame: a ROS name
+    segment and tf frame, :data:`NAME_PATTERN`), or None for a name."""
+    if isinstance(value, str) and NAME_PATTERN.fullmatch(value):
+        return None
+    return f"{quoted(value)} is not a valid name ({NAME_RULE})"
+
+
 def quoted(value: Any) -> str:
     """``repr(value)``, cut to :data:`QUOTE` characters with '...' and the full length."""
     if isinstance(value, int) and value.bit_length() > 4 * QUOTE:
@@ -36,6 +45,24 @@ def quoted(value: Any) -> str:
     if len(text) <= QUOTE:
         return text
     return f"{text[:QUOTE]}... ({len(text)} characters)"
+
+
+#: The latest time a ROS stamp holds (``builtin_interfaces/Time``: int32 seconds), ns.
+MAX_STAMP_NS = (2 ** 31 - 1) * 1_000_000_000 + 999_999_999
+
+
+def stamp_time(ns: int, argument: str) -> int:
+    """``ns``, a sim time to start at, if the node's messages can be stamped with it: from 0
+    (a ROS clock and a bag's log times do not go below it) to :data:`MAX_STAMP_NS`; else a
+    ValueError that names ``argument``."""
+    if ns < 0:
+        raise ValueError(f"{argument}: {seconds_text(ns)} s is before 0, where a ROS clock "
+                         "and a bag's log times start")
+    if ns > MAX_STAMP_NS:
+        raise ValueError(f"{argument}: {seconds_text(ns)} s is after "
+                         f"{MAX_STAMP_NS // 1_000_000_000} s, the latest time a ROS stamp "
+                         "(int32 seconds) holds")
+    return ns
 
 
 def number_text(value: float) -> str:
@@ -224,8 +251,9 @@ class ParameterReader:
     def name(self, key: str, default: Any = None) -> str:
         """A string usable as a ROS name segment (letters, digits, underscores)."""
         value = self.string(key, default)
-        if not NAME_PATTERN.fullmatch(value):
-            self.fail(key, f"{quoted(value)} is not a valid name ({NAME_RULE})")
+        problem = bad_name(value)
+        if problem is not None:
+            self.fail(key, problem)
         return value
 
     def strings(self, key: str, default: Any = None) -> tuple[str, ...]:

@@ -6,7 +6,8 @@ its own: a ``!!str`` tag or quotes make a string; otherwise one of its boolean w
 reads whole (base 0: ``0x1f`` hex, ``010`` octal) an integer, text that ``strtod`` reads
 whole (``1e-9``, ``5.``, ``inf``, ``0x1p-2``) a double, and anything else, ``1:30``,
 ``1_000``, ``~`` or a number too large for a double, a string. An empty plain value is an
-error, an alias is refused ("will not support aliasing"), a parameter given twice keeps
+error, an alias is refused ("will not support aliasing"; a YAML merge key ``<<``, which rcl
+reads as a name and merges nothing, is refused too), a parameter given twice keeps
 its last value, and a mapping given twice (a node section, ``bodies``) adds its
 parameters to the first's; every document of the stream counts.
 
@@ -154,6 +155,9 @@ class _Builder:
                 if not isinstance(key_event, yaml.ScalarEvent):
                     raise self.fail(key_event, "a key must be a plain name")
                 key = ros_scalar(key_event.value, key_event.tag, not key_event.style)
+                if key == "<<" and not key_event.style:
+                    raise self.fail(key_event, "merge keys ('<<') are not allowed in a ROS 2 "
+                                               "parameters file (ROS 2 reads '<<' as a name)")
                 name = repr(str(key_event.value))[1:-1][:120]
                 if not isinstance(key, str):
                     raise self.fail(key_event, _not_a_name(f"{path}.{name}" if path else name,

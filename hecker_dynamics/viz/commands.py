@@ -12,7 +12,7 @@ from pathlib import Path
 from types import ModuleType
 
 from ..bags.coverage import seconds
-from ..files import check_file, file_path, replacing
+from ..files import check_file, file_path, path_argument, replacing
 from ..scene import Scene, load_scene
 from ..scene.parameters import seconds_text
 from .frames import Timeline, VizError
@@ -138,11 +138,13 @@ def add_viz_commands(commands: argparse._SubParsersAction[argparse.ArgumentParse
                     "A bag draws the same pixels as the run that produced it, but for the "
                     "drives' wheel forces, which a bag does not hold. PNG and SVG "
                     "show the last frame of the span with the whole span's trails.")
-    render_parser.add_argument("scene", help="shipped scene name or path to a parameters file")
+    render_parser.add_argument("scene", type=path_argument,
+                               help="shipped scene name or path to a parameters file")
     render_parser.add_argument("-o", "--output", metavar="FILE",
                                help="FILE.gif, .mp4 (needs imageio-ffmpeg), .png or .svg "
                                     "(default: <scene>.gif)")
-    render_parser.add_argument("--bag", help="draw this bag's poses instead of a run")
+    render_parser.add_argument("--bag", type=path_argument,
+                               help="draw this bag's poses instead of a run")
     render_parser.add_argument("--fps", default="20",
                                help="frames per second (default 20; a GIF at most 50)")
     render_parser.add_argument("--size", default=DEFAULT_SIZE,
@@ -169,11 +171,12 @@ def add_viz_commands(commands: argparse._SubParsersAction[argparse.ArgumentParse
                     "a bag's /<body>/pose and /<body>/twist messages, and the total energy "
                     "with --scene. With BAG2, overlay it (dashed) and plot BAG2 - BAG at the "
                     "stamps both hold.")
-    plot_parser.add_argument("bag", metavar="BAG")
-    plot_parser.add_argument("bag2", metavar="BAG2", nargs="?")
+    plot_parser.add_argument("bag", metavar="BAG", type=path_argument)
+    plot_parser.add_argument("bag2", metavar="BAG2", nargs="?", type=path_argument)
     plot_parser.add_argument("-o", "--output", default="plot.png", metavar="FILE.png",
                              help="picture to write (default plot.png)")
-    plot_parser.add_argument("--scene", help="scene of the bag: adds the energy row")
+    plot_parser.add_argument("--scene", type=path_argument,
+                             help="scene of the bag: adds the energy row")
     plot_parser.add_argument("--overwrite", action="store_true",
                              help="replace FILE.png if it exists")
     plot_parser.set_defaults(handler=plot_command)

@@ -34,6 +34,7 @@ from ..scene.load import (
     MAX_SECONDS,
     BodySpec,
     Scene,
+    check_force,
     load_scene,
     read_body,
     read_collisions,
@@ -44,12 +45,12 @@ from ..scene.load import (
     scene_from_parameters,
 )
 from ..scene.parameters import (
-    NAME_PATTERN,
-    NAME_RULE,
     ParameterReader,
+    bad_name,
     flatten,
     number_text,
     seconds_text,
+    stamp_time,
 )
 from ..scene.world import EditKind, WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
@@ -101,9 +102,10 @@ def _adding(method: Callable[P, R]) -> Callable[P, R]:
 
 
 def _name(value: object, argument: str) -> str:
-    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise ValueError(f"{argument}: {value!r} is not a valid name ({NAME_RULE})")
-    return value
+    problem = bad_name(value)
+    if problem is not None:
+        raise ValueError(f"{argument}: {problem}")
+    return str(value)
 
 
 def _nanoseconds(value: object, argument: str) -> int:
@@ -190,7 +192,8 @@ class World:
         if not isinstance(scene, (str, os.PathLike, Scene, type(None))):
             raise TypeError("scene: expected a scene file's path, a shipped scene's name or an "
                             f"hd.Scene, not {type(scene).__name__}")
-        start_ns, play = _nanoseconds(start_ns, "start_ns"), flag(script, "script")
+        start_ns = stamp_time(_nanoseconds(start_ns, "start_ns"), "start_ns")
+        play = flag(script, "script")
         world = cls.__new__(cls)
         loaded = scene if isinstance(scene, Scene) else load_scene(scene)
         world._setup(None, loaded)
@@ -262,7 +265,8 @@ class World:
         if section == "walls":
             read_wall(key, reader, set(specs))
         elif section == "forces":
-            read_force(key, reader, points)
+            check_force(read_force(key, reader, points), reader, specs,
+                        round(params["step"] * 1e9))
         elif section == "collisions":
             read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
         elif values["type"] == "gear":
@@ -724,7 +728,7 @@ class World:
         had): the forces applied are dropped, a scene's script is scheduled again, and the
         steps that follow are those of a new world of that scene (:meth:`Simulation.reset`)."""
         if start_ns is not None:
-            self._start_ns = _nanoseconds(start_ns, "start_ns")
+            self._start_ns = stamp_time(_nanoseconds(start_ns, "start_ns"), "start_ns")
         sim = self.simulation
         sim.reset(start_ns)
         self._schedule, self._applied, self._count = self._scripted(sim.start_ns), {}, 0

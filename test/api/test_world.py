@@ -12,7 +12,7 @@ import threading
 
 import numpy as np
 import pytest
-from scene_builders import EVERY_FORCE, make_scene
+from scene_builders import EVERY_FORCE, make_scene, write_scene
 from test_docs import EVERY_FEATURE
 
 import hecker_dynamics as hd
@@ -392,7 +392,8 @@ ERRORS = [
     (lambda w: hd.World.from_scene(5), TypeError,
      r"^scene: expected a scene file's path, a shipped scene's name or an hd\.Scene, not int$"),
     (lambda w: w.add_body("b" * 101, hd.Circle(1.0), mass=1.0), ValueError,
-     r"^name: 'b+' is not a valid name \(letters, digits and underscores, starting with a "
+     r"^name: 'b{59}\.\.\. \(103 characters\) is not a valid name \(letters, digits and "
+     r"underscores, starting with a "
      r"letter, at most 100\)$"),
     # A force's name is its source, a string, as a message's id is.
     (lambda w: w["box"].apply_force((1, 0), name=123), TypeError,
@@ -797,6 +798,47 @@ def test_a_scene_s_script_starts_with_the_world_and_again_at_a_reset() -> None:
         later.reset(start_ns=True)
     later.reset(start_ns=np.int64(5))  # a numpy integer is a whole number too
     assert later.simulation.time_ns == 5 and type(later.simulation.start_ns) is int
+
+
+@pytest.mark.parametrize("start_ns,words", [
+    (2 ** 70, "1180591620717.411303424 s is after 2147483647 s, the latest time a ROS stamp "
+              "(int32 seconds) holds"),
+    (2 ** 31 * 10 ** 9, "2147483648 s is after 2147483647 s"),
+    (-1, "-0.000000001 s is before 0")])
+def test_a_start_no_ros_stamp_holds_is_refused_in_one_line(start_ns, words) -> None:
+    """A world, a reset or a simulation started where the node's messages could not be
+    stamped (int32 seconds, from 0) is refused before it steps, in one line; the latest
+    instant a stamp holds is taken. (2**70 was accepted, and stepped.)"""
+    latest = (2 ** 31 - 1) * 10 ** 9 + 999_999_999
+    assert hd.World.from_scene("sample", start_ns=latest).simulation.time_ns == latest
+    with pytest.raises(ValueError) as refused:
+        hd.World.from_scene("sample", start_ns=start_ns)
+    assert str(refused.value).startswith(f"start_ns: {words}")
+    assert "\n" not in str(refused.value)
+    world = hd.World.from_scene("sample", start_ns=5)
+    with pytest.raises(ValueError, match=r"^start_ns: "):
+        world.reset(start_ns=start_ns)
+    world.step()
+    assert world.simulation.time_ns == 5 + world.simulation.step_ns  # the reset changed nothing
+    with pytest.raises(ValueError, match=r"^start_ns: "):
+        hd.Simulation(hd.load_scene("sample"), start_ns=start_ns)
+
+
+@pytest.mark.parametrize("frame", ["my world", "w\u00f6rld", "9world", "", "w" * 101,
+                                   "world/x", "world-1", "world "])
+def test_a_fixed_frame_s_name_is_one_rule_in_a_scene_file_and_a_world(tmp_path, frame):
+    """A scene file's frame_id took any name without '/' (a space, a non-ASCII letter, 101
+    characters), which World(frame=...) refuses: both now refuse it, in the same words."""
+    with pytest.raises(ValueError) as in_world:
+        hd.World(frame=frame)
+    path = write_scene(tmp_path, {"frame_id": frame, "bodies": {
+        "a": {"shape": "circle", "radius": 1.0, "mass": 1.0}}})
+    with pytest.raises(hd.SceneError) as in_file:
+        hd.load_scene(path)
+    words = str(in_world.value).removeprefix("frame: ")
+    assert words.endswith("is not a valid name (letters, digits and underscores, starting "
+                          "with a letter, at most 100)")
+    assert str(in_file.value).endswith(f"parameter 'frame_id': {words}")
 
 
 @pytest.mark.parametrize("python", [False, True], ids=["kernel", "python"])

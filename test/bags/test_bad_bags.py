@@ -69,8 +69,9 @@ def _set_metadata(bag: Path, change) -> None:
 
 # ------------------------------------------------------------------ the writer
 
-@pytest.mark.parametrize("output", ["/proc/x", "/", "", ".", "..", "/proc/self/x/y"])
+@pytest.mark.parametrize("output", ["/proc/x", "/", ".", "..", "/proc/self/x/y"])
 def test_writer_refuses_outputs_it_cannot_create(tmp_path, capsys, output, monkeypatch):
+    # An empty -o is argparse's refusal (test_output_paths.py: an empty path).
     monkeypatch.chdir(tmp_path)
     err = _one_line_error(capsys, "script", "sample", "-o", output, "--overwrite")
     assert "Traceback" not in err
@@ -752,3 +753,40 @@ def test_a_broken_symlink_as_the_output_bag_is_refused_before_the_replay(
         assert err == f"hecker-dynamics: error: {link} is a broken symlink or a symlink " \
                       "loop; remove it or give another name\n"
         assert os.readlink(link) == str(tmp_path / "elsewhere" / "bag")
+
+
+def test_two_bags_without_a_topic_in_common_are_no_match(tmp_path, capsys):
+    """A scene's inputs compared with its outputs share no topic: refused in one line
+    rather than reported as topics missing beside a largest difference of 0. A topic in
+    both whose types differ compares no message: its report says so, not 0."""
+    golden = GOLDEN / "sample"
+    err = _one_line_error(capsys, "compare", str(golden / "output"), str(golden / "input"))
+    assert "have no topic in common" in err and "/applied_wrench" in err \
+        and "/left/pose" in err and err.rstrip().endswith("nothing to compare")
+    with BagWriter(tmp_path / "twist", "mcap") as writer:
+        writer.write("/b/pose", TWIST, SEC, default_message(TWIST))
+    _pose_bag(tmp_path / "pose", 0.0)
+    code, out, _ = _cli(capsys, "compare", str(tmp_path / "pose"), str(tmp_path / "twist"))
+    assert code == 1 and "TYPE MISMATCH /b/pose" in out
+    assert "largest overall: none (no message of one bag matched one of the other)" in out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["script", "sample", "-o", "{out}", "--storage", "sqlite3", "--compress"],
+     "--compress compresses mcap chunks; --storage sqlite3 has none"),
+    (["replay", "sample", "{input}", "-o", "{out}", "--storage", "sqlite3", "--compress"],
+     "--compress compresses mcap chunks; --storage sqlite3 has none"),
+    (["replay", "sample", "{output}", "--check", "--overwrite"], "say how -o writes its bag"),
+    (["replay", "sample", "{output}", "--check", "--storage", "sqlite3"],
+     "say how -o writes its bag"),
+    (["replay", "sample", "{output}", "--check", "--with-inputs"], "say how -o writes its bag"),
+])
+def test_options_that_would_change_nothing_are_refused(tmp_path, capsys, argv, words):
+    """--compress with sqlite3 storage wrote an uncompressed bag without a word, and the
+    options of -o's bag given to a --check without -o did nothing: refused in one line,
+    before any work, nothing written."""
+    paths = {"out": str(tmp_path / "out"), "input": str(GOLDEN / "sample" / "input"),
+             "output": str(GOLDEN / "sample" / "output")}
+    err = _one_line_error(capsys, *(arg.format(**paths) for arg in argv))
+    assert words in err
+    assert not (tmp_path / "out").exists()

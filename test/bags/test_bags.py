@@ -457,9 +457,18 @@ def test_missing_topics_give_clear_errors(sample_bags, tmp_path, capsys):
     # --check needs recorded outputs; an input-only bag has none.
     code, _, err = run_cli(capsys, "replay", "sample", str(sample_bags / "in"), "--check")
     assert_clean_error(code, err, "--check needs recorded outputs", "/left/pose")
-    # compare: a topic missing from the actual bag is a mismatch (exit 1), not an error.
-    code, out, _ = run_cli(capsys, "compare", str(sample_bags / "out"),
-                           str(tmp_path / "chatter"))
+    # compare: bags without a topic in common compare nothing, an error (exit 2); a topic
+    # missing from the actual bag beside one in both is a mismatch (exit 1).
+    code, _, err = run_cli(capsys, "compare", str(sample_bags / "out"), str(tmp_path / "chatter"))
+    assert_clean_error(code, err, "have no topic in common", "/chatter", "/left/pose")
+    out_bag = read_bag(sample_bags / "out")
+    with BagWriter(tmp_path / "some", "mcap") as writer:
+        writer.write("/chatter", "std_msgs/msg/String", SEC,
+                     bags.default_message("std_msgs/msg/String", data="hello"))
+        writer.add_topic("/right/pose", out_bag.topics["/right/pose"])
+        for message in out_bag.on("/right/pose"):
+            writer.write_raw("/right/pose", message.log_ns, message.raw)
+    code, out, _ = run_cli(capsys, "compare", str(sample_bags / "out"), str(tmp_path / "some"))
     assert code == 1 and "MISSING TOPIC /left/pose" in out and "EXTRA TOPIC   /chatter" in out
 
 

@@ -217,6 +217,42 @@ def test_a_lost_last_keyframe_is_named_and_a_lost_middle_one_fails(tmp_path):
     assert complete.ok and not [n for n in complete.notes if "not in the recording" in n]
 
 
+def test_a_recorder_that_missed_a_later_session_s_first_keyframe_starts_at_a_kept_one(
+        tmp_path):
+    """A recorder started 3.1 s into a session begun by a reset receives the latest two of
+    its keyframes latched, not its first, which holds the counts the node carried over the
+    reset: the replay starts from the earliest recorded keyframe and the honest recording
+    checks (a replay from the session's start, counting from 0, differed in every one)."""
+    scene = load_scene("sample")
+    session = run_live(scene, 1, duration_ns=6 * S, inputs=60, reset_at=1_500_000_000)
+    check = _check(scene, record(session, tmp_path / "live", 1, late_ns=4_600_000_000))
+    assert check.ok, "\n".join(check.problems)
+    assert check.sessions == 1 and check.keyframes_checked == 2
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_removed_first_keyframe_of_a_later_session_is_named(tmp_path, seed):
+    """With a later session's first keyframe removed from a recording that holds the whole
+    session, the check names that keyframe, not the counts carried over the reset that the
+    later keyframes hold and a replay from the session's start cannot know; with --partial
+    it passes, the later keyframes compared but for those counts."""
+    scene = load_scene("sample")
+    session = run_live(scene, seed, duration_ns=4 * S, inputs=60, reset_at=1_500_000_000)
+    frames = [p for p in session.published if p.topic.endswith("/keyframe")]
+    first = [f for f in frames if f.msg.steps == 0][1]  # session 1's
+    assert first.msg.session == 1
+    path = record(session, tmp_path / "live", seed, drop=lambda _, item: item is first)
+    check = _check(scene, path)
+    start = seconds(first.msg.header.stamp.sec * S + first.msg.header.stamp.nanosec)
+    assert check.problems == [
+        f"session 1: its first keyframe (taken at its start, {start} s) is missing, and only "
+        "it holds the counts the node carried over from the sessions before (inputs taken "
+        "and refused, the order of commands): the replay from the session's start compares "
+        "the later keyframes without them"]
+    partial = _check(scene, path, partial=True)
+    assert partial.ok and partial.keyframes_checked == check.keyframes_checked == 4
+
+
 def test_another_scene_is_refused_naming_both_fingerprints(tmp_path, capsys):
     path = record(run_live(load_scene("sample"), 24), tmp_path / "live", 24)
     with pytest.raises(ReplayError, match="fingerprint .* but .*seesaw.yaml has fingerprint"):
@@ -630,3 +666,44 @@ def test_one_changed_twist_of_a_resting_body_is_named_as_changed(tmp_path, name,
             and p.publish_ns <= twist.publish_ns][-1]  # its tick's
     stamp = pose.msg.header.stamp
     assert f"at {seconds(stamp.sec * S + stamp.nanosec)} s" in check.report.summary()
+
+
+def test_a_session_record_stamped_before_0_is_refused_in_one_line(tmp_path, capsys):
+    """A session record whose start a ROS clock never shows (int32 seconds below 0) cannot
+    be replayed: one line, exit 2, naming the session (no simulation starts there)."""
+    session = run_live(load_scene("sample"), 23, duration_ns=S)
+    info = next(p for p in session.published if p.topic.endswith("/session"))
+    info.msg.header.stamp.sec = -5
+    path = record(session, tmp_path / "live", 23)
+    assert main(["replay", "sample", str(path), "--check"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(
+        "hecker-dynamics: error: session 0 cannot be replayed: start_ns: -4.")
+    assert err.rstrip().endswith("s is before 0, where a ROS clock and a bag's log times start")
+
+
+@pytest.mark.parametrize("topic, msgtype, expected", [
+    ("/applied_wrench", bags.WRENCH_STAMPED, bags.APPLIED_WRENCH),
+    ("/dynamics_node/keyframe", "std_msgs/msg/String", bags.KEYFRAME),
+    ("/dynamics_node/input_events", bags.WORLD_EVENT, bags.INPUT_EVENT),
+    ("/dynamics_node/session", bags.KEYFRAME, bags.SESSION_INFO)])
+def test_an_input_or_record_topic_of_another_type_is_refused(tmp_path, capsys, topic, msgtype,
+                                                              expected):
+    """A recording whose /applied_wrench is declared WrenchStamped passed (its inputs were
+    compared by their bytes), one whose ~/keyframe is declared a String passed with 0
+    keyframes (a record is found by its type), and ~/input_events declared WorldEvent was
+    'lacking input event records 0, 5 to 14'. The node never exchanged those types there:
+    one line, exit 2, naming the topic and both types."""
+    source = record(run_live(load_scene("sample"), 3, duration_ns=2 * S, world=2, inputs=12),
+                    tmp_path / "live", 3)
+    bag = read_bag(source)
+    path = tmp_path / "retyped"
+    with bags.BagWriter(path, "mcap") as writer:
+        for name, kind in bag.topics.items():
+            writer.add_topic(name, msgtype if name == topic else kind)
+        for message in bag.messages:
+            writer.write_raw(message.topic, message.log_ns, message.raw)
+    assert main(["replay", "sample", str(path), "--check"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"hecker-dynamics: error: {path}: topic '{topic}' has type {msgtype}, "
+                   f"expected {expected}\n")

@@ -18,6 +18,7 @@ q += h v) and every difference from a closed form comes from the contact pass.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -748,15 +749,22 @@ def test_step_that_overflows_in_a_colliding_scene_raises_divergence_error():
     finite state. A spring of stiffness 1e308 stretched 10 m makes an infinite force in
     one step. Without collision groups this raises DivergenceError (checked first); with
     one, the sub-step count must not trip over the non-finite travel first (it used to
-    raise a bare ValueError from math.ceil)."""
+    raise a bare ValueError from math.ceil). A scene file holding that spring is refused
+    at load (test_bad_files.py); a Scene built in code still reaches the step."""
     from hecker_dynamics.dynamics.simulation import DivergenceError
     bodies = {"a": box_body((0.2, 0.2), 1.0), "b": box_body((0.2, 0.2), 1.0, position=[5.0, 0.0])}
-    spring = {"k": {"type": "spring", "body_a": "a", "anchor": [11.0, 0.0],
-                    "stiffness": 1e308}}
-    plain = _sim(bodies, forces=spring)
+    spring = {"k": {"type": "spring", "body_a": "a", "anchor": [11.0, 0.0], "stiffness": 1.0}}
+
+    def stiff(scene):
+        return dataclasses.replace(scene, forces=tuple(
+            dataclasses.replace(force, stiffness=1e308) for force in scene.forces))
+
+    params = {"step": 0.001, "integrator": "semi_implicit_euler", "bodies": bodies,
+              "forces": spring}
+    plain = Simulation(stiff(make_scene(params)))
     with pytest.raises(DivergenceError):
         plain.step()
-    sim = _sim(bodies, _group("a", "b"), forces=spring)
+    sim = Simulation(stiff(make_scene({**params, "collisions": _group("a", "b")})))
     q0 = sim.q.copy()
     with pytest.raises(DivergenceError):
         sim.step()

@@ -8,10 +8,12 @@ command line exits 2 with one line of stderr, never a traceback.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
+import hecker_dynamics as hd
 from hecker_dynamics.cli import main
 from hecker_dynamics.scene.load import SceneError, load_scene
 from hecker_dynamics.scene.rosyaml import DuplicateParameterWarning
@@ -186,6 +188,21 @@ def test_billion_laughs_is_refused_at_once(tmp_path, capsys):
     _refused_in_one_line(_write(tmp_path, text), capsys, "alias")
 
 
+def test_a_yaml_merge_key_is_refused_naming_it(tmp_path, capsys):
+    """A YAML merge key ('<<: {shape: circle, ...}'), which rcl reads as a name '<<' and
+    merges nothing: it was refused as "bodies.c.shape is required but missing", beside
+    the shape the file shows; now the merge key is named. Quoted, '<<' is a name as any
+    other (refused as no parameter of the scene)."""
+    text = _scene_text(extra="      c:\n        <<: {shape: circle, radius: 0.1}\n"
+                             "        mass: 1.0\n")
+    _refused_in_one_line(_write(tmp_path, text), capsys, "line 9, column 9: merge keys ('<<') "
+                         "are not allowed in a ROS 2 parameters file (ROS 2 reads '<<' as a "
+                         "name)")
+    text = _scene_text(extra="      c:\n        '<<': {shape: circle, radius: 0.1}\n"
+                             "        mass: 1.0\n")
+    assert "merge keys" not in _refused_in_one_line(_write(tmp_path, text, "quoted.yaml"), capsys)
+
+
 def test_deep_nesting_is_refused(tmp_path, capsys):
     text = HEAD + "    x: " + "{a: " * 900 + "1" + "}" * 900 + "\n"
     _refused_in_one_line(_write(tmp_path, text), capsys, "nested")
@@ -251,6 +268,34 @@ def test_a_force_no_double_holds_a_step_of_is_refused_at_load(tmp_path, capsys, 
     text = _scene_text(extra=f"    forces:\n      f: {force}\n")
     _refused_in_one_line(_write(tmp_path, text), capsys, f"parameter '{parameter}'",
                          f"speed of {speed} m/s", "past what a double holds")
+
+
+@pytest.mark.parametrize("spring, parameter, speed", [
+    ("stiffness: 1.0e308", "stiffness", "5e+304"),
+    ("stiffness: 1.0, damping: 1.0e308", "damping", "2.5e+301"),
+])
+def test_a_spring_no_double_holds_a_step_of_is_refused_at_load(tmp_path, capsys, spring,
+                                                                parameter, speed):
+    """A spring 1 m long at the start with a stiffness of 1e308 N/m (or a dashpot of 1e308
+    N s/m, pulled by the spring's 1 N) on a 2 kg body: its first step gives the body an
+    energy of motion past a double. It was stopped at the first step ('dopri5: the
+    sub-step size underflowed'); the file is refused at load, naming the parameter, and
+    World.add_spring refuses it when the spring is added."""
+    text = _scene_text(extra="    forces:\n      s: {type: spring, body_a: b, anchor: [1.0, 0.0], "
+                             f"{spring}}}\n")
+    _refused_in_one_line(_write(tmp_path, text), capsys, f"parameter 'forces.s.{parameter}'",
+                         f"speed of {speed} m/s", "past what a double holds")
+    world = hd.World()
+    body = world.add_body("b", hd.Box(1.0, 0.5), mass=2.0)
+    values = dict(item.split(": ") for item in spring.split(", "))
+    words = f"'forces.s.{parameter}': would give body 'b' (2 kg), in its first step of " \
+            f"0.001 s, a speed of {speed} m/s"
+    with pytest.raises(SceneError, match=re.escape(words)):
+        world.add_spring("s", "b", anchor=(1.0, 0.0),
+                         **{key: float(value) for key, value in values.items()})
+    world.add_spring("s", "b", anchor=(1.0, 0.0), stiffness=1.0)  # the refused one is gone
+    world.step()
+    assert body.position[0] > 0.0  # pulled towards the anchor
 
 
 @pytest.mark.parametrize("topic, taken", [
