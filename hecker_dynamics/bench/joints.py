@@ -8,8 +8,9 @@ Cases:
   10 s, for N = 2, 10, 50 and 200 at h = 1/240 s and 1/60 s (:func:`chain`);
 - ``bridge`` and ``ragdoll``: the shipped scenes (joints and contacts in one solve;
   branching joints with limits), their whole scripted runs at their own steps;
-- the chains of 50 and 200 links once more in the core alone, their joints held to
-  :data:`DRIFT` (target 1's pin gap) instead of the pass's 1e-12 m: what exactness costs
+- the chains of 50 and 200 links once more in the core alone, their pins held within
+  :data:`DRIFT` (target 1's pin gap, :meth:`.JointPass.hold_pins_within`) instead of the
+  pass's 1e-12 m a row: what exactness costs
   against a projection to 1e-9 m, each row's cost over the exact chain's;
 - every chain once more in the core alone with soft joints (``joint_solver.type: soft``
   at its defaults: Box2D v3's solver, 4 sub-steps, stepped by ``semi_implicit_euler``),
@@ -21,7 +22,7 @@ Cases:
   and lower neighbours at the midpoints, the middle 7 of the top row fixed), at h = 1/60 s
   over :data:`GRID_DURATION`; its 39,600 pin rows hold its 30,000 coordinates with some
   9,600 rows to spare (the loops of the grid), which the exact factorization drops as
-  dependent; the core holds its pins to :data:`GRID_TOLERANCE` (the rounding those rows
+  dependent; the core holds its pins within :data:`GRID_TOLERANCE` (the rounding those rows
   leave is above the default tolerance); and once more in the core alone with soft joints,
   against Box2D v3's cost and pin gap on it in the targets' table, as the soft chains;
 - the pinned scenes (``seesaw``, ``door``) on their revolute joints against the same
@@ -90,7 +91,7 @@ GRAVITY = 9.81
 GRID_SIZE = 100
 GRID_STEP = 1.0 / 60.0
 GRID_DURATION = 10 * GRID_STEP
-#: The joint pass's position tolerance on the grid, m: target 1's pin gap. At the default
+#: The pin gap the joint pass holds on the grid, m: target 1's. At the default
 #: (1e-12 m) Newton's error on the 100 x 100 grid stalls at 2-4e-12 m, the rounding its
 #: 9,600 dependent rows leave: the pass halves the step again and again (to h / 64 and
 #: beyond) and its drift stage refactors up to 8 times a part (four minutes a step), the
@@ -221,7 +222,7 @@ Engine = tuple[Callable[[int], float], Callable[[], np.ndarray]]  # step(n) -> s
 
 
 def _core(scene: Scene, tolerance: Optional[float] = None) -> Engine:
-    """``scene`` in the core (its joints held to ``tolerance``, m, if given): step(n)
+    """``scene`` in the core (its pins held within ``tolerance``, m, if given): step(n)
     pushes the script as sim time reaches each command and returns the seconds its steps
     took; poses() are the CMs' (x, y, angle)."""
     sim = Simulation(scene)
@@ -229,7 +230,7 @@ def _core(scene: Scene, tolerance: Optional[float] = None) -> Engine:
     if joints is not None:  # the order, patterns and kernel pass are built, not timed
         joints.reset(sim.q)
         if tolerance is not None:
-            joints.tolerance = tolerance
+            joints.hold_pins_within(tolerance)
         if joints.compiled:
             joints.kernel_pass()
     script = sorted(scene.script, key=lambda c: c.stamp_ns)

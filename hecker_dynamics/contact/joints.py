@@ -351,7 +351,8 @@ class JointPass:
         #: The scene indices of the bodies whose turning :meth:`parts` watches.
         self.turning = self.bodies[sorted(turning)]
         self._rods = [self.frames[s.name] for s in self.specs if isinstance(s, DistanceJoint)]
-        #: The constraint error (m or rad) the position stages count as met.
+        #: The constraint error (m or rad) the position stages count as met, row by row (a
+        #: pin's x and y rows each: its ends within sqrt(2) times it; :meth:`hold_pins_within`).
         self.tolerance = TOLERANCE
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
         self.max_turn = MAX_TURN
@@ -399,6 +400,21 @@ class JointPass:
     def compiled(self) -> bool:
         """True while the pass resolves in the compiled kernel."""
         return self._compiled
+
+    def hold_pins_within(self, gap: float) -> None:
+        """Hold every pin's two points within ``gap`` (m) of each other, the distance a user
+        measures between them (:func:`~hecker_dynamics.bench.joints.pin_gap`), and every
+        other row within ``gap``: a looser ``gap`` than the default's costs less (issue 33).
+        The position stages test each row against their :attr:`tolerance`, and a pin's x
+        and y rows, each within it, leave its points up to sqrt(2) times it apart (both
+        rows at the tolerance: 1.27e-9 to 1.31e-9 m on the 50- and 200-link chains held
+        to 1e-9 m a row); so the tolerance becomes ``gap`` / sqrt(2). Raises ValueError for
+        a ``gap`` that is not a positive number."""
+        if not gap > 0.0 or not math.isfinite(gap):
+            raise ValueError(f"a pin gap must be a positive number of metres, not {gap!r}")
+        self._changing()
+        self.tolerance = gap / math.sqrt(2.0)
+        self._kernel = None  # the kernel's pass took the tolerance when made: made anew
 
     def use_python(self) -> None:
         """Resolve in Python from now on."""

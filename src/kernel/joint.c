@@ -689,11 +689,16 @@ static int hd_newton(hd_joint_model *m, double h)
     /* The rows' values round at about eps |q|: no error can be asked below that. */
     const double tolerance = hd_max(m->tolerance,
                                     HD_JOINT_ROUNDING * (1.0 + hd_largest_abs(m->q, n3)));
-    double previous = INFINITY;
+    /* The last two iterates' largest errors (`before` 1: a fresh step from the first about
+     * squares its error, in metres and radians). */
+    double previous = INFINITY, before = 1.0;
     int factored = 0, fresh = 0;  /* the last matrix's L U is kept; it was that iterate's */
     for (long iteration = 0; iteration < HD_NEWTON_ITERATIONS; ++iteration) {
-        /* An iterate that may take the last matrix needs its rows' values only (at first). */
-        hd_joint_rows(m, m->q, h, m->rows, factored);
+        /* An iterate that may take the last matrix needs its rows' values alone, unless it is
+         * likely the last (its error, cut as the last step cut it, within the tolerance): then
+         * the whole rows the pass goes on with, at once (the same values). */
+        const int whole = !factored || previous * (previous / before) <= tolerance;
+        hd_joint_rows(m, m->q, h, m->rows, !whole);
         /* The errors, negated as the step's right-hand side (|-e| = |e|), and the largest (as
          * hd_largest_abs finds it), in one sweep. */
         double largest = 0.0;
@@ -714,7 +719,7 @@ static int hd_newton(hd_joint_model *m, double h)
             memcpy(m->newton, m->nu, (size_t)nr * sizeof(double));
             m->newton_valid = 1;
             m->near = factored;
-            if (factored)
+            if (!whole)
                 hd_joint_rows(m, m->q, h, m->rows, 0);
             return HD_JOINTS_OK;
         }
@@ -722,12 +727,13 @@ static int hd_newton(hd_joint_model *m, double h)
             return HD_JOINTS_UNSOLVED;
         fresh = !factored || !(largest <= HD_CHORD * previous);
         if (fresh) {
-            if (factored)
+            if (!whole)
                 hd_joint_rows(m, m->q, h, m->rows, 0);
             hd_matrix(p, &m->rigid_meets, m->rows, m->dir0, NULL, m->diagonal, m->lower, m->upper);
             hd_lu(p, m->diagonal, m->lower, m->upper, m->low, m->diag, m->out);
             factored = 1;
         }
+        before = iteration == 0 ? before : previous;
         previous = largest;
         hd_lu_solve(p, m->low, m->upper, m->diag, m->out, m->step);
         for (long k = 0; k < nr; ++k)

@@ -553,3 +553,57 @@ def test_the_unloaded_bridge_takes_no_parts_for_the_ring():
     sim = Simulation(load_scene("bridge"))
     sim.advance_to(6 * SECOND, keep=False)
     assert sim.integrator.counters.evaluations == sim.steps == 3000
+
+
+def _held_within(links: int, step: float, seconds: float, gap: float,
+                 python: bool = False) -> tuple[Simulation, float]:
+    """The chain over ``seconds`` with its pins held within ``gap``: the simulation and
+    the largest pin gap after any step (the distance between each pin's two points)."""
+    scene = chain(links, step, seconds)
+    sim = Simulation(scene)
+    if python:
+        sim.model.use_python()
+    joints = sim.model.joints
+    joints.reset(sim.q)
+    joints.hold_pins_within(gap)
+    model = Model(scene)
+    worst = 0.0
+    for _ in range(round(seconds / step)):
+        sim.advance_to(sim.time_ns + sim.step_ns, keep=False)
+        worst = max(worst, pin_gap(scene, model, sim.q))
+    return sim, worst
+
+
+@needs_kernel
+@pytest.mark.parametrize("step", [1.0 / 60.0, 1.0 / 240.0])
+def test_a_pin_gap_asked_is_the_distance_between_the_points_on_200_links(step):
+    """Issue 33: the 200-link chain held to 1e-9 m a row opened its pins to 1.27e-9 m
+    (h = 1/60 s, step 364) and 1.31e-9 m (1/240 s, step 1496): a pin's x and y rows each
+    within the tolerance leave its points up to sqrt(2) times it apart. Asked for a gap,
+    the pass tests each row against the gap over sqrt(2): the distance after every step
+    of the 10 s stays within 1e-9 m."""
+    sim, worst = _held_within(200, step, 10.0, 1e-9)
+    assert sim.time_ns >= (10.0 - step) * SECOND
+    assert 0.0 < worst <= 1e-9
+
+
+@pytest.mark.parametrize("python", [False, True])
+def test_a_pin_gap_asked_holds_in_python_as_in_the_kernel(python):
+    """The 10-link chain at h = 1/60 s held within 1e-9 m over 1 s (it turns fast and
+    takes steps in parts): each row's tolerance is the gap over sqrt(2), the pins stay
+    within the gap after every step, and both paths give the same bits."""
+    if not python and not kernel.enabled():
+        pytest.skip("the compiled kernel is not built or HECKER_DYNAMICS_KERNEL=0")
+    sim, worst = _held_within(10, 1.0 / 60.0, 1.0, 1e-9, python)
+    assert sim.model.joints.tolerance == 1e-9 / math.sqrt(2.0)
+    assert worst <= 1e-9
+    if not python:
+        slow, _ = _held_within(10, 1.0 / 60.0, 1.0, 1e-9, python=True)
+        assert np.array_equal(sim.q, slow.q) and np.array_equal(sim.v, slow.v)
+
+
+@pytest.mark.parametrize("gap", [0.0, -1e-9, math.nan, math.inf])
+def test_a_pin_gap_must_be_a_positive_number(gap):
+    joints = Simulation(chain(2, 1.0 / 60.0, 1.0)).model.joints
+    with pytest.raises(ValueError, match="a pin gap must be a positive number of metres"):
+        joints.hold_pins_within(gap)
