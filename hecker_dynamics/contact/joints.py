@@ -200,10 +200,11 @@ def unsolved_advice(scene: Scene) -> str:
 def ringing_advice(omega: float) -> str:
     """Why a step failed when its parts ran out on the ring of :meth:`JointPass.ringing`
     (``omega``, rad/s), and the step that needs no parts for it (h omega < 2)."""
-    return (f"the joints' loads ring a light body at {omega:.3g} rad/s (a chain's tension "
-            f"turning its links against each other), faster than {MOST_SUBSTEPS} parts of the "
-            f"step can follow; take a step below {2.0 / omega:.3g} s, or heavier bodies under "
-            f"the load")
+    return (f"the joints' loads ring a body at {omega:.3g} rad/s (a chain's tension turning "
+            f"its links against each other: a light body under a heavy load, or a chain held "
+            f"straight, whose tension has no bound), faster than {MOST_SUBSTEPS} parts of the "
+            f"step can follow; take a step below {2.0 / omega:.3g} s, heavier bodies under "
+            f"the load, or slack in a straight chain")
 
 
 #: The attributes of :class:`JointPass` that carry from step to step and that the compiled

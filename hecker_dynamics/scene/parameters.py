@@ -89,6 +89,10 @@ def seconds_text(ns: int, all_places: bool = False) -> str:
     return f"{'-' if ns < 0 else ''}{whole}{fraction}"
 
 
+#: The most physics steps a rate's period (:meth:`ParameterReader.period_ns`) may span: past
+#: it the period's count of steps, a double divided from the rate, is no longer known to
+#: within the whole-number test's margin.
+MOST_STEPS = 1e12
 #: The longest time or duration a scene (and the World API) takes, s: its nanoseconds stay
 #: within an int64 and a ROS stamp.
 MAX_SECONDS = 1e9
@@ -196,9 +200,17 @@ class ParameterReader:
         ``step_ns``, so that every sample or publish instant falls on a step."""
         rate = self.number(key, default_rate, positive=True)
         steps = 1e9 / rate / step_ns
-        if not 0.5 <= steps < 1e12 or abs(steps - round(steps)) > 1e-6 * steps:
+        step = seconds_text(step_ns)
+        if steps < 0.5:
+            self.fail(key, f"{number_text(rate)} Hz is faster than the physics step of {step} s "
+                           f"can sample (at most {number_text(1e9 / step_ns)} Hz)")
+        if steps >= MOST_STEPS:
+            self.fail(key, f"{number_text(rate)} Hz is too slow: its period is "
+                           f"{steps:.3g} physics steps of {step} s, more than "
+                           f"{MOST_STEPS:.3g}")
+        if abs(steps - round(steps)) > 1e-6 * steps:
             self.fail(key, f"{number_text(rate)} Hz is not a whole number of physics steps "
-                           f"of {seconds_text(step_ns)} s")
+                           f"of {step} s")
         return round(steps) * step_ns
 
     def _finite(self, key: str, value: Any) -> float:

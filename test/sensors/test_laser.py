@@ -156,6 +156,12 @@ def test_noise_is_gaussian_seeded_by_stamp_and_replays():
     # One ray, cast at angle_min, under a scan that claimed angle_max 2.0 (increment 0).
     ({"angle_min": -2.0, "angle_max": 2.0, "count": 1}, "one ray is cast at angle_min"),
     ({"rate": 3.0}, "3 Hz is not a whole number of physics steps of 0.01 s"),
+    # A period of 1e11 steps of 0.01 s (1e9 s) is whole; one of 1e13 is past what a
+    # double divided from the rate tells to a step; a rate above 1/step samples nothing.
+    ({"rate": 1e-13}, "1e-13 Hz is too slow: its period is 1e\\+15 physics steps of 0.01 s, "
+                      "more than 1e\\+12"),
+    ({"rate": 1000.0}, "1000 Hz is faster than the physics step of 0.01 s can sample "
+                       "\\(at most 100 Hz\\)"),
     # Degrees where radians are meant: rays 270 rad round, each cast 43 times over.
     ({"angle_min": -135, "angle_max": 135},
      r"'sensors.front.angle_max': must be at most a full turn \(2 pi rad\) past angle_min "
