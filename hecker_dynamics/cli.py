@@ -241,10 +241,14 @@ def _tolerances(args: argparse.Namespace) -> Tolerances:
 
 
 def _check_storage(args: argparse.Namespace) -> None:
-    """Refuse --compress with a storage it does not apply to, rather than ignore it."""
-    if args.compress and args.storage != "mcap":
+    """Refuse --compress with a storage it does not apply to, rather than ignore it; then
+    take mcap where --storage was not given (None until here, so that a command can tell
+    an mcap asked for from the default)."""
+    if args.compress and args.storage not in (None, "mcap"):
         raise BagError(f"--compress compresses mcap chunks; --storage {args.storage} has "
                        "none (leave out one of them)")
+    if args.storage is None:
+        args.storage = "mcap"
 
 
 def script_command(args: argparse.Namespace) -> int:
@@ -285,7 +289,7 @@ def replay_command(args: argparse.Namespace) -> int:
     if (args.topic or args.partial) and not args.check:
         raise BagError("--topic and --partial say what --check compares; give --check")
     if args.output is None and (args.with_inputs or args.compress or args.overwrite
-                                or args.storage != "mcap"):
+                                or args.storage is not None):
         raise BagError("--storage, --compress, --overwrite and --with-inputs say how -o writes "
                        "its bag; give -o OUTPUT_BAG")
     _check_storage(args)
@@ -434,7 +438,7 @@ def _add_coverage_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_writer_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--storage", choices=STORAGES, default="mcap",
+    parser.add_argument("--storage", choices=STORAGES, default=None,
                         help="storage of the written bag (default mcap, as Jazzy records)")
     parser.add_argument("--compress", action="store_true",
                         help="zstd-compress the mcap chunks (like Jazzy's zstd_fast preset)")

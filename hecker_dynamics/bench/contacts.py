@@ -320,7 +320,7 @@ def _v3_targets(results: ContactResults) -> list[Optional[tuple[str, str, str]]]
             two = _over_v3(row, "hecker_dynamics" + THREADED)
             half.append((f"{row.rows} rows", one) if two is None or one <= two
                         else (f"{row.rows} rows on 2 threads", two))
-    return [_verdict("37.1 pyramids of 10 to 100 rows, per step <= 0.5 x Box2D v3's "
+    return [_verdict("37.1 pyramids of 10, 30, 50 and 100 rows, per step <= 0.5 x Box2D v3's "
                      "(one or two threads)", half, TARGET),
             _verdict("37.2 pyramids, one thread, per step <= Box2D v3's", level, 1.0)]
 

@@ -411,7 +411,8 @@ class JointPass:
         rows at the tolerance: 1.27e-9 to 1.31e-9 m on the 50- and 200-link chains held
         to 1e-9 m a row); so the tolerance becomes ``gap`` / sqrt(2). Raises ValueError for
         a ``gap`` that is not a positive number."""
-        if not gap > 0.0 or not math.isfinite(gap):
+        if isinstance(gap, bool) or not isinstance(gap, (int, float)) or not gap > 0.0 \
+                or not math.isfinite(gap):
             raise ValueError(f"a pin gap must be a positive number of metres, not {gap!r}")
         self._changing()
         self.tolerance = gap / math.sqrt(2.0)

@@ -201,7 +201,7 @@ class ParameterReader:
         rate = self.number(key, default_rate, positive=True)
         steps = 1e9 / rate / step_ns
         step = seconds_text(step_ns)
-        if steps < 0.5:
+        if steps < 1.0 - 1e-6:
             self.fail(key, f"{number_text(rate)} Hz is faster than the physics step of {step} s "
                            f"can sample (at most {number_text(1e9 / step_ns)} Hz)")
         if steps >= MOST_STEPS:

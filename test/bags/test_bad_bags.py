@@ -779,6 +779,9 @@ def test_two_bags_without_a_topic_in_common_are_no_match(tmp_path, capsys):
     (["replay", "sample", "{output}", "--check", "--overwrite"], "say how -o writes its bag"),
     (["replay", "sample", "{output}", "--check", "--storage", "sqlite3"],
      "say how -o writes its bag"),
+    # mcap is the default, and given by name it is an option all the same
+    (["replay", "sample", "{output}", "--check", "--storage", "mcap"],
+     "say how -o writes its bag"),
     (["replay", "sample", "{output}", "--check", "--with-inputs"], "say how -o writes its bag"),
 ])
 def test_options_that_would_change_nothing_are_refused(tmp_path, capsys, argv, words):

@@ -602,7 +602,7 @@ def test_a_pin_gap_asked_holds_in_python_as_in_the_kernel(python):
         assert np.array_equal(sim.q, slow.q) and np.array_equal(sim.v, slow.v)
 
 
-@pytest.mark.parametrize("gap", [0.0, -1e-9, math.nan, math.inf])
+@pytest.mark.parametrize("gap", [0.0, -1e-9, math.nan, math.inf, "1e-9", True, None])
 def test_a_pin_gap_must_be_a_positive_number(gap):
     joints = Simulation(chain(2, 1.0 / 60.0, 1.0)).model.joints
     with pytest.raises(ValueError, match="a pin gap must be a positive number of metres"):

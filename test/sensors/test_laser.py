@@ -162,6 +162,7 @@ def test_noise_is_gaussian_seeded_by_stamp_and_replays():
                       "more than 1e\\+12"),
     ({"rate": 1000.0}, "1000 Hz is faster than the physics step of 0.01 s can sample "
                        "\\(at most 100 Hz\\)"),
+    ({"rate": 150.0}, "150 Hz is faster than the physics step of 0.01 s can sample"),
     # Degrees where radians are meant: rays 270 rad round, each cast 43 times over.
     ({"angle_min": -135, "angle_max": 135},
      r"'sensors.front.angle_max': must be at most a full turn \(2 pi rad\) past angle_min "
