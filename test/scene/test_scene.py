@@ -246,7 +246,9 @@ ERRORS = {
     "bad_frame_topic": ("wrench_topics.thrust.frame_id", "b/tip",
                         "wrench_topics.thrust.frame_id", "b/tip"),
     "publish_rate_not_whole": ("publish_rate", 300.0, "publish_rate", "whole number"),
-    "publish_rate_too_fast": ("publish_rate", 2000.0, "publish_rate", "whole number"),
+    "publish_rate_too_fast": ("publish_rate", 2000.0, "publish_rate",
+                              "faster than the physics step of 0.001 s can sample (at most "
+                              "1000 Hz)"),
     "spring_body_b_and_anchor": ("forces.s.anchor", [0.0, 0.0], "forces.s.anchor",
                                  "exactly one"),
     "spring_neither": ("forces.s.body_b", DELETE, "forces.s.anchor", "exactly one"),
