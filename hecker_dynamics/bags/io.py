@@ -622,6 +622,7 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
         raise BagError(f"{path}: no metadata.yaml (a recording cut off before it was closed? "
                        f"'ros2 bag reindex {path}' writes it)")
     wanted = set(topics) if topics is not None else None
+    _check_sqlite_logs(path)
     try:
         with Reader(path) as reader:
             connections = reader.connections
@@ -676,6 +677,33 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                   for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)
+
+
+#: The first bytes of a rollback journal that still holds a transaction's old pages.
+_HOT_JOURNAL = bytes.fromhex("d9d505f920a163d7")
+
+
+def _check_sqlite_logs(path: Path) -> None:
+    """Refuse a sqlite3 bag whose database has a log beside it that SQLite would read and
+    ``rosbags`` does not: it opens the file as immutable, so a write-ahead log (``-wal``,
+    rosbag2's ``resilient`` preset) left by a writer that did not close it hides the
+    changes it holds, and a hot rollback journal (``-journal``) the old pages of a
+    transaction cut off half written. The check would compare other messages than
+    ``ros2 bag play`` plays."""
+    files = [path] if path.is_file() else sorted(path.glob("*.db3"))
+    for database in files:
+        wal = database.with_name(database.name + "-wal")
+        journal = database.with_name(database.name + "-journal")
+        with contextlib.suppress(OSError):
+            if wal.stat().st_size > 0:
+                raise BagError(f"{path}: {wal.name} holds changes not yet in {database.name} "
+                               "(its writer did not close it, or still writes); open the bag "
+                               "once with sqlite3 when no one writes it, which merges them")
+        with contextlib.suppress(OSError), journal.open("rb") as stream:
+            if stream.read(len(_HOT_JOURNAL)) == _HOT_JOURNAL:
+                raise BagError(f"{path}: {journal.name} holds a transaction cut off half "
+                               f"written into {database.name}; open the bag once with "
+                               "sqlite3 when no one writes it, which rolls it back")
 
 
 def _count(path: Path, value: Any, what: str) -> int:

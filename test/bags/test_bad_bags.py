@@ -793,3 +793,53 @@ def test_options_that_would_change_nothing_are_refused(tmp_path, capsys, argv, w
     err = _one_line_error(capsys, *(arg.format(**paths) for arg in argv))
     assert words in err
     assert not (tmp_path / "out").exists()
+
+
+#: Flips a bit of every /left/pose message of the sqlite3 bag argv[1] in one transaction,
+#: in journal mode argv[2], and ends without closing the database: a write-ahead log (WAL)
+#: that holds the committed change, or a rollback journal (DELETE, pages spilled into the
+#: file) that holds the old pages of the transaction cut off.
+_CUT_OFF_WRITER = """
+import os, sqlite3, sys
+db = sqlite3.connect(sys.argv[1], isolation_level=None)
+db.execute(f"PRAGMA journal_mode={sys.argv[2]}")
+db.execute("PRAGMA wal_autocheckpoint=0")
+db.execute("PRAGMA cache_size=1")
+rows = db.execute("SELECT m.id, m.data FROM messages m JOIN topics t ON m.topic_id = t.id "
+                  "WHERE t.name = '/left/pose'").fetchall()
+db.execute("BEGIN")
+for key, data in rows:
+    db.execute("UPDATE messages SET data = ? WHERE id = ?", (data[:-9] + bytes([data[-9] ^ 64])
+                                                          + data[-8:], key))
+if sys.argv[2] == "WAL":
+    db.execute("COMMIT")
+os._exit(0)
+"""
+
+
+@pytest.mark.parametrize("mode, log, words", [
+    ("WAL", "-wal", "holds changes not yet in"),
+    ("DELETE", "-journal", "holds a transaction cut off half written into")])
+def test_a_sqlite3_bag_with_a_log_left_beside_it_is_refused(tmp_path, capsys, mode, log,
+                                                            words):
+    """rosbags reads a .db3 as immutable: past a write-ahead log left by a writer that did
+    not close it (rosbag2's resilient preset writes one), whose change SQLite and so
+    ``ros2 bag play`` read, and into the half-written pages of a transaction whose hot
+    journal SQLite would roll back. A bag whose WAL flipped a bit of every pose was a
+    match; one with a cut-off transaction a mismatch, though what SQLite reads matched.
+    Both are refused in one line that names the log."""
+    script, recording = str(tmp_path / "in"), tmp_path / "rec"
+    assert main(["script", "sample", "-o", script]) == 0
+    assert main(["replay", "sample", script, "-o", str(recording), "--with-inputs",
+                 "--storage", "sqlite3"]) == 0
+    database = recording / "rec.db3"
+    subprocess.run([sys.executable, "-c", _CUT_OFF_WRITER, str(database), mode], check=True)
+    assert (recording / f"rec.db3{log}").stat().st_size > 0
+    capsys.readouterr()
+    for argv in (["replay", "sample", str(recording), "--check"],
+                 ["compare", str(recording), str(recording)],
+                 ["replay", "sample", str(database), "--check"]):
+        err = _one_line_error(capsys, *argv)
+        assert f"rec.db3{log} {words} rec.db3" in err, err
+    code, out, _ = _cli(capsys, "regress", str(recording), "--scene", "sample", "--workers", "1")
+    assert code == 2 and out.startswith("ERROR") and f"rec.db3{log} {words}" in out, out
