@@ -534,7 +534,7 @@ def stamp_ns_of(msg: Any) -> Optional[int]:
 
 # ----------------------------------------------------------------------------- reading
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BagMessage:
     """One message of a bag: topic, type, log time and the CDR bytes, and the bag read it
     from (None: made here), which a refusal of its bytes names."""
@@ -671,10 +671,12 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
         raise BagError(f"{path}: cannot read the bag ({_describe(error)}); is it truncated "
                        "or corrupt?") from None
     messages.sort(key=lambda m: (m[0], m[1]))
+    # In place, each tuple let go as its message is made: not both lists at once.
+    ordered: list[Any] = messages
+    for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages):
+        ordered[i] = BagMessage(i, topic, msgtype, log_ns, raw, path)
     return BagContents(
-        path=path, storage=storage, topics=bag_topics,
-        messages=[BagMessage(i, topic, msgtype, log_ns, raw, path)
-                  for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
+        path=path, storage=storage, topics=bag_topics, messages=ordered,
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)
 
