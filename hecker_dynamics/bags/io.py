@@ -857,7 +857,9 @@ class BagWriter:
         if exists and not _looks_like_bag(self.path):
             raise BagError(f"{self.path} exists and is not a bag; not overwriting it")
         if not self.path.parent.is_dir():
-            raise BagError(f"{self.path.parent}: no such directory")
+            raise BagError(f"{self.path}: " + (f"{self.path.parent} is not a folder"
+                                               if self.path.parent.exists() else
+                                               f"the folder {self.path.parent} does not exist"))
         plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
         try:
             _remove_killed_writers(self.path)
