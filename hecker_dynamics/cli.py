@@ -372,7 +372,8 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag: BagContents) -> in
                                       ("--skip-rejected", args.skip_rejected)) if value]
     if given:
         raise BagError(f"{args.input}: a recorded session replays with the options the node "
-                       f"recorded; {', '.join(given)} do not apply to it")
+                       f"recorded; {', '.join(given)} "
+                       f"{'does' if len(given) == 1 else 'do'} not apply to it")
     # Without --check, replay what the records allow (as --partial does) and write it.
     live = check_live(scene, bag, tolerances=_tolerances(args), topics=args.topic,
                       partial=args.partial or not args.check)

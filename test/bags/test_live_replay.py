@@ -297,7 +297,9 @@ def test_the_cli_replays_a_live_session_and_refuses_options_it_records(tmp_path,
     written = read_bag(tmp_path / "out")
     assert set(output_types(load_scene("sample"))) <= set(written.topics)
     assert main(["replay", "sample", str(path), "--check", "--play-script"]) == 2
-    assert "--play-script do not apply" in capsys.readouterr().err
+    assert "; --play-script does not apply to it" in capsys.readouterr().err
+    assert main(["replay", "sample", str(path), "--check", "--start", "1", "--duration", "1"]) == 2
+    assert "; --start, --duration do not apply to it" in capsys.readouterr().err
 
 
 def test_a_session_recorded_without_records_keeps_the_old_rules(tmp_path):
