@@ -780,7 +780,8 @@ def regress_command(args: argparse.Namespace) -> int:
     if args.scene is not None:
         load_scene(args.scene)  # a bad scene fails once, before any work
     if args.scene_dir is not None and not Path(args.scene_dir).is_dir():
-        raise BagError(f"--scene-dir {args.scene_dir}: no such directory")
+        raise BagError(f"--scene-dir {args.scene_dir}: " + (
+            "not a folder" if Path(args.scene_dir).exists() else "no such folder"))
     engine = _engine(args)
     try:
         results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),
