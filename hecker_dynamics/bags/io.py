@@ -661,6 +661,8 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                 _check_files(path, reader.message_count, reader.start_time, reader.end_time)
             custom = dict(reader.storage.metadata.custom or {}) \
                 if hasattr(reader.storage, "metadata") else {}
+            if path.is_file() and not custom:
+                custom = _embedded_custom_data(path)
             storage = _storage_name(path)
     except BagError:
         raise
@@ -679,6 +681,63 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
         path=path, storage=storage, topics=bag_topics, messages=ordered,
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)
+
+
+def _embedded_custom_data(path: Path) -> dict[str, str]:
+    """The custom data of the bag whose storage file ``path`` is, read from the metadata
+    its writer embedded in it (rosbag2 and rosbags write the bag's metadata, which a bag
+    folder keeps in ``metadata.yaml``, into an mcap's ``rosbag2`` metadata record and a
+    sqlite3 database's ``metadata`` table too): a bag's session given by its file
+    alone. {} where it holds none."""
+    import yaml
+
+    try:
+        text = _mcap_metadata(path) if path.suffix == ".mcap" else _sqlite_metadata(path)
+        info = yaml.safe_load(text) if text else None
+    except Exception:  # no metadata, or none of a form this reads: as a file without
+        return {}
+    if isinstance(info, dict):
+        info = info.get("rosbag2_bagfile_information", info)
+    custom = info.get("custom_data") if isinstance(info, dict) else None
+    return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
+
+
+def _mcap_metadata(path: Path) -> Optional[str]:
+    """The ``serialized_metadata`` of an mcap file's ``rosbag2`` metadata record, found
+    among its top-level records (chunks are skipped whole), or None."""
+    def number(data: bytes, at: int) -> int:
+        return int.from_bytes(data[at:at + 4], "little")
+
+    with path.open("rb") as stream:
+        stream.seek(8)  # the magic
+        while len(head := stream.read(9)) == 9:
+            length = int.from_bytes(head[1:], "little")
+            if head[0] == 0x02:  # the footer
+                return None
+            if head[0] != 0x0C:  # not a metadata record
+                stream.seek(length, os.SEEK_CUR)
+                continue
+            body = stream.read(length)
+            name_end = 4 + number(body, 0)
+            if body[4:name_end] != b"rosbag2":
+                continue
+            at, end = name_end + 4, name_end + 4 + number(body, name_end)
+            while at < end:
+                key_end = at + 4 + number(body, at)
+                value_end = key_end + 4 + number(body, key_end)
+                if body[at + 4:key_end] == b"serialized_metadata":
+                    return body[key_end + 4:value_end].decode()
+                at = value_end
+    return None
+
+
+def _sqlite_metadata(path: Path) -> Optional[str]:
+    """The latest metadata of a sqlite3 storage file's ``metadata`` table, or None."""
+    with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?immutable=1",
+                                            uri=True)) as database:
+        row = database.execute("SELECT metadata FROM metadata ORDER BY id DESC LIMIT 1"
+                               ).fetchone()
+    return str(row[0]) if row else None
 
 
 #: The first bytes of a rollback journal that still holds a transaction's old pages.

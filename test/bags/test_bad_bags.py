@@ -873,3 +873,24 @@ def test_a_flood_of_inputs_is_replayed_without_holding_them_decoded(tmp_path):
         tracemalloc.stop()
     assert (result.inputs, result.accepted) == (count, count)
     assert peak < 300 * count, peak / count
+
+
+@pytest.mark.parametrize("storage, options, name", [("mcap", [], "in.mcap"),
+                                                    ("mcap", ["--compress"], "in.mcap"),
+                                                    ("sqlite3", [], "in.db3")])
+def test_a_bag_given_by_its_storage_file_replays_its_own_session(tmp_path, capsys, storage,
+                                                                options, name):
+    """``replay sample in/in.mcap`` (the file, not the folder) lost the session the bag's
+    metadata holds (start 0 s, 10 s long): it replayed from the first input, at 3 s, to
+    13 s, other outputs than the folder's without a word. The file holds the bag's
+    metadata too (an mcap's 'rosbag2' record, a sqlite3 'metadata' table), copied out of
+    its folder as well; its session is read from there."""
+    folder, alone = tmp_path / "in", tmp_path / f"alone{Path(name).suffix}"
+    assert main(["script", "sample", "-o", str(folder), "--storage", storage, *options]) == 0
+    shutil.copyfile(folder / name, alone)
+    assert main(["replay", "sample", str(folder), "-o", str(tmp_path / "from_folder")]) == 0
+    for given in (folder / name, alone):
+        out = tmp_path / f"from_{given.name}"
+        assert main(["replay", "sample", str(given), "-o", str(out)]) == 0
+        assert "sim time 0.000000000 s to 10.000000000 s" in capsys.readouterr().out
+        assert main(["compare", str(tmp_path / "from_folder"), str(out), "--atol", "0"]) == 0
