@@ -270,7 +270,7 @@ def script_command(args: argparse.Namespace) -> int:
 
 def replay_command(args: argparse.Namespace) -> int:
     """Replay an input bag on a scene, write the outputs, optionally check them."""
-    from .bags.check import RecordingCheck, check_outputs
+    from .bags.check import RecordingCheck, check_outputs, on_the_recorded_path
     from .bags.coverage import seconds
     from .bags.io import read_bag
     from .bags.live import is_live_recording
@@ -346,9 +346,20 @@ def replay_command(args: argparse.Namespace) -> int:
         return 0
     actual = read_bag(args.output) if args.output is not None else \
         outputs_as_bag(scene, produced, tf=tf)
-    report, coverage = check_outputs(scene, bag, actual, tolerances=_tolerances(args), tf=tf,
-                                     topics=args.topic, partial=args.partial)
-    return _verdict(args, RecordingCheck(args.input, report, coverage, live=False))
+
+    def check(actual: BagContents) -> RecordingCheck:
+        report, coverage = check_outputs(scene, bag, actual, tolerances=_tolerances(args),
+                                         tf=tf, topics=args.topic, partial=args.partial)
+        return RecordingCheck(args.input, report, coverage, live=False)
+
+    # -o holds this path's replay; a recording of the other path is checked in memory.
+    verdict, note = on_the_recorded_path(
+        scene, lambda: check(outputs_as_bag(scene, replay_outputs(scene, bag, **options)[0],
+                                            tf=tf)),
+        lambda verdict: verdict.ok, first=check(actual))
+    if note is not None:
+        verdict.coverage.notes.insert(0, note)
+    return _verdict(args, verdict)
 
 
 def _verdict(args: argparse.Namespace, check: RecordingCheck) -> int:
@@ -361,7 +372,7 @@ def _verdict(args: argparse.Namespace, check: RecordingCheck) -> int:
 
 def _replay_live(args: argparse.Namespace, scene: Scene, bag: BagContents) -> int:
     """Replay a session recorded from the node with its session records (bags.live)."""
-    from .bags.check import RecordingCheck
+    from .bags.check import RecordingCheck, on_the_recorded_path
     from .bags.io import BagWriter
     from .bags.live import check_live
     from .bags.replay import output_types
@@ -372,10 +383,15 @@ def _replay_live(args: argparse.Namespace, scene: Scene, bag: BagContents) -> in
                                       ("--skip-rejected", args.skip_rejected)) if value]
     if given:
         raise BagError(f"{args.input}: a recorded session replays with the options the node "
-                       f"recorded; {', '.join(given)} do not apply to it")
+                       f"recorded; {', '.join(given)} "
+                       f"{'does' if len(given) == 1 else 'do'} not apply to it")
     # Without --check, replay what the records allow (as --partial does) and write it.
-    live = check_live(scene, bag, tolerances=_tolerances(args), topics=args.topic,
-                      partial=args.partial or not args.check)
+    live, note = on_the_recorded_path(
+        scene, lambda: check_live(scene, bag, tolerances=_tolerances(args), topics=args.topic,
+                                  partial=args.partial or not args.check),
+        lambda live: live.ok or live.halted is not None or not args.check)
+    if note is not None:
+        live.coverage.notes.insert(0, note)
     if live.halted:
         raise BagError(f"{args.input}: {live.halted}" + (
             "; no bag was written" if args.output is not None else ""))
@@ -779,7 +795,8 @@ def regress_command(args: argparse.Namespace) -> int:
     if args.scene is not None:
         load_scene(args.scene)  # a bad scene fails once, before any work
     if args.scene_dir is not None and not Path(args.scene_dir).is_dir():
-        raise BagError(f"--scene-dir {args.scene_dir}: no such directory")
+        raise BagError(f"--scene-dir {args.scene_dir}: " + (
+            "not a folder" if Path(args.scene_dir).exists() else "no such folder"))
     engine = _engine(args)
     try:
         results = regress(bags, engine, scene=args.scene, tolerances=_tolerances(args),

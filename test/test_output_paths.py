@@ -137,6 +137,21 @@ def test_a_bag_is_not_written_to_standard_output_nor_to_a_folder_named_dash(plac
     assert _listing(place) == before
 
 
+@pytest.mark.parametrize("command", [["script", "sample"],
+                                     ["replay", "sample", str(GOLDEN / "sample" / "input")]])
+@pytest.mark.parametrize("path, problem", [
+    ("missing/out", "out: the folder missing does not exist"),
+    ("old.csv/out", "out: old.csv is not a folder")])
+def test_a_bag_in_a_folder_that_is_missing_or_a_file_is_refused_as_files_are(
+        place, capsys, command, path, problem):
+    """A bag's -o inside a file was refused as 'old.csv: no such directory', where every
+    other command says the path is in no folder ('-o old.csv/x.gif: old.csv is not a
+    folder'): the bag commands say so too, naming the bag."""
+    before = _listing(place)
+    _refused(capsys, [*command, "-o", path], problem)
+    assert _listing(place) == before
+
+
 def test_sweep_table_inside_a_bag_it_writes_is_refused(place, capsys):
     """-o inside a bag folder of --bags (left by an earlier sweep): the sweep wrote the
     table there, and the next sweep --overwrite, replacing the bag whole, deleted it (and

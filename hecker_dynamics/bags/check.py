@@ -13,8 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Optional, TypeVar
 
+from ..dynamics import kernel
+from ..dynamics.model import LEAN_BODIES
+from ..integrators.methods import ADAPTIVE
 from ..scene.load import Scene
 from .compare import CompareReport, Tolerances, compare_contents
 from .coverage import Coverage, span
@@ -29,7 +32,8 @@ from .replay import (
     replay_outputs,
 )
 
-__all__ = ["RecordingCheck", "check_recording", "check_outputs"]
+__all__ = ["RecordingCheck", "check_recording", "check_outputs", "paths_round_apart",
+           "on_the_recorded_path"]
 
 
 @dataclass
@@ -122,13 +126,70 @@ def check_outputs(scene: Scene, bag: BagContents, actual: BagContents, *,
     return report, coverage
 
 
+def paths_round_apart(scene: Scene) -> Optional[str]:
+    """Why the compiled kernel and the Python path may publish other bits for ``scene``
+    (README: they agree to rounding only above :data:`~..dynamics.model.LEAN_BODIES`
+    bodies, where Python sums with numpy, and with the adaptive methods, which ``auto``
+    may pick), or None where they give the same bits."""
+    if len(scene.bodies) > LEAN_BODIES:
+        return f"on its {len(scene.bodies)} bodies (more than {LEAN_BODIES})"
+    if scene.integrator in (*ADAPTIVE, "auto"):
+        return f"with integrator {scene.integrator}"
+    return None
+
+
+def _path(compiled: bool) -> str:
+    return "the compiled kernel" if compiled else \
+        f"the Python path ({kernel.SWITCH}=0)"
+
+
+Attempt = TypeVar("Attempt")
+
+
+def on_the_recorded_path(scene: Scene, attempt: Callable[[], Attempt],
+                         ok: Callable[[Attempt], bool], first: Optional[Attempt] = None
+                         ) -> tuple[Attempt, Optional[str]]:
+    """``attempt()`` (a replay and its check; ``first``, its result on this process's
+    path where made already), again on the other path where its result is not ``ok``,
+    the two paths round apart for ``scene`` (:func:`paths_round_apart`) and the kernel is
+    built: a node that ran the other path recorded other bits. Returns the result that
+    is ok, else the first, and a note of what was replayed, or None."""
+    first = attempt() if first is None else first
+    why = paths_round_apart(scene)
+    if ok(first) or why is None:
+        return first, None
+    compiled = not kernel.enabled()
+    if not kernel.built():
+        return first, (f"{_path(True)}, not built here, rounds apart from {_path(False)} "
+                       f"{why}: a recording of a node that ran it differs so")
+    with kernel.chosen(compiled):
+        other = attempt()
+    if not ok(other):
+        return first, None
+    return other, (f"replayed on {_path(compiled)}, which the node that recorded it ran: "
+                   f"{_path(not compiled)} rounds apart from it {why}")
+
+
 def check_recording(scene: Scene, bag: BagContents, *, tolerances: Tolerances,
                     topics: Optional[Sequence[str]] = None,
                     partial: bool = False,
                     progress: Optional[Callable[[float], None]] = None) -> RecordingCheck:
     """``replay SCENE BAG --check``: replay the bag on ``scene`` and check everything it
-    holds (see the module docstring); ``progress`` is told of each publish tick. Raises
+    holds (see the module docstring), on the path the node ran
+    (:func:`on_the_recorded_path`); ``progress`` is told of each publish tick. Raises
     :class:`~hecker_dynamics.bags.replay.ReplayError` for a bag that cannot be checked."""
+    check, note = on_the_recorded_path(
+        scene, lambda: _check_on_this_path(scene, bag, tolerances=tolerances, topics=topics,
+                                           partial=partial, progress=progress),
+        lambda check: check.ok or check.halted is not None)
+    if note is not None:
+        check.coverage.notes.insert(0, note)
+    return check
+
+
+def _check_on_this_path(scene: Scene, bag: BagContents, *, tolerances: Tolerances,
+                        topics: Optional[Sequence[str]], partial: bool,
+                        progress: Optional[Callable[[float], None]]) -> RecordingCheck:
     if is_live_recording(bag):
         live = check_live(scene, bag, tolerances=tolerances, topics=topics, partial=partial,
                           progress=progress)

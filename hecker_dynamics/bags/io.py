@@ -534,7 +534,7 @@ def stamp_ns_of(msg: Any) -> Optional[int]:
 
 # ----------------------------------------------------------------------------- reading
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class BagMessage:
     """One message of a bag: topic, type, log time and the CDR bytes, and the bag read it
     from (None: made here), which a refusal of its bytes names."""
@@ -622,6 +622,7 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
         raise BagError(f"{path}: no metadata.yaml (a recording cut off before it was closed? "
                        f"'ros2 bag reindex {path}' writes it)")
     wanted = set(topics) if topics is not None else None
+    _check_sqlite_logs(path)
     try:
         with Reader(path) as reader:
             connections = reader.connections
@@ -660,6 +661,8 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
                 _check_files(path, reader.message_count, reader.start_time, reader.end_time)
             custom = dict(reader.storage.metadata.custom or {}) \
                 if hasattr(reader.storage, "metadata") else {}
+            if path.is_file() and not custom:
+                custom = _embedded_custom_data(path)
             storage = _storage_name(path)
     except BagError:
         raise
@@ -670,12 +673,98 @@ def read_bag(path: PathLike, topics: Optional[Iterable[str]] = None) -> BagConte
         raise BagError(f"{path}: cannot read the bag ({_describe(error)}); is it truncated "
                        "or corrupt?") from None
     messages.sort(key=lambda m: (m[0], m[1]))
+    # In place, each tuple let go as its message is made: not both lists at once.
+    ordered: list[Any] = messages
+    for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages):
+        ordered[i] = BagMessage(i, topic, msgtype, log_ns, raw, path)
     return BagContents(
-        path=path, storage=storage, topics=bag_topics,
-        messages=[BagMessage(i, topic, msgtype, log_ns, raw, path)
-                  for i, (log_ns, _, topic, msgtype, raw) in enumerate(messages)],
+        path=path, storage=storage, topics=bag_topics, messages=ordered,
         custom_data={str(k): str(v) for k, v in custom.items()},
         definitions=definitions, digests=digests)
+
+
+def _embedded_custom_data(path: Path) -> dict[str, str]:
+    """The custom data of the bag whose storage file ``path`` is, read from the metadata
+    its writer embedded in it (rosbag2 and rosbags write the bag's metadata, which a bag
+    folder keeps in ``metadata.yaml``, into an mcap's ``rosbag2`` metadata record and a
+    sqlite3 database's ``metadata`` table too): a bag's session given by its file
+    alone. {} where it holds none."""
+    import yaml
+
+    try:
+        text = _mcap_metadata(path) if path.suffix == ".mcap" else _sqlite_metadata(path)
+        info = yaml.safe_load(text) if text else None
+    except Exception:  # no metadata, or none of a form this reads: as a file without
+        return {}
+    if isinstance(info, dict):
+        info = info.get("rosbag2_bagfile_information", info)
+    custom = info.get("custom_data") if isinstance(info, dict) else None
+    return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
+
+
+def _mcap_metadata(path: Path) -> Optional[str]:
+    """The ``serialized_metadata`` of an mcap file's ``rosbag2`` metadata record, found
+    among its top-level records (chunks are skipped whole), or None."""
+    def number(data: bytes, at: int) -> int:
+        return int.from_bytes(data[at:at + 4], "little")
+
+    with path.open("rb") as stream:
+        stream.seek(8)  # the magic
+        while len(head := stream.read(9)) == 9:
+            length = int.from_bytes(head[1:], "little")
+            if head[0] == 0x02:  # the footer
+                return None
+            if head[0] != 0x0C:  # not a metadata record
+                stream.seek(length, os.SEEK_CUR)
+                continue
+            body = stream.read(length)
+            name_end = 4 + number(body, 0)
+            if body[4:name_end] != b"rosbag2":
+                continue
+            at, end = name_end + 4, name_end + 4 + number(body, name_end)
+            while at < end:
+                key_end = at + 4 + number(body, at)
+                value_end = key_end + 4 + number(body, key_end)
+                if body[at + 4:key_end] == b"serialized_metadata":
+                    return body[key_end + 4:value_end].decode()
+                at = value_end
+    return None
+
+
+def _sqlite_metadata(path: Path) -> Optional[str]:
+    """The latest metadata of a sqlite3 storage file's ``metadata`` table, or None."""
+    with contextlib.closing(sqlite3.connect(f"{path.resolve().as_uri()}?immutable=1",
+                                            uri=True)) as database:
+        row = database.execute("SELECT metadata FROM metadata ORDER BY id DESC LIMIT 1"
+                               ).fetchone()
+    return str(row[0]) if row else None
+
+
+#: The first bytes of a rollback journal that still holds a transaction's old pages.
+_HOT_JOURNAL = bytes.fromhex("d9d505f920a163d7")
+
+
+def _check_sqlite_logs(path: Path) -> None:
+    """Refuse a sqlite3 bag whose database has a log beside it that SQLite would read and
+    ``rosbags`` does not: it opens the file as immutable, so a write-ahead log (``-wal``,
+    rosbag2's ``resilient`` preset) left by a writer that did not close it hides the
+    changes it holds, and a hot rollback journal (``-journal``) the old pages of a
+    transaction cut off half written. The check would compare other messages than
+    ``ros2 bag play`` plays."""
+    files = [path] if path.is_file() else sorted(path.glob("*.db3"))
+    for database in files:
+        wal = database.with_name(database.name + "-wal")
+        journal = database.with_name(database.name + "-journal")
+        with contextlib.suppress(OSError):
+            if wal.stat().st_size > 0:
+                raise BagError(f"{path}: {wal.name} holds changes not yet in {database.name} "
+                               "(its writer did not close it, or still writes); open the bag "
+                               "once with sqlite3 when no one writes it, which merges them")
+        with contextlib.suppress(OSError), journal.open("rb") as stream:
+            if stream.read(len(_HOT_JOURNAL)) == _HOT_JOURNAL:
+                raise BagError(f"{path}: {journal.name} holds a transaction cut off half "
+                               f"written into {database.name}; open the bag once with "
+                               "sqlite3 when no one writes it, which rolls it back")
 
 
 def _count(path: Path, value: Any, what: str) -> int:
@@ -827,7 +916,9 @@ class BagWriter:
         if exists and not _looks_like_bag(self.path):
             raise BagError(f"{self.path} exists and is not a bag; not overwriting it")
         if not self.path.parent.is_dir():
-            raise BagError(f"{self.path.parent}: no such directory")
+            raise BagError(f"{self.path}: " + (f"{self.path.parent} is not a folder"
+                                               if self.path.parent.exists() else
+                                               f"the folder {self.path.parent} does not exist"))
         plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
         try:
             _remove_killed_writers(self.path)

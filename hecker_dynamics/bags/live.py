@@ -137,6 +137,8 @@ from .replay import (
 #: Most twists in a row a recorder may have lost where the check still finds the next one:
 #: ten publish periods, 0.2 s at the default rate.
 LOST_TWISTS = 10
+#: How many of the first recorded twists of a body place them by their log times.
+TIMED_TWISTS = 64
 
 __all__ = ["LiveCheck", "check_live", "is_live_recording", "recorded_sessions"]
 
@@ -203,8 +205,9 @@ def _sibling(topic: str) -> Optional[str]:
 def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],
                   poses: list[tuple[BagMessage, int]]) -> int:
     """Where the recorded twists start in the replayed sequence; negative when the
-    recording began before the replay's first snapshot. The place nearest the sibling
-    poses' guess where all of them match, else where the most of them in a row from the
+    recording began before the replay's first snapshot. The place nearest the guess (by
+    the first sibling pose, then the log times: :func:`_fit_in_time`) where all of them
+    match, else where the most of them in a row from the
     first do (a twist lost later breaks that row), else the guess. No place leaves more
     twists before the replay's first snapshot, unchecked, than the poses do (but one, a
     twist that arrived after the next tick's pose): where a body
@@ -225,6 +228,8 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
         if not before:  # twists logged before the first pose are of ticks before its
             guess -= sum(1 for m in messages if m.log_ns < poses[0][0].log_ns)
     count = len(messages)
+    lowest = max(-count + 1, min(guess, 0) - 1)  # a twist logged after the next pose
+    guess = max(_fit_in_time(messages, stamps, poses, guess), lowest)
 
     def matching(offset: int) -> int:
         """How many twists in a row match from the first the replay has at ``offset``."""
@@ -241,7 +246,6 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
                    for j in range(max(0, -offset), min(count, len(replayed) - offset)))
 
     best, longest, ties = guess, 0, [guess]
-    lowest = max(-count + 1, min(guess, 0) - 1)  # a twist logged after the next pose
     for distance in range(len(replayed) + count + 1):
         for offset in (guess - distance, guess + distance):
             if lowest <= offset < len(replayed):
@@ -255,6 +259,34 @@ def _twist_offset(messages: list[BagMessage], replayed: list[Output], raw: dict[
     # Alike twists (a body at rest) tie up to a changed one: the place where the most
     # match after it too.
     return max(ties, key=total) if longest and len(ties) > 1 else best
+
+
+def _fit_in_time(messages: list[BagMessage], stamps: list[int],
+                 poses: list[tuple[BagMessage, int]], guess: int) -> int:
+    """The place within :data:`LOST_TWISTS` of ``guess`` where the first
+    :data:`TIMED_TWISTS` recorded twists were logged nearest the recorded poses of their
+    snapshots (``stamps``: the replayed twists'): the node publishes a body's pose and
+    twist together and the recorder logs each a moment later. A resting body's twists
+    match alike at every place, and the first pose a recorder logged does not place them:
+    the twists of a burst of late ticks come in with its poses, some a moment before the
+    first one. ``guess`` where places have no pose to go by, or a stamp is replayed twice."""
+    logged = {stamp: message.log_ns for message, stamp in poses}
+    if len(logged) != len(poses) or len(set(stamps)) != len(stamps):
+        return guess
+    head = messages[:TIMED_TWISTS]
+    fits: dict[int, tuple[int, float]] = {}  # place -> (poses gone by, mean distance)
+    for offset in range(guess - LOST_TWISTS, guess + LOST_TWISTS + 1):
+        gaps = [abs(message.log_ns - logged[stamps[offset + j]])
+                for j, message in enumerate(head)
+                if 0 <= offset + j < len(stamps) and stamps[offset + j] in logged]
+        if gaps:
+            fits[offset] = len(gaps), sum(gaps) / len(gaps)
+    if not fits:
+        return guess
+    # A place that pairs a few twists only, at an end, fits by chance.
+    enough = (max(paired for paired, _ in fits.values()) + 1) // 2
+    return min((offset for offset, (paired, _) in fits.items() if paired >= enough),
+               key=lambda offset: (fits[offset][1], abs(offset - guess)))
 
 
 def _twist_places(messages: list[BagMessage], replayed: list[Output], raw: dict[int, bytes],

@@ -254,11 +254,13 @@ def _is_bag(path: Path) -> bool:
 
 
 def _bags_in(folder: Path, seen: set[Path]) -> Iterator[Path]:
-    """The bag directories in ``folder`` and, in name order, in its folders that are no
-    bags, at any depth: a suite kept in folders (one per scene, say) is checked whole, not
-    only its top folder's bags. Hidden folders (a running writer's temporary ones) and a
-    folder reached again (a symlink loop) are not searched; a folder that cannot be listed
-    raises :class:`BagError` naming it (its bags would go unchecked)."""
+    """The bag directories in ``folder`` and, in name order, in its folders, at any depth:
+    a suite kept in folders (one per scene, say) is checked whole, not only its top
+    folder's bags, and so is a bag inside a bag's folder (``cp -r new suite/old`` where
+    ``suite/old`` is a bag puts ``new`` there). Hidden folders (a running writer's
+    temporary ones) and a folder reached again (a symlink loop) are not searched; a folder
+    that cannot be listed raises :class:`BagError` naming it (its bags would go
+    unchecked)."""
     seen.add(folder.resolve())
     try:
         entries = sorted(folder.iterdir())
@@ -267,19 +269,20 @@ def _bags_in(folder: Path, seen: set[Path]) -> Iterator[Path]:
     for path in entries:
         if _is_bag(path):
             yield path
-        elif path.is_dir() and not path.name.startswith(".") and path.resolve() not in seen:
+        if path.is_dir() and not path.name.startswith(".") and path.resolve() not in seen:
             yield from _bags_in(path, seen)
 
 
 def find_bags(paths: Sequence[Path]) -> list[Path]:
-    """The bags named: each path is a bag directory (see :func:`_is_bag`) or holds bag
-    directories (:func:`_bags_in`); raises :class:`BagError` for a path that is neither. A
-    bag named again (twice, by a folder and by itself, through a symlink) is kept once,
-    with a warning: checked twice it would count twice in the summary."""
+    """The bags named: each path is a bag directory (see :func:`_is_bag`), with the bags in
+    its folders, or holds bag directories (:func:`_bags_in`); raises :class:`BagError` for
+    a path that is neither. A bag named again (twice, by a folder and by itself, through a
+    symlink) is kept once, with a warning: checked twice it would count twice in the
+    summary."""
     found: dict[Path, Path] = {}  # the bag's real path -> the path it was first found by
     for path in paths:
         if _is_bag(path):
-            inner = [path]
+            inner = [path, *_bags_in(path, set())]
         else:
             inner = list(_bags_in(path, set())) if path.is_dir() else []
             if not inner:

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import enum
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any, NamedTuple, Optional
 
 import numpy as np
@@ -51,7 +53,7 @@ try:
 except ImportError:  # not built: no compiler or headers when installed
     _kernel = None
 
-__all__ = ["built", "enabled", "unit_energy", "bound_check", "pack", "BoundData", "Runs",
+__all__ = ["built", "enabled", "chosen", "unit_energy", "bound_check", "pack", "BoundData", "Runs",
            "DriveInt", "DriveReal", "DriveColumns", "CompiledForces", "Advanced", "CompiledSteps",
            "compiled_steps"]
 
@@ -64,9 +66,27 @@ def built() -> bool:
     return _kernel is not None
 
 
+#: The path :func:`chosen` sets for the models its caller makes (None: the environment's).
+_CHOSEN: ContextVar[Optional[bool]] = ContextVar("hecker_dynamics_kernel", default=None)
+
+
 def enabled() -> bool:
-    """True if new models use the kernel: it is built and not switched off."""
-    return built() and os.environ.get(SWITCH, "1") != "0"
+    """True if new models use the kernel: it is built and not switched off (by
+    :func:`chosen`, else by the environment)."""
+    choice = _CHOSEN.get()
+    return built() and (os.environ.get(SWITCH, "1") != "0" if choice is None else choice)
+
+
+@contextmanager
+def chosen(compiled: bool) -> Iterator[None]:
+    """Within it, the models this thread makes use the kernel (``compiled``, where it is
+    built) or the Python path, whatever the environment says: a check replays a recording
+    on the path the node ran."""
+    token = _CHOSEN.set(compiled)
+    try:
+        yield
+    finally:
+        _CHOSEN.reset(token)
 
 
 def unit_energy(springs: Any, q: np.ndarray, v: np.ndarray, statics: np.ndarray,

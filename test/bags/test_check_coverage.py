@@ -390,6 +390,11 @@ def test_regress_finds_scene_files_in_the_directory_named(tmp_path, capsys, samp
     assert main(["regress", str(bag), "--scene-dir", str(scenes), "--workers", "1",
                  "--no-progress"]) == 0
     assert "OK" in capsys.readouterr().out
+    # A --scene-dir that is a file, or missing, is said to be which.
+    for given, words in ((scenes / "my_sample.yaml", "not a folder"),
+                         (tmp_path / "none", "no such folder")):
+        assert main(["regress", str(bag), "--scene-dir", str(given), "--no-progress"]) == 2
+        assert capsys.readouterr().err == f"hecker-dynamics: error: --scene-dir {given}: {words}\n"
 
 
 def test_a_sessions_first_keyframe_is_checked_too(tmp_path, capsys):

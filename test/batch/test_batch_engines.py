@@ -231,6 +231,22 @@ def test_bags_in_folders_of_the_folder_are_checked_too(bag_suite, tmp_path, caps
     assert out[-1] == "2 bag(s): 1 ok, 1 mismatch, 0 error"
 
 
+def test_a_bag_inside_a_bag_s_folder_is_checked_too(bag_suite, tmp_path, capsys):
+    """``cp -r c_tampered suite/a_sample`` where ``suite/a_sample`` is a bag already puts
+    the tampered bag inside it, where regress never looked: "1 bag(s): 1 ok", exit 0,
+    whether given the suite or the bag. Both bags are checked."""
+    suite = tmp_path / "suite"
+    shutil.copytree(bag_suite / "a_sample", suite / "a_sample")
+    shutil.copytree(bag_suite / "c_tampered", suite / "a_sample" / "c_tampered")
+    for given in (suite, suite / "a_sample"):
+        assert main(["regress", str(given), "--workers", "1", "--no-progress"]) == 1
+        out = capsys.readouterr().out.splitlines()
+        assert [line.split()[:2] for line in out[:-1]] == [
+            ["OK", str(suite / "a_sample")],
+            ["MISMATCH", str(suite / "a_sample" / "c_tampered")]], out
+        assert out[-1] == "2 bag(s): 1 ok, 1 mismatch, 0 error"
+
+
 def test_a_folder_that_cannot_be_listed_is_an_error_naming_it(bag_suite, tmp_path,
                                                              monkeypatch, capsys):
     """A subfolder regress cannot list (no read permission: root reads all, so its listing
