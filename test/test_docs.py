@@ -201,8 +201,9 @@ def _documented_scene_keys() -> set[str]:
     return keys
 
 
-#: With EVERY_FEATURE, scenes that reach the rest of the loader: a map, soft joints,
-#: thrusters and an omni base, a one-shape polygon, every publish and contacts switch.
+#: With EVERY_FEATURE, scenes that reach the rest of the loader: a map, soft joints, the
+#: exact pass's pin gap, thrusters and an omni base, a one-shape polygon, every publish and
+#: contacts switch.
 _MORE_FEATURES = [
     {"bodies": {"p": {"shape": "polygon", "vertices": [0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
                       "mass": 1.0},
@@ -224,6 +225,9 @@ _MORE_FEATURES = [
                          "angular_kp": 1.0,
                          "thrusters": [0.0, 0.3, 0.0, 0.0, -0.3, 0.0, 0.3, 0.0, 1.57,
                                        -0.3, 0.0, -1.57, 0.0, 0.3, 3.14, 0.0, -0.3, 3.14]}}},
+    {"joint_solver": {"pin_gap": 1e-9},
+     "bodies": {"a": {"shape": "circle", "radius": 0.5, "mass": 1.0}},
+     "joints": {"pin": {"type": "revolute", "body_b": "a"}}},
 ]
 
 

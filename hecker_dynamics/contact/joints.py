@@ -300,6 +300,14 @@ def _on_loops(bodies: int, joined: list[tuple[int, int]]) -> list[int]:
     return [count if on else 0 for count, on in zip(joints[:bodies], left)]
 
 
+def _row_tolerance(gap: float) -> float:
+    """The tolerance of each row that holds every pin's two points within ``gap`` (m): the
+    position stages test each row against it, and a pin's x and y rows, each within it,
+    leave its points up to sqrt(2) times it apart (both rows at the tolerance: 1.27e-9 to
+    1.31e-9 m on the 50- and 200-link chains held to 1e-9 m a row)."""
+    return gap / math.sqrt(2.0)
+
+
 class JointPass:
     """The scene's joints, solved after each integrator step (see the module docstring)."""
 
@@ -353,8 +361,9 @@ class JointPass:
         self.turning = self.bodies[sorted(turning)]
         self._rods = [self.frames[s.name] for s in self.specs if isinstance(s, DistanceJoint)]
         #: The constraint error (m or rad) the position stages count as met, row by row (a
-        #: pin's x and y rows each: its ends within sqrt(2) times it; :meth:`hold_pins_within`).
-        self.tolerance = TOLERANCE
+        #: pin's x and y rows each: its ends within sqrt(2) times it; :meth:`hold_pins_within`,
+        #: the scene's ``joint_solver.pin_gap``).
+        self.tolerance = TOLERANCE if scene.pin_gap is None else _row_tolerance(scene.pin_gap)
         #: The most a joint's arm may turn in a step or part (rad): :data:`MAX_TURN`.
         self.max_turn = MAX_TURN
         #: The largest error of the last Newton iteration's first iterate (:meth:`_newton`).
@@ -405,17 +414,15 @@ class JointPass:
     def hold_pins_within(self, gap: float) -> None:
         """Hold every pin's two points within ``gap`` (m) of each other, the distance a user
         measures between them (:func:`~hecker_dynamics.bench.joints.pin_gap`), and every
-        other row within ``gap``: a looser ``gap`` than the default's costs less (issue 33).
-        The position stages test each row against their :attr:`tolerance`, and a pin's x
-        and y rows, each within it, leave its points up to sqrt(2) times it apart (both
-        rows at the tolerance: 1.27e-9 to 1.31e-9 m on the 50- and 200-link chains held
-        to 1e-9 m a row); so the tolerance becomes ``gap`` / sqrt(2). Raises ValueError for
+        other row within ``gap``: a looser ``gap`` than the default's costs less (issue 33;
+        the scene's ``joint_solver.pin_gap`` asks for the same from the start). The
+        tolerance becomes ``gap`` / sqrt(2) (:func:`_row_tolerance`). Raises ValueError for
         a ``gap`` that is not a positive number."""
         if isinstance(gap, bool) or not isinstance(gap, (int, float)) or not gap > 0.0 \
                 or not math.isfinite(gap):
             raise ValueError(f"a pin gap must be a positive number of metres, not {gap!r}")
         self._changing()
-        self.tolerance = gap / math.sqrt(2.0)
+        self.tolerance = _row_tolerance(gap)
         self._kernel = None  # the kernel's pass took the tolerance when made: made anew
 
     def use_python(self) -> None:

@@ -27,7 +27,7 @@ FINGERPRINT_DIGITS = 16
 #: Scene fields added after sessions were recorded, with their defaults: left out while at
 #: them, so a scene that does not use them keeps the fingerprint its recordings hold.
 _ADDED_LATER = {"map": None, "publish_contacts": False, "converged": None,
-                "soft_joints": None}
+                "soft_joints": None, "pin_gap": None}
 
 
 def _plain(value: Any) -> Any:

@@ -248,6 +248,9 @@ class Scene:
     # The contact passes' tolerance (contacts.converged); None: contact/solve.py's CONVERGED.
     converged: Optional[float] = None
     soft_joints: Optional[SoftJoints] = None  # joint_solver.type soft; None: exact
+    # The exact pass's pin gap (joint_solver.pin_gap, m); None: contact/joints.py's TOLERANCE
+    # a row.
+    pin_gap: Optional[float] = None
 
     def has_frame(self, frame_id: str) -> bool:
         """True if ``frame_id`` is the fixed frame, a body's, or a declared body point's."""
@@ -415,6 +418,7 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
     joints = _read_joints(root, {b.name: b for b in bodies}, frame_id)
     publish = root.child("publish")
     contacts = root.child("contacts")
+    joint_solver = root.child("joint_solver")
     scene = Scene(
         source=root.source,
         frame_id=frame_id,
@@ -448,7 +452,9 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
         threads=_read_threads(contacts),
         converged=(contacts.number("converged", positive=True) if contacts.has("converged")
                    else None),
-        soft_joints=_read_joint_solver(root, step_ns),
+        soft_joints=_read_joint_solver(root, joint_solver, step_ns),
+        pin_gap=(joint_solver.number("pin_gap", positive=True) if joint_solver.has("pin_gap")
+                 else None),
         sensors=tuple(read_sensor(name, r, points, step_ns)
                       for name, r in root.named_children("sensors")),
         drives=tuple(read_drive(name, r, points, step_ns)
@@ -464,15 +470,19 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
 MOST_SOFT_SUBSTEPS = 64
 
 
-def _read_joint_solver(root: ParameterReader, step_ns: int) -> Optional[SoftJoints]:
-    """``joint_solver``: ``type`` exact (None) or soft, with its sub-steps and softness;
-    soft joints step as Box2D v3 does, so only with semi-implicit Euler and no contacts."""
-    solver = root.child("joint_solver")
+def _read_joint_solver(root: ParameterReader, solver: ParameterReader,
+                       step_ns: int) -> Optional[SoftJoints]:
+    """``joint_solver`` (``solver``): ``type`` exact (None) or soft, with its sub-steps and
+    softness; soft joints step as Box2D v3 does, so only with semi-implicit Euler and no
+    contacts, and hold no ``pin_gap`` (an exact pass's)."""
     if solver.string("type", "exact", choices=("exact", "soft")) == "exact":
         for key in ("substeps", "hertz", "damping_ratio"):
             if solver.has(key):
                 solver.fail(key, "is a setting of joint_solver.type soft, not exact")
         return None
+    if solver.has("pin_gap"):
+        solver.fail("pin_gap", "is a setting of joint_solver.type exact, not soft (soft "
+                               "joints hold no gap)")
     substeps = solver.raw("substeps", 4)
     if isinstance(substeps, bool) or not isinstance(substeps, int) or \
             not 1 <= substeps <= MOST_SOFT_SUBSTEPS:

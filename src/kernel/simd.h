@@ -15,6 +15,14 @@
 
 #define HD_LANES 4
 
+/* Functions built twice, AVX2 and the baseline, the CPU choosing at load time: the same
+ * IEEE operations either way (no contraction into fused multiply-adds, setup.py). */
+#if defined(__x86_64__) && defined(__GLIBC__)
+#define HD_PER_CPU __attribute__((target_clones("avx2", "default")))
+#else
+#define HD_PER_CPU
+#endif
+
 #if defined(__GNUC__)
 #define HD_VECTORS 1
 /* The vector helpers are always inlined, so no vector crosses a call and the ABI of

@@ -2,8 +2,32 @@
  * operation (see sparse.h). */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
+#include "simd.h"
 #include "sparse.h"
+
+static long hd_lmin(long a, long b) { return a < b ? a : b; }
+
+/* a[e] -= t * b[e] for e < count: each entry one product and one subtraction, as a scalar
+ * loop rounds them, four entries at once where the compiler has vectors (AVX where the
+ * CPU has it). */
+static HD_PER_CPU void hd_subtract_scaled(double *a, const double *b, double t, long count)
+{
+    long e = 0;
+#if HD_VECTORS
+    const hd_v4 scale = {t, t, t, t};
+    for (; e + HD_LANES <= count; e += HD_LANES) {
+        hd_v4 x, y;
+        memcpy(&x, a + e, sizeof x);
+        memcpy(&y, b + e, sizeof y);
+        x -= scale * y;
+        memcpy(a + e, &x, sizeof x);
+    }
+#endif
+    for (; e < count; ++e)
+        a[e] -= t * b[e];
+}
 
 int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns, double *dependent)
 {
@@ -38,11 +62,21 @@ int hd_pattern_init(hd_pattern *p, long n, long *start, long *columns, double *d
     }
     if (updates > HD_MOST_UPDATES) {
         p->position = malloc(((size_t)slots + 1) * sizeof(long));
-        p->work = malloc((2 * (size_t)n + 2 * (size_t)slots + 1) * sizeof(double));
-        if (p->position == NULL || p->work == NULL)
+        p->last = malloc(((size_t)n + 1) * sizeof(long));
+        p->work = malloc((4 * (size_t)n + 2 * (size_t)slots + 1) * sizeof(double));
+        if (p->position == NULL || p->last == NULL || p->work == NULL)
             return -1;
         for (long k = 0; k < slots; ++k)
             p->position[p->above_slot[k]] = k;
+        const long *above_start = p->above_start, *above_row = p->above_row;
+        for (long c = n - 1; c >= 0; --c) {  /* column c joins c + 1's supernode */
+            const long count = above_start[c + 1] - above_start[c];
+            int joins = c + 1 < n && count == above_start[c + 2] - above_start[c + 1] + 1
+                        && above_row[above_start[c]] == c + 1;
+            for (long e = 1; joins && e < count; ++e)
+                joins = above_row[above_start[c] + e] == above_row[above_start[c + 1] + e - 1];
+            p->last[c] = joins ? p->last[c + 1] : c;
+        }
         return 0;
     }
     /* The merges of contact/sparse.py's factor and lu, once: count, then fill. */
@@ -93,6 +127,7 @@ void hd_pattern_free(hd_pattern *p)
     free(p->update_a);
     free(p->update_b);
     free(p->position);
+    free(p->last);
     free(p->work);
 }
 
@@ -117,30 +152,44 @@ static void hd_factor_listed(const hd_pattern *p, const double *lower, long i, d
     }
 }
 
-/* The same without the lists: row i scattered into a dense vector; as each of its columns
+/* The same without the lists: row i scattered into a dense vector x; as each of its columns
  * k (ascending) is finished, column k's entries L[r, k] above row i (kept by columns, in
  * the work: those before row i's own, position[slot]) update the entries (i, r) still to
- * come. Every entry takes the same subtractions in the same order, at the cost of the
- * updates alone. */
+ * come. Row i's columns come in supernodes (sparse.h: hd_pattern.last), and a supernode's
+ * columns all update the rows of its first column's list, each column from its own place
+ * in it on: those entries of x are gathered once a supernode (`rows`: rows[0] its first
+ * column's, rows[e + 1] the e-th row of that column's list, those before row i), each
+ * column's updates run over consecutive entries of both, and the rows below the
+ * supernode go back into x. Every entry takes the same subtractions in the same order,
+ * at the cost of the updates alone. */
 static void hd_factor_scattered(const hd_pattern *p, const double *lower, long i, double *low,
                                 const double *diag, const int *out)
 {
     const long *columns = p->columns, *above_start = p->above_start;
     const long *above_row = p->above_row, *position = p->position;
-    double *x = p->work, *column = p->work + 2 * p->n;
+    double *x = p->work, *rows = p->work + p->n, *column = p->work + 4 * p->n;
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
         x[columns[slot]] = lower[slot];
-    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
-        const long k = columns[slot], at = position[slot];
-        if (out[k]) {  /* a row left out or dropped: its entries stay zero, its updates too */
-            column[at] = 0.0;
-            continue;
+    for (long slot = p->start[i]; slot < p->start[i + 1];) {
+        const long first = columns[slot], *below = above_row + above_start[first];
+        const long width = hd_lmin(p->last[first], i - 1) - first + 1;
+        const long above = position[slot] - above_start[first];  /* its rows before row i */
+        rows[0] = x[first];
+        for (long e = 0; e < above; ++e)
+            rows[e + 1] = x[below[e]];
+        for (long d = 0; d < width; ++d, ++slot) {
+            const long k = first + d, at = position[slot];
+            if (out[k]) {  /* a row left out or dropped: its entries stay zero, its updates too */
+                column[at] = 0.0;
+                continue;
+            }
+            const double l = rows[d] / diag[k];
+            low[slot] = column[at] = l;
+            hd_subtract_scaled(rows + d + 1, column + above_start[k], l * diag[k],
+                               at - above_start[k]);
         }
-        const double l = x[k] / diag[k];
-        low[slot] = column[at] = l;
-        const double t = l * diag[k];
-        for (long e = above_start[k]; e < at; ++e)
-            x[above_row[e]] -= t * column[e];
+        for (long e = width - 1; e < above; ++e)
+            x[below[e]] = rows[e + 1];
     }
 }
 
@@ -225,23 +274,32 @@ static void hd_lu_scattered(const hd_pattern *p, const double *lower, long i, do
     const long *columns = p->columns, *above_start = p->above_start;
     const long *above_row = p->above_row, *position = p->position;
     double *x = p->work, *y = p->work + p->n;  /* row i of L, column i of U */
-    double *column_l = p->work + 2 * p->n, *column_u = column_l + p->start[p->n];
+    double *rows_x = p->work + 2 * p->n, *rows_y = p->work + 3 * p->n;
+    double *column_l = p->work + 4 * p->n, *column_u = column_l + p->start[p->n];
     for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot)
         x[columns[slot]] = lower[slot], y[columns[slot]] = upper[slot];
-    for (long slot = p->start[i]; slot < p->start[i + 1]; ++slot) {
-        const long k = columns[slot], at = position[slot];
-        if (out[k]) {  /* a row dropped: its entries stay zero, its updates too */
-            upper[slot] = column_l[at] = column_u[at] = 0.0;
-            continue;
+    for (long slot = p->start[i]; slot < p->start[i + 1];) {
+        const long first = columns[slot], *below = above_row + above_start[first];
+        const long width = hd_lmin(p->last[first], i - 1) - first + 1;
+        const long above = position[slot] - above_start[first];
+        rows_x[0] = x[first], rows_y[0] = y[first];
+        for (long e = 0; e < above; ++e)
+            rows_x[e + 1] = x[below[e]], rows_y[e + 1] = y[below[e]];
+        for (long d = 0; d < width; ++d, ++slot) {
+            const long k = first + d, at = position[slot];
+            if (out[k]) {  /* a row dropped: its entries stay zero, its updates too */
+                upper[slot] = column_l[at] = column_u[at] = 0.0;
+                continue;
+            }
+            const double l = rows_x[d] * diag[k], u = rows_y[d];
+            low[slot] = column_l[at] = l;
+            upper[slot] = column_u[at] = u;
+            /* L[i, k] U[k, r] and L[r, k] U[k, i] */
+            hd_subtract_scaled(rows_x + d + 1, column_u + above_start[k], l, at - above_start[k]);
+            hd_subtract_scaled(rows_y + d + 1, column_l + above_start[k], u, at - above_start[k]);
         }
-        const double l = x[k] * diag[k], u = y[k];
-        low[slot] = column_l[at] = l;
-        upper[slot] = column_u[at] = u;
-        for (long e = above_start[k]; e < at; ++e) {
-            const long r = above_row[e];
-            x[r] -= l * column_u[e];  /* L[i, k] U[k, r] */
-            y[r] -= column_l[e] * u;  /* L[r, k] U[k, i] */
-        }
+        for (long e = width - 1; e < above; ++e)
+            x[below[e]] = rows_x[e + 1], y[below[e]] = rows_y[e + 1];
     }
 }
 

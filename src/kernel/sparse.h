@@ -26,9 +26,13 @@ typedef struct {
      * update_start[s + 1]): the slots of (i, k) and (j, k), k ascending, k < j (the merge
      * of the two rows' patterns, done once; update_start NULL: too many to keep). */
     long *update_start, *update_a, *update_b;
-    /* Without the lists: each slot's place in the column lists, and 2 n + 2 slots of work
-     * (the rows being factored, dense; the factors by columns). */
-    long *position;
+    /* Without the lists: each slot's place in the column lists; per column, the last column
+     * of its supernode (the run of consecutive columns c0 .. c1 where each column's rows
+     * below it are the next column and that column's rows: a row below c1 holds all of
+     * them or none, a row inside holds c0 .. itself - 1, each at consecutive slots); and
+     * 4 n + 2 slots of work (the rows being factored, dense; a supernode's rows gathered;
+     * the factors by columns). */
+    long *position, *last;
     double *work;
 } hd_pattern;
 

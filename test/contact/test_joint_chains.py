@@ -20,11 +20,17 @@ import pytest
 from scene_builders import make_scene
 
 from hecker_dynamics.bench.joints import chain, grid, pin_gap
-from hecker_dynamics.contact.joints import MAX_RING, MAX_TURN, MOST_SUBSTEPS, SETTLED_STEPS
+from hecker_dynamics.contact.joints import (
+    MAX_RING,
+    MAX_TURN,
+    MOST_SUBSTEPS,
+    SETTLED_STEPS,
+    TOLERANCE,
+)
 from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.dynamics.model import Model
 from hecker_dynamics.dynamics.simulation import DivergenceError
-from hecker_dynamics.scene.load import Scene, load_scene, scene_parameters
+from hecker_dynamics.scene.load import Scene, SceneError, load_scene, scene_parameters
 
 needs_kernel = pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not "
                                   "built or HECKER_DYNAMICS_KERNEL=0")
@@ -600,6 +606,54 @@ def test_a_pin_gap_asked_holds_in_python_as_in_the_kernel(python):
     if not python:
         slow, _ = _held_within(10, 1.0 / 60.0, 1.0, 1e-9, python=True)
         assert np.array_equal(sim.q, slow.q) and np.array_equal(sim.v, slow.v)
+
+
+@needs_kernel
+def test_a_scene_holds_its_pins_within_its_pin_gap():
+    """``joint_solver.pin_gap`` asks from the scene what hold_pins_within asks from Python:
+    the 50-link chain at h = 1/240 s, which opened to 1.28e-9 m held to 1e-9 m a row, stays
+    within a gap of 1e-9 m after every step of 10 s, with the bits of hold_pins_within; a
+    scene without it holds each row to TOLERANCE."""
+    scene = dataclasses.replace(chain(50, 1.0 / 240.0, 10.0), pin_gap=1e-9)
+    sim, model = Simulation(scene), Model(scene)
+    assert sim.model.joints.tolerance == 1e-9 / math.sqrt(2.0)
+    worst = 0.0
+    for _ in range(2400):
+        sim.advance_to(sim.time_ns + sim.step_ns, keep=False)
+        worst = max(worst, pin_gap(scene, model, sim.q))
+    assert 0.0 < worst <= 1e-9
+    held, _ = _held_within(50, 1.0 / 240.0, 10.0, 1e-9)
+    assert np.array_equal(sim.q, held.q) and np.array_equal(sim.v, held.v)
+    assert Simulation(chain(2)).model.joints.tolerance == TOLERANCE
+
+
+def _pin_gap_scene(gap: object, kind: str = "exact") -> Scene:
+    return make_scene({"step": 0.01, "bodies": {"rod": {"shape": "box", "size": [1.0, 0.1],
+                                                        "mass": 1.0}},
+                       "joints": {"pin": {"type": "revolute", "body_b": "rod",
+                                          "point_b": [-0.5, 0.0]}},
+                       "joint_solver": {"type": kind, "pin_gap": gap}})
+
+
+def test_a_pin_gap_is_read_in_metres():
+    """The scene's gap (an integer too) becomes the pass's tolerance a row, in Python and
+    in the kernel alike."""
+    assert _pin_gap_scene(2).pin_gap == 2.0
+    scene = _pin_gap_scene(1e-9)
+    assert scene.pin_gap == 1e-9
+    assert Simulation(scene).model.joints.tolerance == 1e-9 / math.sqrt(2.0)
+
+
+@pytest.mark.parametrize("gap, problem", [
+    (0.0, "must be positive, not 0"), (-1e-9, "must be positive, not -1e-09"),
+    (math.nan, "must be finite, not nan"), (math.inf, "must be finite, not inf"),
+    ("1e-9", "must be a number, not '1e-9'"), (True, "must be a number, not True"),
+    ([1e-9], "must be a number")])
+def test_a_pin_gap_must_be_a_positive_number_in_the_scene(gap, problem):
+    where = "parameter 'joint_solver.pin_gap': "
+    with pytest.raises(SceneError, match=where + problem) as error:
+        _pin_gap_scene(gap)
+    assert "\n" not in str(error.value)
 
 
 @pytest.mark.parametrize("gap", [0.0, -1e-9, math.nan, math.inf, "1e-9", True, None])

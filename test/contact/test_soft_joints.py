@@ -224,6 +224,8 @@ def test_a_soft_joint_between_masses_far_apart_is_warned_of_and_does_open():
     ({"joint_solver": {"type": "exact", "substeps": 4}},
      "'joint_solver.substeps': is a setting of joint_solver.type soft, not exact"),
     ({"joint_solver": {"type": "stiff"}}, "joint_solver.type"),
+    ({"joint_solver": {"type": "soft", "pin_gap": 1e-9}},
+     "'joint_solver.pin_gap': is a setting of joint_solver.type exact, not soft"),
 ])
 def test_soft_joints_refuse_what_they_cannot_solve(change, problem):
     params = {"step": 0.01, "integrator": "semi_implicit_euler",

@@ -18,7 +18,7 @@ from hecker_dynamics.contact import joints as joint_pass
 from hecker_dynamics.contact.joint_solve import apply, directions, matrix, rate, refine, solve
 from hecker_dynamics.contact.joints import SHARE_ABOVE, JointPass
 from hecker_dynamics.contact.sparse import Pattern, factor, lu
-from hecker_dynamics.dynamics import Simulation
+from hecker_dynamics.dynamics import Simulation, kernel
 from hecker_dynamics.scene.load import Scene
 
 
@@ -30,11 +30,13 @@ def _grid_pass(size: int) -> tuple[JointPass, list[float]]:
     return joints, sim.q[joints.bodies].reshape(-1).tolist()
 
 
-def spinning_grid(size: int, omega: float, step: float = 1.0 / 60.0) -> Scene:
+def spinning_grid(size: int, omega: float, step: float = 1.0 / 60.0,
+                  motor: float = 0.0) -> Scene:
     """A size x size grid of circles 1 m apart pinned to their neighbours (Box2D's
     joint_grid without its fixed row or gravity), spinning as one rigid body at ``omega``
     rad/s about its centre: its loops make it rigid, so each step turns every pin's arm by
-    omega h while every pin holds."""
+    omega h while every pin holds. ``motor``: the first column's vertical pins drive their
+    links at 1 rad/s with at most that torque (N m), rows with bounds."""
     centre = 0.5 * (size - 1)
     bodies, joints = {}, {}
     for k in range(size):
@@ -47,6 +49,8 @@ def spinning_grid(size: int, omega: float, step: float = 1.0 / 60.0) -> Scene:
                 joints[f"v{k:02d}_{i:02d}"] = {
                     "type": "revolute", "body_a": f"b{k:02d}_{i - 1:02d}", "point_a": [0.0, 0.5],
                     "body_b": f"b{k:02d}_{i:02d}", "point_b": [0.0, -0.5]}
+                if motor and not k:
+                    joints[f"v{k:02d}_{i:02d}"]["motor"] = {"speed": 1.0, "max_torque": motor}
             if k:
                 joints[f"h{k:02d}_{i:02d}"] = {
                     "type": "revolute", "body_a": f"b{k - 1:02d}_{i:02d}", "point_a": [0.5, 0.0],
@@ -233,3 +237,25 @@ def test_the_pass_refines_where_it_can_and_holds_the_pins_as_without(monkeypatch
     assert any(outcomes) and not all(outcomes)
     assert np.abs(runs[0][0] - runs[1][0]).max() <= 1e-9
     assert np.abs(runs[0][1] - runs[1][1]).max() <= 1e-9
+
+
+@pytest.mark.skipif(not kernel.enabled(), reason="the compiled kernel is not built or "
+                    "HECKER_DYNAMICS_KERNEL=0")
+def test_a_grid_too_big_to_list_with_bounded_rows_has_the_bits_of_python():
+    """The spinning 33 x 33 grid with a motor on its first column's pins: its factors take
+    more updates than the kernel lists (HD_MOST_UPDATES, 4M), so the kernel factors them by
+    supernodes (runs of columns whose rows below are nested: the dissection's separators);
+    the motors' rows, bounded, leave rows out of the velocity stage's L D L^T, and the
+    loops drop rows in both factorizations: each entry still takes Python's subtractions
+    in Python's order, so two steps give the same bits."""
+    ends = []
+    for python in (False, True):
+        sim = Simulation(spinning_grid(33, 1.0, motor=1e-3))
+        if python:
+            sim.model.use_python()
+        sim.advance_to(2 * sim.step_ns, keep=False)
+        ends.append(sim)
+    joints = ends[0].model.joints
+    assert joints is not None and joints.pattern is not None
+    assert joints.pattern.updates() > 4_000_000 and len(joints.rigid) < joints.pattern.size
+    assert np.array_equal(ends[0].q, ends[1].q) and np.array_equal(ends[0].v, ends[1].v)
