@@ -75,6 +75,10 @@ __all__ = ["ReplayError", "ReplayResult", "Output", "APPLIED_WRENCH_TOPIC", "inp
 APPLIED_WRENCH_TOPIC = resolve_topic(APPLIED_WRENCH_NAME)
 #: The node's fully qualified name, its diagnostics' hardware_id.
 NODE_FQN = resolve_topic(NODE_NAME)
+#: The most input messages a replay keeps decoded from its fit check to their push (about
+#: 1.3 kB each, 130 MB at this count); a bag with more decodes each again when it is pushed
+#: (about 50 us a message), so that a flood's memory stays bounded by its bytes.
+HELD_DECODED = 100_000
 
 
 class ReplayError(BagError):
@@ -291,11 +295,16 @@ def check_distinct(output: Path, inputs: Sequence[Path]) -> None:
 
 @dataclass(frozen=True, slots=True)
 class _Input:
-    """An input message of the bag, at its log time (the node's arrival time), decoded when
-    it is pushed: a million decoded messages held at once took 1.3 GB."""
+    """An input message of the bag, at its log time (the node's arrival time), with its
+    decoded message when the replay holds them (:data:`HELD_DECODED`)."""
 
     message: bags.BagMessage
     wrench_topic: Optional[InputSource]
+    held: Any
+
+    def decoded(self) -> Any:
+        """The message as the node receives it."""
+        return self.message.decode() if self.held is None else self.held
 
     @property
     def log_ns(self) -> int:
@@ -318,13 +327,14 @@ def _commands(scene: Scene, bag: BagContents, skip_rejected: bool,
     bodies = {body.name for body in scene.bodies}
     inputs = []
     unfit: list[str] = []
+    hold = sum(message.topic in topics for message in bag.messages) <= HELD_DECODED
     for message in bag.messages:
         if message.topic not in topics:
             continue
         msgtype, wrench_topic = topics[message.topic]
         msg = message.decode()
         result.inputs += 1
-        inputs.append(_Input(message, wrench_topic))
+        inputs.append(_Input(message, wrench_topic, msg if hold else None))
         if skip_rejected or isinstance(wrench_topic, (MotorTopic, CmdVelTopic)):  # not a wrench
             continue
         try:
@@ -435,7 +445,7 @@ def replay(scene: Scene, bag: BagContents, emit: Callable[[Output], None], *,
         while next_input < len(inputs) and inputs[next_input].log_ns < target:
             item = inputs[next_input]
             next_input += 1
-            for line in runner.accept(item.topic, item.message.decode(), item.log_ns,
+            for line in runner.accept(item.topic, item.decoded(), item.log_ns,
                                       item.wrench_topic):
                 if line.dropped:
                     result.rejected.append(f"at {seconds_text(item.log_ns)} s: {line.message}")
