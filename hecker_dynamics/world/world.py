@@ -291,7 +291,7 @@ class World:
             read_wall(key, reader, set(specs))
         elif section == "forces":
             check_force(read_force(key, reader, points), reader, specs,
-                        round(params["step"] * 1e9))
+                        round(params["step"] * 1e9), params["integrator"])
         elif section == "collisions":
             read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
         elif values["type"] == "gear":
