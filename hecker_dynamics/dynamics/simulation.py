@@ -50,7 +50,7 @@ from ..integrators.methods import (
     make_integrator,
 )
 from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
-from ..scene.load import Scene
+from ..scene.load import Scene, check_followed
 from ..scene.parameters import seconds_text, stamp_time
 from .divergence import EnergyBound
 from .forces import ConstantWrenchTerm, WrenchRow, lever_arm
@@ -223,6 +223,7 @@ class Simulation:
         if method == "auto":
             method = choose_method(self.model.stiffness(), self.step_seconds, self.model.size,
                                    self.model.contacts is not None)
+        check_followed(scene, method)  # auto's pick, or a command line's --integrator
         self.integrator = make_integrator(method, scene.tolerance)
         # Steps from one publish instant to the next; 0 where the period is not a whole
         # number of steps, and a run stops after every step to look.

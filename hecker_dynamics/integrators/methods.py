@@ -34,7 +34,8 @@ from .tableaux import DOP853, DOPRI5, EmbeddedPair
 
 __all__ = ["IntegrationError", "Counters", "Integrator", "ExplicitEuler", "SemiImplicitEuler",
            "VelocityVerlet", "RungeKutta4", "EmbeddedRungeKutta", "ImplicitTheta", "METHODS",
-           "ADAPTIVE", "AUTO_IMPLICIT_BODIES", "make_integrator", "choose_method"]
+           "ADAPTIVE", "AUTO_IMPLICIT_BODIES", "make_integrator", "choose_method",
+           "fastest_rate"]
 
 Accelerations = Callable[[np.ndarray, np.ndarray], np.ndarray]
 #: (q0, v0, q1, v1, h) -> whether the step from (q0, v0) to (q1, v1) is physically possible.
@@ -408,6 +409,20 @@ def make_integrator(name: str, tolerance: float = 1e-6) -> Integrator:
     if name not in factories:
         raise ValueError(f"unknown integrator '{name}' (known: {', '.join(METHODS)})")
     return factories[name]()
+
+
+def fastest_rate(method: str, step: float) -> Optional[float]:
+    """The fastest rate (1/s: a spring's frequency, a damper's decay rate) that ``method``
+    can follow through a step of ``step`` s, if it is adaptive (None for the others, which
+    take the step whole): a sub-step dt keeps a mode of rate r from growing only where
+    r dt is at most the pair's :attr:`~.tableaux.EmbeddedPair.reach`, so a faster rate needs
+    more than :attr:`EmbeddedRungeKutta.MAX_SUBSTEPS` sub-steps (the step fails) or lets the
+    mode grow. dopri5 follows at most 4e8 rad/s over a step of 1 ms (a spring of 1.6e17 N/m
+    on 1 kg); its tolerance asks for shorter sub-steps, so it may fail sooner."""
+    pairs = {"dopri5": DOPRI5, "dop853": DOP853}
+    if method not in pairs:
+        return None
+    return EmbeddedRungeKutta.MAX_SUBSTEPS * pairs[method].reach / step
 
 
 def choose_method(stiffness: float, step: float, bodies: int, contacts: bool) -> str:

@@ -40,6 +40,11 @@ class EmbeddedPair:
     error_order: int
     a: np.ndarray
     error: np.ndarray
+    #: How far from 0 the stability region {z : |R(z)| <= 1} of the new state's weights
+    #: reaches (R the pair's stability polynomial, rounded up): a sub-step dt lets a mode
+    #: of rate r (an eigenvalue's size: a spring's frequency, a damper's decay rate) grow
+    #: unless r dt is at most this.
+    reach: float
 
     @property
     def slopes(self) -> int:
@@ -92,6 +97,7 @@ DOPRI5 = EmbeddedPair(
     ]),
     error=np.array([[71 / 57600, 0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525,
                      -1 / 40]]),
+    reach=4.0,  # 3.98; 3.31 on the negative real axis
 )
 
 _DOP853_A = {  # row: {column: coefficient}, rows 1..11 the stages, row 12 the weights
@@ -129,4 +135,5 @@ DOP853 = EmbeddedPair(
     "dop853", 8, 7,
     a=_dense(_DOP853_A, (13, 12)),
     error=_dense({0: _DOP853_E5, 1: _DOP853_E3}, (2, 13)),
+    reach=7.13,  # 7.12; 6.38 on the negative real axis
 )

@@ -30,7 +30,7 @@ from ..geometry.shapes import (
     is_convex,
     mass_properties,
 )
-from ..integrators.methods import METHODS
+from ..integrators.methods import METHODS, EmbeddedRungeKutta, fastest_rate
 from .commands import WrenchCommand, shorter_than_a_step
 from .drives import DriveSpec, read_drive
 from .joints import (
@@ -71,7 +71,8 @@ __all__ = [
     "AngularDampingSpec", "ConstantForceSpec", "ConstantTorqueSpec", "WallSpec", "CollisionGroup",
     "WrenchTopic", "load_scene", "scene_parameters", "scene_from_parameters", "scene_path",
     "shipped_scenes", "scene_summary", "check_scene_request", "read_body", "read_force",
-    "check_force", "read_wall", "read_collisions", "read_joint", "read_gear", "check_collidable",
+    "check_force", "unfollowed_force", "check_followed", "read_wall", "read_collisions",
+    "read_joint", "read_gear", "check_collidable",
     "INTEGRATORS", "NODE_PARAMETERS", "DEFAULT_SCENE", "with_map", "check_takes_a_step",
     "check_soft_joints",
     "MAX_SECONDS", "MAP_SURFACE",
@@ -408,7 +409,8 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
         root.fail("frame_id", f"'{frame_id}' is also a body's name")
     points = {b.name: b.points for b in bodies}
     by_name = {b.name: b for b in bodies}
-    forces = tuple(check_force(read_force(name, r, points), r, by_name, step_ns)
+    integrator = root.string("integrator", "auto", choices=INTEGRATORS)
+    forces = tuple(check_force(read_force(name, r, points), r, by_name, step_ns, integrator)
                    for name, r in root.named_children("forces"))
     walls = tuple(read_wall(name, r, body_names) for name, r in root.named_children("walls"))
     if any(wall.name == MAP_SURFACE for wall in walls):  # a map may come with --map too
@@ -423,7 +425,7 @@ def _read_scene(root: ParameterReader, step_ns: Optional[int] = None) -> Scene:
         source=root.source,
         frame_id=frame_id,
         step_ns=step_ns,
-        integrator=root.string("integrator", "auto", choices=INTEGRATORS),
+        integrator=integrator,
         tolerance=root.number("tolerance", 1e-6, positive=True),
         publish_period_ns=publish_period_ns,
         duration_ns=_seconds_to_ns(root, "duration", 10.0),
@@ -695,32 +697,98 @@ def read_force(name: str, reader: ParameterReader,
 
 
 def check_force(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
-                step_ns: int) -> ForceSpec:
+                step_ns: int, method: str = "auto") -> ForceSpec:
     """Refuse gravity or a constant force that gives a body, from rest, in one step, an
     energy of motion no double holds (``acceleration: [0, -1e308]``), or such a spring
     (:func:`_check_spring`): the run's energy bound would stop it at its first step, but
-    the masses say so already."""
+    the masses say so already. Refuse too a force faster than the integrator ``method``
+    can follow (:func:`unfollowed_force`)."""
+    if isinstance(force, SpringSpec):
+        _check_spring(force, reader, bodies, step_ns)
+    else:
+        _check_push(force, reader, bodies, step_ns)
+    unfollowed = unfollowed_force(force, bodies, step_ns, method)
+    if unfollowed is not None:
+        reader.fail(*unfollowed)
+    return force
+
+
+def unfollowed_force(force: ForceSpec, bodies: Mapping[str, BodySpec], step_ns: int,
+                     method: str) -> Optional[tuple[str, str]]:
+    """The parameter of ``force`` and why, if the adaptive ``method`` cannot follow it
+    through a step of ``step_ns`` (:func:`~..integrators.methods.fastest_rate`), else None.
+
+    The rates are the least the force makes (the real ones may be faster): a spring
+    between bodies of inverse masses summing to mu, pulled or pushed along its line alone,
+    is an oscillator of stiffness k and damping c on the mass 1/mu, whose fastest root has
+    a size of at least sqrt(k mu) (the roots' product) and c mu / 2 (half their sum);
+    linear drag decays a body's velocity at c / m, angular damping its spin at c / I.
+    dopri5 or dop853 would fail at the first step (too many sub-steps, or their size
+    underflowing: a spring of 1e150 N/m)."""
+    fastest = fastest_rate(method, step_ns * 1e-9)
+    if fastest is None:
+        return None
+    rates: list[tuple[str, str, float]] = []
+    if isinstance(force, SpringSpec):
+        mu = sum(1.0 / bodies[name].mass.mass for name in (force.body_a, force.body_b)
+                 if name is not None)
+        rates = [("stiffness", "a frequency", math.sqrt(force.stiffness * mu)),
+                 ("damping", "a decay rate", 0.5 * force.damping * mu)]
+    elif isinstance(force, DragSpec) and not force.quadratic:
+        rates = [("coefficient", "a decay rate",
+                  max((force.coefficient / bodies[name].mass.mass for name in force.bodies),
+                      default=0.0))]
+    elif isinstance(force, AngularDampingSpec):
+        rates = [("coefficient", "a decay rate",
+                  max((force.coefficient / bodies[name].mass.moment_of_inertia
+                       for name in force.bodies), default=0.0))]
+    for key, what, rate in rates:
+        if rate > fastest:
+            return key, (f"makes {what} of at least {rate:.3g} /s, past the {fastest:.3g} /s "
+                         f"{method} can follow in the {EmbeddedRungeKutta.MAX_SUBSTEPS} "
+                         f"sub-steps it takes a step of {seconds_text(step_ns)} s at most: use "
+                         f"implicit_midpoint or backward_euler, a shorter step, or a smaller "
+                         f"{key}")
+    return None
+
+
+def check_followed(scene: Scene, method: str) -> None:
+    """Refuse a force of ``scene`` that ``method``, the integrator ``auto`` or a command
+    line's ``--integrator`` picked for it, cannot follow (:func:`unfollowed_force`), with
+    the loader's message."""
+    bodies = {body.name: body for body in scene.bodies}
+    for force in scene.forces:
+        unfollowed = unfollowed_force(force, bodies, scene.step_ns, method)
+        if unfollowed is not None:
+            key, problem = unfollowed
+            picked = f" (integrator {scene.integrator} picks {method} here)" if \
+                scene.integrator == "auto" else ""
+            raise SceneError(f"{scene.source}: parameter 'forces.{force.name}.{key}': "
+                             f"{problem}{picked}")
+
+
+def _check_push(force: ForceSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
+                step_ns: int) -> None:
+    """Refuse gravity or a constant force that gives a body, from rest, in one step, an
+    energy of motion no double holds."""
     if isinstance(force, Gravity):
         key, pushed = "acceleration", [(bodies[n], math.hypot(*force.acceleration))
                                        for n in force.bodies]
     elif isinstance(force, ConstantForceSpec):
         body = bodies[force.body]
         key, pushed = "force", [(body, math.hypot(*force.force) / body.mass.mass)]
-    elif isinstance(force, SpringSpec):
-        return _check_spring(force, reader, bodies, step_ns)
     else:
-        return force
+        return
     for body, acceleration in pushed:
         speed = acceleration * (step_ns * 1e-9)
         if not math.isfinite(body.mass.energy_of_motion(speed, 0.0)):
             reader.fail(key, f"would give body '{body.name}' ({body.mass.mass:.4g} kg), from "
                              f"rest, in one step of {seconds_text(step_ns)} s, a speed of "
                              f"{speed:.3g} m/s: an energy of motion past what a double holds")
-    return force
 
 
 def _check_spring(spring: SpringSpec, reader: ParameterReader, bodies: Mapping[str, BodySpec],
-                  step_ns: int) -> SpringSpec:
+                  step_ns: int) -> None:
     """Refuse a spring that gives a body, in its first step, an energy of motion no double
     holds (``stiffness: 1e308`` or ``damping: 1e308``): its pull at the start (Hooke's law
     and the dashpot at the ends' velocities along it), then the dashpot's pull at the speed
@@ -754,7 +822,6 @@ def _check_spring(spring: SpringSpec, reader: ParameterReader, bodies: Mapping[s
                                  f"its first step of {seconds_text(step_ns)} s, a speed of "
                                  f"{reached:.3g} m/s: an energy of motion past what a double "
                                  "holds")
-    return spring
 
 
 def _direction(reader: ParameterReader, key: str) -> Vec2:

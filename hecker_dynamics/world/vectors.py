@@ -9,15 +9,26 @@ from typing import Union
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Vec2", "VectorLike", "flag", "number", "vector"]
+__all__ = ["Vec2", "VectorLike", "flag", "number", "scalar", "vector"]
 
 Vec2 = tuple[float, float]
 VectorLike = Union[Sequence[float], npt.NDArray[np.floating]]
 
 
+def scalar(value: object) -> object:
+    """``value``, or the item a 0-d numpy array holds (``np.array(2.0)``, what
+    ``np.asarray`` makes of a number): one number, as a numpy scalar is, checked as one
+    wherever the API takes a number, a switch or a count."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return value[()]
+    return value
+
+
 def number(value: object, argument: str, *, positive: bool = False,
            minimum: Union[float, None] = None, maximum: Union[float, None] = None) -> float:
-    """``value`` as a finite float; TypeError or ValueError naming ``argument``."""
+    """``value`` (a number, a numpy scalar or 0-d array) as a finite float; TypeError or
+    ValueError naming ``argument``."""
+    value = scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
         raise TypeError(f"{argument}: expected a number, not {type(value).__name__}")
     if isinstance(value, np.complexfloating):
@@ -41,7 +52,9 @@ def number(value: object, argument: str, *, positive: bool = False,
 
 def flag(value: object, argument: str) -> bool:
     """``value`` as a bool; TypeError naming ``argument`` for anything but True or False
-    (numpy's too): a string's truth is whether it is empty, so "false" would switch on."""
+    (numpy's too, a 0-d array of one): a string's truth is whether it is empty, so "false"
+    would switch on."""
+    value = scalar(value)
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{argument}: expected True or False, not {type(value).__name__}")
     return bool(value)

@@ -27,7 +27,7 @@ from typing import Any, Optional, ParamSpec, TypeVar, Union
 # Simulation's hold scheduled and held commands alike.
 from ..dynamics.inputs import _command_data, _command_from_data
 from ..dynamics.simulation import BodyState, Simulation
-from ..scene.commands import WrenchCommand, shorter_than_a_step
+from ..scene.commands import InputError, WrenchCommand, shorter_than_a_step
 from ..scene.fingerprint import scene_fingerprint
 from ..scene.load import (
     INTEGRATORS,
@@ -55,7 +55,7 @@ from ..scene.parameters import (
 from ..scene.world import EditKind, WorldEdit, apply_edits, deleted, spawned
 from .body import Body, PointLike
 from .shapes import ShapeLike, shape_parameters
-from .vectors import VectorLike, flag, number, vector
+from .vectors import VectorLike, flag, number, scalar, vector
 
 __all__ = ["World"]
 
@@ -109,10 +109,35 @@ def _name(value: object, argument: str) -> str:
 
 
 def _nanoseconds(value: object, argument: str) -> int:
+    value = scalar(value)
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{argument}: expected a whole number of nanoseconds, "
                         f"not {type(value).__name__}")
     return int(value)
+
+
+def _text(value: object, argument: str) -> str:
+    if not isinstance(value, str):
+        raise TypeError(f"{argument}: expected text, not {type(value).__name__}")
+    return value
+
+
+def _checked_command(command: object) -> WrenchCommand:
+    """``command``, a :class:`WrenchCommand` built by hand, with its fields checked and
+    made plain (a float stamp or duration would make the clock's nanoseconds floats, a
+    string force failed deep in the input buffer)."""
+    if not isinstance(command, WrenchCommand):
+        raise TypeError(f"command: expected a WrenchCommand, not {type(command).__name__}")
+    try:
+        return WrenchCommand(
+            _nanoseconds(command.stamp_ns, "command.stamp_ns"),
+            _text(command.body, "command.body"), _text(command.source, "command.source"),
+            _text(command.frame_id, "command.frame_id"),
+            vector(command.point, "command.point"), vector(command.force, "command.force"),
+            number(command.torque, "command.torque"),
+            _nanoseconds(command.duration_ns, "command.duration_ns"))
+    except ValueError as error:  # a value refused (NaN, three numbers): the push's error
+        raise InputError(str(error)) from None
 
 
 def _optional(values: dict[str, Any], key: str, value: Optional[float], *,
@@ -266,7 +291,7 @@ class World:
             read_wall(key, reader, set(specs))
         elif section == "forces":
             check_force(read_force(key, reader, points), reader, specs,
-                        round(params["step"] * 1e9))
+                        round(params["step"] * 1e9), params["integrator"])
         elif section == "collisions":
             read_collisions(ParameterReader({"collisions": params[section]}, SOURCE), specs)
         elif values["type"] == "gear":
@@ -816,8 +841,10 @@ class World:
         in sim-time nanoseconds, held for its ``duration_ns`` or until the scene's input
         timeout, replacing the one of the same body and source. Raises :class:`InputError`
         (and changes nothing) if the simulation refuses it. A force pushed so is the
-        caller's: :meth:`Body.clear_forces` does not know it."""
-        self.simulation.push(command)
+        caller's: :meth:`Body.clear_forces` does not know it. Its fields are checked as
+        every argument is (whole nanoseconds, two numbers a vector, text the names) and
+        taken as Python's ints and floats."""
+        self.simulation.push(_checked_command(command))
         self._started = True
 
     @_locked

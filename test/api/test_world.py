@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import sys
 import threading
 
@@ -898,3 +899,78 @@ def test_forces_applied_from_another_thread_act_whole_at_the_instant_taken(pytho
     assert again.simulation.time_ns == world.simulation.time_ns
     assert np.array_equal(again.simulation.q, world.simulation.q)
     assert np.array_equal(again.simulation.v, world.simulation.v)
+
+
+def test_zero_dimensional_arrays_are_numbers_everywhere_numpy_scalars_are():
+    """``np.array(2.0)`` (what ``np.asarray`` makes of a number) was refused as "expected
+    a number, not ndarray" wherever a number goes, while ``np.float64(2.0)`` was taken. A
+    world built and driven with 0-d arrays (switches and nanoseconds too) steps with the
+    bits of the one built with floats."""
+    def build(n):
+        world = hd.World(gravity=(n(0.0), n(-9.81)), step=n(0.001), tolerance=n(1e-6),
+                         sleep=n(False), integrator="semi_implicit_euler")
+        world.add_wall("floor", point=(0, 0), normal=(0, 1), restitution=n(0.5),
+                       friction=n(0.3))
+        box = world.add_body("box", hd.Box(n(1.0), n(0.5), angle=n(0.0)), mass=n(2.0),
+                             position=(n(0.0), n(2.0)), angle=n(0.2),
+                             angular_velocity=n(1.0), velocity=[n(1.0), n(0.0)])
+        disc = world.add_body("disc", hd.Circle(n(0.25)), density=n(3.0),
+                              position=(n(2.0), n(1.0)))
+        world.add_spring("s", box, (n(0.5), n(0.0)), disc, stiffness=n(20.0),
+                         rest_length=n(1.0), damping=n(0.1))
+        world.add_drag("d", n(0.05), quadratic=n(True))
+        world.add_revolute_joint("pin", None, disc, point_b=(n(0.0), n(0.0)),
+                                 motor_speed=n(1.0), max_torque=n(0.5))
+        box.apply_force((n(0.0), n(5.0)), point=(n(0.1), n(0.0)), duration=n(0.1),
+                        start=n(0.01), torque=n(0.2))
+        world.step(n(0.05))
+        world.push(hd.WrenchCommand(n(world.simulation.time_ns), "box", "cmd", "box",
+                                    (n(0.0), n(0.0)), (n(1.0), n(0.0)), n(0.0),
+                                    n(10_000_000)))
+        box.angular_velocity = n(2.0)
+        world.set_body_state("disc", (n(2.0), n(1.0)), n(0.1), (n(0.0), n(0.0)), n(0.0))
+        world.advance(n(0.5))
+        return world
+
+    plain = build(lambda value: value)
+    zero_d = build(np.array)
+    assert zero_d.state() == plain.state()
+    assert zero_d.time == plain.time == 0.5
+    later = hd.World.from_scene("sample", start_ns=np.array(5))
+    assert later.simulation.time_ns == 5
+    with pytest.raises(TypeError, match=r"^mass: expected a number, not ndarray$"):
+        plain.add_body("bad", hd.Circle(1.0), mass=np.array([1.0]))  # one number in 1-D
+    with pytest.raises(TypeError, match=r"^radius: expected a real number, not complex128$"):
+        hd.Circle(np.array(1.0 + 2.0j))
+
+
+def test_a_hand_made_command_s_fields_are_checked_as_arguments_are():
+    """``World.push`` took any fields: a float stamp or duration (1000000.5 ns) went into
+    the clock's nanoseconds, a stamp of True acted at 1 ns, and a force of text or three
+    numbers failed deep in the input buffer (a traceback). Each is now refused naming the
+    field, changing nothing; numpy integers and 0-d arrays are whole numbers."""
+    world = hd.World(integrator="semi_implicit_euler")
+    puck = world.add_body("puck", hd.Circle(0.5), mass=1.0)
+    made = {"stamp_ns": 0, "body": "puck", "source": "s", "frame_id": "world",
+            "point": (0.0, 0.0), "force": (1.0, 0.0), "torque": 0.0,
+            "duration_ns": 1_000_000}
+    for field, value, error, words in [
+            ("stamp_ns", 0.0, TypeError, "expected a whole number of nanoseconds, not float"),
+            ("stamp_ns", True, TypeError, "expected a whole number of nanoseconds, not bool"),
+            ("duration_ns", 1_000_000.5, TypeError,
+             "expected a whole number of nanoseconds, not float"),
+            ("duration_ns", None, TypeError,
+             "expected a whole number of nanoseconds, not NoneType"),
+            ("force", ("1", 0.0), TypeError, "expected a number, not str"),
+            ("force", (1.0, 0.0, 0.0), hd.InputError, "expected two numbers (x, y), not 3"),
+            ("torque", math.nan, hd.InputError, "must be finite, not nan"),
+            ("body", None, TypeError, "expected text, not NoneType")]:
+        with pytest.raises(error, match=f"^command.{field}: {re.escape(words)}$"):
+            world.push(hd.WrenchCommand(**{**made, field: value}))
+    world.step()
+    assert puck.velocity == (0.0, 0.0)
+    world.push(hd.WrenchCommand(**{**made, "stamp_ns": np.int64(world.simulation.time_ns),
+                                   "duration_ns": np.array(1_000_000)}))
+    world.step()
+    assert puck.velocity == (0.001, 0.0)
+    assert type(world.simulation.time_ns) is int

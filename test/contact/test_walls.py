@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from scene_builders import box_body, box_inertia, make_scene, rotation
 
+import hecker_dynamics as hd
 from hecker_dynamics import Simulation
 
 G = 9.81
@@ -364,3 +365,28 @@ def test_single_shape_box_turned_by_its_body_angle_lies_flat_on_the_incline():
     sim.advance_to(500_000_000)
     assert sim.q[0, 2] == pytest.approx(a, abs=1e-9)
     assert np.abs(sim.v[0]).max() <= 1e-12
+
+
+@pytest.mark.parametrize("mode", ["walls only", "events", "collision group"])
+def test_a_disc_faster_than_its_room_is_wide_stays_in_it_only_when_swept(mode):
+    """A disc of radius 0.1 m at 5000 m/s between walls 2 m apart, h = 1 ms (5 m a step).
+    Meeting only walls it is not split into sub-steps, and each bounce sends it back from
+    where its step began: it reads x = -5 m, past the left wall, every other step (the
+    limit docs/scenes.md states). With events located, or in a collision group (sub-steps
+    of at most 0.1 m), it stays between the walls, its speed kept at e = 1."""
+    world = hd.World(integrator="semi_implicit_euler", events=mode == "events")
+    world.add_wall("left", point=(-1, 0), normal=(1, 0), restitution=1.0)
+    world.add_wall("right", point=(1, 0), normal=(-1, 0), restitution=1.0)
+    disc = world.add_body("disc", hd.Circle(0.1), mass=1.0, velocity=(5000.0, 0.0))
+    if mode == "collision group":
+        world.add_body("other", hd.Circle(0.1), mass=1.0, position=(0.0, 5.0))
+        world.add_collision_group("pair")
+    places = []
+    for _ in range(8):
+        world.step()
+        places.append(disc.position[0])
+        assert abs(disc.velocity[0]) == pytest.approx(5000.0, rel=1e-12)
+    if mode == "walls only":
+        assert places[0::2] == [-5.0] * 4
+    else:
+        assert all(-0.9 - 1e-9 <= x <= 0.9 + 1e-9 for x in places)

@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 from helpers import angle_difference, exact_wrapped_angle, make_scene, oscillator
 
+import hecker_dynamics as hd
 from hecker_dynamics.bench.scenes import pinned_by_springs
 from hecker_dynamics.dynamics.divergence import GROWTH
 from hecker_dynamics.dynamics.model import Model
@@ -28,6 +30,8 @@ from hecker_dynamics.geometry.planar import (
     wrap_angles_in_place,
 )
 from hecker_dynamics.integrators.methods import AUTO_IMPLICIT_BODIES, choose_method, make_integrator
+from hecker_dynamics.integrators.tableaux import DOP853, DOPRI5
+from hecker_dynamics.scene.parameters import SceneError
 
 EPS = np.finfo(float).eps
 
@@ -593,3 +597,104 @@ def test_a_singular_newton_matrix_fails_the_step_in_words(method):
         sim.step()
     np.testing.assert_array_equal(sim.q, start)
     assert sim.steps == 0
+
+
+def _spring_pair(method: str, stiffness: float = 1e150, damping: float = 0.0) -> dict:
+    """Two 1 kg boxes joined by a spring between their near ends, 1 m apart."""
+    return {"step": 0.001, "integrator": method,
+            "bodies": {"a": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0},
+                       "b": {"shape": "box", "size": [1.0, 0.1], "mass": 1.0,
+                             "position": [2.0, 0.0]}},
+            "forces": {"s": {"type": "spring", "body_a": "a", "point_a": [0.5, 0.0],
+                             "body_b": "b", "point_b": [-0.5, 0.0], "stiffness": stiffness,
+                             "rest_length": 0.5, "damping": damping}}}
+
+
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "auto"])
+def test_a_spring_faster_than_an_adaptive_method_follows_is_refused_naming_it(method):
+    """The spring of 1e150 N/m between two 1 kg boxes loaded, and its first step failed:
+    "dopri5: the sub-step size underflowed". Along its line it rings at sqrt(k (1/m_a +
+    1/m_b)) = 1.41e75 /s; a sub-step dt of dopri5 keeps that from growing only for
+    1.41e75 dt <= 4 (7.13 for dop853), so 100000 sub-steps of a 1 ms step follow 4e8 /s
+    at most. It is
+    refused where the method is known: at load when given, when the simulation is made
+    when ``auto`` picks dopri5 (two bodies, no contacts)."""
+    fastest = {"dopri5": "4e+08", "dop853": "7.13e+08", "auto": "4e+08"}[method]
+    picked = "dopri5" if method == "auto" else method
+    words = re.escape(f"test-scene: parameter 'forces.s.stiffness': makes a frequency of at "
+                      f"least 1.41e+75 /s, past the {fastest} /s {picked} can follow in the "
+                      "100000 sub-steps it takes a step of 0.001 s at most: use "
+                      "implicit_midpoint or backward_euler, a shorter step, or a smaller "
+                      "stiffness")
+    if method == "auto":
+        scene = make_scene(_spring_pair(method))
+        with pytest.raises(SceneError, match=f"^{words} \\(integrator auto picks dopri5 here\\)$"):
+            Simulation(scene)
+    else:
+        with pytest.raises(SceneError, match=f"^{words}$"):
+            make_scene(_spring_pair(method))
+
+
+@pytest.mark.parametrize("method, reach", [("dopri5", 4.0), ("dop853", 7.13)])
+def test_the_refusal_is_at_the_rate_the_sub_steps_reach(method, reach):
+    """Just past the fastest rate a step's sub-steps follow, the spring is refused; just
+    short of it, it loads (the run may still fail a step on the tolerance, in words). The
+    damper's rate is half its c mu (the roots' sum)."""
+    limit = 100_000 * reach / 0.001  # mu = 2 /kg
+    make_scene(_spring_pair(method, stiffness=(0.999 * limit) ** 2 / 2.0))
+    with pytest.raises(SceneError, match=r"'forces\.s\.stiffness': makes a frequency"):
+        make_scene(_spring_pair(method, stiffness=(1.001 * limit) ** 2 / 2.0))
+    make_scene(_spring_pair(method, stiffness=1.0, damping=0.999 * limit))
+    with pytest.raises(SceneError, match=r"'forces\.s\.damping': makes a decay rate"):
+        make_scene(_spring_pair(method, stiffness=1.0, damping=1.001 * limit))
+
+
+@pytest.mark.parametrize("pair", [DOPRI5, DOP853])
+def test_each_adaptive_pair_s_reach_bounds_its_stability_region(pair):
+    """The pair's ``reach`` is at least as far as any z with |R(z)| <= 1, R the
+    stability polynomial of its new state's weights (1 + sum_j z^j b A^(j-1) 1), over a
+    grid of 0.01 on |Re z|, |Im z| <= 30 (R's degree is 6 or 12: |R| grows past that), and
+    within 1 % of the farthest."""
+    stages = pair.slopes - 1
+    a, b = pair.a[:stages, :stages], pair.a[stages, :stages]
+    coefficients, powers = [1.0], np.ones(stages)
+    for _ in range(stages):
+        coefficients.append(float(b @ powers))
+        powers = a @ powers
+    axis = np.arange(-3000, 3001) * 0.01
+    z = axis[None, :] + 1j * axis[:, None]
+    stable = np.abs(np.polyval(coefficients[::-1], z)) <= 1.0
+    farthest = float(np.abs(z[stable]).max())
+    assert 0.99 * pair.reach < farthest <= pair.reach
+
+
+@pytest.mark.parametrize("force, key", [
+    ({"type": "linear_drag", "coefficient": 1e150}, "coefficient"),
+    ({"type": "linear_drag", "coefficient": 1e150, "point": [0.5, 0.0], "bodies": ["a"]},
+     "coefficient"),
+    ({"type": "angular_damping", "coefficient": 1e150}, "coefficient")])
+def test_drag_and_damping_faster_than_dopri5_follows_are_refused(force, key):
+    """Drag of 1e150 N s/m decays a 1 kg body's velocity at 1e150 /s: dopri5 failed the
+    first step as for the stiff spring; angular damping likewise at c / I."""
+    params = _spring_pair("dopri5", stiffness=1.0)
+    params["forces"] = {"d": force}
+    with pytest.raises(SceneError, match=rf"'forces\.d\.{key}': makes a decay rate of at least"):
+        make_scene(params)
+    make_scene({**params, "integrator": "implicit_midpoint"})  # whole steps: taken
+
+
+def test_the_world_refuses_the_stiff_spring_when_it_is_added():
+    """``World.add_spring`` with dopri5 named refuses at the add, and the world goes on
+    without it; with ``auto`` the world refuses at its first step, once it knows that auto
+    picks dopri5 (a wall added later would make it implicit midpoint)."""
+    world = hd.World(integrator="dopri5")
+    a = world.add_body("a", hd.Box(1.0, 0.1), mass=1.0)
+    with pytest.raises(hd.SceneError, match=r"'forces\.s\.stiffness': makes a frequency"):
+        world.add_spring("s", a, anchor=(1.0, 0.0), stiffness=1e150)
+    world.step()
+    assert a.position == (0.0, 0.0)
+    world = hd.World()
+    a = world.add_body("a", hd.Box(1.0, 0.1), mass=1.0)
+    world.add_spring("s", a, anchor=(1.0, 0.0), stiffness=1e150)
+    with pytest.raises(hd.SceneError, match=r"\(integrator auto picks dopri5 here\)$"):
+        world.step()
