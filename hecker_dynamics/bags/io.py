@@ -752,19 +752,21 @@ def _check_sqlite_logs(path: Path) -> None:
     transaction cut off half written. The check would compare other messages than
     ``ros2 bag play`` plays."""
     files = [path] if path.is_file() else sorted(path.glob("*.db3"))
-    for database in files:
+    # SQLite keeps a linked database's logs beside the file the link names.
+    for database in dict.fromkeys(f for given in files for f in (given, given.resolve())):
         wal = database.with_name(database.name + "-wal")
         journal = database.with_name(database.name + "-journal")
         with contextlib.suppress(OSError):
             if wal.stat().st_size > 0:
                 raise BagError(f"{path}: {wal.name} holds changes not yet in {database.name} "
-                               "(its writer did not close it, or still writes); open the bag "
-                               "once with sqlite3 when no one writes it, which merges them")
+                               "(its writer did not close it, or still writes); when no one "
+                               f"writes the bag, merge them: sqlite3 {database} "
+                               "'PRAGMA wal_checkpoint(TRUNCATE);'")
         with contextlib.suppress(OSError), journal.open("rb") as stream:
             if stream.read(len(_HOT_JOURNAL)) == _HOT_JOURNAL:
                 raise BagError(f"{path}: {journal.name} holds a transaction cut off half "
-                               f"written into {database.name}; open the bag once with "
-                               "sqlite3 when no one writes it, which rolls it back")
+                               f"written into {database.name}; when no one writes the bag, "
+                               f"roll it back: sqlite3 {database} 'PRAGMA quick_check;'")
 
 
 def _count(path: Path, value: Any, what: str) -> int:

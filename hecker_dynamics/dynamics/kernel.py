@@ -81,7 +81,8 @@ def enabled() -> bool:
 def chosen(compiled: bool) -> Iterator[None]:
     """Within it, the models this thread makes use the kernel (``compiled``, where it is
     built) or the Python path, whatever the environment says: a check replays a recording
-    on the path the node ran."""
+    on the path the node ran. A :class:`~hecker_dynamics.World` makes its model at its
+    first step, so step it within the block; threads started in it do not inherit it."""
     token = _CHOSEN.set(compiled)
     try:
         yield

@@ -6,10 +6,12 @@ session times must fit a ROS stamp (int32 seconds).
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import shutil
 import socket
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
@@ -843,6 +845,21 @@ def test_a_sqlite3_bag_with_a_log_left_beside_it_is_refused(tmp_path, capsys, mo
         assert f"rec.db3{log} {words} rec.db3" in err, err
     code, out, _ = _cli(capsys, "regress", str(recording), "--scene", "sample", "--workers", "1")
     assert code == 2 and out.startswith("ERROR") and f"rec.db3{log} {words}" in out, out
+    # A bag whose database is a link to this one: SQLite reads the log beside the target.
+    linked = tmp_path / "linked"
+    linked.mkdir()
+    (linked / "metadata.yaml").write_bytes((recording / "metadata.yaml").read_bytes())
+    (linked / "rec.db3").symlink_to(database)
+    err = _one_line_error(capsys, "compare", str(linked), str(linked))
+    assert f"rec.db3{log} {words} rec.db3" in err, err
+    # The command the error gives settles the log, and the bag is read again.
+    advice = err.split(f"sqlite3 {database} '")[1].split("'")[0]
+    with contextlib.closing(sqlite3.connect(database)) as db:
+        db.execute(advice).fetchall()
+    assert not (recording / f"rec.db3{log}").exists() or \
+        (recording / f"rec.db3{log}").stat().st_size == 0
+    code, out, err = _cli(capsys, "compare", str(recording), str(recording))
+    assert code == 0 and log not in out + err, (out, err)
 
 
 def test_a_flood_of_inputs_is_replayed_without_holding_them_decoded(tmp_path, monkeypatch):
