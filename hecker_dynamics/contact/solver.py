@@ -70,6 +70,7 @@ from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 
+from ..geometry.planar import cos_sin_of
 from ..geometry.shapes import Circle, Polygon, area_properties
 from . import compiled as _compiled
 from .collision import CirclePart, ConvexPolygon, Part, PolygonPart
@@ -390,14 +391,16 @@ class ContactPass(Sleep, WarmStarts):
         moved[-1] = still
         before = {b: v0[b].tolist() for b in touched}
         before[-1] = still
-        rows = [self._prepare(c, poses, moved, before, h) for c in contacts]
+        # each body's turn back from the step's end to its start
+        turns = {b: cos_sin_of(float(q0[b, 2]) - poses[b][2]) for b in touched}
+        rows = [self._prepare(c, poses, turns, moved, before, h) for c in contacts]
         for row in rows:  # warm start, once every target is set from the step's velocities
             jn, jt, nx, ny = row.jn, row.jt, row.nx, row.ny
             row.push(velocity, jn * nx - jt * ny, jn * ny + jt * nx)
         islands = solve_velocities(rows, velocity, units, self.converged)
         if joints is not None:
             joints.take_extra(units)
-        self._remember(rows, poses)
+        self._remember(rows, poses, [c.point for c in contacts])
         for b in touched:
             if velocity[b] != arrived[b]:
                 poses[b] = [p + h * (new - old)
@@ -407,11 +410,22 @@ class ContactPass(Sleep, WarmStarts):
         correct_positions(islands, velocity, q1, h)
         self._doze(rows, v1, h)
 
-    def _prepare(self, contact: Contact, poses: Velocities, velocity: Velocities,
-                 before: Velocities, h: float) -> ContactRow:
+    def _prepare(self, contact: Contact, poses: Velocities, turns: dict[int, tuple[float, float]],
+                 velocity: Velocities, before: Velocities, h: float) -> ContactRow:
         """The solver row of ``contact``, its impulses warm-started from the last step;
-        ``velocity``: the bodies' velocities the step's positions moved with."""
-        row = self._row(contact, poses, velocity)
+        ``velocity``: the bodies' velocities the step's positions moved with, ``turns``: the
+        cosine and sine of each body's turn back from the step's end to its start.
+
+        Its arms are taken where the step's new velocity moves the bodies from, at the
+        step's start: taken at its end, which the step has turned, the velocity from before
+        the step already separated a pivoting corner, and a frictionless box rocking on its
+        corners at e = 1 sank, was lifted out by the position correction and gained 74 % in
+        100 s (docs/scenes.md). A bounce keeps the arms it was found at, where the article's
+        collision impulse applies."""
+        row = self._row(contact, poses, velocity, turns)
+        bounces = row.depth > 0.0 and row.approach < -self.threshold
+        if bounces:
+            row = self._row(contact, poses, velocity)
         a, b, approach, depth = row.a, row.b, row.approach, row.depth
         # End the step just touching (never pushed apart by velocity: overlap left from
         # earlier steps is the position correction's job) or, if the contact closed during
@@ -424,7 +438,6 @@ class ContactPass(Sleep, WarmStarts):
         # rotation had lifted) and was stopped at 0 added j impact / 2 (a box rocking at
         # e = 1 gained 20 % in 100 s). With e = 0 the cap is 0, which no target exceeds.
         target = min(approach + depth / h, 0.0)
-        bounces = depth > 0.0 and approach < -self.threshold
         if bounces or contact.e != 0.0:
             impact = normal_velocity(before[a], before[b], row.rax, row.ray, row.rbx, row.rby,
                                       row.nx, row.ny)
@@ -435,17 +448,40 @@ class ContactPass(Sleep, WarmStarts):
             elif contact.e != 0.0:
                 target = min(target, -contact.e * impact)
         row.target = target
-        row.jn, row.jt = self._recall(contact.key, row.rbx, row.rby, poses[b][2])
+        px, py = contact.point
+        row.jn, row.jt = self._recall(contact.key, px - poses[b][0], py - poses[b][1],
+                                      poses[b][2])
         return row
 
-    def _row(self, contact: Contact, poses: Velocities, velocity: Velocities) -> ContactRow:
-        """The solver row of ``contact`` at ``poses`` and ``velocity``: arms, effective
-        masses and approach speed, with no impulse yet and target 0."""
+    def _carry_back(self, body: int, part: int, rx: float, ry: float, angle: float,
+                    turn: tuple[float, float]) -> tuple[float, float]:
+        """The arm (rx, ry) of ``body``'s ``part`` at ``angle`` turned by ``turn`` (its
+        cosine and sine): a vertex's with the body; a circle's centre with the body, its
+        offset from the centre along the normal kept."""
+        ox = oy = 0.0
+        shape = self.parts[body][part]
+        if isinstance(shape, CirclePart):
+            c, s = cos_sin_of(angle)
+            cx, cy = shape.center
+            ox, oy = rx - (c * cx - s * cy), ry - (s * cx + c * cy)
+            rx, ry = rx - ox, ry - oy
+        c, s = turn
+        return c * rx - s * ry + ox, s * rx + c * ry + oy
+
+    def _row(self, contact: Contact, poses: Velocities, velocity: Velocities,
+             turns: Optional[dict[int, tuple[float, float]]] = None) -> ContactRow:
+        """The solver row of ``contact`` at ``poses`` and ``velocity``: arms (turned back by
+        each body's ``turns``, where given: :meth:`_carry_back`), effective masses and
+        approach speed, with no impulse yet and target 0."""
         a, b, (px, py), (nx, ny), depth, _, mu, key = contact
         im_a, ii_a = (self.inverse_mass[a], self.inverse_inertia[a]) if a >= 0 else (0.0, 0.0)
         im_b, ii_b = self.inverse_mass[b], self.inverse_inertia[b]
         rax, ray = (px - poses[a][0], py - poses[a][1]) if a >= 0 else (0.0, 0.0)
         rbx, rby = px - poses[b][0], py - poses[b][1]
+        if turns is not None:
+            if a >= 0:
+                rax, ray = self._carry_back(a, key[2], rax, ray, poses[a][2], turns[a])
+            rbx, rby = self._carry_back(b, key[3], rbx, rby, poses[b][2], turns[b])
         rna, rnb = rax * ny - ray * nx, rbx * ny - rby * nx  # perp(r) . n = r x n
         rta, rtb = -rax * nx - ray * ny, -rbx * nx - rby * ny  # perp(r) . t, t = perp(n)
         mass_n = 1.0 / (im_a + im_b + rna * rna * ii_a + rnb * rnb * ii_b)

@@ -68,12 +68,15 @@ class WarmStarts:
         _, _, jn, jt = remembered.pop(best)
         return jn, jt
 
-    def _remember(self, rows: list[ContactRow], poses: Velocities) -> None:
-        """Keep each contact's impulses with its point in the second body's frame, the
-        tangent one by the row's ``carry`` (and those of the sleeping islands)."""
+    def _remember(self, rows: list[ContactRow], poses: Velocities,
+                  points: list[tuple[float, float]]) -> None:
+        """Keep each contact's impulses with its point (``points``, where it was found at
+        ``poses``; a row's arms may be carried back) in the second body's frame, the tangent
+        one by the row's ``carry`` (and those of the sleeping islands)."""
         self._warm = self._sleeping_warm()
-        for row in rows:
-            rbx, rby, angle = row.rbx, row.rby, poses[row.b][2]
+        for row, (px, py) in zip(rows, points):
+            pose = poses[row.b]
+            rbx, rby, angle = px - pose[0], py - pose[1], pose[2]
             c, s = cos_sin_of(angle)
             self._warm.setdefault(row.key, []).append(
                 (c * rbx + s * rby, -s * rbx + c * rby, row.jn, row.jt * row.carry))

@@ -26,6 +26,7 @@ int hd_contact_prepare(hd_contact_model *m)
     m->found = malloc(((size_t)m->max_vertices + 2) * sizeof(hd_found));
     m->velocity = malloc((size_t)(5 * 3 * (n + 1)) * sizeof(double));
     m->cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
+    m->turn_cos_sin = malloc((size_t)(2 * (n + 1)) * sizeof(double));
     m->parent = malloc((size_t)(2 * (n + 1)) * sizeof(long));
     m->island_of = m->parent == NULL ? NULL : m->parent + n + 1;
     m->calm = calloc(2 * ((size_t)n + 1), sizeof(int));
@@ -35,7 +36,7 @@ int hd_contact_prepare(hd_contact_model *m)
     if (!m->placed_flag || !m->touched || !m->sweep || !m->sweep_body || !m->band_end ||
             !m->band_edge || !m->band_body || !m->found ||
             !m->velocity ||
-            !m->cos_sin || !m->parent || !m->calm || !m->rested || !m->island)
+            !m->cos_sin || !m->turn_cos_sin || !m->parent || !m->calm || !m->rested || !m->island)
         return -1;
     for (long b = 0; b <= n; ++b)
         m->island[b] = -1;
@@ -108,6 +109,7 @@ void hd_contact_free(hd_contact_model *m)
     free(m->warm);
     free(m->warm_table);
     free(m->cos_sin);
+    free(m->turn_cos_sin);
     free(m->calm);
     free(m->rested);
     free(m->island);

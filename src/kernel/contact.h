@@ -174,6 +174,9 @@ typedef struct hd_contact_model {
     int islands_known;
     double *velocity, *arrived, *before, *shift, *poses;  /* (bodies + 1) x 3 */
     double *cos_sin;    /* bodies x 2: of each placed body's angle */
+    /* bodies x 2: of each touched body's turn back from the step's end to its start
+     * (contact/solver.py: ContactPass._carry_back). */
+    double *turn_cos_sin;
     hd_warm *warm;      /* in the order of the rows they came from */
     long warm_count, warm_capacity;
     long *warm_table;   /* open addressing: the first impulse of each key, or -1 */

@@ -15,9 +15,8 @@ static void hd_place_parts(hd_contact_model *m, const double *q, long body)
 {
     m->placed_flag[body] = 1;
     const double x = q[3 * body], y = q[3 * body + 1], angle = q[3 * body + 2];
-    const double c = isinf(angle) ? NAN : cos(angle), s = isinf(angle) ? NAN : sin(angle);
-    m->cos_sin[2 * body] = c;
-    m->cos_sin[2 * body + 1] = s;
+    hd_cos_sin(angle, m->cos_sin + 2 * body);
+    const double c = m->cos_sin[2 * body], s = m->cos_sin[2 * body + 1];
     for (long p = m->part_first[body]; p < m->part_first[body + 1]; ++p) {
         hd_part *part = m->parts + p;
         const double *l = part->local;

@@ -12,6 +12,7 @@
  * walls', which stays zero (an impulse on a wall is multiplied by its zero inverse mass,
  * as in Python).
  */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -19,6 +20,40 @@
 #include "coupled.h"
 #include "rows.h"
 #include "solver.h"
+
+/* An arm (rx, ry) of body's part at the step's end carried back to the step's start by
+ * the body's turn in the step: a vertex's with the body, a circle's centre with the body
+ * and its offset from the centre along the normal kept (contact/solver.py:
+ * ContactPass._carry_back). */
+static HD_HOT void hd_carry_back(const hd_contact_model *m, long body, long part, double *rx,
+                                 double *ry)
+{
+    const hd_part *p = m->parts + m->part_first[body] + part;
+    double x = *rx, y = *ry, ox = 0.0, oy = 0.0;
+    if (p->kind == HD_CIRCLE) {
+        const double c = m->cos_sin[2 * body], s = m->cos_sin[2 * body + 1];
+        const double *l = p->local;
+        ox = x - (c * l[0] - s * l[1]);
+        oy = y - (s * l[0] + c * l[1]);
+        x = x - ox;
+        y = y - oy;
+    }
+    const double c = m->turn_cos_sin[2 * body], s = m->turn_cos_sin[2 * body + 1];
+    *rx = c * x - s * y + ox;
+    *ry = s * x + c * y + oy;
+}
+
+/* The row's effective masses and approach speed for its arms (contact/solver.py:
+ * ContactPass._row). */
+static HD_HOT void hd_row_masses(hd_row *r, const double *reference)
+{
+    const double nx = r->nx, ny = r->ny;
+    const double rna = r->rax * ny - r->ray * nx, rnb = r->rbx * ny - r->rby * nx;
+    const double rta = -r->rax * nx - r->ray * ny, rtb = -r->rbx * nx - r->rby * ny;
+    r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
+    r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
+    r->approach = hd_normal_velocity(reference + 3 * r->a, reference + 3 * r->b, r);
+}
 
 /* The solver row of contact c (contact/solver.py: ContactPass._prepare); `reference`: the
  * velocities the step's positions moved with; warm[low] to warm[end - 1]: its key's impulses. */
@@ -36,20 +71,28 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
     r->ii_a = c->a >= 0 ? m->inverse_inertia[a] : 0.0;
     r->im_b = m->inverse_mass[b];
     r->ii_b = m->inverse_inertia[b];
+    const double rbx = c->px - pb[0], rby = c->py - pb[1];
+    /* The arms where the step's new velocity moves the bodies from (docs/scenes.md); a
+     * bounce keeps those it was found at. */
     r->rax = c->a >= 0 ? c->px - pa[0] : 0.0;
     r->ray = c->a >= 0 ? c->py - pa[1] : 0.0;
-    r->rbx = c->px - pb[0];
-    r->rby = c->py - pb[1];
-    const double nx = c->nx, ny = c->ny;
-    const double rna = r->rax * ny - r->ray * nx, rnb = r->rbx * ny - r->rby * nx;
-    const double rta = -r->rax * nx - r->ray * ny, rtb = -r->rbx * nx - r->rby * ny;
-    r->mass_n = 1.0 / (r->im_a + r->im_b + rna * rna * r->ii_a + rnb * rnb * r->ii_b);
-    r->mass_t = 1.0 / (r->im_a + r->im_b + rta * rta * r->ii_a + rtb * rtb * r->ii_b);
-    r->approach = hd_normal_velocity(reference + 3 * a, reference + 3 * b, r);
+    r->rbx = rbx;
+    r->rby = rby;
+    if (c->a >= 0)
+        hd_carry_back(m, a, c->key[2], &r->rax, &r->ray);
+    hd_carry_back(m, b, c->key[3], &r->rbx, &r->rby);
+    hd_row_masses(r, reference);
+    const int bounces = c->depth > 0.0 && r->approach < -m->threshold;
+    if (bounces) {
+        r->rax = c->a >= 0 ? c->px - pa[0] : 0.0;
+        r->ray = c->a >= 0 ? c->py - pa[1] : 0.0;
+        r->rbx = rbx;
+        r->rby = rby;
+        hd_row_masses(r, reference);
+    }
     /* An elastic contact's target is never above -e times its impact either (the work its
      * impulse would add to the method's energy). */
     double target = hd_min(r->approach + c->depth / h, 0.0);
-    const int bounces = c->depth > 0.0 && r->approach < -m->threshold;
     if (bounces || c->e != 0.0) {
         double impact = hd_normal_velocity(m->before + 3 * a, m->before + 3 * b, r);
         if (m->lead != 0.0)
@@ -66,7 +109,7 @@ static void hd_prepare(hd_contact_model *m, const hd_contact *c, hd_row *r, doub
     r->depth = c->depth;
     memcpy(r->key, c->key, sizeof r->key);
     r->points = c->points;
-    hd_recall(m, low, end, r->rbx, r->rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
+    hd_recall(m, low, end, rbx, rby, m->cos_sin[2 * b], m->cos_sin[2 * b + 1], &r->jn,
               &r->jt);
 }
 
@@ -138,6 +181,7 @@ int hd_resolve(hd_contact_model *m, double *q1, double *v1, const double *q0,
         memcpy(m->velocity + 3 * b, v1 + 3 * b, 3 * sizeof(double));
         memcpy(m->arrived + 3 * b, v1 + 3 * b, 3 * sizeof(double));
         memcpy(m->before + 3 * b, v0 + 3 * b, 3 * sizeof(double));
+        hd_cos_sin(q0[3 * b + 2] - q1[3 * b + 2], m->turn_cos_sin + 2 * b);
     }
     memset(m->velocity + 3 * n, 0, 3 * sizeof(double));
     memset(m->before + 3 * n, 0, 3 * sizeof(double));

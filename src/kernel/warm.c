@@ -197,10 +197,13 @@ int hd_remember(hd_contact_model *m, long count)
     for (long k = 0; k < count; ++k) {
         const hd_row *r = m->rows + k;
         const double c = m->cos_sin[2 * r->b], s = m->cos_sin[2 * r->b + 1];
+        /* the point where it was found: the row's arm may be carried back (solver.c) */
+        const double *pose = m->poses + 3 * r->b;
+        const double rbx = m->contacts[k].px - pose[0], rby = m->contacts[k].py - pose[1];
         hd_warm *w = m->warm + kept + k;
         memcpy(w->key, r->key, sizeof w->key);
-        w->lx = c * r->rbx + s * r->rby;
-        w->ly = -s * r->rbx + c * r->rby;
+        w->lx = c * rbx + s * rby;
+        w->ly = -s * rbx + c * rby;
         w->jn = r->jn;
         w->jt = r->jt * r->carry;
         w->used = 0;

@@ -79,7 +79,8 @@ def test_friction_is_kept_whole_only_where_the_passes_converged():
     assert {row.carry for row in deep} == {warm.FRICTION_CARRY}
     assert {row.carry for row in single} == {1.0}
     kept = Kept()
-    kept._remember(deep[:2], {row.b: [0.0, 0.0, 0.0] for row in deep[:2]})
+    kept._remember(deep[:2], {row.b: [0.0, 0.0, 0.0] for row in deep[:2]},
+                   [(row.rbx, row.rby) for row in deep[:2]])
     assert [contact[3] for contact in kept._warm[deep[0].key]] == \
         [row.jt * warm.FRICTION_CARRY for row in deep[:2]]
 
