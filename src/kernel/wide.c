@@ -444,13 +444,6 @@ static HD_HOT void hd_correct4(hd_twist4 *sa, hd_twist4 *sb, const hd_lanes *x, 
     *sb = hd_pick_twist(on, b, *sb);
 }
 
-/* The lanes' per-CPU passes: AVX where the CPU has it. */
-#if defined(__x86_64__) && defined(__GLIBC__)
-#define HD_PER_CPU __attribute__((target_clones("avx2", "default")))
-#else
-#define HD_PER_CPU
-#endif
-
 /* Sets of lanes solved together, all gathered before any is scattered (a colour's blocks
  * share no moving body): each set's solve is one long chain of dependent operations, and
  * only with GCC's scheduling before register allocation (-fschedule-insns, setup.py)
